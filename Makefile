@@ -1,0 +1,29 @@
+# Two entry points (see README): `make demo` and `make test`.
+# Each creates .venv and installs what it needs; torch is pinned to the CPU build
+# that lies on these machines' disk before anything can pull a CUDA build.
+PY := .venv/bin/python
+PIP := .venv/bin/pip
+
+.PHONY: demo test lint bench clean
+
+.venv/installed: pyproject.toml
+	python3 -m venv .venv
+	$(PIP) install -q --upgrade pip
+	$(PIP) install -q torch==2.13.0
+	$(PIP) install -q -e ".[dev]"
+	touch .venv/installed
+
+demo: .venv/installed
+	$(PY) -m drill_env.cli demo --out logs
+
+test: .venv/installed
+	$(PY) -m pytest -q
+
+lint: .venv/installed
+	.venv/bin/ruff check drill_env agents training tests scripts
+
+bench: .venv/installed
+	$(PY) -m drill_env.cli benchmark --out logs
+
+clean:
+	rm -rf .venv

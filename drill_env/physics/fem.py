@@ -1,0 +1,214 @@
+"""Finite-element assembly of the drill string (paper section 2.2, eqs. 15-16).
+
+Each node carries 5 DOFs ``x, phi_x, y, phi_y, phi_z`` (eq. 15). In a straight vertical
+hole the linear part of eq. (16) decouples into three independent systems, which the
+simulator stores separately and in banded form:
+
+* bending in the x-z plane, DOFs ``(x_k, theta_k)`` with theta = dx/ds (= phi_y),
+* bending in the y-z plane, the same matrices (theta = dy/ds = -phi_x),
+* torsion, DOFs ``phi_z,k``.
+
+Bending uses cubic Hermite (Euler-Bernoulli) elements plus the geometric stiffness of
+the static axial force; torsion uses linear elements. Mass is lumped: half of each
+element's translational mass (steel + mud inside + added mass of displaced mud) and
+half of its cross-section rotary inertia go to each end node (HRZ-free row sum, which
+is exact for the translational mass and keeps the explicit force terms cheap).
+
+Node 0 is at the surface (laterally pinned, driven in rotation by the top drive); the
+last node carries the bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from drill_env.physics.config import GRAVITY, SimulationConfig
+
+#: Half bandwidth of the lateral matrices (2 DOFs per node, 4x4 element matrices).
+LATERAL_BANDWIDTH = 3
+
+
+@dataclass
+class Mesh:
+    """Node positions and per-element section properties (SI)."""
+
+    node_depth: np.ndarray  # (n_nodes,) measured depth of each node (m)
+    element_length: np.ndarray  # (n_el,)
+    bending_stiffness: np.ndarray  # EI (N m^2)
+    torsional_stiffness: np.ndarray  # GJ (N m^2)
+    steel_mass: np.ndarray  # rho A (kg/m)
+    lateral_mass: np.ndarray  # rho A + mud inside + Ca * displaced mud (kg/m)
+    rotary_inertia: np.ndarray  # rho I per length, tilt DOFs (kg m)
+    polar_inertia: np.ndarray  # rho J per length, torsion (kg m)
+    buoyed_weight: np.ndarray  # (rho_s - rho_m) A g (N/m)
+    outer_radius: np.ndarray  # (n_el,)
+    is_bha: np.ndarray  # (n_el,) bool
+
+    @property
+    def n_nodes(self) -> int:
+        return self.node_depth.size
+
+    @property
+    def n_elements(self) -> int:
+        return self.element_length.size
+
+
+def build_mesh(config: SimulationConfig) -> Mesh:
+    mud = config.mud
+    lengths, props = [], []
+    for section, is_bha in ((config.string.drill_pipe, False), (config.string.bha, True)):
+        n = section.n_elements
+        le = section.length / n
+        ro, ri = section.outer_diameter / 2, section.inner_diameter / 2
+        a_out, a_in = np.pi * ro**2, np.pi * ri**2
+        rho_a = section.density * section.area
+        row = (
+            section.youngs_modulus * section.second_moment,
+            section.shear_modulus * section.polar_moment,
+            rho_a,
+            rho_a + mud.density * a_in + mud.added_mass_coefficient * mud.density * a_out,
+            section.density * section.second_moment,
+            section.density * section.polar_moment,
+            (section.density - mud.density) * section.area * GRAVITY,
+            ro,
+            is_bha,
+        )
+        lengths += [le] * n
+        props += [row] * n
+    cols = list(zip(*props, strict=True))
+    le = np.asarray(lengths)
+    return Mesh(
+        node_depth=np.concatenate(([0.0], np.cumsum(le))),
+        element_length=le,
+        bending_stiffness=np.asarray(cols[0]),
+        torsional_stiffness=np.asarray(cols[1]),
+        steel_mass=np.asarray(cols[2]),
+        lateral_mass=np.asarray(cols[3]),
+        rotary_inertia=np.asarray(cols[4]),
+        polar_inertia=np.asarray(cols[5]),
+        buoyed_weight=np.asarray(cols[6]),
+        outer_radius=np.asarray(cols[7]),
+        is_bha=np.asarray(cols[8], dtype=bool),
+    )
+
+
+# --------------------------------------------------------------------------- elements
+
+
+def beam_stiffness(ei: float, le: float) -> np.ndarray:
+    """Hermite Euler-Bernoulli bending stiffness, DOFs (w1, theta1, w2, theta2)."""
+    l2 = le * le
+    return ei / le**3 * np.array([
+        [12.0, 6 * le, -12.0, 6 * le],
+        [6 * le, 4 * l2, -6 * le, 2 * l2],
+        [-12.0, -6 * le, 12.0, -6 * le],
+        [6 * le, 2 * l2, -6 * le, 4 * l2],
+    ])
+
+
+def beam_geometric_stiffness(axial_force: float, le: float) -> np.ndarray:
+    """Consistent geometric stiffness of a Hermite beam under axial force N (tension > 0).
+
+    Standard result (e.g. Cook et al., Concepts and Applications of FEA, eq. 18.3-6):
+    ``N/(30 L) [[36, 3L, -36, 3L], [3L, 4L^2, -3L, -L^2], ...]``; compression softens.
+    """
+    l2 = le * le
+    return axial_force / (30.0 * le) * np.array([
+        [36.0, 3 * le, -36.0, 3 * le],
+        [3 * le, 4 * l2, -3 * le, -l2],
+        [-36.0, -3 * le, 36.0, -3 * le],
+        [3 * le, -l2, -3 * le, 4 * l2],
+    ])
+
+
+# --------------------------------------------------------------------------- axial force
+
+
+def buoyed_string_weight(mesh: Mesh, bit_buoyed_weight: float = 0.0) -> float:
+    """Hook load with the bit off bottom (N)."""
+    return float(np.sum(mesh.buoyed_weight * mesh.element_length) + bit_buoyed_weight)
+
+
+def axial_force_profile(mesh: Mesh, weight_on_bit: float,
+                        bit_buoyed_weight: float = 0.0) -> np.ndarray:
+    """Static axial force at each element's midpoint (N, tension > 0).
+
+    N(s) = -WOB + (buoyed weight of everything below s). The paper neglects axial
+    motion but keeps this static force (section 2.2); its geometric stiffness softens
+    the compressed BHA laterally.
+    """
+    w = mesh.buoyed_weight * mesh.element_length
+    below = np.cumsum(w[::-1])[::-1] - 0.5 * w  # weight of the element half + all below
+    return below + bit_buoyed_weight - weight_on_bit
+
+
+# --------------------------------------------------------------------------- dense assembly
+
+
+def assemble_lateral(mesh: Mesh, axial_force: np.ndarray | None = None,
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Dense (2n x 2n) lateral stiffness, geometric stiffness and lumped mass of one plane."""
+    n = mesh.n_nodes
+    k = np.zeros((2 * n, 2 * n))
+    kg = np.zeros((2 * n, 2 * n))
+    m = np.zeros(2 * n)
+    for e in range(mesh.n_elements):
+        le = mesh.element_length[e]
+        idx = slice(2 * e, 2 * e + 4)
+        k[idx, idx] += beam_stiffness(mesh.bending_stiffness[e], le)
+        if axial_force is not None:
+            kg[idx, idx] += beam_geometric_stiffness(axial_force[e], le)
+        half_m = 0.5 * mesh.lateral_mass[e] * le
+        half_j = 0.5 * mesh.rotary_inertia[e] * le
+        m[2 * e] += half_m
+        m[2 * e + 2] += half_m
+        m[2 * e + 1] += half_j
+        m[2 * e + 3] += half_j
+    return k, kg, m
+
+
+def assemble_torsion(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Dense torsional stiffness (n x n) and lumped polar inertia (n,)."""
+    n = mesh.n_nodes
+    k = np.zeros((n, n))
+    j = np.zeros(n)
+    for e in range(mesh.n_elements):
+        ke = mesh.torsional_stiffness[e] / mesh.element_length[e]
+        k[e:e + 2, e:e + 2] += ke * np.array([[1.0, -1.0], [-1.0, 1.0]])
+        half = 0.5 * mesh.polar_inertia[e] * mesh.element_length[e]
+        j[e] += half
+        j[e + 1] += half
+    return k, j
+
+
+def mud_torsional_damping(mesh: Mesh, per_length: float) -> np.ndarray:
+    """Lumped viscous drag coefficient of each node (N m s/rad)."""
+    c = np.zeros(mesh.n_nodes)
+    half = 0.5 * per_length * mesh.element_length
+    c[:-1] += half
+    c[1:] += half
+    return c
+
+
+# --------------------------------------------------------------------------- banded storage
+
+
+def to_band(dense: np.ndarray, bandwidth: int) -> np.ndarray:
+    """Upper band of a symmetric matrix: ``band[d, i] = A[i, i + d]`` (zero past the end)."""
+    n = dense.shape[0]
+    band = np.zeros((bandwidth + 1, n))
+    for d in range(bandwidth + 1):
+        band[d, : n - d] = np.diagonal(dense, d)
+    return band
+
+
+def from_band(band: np.ndarray) -> np.ndarray:
+    n = band.shape[1]
+    dense = np.zeros((n, n))
+    for d in range(band.shape[0]):
+        idx = np.arange(n - d)
+        dense[idx, idx + d] = band[d, : n - d]
+        dense[idx + d, idx] = band[d, : n - d]
+    return dense

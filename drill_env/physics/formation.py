@@ -1,0 +1,209 @@
+"""Layered formation: planar interfaces, rock lookup and the bit-resistance curve.
+
+Hole-fixed frame: ``x, y`` lateral (m), ``z`` measured depth, positive downward (vertical
+well). An :class:`~drill_env.physics.config.Interface` with depth ``d``, dip ``delta`` and
+azimuth ``beta`` is the plane
+
+    z = d + tan(delta) (x cos(beta) + y sin(beta)),
+
+i.e. ``n . p = d cos(delta)`` with the unit normal
+``n = (-sin(delta) cos(beta), -sin(delta) sin(beta), cos(delta))`` pointing downward. A
+point ``p`` lies BELOW interface k iff ``n_k . p > offset_k``; its layer is the number of
+interfaces it lies below (interfaces are sorted and do not cross where the bit is) and its
+rock is ``layer_rock[layer]``.
+
+The kernels here take plain arrays (:class:`FormationArrays`) so they can be called from
+numba code without Python objects.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+from scipy.optimize import brentq
+
+from drill_env.physics.config import BitConfig, FormationConfig, Interface, RockConfig
+
+# Columns of ``FormationArrays.rock_params``.
+MU_MIN = 0
+MU_MAX = 1
+ST1 = 2
+ST2 = 3
+WALL_STIFFNESS = 4
+WALL_DAMPING = 5
+DEPTH_OF_CUT = 6
+N_ROCK_PARAMS = 7
+
+
+class FormationArrays(NamedTuple):
+    """Kernel-ready formation description (see module docstring)."""
+
+    normals: np.ndarray  # (n_if, 3) float64, unit, pointing down
+    offsets: np.ndarray  # (n_if,) float64
+    layer_rock: np.ndarray  # (n_if + 1,) int64
+    rock_params: np.ndarray  # (n_rock, N_ROCK_PARAMS) float64
+
+    @property
+    def n_interfaces(self) -> int:
+        return self.offsets.shape[0]
+
+    @property
+    def n_rocks(self) -> int:
+        return self.rock_params.shape[0]
+
+
+def interface_plane(depth: float, dip: float, azimuth: float) -> tuple[np.ndarray, float]:
+    """Unit normal and offset of the interface plane (``dip``, ``azimuth`` in degrees)."""
+    delta = math.radians(dip)
+    beta = math.radians(azimuth)
+    normal = np.array([-math.sin(delta) * math.cos(beta), -math.sin(delta) * math.sin(beta),
+                       math.cos(delta)])
+    return normal, depth * math.cos(delta)
+
+
+def rock_parameter_table(rocks) -> np.ndarray:
+    """``(n_rock, 7)`` table of ``[mu_min, mu_max, st1, st2, k, c, depth_of_cut]``."""
+    table = np.empty((len(rocks), N_ROCK_PARAMS))
+    for j, rock in enumerate(rocks):
+        table[j, MU_MIN] = rock.mu_min
+        table[j, MU_MAX] = rock.mu_max
+        table[j, ST1] = rock.st1
+        table[j, ST2] = rock.st2
+        table[j, WALL_STIFFNESS] = rock.wall_stiffness
+        table[j, WALL_DAMPING] = rock.wall_damping
+        table[j, DEPTH_OF_CUT] = rock.depth_of_cut
+    return table
+
+
+def formation_arrays(cfg: FormationConfig) -> FormationArrays:
+    """Convert a :class:`FormationConfig` into the arrays the kernels read."""
+    n_if = len(cfg.interfaces)
+    normals = np.zeros((n_if, 3))
+    offsets = np.zeros(n_if)
+    for k, interface in enumerate(cfg.interfaces):
+        normals[k], offsets[k] = interface_plane(interface.depth, interface.dip,
+                                                 interface.azimuth)
+    layer_rock = np.asarray(cfg.layers, dtype=np.int64)
+    return FormationArrays(normals, offsets, layer_rock, rock_parameter_table(cfg.rocks))
+
+
+# --------------------------------------------------------------------------- kernels
+
+
+@njit(cache=True)
+def resistance(omega, mu_min, mu_max, st1, st2):
+    """Bit resistance coefficient mu(omega), omega in rad/s.
+
+    eq. (39), corrected (SPEC 2.2):
+    mu = sign(w) (mu_min + (mu_max - mu_min) exp(-|w / st1|) + st2 |w|); 0 at w == 0.
+    """
+    if omega == 0.0:
+        return 0.0
+    w = abs(omega)
+    magnitude = mu_min + (mu_max - mu_min) * math.exp(-w / st1) + st2 * w
+    return magnitude if omega > 0.0 else -magnitude
+
+
+@njit(cache=True)
+def static_resistance(mu_min, mu_max, st1, st2):
+    """Magnitude of eq. (39) at omega -> 0+ (the static, breakaway coefficient)."""
+    return mu_max
+
+
+@njit(cache=True)
+def layer_at(x, y, z, normals, offsets):
+    """Number of interfaces the point (x, y, z) lies below (its layer index)."""
+    layer = 0
+    for k in range(offsets.shape[0]):
+        if normals[k, 0] * x + normals[k, 1] * y + normals[k, 2] * z > offsets[k]:
+            layer += 1
+    return layer
+
+
+@njit(cache=True)
+def rock_at(x, y, z, normals, offsets, layer_rock):
+    """Rock index at the point (x, y, z)."""
+    return layer_rock[layer_at(x, y, z, normals, offsets)]
+
+
+# --------------------------------------------------------------------------- bit placement
+
+
+def front_shares(bit_cfg: BitConfig, formation: FormationArrays, depth: float,
+                 bx: float = 0.0, by: float = 0.0, n_phi: int = 72) -> np.ndarray:
+    """Share of FRONT blade length (face + shoulder) in each rock, averaged over one revolution.
+
+    ``n_phi`` equally spaced rotation angles phi_z in [0, 2 pi) are averaged; the bit face
+    lies at measured depth ``depth`` with its centre at ``(bx, by)``.
+    """
+    from drill_env.physics import bit  # late import: bit imports this module
+
+    blades = bit.blade_arrays(bit_cfg)
+    scratch = bit.make_bit_scratch(blades.shape[0], formation.n_interfaces)
+    shares = np.zeros(formation.n_rocks)
+    for phi_z in np.arange(n_phi) * (2.0 * math.pi / n_phi):
+        n = bit.split_blades(blades, formation.normals, formation.offsets,
+                             formation.layer_rock, bx, by, depth, phi_z, *scratch)
+        front = scratch.piece_segment[:n] != bit.GAUGE
+        np.add.at(shares, scratch.piece_rock[:n][front], scratch.piece_length[:n][front])
+    return shares / shares.sum()
+
+
+def _front_points(bit_cfg: BitConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Radii and axial offsets (z - face depth) of points A, B, C of every blade."""
+    from drill_env.physics import bit
+
+    blades = bit.blade_arrays(bit_cfg)
+    cos_a = np.cos(blades[:, bit.ALPHA_SH])
+    radii = np.concatenate([blades[:, bit.R_A], blades[:, bit.R_B], blades[:, bit.R_C]])
+    dz = np.concatenate([np.zeros(2 * len(blades)), -blades[:, bit.L_SH] * cos_a])
+    return radii, dz
+
+
+def interface_depth_for_share(bit_cfg: BitConfig, dip: float, azimuth: float,
+                              target_share: float, side: str = "below",
+                              n_phi: int = 72) -> float:
+    """Interface depth, relative to the bit face depth, giving a front-blade share.
+
+    Returns ``d_rel`` such that an interface (``dip``, ``azimuth`` in degrees) crossing the
+    hole axis at ``face_depth + d_rel`` leaves the fraction ``target_share`` of the FRONT
+    blade length (face + shoulder, eq. 30) BELOW it (``side="below"``: entering a layer
+    from above) or ABOVE it (``side="above"``: leaving a layer). The bit is centred and
+    the share is AVERAGED OVER ONE REVOLUTION (``n_phi`` equally spaced phi_z), so the
+    answer does not depend on where the blades happen to point, only on the bit geometry.
+
+    The share is monotone in ``d_rel``; it is found with ``brentq`` inside the exact
+    bracket where some blade point can touch the plane during a revolution. Targets 0
+    and 1 return the bracket ends, i.e. the positions where the plane just touches the
+    front of the bit. Place the bit at ``interface_depth - d_rel``.
+    """
+    if side not in ("below", "above"):
+        raise ValueError(f"side: must be 'below' or 'above', got {side!r}")
+    if not 0.0 <= target_share <= 1.0:
+        raise ValueError(f"target_share: must be in [0, 1], got {target_share!r}")
+    share_below = target_share if side == "below" else 1.0 - target_share
+
+    # A point at radius r, axial offset dz (relative to the face) is below the plane
+    # through the axis at d_rel iff d_rel < dz - tan(dip) r cos(theta - azimuth).
+    radii, dz = _front_points(bit_cfg)
+    tan_d = math.tan(math.radians(dip))
+    d_low = float(np.min(dz - tan_d * radii))  # plane above every point: share 1
+    d_high = float(np.max(dz + tan_d * radii))  # plane below every point: share 0
+    if share_below >= 1.0:
+        return d_low
+    if share_below <= 0.0:
+        return d_high
+
+    # Two (identical) rocks: only the geometry matters here.
+    rocks = (RockConfig(), RockConfig())
+
+    def residual(d_rel: float) -> float:
+        cfg = FormationConfig(rocks=rocks, interfaces=(Interface(d_rel, dip, azimuth),),
+                              layers=(0, 1))
+        return front_shares(bit_cfg, formation_arrays(cfg), 0.0, n_phi=n_phi)[1] - share_below
+
+    return float(brentq(residual, d_low, d_high, xtol=1e-10))
+

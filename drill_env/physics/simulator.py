@@ -1,0 +1,445 @@
+"""The drill-string simulator: FE string + top drive + bit + formation, SI units.
+
+:class:`Simulator` builds the matrices once, then advances the state with the numba
+kernel :func:`drill_env.physics.integrator.advance`. It knows nothing about
+Gymnasium; the environment layer wraps it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from drill_env.physics import integrator as ig
+from drill_env.physics.bit import blade_arrays, bit_lever_arm, make_bit_scratch
+from drill_env.physics.config import GRAVITY, SimulationConfig
+from drill_env.physics.fem import (
+    LATERAL_BANDWIDTH,
+    Mesh,
+    assemble_lateral,
+    assemble_torsion,
+    axial_force_profile,
+    build_mesh,
+    mud_torsional_damping,
+    to_band,
+)
+from drill_env.physics.formation import formation_arrays, resistance, rock_at
+from drill_env.physics.linalg import band_cholesky
+
+STATUS_MESSAGES = {
+    ig.STATUS_OK: "",
+    ig.STATUS_NONFINITE: "simulation diverged: non-finite state",
+    ig.STATUS_RUNAWAY: "simulation diverged: bit speed or lateral displacement out of range",
+    ig.STATUS_SINGULAR: "lateral stiffness not positive definite: string buckled beyond "
+                        "what the time step can hold (reduce weight on bit)",
+}
+
+#: Record channels, in the order of the ``record`` columns.
+RECORD_CHANNELS = (
+    "time", "bit_speed", "surface_speed", "torque_on_bit", "surface_torque", "weight_on_bit",
+    "bit_x", "bit_y", "whirl_speed", "depth", "rop", "motor_torque", "bit_force_x",
+    "bit_force_y", "max_wall_force", "stuck",
+)
+
+
+@dataclass
+class OperatingPoint:
+    """A steady state to start from: surface speed (rad/s) and weight on bit (N)."""
+
+    surface_speed: float = 0.0
+    weight_on_bit: float = 0.0
+
+
+class Simulator:
+    """Finite-element drill string with a mesoscopic (or macroscopic) PDC bit.
+
+    Typical use::
+
+        sim = Simulator(SimulationConfig())
+        sim.reset(OperatingPoint(surface_speed=50 * RPM, weight_on_bit=100e3))
+        records = sim.advance(1000, speed_setpoint=50 * RPM,
+                              hook_load=sim.hook_load_for(100e3), record_every=10)
+    """
+
+    def __init__(self, config: SimulationConfig | None = None) -> None:
+        self.config = config or SimulationConfig()
+        cfg = self.config
+        self.mesh: Mesh = build_mesh(cfg)
+        mesh = self.mesh
+        n = mesh.n_nodes
+        self.n_nodes = n
+        self.bit_buoyed_weight = cfg.bit.mass * GRAVITY * (
+            1.0 - cfg.mud.density / cfg.string.bha.density)
+        self.string_weight = float(np.sum(mesh.buoyed_weight * mesh.element_length)
+                                   + self.bit_buoyed_weight)
+
+        # ---- lateral (one plane; the other is identical)
+        k_lat, kg_weight, m_lat = assemble_lateral(mesh, axial_force_profile(
+            mesh, 0.0, self.bit_buoyed_weight))
+        _, kg_with_unit_wob, _ = assemble_lateral(mesh, axial_force_profile(
+            mesh, 1.0, self.bit_buoyed_weight))
+        kg_unit = kg_weight - kg_with_unit_wob  # K_g(WOB) = K_g,weight - WOB K_g,unit
+        m_lat[-2] += cfg.bit.mass
+        for mat in (k_lat, kg_weight, kg_unit):  # top node laterally pinned
+            mat[0, :] = 0.0
+            mat[:, 0] = 0.0
+        m_lat[0] = 1.0
+        self.lat_k = to_band(k_lat, LATERAL_BANDWIDTH)
+        self.lat_kg_weight = to_band(kg_weight, LATERAL_BANDWIDTH)
+        self.lat_kg_unit = to_band(kg_unit, LATERAL_BANDWIDTH)
+        self.lat_m = m_lat
+        self.lat_factor = np.zeros_like(self.lat_k)
+        self.lat_work_band = np.zeros_like(self.lat_k)
+        self.lat_k_total = np.zeros_like(self.lat_k)
+        self.lat_k_damp = cfg.damping.stiffness_proportional * self.lat_k
+
+        # ---- torsion
+        k_tor, j_tor = assemble_torsion(mesh)
+        j_tor[0] += cfg.top_drive.inertia
+        j_tor[-1] += cfg.bit.inertia
+        self.tor_k = to_band(k_tor, 1)
+        self.tor_m = j_tor
+        self.tor_c = mud_torsional_damping(mesh, cfg.mud.torsional_damping)
+
+        # ---- node geometry for wall contact
+        radius = np.empty(n)
+        radius[0] = mesh.outer_radius[0]
+        radius[1:] = mesh.outer_radius  # a node takes the section below it
+        hole_r = cfg.string.hole_diameter / 2
+        self.node_radius = radius
+        self.node_contact = np.ones(n)
+        self.node_contact[0] = 0.0
+        for height in cfg.string.stabilizers:
+            k = int(np.argmin(np.abs(mesh.node_depth[-1] - mesh.node_depth - height)))
+            if 0 < k < n - 1:
+                radius[k] = cfg.string.stabilizer_diameter / 2
+        self.node_clearance = hole_r - radius
+        if cfg.bit_model == "mesoscopic":
+            self.node_contact[-1] = 0.0  # the gauge model handles the bit
+        else:
+            self.node_radius[-1] = cfg.bit.gauge_radius
+            self.node_clearance[-1] = hole_r - cfg.bit.gauge_radius
+
+        # ---- bit and formation
+        self.blades = blade_arrays(cfg.bit)
+        self.lever_arm = bit_lever_arm(cfg.bit)
+        fa = formation_arrays(cfg.formation)
+        self.normals, self.offsets = fa.normals, fa.offsets
+        self.layer_rock, self.rock_params = fa.layer_rock, fa.rock_params
+        self.bit_scratch = make_bit_scratch(cfg.bit.n_blades, fa.offsets.shape[0])
+        self.bit_out = np.zeros(10 + self.rock_params.shape[0])
+
+        # ---- time step and the implicit matrices
+        self.dt = self.stable_time_step()
+        self._build_parameters()
+        self._factor_torsion()
+        self._compute_compliance()
+
+        # ---- state
+        nl = 2 * n
+        self.ul = np.zeros((nl, 2))
+        self.vl = np.zeros((nl, 2))
+        self.al = np.zeros((nl, 2))
+        self.ut = np.zeros(n)
+        self.vt = np.zeros(n)
+        self.at = np.zeros(n)
+        self.rl = np.zeros((nl, 2))
+        self.rt = np.zeros(n)
+        self.contact_out = np.zeros(4)
+        self.node_force = np.zeros(n)
+        self.state = np.zeros(ig.N_STATE)
+        self._record = np.zeros((1, ig.N_RECORD))
+        self.reset()
+
+    # ------------------------------------------------------------------ set-up
+
+    @property
+    def top_drive_gains(self) -> tuple[float, float]:
+        """(P, I) of the speed loop; the stiff defaults are 50 Z and 5 J_td."""
+        td = self.config.top_drive
+        z = self.config.string.drill_pipe.torsional_impedance
+        kp = 50.0 * z if td.proportional_gain is None else td.proportional_gain
+        ki = 5.0 * td.inertia if td.integral_gain is None else td.integral_gain
+        return kp, ki
+
+    def stable_time_step(self) -> float:
+        """Requested step, shortened to half the critical step of the explicit terms.
+
+        The implicit string imposes no limit. The explicit wall and gauge penalties act
+        on a node mass m with stiffness k (critical step 2 sqrt(m/k)); the limit uses the
+        lumped mass alone, which is conservative because the implicit neighbours add
+        effective mass.
+        """
+        cfg = self.config
+        _, _, m_lat = assemble_lateral(self.mesh)
+        node_mass = m_lat[0::2].copy()
+        node_mass[-1] += cfg.bit.mass
+        limits = []
+        if cfg.contact.enabled:
+            limits.append(2.0 * math.sqrt(np.min(node_mass[1:]) / cfg.contact.stiffness))
+        k_rock = max(r.wall_stiffness for r in cfg.formation.rocks)
+        limits.append(2.0 * math.sqrt(node_mass[-1] / k_rock))
+        dt_crit = min(limits)
+        return min(cfg.solver.time_step, 0.5 * dt_crit)
+
+    def _build_parameters(self) -> None:
+        cfg = self.config
+        p = np.zeros(ig.N_PARAMS)
+        p[ig.P_DT] = self.dt
+        p[ig.P_BETA] = 0.25
+        p[ig.P_GAMMA] = 0.5
+        p[ig.P_RAYLEIGH_A] = cfg.damping.mass_proportional
+        p[ig.P_RAYLEIGH_B] = cfg.damping.stiffness_proportional
+        c = cfg.contact
+        p[ig.P_WALL_K] = c.stiffness
+        p[ig.P_WALL_C] = c.damping
+        p[ig.P_MU_STATIC] = c.friction_static
+        p[ig.P_MU_KINETIC] = c.friction_kinetic
+        p[ig.P_MU_DECAY] = c.friction_decay_speed
+        p[ig.P_V_REG] = c.regularisation_speed
+        p[ig.P_CONTACT_ON] = 1.0 if c.enabled else 0.0
+        kp, ki = self.top_drive_gains
+        p[ig.P_KP] = kp
+        p[ig.P_KI] = ki
+        p[ig.P_TORQUE_MAX] = cfg.top_drive.max_torque
+        p[ig.P_ACCEL_MAX] = cfg.top_drive.max_acceleration
+        p[ig.P_HOLE_RADIUS] = cfg.string.hole_diameter / 2
+        p[ig.P_MACRO_BIT] = 1.0 if cfg.bit_model == "macroscopic" else 0.0
+        p[ig.P_LEVER_ARM] = self.lever_arm
+        p[ig.P_GAUGE_RADIUS] = cfg.bit.gauge_radius
+        p[ig.P_STRING_WEIGHT] = self.string_weight
+        p[ig.P_LATERAL] = 1.0 if cfg.solver.lateral else 0.0
+        self.params = p
+
+    def _torsion_system(self) -> np.ndarray:
+        dt, p = self.dt, self.params
+        band = p[ig.P_BETA] * dt * dt * self.tor_k + p[ig.P_GAMMA] * dt * (
+            p[ig.P_RAYLEIGH_B] * self.tor_k)
+        band[0] += self.tor_m + p[ig.P_GAMMA] * dt * self.tor_c
+        return band
+
+    def _factor_torsion(self) -> None:
+        band = self._torsion_system()
+        self.tor_factor = np.zeros_like(band)
+        if not band_cholesky(band, self.tor_factor):
+            raise ValueError("torsional system matrix is not positive definite")
+        from drill_env.physics.fem import from_band
+
+        a_inv = np.linalg.inv(from_band(band))
+        self.col_bit = a_inv[:, -1].copy()
+        self.params[ig.P_G_BIT] = self.params[ig.P_GAMMA] * self.dt * a_inv[-1, -1]
+        self._tor_inv_diag = np.diag(a_inv).copy()
+
+    def _compute_compliance(self) -> None:
+        """Tangential compliance of each contact point within one step (friction cap)."""
+        from drill_env.physics.fem import from_band
+
+        work = np.zeros_like(self.lat_k)
+        factor = np.zeros_like(self.lat_k)
+        if not ig.factor_lateral(self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m,
+                                 0.0, self.params, work, factor, np.zeros_like(self.lat_k)):
+            raise ValueError("lateral system matrix is not positive definite")
+        lat_inv = np.diag(np.linalg.inv(from_band(work)))[0::2]
+        radius = self.node_radius.copy()
+        radius[-1] = self.config.bit.gauge_radius
+        self.compliance = self.params[ig.P_GAMMA] * self.dt * (
+            lat_inv + radius**2 * self._tor_inv_diag)
+        self.compliance[0] = 0.0
+
+    # ------------------------------------------------------------------ operation
+
+    def hook_load_for(self, weight_on_bit: float) -> float:
+        """Hook load (N) that puts ``weight_on_bit`` on the bit (static axial balance)."""
+        return self.string_weight - weight_on_bit
+
+    def weight_on_bit_for(self, hook_load: float) -> float:
+        """WOB from hook load; the bit is off bottom when the hook carries everything."""
+        return max(0.0, self.string_weight - hook_load)
+
+    def steady_torque_on_bit(self, surface_speed: float, weight_on_bit: float) -> float:
+        """Bit torque of steady drilling at this speed (the falling-curve value)."""
+        if weight_on_bit <= 0.0 or surface_speed == 0.0:
+            return 0.0
+        if self.config.bit_model == "macroscopic":
+            rock = rock_at(0.0, 0.0, self.depth, self.normals, self.offsets, self.layer_rock)
+            rp = self.rock_params[rock]
+            return self.lever_arm * abs(resistance(surface_speed, rp[0], rp[1], rp[2], rp[3])) \
+                * weight_on_bit
+        self._bit_loads(surface_speed, weight_on_bit)
+        return float(self.bit_out[0]) * math.copysign(1.0, surface_speed)
+
+    def _bit_loads(self, omega: float, wob: float) -> np.ndarray:
+        from drill_env.physics.bit import mesoscopic_bit_loads
+
+        mesoscopic_bit_loads(self.blades, self.normals, self.offsets, self.layer_rock,
+                             self.rock_params, self.ul[-2, 0], self.ul[-2, 1], 0.0, 0.0,
+                             self.depth, self.ut[-1], omega, wob, self.params[ig.P_HOLE_RADIUS],
+                             0.0, self.params[ig.P_V_REG], *self.bit_scratch, self.bit_out)
+        return self.bit_out
+
+    def reset(self, operating_point: OperatingPoint | None = None,
+              depth: float | None = None) -> None:
+        """Start from a settled state: steady rotation with its static twist.
+
+        The torsional twist balances mud drag and the steady bit torque at this speed
+        and WOB (K phi = f with the top node as reference), and the PI integrator holds
+        the matching motor torque, so the run starts without a start-up transient. The
+        string is laterally straight and at rest.
+        """
+        op = operating_point or OperatingPoint()
+        cfg = self.config
+        for arr in (self.ul, self.vl, self.al, self.ut, self.vt, self.at, self.node_force):
+            arr[...] = 0.0
+        self.state[:] = 0.0
+        if depth is None:
+            depth = cfg.initial_depth if cfg.initial_depth is not None else cfg.string.length
+        self.state[ig.S_DEPTH] = depth
+        omega, wob = op.surface_speed, op.weight_on_bit
+        tob = self.steady_torque_on_bit(omega, wob)
+        drag = self.tor_c * omega
+        load = -drag.copy()
+        load[-1] -= tob
+        total = -load.sum()  # motor torque that balances everything
+        from drill_env.physics.fem import from_band
+
+        k = from_band(self.tor_k)[1:, 1:]
+        self.ut[1:] = np.linalg.solve(k, load[1:])
+        self.vt[:] = omega
+        kp, ki = self.top_drive_gains
+        self.state[ig.S_PI_INTEGRAL] = total / ki if ki > 0 else 0.0
+        self.state[ig.S_SETPOINT] = omega
+        self.state[ig.S_SETPOINT_TARGET] = omega
+        self.state[ig.S_WOB] = wob
+        self.state[ig.S_HOOK_LOAD] = self.hook_load_for(wob)
+        self.state[ig.S_WOB_FACTORED] = np.nan
+        self.state[ig.S_MOTOR_TORQUE] = total
+        self.state[ig.S_TOB] = tob
+
+    def advance(self, n_steps: int, speed_setpoint: float | None = None,
+                hook_load: float | None = None, record_every: int = 0) -> np.ndarray:
+        """Advance ``n_steps`` steps under a surface speed set point (rad/s) and hook load (N).
+
+        Returns the recorded samples (one row every ``record_every`` steps, columns
+        :data:`RECORD_CHANNELS`); empty when ``record_every`` is 0.
+        """
+        if speed_setpoint is not None:
+            if not math.isfinite(speed_setpoint):
+                raise ValueError(f"speed_setpoint must be finite, got {speed_setpoint}")
+            self.state[ig.S_SETPOINT_TARGET] = speed_setpoint
+        if hook_load is not None:
+            if not math.isfinite(hook_load):
+                raise ValueError(f"hook_load must be finite, got {hook_load}")
+            self.state[ig.S_HOOK_LOAD] = hook_load
+            self.state[ig.S_WOB] = self.weight_on_bit_for(hook_load)
+        n_rec_max = n_steps // record_every if record_every > 0 else 0
+        if self._record.shape[0] < max(n_rec_max, 1):
+            self._record = np.zeros((max(n_rec_max, 1), ig.N_RECORD))
+        n_rec = ig.advance(
+            n_steps, record_every, self.params, self.state,
+            self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m, self.lat_factor,
+            self.lat_work_band, self.lat_k_total, self.lat_k_damp, self.tor_k, self.tor_c, self.tor_factor, self.col_bit,
+            self.node_clearance, self.node_radius, self.node_contact, self.compliance,
+            self.ul, self.vl, self.al, self.ut, self.vt, self.at,
+            self.rl, self.rt, self.contact_out, self.node_force,
+            self.blades, self.normals, self.offsets, self.layer_rock, self.rock_params,
+            *self.bit_scratch, self.bit_out, self._record)
+        return self._record[:n_rec].copy()
+
+    def run(self, duration: float, speed_setpoint: float | None = None,
+            hook_load: float | None = None, record_every: int = 0) -> np.ndarray:
+        return self.advance(max(1, round(duration / self.dt)), speed_setpoint, hook_load,
+                            record_every)
+
+    # ------------------------------------------------------------------ observables
+
+    @property
+    def status(self) -> int:
+        return int(self.state[ig.S_STATUS])
+
+    @property
+    def status_message(self) -> str:
+        return STATUS_MESSAGES[self.status]
+
+    @property
+    def time(self) -> float:
+        return float(self.state[ig.S_TIME])
+
+    @property
+    def depth(self) -> float:
+        return float(self.state[ig.S_DEPTH])
+
+    @property
+    def bit_speed(self) -> float:
+        return float(self.vt[-1])
+
+    @property
+    def surface_speed(self) -> float:
+        return float(self.vt[0])
+
+    @property
+    def torque_on_bit(self) -> float:
+        return float(self.state[ig.S_TOB])
+
+    @property
+    def surface_torque(self) -> float:
+        return float(self.state[ig.S_SURFACE_TORQUE])
+
+    @property
+    def motor_torque(self) -> float:
+        return float(self.state[ig.S_MOTOR_TORQUE])
+
+    @property
+    def weight_on_bit(self) -> float:
+        return float(self.state[ig.S_WOB])
+
+    @property
+    def hook_load(self) -> float:
+        return float(self.state[ig.S_HOOK_LOAD])
+
+    @property
+    def rop(self) -> float:
+        return float(self.state[ig.S_ROP])
+
+    @property
+    def bit_lateral(self) -> np.ndarray:
+        return self.ul[-2].copy()
+
+    @property
+    def bit_lateral_velocity(self) -> np.ndarray:
+        return self.vl[-2].copy()
+
+    @property
+    def whirl_speed(self) -> float:
+        x, y = self.ul[-2]
+        vx, vy = self.vl[-2]
+        r2 = x * x + y * y
+        return float((x * vy - vx * y) / r2) if r2 > 1e-12 else 0.0
+
+    @property
+    def bit_lateral_force(self) -> np.ndarray:
+        return np.array([self.state[ig.S_BIT_FX], self.state[ig.S_BIT_FY]])
+
+    @property
+    def lateral_displacement(self) -> np.ndarray:
+        """(n_nodes, 2) lateral x, y of every node (m)."""
+        return self.ul[0::2].copy()
+
+    @property
+    def contact_forces(self) -> np.ndarray:
+        """(n_nodes,) wall normal force at each node (N); the bit node shows the gauge force."""
+        f = self.node_force.copy()
+        if self.config.bit_model == "mesoscopic":
+            f[-1] = self.state[ig.S_GAUGE_FORCE]
+        return f
+
+    @property
+    def rock_share(self) -> np.ndarray:
+        """Share of front blade length in each rock (sums to 1)."""
+        self._bit_loads(max(abs(self.bit_speed), 1e-9), max(self.weight_on_bit, 1.0))
+        return self.bit_out[10:].copy()
+
+    @property
+    def node_depth(self) -> np.ndarray:
+        return self.mesh.node_depth

@@ -1,0 +1,371 @@
+"""Mesoscopic bit (paper section 3): blade splitting, front and gauge loads."""
+
+import math
+
+import numpy as np
+import pytest
+
+from drill_env.physics import bit, bit_reference, formation
+from drill_env.physics.config import BitConfig, FormationConfig, Interface, RockConfig
+
+HARD = RockConfig(name="hard", mu_min=0.5, mu_max=0.9, st1=3.0, st2=0.0,
+                  wall_stiffness=2.0e7, wall_damping=2.0e3, depth_of_cut=1.0e-8)
+SOFT = RockConfig(name="soft", mu_min=0.3, mu_max=0.45, st1=5.0, st2=0.005,
+                  wall_stiffness=5.0e6, wall_damping=1.0e3, depth_of_cut=4.0e-8)
+VERY_SOFT = RockConfig(name="very soft", mu_min=0.2, mu_max=0.3, st1=8.0, st2=0.01,
+                       wall_stiffness=1.0e6, wall_damping=5.0e2, depth_of_cut=8.0e-8)
+
+DEPTH = 100.0
+WOB = 1.0e5
+
+
+def one_interface(depth: float, dip: float = 45.0, azimuth: float = 0.0,
+                  rocks=(HARD, SOFT)) -> formation.FormationArrays:
+    cfg = FormationConfig(rocks=rocks, interfaces=(Interface(depth, dip, azimuth),),
+                          layers=(0, 1))
+    return formation.formation_arrays(cfg)
+
+
+def pieces(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, depth=DEPTH,
+           phi_z=0.0) -> list[tuple[int, int, int, float, float]]:
+    """(blade, segment, rock, length, lever) of every piece, from the kernel."""
+    blades = bit.blade_arrays(bit_cfg)
+    scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
+    n = bit.split_blades(blades, fa.normals, fa.offsets, fa.layer_rock, bx, by, depth, phi_z,
+                         *scratch)
+    return [(int(scratch.piece_blade[p]), int(scratch.piece_segment[p]),
+             int(scratch.piece_rock[p]), float(scratch.piece_length[p]),
+             float(scratch.piece_lever[p])) for p in range(n)]
+
+
+def loads(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, vx=0.0, vy=0.0,
+          depth=DEPTH, phi_z=0.0, omega=10.0, wob=WOB, compliance=0.0,
+          regularisation=1e-3) -> np.ndarray:
+    blades = bit.blade_arrays(bit_cfg)
+    scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
+    out = bit.make_loads_out(fa.n_rocks)
+    bit.mesoscopic_bit_loads(blades, *fa, bx, by, vx, vy, depth, phi_z, omega, wob,
+                             bit_cfg.hole_radius, compliance, regularisation, *scratch, out)
+    return out
+
+
+def reference_loads(bit_cfg, fa, bx=0.0, by=0.0, vx=0.0, vy=0.0, depth=DEPTH, phi_z=0.0,
+                    omega=10.0, wob=WOB, compliance=0.0, regularisation=1e-3) -> np.ndarray:
+    return bit_reference.bit_loads(bit.blade_arrays(bit_cfg), *fa, bx, by, vx, vy, depth,
+                                   phi_z, omega, wob, bit_cfg.hole_radius, compliance,
+                                   regularisation)
+
+
+# --------------------------------------------------------------------------- geometry
+
+
+def test_blade_arrays_put_point_c_at_the_gauge_radius():
+    cfg = bit.symmetric_bit()
+    blades = bit.blade_arrays(cfg)
+    np.testing.assert_allclose(blades[:, bit.R_C], cfg.gauge_radius)
+    np.testing.assert_allclose(
+        blades[:, bit.R_C] - blades[:, bit.R_B],
+        blades[:, bit.L_SH] * np.sin(blades[:, bit.ALPHA_SH]))  # SPEC 2.2
+    np.testing.assert_allclose(np.degrees(blades[:, bit.PHI]), cfg.blade_angles)
+
+
+def test_front_length_and_lever_arm_follow_eqs_30_and_34_with_the_midpoint_rule():
+    cfg = bit.symmetric_bit()
+    r_a, r_b, alpha = 0.015, 0.070, math.radians(60.0)
+    l_sh = (cfg.gauge_radius - r_b) / math.sin(alpha)
+    l_f = r_b - r_a
+    assert bit.front_length(cfg) == pytest.approx(6 * (l_f + l_sh), rel=1e-14)
+    a_f = (r_a + r_b) / 2
+    a_sh = r_b + l_sh * math.sin(alpha) / 2
+    assert bit.bit_lever_arm(cfg) == pytest.approx((l_f * a_f + l_sh * a_sh) / (l_f + l_sh),
+                                                   rel=1e-14)
+
+
+def test_asymmetric_preset_has_unequal_angles_and_face_lengths_and_a_clear_imbalance():
+    cfg = bit.asymmetric_bit()
+    assert len(set(np.diff(cfg.blade_angles))) > 1
+    assert len(set(np.subtract(cfg.face_end, cfg.face_start))) > 1
+    assert np.linalg.norm(bit.front_imbalance(cfg)) > 0.1
+    assert np.linalg.norm(bit.front_imbalance(bit.symmetric_bit())) < 1e-15
+
+
+# --------------------------------------------------------------------------- cases 1-4
+
+
+class TestPaperCasesOneToFour:
+    """One 45 deg interface with azimuth 0; blade 0 points along +x (phi_z = 0).
+
+    A point at radius r on blade 0 at depth z is below the plane (rock 2, index 1) iff
+    z > d + tan(45 deg) r. Expected pieces are computed here by hand with the midpoint rule.
+    """
+
+    cfg = bit.symmetric_bit()
+    r_a, r_b = 0.015, 0.070
+    alpha = math.radians(60.0)
+    r_c = cfg.gauge_radius
+    l_sh = (r_c - r_b) / math.sin(alpha)
+    l_g = 0.05
+
+    def blade_zero(self, d):
+        return [p[1:] for p in pieces(self.cfg, one_interface(d)) if p[0] == 0]
+
+    def assert_pieces(self, actual, expected):
+        assert [p[:2] for p in actual] == [p[:2] for p in expected]
+        np.testing.assert_allclose([p[2:] for p in actual], [p[2:] for p in expected],
+                                   rtol=1e-12, atol=1e-15)
+
+    def test_case_1_blade_fully_in_rock_1(self):
+        expected = [(bit.FACE, 0, self.r_b - self.r_a, (self.r_a + self.r_b) / 2),
+                    (bit.SHOULDER, 0, self.l_sh, self.r_b + self.l_sh * math.sin(self.alpha) / 2),
+                    (bit.GAUGE, 0, self.l_g, self.r_c)]
+        self.assert_pieces(self.blade_zero(DEPTH + 1.0), expected)
+
+    def test_case_2_blade_fully_in_rock_2(self):
+        expected = [(bit.FACE, 1, self.r_b - self.r_a, (self.r_a + self.r_b) / 2),
+                    (bit.SHOULDER, 1, self.l_sh, self.r_b + self.l_sh * math.sin(self.alpha) / 2),
+                    (bit.GAUGE, 1, self.l_g, self.r_c)]
+        self.assert_pieces(self.blade_zero(DEPTH - 1.0), expected)
+
+    def test_case_3_interface_crosses_the_shoulder(self):
+        # Choose |B I| = l_sh / 3: z_I = DEPTH - |BI| cos(a) = d + r_B + |BI| sin(a).
+        bi = self.l_sh / 3
+        d = DEPTH - self.r_b - bi * (math.cos(self.alpha) + math.sin(self.alpha))
+        ic = self.l_sh - bi
+        # Paper's case 3 with the midpoint rule: a = r_b - |C M| sin(a_sh), M mid of I, C.
+        cm, cn = ic / 2, ic + bi / 2
+        expected = [(bit.FACE, 1, self.r_b - self.r_a, (self.r_a + self.r_b) / 2),
+                    (bit.SHOULDER, 1, bi, self.r_c - cn * math.sin(self.alpha)),
+                    (bit.SHOULDER, 0, ic, self.r_c - cm * math.sin(self.alpha)),
+                    (bit.GAUGE, 0, self.l_g, self.r_c)]
+        self.assert_pieces(self.blade_zero(d), expected)
+
+    def test_case_4_interface_crosses_the_face(self):
+        r_i = 0.040  # on the face (z = DEPTH): the plane passes r_I = DEPTH - d
+        d = DEPTH - r_i
+        # Paper's case 4 with the midpoint rule: a = r_B - |B M|, M mid of I, B (or A, I).
+        bm, bn = (self.r_b - r_i) / 2, (self.r_b - r_i) + (r_i - self.r_a) / 2
+        expected = [(bit.FACE, 1, r_i - self.r_a, self.r_b - bn),
+                    (bit.FACE, 0, self.r_b - r_i, self.r_b - bm),
+                    (bit.SHOULDER, 0, self.l_sh, self.r_b + self.l_sh * math.sin(self.alpha) / 2),
+                    (bit.GAUGE, 0, self.l_g, self.r_c)]
+        self.assert_pieces(self.blade_zero(d), expected)
+
+
+# --------------------------------------------------------------------------- one rock
+
+
+@pytest.mark.parametrize("phi_z", [0.0, 0.4, 2.5])
+def test_symmetric_bit_in_one_rock_has_no_net_lateral_force_and_tob_is_a_bit_mu_wob(phi_z):
+    cfg = bit.symmetric_bit()
+    fa = formation.formation_arrays(FormationConfig(rocks=(HARD,)))
+    omega = 7.0
+    out = loads(cfg, fa, phi_z=phi_z, omega=omega)
+    mu = formation.resistance(omega, HARD.mu_min, HARD.mu_max, HARD.st1, HARD.st2)
+    assert out[bit.TORQUE] == pytest.approx(bit.bit_lever_arm(cfg) * mu * WOB, rel=1e-12)  # eq. 38
+    assert out[bit.TORQUE_STATIC] == pytest.approx(bit.bit_lever_arm(cfg) * HARD.mu_max * WOB,
+                                                   rel=1e-12)
+    total_cutting_force = mu * WOB
+    assert np.hypot(*out[bit.FORCE_X:bit.FORCE_Y + 1]) < 1e-9 * total_cutting_force
+    assert np.hypot(*out[bit.FORCE_STATIC_X:bit.FORCE_STATIC_Y + 1]) < 1e-9 * total_cutting_force
+    assert out[bit.SHARES] == pytest.approx(1.0)
+
+
+def test_asymmetric_bit_in_one_rock_pushes_sideways_and_the_force_turns_with_the_bit():
+    cfg = bit.asymmetric_bit()
+    fa = formation.formation_arrays(FormationConfig(rocks=(HARD,)))
+    omega = 7.0
+    mu = formation.resistance(omega, HARD.mu_min, HARD.mu_max, HARD.st1, HARD.st2)
+    force0 = loads(cfg, fa, phi_z=0.3, omega=omega)[bit.FORCE_X:bit.FORCE_Y + 1]
+    np.testing.assert_allclose(force0, mu * WOB * bit.front_imbalance(cfg, 0.3), rtol=1e-12)
+    assert np.linalg.norm(force0) > 0.1 * mu * WOB
+    for delta in (0.5, 2.0, -1.2):
+        turned = loads(cfg, fa, phi_z=0.3 + delta, omega=omega)[bit.FORCE_X:bit.FORCE_Y + 1]
+        rotation = np.array([[math.cos(delta), -math.sin(delta)],
+                             [math.sin(delta), math.cos(delta)]])
+        np.testing.assert_allclose(turned, rotation @ force0, rtol=1e-10, atol=1e-9)
+    assert loads(cfg, fa, omega=omega)[bit.TORQUE] == pytest.approx(
+        bit.bit_lever_arm(cfg) * mu * WOB, rel=1e-12)
+
+
+# --------------------------------------------------------------------------- conservation
+
+
+def random_formation(rng, n_interfaces, n_rocks=3, spread=0.12):
+    rocks = (HARD, SOFT, VERY_SOFT)[:n_rocks]
+    depths = np.sort(DEPTH + rng.uniform(-spread, spread / 2, n_interfaces))
+    interfaces = tuple(Interface(float(d), float(rng.uniform(0, 80)), float(rng.uniform(0, 360)))
+                       for d in depths)
+    layers = tuple(int(j) for j in rng.integers(0, n_rocks, n_interfaces + 1))
+    return formation.formation_arrays(FormationConfig(rocks=rocks, interfaces=interfaces,
+                                                      layers=layers))
+
+
+def random_bit(rng) -> BitConfig:
+    n = int(rng.integers(3, 9))
+    return BitConfig(blade_angles=tuple(np.sort(rng.uniform(0, 360, n))),
+                     face_start=tuple(rng.uniform(0.0, 0.03, n)),
+                     face_end=tuple(rng.uniform(0.04, 0.09, n)),
+                     shoulder_angle=float(rng.uniform(20, 90)),
+                     gauge_length=tuple(rng.uniform(0.0, 0.08, n) * (rng.random(n) > 0.1)))
+
+
+def test_pieces_add_up_to_the_blade_lengths_for_any_interfaces_and_bit_motion():
+    rng = np.random.default_rng(4)
+    for trial in range(300):
+        cfg = random_bit(rng) if trial % 2 else bit.symmetric_bit()
+        fa = random_formation(rng, int(rng.integers(0, 6)))
+        blades = bit.blade_arrays(cfg)
+        got = pieces(cfg, fa, bx=rng.uniform(-0.01, 0.01), by=rng.uniform(-0.01, 0.01),
+                     phi_z=rng.uniform(-10, 10))
+        for i, blade in enumerate(blades):
+            expected = (blade[bit.R_B] - blade[bit.R_A], blade[bit.L_SH], blade[bit.L_G])
+            for segment in (bit.FACE, bit.SHOULDER, bit.GAUGE):
+                total = sum(p[3] for p in got if p[0] == i and p[1] == segment)
+                assert total == pytest.approx(expected[segment], rel=1e-12, abs=1e-15)
+        out = loads(cfg, fa, bx=0.0, by=0.0, phi_z=rng.uniform(0, 7))
+        assert out[bit.SHARES:].sum() == pytest.approx(1.0, rel=1e-12)
+
+
+def test_three_rocks_can_cut_one_bit_at_once():
+    cfg = FormationConfig(rocks=(HARD, SOFT, VERY_SOFT),
+                          interfaces=tuple(Interface(DEPTH + dz, 45.0, 30.0)
+                                           for dz in (-0.06, 0.0, 0.06)),
+                          layers=(0, 1, 2, 0))
+    fa = formation.formation_arrays(cfg)
+    out = loads(bit.symmetric_bit(), fa, phi_z=0.2)
+    assert np.count_nonzero(out[bit.SHARES:] > 0.05) == 3
+    assert out[bit.SHARES:].sum() == pytest.approx(1.0)
+    # eq. (53) per piece equals the kernel torque
+    got = pieces(bit.symmetric_bit(), fa, phi_z=0.2)
+    mu = [formation.resistance(10.0, r.mu_min, r.mu_max, r.st1, r.st2) for r in cfg.rocks]
+    torque = WOB / bit.front_length(bit.symmetric_bit()) * sum(
+        mu[p[2]] * p[3] * p[4] for p in got if p[1] != bit.GAUGE)
+    assert out[bit.TORQUE] == pytest.approx(torque, rel=1e-12)
+
+
+def test_loads_are_continuous_as_an_interface_sweeps_across_the_bit():
+    # No blade face is near the strike of the plane (|cos(theta - azimuth)| >= 0.34): a
+    # face lying along the strike line would be crossed all at once, a genuine jump.
+    cfg = bit.asymmetric_bit()
+    step = 2e-5
+    sweep = np.arange(DEPTH - 0.2, DEPTH + 0.2, step)
+    # Bit pushed into the wall so that the gauge split is swept too.
+    history = np.array([loads(cfg, one_interface(d, dip=40.0, azimuth=0.0), bx=0.0065,
+                              by=0.001, vx=0.01, phi_z=0.0, omega=8.0) for d in sweep])
+    assert history[0, bit.SHARES + 1] == pytest.approx(1.0)
+    assert history[-1, bit.SHARES] == pytest.approx(1.0)
+    for k in range(history.shape[1]):
+        column = history[:, k]
+        span = column.max() - column.min()
+        jumps = np.abs(np.diff(column))
+        # A misplaced whole segment would jump by ~1/12 of the span or more.
+        assert jumps.max() <= 0.01 * span + 1e-12 * np.abs(column).max(), k
+
+
+def test_depth_of_cut_per_revolution_mixes_the_rocks_by_front_share():
+    out = loads(bit.symmetric_bit(), one_interface(DEPTH - 0.02), phi_z=0.7)
+    shares = out[bit.SHARES:]
+    assert 0.0 < shares[1] < 1.0
+    expected = WOB * (shares[0] * HARD.depth_of_cut + shares[1] * SOFT.depth_of_cut)
+    assert out[bit.DEPTH_OF_CUT] == pytest.approx(expected, rel=1e-14)
+
+
+# --------------------------------------------------------------------------- oracle
+
+
+def test_kernels_agree_with_the_reference_on_random_states():
+    rng = np.random.default_rng(7)
+    n_contacts = 0
+    for trial in range(300):
+        cfg = random_bit(rng) if trial % 3 else (bit.symmetric_bit(), bit.asymmetric_bit())[
+            trial % 2]
+        fa = random_formation(rng, int(rng.integers(0, 5)), n_rocks=int(rng.integers(1, 4)))
+        offset = rng.uniform(0.0, 0.012)
+        angle = rng.uniform(0, 2 * math.pi)
+        state = dict(bx=offset * math.cos(angle), by=offset * math.sin(angle),
+                     vx=rng.normal(scale=0.05), vy=rng.normal(scale=0.05),
+                     phi_z=rng.uniform(-20, 20), omega=rng.normal(scale=10.0) * (trial % 7 != 0),
+                     wob=rng.uniform(0, 2e5), compliance=rng.choice([0.0, 1e-6, 1e-4]),
+                     regularisation=rng.choice([0.0, 1e-3, 0.1]))
+        got = loads(cfg, fa, **state)
+        expected = reference_loads(cfg, fa, **state)
+        scale = max(1.0, np.abs(expected).max())
+        np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-10 * scale)
+        n_contacts += expected[bit.GAUGE_X] != 0.0
+        kernel_pieces = pieces(cfg, fa, state["bx"], state["by"], phi_z=state["phi_z"])
+        reference_pieces = bit_reference.split(bit.blade_arrays(cfg), *fa[:3], state["bx"],
+                                               state["by"], DEPTH, state["phi_z"])
+        assert [p[:3] for p in kernel_pieces] == [(p.blade, p.segment, p.rock)
+                                                 for p in reference_pieces]
+        np.testing.assert_allclose([p[3:] for p in kernel_pieces],
+                                   [(p.length, p.lever) for p in reference_pieces],
+                                   rtol=1e-10, atol=1e-14)
+    assert n_contacts > 50  # the gauge branch was exercised
+
+
+# --------------------------------------------------------------------------- gauge
+
+
+class TestGauge:
+    """Bit pushed along +x into the wall: only blade 0 (theta = 0) touches.
+
+    A horizontal interface cuts the gauge pad of every blade: 30 % of its length in the
+    hard rock above, 70 % in the soft rock below (the front lies in the soft rock).
+    """
+
+    cfg = bit.symmetric_bit()
+    penetration = 1.0e-3
+    bx = cfg.gauge_clearance + penetration
+    r_c = cfg.gauge_radius
+    l_g = 0.05
+    z_c = DEPTH - (cfg.gauge_radius - 0.070) / math.tan(math.radians(60.0))
+    fa = one_interface(z_c - 0.7 * l_g, dip=0.0)
+
+    def test_only_the_blade_facing_the_wall_touches_it(self):
+        for i in range(1, 6):
+            theta = math.radians(60.0 * i)
+            assert math.hypot(self.bx + self.r_c * math.cos(theta),
+                              self.r_c * math.sin(theta)) < self.cfg.hole_radius
+
+    def test_centred_bit_has_no_gauge_contact(self):
+        out = loads(self.cfg, self.fa, vx=0.1, omega=10.0)
+        assert np.all(out[bit.GAUGE_X:bit.GAUGE_TORQUE + 1] == 0.0)
+
+    def test_normal_force_is_k_f_plus_c_fdot_split_by_gauge_length_in_each_rock(self):
+        vx = 0.01
+        out = loads(self.cfg, self.fa, bx=self.bx, vx=vx, omega=0.0)
+        k = 0.3 * HARD.wall_stiffness + 0.7 * SOFT.wall_stiffness
+        c = 0.3 * HARD.wall_damping + 0.7 * SOFT.wall_damping
+        assert out[bit.GAUGE_X] == pytest.approx(-(k * self.penetration + c * vx), rel=1e-9)
+        assert out[bit.GAUGE_Y] == 0.0  # no slip, no friction
+        assert out[bit.GAUGE_TORQUE] == 0.0
+
+    def test_the_wall_does_not_pull_on_a_receding_bit(self):
+        out = loads(self.cfg, self.fa, bx=self.bx, vx=-100.0, omega=10.0)
+        assert np.all(out[bit.GAUGE_X:bit.GAUGE_TORQUE + 1] == 0.0)
+
+    @pytest.mark.parametrize("omega", [5.0, -5.0])
+    def test_gauge_friction_opposes_the_slip_and_its_torque_opposes_rotation(self, omega):
+        out = loads(self.cfg, self.fa, bx=self.bx, omega=omega, regularisation=1e-3)
+        f_hard = 0.3 * HARD.wall_stiffness * self.penetration
+        f_soft = 0.7 * SOFT.wall_stiffness * self.penetration
+        w = abs(omega)  # slip speed omega r_C converted back to rad/s by r_C (eq. 57)
+        mu_hard = formation.resistance(w, HARD.mu_min, HARD.mu_max, HARD.st1, HARD.st2)
+        mu_soft = formation.resistance(w, SOFT.mu_min, SOFT.mu_max, SOFT.st1, SOFT.st2)
+        friction = -math.copysign(mu_hard * f_hard + mu_soft * f_soft, omega)
+        assert out[bit.GAUGE_X] == pytest.approx(-(f_hard + f_soft), rel=1e-9)
+        assert out[bit.GAUGE_Y] == pytest.approx(friction, rel=1e-9)
+        assert out[bit.GAUGE_TORQUE] == pytest.approx(self.r_c * friction, rel=1e-9)
+        assert out[bit.GAUGE_TORQUE] * omega < 0.0
+
+    def test_friction_opposes_a_lateral_slide_of_the_contact_point(self):
+        out = loads(self.cfg, self.fa, bx=self.bx, vy=0.05, omega=0.0)
+        assert out[bit.GAUGE_Y] < 0.0
+
+    def test_friction_is_regularised_and_capped_at_low_slip(self):
+        vy = 1e-4
+        full = loads(self.cfg, self.fa, bx=self.bx, vy=vy, omega=0.0, regularisation=0.0)
+        regular = loads(self.cfg, self.fa, bx=self.bx, vy=vy, omega=0.0, regularisation=1e-3)
+        assert regular[bit.GAUGE_Y] == pytest.approx(0.1 * full[bit.GAUGE_Y], rel=1e-12)
+        capped = loads(self.cfg, self.fa, bx=self.bx, vy=vy, omega=0.0, compliance=1e-3)
+        assert capped[bit.GAUGE_Y] == pytest.approx(-vy / 1e-3, rel=1e-12)

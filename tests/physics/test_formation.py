@@ -1,0 +1,141 @@
+"""Formation geometry, rock lookup, resistance curve (eq. 39) and bit placement P1-P6."""
+
+import math
+
+import numpy as np
+import pytest
+
+from drill_env.physics import bit, bit_reference, formation
+from drill_env.physics.config import FormationConfig, Interface, RockConfig
+
+HARD = RockConfig(name="hard", mu_min=0.5, mu_max=0.9, st1=3.0, st2=0.0)
+SOFT = RockConfig(name="soft", mu_min=0.3, mu_max=0.45, st1=5.0, st2=0.005)
+
+
+def sandwich(top: float = 100.0, thickness: float = 1.0, dip: float = 45.0,
+             azimuth: float = 0.0) -> FormationConfig:
+    return FormationConfig(rocks=(HARD, SOFT),
+                           interfaces=(Interface(top, dip, azimuth),
+                                       Interface(top + thickness, dip, azimuth)),
+                           layers=(0, 1, 0))
+
+
+def test_interface_normal_is_unit_and_plane_passes_through_its_depth_on_the_axis():
+    fa = formation.formation_arrays(sandwich(dip=30.0, azimuth=70.0))
+    np.testing.assert_allclose(np.linalg.norm(fa.normals, axis=1), 1.0)
+    np.testing.assert_allclose(fa.normals[:, 2] * np.array([100.0, 101.0]), fa.offsets)
+
+
+def test_plane_descends_along_its_azimuth_by_tan_dip():
+    dip, azimuth, depth = 30.0, 70.0, 100.0
+    normal, offset = formation.interface_plane(depth, dip, azimuth)
+    beta = math.radians(azimuth)
+    for s in (-0.2, 0.1, 0.3):
+        point = np.array([s * math.cos(beta), s * math.sin(beta),
+                          depth + math.tan(math.radians(dip)) * s])
+        assert normal @ point == pytest.approx(offset, abs=1e-12)
+
+
+def test_rock_at_counts_the_interfaces_a_point_lies_below():
+    fa = formation.formation_arrays(sandwich(dip=0.0))
+    rock = [formation.rock_at(0.0, 0.0, z, *fa[:3]) for z in (99.0, 100.5, 101.5)]
+    layer = [formation.layer_at(0.0, 0.0, z, *fa[:2]) for z in (99.0, 100.5, 101.5)]
+    assert layer == [0, 1, 2]
+    assert rock == [0, 1, 0]
+
+
+def test_dipping_interface_puts_the_downdip_side_of_the_hole_above_it():
+    fa = formation.formation_arrays(sandwich(dip=45.0, azimuth=0.0))
+    # At z = 100.05 the top interface passes x = 0.05: x < 0.05 is below it (rock 2).
+    assert formation.rock_at(0.0, 0.0, 100.05, *fa[:3]) == 1
+    assert formation.rock_at(0.1, 0.0, 100.05, *fa[:3]) == 0
+
+
+def test_no_interfaces_means_everything_is_layer_zero():
+    fa = formation.formation_arrays(FormationConfig())
+    assert fa.normals.shape == (0, 3)
+    assert formation.rock_at(0.3, -0.2, 1234.0, *fa[:3]) == 0
+
+
+def test_rock_parameter_table_columns_follow_the_module_constants():
+    table = formation.formation_arrays(sandwich()).rock_params
+    assert table[1, formation.MU_MIN] == SOFT.mu_min
+    assert table[1, formation.MU_MAX] == SOFT.mu_max
+    assert table[1, formation.ST1] == SOFT.st1
+    assert table[1, formation.ST2] == SOFT.st2
+    assert table[1, formation.WALL_STIFFNESS] == SOFT.wall_stiffness
+    assert table[1, formation.WALL_DAMPING] == SOFT.wall_damping
+    assert table[1, formation.DEPTH_OF_CUT] == SOFT.depth_of_cut
+
+
+def test_resistance_is_zero_at_rest_odd_and_falls_from_mu_max_to_mu_min():
+    args = (0.5, 0.9, 3.0, 0.0)
+    assert formation.resistance(0.0, *args) == 0.0
+    assert formation.resistance(1e-12, *args) == pytest.approx(0.9)
+    assert formation.static_resistance(*args) == 0.9
+    assert formation.resistance(1e3, *args) == pytest.approx(0.5)
+    assert formation.resistance(-2.0, *args) == -formation.resistance(2.0, *args)
+
+
+def test_resistance_rising_branch_has_slope_st2():
+    args = (0.5, 0.9, 3.0, 0.01)
+    slope = formation.resistance(201.0, *args) - formation.resistance(200.0, *args)
+    assert slope == pytest.approx(0.01, rel=1e-9)
+
+
+def test_resistance_kernel_matches_the_reference_on_random_inputs():
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        mu_min = rng.uniform(0.1, 0.6)
+        args = (mu_min, mu_min + rng.uniform(0, 0.5), rng.uniform(0.5, 10), rng.uniform(0, 0.02))
+        w = rng.normal(scale=20.0)
+        assert formation.resistance(w, *args) == pytest.approx(
+            bit_reference.mu_curve(w, *args), rel=1e-14)
+
+
+# --------------------------------------------------------------------------- P1-P6
+
+# Paper section 4: share of rock 2 (soft layer) in contact with the front blades.
+P_POSITIONS = {"P1": (0.00, "top"), "P2": (0.25, "top"), "P3": (0.75, "top"),
+               "P4": (1.00, "top"), "P5": (0.50, "bottom"), "P6": (0.00, "bottom")}
+
+
+@pytest.mark.parametrize("name", list(P_POSITIONS))
+def test_bit_positions_p1_to_p6_are_solved_to_their_rock_2_share(name):
+    cfg = sandwich(top=100.0, thickness=1.0, dip=45.0)
+    fa = formation.formation_arrays(cfg)
+    bit_cfg = bit.symmetric_bit()
+    share, interface = P_POSITIONS[name]
+    if interface == "top":  # entering the soft layer: share of rock 2 = share below
+        depth = 100.0 - formation.interface_depth_for_share(bit_cfg, 45.0, 0.0, share, "below")
+    else:  # leaving it: share of rock 2 = share above the bottom interface
+        depth = 101.0 - formation.interface_depth_for_share(bit_cfg, 45.0, 0.0, share, "above")
+    shares = formation.front_shares(bit_cfg, fa, depth)
+    assert shares[1] == pytest.approx(share, abs=0.02)
+    assert shares.sum() == pytest.approx(1.0)
+
+
+def test_share_zero_and_one_positions_are_where_the_plane_just_touches_the_bit():
+    bit_cfg = bit.symmetric_bit()
+    touch_below = formation.interface_depth_for_share(bit_cfg, 45.0, 0.0, 0.0, "below")
+    touch_above = formation.interface_depth_for_share(bit_cfg, 45.0, 0.0, 1.0, "below")
+    eps = 1e-4
+    rocks = (HARD, SOFT)
+
+    def share(d_rel):
+        cfg = FormationConfig(rocks=rocks, interfaces=(Interface(d_rel, 45.0, 0.0),),
+                              layers=(0, 1))
+        return formation.front_shares(bit_cfg, formation.formation_arrays(cfg), 0.0,
+                                      n_phi=360)[1]
+
+    assert share(touch_below) == 0.0
+    assert 0.0 < share(touch_below - eps) < 0.01
+    assert share(touch_above) == 1.0
+    assert 0.99 < share(touch_above + eps) < 1.0
+
+
+def test_share_solver_rejects_bad_arguments():
+    with pytest.raises(ValueError, match="side"):
+        formation.interface_depth_for_share(bit.symmetric_bit(), 45.0, 0.0, 0.5, "left")
+    with pytest.raises(ValueError, match="target_share"):
+        formation.interface_depth_for_share(bit.symmetric_bit(), 45.0, 0.0, 1.5)
