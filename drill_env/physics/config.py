@@ -467,7 +467,7 @@ def _convert(hint: Any, value: Any, name: str) -> Any:
 
 
 def replace(config: Any, **changes: Any) -> Any:
-    """``dataclasses.replace`` that accepts dotted paths: ``replace(c, **{"mud.density": 1.1e3})``."""
+    """``dataclasses.replace`` with dotted paths: ``replace(c, **{"mud.density": 1.1e3})``."""
     nested: dict[str, dict[str, Any]] = {}
     flat: dict[str, Any] = {}
     for key, value in changes.items():

@@ -19,7 +19,7 @@ Every array is preallocated by the caller; nothing is allocated per step.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from drill_env.physics.bit import mesoscopic_bit_loads
 from drill_env.physics.formation import DEPTH_OF_CUT, MU_MAX, resistance, rock_at
@@ -270,6 +270,9 @@ def advance(n_steps, record_every, p, state,
         by = ul[2 * bit, 1]
         omega_p = vt[bit]
         w_eval = max(abs(omega_p), 1e-9)
+        # mu(0) = 0 by eq. (39)'s sign: a bit breaking away from exact rest is evaluated
+        # just off zero so it meets its static resistance.
+        omega_bit_eval = omega_p if omega_p != 0.0 else 1e-9
         depth = state[S_DEPTH]
         if p[P_MACRO_BIT] > 0.0:
             rock = rock_at(bx, by, depth, normals, offsets, layer_rock)
@@ -288,7 +291,7 @@ def advance(n_steps, record_every, p, state,
         else:
             mesoscopic_bit_loads(blades, normals, offsets, layer_rock, rock_params,
                                  bx, by, vl[2 * bit, 0], vl[2 * bit, 1], depth, ut[bit],
-                                 omega_p, wob, p[P_HOLE_RADIUS], compliance[bit], p[P_V_REG],
+                                 omega_bit_eval, wob, p[P_HOLE_RADIUS], compliance[bit], p[P_V_REG],
                                  piece_blade, piece_segment, piece_rock, piece_length,
                                  piece_lever, bit_out)
             t_slip = bit_out[0]

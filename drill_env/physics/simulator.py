@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drill_env.physics import integrator as ig
-from drill_env.physics.bit import blade_arrays, bit_lever_arm, make_bit_scratch
+from drill_env.physics.bit import bit_lever_arm, blade_arrays, make_bit_scratch
 from drill_env.physics.config import GRAVITY, SimulationConfig
 from drill_env.physics.fem import (
     LATERAL_BANDWIDTH,
@@ -27,6 +27,10 @@ from drill_env.physics.fem import (
 )
 from drill_env.physics.formation import formation_arrays, resistance, rock_at
 from drill_env.physics.linalg import band_cholesky
+
+#: Status set by :meth:`Simulator.advance` when a hook load compresses the string
+#: beyond what the mesh resolves (see :meth:`Simulator.check_mesh_resolves`).
+STATUS_MESH_BUCKLING = 4
 
 STATUS_MESSAGES = {
     ig.STATUS_OK: "",
@@ -254,6 +258,27 @@ class Simulator:
         """Hook load (N) that puts ``weight_on_bit`` on the bit (static axial balance)."""
         return self.string_weight - weight_on_bit
 
+    def check_mesh_resolves(self, weight_on_bit: float) -> None:
+        """Raise if an element is compressed beyond what one Hermite element can bend.
+
+        A single element buckles (pinned-pinned, its own length) at ~pi^2 EI / L_e^2; past
+        that the lumped tilt DOFs go spuriously unstable within milliseconds. Only the
+        coupled lateral model is affected.
+        """
+        if not self.config.solver.lateral or weight_on_bit <= 0.0:
+            return
+        mesh = self.mesh
+        n = axial_force_profile(mesh, weight_on_bit, self.bit_buoyed_weight)
+        limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
+        ratio = -n / limit
+        worst = int(np.argmax(ratio))
+        if ratio[worst] > 0.8:
+            section = "bha" if mesh.is_bha[worst] else "drill_pipe"
+            raise ValueError(
+                f"weight_on_bit={weight_on_bit:.0f} N compresses element {worst} "
+                f"({section}, {mesh.element_length[worst]:.1f} m) to {ratio[worst]:.0%} of its "
+                f"own buckling load: refine string.{section}.element_length or reduce WOB")
+
     def weight_on_bit_for(self, hook_load: float) -> float:
         """WOB from hook load; the bit is off bottom when the hook carries everything."""
         return max(0.0, self.string_weight - hook_load)
@@ -293,10 +318,12 @@ class Simulator:
         for arr in (self.ul, self.vl, self.al, self.ut, self.vt, self.at, self.node_force):
             arr[...] = 0.0
         self.state[:] = 0.0
+        self._mesh_message = ""
         if depth is None:
             depth = cfg.initial_depth if cfg.initial_depth is not None else cfg.string.length
         self.state[ig.S_DEPTH] = depth
         omega, wob = op.surface_speed, op.weight_on_bit
+        self.check_mesh_resolves(wob)
         tob = self.steady_torque_on_bit(omega, wob)
         drag = self.tor_c * omega
         load = -drag.copy()
@@ -324,6 +351,8 @@ class Simulator:
         Returns the recorded samples (one row every ``record_every`` steps, columns
         :data:`RECORD_CHANNELS`); empty when ``record_every`` is 0.
         """
+        if self.status:
+            return np.zeros((0, ig.N_RECORD))  # stopped: reset() first
         if speed_setpoint is not None:
             if not math.isfinite(speed_setpoint):
                 raise ValueError(f"speed_setpoint must be finite, got {speed_setpoint}")
@@ -331,15 +360,24 @@ class Simulator:
         if hook_load is not None:
             if not math.isfinite(hook_load):
                 raise ValueError(f"hook_load must be finite, got {hook_load}")
+            wob = self.weight_on_bit_for(hook_load)
+            if wob != self.state[ig.S_WOB]:
+                try:
+                    self.check_mesh_resolves(wob)
+                except ValueError as err:  # a control input, not a config error: stop
+                    self.state[ig.S_STATUS] = STATUS_MESH_BUCKLING
+                    self._mesh_message = str(err)
+                    return np.zeros((0, ig.N_RECORD))
             self.state[ig.S_HOOK_LOAD] = hook_load
-            self.state[ig.S_WOB] = self.weight_on_bit_for(hook_load)
+            self.state[ig.S_WOB] = wob
         n_rec_max = n_steps // record_every if record_every > 0 else 0
         if self._record.shape[0] < max(n_rec_max, 1):
             self._record = np.zeros((max(n_rec_max, 1), ig.N_RECORD))
         n_rec = ig.advance(
             n_steps, record_every, self.params, self.state,
             self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m, self.lat_factor,
-            self.lat_work_band, self.lat_k_total, self.lat_k_damp, self.tor_k, self.tor_c, self.tor_factor, self.col_bit,
+            self.lat_work_band, self.lat_k_total, self.lat_k_damp, self.tor_k, self.tor_c,
+            self.tor_factor, self.col_bit,
             self.node_clearance, self.node_radius, self.node_contact, self.compliance,
             self.ul, self.vl, self.al, self.ut, self.vt, self.at,
             self.rl, self.rt, self.contact_out, self.node_force,
@@ -360,6 +398,8 @@ class Simulator:
 
     @property
     def status_message(self) -> str:
+        if self.status == STATUS_MESH_BUCKLING:
+            return "string buckled beyond the mesh resolution: " + self._mesh_message
         return STATUS_MESSAGES[self.status]
 
     @property

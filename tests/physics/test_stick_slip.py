@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from drill_env.physics.config import (
+    INCH,
     FormationConfig,
     RockConfig,
     Section,
     SimulationConfig,
     SolverConfig,
     StringConfig,
-    INCH,
 )
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.stability import stick_slip_threshold, torsional_growth_rate

@@ -1,0 +1,221 @@
+"""The numba time step against the plain NumPy oracle, and the band kernels against SciPy."""
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from drill_env.physics import integrator as ig
+from drill_env.physics import linalg
+from drill_env.physics.config import (
+    FormationConfig,
+    Interface,
+    RockConfig,
+    SimulationConfig,
+    SolverConfig,
+)
+from drill_env.physics.fem import from_band, to_band
+from drill_env.physics.reference import ReferenceStepper, wall_contact_forces
+from drill_env.physics.simulator import OperatingPoint, Simulator
+
+RPM = 2.0 * np.pi / 60.0
+HARD = RockConfig(name="hard", mu_min=0.5, mu_max=0.9, st1=3.0, st2=0.0,
+                  wall_stiffness=2.0e7, wall_damping=2.0e3, depth_of_cut=1.0e-8)
+SOFT = RockConfig(name="soft", mu_min=0.3, mu_max=0.45, st1=5.0, st2=0.005,
+                  wall_stiffness=5.0e6, wall_damping=1.0e3, depth_of_cut=4.0e-8)
+BIT_DEPTH = 1035.0
+#: A dipping hard/soft interface through the bit face, so both rocks cut at once.
+SANDWICH = FormationConfig(rocks=(HARD, SOFT), interfaces=(Interface(BIT_DEPTH, 45.0, 30.0),),
+                           layers=(0, 1))
+N_STEPS = 50
+RTOL = 1e-10
+
+
+def random_state(sim: Simulator, rng: np.random.Generator, bit_speed: float,
+                 wob: float) -> None:
+    """Random lateral offsets (some nodes beyond their clearance), velocities and twist."""
+    sim.reset()
+    n = sim.n_nodes
+    clearance = sim.node_clearance.copy()
+    clearance[-1] = sim.config.bit.gauge_clearance
+    radius = clearance * rng.uniform(0.0, 1.15, n)
+    angle = rng.uniform(0.0, 2.0 * np.pi, n)
+    sim.ul[0::2, 0] = radius * np.cos(angle)
+    sim.ul[0::2, 1] = radius * np.sin(angle)
+    sim.ul[1::2] = rng.normal(0.0, 1e-4, (n, 2))
+    sim.vl[0::2] = rng.normal(0.0, 0.05, (n, 2))
+    sim.vl[1::2] = rng.normal(0.0, 0.01, (n, 2))
+    sim.al[:] = rng.normal(0.0, 1.0, sim.al.shape)
+    for arr in (sim.ul, sim.vl, sim.al):
+        arr[0] = 0.0  # top node laterally pinned
+    sim.ut[:] = np.cumsum(rng.normal(0.0, 0.05, n))
+    sim.vt[:] = bit_speed + rng.normal(0.0, 0.3, n)
+    sim.vt[0] = 60 * RPM
+    sim.vt[-1] = bit_speed
+    sim.at[:] = rng.normal(0.0, 1.0, n)
+    if bit_speed == 0.0:  # a BHA at rest and untwisted, so the bit can stay stuck
+        sim.ut[-10:] = sim.ut[-11]
+        sim.vt[-10:] = 0.0
+        # Not exactly 0, so both sides stay clear of round-off landing on omega == 0.
+        sim.at[-10:] = rng.normal(0.0, 1e-3, 10)
+    st = sim.state
+    st[ig.S_DEPTH] = BIT_DEPTH
+    st[ig.S_SETPOINT] = 60 * RPM
+    st[ig.S_SETPOINT_TARGET] = 80 * RPM  # the rate limit is active
+    st[ig.S_PI_INTEGRAL] = rng.uniform(0.0, 2.0)
+    st[ig.S_WOB] = wob
+    st[ig.S_HOOK_LOAD] = sim.hook_load_for(wob)
+    st[ig.S_WOB_FACTORED] = np.nan
+
+
+def assert_agree(actual: np.ndarray, expected: np.ndarray, name: str) -> None:
+    scale = np.max(np.abs(expected)) if expected.size else 0.0
+    np.testing.assert_allclose(actual, expected, rtol=RTOL, atol=RTOL * scale, err_msg=name)
+
+
+CASES = [
+    # (bit model, bit speed rad/s, WOB N): slipping, stuck, backwards, off bottom
+    ("mesoscopic", 6.0, 100e3),
+    ("mesoscopic", 0.0, 150e3),
+    ("mesoscopic", -1.0, 80e3),
+    ("mesoscopic", 3.0, 0.0),
+    ("macroscopic", 6.0, 100e3),
+    ("macroscopic", 0.0, 150e3),
+    ("macroscopic", -1.0, 80e3),
+]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize(("bit_model", "bit_speed", "wob"), CASES)
+def test_numba_advance_matches_numpy_reference(bit_model, bit_speed, wob, seed):
+    sim = Simulator(SimulationConfig(bit_model=bit_model, formation=SANDWICH))
+    random_state(sim, np.random.default_rng(seed), bit_speed, wob)
+    assert np.any(np.hypot(sim.ul[2::2, 0], sim.ul[2::2, 1])[:-1] > sim.node_clearance[1:-1])
+    ref = ReferenceStepper(sim)
+    expected = ref.advance(N_STEPS, record_every=1)
+    actual = sim.advance(N_STEPS, record_every=1)
+    assert sim.status == 0
+    for name in ("ul", "vl", "al", "ut", "vt", "at", "node_force"):
+        assert_agree(getattr(sim, name), getattr(ref, name), name)
+    keep = np.ones(ig.N_STATE, bool)
+    keep[ig.S_WOB_FACTORED] = False
+    assert_agree(sim.state[keep], ref.state[keep], "state")
+    assert actual.shape == expected.shape == (N_STEPS, ig.N_RECORD)
+    for col in range(ig.N_RECORD):
+        assert_agree(actual[:, col], expected[:, col], f"record column {col}")
+    if bit_speed == 0.0 and wob > 0:
+        assert actual[0, ig.R_STUCK] == 1.0  # the stuck branch was exercised
+    if bit_speed == 6.0:
+        assert actual[0, ig.R_STUCK] == 0.0  # slipping at the start
+    if bit_model == "macroscopic":
+        assert actual[:, ig.R_MAX_WALL_FORCE].max() > 0.0
+
+
+def test_torsion_only_mode_matches_numpy_reference():
+    """``SolverConfig(lateral=False)`` freezes the lateral DOFs in both implementations."""
+    cfg = SimulationConfig(formation=SANDWICH, solver=SolverConfig(lateral=False))
+    sim = Simulator(cfg)
+    random_state(sim, np.random.default_rng(5), 0.0, 120e3)
+    ref = ReferenceStepper(sim)
+    expected = ref.advance(N_STEPS, record_every=1)
+    actual = sim.advance(N_STEPS, record_every=1)
+    for name in ("ul", "vl", "ut", "vt", "at"):
+        assert_agree(getattr(sim, name), getattr(ref, name), name)
+    assert_agree(actual, expected, "records")
+    assert np.all(sim.al == 0.0)
+
+
+def test_bit_breaking_away_from_exact_rest_gets_its_static_torque():
+    """Regression: mu(0) = 0, so the kernel must evaluate the breakaway at 0+, not 0."""
+    sim = Simulator()
+    wob = 100e3
+    sim.reset(OperatingPoint(0.0, wob))
+    t_static = sim.lever_arm * sim.rock_params[0, 1] * wob
+    # Twist the string so the bit torque exceeds the static resistance; the bit is at
+    # exact rest (speed and acceleration 0.0).
+    sim.ut[:-1] = 3.0 * t_static * sim.mesh.element_length[-1] / sim.mesh.torsional_stiffness[-1]
+    sim.advance(1)
+    assert sim.status == 0
+    assert sim.state[ig.S_STUCK] == 0.0  # it breaks away ...
+    assert sim.torque_on_bit == pytest.approx(t_static, rel=1e-3)  # ... against mu_max
+
+
+def test_wall_contact_kernel_matches_numpy_version():
+    sim = Simulator()
+    rng = np.random.default_rng(3)
+    out = np.zeros(4)
+    p = sim.params
+    for _ in range(200):
+        clearance = rng.uniform(0.001, 0.03)
+        r = clearance * rng.uniform(0.9, 1.3)
+        psi = rng.uniform(0, 2 * np.pi)
+        x, y = r * np.cos(psi), r * np.sin(psi)
+        vx, vy = rng.normal(0, 0.3, 2)
+        omega = rng.normal(0, 5)
+        radius = rng.uniform(0.05, 0.1)
+        compliance = rng.choice([0.0, rng.uniform(1e-7, 1e-5)])
+        ig.wall_contact(x, y, vx, vy, omega, clearance, radius, p, compliance, out)
+        expected = wall_contact_forces(x, y, vx, vy, omega, clearance, radius,
+                                       np.float64(compliance), sim.config.contact)
+        np.testing.assert_allclose(out, np.ravel(expected), rtol=1e-13, atol=1e-9)
+
+
+# --------------------------------------------------------------------------- band kernels
+
+
+def random_spd_band(rng: np.random.Generator, n: int, p: int) -> np.ndarray:
+    """Dense SPD matrix with half bandwidth p (diagonally dominant)."""
+    a = np.zeros((n, n))
+    for d in range(1, p + 1):
+        off = rng.normal(0.0, 1.0, n - d)
+        a += np.diag(off, d) + np.diag(off, -d)
+    a += np.diag(np.abs(a).sum(axis=1) + rng.uniform(0.1, 2.0, n))
+    return a
+
+
+@pytest.mark.parametrize(("n", "p"), [(1, 0), (5, 1), (40, 1), (50, 3), (7, 6), (30, 5)])
+def test_band_cholesky_and_solves_match_scipy(n, p):
+    rng = np.random.default_rng(n * 10 + p)
+    dense = random_spd_band(rng, n, p)
+    band = to_band(dense, p)
+    np.testing.assert_array_equal(from_band(band), dense)
+    factor = np.zeros_like(band)
+    assert linalg.band_cholesky(band, factor)
+    u = scipy.linalg.cholesky(dense, lower=False)
+    np.testing.assert_allclose(1.0 / factor[0], np.diag(u), rtol=1e-12)
+    for d in range(1, p + 1):
+        np.testing.assert_allclose(factor[d, : n - d], np.diagonal(u, d), rtol=1e-10,
+                                   atol=1e-12 * np.abs(u).max())
+    b = rng.normal(size=n)
+    x = b.copy()
+    linalg.band_solve(factor, x)
+    np.testing.assert_allclose(x, np.linalg.solve(dense, b), rtol=1e-10, atol=1e-12)
+    b2 = rng.normal(size=(n, 2))
+    x2 = b2.copy()
+    linalg.band_solve2(factor, x2)
+    np.testing.assert_allclose(x2, np.linalg.solve(dense, b2), rtol=1e-10, atol=1e-12)
+    y = rng.normal(size=n)
+    y0 = y.copy()
+    linalg.band_matvec_sub(band, b, y, 0.7)
+    np.testing.assert_allclose(y, y0 - 0.7 * dense @ b, rtol=1e-12, atol=1e-12)
+    y2 = rng.normal(size=(n, 2))
+    y20 = y2.copy()
+    linalg.band_matvec_sub2(band, b2, y2, -1.3)
+    np.testing.assert_allclose(y2, y20 + 1.3 * dense @ b2, rtol=1e-12, atol=1e-12)
+
+
+def test_band_cholesky_rejects_indefinite_matrix():
+    dense = np.diag([1.0, -1.0, 2.0])
+    factor = np.zeros((2, 3))
+    assert not linalg.band_cholesky(to_band(dense, 1), factor)
+
+
+def test_lateral_system_matches_dense_assembly():
+    """A = M + gamma dt C + beta dt^2 (K + K_g(WOB)) as factorised by the kernel."""
+    sim = Simulator()
+    ref = ReferenceStepper(sim)
+    wob = 80e3
+    sim.reset(OperatingPoint(60 * RPM, wob))
+    sim.advance(1)
+    dense = from_band(sim.lat_work_band)[1:, 1:]
+    expected = ref._lateral_system(wob)
+    np.testing.assert_allclose(dense, expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())

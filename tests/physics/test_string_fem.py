@@ -1,0 +1,417 @@
+"""Closed-form validation of the FE drill string (SPEC section 3)."""
+
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+from scipy.optimize import brentq
+
+from drill_env.physics import integrator as ig
+from drill_env.physics.config import (
+    INCH,
+    ContactConfig,
+    DampingConfig,
+    MudConfig,
+    Section,
+    SimulationConfig,
+    SolverConfig,
+    StringConfig,
+    TopDriveConfig,
+)
+from drill_env.physics.fem import (
+    Mesh,
+    assemble_lateral,
+    assemble_torsion,
+    axial_force_profile,
+    beam_geometric_stiffness,
+    beam_stiffness,
+    build_mesh,
+)
+from drill_env.physics.simulator import OperatingPoint, Simulator
+
+RPM = 2.0 * math.pi / 60.0
+
+
+# --------------------------------------------------------------------------- torsion: modes
+
+
+def fixed_top_torsional_frequency_fe(cfg: SimulationConfig) -> float:
+    """First torsional frequency (Hz) of the assembled string, top node fixed, bit inertia on."""
+    mesh = build_mesh(cfg)
+    k, j = assemble_torsion(mesh)
+    j[-1] += cfg.bit.inertia
+    eig = scipy.linalg.eigh(k[1:, 1:], np.diag(j[1:]), eigvals_only=True, subset_by_index=[0, 0])
+    return math.sqrt(eig[0]) / (2.0 * math.pi)
+
+
+def fixed_top_torsional_frequency_exact(sections, end_inertia: float) -> float:
+    """First root of the shaft-with-end-inertia frequency equation, by transfer matrices.
+
+    State (twist, torque T = GJ dphi/ds) along the string from the fixed top (phi = 0,
+    T = 1); a uniform section of length L and wave number k = omega/c maps it with
+    [[cos kL, sin kL / (GJ k)], [-GJ k sin kL, cos kL]]. The end inertia requires
+    T(L) = J_end omega^2 phi(L).
+    """
+    def residual(omega: float) -> float:
+        state = np.array([0.0, 1.0])
+        for s in sections:
+            k = omega / s.torsional_wave_speed
+            gj = s.shear_modulus * s.polar_moment
+            c, sn = math.cos(k * s.length), math.sin(k * s.length)
+            state = np.array([[c, sn / (gj * k)], [-gj * k * sn, c]]) @ state
+        return state[1] - end_inertia * omega**2 * state[0]
+
+    grid = np.linspace(1e-3, 20.0, 4000)
+    values = [residual(w) for w in grid]
+    for a, b, fa, fb in zip(grid[:-1], grid[1:], values[:-1], values[1:], strict=True):
+        if fa * fb < 0.0:
+            return brentq(residual, a, b, xtol=1e-12) / (2.0 * math.pi)
+    raise AssertionError("no root")
+
+
+def heavy_bha() -> Section:
+    return Section(length=150.0, outer_diameter=8.0 * INCH, inner_diameter=2.8125 * INCH,
+                   element_length=1.0)
+
+
+GEOMETRIES = {
+    "default 1000 m + 35 m": StringConfig(),
+    "3000 m + 35 m": StringConfig(drill_pipe=Section(
+        length=3000.0, outer_diameter=5.0 * INCH, inner_diameter=4.276 * INCH,
+        element_length=10.0)),
+    "1000 m + 150 m of 8 in collars": StringConfig(bha=heavy_bha()),
+}
+
+
+@pytest.mark.parametrize("name", list(GEOMETRIES))
+def test_first_torsional_frequency_matches_shaft_with_end_inertia(name):
+    cfg = SimulationConfig(string=GEOMETRIES[name])
+    s = cfg.string
+    exact = fixed_top_torsional_frequency_exact((s.drill_pipe, s.bha), cfg.bit.inertia)
+    fe = fixed_top_torsional_frequency_fe(cfg)
+    print(f"{name}: FE {fe:.4f} Hz, exact {exact:.4f} Hz")
+    assert fe == pytest.approx(exact, rel=0.02)
+    if name.startswith("default"):
+        assert exact == pytest.approx(0.66, abs=0.03)  # SPEC section 3
+
+
+def free_vibration_config() -> SimulationConfig:
+    return SimulationConfig(
+        bit_model="macroscopic",
+        contact=ContactConfig(enabled=False),
+        mud=MudConfig(torsional_damping=0.0),
+        top_drive=TopDriveConfig(max_acceleration=1.0e4),
+    )
+
+
+def test_free_torsional_oscillation_after_speed_step_has_the_first_mode_frequency():
+    cfg = free_vibration_config()
+    sim = Simulator(cfg)
+    sim.reset(OperatingPoint(60 * RPM, 0.0))
+    rec = sim.run(30.0, speed_setpoint=70 * RPM, hook_load=sim.string_weight, record_every=1)
+    assert sim.status == 0
+    assert np.all(rec[:, ig.R_WOB] == 0.0)
+    t = rec[:, ig.R_TIME]
+    speed = rec[:, ig.R_BIT_SPEED]
+    late = t > 2.0
+    x = speed[late] - speed[late].mean()
+    crossings = t[late][1:][np.diff(np.sign(x)) > 0]  # upward zero crossings
+    period = np.mean(np.diff(crossings))
+    s = cfg.string
+    exact = fixed_top_torsional_frequency_exact((s.drill_pipe, s.bha), cfg.bit.inertia)
+    print(f"simulated {1 / period:.4f} Hz, exact fixed-top {exact:.4f} Hz")
+    assert 1.0 / period == pytest.approx(exact, rel=0.03)
+
+
+# --------------------------------------------------------------------------- lateral: beam
+
+
+def uniform_mesh(n_el: int, length: float = 10.0, od: float = 0.127,
+                 id_: float = 0.1086) -> Mesh:
+    sec = Section(length=length, outer_diameter=od, inner_diameter=id_,
+                  element_length=length / n_el)
+    ones = np.ones(n_el)
+    rho_a = sec.density * sec.area
+    return Mesh(
+        node_depth=np.linspace(0.0, length, n_el + 1),
+        element_length=ones * length / n_el,
+        bending_stiffness=ones * sec.youngs_modulus * sec.second_moment,
+        torsional_stiffness=ones * sec.shear_modulus * sec.polar_moment,
+        steel_mass=ones * rho_a,
+        lateral_mass=ones * rho_a,
+        rotary_inertia=ones * sec.density * sec.second_moment,
+        polar_inertia=ones * sec.density * sec.polar_moment,
+        buoyed_weight=ones * rho_a * 9.81,
+        outer_radius=ones * od / 2,
+        is_bha=np.zeros(n_el, bool),
+    )
+
+
+def pinned_pinned(mesh: Mesh, axial_force: float = 0.0):
+    """K + K_g(N), K_g for unit compression, M on the DOFs left by w = 0 at both ends."""
+    k, kg, m = assemble_lateral(mesh, np.full(mesh.n_elements, axial_force))
+    _, kg_unit, _ = assemble_lateral(mesh, np.full(mesh.n_elements, -1.0))
+    keep = np.setdiff1d(np.arange(k.shape[0]), [0, k.shape[0] - 2])
+    idx = np.ix_(keep, keep)
+    return (k + kg)[idx], kg_unit[idx], np.diag(m[keep])
+
+
+def euler_bernoulli(mesh: Mesh, mode: int) -> float:
+    length = mesh.node_depth[-1]
+    ei, rho_a = mesh.bending_stiffness[0], mesh.lateral_mass[0]
+    return (mode * math.pi / length) ** 2 * math.sqrt(ei / rho_a) / (2.0 * math.pi)
+
+
+def lateral_frequencies(mesh: Mesh, axial_force: float = 0.0, n: int = 3) -> np.ndarray:
+    k, _, m = pinned_pinned(mesh, axial_force)
+    eig = scipy.linalg.eigh(k, m, eigvals_only=True, subset_by_index=[0, n - 1])
+    return np.sqrt(eig) / (2.0 * math.pi)
+
+
+def test_element_matrices_are_the_textbook_ones():
+    ke = beam_stiffness(2.0, 3.0)
+    assert ke[0, 0] == pytest.approx(12 * 2.0 / 27)
+    assert np.allclose(ke @ [1, 0, 1, 0], 0.0)  # rigid translation
+    assert np.allclose(ke @ [0, 1, 3.0, 1], 0.0)  # rigid rotation
+    kg = beam_geometric_stiffness(5.0, 3.0)
+    assert np.allclose(kg, kg.T)
+    assert np.allclose(kg @ [1, 0, 1, 0], 0.0)
+
+
+def test_pinned_pinned_beam_frequencies_converge_to_euler_bernoulli():
+    errors = []
+    for n_el in (5, 10, 20, 40):
+        mesh = uniform_mesh(n_el)
+        f = lateral_frequencies(mesh)
+        exact = np.array([euler_bernoulli(mesh, i) for i in (1, 2, 3)])
+        errors.append(np.abs(f / exact - 1.0))
+    errors = np.array(errors)
+    print("relative errors of modes 1-3 for 5, 10, 20, 40 elements:\n", errors)
+    assert np.all(errors[-1] < 0.005)
+    assert np.all(np.diff(errors, axis=0) < 0.0)  # monotone convergence
+
+
+def test_axial_compression_softens_the_first_mode_and_buckles_at_euler_load():
+    mesh = uniform_mesh(40)
+    length, ei = mesh.node_depth[-1], mesh.bending_stiffness[0]
+    p_cr = math.pi**2 * ei / length**2
+    k, kg_unit, _ = pinned_pinned(mesh)
+    # K v = lambda K_g,unit v; K is SPD, so solve K_g,unit v = (1/lambda) K v.
+    # K_g,unit is the (softening, negative) geometric stiffness of a unit compression.
+    mu = scipy.linalg.eigh(-kg_unit, k, eigvals_only=True)
+    p_buckle = 1.0 / mu.max()
+    print(f"buckling load {p_buckle:.1f} N, Euler {p_cr:.1f} N")
+    assert p_buckle == pytest.approx(p_cr, rel=0.005)
+    f0 = lateral_frequencies(mesh, 0.0, 1)[0]
+    for ratio in (0.25, 0.5, 0.9):
+        f = lateral_frequencies(mesh, -ratio * p_cr, 1)[0]
+        assert f == pytest.approx(f0 * math.sqrt(1.0 - ratio), rel=0.005)
+    assert lateral_frequencies(mesh, +0.5 * p_cr, 1)[0] > f0  # tension stiffens
+
+
+# --------------------------------------------------------------------------- torsion: statics
+
+
+def test_static_twist_under_bit_torque():
+    cfg = SimulationConfig(string=StringConfig(bha=heavy_bha()))
+    mesh = build_mesh(cfg)
+    k, _ = assemble_torsion(mesh)
+    torque = 10.0e3
+    load = np.zeros(mesh.n_nodes - 1)
+    load[-1] = torque
+    twist = np.linalg.solve(k[1:, 1:], load)[-1]
+    s = cfg.string
+    expected = torque * sum(sec.length / (sec.shear_modulus * sec.polar_moment)
+                            for sec in (s.drill_pipe, s.bha))
+    assert twist == pytest.approx(expected, rel=0.01)
+
+
+def test_torsional_wave_speed_and_impedance_of_steel_pipe():
+    pipe = StringConfig().drill_pipe
+    assert pipe.torsional_wave_speed == pytest.approx(3180.0, rel=0.01)  # sqrt(G/rho), steel
+    # 5 in x 4.276 in pipe: J = pi/32 (D^4 - d^4) = 28.5 in^4 = 1.188e-5 m^4,
+    # Z = J sqrt(G rho) = 1.188e-5 * 2.498e7 = 297 N m s
+    j = math.pi / 32 * (5.0**4 - 4.276**4) * INCH**4
+    assert pipe.polar_moment == pytest.approx(j, rel=1e-12)
+    assert pipe.torsional_impedance == pytest.approx(297.0, rel=0.01)
+
+
+# --------------------------------------------------------------------------- rotation
+
+
+def test_rigid_rotation_without_mud_needs_no_surface_torque():
+    cfg = SimulationConfig(bit_model="macroscopic", contact=ContactConfig(enabled=False),
+                           mud=MudConfig(torsional_damping=0.0),
+                           damping=DampingConfig(mass_proportional=5.0))
+    sim = Simulator(cfg)
+    sim.reset(OperatingPoint(60 * RPM, 0.0))
+    rec = sim.run(10.0, 60 * RPM, sim.string_weight, record_every=10)
+    assert sim.status == 0
+    print("max |surface torque| (N m):", np.abs(rec[:, ig.R_SURFACE_TORQUE]).max())
+    assert np.abs(rec[-100:, ig.R_SURFACE_TORQUE]).max() < 1.0
+    assert np.abs(rec[-100:, ig.R_MOTOR_TORQUE]).max() < 1.0
+    assert rec[-1, ig.R_BIT_SPEED] == pytest.approx(60 * RPM, rel=1e-6)
+
+
+def test_off_bottom_motor_torque_equals_mud_drag():
+    c_t = 0.1
+    cfg = SimulationConfig(bit_model="macroscopic", contact=ContactConfig(enabled=False),
+                           mud=MudConfig(torsional_damping=c_t))
+    sim = Simulator(cfg)
+    sim.reset(OperatingPoint(50 * RPM, 0.0))  # settled at 50 rpm, then a ramp to 60 rpm
+    omega = 60 * RPM
+    rec = sim.run(40.0, omega, sim.string_weight, record_every=10)
+    assert sim.status == 0
+    expected = c_t * cfg.string.length * omega
+    print(f"motor torque {rec[-1, ig.R_MOTOR_TORQUE]:.2f} N m, c_t L omega {expected:.2f} N m")
+    assert rec[-1, ig.R_MOTOR_TORQUE] == pytest.approx(expected, rel=0.01)
+    assert rec[-1, ig.R_BIT_SPEED] == pytest.approx(omega, rel=0.01)
+
+
+# --------------------------------------------------------------------------- energy
+
+
+def test_undamped_free_string_conserves_energy():
+    cfg = SimulationConfig(
+        bit_model="macroscopic",
+        contact=ContactConfig(enabled=False),
+        damping=DampingConfig(0.0, 0.0),
+        mud=MudConfig(torsional_damping=0.0),
+        top_drive=TopDriveConfig(proportional_gain=0.0, integral_gain=0.0),
+    )
+    sim = Simulator(cfg)
+    sim.reset(OperatingPoint(0.0, 0.0))
+    hook = sim.string_weight  # off bottom: K_g from the buoyed weight only
+    mesh = sim.mesh
+    # torsion with the free top-drive rotor and the bit, lateral with the pinned top
+    k_t, j_t = assemble_torsion(mesh)
+    j_t[0] += cfg.top_drive.inertia
+    j_t[-1] += cfg.bit.inertia
+    k_l, kg_l, m_l = assemble_lateral(mesh, axial_force_profile(mesh, 0.0,
+                                                               sim.bit_buoyed_weight))
+    m_l[-2] += cfg.bit.mass
+    k_l = (k_l + kg_l)[1:, 1:]
+    m_l = m_l[1:]
+
+    w_t, v_t = scipy.linalg.eigh(k_t, np.diag(j_t), subset_by_index=[1, 1])  # [0] is rigid
+    w_l, v_l = scipy.linalg.eigh(k_l, np.diag(m_l), subset_by_index=[2, 2])
+    period = 2.0 * math.pi / math.sqrt(w_t[0])
+    sim.ut[:] = 0.05 * v_t[:, 0] / np.abs(v_t[:, 0]).max()
+    sim.vt[:] = 1.0  # plus a rigid rotation
+    lat = 0.01 * v_l[:, 0] / np.abs(v_l[0::2, 0]).max()
+    sim.ul[1:, 0] = lat
+    sim.ul[1:, 1] = 0.5 * lat
+    sim.vl[1:, 1] = math.sqrt(w_l[0]) * lat  # an orbit
+    sim.at[:] = -(k_t @ sim.ut) / j_t  # consistent initial accelerations
+    sim.al[1:] = -(k_l @ sim.ul[1:]) / m_l[:, None]
+
+    def energy() -> float:
+        ul, vl = sim.ul[1:], sim.vl[1:]
+        return float(0.5 * sim.vt @ (j_t * sim.vt) + 0.5 * sim.ut @ k_t @ sim.ut
+                     + 0.5 * np.sum(m_l[:, None] * vl**2) + 0.5 * np.sum(ul * (k_l @ ul)))
+
+    e0 = energy()
+    history = [e0]
+    n_steps = round(period / sim.dt)
+    for _ in range(100):
+        sim.advance(n_steps, speed_setpoint=0.0, hook_load=hook)
+        history.append(energy())
+    assert sim.status == 0
+    drift = np.abs(np.array(history) / e0 - 1.0).max()
+    print(f"first mode period {period:.3f} s, max energy drift over 100 periods {drift:.2e}")
+    assert drift < 0.005
+
+
+# --------------------------------------------------------------------------- wall contact
+
+
+def contact_params():
+    sim = Simulator()
+    return sim.params, sim.config.contact
+
+
+@pytest.mark.parametrize("psi", [0.0, 1.0, 2.5, -2.0])
+def test_wall_penalty_force_points_back_to_the_centre(psi):
+    p, contact = contact_params()
+    clearance, depth = 0.02, 0.003
+    r = clearance + depth
+    out = np.zeros(4)
+    ig.wall_contact(r * math.cos(psi), r * math.sin(psi), 0.0, 0.0, 0.0, clearance, 0.08, p,
+                    0.0, out)
+    fn = contact.stiffness * depth  # eqs. (18), (19)
+    assert out[3] == pytest.approx(fn, rel=1e-12)
+    np.testing.assert_allclose(out[:2], -fn * np.array([math.cos(psi), math.sin(psi)]),
+                               rtol=1e-12, atol=1e-9 * fn)
+    assert out[2] == 0.0  # no slip, no friction
+    ig.wall_contact(0.5 * clearance, 0.0, 1.0, 0.0, 5.0, clearance, 0.08, p, 0.0, out)
+    assert np.all(out == 0.0)  # inside the clearance: no force
+    ig.wall_contact(r, 0.0, -10.0, 0.0, 0.0, clearance, 0.08, p, 0.0, out)
+    assert np.all(out == 0.0)  # leaving fast enough: the damper would pull, no adhesion
+
+
+@pytest.mark.parametrize("omega", [5.0, -5.0])
+@pytest.mark.parametrize("psi", [0.0, 2.0])
+def test_wall_friction_opposes_the_slip_of_the_contact_point(omega, psi):
+    p, contact = contact_params()
+    clearance, depth, radius = 0.02, 0.002, 0.08
+    r = clearance + depth
+    out = np.zeros(4)
+    ig.wall_contact(r * math.cos(psi), r * math.sin(psi), 0.0, 0.0, omega, clearance, radius,
+                    p, 0.0, out)
+    fn = contact.stiffness * depth
+    v_slip = radius * omega  # material point at the wall moves along e_t = (-sin, cos)
+    mu = contact.friction_kinetic + (contact.friction_static - contact.friction_kinetic) * \
+        math.exp(-abs(v_slip) / contact.friction_decay_speed)  # eq. (23)
+    e_n = np.array([math.cos(psi), math.sin(psi)])
+    e_t = np.array([-math.sin(psi), math.cos(psi)])
+    expected = -fn * e_n - math.copysign(mu * fn, v_slip) * e_t
+    np.testing.assert_allclose(out[:2], expected, rtol=1e-12, atol=1e-9 * fn)
+    assert out[2] == pytest.approx(-math.copysign(radius * mu * fn, omega), rel=1e-12)
+    assert out[2] * omega < 0.0  # the wall brakes the rotation (eq. 26)
+    # whirl: the node orbiting along the wall slips at r psi_dot + R omega (eq. 24)
+    v_orbit = -v_slip * 2.0 * e_t
+    ig.wall_contact(r * math.cos(psi), r * math.sin(psi), *v_orbit, omega, clearance, radius,
+                    p, 0.0, out)
+    assert (out[:2] @ e_t) * (-v_slip) < 0.0  # friction now points the other way
+    # regularised below v_reg, capped by the compliance
+    tiny = 0.5 * contact.regularisation_speed / radius
+    ig.wall_contact(r, 0.0, 0.0, 0.0, tiny, clearance, radius, p, 0.0, out)
+    assert abs(out[1]) == pytest.approx(0.5 * contact.friction_static * fn, rel=1e-3)
+    ig.wall_contact(r, 0.0, 0.0, 0.0, omega, clearance, radius, p, 1e-3, out)
+    assert abs(out[1]) == pytest.approx(abs(v_slip) / 1e-3, rel=1e-12)
+
+
+def thrown_span_peak_penetration(speed: float, time_step: float) -> tuple[float, float]:
+    """Throw the collar span between the stabilizers 10 m and 19 m above the bit at the
+    wall (first-mode velocity profile, ``speed`` at mid-span); peak penetration of the
+    mid-span node (m) and its clearance."""
+    cfg = SimulationConfig(bit_model="macroscopic", solver=SolverConfig(time_step=time_step))
+    sim = Simulator(cfg)
+    sim.reset(OperatingPoint(60 * RPM, 0.0))
+    height = sim.mesh.node_depth[-1] - sim.mesh.node_depth
+    span = (height > 10.0 + 1e-9) & (height < 19.0 - 1e-9)
+    sim.vl[0::2, 0][span] = speed * np.sin(math.pi * (height[span] - 10.0) / 9.0)
+    k = int(np.argmin(np.abs(height - 14.5)))
+    assert sim.node_radius[k] == pytest.approx(6.5 * INCH / 2)  # a collar, no stabilizer
+    clearance = sim.node_clearance[k]
+    peak = 0.0
+    for _ in range(round(0.3 / sim.dt)):
+        sim.advance(1, 60 * RPM, sim.string_weight)
+        peak = max(peak, math.hypot(*sim.ul[2 * k]) - clearance)
+    assert sim.status == 0
+    assert math.hypot(*sim.ul[2 * k]) < clearance  # it bounced back
+    return peak, clearance
+
+
+@pytest.mark.parametrize("speed", [2.0, 4.0])
+def test_span_thrown_at_the_wall_does_not_tunnel(speed):
+    """The penalty contact at the default step catches a span hitting the wall at a few
+    m/s: the penetration is that of the converged (10x smaller step) solution, bounded
+    by the energy estimate, and small compared with the clearance."""
+    peak, clearance = thrown_span_peak_penetration(speed, 1.0e-3)
+    fine, _ = thrown_span_peak_penetration(speed, 1.0e-4)
+    print(f"{speed} m/s: peak penetration {peak * 1e3:.2f} mm (dt/10: {fine * 1e3:.2f} mm) "
+          f"of {clearance * 1e3:.1f} mm clearance")
+    assert 0.0 < peak < 0.5 * clearance
+    assert peak == pytest.approx(fine, rel=0.1)
