@@ -387,7 +387,7 @@ class SolverConfig:
 
     #: Requested step (s); the simulator may shorten it to the stable step of the
     #: explicit force terms and to divide the control interval evenly.
-    time_step: float = 1.0e-3
+    time_step: float = 2.0e-3
     #: False freezes the lateral DOFs (torsion only): the paper's case 1 studies torsion
     #: alone, and torsion-only runs are ~3x cheaper for stability maps.
     lateral: bool = True

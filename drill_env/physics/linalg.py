@@ -114,40 +114,78 @@ def band_matvec_sub2(band, x, y, scale):
 
 
 # --------------------------------------------------------------------------- fast paths
+#: Reassociation lets LLVM split the long dependent sums of a band row into parallel
+#: chains (the kernels are latency-bound otherwise); NaN/inf semantics are kept, so the
+#: integrator's divergence checks still see a non-finite state.
+FAST = {"reassoc", "contract"}
 # The lateral matrices always have half bandwidth 3 (two DOFs per node, Hermite beams)
 # and torsion bandwidth 1. These unrolled versions avoid the generic loops' bounds
 # branches; tests check them against the generic kernels and numpy.
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
+def _lateral_row(k_total, k_damp, ul, vl, i, n):
+    s0 = k_total[0, i] * ul[i, 0] + k_damp[0, i] * vl[i, 0]
+    s1 = k_total[0, i] * ul[i, 1] + k_damp[0, i] * vl[i, 1]
+    for d in range(1, 4):
+        j = i + d
+        if j < n:
+            s0 += k_total[d, i] * ul[j, 0] + k_damp[d, i] * vl[j, 0]
+            s1 += k_total[d, i] * ul[j, 1] + k_damp[d, i] * vl[j, 1]
+        j = i - d
+        if j >= 0:
+            s0 += k_total[d, j] * ul[j, 0] + k_damp[d, j] * vl[j, 0]
+            s1 += k_total[d, j] * ul[j, 1] + k_damp[d, j] * vl[j, 1]
+    return s0, s1
+
+
+@njit(cache=True, fastmath=FAST)
 def lateral_residual(k_total, k_damp, ul, vl, lat_m, mass_damping, rl):
     """rl -= K_total ul + K_damp vl + mass_damping * M vl, for (n, 2) arrays, bandwidth 3.
 
-    ``k_damp`` is b K (stiffness-proportional damping) in the same band layout.
+    ``k_damp`` is b K (stiffness-proportional damping) in the same band layout. The
+    interior rows are unrolled without bounds branches; the three rows at each end take
+    the generic path.
     """
     n = ul.shape[0]
     for i in range(n):
         m = mass_damping * lat_m[i]
-        s0 = k_total[0, i] * ul[i, 0] + k_damp[0, i] * vl[i, 0] + m * vl[i, 0]
-        s1 = k_total[0, i] * ul[i, 1] + k_damp[0, i] * vl[i, 1] + m * vl[i, 1]
-        for d in range(1, 4):
-            j = i + d
-            if j < n:
-                a = k_total[d, i]
-                c = k_damp[d, i]
-                s0 += a * ul[j, 0] + c * vl[j, 0]
-                s1 += a * ul[j, 1] + c * vl[j, 1]
-            j = i - d
-            if j >= 0:
-                a = k_total[d, j]
-                c = k_damp[d, j]
-                s0 += a * ul[j, 0] + c * vl[j, 0]
-                s1 += a * ul[j, 1] + c * vl[j, 1]
+        rl[i, 0] -= m * vl[i, 0]
+        rl[i, 1] -= m * vl[i, 1]
+    edge = min(3, n)
+    for i in range(edge):
+        s0, s1 = _lateral_row(k_total, k_damp, ul, vl, i, n)
         rl[i, 0] -= s0
         rl[i, 1] -= s1
+    for i in range(max(edge, n - 3), n):
+        s0, s1 = _lateral_row(k_total, k_damp, ul, vl, i, n)
+        rl[i, 0] -= s0
+        rl[i, 1] -= s1
+    for i in range(3, n - 3):
+        a0 = k_total[0, i]
+        a1 = k_total[1, i]
+        a2 = k_total[2, i]
+        a3 = k_total[3, i]
+        b1 = k_total[1, i - 1]
+        b2 = k_total[2, i - 2]
+        b3 = k_total[3, i - 3]
+        c0 = k_damp[0, i]
+        c1 = k_damp[1, i]
+        c2 = k_damp[2, i]
+        c3 = k_damp[3, i]
+        e1 = k_damp[1, i - 1]
+        e2 = k_damp[2, i - 2]
+        e3 = k_damp[3, i - 3]
+        for c in range(2):
+            rl[i, c] -= (a0 * ul[i, c] + a1 * ul[i + 1, c] + a2 * ul[i + 2, c]
+                         + a3 * ul[i + 3, c] + b1 * ul[i - 1, c] + b2 * ul[i - 2, c]
+                         + b3 * ul[i - 3, c]
+                         + c0 * vl[i, c] + c1 * vl[i + 1, c] + c2 * vl[i + 2, c]
+                         + c3 * vl[i + 3, c] + e1 * vl[i - 1, c] + e2 * vl[i - 2, c]
+                         + e3 * vl[i - 3, c])
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def solve3_pair(factor, b):
     """band_solve2 specialised to half bandwidth 3."""
     n = b.shape[0]
@@ -187,7 +225,7 @@ def solve3_pair(factor, b):
         b[i, 1] = s1 * factor[0, i]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def torsion_residual(k_band, k_damp_scale, c_diag, ut, vt, rt):
     """rt -= K ut + b K vt + diag(c) vt for a tridiagonal K (band layout, bandwidth 1)."""
     n = ut.shape[0]
@@ -201,7 +239,7 @@ def torsion_residual(k_band, k_damp_scale, c_diag, ut, vt, rt):
         rt[i] -= s
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def solve_tridiagonal(factor, b):
     """band_solve specialised to bandwidth 1."""
     n = b.shape[0]

@@ -1,0 +1,615 @@
+"""``DrillString-v0``: a Gymnasium environment over the FE drill-string simulator."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from drill_env import metrics
+from drill_env.physics.config import SimulationConfig, from_dict, replace
+from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
+from drill_env.scenarios import RANDOMISED, Scenario, make_scenario, scenario_parameters
+
+RPM = 2.0 * math.pi / 60.0
+
+ACTION_MODES = ("absolute", "incremental")
+SENSORS = ("downhole", "surface")
+STARTUPS = ("settled", "paper")
+
+#: Observation layout per ``sensors`` mode (names of the vector entries, in order).
+OBSERVATIONS: dict[str, tuple[str, ...]] = {
+    "downhole": (
+        "torque_on_bit", "bit_speed", "weight_on_bit", "bit_x", "bit_y", "bit_vx", "bit_vy",
+        "whirl_speed", "bit_force_x", "bit_force_y", "max_contact_force", "surface_speed",
+        "surface_torque", "hook_load", "rop", "speed_setpoint", "weight_on_bit_setpoint",
+    ),
+    "surface": (
+        "surface_speed", "surface_torque", "hook_load", "rop", "speed_setpoint",
+        "weight_on_bit_setpoint",
+    ),
+}
+
+#: Observations are clipped to +-OBS_BOUND (normalised units).
+OBS_BOUND = 10.0
+
+_COL = {name: k for k, name in enumerate(RECORD_CHANNELS)}
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Environment settings (typed defaults; ``gymnasium.make`` keywords override them)."""
+
+    #: Policy period (s); the simulator takes ``round(control_interval / dt)`` steps per
+    #: action (10 Hz by default).
+    control_interval: float = 0.1
+    #: Episode length in simulated seconds; ``None`` takes the scenario's default.
+    episode_duration: float | None = None
+    #: Surface speed set-point range (rpm) mapped from action[0] in [-1, 1].
+    rpm_range: tuple[float, float] = (0.0, 200.0)
+    #: Weight-on-bit range (N) mapped from action[1]; applied as the hook load
+    #: ``string_weight - WOB``.
+    weight_on_bit_range: tuple[float, float] = (0.0, 200.0e3)
+    #: "absolute": action -> set point in the range; "incremental": action -> change of
+    #: the set point, at most ``rpm_step`` / ``weight_on_bit_step`` per control step.
+    action_mode: str = "absolute"
+    rpm_step: float = 10.0
+    weight_on_bit_step: float = 10.0e3
+    #: Drawworks rate limit of the applied WOB (N/s). The top-drive acceleration limit is
+    #: in the simulator (``TopDriveConfig.max_acceleration``).
+    drawworks_rate: float = 50.0e3
+    #: "downhole" (MWD at the bit + surface) or "surface" (surface measurements only).
+    sensors: str = "downhole"
+    #: Telemetry delay of the observation, in control steps.
+    telemetry_delay: int = 0
+    #: Std of Gaussian noise added to the normalised observation (from ``np_random``).
+    observation_noise: float = 0.0
+    #: Make-up torque of the drill-pipe connections (N m): exceeding it terminates.
+    makeup_torque: float = 40.0e3
+    #: "settled": start at the scenario's operating point in steady rotation (see
+    #: ``Simulator.reset``); "paper": ramp the rpm over 10 s, hold 10 s off bottom,
+    #: apply the WOB at 20 s, then hand over to the agent.
+    startup: str = "settled"
+    #: Record every k simulator steps inside a control interval (for the metrics).
+    record_every: int = 10
+    #: Length of the rolling window of the stick-slip metrics (s).
+    metric_window: float = 3.0
+    #: Cap the applied WOB at the largest WOB the FE mesh resolves
+    #: (``Simulator.check_mesh_resolves``); without the cap a larger WOB stops the
+    #: simulator (terminated, "mesh buckling" status). The cap is ``info[
+    #: "weight_on_bit_limit"]``.
+    limit_weight_on_bit_to_mesh: bool = True
+    #: Reward weights (see the class docstring).
+    rop_weight: float = 1.0
+    stick_slip_weight: float = 1.0
+    whirl_weight: float = 0.5
+    effort_weight: float = 0.1
+    failure_weight: float = 10.0
+    #: Cap on the SSI entering the reward (a stalled bit has an unbounded SSI).
+    ssi_cap: float = 2.0
+    #: Normalisation scales of the observation.
+    torque_scale: float = 10.0e3
+    force_scale: float = 10.0e3
+    rop_scale: float = 0.01
+
+    def __post_init__(self) -> None:
+        def finite(name: str, positive: bool = False, non_negative: bool = False) -> None:
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v)):
+                raise ValueError(f"{name}: must be a finite number, got {v!r}")
+            if positive and not v > 0:
+                raise ValueError(f"{name}: must be > 0, got {v!r}")
+            if non_negative and v < 0:
+                raise ValueError(f"{name}: must be >= 0, got {v!r}")
+
+        for name in ("control_interval", "rpm_step", "weight_on_bit_step", "drawworks_rate",
+                     "makeup_torque", "metric_window", "ssi_cap", "torque_scale",
+                     "force_scale", "rop_scale"):
+            finite(name, positive=True)
+        for name in ("observation_noise", "rop_weight", "stick_slip_weight", "whirl_weight",
+                     "effort_weight", "failure_weight"):
+            finite(name, non_negative=True)
+        if self.episode_duration is not None:
+            finite("episode_duration", positive=True)
+        for name in ("rpm_range", "weight_on_bit_range"):
+            rng = getattr(self, name)
+            if len(rng) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v)
+                                        for v in rng):
+                raise ValueError(f"{name}: must be two finite numbers (low, high), got {rng!r}")
+            if rng[0] < 0:
+                raise ValueError(f"{name}: low end must be >= 0, got {rng!r}")
+            if not rng[1] > rng[0]:
+                raise ValueError(f"{name}: high end must exceed the low end, got {rng!r}")
+        for name, allowed in (("action_mode", ACTION_MODES), ("sensors", SENSORS),
+                              ("startup", STARTUPS)):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name}: must be one of {allowed}, got {getattr(self, name)!r}")
+        for name in ("telemetry_delay", "record_every"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 0:
+                raise ValueError(f"{name}: must be an integer >= 0, got {v!r}")
+        if self.record_every < 1:
+            raise ValueError(f"record_every: must be >= 1, got {self.record_every}")
+
+
+ENV_FIELDS = frozenset(f.name for f in dataclasses.fields(EnvConfig))
+
+
+def mesh_weight_on_bit_limit(sim: Simulator, upper: float, tol: float = 100.0) -> float:
+    """Largest WOB in [0, ``upper``] (N) that ``sim``'s mesh resolves (bisection, ``tol`` N).
+
+    The simulator refuses a WOB that compresses an element beyond 80 % of its own
+    buckling load (``Simulator.check_mesh_resolves``); with the default 35 m BHA the
+    drill pipe goes into compression above ~41 kN and its 10 m elements limit the WOB to
+    ~138 kN. Returns ``upper`` when the simulator has no such check.
+    """
+    check = getattr(sim, "check_mesh_resolves", None)
+    if check is None:
+        return upper
+
+    def ok(wob: float) -> bool:
+        try:
+            check(wob)
+        except ValueError:
+            return False
+        return True
+
+    if ok(upper):
+        return upper
+    lo, hi = 0.0, upper
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo
+
+
+class DrillStringEnv(gym.Env):
+    r"""Drill-string stick-slip and whirl control: top-drive rpm and hook load.
+
+    ## Description
+
+    A finite-element drill string (1000 m of 5 in pipe over a 35 m BHA by default; lateral
+    and torsional dynamics, borehole-wall contact) drives a mesoscopic PDC bit through a
+    layered formation (``drill_env.physics``). The agent sets the top drive's speed set
+    point and the hook load (i.e. the weight on bit) ten times a second; the simulator
+    integrates the string in between (``round(control_interval / dt)`` steps of ~1 ms)
+    and records the bit's motion, from which the stick-slip and whirl metrics of
+    :mod:`drill_env.metrics` are computed. The task: drill fast without stick-slip and
+    whirl while the bit crosses formation changes.
+
+    ## Action Space
+
+    ``Box(-1, 1, (2,), float32)``. Finite actions outside [-1, 1] are CLIPPED; NaN or
+    infinite actions raise ``ValueError``.
+
+    | Num | Action                  | absolute mode             | incremental mode            |
+    |-----|-------------------------|---------------------------|-----------------------------|
+    | 0   | surface speed set point | ``rpm_range`` (0-200 rpm) | +- ``rpm_step`` (10 rpm)    |
+    | 1   | weight on bit (WOB)     | ``weight_on_bit_range``   | +- ``weight_on_bit_step``   |
+    |     |                         | (0-200 kN)                | (10 kN)                     |
+
+    Absolute mode maps [-1, 1] linearly onto the range; incremental mode changes the set
+    point by ``action * step`` per control step (clipped to the range).
+
+    The WOB command is applied as the hook load ``sim.hook_load_for(WOB)`` and moves by at
+    most ``drawworks_rate * control_interval`` per step (drawworks rate limit) and never
+    above ``weight_on_bit_limit``, the largest WOB the FE mesh resolves (see
+    ``limit_weight_on_bit_to_mesh``; ~138 kN for the default string); the speed
+    set point is rate limited inside the simulator (top-drive ``max_acceleration``). The
+    WOB is held constant within a control interval.
+
+    ## Observation Space
+
+    ``Box(-10, 10, (n,), float32)``, each entry normalised to O(1) and clipped to +-10.
+    ``sensors="downhole"`` (n = 17):
+
+    | Num | Observation              | Normalised by                               |
+    |-----|--------------------------|---------------------------------------------|
+    | 0   | torque on bit            | ``torque_scale`` (10 kN m)                  |
+    | 1   | bit speed                | max of ``rpm_range`` in rad/s               |
+    | 2   | weight on bit            | max of ``weight_on_bit_range``              |
+    | 3-4 | bit lateral x, y         | gauge clearance                             |
+    | 5-6 | bit lateral velocity     | clearance x max speed                       |
+    | 7   | whirl speed              | max speed (clipped: noisy when centred)     |
+    | 8-9 | bit lateral force x, y   | ``force_scale`` (10 kN)                     |
+    | 10  | max wall contact force   | ``force_scale``                             |
+    | 11  | surface speed            | max speed                                   |
+    | 12  | surface torque           | ``torque_scale``                            |
+    | 13  | hook load                | string weight                               |
+    | 14  | ROP                      | ``rop_scale`` (0.01 m/s)                    |
+    | 15  | speed set point (cmd)    | max speed                                   |
+    | 16  | WOB set point (cmd)      | max of ``weight_on_bit_range``              |
+
+    ``sensors="surface"`` (n = 6): entries 11-16 only. The names are in
+    ``env.observation_names``. ``telemetry_delay`` delays the observation by that many
+    control steps; ``observation_noise`` adds Gaussian noise drawn from ``np_random``.
+
+    ## Rewards
+
+    ``reward = sum(info["reward_terms"].values())`` with, per control step:
+
+    - ``rop``: ``rop_weight * mean ROP / rop_scale`` over the control interval;
+    - ``stick_slip``: ``-stick_slip_weight * min(SSI, ssi_cap)``, SSI of the bit speed over
+      the last ``metric_window`` seconds (:func:`drill_env.metrics.stick_slip_severity`);
+    - ``whirl``: ``-whirl_weight * mean radial displacement / clearance`` over the interval;
+    - ``effort``: ``-effort_weight * ((d rpm / rpm span)^2 + (d WOB / WOB span)^2)``, the
+      change of the commanded set points;
+    - ``failure``: ``-failure_weight`` on a termination (torque limit, divergence).
+
+    ## Starting State
+
+    ``startup="settled"`` (default): ``Simulator.reset`` at the scenario's operating point,
+    i.e. steady rotation with the static twist that balances mud drag and bit torque, the
+    string laterally straight. ``startup="paper"``: rest, rpm ramped to the target over
+    10 s, held 10 s off bottom, WOB applied at 20 s; the agent starts at 20 s. ``reset``
+    options ``surface_speed`` (rad/s) and ``weight_on_bit`` (N) override the scenario's
+    operating point.
+
+    ## Episode End
+
+    Terminated when the surface torque exceeds ``makeup_torque`` (``info[
+    "termination_reason"] = "surface torque above make-up torque"``) or the simulator
+    diverges (``sim.status != 0``: the reason is ``sim.status_message``; the observation
+    then repeats the last finite one). Truncated after ``episode_duration`` seconds.
+
+    ## Info
+
+    Every step, in SI: ``time`` (s), ``bit_speed``, ``surface_speed`` (rad/s),
+    ``torque_on_bit``, ``surface_torque`` (N m), ``weight_on_bit``, ``hook_load`` (N),
+    ``bit_lateral`` (x, y m), ``whirl_speed`` (rad/s), ``depth`` (m), ``rop`` (m/s),
+    ``rock_share``; the set points ``speed_setpoint`` (rad/s) and
+    ``weight_on_bit_setpoint`` (N); the window metrics ``ssi``, ``stuck_fraction``,
+    ``whirl_ratio``, ``radial_ratio``, ``lateral_force``, ``mse`` (Pa) and
+    ``top_drive_energy`` (J, this episode); ``reward_terms`` and ``termination_reason``
+    ("" unless terminated).
+
+    ## Arguments
+
+    ``gymnasium.make("DrillString-v0", scenario="default", **kwargs)``:
+
+    - ``scenario``: a name of :data:`drill_env.scenarios.SCENARIOS`; keywords that are
+      parameters of that scenario (e.g. ``position="P3"`` for ``paper_case1``) go to it;
+    - ``config``: an :class:`EnvConfig` or dict; every :class:`EnvConfig` field can also be
+      passed as a keyword (``episode_duration=5.0``, ``action_mode="incremental"``,
+      ``stick_slip_weight=2.0``, ...);
+    - ``physics``: dotted-path overrides of the scenario's ``SimulationConfig``, e.g.
+      ``{"mud.density": 1300.0, "top_drive.proportional_gain": 2e3}``;
+    - ``bit_model``: "mesoscopic" (default) or "macroscopic".
+
+    Unknown keywords raise ``ValueError`` naming them.
+
+    ## Version History
+
+    - v0: initial version.
+    """
+
+    metadata = {"render_modes": [], "render_fps": 10}
+
+    def __init__(self, scenario: str = "default", config: EnvConfig | dict | None = None, *,
+                 physics: dict[str, Any] | None = None, bit_model: str | None = None,
+                 render_mode: str | None = None, **overrides: Any) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode: {render_mode!r} is not supported (use rerun "
+                             "recording instead)")
+        self.render_mode = render_mode
+        params = set(scenario_parameters(scenario))  # validates the name
+        env_over = {k: v for k, v in overrides.items() if k in ENV_FIELDS}
+        scen_over = {k: v for k, v in overrides.items() if k in params and k not in ENV_FIELDS}
+        unknown = set(overrides) - set(env_over) - set(scen_over)
+        if unknown:
+            raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}; "
+                             f"EnvConfig fields: {sorted(ENV_FIELDS)}; scenario "
+                             f"{scenario!r} parameters: {sorted(params)}")
+        base = config if isinstance(config, EnvConfig) else from_dict(EnvConfig, config)
+        for k in ("rpm_range", "weight_on_bit_range"):
+            if k in env_over and isinstance(env_over[k], list):
+                env_over[k] = tuple(env_over[k])
+        self.config: EnvConfig = dataclasses.replace(base, **env_over)
+        self.scenario_name = scenario
+        self.scenario_params = scen_over
+        self.physics_overrides = dict(physics or {})
+        if bit_model is not None:
+            self.physics_overrides["bit_model"] = bit_model
+        self.randomised = scenario in RANDOMISED
+
+        cfg = self.config
+        self.observation_names = OBSERVATIONS[cfg.sensors]
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        n_obs = len(self.observation_names)
+        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(n_obs,),
+                                            dtype=np.float32)
+        self._speed_range = (cfg.rpm_range[0] * RPM, cfg.rpm_range[1] * RPM)
+        self._wob_range = tuple(float(v) for v in cfg.weight_on_bit_range)
+
+        # Build (and validate) the physics now; randomised scenarios redraw at reset.
+        self.scenario: Scenario = self._build_scenario(np.random.default_rng(0))
+        self._set_simulator(Simulator(self.scenario.config))
+        self._init_episode_state()
+
+    # ------------------------------------------------------------------ set-up
+
+    def _build_scenario(self, rng: np.random.Generator) -> Scenario:
+        scenario = make_scenario(self.scenario_name, rng=rng, **self.scenario_params)
+        if self.physics_overrides:
+            config = replace(scenario.config, **self.physics_overrides)
+            scenario = dataclasses.replace(scenario, config=config)
+        return scenario
+
+    def _set_simulator(self, sim: Simulator) -> None:
+        self.sim = sim
+        self._steps_per_action = max(1, round(self.config.control_interval / sim.dt))
+        self.weight_on_bit_limit = self._wob_range[1]
+        if self.config.limit_weight_on_bit_to_mesh:
+            self.weight_on_bit_limit = min(self.weight_on_bit_limit, mesh_weight_on_bit_limit(
+                sim, self._wob_range[1]))
+
+    def _init_episode_state(self) -> None:
+        self._step_count = 0
+        self._speed_target = 0.0
+        self._wob_target = 0.0
+        self._wob_applied = 0.0
+        self._history = np.zeros((0, len(RECORD_CHANNELS)))
+        self._obs_queue: deque[np.ndarray] = deque(maxlen=self.config.telemetry_delay + 1)
+        self._last_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self._episode_energy = 0.0
+        self._start_time = 0.0
+        self._pending: dict[str, float] = {}
+
+    @property
+    def simulation_config(self) -> SimulationConfig:
+        return self.scenario.config
+
+    @property
+    def control_interval(self) -> float:
+        """Actual policy period (s): an integer number of simulator steps."""
+        return self._steps_per_action * self.sim.dt
+
+    @property
+    def episode_duration(self) -> float:
+        d = self.config.episode_duration
+        return d if d is not None else self.scenario.episode_duration
+
+    @property
+    def max_episode_steps(self) -> int:
+        return max(1, round(self.episode_duration / self.control_interval))
+
+    @property
+    def clearance(self) -> float:
+        return self.scenario.config.bit.gauge_clearance
+
+    # ------------------------------------------------------------------ gym API
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        options = dict(options or {})
+        if self.randomised:
+            self.scenario = self._build_scenario(self.np_random)
+            self._set_simulator(Simulator(self.scenario.config))
+        speed = float(options.pop("surface_speed", self.scenario.surface_speed))
+        wob = float(options.pop("weight_on_bit", self.scenario.weight_on_bit))
+        if options:
+            raise ValueError(f"reset options: unknown key(s) {sorted(options)}; known: "
+                             "['surface_speed', 'weight_on_bit']")
+        for name, value in (("surface_speed", speed), ("weight_on_bit", wob)):
+            if not math.isfinite(value):
+                raise ValueError(f"reset options: {name} must be finite, got {value}")
+        speed = min(max(speed, self._speed_range[0]), self._speed_range[1])
+        wob = min(max(wob, self._wob_range[0]), self._wob_range[1])
+
+        self._init_episode_state()
+        wob_start = min(wob, self.weight_on_bit_limit)
+        sim = self.sim
+        if self.config.startup == "settled":
+            sim.reset(OperatingPoint(surface_speed=speed, weight_on_bit=wob_start))
+            self._history = np.empty((0, len(RECORD_CHANNELS)))
+        else:
+            sim.reset(OperatingPoint(0.0, 0.0))
+            self._history = self._paper_startup(speed, wob_start)
+        self._speed_target = speed
+        self._wob_target = wob
+        self._wob_applied = wob_start
+        self._start_time = sim.time
+        obs = self._observation()
+        info = self._info(self._history[-1:] if len(self._history) else None)
+        return obs, info
+
+    def _paper_startup(self, speed: float, wob: float) -> np.ndarray:
+        """Paper section 4 start-up: ramp rpm over 10 s, hold 10 s off bottom, WOB at 20 s."""
+        sim = self.sim
+        n = self._steps_per_action
+        dt_ctrl = n * sim.dt
+        off_bottom = sim.string_weight  # the hook carries everything: WOB = 0
+        ramp_steps = max(1, round(10.0 / dt_ctrl))
+        rows = []
+        for k in range(ramp_steps):
+            rows.append(sim.advance(n, speed_setpoint=speed * (k + 1) / ramp_steps,
+                                    hook_load=off_bottom, record_every=self.config.record_every))
+        for _ in range(ramp_steps):
+            rows.append(sim.advance(n, speed_setpoint=speed, hook_load=off_bottom,
+                                    record_every=self.config.record_every))
+        sim.advance(0, hook_load=sim.hook_load_for(wob))
+        return self._trim_history(np.concatenate(rows))
+
+    def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self._apply_action(action)
+        records = self._advance()
+        return self._finish_step(records)
+
+    # The three phases of a step are separate so a batched env can advance many
+    # simulators between them (see drill_env.vector).
+
+    def _apply_action(self, action) -> None:
+        """Validate ``action``, map it to set points (clipped, rate limited)."""
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != (2,):
+            raise ValueError(f"action: expected shape (2,), got {np.shape(action)}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action: must be finite, got {a.tolist()} (NaN/inf)")
+        a = np.clip(a, -1.0, 1.0)
+        cfg = self.config
+        s_lo, s_hi = self._speed_range
+        w_lo, w_hi = self._wob_range
+        if cfg.action_mode == "absolute":
+            speed = s_lo + 0.5 * (a[0] + 1.0) * (s_hi - s_lo)
+            wob = w_lo + 0.5 * (a[1] + 1.0) * (w_hi - w_lo)
+        else:
+            speed = self._speed_target + a[0] * cfg.rpm_step * RPM
+            wob = self._wob_target + a[1] * cfg.weight_on_bit_step
+        speed = float(min(max(speed, s_lo), s_hi))
+        wob = float(min(max(wob, w_lo), w_hi))
+        effort = ((speed - self._speed_target) / (s_hi - s_lo)) ** 2 + (
+            (wob - self._wob_target) / (w_hi - w_lo)) ** 2
+        self._speed_target, self._wob_target = speed, wob
+        max_change = cfg.drawworks_rate * self.control_interval
+        self._wob_applied += float(np.clip(wob - self._wob_applied, -max_change, max_change))
+        self._wob_applied = min(self._wob_applied, self.weight_on_bit_limit)
+        self._pending = {"effort": effort}
+
+    def _advance(self) -> np.ndarray:
+        """Run the simulator over one control interval; returns the records."""
+        return self.sim.advance(self._steps_per_action, speed_setpoint=self._speed_target,
+                                hook_load=self.sim.hook_load_for(self._wob_applied),
+                                record_every=self.config.record_every)
+
+    def _finish_step(self, records: np.ndarray
+                     ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self._step_count += 1
+        if len(records):
+            self._history = self._trim_history(np.concatenate([self._history, records]))
+            self._episode_energy += metrics.top_drive_energy(
+                records[:, _COL["motor_torque"]], records[:, _COL["surface_speed"]],
+                self.config.record_every * self.sim.dt)
+        reason = self._termination_reason(records)
+        terminated = bool(reason)
+        truncated = (not terminated) and self._step_count >= self.max_episode_steps
+        terms = self._reward_terms(records, terminated)
+        obs = self._observation()
+        info = self._info(records if len(records) else None)
+        info["reward_terms"] = terms
+        info["termination_reason"] = reason
+        return obs, float(sum(terms.values())), terminated, truncated, info
+
+    def _trim_history(self, history: np.ndarray) -> np.ndarray:
+        keep = max(1, round(self.config.metric_window / (self.config.record_every * self.sim.dt)))
+        return history[-keep:]
+
+    # ------------------------------------------------------------------ hooks
+
+    def _termination_reason(self, records: np.ndarray) -> str:
+        """Why the episode ends now ("" if it goes on)."""
+        if self.sim.status != 0:
+            return self.sim.status_message
+        torque = np.abs(records[:, _COL["surface_torque"]]) if len(records) else np.zeros(1)
+        if max(float(np.max(torque)), abs(self.sim.surface_torque)) > self.config.makeup_torque:
+            return "surface torque above make-up torque"
+        return ""
+
+    def _reward_terms(self, records: np.ndarray, terminated: bool) -> dict[str, float]:
+        """The reward terms of this step (they sum to the reward)."""
+        cfg = self.config
+        if len(records) and np.all(np.isfinite(records)):
+            rop = metrics.mean_rop(records[:, _COL["rop"]])
+            radial = float(np.mean(metrics.radial_ratio(
+                records[:, _COL["bit_x"]], records[:, _COL["bit_y"]], self.clearance)))
+        else:
+            rop, radial = 0.0, 1.0
+        ssi = self._window_ssi()
+        return {
+            "rop": cfg.rop_weight * rop / cfg.rop_scale,
+            "stick_slip": -cfg.stick_slip_weight * min(ssi, cfg.ssi_cap),
+            "whirl": -cfg.whirl_weight * radial,
+            "effort": -cfg.effort_weight * self._pending.get("effort", 0.0),
+            "failure": -cfg.failure_weight if terminated else 0.0,
+        }
+
+    def _window_ssi(self) -> float:
+        speed = self._history[:, _COL["bit_speed"]] if len(self._history) else None
+        if speed is None or not np.all(np.isfinite(speed)):
+            return math.inf if speed is not None else 0.0
+        return metrics.stick_slip_severity(speed)
+
+    def _raw_observation(self) -> np.ndarray:
+        sim, cfg = self.sim, self.config
+        w_max = self._speed_range[1]
+        wob_max = self._wob_range[1]
+        c = self.clearance
+        x, y = sim.bit_lateral
+        vx, vy = sim.bit_lateral_velocity
+        fx, fy = sim.bit_lateral_force
+        values = {
+            "torque_on_bit": sim.torque_on_bit / cfg.torque_scale,
+            "bit_speed": sim.bit_speed / w_max,
+            "weight_on_bit": sim.weight_on_bit / wob_max,
+            "bit_x": x / c,
+            "bit_y": y / c,
+            "bit_vx": vx / (c * w_max),
+            "bit_vy": vy / (c * w_max),
+            "whirl_speed": sim.whirl_speed / w_max,
+            "bit_force_x": fx / cfg.force_scale,
+            "bit_force_y": fy / cfg.force_scale,
+            "max_contact_force": float(np.max(sim.contact_forces)) / cfg.force_scale,
+            "surface_speed": sim.surface_speed / w_max,
+            "surface_torque": sim.surface_torque / cfg.torque_scale,
+            "hook_load": sim.hook_load / sim.string_weight,
+            "rop": sim.rop / cfg.rop_scale,
+            "speed_setpoint": self._speed_target / w_max,
+            "weight_on_bit_setpoint": self._wob_target / wob_max,
+        }
+        return np.array([values[n] for n in self.observation_names], dtype=np.float64)
+
+    def _observation(self) -> np.ndarray:
+        raw = self._raw_observation()
+        if not np.all(np.isfinite(raw)):  # diverged: repeat the last finite observation
+            return self._last_obs.copy()
+        self._obs_queue.append(raw)
+        obs = self._obs_queue[0].copy()  # telemetry_delay steps old (oldest kept)
+        if self.config.observation_noise > 0:
+            obs += self.config.observation_noise * self.np_random.standard_normal(obs.shape)
+        obs = np.clip(obs, -OBS_BOUND, OBS_BOUND).astype(np.float32)
+        self._last_obs = obs
+        return obs.copy()
+
+    def _info(self, records: np.ndarray | None) -> dict[str, Any]:
+        sim = self.sim
+        info: dict[str, Any] = {
+            "time": sim.time,
+            "bit_speed": sim.bit_speed,
+            "surface_speed": sim.surface_speed,
+            "torque_on_bit": sim.torque_on_bit,
+            "surface_torque": sim.surface_torque,
+            "weight_on_bit": sim.weight_on_bit,
+            "hook_load": sim.hook_load,
+            "bit_lateral": sim.bit_lateral,
+            "whirl_speed": sim.whirl_speed,
+            "depth": sim.depth,
+            "rop": sim.rop,
+            "rock_share": sim.rock_share if sim.status == 0 else
+            np.full(len(sim.config.formation.rocks), np.nan),
+            "speed_setpoint": self._speed_target,
+            "weight_on_bit_setpoint": self._wob_target,
+            "weight_on_bit_limit": self.weight_on_bit_limit,
+            "episode_time": sim.time - self._start_time,
+            "top_drive_energy": self._episode_energy,
+        }
+        hist = self._history
+        window = {"ssi": 0.0, "stuck_fraction": 0.0, "whirl_ratio": 0.0, "radial_ratio": 0.0,
+                  "lateral_force": 0.0, "mse": 0.0}
+        if len(hist) and np.all(np.isfinite(hist)):
+            m = metrics.window_metrics(hist, RECORD_CHANNELS,
+                                       self.config.record_every * sim.dt, self.clearance,
+                                       sim.config.bit.diameter)
+            window = {k: m[k] for k in window}
+        info.update(window)
+        info["reward_terms"] = {}
+        info["termination_reason"] = ""
+        return info
+
+    def render(self) -> None:
+        return None

@@ -1,0 +1,327 @@
+"""Named drilling scenarios: a physics configuration plus episode defaults.
+
+A scenario is a function returning a :class:`Scenario`: the frozen
+:class:`~drill_env.physics.config.SimulationConfig` of the run, the operating point the
+episode starts from and its default duration. :func:`make_scenario` looks one up by name
+(unknown names raise ``ValueError`` listing the known ones).
+
+========================  ==============================================================
+name                      what it is (parameters)
+========================  ==============================================================
+``default``               homogeneous hard rock, symmetric bit, 1000 m string + 35 m BHA
+``paper_case1``           hard-soft-hard sandwich dipping 45 deg, symmetric bit placed at
+                          one of the paper's torsional-map positions ``position`` = P1..P6
+                          (share of the bit in rock 2: 0, 25, 75, 100, 50, 0 %)
+``paper_case2``           the same sandwich, symmetric bit approaching it (``position``
+                          P1 by default): stick-slip fades in the soft layer and returns
+``paper_case3``           hard - very soft - hard sandwich, symmetric bit
+``paper_case4``           hard-soft-hard sandwich, asymmetric bit (continuous whirl)
+``random``                randomised training distribution drawn from an RNG (rock
+                          curves, layer depth/thickness/dip/azimuth, bit symmetric or
+                          asymmetric, string length, start operating point)
+========================  ==============================================================
+
+Every named scenario also takes ``surface_speed`` (rad/s) and ``weight_on_bit`` (N), the
+operating point the episode starts from, ``episode_duration`` (s) and ``string_length``
+(m, total measured length of pipe + BHA; the element COUNT is kept, so changing it changes
+the element length only and all envs keep equal array shapes).
+
+The rock presets :data:`HARD`, :data:`SOFT` and :data:`VERY_SOFT` live here and only here.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from drill_env.physics.bit import asymmetric_bit, symmetric_bit
+from drill_env.physics.config import (
+    BitConfig,
+    FormationConfig,
+    Interface,
+    RockConfig,
+    SimulationConfig,
+    replace,
+)
+from drill_env.physics.formation import interface_depth_for_share
+
+RPM = 2.0 * math.pi / 60.0
+
+# --------------------------------------------------------------------------- rock presets
+# MODELLING CHOICES TO BE TUNED: the paper gives no rock-curve numbers (SPEC 2.3). They
+# are chosen so that hard rock has a strongly falling curve (stick-slip tendency at low
+# rpm and high WOB), soft rock a flat one, very soft rock a low, rising one. Tune them
+# HERE; every scenario reads these three constants.
+
+#: Hard rock: falling curve mu 0.9 -> 0.5 over ~3 rad/s (stick-slip tendency).
+HARD = RockConfig(name="hard", mu_min=0.5, mu_max=0.9, st1=3.0, st2=0.0,
+                  wall_stiffness=2.0e7, wall_damping=2.0e3, depth_of_cut=2.0e-8)
+#: Soft rock: nearly flat curve, softer wall, twice the depth of cut of hard rock.
+SOFT = RockConfig(name="soft", mu_min=0.3, mu_max=0.45, st1=5.0, st2=0.005,
+                  wall_stiffness=5.0e6, wall_damping=1.0e3, depth_of_cut=4.0e-8)
+#: Very soft rock: low, rising curve, very soft wall, fast drilling.
+VERY_SOFT = RockConfig(name="very_soft", mu_min=0.2, mu_max=0.3, st1=8.0, st2=0.01,
+                       wall_stiffness=1.0e6, wall_damping=5.0e2, depth_of_cut=8.0e-8)
+
+#: Paper section 4: share of rock 2 (the middle layer) under the front blades at the
+#: torsional-map positions, and which interface sets it ("top": entering the layer,
+#: "bottom": leaving it).
+POSITIONS: dict[str, tuple[float, str]] = {
+    "P1": (0.00, "top"), "P2": (0.25, "top"), "P3": (0.75, "top"),
+    "P4": (1.00, "top"), "P5": (0.50, "bottom"), "P6": (0.00, "bottom"),
+}
+
+#: Seeds of the held-out evaluation set of the ``random`` scenario. Training code must
+#: not reset with these (draw training seeds below ``EVALUATION_SEEDS[0]``).
+EVALUATION_SEEDS: tuple[int, ...] = tuple(range(1_000_000, 1_000_020))
+
+DEFAULT_SURFACE_SPEED = 100.0 * RPM
+DEFAULT_WEIGHT_ON_BIT = 100.0e3
+DEFAULT_EPISODE_DURATION = 60.0
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A physics configuration and the defaults of an episode in it."""
+
+    name: str
+    config: SimulationConfig
+    #: Operating point the episode starts from: surface speed (rad/s), WOB (N).
+    surface_speed: float = DEFAULT_SURFACE_SPEED
+    weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT
+    #: Default episode length (s of simulated time).
+    episode_duration: float = DEFAULT_EPISODE_DURATION
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        for name in ("surface_speed", "weight_on_bit", "episode_duration"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value)):
+                raise ValueError(f"{name}: must be a finite number, got {value!r}")
+        if self.weight_on_bit < 0:
+            raise ValueError(f"weight_on_bit: must be >= 0, got {self.weight_on_bit}")
+        if self.episode_duration <= 0:
+            raise ValueError(f"episode_duration: must be > 0, got {self.episode_duration}")
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def with_string_length(config: SimulationConfig, string_length: float | None) -> SimulationConfig:
+    """Set the total string length (pipe + BHA) keeping the pipe's element COUNT.
+
+    Only the drill-pipe element length changes, so simulators of different lengths keep
+    equal array shapes (a batched kernel can stack them).
+    """
+    if string_length is None:
+        return config
+    bha = config.string.bha.length
+    if not (isinstance(string_length, (int, float)) and math.isfinite(string_length)):
+        raise ValueError(f"string_length: must be a finite number, got {string_length!r}")
+    if string_length <= bha:
+        raise ValueError(f"string_length: {string_length} m must exceed the BHA length "
+                         f"{bha} m (BHA longer than the string)")
+    pipe = config.string.drill_pipe
+    n = pipe.n_elements
+    pipe_length = string_length - bha
+    return replace(config, **{"string.drill_pipe.length": pipe_length,
+                              "string.drill_pipe.element_length": pipe_length / n})
+
+
+def _bit_depth(config: SimulationConfig) -> float:
+    return config.initial_depth if config.initial_depth is not None else config.string.length
+
+
+def sandwich(bit: BitConfig, middle: RockConfig, bit_depth: float, position: str,
+             thickness: float = 1.0, dip: float = 45.0, azimuth: float = 0.0,
+             hard: RockConfig = HARD) -> FormationConfig:
+    """Hard / ``middle`` / hard layers, the bit face at ``bit_depth`` at ``position``.
+
+    ``thickness`` is the middle layer's thickness along the hole axis (m). The interfaces
+    are parallel planes (``dip``, ``azimuth`` in deg). ``position`` is one of
+    :data:`POSITIONS`; the interface depth comes from
+    :func:`~drill_env.physics.formation.interface_depth_for_share`.
+    """
+    if position not in POSITIONS:
+        raise ValueError(f"position: must be one of {sorted(POSITIONS)}, got {position!r}")
+    if not thickness > 0:
+        raise ValueError(f"thickness: must be > 0, got {thickness!r}")
+    share, which = POSITIONS[position]
+    if which == "top":
+        top = bit_depth + interface_depth_for_share(bit, dip, azimuth, share, "below")
+    else:
+        top = bit_depth + interface_depth_for_share(bit, dip, azimuth, share, "above") \
+            - thickness
+    return FormationConfig(rocks=(hard, middle),
+                           interfaces=(Interface(top, dip, azimuth),
+                                       Interface(top + thickness, dip, azimuth)),
+                           layers=(0, 1, 0))
+
+
+def _base(string_length: float | None, bit: BitConfig | None = None) -> SimulationConfig:
+    cfg = with_string_length(SimulationConfig(), string_length)
+    if bit is not None:
+        cfg = replace(cfg, bit=bit)
+    return replace(cfg, initial_depth=cfg.string.length)
+
+
+# --------------------------------------------------------------------------- scenarios
+
+
+def default(surface_speed: float = DEFAULT_SURFACE_SPEED,
+            weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
+            episode_duration: float = DEFAULT_EPISODE_DURATION,
+            string_length: float | None = None) -> Scenario:
+    """Homogeneous hard rock, symmetric bit, default string (SPEC 2.3)."""
+    cfg = _base(string_length)
+    cfg = replace(cfg, formation=FormationConfig(rocks=(HARD,)))
+    return Scenario("default", cfg, surface_speed, weight_on_bit, episode_duration,
+                    "homogeneous hard rock")
+
+
+def _sandwich_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
+                   thickness: float, dip: float, surface_speed: float, weight_on_bit: float,
+                   episode_duration: float, string_length: float | None,
+                   description: str) -> Scenario:
+    cfg = _base(string_length, bit)
+    formation = sandwich(bit, middle, _bit_depth(cfg), position, thickness, dip)
+    return Scenario(name, replace(cfg, formation=formation), surface_speed, weight_on_bit,
+                    episode_duration, description)
+
+
+def paper_case1(position: str = "P1", thickness: float = 1.0, dip: float = 45.0,
+                surface_speed: float = 50.0 * RPM,
+                weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
+                episode_duration: float = 30.0,
+                string_length: float | None = None) -> Scenario:
+    """Torsional stability map (paper Fig. 15): symmetric bit held at ``position`` P1..P6."""
+    return _sandwich_case("paper_case1", symmetric_bit(), SOFT, position, thickness, dip,
+                          surface_speed, weight_on_bit, episode_duration, string_length,
+                          f"hard-soft-hard 45 deg sandwich, bit at {position}")
+
+
+def paper_case2(position: str = "P1", thickness: float = 0.3, dip: float = 45.0,
+                surface_speed: float = 50.0 * RPM,
+                weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
+                episode_duration: float = 120.0,
+                string_length: float | None = None) -> Scenario:
+    """Symmetric bit drilling through a hard-soft-hard sandwich dipping 45 deg (Fig. 13-18)."""
+    return _sandwich_case("paper_case2", symmetric_bit(), SOFT, position, thickness, dip,
+                          surface_speed, weight_on_bit, episode_duration, string_length,
+                          "symmetric bit through a hard-soft-hard 45 deg sandwich")
+
+
+def paper_case3(position: str = "P1", thickness: float = 0.3, dip: float = 45.0,
+                surface_speed: float = 50.0 * RPM,
+                weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
+                episode_duration: float = 120.0,
+                string_length: float | None = None) -> Scenario:
+    """Symmetric bit through a hard - very soft - hard sandwich (larger lateral forces)."""
+    return _sandwich_case("paper_case3", symmetric_bit(), VERY_SOFT, position, thickness,
+                          dip, surface_speed, weight_on_bit, episode_duration, string_length,
+                          "symmetric bit through a hard-very soft-hard 45 deg sandwich")
+
+
+def paper_case4(position: str = "P1", thickness: float = 0.3, dip: float = 45.0,
+                surface_speed: float = 100.0 * RPM,
+                weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
+                episode_duration: float = 120.0,
+                string_length: float | None = None) -> Scenario:
+    """Asymmetric bit through the hard-soft-hard sandwich (continuous forward whirl)."""
+    return _sandwich_case("paper_case4", asymmetric_bit(), SOFT, position, thickness, dip,
+                          surface_speed, weight_on_bit, episode_duration, string_length,
+                          "asymmetric bit through a hard-soft-hard 45 deg sandwich")
+
+
+def _jitter(rng: np.random.Generator, rock: RockConfig, name: str) -> RockConfig:
+    """A rock whose curve parameters are drawn within +-30 % of the preset."""
+    def f(value: float) -> float:
+        return float(value * rng.uniform(0.7, 1.3))
+
+    mu_min = f(rock.mu_min)
+    mu_max = max(mu_min, f(rock.mu_max))
+    return RockConfig(name=name, mu_min=mu_min, mu_max=mu_max, st1=f(rock.st1),
+                      st2=f(rock.st2), wall_stiffness=f(rock.wall_stiffness),
+                      wall_damping=f(rock.wall_damping), depth_of_cut=f(rock.depth_of_cut))
+
+
+def random(rng: np.random.Generator | None = None,
+           string_length_range: tuple[float, float] = (500.0, 1035.0),
+           rpm_range: tuple[float, float] = (40.0, 160.0),
+           weight_on_bit_range: tuple[float, float] = (50.0e3, 130.0e3),
+           episode_duration: float = DEFAULT_EPISODE_DURATION) -> Scenario:
+    """Randomised training distribution, drawn from ``rng`` (the env passes ``np_random``).
+
+    Drawn: three rocks (hard, soft, very soft presets, each curve parameter within
+    +-30 %); a middle layer of soft or very soft rock between two parallel interfaces
+    whose top lies 0.3 m above to 0.5 m below the bit, 0.1-1 m thick along the axis,
+    dipping 0-60 deg at any azimuth; a symmetric or asymmetric bit (even odds); the string
+    length in ``string_length_range`` (pipe element LENGTH changes, element count does
+    not; longer pipe elements buckle under less compression, and above 1035 m the mesh
+    limits the WOB below 138 kN, see ``Simulator.check_mesh_resolves``); the start
+    operating point (rpm, WOB) uniformly in the given ranges. The shapes
+    of every draw are equal: 3 rocks, 2 interfaces, 6 blades, same node count.
+    """
+    rng = rng if rng is not None else np.random.default_rng()
+    lo, hi = string_length_range
+    cfg = _base(float(rng.uniform(lo, hi)),
+                symmetric_bit() if rng.random() < 0.5 else asymmetric_bit())
+    rocks = (_jitter(rng, HARD, "hard"), _jitter(rng, SOFT, "soft"),
+             _jitter(rng, VERY_SOFT, "very_soft"))
+    middle = int(rng.integers(1, 3))
+    top = _bit_depth(cfg) + float(rng.uniform(-0.3, 0.5))
+    thickness = float(rng.uniform(0.1, 1.0))
+    dip = float(rng.uniform(0.0, 60.0))
+    azimuth = float(rng.uniform(0.0, 360.0))
+    formation = FormationConfig(rocks=rocks,
+                                interfaces=(Interface(top, dip, azimuth),
+                                            Interface(top + thickness, dip, azimuth)),
+                                layers=(0, middle, 0))
+    cfg = replace(cfg, formation=formation)
+    rpm = float(rng.uniform(*rpm_range))
+    wob = float(rng.uniform(*weight_on_bit_range))
+    return Scenario("random", cfg, rpm * RPM, wob, episode_duration,
+                    f"random draw: middle rock {rocks[middle].name}, dip {dip:.0f} deg")
+
+
+#: Scenario functions by name.
+SCENARIOS: dict[str, Callable[..., Scenario]] = {
+    "default": default,
+    "paper_case1": paper_case1,
+    "paper_case2": paper_case2,
+    "paper_case3": paper_case3,
+    "paper_case4": paper_case4,
+    "random": random,
+}
+
+#: Scenarios drawn anew from the env's RNG at every reset.
+RANDOMISED = frozenset({"random"})
+
+
+def scenario_parameters(name: str) -> tuple[str, ...]:
+    """Names of the keyword parameters a scenario takes (``rng`` excluded)."""
+    _check_name(name)
+    params = inspect.signature(SCENARIOS[name]).parameters
+    return tuple(p for p in params if p != "rng")
+
+
+def _check_name(name: str) -> None:
+    if name not in SCENARIOS:
+        raise ValueError(f"scenario: unknown name {name!r}; known scenarios: "
+                         f"{', '.join(sorted(SCENARIOS))}")
+
+
+def make_scenario(name: str, rng: np.random.Generator | None = None, **params) -> Scenario:
+    """Build the scenario ``name`` with ``params``; ``rng`` feeds randomised scenarios."""
+    _check_name(name)
+    unknown = set(params) - set(scenario_parameters(name))
+    if unknown:
+        raise ValueError(f"scenario {name!r}: unknown parameter(s) {sorted(unknown)}; "
+                         f"known: {list(scenario_parameters(name))}")
+    if name in RANDOMISED:
+        return SCENARIOS[name](rng=rng, **params)
+    return SCENARIOS[name](**params)

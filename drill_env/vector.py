@@ -1,0 +1,231 @@
+"""Batched drill-string environments: a Gymnasium ``VectorEnv`` and an SB3 ``VecEnv``.
+
+Both hold N :class:`~drill_env.env.DrillStringEnv` instances and step them in three
+phases: every env maps its action to set points, then :func:`advance_all` runs all the
+simulators over one control interval, then every env computes its observation, reward
+and info. Each simulator's state stays in its own ``Simulator`` object, so
+:func:`advance_all` can be replaced by a batched (numba ``prange``) kernel without
+touching the env logic. Today it is a Python loop, bit-identical to stepping single envs.
+
+- :class:`DrillStringVectorEnv` (``gymnasium.make_vec("DrillString-v0", num_envs=N)``):
+  Gymnasium 1.x semantics; ``autoreset_mode`` NEXT_STEP (default: the step after an
+  episode end returns the reset observation with reward 0), SAME_STEP (the reset
+  happens in the same step; the last observation and info are in ``info["final_obs"]``
+  and ``info["final_info"]``) or DISABLED.
+- ``DrillStringSB3VecEnv`` (:func:`make_sb3_vec_env`): a Stable-Baselines3 ``VecEnv``
+  (SB3 cannot take Gymnasium vector envs) with SB3's auto-reset: ``infos[i]
+  ["terminal_observation"]`` and ``infos[i]["TimeLimit.truncated"]``. SB3 is imported
+  only when this class is first used.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from drill_env.env import DrillStringEnv
+
+__all__ = ["DrillStringVectorEnv", "advance_all", "make_sb3_vec_env", "step_all"]
+
+
+def advance_all(envs: Sequence[DrillStringEnv]) -> list[np.ndarray]:
+    """Advance every env's simulator by one control interval (the batched physics hook)."""
+    return [env._advance() for env in envs]
+
+
+def _check_actions(actions: np.ndarray, n: int) -> np.ndarray:
+    a = np.asarray(actions, dtype=np.float64)
+    if a.shape != (n, 2):
+        raise ValueError(f"actions: expected shape ({n}, 2), got {a.shape}")
+    bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
+    if bad.size:
+        raise ValueError(f"actions: must be finite, env {int(bad[0])} got "
+                         f"{a[bad[0]].tolist()} (NaN/inf)")
+    return a
+
+
+def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray
+             ) -> list[tuple[np.ndarray, float, bool, bool, dict[str, Any]]]:
+    """Step ``envs`` with ``actions`` (one row each) in the three phases; per-env results."""
+    a = _check_actions(actions, len(envs))
+    for env, row in zip(envs, a, strict=True):
+        env._apply_action(row)
+    records = advance_all(envs)
+    return [env._finish_step(rec) for env, rec in zip(envs, records, strict=True)]
+
+
+class DrillStringVectorEnv(VectorEnv):
+    """N drill-string envs stepped together (Gymnasium ``VectorEnv``).
+
+    Args:
+        num_envs: number of sub-environments.
+        autoreset_mode: an :class:`gymnasium.vector.AutoresetMode` (or its value string).
+        **env_kwargs: keywords of :class:`~drill_env.env.DrillStringEnv`, the same for all.
+
+    ``reset(seed=s)`` seeds env i with ``s + i`` (as ``SyncVectorEnv``), so env i follows
+    exactly the trajectory of a single env reset with ``s + i``. ``info`` is batched:
+    one array per key and a boolean mask ``_key``.
+    """
+
+    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+                 **env_kwargs: Any) -> None:
+        if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
+        self.autoreset_mode = AutoresetMode(autoreset_mode)
+        self.envs = [DrillStringEnv(**env_kwargs) for _ in range(num_envs)]
+        self.num_envs = int(num_envs)
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
+        self.render_mode = None
+        self.single_observation_space = self.envs[0].observation_space
+        self.single_action_space = self.envs[0].action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        n_obs = self.single_observation_space.shape[0]
+        self._obs = np.zeros((self.num_envs, n_obs), dtype=np.float32)
+        self._rewards = np.zeros(self.num_envs, dtype=np.float64)
+        self._terminations = np.zeros(self.num_envs, dtype=np.bool_)
+        self._truncations = np.zeros(self.num_envs, dtype=np.bool_)
+        self._autoreset_envs = np.zeros(self.num_envs, dtype=np.bool_)
+
+    def reset(self, *, seed: int | list[int | None] | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        if seed is None:
+            seeds: list[int | None] = [None] * self.num_envs
+        elif isinstance(seed, (int, np.integer)):
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"seed: a list needs num_envs={self.num_envs} entries, "
+                                 f"got {len(seeds)}")
+        options = dict(options or {})
+        mask = options.pop("reset_mask", None)
+        if mask is None:
+            mask = np.ones(self.num_envs, dtype=np.bool_)
+        else:
+            mask = np.asarray(mask)
+            if mask.shape != (self.num_envs,) or mask.dtype != np.bool_:
+                raise ValueError(f"options['reset_mask']: needs a bool array of shape "
+                                 f"({self.num_envs},), got {mask.dtype} {mask.shape}")
+        infos: dict[str, Any] = {}
+        for i in np.flatnonzero(mask):
+            self._obs[i], info = self.envs[i].reset(seed=seeds[i], options=options or None)
+            infos = self._add_info(infos, info, int(i))
+        self._terminations[mask] = False
+        self._truncations[mask] = False
+        self._autoreset_envs[mask] = False
+        return self._obs.copy(), infos
+
+    def step(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                     dict[str, Any]]:
+        a = _check_actions(actions, self.num_envs)
+        mode = self.autoreset_mode
+        if mode == AutoresetMode.DISABLED and np.any(self._autoreset_envs):
+            raise ValueError("autoreset is disabled: reset the finished envs (reset_mask) "
+                             "before stepping")
+        resetting = self._autoreset_envs.copy() if mode == AutoresetMode.NEXT_STEP else \
+            np.zeros(self.num_envs, dtype=np.bool_)
+        stepping = np.flatnonzero(~resetting)
+        results = step_all([self.envs[i] for i in stepping], a[stepping])
+        infos: dict[str, Any] = {}
+        for i in range(self.num_envs):
+            if resetting[i]:
+                self._obs[i], info = self.envs[i].reset()
+                self._rewards[i] = 0.0
+                self._terminations[i] = False
+                self._truncations[i] = False
+                infos = self._add_info(infos, info, i)
+        for i, (obs, rew, term, trunc, info) in zip(stepping, results, strict=True):
+            self._obs[i], self._rewards[i] = obs, rew
+            self._terminations[i], self._truncations[i] = term, trunc
+            if mode == AutoresetMode.SAME_STEP and (term or trunc):
+                infos = self._add_info(infos, {"final_obs": obs, "final_info": info}, int(i))
+                self._obs[i], info = self.envs[i].reset()
+            infos = self._add_info(infos, info, int(i))
+        self._autoreset_envs = np.logical_or(self._terminations, self._truncations)
+        return (self._obs.copy(), self._rewards.copy(), self._terminations.copy(),
+                self._truncations.copy(), infos)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """The attribute ``name`` of every sub-environment."""
+        return tuple(getattr(env, name) for env in self.envs)
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Call ``name`` (or read it, if not callable) on every sub-environment."""
+        out = []
+        for env in self.envs:
+            attr = getattr(env, name)
+            out.append(attr(*args, **kwargs) if callable(attr) else attr)
+        return tuple(out)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for env in self.envs:
+            env.close()
+
+
+# --------------------------------------------------------------------------- SB3
+
+_SB3_CLASS: type | None = None
+
+
+def _sb3_class() -> type:
+    """Build the SB3 VecEnv subclass on first use (keeps ``import drill_env`` light)."""
+    global _SB3_CLASS
+    if _SB3_CLASS is not None:
+        return _SB3_CLASS
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    class DrillStringSB3VecEnv(DummyVecEnv):
+        """Stable-Baselines3 ``VecEnv`` over N drill-string envs, batched physics.
+
+        SB3 semantics: ``step`` returns ``(obs, rewards, dones, infos)``; a finished env
+        is reset at once, its last observation is ``infos[i]["terminal_observation"]``
+        and ``infos[i]["TimeLimit.truncated"]`` tells a time-out from a failure.
+        ``seed(s)`` seeds env i with ``s + i`` at the next ``reset``.
+        """
+
+        def __init__(self, num_envs: int = 1, **env_kwargs: Any) -> None:
+            if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+                raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
+            self.env_kwargs = dict(env_kwargs)
+            super().__init__([self._make_env for _ in range(int(num_envs))])
+
+        def _make_env(self) -> DrillStringEnv:
+            return DrillStringEnv(**self.env_kwargs)
+
+        def step_wait(self):
+            results = step_all(self.envs, self.actions)
+            for i, (obs, rew, term, trunc, info) in enumerate(results):
+                self.buf_rews[i] = rew
+                self.buf_dones[i] = term or trunc
+                info["TimeLimit.truncated"] = trunc and not term
+                if self.buf_dones[i]:
+                    info["terminal_observation"] = obs
+                    obs, self.reset_infos[i] = self.envs[i].reset()
+                self.buf_infos[i] = info
+                self._save_obs(i, obs)
+            return (self._obs_from_buf(), np.copy(self.buf_rews), np.copy(self.buf_dones),
+                    [dict(info) for info in self.buf_infos])
+
+    DrillStringSB3VecEnv.__module__ = __name__
+    DrillStringSB3VecEnv.__qualname__ = "DrillStringSB3VecEnv"
+    _SB3_CLASS = DrillStringSB3VecEnv
+    return _SB3_CLASS
+
+
+def make_sb3_vec_env(num_envs: int = 1, **env_kwargs: Any):
+    """A Stable-Baselines3 ``VecEnv`` of ``num_envs`` drill-string envs (imports SB3)."""
+    return _sb3_class()(num_envs=num_envs, **env_kwargs)
+
+
+def __getattr__(name: str) -> Any:
+    if name == "DrillStringSB3VecEnv":
+        return _sb3_class()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,276 @@
+"""DrillString-v0: Gymnasium/SB3 conformance, determinism, pickling, bad input, rollouts."""
+
+import pickle
+import sys
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+
+import drill_env
+from drill_env.env import OBSERVATIONS, DrillStringEnv
+from drill_env.scenarios import SCENARIOS
+
+SHORT = {"episode_duration": 0.5}
+RPM = 2 * np.pi / 60
+SPEC6_KEYS = ("time", "bit_speed", "surface_speed", "torque_on_bit", "surface_torque",
+              "weight_on_bit", "hook_load", "bit_lateral", "whirl_speed", "depth", "rop",
+              "rock_share")
+
+
+def rollout(env, actions, seed):
+    obs, info = env.reset(seed=seed)
+    out = [obs]
+    for a in actions:
+        obs, reward, terminated, truncated, info = env.step(a)
+        out += [obs, np.array([reward]), np.array([info["time"], info["bit_speed"]])]
+        if terminated or truncated:
+            break
+    return np.concatenate([np.ravel(x) for x in out])
+
+
+# --------------------------------------------------------------------------- registration
+
+
+def test_import_registers_every_id_without_heavy_imports():
+    for env_id in drill_env.ENV_IDS:
+        assert env_id in gym.registry
+    drill_env.register_envs()  # idempotent: no error, no duplicate warning
+    code = ("import sys, drill_env; "
+            "print(any(m in sys.modules for m in ('torch', 'stable_baselines3', 'rerun')))")
+    import subprocess
+
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "False"
+
+
+# --------------------------------------------------------------------------- checkers
+
+
+@pytest.mark.parametrize("env_id", list(drill_env.ENV_IDS))
+def test_gymnasium_and_sb3_checkers_pass_for_every_id(env_id):
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env = gym.make(env_id, **SHORT)
+        gym_check_env(env.unwrapped, skip_render_check=True)
+        sb3_check_env(gym.make(env_id, **SHORT).unwrapped, warn=True)
+
+
+@pytest.mark.parametrize("scenario", list(SCENARIOS))
+def test_gymnasium_and_sb3_checkers_pass_for_every_scenario(scenario):
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env = gym.make("DrillString-v0", scenario=scenario, **SHORT)
+        gym_check_env(env.unwrapped, skip_render_check=True)
+        sb3_check_env(env.unwrapped, warn=True)
+
+
+# --------------------------------------------------------------------------- spaces & info
+
+
+def test_spaces_and_observation_layout():
+    env = gym.make("DrillString-v0", **SHORT)
+    assert env.action_space.shape == (2,)
+    assert env.observation_space.dtype == np.float32
+    assert env.unwrapped.observation_names == OBSERVATIONS["downhole"]
+    surface = gym.make("DrillString-v0", sensors="surface", **SHORT)
+    assert surface.observation_space.shape == (len(OBSERVATIONS["surface"]),)
+
+
+def test_info_holds_spec_keys_in_si_and_reward_terms_sum_to_reward():
+    env = gym.make("DrillString-v0", **SHORT)
+    _, info = env.reset(seed=0)
+    assert set(SPEC6_KEYS) <= set(info)
+    _, reward, _, _, info = env.step(np.array([0.0, 0.0], dtype=np.float32))
+    assert set(SPEC6_KEYS) <= set(info)
+    assert info["bit_lateral"].shape == (2,)
+    assert info["rock_share"].sum() == pytest.approx(1.0)
+    assert info["weight_on_bit"] == pytest.approx(100e3)  # action 0 -> mid-range WOB
+    assert info["hook_load"] == pytest.approx(env.unwrapped.sim.hook_load_for(100e3))
+    assert info["speed_setpoint"] == pytest.approx(100 * RPM)
+    assert set(info["reward_terms"]) == {"rop", "stick_slip", "whirl", "effort", "failure"}
+    assert reward == pytest.approx(sum(info["reward_terms"].values()))
+    for key in ("ssi", "stuck_fraction", "whirl_ratio", "mse", "top_drive_energy"):
+        assert key in info
+
+
+def test_control_interval_is_ten_hertz_of_simulator_steps():
+    env = DrillStringEnv(**SHORT)
+    env.reset(seed=0)
+    assert env.control_interval == pytest.approx(0.1)
+    _, _, _, _, info = env.step(np.zeros(2))
+    assert info["time"] == pytest.approx(0.1)
+
+
+def test_episode_truncates_at_its_duration():
+    env = gym.make("DrillString-v0", episode_duration=0.3)
+    env.reset(seed=0)
+    flags = [env.step(np.zeros(2))[3] for _ in range(3)]
+    assert flags == [False, False, True]
+
+
+def test_incremental_actions_move_the_set_point_by_at_most_a_step():
+    env = DrillStringEnv(action_mode="incremental", rpm_step=10.0, **SHORT)
+    env.reset(seed=0, options={"surface_speed": 100 * RPM, "weight_on_bit": 100e3})
+    _, _, _, _, info = env.step(np.array([1.0, -1.0]))
+    assert info["speed_setpoint"] == pytest.approx(110 * RPM)
+    assert info["weight_on_bit_setpoint"] == pytest.approx(90e3)
+
+
+def test_drawworks_rate_limits_the_applied_weight_on_bit():
+    env = DrillStringEnv(drawworks_rate=50e3, **SHORT)
+    env.reset(seed=0, options={"weight_on_bit": 100e3})
+    _, _, _, _, info = env.step(np.array([0.0, 1.0]))  # ask for 200 kN
+    assert info["weight_on_bit_setpoint"] == pytest.approx(200e3)
+    assert info["weight_on_bit"] == pytest.approx(105e3)  # 50 kN/s x 0.1 s
+
+
+def test_out_of_range_finite_actions_are_clipped():
+    env = DrillStringEnv(**SHORT)
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([5.0, -7.0]))
+    assert info["speed_setpoint"] == pytest.approx(200 * RPM)
+    assert info["weight_on_bit_setpoint"] == 0.0
+
+
+def test_make_up_torque_terminates_with_a_reason():
+    env = DrillStringEnv(makeup_torque=1.0, **SHORT)
+    env.reset(seed=0)
+    _, reward, terminated, truncated, info = env.step(np.zeros(2))
+    assert terminated and not truncated
+    assert "make-up torque" in info["termination_reason"]
+    assert info["reward_terms"]["failure"] < 0
+
+
+def test_paper_startup_hands_over_at_twenty_seconds_with_weight_on_bit():
+    env = DrillStringEnv(startup="paper", **SHORT)
+    obs, info = env.reset(seed=0, options={"surface_speed": 60 * RPM, "weight_on_bit": 80e3})
+    assert info["time"] == pytest.approx(20.0)
+    assert info["weight_on_bit"] == pytest.approx(80e3)
+    assert info["surface_speed"] == pytest.approx(60 * RPM, rel=0.05)
+    assert np.all(np.isfinite(obs))
+
+
+def test_delay_and_noise_are_seeded():
+    kwargs = dict(telemetry_delay=2, observation_noise=0.01, **SHORT)
+    actions = [np.array([0.2, -0.1])] * 4
+    a = rollout(DrillStringEnv(**kwargs), actions, seed=5)
+    b = rollout(DrillStringEnv(**kwargs), actions, seed=5)
+    c = rollout(DrillStringEnv(**kwargs), actions, seed=6)
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+def test_telemetry_delay_returns_old_observations():
+    env = DrillStringEnv(telemetry_delay=2, **SHORT)
+    obs0, _ = env.reset(seed=0)
+    obs1, *_ = env.step(np.array([1.0, 0.0]))
+    obs2, *_ = env.step(np.array([1.0, 0.0]))
+    obs3, *_ = env.step(np.array([1.0, 0.0]))
+    np.testing.assert_array_equal(obs1, obs0)
+    np.testing.assert_array_equal(obs2, obs0)
+    assert not np.array_equal(obs3, obs0)
+
+
+# --------------------------------------------------------------------------- determinism
+
+
+def test_same_seed_same_actions_give_identical_trajectories():
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, size=(5, 2)).astype(np.float32)
+    for scenario in ("default", "random"):
+        a = rollout(gym.make("DrillString-v0", scenario=scenario, **SHORT), actions, seed=3)
+        b = rollout(gym.make("DrillString-v0", scenario=scenario, **SHORT), actions, seed=3)
+        np.testing.assert_array_equal(a, b)
+
+
+def test_pickle_round_trip_of_fresh_and_stepped_env():
+    env = DrillStringEnv(scenario="random", observation_noise=0.01, **SHORT)
+    env2 = pickle.loads(pickle.dumps(env))
+    assert env2.config == env.config
+    env.reset(seed=1)
+    env.step(np.array([0.3, 0.1]))
+    clone = pickle.loads(pickle.dumps(env))
+    a = [env.step(np.array([0.1, 0.2])) for _ in range(2)]
+    b = [clone.step(np.array([0.1, 0.2])) for _ in range(2)]
+    for (oa, ra, *_), (ob, rb, *_) in zip(a, b, strict=True):
+        np.testing.assert_array_equal(oa, ob)
+        assert ra == rb
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_action_raises_naming_the_action(bad):
+    env = gym.make("DrillString-v0", **SHORT)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        env.unwrapped.step(np.array([0.0, bad]))
+
+
+def test_unknown_scenario_lists_the_known_ones():
+    with pytest.raises(ValueError, match="paper_case1"):
+        gym.make("DrillString-v0", scenario="moon_rock")
+
+
+def test_unknown_keyword_is_named():
+    with pytest.raises(ValueError, match="episode_lenght"):
+        gym.make("DrillString-v0", episode_lenght=3.0)
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    ({"string_length": 30.0}, "string_length"),  # BHA (35 m) longer than the string
+    ({"physics": {"bit.gauge_clearance": 0.0}}, "gauge_clearance"),
+    ({"physics": {"string.hole_diameter": 0.15}}, "clearance <= 0"),
+    ({"physics": {"string.stabilizer_diameter": 0.3}}, "stabilizer_diameter"),
+    ({"weight_on_bit_range": (-10e3, 100e3)}, "weight_on_bit_range"),
+    ({"rpm_range": (100.0, 50.0)}, "rpm_range"),
+    ({"action_mode": "relative"}, "action_mode"),
+    ({"sensors": "psychic"}, "sensors"),
+    ({"scenario": "paper_case1", "position": "P9"}, "position"),
+    ({"episode_duration": -1.0}, "episode_duration"),
+])
+def test_inconsistent_configuration_raises_naming_the_field(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        gym.make("DrillString-v0", **kwargs)
+
+
+# --------------------------------------------------------------------------- rollouts
+
+
+def run_episode(env, policy, seed=0):
+    obs, info = env.reset(seed=seed)
+    steps, total = 0, 0.0
+    while True:
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        assert np.all(np.isfinite(obs)) and np.isfinite(reward)
+        for key in SPEC6_KEYS:
+            assert np.all(np.isfinite(info[key])), key
+        steps += 1
+        total += reward
+        if terminated or truncated:
+            return steps, terminated, info
+
+
+def test_random_policy_runs_a_full_episode_without_nan():
+    env = gym.make("DrillString-v0", episode_duration=3.0)
+    env.action_space.seed(0)
+    steps, terminated, _ = run_episode(env, lambda obs: env.action_space.sample())
+    assert steps == 30 and not terminated
+
+
+def test_constant_rpm_policy_runs_a_full_episode_without_nan():
+    env = gym.make("DrillString-v0", episode_duration=3.0)
+    constant = np.array([-0.4, 0.0], dtype=np.float32)  # 60 rpm, 100 kN
+    steps, terminated, info = run_episode(env, lambda obs: constant)
+    assert steps == 30 and not terminated
+    assert info["speed_setpoint"] == pytest.approx(60 * RPM)
+    assert info["depth"] > env.unwrapped.simulation_config.initial_depth

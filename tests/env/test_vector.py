@@ -1,0 +1,177 @@
+"""Batched env: same trajectories as single envs, Gymnasium autoreset, SB3 VecEnv."""
+
+import pickle
+import sys
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+import drill_env  # noqa: F401  (registers the ids)
+from drill_env.env import DrillStringEnv
+from drill_env.vector import DrillStringVectorEnv, make_sb3_vec_env
+
+N = 4
+KW = {"episode_duration": 0.3}
+
+
+def actions_for(n_steps, seed=0):
+    return np.random.default_rng(seed).uniform(-1, 1, size=(n_steps, N, 2)).astype(np.float32)
+
+
+def single_trajectories(actions, seed, **kwargs):
+    out = []
+    for i in range(N):
+        env = DrillStringEnv(**kwargs)
+        obs, _ = env.reset(seed=seed + i)
+        rows = [obs]
+        for a in actions[:, i]:
+            obs, reward, terminated, truncated, info = env.step(a)
+            rows.append(np.concatenate([obs, [reward, info["time"], info["bit_speed"]]]))
+            if terminated or truncated:
+                break
+        out.append(np.concatenate(rows))
+    return out
+
+
+def test_make_vec_uses_the_vector_entry_point():
+    envs = gym.make_vec("DrillString-v0", num_envs=N, vectorization_mode="vector_entry_point",
+                        **KW)
+    assert isinstance(envs.unwrapped, DrillStringVectorEnv)
+    assert envs.num_envs == N
+    assert envs.observation_space.shape == (N, 17)
+    assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    obs, info = envs.reset(seed=0)
+    assert obs.shape == (N, 17) and obs.dtype == np.float32
+    assert info["time"].shape == (N,)
+
+
+@pytest.mark.parametrize("scenario", ["default", "random"])
+def test_batched_env_matches_single_envs_bit_for_bit(scenario):
+    kwargs = dict(KW, scenario=scenario, episode_duration=0.5)
+    actions = actions_for(5)
+    singles = single_trajectories(actions, seed=10, **kwargs)
+    envs = DrillStringVectorEnv(num_envs=N, **kwargs)
+    obs, _ = envs.reset(seed=10)
+    rows = [[obs[i]] for i in range(N)]
+    for a in actions:
+        obs, rewards, _, _, info = envs.step(a)
+        for i in range(N):
+            rows[i].append(np.concatenate([obs[i], [rewards[i], info["time"][i],
+                                                    info["bit_speed"][i]]]))
+    for i in range(N):
+        np.testing.assert_array_equal(np.concatenate(rows[i]), singles[i])
+
+
+def test_next_step_autoreset_returns_the_reset_observation_with_zero_reward():
+    envs = DrillStringVectorEnv(num_envs=N, **KW)  # 3 control steps per episode
+    envs.reset(seed=0)
+    zero = np.zeros((N, 2))
+    for _ in range(2):
+        _, _, _, truncated, _ = envs.step(zero)
+        assert not truncated.any()
+    _, _, terminated, truncated, info = envs.step(zero)
+    assert truncated.all() and not terminated.any()
+    assert info["time"] == pytest.approx(np.full(N, 0.3))
+    obs, rewards, terminated, truncated, info = envs.step(zero)
+    assert np.all(rewards == 0.0) and not truncated.any()
+    assert info["time"] == pytest.approx(np.zeros(N))  # reset happened
+    _, _, _, _, info = envs.step(zero)
+    assert info["time"] == pytest.approx(np.full(N, 0.1))
+
+
+def test_same_step_autoreset_reports_final_obs_and_info():
+    envs = DrillStringVectorEnv(num_envs=N, autoreset_mode=AutoresetMode.SAME_STEP, **KW)
+    envs.reset(seed=0)
+    zero = np.zeros((N, 2))
+    for _ in range(2):
+        envs.step(zero)
+    obs, _, _, truncated, info = envs.step(zero)
+    assert truncated.all()
+    assert info["_final_obs"].all()
+    assert info["final_obs"][0].shape == (17,)
+    assert info["final_info"]["time"] == pytest.approx(np.full(N, 0.3))
+    assert info["time"] == pytest.approx(np.zeros(N))
+
+
+def test_reset_mask_resets_only_the_masked_envs():
+    envs = DrillStringVectorEnv(num_envs=N, **KW)
+    envs.reset(seed=0)
+    envs.step(np.zeros((N, 2)))
+    mask = np.array([True, False, True, False])
+    _, info = envs.reset(options={"reset_mask": mask})
+    assert info["_time"].tolist() == mask.tolist()
+    times = envs.get_attr("sim")
+    assert [s.time for s in times] == pytest.approx([0.0, 0.1, 0.0, 0.1])
+
+
+def test_nan_action_in_a_batch_names_the_env():
+    envs = DrillStringVectorEnv(num_envs=N, **KW)
+    envs.reset(seed=0)
+    actions = np.zeros((N, 2))
+    actions[2, 1] = np.nan
+    with pytest.raises(ValueError, match="env 2"):
+        envs.step(actions)
+
+
+def test_vector_env_pickles():
+    envs = DrillStringVectorEnv(num_envs=2, **KW)
+    envs.reset(seed=0)
+    envs.step(np.zeros((2, 2)))
+    clone = pickle.loads(pickle.dumps(envs))
+    a = envs.step(np.full((2, 2), 0.3))
+    b = clone.step(np.full((2, 2), 0.3))
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_sb3_vec_env_autoresets_with_terminal_observation():
+    from stable_baselines3.common.vec_env import VecEnv
+
+    venv = make_sb3_vec_env(N, **KW)
+    assert isinstance(venv, VecEnv)
+    assert "stable_baselines3" in sys.modules
+    venv.seed(7)
+    first = venv.reset()
+    assert first.shape == (N, 17)
+    zero = np.zeros((N, 2), dtype=np.float32)
+    for _ in range(2):
+        _, _, dones, infos = venv.step(zero)
+        assert not dones.any()
+        assert all("terminal_observation" not in i for i in infos)
+    obs, rewards, dones, infos = venv.step(zero)
+    assert dones.all()
+    for i, info in enumerate(infos):
+        assert info["terminal_observation"].shape == (17,)
+        assert info["TimeLimit.truncated"] is True
+        assert not np.array_equal(info["terminal_observation"], obs[i])
+    # seeds are used once: env i was seeded 7 + i and now runs unseeded episodes
+    assert venv.get_attr("sim")[0].time == 0.0
+
+
+def test_sb3_vec_env_matches_single_envs():
+    actions = actions_for(3, seed=1)
+    singles = single_trajectories(actions, seed=20, **KW)
+    venv = make_sb3_vec_env(N, **KW)
+    venv.seed(20)
+    obs = venv.reset()
+    for i in range(N):
+        np.testing.assert_array_equal(obs[i], singles[i][:17])
+    for k, a in enumerate(actions):
+        obs, rewards, dones, infos = venv.step(a)
+        for i in range(N):
+            width = 17 + 3
+            start = 17 + k * width
+            expected = singles[i][start:start + width]
+            got_obs = infos[i]["terminal_observation"] if dones[i] else obs[i]
+            np.testing.assert_array_equal(got_obs, expected[:17])
+            assert rewards[i] == pytest.approx(expected[17], rel=1e-6)  # SB3 stores float32
+
+
+def test_sb3_can_run_a_few_ppo_steps_on_the_vec_env():
+    from stable_baselines3 import PPO
+
+    venv = make_sb3_vec_env(2, **KW)
+    model = PPO("MlpPolicy", venv, n_steps=8, batch_size=8, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=16)
