@@ -44,6 +44,7 @@ import shutil
 import subprocess
 import sys
 import uuid
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -244,6 +245,7 @@ class EpisodeRecorder:
         self.recording_id = ""
         self.termination_reason: str | None = None
         self.truncated = False
+        self.note: str | None = None
         self._geometry: dict[str, Any] = {"rock_names": []}
         self.last_path: Path | None = None
         self.last_recording_id: str | None = None
@@ -288,8 +290,9 @@ class EpisodeRecorder:
         self.episode_index = int(episode_index)
         self.env_settings = dict(env_settings or {})
         self.recording_id = recording_id or uuid.uuid4().hex
-        self.termination_reason: str | None = None
+        self.termination_reason = None
         self.truncated = False
+        self.note = None
         # Geometry now: a randomised env replaces its simulator at the next reset.
         self._geometry = self._capture_geometry(sim, self.config)
         if info is not None:
@@ -439,9 +442,12 @@ class EpisodeRecorder:
         return (f"{_sanitize(self.scenario)}_seed{seed}_ep{self.episode_index:04d}_"
                 f"{self.recording_id[:8]}.rrd")
 
-    def finish(self, termination_reason: str | None = None, truncated: bool = False
-               ) -> Path | None:
+    def finish(self, termination_reason: str | None = None, truncated: bool = False,
+               note: str | None = None) -> Path | None:
         """Write the episode to ``directory/<scenario>_seed<seed>_ep<i>_<id>.rrd``.
+
+        ``termination_reason`` (terminated: an ERROR event), ``truncated`` (time limit)
+        or ``note`` (why an episode ends otherwise, e.g. a reset) label the last event.
 
         Returns the path (``None`` if no episode is active or it has no sample, or rerun
         is disabled by ``RERUN=off``). The file appears atomically (written aside, then
@@ -455,6 +461,7 @@ class EpisodeRecorder:
             return None
         self.termination_reason = termination_reason or None
         self.truncated = bool(truncated)
+        self.note = note
         import rerun as rr
 
         self.directory.mkdir(parents=True, exist_ok=True)
@@ -471,8 +478,13 @@ class EpisodeRecorder:
                 f"{self.scenario} seed {self.seed} episode {self.episode_index}")
             self._write(stream, rr)
             stream.flush()
-        finally:
             stream.disconnect()
+        except BaseException:
+            stream.disconnect()
+            part.unlink(missing_ok=True)
+            self._reset_buffers()
+            raise
+        finally:
             del stream
         os.replace(part, path)
         self.last_path = path
@@ -514,7 +526,7 @@ class EpisodeRecorder:
             "episode_index": self.episode_index, "recording_id": self.recording_id,
             "steps": len(t), "start_time_s": float(t[0]), "end_time_s": float(t[-1]),
             "termination_reason": self.termination_reason or "",
-            "truncated": self.truncated, "string_exaggeration": k,
+            "truncated": self.truncated, "end_note": self.note or "", "string_exaggeration": k,
             "string_period_s": self.string_period,
             "gauge_clearance_m": g.get("clearance", math.nan),
             "rock_names": ", ".join(g["rock_names"]),
@@ -621,6 +633,10 @@ class EpisodeRecorder:
         strips = np.empty((len(times), n_nodes, 3))
         strips[:, :, :2] = np.stack([xy[:n_nodes] for xy in self._string_xy]) * k
         strips[:, :, 2] = z[None, :] - shift[:, None]
+        ok = np.all(np.isfinite(strips), axis=(1, 2))
+        if not ok.any():
+            return
+        strips, times = strips[ok], times[ok]
         bits = strips[:, -1, :]
         stream.log("string/deflection", rr.LineStrips3D.from_fields(
             colors=(50, 110, 220), radii=0.6), static=True)
@@ -769,7 +785,8 @@ class EpisodeRecorder:
         elif self.truncated:
             events.append((t[-1], info_level, "episode truncated (time limit)"))
         else:
-            events.append((t[-1], info_level, "episode end"))
+            events.append((t[-1], info_level,
+                           f"episode end: {self.note}" if self.note else "episode end"))
         events.sort(key=lambda e: e[0])
         self._send(stream, rr, "events", np.array([e[0] for e in events]),
                    rr.TextLog.columns(text=[e[2] for e in events],
@@ -1003,6 +1020,8 @@ class RecordEpisode(gymnasium.Wrapper):
     ``scenario`` names the files (default: the env's ``scenario_name`` or its ``spec``
     keyword ``scenario``); ``record`` = False passes everything through untouched.
     ``every`` records one episode in ``every`` (the first, then every ``every``-th).
+    An episode cut short by ``reset`` or ``close`` is written if it has at least one
+    step (a vector env's final auto-reset leaves none).
     """
 
     def __init__(self, env: gymnasium.Env, directory: str | os.PathLike = DEFAULT_DIRECTORY,
@@ -1019,6 +1038,7 @@ class RecordEpisode(gymnasium.Wrapper):
         self.every = int(every)
         self.record = bool(record)
         self.episode_index = -1
+        self._steps = 0
         self.paths: list[Path] = []
 
     @property
@@ -1057,16 +1077,24 @@ class RecordEpisode(gymnasium.Wrapper):
                 pass
         return out
 
-    def _flush(self, reason: str | None, truncated: bool) -> None:
+    def _flush(self, reason: str | None, truncated: bool, note: str | None = None) -> None:
+        if self.recorder.active and note is not None and self._steps == 0:
+            self.recorder.discard()  # reset, then reset/close again: nothing to keep
         if self.recorder.active:
-            path = self.recorder.finish(reason, truncated=truncated)
+            try:
+                path = self.recorder.finish(reason, truncated=truncated, note=note)
+            except Exception as exc:  # noqa: BLE001 - recording must not stop a run
+                warnings.warn(f"RecordEpisode: episode {self.episode_index} not recorded: "
+                              f"{exc!r}", RuntimeWarning, stacklevel=3)
+                return
             if path is not None:
                 self.paths.append(path)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        self._flush("reset before the episode ended", truncated=False)
+        self._flush(None, truncated=False, note="reset before the episode ended")
         obs, info = self.env.reset(seed=seed, options=options)
         self.episode_index += 1
+        self._steps = 0
         if self.record and self.episode_index % self.every == 0:
             base = self.env.unwrapped
             sim = getattr(base, "sim", None)
@@ -1078,6 +1106,7 @@ class RecordEpisode(gymnasium.Wrapper):
 
     def step(self, action):
         obs, reward, terminated, truncated, info = self.env.step(action)
+        self._steps += 1
         if self.recorder.active:
             self.recorder.record(info, action=action, reward=reward)
             if terminated or truncated:
@@ -1088,7 +1117,7 @@ class RecordEpisode(gymnasium.Wrapper):
 
     def close(self) -> None:
         try:
-            self._flush(None, truncated=False)
+            self._flush(None, truncated=False, note="env closed before the episode ended")
         finally:
             super().close()
 

@@ -31,6 +31,7 @@ The rock presets :data:`HARD`, :data:`SOFT` and :data:`VERY_SOFT` live here and 
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import math
 from collections.abc import Callable
@@ -40,11 +41,15 @@ import numpy as np
 
 from drill_env.physics.bit import asymmetric_bit, symmetric_bit
 from drill_env.physics.config import (
+    INCH,
     BitConfig,
     FormationConfig,
     Interface,
     RockConfig,
+    Section,
     SimulationConfig,
+    SolverConfig,
+    StringConfig,
     replace,
 )
 from drill_env.physics.formation import interface_depth_for_share
@@ -58,14 +63,19 @@ RPM = 2.0 * math.pi / 60.0
 # HERE; every scenario reads these three constants.
 
 #: Hard rock: falling curve mu 0.9 -> 0.5 over ~3 rad/s (stick-slip tendency).
+#: Linear stability of the default string puts its stick-slip threshold at 71 rpm for
+#: 75 kN and 79 rpm for 100 kN (stiff top drive): stick-slip at 50 rpm, none at 100 rpm
+#: (paper Fig. 13, 14). Depth of cut 3 mm/rev at 75 kN (~9 m/h at 50 rpm).
 HARD = RockConfig(name="hard", mu_min=0.5, mu_max=0.9, st1=3.0, st2=0.0,
-                  wall_stiffness=2.0e7, wall_damping=2.0e3, depth_of_cut=2.0e-8)
+                  wall_stiffness=2.0e7, wall_damping=2.0e3, depth_of_cut=4.0e-8)
 #: Soft rock: nearly flat curve, softer wall, twice the depth of cut of hard rock.
+#: Threshold 29 rpm at 75 kN, 38 rpm at 100 kN: steady at 50 rpm.
 SOFT = RockConfig(name="soft", mu_min=0.3, mu_max=0.45, st1=5.0, st2=0.005,
-                  wall_stiffness=5.0e6, wall_damping=1.0e3, depth_of_cut=4.0e-8)
+                  wall_stiffness=5.0e6, wall_damping=1.0e3, depth_of_cut=8.0e-8)
 #: Very soft rock: low, rising curve, very soft wall, fast drilling.
+#: Rising at every speed above 0.5 rpm: never unstable.
 VERY_SOFT = RockConfig(name="very_soft", mu_min=0.2, mu_max=0.3, st1=8.0, st2=0.01,
-                       wall_stiffness=1.0e6, wall_damping=5.0e2, depth_of_cut=8.0e-8)
+                       wall_stiffness=1.0e6, wall_damping=5.0e2, depth_of_cut=1.6e-7)
 
 #: Paper section 4: share of rock 2 (the middle layer) under the front blades at the
 #: torsional-map positions, and which interface sets it ("top": entering the layer,
@@ -162,6 +172,27 @@ def sandwich(bit: BitConfig, middle: RockConfig, bit_depth: float, position: str
                            layers=(0, 1, 0))
 
 
+#: Paper Table 2: cases 2-4 drill at 50 rpm and 75 kN.
+PAPER_LATERAL_RPM = 50.0
+PAPER_LATERAL_WOB = 75.0e3
+
+
+def collar_weighted_string(string: StringConfig | None = None,
+                           bha_length: float = 120.0) -> StringConfig:
+    """The paper's pipe over a BHA heavy enough to carry the paper's WOB.
+
+    The paper's 35 m of 6 1/2 in collars weigh ~40 kN in mud: at 75-100 kN the drill
+    pipe above would be in compression and buckle (docs/model.md, "Axial load and
+    buckling"). 120 m of the same collars (~136 kN buoyed) keep the neutral point in
+    the collars; stabilizers every 9 m hold the compressed collars off the wall.
+    """
+    string = string or StringConfig()
+    bha = Section(length=bha_length, outer_diameter=6.5 * INCH, inner_diameter=2.8125 * INCH,
+                  element_length=2.0)
+    stabilizers = tuple(float(h) for h in range(1, int(bha_length) - 9, 9))
+    return replace(string, bha=bha, stabilizers=stabilizers)
+
+
 def _base(string_length: float | None, bit: BitConfig | None = None) -> SimulationConfig:
     cfg = with_string_length(SimulationConfig(), string_length)
     if bit is not None:
@@ -198,43 +229,68 @@ def paper_case1(position: str = "P1", thickness: float = 1.0, dip: float = 45.0,
                 weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
                 episode_duration: float = 30.0,
                 string_length: float | None = None) -> Scenario:
-    """Torsional stability map (paper Fig. 15): symmetric bit held at ``position`` P1..P6."""
-    return _sandwich_case("paper_case1", symmetric_bit(), SOFT, position, thickness, dip,
-                          surface_speed, weight_on_bit, episode_duration, string_length,
-                          f"hard-soft-hard 45 deg sandwich, bit at {position}")
+    """Torsional stability map (paper Fig. 15): symmetric bit held at ``position`` P1..P6.
+
+    Torsion only (``SolverConfig(lateral=False)``), as the paper's case 1.
+    """
+    scenario = _sandwich_case("paper_case1", symmetric_bit(), SOFT, position, thickness, dip,
+                              surface_speed, weight_on_bit, episode_duration, string_length,
+                              f"hard-soft-hard 45 deg sandwich, bit at {position}")
+    cfg = replace(scenario.config, solver=SolverConfig(lateral=False))
+    return dataclasses.replace(scenario, config=cfg)
+
+
+def _lateral_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
+                  thickness: float, dip: float, lead: float, surface_speed: float,
+                  weight_on_bit: float, episode_duration: float, string_length: float | None,
+                  description: str) -> Scenario:
+    """A crossing of the sandwich with the coupled lateral-torsional model (cases 2-4).
+
+    The bit starts ``lead`` metres above ``position`` (P1 by default: the front just
+    touching the soft layer), so it drills rock 1 first and then crosses the layer.
+    """
+    if not (isinstance(lead, (int, float)) and math.isfinite(lead) and lead >= 0):
+        raise ValueError(f"lead: must be a finite number >= 0, got {lead!r}")
+    cfg = _base(None, bit)
+    cfg = replace(cfg, string=collar_weighted_string(cfg.string))
+    cfg = replace(with_string_length(cfg, string_length), initial_depth=None)
+    depth = cfg.string.length
+    formation = sandwich(bit, middle, depth, position, thickness, dip)
+    cfg = replace(cfg, formation=formation, initial_depth=depth - lead)
+    return Scenario(name, cfg, surface_speed, weight_on_bit, episode_duration, description)
 
 
 def paper_case2(position: str = "P1", thickness: float = 0.3, dip: float = 45.0,
-                surface_speed: float = 50.0 * RPM,
-                weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
-                episode_duration: float = 120.0,
+                lead: float = 0.05, surface_speed: float = PAPER_LATERAL_RPM * RPM,
+                weight_on_bit: float = PAPER_LATERAL_WOB,
+                episode_duration: float = 240.0,
                 string_length: float | None = None) -> Scenario:
-    """Symmetric bit drilling through a hard-soft-hard sandwich dipping 45 deg (Fig. 13-18)."""
-    return _sandwich_case("paper_case2", symmetric_bit(), SOFT, position, thickness, dip,
-                          surface_speed, weight_on_bit, episode_duration, string_length,
-                          "symmetric bit through a hard-soft-hard 45 deg sandwich")
+    """Symmetric bit drilling through a hard-soft-hard sandwich dipping 45 deg (Fig. 16-18)."""
+    return _lateral_case("paper_case2", symmetric_bit(), SOFT, position, thickness, dip, lead,
+                         surface_speed, weight_on_bit, episode_duration, string_length,
+                         "symmetric bit through a hard-soft-hard 45 deg sandwich")
 
 
 def paper_case3(position: str = "P1", thickness: float = 0.3, dip: float = 45.0,
-                surface_speed: float = 50.0 * RPM,
-                weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
-                episode_duration: float = 120.0,
+                lead: float = 0.05, surface_speed: float = PAPER_LATERAL_RPM * RPM,
+                weight_on_bit: float = PAPER_LATERAL_WOB,
+                episode_duration: float = 240.0,
                 string_length: float | None = None) -> Scenario:
     """Symmetric bit through a hard - very soft - hard sandwich (larger lateral forces)."""
-    return _sandwich_case("paper_case3", symmetric_bit(), VERY_SOFT, position, thickness,
-                          dip, surface_speed, weight_on_bit, episode_duration, string_length,
-                          "symmetric bit through a hard-very soft-hard 45 deg sandwich")
+    return _lateral_case("paper_case3", symmetric_bit(), VERY_SOFT, position, thickness, dip,
+                         lead, surface_speed, weight_on_bit, episode_duration, string_length,
+                         "symmetric bit through a hard-very soft-hard 45 deg sandwich")
 
 
 def paper_case4(position: str = "P1", thickness: float = 0.3, dip: float = 45.0,
-                surface_speed: float = 100.0 * RPM,
-                weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
-                episode_duration: float = 120.0,
+                lead: float = 0.05, surface_speed: float = PAPER_LATERAL_RPM * RPM,
+                weight_on_bit: float = PAPER_LATERAL_WOB,
+                episode_duration: float = 240.0,
                 string_length: float | None = None) -> Scenario:
     """Asymmetric bit through the hard-soft-hard sandwich (continuous forward whirl)."""
-    return _sandwich_case("paper_case4", asymmetric_bit(), SOFT, position, thickness, dip,
-                          surface_speed, weight_on_bit, episode_duration, string_length,
-                          "asymmetric bit through a hard-soft-hard 45 deg sandwich")
+    return _lateral_case("paper_case4", asymmetric_bit(), SOFT, position, thickness, dip, lead,
+                         surface_speed, weight_on_bit, episode_duration, string_length,
+                         "asymmetric bit through a hard-soft-hard 45 deg sandwich")
 
 
 def _jitter(rng: np.random.Generator, rock: RockConfig, name: str) -> RockConfig:

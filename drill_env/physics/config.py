@@ -131,8 +131,7 @@ class StringConfig:
         for k, pos in enumerate(self.stabilizers):
             _require(0.0 < pos < self.bha.length + self.drill_pipe.length, f"stabilizers[{k}]",
                      f"{pos} m above the bit is outside the string")
-        _require(self.bha.length < self.drill_pipe.length + self.bha.length, "bha.length",
-                 "must be shorter than the string")
+
         for name in ("drill_pipe", "bha"):
             od = getattr(self, name).outer_diameter
             _require(od < self.hole_diameter, f"{name}.outer_diameter",
@@ -334,6 +333,11 @@ class BitConfig:
     #: Bit mass (kg) and polar inertia (kg m^2): ~ a 50 kg steel body, m r^2 / 2.
     mass: float = 50.0
     inertia: float = 0.3
+    #: Hold the bit axis parallel to the hole axis (paper section 3.1.1: with a 1/16 in
+    #: gauge clearance the tilt of the bit is negligible). The bit node's tilt DOFs are
+    #: then fixed; lateral translation stays free. Without it the free bit end under the
+    #: dead WOB load is a tilting mechanism (a column with a free end buckles at P = 0).
+    axis_aligned: bool = True
 
     def __post_init__(self) -> None:
         n = len(self.blade_angles)

@@ -107,7 +107,10 @@ class ReferenceStepper:
         m_lat[-2] += cfg.bit.mass
         self.k_lat = k_lat
         self.m_lat = m_lat
-        self.free = np.arange(1, 2 * n)  # every lateral DOF except the top w
+        # every lateral DOF except the top w (pinned) and, with an axis-aligned bit
+        # (paper section 3.1.1), the bit's tilt
+        last = 2 * n - 1 if cfg.bit.axis_aligned else 2 * n
+        self.free = np.arange(1, last)
         self._lat_wob = None
 
         # ---- torsion: top-drive rotor on node 0, bit on the last node, mud drag

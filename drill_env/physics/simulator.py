@@ -25,7 +25,7 @@ from drill_env.physics.fem import (
     mud_torsional_damping,
     to_band,
 )
-from drill_env.physics.formation import formation_arrays, resistance, rock_at
+from drill_env.physics.formation import DEPTH_OF_CUT, formation_arrays, resistance, rock_at
 from drill_env.physics.linalg import band_cholesky
 
 #: Status set by :meth:`Simulator.advance` when a hook load compresses the string
@@ -90,6 +90,11 @@ class Simulator:
             mat[0, :] = 0.0
             mat[:, 0] = 0.0
         m_lat[0] = 1.0
+        if cfg.bit.axis_aligned:  # bit tilt held at zero: the row carries no force
+            for mat in (k_lat, kg_weight, kg_unit):
+                mat[-1, :] = 0.0
+                mat[:, -1] = 0.0
+            m_lat[-1] = 1.0
         self.lat_k = to_band(k_lat, LATERAL_BANDWIDTH)
         self.lat_kg_weight = to_band(kg_weight, LATERAL_BANDWIDTH)
         self.lat_kg_unit = to_band(kg_unit, LATERAL_BANDWIDTH)
@@ -343,6 +348,17 @@ class Simulator:
         self.state[ig.S_WOB_FACTORED] = np.nan
         self.state[ig.S_MOTOR_TORQUE] = total
         self.state[ig.S_TOB] = tob
+        # Readings of the settled state, as the kernel would report them.
+        k0 = -self.tor_k[1, 0]
+        self.state[ig.S_SURFACE_TORQUE] = k0 * (self.ut[0] - self.ut[1])
+        if wob > 0.0 and omega != 0.0:
+            if cfg.bit_model == "macroscopic":
+                rock = rock_at(0.0, 0.0, depth, self.normals, self.offsets, self.layer_rock)
+                doc = self.rock_params[rock, DEPTH_OF_CUT] * wob
+            else:
+                doc = float(self._bit_loads(omega, wob)[9])
+            self.state[ig.S_DEPTH_OF_CUT] = doc
+            self.state[ig.S_ROP] = doc * max(omega, 0.0) / (2 * np.pi)
 
     def advance(self, n_steps: int, speed_setpoint: float | None = None,
                 hook_load: float | None = None, record_every: int = 0) -> np.ndarray:

@@ -10,6 +10,7 @@ from scipy.optimize import brentq
 from drill_env.physics import integrator as ig
 from drill_env.physics.config import (
     INCH,
+    BitConfig,
     ContactConfig,
     DampingConfig,
     MudConfig,
@@ -279,6 +280,7 @@ def test_undamped_free_string_conserves_energy():
         damping=DampingConfig(0.0, 0.0),
         mud=MudConfig(torsional_damping=0.0),
         top_drive=TopDriveConfig(proportional_gain=0.0, integral_gain=0.0),
+        bit=BitConfig(axis_aligned=False),  # a free lateral end: every DOF carries energy
     )
     sim = Simulator(cfg)
     sim.reset(OperatingPoint(0.0, 0.0))

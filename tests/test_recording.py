@@ -1,0 +1,224 @@
+"""Episode recording to rerun: round trip through rerun's own reader, one file and one
+recording id per episode (in one process and in subprocess workers), event detection.
+
+The viewer is never started here (no display): only the command line of ``replay`` is
+checked.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing as mp
+from pathlib import Path
+
+import gymnasium
+import numpy as np
+import pytest
+
+import drill_env  # noqa: F401  (registers the envs)
+from drill_env.recording import (
+    APPLICATION_ID,
+    SERIES,
+    EpisodeRecorder,
+    RecordEpisode,
+    layer_events,
+    read_recording,
+    replay,
+    replay_command,
+    stick_slip_events,
+    whirl_events,
+)
+
+RPM = 2.0 * math.pi / 60.0
+T_TOL = 2e-9  # sim_time is stored as integer nanoseconds
+
+
+def _make_env(duration: float, scenario: str = "paper_case2") -> gymnasium.Env:
+    return gymnasium.make("DrillString-v0", scenario=scenario, episode_duration=duration)
+
+
+def _run_episode(env: gymnasium.Env, seed: int) -> tuple[list[dict], list[np.ndarray], list]:
+    """One episode with a deterministic action sweep; returns infos (reset first)."""
+    _, info = env.reset(seed=seed)
+    infos, actions, rewards = [info], [], []
+    k = 0
+    while True:
+        action = np.array([0.2 * math.sin(0.7 * k) - 0.4, 0.1 * math.cos(0.3 * k)],
+                          dtype=np.float32)
+        _, reward, terminated, truncated, info = env.step(action)
+        infos.append(info)
+        actions.append(action)
+        rewards.append(reward)
+        k += 1
+        if terminated or truncated:
+            return infos, actions, rewards
+
+
+def _record_one(args: tuple[str, int]) -> tuple[str, str]:
+    """Subprocess worker: record one short episode, return (path, recording id)."""
+    directory, seed = args
+    env = RecordEpisode(_make_env(0.5), directory)
+    _run_episode(env, seed)
+    env.close()
+    return str(env.last_path), env.recorder.last_recording_id
+
+
+# --------------------------------------------------------------------------- round trip
+
+
+def test_roundtrip_series_equal_info(tmp_path: Path) -> None:
+    env = RecordEpisode(_make_env(2.0), tmp_path, string_period=0.2)
+    infos, actions, rewards = _run_episode(env, seed=7)
+    path = env.last_path
+    assert path is not None and path.exists() and path.parent == tmp_path
+    assert path.name.startswith("paper_case2_seed7_ep0000_")
+    assert not list(tmp_path.glob("*.part"))
+
+    rec = read_recording(path)
+    assert rec.application_id == APPLICATION_ID
+    assert rec.recording_id == env.recorder.last_recording_id
+    assert rec.n_blueprints == 1
+    expected = {
+        "/config/episode", "/config/simulation", "/config/env", "/config/document",
+        "/orbit_mm/bit", "/orbit_mm/clearance", "/string/deflection", "/string/wall",
+        "/bit/blades", "/bit/interfaces", "/bit/blade_rocks", "/events",
+        "/timeseries/reward/total", "/timeseries/reward/stick_slip",
+        "/timeseries/action/0", "/timeseries/action/1", "/timeseries/rock_share/hard",
+        "/timeseries/rock_share/soft", "/timeseries/lateral/radial_ratio",
+    } | {"/" + s.entity for s in SERIES}
+    assert expected <= rec.entities, sorted(expected - rec.entities)
+
+    t = np.array([i["time"] for i in infos])
+    for s in SERIES:
+        times, values = rec.scalars["/" + s.entity]
+        np.testing.assert_allclose(times, t, rtol=0, atol=T_TOL, err_msg=s.entity)
+        want = np.array([i[s.key] for i in infos]) * s.scale
+        np.testing.assert_allclose(values, want, rtol=1e-12, atol=1e-12, err_msg=s.entity)
+
+    # Step quantities start at the first step (the reset has no action or reward).
+    times, values = rec.scalars["/timeseries/reward/total"]
+    np.testing.assert_allclose(times, t[1:], rtol=0, atol=T_TOL)
+    np.testing.assert_allclose(values, rewards, rtol=1e-12)
+    for term in infos[1]["reward_terms"]:
+        _, values = rec.scalars[f"/timeseries/reward/{term}"]
+        np.testing.assert_allclose(values, [i["reward_terms"][term] for i in infos[1:]])
+    for j in range(2):
+        _, values = rec.scalars[f"/timeseries/action/{j}"]
+        np.testing.assert_allclose(values, [a[j] for a in actions], rtol=1e-7)
+    _, values = rec.scalars["/timeseries/rock_share/soft"]
+    np.testing.assert_allclose(values, [i["rock_share"][1] for i in infos], atol=1e-12)
+    _, values = rec.scalars["/timeseries/info/mse"]
+    np.testing.assert_allclose(values, [i["mse"] for i in infos], rtol=1e-12)
+
+    # Orbit: every step's bit position (mm).
+    clearance = env.unwrapped.clearance
+    _, radial = rec.scalars["/timeseries/lateral/radial_ratio"]
+    np.testing.assert_allclose(
+        radial, [np.hypot(*i["bit_lateral"]) / clearance for i in infos], rtol=1e-12)
+
+    lines = rec.text_logs["/events"]
+    assert lines[0][2].startswith("episode start: scenario paper_case2, seed 7")
+    assert lines[-1][2] == "episode truncated (time limit)"
+    assert abs(lines[-1][0] - t[-1]) < T_TOL
+    assert any(text.startswith("bit in hard") for _, _, text in lines)
+
+
+def test_missing_info_keys_and_fake_env(tmp_path: Path) -> None:
+    """A bare info dict (only time and bit speed) still gives a valid recording."""
+    rec = EpisodeRecorder(tmp_path)
+    rec.begin(scenario="bare", seed=None)
+    for k in range(20):
+        w = 5.0 if k % 7 else 0.0
+        rec.record({"time": 0.1 * k, "bit_speed": w, "odd": "text", "reward_x": 1.5},
+                   action=[k, -k])
+    path = rec.finish("stopped for the test")
+    assert path is not None and path.name.startswith("bare_seednoseed_ep0000_")
+    back = read_recording(path)
+    times, values = back.scalars["/timeseries/speed_rpm/bit"]
+    np.testing.assert_allclose(values, [(5.0 if k % 7 else 0.0) / RPM for k in range(20)])
+    assert "/timeseries/torque_kNm/on_bit" not in back.entities  # missing: not logged
+    np.testing.assert_allclose(back.scalars["/timeseries/reward/x"][1], 1.5)
+    np.testing.assert_allclose(back.scalars["/timeseries/action/1"][1], -np.arange(20))
+    texts = [text for _, _, text in back.text_logs["/events"]]
+    assert texts[-1] == "terminated: stopped for the test"
+    assert any(text.startswith("stick-slip onset") for text in texts)
+
+
+# --------------------------------------------------------------------------- separation
+
+
+def test_two_episodes_two_recordings(tmp_path: Path) -> None:
+    env = RecordEpisode(_make_env(0.3), tmp_path)
+    _run_episode(env, seed=1)
+    _run_episode(env, seed=2)
+    env.reset(seed=3)  # cut short after one step: written by the next reset
+    env.step(np.zeros(2, dtype=np.float32))
+    env.reset(seed=4)  # no step at all: nothing written by close()
+    env.close()
+    assert len(env.paths) == 3
+    assert len(set(env.paths)) == 3 and all(p.exists() for p in env.paths)
+    assert [p.name.split("_ep")[1][:4] for p in env.paths] == ["0000", "0001", "0002"]
+    ids = [read_recording(p).recording_id for p in env.paths]
+    assert len(set(ids)) == 3
+    assert len(read_recording(env.paths[0]).scalars["/timeseries/speed_rpm/bit"][0]) == 4
+    last = read_recording(env.paths[2]).text_logs["/events"][-1]
+    assert last[1:] == ("INFO", "episode end: reset before the episode ended")
+    assert sorted(tmp_path.glob("*.rrd")) == sorted(env.paths)
+
+
+def test_termination_reason_logged(tmp_path: Path) -> None:
+    env = RecordEpisode(gymnasium.make("DrillString-v0", scenario="default",
+                                       episode_duration=1.0, makeup_torque=1.0), tmp_path)
+    env.reset(seed=0)
+    _, _, terminated, _, info = env.step(np.zeros(2, dtype=np.float32))
+    assert terminated and info["termination_reason"]
+    assert env.last_path is not None and not env.recorder.active
+    level, text = read_recording(env.last_path).text_logs["/events"][-1][1:]
+    assert (level, text) == ("ERROR", f"terminated: {info['termination_reason']}")
+
+
+def test_subprocess_workers_record_separately(tmp_path: Path) -> None:
+    ctx = mp.get_context("spawn")
+    with ctx.Pool(2) as pool:
+        results = pool.map(_record_one, [(str(tmp_path), 11), (str(tmp_path), 11)])
+    paths = [Path(p) for p, _ in results]
+    assert len(set(paths)) == 2 and all(p.exists() for p in paths)
+    ids = {read_recording(p).recording_id for p in paths}
+    assert ids == {rid for _, rid in results} and len(ids) == 2
+    assert sorted(tmp_path.glob("*.rrd")) == sorted(paths)
+
+
+# --------------------------------------------------------------------------- events
+
+
+def test_event_detection() -> None:
+    t = np.arange(0.0, 20.0, 0.1)
+    w = np.full_like(t, 5.0)
+    w[(t > 2.0) & (t < 2.5)] = 0.0  # first stick: onset
+    w[(t > 4.0) & (t < 4.3)] = 0.0  # 2 s later: same stick-slip episode
+    w[(t > 12.0) & (t < 12.3)] = 0.0  # after a quiet spell: a new onset
+    ev = stick_slip_events(t, w)
+    assert [e[1] for e in ev] == ["WARN", "DEBUG", "WARN"]
+    assert abs(ev[0][0] - 2.1) < 1e-9 and ev[0][2].startswith("stick-slip onset")
+
+    clearance = 0.005
+    r = np.where((t > 5.0) & (t < 10.0), 0.9 * clearance, 0.1 * clearance)
+    x, y = r * np.cos(3.0 * t), r * np.sin(3.0 * t)
+    ev = whirl_events(t, x, y, np.full_like(t, -40.0), np.full_like(t, 5.0), clearance)
+    assert [e[2].split(":")[0] for e in ev] == ["whirl onset (backward)", "whirl ended"]
+    assert abs(ev[0][0] - 5.1) < 1e-9
+
+    shares = np.zeros((len(t), 2))
+    shares[:, 0] = np.clip(1.0 - (t - 8.0) / 4.0, 0.0, 1.0)
+    shares[:, 1] = 1.0 - shares[:, 0]
+    ev = layer_events(t, shares, ["hard", "soft"])
+    assert ev[0][2].startswith("bit in hard") and ev[1][2].startswith("layer change: hard -> soft")
+    assert 9.9 < ev[1][0] < 10.2
+
+
+def test_replay_is_not_started_here(tmp_path: Path) -> None:
+    cmd = replay_command(tmp_path / "x.rrd", web=True, web_viewer_port=9191)
+    assert cmd[-1].endswith("x.rrd") and "--web-viewer" in cmd and "9191" in cmd
+    assert "--web-viewer" not in replay_command(tmp_path / "x.rrd")
+    with pytest.raises(FileNotFoundError, match="path"):
+        replay(tmp_path / "missing.rrd")
