@@ -179,7 +179,7 @@ def factor_lateral(lat_k, lat_kg_weight, lat_kg_unit, lat_m, wob, p, work_band, 
     return band_cholesky(work_band, lat_factor)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def advance(n_steps, record_every, p, state,
             lat_k, lat_kg_weight, lat_kg_unit, lat_m, lat_factor, lat_work_band,
             lat_k_total, lat_k_damp, tor_k, tor_c, tor_factor, col_bit,

@@ -1,0 +1,119 @@
+"""Regenerate the figures of docs/paper-reproduction.md (paper Figs. 13, 14, 16, 17, 18).
+
+    .venv/bin/python scripts/paper_reproduction.py [--out docs/img]
+
+Every run comes from drill_env.studies.simulate, the same code the paper-result tests use.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from drill_env.physics.config import replace  # noqa: E402
+from drill_env.scenarios import make_scenario  # noqa: E402
+from drill_env.studies import RPM, lateral_force, simulate  # noqa: E402
+
+
+def torsional_crossing(rpm: float):
+    sc = make_scenario("paper_case2", weight_on_bit=100e3, thickness=0.8, lead=0.2)
+    return simulate(replace(sc.config, **{"solver.lateral": False}), rpm, 100e3, 360.0)
+
+
+def figure_13_14(out: Path) -> None:
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    for ax, rpm in zip(axes, (50.0, 100.0), strict=True):
+        run = torsional_crossing(rpm)
+        ax.plot(run.time, run.channel("bit_speed") / RPM, lw=0.6, label="bit speed")
+        ax.set_ylabel("rpm")
+        ax2 = ax.twinx()
+        ax2.fill_between(run.share_time, run.shares[:, 1], color="tab:orange", alpha=0.25,
+                         label="share of rock 2")
+        ax2.set_ylim(0, 1.05)
+        ax2.set_ylabel("share of soft rock")
+        ax.set_title(f"Fig. 13/14: {rpm:.0f} rpm, 100 kN, hard-soft-hard 45 deg (torsional)")
+    axes[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(out / "fig13_14_torsional_crossing.png", dpi=110)
+    plt.close(fig)
+
+
+def lateral_cases():
+    runs = {}
+    for name in ("paper_case2", "paper_case3", "paper_case4"):
+        sc = make_scenario(name)
+        runs[name] = simulate(sc.config, sc.surface_speed / RPM, sc.weight_on_bit, 240.0)
+    return runs
+
+
+def figure_16_17_18(runs, out: Path) -> None:
+    titles = {"paper_case2": "case 2: symmetric, soft layer",
+              "paper_case3": "case 3: symmetric, very soft layer",
+              "paper_case4": "case 4: asymmetric, soft layer"}
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    for ax, (name, run) in zip(axes, runs.items(), strict=True):
+        ax.plot(run.time, run.channel("bit_speed") / RPM, lw=0.5)
+        ax.set_ylabel("bit rpm")
+        ax.set_title(f"Fig. 16 {titles[name]}")
+        ax2 = ax.twinx()
+        ax2.fill_between(run.share_time, run.shares[:, 1], color="tab:orange", alpha=0.25)
+        ax2.set_ylim(0, 1.05)
+    axes[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(out / "fig16_torsional_cases.png", dpi=110)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    for ax, (name, run) in zip(axes, runs.items(), strict=True):
+        ax.plot(run.time, lateral_force(run) / 1e3, lw=0.5)
+        ax.set_ylabel("lateral force (kN)")
+        ax.set_title(f"Fig. 17 {titles[name]}")
+        ax2 = ax.twinx()
+        ax2.fill_between(run.share_time, run.shares[:, 1], color="tab:orange", alpha=0.25)
+        ax2.set_ylim(0, 1.05)
+    axes[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(out / "fig17_lateral_force.png", dpi=110)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(3, 3, figsize=(10, 10))
+    phases = (("homogeneous (before)", 0.0, 0.01), ("transition", 0.01, 0.99),
+              ("inside the layer", 0.99, 1.01))
+    theta = np.linspace(0, 2 * np.pi, 200)
+    for row, (name, run) in zip(axes, runs.items(), strict=True):
+        share = run.share_at(run.time, 1)
+        x, y = run.channel("bit_x") * 1e3, run.channel("bit_y") * 1e3
+        for ax, (label, lo, hi) in zip(row, phases, strict=True):
+            sel = (share >= lo) & (share < hi)
+            if label.startswith("homogeneous"):
+                sel &= run.time < run.time[share > 0.01][0] if (share > 0.01).any() else sel
+            ax.plot(5 * np.cos(theta), 5 * np.sin(theta), color="tab:blue", lw=1)
+            ax.plot(x[sel], y[sel], lw=0.4, color="k")
+            ax.set_aspect("equal")
+            ax.set_xlim(-12, 12)
+            ax.set_ylim(-12, 12)
+            ax.set_title(f"{name[-5:]}: {label}", fontsize=9)
+    fig.suptitle("Fig. 18: bit orbit (mm) in the 5 mm gauge clearance")
+    fig.tight_layout()
+    fig.savefig(out / "fig18_orbits.png", dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--out", type=Path, default=Path("docs/img"))
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    figure_13_14(args.out)
+    figure_16_17_18(lateral_cases(), args.out)
+    print(f"figures written to {args.out}")
+
+
+if __name__ == "__main__":
+    main()
