@@ -1,0 +1,1 @@
+"""Training scripts for DrillString-v0 (Stable-Baselines3)."""
