@@ -56,31 +56,24 @@ def figure_16_17_18(runs, out: Path) -> None:
     titles = {"paper_case2": "case 2: symmetric, soft layer",
               "paper_case3": "case 3: symmetric, very soft layer",
               "paper_case4": "case 4: asymmetric, soft layer"}
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
-    for ax, (name, run) in zip(axes, runs.items(), strict=True):
-        ax.plot(run.time, run.channel("bit_speed") / RPM, lw=0.5)
-        ax.set_ylabel("bit rpm")
-        ax.set_title(f"Fig. 16 {titles[name]}")
-        ax2 = ax.twinx()
-        ax2.fill_between(run.share_time, run.shares[:, 1], color="tab:orange", alpha=0.25)
-        ax2.set_ylim(0, 1.05)
-    axes[-1].set_xlabel("time (s)")
-    fig.tight_layout()
-    fig.savefig(out / "fig16_torsional_cases.png", dpi=110)
-    plt.close(fig)
+    def time_series(values, ylabel: str, figure: str, filename: str) -> None:
+        fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+        for ax, (name, run) in zip(axes, runs.items(), strict=True):
+            ax.plot(run.time, values(run), lw=0.5)
+            ax.set_ylabel(ylabel)
+            ax.set_title(f"{figure} {titles[name]}")
+            ax2 = ax.twinx()  # shaded: share of the middle rock under the blades
+            ax2.fill_between(run.share_time, run.shares[:, 1], color="tab:orange", alpha=0.25)
+            ax2.set_ylim(0, 1.05)
+        axes[-1].set_xlabel("time (s)")
+        fig.tight_layout()
+        fig.savefig(out / filename, dpi=110)
+        plt.close(fig)
 
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
-    for ax, (name, run) in zip(axes, runs.items(), strict=True):
-        ax.plot(run.time, lateral_force(run) / 1e3, lw=0.5)
-        ax.set_ylabel("lateral force (kN)")
-        ax.set_title(f"Fig. 17 {titles[name]}")
-        ax2 = ax.twinx()
-        ax2.fill_between(run.share_time, run.shares[:, 1], color="tab:orange", alpha=0.25)
-        ax2.set_ylim(0, 1.05)
-    axes[-1].set_xlabel("time (s)")
-    fig.tight_layout()
-    fig.savefig(out / "fig17_lateral_force.png", dpi=110)
-    plt.close(fig)
+    time_series(lambda run: run.channel("bit_speed") / RPM, "bit rpm", "Fig. 16",
+                "fig16_torsional_cases.png")
+    time_series(lambda run: lateral_force(run) / 1e3, "lateral force (kN)", "Fig. 17",
+                "fig17_lateral_force.png")
 
     fig, axes = plt.subplots(3, 3, figsize=(10, 10))
     phases = (("homogeneous (before)", 0.0, 0.01), ("transition", 0.01, 0.99),
