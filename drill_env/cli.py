@@ -21,34 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
-RPM = 2 * np.pi / 60
-
-
-def _progress(iterable, total: int, desc: str):
-    try:
-        from tqdm import tqdm
-
-        return tqdm(iterable, total=total, desc=desc, leave=False)
-    except ImportError:  # pragma: no cover - tqdm is a dependency
-        return iterable
-
-
-def _run_case(config, rpm: float, wob: float, seconds: float, record_every: int = 10):
-    from drill_env.physics.simulator import OperatingPoint, Simulator
-
-    sim = Simulator(config)
-    sim.reset(OperatingPoint(rpm * RPM, wob))
-    sim.vt[-1] *= 0.99  # a small kick: steady rotation is an equilibrium, stable or not
-    chunks = []
-    steps = round(seconds / sim.dt)
-    chunk = round(1.0 / sim.dt)
-    for _ in _progress(range(0, steps, chunk), total=-(-steps // chunk), desc=f"{rpm:.0f} rpm"):
-        chunks.append(sim.advance(chunk, rpm * RPM, sim.hook_load_for(wob), record_every))
-        if sim.status:
-            break
-    return sim, np.concatenate(chunks)
+from drill_env.studies import COL, RPM
 
 
 def demo(out: Path) -> int:
@@ -58,10 +31,9 @@ def demo(out: Path) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from drill_env import metrics
     from drill_env.physics.config import FormationConfig, SimulationConfig, SolverConfig
-    from drill_env.physics.simulator import RECORD_CHANNELS
     from drill_env.scenarios import HARD
+    from drill_env.studies import simulate, stick_slip_summary
 
     out.mkdir(parents=True, exist_ok=True)
     # Paper case 1 is a torsional study: lateral DOFs frozen (see docs/model.md, "Axial
@@ -73,24 +45,21 @@ def demo(out: Path) -> int:
     t0 = time.perf_counter()
     for rpm in (50.0, 100.0):
         tic = time.perf_counter()
-        sim, rec = _run_case(config, rpm, wob, seconds)
+        run = simulate(config, rpm, wob, seconds, progress=f"{rpm:.0f} rpm")
         wall = time.perf_counter() - tic
-        runs[rpm] = rec
-        window = rec[rec[:, 0] > seconds / 2]
-        col = {name: i for i, name in enumerate(RECORD_CHANNELS)}
-        bit = window[:, col["bit_speed"]]
-        rop = window[:, col["rop"]]
+        runs[rpm] = run
+        window = run.window(seconds / 2)
+        bit = window[:, COL["bit_speed"]]
         rows.append({
             "rpm": rpm,
             "wob_kN": wob / 1e3,
-            "ssi": metrics.stick_slip_severity(bit),
-            "stuck_fraction": metrics.stuck_fraction(bit),
+            **stick_slip_summary(run, seconds / 2),
             "bit_rpm_min": float(bit.min() / RPM),
             "bit_rpm_max": float(bit.max() / RPM),
-            "mean_tob_kNm": float(window[:, col["torque_on_bit"]].mean() / 1e3),
-            "rop_m_per_h": float(rop.mean() * 3600),
+            "mean_tob_kNm": float(window[:, COL["torque_on_bit"]].mean() / 1e3),
+            "rop_m_per_h": float(window[:, COL["rop"]].mean() * 3600),
             "real_time_factor": seconds / wall,
-            "status": sim.status_message or "ok",
+            "status": run.status or "ok",
         })
     header = (f"{'rpm':>5} {'SSI':>6} {'stuck':>6} {'bit rpm min-max':>16} "
               f"{'TOB kN m':>9} {'ROP m/h':>8} {'x real time':>11}")
@@ -108,9 +77,9 @@ def demo(out: Path) -> int:
 
     fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     for ax, rpm in zip(axes, (50.0, 100.0), strict=True):
-        rec = runs[rpm]
-        ax.plot(rec[:, 0], rec[:, 1] / RPM, lw=0.8, label="bit")
-        ax.plot(rec[:, 0], rec[:, 2] / RPM, lw=0.8, label="surface")
+        run = runs[rpm]
+        ax.plot(run.time, run.channel("bit_speed") / RPM, lw=0.8, label="bit")
+        ax.plot(run.time, run.channel("surface_speed") / RPM, lw=0.8, label="surface")
         ax.set_ylabel("speed (rpm)")
         ax.set_title(f"{rpm:.0f} rpm set point, WOB 100 kN, hard rock")
         ax.legend(loc="upper right")

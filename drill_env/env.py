@@ -13,7 +13,13 @@ import numpy as np
 from gymnasium import spaces
 
 from drill_env import metrics
-from drill_env.physics.config import SimulationConfig, from_dict, replace
+from drill_env.physics.config import (
+    SimulationConfig,
+    from_dict,
+    replace,
+    require_non_negative,
+    require_positive,
+)
 from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
 from drill_env.scenarios import RANDOMISED, Scenario, make_scenario, scenario_parameters
 
@@ -99,24 +105,15 @@ class EnvConfig:
     rop_scale: float = 0.01
 
     def __post_init__(self) -> None:
-        def finite(name: str, positive: bool = False, non_negative: bool = False) -> None:
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v)):
-                raise ValueError(f"{name}: must be a finite number, got {v!r}")
-            if positive and not v > 0:
-                raise ValueError(f"{name}: must be > 0, got {v!r}")
-            if non_negative and v < 0:
-                raise ValueError(f"{name}: must be >= 0, got {v!r}")
-
         for name in ("control_interval", "rpm_step", "weight_on_bit_step", "drawworks_rate",
                      "makeup_torque", "metric_window", "ssi_cap", "torque_scale",
                      "force_scale", "rop_scale"):
-            finite(name, positive=True)
+            require_positive(getattr(self, name), name)
         for name in ("observation_noise", "rop_weight", "stick_slip_weight", "whirl_weight",
                      "effort_weight", "failure_weight"):
-            finite(name, non_negative=True)
+            require_non_negative(getattr(self, name), name)
         if self.episode_duration is not None:
-            finite("episode_duration", positive=True)
+            require_positive(self.episode_duration, "episode_duration")
         for name in ("rpm_range", "weight_on_bit_range"):
             rng = getattr(self, name)
             if len(rng) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v)

@@ -51,6 +51,9 @@ from drill_env.physics.config import (
     SolverConfig,
     StringConfig,
     replace,
+    require_finite,
+    require_non_negative,
+    require_positive,
 )
 from drill_env.physics.formation import interface_depth_for_share
 
@@ -108,14 +111,9 @@ class Scenario:
     description: str = ""
 
     def __post_init__(self) -> None:
-        for name in ("surface_speed", "weight_on_bit", "episode_duration"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value)):
-                raise ValueError(f"{name}: must be a finite number, got {value!r}")
-        if self.weight_on_bit < 0:
-            raise ValueError(f"weight_on_bit: must be >= 0, got {self.weight_on_bit}")
-        if self.episode_duration <= 0:
-            raise ValueError(f"episode_duration: must be > 0, got {self.episode_duration}")
+        require_finite(self.surface_speed, "surface_speed")
+        require_non_negative(self.weight_on_bit, "weight_on_bit")
+        require_positive(self.episode_duration, "episode_duration")
 
 
 # --------------------------------------------------------------------------- helpers
@@ -130,8 +128,7 @@ def with_string_length(config: SimulationConfig, string_length: float | None) ->
     if string_length is None:
         return config
     bha = config.string.bha.length
-    if not (isinstance(string_length, (int, float)) and math.isfinite(string_length)):
-        raise ValueError(f"string_length: must be a finite number, got {string_length!r}")
+    require_finite(string_length, "string_length")
     if string_length <= bha:
         raise ValueError(f"string_length: {string_length} m must exceed the BHA length "
                          f"{bha} m (BHA longer than the string)")
@@ -249,8 +246,7 @@ def _lateral_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
     The bit starts ``lead`` metres above ``position`` (P1 by default: the front just
     touching the soft layer), so it drills rock 1 first and then crosses the layer.
     """
-    if not (isinstance(lead, (int, float)) and math.isfinite(lead) and lead >= 0):
-        raise ValueError(f"lead: must be a finite number >= 0, got {lead!r}")
+    require_non_negative(lead, "lead")
     cfg = _base(None, bit)
     cfg = replace(cfg, string=collar_weighted_string(cfg.string))
     cfg = replace(with_string_length(cfg, string_length), initial_depth=None)

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from tqdm import tqdm
 
 from drill_env import metrics
 from drill_env.physics.config import SimulationConfig, replace
@@ -44,8 +45,12 @@ class Run:
 
 
 def simulate(config: SimulationConfig, rpm: float, weight_on_bit: float, seconds: float,
-             record_every: int = 10, kick: float = 0.01, chunk_seconds: float = 1.0) -> Run:
-    """Drill at constant set point and WOB from the settled state, with a small kick."""
+             record_every: int = 10, kick: float = 0.01, chunk_seconds: float = 1.0,
+             progress: str | None = None) -> Run:
+    """Drill at constant set point and WOB from the settled state, with a small kick.
+
+    ``progress``: label of a tqdm progress bar over the simulated seconds (None: none).
+    """
     sim = Simulator(config)
     sim.reset(OperatingPoint(rpm * RPM, weight_on_bit))
     sim.vt[-1] *= 1.0 - kick  # steady rotation is an equilibrium; the kick tests it
@@ -54,12 +59,17 @@ def simulate(config: SimulationConfig, rpm: float, weight_on_bit: float, seconds
     records, times, shares = [], [], []
     hook = sim.hook_load_for(weight_on_bit)
     done = 0
+    bar = tqdm(total=steps, desc=progress, leave=False) if progress is not None else None
     while done < steps and not sim.status:
         n = min(chunk, steps - done)
         records.append(sim.advance(n, rpm * RPM, hook, record_every))
         done += n
         times.append(sim.time)
         shares.append(sim.rock_share)
+        if bar is not None:
+            bar.update(n)
+    if bar is not None:
+        bar.close()
     return Run(config, np.concatenate(records), np.asarray(times), np.asarray(shares),
                sim.status_message)
 

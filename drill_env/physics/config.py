@@ -24,18 +24,19 @@ def _require(condition: bool, name: str, message: str) -> None:
         raise ValueError(f"{name}: {message}")
 
 
-def _finite(value: float, name: str) -> None:
+def require_finite(value: float, name: str) -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``value`` is a finite number."""
     _require(isinstance(value, (int, float)) and math.isfinite(value), name,
              f"must be a finite number, got {value!r}")
 
 
-def _positive(value: float, name: str) -> None:
-    _finite(value, name)
+def require_positive(value: float, name: str) -> None:
+    require_finite(value, name)
     _require(value > 0, name, f"must be > 0, got {value!r}")
 
 
-def _non_negative(value: float, name: str) -> None:
-    _finite(value, name)
+def require_non_negative(value: float, name: str) -> None:
+    require_finite(value, name)
     _require(value >= 0, name, f"must be >= 0, got {value!r}")
 
 
@@ -58,8 +59,8 @@ class Section:
     def __post_init__(self) -> None:
         for name in ("length", "outer_diameter", "element_length", "youngs_modulus",
                      "shear_modulus", "density"):
-            _positive(getattr(self, name), name)
-        _non_negative(self.inner_diameter, "inner_diameter")
+            require_positive(getattr(self, name), name)
+        require_non_negative(self.inner_diameter, "inner_diameter")
         _require(self.inner_diameter < self.outer_diameter, "inner_diameter",
                  "must be smaller than outer_diameter")
         _require(self.element_length <= self.length, "element_length",
@@ -124,8 +125,8 @@ class StringConfig:
     stabilizer_diameter: float = 8.625 * INCH
 
     def __post_init__(self) -> None:
-        _positive(self.hole_diameter, "hole_diameter")
-        _positive(self.stabilizer_diameter, "stabilizer_diameter")
+        require_positive(self.hole_diameter, "hole_diameter")
+        require_positive(self.stabilizer_diameter, "stabilizer_diameter")
         _require(self.stabilizer_diameter < self.hole_diameter, "stabilizer_diameter",
                  "must be smaller than hole_diameter (clearance <= 0)")
         for k, pos in enumerate(self.stabilizers):
@@ -159,9 +160,9 @@ class MudConfig:
     torsional_damping: float = 0.1
 
     def __post_init__(self) -> None:
-        _non_negative(self.density, "density")
-        _non_negative(self.added_mass_coefficient, "added_mass_coefficient")
-        _non_negative(self.torsional_damping, "torsional_damping")
+        require_non_negative(self.density, "density")
+        require_non_negative(self.added_mass_coefficient, "added_mass_coefficient")
+        require_non_negative(self.torsional_damping, "torsional_damping")
 
 
 @dataclass(frozen=True)
@@ -179,8 +180,8 @@ class DampingConfig:
     stiffness_proportional: float = 1.0e-4
 
     def __post_init__(self) -> None:
-        _non_negative(self.mass_proportional, "mass_proportional")
-        _non_negative(self.stiffness_proportional, "stiffness_proportional")
+        require_non_negative(self.mass_proportional, "mass_proportional")
+        require_non_negative(self.stiffness_proportional, "stiffness_proportional")
 
 
 @dataclass(frozen=True)
@@ -203,9 +204,9 @@ class ContactConfig:
 
     def __post_init__(self) -> None:
         for name in ("stiffness", "friction_decay_speed", "regularisation_speed"):
-            _positive(getattr(self, name), name)
+            require_positive(getattr(self, name), name)
         for name in ("damping", "friction_static", "friction_kinetic"):
-            _non_negative(getattr(self, name), name)
+            require_non_negative(getattr(self, name), name)
 
 
 @dataclass(frozen=True)
@@ -225,13 +226,13 @@ class TopDriveConfig:
     max_acceleration: float = 3.0
 
     def __post_init__(self) -> None:
-        _positive(self.inertia, "inertia")
-        _positive(self.max_torque, "max_torque")
-        _positive(self.max_acceleration, "max_acceleration")
+        require_positive(self.inertia, "inertia")
+        require_positive(self.max_torque, "max_torque")
+        require_positive(self.max_acceleration, "max_acceleration")
         for name in ("proportional_gain", "integral_gain"):
             value = getattr(self, name)
             if value is not None:
-                _non_negative(value, name)
+                require_non_negative(value, name)
 
 
 # --------------------------------------------------------------------------- bit & rock
@@ -259,9 +260,9 @@ class RockConfig:
 
     def __post_init__(self) -> None:
         for name in ("mu_min", "mu_max", "st2", "wall_damping", "depth_of_cut"):
-            _non_negative(getattr(self, name), name)
+            require_non_negative(getattr(self, name), name)
         for name in ("st1", "wall_stiffness"):
-            _positive(getattr(self, name), name)
+            require_positive(getattr(self, name), name)
         _require(self.mu_max >= self.mu_min, "mu_max", "must be >= mu_min")
 
 
@@ -279,9 +280,9 @@ class Interface:
     azimuth: float = 0.0
 
     def __post_init__(self) -> None:
-        _finite(self.depth, "depth")
-        _finite(self.dip, "dip")
-        _finite(self.azimuth, "azimuth")
+        require_finite(self.depth, "depth")
+        require_finite(self.dip, "dip")
+        require_finite(self.azimuth, "azimuth")
         _require(0.0 <= self.dip < 90.0, "dip", f"must be in [0, 90) deg, got {self.dip}")
 
 
@@ -342,8 +343,8 @@ class BitConfig:
     def __post_init__(self) -> None:
         n = len(self.blade_angles)
         _require(n >= 1, "blade_angles", "needs at least one blade")
-        _positive(self.diameter, "diameter")
-        _positive(self.gauge_clearance, "gauge_clearance")
+        require_positive(self.diameter, "diameter")
+        require_positive(self.gauge_clearance, "gauge_clearance")
         _require(self.gauge_clearance < self.diameter / 2, "gauge_clearance",
                  "must be smaller than the bit radius")
         _require(0.0 < self.shoulder_angle <= 90.0, "shoulder_angle",
@@ -357,7 +358,7 @@ class BitConfig:
             values = getattr(self, name)
             _require(len(values) == n, name, f"needs one value per blade ({n}), got {len(values)}")
             for v in values:
-                _non_negative(v, name)
+                require_non_negative(v, name)
         for i in range(n):
             _require(self.face_start[i] < self.face_end[i], f"face_end[{i}]",
                      "must be larger than face_start")
@@ -366,8 +367,8 @@ class BitConfig:
             _require(r_c <= self.gauge_radius + 1e-9, f"shoulder_length[{i}]",
                      f"blade reaches radius {r_c:.4f} m beyond the gauge radius "
                      f"{self.gauge_radius:.4f} m")
-        _positive(self.mass, "mass")
-        _positive(self.inertia, "inertia")
+        require_positive(self.mass, "mass")
+        require_positive(self.inertia, "inertia")
 
     @property
     def hole_radius(self) -> float:
@@ -397,7 +398,7 @@ class SolverConfig:
     lateral: bool = True
 
     def __post_init__(self) -> None:
-        _positive(self.time_step, "time_step")
+        require_positive(self.time_step, "time_step")
 
 
 BIT_MODELS = ("mesoscopic", "macroscopic")
@@ -424,7 +425,7 @@ class SimulationConfig:
         _require(self.bit.diameter <= self.string.hole_diameter + 1e-12, "bit.diameter",
                  "must not exceed string.hole_diameter")
         if self.initial_depth is not None:
-            _finite(self.initial_depth, "initial_depth")
+            require_finite(self.initial_depth, "initial_depth")
 
 
 # --------------------------------------------------------------------------- dict / YAML

@@ -52,10 +52,8 @@ P_HOLE_RADIUS = 16
 P_MACRO_BIT = 17
 P_LEVER_ARM = 18
 P_G_BIT = 19
-P_GAUGE_RADIUS = 20
-P_STRING_WEIGHT = 21
-P_LATERAL = 22  # 1: coupled lateral + torsion, 0: torsion only (lateral frozen)
-N_PARAMS = 23
+P_LATERAL = 20  # 1: coupled lateral + torsion, 0: torsion only (lateral frozen)
+N_PARAMS = 21
 
 # ----------------------------------------------------------------- scalar state indices
 S_TIME = 0

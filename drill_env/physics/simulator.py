@@ -13,7 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from drill_env.physics import integrator as ig
-from drill_env.physics.bit import bit_lever_arm, blade_arrays, make_bit_scratch
+from drill_env.physics.bit import (
+    bit_lever_arm,
+    blade_arrays,
+    make_bit_scratch,
+    mesoscopic_bit_loads,
+)
 from drill_env.physics.config import GRAVITY, SimulationConfig
 from drill_env.physics.fem import (
     LATERAL_BANDWIDTH,
@@ -22,6 +27,7 @@ from drill_env.physics.fem import (
     assemble_torsion,
     axial_force_profile,
     build_mesh,
+    from_band,
     mud_torsional_damping,
     to_band,
 )
@@ -182,9 +188,7 @@ class Simulator:
         effective mass.
         """
         cfg = self.config
-        _, _, m_lat = assemble_lateral(self.mesh)
-        node_mass = m_lat[0::2].copy()
-        node_mass[-1] += cfg.bit.mass
+        node_mass = self.lat_m[0::2]  # lumped node masses, the bit's included
         limits = []
         if cfg.contact.enabled:
             limits.append(2.0 * math.sqrt(np.min(node_mass[1:]) / cfg.contact.stiffness))
@@ -217,8 +221,6 @@ class Simulator:
         p[ig.P_HOLE_RADIUS] = cfg.string.hole_diameter / 2
         p[ig.P_MACRO_BIT] = 1.0 if cfg.bit_model == "macroscopic" else 0.0
         p[ig.P_LEVER_ARM] = self.lever_arm
-        p[ig.P_GAUGE_RADIUS] = cfg.bit.gauge_radius
-        p[ig.P_STRING_WEIGHT] = self.string_weight
         p[ig.P_LATERAL] = 1.0 if cfg.solver.lateral else 0.0
         self.params = p
 
@@ -234,8 +236,6 @@ class Simulator:
         self.tor_factor = np.zeros_like(band)
         if not band_cholesky(band, self.tor_factor):
             raise ValueError("torsional system matrix is not positive definite")
-        from drill_env.physics.fem import from_band
-
         a_inv = np.linalg.inv(from_band(band))
         self.col_bit = a_inv[:, -1].copy()
         self.params[ig.P_G_BIT] = self.params[ig.P_GAMMA] * self.dt * a_inv[-1, -1]
@@ -243,8 +243,6 @@ class Simulator:
 
     def _compute_compliance(self) -> None:
         """Tangential compliance of each contact point within one step (friction cap)."""
-        from drill_env.physics.fem import from_band
-
         work = np.zeros_like(self.lat_k)
         factor = np.zeros_like(self.lat_k)
         if not ig.factor_lateral(self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m,
@@ -301,8 +299,6 @@ class Simulator:
         return float(self.bit_out[0]) * math.copysign(1.0, surface_speed)
 
     def _bit_loads(self, omega: float, wob: float) -> np.ndarray:
-        from drill_env.physics.bit import mesoscopic_bit_loads
-
         mesoscopic_bit_loads(self.blades, self.normals, self.offsets, self.layer_rock,
                              self.rock_params, self.ul[-2, 0], self.ul[-2, 1], 0.0, 0.0,
                              self.depth, self.ut[-1], omega, wob, self.params[ig.P_HOLE_RADIUS],
@@ -334,8 +330,6 @@ class Simulator:
         load = -drag.copy()
         load[-1] -= tob
         total = -load.sum()  # motor torque that balances everything
-        from drill_env.physics.fem import from_band
-
         k = from_band(self.tor_k)[1:, 1:]
         self.ut[1:] = np.linalg.solve(k, load[1:])
         self.vt[:] = omega
