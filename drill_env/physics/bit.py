@@ -57,7 +57,10 @@ R_C = 3
 ALPHA_SH = 4
 L_SH = 5
 L_G = 6
-N_BLADE_COLUMNS = 7
+COS_PHI = 7  # cos and sin of PHI, so a step needs one sincos (of phi_z), not one per blade
+SIN_PHI = 8
+RISE_SH = 9  # l_sh cos(alpha_sh): height of point C above the face
+N_BLADE_COLUMNS = 10
 
 # Segment codes of the pieces.
 FACE = 0
@@ -84,7 +87,8 @@ N_OUT_FIXED = 10
 
 
 def blade_arrays(cfg: BitConfig) -> np.ndarray:
-    """``(n_blades, 7)``: ``[phi (rad), r_A, r_B, r_C, alpha_sh (rad), l_sh, l_g]`` (eq. 29)."""
+    """``(n_blades, 10)``: ``[phi (rad), r_A, r_B, r_C, alpha_sh (rad), l_sh, l_g, cos phi,
+    sin phi, l_sh cos alpha_sh]`` (eq. 29)."""
     n = cfg.n_blades
     alpha = math.radians(cfg.shoulder_angle)
     blades = np.empty((n, N_BLADE_COLUMNS))
@@ -97,6 +101,9 @@ def blade_arrays(cfg: BitConfig) -> np.ndarray:
         blades[i, ALPHA_SH] = alpha
         blades[i, L_SH] = cfg.shoulder_length[i]
         blades[i, L_G] = cfg.gauge_length[i]
+        blades[i, COS_PHI] = math.cos(blades[i, PHI])
+        blades[i, SIN_PHI] = math.sin(blades[i, PHI])
+        blades[i, RISE_SH] = cfg.shoulder_length[i] * math.cos(alpha)
     return blades
 
 
@@ -192,7 +199,16 @@ def make_loads_out(n_rocks: int) -> np.ndarray:
 # --------------------------------------------------------------------------- kernels
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _blade_direction(blades, i, cos_z, sin_z):
+    """(cos theta_i, sin theta_i) of theta_i = phi_i + phi_z (eq. 35) from the stored
+    cos/sin of phi_i and those of phi_z: two rotations' worth of multiplies, no sincos."""
+    c = blades[i, COS_PHI] * cos_z - blades[i, SIN_PHI] * sin_z
+    s = blades[i, SIN_PHI] * cos_z + blades[i, COS_PHI] * sin_z
+    return c, s
+
+
+@njit(cache=True, inline="always")
 def _split_segment(x0, y0, z0, x1, y1, z1, r0, r1, length, blade, segment, normals,
                    offsets, layer_rock, piece_blade, piece_segment, piece_rock,
                    piece_length, piece_lever, n):
@@ -235,19 +251,26 @@ def split_blades(blades, normals, offsets, layer_rock, bx, by, depth, phi_z, pie
     (blade-major, then segment, then along the segment). Zero-length segments give no
     piece. The rock of a piece is that of its midpoint, so the split is exact.
     """
+    return _split_blades(blades, normals, offsets, layer_rock, bx, by, depth,
+                         math.cos(phi_z), math.sin(phi_z), piece_blade, piece_segment,
+                         piece_rock, piece_length, piece_lever)
+
+
+@njit(cache=True)
+def _split_blades(blades, normals, offsets, layer_rock, bx, by, depth, cos_z, sin_z,
+                  piece_blade, piece_segment, piece_rock, piece_length, piece_lever):
+    """:func:`split_blades` with the bit angle given as its cosine and sine."""
     # np.int64(): plain ints, not literals, so _split_segment compiles only once.
     n = np.int64(0)
     face, shoulder, gauge = np.int64(FACE), np.int64(SHOULDER), np.int64(GAUGE)
     for i in range(blades.shape[0]):
-        theta = blades[i, PHI] + phi_z  # eq. (35)
-        c = math.cos(theta)
-        s = math.sin(theta)
+        c, s = _blade_direction(blades, i, cos_z, sin_z)  # eq. (35)
         r_a = blades[i, R_A]
         r_b = blades[i, R_B]
         r_c = blades[i, R_C]
         l_sh = blades[i, L_SH]
         l_g = blades[i, L_G]
-        z_c = depth - l_sh * math.cos(blades[i, ALPHA_SH])
+        z_c = depth - blades[i, RISE_SH]
         z_d = z_c - l_g
         if r_b - r_a > 0.0:
             n = _split_segment(bx + r_a * c, by + r_a * s, depth, bx + r_b * c, by + r_b * s,
@@ -268,7 +291,7 @@ def split_blades(blades, normals, offsets, layer_rock, bx, by, depth, phi_z, pie
 
 
 @njit(cache=True)
-def _front_loads(blades, rock_params, phi_z, omega, wob, n, piece_blade, piece_segment,
+def _front_loads(blades, rock_params, cos_z, sin_z, omega, wob, n, piece_blade, piece_segment,
                  piece_rock, piece_length, piece_lever, out):
     """Front (face + shoulder) torque, lateral force, shares and depth of cut."""
     l_front = 0.0
@@ -276,17 +299,21 @@ def _front_loads(blades, rock_params, phi_z, omega, wob, n, piece_blade, piece_s
         l_front += blades[i, R_B] - blades[i, R_A] + blades[i, L_SH]  # eq. (30)
     load = wob / l_front  # eq. (40): line load on the front blades
     w = abs(omega)
+    last_rock = -1
+    mu = 0.0
     for p in range(n):
         if piece_segment[p] == GAUGE:
             continue
         j = piece_rock[p]
         length = piece_length[p]
-        mu = resistance(w, rock_params[j, MU_MIN], rock_params[j, MU_MAX], rock_params[j, ST1],
-                        rock_params[j, ST2])
+        if j != last_rock:  # pieces come in runs of one rock: one exp per run
+            mu = resistance(w, rock_params[j, MU_MIN], rock_params[j, MU_MAX],
+                            rock_params[j, ST1], rock_params[j, ST2])
+            last_rock = j
         mu0 = rock_params[j, MU_MAX]  # eq. (39) at 0+
-        theta = blades[piece_blade[p], PHI] + phi_z
-        sx = math.sin(theta)
-        cy = -math.cos(theta)
+        c, s = _blade_direction(blades, piece_blade[p], cos_z, sin_z)
+        sx = s
+        cy = -c
         # eqs. (47), (50): cutting force mu l F/L and its torque with the piece lever arm
         out[TORQUE] += mu * piece_lever[p] * length
         out[TORQUE_STATIC] += mu0 * piece_lever[p] * length
@@ -303,7 +330,7 @@ def _front_loads(blades, rock_params, phi_z, omega, wob, n, piece_blade, piece_s
 
 
 @njit(cache=True)
-def _gauge_loads(blades, rock_params, bx, by, vx, vy, phi_z, omega, hole_radius,
+def _gauge_loads(blades, rock_params, bx, by, vx, vy, cos_z, sin_z, omega, hole_radius,
                  tangential_compliance, regularisation_speed, n, piece_blade, piece_segment,
                  piece_rock, piece_length, out):
     """Gauge contact of every blade's point D with the wall (eqs. 36, 37, 55-60)."""
@@ -312,9 +339,7 @@ def _gauge_loads(blades, rock_params, bx, by, vx, vy, phi_z, omega, hole_radius,
         if l_g <= 0.0:
             continue
         r_c = blades[i, R_C]
-        theta = blades[i, PHI] + phi_z
-        c = math.cos(theta)
-        s = math.sin(theta)
+        c, s = _blade_direction(blades, i, cos_z, sin_z)
         px = bx + r_c * c
         py = by + r_c * s
         radius = math.sqrt(px * px + py * py)
@@ -383,11 +408,13 @@ def mesoscopic_bit_loads(blades, normals, offsets, layer_rock, rock_params, bx, 
     """
     for k in range(out.shape[0]):
         out[k] = 0.0
-    n = split_blades(blades, normals, offsets, layer_rock, bx, by, depth, phi_z, piece_blade,
-                     piece_segment, piece_rock, piece_length, piece_lever)
-    _front_loads(blades, rock_params, phi_z, omega, wob, n, piece_blade, piece_segment,
+    cos_z = math.cos(phi_z)
+    sin_z = math.sin(phi_z)
+    n = _split_blades(blades, normals, offsets, layer_rock, bx, by, depth, cos_z, sin_z,
+                      piece_blade, piece_segment, piece_rock, piece_length, piece_lever)
+    _front_loads(blades, rock_params, cos_z, sin_z, omega, wob, n, piece_blade, piece_segment,
                  piece_rock, piece_length, piece_lever, out)
-    _gauge_loads(blades, rock_params, bx, by, vx, vy, phi_z, omega, hole_radius,
+    _gauge_loads(blades, rock_params, bx, by, vx, vy, cos_z, sin_z, omega, hole_radius,
                  tangential_compliance, regularisation_speed, n, piece_blade, piece_segment,
                  piece_rock, piece_length, out)
     return n

@@ -41,7 +41,7 @@ def rock_of_point(point: np.ndarray, normals: np.ndarray, offsets: np.ndarray,
 def blade_points(blade: np.ndarray, bx: float, by: float, depth: float,
                  phi_z: float) -> tuple[np.ndarray, ...]:
     """A, B, C, D of one blade in the hole frame (eq. 35, z down, SPEC geometry)."""
-    phi, r_a, r_b, _r_c, alpha, l_sh, l_g = blade
+    phi, r_a, r_b, _r_c, alpha, l_sh, l_g = blade[:7]  # the geometry, not the cached trig
     r_c = r_b + l_sh * math.sin(alpha)
     direction = np.array([math.cos(phi + phi_z), math.sin(phi + phi_z), 0.0])
     centre = np.array([bx, by, depth])

@@ -93,7 +93,7 @@ def formation_arrays(cfg: FormationConfig) -> FormationArrays:
 # --------------------------------------------------------------------------- kernels
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def resistance(omega, mu_min, mu_max, st1, st2):
     """Bit resistance coefficient mu(omega), omega in rad/s.
 
@@ -113,7 +113,7 @@ def static_resistance(mu_min, mu_max, st1, st2):
     return mu_max
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def layer_at(x, y, z, normals, offsets):
     """Number of interfaces the point (x, y, z) lies below (its layer index)."""
     layer = 0
@@ -123,7 +123,7 @@ def layer_at(x, y, z, normals, offsets):
     return layer
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rock_at(x, y, z, normals, offsets, layer_rock):
     """Rock index at the point (x, y, z)."""
     return layer_rock[layer_at(x, y, z, normals, offsets)]

@@ -25,8 +25,9 @@ from drill_env.physics.bit import mesoscopic_bit_loads
 from drill_env.physics.formation import DEPTH_OF_CUT, MU_MAX, resistance, rock_at
 from drill_env.physics.linalg import (
     band_cholesky,
+    cholesky_to_ldl,
     lateral_residual,
-    solve3_pair,
+    solve3_planes,
     solve_tridiagonal,
     torsion_residual,
 )
@@ -161,7 +162,8 @@ def factor_lateral(lat_k, lat_kg_weight, lat_kg_unit, lat_m, wob, p, work_band, 
     """Assemble A = M + gamma dt C + beta dt^2 (K + K_g(WOB)) and factorise it.
 
     ``K_g(WOB) = K_g,weight - WOB K_g,unit`` because the axial force is linear in WOB.
-    Also stores the total stiffness K + K_g(WOB) used by the residual.
+    Also stores the total stiffness K + K_g(WOB) used by the residual. ``lat_factor``
+    receives the LDL^T form of :func:`~drill_env.physics.linalg.cholesky_to_ldl`.
     """
     dt = p[P_DT]
     c_m = 1.0 + p[P_GAMMA] * dt * p[P_RAYLEIGH_A]
@@ -174,7 +176,10 @@ def factor_lateral(lat_k, lat_kg_weight, lat_kg_unit, lat_m, wob, p, work_band, 
             work_band[d, i] = c_g * k_tot + c_d * lat_k[d, i]
     for i in range(lat_k.shape[1]):
         work_band[0, i] += c_m * lat_m[i]
-    return band_cholesky(work_band, lat_factor)
+    if not band_cholesky(work_band, lat_factor):
+        return False
+    cholesky_to_ldl(lat_factor)
+    return True
 
 
 @njit(cache=True, nogil=True)
@@ -206,16 +211,25 @@ def advance(n_steps, record_every, p, state,
             state[S_STATUS] = STATUS_SINGULAR
             return 0
         state[S_WOB_FACTORED] = wob
-    n_lat = ul.shape[0]
+    n_lat = ul.shape[1]
+    lateral = p[P_LATERAL] > 0.0
+    # Torsion only: the lateral forces are dropped (a = 0), but a lateral velocity set by
+    # the caller still carries the displacement along. A string at rest skips the loops.
+    moving = lateral
+    for c in range(2):
+        for i in range(n_lat):
+            if vl[c, i] != 0.0 or al[c, i] != 0.0:
+                moving = True
     for step in range(n_steps):
         # --- Newmark predictors
         h1 = dt * dt * (0.5 - beta)
         h2 = dt * (1.0 - gamma)
-        for i in range(n_lat):
+        if moving:
             for c in range(2):
-                ul[i, c] += dt * vl[i, c] + h1 * al[i, c]
-                vl[i, c] += h2 * al[i, c]
-                rl[i, c] = 0.0
+                for i in range(n_lat):
+                    ul[c, i] += dt * vl[c, i] + h1 * al[c, i]
+                    vl[c, i] += h2 * al[c, i]
+                    rl[c, i] = 0.0
         for i in range(n):
             ut[i] += dt * vt[i] + h1 * at[i]
             vt[i] += h2 * at[i]
@@ -242,21 +256,20 @@ def advance(n_steps, record_every, p, state,
 
         # --- wall contact at every node (the bit node uses the gauge model instead)
         max_wall = 0.0
-        lateral = p[P_LATERAL] > 0.0
         if lateral and p[P_CONTACT_ON] > 0.0:
             for k in range(1, n):
                 node_force[k] = 0.0
                 if node_contact[k] == 0.0:
                     continue
-                xk = ul[2 * k, 0]
-                yk = ul[2 * k, 1]
+                xk = ul[0, 2 * k]
+                yk = ul[1, 2 * k]
                 if xk * xk + yk * yk <= node_clearance[k] * node_clearance[k]:
                     continue
-                wall_contact(ul[2 * k, 0], ul[2 * k, 1], vl[2 * k, 0], vl[2 * k, 1], vt[k],
+                wall_contact(ul[0, 2 * k], ul[1, 2 * k], vl[0, 2 * k], vl[1, 2 * k], vt[k],
                              node_clearance[k], node_radius[k], p, compliance[k], contact_out)
                 if contact_out[3] > 0.0:
-                    rl[2 * k, 0] += contact_out[0]
-                    rl[2 * k, 1] += contact_out[1]
+                    rl[0, 2 * k] += contact_out[0]
+                    rl[1, 2 * k] += contact_out[1]
                     rt[k] += contact_out[2]
                     node_force[k] = contact_out[3]
                     if contact_out[3] > max_wall:
@@ -264,8 +277,8 @@ def advance(n_steps, record_every, p, state,
         state[S_MAX_WALL_FORCE] = max_wall
 
         # --- bit: rock under the bit, slip resistance at the predicted speed
-        bx = ul[2 * bit, 0]
-        by = ul[2 * bit, 1]
+        bx = ul[0, 2 * bit]
+        by = ul[1, 2 * bit]
         omega_p = vt[bit]
         w_eval = max(abs(omega_p), 1e-9)
         # mu(0) = 0 by eq. (39)'s sign: a bit breaking away from exact rest is evaluated
@@ -288,7 +301,7 @@ def advance(n_steps, record_every, p, state,
             gauge_y = 0.0
         else:
             mesoscopic_bit_loads(blades, normals, offsets, layer_rock, rock_params,
-                                 bx, by, vl[2 * bit, 0], vl[2 * bit, 1], depth, ut[bit],
+                                 bx, by, vl[0, 2 * bit], vl[1, 2 * bit], depth, ut[bit],
                                  omega_bit_eval, wob, p[P_HOLE_RADIUS], compliance[bit], p[P_V_REG],
                                  piece_blade, piece_segment, piece_rock, piece_length,
                                  piece_lever, bit_out)
@@ -300,8 +313,8 @@ def advance(n_steps, record_every, p, state,
             fy_static = bit_out[5]
             gauge_x = bit_out[6]
             gauge_y = bit_out[7]
-            rl[2 * bit, 0] += gauge_x
-            rl[2 * bit, 1] += gauge_y
+            rl[0, 2 * bit] += gauge_x
+            rl[1, 2 * bit] += gauge_y
             rt[bit] += bit_out[8]
             state[S_GAUGE_FORCE] = np.sqrt(bit_out[6] ** 2 + bit_out[7] ** 2)
             state[S_DEPTH_OF_CUT] = bit_out[9]
@@ -333,28 +346,29 @@ def advance(n_steps, record_every, p, state,
         else:
             fbx = -fx_slip
             fby = -fy_slip
-        rl[2 * bit, 0] += fbx
-        rl[2 * bit, 1] += fby
+        rl[0, 2 * bit] += fbx
+        rl[1, 2 * bit] += fby
         state[S_BIT_FX] = fbx + gauge_x
         state[S_BIT_FY] = fby + gauge_y
         if lateral:
             lateral_residual(lat_k_total, lat_k_damp, ul, vl, lat_m, a_ray, rl)
             rl[0, 0] = 0.0  # top node laterally pinned
-            rl[0, 1] = 0.0
-            solve3_pair(lat_factor, rl)
-        else:
-            for i in range(n_lat):
-                rl[i, 0] = 0.0
-                rl[i, 1] = 0.0
+            rl[1, 0] = 0.0
+            solve3_planes(lat_factor, rl)
 
         # --- Newmark correctors
         h3 = beta * dt * dt
         h4 = gamma * dt
-        for i in range(n_lat):
+        if lateral:
             for c in range(2):
-                al[i, c] = rl[i, c]
-                ul[i, c] += h3 * al[i, c]
-                vl[i, c] += h4 * al[i, c]
+                for i in range(n_lat):
+                    al[c, i] = rl[c, i]
+                    ul[c, i] += h3 * al[c, i]
+                    vl[c, i] += h4 * al[c, i]
+        elif moving:
+            for c in range(2):
+                for i in range(n_lat):
+                    al[c, i] = 0.0
         for i in range(n):
             ut[i] += h3 * at[i]
             vt[i] += h4 * at[i]
@@ -371,8 +385,8 @@ def advance(n_steps, record_every, p, state,
         k0 = tor_k[1, 0]  # element 0 stiffness (-off-diagonal)
         state[S_SURFACE_TORQUE] = -k0 * ((ut[0] - ut[1]) + b_ray * (vt[0] - vt[1]))
 
-        if not (np.isfinite(omega_bit) and np.isfinite(ul[2 * bit, 0])
-                and np.isfinite(ul[2 * bit, 1]) and np.isfinite(vt[0])):
+        if not (np.isfinite(omega_bit) and np.isfinite(ul[0, 2 * bit])
+                and np.isfinite(ul[1, 2 * bit]) and np.isfinite(vt[0])):
             state[S_STATUS] = STATUS_NONFINITE
             return n_rec
         if abs(omega_bit) > 1.0e3 or bx * bx + by * by > 1.0:
@@ -380,12 +394,12 @@ def advance(n_steps, record_every, p, state,
             return n_rec
 
         if record_every > 0 and (step + 1) % record_every == 0 and n_rec < record.shape[0]:
-            x = ul[2 * bit, 0]
-            y = ul[2 * bit, 1]
+            x = ul[0, 2 * bit]
+            y = ul[1, 2 * bit]
             r2 = x * x + y * y
             whirl = 0.0
             if r2 > 1e-12:
-                whirl = (x * vl[2 * bit, 1] - vl[2 * bit, 0] * y) / r2
+                whirl = (x * vl[1, 2 * bit] - vl[0, 2 * bit] * y) / r2
             rec = record[n_rec]
             rec[R_TIME] = state[S_TIME]
             rec[R_BIT_SPEED] = omega_bit

@@ -119,110 +119,105 @@ def band_matvec_sub2(band, x, y, scale):
 #: integrator's divergence checks still see a non-finite state.
 FAST = {"reassoc", "contract"}
 # The lateral matrices always have half bandwidth 3 (two DOFs per node, Hermite beams)
-# and torsion bandwidth 1. These unrolled versions avoid the generic loops' bounds
-# branches; tests check them against the generic kernels and numpy.
-
-
-@njit(cache=True, fastmath=FAST)
-def _lateral_row(k_total, k_damp, ul, vl, i, n):
-    s0 = k_total[0, i] * ul[i, 0] + k_damp[0, i] * vl[i, 0]
-    s1 = k_total[0, i] * ul[i, 1] + k_damp[0, i] * vl[i, 1]
-    for d in range(1, 4):
-        j = i + d
-        if j < n:
-            s0 += k_total[d, i] * ul[j, 0] + k_damp[d, i] * vl[j, 0]
-            s1 += k_total[d, i] * ul[j, 1] + k_damp[d, i] * vl[j, 1]
-        j = i - d
-        if j >= 0:
-            s0 += k_total[d, j] * ul[j, 0] + k_damp[d, j] * vl[j, 0]
-            s1 += k_total[d, j] * ul[j, 1] + k_damp[d, j] * vl[j, 1]
-    return s0, s1
+# and torsion bandwidth 1. The lateral kernels below work on PLANE-MAJOR arrays of shape
+# (2, n): each bending plane is one contiguous vector, so the band products run as
+# unit-stride loops along each diagonal that LLVM vectorises. Tests check them against
+# the generic kernels and numpy.
 
 
 @njit(cache=True, fastmath=FAST)
 def lateral_residual(k_total, k_damp, ul, vl, lat_m, mass_damping, rl):
-    """rl -= K_total ul + K_damp vl + mass_damping * M vl, for (n, 2) arrays, bandwidth 3.
+    """rl -= K_total ul + K_damp vl + mass_damping * M vl, plane-major (2, n), bandwidth 3.
 
     ``k_damp`` is b K (stiffness-proportional damping) in the same band layout. The
-    interior rows are unrolled without bounds branches; the three rows at each end take
-    the generic path.
+    symmetric product is taken diagonal by diagonal: each stored diagonal d acts on
+    rows i (with column i + d) and on rows i + d (with column i).
     """
-    n = ul.shape[0]
+    n = ul.shape[1]
+    for c in range(2):
+        u = ul[c]
+        v = vl[c]
+        r = rl[c]
+        for i in range(n):
+            r[i] -= k_total[0, i] * u[i] + (k_damp[0, i] + mass_damping * lat_m[i]) * v[i]
+        for d in range(1, 4):
+            kt = k_total[d]
+            kd = k_damp[d]
+            for i in range(n - d):
+                r[i] -= kt[i] * u[i + d] + kd[i] * v[i + d]
+            for i in range(n - d):
+                r[i + d] -= kt[i] * u[i] + kd[i] * v[i]
+
+
+@njit(cache=True)
+def cholesky_to_ldl(factor):
+    """Rewrite ``band_cholesky``'s factor U (A = U^T U) in place as A = W^T D W.
+
+    W is unit upper triangular, ``factor[d, i] = W[i, i + d]`` for d >= 1, and
+    ``factor[0, i] = 1 / D_i = 1 / U_ii^2``. With a unit diagonal each row of the
+    triangular solves depends on the previous row through one multiply-add only, which
+    halves the latency chain of :func:`solve3_planes`.
+    """
+    p = factor.shape[0] - 1
+    n = factor.shape[1]
     for i in range(n):
-        m = mass_damping * lat_m[i]
-        rl[i, 0] -= m * vl[i, 0]
-        rl[i, 1] -= m * vl[i, 1]
-    edge = min(3, n)
-    for i in range(edge):
-        s0, s1 = _lateral_row(k_total, k_damp, ul, vl, i, n)
-        rl[i, 0] -= s0
-        rl[i, 1] -= s1
-    for i in range(max(edge, n - 3), n):
-        s0, s1 = _lateral_row(k_total, k_damp, ul, vl, i, n)
-        rl[i, 0] -= s0
-        rl[i, 1] -= s1
-    for i in range(3, n - 3):
-        a0 = k_total[0, i]
-        a1 = k_total[1, i]
-        a2 = k_total[2, i]
-        a3 = k_total[3, i]
-        b1 = k_total[1, i - 1]
-        b2 = k_total[2, i - 2]
-        b3 = k_total[3, i - 3]
-        c0 = k_damp[0, i]
-        c1 = k_damp[1, i]
-        c2 = k_damp[2, i]
-        c3 = k_damp[3, i]
-        e1 = k_damp[1, i - 1]
-        e2 = k_damp[2, i - 2]
-        e3 = k_damp[3, i - 3]
-        for c in range(2):
-            rl[i, c] -= (a0 * ul[i, c] + a1 * ul[i + 1, c] + a2 * ul[i + 2, c]
-                         + a3 * ul[i + 3, c] + b1 * ul[i - 1, c] + b2 * ul[i - 2, c]
-                         + b3 * ul[i - 3, c]
-                         + c0 * vl[i, c] + c1 * vl[i + 1, c] + c2 * vl[i + 2, c]
-                         + c3 * vl[i + 3, c] + e1 * vl[i - 1, c] + e2 * vl[i - 2, c]
-                         + e3 * vl[i - 3, c])
+        inv_u = factor[0, i]  # band_cholesky stores 1 / U_ii
+        for d in range(1, p + 1):
+            factor[d, i] *= inv_u
+        factor[0, i] = inv_u * inv_u
 
 
 @njit(cache=True, fastmath=FAST)
-def solve3_pair(factor, b):
-    """band_solve2 specialised to half bandwidth 3."""
-    n = b.shape[0]
-    for i in range(min(n, 3)):
-        s0 = b[i, 0]
-        s1 = b[i, 1]
+def solve3_planes(factor, b):
+    """Solve A X = B in place for plane-major B (2, n), half bandwidth 3, LDL^T factor.
+
+    ``factor`` comes from :func:`cholesky_to_ldl`. Both planes are solved in the same
+    sweep so their independent chains overlap.
+    """
+    n = b.shape[1]
+    x = b[0]
+    y = b[1]
+    for i in range(1, min(n, 3)):  # W^T z = b, first rows
         for k in range(0, i):
             f = factor[i - k, k]
-            s0 -= f * b[k, 0]
-            s1 -= f * b[k, 1]
-        b[i, 0] = s0 * factor[0, i]
-        b[i, 1] = s1 * factor[0, i]
-    for i in range(3, n):
-        f1 = factor[1, i - 1]
-        f2 = factor[2, i - 2]
-        f3 = factor[3, i - 3]
-        s0 = b[i, 0] - f1 * b[i - 1, 0] - f2 * b[i - 2, 0] - f3 * b[i - 3, 0]
-        s1 = b[i, 1] - f1 * b[i - 1, 1] - f2 * b[i - 2, 1] - f3 * b[i - 3, 1]
-        b[i, 0] = s0 * factor[0, i]
-        b[i, 1] = s1 * factor[0, i]
-    for i in range(n - 1, max(n - 4, -1), -1):
-        s0 = b[i, 0]
-        s1 = b[i, 1]
+            x[i] -= f * x[k]
+            y[i] -= f * y[k]
+    # The last three solved values ride in registers (x1..x3, y1..y3): reading them back
+    # from memory would add a store-to-load delay to every row's dependency chain.
+    if n > 3:
+        x1, x2, x3 = x[2], x[1], x[0]
+        y1, y2, y3 = y[2], y[1], y[0]
+        for i in range(3, n):
+            tx = x[i] - factor[3, i - 3] * x3 - factor[2, i - 2] * x2
+            ty = y[i] - factor[3, i - 3] * y3 - factor[2, i - 2] * y2
+            f1 = factor[1, i - 1]
+            x3, x2 = x2, x1
+            y3, y2 = y2, y1
+            x1 = tx - f1 * x1
+            y1 = ty - f1 * y1
+            x[i] = x1
+            y[i] = y1
+    for i in range(n):  # z <- D^-1 z
+        x[i] *= factor[0, i]
+        y[i] *= factor[0, i]
+    for i in range(n - 2, max(n - 4, -1), -1):  # W x = z, last rows
         for j in range(i + 1, n):
             f = factor[j - i, i]
-            s0 -= f * b[j, 0]
-            s1 -= f * b[j, 1]
-        b[i, 0] = s0 * factor[0, i]
-        b[i, 1] = s1 * factor[0, i]
-    for i in range(n - 4, -1, -1):
-        f1 = factor[1, i]
-        f2 = factor[2, i]
-        f3 = factor[3, i]
-        s0 = b[i, 0] - f1 * b[i + 1, 0] - f2 * b[i + 2, 0] - f3 * b[i + 3, 0]
-        s1 = b[i, 1] - f1 * b[i + 1, 1] - f2 * b[i + 2, 1] - f3 * b[i + 3, 1]
-        b[i, 0] = s0 * factor[0, i]
-        b[i, 1] = s1 * factor[0, i]
+            x[i] -= f * x[j]
+            y[i] -= f * y[j]
+    if n > 3:
+        x1, x2, x3 = x[n - 3], x[n - 2], x[n - 1]
+        y1, y2, y3 = y[n - 3], y[n - 2], y[n - 1]
+        for i in range(n - 4, -1, -1):
+            tx = x[i] - factor[3, i] * x3 - factor[2, i] * x2
+            ty = y[i] - factor[3, i] * y3 - factor[2, i] * y2
+            f1 = factor[1, i]
+            x3, x2 = x2, x1
+            y3, y2 = y2, y1
+            x1 = tx - f1 * x1
+            y1 = ty - f1 * y1
+            x[i] = x1
+            y[i] = y1
 
 
 @njit(cache=True, fastmath=FAST)
@@ -230,22 +225,28 @@ def torsion_residual(k_band, k_damp_scale, c_diag, ut, vt, rt):
     """rt -= K ut + b K vt + diag(c) vt for a tridiagonal K (band layout, bandwidth 1)."""
     n = ut.shape[0]
     for i in range(n):
-        x = ut[i] + k_damp_scale * vt[i]
-        s = k_band[0, i] * x + c_diag[i] * vt[i]
-        if i + 1 < n:
-            s += k_band[1, i] * (ut[i + 1] + k_damp_scale * vt[i + 1])
-        if i >= 1:
-            s += k_band[1, i - 1] * (ut[i - 1] + k_damp_scale * vt[i - 1])
-        rt[i] -= s
+        rt[i] -= k_band[0, i] * (ut[i] + k_damp_scale * vt[i]) + c_diag[i] * vt[i]
+    for i in range(n - 1):
+        k = k_band[1, i]
+        rt[i] -= k * (ut[i + 1] + k_damp_scale * vt[i + 1])
+        rt[i + 1] -= k * (ut[i] + k_damp_scale * vt[i])
 
 
 @njit(cache=True, fastmath=FAST)
 def solve_tridiagonal(factor, b):
-    """band_solve specialised to bandwidth 1."""
+    """Solve A x = b in place for a tridiagonal SPD A, given its LDL^T factor.
+
+    ``factor`` comes from :func:`band_cholesky` followed by :func:`cholesky_to_ldl`. The
+    running value stays in a register, so each row costs one multiply-add of latency.
+    """
     n = b.shape[0]
-    b[0] = b[0] * factor[0, 0]
+    prev = b[0]
     for i in range(1, n):
-        b[i] = (b[i] - factor[1, i - 1] * b[i - 1]) * factor[0, i]
-    b[n - 1] = b[n - 1] * factor[0, n - 1]
+        prev = b[i] - factor[1, i - 1] * prev
+        b[i] = prev
+    for i in range(n):
+        b[i] *= factor[0, i]
+    prev = b[n - 1]
     for i in range(n - 2, -1, -1):
-        b[i] = (b[i] - factor[1, i] * b[i + 1]) * factor[0, i]
+        prev = b[i] - factor[1, i] * prev
+        b[i] = prev

@@ -32,7 +32,7 @@ from drill_env.physics.fem import (
     to_band,
 )
 from drill_env.physics.formation import DEPTH_OF_CUT, formation_arrays, resistance, rock_at
-from drill_env.physics.linalg import band_cholesky
+from drill_env.physics.linalg import band_cholesky, cholesky_to_ldl
 
 #: Status set by :meth:`Simulator.advance` when a hook load compresses the string
 #: beyond what the mesh resolves (see :meth:`Simulator.check_mesh_resolves`).
@@ -153,14 +153,18 @@ class Simulator:
         self._compute_compliance()
 
         # ---- state
+        # Lateral state is stored plane-major, (2, 2n): each bending plane is one
+        # contiguous vector for the kernel. ``ul``/``vl``/``al`` are (2n, 2) views of
+        # the same memory (row = DOF, column = plane x/y) for readers and tests.
         nl = 2 * n
-        self.ul = np.zeros((nl, 2))
-        self.vl = np.zeros((nl, 2))
-        self.al = np.zeros((nl, 2))
+        self.lat_planes = np.zeros((3, 2, nl))  # displacement, velocity, acceleration
+        self.ul = self.lat_planes[0].T
+        self.vl = self.lat_planes[1].T
+        self.al = self.lat_planes[2].T
         self.ut = np.zeros(n)
         self.vt = np.zeros(n)
         self.at = np.zeros(n)
-        self.rl = np.zeros((nl, 2))
+        self.rl = np.zeros((2, nl))  # plane-major residual / acceleration scratch
         self.rt = np.zeros(n)
         self.contact_out = np.zeros(4)
         self.node_force = np.zeros(n)
@@ -236,6 +240,7 @@ class Simulator:
         self.tor_factor = np.zeros_like(band)
         if not band_cholesky(band, self.tor_factor):
             raise ValueError("torsional system matrix is not positive definite")
+        cholesky_to_ldl(self.tor_factor)
         a_inv = np.linalg.inv(from_band(band))
         self.col_bit = a_inv[:, -1].copy()
         self.params[ig.P_G_BIT] = self.params[ig.P_GAMMA] * self.dt * a_inv[-1, -1]
@@ -389,8 +394,8 @@ class Simulator:
             self.lat_work_band, self.lat_k_total, self.lat_k_damp, self.tor_k, self.tor_c,
             self.tor_factor, self.col_bit,
             self.node_clearance, self.node_radius, self.node_contact, self.compliance,
-            self.ul, self.vl, self.al, self.ut, self.vt, self.at,
-            self.rl, self.rt, self.contact_out, self.node_force,
+            self.lat_planes[0], self.lat_planes[1], self.lat_planes[2], self.ut, self.vt,
+            self.at, self.rl, self.rt, self.contact_out, self.node_force,
             self.blades, self.normals, self.offsets, self.layer_rock, self.rock_params,
             *self.bit_scratch, self.bit_out, self._record)
         return self._record[:n_rec].copy()
