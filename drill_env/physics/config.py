@@ -386,6 +386,20 @@ class BitConfig:
 # --------------------------------------------------------------------------- simulation
 
 
+FIDELITY_LEVELS = ("full", "fast")
+#: Fast level: 25 m drill-pipe elements keep the first torsional frequency of the
+#: default string within 0.1 % (40 linear elements over 1000 m; tests/physics/
+#: test_fidelity.py) and the torsional wave resolved to ~10 Hz.
+FAST_PIPE_ELEMENT_LENGTH = 20.0
+#: Fast level step: the explicit contact and gauge terms are stable up to half their
+#: critical step (~3.7 ms for 1 m collar elements at the default wall stiffness;
+#: Simulator.stable_time_step shortens a longer request).
+FAST_TIME_STEP = 4.0e-3
+#: Fast level: 0.8 of the lumped-mass critical step (the full model takes 0.5). Stable
+#: with the stick-slip metrics unchanged in tests/physics/test_fidelity.py.
+FAST_CRITICAL_STEP_FRACTION = 0.8
+
+
 @dataclass(frozen=True)
 class SolverConfig:
     """Time integration (see docs/model.md, "Integrator")."""
@@ -396,9 +410,30 @@ class SolverConfig:
     #: False freezes the lateral DOFs (torsion only): the paper's case 1 studies torsion
     #: alone, and torsion-only runs are ~3x cheaper for stability maps.
     lateral: bool = True
+    #: False holds the drill pipe laterally straight (no lateral DOFs above the BHA; the
+    #: BHA top node is pinned) while the BHA keeps its full lateral FE model and wall
+    #: contacts. Valid while the pipe is in tension (neutral point in the BHA), where the
+    #: whirl and bit-wall contacts live in the BHA.
+    pipe_lateral: bool = True
+    #: "full": the model as configured. "fast": the training level of docs/performance.md,
+    #: resolved by :meth:`SimulationConfig.resolved`: pipe laterally straight
+    #: (``pipe_lateral=False``), drill-pipe elements of at least
+    #: ``FAST_PIPE_ELEMENT_LENGTH``, a time step of ``FAST_TIME_STEP`` and
+    #: ``FAST_CRITICAL_STEP_FRACTION`` of the critical step.
+    fidelity: str = "full"
+    #: The step is shortened to this fraction of the critical step 2 sqrt(m/k) of the
+    #: explicit wall and gauge penalties, computed from the lumped node mass alone. The
+    #: implicit neighbours add effective mass, so even 1.0 keeps a margin; 0.5 is the
+    #: full model's conservative choice, the fast level uses FAST_CRITICAL_STEP_FRACTION.
+    critical_step_fraction: float = 0.5
 
     def __post_init__(self) -> None:
         require_positive(self.time_step, "time_step")
+        require_positive(self.critical_step_fraction, "critical_step_fraction")
+        _require(self.critical_step_fraction <= 1.0, "critical_step_fraction",
+                 f"must be <= 1 (explicit stability), got {self.critical_step_fraction}")
+        _require(self.fidelity in FIDELITY_LEVELS, "fidelity",
+                 f"must be one of {FIDELITY_LEVELS}, got {self.fidelity!r}")
 
 
 BIT_MODELS = ("mesoscopic", "macroscopic")
@@ -426,6 +461,26 @@ class SimulationConfig:
                  "must not exceed string.hole_diameter")
         if self.initial_depth is not None:
             require_finite(self.initial_depth, "initial_depth")
+
+    def resolved(self) -> SimulationConfig:
+        """This config with ``solver.fidelity`` expanded into the fields it sets.
+
+        "full" returns the config unchanged. "fast" holds the drill pipe laterally
+        straight, coarsens its elements to at least ``FAST_PIPE_ELEMENT_LENGTH`` and
+        requests ``FAST_TIME_STEP`` at ``FAST_CRITICAL_STEP_FRACTION`` of the critical
+        step; the BHA mesh, the bit and the contacts stay.
+        """
+        if self.solver.fidelity == "full":
+            return self
+        pipe = self.string.drill_pipe
+        element = min(max(pipe.element_length, FAST_PIPE_ELEMENT_LENGTH), pipe.length)
+        return replace(self, **{
+            "solver.pipe_lateral": False,
+            "solver.time_step": max(self.solver.time_step, FAST_TIME_STEP),
+            "solver.critical_step_fraction": max(self.solver.critical_step_fraction,
+                                                 FAST_CRITICAL_STEP_FRACTION),
+            "string.drill_pipe.element_length": element,
+        })
 
 
 # --------------------------------------------------------------------------- dict / YAML

@@ -54,7 +54,8 @@ P_MACRO_BIT = 17
 P_LEVER_ARM = 18
 P_G_BIT = 19
 P_LATERAL = 20  # 1: coupled lateral + torsion, 0: torsion only (lateral frozen)
-N_PARAMS = 21
+P_LATERAL_START = 21  # first node with lateral DOFs (> 0: drill pipe held straight)
+N_PARAMS = 22
 
 # ----------------------------------------------------------------- scalar state indices
 S_TIME = 0
@@ -198,6 +199,8 @@ def advance(n_steps, record_every, p, state,
     """
     n = ut.shape[0]
     bit = n - 1
+    l0 = int(p[P_LATERAL_START])  # node k has lateral DOFs 2 (k - l0), 2 (k - l0) + 1
+    lb = 2 * (bit - l0)  # the bit's lateral displacement DOF
     dt = p[P_DT]
     beta = p[P_BETA]
     gamma = p[P_GAMMA]
@@ -257,19 +260,20 @@ def advance(n_steps, record_every, p, state,
         # --- wall contact at every node (the bit node uses the gauge model instead)
         max_wall = 0.0
         if lateral and p[P_CONTACT_ON] > 0.0:
-            for k in range(1, n):
+            for k in range(l0 + 1, n):
                 node_force[k] = 0.0
                 if node_contact[k] == 0.0:
                     continue
-                xk = ul[0, 2 * k]
-                yk = ul[1, 2 * k]
+                j = 2 * (k - l0)
+                xk = ul[0, j]
+                yk = ul[1, j]
                 if xk * xk + yk * yk <= node_clearance[k] * node_clearance[k]:
                     continue
-                wall_contact(ul[0, 2 * k], ul[1, 2 * k], vl[0, 2 * k], vl[1, 2 * k], vt[k],
+                wall_contact(xk, yk, vl[0, j], vl[1, j], vt[k],
                              node_clearance[k], node_radius[k], p, compliance[k], contact_out)
                 if contact_out[3] > 0.0:
-                    rl[0, 2 * k] += contact_out[0]
-                    rl[1, 2 * k] += contact_out[1]
+                    rl[0, j] += contact_out[0]
+                    rl[1, j] += contact_out[1]
                     rt[k] += contact_out[2]
                     node_force[k] = contact_out[3]
                     if contact_out[3] > max_wall:
@@ -277,8 +281,8 @@ def advance(n_steps, record_every, p, state,
         state[S_MAX_WALL_FORCE] = max_wall
 
         # --- bit: rock under the bit, slip resistance at the predicted speed
-        bx = ul[0, 2 * bit]
-        by = ul[1, 2 * bit]
+        bx = ul[0, lb]
+        by = ul[1, lb]
         omega_p = vt[bit]
         w_eval = max(abs(omega_p), 1e-9)
         # mu(0) = 0 by eq. (39)'s sign: a bit breaking away from exact rest is evaluated
@@ -301,7 +305,7 @@ def advance(n_steps, record_every, p, state,
             gauge_y = 0.0
         else:
             mesoscopic_bit_loads(blades, normals, offsets, layer_rock, rock_params,
-                                 bx, by, vl[0, 2 * bit], vl[1, 2 * bit], depth, ut[bit],
+                                 bx, by, vl[0, lb], vl[1, lb], depth, ut[bit],
                                  omega_bit_eval, wob, p[P_HOLE_RADIUS], compliance[bit], p[P_V_REG],
                                  piece_blade, piece_segment, piece_rock, piece_length,
                                  piece_lever, bit_out)
@@ -313,8 +317,8 @@ def advance(n_steps, record_every, p, state,
             fy_static = bit_out[5]
             gauge_x = bit_out[6]
             gauge_y = bit_out[7]
-            rl[0, 2 * bit] += gauge_x
-            rl[1, 2 * bit] += gauge_y
+            rl[0, lb] += gauge_x
+            rl[1, lb] += gauge_y
             rt[bit] += bit_out[8]
             state[S_GAUGE_FORCE] = np.sqrt(bit_out[6] ** 2 + bit_out[7] ** 2)
             state[S_DEPTH_OF_CUT] = bit_out[9]
@@ -346,8 +350,8 @@ def advance(n_steps, record_every, p, state,
         else:
             fbx = -fx_slip
             fby = -fy_slip
-        rl[0, 2 * bit] += fbx
-        rl[1, 2 * bit] += fby
+        rl[0, lb] += fbx
+        rl[1, lb] += fby
         state[S_BIT_FX] = fbx + gauge_x
         state[S_BIT_FY] = fby + gauge_y
         if lateral:
@@ -385,8 +389,8 @@ def advance(n_steps, record_every, p, state,
         k0 = tor_k[1, 0]  # element 0 stiffness (-off-diagonal)
         state[S_SURFACE_TORQUE] = -k0 * ((ut[0] - ut[1]) + b_ray * (vt[0] - vt[1]))
 
-        if not (np.isfinite(omega_bit) and np.isfinite(ul[0, 2 * bit])
-                and np.isfinite(ul[1, 2 * bit]) and np.isfinite(vt[0])):
+        if not (np.isfinite(omega_bit) and np.isfinite(ul[0, lb])
+                and np.isfinite(ul[1, lb]) and np.isfinite(vt[0])):
             state[S_STATUS] = STATUS_NONFINITE
             return n_rec
         if abs(omega_bit) > 1.0e3 or bx * bx + by * by > 1.0:
@@ -394,12 +398,12 @@ def advance(n_steps, record_every, p, state,
             return n_rec
 
         if record_every > 0 and (step + 1) % record_every == 0 and n_rec < record.shape[0]:
-            x = ul[0, 2 * bit]
-            y = ul[1, 2 * bit]
+            x = ul[0, lb]
+            y = ul[1, lb]
             r2 = x * x + y * y
             whirl = 0.0
             if r2 > 1e-12:
-                whirl = (x * vl[1, 2 * bit] - vl[0, 2 * bit] * y) / r2
+                whirl = (x * vl[1, lb] - vl[0, lb] * y) / r2
             rec = record[n_rec]
             rec[R_TIME] = state[S_TIME]
             rec[R_BIT_SPEED] = omega_bit

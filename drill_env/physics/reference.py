@@ -88,6 +88,9 @@ class ReferenceStepper:
     """Dense NumPy integrator of one :class:`Simulator`'s model, on copies of its state."""
 
     def __init__(self, sim) -> None:
+        if sim.lateral_start:
+            raise NotImplementedError("the reference stepper covers solver.pipe_lateral=True "
+                                      "(lateral DOFs on every node) only")
         cfg = sim.config
         self.config = cfg
         mesh = sim.mesh

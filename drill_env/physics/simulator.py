@@ -8,6 +8,7 @@ Gymnasium; the environment layer wraps it.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,7 +75,8 @@ class Simulator:
     """
 
     def __init__(self, config: SimulationConfig | None = None) -> None:
-        self.config = config or SimulationConfig()
+        # solver.fidelity expanded: sim.config shows the mesh and step actually used.
+        self.config = (config or SimulationConfig()).resolved()
         cfg = self.config
         self.mesh: Mesh = build_mesh(cfg)
         mesh = self.mesh
@@ -92,7 +94,14 @@ class Simulator:
             mesh, 1.0, self.bit_buoyed_weight))
         kg_unit = kg_weight - kg_with_unit_wob  # K_g(WOB) = K_g,weight - WOB K_g,unit
         m_lat[-2] += cfg.bit.mass
-        for mat in (k_lat, kg_weight, kg_unit):  # top node laterally pinned
+        # Lateral DOFs start at node ``lateral_start``: 0, or the BHA's top node when the
+        # pipe is held straight (solver.pipe_lateral=False). Dropping the pipe's rows
+        # keeps the pipe element above as a rotational spring on that node's tilt.
+        self.lateral_start = 0 if cfg.solver.pipe_lateral else cfg.string.drill_pipe.n_elements
+        first = 2 * self.lateral_start
+        k_lat, kg_weight, kg_unit = (m[first:, first:] for m in (k_lat, kg_weight, kg_unit))
+        m_lat = m_lat[first:].copy()
+        for mat in (k_lat, kg_weight, kg_unit):  # top (lateral) node pinned
             mat[0, :] = 0.0
             mat[:, 0] = 0.0
         m_lat[0] = 1.0
@@ -125,7 +134,7 @@ class Simulator:
         hole_r = cfg.string.hole_diameter / 2
         self.node_radius = radius
         self.node_contact = np.ones(n)
-        self.node_contact[0] = 0.0
+        self.node_contact[: self.lateral_start + 1] = 0.0  # pinned or held straight
         for height in cfg.string.stabilizers:
             k = int(np.argmin(np.abs(mesh.node_depth[-1] - mesh.node_depth - height)))
             if 0 < k < n - 1:
@@ -156,7 +165,7 @@ class Simulator:
         # Lateral state is stored plane-major, (2, 2n): each bending plane is one
         # contiguous vector for the kernel. ``ul``/``vl``/``al`` are (2n, 2) views of
         # the same memory (row = DOF, column = plane x/y) for readers and tests.
-        nl = 2 * n
+        nl = 2 * (n - self.lateral_start)
         self.lat_planes = np.zeros((3, 2, nl))  # displacement, velocity, acceleration
         self.ul = self.lat_planes[0].T
         self.vl = self.lat_planes[1].T
@@ -184,7 +193,8 @@ class Simulator:
         return kp, ki
 
     def stable_time_step(self) -> float:
-        """Requested step, shortened to half the critical step of the explicit terms.
+        """Requested step, shortened to ``solver.critical_step_fraction`` (default 0.5) of
+        the critical step of the explicit terms.
 
         The implicit string imposes no limit. The explicit wall and gauge penalties act
         on a node mass m with stiffness k (critical step 2 sqrt(m/k)); the limit uses the
@@ -192,14 +202,14 @@ class Simulator:
         effective mass.
         """
         cfg = self.config
-        node_mass = self.lat_m[0::2]  # lumped node masses, the bit's included
+        node_mass = self.lat_m[0::2]  # lumped masses of the lateral nodes, the bit's included
         limits = []
         if cfg.contact.enabled:
             limits.append(2.0 * math.sqrt(np.min(node_mass[1:]) / cfg.contact.stiffness))
         k_rock = max(r.wall_stiffness for r in cfg.formation.rocks)
         limits.append(2.0 * math.sqrt(node_mass[-1] / k_rock))
         dt_crit = min(limits)
-        return min(cfg.solver.time_step, 0.5 * dt_crit)
+        return min(cfg.solver.time_step, cfg.solver.critical_step_fraction * dt_crit)
 
     def _build_parameters(self) -> None:
         cfg = self.config
@@ -226,6 +236,7 @@ class Simulator:
         p[ig.P_MACRO_BIT] = 1.0 if cfg.bit_model == "macroscopic" else 0.0
         p[ig.P_LEVER_ARM] = self.lever_arm
         p[ig.P_LATERAL] = 1.0 if cfg.solver.lateral else 0.0
+        p[ig.P_LATERAL_START] = self.lateral_start
         self.params = p
 
     def _torsion_system(self) -> np.ndarray:
@@ -253,12 +264,13 @@ class Simulator:
         if not ig.factor_lateral(self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m,
                                  0.0, self.params, work, factor, np.zeros_like(self.lat_k)):
             raise ValueError("lateral system matrix is not positive definite")
-        lat_inv = np.diag(np.linalg.inv(from_band(work)))[0::2]
+        lat_inv = np.zeros(self.n_nodes)
+        lat_inv[self.lateral_start:] = np.diag(np.linalg.inv(from_band(work)))[0::2]
         radius = self.node_radius.copy()
         radius[-1] = self.config.bit.gauge_radius
         self.compliance = self.params[ig.P_GAMMA] * self.dt * (
             lat_inv + radius**2 * self._tor_inv_diag)
-        self.compliance[0] = 0.0
+        self.compliance[: self.lateral_start + 1] = 0.0
 
     # ------------------------------------------------------------------ operation
 
@@ -279,6 +291,7 @@ class Simulator:
         n = axial_force_profile(mesh, weight_on_bit, self.bit_buoyed_weight)
         limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
         ratio = -n / limit
+        ratio[: self.lateral_start] = 0.0  # pipe held straight: no lateral DOFs to buckle
         worst = int(np.argmax(ratio))
         if ratio[worst] > 0.8:
             section = "bha" if mesh.is_bha[worst] else "drill_pipe"
@@ -286,6 +299,24 @@ class Simulator:
                 f"weight_on_bit={weight_on_bit:.0f} N compresses element {worst} "
                 f"({section}, {mesh.element_length[worst]:.1f} m) to {ratio[worst]:.0%} of its "
                 f"own buckling load: refine string.{section}.element_length or reduce WOB")
+
+    def _warn_if_straight_pipe_compressed(self, weight_on_bit: float) -> None:
+        """Warn (once per simulator) if a laterally straight pipe would be in compression.
+
+        ``pipe_lateral=False`` (the fast fidelity level) assumes the neutral point lies in
+        the BHA; a compressed pipe would buckle and touch the wall in the full model.
+        """
+        if (self.lateral_start == 0 or not self.config.solver.lateral
+                or getattr(self, "_warned_compression", False)):
+            return
+        force = axial_force_profile(self.mesh, weight_on_bit, self.bit_buoyed_weight)
+        if np.min(force[: self.lateral_start]) < 0.0:
+            self._warned_compression = True
+            warnings.warn(
+                f"weight_on_bit={weight_on_bit:.0f} N puts the drill pipe in compression, but "
+                "solver.pipe_lateral=False (fidelity='fast') holds it straight: pipe buckling "
+                "and its wall contacts are not modelled. Use fidelity='full' or a heavier BHA "
+                "(docs/performance.md).", RuntimeWarning, stacklevel=3)
 
     def weight_on_bit_for(self, hook_load: float) -> float:
         """WOB from hook load; the bit is off bottom when the hook carries everything."""
@@ -330,6 +361,7 @@ class Simulator:
         self.state[ig.S_DEPTH] = depth
         omega, wob = op.surface_speed, op.weight_on_bit
         self.check_mesh_resolves(wob)
+        self._warn_if_straight_pipe_compressed(wob)
         tob = self.steady_torque_on_bit(omega, wob)
         drag = self.tor_c * omega
         load = -drag.copy()
@@ -478,8 +510,10 @@ class Simulator:
 
     @property
     def lateral_displacement(self) -> np.ndarray:
-        """(n_nodes, 2) lateral x, y of every node (m)."""
-        return self.ul[0::2].copy()
+        """(n_nodes, 2) lateral x, y of every node (m); 0 where the pipe is held straight."""
+        xy = np.zeros((self.n_nodes, 2))
+        xy[self.lateral_start:] = self.ul[0::2]
+        return xy
 
     @property
     def contact_forces(self) -> np.ndarray:
