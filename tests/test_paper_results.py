@@ -109,10 +109,17 @@ def test_transition_pushes_the_symmetric_bit_toward_the_wall(case2):
 
 
 def test_very_soft_layer_gives_a_larger_lateral_force_peak(case2, case3):
+    """Peak level = 95th percentile of the lateral force over the transition.
+
+    The single largest sample is one wall impact of a chaotic orbit: it changed order
+    between the cases under round-off-level changes of the kernel (and across initial
+    kicks of 0.5-3 %, case 2's max spans 37-65 kN), while the 95th percentile keeps
+    case 3 above case 2 at every kick (docs/paper-reproduction.md).
+    """
     def peak(run):
         share = run.share_at(run.time, 1)
         transition = (share > 0.01) & (share < 0.99)
-        return lateral_force(run)[transition].max()
+        return np.percentile(lateral_force(run)[transition], 95)
 
     assert peak(case3) > peak(case2)
 
