@@ -45,7 +45,11 @@ OBSERVATIONS: dict[str, tuple[str, ...]] = {
 #: Observations are clipped to +-OBS_BOUND (normalised units).
 OBS_BOUND = 10.0
 
-_COL = {name: k for k, name in enumerate(RECORD_CHANNELS)}
+#: The window metrics in ``info`` (zero while the window is empty or not finite).
+INFO_WINDOW_METRICS = ("ssi", "stuck_fraction", "whirl_ratio", "radial_ratio", "lateral_force",
+                       "mse")
+_METRIC = {name: k for k, name in enumerate(metrics.WINDOW_METRICS)}
+_INFO_METRIC = tuple((name, _METRIC[name]) for name in INFO_WINDOW_METRICS)
 
 
 @dataclass(frozen=True)
@@ -340,23 +344,32 @@ class DrillStringEnv(gym.Env):
 
     def _set_simulator(self, sim: Simulator) -> None:
         self.sim = sim
-        self._steps_per_action = max(1, round(self.config.control_interval / sim.dt))
+        cfg = self.config
+        self._steps_per_action = max(1, round(cfg.control_interval / sim.dt))
         self.weight_on_bit_limit = self._wob_range[1]
-        if self.config.limit_weight_on_bit_to_mesh:
+        if cfg.limit_weight_on_bit_to_mesh:
             self.weight_on_bit_limit = min(self.weight_on_bit_limit, mesh_weight_on_bit_limit(
                 sim, self._wob_range[1]))
+        # Constants of every step, looked up once per simulator (reset may build another).
+        self._max_steps = self.max_episode_steps
+        self._clearance = self.clearance
 
     def _init_episode_state(self) -> None:
         self._step_count = 0
         self._speed_target = 0.0
         self._wob_target = 0.0
         self._wob_applied = 0.0
-        self._history = np.zeros((0, len(RECORD_CHANNELS)))
-        self._obs_queue: deque[np.ndarray] = deque(maxlen=self.config.telemetry_delay + 1)
+        self._effort = 0.0
+        # The metrics of the records of the last ``metric_window`` seconds.
+        record_dt = self.config.record_every * self.sim.dt
+        self._window = metrics.RollingMetrics(
+            max(1, round(self.config.metric_window / record_dt)), RECORD_CHANNELS, record_dt,
+            self._clearance, self.sim.config.bit.diameter)
+        self._window_metrics: tuple[list[float], bool] | None = None
+        self._obs_queue: deque[list[float]] = deque(maxlen=self.config.telemetry_delay + 1)
         self._last_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
         self._episode_energy = 0.0
         self._start_time = 0.0
-        self._pending: dict[str, float] = {}
 
     @property
     def simulation_config(self) -> SimulationConfig:
@@ -405,34 +418,32 @@ class DrillStringEnv(gym.Env):
         sim = self.sim
         if self.config.startup == "settled":
             sim.reset(OperatingPoint(surface_speed=speed, weight_on_bit=wob_start))
-            self._history = np.empty((0, len(RECORD_CHANNELS)))
         else:
             sim.reset(OperatingPoint(0.0, 0.0))
-            self._history = self._paper_startup(speed, wob_start)
+            self._paper_startup(speed, wob_start)
         self._speed_target = speed
         self._wob_target = wob
         self._wob_applied = wob_start
         self._start_time = sim.time
-        obs = self._observation()
-        info = self._info(self._history[-1:] if len(self._history) else None)
-        return obs, info
+        self._window_metrics = self._window.window()
+        info = self._info()
+        return self._observation(info), info
 
-    def _paper_startup(self, speed: float, wob: float) -> np.ndarray:
+    def _paper_startup(self, speed: float, wob: float) -> None:
         """Paper section 4 start-up: ramp rpm over 10 s, hold 10 s off bottom, WOB at 20 s."""
         sim = self.sim
         n = self._steps_per_action
         dt_ctrl = n * sim.dt
         off_bottom = sim.string_weight  # the hook carries everything: WOB = 0
         ramp_steps = max(1, round(10.0 / dt_ctrl))
-        rows = []
         for k in range(ramp_steps):
-            rows.append(sim.advance(n, speed_setpoint=speed * (k + 1) / ramp_steps,
-                                    hook_load=off_bottom, record_every=self.config.record_every))
+            self._window.add(sim.advance(n, speed_setpoint=speed * (k + 1) / ramp_steps,
+                                         hook_load=off_bottom,
+                                         record_every=self.config.record_every))
         for _ in range(ramp_steps):
-            rows.append(sim.advance(n, speed_setpoint=speed, hook_load=off_bottom,
-                                    record_every=self.config.record_every))
+            self._window.add(sim.advance(n, speed_setpoint=speed, hook_load=off_bottom,
+                                         record_every=self.config.record_every))
         sim.advance(0, hook_load=sim.hook_load_for(wob))
-        return self._trim_history(np.concatenate(rows))
 
     def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         self._apply_action(action)
@@ -440,34 +451,40 @@ class DrillStringEnv(gym.Env):
         return self._finish_step(records)
 
     # The three phases of a step are separate so a batched env can advance many
-    # simulators between them (see drill_env.vector).
+    # simulators between them (see drill_env.vector). The Python around the simulator
+    # call runs every step and would cost a third of the physics with a NumPy call per
+    # quantity: it works on floats, and the metrics on a preallocated rolling window.
 
     def _apply_action(self, action) -> None:
         """Validate ``action``, map it to set points (clipped, rate limited)."""
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != (2,):
-            raise ValueError(f"action: expected shape (2,), got {np.shape(action)}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"action: must be finite, got {a.tolist()} (NaN/inf)")
-        a = np.clip(a, -1.0, 1.0)
+        if type(action) is np.ndarray and action.shape == (2,) and action.dtype.char in "fd":
+            a0, a1 = action.tolist()  # the usual float32 policy output, exactly as float64
+        else:
+            a = np.asarray(action, dtype=np.float64).reshape(-1)
+            if a.shape != (2,):
+                raise ValueError(f"action: expected shape (2,), got {np.shape(action)}")
+            a0, a1 = a.tolist()
+        if not (math.isfinite(a0) and math.isfinite(a1)):
+            raise ValueError(f"action: must be finite, got {[a0, a1]} (NaN/inf)")
+        a0 = min(max(a0, -1.0), 1.0)
+        a1 = min(max(a1, -1.0), 1.0)
         cfg = self.config
         s_lo, s_hi = self._speed_range
         w_lo, w_hi = self._wob_range
         if cfg.action_mode == "absolute":
-            speed = s_lo + 0.5 * (a[0] + 1.0) * (s_hi - s_lo)
-            wob = w_lo + 0.5 * (a[1] + 1.0) * (w_hi - w_lo)
+            speed = s_lo + 0.5 * (a0 + 1.0) * (s_hi - s_lo)
+            wob = w_lo + 0.5 * (a1 + 1.0) * (w_hi - w_lo)
         else:
-            speed = self._speed_target + a[0] * cfg.rpm_step * RPM
-            wob = self._wob_target + a[1] * cfg.weight_on_bit_step
-        speed = float(min(max(speed, s_lo), s_hi))
-        wob = float(min(max(wob, w_lo), w_hi))
-        effort = ((speed - self._speed_target) / (s_hi - s_lo)) ** 2 + (
+            speed = self._speed_target + a0 * cfg.rpm_step * RPM
+            wob = self._wob_target + a1 * cfg.weight_on_bit_step
+        speed = min(max(speed, s_lo), s_hi)
+        wob = min(max(wob, w_lo), w_hi)
+        self._effort = ((speed - self._speed_target) / (s_hi - s_lo)) ** 2 + (
             (wob - self._wob_target) / (w_hi - w_lo)) ** 2
         self._speed_target, self._wob_target = speed, wob
         max_change = cfg.drawworks_rate * self.control_interval
-        self._wob_applied += float(np.clip(wob - self._wob_applied, -max_change, max_change))
+        self._wob_applied += min(max(wob - self._wob_applied, -max_change), max_change)
         self._wob_applied = min(self._wob_applied, self.weight_on_bit_limit)
-        self._pending = {"effort": effort}
 
     def _advance(self) -> np.ndarray:
         """Run the simulator over one control interval; returns the records."""
@@ -478,43 +495,41 @@ class DrillStringEnv(gym.Env):
     def _finish_step(self, records: np.ndarray
                      ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         self._step_count += 1
-        if len(records):
-            self._history = self._trim_history(np.concatenate([self._history, records]))
-            self._episode_energy += metrics.top_drive_energy(
-                records[:, _COL["motor_torque"]], records[:, _COL["surface_speed"]],
-                self.config.record_every * self.sim.dt)
-        reason = self._termination_reason(records)
+        step = self._window.add(records)  # metrics of this interval's records, or None
+        if step is not None:
+            self._episode_energy += step[0][_METRIC["top_drive_energy"]]
+            self._window_metrics = self._window.window()
+        reason = self._termination_reason(step)
         terminated = bool(reason)
-        truncated = (not terminated) and self._step_count >= self.max_episode_steps
-        terms = self._reward_terms(records, terminated)
-        obs = self._observation()
-        info = self._info(records if len(records) else None)
+        truncated = (not terminated) and self._step_count >= self._max_steps
+        terms = self._reward_terms(step, terminated)
+        info = self._info()
+        obs = self._observation(info)
         info["reward_terms"] = terms
         info["termination_reason"] = reason
         return obs, float(sum(terms.values())), terminated, truncated, info
 
-    def _trim_history(self, history: np.ndarray) -> np.ndarray:
-        keep = max(1, round(self.config.metric_window / (self.config.record_every * self.sim.dt)))
-        return history[-keep:]
-
     # ------------------------------------------------------------------ hooks
 
-    def _termination_reason(self, records: np.ndarray) -> str:
-        """Why the episode ends now ("" if it goes on)."""
+    def _termination_reason(self, step: tuple[list[float], bool] | None) -> str:
+        """Why the episode ends now ("" if it goes on).
+
+        ``step``: the metrics of this interval's records and whether they are all finite
+        (``None``: no records), from :class:`drill_env.metrics.RollingMetrics`.
+        """
         if self.sim.status != 0:
             return self.sim.status_message
-        torque = np.abs(records[:, _COL["surface_torque"]]) if len(records) else np.zeros(1)
-        if max(float(np.max(torque)), abs(self.sim.surface_torque)) > self.config.makeup_torque:
+        peak = step[0][_METRIC["surface_torque_max"]] if step is not None else 0.0
+        if max(peak, abs(self.sim.surface_torque)) > self.config.makeup_torque:
             return "surface torque above make-up torque"
         return ""
 
-    def _reward_terms(self, records: np.ndarray, terminated: bool) -> dict[str, float]:
-        """The reward terms of this step (they sum to the reward)."""
+    def _reward_terms(self, step: tuple[list[float], bool] | None, terminated: bool
+                      ) -> dict[str, float]:
+        """The reward terms of this step (they sum to the reward); ``step`` as above."""
         cfg = self.config
-        if len(records) and np.all(np.isfinite(records)):
-            rop = metrics.mean_rop(records[:, _COL["rop"]])
-            radial = float(np.mean(metrics.radial_ratio(
-                records[:, _COL["bit_x"]], records[:, _COL["bit_y"]], self.clearance)))
+        if step is not None and step[1]:
+            rop, radial = step[0][_METRIC["rop"]], step[0][_METRIC["radial_ratio"]]
         else:
             rop, radial = 0.0, 1.0
         ssi = self._window_ssi()
@@ -522,58 +537,69 @@ class DrillStringEnv(gym.Env):
             "rop": cfg.rop_weight * rop / cfg.rop_scale,
             "stick_slip": -cfg.stick_slip_weight * min(ssi, cfg.ssi_cap),
             "whirl": -cfg.whirl_weight * radial,
-            "effort": -cfg.effort_weight * self._pending.get("effort", 0.0),
+            "effort": -cfg.effort_weight * self._effort,
             "failure": -cfg.failure_weight if terminated else 0.0,
         }
 
     def _window_ssi(self) -> float:
-        speed = self._history[:, _COL["bit_speed"]] if len(self._history) else None
-        if speed is None or not np.all(np.isfinite(speed)):
-            return math.inf if speed is not None else 0.0
-        return metrics.stick_slip_severity(speed)
+        if self._window_metrics is None:
+            return 0.0
+        values, finite = self._window_metrics
+        if not finite and not np.all(np.isfinite(self._window.bit_speed)):
+            return math.inf
+        return values[_METRIC["ssi"]]
 
-    def _raw_observation(self) -> np.ndarray:
+    def _raw_observation(self, info: dict[str, Any]) -> list[float]:
+        """The observation before delay, noise and clipping, from the SI values of ``info``.
+
+        Entries in the order of :data:`OBSERVATIONS` (``surface`` is the tail of
+        ``downhole``).
+        """
         sim, cfg = self.sim, self.config
         w_max = self._speed_range[1]
         wob_max = self._wob_range[1]
-        c = self.clearance
-        x, y = sim.bit_lateral
-        vx, vy = sim.bit_lateral_velocity
-        fx, fy = sim.bit_lateral_force
-        values = {
-            "torque_on_bit": sim.torque_on_bit / cfg.torque_scale,
-            "bit_speed": sim.bit_speed / w_max,
-            "weight_on_bit": sim.weight_on_bit / wob_max,
-            "bit_x": x / c,
-            "bit_y": y / c,
-            "bit_vx": vx / (c * w_max),
-            "bit_vy": vy / (c * w_max),
-            "whirl_speed": sim.whirl_speed / w_max,
-            "bit_force_x": fx / cfg.force_scale,
-            "bit_force_y": fy / cfg.force_scale,
-            "max_contact_force": float(np.max(sim.contact_forces)) / cfg.force_scale,
-            "surface_speed": sim.surface_speed / w_max,
-            "surface_torque": sim.surface_torque / cfg.torque_scale,
-            "hook_load": sim.hook_load / sim.string_weight,
-            "rop": sim.rop / cfg.rop_scale,
-            "speed_setpoint": self._speed_target / w_max,
-            "weight_on_bit_setpoint": self._wob_target / wob_max,
-        }
-        return np.array([values[n] for n in self.observation_names], dtype=np.float64)
+        surface = [
+            info["surface_speed"] / w_max,
+            info["surface_torque"] / cfg.torque_scale,
+            info["hook_load"] / sim.string_weight,
+            info["rop"] / cfg.rop_scale,
+            self._speed_target / w_max,
+            self._wob_target / wob_max,
+        ]
+        if cfg.sensors == "surface":
+            return surface
+        c = self._clearance
+        x, y = info["bit_lateral"].tolist()
+        vx, vy = sim.bit_lateral_velocity.tolist()
+        fx, fy = sim.bit_lateral_force.tolist()
+        return [
+            info["torque_on_bit"] / cfg.torque_scale,
+            info["bit_speed"] / w_max,
+            info["weight_on_bit"] / wob_max,
+            x / c,
+            y / c,
+            vx / (c * w_max),
+            vy / (c * w_max),
+            info["whirl_speed"] / w_max,
+            fx / cfg.force_scale,
+            fy / cfg.force_scale,
+            float(sim.contact_forces.max()) / cfg.force_scale,
+            *surface,
+        ]
 
-    def _observation(self) -> np.ndarray:
-        raw = self._raw_observation()
-        if not np.all(np.isfinite(raw)):  # diverged: repeat the last finite observation
+    def _observation(self, info: dict[str, Any]) -> np.ndarray:
+        raw = self._raw_observation(info)
+        if not all(map(math.isfinite, raw)):  # diverged: repeat the last finite observation
             return self._last_obs.copy()
         self._obs_queue.append(raw)
-        obs = self._obs_queue[0].copy()  # telemetry_delay steps old (oldest kept)
+        obs = np.array(self._obs_queue[0])  # telemetry_delay steps old (oldest kept)
         if self.config.observation_noise > 0:
             obs += self.config.observation_noise * self.np_random.standard_normal(obs.shape)
-        obs = np.clip(obs, -OBS_BOUND, OBS_BOUND).astype(np.float32)
+        obs = obs.clip(-OBS_BOUND, OBS_BOUND, out=obs).astype(np.float32)
         self._last_obs = obs
         return obs.copy()
 
-    def _info(self, records: np.ndarray | None) -> dict[str, Any]:
+    def _info(self) -> dict[str, Any]:
         sim = self.sim
         info: dict[str, Any] = {
             "time": sim.time,
@@ -595,15 +621,10 @@ class DrillStringEnv(gym.Env):
             "episode_time": sim.time - self._start_time,
             "top_drive_energy": self._episode_energy,
         }
-        hist = self._history
-        window = {"ssi": 0.0, "stuck_fraction": 0.0, "whirl_ratio": 0.0, "radial_ratio": 0.0,
-                  "lateral_force": 0.0, "mse": 0.0}
-        if len(hist) and np.all(np.isfinite(hist)):
-            m = metrics.window_metrics(hist, RECORD_CHANNELS,
-                                       self.config.record_every * sim.dt, self.clearance,
-                                       sim.config.bit.diameter)
-            window = {k: m[k] for k in window}
-        info.update(window)
+        window = self._window_metrics
+        values = window[0] if window is not None and window[1] else None
+        for name, k in _INFO_METRIC:
+            info[name] = values[k] if values is not None else 0.0
         info["reward_terms"] = {}
         info["termination_reason"] = ""
         return info

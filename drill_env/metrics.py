@@ -1,8 +1,8 @@
 """Drilling-performance metrics: the ONE source of truth (SPEC section 5).
 
-The env's reward and ``info``, the benchmark tables and the rerun plots all call these
-functions. They are pure NumPy, take signals in SI units (rad/s, N, N m, m, m/s) sampled
-on a uniform grid, and return plain floats.
+The env's reward and ``info``, the benchmark tables and the rerun plots all use these
+definitions. They are pure NumPy, take signals in SI units (rad/s, N, N m, m, m/s)
+sampled on a uniform grid, and return plain floats.
 
 =========================  ============================================================
 metric                     definition
@@ -15,7 +15,11 @@ lateral force              magnitude of the bit's lateral force (N)
 ROP                        mean rate of penetration (m/s)
 MSE                        mechanical specific energy, Teale (1965), in Pa (J/m^3)
 top-drive energy           work done by the top-drive motor, integral |T w| dt (J)
+peak surface torque        max |surface torque| (N m), checked against the make-up torque
 =========================  ============================================================
+
+:class:`RollingMetrics` is the fast path the env calls every control step: numba kernels
+that give the same floats as :func:`window_metrics` over a rolling record window.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 RPM = 2.0 * math.pi / 60.0
 
@@ -32,6 +37,8 @@ STUCK_SPEED = 1.0 * RPM
 SSI_MIN_MEAN_SPEED = 1.0 * RPM
 #: Below this radial ratio the bit counts as centred and whirl has no direction.
 WHIRL_MIN_RADIAL_RATIO = 0.1
+#: Below this mean ROP (m/s) the bit is not drilling and the MSE rotary term is undefined.
+MSE_MIN_ROP = 1e-9
 
 
 def _signal(values, name: str) -> np.ndarray:
@@ -115,7 +122,7 @@ def bit_area(bit_diameter: float) -> float:
 
 
 def mechanical_specific_energy(weight_on_bit, torque_on_bit, bit_speed, rop,
-                               bit_diameter: float, min_rop: float = 1e-9) -> float:
+                               bit_diameter: float, min_rop: float = MSE_MIN_ROP) -> float:
     """Mechanical specific energy (Teale 1965) over a window, in Pa (= J/m^3).
 
     ``MSE = WOB / A + 2 pi N T / (A ROP)`` with N in rev/s, i.e. ``omega T / (A ROP)``
@@ -144,13 +151,19 @@ def top_drive_energy(motor_torque, surface_speed, dt: float) -> float:
     return float(np.sum(np.abs(t * w)) * dt)
 
 
+def peak_surface_torque(surface_torque) -> float:
+    """Largest |surface torque| over the window (N m): what breaks a pipe connection."""
+    return float(np.max(np.abs(_signal(surface_torque, "surface_torque"))))
+
+
 def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
                    bit_diameter: float) -> dict[str, float]:
     """All metrics of a simulator record window (rows: samples ``dt`` apart).
 
     ``channels`` names the record columns (the simulator's ``RECORD_CHANNELS``). Returns
-    ``ssi, stuck_fraction, whirl_ratio, radial_ratio (mean), radial_ratio_max,
-    lateral_force (mean), lateral_force_max, rop, mse, top_drive_energy``.
+    the :data:`WINDOW_METRICS`: ``ssi, stuck_fraction, whirl_ratio, radial_ratio (mean),
+    radial_ratio_max, lateral_force (mean), lateral_force_max, rop, mse,
+    top_drive_energy, surface_torque_max``.
     """
     col = {name: k for k, name in enumerate(channels)}
     rec = np.asarray(records, dtype=float)
@@ -174,4 +187,271 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
         "mse": mechanical_specific_energy(c("weight_on_bit"), c("torque_on_bit"),
                                           c("bit_speed"), c("rop"), bit_diameter),
         "top_drive_energy": top_drive_energy(c("motor_torque"), c("surface_speed"), dt),
+        "surface_torque_max": peak_surface_torque(c("surface_torque")),
     }
+
+
+# --------------------------------------------------------------------------- fast path
+#
+# The env needs the window metrics every control step (10 Hz) over a window of a few
+# hundred samples that moves by a few samples. RollingMetrics keeps the per-sample
+# quantities of the window (hypot etc., computed once per sample) and reduces them in
+# one compiled call. The floats are those of the NumPy definitions above: the same
+# element-wise operations and NumPy's pairwise summation order (tests/test_metrics.py).
+
+#: The values of :func:`window_metrics`, in the order the fast path writes them.
+WINDOW_METRICS = ("ssi", "stuck_fraction", "whirl_ratio", "radial_ratio", "radial_ratio_max",
+                  "lateral_force", "lateral_force_max", "rop", "mse", "top_drive_energy",
+                  "surface_torque_max")
+#: The record channels the metrics read, in the order of :func:`metric_columns`.
+METRIC_CHANNELS = ("bit_speed", "whirl_speed", "bit_x", "bit_y", "bit_force_x", "bit_force_y",
+                   "rop", "weight_on_bit", "torque_on_bit", "motor_torque", "surface_speed",
+                   "surface_torque")
+#: Per-sample quantities the window metrics reduce (rows of a samples array; ``finite``
+#: is 1.0 where every channel of the record is finite, else 0.0).
+METRIC_SAMPLES = ("bit_speed", "whirl_speed", "radial_ratio", "lateral_force", "rop",
+                  "weight_on_bit", "bit_power", "motor_power", "surface_torque", "finite")
+_S_SPEED, _S_WHIRL, _S_RADIAL, _S_FORCE, _S_ROP, _S_WOB, _S_BIT_POWER, _S_MOTOR_POWER, \
+    _S_TORQUE, _S_FINITE = range(len(METRIC_SAMPLES))
+
+
+def metric_columns(channels) -> np.ndarray:
+    """Column of each of :data:`METRIC_CHANNELS` in records whose columns are ``channels``."""
+    channels = tuple(channels)
+    missing = [name for name in METRIC_CHANNELS if name not in channels]
+    if missing:
+        raise ValueError(f"channels: missing {missing} (need {METRIC_CHANNELS})")
+    return np.array([channels.index(name) for name in METRIC_CHANNELS], dtype=np.int64)
+
+
+@njit(cache=True, nogil=True)
+def _block_sum(a, lo, n):
+    """NumPy's sum of a run of at most 128 values (see :func:`_pairwise_sum`)."""
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = lo + 8
+    stop = lo + n - n % 8
+    while i < stop:
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < lo + n:
+        res += a[i]
+        i += 1
+    return res
+
+
+@njit(cache=True, nogil=True)
+def _pairwise_sum(a, tasks, partial):
+    """``np.sum(a)`` (1-D float64) with NumPy's summation order, so the float is the same.
+
+    NumPy (``pairwise_sum`` in ``loops_utils.h.src``, added to the identity 0.0) adds
+    fewer than 8 values in order, up to 128 with 8 interleaved accumulators, and splits
+    longer runs in two at a multiple of 8, summing each half the same way. numba cannot
+    cache a recursive function, so the recursion runs on the stacks ``tasks`` ((2, 192)
+    int64) and ``partial`` ((64,) float64): enough for any length below 2**60.
+    """
+    n = a.shape[0]
+    if n <= 128:
+        return 0.0 + _block_sum(a, 0, n)
+    # Post-order walk of the split tree. A task is a run (start, length), or start -1:
+    # add the two partial sums on top of the stack (left + right).
+    tasks[0, 0], tasks[1, 0] = 0, n
+    n_tasks, n_partial = 1, 0
+    while n_tasks:
+        n_tasks -= 1
+        lo, m = tasks[0, n_tasks], tasks[1, n_tasks]
+        if lo < 0:
+            n_partial -= 1
+            partial[n_partial - 1] += partial[n_partial]
+        elif m <= 128:
+            partial[n_partial] = _block_sum(a, lo, m)
+            n_partial += 1
+        else:
+            half = m // 2
+            half -= half % 8
+            tasks[0, n_tasks], tasks[1, n_tasks] = -1, 0
+            tasks[0, n_tasks + 1], tasks[1, n_tasks + 1] = lo + half, m - half
+            tasks[0, n_tasks + 2], tasks[1, n_tasks + 2] = lo, half
+            n_tasks += 3
+    return 0.0 + partial[0]
+
+
+@njit(cache=True, nogil=True)
+def _max(a):
+    """``np.max``: NaN if any value is NaN."""
+    m = a[0]
+    for v in a:
+        if v > m or v != v:
+            m = v
+            if v != v:
+                break
+    return m
+
+
+@njit(cache=True, nogil=True)
+def metric_samples_into(records, columns, clearance, samples):
+    """The :data:`METRIC_SAMPLES` of each record (row of ``records``) into ``samples``.
+
+    ``columns``: :func:`metric_columns`; ``samples``: ``(len(METRIC_SAMPLES), n)``.
+    The element-wise parts of the definitions above.
+    """
+    n_channels = records.shape[1]
+    for k in range(records.shape[0]):
+        w = records[k, columns[0]]
+        samples[_S_SPEED, k] = w
+        samples[_S_WHIRL, k] = records[k, columns[1]]
+        samples[_S_RADIAL, k] = math.hypot(records[k, columns[2]],
+                                           records[k, columns[3]]) / clearance
+        samples[_S_FORCE, k] = math.hypot(records[k, columns[4]], records[k, columns[5]])
+        samples[_S_ROP, k] = records[k, columns[6]]
+        samples[_S_WOB, k] = records[k, columns[7]]
+        samples[_S_BIT_POWER, k] = records[k, columns[8]] * w
+        samples[_S_MOTOR_POWER, k] = abs(records[k, columns[9]] * records[k, columns[10]])
+        samples[_S_TORQUE, k] = records[k, columns[11]]
+        finite = 1.0
+        for j in range(n_channels):
+            if not math.isfinite(records[k, j]):
+                finite = 0.0
+                break
+        samples[_S_FINITE, k] = finite
+
+
+@njit(cache=True, nogil=True)
+def reduce_metric_samples(samples, dt, area, out):
+    """The :data:`WINDOW_METRICS` of ``samples`` (at least one) into ``out``.
+
+    ``dt``: sample spacing (s); ``area``: :func:`bit_area`. Returns whether every
+    record behind the samples was finite. The reductions of the definitions above, with
+    their NaN behaviour (``np.max`` propagates NaN, Python's ``max(nan, x)`` is NaN).
+    """
+    n = samples.shape[1]
+    tasks = np.empty((2, 192), dtype=np.int64)
+    partial = np.empty(64)
+    w = samples[_S_SPEED]
+
+    w_max, w_min = w[0], w[0]  # np.max / np.min: NaN if any is NaN
+    stuck = 0
+    for v in w:
+        if v > w_max or v != v:
+            w_max = v
+        if v < w_min or v != v:
+            w_min = v
+        if abs(v) < STUCK_SPEED:
+            stuck += 1
+    mean_speed = _pairwise_sum(w, tasks, partial) / n
+    floor = abs(mean_speed)  # max(|mean|, SSI_MIN_MEAN_SPEED)
+    if floor < SSI_MIN_MEAN_SPEED:
+        floor = SSI_MIN_MEAN_SPEED
+    out[0] = (w_max - w_min) / (2.0 * floor)  # ssi
+    out[1] = stuck / n  # stuck_fraction
+    whirl = _pairwise_sum(samples[_S_WHIRL], tasks, partial) / n
+    out[2] = whirl / math.copysign(floor, mean_speed if mean_speed != 0 else 1.0)  # ratio
+    out[3] = _pairwise_sum(samples[_S_RADIAL], tasks, partial) / n  # radial_ratio
+    out[4] = _max(samples[_S_RADIAL])
+    out[5] = _pairwise_sum(samples[_S_FORCE], tasks, partial) / n  # lateral_force
+    out[6] = _max(samples[_S_FORCE])
+    rop = _pairwise_sum(samples[_S_ROP], tasks, partial) / n
+    out[7] = rop
+    wob = _pairwise_sum(samples[_S_WOB], tasks, partial) / n
+    power = _pairwise_sum(samples[_S_BIT_POWER], tasks, partial) / n
+    if rop < MSE_MIN_ROP:  # mse
+        out[8] = math.inf if power > 0 else wob / area
+    else:
+        out[8] = wob / area + power / (area * rop)
+    out[9] = _pairwise_sum(samples[_S_MOTOR_POWER], tasks, partial) * dt  # energy
+    torque = samples[_S_TORQUE]
+    peak = abs(torque[0])  # surface_torque_max, NaN if any is NaN
+    for v in torque:
+        if abs(v) > peak or v != v:
+            peak = abs(v)
+    out[10] = peak
+    for v in samples[_S_FINITE]:
+        if v == 0.0:
+            return False
+    return True
+
+
+class RollingMetrics:
+    """The :func:`window_metrics` of the last ``size`` records, updated as records arrive.
+
+    Args:
+        size: window length in records.
+        channels: names of the record columns (the simulator's ``RECORD_CHANNELS``).
+        dt: record spacing (s); clearance: gauge clearance (m); bit_diameter: (m).
+
+    ``add(records)`` appends the :data:`METRIC_SAMPLES` of new records to a buffer twice
+    the window long (the kept samples move to its front once every ``size`` records; it
+    grows if one ``add`` brings more) and returns the metrics of those records;
+    ``window()`` those of the whole window.
+    Metrics come as a list of floats in the order of :data:`WINDOW_METRICS`, with a flag
+    telling whether every value of the records behind them is finite.
+    """
+
+    def __init__(self, size: int, channels, dt: float, clearance: float,
+                 bit_diameter: float) -> None:
+        if not (isinstance(size, (int, np.integer)) and size >= 1):
+            raise ValueError(f"size: must be an integer >= 1, got {size!r}")
+        if not clearance > 0:
+            raise ValueError(f"clearance: must be > 0, got {clearance!r}")
+        self.size = int(size)
+        self.dt = float(dt)
+        self.clearance = float(clearance)
+        self.area = bit_area(bit_diameter)
+        self._columns = metric_columns(channels)
+        self._samples = np.empty((len(METRIC_SAMPLES), 2 * self.size))
+        self._out = np.empty(len(WINDOW_METRICS))
+        self._start = self._end = 0
+
+    def __len__(self) -> int:
+        return self._end - self._start
+
+    def clear(self) -> None:
+        self._start = self._end = 0
+
+    @property
+    def bit_speed(self) -> np.ndarray:
+        """The bit speed of the window's records (a view, valid until the next ``add``)."""
+        return self._samples[_S_SPEED, self._start:self._end]
+
+    def add(self, records: np.ndarray) -> tuple[list[float], bool] | None:
+        """Append ``records`` (rows); their metrics and whether they are all finite.
+
+        ``None`` (and nothing appended) when ``records`` is empty.
+        """
+        n = len(records)
+        if n == 0:
+            return None
+        kept = self._end - self._start
+        if self._end + n > self._samples.shape[1]:  # move the window to the front
+            old = self._samples
+            if self.size + n > old.shape[1]:  # more records at once than the window holds
+                self._samples = np.empty((len(METRIC_SAMPLES), self.size + n))
+            self._samples[:, :kept] = old[:, self._start:self._end]
+            self._start, self._end = 0, kept
+        new = self._samples[:, self._end:self._end + n]
+        metric_samples_into(records, self._columns, self.clearance, new)
+        self._end += n
+        self._start = max(self._start, self._end - self.size)
+        finite = reduce_metric_samples(new, self.dt, self.area, self._out)
+        return self._out.tolist(), finite
+
+    def window(self) -> tuple[list[float], bool] | None:
+        """The metrics of the window and whether they are all finite (``None``: empty)."""
+        if self._end == self._start:
+            return None
+        finite = reduce_metric_samples(self._samples[:, self._start:self._end], self.dt,
+                                       self.area, self._out)
+        return self._out.tolist(), finite

@@ -107,3 +107,113 @@ def test_window_metrics_reads_simulator_records():
     assert m["rop"] == pytest.approx(1e-3)
     assert m["stuck_fraction"] == 0.0
     assert set(m) >= {"whirl_ratio", "lateral_force", "mse", "top_drive_energy"}
+
+
+# --------------------------------------------------------------------------- fast path
+# RollingMetrics (numba) must give the floats of the NumPy definitions above.
+
+CHANNELS = RECORD_CHANNELS
+COL = {name: k for k, name in enumerate(CHANNELS)}
+DT, CLEARANCE, BIT_DIAMETER = 0.02, 0.005, 0.2159
+
+
+def random_records(rng, n):
+    """Records with every channel at its own scale, signs mixed."""
+    scale = 10.0 ** rng.integers(-6, 6, size=len(CHANNELS))
+    rec = rng.standard_normal((n, len(CHANNELS))) * scale
+    rec[:, COL["bit_speed"]] += 10.0 * rng.random()
+    return rec
+
+
+def fast_metrics(records):
+    """The fast path over a window holding exactly ``records``: (add, window) results."""
+    rolling = metrics.RollingMetrics(len(records), CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
+    return rolling.add(records), rolling.window()
+
+
+def assert_same_metrics(values, records):
+    reference = metrics.window_metrics(records, CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
+    assert list(reference) == list(metrics.WINDOW_METRICS)
+    np.testing.assert_allclose(values, [reference[k] for k in metrics.WINDOW_METRICS],
+                               rtol=1e-12, atol=0.0)
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 8, 9, 127, 128, 129, 150, 255, 256, 300, 1000, 4099])
+def test_fast_window_metrics_equal_the_numpy_definitions_on_random_windows(n):
+    rng = np.random.default_rng(n)
+    for _ in range(5):
+        rec = random_records(rng, n)
+        (values, finite), window = fast_metrics(rec)
+        assert finite
+        assert window == (values, finite)
+        assert_same_metrics(values, rec)
+
+
+def test_fast_window_metrics_of_a_stalled_bit_not_drilling():
+    rec = np.zeros((40, len(CHANNELS)))
+    rec[5, COL["bit_speed"]] = 0.05  # below 1 rpm: SSI against the mean floor, all stuck
+    rec[:, COL["weight_on_bit"]] = 1e5
+    (values, finite), _ = fast_metrics(rec)
+    assert finite
+    assert_same_metrics(values, rec)
+    m = dict(zip(metrics.WINDOW_METRICS, values, strict=True))
+    assert m["stuck_fraction"] == 1.0 and m["mse"] == 1e5 / metrics.bit_area(BIT_DIAMETER)
+    rec[:, COL["torque_on_bit"]] = 1e3  # rotary power without penetration
+    assert_same_metrics(fast_metrics(rec)[0][0], rec)
+
+
+def test_fast_window_metrics_of_backward_rotation_keep_the_whirl_sign():
+    rng = np.random.default_rng(1)
+    rec = random_records(rng, 60)
+    rec[:, COL["bit_speed"]] = -np.abs(rec[:, COL["bit_speed"]]) - 1.0
+    assert_same_metrics(fast_metrics(rec)[0][0], rec)
+    rec[:, COL["bit_speed"]] = 0.0  # zero mean: the whirl denominator takes a + sign
+    assert_same_metrics(fast_metrics(rec)[0][0], rec)
+
+
+@pytest.mark.parametrize("channel", ["bit_speed", "bit_x", "rop", "surface_torque", "depth"])
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_fast_window_metrics_propagate_non_finite_records_like_numpy(channel, value):
+    rng = np.random.default_rng(2)
+    rec = random_records(rng, 200)
+    rec[137, COL[channel]] = value
+    (values, finite), _ = fast_metrics(rec)
+    assert not finite  # any channel, even one no metric reads ("depth")
+    with np.errstate(invalid="ignore"):
+        assert_same_metrics(values, rec)
+
+
+def test_rolling_window_keeps_the_last_records_whatever_the_chunks():
+    rng = np.random.default_rng(3)
+    size = 50
+    rolling = metrics.RollingMetrics(size, CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
+    assert rolling.window() is None and rolling.add(np.zeros((0, len(CHANNELS)))) is None
+    seen = np.zeros((0, len(CHANNELS)))
+    for n in [3, 5, 0, 1, 49, 50, 51, 7, 120, 5, 5, 5, 5, 30, 2]:
+        chunk = random_records(rng, n)
+        step = rolling.add(chunk)
+        seen = np.concatenate([seen, chunk])
+        if n:
+            assert_same_metrics(step[0], chunk)
+        assert len(rolling) == min(size, len(seen))
+        np.testing.assert_array_equal(rolling.bit_speed, seen[-size:, COL["bit_speed"]])
+        assert_same_metrics(rolling.window()[0], seen[-size:])
+    rolling.clear()
+    assert len(rolling) == 0 and rolling.window() is None
+
+
+def test_pairwise_sum_adds_in_numpys_order():
+    rng = np.random.default_rng(4)
+    tasks, partial = np.empty((2, 192), dtype=np.int64), np.empty(64)
+    for n in [0, 1, 7, 8, 100, 128, 129, 136, 1000, 9000]:
+        full = rng.standard_normal((n, 3)) * 10.0 ** rng.integers(-8, 8, size=(n, 3))
+        for a in (full[:, 1], np.ascontiguousarray(full[:, 1])):
+            assert metrics._pairwise_sum(a, tasks, partial) == np.sum(a)
+
+
+def test_rolling_metrics_need_the_metric_channels():
+    with pytest.raises(ValueError, match="bit_force_x"):
+        metrics.RollingMetrics(10, [c for c in CHANNELS if c != "bit_force_x"], DT, CLEARANCE,
+                               BIT_DIAMETER)
+    with pytest.raises(ValueError, match="size"):
+        metrics.RollingMetrics(0, CHANNELS, DT, CLEARANCE, BIT_DIAMETER)

@@ -1,0 +1,146 @@
+"""The env's observation, info metrics and reward are the documented definitions.
+
+The env computes them on a fast path (floats, ``metrics.RollingMetrics``); these tests
+recompute them from the simulator's records and properties with the NumPy definitions of
+:mod:`drill_env.metrics` and the observation table of the class docstring.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from drill_env import metrics
+from drill_env.env import INFO_WINDOW_METRICS, OBSERVATIONS, DrillStringEnv
+from drill_env.physics.simulator import RECORD_CHANNELS
+
+COL = {name: k for k, name in enumerate(RECORD_CHANNELS)}
+
+
+def recording(env):
+    """Make ``env`` keep every record its simulator returns (in ``env.seen``)."""
+    env.seen = []
+    advance = env._advance
+
+    def advance_and_keep():
+        records = advance()
+        env.seen.append(records.copy())
+        return records
+
+    env._advance = advance_and_keep
+    return env
+
+
+def window_of(env):
+    """The records of the last ``metric_window`` seconds, by the definition."""
+    dt = env.config.record_every * env.sim.dt
+    keep = max(1, round(env.config.metric_window / dt))
+    return np.concatenate(env.seen)[-keep:], dt
+
+
+@pytest.mark.parametrize("kwargs", [
+    {},
+    {"metric_window": 0.3},  # the window slides every step
+    {"metric_window": 0.05},  # shorter than one control interval
+    {"record_every": 7, "scenario": "paper_case2"},
+])
+def test_info_and_reward_are_the_metric_definitions_of_the_records(kwargs):
+    env = recording(DrillStringEnv(episode_duration=1.5, **kwargs))
+    cfg = env.config
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    energy = 0.0
+    for _ in range(15):
+        _, reward, _, _, info = env.step(rng.uniform(-1, 1, size=2))
+        records = env.seen[-1]
+        window, dt = window_of(env)
+        ref = metrics.window_metrics(window, RECORD_CHANNELS, dt, env.clearance,
+                                     env.simulation_config.bit.diameter)
+        for name in INFO_WINDOW_METRICS:
+            assert info[name] == pytest.approx(ref[name], rel=1e-12, abs=0.0), name
+        energy += metrics.top_drive_energy(records[:, COL["motor_torque"]],
+                                           records[:, COL["surface_speed"]], dt)
+        assert info["top_drive_energy"] == pytest.approx(energy, rel=1e-12)
+        rop = metrics.mean_rop(records[:, COL["rop"]])
+        radial = np.mean(metrics.radial_ratio(records[:, COL["bit_x"]],
+                                              records[:, COL["bit_y"]], env.clearance))
+        terms = info["reward_terms"]
+        assert terms["rop"] == pytest.approx(cfg.rop_weight * rop / cfg.rop_scale, rel=1e-12)
+        assert terms["whirl"] == pytest.approx(-cfg.whirl_weight * radial, rel=1e-12)
+        ssi = metrics.stick_slip_severity(window[:, COL["bit_speed"]])
+        assert terms["stick_slip"] == pytest.approx(
+            -cfg.stick_slip_weight * min(ssi, cfg.ssi_cap), rel=1e-12)
+        assert reward == sum(terms.values())
+
+
+def named_observation(env):
+    """Each observation entry from its name, as in the class docstring's table."""
+    sim, cfg = env.sim, env.config
+    w_max = cfg.rpm_range[1] * 2 * math.pi / 60
+    wob_max = cfg.weight_on_bit_range[1]
+    c = env.clearance
+    x, y = sim.bit_lateral
+    vx, vy = sim.bit_lateral_velocity
+    fx, fy = sim.bit_lateral_force
+    values = {
+        "torque_on_bit": sim.torque_on_bit / cfg.torque_scale,
+        "bit_speed": sim.bit_speed / w_max,
+        "weight_on_bit": sim.weight_on_bit / wob_max,
+        "bit_x": x / c,
+        "bit_y": y / c,
+        "bit_vx": vx / (c * w_max),
+        "bit_vy": vy / (c * w_max),
+        "whirl_speed": sim.whirl_speed / w_max,
+        "bit_force_x": fx / cfg.force_scale,
+        "bit_force_y": fy / cfg.force_scale,
+        "max_contact_force": np.max(sim.contact_forces) / cfg.force_scale,
+        "surface_speed": sim.surface_speed / w_max,
+        "surface_torque": sim.surface_torque / cfg.torque_scale,
+        "hook_load": sim.hook_load / sim.string_weight,
+        "rop": sim.rop / cfg.rop_scale,
+        "speed_setpoint": env._speed_target / w_max,
+        "weight_on_bit_setpoint": env._wob_target / wob_max,
+    }
+    raw = np.array([values[name] for name in env.observation_names])
+    return np.clip(raw, -10.0, 10.0).astype(np.float32)
+
+
+@pytest.mark.parametrize("sensors", ["downhole", "surface"])
+def test_observation_entries_are_the_named_normalised_quantities(sensors):
+    env = DrillStringEnv(episode_duration=1.0, sensors=sensors, rpm_range=(10.0, 150.0))
+    obs, _ = env.reset(seed=0)
+    np.testing.assert_array_equal(obs, named_observation(env))
+    for action in ([0.5, -0.2], [-1.0, 1.0], [0.0, 0.0]):
+        obs, *_ = env.step(np.array(action))
+        np.testing.assert_array_equal(obs, named_observation(env))
+
+
+def test_surface_observation_is_the_tail_of_the_downhole_one():
+    n = len(OBSERVATIONS["surface"])
+    assert OBSERVATIONS["surface"] == OBSERVATIONS["downhole"][-n:]
+
+
+def test_non_finite_records_zero_the_window_metrics_and_cap_the_stick_slip_penalty():
+    env = DrillStringEnv(episode_duration=2.0, metric_window=0.3)
+    cfg = env.config
+    env.reset(seed=0)
+    advance, calls = env._advance, []
+
+    def advance_with_a_bad_sample():
+        records = advance()
+        calls.append(1)
+        if len(calls) == 2:
+            records[3, COL["bit_speed"]] = np.nan
+        return records
+
+    env._advance = advance_with_a_bad_sample
+    env.step(np.zeros(2))
+    _, _, terminated, _, info = env.step(np.zeros(2))
+    assert not terminated
+    assert all(info[name] == 0.0 for name in INFO_WINDOW_METRICS)
+    assert info["reward_terms"]["stick_slip"] == -cfg.stick_slip_weight * cfg.ssi_cap
+    assert info["reward_terms"]["rop"] == 0.0
+    assert info["reward_terms"]["whirl"] == -cfg.whirl_weight
+    for _ in range(3):  # the 0.3 s window (3 control steps) forgets the bad sample
+        _, _, _, _, info = env.step(np.zeros(2))
+    assert info["ssi"] > 0.0 and math.isfinite(info["reward_terms"]["stick_slip"])
