@@ -1,5 +1,5 @@
 """Plain NumPy version of the integrator's time step: the test oracle and the baseline
-of ``scripts/benchmark_core.py``.
+of ``drill-env benchmark`` (drill_env/benchmark.py).
 
 It integrates exactly the scheme of :func:`drill_env.physics.integrator.advance`
 (Newmark average acceleration, implicit linear string, explicit wall contact, top drive

@@ -167,9 +167,7 @@ class Simulator:
         # the same memory (row = DOF, column = plane x/y) for readers and tests.
         nl = 2 * (n - self.lateral_start)
         self.lat_planes = np.zeros((3, 2, nl))  # displacement, velocity, acceleration
-        self.ul = self.lat_planes[0].T
-        self.vl = self.lat_planes[1].T
-        self.al = self.lat_planes[2].T
+        self._bind_lateral_views()
         self.ut = np.zeros(n)
         self.vt = np.zeros(n)
         self.at = np.zeros(n)
@@ -182,6 +180,19 @@ class Simulator:
         self.reset()
 
     # ------------------------------------------------------------------ set-up
+
+    def _bind_lateral_views(self) -> None:
+        self.ul, self.vl, self.al = (plane.T for plane in self.lat_planes)
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        for name in ("ul", "vl", "al"):  # views: pickling would detach them
+            del state[name]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._bind_lateral_views()
 
     @property
     def top_drive_gains(self) -> tuple[float, float]:
@@ -398,8 +409,20 @@ class Simulator:
         Returns the recorded samples (one row every ``record_every`` steps, columns
         :data:`RECORD_CHANNELS`); empty when ``record_every`` is 0.
         """
+        if not self.prepare(n_steps, speed_setpoint, hook_load, record_every):
+            return np.zeros((0, ig.N_RECORD))
+        n_rec = ig.advance(n_steps, record_every, *self.kernel_arrays())
+        return self.records(n_rec)
+
+    def prepare(self, n_steps: int, speed_setpoint: float | None = None,
+                hook_load: float | None = None, record_every: int = 0) -> bool:
+        """Apply the inputs of the next ``n_steps`` steps; False if the simulator is stopped.
+
+        :meth:`advance` is ``prepare`` + one kernel call; a batch of simulators
+        (:mod:`drill_env.physics.batch`) prepares each, then runs all kernels in one call.
+        """
         if self.status:
-            return np.zeros((0, ig.N_RECORD))  # stopped: reset() first
+            return False  # stopped: reset() first
         if speed_setpoint is not None:
             if not math.isfinite(speed_setpoint):
                 raise ValueError(f"speed_setpoint must be finite, got {speed_setpoint}")
@@ -414,22 +437,32 @@ class Simulator:
                 except ValueError as err:  # a control input, not a config error: stop
                     self.state[ig.S_STATUS] = STATUS_MESH_BUCKLING
                     self._mesh_message = str(err)
-                    return np.zeros((0, ig.N_RECORD))
+                    return False
             self.state[ig.S_HOOK_LOAD] = hook_load
             self.state[ig.S_WOB] = wob
         n_rec_max = n_steps // record_every if record_every > 0 else 0
         if self._record.shape[0] < max(n_rec_max, 1):
             self._record = np.zeros((max(n_rec_max, 1), ig.N_RECORD))
-        n_rec = ig.advance(
-            n_steps, record_every, self.params, self.state,
-            self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m, self.lat_factor,
-            self.lat_work_band, self.lat_k_total, self.lat_k_damp, self.tor_k, self.tor_c,
-            self.tor_factor, self.col_bit,
-            self.node_clearance, self.node_radius, self.node_contact, self.compliance,
-            self.lat_planes[0], self.lat_planes[1], self.lat_planes[2], self.ut, self.vt,
-            self.at, self.rl, self.rt, self.contact_out, self.node_force,
-            self.blades, self.normals, self.offsets, self.layer_rock, self.rock_params,
-            *self.bit_scratch, self.bit_out, self._record)
+        return True
+
+    def kernel_arrays(self) -> tuple[np.ndarray, ...]:
+        """The arrays of :func:`~drill_env.physics.integrator.advance`, in its order.
+
+        They are the simulator's own storage: the kernel updates them in place. The
+        record buffer is the last one; :meth:`prepare` may replace it by a larger one.
+        """
+        return (self.params, self.state,
+                self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m, self.lat_factor,
+                self.lat_work_band, self.lat_k_total, self.lat_k_damp, self.tor_k, self.tor_c,
+                self.tor_factor, self.col_bit,
+                self.node_clearance, self.node_radius, self.node_contact, self.compliance,
+                self.lat_planes[0], self.lat_planes[1], self.lat_planes[2], self.ut, self.vt,
+                self.at, self.rl, self.rt, self.contact_out, self.node_force,
+                self.blades, self.normals, self.offsets, self.layer_rock, self.rock_params,
+                *self.bit_scratch, self.bit_out, self._record)
+
+    def records(self, n_rec: int) -> np.ndarray:
+        """A copy of the first ``n_rec`` rows the last kernel call recorded."""
         return self._record[:n_rec].copy()
 
     def run(self, duration: float, speed_setpoint: float | None = None,
