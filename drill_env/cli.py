@@ -7,7 +7,9 @@ demo        the main job on the built-in default case: the paper's string drilli
             hard-soft-hard sandwich; prints a table, writes plots and JSON to ``logs/``.
 run         one episode of ``DrillString-v0`` with a constant-RPM controller, optionally
             recorded to rerun.
-benchmark   speed figures (real-time factor, env steps/s, speed-up over NumPy).
+benchmark   speed and memory figures: real-time factor and speed-up over NumPy, env
+            steps/s (single, looped, batched), cost scaling with the mesh, compile time,
+            memory per env; prints tables, writes ``benchmark.json`` (docs/performance.md).
 replay      open a ``.rrd`` recording in the rerun viewer (``--web`` for the web viewer).
 
 SI inside; rpm and kN only here at the edge.
@@ -93,6 +95,14 @@ def demo(out: Path) -> int:
     return 0 if verdict else 1
 
 
+def benchmark(out: Path, quick: bool, sections: str | None) -> int:
+    from drill_env.benchmark import FULL, QUICK, SECTIONS, parse_sections, run_benchmark
+
+    run_benchmark(parse_sections(sections) if sections else SECTIONS, QUICK if quick else FULL,
+                  out)
+    return 0
+
+
 def replay(path: Path, web: bool) -> int:
     from drill_env.recording import replay as open_viewer
 
@@ -106,12 +116,27 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("demo", help="main job on the default case; outputs in logs/")
     p.add_argument("--out", type=Path, default=Path("logs"))
+    p = sub.add_parser("benchmark", help="speed and memory figures; benchmark.json in --out")
+    p.add_argument("--out", type=Path, default=Path("logs"),
+                   help="folder for benchmark.json, benchmark.md, benchmark_scaling.png")
+    p.add_argument("--quick", action="store_true", help="short runs (smoke test, < 1 min)")
+    p.add_argument("--sections", default=None,
+                   help="comma-separated subset of core,env,scaling,compile,memory (default: all)")
     p = sub.add_parser("replay", help="open a .rrd in the rerun viewer")
     p.add_argument("path", type=Path)
     p.add_argument("--web", action="store_true", help="serve the web viewer")
     args = parser.parse_args(argv)
     if args.command == "demo":
         return demo(args.out)
+    if args.command == "benchmark":
+        if args.sections:
+            from drill_env.benchmark import parse_sections
+
+            try:
+                parse_sections(args.sections)
+            except ValueError as err:
+                parser.error(str(err))
+        return benchmark(args.out, args.quick, args.sections)
     if args.command == "replay":
         return replay(args.path, args.web)
     parser.error(f"unknown command {args.command}")

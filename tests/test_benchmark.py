@@ -1,0 +1,86 @@
+"""``drill-env benchmark``: the quick run produces every figure, finite and positive.
+
+No timing thresholds: the figures depend on the machine and its load.
+"""
+
+import dataclasses
+import json
+import math
+
+import pytest
+
+from drill_env import benchmark
+from drill_env.benchmark import QUICK, BenchmarkSettings, parse_sections, run_benchmark
+from drill_env.cli import main
+
+TINY = dataclasses.replace(
+    QUICK, core_seconds=0.1, repeats=1, warmup_steps=10, reference_steps=2,
+    pipe_lengths=(100.0, 200.0), pipe_element_lengths=(20.0, 10.0), mesh_pipe_length=200.0,
+    scaling_seconds=0.1)
+
+
+def positive_finite(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) \
+        and math.isfinite(value) and value > 0
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench")
+    run_benchmark(("core", "scaling"), TINY, out, progress=False, echo=None)
+    return out
+
+
+def test_quick_core_and_scaling_write_every_figure_as_a_positive_number(tiny_run):
+    result = json.loads((tiny_run / "benchmark.json").read_text())
+    assert {"machine", "settings", "fidelity_levels", "core", "scaling"} <= set(result)
+    assert "env" not in result
+    core = result["core"]
+    assert set(core["fidelity"]) == set(result["fidelity_levels"])
+    for fig in core["fidelity"].values():
+        for key in ("real_time_factor", "us_per_step", "ns_per_dof_step", "speedup_over_numpy",
+                    "n_dof", "time_step_s"):
+            assert positive_finite(fig[key]), key
+    for key in ("us_per_step", "ns_per_dof_step", "real_time_factor"):
+        assert positive_finite(core["reference"][key]), key
+
+    scaling = result["scaling"]
+    points = scaling["points"]
+    assert len(points) == 3  # 100/10, 200/10 (both sweeps), 200/20
+    for p in points:
+        for key in ("n_dof", "us_per_step", "ns_per_dof_step", "cost_over_reference",
+                    "real_time_factor"):
+            assert positive_finite(p[key]), key
+    fit = scaling["fit"]
+    assert math.isfinite(fit["us_per_step_intercept"])
+    assert 0.0 <= fit["r_squared"] <= 1.0
+    assert fit["cost_per_dof_max_over_min"] >= 1.0
+    assert (tiny_run / "benchmark_scaling.png").stat().st_size > 0
+
+
+def test_both_fidelity_levels_get_a_fast_over_full_ratio(monkeypatch):
+    monkeypatch.setattr(benchmark, "fidelity_levels", lambda: {"full": {}, "fast": {}})
+    result = benchmark.bench_core(TINY, progress=False)
+    assert set(result["fidelity"]) == {"full", "fast"}
+    assert positive_finite(result["fast_over_full_speed"])
+
+
+def test_fidelity_levels_start_with_full_without_overrides_when_absent():
+    levels = benchmark.fidelity_levels()
+    assert "full" in levels
+    if len(levels) == 1:
+        assert levels["full"] == {}
+
+
+def test_unknown_section_is_named():
+    with pytest.raises(ValueError, match="bogus"):
+        parse_sections("core,bogus")
+    with pytest.raises(SystemExit):
+        main(["benchmark", "--sections", "bogus"])
+
+
+def test_settings_reject_non_positive_sizes_by_name():
+    with pytest.raises(ValueError, match="repeats"):
+        BenchmarkSettings(repeats=0)
+    with pytest.raises(ValueError, match="pipe_lengths"):
+        BenchmarkSettings(pipe_lengths=(-1.0,))
