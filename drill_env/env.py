@@ -488,9 +488,12 @@ class DrillStringEnv(gym.Env):
 
     def _advance(self) -> np.ndarray:
         """Run the simulator over one control interval; returns the records."""
-        return self.sim.advance(self._steps_per_action, speed_setpoint=self._speed_target,
-                                hook_load=self.sim.hook_load_for(self._wob_applied),
-                                record_every=self.config.record_every)
+        return self.sim.advance(*self._advance_arguments())
+
+    def _advance_arguments(self) -> tuple[int, float, float, int]:
+        """(n_steps, speed set point, hook load, record_every) of one control interval."""
+        return (self._steps_per_action, self._speed_target,
+                self.sim.hook_load_for(self._wob_applied), self.config.record_every)
 
     def _finish_step(self, records: np.ndarray
                      ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:

@@ -1,11 +1,12 @@
 """Batched drill-string environments: a Gymnasium ``VectorEnv`` and an SB3 ``VecEnv``.
 
 Both hold N :class:`~drill_env.env.DrillStringEnv` instances and step them in three
-phases: every env maps its action to set points, then :func:`advance_all` runs all the
-simulators over one control interval, then every env computes its observation, reward
-and info. Each simulator's state stays in its own ``Simulator`` object, so
-:func:`advance_all` can be replaced by a batched (numba ``prange``) kernel without
-touching the env logic. Today it is a Python loop, bit-identical to stepping single envs.
+phases (:func:`step_all`): every env maps its action to set points, all simulators run
+one control interval in ONE numba call, parallel over simulators
+(:class:`~drill_env.physics.batch.SimulatorBatch`, ``prange``), then every env computes
+its observation, reward and info. Each simulator keeps its own arrays (meshes may differ,
+as in the randomised scenario) and runs the single-simulator kernel, so every env follows
+bit-for-bit the trajectory it would follow alone.
 
 - :class:`DrillStringVectorEnv` (``gymnasium.make_vec("DrillString-v0", num_envs=N)``):
   Gymnasium 1.x semantics; ``autoreset_mode`` NEXT_STEP (default: the step after an
@@ -20,9 +21,7 @@ touching the env logic. Today it is a Python loop, bit-identical to stepping sin
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -30,37 +29,40 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from drill_env.env import DrillStringEnv
+from drill_env.physics.batch import SimulatorBatch
 
-__all__ = ["DrillStringVectorEnv", "advance_all", "make_sb3_vec_env", "step_all"]
-
-
-_POOL: ThreadPoolExecutor | None = None
+__all__ = ["DrillStringVectorEnv", "make_sb3_vec_env", "step_all"]
 
 
-def _pool() -> ThreadPoolExecutor:
-    global _POOL
-    if _POOL is None:
-        _POOL = ThreadPoolExecutor(max_workers=os.cpu_count() or 1,
-                                   thread_name_prefix="drill-env")
-    return _POOL
+def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray,
+             batch: SimulatorBatch | None = None, active: np.ndarray | None = None
+             ) -> list[tuple[np.ndarray, float, bool, bool, dict[str, Any]] | None]:
+    """Step ``envs`` with ``actions`` (one row each) in the three phases; per-env results.
 
-
-def advance_all(envs: Sequence[DrillStringEnv]) -> list[np.ndarray]:
-    """Advance every env's simulator by one control interval (the batched physics hook).
-
-    The numba kernel releases the GIL (``nogil=True``), so the simulators, which share
-    no state, advance in parallel on a thread pool: one contiguous slice of envs per
-    core. Results are bit-identical to stepping them one after another.
+    With a ``batch`` (one slot per env) all simulators advance in one parallel numba call
+    (:meth:`~drill_env.physics.batch.SimulatorBatch.advance`); without one, env after
+    env. Each simulator runs the same kernel on its own arrays either way, so the
+    results are bit-identical. Envs with ``active[i]`` False are left alone (None).
     """
-    workers = min(len(envs), os.cpu_count() or 1)
-    if workers <= 1:
-        return [env._advance() for env in envs]
-    slices = [envs[k::workers] for k in range(workers)]
-    done = list(_pool().map(lambda chunk: [env._advance() for env in chunk], slices))
-    records: list[np.ndarray] = [np.empty(0)] * len(envs)
-    for k, chunk in enumerate(done):
-        records[k::workers] = chunk
-    return records
+    a = _check_actions(actions, len(envs))
+    if active is None:
+        active = np.ones(len(envs), dtype=np.bool_)
+    for env, row, on in zip(envs, a, active, strict=True):
+        if on:
+            env._apply_action(row)
+    results: list = [None] * len(envs)
+    if batch is None:
+        for i, env in enumerate(envs):
+            if active[i]:
+                results[i] = env._finish_step(env._advance())
+        return results
+    n_steps, speeds, hooks, every = zip(*(env._advance_arguments() for env in envs),
+                                        strict=True)
+    records = batch.advance([env.sim for env in envs], n_steps, speeds, hooks, every, active)
+    for i, rec in enumerate(records):
+        if active[i]:
+            results[i] = envs[i]._finish_step(rec)
+    return results
 
 
 def _check_actions(actions: np.ndarray, n: int) -> np.ndarray:
@@ -72,16 +74,6 @@ def _check_actions(actions: np.ndarray, n: int) -> np.ndarray:
         raise ValueError(f"actions: must be finite, env {int(bad[0])} got "
                          f"{a[bad[0]].tolist()} (NaN/inf)")
     return a
-
-
-def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray
-             ) -> list[tuple[np.ndarray, float, bool, bool, dict[str, Any]]]:
-    """Step ``envs`` with ``actions`` (one row each) in the three phases; per-env results."""
-    a = _check_actions(actions, len(envs))
-    for env, row in zip(envs, a, strict=True):
-        env._apply_action(row)
-    records = advance_all(envs)
-    return [env._finish_step(rec) for env, rec in zip(envs, records, strict=True)]
 
 
 class DrillStringVectorEnv(VectorEnv):
@@ -107,6 +99,7 @@ class DrillStringVectorEnv(VectorEnv):
         self.autoreset_mode = AutoresetMode(autoreset_mode)
         self.envs = [DrillStringEnv(**env_kwargs) for _ in range(num_envs)]
         self.num_envs = int(num_envs)
+        self._batch = SimulatorBatch(self.num_envs)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.render_mode = None
         self.single_observation_space = self.envs[0].observation_space
@@ -140,10 +133,11 @@ class DrillStringVectorEnv(VectorEnv):
             if mask.shape != (self.num_envs,) or mask.dtype != np.bool_:
                 raise ValueError(f"options['reset_mask']: needs a bool array of shape "
                                  f"({self.num_envs},), got {mask.dtype} {mask.shape}")
-        infos: dict[str, Any] = {}
+        entries: list[tuple[int, dict[str, Any]]] = []
         for i in np.flatnonzero(mask):
             self._obs[i], info = self.envs[i].reset(seed=seeds[i], options=options or None)
-            infos = self._add_info(infos, info, int(i))
+            entries.append((int(i), info))
+        infos = self._batch_infos(entries)
         self._terminations[mask] = False
         self._truncations[mask] = False
         self._autoreset_envs[mask] = False
@@ -159,25 +153,78 @@ class DrillStringVectorEnv(VectorEnv):
         resetting = self._autoreset_envs.copy() if mode == AutoresetMode.NEXT_STEP else \
             np.zeros(self.num_envs, dtype=np.bool_)
         stepping = np.flatnonzero(~resetting)
-        results = step_all([self.envs[i] for i in stepping], a[stepping])
-        infos: dict[str, Any] = {}
+        results = step_all(self.envs, a, self._batch, ~resetting)
+        entries: list[tuple[int, dict[str, Any]]] = []
         for i in range(self.num_envs):
             if resetting[i]:
                 self._obs[i], info = self.envs[i].reset()
                 self._rewards[i] = 0.0
                 self._terminations[i] = False
                 self._truncations[i] = False
-                infos = self._add_info(infos, info, i)
-        for i, (obs, rew, term, trunc, info) in zip(stepping, results, strict=True):
+                entries.append((i, info))
+        for i in stepping:
+            obs, rew, term, trunc, info = results[i]
             self._obs[i], self._rewards[i] = obs, rew
             self._terminations[i], self._truncations[i] = term, trunc
             if mode == AutoresetMode.SAME_STEP and (term or trunc):
-                infos = self._add_info(infos, {"final_obs": obs, "final_info": info}, int(i))
+                entries.append((int(i), {"final_obs": obs, "final_info": info}))
                 self._obs[i], info = self.envs[i].reset()
-            infos = self._add_info(infos, info, int(i))
+            entries.append((int(i), info))
+        infos = self._batch_infos(entries)
         self._autoreset_envs = np.logical_or(self._terminations, self._truncations)
         return (self._obs.copy(), self._rewards.copy(), self._terminations.copy(),
                 self._truncations.copy(), infos)
+
+    def _batch_infos(self, entries: list[tuple[int, dict[str, Any]]]) -> dict[str, Any]:
+        """Gymnasium's batched ``info`` layout for (env index, info) pairs, built in one go.
+
+        The same result as calling ``VectorEnv._add_info`` pair by pair (an array per
+        key typed by its first value, a ``_key`` mask, nested dicts recursively,
+        ``final_obs`` as an object array), without its per-env, per-key Python loop,
+        which cost more than the rest of an env step.
+        """
+        n = self.num_envs
+        keys: dict[str, None] = {}
+        for _, info in entries:
+            keys.update(dict.fromkeys(info))
+        index = [i for i, _ in entries]
+        # Fast path: float keys that every entry has go through one 2D array.
+        common = set.intersection(*(set(info) for _, info in entries)) if entries else set()
+        shared = [k for k in keys if k in common and type(entries[0][1][k]) is float]
+        column = {k: j for j, k in enumerate(shared)}
+        if shared:
+            table = np.zeros((n, len(shared)))
+            table[index] = [[info[k] for k in shared] for _, info in entries]
+            everywhere = np.zeros(n, dtype=np.bool_)
+            everywhere[index] = True
+        out: dict[str, Any] = {}
+        for key in keys:
+            if key in column:
+                out[key] = table[:, column[key]]
+                out[f"_{key}"] = everywhere.copy()
+                continue
+            present = [(i, info[key]) for i, info in entries if key in info]
+            where = [i for i, _ in present]
+            first = present[0][1]
+            if key == "final_obs" or not (isinstance(first, (dict, np.ndarray))
+                                          or type(first) in (int, float, bool)
+                                          or isinstance(first, np.number)):
+                array: Any = np.full(n, None, dtype=object)
+                for i, value in present:
+                    array[i] = value
+            elif isinstance(first, dict):
+                array = self._batch_infos(present)
+            elif isinstance(first, np.ndarray):
+                array = np.zeros((n, *first.shape), dtype=first.dtype)
+                array[where] = [value for _, value in present]
+            else:
+                array = np.zeros(n, dtype=type(first))
+                array[where] = [value for _, value in present]
+            mask = np.zeros(n, dtype=np.bool_)
+            mask[where] = True
+            out[key] = array
+            out[f"_{key}"] = mask
+        return out
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """The attribute ``name`` of every sub-environment."""
@@ -222,12 +269,13 @@ def _sb3_class() -> type:
                 raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
             self.env_kwargs = dict(env_kwargs)
             super().__init__([self._make_env for _ in range(int(num_envs))])
+            self._batch = SimulatorBatch(self.num_envs)
 
         def _make_env(self) -> DrillStringEnv:
             return DrillStringEnv(**self.env_kwargs)
 
         def step_wait(self):
-            results = step_all(self.envs, self.actions)
+            results = step_all(self.envs, self.actions, self._batch)
             for i, (obs, rew, term, trunc, info) in enumerate(results):
                 self.buf_rews[i] = rew
                 self.buf_dones[i] = term or trunc

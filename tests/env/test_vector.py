@@ -175,3 +175,32 @@ def test_sb3_can_run_a_few_ppo_steps_on_the_vec_env():
     venv = make_sb3_vec_env(2, **KW)
     model = PPO("MlpPolicy", venv, n_steps=8, batch_size=8, n_epochs=1, seed=0, device="cpu")
     model.learn(total_timesteps=16)
+
+
+def _assert_same_infos(a: dict, b: dict) -> None:
+    assert list(a) == list(b)
+    for key in a:
+        if isinstance(a[key], dict):
+            _assert_same_infos(a[key], b[key])
+        else:
+            assert a[key].dtype == b[key].dtype, key
+            for x, y in zip(a[key], b[key], strict=True):
+                np.testing.assert_array_equal(np.asarray(x, dtype=object),
+                                              np.asarray(y, dtype=object))
+
+
+def test_batched_infos_equal_gymnasiums_add_info():
+    """The one-pass info batching gives VectorEnv._add_info's layout, key for key."""
+    vec = DrillStringVectorEnv(num_envs=4)
+    entries = [
+        (2, {"a": 1.5, "n": 3, "flag": True, "xy": np.array([1.0, 2.0]), "why": "",
+             "terms": {"rop": 0.1, "whirl": -0.2}, "f32": np.float32(0.5)}),
+        (0, {"a": 2.5, "xy": np.array([3.0, 4.0]), "why": "torque",
+             "terms": {"rop": 0.3}, "only0": None}),
+        (3, {"final_obs": np.zeros(3), "final_info": {"a": 9.0}}),
+        (3, {"a": -1.0, "n": 7, "flag": False, "f32": np.float32(1.5)}),
+    ]
+    expected: dict = {}
+    for i, info in entries:
+        expected = vec._add_info(expected, info, i)
+    _assert_same_infos(vec._batch_infos(entries), expected)
