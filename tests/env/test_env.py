@@ -274,3 +274,14 @@ def test_constant_rpm_policy_runs_a_full_episode_without_nan():
     assert steps == 30 and not terminated
     assert info["speed_setpoint"] == pytest.approx(60 * RPM)
     assert info["depth"] > env.unwrapped.simulation_config.initial_depth
+
+
+def test_fidelity_keyword_selects_the_fast_physics():
+    env = gym.make("DrillString-v0", scenario="paper_case4", fidelity="fast")
+    env.reset(seed=0)
+    cfg = env.unwrapped.sim.config
+    assert cfg.solver.fidelity == "fast" and cfg.solver.pipe_lateral is False
+    obs, *_ = env.step(env.action_space.sample())
+    assert np.all(np.isfinite(obs))
+    with pytest.raises(ValueError, match="fidelity"):
+        gym.make("DrillString-v0", fidelity="turbo").reset(seed=0)
