@@ -550,7 +550,7 @@ def format_env(result: dict[str, Any]) -> str:
     if "fast_over_full_single" in result:
         notes.append(f"fast / full env steps/s: one env {result['fast_over_full_single']:.2f} x,"
                      f" batched (largest N) {result['fast_over_full_batched']:.2f} x")
-    notes.append(f"10 Hz policy rate; batched env threads over the nogil kernel on "
+    notes.append(f"10 Hz policy rate; batched env: one numba prange call over the envs, "
                  f"{result['cpu_count']} cores; x one env: against one env timed in the same "
                  f"rounds; best of repeats")
     return _table("Env throughput", ("configuration", "env steps/s", "x one env", "x loop"),
