@@ -289,6 +289,11 @@ def _pairwise_sum(a, tasks, partial):
     return 0.0 + partial[0]
 
 
+def sum_scratch() -> tuple[np.ndarray, np.ndarray]:
+    """The ``tasks`` and ``partial`` stacks of :func:`_pairwise_sum`, allocated once."""
+    return np.empty((2, 192), dtype=np.int64), np.empty(64)
+
+
 @njit(cache=True, nogil=True)
 def _max(a):
     """``np.max``: NaN if any value is NaN."""
@@ -330,16 +335,15 @@ def metric_samples_into(records, columns, clearance, samples):
 
 
 @njit(cache=True, nogil=True)
-def reduce_metric_samples(samples, dt, area, out):
+def reduce_metric_samples(samples, dt, area, out, tasks, partial):
     """The :data:`WINDOW_METRICS` of ``samples`` (at least one) into ``out``.
 
-    ``dt``: sample spacing (s); ``area``: :func:`bit_area`. Returns whether every
+    ``dt``: sample spacing (s); ``area``: :func:`bit_area`; ``tasks``, ``partial``: the
+    scratch stacks of :func:`_pairwise_sum`, from :func:`sum_scratch`. Returns whether every
     record behind the samples was finite. The reductions of the definitions above, with
     their NaN behaviour (``np.max`` propagates NaN, Python's ``max(nan, x)`` is NaN).
     """
     n = samples.shape[1]
-    tasks = np.empty((2, 192), dtype=np.int64)
-    partial = np.empty(64)
     w = samples[_S_SPEED]
 
     w_max, w_min = w[0], w[0]  # np.max / np.min: NaN if any is NaN
@@ -413,6 +417,7 @@ class RollingMetrics:
         self._columns = metric_columns(channels)
         self._samples = np.empty((len(METRIC_SAMPLES), 2 * self.size))
         self._out = np.empty(len(WINDOW_METRICS))
+        self._scratch = sum_scratch()
         self._start = self._end = 0
 
     def __len__(self) -> int:
@@ -445,7 +450,7 @@ class RollingMetrics:
         metric_samples_into(records, self._columns, self.clearance, new)
         self._end += n
         self._start = max(self._start, self._end - self.size)
-        finite = reduce_metric_samples(new, self.dt, self.area, self._out)
+        finite = reduce_metric_samples(new, self.dt, self.area, self._out, *self._scratch)
         return self._out.tolist(), finite
 
     def window(self) -> tuple[list[float], bool] | None:
@@ -453,5 +458,5 @@ class RollingMetrics:
         if self._end == self._start:
             return None
         finite = reduce_metric_samples(self._samples[:, self._start:self._end], self.dt,
-                                       self.area, self._out)
+                                       self.area, self._out, *self._scratch)
         return self._out.tolist(), finite

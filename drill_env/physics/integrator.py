@@ -317,8 +317,9 @@ def advance(n_steps, record_every, p, state,
             fy_static = bit_out[5]
             gauge_x = bit_out[6]
             gauge_y = bit_out[7]
-            rl[0, lb] += gauge_x
-            rl[1, lb] += gauge_y
+            if lateral:
+                rl[0, lb] += gauge_x
+                rl[1, lb] += gauge_y
             rt[bit] += bit_out[8]
             state[S_GAUGE_FORCE] = np.sqrt(bit_out[6] ** 2 + bit_out[7] ** 2)
             state[S_DEPTH_OF_CUT] = bit_out[9]
@@ -350,11 +351,11 @@ def advance(n_steps, record_every, p, state,
         else:
             fbx = -fx_slip
             fby = -fy_slip
-        rl[0, lb] += fbx
-        rl[1, lb] += fby
         state[S_BIT_FX] = fbx + gauge_x
         state[S_BIT_FY] = fby + gauge_y
         if lateral:
+            rl[0, lb] += fbx
+            rl[1, lb] += fby
             lateral_residual(lat_k_total, lat_k_damp, ul, vl, lat_m, a_ray, rl)
             rl[0, 0] = 0.0  # top node laterally pinned
             rl[1, 0] = 0.0

@@ -177,6 +177,7 @@ class Simulator:
         self.node_force = np.zeros(n)
         self.state = np.zeros(ig.N_STATE)
         self._record = np.zeros((1, ig.N_RECORD))
+        self._warned_compression = False
         self.reset()
 
     # ------------------------------------------------------------------ set-up
@@ -318,7 +319,7 @@ class Simulator:
         the BHA; a compressed pipe would buckle and touch the wall in the full model.
         """
         if (self.lateral_start == 0 or not self.config.solver.lateral
-                or getattr(self, "_warned_compression", False)):
+                or self._warned_compression):
             return
         force = axial_force_profile(self.mesh, weight_on_bit, self.bit_buoyed_weight)
         if np.min(force[: self.lateral_start]) < 0.0:
