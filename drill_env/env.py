@@ -20,6 +20,8 @@ from drill_env.physics.config import (
     require_non_negative,
     require_positive,
 )
+from drill_env.physics.readings import N_READINGS
+from drill_env.physics.readings import R as READ
 from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
 from drill_env.scenarios import RANDOMISED, Scenario, make_scenario, scenario_parameters
 
@@ -359,6 +361,7 @@ class DrillStringEnv(gym.Env):
         # Constants of every step, looked up once per simulator (reset may build another).
         self._max_steps = self.max_episode_steps
         self._clearance = self.clearance
+        self._string_weight = sim.string_weight
 
     def _init_episode_state(self) -> None:
         self._step_count = 0
@@ -432,6 +435,7 @@ class DrillStringEnv(gym.Env):
         self._wob_applied = wob_start
         self._start_time = sim.time
         self._window_metrics = self._window.window()
+        self._readings = sim.read().tolist()
         info = self._info()
         return self._observation(info), info
 
@@ -493,8 +497,12 @@ class DrillStringEnv(gym.Env):
         self._wob_applied = min(self._wob_applied, self.weight_on_bit_limit)
 
     def _advance(self) -> np.ndarray:
-        """Run the simulator over one control interval; returns the records."""
-        return self.sim.advance(*self._advance_arguments())
+        """Run the simulator over one control interval; returns the records.
+
+        The simulator's ``readings`` are refreshed in the same compiled call (a batch
+        refreshes them in its parallel kernel).
+        """
+        return self.sim.advance(*self._advance_arguments(), read=True)
 
     def _advance_arguments(self) -> tuple[int, float, float, int]:
         """(n_steps, speed set point, hook load, record_every) of one control interval."""
@@ -504,10 +512,12 @@ class DrillStringEnv(gym.Env):
     def _finish_step(self, records: np.ndarray
                      ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         self._step_count += 1
-        step = self._window.add(records)  # metrics of this interval's records, or None
+        # The metrics of this interval's records (None: no records) and of the window.
+        step, window = self._window.update(records)
         if step is not None:
             self._episode_energy += step[0][_METRIC["top_drive_energy"]]
-            self._window_metrics = self._window.window()
+            self._window_metrics = window
+        self._readings = self.sim.readings.tolist()
         reason = self._termination_reason(step)
         terminated = bool(reason)
         truncated = (not terminated) and self._step_count >= self._max_steps
@@ -526,10 +536,10 @@ class DrillStringEnv(gym.Env):
         ``step``: the metrics of this interval's records and whether they are all finite
         (``None``: no records), from :class:`drill_env.metrics.RollingMetrics`.
         """
-        if self.sim.status != 0:
+        if self._readings[READ["status"]] != 0:
             return self.sim.status_message
         peak = step[0][_METRIC["surface_torque_max"]] if step is not None else 0.0
-        if max(peak, abs(self.sim.surface_torque)) > self.config.makeup_torque:
+        if max(peak, abs(self._readings[READ["surface_torque"]])) > self.config.makeup_torque:
             return "surface torque above make-up torque"
         return ""
 
@@ -559,18 +569,19 @@ class DrillStringEnv(gym.Env):
         return values[_METRIC["ssi"]]
 
     def _raw_observation(self, info: dict[str, Any]) -> list[float]:
-        """The observation before delay, noise and clipping, from the SI values of ``info``.
+        """The observation before delay, noise and clipping, from the SI values of ``info``
+        and the simulator's readings.
 
         Entries in the order of :data:`OBSERVATIONS` (``surface`` is the tail of
         ``downhole``).
         """
-        sim, cfg = self.sim, self.config
+        cfg = self.config
         w_max = self._speed_range[1]
         wob_max = self._wob_range[1]
         surface = [
             info["surface_speed"] / w_max,
             info["surface_torque"] / cfg.torque_scale,
-            info["hook_load"] / sim.string_weight,
+            info["hook_load"] / self._string_weight,
             info["rop"] / cfg.rop_scale,
             self._speed_target / w_max,
             self._wob_target / wob_max,
@@ -578,21 +589,20 @@ class DrillStringEnv(gym.Env):
         if cfg.sensors == "surface":
             return surface
         c = self._clearance
-        x, y = info["bit_lateral"].tolist()
-        vx, vy = sim.bit_lateral_velocity.tolist()
-        fx, fy = sim.bit_lateral_force.tolist()
+        r = self._readings
+        force = cfg.force_scale
         return [
             info["torque_on_bit"] / cfg.torque_scale,
             info["bit_speed"] / w_max,
             info["weight_on_bit"] / wob_max,
-            x / c,
-            y / c,
-            vx / (c * w_max),
-            vy / (c * w_max),
+            r[READ["bit_x"]] / c,
+            r[READ["bit_y"]] / c,
+            r[READ["bit_vx"]] / (c * w_max),
+            r[READ["bit_vy"]] / (c * w_max),
             info["whirl_speed"] / w_max,
-            fx / cfg.force_scale,
-            fy / cfg.force_scale,
-            float(sim.contact_forces.max()) / cfg.force_scale,
+            r[READ["bit_force_x"]] / force,
+            r[READ["bit_force_y"]] / force,
+            r[READ["max_contact_force"]] / force,
             *surface,
         ]
 
@@ -600,34 +610,39 @@ class DrillStringEnv(gym.Env):
         raw = self._raw_observation(info)
         if not all(map(math.isfinite, raw)):  # diverged: repeat the last finite observation
             return self._last_obs.copy()
-        self._obs_queue.append(raw)
-        obs = np.array(self._obs_queue[0])  # telemetry_delay steps old (oldest kept)
+        if self.config.telemetry_delay:
+            self._obs_queue.append(raw)
+            raw = self._obs_queue[0]  # telemetry_delay steps old (oldest kept)
         if self.config.observation_noise > 0:
-            obs += self.config.observation_noise * self.np_random.standard_normal(obs.shape)
-        obs = obs.clip(-OBS_BOUND, OBS_BOUND, out=obs).astype(np.float32)
+            noisy = np.array(raw) + self.config.observation_noise * \
+                self.np_random.standard_normal(len(raw))
+            raw = noisy.tolist()
+        # Clipped as float64, then rounded: the same as clipping the float32 (+-10 is exact).
+        obs = np.array([min(max(v, -OBS_BOUND), OBS_BOUND) for v in raw], dtype=np.float32)
         self._last_obs = obs
         return obs.copy()
 
     def _info(self) -> dict[str, Any]:
-        sim = self.sim
+        r = self._readings  # the simulator's readings (NaN rock shares once stopped)
+        readings = self.sim.readings
+        time = r[READ["time"]]
         info: dict[str, Any] = {
-            "time": sim.time,
-            "bit_speed": sim.bit_speed,
-            "surface_speed": sim.surface_speed,
-            "torque_on_bit": sim.torque_on_bit,
-            "surface_torque": sim.surface_torque,
-            "weight_on_bit": sim.weight_on_bit,
-            "hook_load": sim.hook_load,
-            "bit_lateral": sim.bit_lateral,
-            "whirl_speed": sim.whirl_speed,
-            "depth": sim.depth,
-            "rop": sim.rop,
-            "rock_share": sim.rock_share if sim.status == 0 else
-            np.full(len(sim.config.formation.rocks), np.nan),
+            "time": time,
+            "bit_speed": r[READ["bit_speed"]],
+            "surface_speed": r[READ["surface_speed"]],
+            "torque_on_bit": r[READ["torque_on_bit"]],
+            "surface_torque": r[READ["surface_torque"]],
+            "weight_on_bit": r[READ["weight_on_bit"]],
+            "hook_load": r[READ["hook_load"]],
+            "bit_lateral": readings[READ["bit_x"]:READ["bit_y"] + 1].copy(),
+            "whirl_speed": r[READ["whirl_speed"]],
+            "depth": r[READ["depth"]],
+            "rop": r[READ["rop"]],
+            "rock_share": readings[N_READINGS:].copy(),
             "speed_setpoint": self._speed_target,
             "weight_on_bit_setpoint": self._wob_target,
             "weight_on_bit_limit": self.weight_on_bit_limit,
-            "episode_time": sim.time - self._start_time,
+            "episode_time": time - self._start_time,
             "top_drive_energy": self._episode_energy,
         }
         window = self._window_metrics

@@ -388,6 +388,38 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
     return True
 
 
+@njit(cache=True, nogil=True)
+def rolling_add(records, columns, clearance, dt, area, size, samples, bounds, step_out,
+                window_out, with_window, tasks, partial):
+    """Append the samples of ``records`` (at least one) to a rolling window; metrics.
+
+    ``samples``: the window buffer (``(len(METRIC_SAMPLES), capacity)``, capacity at least
+    ``size + len(records)``); ``bounds``: int64 ``[start, end]`` of the window in it,
+    updated. When the records do not fit after ``end`` the kept samples move to the
+    front first. Writes the metrics of ``records`` into ``step_out`` and, if
+    ``with_window``, those of the last ``size`` samples into ``window_out``. Returns
+    1 if the step's records were all finite, plus 2 if the window's were.
+    """
+    n = records.shape[0]
+    start, end = bounds[0], bounds[1]
+    if end + n > samples.shape[1]:
+        kept = end - start
+        for row in range(samples.shape[0]):
+            for k in range(kept):
+                samples[row, k] = samples[row, start + k]
+        start, end = 0, kept
+    new = samples[:, end:end + n]
+    metric_samples_into(records, columns, clearance, new)
+    end += n
+    start = max(start, end - size)
+    bounds[0], bounds[1] = start, end
+    flags = 1 if reduce_metric_samples(new, dt, area, step_out, tasks, partial) else 0
+    if with_window and reduce_metric_samples(samples[:, start:end], dt, area, window_out,
+                                             tasks, partial):
+        flags += 2
+    return flags
+
+
 class RollingMetrics:
     """The :func:`window_metrics` of the last ``size`` records, updated as records arrive.
 
@@ -399,7 +431,8 @@ class RollingMetrics:
     ``add(records)`` appends the :data:`METRIC_SAMPLES` of new records to a buffer twice
     the window long (the kept samples move to its front once every ``size`` records; it
     grows if one ``add`` brings more) and returns the metrics of those records;
-    ``window()`` those of the whole window.
+    ``window()`` those of the whole window; ``update(records)`` both, in one compiled
+    call (the env's step).
     Metrics come as a list of floats in the order of :data:`WINDOW_METRICS`, with a flag
     telling whether every value of the records behind them is finite.
     """
@@ -416,47 +449,59 @@ class RollingMetrics:
         self.area = bit_area(bit_diameter)
         self._columns = metric_columns(channels)
         self._samples = np.empty((len(METRIC_SAMPLES), 2 * self.size))
+        self._bounds = np.zeros(2, dtype=np.int64)  # [start, end) of the window
+        self._step = np.empty(len(WINDOW_METRICS))
         self._out = np.empty(len(WINDOW_METRICS))
         self._scratch = sum_scratch()
-        self._start = self._end = 0
 
     def __len__(self) -> int:
-        return self._end - self._start
+        return int(self._bounds[1] - self._bounds[0])
 
     def clear(self) -> None:
-        self._start = self._end = 0
+        self._bounds[:] = 0
 
     @property
     def bit_speed(self) -> np.ndarray:
         """The bit speed of the window's records (a view, valid until the next ``add``)."""
-        return self._samples[_S_SPEED, self._start:self._end]
+        start, end = self._bounds.tolist()
+        return self._samples[_S_SPEED, start:end]
+
+    def _add(self, records: np.ndarray, with_window: bool) -> int:
+        n = len(records)
+        if self.size + n > self._samples.shape[1]:  # more records at once than it holds
+            start, end = self._bounds.tolist()
+            grown = np.empty((len(METRIC_SAMPLES), self.size + n))
+            grown[:, :end - start] = self._samples[:, start:end]
+            self._samples = grown
+            self._bounds[:] = (0, end - start)
+        return rolling_add(records, self._columns, self.clearance, self.dt, self.area,
+                           self.size, self._samples, self._bounds, self._step, self._out,
+                           with_window, *self._scratch)
 
     def add(self, records: np.ndarray) -> tuple[list[float], bool] | None:
         """Append ``records`` (rows); their metrics and whether they are all finite.
 
         ``None`` (and nothing appended) when ``records`` is empty.
         """
-        n = len(records)
-        if n == 0:
+        if len(records) == 0:
             return None
-        kept = self._end - self._start
-        if self._end + n > self._samples.shape[1]:  # move the window to the front
-            old = self._samples
-            if self.size + n > old.shape[1]:  # more records at once than the window holds
-                self._samples = np.empty((len(METRIC_SAMPLES), self.size + n))
-            self._samples[:, :kept] = old[:, self._start:self._end]
-            self._start, self._end = 0, kept
-        new = self._samples[:, self._end:self._end + n]
-        metric_samples_into(records, self._columns, self.clearance, new)
-        self._end += n
-        self._start = max(self._start, self._end - self.size)
-        finite = reduce_metric_samples(new, self.dt, self.area, self._out, *self._scratch)
-        return self._out.tolist(), finite
+        flags = self._add(records, False)
+        return self._step.tolist(), bool(flags & 1)
+
+    def update(self, records: np.ndarray) -> tuple[tuple[list[float], bool] | None,
+                                                   tuple[list[float], bool] | None]:
+        """``(add(records), window())`` in one compiled call (``add`` is None when
+        ``records`` is empty, and ``window()`` is then computed on its own)."""
+        if len(records) == 0:
+            return None, self.window()
+        flags = self._add(records, True)
+        return (self._step.tolist(), bool(flags & 1)), (self._out.tolist(), bool(flags & 2))
 
     def window(self) -> tuple[list[float], bool] | None:
         """The metrics of the window and whether they are all finite (``None``: empty)."""
-        if self._end == self._start:
+        start, end = self._bounds.tolist()
+        if end == start:
             return None
-        finite = reduce_metric_samples(self._samples[:, self._start:self._end], self.dt,
-                                       self.area, self._out, *self._scratch)
+        finite = reduce_metric_samples(self._samples[:, start:end], self.dt, self.area,
+                                       self._out, *self._scratch)
         return self._out.tolist(), finite

@@ -22,6 +22,8 @@ bit-for-bit the trajectory it would follow alone.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from itertools import chain
+from operator import itemgetter
 from typing import Any
 
 import numpy as np
@@ -184,24 +186,25 @@ class DrillStringVectorEnv(VectorEnv):
         which cost more than the rest of an env step.
         """
         n = self.num_envs
-        keys: dict[str, None] = {}
-        for _, info in entries:
-            keys.update(dict.fromkeys(info))
+        infos = [info for _, info in entries]
         index = [i for i, _ in entries]
+        keys = dict.fromkeys(chain.from_iterable(infos))  # first-appearance order
         # Fast path: float keys that every entry has go through one 2D array.
-        common = set.intersection(*(set(info) for _, info in entries)) if entries else set()
-        shared = [k for k in keys if k in common and type(entries[0][1][k]) is float]
+        common = set(infos[0]).intersection(*infos[1:]) if infos else set()
+        shared = [k for k in keys if k in common and type(infos[0][k]) is float]
         column = {k: j for j, k in enumerate(shared)}
         if shared:
-            table = np.zeros((n, len(shared)))
-            table[index] = [[info[k] for k in shared] for _, info in entries]
-            everywhere = np.zeros(n, dtype=np.bool_)
-            everywhere[index] = True
+            getter = itemgetter(*shared)
+            rows = [getter(info) for info in infos]
+            table = np.zeros((len(shared), n))
+            table[:, index] = np.array(rows, dtype=np.float64).reshape(len(infos), -1).T
+            everywhere = np.zeros((len(shared), n), dtype=np.bool_)
+            everywhere[:, index] = True
         out: dict[str, Any] = {}
         for key in keys:
             if key in column:
-                out[key] = table[:, column[key]]
-                out[f"_{key}"] = everywhere.copy()
+                out[key] = table[column[key]]
+                out[f"_{key}"] = everywhere[column[key]]
                 continue
             present = [(i, info[key]) for i, info in entries if key in info]
             where = [i for i, _ in present]

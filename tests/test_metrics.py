@@ -202,6 +202,23 @@ def test_rolling_window_keeps_the_last_records_whatever_the_chunks():
     assert len(rolling) == 0 and rolling.window() is None
 
 
+def test_rolling_update_is_add_then_window_in_one_call():
+    rng = np.random.default_rng(5)
+    size = 40
+    apart = metrics.RollingMetrics(size, CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
+    together = metrics.RollingMetrics(size, CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
+    assert together.update(np.zeros((0, len(CHANNELS)))) == (None, None)
+    for k, n in enumerate([3, 0, 39, 41, 1, 100, 7, 7, 7, 7, 7, 7]):
+        chunk = random_records(rng, n)
+        if k == 5:
+            chunk[17, COL["rop"]] = np.nan  # a non-finite step, and window, flag
+        with np.errstate(invalid="ignore"):
+            expected = (apart.add(chunk), apart.window())
+            got = together.update(chunk)
+        assert repr(got) == repr(expected)  # the same floats, NaN included
+        np.testing.assert_array_equal(together.bit_speed, apart.bit_speed)
+
+
 def test_pairwise_sum_adds_in_numpys_order():
     rng = np.random.default_rng(4)
     tasks, partial = np.empty((2, 192), dtype=np.int64), np.empty(64)

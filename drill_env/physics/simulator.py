@@ -34,6 +34,7 @@ from drill_env.physics.fem import (
 )
 from drill_env.physics.formation import DEPTH_OF_CUT, formation_arrays, resistance, rock_at
 from drill_env.physics.linalg import band_cholesky, cholesky_to_ldl
+from drill_env.physics.readings import N_READINGS, advance_and_read, readout
 
 #: Status set by :meth:`Simulator.advance` when a hook load compresses the string
 #: beyond what the mesh resolves (see :meth:`Simulator.check_mesh_resolves`).
@@ -177,6 +178,9 @@ class Simulator:
         self.node_force = np.zeros(n)
         self.state = np.zeros(ig.N_STATE)
         self._record = np.zeros((1, ig.N_RECORD))
+        #: :data:`~drill_env.physics.readings.READINGS` + rock shares, refreshed by
+        #: :meth:`read` (and by ``advance(..., read=True)`` and batched advances).
+        self.readings = np.zeros(N_READINGS + self.rock_params.shape[0])
         self._warned_compression = False
         self.reset()
 
@@ -402,18 +406,38 @@ class Simulator:
                 doc = float(self._bit_loads(omega, wob)[9])
             self.state[ig.S_DEPTH_OF_CUT] = doc
             self.state[ig.S_ROP] = doc * max(omega, 0.0) / (2 * np.pi)
+        self.read()
 
     def advance(self, n_steps: int, speed_setpoint: float | None = None,
-                hook_load: float | None = None, record_every: int = 0) -> np.ndarray:
+                hook_load: float | None = None, record_every: int = 0,
+                read: bool = False) -> np.ndarray:
         """Advance ``n_steps`` steps under a surface speed set point (rad/s) and hook load (N).
 
         Returns the recorded samples (one row every ``record_every`` steps, columns
-        :data:`RECORD_CHANNELS`); empty when ``record_every`` is 0.
+        :data:`RECORD_CHANNELS`); empty when ``record_every`` is 0. ``read``: refresh
+        :attr:`readings` in the same compiled call (as :meth:`read` would after it).
         """
         if not self.prepare(n_steps, speed_setpoint, hook_load, record_every):
+            if read:
+                self.read()
             return np.zeros((0, ig.N_RECORD))
-        n_rec = ig.advance(n_steps, record_every, *self.kernel_arrays())
+        if read:
+            n_rec = advance_and_read(n_steps, record_every, *self.kernel_arrays(),
+                                     self.readings)
+        else:
+            n_rec = ig.advance(n_steps, record_every, *self.kernel_arrays())
         return self.records(n_rec)
+
+    def read(self) -> np.ndarray:
+        """Refresh and return :attr:`readings` (the current state's observables)."""
+        readout(*self.readout_arrays(), self.readings)
+        return self.readings
+
+    def readout_arrays(self) -> tuple[np.ndarray, ...]:
+        """The arrays of :func:`~drill_env.physics.readings.readout` but its output."""
+        return (self.params, self.state, self.lat_planes[0], self.lat_planes[1], self.ut,
+                self.vt, self.node_force, self.blades, self.normals, self.offsets,
+                self.layer_rock, self.rock_params, *self.bit_scratch, self.bit_out)
 
     def prepare(self, n_steps: int, speed_setpoint: float | None = None,
                 hook_load: float | None = None, record_every: int = 0) -> bool:

@@ -51,6 +51,7 @@ def test_batch_is_bit_identical_to_one_by_one_with_different_meshes_and_inactive
         np.testing.assert_array_equal(a.state, e.state)
         np.testing.assert_array_equal(a.ul, e.ul)
         np.testing.assert_array_equal(a.vt, e.vt)
+        np.testing.assert_array_equal(a.readings, e.read())  # refreshed in the kernel
 
 
 def test_a_replaced_simulator_is_picked_up_and_the_batch_pickles():

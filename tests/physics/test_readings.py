@@ -1,0 +1,78 @@
+"""Simulator readings (one compiled readout) against the properties and closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drill_env.physics import integrator as ig
+from drill_env.physics.config import SimulationConfig, replace
+from drill_env.physics.readings import N_READINGS, READINGS, R, whirl_speed
+from drill_env.physics.simulator import OperatingPoint, Simulator
+
+RPM = 2.0 * math.pi / 60.0
+
+
+def whirling(bit_model: str) -> Simulator:
+    """A default string one step after its bit was pushed into the wall."""
+    sim = Simulator(replace(SimulationConfig(), bit_model=bit_model))
+    sim.reset(OperatingPoint(60 * RPM, 80e3))
+    sim.ul[-2] = [1.2 * sim.config.bit.gauge_clearance, 0.0]  # kick the bit into the wall
+    sim.advance(1, 60 * RPM, sim.hook_load_for(80e3))
+    return sim
+
+
+@pytest.mark.parametrize("bit_model", ["mesoscopic", "macroscopic"])
+def test_readings_are_the_simulator_properties(bit_model):
+    sim = whirling(bit_model)
+    r = dict(zip(READINGS, sim.read().tolist(), strict=False))
+    assert np.hypot(r["bit_x"], r["bit_y"]) > 0.0 and r["max_contact_force"] > 0.0
+    for name in ("time", "depth", "bit_speed", "surface_speed", "torque_on_bit",
+                 "surface_torque", "weight_on_bit", "hook_load", "rop", "whirl_speed"):
+        assert r[name] == getattr(sim, name), name
+    assert [r["bit_x"], r["bit_y"]] == sim.bit_lateral.tolist()
+    assert [r["bit_vx"], r["bit_vy"]] == sim.bit_lateral_velocity.tolist()
+    assert [r["bit_force_x"], r["bit_force_y"]] == sim.bit_lateral_force.tolist()
+    assert r["max_contact_force"] == sim.contact_forces.max()
+    assert r["status"] == sim.status == 0
+    shares = sim.readings[N_READINGS:]
+    np.testing.assert_array_equal(shares, sim.rock_share)
+    assert shares.sum() == pytest.approx(1.0)
+
+
+def test_advance_with_read_is_advance_then_read():
+    a, b = whirling("mesoscopic"), whirling("mesoscopic")
+    ra = a.advance(100, 70 * RPM, a.hook_load_for(90e3), 10, read=True)
+    rb = b.advance(100, 70 * RPM, b.hook_load_for(90e3), 10)
+    np.testing.assert_array_equal(ra, rb)
+    np.testing.assert_array_equal(a.state, b.state)
+    np.testing.assert_array_equal(a.readings, b.read())
+
+
+def test_reset_leaves_fresh_readings():
+    sim = Simulator(SimulationConfig())
+    sim.reset(OperatingPoint(90 * RPM, 50e3))
+    assert sim.readings[R["bit_speed"]] == pytest.approx(90 * RPM)
+    assert sim.readings[R["weight_on_bit"]] == 50e3
+    assert sim.readings[R["time"]] == 0.0
+
+
+def test_a_stopped_simulator_reads_nan_rock_shares():
+    sim = whirling("mesoscopic")
+    sim.state[ig.S_STATUS] = ig.STATUS_NONFINITE
+    readings = sim.read()
+    assert readings[R["status"]] == ig.STATUS_NONFINITE
+    assert np.isnan(readings[N_READINGS:]).all()
+
+
+def test_whirl_speed_of_a_circular_orbit_is_its_angular_speed():
+    """x = r cos(Wt), y = r sin(Wt): (x vy - vx y) / r^2 = W, either direction."""
+    r = 2e-3
+    for omega in (5.0, -3.0):
+        for t in np.linspace(0.0, 1.0, 7):
+            x, y = r * math.cos(omega * t), r * math.sin(omega * t)
+            vx, vy = -r * omega * math.sin(omega * t), r * omega * math.cos(omega * t)
+            assert whirl_speed(x, y, vx, vy) == pytest.approx(omega, rel=1e-12)
+    assert whirl_speed(0.0, 0.0, 1.0, 1.0) == 0.0  # centred: no direction
