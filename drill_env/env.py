@@ -362,6 +362,7 @@ class DrillStringEnv(gym.Env):
         self._max_steps = self.max_episode_steps
         self._clearance = self.clearance
         self._string_weight = sim.string_weight
+        self._max_wob_change = cfg.drawworks_rate * self.control_interval  # per step (N)
 
     def _init_episode_state(self) -> None:
         self._step_count = 0
@@ -476,8 +477,8 @@ class DrillStringEnv(gym.Env):
             a0, a1 = a.tolist()
         if not (math.isfinite(a0) and math.isfinite(a1)):
             raise ValueError(f"action: must be finite, got {[a0, a1]} (NaN/inf)")
-        a0 = min(max(a0, -1.0), 1.0)
-        a1 = min(max(a1, -1.0), 1.0)
+        a0 = 1.0 if a0 > 1.0 else -1.0 if a0 < -1.0 else a0
+        a1 = 1.0 if a1 > 1.0 else -1.0 if a1 < -1.0 else a1
         cfg = self.config
         s_lo, s_hi = self._speed_range
         w_lo, w_hi = self._wob_range
@@ -487,14 +488,18 @@ class DrillStringEnv(gym.Env):
         else:
             speed = self._speed_target + a0 * cfg.rpm_step * RPM
             wob = self._wob_target + a1 * cfg.weight_on_bit_step
-        speed = min(max(speed, s_lo), s_hi)
-        wob = min(max(wob, w_lo), w_hi)
+        speed = s_hi if speed > s_hi else s_lo if speed < s_lo else speed
+        wob = w_hi if wob > w_hi else w_lo if wob < w_lo else wob
         self._effort = ((speed - self._speed_target) / (s_hi - s_lo)) ** 2 + (
             (wob - self._wob_target) / (w_hi - w_lo)) ** 2
         self._speed_target, self._wob_target = speed, wob
-        max_change = cfg.drawworks_rate * self.control_interval
-        self._wob_applied += min(max(wob - self._wob_applied, -max_change), max_change)
-        self._wob_applied = min(self._wob_applied, self.weight_on_bit_limit)
+        change = wob - self._wob_applied
+        max_change = self._max_wob_change
+        change = max_change if change > max_change else -max_change if change < -max_change \
+            else change
+        applied = self._wob_applied + change
+        limit = self.weight_on_bit_limit
+        self._wob_applied = limit if applied > limit else applied
 
     def _advance(self) -> np.ndarray:
         """Run the simulator over one control interval; returns the records.
@@ -511,9 +516,16 @@ class DrillStringEnv(gym.Env):
 
     def _finish_step(self, records: np.ndarray
                      ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Everything after the simulator call: metrics, termination, reward, info."""
+        return self._finish_metrics(*self._window.update(records))
+
+    def _finish_metrics(self, step: tuple[list[float], bool] | None,
+                        window: tuple[list[float], bool] | None
+                        ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """:meth:`_finish_step` once the records are in the window: ``step`` and
+        ``window`` are their metrics and the window's (``step`` None: no records). A batch
+        updates the windows of all envs in its compiled call, then calls this."""
         self._step_count += 1
-        # The metrics of this interval's records (None: no records) and of the window.
-        step, window = self._window.update(records)
         if step is not None:
             self._episode_energy += step[0][_METRIC["top_drive_energy"]]
             self._window_metrics = window
@@ -618,7 +630,10 @@ class DrillStringEnv(gym.Env):
                 self.np_random.standard_normal(len(raw))
             raw = noisy.tolist()
         # Clipped as float64, then rounded: the same as clipping the float32 (+-10 is exact).
-        obs = np.array([min(max(v, -OBS_BOUND), OBS_BOUND) for v in raw], dtype=np.float32)
+        if max(raw) > OBS_BOUND or min(raw) < -OBS_BOUND:
+            raw = [OBS_BOUND if v > OBS_BOUND else -OBS_BOUND if v < -OBS_BOUND else v
+                   for v in raw]
+        obs = np.array(raw, dtype=np.float32)
         self._last_obs = obs
         return obs.copy()
 

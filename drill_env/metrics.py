@@ -453,6 +453,7 @@ class RollingMetrics:
         self._step = np.empty(len(WINDOW_METRICS))
         self._out = np.empty(len(WINDOW_METRICS))
         self._scratch = sum_scratch()
+        self._params = np.array([self.clearance, self.dt, self.area, self.size])
 
     def __len__(self) -> int:
         return int(self._bounds[1] - self._bounds[0])
@@ -466,14 +467,29 @@ class RollingMetrics:
         start, end = self._bounds.tolist()
         return self._samples[_S_SPEED, start:end]
 
-    def _add(self, records: np.ndarray, with_window: bool) -> int:
-        n = len(records)
-        if self.size + n > self._samples.shape[1]:  # more records at once than it holds
+    def reserve(self, n: int) -> None:
+        """Make room for adding ``n`` records at once (grows the buffer if needed)."""
+        if self.size + n > self._samples.shape[1]:
             start, end = self._bounds.tolist()
             grown = np.empty((len(METRIC_SAMPLES), self.size + n))
             grown[:, :end - start] = self._samples[:, start:end]
             self._samples = grown
             self._bounds[:] = (0, end - start)
+
+    def kernel_arrays(self) -> tuple[np.ndarray, ...]:
+        """The arrays a compiled caller passes to :func:`rolling_add` (after ``records``):
+        columns, [clearance, dt, area, size], samples, bounds, step and window outputs,
+        and the summation scratch. Valid until :meth:`reserve` grows the buffer."""
+        return (self._columns, self._params, self._samples, self._bounds, self._step,
+                self._out, *self._scratch)
+
+    def result(self, flags: int) -> tuple[tuple[list[float], bool], tuple[list[float], bool]]:
+        """The (step, window) metrics a :func:`rolling_add` call with ``with_window`` left
+        in this window's outputs, given the flags it returned."""
+        return (self._step.tolist(), bool(flags & 1)), (self._out.tolist(), bool(flags & 2))
+
+    def _add(self, records: np.ndarray, with_window: bool) -> int:
+        self.reserve(len(records))
         return rolling_add(records, self._columns, self.clearance, self.dt, self.area,
                            self.size, self._samples, self._bounds, self._step, self._out,
                            with_window, *self._scratch)
@@ -494,8 +510,7 @@ class RollingMetrics:
         ``records`` is empty, and ``window()`` is then computed on its own)."""
         if len(records) == 0:
             return None, self.window()
-        flags = self._add(records, True)
-        return (self._step.tolist(), bool(flags & 1)), (self._out.tolist(), bool(flags & 2))
+        return self.result(self._add(records, True))
 
     def window(self) -> tuple[list[float], bool] | None:
         """The metrics of the window and whether they are all finite (``None``: empty)."""

@@ -1,12 +1,12 @@
 """Batched drill-string environments: a Gymnasium ``VectorEnv`` and an SB3 ``VecEnv``.
 
 Both hold N :class:`~drill_env.env.DrillStringEnv` instances and step them in three
-phases (:func:`step_all`): every env maps its action to set points, all simulators run
-one control interval in ONE numba call, parallel over simulators
-(:class:`~drill_env.physics.batch.SimulatorBatch`, ``prange``), then every env computes
-its observation, reward and info. Each simulator keeps its own arrays (meshes may differ,
-as in the randomised scenario) and runs the single-simulator kernel, so every env follows
-bit-for-bit the trajectory it would follow alone.
+phases (:func:`drill_env.batching.step_all`): every env maps its action to set points,
+all simulators and metric windows run one control interval in ONE numba call, parallel
+over envs (``prange``), then every env computes its observation, reward and info. Each
+env keeps its own arrays (meshes may differ, as in the randomised scenario) and runs the
+single-env compiled functions, so every env follows bit-for-bit the trajectory it would
+follow alone.
 
 - :class:`DrillStringVectorEnv` (``gymnasium.make_vec("DrillString-v0", num_envs=N)``):
   Gymnasium 1.x semantics; ``autoreset_mode`` NEXT_STEP (default: the step after an
@@ -21,7 +21,6 @@ bit-for-bit the trajectory it would follow alone.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from itertools import chain
 from operator import itemgetter
 from typing import Any
@@ -30,52 +29,10 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from drill_env.batching import EnvBatch, check_actions, step_all
 from drill_env.env import DrillStringEnv
-from drill_env.physics.batch import SimulatorBatch
 
 __all__ = ["DrillStringVectorEnv", "make_sb3_vec_env", "step_all"]
-
-
-def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray,
-             batch: SimulatorBatch | None = None, active: np.ndarray | None = None
-             ) -> list[tuple[np.ndarray, float, bool, bool, dict[str, Any]] | None]:
-    """Step ``envs`` with ``actions`` (one row each) in the three phases; per-env results.
-
-    With a ``batch`` (one slot per env) all simulators advance in one parallel numba call
-    (:meth:`~drill_env.physics.batch.SimulatorBatch.advance`); without one, env after
-    env. Each simulator runs the same kernel on its own arrays either way, so the
-    results are bit-identical. Envs with ``active[i]`` False are left alone (None).
-    """
-    a = _check_actions(actions, len(envs))
-    if active is None:
-        active = np.ones(len(envs), dtype=np.bool_)
-    for env, row, on in zip(envs, a, active, strict=True):
-        if on:
-            env._apply_action(row)
-    results: list = [None] * len(envs)
-    if batch is None:
-        for i, env in enumerate(envs):
-            if active[i]:
-                results[i] = env._finish_step(env._advance())
-        return results
-    n_steps, speeds, hooks, every = zip(*(env._advance_arguments() for env in envs),
-                                        strict=True)
-    records = batch.advance([env.sim for env in envs], n_steps, speeds, hooks, every, active)
-    for i, rec in enumerate(records):
-        if active[i]:
-            results[i] = envs[i]._finish_step(rec)
-    return results
-
-
-def _check_actions(actions: np.ndarray, n: int) -> np.ndarray:
-    a = np.asarray(actions, dtype=np.float64)
-    if a.shape != (n, 2):
-        raise ValueError(f"actions: expected shape ({n}, 2), got {a.shape}")
-    bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
-    if bad.size:
-        raise ValueError(f"actions: must be finite, env {int(bad[0])} got "
-                         f"{a[bad[0]].tolist()} (NaN/inf)")
-    return a
 
 
 class DrillStringVectorEnv(VectorEnv):
@@ -101,7 +58,7 @@ class DrillStringVectorEnv(VectorEnv):
         self.autoreset_mode = AutoresetMode(autoreset_mode)
         self.envs = [DrillStringEnv(**env_kwargs) for _ in range(num_envs)]
         self.num_envs = int(num_envs)
-        self._batch = SimulatorBatch(self.num_envs)
+        self._batch = EnvBatch(self.num_envs)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.render_mode = None
         self.single_observation_space = self.envs[0].observation_space
@@ -147,7 +104,7 @@ class DrillStringVectorEnv(VectorEnv):
 
     def step(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                      dict[str, Any]]:
-        a = _check_actions(actions, self.num_envs)
+        a = check_actions(actions, self.num_envs)
         mode = self.autoreset_mode
         if mode == AutoresetMode.DISABLED and np.any(self._autoreset_envs):
             raise ValueError("autoreset is disabled: reset the finished envs (reset_mask) "
@@ -183,21 +140,29 @@ class DrillStringVectorEnv(VectorEnv):
         The same result as calling ``VectorEnv._add_info`` pair by pair (an array per
         key typed by its first value, a ``_key`` mask, nested dicts recursively,
         ``final_obs`` as an object array), without its per-env, per-key Python loop,
-        which cost more than the rest of an env step.
+        which cost more than the rest of an env step. The usual step (every env once, in
+        order, all with the same keys) is transposed in one go.
         """
         n = self.num_envs
         infos = [info for _, info in entries]
+        if not infos:
+            return {}
+        first_keys = tuple(infos[0])
+        if len(infos) == n and [i for i, _ in entries] == list(range(n)) and all(
+                tuple(info) == first_keys for info in infos):
+            return self._batch_uniform_infos(first_keys, infos)
         index = [i for i, _ in entries]
         keys = dict.fromkeys(chain.from_iterable(infos))  # first-appearance order
-        # Fast path: float keys that every entry has go through one 2D array.
-        common = set(infos[0]).intersection(*infos[1:]) if infos else set()
+        common = set(infos[0]).intersection(*infos[1:])
+        # Float keys that every entry has go through one 2D array.
         shared = [k for k in keys if k in common and type(infos[0][k]) is float]
         column = {k: j for j, k in enumerate(shared)}
         if shared:
-            getter = itemgetter(*shared)
-            rows = [getter(info) for info in infos]
+            getter = itemgetter(*shared) if len(shared) > 1 else lambda info: (info[shared[0]],)
+            rows = np.fromiter(chain.from_iterable(getter(info) for info in infos),
+                               np.float64, len(infos) * len(shared))
             table = np.zeros((len(shared), n))
-            table[:, index] = np.array(rows, dtype=np.float64).reshape(len(infos), -1).T
+            table[:, index] = rows.reshape(len(infos), len(shared)).T
             everywhere = np.zeros((len(shared), n), dtype=np.bool_)
             everywhere[:, index] = True
         out: dict[str, Any] = {}
@@ -209,9 +174,7 @@ class DrillStringVectorEnv(VectorEnv):
             present = [(i, info[key]) for i, info in entries if key in info]
             where = [i for i, _ in present]
             first = present[0][1]
-            if key == "final_obs" or not (isinstance(first, (dict, np.ndarray))
-                                          or type(first) in (int, float, bool)
-                                          or isinstance(first, np.number)):
+            if _object_column(key, first):
                 array: Any = np.full(n, None, dtype=object)
                 for i, value in present:
                     array[i] = value
@@ -229,6 +192,36 @@ class DrillStringVectorEnv(VectorEnv):
             out[f"_{key}"] = mask
         return out
 
+    def _batch_uniform_infos(self, keys: tuple[str, ...], infos: list[dict[str, Any]]
+                             ) -> dict[str, Any]:
+        """:meth:`_batch_infos` of one info per env, in env order, all with ``keys``."""
+        n = self.num_envs
+        columns = list(zip(*(info.values() for info in infos), strict=True))  # per key
+        floats = [j for j, value in enumerate(infos[0].values()) if type(value) is float]
+        table = np.array([columns[j] for j in floats], dtype=np.float64).reshape(-1, n)
+        rows = dict(zip(floats, table, strict=True))
+        masks = np.ones((len(keys), n), dtype=np.bool_)  # every env has every key
+        out: dict[str, Any] = {}
+        for j, key in enumerate(keys):
+            array = rows.get(j)
+            if array is None:
+                column = columns[j]
+                first = column[0]
+                if _object_column(key, first):
+                    array = np.empty(n, dtype=object)
+                    for i, value in enumerate(column):
+                        array[i] = value
+                elif isinstance(first, dict):
+                    array = self._batch_infos(list(enumerate(column)))
+                elif isinstance(first, np.ndarray):
+                    array = np.zeros((n, *first.shape), dtype=first.dtype)
+                    array[:] = column
+                else:
+                    array = np.array(column, dtype=type(first))
+            out[key] = array
+            out[f"_{key}"] = masks[j]
+        return out
+
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """The attribute ``name`` of every sub-environment."""
         return tuple(getattr(env, name) for env in self.envs)
@@ -244,6 +237,13 @@ class DrillStringVectorEnv(VectorEnv):
     def close_extras(self, **kwargs: Any) -> None:
         for env in self.envs:
             env.close()
+
+
+def _object_column(key: str, first: Any) -> bool:
+    """Whether ``VectorEnv._add_info`` batches this key into an object array."""
+    return key == "final_obs" or not (isinstance(first, (dict, np.ndarray))
+                                      or type(first) in (int, float, bool)
+                                      or isinstance(first, np.number))
 
 
 # --------------------------------------------------------------------------- SB3
@@ -272,7 +272,7 @@ def _sb3_class() -> type:
                 raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
             self.env_kwargs = dict(env_kwargs)
             super().__init__([self._make_env for _ in range(int(num_envs))])
-            self._batch = SimulatorBatch(self.num_envs)
+            self._batch = EnvBatch(self.num_envs)
 
         def _make_env(self) -> DrillStringEnv:
             return DrillStringEnv(**self.env_kwargs)

@@ -16,7 +16,8 @@ so that finished slices' env Python overlaps the physics measured slower on 2 co
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numba import njit, prange
@@ -45,6 +46,55 @@ def advance_many(lo, hi, n_steps, record_every, active, n_rec, sims):
         n_rec[e] = advance_and_read(n_steps[e], record_every[e], *sims[e])
 
 
+def simulator_arrays(sim: Simulator) -> tuple[np.ndarray, ...]:
+    """The arrays of one simulator in :func:`advance_many`'s tuples (kernel + readings)."""
+    return (*sim.kernel_arrays(), sim.readings)
+
+
+def simulator_key(sim: Simulator) -> tuple[int, int]:
+    """What re-points a slot: a new simulator or a new record buffer.
+
+    Safe against reused ids: the list keeps the old record buffer alive, so a new
+    simulator's buffer cannot have its id.
+    """
+    return id(sim), id(sim._record)
+
+
+class TupleSlots:
+    """A numba typed ``List`` with one tuple of arrays per slot, kept in step with owners.
+
+    ``slots.of(owners)`` returns the list, built on first use from ``arrays(owner)``; a
+    slot is re-pointed when ``key(owner)`` changes (a new simulator, a grown buffer).
+    One list of tuples, not one list per array: a typed list costs about a microsecond
+    to pass into a compiled call. ``arrays`` and ``key`` are module-level functions so the
+    slots pickle (the list itself is rebuilt after unpickling).
+    """
+
+    def __init__(self, size: int, arrays: Callable[[Any], tuple], key: Callable[[Any], tuple]
+                 ) -> None:
+        self.size = int(size)
+        self._arrays, self._key = arrays, key
+        self._list: List | None = None
+        self._keys: list[tuple | None] = [None] * self.size
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()  # typed lists do not pickle
+        state["_list"] = None
+        state["_keys"] = [None] * self.size
+        return state
+
+    def of(self, owners: Sequence[Any]) -> List:
+        if self._list is None:
+            self._list = List([self._arrays(owner) for owner in owners])
+            self._keys = [self._key(owner) for owner in owners]
+        for e, owner in enumerate(owners):
+            key = self._key(owner)
+            if key != self._keys[e]:
+                self._list[e] = self._arrays(owner)
+                self._keys[e] = key
+        return self._list
+
+
 class SimulatorBatch:
     """Advance a fixed number of simulator slots together; see the module docstring.
 
@@ -52,42 +102,26 @@ class SimulatorBatch:
     record array per simulator, the same as ``sim.advance(..., read=True)`` would (empty
     where ``active`` is False), and leaves the same readings. A slot whose simulator (or
     record buffer) is a new object is re-pointed in place, without rebuilding the list.
+    :meth:`prepare`, :meth:`slots` and :meth:`finish` are the steps of :meth:`advance`
+    for a caller with its own kernel around :func:`advance_and_read` (the env batch).
     """
 
     def __init__(self, size: int) -> None:
         if size < 1:
             raise ValueError(f"size: a batch needs at least one simulator, got {size}")
         self.size = int(size)
-        self._keys: list[tuple[int, int] | None] = [None] * self.size
-        self._sims: List | None = None
-        self._n_rec = np.zeros(self.size, dtype=np.int64)
+        self._slots = TupleSlots(self.size, simulator_arrays, simulator_key)
+        self.n_rec = np.zeros(self.size, dtype=np.int64)
 
-    def __getstate__(self) -> dict:
-        state = self.__dict__.copy()  # typed lists do not pickle: rebuilt on next use
-        state["_sims"] = None
-        state["_keys"] = [None] * self.size
-        return state
+    def slots(self, sims: Sequence[Simulator]) -> List:
+        """The typed list of the simulators' arrays (:func:`simulator_arrays`)."""
+        return self._slots.of(sims)
 
-    @staticmethod
-    def kernel_arrays(sim: Simulator) -> tuple[np.ndarray, ...]:
-        """The arrays of one simulator in :func:`advance_many`'s tuples."""
-        return (*sim.kernel_arrays(), sim.readings)
-
-    def _arguments(self, sims: Sequence[Simulator]) -> List:
-        """The typed list of the simulators' arrays, kept in step with the simulators."""
-        if self._sims is None:
-            self._sims = List([self.kernel_arrays(sim) for sim in sims])
-            self._keys = [(id(sim), id(sim._record)) for sim in sims]
-        for e, sim in enumerate(sims):
-            key = (id(sim), id(sim._record))
-            if key != self._keys[e]:
-                self._sims[e] = self.kernel_arrays(sim)
-                self._keys[e] = key
-        return self._sims
-
-    def _start(self, sims: Sequence[Simulator], n_steps: Sequence[int],
-               speed_setpoints: Sequence[float | None], hook_loads: Sequence[float | None],
-               record_every: Sequence[int], active: Sequence[bool] | None) -> tuple:
+    def prepare(self, sims: Sequence[Simulator], n_steps: Sequence[int],
+                speed_setpoints: Sequence[float | None], hook_loads: Sequence[float | None],
+                record_every: Sequence[int], active: Sequence[bool] | None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``Simulator.prepare`` each active simulator: (n_steps, record_every, run)."""
         if len(sims) != self.size:
             raise ValueError(f"sims: this batch holds {self.size} simulators, got {len(sims)}")
         if active is None:
@@ -95,7 +129,15 @@ class SimulatorBatch:
         run = np.array([bool(a) and sim.prepare(n, w, h, r) for sim, a, n, w, h, r in zip(
             sims, active, n_steps, speed_setpoints, hook_loads, record_every, strict=True)])
         return (np.asarray(n_steps, dtype=np.int64), np.asarray(record_every, dtype=np.int64),
-                run, self._n_rec, self._arguments(sims))
+                run)
+
+    @staticmethod
+    def finish(sims: Sequence[Simulator], run: np.ndarray,
+               active: Sequence[bool] | None) -> None:
+        """Read the simulators that were active but stopped before the kernel."""
+        for e, sim in enumerate(sims):
+            if not run[e] and (active is None or active[e]):
+                sim.read()
 
     def advance(self, sims: Sequence[Simulator], n_steps: Sequence[int],
                 speed_setpoints: Sequence[float | None], hook_loads: Sequence[float | None],
@@ -106,10 +148,8 @@ class SimulatorBatch:
         Every simulator with ``active`` True has fresh :attr:`Simulator.readings`
         afterwards, stopped ones included.
         """
-        args = self._start(sims, n_steps, speed_setpoints, hook_loads, record_every, active)
-        advance_many(0, self.size, *args)
-        run = args[2]
-        for e, sim in enumerate(sims):
-            if not run[e] and (active is None or active[e]):
-                sim.read()  # stopped before the kernel: read its final state here
-        return [sim.records(int(k)) for sim, k in zip(sims, self._n_rec, strict=True)]
+        steps, every, run = self.prepare(sims, n_steps, speed_setpoints, hook_loads,
+                                         record_every, active)
+        advance_many(0, self.size, steps, every, run, self.n_rec, self.slots(sims))
+        self.finish(sims, run, active)
+        return [sim.records(int(k)) for sim, k in zip(sims, self.n_rec, strict=True)]

@@ -1,0 +1,144 @@
+"""N drill-string envs stepped together: one parallel compiled call for all their physics.
+
+:func:`step_all` steps a list of :class:`~drill_env.env.DrillStringEnv` in three phases:
+every env maps its action to set points (Python), then ONE numba call runs, in parallel
+over envs (``prange``, without the GIL), each env's simulator over the control interval,
+its readings, and its rolling metric window (:func:`step_many`); then every env computes
+its termination, reward, observation and info from those (Python). Each env keeps its
+own arrays (meshes may differ, as in the randomised scenario) and runs the same compiled
+functions as when it steps alone (``Simulator.advance(..., read=True)`` and
+``RollingMetrics.update``), so every env follows bit-for-bit its single-env trajectory.
+
+The vector envs of :mod:`drill_env.vector` (Gymnasium and Stable-Baselines3) step through
+here. Why the metric windows are inside the call: the env's serial Python per step is
+what limits the batch on a few cores (docs/performance.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numba import njit, prange
+
+from drill_env.env import DrillStringEnv
+from drill_env.metrics import rolling_add
+from drill_env.physics.batch import SimulatorBatch, TupleSlots
+from drill_env.physics.readings import advance_and_read
+
+__all__ = ["EnvBatch", "step_all", "step_many"]
+
+#: Position of the record buffer in a simulator's tuple (``Simulator.kernel_arrays``).
+_RECORD = 39
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def step_many(n_steps, record_every, run, n_rec, flags, sims, windows):
+    """For each env e with ``run[e]``: advance its simulator (``sims[e]``: the arguments
+    of :func:`~drill_env.physics.readings.advance_and_read` after the first two), then
+    add the records to its metric window (``windows[e]``: ``RollingMetrics.
+    kernel_arrays``). ``n_rec[e]``: records written; ``flags[e]``: the flags of
+    :func:`~drill_env.metrics.rolling_add` (0 without records)."""
+    for i in prange(len(sims)):
+        e = np.int64(i)  # typed lists take signed indices; prange's are unsigned
+        n_rec[e] = 0
+        flags[e] = 0
+        if not run[e]:
+            continue
+        arrays = sims[e]
+        k = advance_and_read(n_steps[e], record_every[e], *arrays)
+        n_rec[e] = k
+        if k > 0:
+            columns, params, samples, bounds, step_out, window_out, tasks, partial = windows[e]
+            flags[e] = rolling_add(arrays[_RECORD][:k], columns, params[0], params[1],
+                                   params[2], np.int64(params[3]), samples, bounds, step_out,
+                                   window_out, True, tasks, partial)
+
+
+def window_arrays(env: DrillStringEnv) -> tuple[np.ndarray, ...]:
+    return env._window.kernel_arrays()
+
+
+def window_key(env: DrillStringEnv) -> int:
+    """A new window (every reset) or a grown buffer re-points the slot. Safe against
+    reused ids: the slot keeps the old buffer alive, so a new one cannot have its id."""
+    return id(env._window._samples)
+
+
+class EnvBatch:
+    """The simulators and metric windows of ``size`` envs, for :func:`step_all`.
+
+    Slots are re-pointed when an env gets a new simulator (randomised scenarios build one
+    per episode) or a new window; the typed lists are built on first use and rebuilt
+    after unpickling.
+    """
+
+    def __init__(self, size: int) -> None:
+        self.size = int(size)
+        self.sims = SimulatorBatch(self.size)
+        self._windows = TupleSlots(self.size, window_arrays, window_key)
+        self._flags = np.zeros(self.size, dtype=np.int64)
+
+    def advance(self, envs: Sequence[DrillStringEnv], active: np.ndarray
+                ) -> list[tuple[Any, Any] | None]:
+        """Run every active env's control interval; per env its (step, window) metrics
+        as ``RollingMetrics.update`` returns them (None where not active)."""
+        arguments = [env._advance_arguments() for env in envs]
+        n_steps, speeds, hooks, every = zip(*arguments, strict=True)
+        sims = [env.sim for env in envs]
+        steps, every_array, run = self.sims.prepare(sims, n_steps, speeds, hooks, every, active)
+        for env, n, k in zip(envs, n_steps, every, strict=True):
+            env._window.reserve(n // k if k > 0 else 0)
+        n_rec, flags = self.sims.n_rec, self._flags
+        step_many(steps, every_array, run, n_rec, flags, self.sims.slots(sims),
+                  self._windows.of(envs))
+        self.sims.finish(sims, run, active)
+        out: list[tuple[Any, Any] | None] = []
+        for e, env in enumerate(envs):
+            if not active[e]:
+                out.append(None)
+            elif n_rec[e]:
+                out.append(env._window.result(int(flags[e])))
+            else:
+                out.append((None, env._window.window()))
+        return out
+
+
+def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray,
+             batch: EnvBatch | None = None, active: np.ndarray | None = None
+             ) -> list[tuple[np.ndarray, float, bool, bool, dict[str, Any]] | None]:
+    """Step ``envs`` with ``actions`` (one row each) in the three phases; per-env results.
+
+    With a ``batch`` (one slot per env) all envs' physics and metric windows advance in
+    one parallel numba call; without one, env after env. The results are bit-identical
+    either way. Envs with ``active[i]`` False are left alone (None).
+    """
+    a = check_actions(actions, len(envs))
+    if active is None:
+        active = np.ones(len(envs), dtype=np.bool_)
+    for env, row, on in zip(envs, a, active, strict=True):
+        if on:
+            env._apply_action(row)
+    results: list = [None] * len(envs)
+    if batch is None:
+        for i, env in enumerate(envs):
+            if active[i]:
+                results[i] = env._finish_step(env._advance())
+        return results
+    for i, metrics in enumerate(batch.advance(envs, active)):
+        if metrics is not None:
+            results[i] = envs[i]._finish_metrics(*metrics)
+    return results
+
+
+def check_actions(actions: np.ndarray, n: int) -> np.ndarray:
+    """``actions`` as a float64 (n, 2) array; ValueError naming a non-finite one."""
+    a = np.asarray(actions, dtype=np.float64)
+    if a.shape != (n, 2):
+        raise ValueError(f"actions: expected shape ({n}, 2), got {a.shape}")
+    bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
+    if bad.size:
+        raise ValueError(f"actions: must be finite, env {int(bad[0])} got "
+                         f"{a[bad[0]].tolist()} (NaN/inf)")
+    return a
