@@ -430,6 +430,17 @@ def _make_env(override: dict[str, str]):
     return gym.make("DrillString-v0", **kwargs)
 
 
+def _sb3_vec_env(n: int, override: dict[str, str]):
+    """The Stable-Baselines3 VecEnv of ``n`` envs, or None without SB3 installed."""
+    try:
+        from drill_env.vector import make_sb3_vec_env
+
+        return make_sb3_vec_env(n, episode_duration=1e6,
+                                **({"physics": dict(override)} if override else {}))
+    except ImportError:
+        return None
+
+
 def _python_overhead(env, action: np.ndarray, n_steps: int) -> dict[str, float]:
     """Share of ``env.step`` spent outside ``Simulator.advance``, by wrapping the env's
     ``sim.advance`` in a timer."""
@@ -507,14 +518,20 @@ def _bench_env_level(override: dict[str, str], settings: BenchmarkSettings, name
         vec.reset(seed=0)
         actions = np.zeros((n, 2), dtype=np.float32)
         env_steps = max(settings.env_batch_steps, n * settings.min_env_calls)
-        rates = _interleaved_rates(
-            {"single": single_step,
-             "loop": (lambda envs=envs: [e.step(action) for e in envs], n),
-             "batched": (lambda vec=vec, a=actions: vec.step(a), n)},
-            env_steps, settings.repeats, settings.env_warmup_steps)
+        steps = {"single": single_step,
+                 "loop": (lambda envs=envs: [e.step(action) for e in envs], n),
+                 "batched": (lambda vec=vec, a=actions: vec.step(a), n)}
+        sb3 = _sb3_vec_env(n, override)
+        if sb3 is not None:
+            sb3.reset()
+            steps["batched_sb3"] = (lambda sb3=sb3, a=actions: sb3.step(a), n)
+        rates = _interleaved_rates(steps, env_steps, settings.repeats,
+                                   settings.env_warmup_steps)
         for e in envs:
             e.close()
         vec.close()
+        if sb3 is not None:
+            sb3.close()
         counts.append({
             "num_envs": n,
             "env_steps": env_steps,
@@ -524,6 +541,10 @@ def _bench_env_level(override: dict[str, str], settings: BenchmarkSettings, name
             "loop_over_single": _ratio(rates["loop"], rates["single"]),
             "batched_over_loop": _ratio(rates["batched"], rates["loop"]),
             "batched_over_single": _ratio(rates["batched"], rates["single"]),
+            **({"batched_sb3_steps_per_s": rates["batched_sb3"],
+                "batched_sb3_over_loop": _ratio(rates["batched_sb3"], rates["loop"]),
+                "batched_sb3_over_single": _ratio(rates["batched_sb3"], rates["single"])}
+               if "batched_sb3" in rates else {}),
         })
     env.close()
     return {"single": single, "counts": counts}
@@ -542,6 +563,11 @@ def format_env(result: dict[str, Any]) -> str:
                          f"{c['loop_over_single']:.2f}", ""))
             rows.append((f"{name}: batched, N={n}", f"{c['batched_steps_per_s']:.0f}",
                          f"{c['batched_over_single']:.2f}", f"{c['batched_over_loop']:.2f}"))
+            if "batched_sb3_steps_per_s" in c:
+                rows.append((f"{name}: batched SB3 VecEnv, N={n}",
+                             f"{c['batched_sb3_steps_per_s']:.0f}",
+                             f"{c['batched_sb3_over_single']:.2f}",
+                             f"{c['batched_sb3_over_loop']:.2f}"))
         notes.append(f"{name}: one env step = {single['simulator_steps_per_env_step']} "
                      f"simulator steps, {single['us_per_env_step']:.0f} us, of which "
                      f"{single['us_in_simulator']:.0f} us in Simulator.advance: Python "
@@ -550,7 +576,8 @@ def format_env(result: dict[str, Any]) -> str:
     if "fast_over_full_single" in result:
         notes.append(f"fast / full env steps/s: one env {result['fast_over_full_single']:.2f} x,"
                      f" batched (largest N) {result['fast_over_full_batched']:.2f} x")
-    notes.append(f"10 Hz policy rate; batched env: one numba prange call over the envs, "
+    notes.append(f"10 Hz policy rate; batched: the Gymnasium VectorEnv (SB3 VecEnv: the "
+                 f"Stable-Baselines3 one), one numba prange call over the envs, "
                  f"{result['cpu_count']} cores; x one env: against one env timed in the same "
                  f"rounds; best of repeats")
     return _table("Env throughput", ("configuration", "env steps/s", "x one env", "x loop"),

@@ -29,7 +29,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from drill_env.batching import EnvBatch, check_actions, step_all
+from drill_env.batching import EnvBatch, step_all
 from drill_env.env import DrillStringEnv
 
 __all__ = ["DrillStringVectorEnv", "make_sb3_vec_env", "step_all"]
@@ -71,6 +71,7 @@ class DrillStringVectorEnv(VectorEnv):
         self._terminations = np.zeros(self.num_envs, dtype=np.bool_)
         self._truncations = np.zeros(self.num_envs, dtype=np.bool_)
         self._autoreset_envs = np.zeros(self.num_envs, dtype=np.bool_)
+        self._info_plans: dict[tuple, tuple] = {}  # see _batch_uniform_infos
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -104,7 +105,6 @@ class DrillStringVectorEnv(VectorEnv):
 
     def step(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                      dict[str, Any]]:
-        a = check_actions(actions, self.num_envs)
         mode = self.autoreset_mode
         if mode == AutoresetMode.DISABLED and np.any(self._autoreset_envs):
             raise ValueError("autoreset is disabled: reset the finished envs (reset_mask) "
@@ -112,23 +112,28 @@ class DrillStringVectorEnv(VectorEnv):
         resetting = self._autoreset_envs.copy() if mode == AutoresetMode.NEXT_STEP else \
             np.zeros(self.num_envs, dtype=np.bool_)
         stepping = np.flatnonzero(~resetting)
-        results = step_all(self.envs, a, self._batch, ~resetting)
+        results = step_all(self.envs, actions, self._batch, ~resetting)  # checks actions
         entries: list[tuple[int, dict[str, Any]]] = []
-        for i in range(self.num_envs):
-            if resetting[i]:
-                self._obs[i], info = self.envs[i].reset()
-                self._rewards[i] = 0.0
-                self._terminations[i] = False
-                self._truncations[i] = False
+        for i in np.flatnonzero(resetting).tolist():
+            self._obs[i], info = self.envs[i].reset()
+            self._rewards[i] = 0.0
+            self._terminations[i] = False
+            self._truncations[i] = False
+            entries.append((i, info))
+        if stepping.size:
+            obs, rewards, terms, truncs, infos = zip(*(results[i] for i in stepping),
+                                                     strict=True)
+            self._obs[stepping] = obs
+            self._rewards[stepping] = rewards
+            self._terminations[stepping] = terms
+            self._truncations[stepping] = truncs
+            ended = (mode == AutoresetMode.SAME_STEP
+                     and (self._terminations[stepping] | self._truncations[stepping]).any())
+            for i, info in zip(stepping.tolist(), infos, strict=True):
+                if ended and (self._terminations[i] or self._truncations[i]):
+                    entries.append((i, {"final_obs": results[i][0], "final_info": info}))
+                    self._obs[i], info = self.envs[i].reset()
                 entries.append((i, info))
-        for i in stepping:
-            obs, rew, term, trunc, info = results[i]
-            self._obs[i], self._rewards[i] = obs, rew
-            self._terminations[i], self._truncations[i] = term, trunc
-            if mode == AutoresetMode.SAME_STEP and (term or trunc):
-                entries.append((int(i), {"final_obs": obs, "final_info": info}))
-                self._obs[i], info = self.envs[i].reset()
-            entries.append((int(i), info))
         infos = self._batch_infos(entries)
         self._autoreset_envs = np.logical_or(self._terminations, self._truncations)
         return (self._obs.copy(), self._rewards.copy(), self._terminations.copy(),
@@ -194,33 +199,49 @@ class DrillStringVectorEnv(VectorEnv):
 
     def _batch_uniform_infos(self, keys: tuple[str, ...], infos: list[dict[str, Any]]
                              ) -> dict[str, Any]:
-        """:meth:`_batch_infos` of one info per env, in env order, all with ``keys``."""
+        """:meth:`_batch_infos` of one info per env, in env order, all with ``keys``.
+
+        The layout (which keys are floats, the output key order) depends only on the
+        keys and the first env's value types, so it is worked out once and reused.
+        """
         n = self.num_envs
+        first = infos[0].values()
+        plan_key = (keys, tuple(map(type, first)))
+        plan = self._info_plans.get(plan_key)
+        if plan is None:
+            floats = [j for j, value in enumerate(first) if type(value) is float]
+            others = [j for j in range(len(keys)) if j not in set(floats)]
+            names = [name for key in keys for name in (key, f"_{key}")]
+            plan = self._info_plans[plan_key] = (floats, others, names)
+        floats, others, names = plan
         columns = list(zip(*(info.values() for info in infos), strict=True))  # per key
-        floats = [j for j, value in enumerate(infos[0].values()) if type(value) is float]
-        table = np.array([columns[j] for j in floats], dtype=np.float64).reshape(-1, n)
-        rows = dict(zip(floats, table, strict=True))
-        masks = np.ones((len(keys), n), dtype=np.bool_)  # every env has every key
-        out: dict[str, Any] = {}
-        for j, key in enumerate(keys):
-            array = rows.get(j)
-            if array is None:
-                column = columns[j]
-                first = column[0]
-                if _object_column(key, first):
-                    array = np.empty(n, dtype=object)
-                    for i, value in enumerate(column):
-                        array[i] = value
-                elif isinstance(first, dict):
-                    array = self._batch_infos(list(enumerate(column)))
-                elif isinstance(first, np.ndarray):
-                    array = np.zeros((n, *first.shape), dtype=first.dtype)
-                    array[:] = column
-                else:
-                    array = np.array(column, dtype=type(first))
-            out[key] = array
-            out[f"_{key}"] = masks[j]
-        return out
+        values: list[Any] = [None] * (2 * len(keys))
+        if floats:
+            table = np.array(itemgetter(*floats)(columns) if len(floats) > 1 else
+                             [columns[floats[0]]], dtype=np.float64)
+            for j, row in zip(floats, table, strict=True):
+                values[2 * j] = row
+        for j in others:
+            values[2 * j] = self._batch_column(keys[j], columns[j])
+        values[1::2] = np.ones((len(keys), n), dtype=np.bool_)  # every env has every key
+        return dict(zip(names, values, strict=True))
+
+    def _batch_column(self, key: str, column: tuple) -> Any:
+        """One non-float key of :meth:`_batch_uniform_infos` (every env has it)."""
+        n = self.num_envs
+        first = column[0]
+        if _object_column(key, first):
+            array = np.empty(n, dtype=object)
+            for i, value in enumerate(column):
+                array[i] = value
+            return array
+        if isinstance(first, dict):
+            return self._batch_infos(list(enumerate(column)))
+        if isinstance(first, np.ndarray):
+            array = np.zeros((n, *first.shape), dtype=first.dtype)
+            array[:] = column
+            return array
+        return np.array(column, dtype=type(first))
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """The attribute ``name`` of every sub-environment."""

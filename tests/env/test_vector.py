@@ -64,6 +64,35 @@ def test_batched_env_matches_single_envs_bit_for_bit(scenario):
         np.testing.assert_array_equal(np.concatenate(rows[i]), singles[i])
 
 
+def test_batched_env_matches_single_envs_across_autoresets():
+    """After an autoreset each env has a new metric window (and, randomised, a new
+    simulator): the batch must re-point its slots and still follow the single envs."""
+    kwargs = dict(KW, scenario="random")  # 3 control steps per episode
+    actions = actions_for(8, seed=3)
+    envs = DrillStringVectorEnv(num_envs=N, **kwargs)
+    obs, _ = envs.reset(seed=20)
+    got = [obs]
+    for a in actions:
+        obs, rewards, terminated, truncated, info = envs.step(a)
+        got.append(np.concatenate([obs, rewards[:, None], info["ssi"][:, None],
+                                   info["time"][:, None]], axis=1))
+    for i in range(N):
+        env = DrillStringEnv(**kwargs)
+        obs, _ = env.reset(seed=20 + i)
+        np.testing.assert_array_equal(got[0][i], obs)
+        done = False
+        for k, a in enumerate(actions[:, i]):
+            if done:  # NEXT_STEP: this step resets, the action is ignored
+                obs, info = env.reset()
+                row, done = np.concatenate([obs, [0.0, info["ssi"], info["time"]]]), False
+            else:
+                obs, reward, terminated, truncated, info = env.step(a)
+                row = np.concatenate([obs, [reward, info["ssi"], info["time"]]])
+                done = terminated or truncated
+            np.testing.assert_array_equal(got[k + 1][i], row)
+    assert envs._batch._windows._keys != [None] * N  # the windows went through the slots
+
+
 def test_next_step_autoreset_returns_the_reset_observation_with_zero_reward():
     envs = DrillStringVectorEnv(num_envs=N, **KW)  # 3 control steps per episode
     envs.reset(seed=0)
@@ -204,3 +233,18 @@ def test_batched_infos_equal_gymnasiums_add_info():
     for i, info in entries:
         expected = vec._add_info(expected, info, i)
     _assert_same_infos(vec._batch_infos(entries), expected)
+
+
+def test_uniform_infos_take_the_transposed_path_with_add_infos_layout():
+    """One info per env, in order, same keys (every ordinary step): the fast path."""
+    vec = DrillStringVectorEnv(num_envs=4)
+    entries = [(i, {"a": 0.5 * i, "n": i, "flag": i % 2 == 0, "xy": np.array([i, 2.0 * i]),
+                    "why": "torque" if i == 1 else "", "f32": np.float32(i),
+                    "terms": {"rop": 0.1 * i, "whirl": -0.2}, "none": None})
+               for i in range(4)]
+    expected: dict = {}
+    for i, info in entries:
+        expected = vec._add_info(expected, info, i)
+    for _ in range(2):  # the second call reuses the cached layout
+        _assert_same_infos(vec._batch_infos(entries), expected)
+    assert vec._info_plans
