@@ -462,9 +462,11 @@ class DrillStringEnv(gym.Env):
         return self._finish_step(records)
 
     # The three phases of a step are separate so a batched env can advance many
-    # simulators between them (see drill_env.vector). The Python around the simulator
-    # call runs every step and would cost a third of the physics with a NumPy call per
-    # quantity: it works on floats, and the metrics on a preallocated rolling window.
+    # simulators between them (see drill_env.batching: there the metric windows are
+    # updated inside the parallel call, and _finish_metrics does the rest). The Python
+    # around the simulator call runs every step and would cost a third of the physics with
+    # a NumPy call per quantity: it works on floats read from the simulator's compiled
+    # readout, and the metrics on a preallocated rolling window.
 
     def _apply_action(self, action) -> None:
         """Validate ``action``, map it to set points (clipped, rate limited)."""
