@@ -236,6 +236,9 @@ class DrillStringVectorEnv(VectorEnv):
                 array[i] = value
             return array
         if isinstance(first, dict):
+            sub_keys = tuple(first)
+            if all(type(d) is dict and tuple(d) == sub_keys for d in column):
+                return self._batch_uniform_infos(sub_keys, list(column))
             return self._batch_infos(list(enumerate(column)))
         if isinstance(first, np.ndarray):
             array = np.zeros((n, *first.shape), dtype=first.dtype)
