@@ -95,6 +95,70 @@ def demo(out: Path) -> int:
     return 0 if verdict else 1
 
 
+def run(scenario: str, rpm: float | None, wob: float | None, seed: int,
+        duration: float | None, fidelity: str, record: Path | None, out: Path) -> int:
+    """One episode under a constant set point; prints its metrics, writes JSON to ``out``."""
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401  (registers the ids)
+    from agents.policies import ConstantSetpoint
+    from drill_env.benchmark import _progress
+
+    kwargs: dict = {"scenario": scenario, "fidelity": fidelity}
+    if duration is not None:
+        kwargs["episode_duration"] = duration
+    env = gym.make("DrillString-v0", **kwargs)
+    base = env.unwrapped
+    rpm = rpm if rpm is not None else base.scenario.surface_speed / RPM
+    wob_n = wob * 1e3 if wob is not None else base.scenario.weight_on_bit
+    cfg = base.config
+    policy = ConstantSetpoint(rpm, wob_n, cfg.rpm_range, cfg.weight_on_bit_range)
+    if record is not None:
+        from drill_env.recording import RecordEpisode
+
+        env = RecordEpisode(env, record)
+    t0 = time.perf_counter()
+    obs, info = env.reset(seed=seed, options={"surface_speed": rpm * RPM,
+                                              "weight_on_bit": wob_n})
+    policy.reset()
+    totals: dict[str, float] = {}
+    keys = ("ssi", "stuck_fraction", "whirl_ratio", "radial_ratio", "lateral_force", "rop")
+    steps, reward, reason = 0, 0.0, ""
+    for _ in _progress(range(base.max_episode_steps), f"{scenario} {rpm:.0f} rpm", True):
+        obs, r, terminated, truncated, info = env.step(policy.act(obs, info))
+        steps += 1
+        reward += r
+        for key in keys:
+            totals[key] = totals.get(key, 0.0) + info[key]
+        if terminated or truncated:
+            reason = info["termination_reason"]
+            break
+    summary = {
+        "scenario": scenario, "rpm": rpm, "weight_on_bit": wob_n, "seed": seed,
+        "fidelity": fidelity, "steps": steps, "simulated_s": info["episode_time"],
+        "return": reward, "termination_reason": reason,
+        **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
+        "wall_s": time.perf_counter() - t0,
+    }
+    if record is not None:
+        summary["recording"] = str(env.last_path) if env.last_path else None
+    env.close()
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "run_summary.json").write_text(json.dumps(summary, indent=2))
+    print(f"{scenario}: {steps} steps ({summary['simulated_s']:.1f} s) at {rpm:.0f} rpm, "
+          f"{wob_n / 1e3:.0f} kN in {summary['wall_s']:.1f} s; return {reward:.2f}"
+          + (f"; terminated: {reason}" if reason else ""))
+    print(f"  mean over the episode: SSI {summary['mean_ssi']:.2f}, stuck "
+          f"{summary['mean_stuck_fraction']:.2f}, whirl ratio {summary['mean_whirl_ratio']:.2f}"
+          f", radial ratio {summary['mean_radial_ratio']:.2f}, lateral force "
+          f"{summary['mean_lateral_force'] / 1e3:.1f} kN, ROP {summary['mean_rop'] * 3600:.1f}"
+          " m/h")
+    if record is not None:
+        print(f"  recording: {summary['recording']} (drill-env replay <file>)")
+    print(f"wrote {out / 'run_summary.json'}")
+    return 0
+
+
 def benchmark(out: Path, quick: bool, sections: str | None) -> int:
     from drill_env.benchmark import FULL, QUICK, SECTIONS, parse_sections, run_benchmark
 
@@ -116,6 +180,22 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("demo", help="main job on the default case; outputs in logs/")
     p.add_argument("--out", type=Path, default=Path("logs"))
+    p = sub.add_parser("run", help="one episode under a constant set point; optional rerun "
+                                   "recording")
+    p.add_argument("--scenario", default="default",
+                   help="a scenario name (drill_env.scenarios.SCENARIOS)")
+    p.add_argument("--rpm", type=float, default=None,
+                   help="surface speed set point (default: the scenario's)")
+    p.add_argument("--wob", type=float, default=None,
+                   help="weight on bit in kN (default: the scenario's)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--duration", type=float, default=None,
+                   help="episode length in simulated s (default: the scenario's)")
+    p.add_argument("--fidelity", choices=("full", "fast"), default="full")
+    p.add_argument("--record", type=Path, default=None, nargs="?", const=Path("logs/recordings"),
+                   help="write a rerun .rrd of the episode into this folder "
+                        "(default folder: logs/recordings)")
+    p.add_argument("--out", type=Path, default=Path("logs"), help="folder for run_summary.json")
     p = sub.add_parser("benchmark", help="speed and memory figures; benchmark.json in --out")
     p.add_argument("--out", type=Path, default=Path("logs"),
                    help="folder for benchmark.json, benchmark.md, benchmark_scaling.png")
@@ -128,6 +208,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "demo":
         return demo(args.out)
+    if args.command == "run":
+        from drill_env.scenarios import SCENARIOS
+
+        if args.scenario not in SCENARIOS:
+            parser.error(f"--scenario: unknown {args.scenario!r}; known: {sorted(SCENARIOS)}")
+        try:
+            return run(args.scenario, args.rpm, args.wob, args.seed, args.duration,
+                       args.fidelity, args.record, args.out)
+        except ValueError as err:  # a bad set point or duration, named by the env
+            parser.error(str(err))
     if args.command == "benchmark":
         if args.sections:
             from drill_env.benchmark import parse_sections
