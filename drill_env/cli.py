@@ -10,6 +10,10 @@ run         one episode of ``DrillString-v0`` with a constant-RPM controller, op
 benchmark   speed and memory figures: real-time factor and speed-up over NumPy, env
             steps/s (single, looped, batched), cost scaling with the mesh, compile time,
             memory per env; prints tables, writes ``benchmark.json`` (docs/performance.md).
+stability-map
+            torsional stability maps of the paper's bit positions P1-P6 (Fig. 15) by
+            boundary tracking; prints a table, writes ``stability_map.png`` and
+            ``stability_map.json``.
 replay      open a ``.rrd`` recording in the rerun viewer (``--web`` for the web viewer).
 
 SI inside; rpm and kN only here at the edge.
@@ -159,6 +163,26 @@ def run(scenario: str, rpm: float | None, wob: float | None, seed: int,
     return 0
 
 
+def stability_map(positions: str, rpm_step: float, wob_step: float, max_rpm: float,
+                  max_wob: float, seconds: float, out: Path) -> int:
+    """Maps of ``positions`` (comma-separated); wob in kN here, N inside."""
+    from drill_env import stability_map as sm
+
+    names = tuple(p.strip() for p in positions.split(",") if p.strip())
+    settings = sm.MapSettings(seconds=seconds, measure=min(sm.MapSettings.measure, seconds))
+    t0 = time.perf_counter()
+    maps = sm.stability_maps(names, rpm_step, wob_step * 1e3, settings, max_rpm,
+                             max_wob * 1e3, progress=True)
+    print(sm.format_maps(maps))
+    runs = sum(m.runs for m in maps)
+    cells = sum(m.unstable.size for m in maps)
+    print(f"{runs} simulations of {seconds:.0f} s for {cells} grid points (boundary tracking)"
+          f" in {time.perf_counter() - t0:.1f} s")
+    paths = sm.write_maps(maps, out, settings)
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return 0
+
+
 def benchmark(out: Path, quick: bool, sections: str | None) -> int:
     from drill_env.benchmark import FULL, QUICK, SECTIONS, parse_sections, run_benchmark
 
@@ -202,6 +226,17 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="short runs (smoke test, < 1 min)")
     p.add_argument("--sections", default=None,
                    help="comma-separated subset of core,env,scaling,compile,memory (default: all)")
+    p = sub.add_parser("stability-map", help="torsional stability maps P1-P6 (paper Fig. 15)")
+    p.add_argument("--positions", default="P1,P2,P3,P4,P5,P6",
+                   help="comma-separated bit positions (default: all six)")
+    p.add_argument("--rpm-step", type=float, default=5.0, help="speed step (rpm)")
+    p.add_argument("--wob-step", type=float, default=5.0, help="WOB step (kN)")
+    p.add_argument("--max-rpm", type=float, default=250.0)
+    p.add_argument("--max-wob", type=float, default=200.0, help="kN")
+    p.add_argument("--seconds", type=float, default=30.0,
+                   help="simulated seconds per grid point")
+    p.add_argument("--out", type=Path, default=Path("logs"),
+                   help="folder for stability_map.png and stability_map.json")
     p = sub.add_parser("replay", help="open a .rrd in the rerun viewer")
     p.add_argument("path", type=Path)
     p.add_argument("--web", action="store_true", help="serve the web viewer")
@@ -217,6 +252,12 @@ def main(argv: list[str] | None = None) -> int:
             return run(args.scenario, args.rpm, args.wob, args.seed, args.duration,
                        args.fidelity, args.record, args.out)
         except ValueError as err:  # a bad set point or duration, named by the env
+            parser.error(str(err))
+    if args.command == "stability-map":
+        try:
+            return stability_map(args.positions, args.rpm_step, args.wob_step, args.max_rpm,
+                                 args.max_wob, args.seconds, args.out)
+        except ValueError as err:  # a bad position, step or duration, named
             parser.error(str(err))
     if args.command == "benchmark":
         if args.sections:

@@ -1,8 +1,9 @@
-"""Regenerate the figures of docs/paper-reproduction.md (paper Figs. 13, 14, 16, 17, 18).
+"""Regenerate the figures of docs/paper-reproduction.md (paper Figs. 13-18).
 
     .venv/bin/python scripts/paper_reproduction.py [--out docs/img]
 
-Every run comes from drill_env.studies.simulate, the same code the paper-result tests use.
+Every run comes from drill_env.studies.simulate, the same code the paper-result tests use;
+the stability maps (Fig. 15) from drill_env.stability_map, as ``drill-env stability-map``.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np  # noqa: E402
 
 from drill_env.physics.config import replace  # noqa: E402
 from drill_env.scenarios import make_scenario  # noqa: E402
+from drill_env.stability_map import plot_maps, stability_maps  # noqa: E402
 from drill_env.studies import RPM, lateral_force, simulate  # noqa: E402
 
 
@@ -42,6 +44,10 @@ def figure_13_14(out: Path) -> None:
     fig.tight_layout()
     fig.savefig(out / "fig13_14_torsional_crossing.png", dpi=110)
     plt.close(fig)
+
+
+def figure_15(out: Path) -> None:
+    plot_maps(stability_maps(progress=True), out / "fig15_stability_map.png")
 
 
 def lateral_cases():
@@ -104,6 +110,7 @@ def main() -> None:
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     figure_13_14(args.out)
+    figure_15(args.out)
     figure_16_17_18(lateral_cases(), args.out)
     print(f"figures written to {args.out}")
 

@@ -34,3 +34,22 @@ def test_run_names_a_bad_argument(tmp_path, capsys, args, name):
     with pytest.raises(SystemExit):
         main(["run", *args, "--out", str(tmp_path)])
     assert name in capsys.readouterr().err
+
+
+def test_stability_map_command_writes_the_map_and_its_picture(tmp_path, capsys):
+    code = main(["stability-map", "--positions", "P4", "--rpm-step", "50", "--wob-step", "50",
+                 "--seconds", "10", "--out", str(tmp_path)])
+    assert code == 0
+    data = json.loads((tmp_path / "stability_map.json").read_text())
+    (m,) = data["maps"]
+    assert m["position"] == "P4" and m["rpm"] == [50, 100, 150, 200, 250]
+    assert m["weight_on_bit"] == [50e3, 100e3, 150e3, 200e3]
+    assert data["settings"]["seconds"] == 10.0
+    assert (tmp_path / "stability_map.png").stat().st_size > 10_000
+    assert "boundary tracking" in capsys.readouterr().out
+
+
+def test_stability_map_command_names_a_bad_position(capsys):
+    with pytest.raises(SystemExit):
+        main(["stability-map", "--positions", "P7"])
+    assert "position" in capsys.readouterr().err

@@ -1,0 +1,120 @@
+"""Torsional stability maps (paper Fig. 15): boundary tracking and the paper's result."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drill_env.physics.config import replace
+from drill_env.physics.simulator import Simulator
+from drill_env.physics.stability import torsional_growth_rate
+from drill_env.scenarios import make_scenario
+from drill_env.stability_map import (
+    RPM,
+    MapSettings,
+    grid,
+    stability_maps,
+    track_boundary,
+)
+
+# ----------------------------------------------------------------- the algorithm
+
+
+def full_scan(boundary: np.ndarray, n_wob: int) -> np.ndarray:
+    """Every grid point: unstable at and above the boundary WOB index of its speed."""
+    return np.arange(n_wob)[:, None] >= boundary[None, :]
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_tracking_equals_a_full_scan_for_any_rising_boundary(seed):
+    rng = np.random.default_rng(seed)
+    n_rpm, n_wob = int(rng.integers(1, 30)), int(rng.integers(1, 30))
+    # Rising in steps of 0, 1 or several WOB points, starting anywhere, leaving the grid.
+    boundary = np.cumsum(rng.choice([0, 0, 1, 3], size=n_rpm)) + rng.integers(0, n_wob)
+    visited = []
+
+    def sticks(i, j):
+        visited.append((i, j))
+        return j >= boundary[i]
+
+    unstable, tested = track_boundary(sticks, n_rpm, n_wob)
+    np.testing.assert_array_equal(unstable, full_scan(boundary, n_wob))
+    assert len(visited) == len(set(visited)) <= n_rpm + n_wob
+    assert (tested >= 0).sum() == len(visited)
+
+
+def test_no_stick_raises_only_the_wob_and_a_stick_moves_to_the_next_speed():
+    boundary = np.array([1, 1, 3])
+    visited = []
+
+    def sticks(i, j):
+        visited.append((i, j))
+        return j >= boundary[i]
+
+    track_boundary(sticks, 3, 5)
+    assert visited == [(0, 0), (0, 1), (1, 1), (2, 1), (2, 2), (2, 3)]
+
+
+def test_grid_and_settings_name_bad_values():
+    rpm, wob = grid(50.0, 50e3, 250.0, 200e3)
+    assert rpm.tolist() == [50, 100, 150, 200, 250] and wob.tolist() == [50e3, 100e3, 150e3,
+                                                                         200e3]
+    with pytest.raises(ValueError, match="rpm_step"):
+        grid(-5.0)
+    with pytest.raises(ValueError, match="measure"):
+        MapSettings(seconds=5.0, measure=10.0)
+    with pytest.raises(ValueError, match="kick"):
+        MapSettings(kick=1.5)
+    with pytest.raises(ValueError, match="grid"):
+        track_boundary(lambda i, j: True, 0, 3)
+
+
+# ----------------------------------------------------------------- the physics
+
+SETTINGS = MapSettings()
+
+
+@pytest.fixture(scope="module")
+def maps():
+    """All six positions on a 10 rpm x 10 kN grid up to 150 rpm, 200 kN."""
+    return {m.position: m for m in stability_maps(rpm_step=10.0, wob_step=10e3,
+                                                  max_rpm=150.0, settings=SETTINGS)}
+
+
+def test_stick_slip_at_high_wob_and_low_speed_only(maps):
+    for m in maps.values():
+        assert m.unstable[-1, 0], m.position  # lowest speed, highest WOB
+        assert not m.unstable[:, -1].any(), m.position  # 150 rpm: steady at any WOB
+        assert not m.unstable[0, 1:].any(), m.position  # 10 kN: steady from 20 rpm on
+        assert m.runs <= len(m.rpm) + len(m.weight_on_bit)
+
+
+def test_unstable_zone_grows_with_contact_to_rock_one(maps):
+    """Paper Fig. 15: share of the blades on rock 1 (hard) P4 0 % < P3 25 % < P5 50 %
+    < P2 75 % < P1, P6 100 %; the unstable zone grows in that order."""
+    f = {p: m.unstable_fraction for p, m in maps.items()}
+    assert f["P4"] < f["P3"] < f["P5"] < f["P2"] <= max(f["P1"], f["P6"]) + 0.01
+    assert f["P4"] < 0.5 * f["P1"]
+    assert abs(f["P1"] - f["P6"]) < 0.03  # both all in hard rock
+
+
+def test_hard_rock_map_lies_within_the_linear_instability(maps):
+    """P6 (all hard rock, moving away from the layer) against the eigenvalues of the
+    linearised torsional dynamics (scipy, independent of the integrator): stick-slip only
+    where steady drilling is linearly unstable, and steady only where the growth is slow:
+    below twice the rate that turns a 1 % kick into stick-slip within the run (the factor
+    2 for the kick's share of the unstable mode and the mesoscopic bit's own slope; at
+    20 rpm and 20 kN, linear growth 0.25 /s, stick-slip takes 30-60 s)."""
+    m = maps["P6"]
+    config = replace(make_scenario("paper_case1", position="P6").config,
+                     bit_model="macroscopic")
+    sim = Simulator(config)
+    slowest = 2.0 * math.log(1.0 / SETTINGS.kick) / (SETTINGS.seconds - SETTINGS.measure)
+    for j, i in np.argwhere(m.tested >= 0):
+        growth = torsional_growth_rate(sim, m.rpm[i] * RPM, m.weight_on_bit[j], rock=0)
+        if m.tested[j, i] == 1:
+            assert growth > 0.0, (m.rpm[i], m.weight_on_bit[j])
+        else:
+            assert growth < slowest, (m.rpm[i], m.weight_on_bit[j])
