@@ -118,3 +118,24 @@ def test_hard_rock_map_lies_within_the_linear_instability(maps):
             assert growth > 0.0, (m.rpm[i], m.weight_on_bit[j])
         else:
             assert growth < slowest, (m.rpm[i], m.weight_on_bit[j])
+
+
+def test_linear_boundary_brackets_the_sign_change_and_bounds_the_map(maps):
+    """linear_boundary: the growth rate changes sign at it (to its 100 N tolerance), it
+    rises with speed, and the simulated stick-slip boundary lies at or above it."""
+    from drill_env.stability_map import linear_boundary
+
+    m = maps["P6"]
+    rpm = m.rpm[:6]  # 10-60 rpm: all inside the 200 kN of the grid
+    limit = linear_boundary("P6", rpm)
+    assert np.all(np.diff(limit) > 0)
+    config = replace(make_scenario("paper_case1", position="P6").config,
+                     bit_model="macroscopic")
+    sim = Simulator(config)
+    for r, b in zip(rpm, limit, strict=True):
+        assert torsional_growth_rate(sim, r * RPM, b, rock=0) > 0.0
+        assert torsional_growth_rate(sim, r * RPM, b - 100.0, rock=0) <= 0.0
+    simulated = m.boundary[:6]
+    assert np.all(simulated >= limit)
+    with pytest.raises(ValueError, match="straddles"):
+        linear_boundary("P2", rpm)
