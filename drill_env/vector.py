@@ -21,6 +21,7 @@ follow alone.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from itertools import chain
 from operator import itemgetter
 from typing import Any
@@ -178,22 +179,9 @@ class DrillStringVectorEnv(VectorEnv):
                 continue
             present = [(i, info[key]) for i, info in entries if key in info]
             where = [i for i, _ in present]
-            first = present[0][1]
-            if _object_column(key, first):
-                array: Any = np.full(n, None, dtype=object)
-                for i, value in present:
-                    array[i] = value
-            elif isinstance(first, dict):
-                array = self._batch_infos(present)
-            elif isinstance(first, np.ndarray):
-                array = np.zeros((n, *first.shape), dtype=first.dtype)
-                array[where] = [value for _, value in present]
-            else:
-                array = np.zeros(n, dtype=type(first))
-                array[where] = [value for _, value in present]
             mask = np.zeros(n, dtype=np.bool_)
             mask[where] = True
-            out[key] = array
+            out[key] = self._batch_column(key, where, [value for _, value in present])
             out[f"_{key}"] = mask
         return out
 
@@ -222,29 +210,28 @@ class DrillStringVectorEnv(VectorEnv):
             for j, row in zip(floats, table, strict=True):
                 values[2 * j] = row
         for j in others:
-            values[2 * j] = self._batch_column(keys[j], columns[j])
+            values[2 * j] = self._batch_column(keys[j], slice(None), columns[j])
         values[1::2] = np.ones((len(keys), n), dtype=np.bool_)  # every env has every key
         return dict(zip(names, values, strict=True))
 
-    def _batch_column(self, key: str, column: tuple) -> Any:
-        """One non-float key of :meth:`_batch_uniform_infos` (every env has it)."""
+    def _batch_column(self, key: str, where: list[int] | slice, values: Sequence[Any]) -> Any:
+        """The batched array of one key: ``values`` of the envs ``where`` (indices, or
+        ``slice(None)`` for every env in order), typed by the first value as
+        ``VectorEnv._add_info`` does (nested dicts recursively)."""
         n = self.num_envs
-        first = column[0]
+        first = values[0]
+        index = range(n)[where] if isinstance(where, slice) else where
         if _object_column(key, first):
-            array = np.empty(n, dtype=object)
-            for i, value in enumerate(column):
-                array[i] = value
+            array = np.full(n, None, dtype=object)
+            for i, value in zip(index, values, strict=True):
+                array[i] = value  # one by one: sequences stay objects
             return array
         if isinstance(first, dict):
-            sub_keys = tuple(first)
-            if all(type(d) is dict and tuple(d) == sub_keys for d in column):
-                return self._batch_uniform_infos(sub_keys, list(column))
-            return self._batch_infos(list(enumerate(column)))
-        if isinstance(first, np.ndarray):
-            array = np.zeros((n, *first.shape), dtype=first.dtype)
-            array[:] = column
-            return array
-        return np.array(column, dtype=type(first))
+            return self._batch_infos(list(zip(index, values, strict=True)))
+        array = np.zeros((n, *first.shape), dtype=first.dtype) \
+            if isinstance(first, np.ndarray) else np.zeros(n, dtype=type(first))
+        array[where] = values
+        return array
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """The attribute ``name`` of every sub-environment."""
