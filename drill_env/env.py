@@ -436,7 +436,7 @@ class DrillStringEnv(gym.Env):
         self._wob_applied = wob_start
         self._start_time = sim.time
         self._window_metrics = self._window.window()
-        self._readings = sim.read().tolist()
+        self._readings = sim.readings.tolist()  # fresh after reset and the start-up
         info = self._info()
         return self._observation(info), info
 
@@ -454,7 +454,7 @@ class DrillStringEnv(gym.Env):
         for _ in range(ramp_steps):
             self._window.add(sim.advance(n, speed_setpoint=speed, hook_load=off_bottom,
                                          record_every=self.config.record_every))
-        sim.advance(0, hook_load=sim.hook_load_for(wob))
+        sim.advance(0, hook_load=sim.hook_load_for(wob), read=True)
 
     def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         self._apply_action(action)

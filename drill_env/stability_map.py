@@ -47,7 +47,7 @@ import numpy as np
 
 from drill_env import metrics
 from drill_env.physics import integrator as ig
-from drill_env.physics.config import replace
+from drill_env.physics.config import replace, require_positive
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.scenarios import POSITIONS, make_scenario
 
@@ -78,8 +78,7 @@ class MapSettings:
 
     def __post_init__(self) -> None:
         for name in ("seconds", "measure", "hold"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name}: must be > 0, got {getattr(self, name)!r}")
+            require_positive(getattr(self, name), name)
         if self.measure > self.seconds:
             raise ValueError(f"measure: must be <= seconds ({self.seconds}), got "
                              f"{self.measure}")
@@ -176,8 +175,7 @@ def grid(rpm_step: float = PAPER_RPM_STEP, wob_step: float = PAPER_WOB_STEP,
     """Speeds (rpm) and WOBs (N) of the map, from one step up to the maximum."""
     for name, value in (("rpm_step", rpm_step), ("wob_step", wob_step), ("max_rpm", max_rpm),
                         ("max_wob", max_wob)):
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name}: must be a positive number, got {value!r}")
+        require_positive(value, name)
     if rpm_step > max_rpm or wob_step > max_wob:
         raise ValueError("rpm_step/wob_step: a step must not exceed the map's maximum")
     rpm = np.arange(1, math.floor(max_rpm / rpm_step + 1e-9) + 1) * rpm_step
