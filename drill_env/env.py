@@ -5,24 +5,25 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections import deque
-from dataclasses import dataclass
-from typing import Any
+from typing import Annotated, Any, Literal
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from pydantic import Field
 
 from drill_env import metrics
-from drill_env.physics.config import (
-    SimulationConfig,
-    from_dict,
-    replace,
-    require_non_negative,
-    require_positive,
-)
+from drill_env.physics.config import SimulationConfig, flatten, from_dict, replace
 from drill_env.physics.readings import N_READINGS
 from drill_env.physics.readings import R as READ
 from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
+from drill_env.physics.validation import (
+    Count,
+    NonNegative,
+    Positive,
+    StrictBool,
+    config_dataclass,
+)
 from drill_env.scenarios import RANDOMISED, Scenario, make_scenario, scenario_parameters
 
 RPM = 2.0 * math.pi / 60.0
@@ -54,91 +55,88 @@ _METRIC = {name: k for k, name in enumerate(metrics.WINDOW_METRICS)}
 _INFO_METRIC = tuple((name, _METRIC[name]) for name in INFO_WINDOW_METRICS)
 
 
-@dataclass(frozen=True)
+#: Bounds that keep the reward and the episode finite: weights up to 1e6 times terms that
+#: are themselves bounded (SSI capped, radial ratio below the runaway limit, ROP over a
+#: scale of at least 1e-6 m/s) cannot overflow; time spans up to a year of simulated time.
+MAX_WEIGHT = 1.0e6
+MIN_SCALE = 1.0e-6
+MAX_EPISODE_DURATION = 3.2e7
+#: Records one control step may hold (memory of the record buffer: 16 floats each).
+MAX_RECORDS_PER_STEP = 100_000
+
+
+def _weight(default: float) -> Any:
+    return Field(default, ge=0.0, le=MAX_WEIGHT)
+
+
+def _scale(default: float) -> Any:
+    return Field(default, ge=MIN_SCALE, le=1.0e12)
+
+
+@config_dataclass
 class EnvConfig:
     """Environment settings (typed defaults; ``gymnasium.make`` keywords override them)."""
 
     #: Policy period (s); the simulator takes ``round(control_interval / dt)`` steps per
     #: action (10 Hz by default).
-    control_interval: float = 0.1
+    control_interval: Positive = Field(0.1, le=60.0)
     #: Episode length in simulated seconds; ``None`` takes the scenario's default.
-    episode_duration: float | None = None
+    episode_duration: Annotated[Positive, Field(le=MAX_EPISODE_DURATION)] | None = None
     #: Surface speed set-point range (rpm) mapped from action[0] in [-1, 1].
-    rpm_range: tuple[float, float] = (0.0, 200.0)
+    rpm_range: tuple[Annotated[NonNegative, Field(le=1000.0)],
+                     Annotated[NonNegative, Field(le=1000.0)]] = (0.0, 200.0)
     #: Weight-on-bit range (N) mapped from action[1]; applied as the hook load
     #: ``string_weight - WOB``.
-    weight_on_bit_range: tuple[float, float] = (0.0, 200.0e3)
+    weight_on_bit_range: tuple[Annotated[NonNegative, Field(le=1.0e7)],
+                               Annotated[NonNegative, Field(le=1.0e7)]] = (0.0, 200.0e3)
     #: "absolute": action -> set point in the range; "incremental": action -> change of
     #: the set point, at most ``rpm_step`` / ``weight_on_bit_step`` per control step.
-    action_mode: str = "absolute"
-    rpm_step: float = 10.0
-    weight_on_bit_step: float = 10.0e3
+    action_mode: Literal["absolute", "incremental"] = "absolute"
+    rpm_step: Positive = Field(10.0, le=1000.0)
+    weight_on_bit_step: Positive = Field(10.0e3, le=1.0e7)
     #: Drawworks rate limit of the applied WOB (N/s). The top-drive acceleration limit is
     #: in the simulator (``TopDriveConfig.max_acceleration``).
-    drawworks_rate: float = 50.0e3
+    drawworks_rate: Positive = Field(50.0e3, le=1.0e9)
     #: "downhole" (MWD at the bit + surface) or "surface" (surface measurements only).
-    sensors: str = "downhole"
+    sensors: Literal["downhole", "surface"] = "downhole"
     #: Telemetry delay of the observation, in control steps.
-    telemetry_delay: int = 0
+    telemetry_delay: Count = Field(0, ge=0, le=10_000)
     #: Std of Gaussian noise added to the normalised observation (from ``np_random``).
-    observation_noise: float = 0.0
+    observation_noise: NonNegative = Field(0.0, le=100.0)
     #: Make-up torque of the drill-pipe connections (N m): exceeding it terminates.
-    makeup_torque: float = 40.0e3
+    makeup_torque: Positive = Field(40.0e3, le=1.0e7)
     #: "settled": start at the scenario's operating point in steady rotation (see
     #: ``Simulator.reset``); "paper": ramp the rpm over 10 s, hold 10 s off bottom,
     #: apply the WOB at 20 s, then hand over to the agent.
-    startup: str = "settled"
+    startup: Literal["settled", "paper"] = "settled"
     #: Record every k simulator steps inside a control interval (for the metrics).
-    record_every: int = 10
+    record_every: Count = Field(10, ge=1, le=1_000_000)
     #: Length of the rolling window of the stick-slip metrics (s).
-    metric_window: float = 3.0
+    metric_window: Positive = Field(3.0, le=3600.0)
     #: Cap the applied WOB at the largest WOB the FE mesh resolves
     #: (``Simulator.check_mesh_resolves``); without the cap a larger WOB stops the
     #: simulator (terminated, "mesh buckling" status). The cap is ``info[
     #: "weight_on_bit_limit"]``.
-    limit_weight_on_bit_to_mesh: bool = True
+    limit_weight_on_bit_to_mesh: StrictBool = True
     #: Reward weights (see the class docstring).
-    rop_weight: float = 1.0
-    stick_slip_weight: float = 1.0
-    whirl_weight: float = 0.5
-    effort_weight: float = 0.1
-    failure_weight: float = 10.0
+    rop_weight: NonNegative = _weight(1.0)
+    stick_slip_weight: NonNegative = _weight(1.0)
+    whirl_weight: NonNegative = _weight(0.5)
+    effort_weight: NonNegative = _weight(0.1)
+    failure_weight: NonNegative = _weight(10.0)
     #: Cap on the SSI entering the reward (a stalled bit has an unbounded SSI).
-    ssi_cap: float = 2.0
+    ssi_cap: Positive = Field(2.0, le=1.0e3)
     #: Normalisation scales of the observation.
-    torque_scale: float = 10.0e3
-    force_scale: float = 10.0e3
-    rop_scale: float = 0.01
+    torque_scale: Positive = _scale(10.0e3)
+    force_scale: Positive = _scale(10.0e3)
+    rop_scale: Positive = _scale(0.01)
 
     def __post_init__(self) -> None:
-        for name in ("control_interval", "rpm_step", "weight_on_bit_step", "drawworks_rate",
-                     "makeup_torque", "metric_window", "ssi_cap", "torque_scale",
-                     "force_scale", "rop_scale"):
-            require_positive(getattr(self, name), name)
-        for name in ("observation_noise", "rop_weight", "stick_slip_weight", "whirl_weight",
-                     "effort_weight", "failure_weight"):
-            require_non_negative(getattr(self, name), name)
-        if self.episode_duration is not None:
-            require_positive(self.episode_duration, "episode_duration")
         for name in ("rpm_range", "weight_on_bit_range"):
-            rng = getattr(self, name)
-            if len(rng) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v)
-                                        for v in rng):
-                raise ValueError(f"{name}: must be two finite numbers (low, high), got {rng!r}")
-            if rng[0] < 0:
-                raise ValueError(f"{name}: low end must be >= 0, got {rng!r}")
-            if not rng[1] > rng[0]:
-                raise ValueError(f"{name}: high end must exceed the low end, got {rng!r}")
-        for name, allowed in (("action_mode", ACTION_MODES), ("sensors", SENSORS),
-                              ("startup", STARTUPS)):
-            if getattr(self, name) not in allowed:
-                raise ValueError(f"{name}: must be one of {allowed}, got {getattr(self, name)!r}")
-        for name in ("telemetry_delay", "record_every"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 0:
-                raise ValueError(f"{name}: must be an integer >= 0, got {v!r}")
-        if self.record_every < 1:
-            raise ValueError(f"record_every: must be >= 1, got {self.record_every}")
+            low, high = getattr(self, name)
+            if not high > low:
+                raise ValueError(f"{name}: the high end must exceed the low end, got "
+                                 f"{(low, high)}")
 
 
 ENV_FIELDS = frozenset(f.name for f in dataclasses.fields(EnvConfig))
@@ -313,14 +311,15 @@ class DrillStringEnv(gym.Env):
             raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}; "
                              f"EnvConfig fields: {sorted(ENV_FIELDS)}; scenario "
                              f"{scenario!r} parameters: {sorted(params)}")
-        base = config if isinstance(config, EnvConfig) else from_dict(EnvConfig, config)
-        for k in ("rpm_range", "weight_on_bit_range"):
-            if k in env_over and isinstance(env_over[k], list):
-                env_over[k] = tuple(env_over[k])
-        self.config: EnvConfig = dataclasses.replace(base, **env_over)
+        base = from_dict(EnvConfig, config)
+        self.config: EnvConfig = replace(base, **env_over)
         self.scenario_name = scenario
         self.scenario_params = scen_over
-        self.physics_overrides = dict(physics or {})
+        if physics is not None and not isinstance(physics, dict):
+            raise ValueError(f"physics: expected a dict of overrides, got "
+                             f"{type(physics).__name__}")
+        # {"mud": {"density": 1300}} and {"mud.density": 1300} both set one field.
+        self.physics_overrides = flatten(physics or {})
         if bit_model is not None:
             self.physics_overrides["bit_model"] = bit_model
         if fidelity is not None:
@@ -354,6 +353,12 @@ class DrillStringEnv(gym.Env):
         self.sim = sim
         cfg = self.config
         self._steps_per_action = max(1, round(cfg.control_interval / sim.dt))
+        records = self._steps_per_action // cfg.record_every
+        if records > MAX_RECORDS_PER_STEP:
+            raise ValueError(
+                f"record_every: {cfg.record_every} keeps {records} records per control step "
+                f"({cfg.control_interval} s at dt = {sim.dt:.2e} s), more than "
+                f"{MAX_RECORDS_PER_STEP}: raise record_every")
         self.weight_on_bit_limit = self._wob_range[1]
         if cfg.limit_weight_on_bit_to_mesh:
             self.weight_on_bit_limit = min(self.weight_on_bit_limit, mesh_weight_on_bit_limit(

@@ -35,13 +35,15 @@ import dataclasses
 import inspect
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from typing import Annotated, Literal
 
 import numpy as np
+from pydantic import Field
 
 from drill_env.physics.bit import asymmetric_bit, symmetric_bit
 from drill_env.physics.config import (
     INCH,
+    MAX_STRING_LENGTH,
     BitConfig,
     FormationConfig,
     Interface,
@@ -51,11 +53,9 @@ from drill_env.physics.config import (
     SolverConfig,
     StringConfig,
     replace,
-    require_finite,
-    require_non_negative,
-    require_positive,
 )
 from drill_env.physics.formation import interface_depth_for_share
+from drill_env.physics.validation import Finite, NonNegative, Positive, config_dataclass, validated
 
 RPM = 2.0 * math.pi / 60.0
 
@@ -97,23 +97,31 @@ DEFAULT_WEIGHT_ON_BIT = 100.0e3
 DEFAULT_EPISODE_DURATION = 60.0
 
 
-@dataclass(frozen=True)
+#: Types of the scenario parameters (checked on every call; errors name the parameter).
+SurfaceSpeed = Annotated[NonNegative, Field(le=1000.0 * RPM)]  # rad/s
+WeightOnBit = Annotated[NonNegative, Field(le=1.0e7)]  # N
+Duration = Annotated[Positive, Field(le=3.2e7)]  # s
+StringLengthValue = Annotated[Positive, Field(le=MAX_STRING_LENGTH)]  # m
+StringLength = StringLengthValue | None
+Rpm = Annotated[NonNegative, Field(le=1000.0)]
+Position = Literal["P1", "P2", "P3", "P4", "P5", "P6"]
+Thickness = Annotated[Positive, Field(le=1000.0)]  # m along the hole axis
+Dip = Annotated[Finite, Field(ge=0.0, le=85.0)]  # deg; 85: see sandwich()
+Lead = Annotated[NonNegative, Field(le=100.0)]  # m
+
+
+@config_dataclass
 class Scenario:
     """A physics configuration and the defaults of an episode in it."""
 
     name: str
     config: SimulationConfig
     #: Operating point the episode starts from: surface speed (rad/s), WOB (N).
-    surface_speed: float = DEFAULT_SURFACE_SPEED
-    weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT
+    surface_speed: SurfaceSpeed = DEFAULT_SURFACE_SPEED
+    weight_on_bit: WeightOnBit = DEFAULT_WEIGHT_ON_BIT
     #: Default episode length (s of simulated time).
-    episode_duration: float = DEFAULT_EPISODE_DURATION
+    episode_duration: Duration = DEFAULT_EPISODE_DURATION
     description: str = ""
-
-    def __post_init__(self) -> None:
-        require_finite(self.surface_speed, "surface_speed")
-        require_non_negative(self.weight_on_bit, "weight_on_bit")
-        require_positive(self.episode_duration, "episode_duration")
 
 
 # --------------------------------------------------------------------------- helpers
@@ -128,7 +136,9 @@ def with_string_length(config: SimulationConfig, string_length: float | None) ->
     if string_length is None:
         return config
     bha = config.string.bha.length
-    require_finite(string_length, "string_length")
+    if not (math.isfinite(string_length) and string_length <= MAX_STRING_LENGTH):
+        raise ValueError(f"string_length: must be a finite length up to "
+                         f"{MAX_STRING_LENGTH} m, got {string_length!r}")
     if string_length <= bha:
         raise ValueError(f"string_length: {string_length} m must exceed the BHA length "
                          f"{bha} m (BHA longer than the string)")
@@ -155,7 +165,7 @@ def sandwich(bit: BitConfig, middle: RockConfig, bit_depth: float, position: str
     """
     if position not in POSITIONS:
         raise ValueError(f"position: must be one of {sorted(POSITIONS)}, got {position!r}")
-    if not thickness > 0:
+    if not (thickness > 0 and math.isfinite(thickness)):
         raise ValueError(f"thickness: must be > 0, got {thickness!r}")
     share, which = POSITIONS[position]
     if which == "top":
@@ -200,10 +210,11 @@ def _base(string_length: float | None, bit: BitConfig | None = None) -> Simulati
 # --------------------------------------------------------------------------- scenarios
 
 
-def default(surface_speed: float = DEFAULT_SURFACE_SPEED,
-            weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
-            episode_duration: float = DEFAULT_EPISODE_DURATION,
-            string_length: float | None = None) -> Scenario:
+@validated
+def default(surface_speed: SurfaceSpeed = DEFAULT_SURFACE_SPEED,
+            weight_on_bit: WeightOnBit = DEFAULT_WEIGHT_ON_BIT,
+            episode_duration: Duration = DEFAULT_EPISODE_DURATION,
+            string_length: StringLength = None) -> Scenario:
     """Homogeneous hard rock, symmetric bit, default string (SPEC 2.3)."""
     cfg = _base(string_length)
     cfg = replace(cfg, formation=FormationConfig(rocks=(HARD,)))
@@ -221,11 +232,12 @@ def _sandwich_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
                     episode_duration, description)
 
 
-def paper_case1(position: str = "P1", thickness: float = 1.0, dip: float = 45.0,
-                surface_speed: float = 50.0 * RPM,
-                weight_on_bit: float = DEFAULT_WEIGHT_ON_BIT,
-                episode_duration: float = 30.0,
-                string_length: float | None = None) -> Scenario:
+@validated
+def paper_case1(position: Position = "P1", thickness: Thickness = 1.0, dip: Dip = 45.0,
+                surface_speed: SurfaceSpeed = 50.0 * RPM,
+                weight_on_bit: WeightOnBit = DEFAULT_WEIGHT_ON_BIT,
+                episode_duration: Duration = 30.0,
+                string_length: StringLength = None) -> Scenario:
     """Torsional stability map (paper Fig. 15): symmetric bit held at ``position`` P1..P6.
 
     Torsion only (``SolverConfig(lateral=False)``), as the paper's case 1.
@@ -246,7 +258,6 @@ def _lateral_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
     The bit starts ``lead`` metres above ``position`` (P1 by default: the front just
     touching the soft layer), so it drills rock 1 first and then crosses the layer.
     """
-    require_non_negative(lead, "lead")
     cfg = _base(None, bit)
     cfg = replace(cfg, string=collar_weighted_string(cfg.string))
     cfg = replace(with_string_length(cfg, string_length), initial_depth=None)
@@ -256,33 +267,36 @@ def _lateral_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
     return Scenario(name, cfg, surface_speed, weight_on_bit, episode_duration, description)
 
 
-def paper_case2(position: str = "P1", thickness: float = 0.3, dip: float = 45.0,
-                lead: float = 0.05, surface_speed: float = PAPER_LATERAL_RPM * RPM,
-                weight_on_bit: float = PAPER_LATERAL_WOB,
-                episode_duration: float = 240.0,
-                string_length: float | None = None) -> Scenario:
+@validated
+def paper_case2(position: Position = "P1", thickness: Thickness = 0.3, dip: Dip = 45.0,
+                lead: Lead = 0.05, surface_speed: SurfaceSpeed = PAPER_LATERAL_RPM * RPM,
+                weight_on_bit: WeightOnBit = PAPER_LATERAL_WOB,
+                episode_duration: Duration = 240.0,
+                string_length: StringLength = None) -> Scenario:
     """Symmetric bit drilling through a hard-soft-hard sandwich dipping 45 deg (Fig. 16-18)."""
     return _lateral_case("paper_case2", symmetric_bit(), SOFT, position, thickness, dip, lead,
                          surface_speed, weight_on_bit, episode_duration, string_length,
                          "symmetric bit through a hard-soft-hard 45 deg sandwich")
 
 
-def paper_case3(position: str = "P1", thickness: float = 0.3, dip: float = 45.0,
-                lead: float = 0.05, surface_speed: float = PAPER_LATERAL_RPM * RPM,
-                weight_on_bit: float = PAPER_LATERAL_WOB,
-                episode_duration: float = 240.0,
-                string_length: float | None = None) -> Scenario:
+@validated
+def paper_case3(position: Position = "P1", thickness: Thickness = 0.3, dip: Dip = 45.0,
+                lead: Lead = 0.05, surface_speed: SurfaceSpeed = PAPER_LATERAL_RPM * RPM,
+                weight_on_bit: WeightOnBit = PAPER_LATERAL_WOB,
+                episode_duration: Duration = 240.0,
+                string_length: StringLength = None) -> Scenario:
     """Symmetric bit through a hard - very soft - hard sandwich (larger lateral forces)."""
     return _lateral_case("paper_case3", symmetric_bit(), VERY_SOFT, position, thickness, dip,
                          lead, surface_speed, weight_on_bit, episode_duration, string_length,
                          "symmetric bit through a hard-very soft-hard 45 deg sandwich")
 
 
-def paper_case4(position: str = "P1", thickness: float = 0.3, dip: float = 45.0,
-                lead: float = 0.05, surface_speed: float = PAPER_LATERAL_RPM * RPM,
-                weight_on_bit: float = PAPER_LATERAL_WOB,
-                episode_duration: float = 240.0,
-                string_length: float | None = None) -> Scenario:
+@validated
+def paper_case4(position: Position = "P1", thickness: Thickness = 0.3, dip: Dip = 45.0,
+                lead: Lead = 0.05, surface_speed: SurfaceSpeed = PAPER_LATERAL_RPM * RPM,
+                weight_on_bit: WeightOnBit = PAPER_LATERAL_WOB,
+                episode_duration: Duration = 240.0,
+                string_length: StringLength = None) -> Scenario:
     """Asymmetric bit through the hard-soft-hard sandwich (continuous forward whirl)."""
     return _lateral_case("paper_case4", asymmetric_bit(), SOFT, position, thickness, dip, lead,
                          surface_speed, weight_on_bit, episode_duration, string_length,
@@ -301,11 +315,12 @@ def _jitter(rng: np.random.Generator, rock: RockConfig, name: str) -> RockConfig
                       wall_damping=f(rock.wall_damping), depth_of_cut=f(rock.depth_of_cut))
 
 
+@validated
 def random(rng: np.random.Generator | None = None,
-           string_length_range: tuple[float, float] = (500.0, 1035.0),
-           rpm_range: tuple[float, float] = (40.0, 160.0),
-           weight_on_bit_range: tuple[float, float] = (50.0e3, 130.0e3),
-           episode_duration: float = DEFAULT_EPISODE_DURATION) -> Scenario:
+           string_length_range: tuple[StringLengthValue, StringLengthValue] = (500.0, 1035.0),
+           rpm_range: tuple[Rpm, Rpm] = (40.0, 160.0),
+           weight_on_bit_range: tuple[WeightOnBit, WeightOnBit] = (50.0e3, 130.0e3),
+           episode_duration: Duration = DEFAULT_EPISODE_DURATION) -> Scenario:
     """Randomised training distribution, drawn from ``rng`` (the env passes ``np_random``).
 
     Drawn: three rocks (hard, soft, very soft presets, each curve parameter within
@@ -318,6 +333,12 @@ def random(rng: np.random.Generator | None = None,
     operating point (rpm, WOB) uniformly in the given ranges. The shapes
     of every draw are equal: 3 rocks, 2 interfaces, 6 blades, same node count.
     """
+    for name, (low, high) in (("string_length_range", string_length_range),
+                              ("rpm_range", rpm_range),
+                              ("weight_on_bit_range", weight_on_bit_range)):
+        if not low <= high:
+            raise ValueError(f"{name}: the low end must not exceed the high end, got "
+                             f"{(low, high)}")
     rng = rng if rng is not None else np.random.default_rng()
     lo, hi = string_length_range
     cfg = _base(float(rng.uniform(lo, hi)),

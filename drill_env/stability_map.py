@@ -44,11 +44,13 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from pydantic import Field
 
 from drill_env import metrics
 from drill_env.physics import integrator as ig
 from drill_env.physics.config import replace, require_positive
 from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass
 from drill_env.scenarios import POSITIONS, make_scenario
 
 RPM = 2.0 * math.pi / 60.0
@@ -61,32 +63,29 @@ PAPER_MAX_RPM = 250.0
 PAPER_MAX_WOB = 200.0e3
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class MapSettings:
     """How each grid point is simulated and classified."""
 
     #: Simulated seconds per point, from the kicked settled state.
-    seconds: float = 30.0
+    seconds: Positive = Field(30.0, le=3600.0)
     #: The last ``measure`` seconds decide: stick-slip if the bit sticks in them.
-    measure: float = 10.0
+    measure: Positive = Field(10.0, le=3600.0)
     #: Seconds between two returns of the bit to its position.
-    hold: float = 0.5
+    hold: Positive = Field(0.5, le=3600.0)
     #: Initial kick: the bit speed starts ``kick`` below steady (a 1 % disturbance).
-    kick: float = 0.01
+    kick: NonNegative = Field(0.01, lt=1.0)
     #: Record every k simulator steps (the stick test reads these samples).
-    record_every: int = 5
+    record_every: Count = Field(5, ge=1, le=100_000)
 
     def __post_init__(self) -> None:
-        for name in ("seconds", "measure", "hold"):
-            require_positive(getattr(self, name), name)
         if self.measure > self.seconds:
             raise ValueError(f"measure: must be <= seconds ({self.seconds}), got "
                              f"{self.measure}")
-        if not 0.0 <= self.kick < 1.0:
-            raise ValueError(f"kick: must be in [0, 1), got {self.kick!r}")
-        if not isinstance(self.record_every, int) or self.record_every < 1:
-            raise ValueError(f"record_every: must be an integer >= 1, got "
-                             f"{self.record_every!r}")
+
+
+#: The settings of ``drill-env stability-map``.
+DEFAULT_SETTINGS = MapSettings()
 
 
 @dataclass
@@ -184,7 +183,7 @@ def grid(rpm_step: float = PAPER_RPM_STEP, wob_step: float = PAPER_WOB_STEP,
 
 
 def stability_map(position: str, rpm: Sequence[float], weight_on_bit: Sequence[float],
-                  settings: MapSettings = MapSettings(), config=None,
+                  settings: MapSettings = DEFAULT_SETTINGS, config=None,
                   progress: Callable[[], None] | None = None) -> StabilityMap:
     """The map of ``position`` (P1..P6) over the grid, by :func:`track_boundary`.
 
@@ -216,7 +215,7 @@ def stability_map(position: str, rpm: Sequence[float], weight_on_bit: Sequence[f
 
 
 def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float = PAPER_RPM_STEP,
-                   wob_step: float = PAPER_WOB_STEP, settings: MapSettings = MapSettings(),
+                   wob_step: float = PAPER_WOB_STEP, settings: MapSettings = DEFAULT_SETTINGS,
                    max_rpm: float = PAPER_MAX_RPM, max_wob: float = PAPER_MAX_WOB,
                    progress: bool = False) -> list[StabilityMap]:
     """:func:`stability_map` of each position on one grid (tqdm bar if ``progress``)."""

@@ -1,22 +1,60 @@
 """Frozen, validated configuration of the drill-string model (SI units throughout).
 
-Every default documents where it comes from. Configs are plain dataclasses so that
-they can be built from a dict or YAML (:func:`from_dict`) and compared, hashed and
-pickled. Validation happens in ``__post_init__`` and raises ``ValueError`` naming the
-offending field.
+Every default documents where it comes from, every field has a type and a physical range
+(:mod:`drill_env.physics.validation`: pydantic dataclasses, errors name the dotted path
+the user typed, e.g. ``string.bha.inner_diameter``). Configs are plain frozen dataclasses:
+they can be built from a dict or YAML (:func:`from_dict`, :func:`load_yaml`), compared,
+hashed and pickled. Ranges are wide physical bounds (nothing a real drilling system
+exceeds), and limits that keep a simulation finite in time and memory.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
-import types
-import typing
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import field
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from drill_env.physics.validation import (
+    ConfigError,
+    Count,
+    Finite,
+    NonNegative,
+    Positive,
+    StrictBool,
+    config_dataclass,
+    flatten,
+    from_dict,
+    load_yaml,
+    replace,
+    require_finite,
+    require_non_negative,
+    require_positive,
+)
+
+__all__ = [
+    "BIT_MODELS", "FIDELITY_LEVELS", "GRAVITY", "INCH", "BitConfig", "ConfigError",
+    "ContactConfig", "DampingConfig", "FormationConfig", "Interface", "MudConfig", "RockConfig",
+    "Section", "SimulationConfig", "SolverConfig", "StringConfig", "TopDriveConfig", "flatten",
+    "from_dict", "load_yaml", "replace", "require_finite", "require_non_negative",
+    "require_positive",
+]
 
 INCH = 0.0254
 GRAVITY = 9.81
+
+#: Longest string (m): the deepest wells drilled are ~12 km measured depth.
+MAX_STRING_LENGTH = 15_000.0
+#: Most elements in a string: ~100k DOFs, a few ms per step; far more than any converged
+#: mesh needs (docs/performance.md), and a bound on memory and time per step.
+MAX_ELEMENTS = 20_000
+#: Largest tubular or hole diameter (m): 36 in conductor hole is ~0.91 m.
+MAX_DIAMETER = 1.0
+#: Shortest time step (s): below it one 0.1 s control interval takes > 10^4 steps.
+MIN_TIME_STEP = 1.0e-5
+#: Heaviest drilling fluid (kg/m^3): 2.6 g/cc is above any weighted mud in use.
+MAX_MUD_DENSITY = 3000.0
 
 
 def _require(condition: bool, name: str, message: str) -> None:
@@ -24,47 +62,33 @@ def _require(condition: bool, name: str, message: str) -> None:
         raise ValueError(f"{name}: {message}")
 
 
-def require_finite(value: float, name: str) -> None:
-    """Raise ``ValueError`` naming ``name`` unless ``value`` is a finite number."""
-    _require(isinstance(value, (int, float)) and math.isfinite(value), name,
-             f"must be a finite number, got {value!r}")
-
-
-def require_positive(value: float, name: str) -> None:
-    require_finite(value, name)
-    _require(value > 0, name, f"must be > 0, got {value!r}")
-
-
-def require_non_negative(value: float, name: str) -> None:
-    require_finite(value, name)
-    _require(value >= 0, name, f"must be >= 0, got {value!r}")
-
-
 # --------------------------------------------------------------------------- string
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class Section:
     """A uniform tubular section of the string (drill pipe or drill collars)."""
 
-    length: float
-    outer_diameter: float
-    inner_diameter: float
-    element_length: float
-    #: Steel, API 5DP / 7-1 (E = 207 GPa, G = 79.5 GPa, rho = 7850 kg/m^3).
-    youngs_modulus: float = 2.07e11
-    shear_modulus: float = 7.95e10
-    density: float = 7850.0
+    length: Positive = Field(le=MAX_STRING_LENGTH)
+    outer_diameter: Positive = Field(lt=MAX_DIAMETER)
+    inner_diameter: NonNegative = Field(lt=MAX_DIAMETER)
+    element_length: Positive = Field(ge=0.01, le=MAX_STRING_LENGTH)
+    #: Steel, API 5DP / 7-1 (E = 207 GPa, G = 79.5 GPa, rho = 7850 kg/m^3). Bounds: any
+    #: engineering metal (aluminium 70 GPa, tungsten 19300 kg/m^3) fits inside them.
+    youngs_modulus: Positive = Field(2.07e11, ge=1.0e9, le=1.0e12)
+    shear_modulus: Positive = Field(7.95e10, ge=1.0e9, le=1.0e12)
+    density: Positive = Field(7850.0, ge=1000.0, le=25_000.0)
 
     def __post_init__(self) -> None:
-        for name in ("length", "outer_diameter", "element_length", "youngs_modulus",
-                     "shear_modulus", "density"):
-            require_positive(getattr(self, name), name)
-        require_non_negative(self.inner_diameter, "inner_diameter")
         _require(self.inner_diameter < self.outer_diameter, "inner_diameter",
-                 "must be smaller than outer_diameter")
+                 f"must be smaller than outer_diameter ({self.outer_diameter} m), got "
+                 f"{self.inner_diameter} m")
         _require(self.element_length <= self.length, "element_length",
-                 "must not exceed the section length")
+                 f"must not exceed the section length ({self.length} m), got "
+                 f"{self.element_length} m")
+        _require(self.n_elements <= MAX_ELEMENTS, "element_length",
+                 f"{self.length} m / {self.element_length} m gives {self.n_elements} "
+                 f"elements, more than {MAX_ELEMENTS}")
 
     @property
     def area(self) -> float:
@@ -108,64 +132,63 @@ def _default_bha() -> Section:
                    element_length=1.0)
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class StringConfig:
     """Drill pipe over a BHA of drill collars (paper Table 1: 1000 m string, 35 m BHA)."""
 
     drill_pipe: Section = field(default_factory=_default_pipe)
     bha: Section = field(default_factory=_default_bha)
     #: Borehole diameter; an 8 3/4 in PDC bit drills an 8 3/4 in hole.
-    hole_diameter: float = 8.75 * INCH
+    hole_diameter: Positive = Field(8.75 * INCH, le=MAX_DIAMETER)
     #: Stabilizer positions, metres above the bit. A slick 35 m BHA of 6 1/2 in collars
     #: buckles at ~60 kN (pi^2 EI / L^2), below the paper's 75-100 kN WOB, so the default
     #: is a packed BHA: near-bit stabilizer plus two string stabilizers (a common
     #: vertical-hole assembly). Each sits on the nearest node.
-    stabilizers: tuple[float, ...] = (1.0, 10.0, 19.0)
+    stabilizers: tuple[Positive, ...] = (1.0, 10.0, 19.0)
     #: Stabilizer blade diameter: 1/8 in under gauge, the usual API undergauge.
-    stabilizer_diameter: float = 8.625 * INCH
+    stabilizer_diameter: Positive = Field(8.625 * INCH, le=MAX_DIAMETER)
 
     def __post_init__(self) -> None:
-        require_positive(self.hole_diameter, "hole_diameter")
-        require_positive(self.stabilizer_diameter, "stabilizer_diameter")
         _require(self.stabilizer_diameter < self.hole_diameter, "stabilizer_diameter",
-                 "must be smaller than hole_diameter (clearance <= 0)")
+                 f"must be smaller than hole_diameter ({self.hole_diameter} m): clearance "
+                 f"<= 0, got {self.stabilizer_diameter} m")
         for k, pos in enumerate(self.stabilizers):
-            _require(0.0 < pos < self.bha.length + self.drill_pipe.length, f"stabilizers[{k}]",
-                     f"{pos} m above the bit is outside the string")
-
+            _require(pos < self.length, f"stabilizers[{k}]",
+                     f"{pos} m above the bit is outside the {self.length} m string")
         for name in ("drill_pipe", "bha"):
             od = getattr(self, name).outer_diameter
             _require(od < self.hole_diameter, f"{name}.outer_diameter",
                      f"{od} m must be smaller than hole_diameter {self.hole_diameter} m "
                      "(clearance <= 0)")
+        _require(self.length <= MAX_STRING_LENGTH, "drill_pipe.length",
+                 f"the string is {self.length} m long, more than {MAX_STRING_LENGTH} m")
+        n = self.drill_pipe.n_elements + self.bha.n_elements
+        _require(n <= MAX_ELEMENTS, "drill_pipe.element_length",
+                 f"the string has {n} elements, more than {MAX_ELEMENTS}")
 
     @property
     def length(self) -> float:
         return self.drill_pipe.length + self.bha.length
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class MudConfig:
     """Drilling fluid: buoyancy, added lateral mass and viscous torsional drag."""
 
-    #: 10 ppg water-based mud.
-    density: float = 1200.0
+    #: 10 ppg water-based mud. Must be lighter than the string (checked by
+    #: SimulationConfig): a string lighter than its mud floats.
+    density: NonNegative = Field(1200.0, le=MAX_MUD_DENSITY)
     #: Added-mass coefficient of the displaced fluid for lateral motion; 1.0 is the
     #: potential-flow value for a cylinder in unbounded fluid (confinement raises it).
-    added_mass_coefficient: float = 1.0
+    added_mass_coefficient: NonNegative = Field(1.0, le=10.0)
     #: Viscous drag torque per unit length and angular speed (N m s/rad per m). Chosen so
     #: the 1035 m string needs ~1 kN m off-bottom torque at 100 rpm, a typical field
     #: figure for a shallow vertical well; it also sets the damping of the first
     #: torsional mode, and so the stick-slip threshold.
-    torsional_damping: float = 0.1
-
-    def __post_init__(self) -> None:
-        require_non_negative(self.density, "density")
-        require_non_negative(self.added_mass_coefficient, "added_mass_coefficient")
-        require_non_negative(self.torsional_damping, "torsional_damping")
+    torsional_damping: NonNegative = Field(0.1, le=100.0)
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class DampingConfig:
     """Structural damping C = a M_lat + b K (Rayleigh).
 
@@ -174,71 +197,53 @@ class DampingConfig:
     """
 
     #: a (1/s): 8 % damping of a 1 Hz lateral mode, a rough stand-in for mud drag.
-    mass_proportional: float = 1.0
+    mass_proportional: NonNegative = Field(1.0, le=1.0e3)
     #: b (s): damps the mesh-scale modes (zeta ~ 0.3 at the highest torsional frequency)
     #: while leaving the first torsional mode almost untouched (zeta ~ 2e-4).
-    stiffness_proportional: float = 1.0e-4
-
-    def __post_init__(self) -> None:
-        require_non_negative(self.mass_proportional, "mass_proportional")
-        require_non_negative(self.stiffness_proportional, "stiffness_proportional")
+    stiffness_proportional: NonNegative = Field(1.0e-4, le=1.0)
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class ContactConfig:
     """String-to-borehole wall contact (paper eqs. 17-26)."""
 
-    enabled: bool = True
+    enabled: StrictBool = True
     #: Penalty stiffness k of eq. (18). Formation + tool-joint compliance of the order of
     #: 1e7 N/m is common in FE drill-string codes; the explicit contact step needs
     #: dt < 2 sqrt(m/k), which holds at dt = 1 ms for every node of the default mesh.
-    stiffness: float = 1.0e7
+    stiffness: Positive = Field(1.0e7, le=1.0e10)
     #: Penalty damping c of eq. (18): ~10 % of critical for a 1 m collar node.
-    damping: float = 5.0e3
+    damping: NonNegative = Field(5.0e3, le=1.0e8)
     #: Velocity-dependent wall friction mu(v) = mu_kin + (mu_static - mu_kin) exp(-|v|/v_s).
-    friction_static: float = 0.30
-    friction_kinetic: float = 0.25
-    friction_decay_speed: float = 0.1
+    friction_static: NonNegative = Field(0.30, le=2.0)
+    friction_kinetic: NonNegative = Field(0.25, le=2.0)
+    friction_decay_speed: Positive = Field(0.1, le=100.0)
     #: Friction is regularised linearly below this slip speed (m/s), see docs/model.md.
-    regularisation_speed: float = 1.0e-3
-
-    def __post_init__(self) -> None:
-        for name in ("stiffness", "friction_decay_speed", "regularisation_speed"):
-            require_positive(getattr(self, name), name)
-        for name in ("damping", "friction_static", "friction_kinetic"):
-            require_non_negative(getattr(self, name), name)
+    regularisation_speed: Positive = Field(1.0e-3, le=1.0)
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class TopDriveConfig:
     """Top drive: motor inertia, PI speed loop, torque limit."""
 
     #: Top-drive rotor inertia referred to the output shaft (kg m^2); Kyllingstad &
     #: Nessjoen (2009) quote 500-3000 kg m^2 for electric top drives.
-    inertia: float = 1000.0
+    inertia: Positive = Field(1000.0, le=1.0e6)
     #: PI gains of the speed loop. None selects the stiff controller of the literature:
     #: P = 50 Z (Z: drill-pipe torsional impedance), I = 5 J_td (1/s^2).
-    proportional_gain: float | None = None
-    integral_gain: float | None = None
+    proportional_gain: Annotated[NonNegative, Field(le=1.0e9)] | None = None
+    integral_gain: Annotated[NonNegative, Field(le=1.0e9)] | None = None
     #: Continuous torque rating of a mid-size top drive (N m).
-    max_torque: float = 50.0e3
-    #: Rate limit of the speed set point (rad/s^2): 0 -> 150 rpm in ~5 s.
-    max_acceleration: float = 3.0
-
-    def __post_init__(self) -> None:
-        require_positive(self.inertia, "inertia")
-        require_positive(self.max_torque, "max_torque")
-        require_positive(self.max_acceleration, "max_acceleration")
-        for name in ("proportional_gain", "integral_gain"):
-            value = getattr(self, name)
-            if value is not None:
-                require_non_negative(value, name)
+    max_torque: Positive = Field(50.0e3, le=1.0e6)
+    #: Rate limit of the speed set point (rad/s^2): 0 -> 150 rpm in ~5 s. (Tests take a
+    #: step of the set point with 1e4.)
+    max_acceleration: Positive = Field(3.0, le=1.0e6)
 
 
 # --------------------------------------------------------------------------- bit & rock
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class RockConfig:
     """A rock's bit-resistance curve (eq. 39) and its wall behaviour at the gauge (eq. 55).
 
@@ -246,27 +251,25 @@ class RockConfig:
     """
 
     name: str = "rock"
-    mu_min: float = 0.5
-    mu_max: float = 0.9
+    mu_min: NonNegative = Field(0.5, le=5.0)
+    mu_max: NonNegative = Field(0.9, le=5.0)
     #: Decay speed of the falling curve (rad/s).
-    st1: float = 3.0
+    st1: Positive = Field(3.0, le=1.0e3)
     #: Slope of the rising branch (s/rad).
-    st2: float = 0.0
+    st2: NonNegative = Field(0.0, le=10.0)
     #: Gauge contact stiffness and damping of eq. (55).
-    wall_stiffness: float = 2.0e7
-    wall_damping: float = 2.0e3
-    #: Depth of cut per bit revolution and per newton of WOB (m/(rev N)).
-    depth_of_cut: float = 2.0e-8
+    wall_stiffness: Positive = Field(2.0e7, le=1.0e10)
+    wall_damping: NonNegative = Field(2.0e3, le=1.0e8)
+    #: Depth of cut per bit revolution and per newton of WOB (m/(rev N)); 1e-6 is 100 mm
+    #: per revolution at 100 kN, beyond any PDC bit.
+    depth_of_cut: NonNegative = Field(2.0e-8, le=1.0e-6)
 
     def __post_init__(self) -> None:
-        for name in ("mu_min", "mu_max", "st2", "wall_damping", "depth_of_cut"):
-            require_non_negative(getattr(self, name), name)
-        for name in ("st1", "wall_stiffness"):
-            require_positive(getattr(self, name), name)
-        _require(self.mu_max >= self.mu_min, "mu_max", "must be >= mu_min")
+        _require(self.mu_max >= self.mu_min, "mu_max",
+                 f"must be >= mu_min ({self.mu_min}), got {self.mu_max}")
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class Interface:
     """A planar formation boundary.
 
@@ -275,18 +278,18 @@ class Interface:
     ``azimuth`` the direction of steepest descent in the hole's x-y plane (deg from x).
     """
 
-    depth: float
-    dip: float = 45.0
-    azimuth: float = 0.0
-
-    def __post_init__(self) -> None:
-        require_finite(self.depth, "depth")
-        require_finite(self.dip, "dip")
-        require_finite(self.azimuth, "azimuth")
-        _require(0.0 <= self.dip < 90.0, "dip", f"must be in [0, 90) deg, got {self.dip}")
+    depth: Finite = Field(ge=-1.0e5, le=1.0e5)
+    dip: Finite = Field(45.0, ge=0.0, lt=90.0)
+    azimuth: Finite = Field(0.0, ge=-3600.0, le=3600.0)
 
 
-@dataclass(frozen=True)
+#: Most rocks and interfaces of one formation: the bit kernel splits every blade segment
+#: at every interface, so the work per step grows with their number.
+MAX_ROCKS = 16
+MAX_INTERFACES = 64
+
+
+@config_dataclass
 class FormationConfig:
     """Layers separated by planar interfaces, top to bottom.
 
@@ -297,10 +300,13 @@ class FormationConfig:
 
     rocks: tuple[RockConfig, ...] = (RockConfig(),)
     interfaces: tuple[Interface, ...] = ()
-    layers: tuple[int, ...] = (0,)
+    layers: tuple[Count, ...] = (0,)
 
     def __post_init__(self) -> None:
-        _require(len(self.rocks) >= 1, "rocks", "needs at least one rock")
+        _require(1 <= len(self.rocks) <= MAX_ROCKS, "rocks",
+                 f"needs 1 to {MAX_ROCKS} rocks, got {len(self.rocks)}")
+        _require(len(self.interfaces) <= MAX_INTERFACES, "interfaces",
+                 f"at most {MAX_INTERFACES}, got {len(self.interfaces)}")
         _require(len(self.layers) == len(self.interfaces) + 1, "layers",
                  f"needs len(interfaces) + 1 = {len(self.interfaces) + 1} entries, "
                  f"got {len(self.layers)}")
@@ -311,7 +317,11 @@ class FormationConfig:
         _require(depths == sorted(depths), "interfaces", "must be sorted by depth")
 
 
-@dataclass(frozen=True)
+#: Most blades of a bit (PDC bits have 3 to ~12).
+MAX_BLADES = 32
+
+
+@config_dataclass
 class BitConfig:
     """Mesoscopic PDC bit (paper section 3.1, eqs. 28-35).
 
@@ -322,53 +332,57 @@ class BitConfig:
     """
 
     #: 8 3/4 in PDC bit, six blades.
-    diameter: float = 8.75 * INCH
+    diameter: Positive = Field(8.75 * INCH, le=MAX_DIAMETER)
     #: Radial clearance between gauge pads and borehole wall (paper section 4: 0.005 m).
-    gauge_clearance: float = 0.005
-    blade_angles: tuple[float, ...] = (0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
-    face_start: tuple[float, ...] = (0.015,) * 6
-    face_end: tuple[float, ...] = (0.070,) * 6
-    shoulder_angle: float = 60.0
-    shoulder_length: tuple[float, ...] = ()
-    gauge_length: tuple[float, ...] = (0.05,) * 6
+    gauge_clearance: Positive = 0.005
+    blade_angles: tuple[Annotated[Finite, Field(ge=-360.0, le=360.0)], ...] = (
+        0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
+    face_start: tuple[NonNegative, ...] = (0.015,) * 6
+    face_end: tuple[NonNegative, ...] = (0.070,) * 6
+    shoulder_angle: Positive = Field(60.0, le=90.0)
+    shoulder_length: tuple[NonNegative, ...] = ()
+    gauge_length: tuple[Annotated[NonNegative, Field(le=1.0)], ...] = (0.05,) * 6
     #: Bit mass (kg) and polar inertia (kg m^2): ~ a 50 kg steel body, m r^2 / 2.
-    mass: float = 50.0
-    inertia: float = 0.3
+    mass: Positive = Field(50.0, le=1.0e4)
+    inertia: Positive = Field(0.3, le=1.0e3)
     #: Hold the bit axis parallel to the hole axis (paper section 3.1.1: with a 1/16 in
     #: gauge clearance the tilt of the bit is negligible). The bit node's tilt DOFs are
     #: then fixed; lateral translation stays free. Without it the free bit end under the
     #: dead WOB load is a tilting mechanism (a column with a free end buckles at P = 0).
-    axis_aligned: bool = True
+    axis_aligned: StrictBool = True
 
     def __post_init__(self) -> None:
         n = len(self.blade_angles)
-        _require(n >= 1, "blade_angles", "needs at least one blade")
-        require_positive(self.diameter, "diameter")
-        require_positive(self.gauge_clearance, "gauge_clearance")
+        _require(1 <= n <= MAX_BLADES, "blade_angles",
+                 f"needs 1 to {MAX_BLADES} blades, got {n}")
         _require(self.gauge_clearance < self.diameter / 2, "gauge_clearance",
-                 "must be smaller than the bit radius")
-        _require(0.0 < self.shoulder_angle <= 90.0, "shoulder_angle",
-                 f"must be in (0, 90] deg, got {self.shoulder_angle}")
+                 f"{self.gauge_clearance} m must be smaller than the bit radius "
+                 f"(diameter / 2 = {self.diameter / 2} m)")
+        for name in ("face_start", "face_end", "gauge_length"):
+            values = getattr(self, name)
+            _require(len(values) == n, name, f"needs one value per blade "
+                     f"(len(blade_angles) = {n}), got {len(values)}")
+        for i in range(n):
+            _require(self.face_start[i] < self.face_end[i], f"face_end[{i}]",
+                     f"must be larger than face_start[{i}] ({self.face_start[i]} m), got "
+                     f"{self.face_end[i]} m")
+            _require(self.face_end[i] <= self.gauge_radius, f"face_end[{i}]",
+                     f"{self.face_end[i]} m lies beyond the gauge radius (diameter / 2 - "
+                     f"gauge_clearance = {self.gauge_radius:.4f} m)")
         if not self.shoulder_length:
             # Shoulders reach the gauge radius: r_C = r_B + l_sh sin(alpha_sh).
             sin_a = math.sin(math.radians(self.shoulder_angle))
             lengths = tuple((self.gauge_radius - rb) / sin_a for rb in self.face_end)
             object.__setattr__(self, "shoulder_length", lengths)
-        for name in ("face_start", "face_end", "shoulder_length", "gauge_length"):
-            values = getattr(self, name)
-            _require(len(values) == n, name, f"needs one value per blade ({n}), got {len(values)}")
-            for v in values:
-                require_non_negative(v, name)
+        _require(len(self.shoulder_length) == n, "shoulder_length",
+                 f"needs one value per blade (len(blade_angles) = {n}), got "
+                 f"{len(self.shoulder_length)}")
         for i in range(n):
-            _require(self.face_start[i] < self.face_end[i], f"face_end[{i}]",
-                     "must be larger than face_start")
             r_c = self.face_end[i] + self.shoulder_length[i] * math.sin(
                 math.radians(self.shoulder_angle))
             _require(r_c <= self.gauge_radius + 1e-9, f"shoulder_length[{i}]",
-                     f"blade reaches radius {r_c:.4f} m beyond the gauge radius "
-                     f"{self.gauge_radius:.4f} m")
-        require_positive(self.mass, "mass")
-        require_positive(self.inertia, "inertia")
+                     f"blade reaches radius {r_c:.4f} m beyond the gauge radius (diameter / "
+                     f"2 - gauge_clearance = {self.gauge_radius:.4f} m)")
 
     @property
     def hole_radius(self) -> float:
@@ -387,9 +401,9 @@ class BitConfig:
 
 
 FIDELITY_LEVELS = ("full", "fast")
-#: Fast level: 25 m drill-pipe elements keep the first torsional frequency of the
-#: default string within 0.1 % (40 linear elements over 1000 m; tests/physics/
-#: test_fidelity.py) and the torsional wave resolved to ~10 Hz.
+#: Fast level: 20 m drill-pipe elements keep the first torsional frequency of the
+#: default string within 0.1 % (tests/physics/test_fidelity.py) and the torsional wave
+#: resolved to ~10 Hz.
 FAST_PIPE_ELEMENT_LENGTH = 20.0
 #: Fast level step: the explicit contact and gauge terms are stable up to half their
 #: critical step (~3.7 ms for 1 m collar elements at the default wall stiffness;
@@ -400,46 +414,40 @@ FAST_TIME_STEP = 4.0e-3
 FAST_CRITICAL_STEP_FRACTION = 0.8
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class SolverConfig:
     """Time integration (see docs/model.md, "Integrator")."""
 
     #: Requested step (s); the simulator may shorten it to the stable step of the
-    #: explicit force terms and to divide the control interval evenly.
-    time_step: float = 2.0e-3
+    #: explicit force terms and to divide the control interval evenly. Bounded below by
+    #: MIN_TIME_STEP (time per simulated second) and above by 50 ms (the top drive's PI
+    #: loop and the bit's stick test are explicit in the step).
+    time_step: Positive = Field(2.0e-3, ge=MIN_TIME_STEP, le=0.05)
     #: False freezes the lateral DOFs (torsion only): the paper's case 1 studies torsion
     #: alone, and torsion-only runs are ~3x cheaper for stability maps.
-    lateral: bool = True
+    lateral: StrictBool = True
     #: False holds the drill pipe laterally straight (no lateral DOFs above the BHA; the
     #: BHA top node is pinned) while the BHA keeps its full lateral FE model and wall
     #: contacts. Valid while the pipe is in tension (neutral point in the BHA), where the
     #: whirl and bit-wall contacts live in the BHA.
-    pipe_lateral: bool = True
+    pipe_lateral: StrictBool = True
     #: "full": the model as configured. "fast": the training level of docs/performance.md,
     #: resolved by :meth:`SimulationConfig.resolved`: pipe laterally straight
     #: (``pipe_lateral=False``), drill-pipe elements of at least
     #: ``FAST_PIPE_ELEMENT_LENGTH``, a time step of ``FAST_TIME_STEP`` and
     #: ``FAST_CRITICAL_STEP_FRACTION`` of the critical step.
-    fidelity: str = "full"
+    fidelity: Literal["full", "fast"] = "full"
     #: The step is shortened to this fraction of the critical step 2 sqrt(m/k) of the
     #: explicit wall and gauge penalties, computed from the lumped node mass alone. The
     #: implicit neighbours add effective mass, so even 1.0 keeps a margin; 0.5 is the
     #: full model's conservative choice, the fast level uses FAST_CRITICAL_STEP_FRACTION.
-    critical_step_fraction: float = 0.5
-
-    def __post_init__(self) -> None:
-        require_positive(self.time_step, "time_step")
-        require_positive(self.critical_step_fraction, "critical_step_fraction")
-        _require(self.critical_step_fraction <= 1.0, "critical_step_fraction",
-                 f"must be <= 1 (explicit stability), got {self.critical_step_fraction}")
-        _require(self.fidelity in FIDELITY_LEVELS, "fidelity",
-                 f"must be one of {FIDELITY_LEVELS}, got {self.fidelity!r}")
+    critical_step_fraction: Positive = Field(0.5, ge=0.01, le=1.0)
 
 
 BIT_MODELS = ("mesoscopic", "macroscopic")
 
 
-@dataclass(frozen=True)
+@config_dataclass
 class SimulationConfig:
     string: StringConfig = field(default_factory=StringConfig)
     mud: MudConfig = field(default_factory=MudConfig)
@@ -450,17 +458,18 @@ class SimulationConfig:
     formation: FormationConfig = field(default_factory=FormationConfig)
     solver: SolverConfig = field(default_factory=SolverConfig)
     #: "mesoscopic" (paper section 3) or "macroscopic" (eq. 38, torque only).
-    bit_model: str = "mesoscopic"
-    #: Measured depth of the bit face at t = 0 (m).
-    initial_depth: float | None = None
+    bit_model: Literal["mesoscopic", "macroscopic"] = "mesoscopic"
+    #: Measured depth of the bit face at t = 0 (m); None: the string length.
+    initial_depth: Annotated[Finite, Field(ge=-1.0e5, le=1.0e5)] | None = None
 
     def __post_init__(self) -> None:
-        _require(self.bit_model in BIT_MODELS, "bit_model",
-                 f"must be one of {BIT_MODELS}, got {self.bit_model!r}")
         _require(self.bit.diameter <= self.string.hole_diameter + 1e-12, "bit.diameter",
-                 "must not exceed string.hole_diameter")
-        if self.initial_depth is not None:
-            require_finite(self.initial_depth, "initial_depth")
+                 f"{self.bit.diameter} m must not exceed string.hole_diameter "
+                 f"({self.string.hole_diameter} m)")
+        lightest = min(self.string.drill_pipe.density, self.string.bha.density)
+        _require(self.mud.density < lightest, "mud.density",
+                 f"{self.mud.density} kg/m^3 must be below the density of the string "
+                 f"({lightest} kg/m^3): the string would float")
 
     def resolved(self) -> SimulationConfig:
         """This config with ``solver.fidelity`` expanded into the fields it sets.
@@ -481,67 +490,3 @@ class SimulationConfig:
                                                  FAST_CRITICAL_STEP_FRACTION),
             "string.drill_pipe.element_length": element,
         })
-
-
-# --------------------------------------------------------------------------- dict / YAML
-
-
-def from_dict(cls: type, data: dict[str, Any] | None) -> Any:
-    """Build a (nested) config dataclass from plain dicts, lists and numbers.
-
-    Unknown keys raise ``ValueError`` naming the key, so typos do not pass silently.
-    """
-    if data is None:
-        return cls()
-    if dataclasses.is_dataclass(data):
-        return data
-    if not isinstance(data, dict):
-        raise ValueError(f"{cls.__name__}: expected a mapping, got {type(data).__name__}")
-    hints = typing.get_type_hints(cls)
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = set(data) - names
-    if unknown:
-        raise ValueError(f"{cls.__name__}: unknown field(s) {sorted(unknown)}")
-    kwargs = {}
-    for key, value in data.items():
-        kwargs[key] = _convert(hints[key], value, f"{cls.__name__}.{key}")
-    return cls(**kwargs)
-
-
-def _convert(hint: Any, value: Any, name: str) -> Any:
-    origin = typing.get_origin(hint)
-    if dataclasses.is_dataclass(hint):
-        return from_dict(hint, value)
-    if origin in (typing.Union, types.UnionType):
-        args = [a for a in typing.get_args(hint) if a is not type(None)]
-        if value is None:
-            return None
-        return _convert(args[0], value, name)
-    if origin is tuple:
-        args = typing.get_args(hint)
-        item = args[0]
-        if not isinstance(value, (list, tuple)):
-            raise ValueError(f"{name}: expected a list, got {value!r}")
-        return tuple(_convert(item, v, name) for v in value)
-    return value
-
-
-def replace(config: Any, **changes: Any) -> Any:
-    """``dataclasses.replace`` with dotted paths: ``replace(c, **{"mud.density": 1.1e3})``."""
-    nested: dict[str, dict[str, Any]] = {}
-    flat: dict[str, Any] = {}
-    for key, value in changes.items():
-        head, _, rest = key.partition(".")
-        if rest:
-            nested.setdefault(head, {})[rest] = value
-        else:
-            flat[key] = value
-    for head, sub in nested.items():
-        if not hasattr(config, head):
-            raise ValueError(f"{type(config).__name__}: unknown field {head!r}")
-        flat[head] = replace(getattr(config, head), **sub)
-    names = {f.name for f in dataclasses.fields(config)}
-    unknown = set(flat) - names
-    if unknown:
-        raise ValueError(f"{type(config).__name__}: unknown field(s) {sorted(unknown)}")
-    return dataclasses.replace(config, **flat)

@@ -20,7 +20,7 @@ from drill_env.physics.bit import (
     make_bit_scratch,
     mesoscopic_bit_loads,
 )
-from drill_env.physics.config import GRAVITY, SimulationConfig
+from drill_env.physics.config import GRAVITY, MIN_TIME_STEP, ConfigError, SimulationConfig
 from drill_env.physics.fem import (
     LATERAL_BANDWIDTH,
     Mesh,
@@ -219,13 +219,21 @@ class Simulator:
         """
         cfg = self.config
         node_mass = self.lat_m[0::2]  # lumped masses of the lateral nodes, the bit's included
-        limits = []
+        limits = {}
         if cfg.contact.enabled:
-            limits.append(2.0 * math.sqrt(np.min(node_mass[1:]) / cfg.contact.stiffness))
+            limits["contact.stiffness"] = 2.0 * math.sqrt(np.min(node_mass[1:])
+                                                          / cfg.contact.stiffness)
         k_rock = max(r.wall_stiffness for r in cfg.formation.rocks)
-        limits.append(2.0 * math.sqrt(node_mass[-1] / k_rock))
-        dt_crit = min(limits)
-        return min(cfg.solver.time_step, cfg.solver.critical_step_fraction * dt_crit)
+        limits["formation.rocks[].wall_stiffness"] = 2.0 * math.sqrt(node_mass[-1] / k_rock)
+        binding = min(limits, key=limits.__getitem__)
+        dt = min(cfg.solver.time_step, cfg.solver.critical_step_fraction * limits[binding])
+        if dt < MIN_TIME_STEP:
+            raise ConfigError(
+                f"{binding}: the explicit contact on the lightest node needs a step of "
+                f"{dt:.2e} s (at solver.critical_step_fraction = "
+                f"{cfg.solver.critical_step_fraction}), below {MIN_TIME_STEP} s: a stiffer "
+                "wall or shorter elements than a drilling simulation needs")
+        return dt
 
     def _build_parameters(self) -> None:
         cfg = self.config

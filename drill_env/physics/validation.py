@@ -1,0 +1,295 @@
+"""Typed, validated configuration dataclasses, with errors that name the dotted path.
+
+Configs are frozen dataclasses checked by pydantic v2 (``pydantic.dataclasses``): every
+field has a type (a bool only takes ``True``/``False``, a number no string, a nested
+section its own dataclass or a dict that is converted) and a range, and no number may be
+NaN or infinite. Checks between fields live in ``__post_init__`` and raise
+``ValueError("field: message")``. Whatever fails, the user sees one :class:`ConfigError`
+(a ``ValueError``) naming the path they typed: ``mud.density: Input should be less than
+3000, got 9000.0``.
+
+Why pydantic and not hand-written checks: it walks nested dicts and tuples, reports the
+location of every error, and converts YAML/JSON-like data, which is what a config loader
+needs; numba kernels never see these objects (the simulator copies them into arrays).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import re
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Annotated, Any, TypeVar, dataclass_transform
+
+import numpy as np
+from pydantic import (
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    Strict,
+    StrictBool,
+    ValidationError,
+    validate_call,
+)
+from pydantic.dataclasses import dataclass as pydantic_dataclass
+
+__all__ = [
+    "ConfigError", "Count", "Finite", "NonNegative", "Positive", "StrictBool", "config_dataclass",
+    "flatten", "from_dict", "load_yaml", "replace", "require_finite", "require_non_negative",
+    "require_positive", "validated",
+]
+
+T = TypeVar("T")
+
+
+class ConfigError(ValueError):
+    """A configuration value was rejected; the message names the dotted path of the field."""
+
+
+# --------------------------------------------------------------------------- field types
+
+
+def _real(value: Any) -> Any:
+    """Numbers only: NumPy scalars become Python floats; bools and strings are refused."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"must be a number, not a bool ({value!r})")
+    if isinstance(value, (np.floating, np.integer)):
+        return float(value)
+    return value
+
+
+def _integer(value: Any) -> Any:
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"must be an integer, not a bool ({value!r})")
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+#: A finite real number (NaN and inf are refused by the config, see ``_CONFIG``).
+Finite = Annotated[float, BeforeValidator(_real), Strict()]
+Positive = Annotated[Finite, Field(gt=0.0)]
+NonNegative = Annotated[Finite, Field(ge=0.0)]
+#: An integer (NumPy integers accepted, bools and floats refused).
+Count = Annotated[int, BeforeValidator(_integer), Strict()]
+
+_CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, revalidate_instances="never",
+                     arbitrary_types_allowed=True)
+
+
+# --------------------------------------------------------------------------- errors
+
+_PATH_MESSAGE = re.compile(r"^([A-Za-z_][\w.\[\]]*): (.*)$", re.DOTALL)
+
+
+def _format_location(parts: list[Any]) -> str:
+    out = ""
+    for part in parts:
+        if isinstance(part, str) and part.startswith("[") and part.endswith("]"):
+            out += part
+        elif isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+def _error_text(err: ValidationError, prefix: str = "") -> str:
+    """One line per error: ``path: message, got value``."""
+    lines = []
+    for e in err.errors(include_url=False):
+        loc = [p for p in e["loc"] if p not in ("__post_init__",)]
+        msg = str(e["msg"])
+        value_error = e["type"] in ("value_error", "assertion_error")
+        if value_error:
+            msg = msg.removeprefix("Value error, ").removeprefix("Assertion failed, ")
+            match = _PATH_MESSAGE.match(msg)
+            if match:  # "field: message" from a __post_init__ check
+                loc += [p for p in re.split(r"\.|(?=\[)", match.group(1)) if p]
+                msg = match.group(2)
+        parts = [prefix] if prefix else []
+        path = ".".join(p for p in (*parts, _format_location(loc)) if p) or "config"
+        text = f"{path}: {msg}"
+        if not value_error and "input" in e and not isinstance(e["input"], Mapping) and \
+                type(e["input"]).__name__ != "ArgsKwargs":
+            text += f", got {e['input']!r}"
+        lines.append(text)
+    return "; ".join(lines)
+
+
+def config_error(err: ValidationError, prefix: str = "") -> ConfigError:
+    return ConfigError(_error_text(err, prefix))
+
+
+# --------------------------------------------------------------------------- decorators
+
+
+@dataclass_transform(frozen_default=True, field_specifiers=(dataclasses.field, Field))
+def config_dataclass(cls: type[T]) -> type[T]:
+    """A frozen pydantic dataclass whose constructor raises :class:`ConfigError`."""
+    built: Any = pydantic_dataclass(frozen=True, config=_CONFIG)(cls)
+    init = built.__init__
+
+    @functools.wraps(init)
+    def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
+        try:
+            init(self, *args, **kwargs)
+        except ValidationError as err:
+            raise config_error(err) from None
+
+    built.__init__ = __init__
+    return built
+
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def validated(func: F) -> F:
+    """Check a function's arguments against its annotations (``pydantic.validate_call``);
+    a bad argument raises :class:`ConfigError` naming it (``dip: ...``)."""
+    checked = validate_call(config=ConfigDict(arbitrary_types_allowed=True,
+                                              allow_inf_nan=False))(func)
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return checked(*args, **kwargs)
+        except ValidationError as err:
+            raise config_error(err) from None
+
+    return wrapper  # type: ignore[return-value]
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def from_dict(cls: type[T], data: Mapping[str, Any] | T | None) -> T:
+    """Build the (nested) config ``cls`` from plain dicts, lists and numbers (or pass an
+    instance through). Unknown keys and bad values raise :class:`ConfigError`."""
+    if data is None:
+        return cls()
+    if isinstance(data, cls):
+        return data
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{cls.__name__}: expected a mapping or a {cls.__name__}, got "
+                          f"{type(data).__name__}")
+    return cls(**dict(data))
+
+
+def load_yaml(cls: type[T], path: str | Path) -> T:
+    """A config from a YAML file (the same structure as :func:`from_dict`)."""
+    import yaml
+
+    data = yaml.safe_load(Path(path).read_text())
+    return from_dict(cls, data or {})
+
+
+_INDEXED = re.compile(r"^(\w+)\[(\d+)\]$")
+
+
+def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[str, Any]:
+    """The fields of ``config`` as keyword arguments with dotted ``changes`` applied;
+    changed sub-sections come back as dicts, so one construction validates them all and
+    its errors carry the whole path. A key may index a tuple of sections
+    (``rocks[1].mu_max``)."""
+    names = [f.name for f in dataclasses.fields(config)]
+    nested: dict[str, dict[str, Any]] = {}
+    flat: dict[str, Any] = {}
+    for key, value in changes.items():
+        head, _, rest = key.partition(".")
+        name = _INDEXED.sub(r"\1", head)
+        if name not in names:
+            where = f"{path}.{head}" if path else head
+            raise ConfigError(f"{where}: unknown field of {type(config).__name__}; known: "
+                              f"{', '.join(names)}")
+        if rest:
+            nested.setdefault(head, {})[rest] = value
+        else:
+            flat[head] = value
+    kwargs = {name: getattr(config, name) for name in names}
+    for head, sub in nested.items():
+        where = f"{path}.{head}" if path else head
+        indexed = _INDEXED.match(head)
+        if indexed:
+            name, index = indexed.group(1), int(indexed.group(2))
+            items = list(flat.pop(name, kwargs[name]))
+            if not 0 <= index < len(items) or not dataclasses.is_dataclass(items[index]):
+                raise ConfigError(f"{where}: no section at index {index} of {name} "
+                                  f"({len(items)} items)")
+            items[index] = _changed_fields(items[index], sub, where)
+            kwargs[name] = items
+            continue
+        current = flat.pop(head, kwargs[head])
+        if isinstance(current, Mapping):
+            current = from_dict(type(kwargs[head]), current)
+        if not dataclasses.is_dataclass(current):
+            raise ConfigError(f"{where}: {head} is not a section; cannot set "
+                              f"{', '.join(sorted(sub))} in it")
+        kwargs[head] = _changed_fields(current, sub, where)
+    for head, value in flat.items():
+        indexed = _INDEXED.match(head)
+        if indexed:
+            name, index = indexed.group(1), int(indexed.group(2))
+            items = list(kwargs[name])
+            if not 0 <= index < len(items):
+                raise ConfigError(f"{path + '.' if path else ''}{head}: index out of range "
+                                  f"({len(items)} items)")
+            items[index] = value
+            kwargs[name] = items
+        else:
+            kwargs[head] = value
+    return kwargs
+
+
+def replace(config: T, **changes: Any) -> T:
+    """``dataclasses.replace`` with dotted paths: ``replace(c, **{"mud.density": 1.1e3})``.
+
+    A value may also be a dict for a whole section (``replace(c, mud={"density": 1e3})``).
+    Errors name the dotted path.
+    """
+    if not changes:
+        return config
+    return type(config)(**_changed_fields(config, changes, ""))
+
+
+def flatten(changes: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"mud": {"density": 1}}`` -> ``{"mud.density": 1}`` (dotted keys kept as they are).
+
+    Nested dicts are taken as paths into sections; use this to merge user overrides."""
+    out: dict[str, Any] = {}
+    for key, value in changes.items():
+        if not isinstance(key, str):
+            raise ConfigError(f"{prefix or 'overrides'}: keys must be strings, got {key!r}")
+        path = f"{prefix}.{key}" if prefix else key
+        if isinstance(value, Mapping) and value:
+            out.update(flatten(value, path))
+        else:
+            out[path] = value
+    return out
+
+
+# --------------------------------------------------------------------------- plain checks
+
+
+def _require(condition: bool, name: str, message: str) -> None:
+    if not condition:
+        raise ConfigError(f"{name}: {message}")
+
+
+def require_finite(value: Any, name: str) -> None:
+    """Raise :class:`ConfigError` naming ``name`` unless ``value`` is a finite number."""
+    _require(isinstance(value, (int, float, np.integer, np.floating))
+             and not isinstance(value, (bool, np.bool_)) and math.isfinite(value), name,
+             f"must be a finite number, got {value!r}")
+
+
+def require_positive(value: Any, name: str) -> None:
+    require_finite(value, name)
+    _require(value > 0, name, f"must be > 0, got {value!r}")
+
+
+def require_non_negative(value: Any, name: str) -> None:
+    require_finite(value, name)
+    _require(value >= 0, name, f"must be >= 0, got {value!r}")
