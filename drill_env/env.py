@@ -256,8 +256,12 @@ class DrillStringEnv(gym.Env):
 
     Terminated when the surface torque exceeds ``makeup_torque`` (``info[
     "termination_reason"] = "surface torque above make-up torque"``) or the simulator
-    diverges (``sim.status != 0``: the reason is ``sim.status_message``; the observation
-    then repeats the last finite one). Truncated after ``episode_duration`` seconds.
+    diverges (``sim.status != 0``: the reason is ``sim.status_message``). After a
+    divergence the observation repeats the last finite one and every physical value in
+    ``info`` is that of the last finite state; the window metrics read 0 while their
+    window holds non-finite samples, and the reward terms stay finite (the stick-slip
+    term at ``-stick_slip_weight * ssi_cap``). ``info`` never holds NaN or inf.
+    Truncated after ``episode_duration`` seconds.
 
     ## Info
 
@@ -266,7 +270,8 @@ class DrillStringEnv(gym.Env):
     ``bit_lateral`` (x, y m), ``whirl_speed`` (rad/s), ``depth`` (m), ``rop`` (m/s),
     ``rock_share``; the set points ``speed_setpoint`` (rad/s) and
     ``weight_on_bit_setpoint`` (N); the window metrics ``ssi``, ``stuck_fraction``,
-    ``whirl_ratio``, ``radial_ratio``, ``lateral_force``, ``mse`` (Pa) and
+    ``whirl_ratio``, ``radial_ratio``, ``lateral_force``, ``mse`` (Pa, capped at
+    ``metrics.MSE_CEILING`` when the bit turns without drilling) and
     ``top_drive_energy`` (J, this episode); ``reward_terms`` and ``termination_reason``
     ("" unless terminated).
 
@@ -442,6 +447,7 @@ class DrillStringEnv(gym.Env):
         self._start_time = sim.time
         self._window_metrics = self._window.window()
         self._readings = sim.readings.tolist()  # fresh after reset and the start-up
+        self._status = self._readings[READ["status"]]
         info = self._info()
         return self._observation(info), info
 
@@ -536,7 +542,11 @@ class DrillStringEnv(gym.Env):
         if step is not None:
             self._episode_energy += step[0][_METRIC["top_drive_energy"]]
             self._window_metrics = window
-        self._readings = self.sim.readings.tolist()
+        fresh = self.sim.readings.tolist()
+        self._status = fresh[READ["status"]]
+        if all(map(math.isfinite, fresh)):
+            self._readings = fresh
+        # else: a diverged state; info keeps the last finite readings (see "Episode End")
         reason = self._termination_reason(step)
         terminated = bool(reason)
         truncated = (not terminated) and self._step_count >= self._max_steps
@@ -555,7 +565,7 @@ class DrillStringEnv(gym.Env):
         ``step``: the metrics of this interval's records and whether they are all finite
         (``None``: no records), from :class:`drill_env.metrics.RollingMetrics`.
         """
-        if self._readings[READ["status"]] != 0:
+        if self._status != 0:
             return self.sim.status_message
         peak = step[0][_METRIC["surface_torque_max"]] if step is not None else 0.0
         if max(peak, abs(self._readings[READ["surface_torque"]])) > self.config.makeup_torque:
@@ -645,8 +655,7 @@ class DrillStringEnv(gym.Env):
         return obs.copy()
 
     def _info(self) -> dict[str, Any]:
-        r = self._readings  # the simulator's readings (NaN rock shares once stopped)
-        readings = self.sim.readings
+        r = self._readings  # the simulator's last finite readings
         time = r[READ["time"]]
         info: dict[str, Any] = {
             "time": time,
@@ -656,11 +665,11 @@ class DrillStringEnv(gym.Env):
             "surface_torque": r[READ["surface_torque"]],
             "weight_on_bit": r[READ["weight_on_bit"]],
             "hook_load": r[READ["hook_load"]],
-            "bit_lateral": readings[READ["bit_x"]:READ["bit_y"] + 1].copy(),
+            "bit_lateral": np.array(r[READ["bit_x"]:READ["bit_y"] + 1]),
             "whirl_speed": r[READ["whirl_speed"]],
             "depth": r[READ["depth"]],
             "rop": r[READ["rop"]],
-            "rock_share": readings[N_READINGS:].copy(),
+            "rock_share": np.array(r[N_READINGS:]),
             "speed_setpoint": self._speed_target,
             "weight_on_bit_setpoint": self._wob_target,
             "weight_on_bit_limit": self.weight_on_bit_limit,

@@ -13,7 +13,7 @@ whirl ratio                mean whirl speed / mean bit speed: > 0 forward, < 0 b
 radial ratio               bit lateral displacement over the gauge clearance
 lateral force              magnitude of the bit's lateral force (N)
 ROP                        mean rate of penetration (m/s)
-MSE                        mechanical specific energy, Teale (1965), in Pa (J/m^3)
+MSE                        mechanical specific energy, Teale (1965), in Pa (J/m^3), capped
 top-drive energy           work done by the top-drive motor, integral |T w| dt (J)
 peak surface torque        max |surface torque| (N m), checked against the make-up torque
 =========================  ============================================================
@@ -39,6 +39,12 @@ SSI_MIN_MEAN_SPEED = 1.0 * RPM
 WHIRL_MIN_RADIAL_RATIO = 0.1
 #: Below this mean ROP (m/s) the bit is not drilling and the MSE rotary term is undefined.
 MSE_MIN_ROP = 1e-9
+#: Ceiling of the reported MSE (Pa). Hard rock has a compressive strength of ~200 MPa and
+#: a drilling bit spends a few times that (Teale 1965; Dupriest & Koederitz 2005 read
+#: efficiencies of 30-40 %); 10 GPa means energy spent without drilling. A bit that turns
+#: under power without penetrating would have an infinite MSE: it reports this ceiling,
+#: so MSE stays finite in info, tables and plots.
+MSE_CEILING = 1.0e10
 
 
 def _signal(values, name: str) -> np.ndarray:
@@ -127,9 +133,10 @@ def mechanical_specific_energy(weight_on_bit, torque_on_bit, bit_speed, rop,
 
     ``MSE = WOB / A + 2 pi N T / (A ROP)`` with N in rev/s, i.e. ``omega T / (A ROP)``
     with omega in rad/s; over a window the powers are averaged:
-    ``mean(WOB) / A + mean(omega T) / (A mean(ROP))``. ``A = pi d^2 / 4``. When the
-    mean ROP is below ``min_rop`` (not drilling) the rotary term is undefined: the
-    result is ``inf`` if rotary power is spent, else just ``mean(WOB) / A``.
+    ``mean(WOB) / A + mean(omega T) / (A mean(ROP))``. ``A = pi d^2 / 4``. The result
+    is capped at :data:`MSE_CEILING`; when the mean ROP is below ``min_rop`` (not
+    drilling) the rotary term is undefined: the result is the ceiling if rotary power is
+    spent, else just ``mean(WOB) / A``.
     """
     area = bit_area(bit_diameter)
     wob = float(np.mean(_signal(weight_on_bit, "weight_on_bit")))
@@ -137,8 +144,8 @@ def mechanical_specific_energy(weight_on_bit, torque_on_bit, bit_speed, rop,
                           * _signal(bit_speed, "bit_speed")))
     r = mean_rop(rop)
     if r < min_rop:
-        return math.inf if power > 0 else wob / area
-    return wob / area + power / (area * r)
+        return MSE_CEILING if power > 0 else min(wob / area, MSE_CEILING)
+    return min(wob / area + power / (area * r), MSE_CEILING)
 
 
 def top_drive_energy(motor_torque, surface_speed, dt: float) -> float:
@@ -372,9 +379,9 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
     wob = _pairwise_sum(samples[_S_WOB], tasks, partial) / n
     power = _pairwise_sum(samples[_S_BIT_POWER], tasks, partial) / n
     if rop < MSE_MIN_ROP:  # mse
-        out[8] = math.inf if power > 0 else wob / area
+        out[8] = MSE_CEILING if power > 0 else min(wob / area, MSE_CEILING)
     else:
-        out[8] = wob / area + power / (area * rop)
+        out[8] = min(wob / area + power / (area * rop), MSE_CEILING)
     out[9] = _pairwise_sum(samples[_S_MOTOR_POWER], tasks, partial) * dt  # energy
     torque = samples[_S_TORQUE]
     peak = abs(torque[0])  # surface_torque_max, NaN if any is NaN

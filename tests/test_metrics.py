@@ -77,11 +77,14 @@ def test_mse_matches_teale_in_si():
     assert 1e8 < got < 1e10
 
 
-def test_mse_without_penetration_is_infinite_or_just_the_thrust_term():
+def test_mse_without_penetration_is_the_ceiling_or_just_the_thrust_term():
     d = 0.2
     zero = np.zeros(3)
     assert metrics.mechanical_specific_energy(np.full(3, 1e5), np.full(3, 1e3), np.full(3, 1.0),
-                                              zero, d) == math.inf
+                                              zero, d) == metrics.MSE_CEILING
+    # barely drilling: the rotary term would be ~1e13 Pa, reported as the ceiling
+    assert metrics.mechanical_specific_energy(np.full(3, 1e5), np.full(3, 1e3), np.full(3, 1.0),
+                                              np.full(3, 1e-8), d) == metrics.MSE_CEILING
     assert metrics.mechanical_specific_energy(np.full(3, 1e5), zero, zero, zero, d) == \
         pytest.approx(1e5 / metrics.bit_area(d))
 

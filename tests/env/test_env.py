@@ -1,5 +1,6 @@
 """DrillString-v0: Gymnasium/SB3 conformance, determinism, pickling, bad input, rollouts."""
 
+import math
 import pickle
 import sys
 import warnings
@@ -285,3 +286,39 @@ def test_fidelity_keyword_selects_the_fast_physics():
     assert np.all(np.isfinite(obs))
     with pytest.raises(ValueError, match="fidelity"):
         gym.make("DrillString-v0", fidelity="turbo").reset(seed=0)
+
+
+def _finite_info_values(info) -> list[str]:
+    """Names of the info values that are not finite (nested reward terms included)."""
+    bad = []
+    for key, value in info.items():
+        if isinstance(value, dict):
+            bad += [f"{key}.{k}" for k, v in value.items() if not np.all(np.isfinite(v))]
+        elif not isinstance(value, str) and not np.all(np.isfinite(value)):
+            bad.append(key)
+    return bad
+
+
+def test_info_is_finite_with_the_bit_turning_under_zero_rpm():
+    """Regression: all -1 (0 rpm, 0 WOB) on the random scenario gave info["mse"] = inf."""
+    env = gym.make("DrillStringRandom-v0", episode_duration=6.0)
+    for seed in (1, 3):  # the bit winds back as the rpm drops: 5 s in, MSE was inf
+        env.reset(seed=seed)
+        done = False
+        while not done:
+            _, reward, terminated, truncated, info = env.step(-np.ones(2, dtype=np.float32))
+            assert not _finite_info_values(info) and math.isfinite(reward)
+            done = terminated or truncated
+
+
+def test_info_after_a_divergence_holds_the_last_finite_state():
+    env = gym.make("DrillString-v0", episode_duration=2.0)
+    env.reset(seed=0)
+    _, _, _, _, before = env.step(np.zeros(2, dtype=np.float32))
+    env.unwrapped.sim.ut[5] = np.nan  # a broken state: the kernel must stop on it
+    obs, reward, terminated, _, info = env.step(np.zeros(2, dtype=np.float32))
+    assert terminated and "diverged" in info["termination_reason"]
+    assert not _finite_info_values(info) and math.isfinite(reward)
+    assert np.all(np.isfinite(obs))
+    assert info["bit_speed"] == before["bit_speed"] and info["time"] == before["time"]
+    assert info["reward_terms"]["failure"] < 0.0
