@@ -45,6 +45,9 @@ OBSERVATIONS: dict[str, tuple[str, ...]] = {
     ),
 }
 
+#: Seconds of history in a rendered frame (``render_mode="rgb_array"``).
+RENDER_SECONDS = 10.0
+
 #: Observations are clipped to +-OBS_BOUND (normalised units).
 OBS_BOUND = 10.0
 
@@ -298,15 +301,16 @@ class DrillStringEnv(gym.Env):
     - v0: initial version (``fidelity`` keyword added without changing "full" results).
     """
 
-    metadata = {"render_modes": [], "render_fps": 10}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
     def __init__(self, scenario: str = "default", config: EnvConfig | dict | None = None, *,
                  physics: dict[str, Any] | None = None, bit_model: str | None = None,
                  fidelity: str | None = None, render_mode: str | None = None,
                  **overrides: Any) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode: {render_mode!r} is not supported (use rerun "
-                             "recording instead)")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode: {render_mode!r} is not supported; supported: "
+                             f"{self.metadata['render_modes']} or None (for whole episodes "
+                             "with every channel, record them to rerun)")
         self.render_mode = render_mode
         params = set(scenario_parameters(scenario))  # validates the name
         env_over = {k: v for k, v in overrides.items() if k in ENV_FIELDS}
@@ -390,6 +394,12 @@ class DrillStringEnv(gym.Env):
         self._last_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
         self._episode_energy = 0.0
         self._start_time = 0.0
+        self._frames = None
+        if self.render_mode == "rgb_array":
+            from drill_env.render import FrameHistory
+
+            self._frames = FrameHistory(RECORD_CHANNELS,
+                                        round(RENDER_SECONDS / record_dt))
 
     @property
     def simulation_config(self) -> SimulationConfig:
@@ -470,6 +480,8 @@ class DrillStringEnv(gym.Env):
     def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         self._apply_action(action)
         records = self._advance()
+        if self._frames is not None:
+            self._frames.add(records)
         return self._finish_step(records)
 
     # The three phases of a step are separate so a batched env can advance many
@@ -684,5 +696,15 @@ class DrillStringEnv(gym.Env):
         info["termination_reason"] = ""
         return info
 
-    def render(self) -> None:
-        return None
+    def render(self) -> np.ndarray | None:
+        """``render_mode="rgb_array"``: the last ``RENDER_SECONDS`` of bit and surface
+        speed, torque on bit and the bit orbit in its clearance, as an RGB array
+        (:mod:`drill_env.render`). Without a render mode: a warning and None."""
+        if self.render_mode is None or self._frames is None:
+            gym.logger.warn("render() called without a render_mode: pass render_mode="
+                            "'rgb_array' to gymnasium.make")
+            return None
+        from drill_env.render import draw_frame
+
+        return draw_frame(self._frames, self._clearance, self._speed_range[1],
+                          title=f"{self.scenario.name}: t = {self._readings[READ['time']]:.1f} s")
