@@ -23,47 +23,40 @@ import numpy as np
 from numba import njit, prange
 
 from drill_env.env import DrillStringEnv
-from drill_env.metrics import rolling_add
+from drill_env.metrics import WindowArrays, rolling_add
 from drill_env.physics.batch import SimulatorBatch, TupleSlots
 from drill_env.physics.readings import advance_and_read
 
 __all__ = ["EnvBatch", "step_all", "step_many"]
 
-#: Position of the record buffer in a simulator's tuple (``Simulator.kernel_arrays``).
-_RECORD = 39
-
-
 @njit(cache=True, parallel=True, nogil=True)
 def step_many(n_steps, record_every, run, n_rec, flags, sims, windows):
-    """For each env e with ``run[e]``: advance its simulator (``sims[e]``: the arguments
-    of :func:`~drill_env.physics.readings.advance_and_read` after the first two), then
-    add the records to its metric window (``windows[e]``: ``RollingMetrics.
-    kernel_arrays``). ``n_rec[e]``: records written; ``flags[e]``: the flags of
-    :func:`~drill_env.metrics.rolling_add` (0 without records)."""
+    """For each env e with ``run[e]``: advance its simulator (``sims[e]``: its
+    ``(KernelArrays, readings)``), then add the records to its metric window
+    (``windows[e]``: its :class:`~drill_env.metrics.WindowArrays`). ``n_rec[e]``: records
+    written; ``flags[e]``: the flags of :func:`~drill_env.metrics.rolling_add` (0 without
+    records)."""
     for i in prange(len(sims)):
         e = np.int64(i)  # typed lists take signed indices; prange's are unsigned
         n_rec[e] = 0
         flags[e] = 0
         if not run[e]:
             continue
-        arrays = sims[e]
-        k = advance_and_read(n_steps[e], record_every[e], *arrays)
+        arrays, readings = sims[e]
+        k = advance_and_read(n_steps[e], record_every[e], arrays, readings)
         n_rec[e] = k
         if k > 0:
-            columns, params, samples, bounds, step_out, window_out, tasks, partial = windows[e]
-            flags[e] = rolling_add(arrays[_RECORD][:k], columns, params[0], params[1],
-                                   params[2], np.int64(params[3]), samples, bounds, step_out,
-                                   window_out, True, tasks, partial)
+            flags[e] = rolling_add(arrays.record[:k], windows[e], True)
 
 
-def window_arrays(env: DrillStringEnv) -> tuple[np.ndarray, ...]:
-    return env._window.kernel_arrays()
+def window_arrays(env: DrillStringEnv) -> WindowArrays:
+    return env.rolling_metrics.arrays
 
 
 def window_key(env: DrillStringEnv) -> int:
     """A new window (every reset) or a grown buffer re-points the slot. Safe against
     reused ids: the slot keeps the old buffer alive, so a new one cannot have its id."""
-    return id(env._window._samples)
+    return id(env.rolling_metrics.arrays.samples)
 
 
 class EnvBatch:
@@ -84,12 +77,12 @@ class EnvBatch:
                 ) -> list[tuple[Any, Any] | None]:
         """Run every active env's control interval; per env its (step, window) metrics
         as ``RollingMetrics.update`` returns them (None where not active)."""
-        arguments = [env._advance_arguments() for env in envs]
+        arguments = [env.advance_request() for env in envs]
         n_steps, speeds, hooks, every = zip(*arguments, strict=True)
         sims = [env.sim for env in envs]
         steps, every_array, run = self.sims.prepare(sims, n_steps, speeds, hooks, every, active)
         for env, n, k in zip(envs, n_steps, every, strict=True):
-            env._window.reserve(n // k if k > 0 else 0)
+            env.rolling_metrics.reserve(n // k if k > 0 else 0)
         n_rec, flags = self.sims.n_rec, self._flags
         step_many(steps, every_array, run, n_rec, flags, self.sims.slots(sims),
                   self._windows.of(envs))
@@ -99,9 +92,9 @@ class EnvBatch:
             if not active[e]:
                 out.append(None)
             elif n_rec[e]:
-                out.append(env._window.result(int(flags[e])))
+                out.append(env.rolling_metrics.result(int(flags[e])))
             else:
-                out.append((None, env._window.window()))
+                out.append((None, env.rolling_metrics.window()))
         return out
 
 
@@ -119,16 +112,16 @@ def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray,
         active = np.ones(len(envs), dtype=np.bool_)
     for env, row, on in zip(envs, a, active, strict=True):
         if on:
-            env._apply_action(row)
+            env.apply_action(row)
     results: list = [None] * len(envs)
     if batch is None:
         for i, env in enumerate(envs):
             if active[i]:
-                results[i] = env._finish_step(env._advance())
+                results[i] = env.finish_step(env.advance())
         return results
     for i, metrics in enumerate(batch.advance(envs, active)):
         if metrics is not None:
-            results[i] = envs[i]._finish_metrics(*metrics)
+            results[i] = envs[i].finish_metrics(*metrics)
     return results
 
 

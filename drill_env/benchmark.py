@@ -57,10 +57,10 @@ import numpy as np
 from drill_env.physics import config as physics_config
 from drill_env.physics.config import SimulationConfig, SolverConfig, replace
 from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.units import RPM
 
 SECTIONS = ("core", "env", "scaling", "compile", "memory")
 
-RPM = 2.0 * math.pi / 60.0
 #: Operating point of the core and env figures: the default case of the demo.
 SURFACE_SPEED = 60 * RPM
 WEIGHT_ON_BIT = 100e3

@@ -13,10 +13,11 @@ from gymnasium import spaces
 from pydantic import Field
 
 from drill_env import metrics
+from drill_env.metrics import Metric
 from drill_env.physics.config import SimulationConfig, flatten, from_dict, replace
-from drill_env.physics.readings import N_READINGS
-from drill_env.physics.readings import R as READ
-from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
+from drill_env.physics.layout import N_READINGS, READ, READINGS, RECORD_CHANNELS
+from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.units import RPM
 from drill_env.physics.validation import (
     Count,
     NonNegative,
@@ -25,8 +26,6 @@ from drill_env.physics.validation import (
     config_dataclass,
 )
 from drill_env.scenarios import RANDOMISED, Scenario, make_scenario, scenario_parameters
-
-RPM = 2.0 * math.pi / 60.0
 
 ACTION_MODES = ("absolute", "incremental")
 SENSORS = ("downhole", "surface")
@@ -54,8 +53,17 @@ OBS_BOUND = 10.0
 #: The window metrics in ``info`` (zero while the window is empty or not finite).
 INFO_WINDOW_METRICS = ("ssi", "stuck_fraction", "whirl_ratio", "radial_ratio", "lateral_force",
                        "mse")
-_METRIC = {name: k for k, name in enumerate(metrics.WINDOW_METRICS)}
-_INFO_METRIC = tuple((name, _METRIC[name]) for name in INFO_WINDOW_METRICS)
+_INFO_METRIC = tuple((name, int(Metric[name.upper()])) for name in INFO_WINDOW_METRICS)
+#: Readings that ``info`` does not carry as they are: the bit position goes in as the
+#: vector ``bit_lateral``, the bit velocity only feeds the observation, the status is the
+#: simulator's (``termination_reason`` says it in words). Every other reading of
+#: :data:`~drill_env.physics.layout.READINGS` is an info key of the same name.
+INFO_HIDDEN_READINGS = frozenset({"bit_x", "bit_y", "bit_vx", "bit_vy", "status"})
+_INFO_READINGS = tuple((name, k) for k, name in enumerate(READINGS)
+                       if name not in INFO_HIDDEN_READINGS)
+_TIME, _BIT_X, _BIT_Y, _STATUS, _SURFACE_TORQUE = (
+    int(READ.TIME), int(READ.BIT_X), int(READ.BIT_Y), int(READ.STATUS),
+    int(READ.SURFACE_TORQUE))
 
 
 #: Bounds that keep the reward and the episode finite: weights up to 1e6 times terms that
@@ -377,6 +385,7 @@ class DrillStringEnv(gym.Env):
         self._clearance = self.clearance
         self._string_weight = sim.string_weight
         self._max_wob_change = cfg.drawworks_rate * self.control_interval  # per step (N)
+        self._obs_plan = self._observation_plan()
 
     def _init_episode_state(self) -> None:
         self._step_count = 0
@@ -386,7 +395,7 @@ class DrillStringEnv(gym.Env):
         self._effort = 0.0
         # The metrics of the records of the last ``metric_window`` seconds.
         record_dt = self.config.record_every * self.sim.dt
-        self._window = metrics.RollingMetrics(
+        self.rolling_metrics = metrics.RollingMetrics(
             max(1, round(self.config.metric_window / record_dt)), RECORD_CHANNELS, record_dt,
             self._clearance, self.sim.config.bit.diameter)
         self._window_metrics: tuple[list[float], bool] | None = None
@@ -455,9 +464,9 @@ class DrillStringEnv(gym.Env):
         self._wob_target = wob
         self._wob_applied = wob_start
         self._start_time = sim.time
-        self._window_metrics = self._window.window()
+        self._window_metrics = self.rolling_metrics.window()
         self._readings = sim.readings.tolist()  # fresh after reset and the start-up
-        self._status = self._readings[READ["status"]]
+        self._status = self._readings[_STATUS]
         info = self._info()
         return self._observation(info), info
 
@@ -469,29 +478,29 @@ class DrillStringEnv(gym.Env):
         off_bottom = sim.string_weight  # the hook carries everything: WOB = 0
         ramp_steps = max(1, round(10.0 / dt_ctrl))
         for k in range(ramp_steps):
-            self._window.add(sim.advance(n, speed_setpoint=speed * (k + 1) / ramp_steps,
+            self.rolling_metrics.add(sim.advance(n, speed_setpoint=speed * (k + 1) / ramp_steps,
                                          hook_load=off_bottom,
                                          record_every=self.config.record_every))
         for _ in range(ramp_steps):
-            self._window.add(sim.advance(n, speed_setpoint=speed, hook_load=off_bottom,
+            self.rolling_metrics.add(sim.advance(n, speed_setpoint=speed, hook_load=off_bottom,
                                          record_every=self.config.record_every))
         sim.advance(0, hook_load=sim.hook_load_for(wob), read=True)
 
     def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        self._apply_action(action)
-        records = self._advance()
+        self.apply_action(action)
+        records = self.advance()
         if self._frames is not None:
             self._frames.add(records)
-        return self._finish_step(records)
+        return self.finish_step(records)
 
     # The three phases of a step are separate so a batched env can advance many
     # simulators between them (see drill_env.batching: there the metric windows are
-    # updated inside the parallel call, and _finish_metrics does the rest). The Python
+    # updated inside the parallel call, and finish_metrics does the rest). The Python
     # around the simulator call runs every step and would cost a third of the physics with
     # a NumPy call per quantity: it works on floats read from the simulator's compiled
     # readout, and the metrics on a preallocated rolling window.
 
-    def _apply_action(self, action) -> None:
+    def apply_action(self, action) -> None:
         """Validate ``action``, map it to set points (clipped, rate limited)."""
         if type(action) is np.ndarray and action.shape == (2,) and action.dtype.char in "fd":
             a0, a1 = action.tolist()  # the usual float32 policy output, exactly as float64
@@ -526,36 +535,36 @@ class DrillStringEnv(gym.Env):
         limit = self.weight_on_bit_limit
         self._wob_applied = limit if applied > limit else applied
 
-    def _advance(self) -> np.ndarray:
+    def advance(self) -> np.ndarray:
         """Run the simulator over one control interval; returns the records.
 
         The simulator's ``readings`` are refreshed in the same compiled call (a batch
         refreshes them in its parallel kernel).
         """
-        return self.sim.advance(*self._advance_arguments(), read=True)
+        return self.sim.advance(*self.advance_request(), read=True)
 
-    def _advance_arguments(self) -> tuple[int, float, float, int]:
+    def advance_request(self) -> tuple[int, float, float, int]:
         """(n_steps, speed set point, hook load, record_every) of one control interval."""
         return (self._steps_per_action, self._speed_target,
                 self.sim.hook_load_for(self._wob_applied), self.config.record_every)
 
-    def _finish_step(self, records: np.ndarray
-                     ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+    def finish_step(self, records: np.ndarray
+                    ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Everything after the simulator call: metrics, termination, reward, info."""
-        return self._finish_metrics(*self._window.update(records))
+        return self.finish_metrics(*self.rolling_metrics.update(records))
 
-    def _finish_metrics(self, step: tuple[list[float], bool] | None,
-                        window: tuple[list[float], bool] | None
-                        ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """:meth:`_finish_step` once the records are in the window: ``step`` and
+    def finish_metrics(self, step: tuple[list[float], bool] | None,
+                       window: tuple[list[float], bool] | None
+                       ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """:meth:`finish_step` once the records are in the window: ``step`` and
         ``window`` are their metrics and the window's (``step`` None: no records). A batch
         updates the windows of all envs in its compiled call, then calls this."""
         self._step_count += 1
         if step is not None:
-            self._episode_energy += step[0][_METRIC["top_drive_energy"]]
+            self._episode_energy += step[0][Metric.TOP_DRIVE_ENERGY]
             self._window_metrics = window
         fresh = self.sim.readings.tolist()
-        self._status = fresh[READ["status"]]
+        self._status = fresh[_STATUS]
         if all(map(math.isfinite, fresh)):
             self._readings = fresh
         # else: a diverged state; info keeps the last finite readings (see "Episode End")
@@ -579,8 +588,8 @@ class DrillStringEnv(gym.Env):
         """
         if self._status != 0:
             return self.sim.status_message
-        peak = step[0][_METRIC["surface_torque_max"]] if step is not None else 0.0
-        if max(peak, abs(self._readings[READ["surface_torque"]])) > self.config.makeup_torque:
+        peak = step[0][Metric.SURFACE_TORQUE_MAX] if step is not None else 0.0
+        if max(peak, abs(self._readings[_SURFACE_TORQUE])) > self.config.makeup_torque:
             return "surface torque above make-up torque"
         return ""
 
@@ -589,7 +598,7 @@ class DrillStringEnv(gym.Env):
         """The reward terms of this step (they sum to the reward); ``step`` as above."""
         cfg = self.config
         if step is not None and step[1]:
-            rop, radial = step[0][_METRIC["rop"]], step[0][_METRIC["radial_ratio"]]
+            rop, radial = step[0][Metric.ROP], step[0][Metric.RADIAL_RATIO]
         else:
             rop, radial = 0.0, 1.0
         ssi = self._window_ssi()
@@ -605,47 +614,35 @@ class DrillStringEnv(gym.Env):
         if self._window_metrics is None:
             return 0.0
         values, finite = self._window_metrics
-        if not finite and not np.all(np.isfinite(self._window.bit_speed)):
+        if not finite and not np.all(np.isfinite(self.rolling_metrics.bit_speed)):
             return math.inf
-        return values[_METRIC["ssi"]]
+        return values[Metric.SSI]
 
-    def _raw_observation(self, info: dict[str, Any]) -> list[float]:
-        """The observation before delay, noise and clipping, from the SI values of ``info``
-        and the simulator's readings.
-
-        Entries in the order of :data:`OBSERVATIONS` (``surface`` is the tail of
-        ``downhole``).
-        """
+    def _observation_plan(self) -> list[tuple[int, float]]:
+        """(source, divisor) of every observation entry: the source indexes the readings
+        followed by the two set points (:meth:`_raw_observation`)."""
         cfg = self.config
         w_max = self._speed_range[1]
-        wob_max = self._wob_range[1]
-        surface = [
-            info["surface_speed"] / w_max,
-            info["surface_torque"] / cfg.torque_scale,
-            info["hook_load"] / self._string_weight,
-            info["rop"] / cfg.rop_scale,
-            self._speed_target / w_max,
-            self._wob_target / wob_max,
-        ]
-        if cfg.sensors == "surface":
-            return surface
         c = self._clearance
-        r = self._readings
-        force = cfg.force_scale
-        return [
-            info["torque_on_bit"] / cfg.torque_scale,
-            info["bit_speed"] / w_max,
-            info["weight_on_bit"] / wob_max,
-            r[READ["bit_x"]] / c,
-            r[READ["bit_y"]] / c,
-            r[READ["bit_vx"]] / (c * w_max),
-            r[READ["bit_vy"]] / (c * w_max),
-            info["whirl_speed"] / w_max,
-            r[READ["bit_force_x"]] / force,
-            r[READ["bit_force_y"]] / force,
-            r[READ["max_contact_force"]] / force,
-            *surface,
-        ]
+        divisor = {
+            "torque_on_bit": cfg.torque_scale, "surface_torque": cfg.torque_scale,
+            "bit_speed": w_max, "surface_speed": w_max, "whirl_speed": w_max,
+            "speed_setpoint": w_max, "weight_on_bit": self._wob_range[1],
+            "weight_on_bit_setpoint": self._wob_range[1], "bit_x": c, "bit_y": c,
+            "bit_vx": c * w_max, "bit_vy": c * w_max, "bit_force_x": cfg.force_scale,
+            "bit_force_y": cfg.force_scale, "max_contact_force": cfg.force_scale,
+            "hook_load": self._string_weight, "rop": cfg.rop_scale,
+        }
+        n = len(self.sim.readings)
+        source = {name: k for k, name in enumerate(READINGS)}
+        source.update(speed_setpoint=n, weight_on_bit_setpoint=n + 1)
+        return [(source[name], divisor[name]) for name in self.observation_names]
+
+    def _raw_observation(self, info: dict[str, Any]) -> list[float]:
+        """The observation before delay, noise and clipping: each entry of
+        :data:`OBSERVATIONS` (a reading or a set point) over its scale."""
+        values = self._readings + [self._speed_target, self._wob_target]
+        return [values[k] / d for k, d in self._obs_plan]
 
     def _observation(self, info: dict[str, Any]) -> np.ndarray:
         raw = self._raw_observation(info)
@@ -668,26 +665,14 @@ class DrillStringEnv(gym.Env):
 
     def _info(self) -> dict[str, Any]:
         r = self._readings  # the simulator's last finite readings
-        time = r[READ["time"]]
-        info: dict[str, Any] = {
-            "time": time,
-            "bit_speed": r[READ["bit_speed"]],
-            "surface_speed": r[READ["surface_speed"]],
-            "torque_on_bit": r[READ["torque_on_bit"]],
-            "surface_torque": r[READ["surface_torque"]],
-            "weight_on_bit": r[READ["weight_on_bit"]],
-            "hook_load": r[READ["hook_load"]],
-            "bit_lateral": np.array(r[READ["bit_x"]:READ["bit_y"] + 1]),
-            "whirl_speed": r[READ["whirl_speed"]],
-            "depth": r[READ["depth"]],
-            "rop": r[READ["rop"]],
-            "rock_share": np.array(r[N_READINGS:]),
-            "speed_setpoint": self._speed_target,
-            "weight_on_bit_setpoint": self._wob_target,
-            "weight_on_bit_limit": self.weight_on_bit_limit,
-            "episode_time": time - self._start_time,
-            "top_drive_energy": self._episode_energy,
-        }
+        info: dict[str, Any] = {name: r[k] for name, k in _INFO_READINGS}
+        info["bit_lateral"] = np.array(r[_BIT_X:_BIT_Y + 1])
+        info["rock_share"] = np.array(r[N_READINGS:])
+        info["speed_setpoint"] = self._speed_target
+        info["weight_on_bit_setpoint"] = self._wob_target
+        info["weight_on_bit_limit"] = self.weight_on_bit_limit
+        info["episode_time"] = r[_TIME] - self._start_time
+        info["top_drive_energy"] = self._episode_energy
         window = self._window_metrics
         values = window[0] if window is not None and window[1] else None
         for name, k in _INFO_METRIC:
@@ -707,4 +692,4 @@ class DrillStringEnv(gym.Env):
         from drill_env.render import draw_frame
 
         return draw_frame(self._frames, self._clearance, self._speed_range[1],
-                          title=f"{self.scenario.name}: t = {self._readings[READ['time']]:.1f} s")
+                          title=f"{self.scenario.name}: t = {self._readings[_TIME]:.1f} s")

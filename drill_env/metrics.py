@@ -25,11 +25,13 @@ that give the same floats as :func:`window_metrics` over a rolling record window
 from __future__ import annotations
 
 import math
+from enum import IntEnum
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-RPM = 2.0 * math.pi / 60.0
+from drill_env.physics.units import RPM
 
 #: The bit counts as stuck below this speed (rad/s): 1 rpm.
 STUCK_SPEED = 1.0 * RPM
@@ -207,19 +209,40 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
 # element-wise operations and NumPy's pairwise summation order (tests/test_metrics.py).
 
 #: The values of :func:`window_metrics`, in the order the fast path writes them.
-WINDOW_METRICS = ("ssi", "stuck_fraction", "whirl_ratio", "radial_ratio", "radial_ratio_max",
-                  "lateral_force", "lateral_force_max", "rop", "mse", "top_drive_energy",
-                  "surface_torque_max")
+Metric = IntEnum("Metric", [
+    "SSI", "STUCK_FRACTION", "WHIRL_RATIO", "RADIAL_RATIO", "RADIAL_RATIO_MAX",
+    "LATERAL_FORCE", "LATERAL_FORCE_MAX", "ROP", "MSE", "TOP_DRIVE_ENERGY",
+    "SURFACE_TORQUE_MAX",
+], start=0)
+WINDOW_METRICS: tuple[str, ...] = tuple(m.name.lower() for m in Metric)
 #: The record channels the metrics read, in the order of :func:`metric_columns`.
-METRIC_CHANNELS = ("bit_speed", "whirl_speed", "bit_x", "bit_y", "bit_force_x", "bit_force_y",
-                   "rop", "weight_on_bit", "torque_on_bit", "motor_torque", "surface_speed",
-                   "surface_torque")
-#: Per-sample quantities the window metrics reduce (rows of a samples array; ``finite``
+Channel = IntEnum("Channel", [
+    "BIT_SPEED", "WHIRL_SPEED", "BIT_X", "BIT_Y", "BIT_FORCE_X", "BIT_FORCE_Y", "ROP",
+    "WEIGHT_ON_BIT", "TORQUE_ON_BIT", "MOTOR_TORQUE", "SURFACE_SPEED", "SURFACE_TORQUE",
+], start=0)
+METRIC_CHANNELS: tuple[str, ...] = tuple(c.name.lower() for c in Channel)
+#: Per-sample quantities the window metrics reduce (rows of a samples array; ``FINITE``
 #: is 1.0 where every channel of the record is finite, else 0.0).
-METRIC_SAMPLES = ("bit_speed", "whirl_speed", "radial_ratio", "lateral_force", "rop",
-                  "weight_on_bit", "bit_power", "motor_power", "surface_torque", "finite")
-_S_SPEED, _S_WHIRL, _S_RADIAL, _S_FORCE, _S_ROP, _S_WOB, _S_BIT_POWER, _S_MOTOR_POWER, \
-    _S_TORQUE, _S_FINITE = range(len(METRIC_SAMPLES))
+Sample = IntEnum("Sample", [
+    "BIT_SPEED", "WHIRL_SPEED", "RADIAL_RATIO", "LATERAL_FORCE", "ROP", "WEIGHT_ON_BIT",
+    "BIT_POWER", "MOTOR_POWER", "SURFACE_TORQUE", "FINITE",
+], start=0)
+METRIC_SAMPLES: tuple[str, ...] = tuple(m.name.lower() for m in Sample)
+#: Scalars of a rolling window (``WindowArrays.params``).
+WindowParam = IntEnum("WindowParam", ["CLEARANCE", "DT", "AREA", "SIZE"], start=0)
+
+
+class WindowArrays(NamedTuple):
+    """What a compiled caller passes to :func:`rolling_add` for one rolling window."""
+
+    columns: np.ndarray     # int64: column of each Channel in the records
+    params: np.ndarray      # float64: WindowParam
+    samples: np.ndarray     # (len(Sample), capacity) per-sample quantities
+    bounds: np.ndarray      # int64 [start, end) of the window in ``samples``
+    step_out: np.ndarray    # metrics (Metric) of the last records added
+    window_out: np.ndarray  # metrics of the whole window
+    tasks: np.ndarray       # summation scratch (sum_scratch)
+    partial: np.ndarray
 
 
 def metric_columns(channels) -> np.ndarray:
@@ -315,35 +338,38 @@ def _max(a):
 
 @njit(cache=True, nogil=True)
 def metric_samples_into(records, columns, clearance, samples):
-    """The :data:`METRIC_SAMPLES` of each record (row of ``records``) into ``samples``.
+    """The :data:`Sample` quantities of each record (row of ``records``) into ``samples``.
 
-    ``columns``: :func:`metric_columns`; ``samples``: ``(len(METRIC_SAMPLES), n)``.
+    ``columns``: :func:`metric_columns`; ``samples``: ``(len(Sample), n)``.
     The element-wise parts of the definitions above.
     """
     n_channels = records.shape[1]
     for k in range(records.shape[0]):
-        w = records[k, columns[0]]
-        samples[_S_SPEED, k] = w
-        samples[_S_WHIRL, k] = records[k, columns[1]]
-        samples[_S_RADIAL, k] = math.hypot(records[k, columns[2]],
-                                           records[k, columns[3]]) / clearance
-        samples[_S_FORCE, k] = math.hypot(records[k, columns[4]], records[k, columns[5]])
-        samples[_S_ROP, k] = records[k, columns[6]]
-        samples[_S_WOB, k] = records[k, columns[7]]
-        samples[_S_BIT_POWER, k] = records[k, columns[8]] * w
-        samples[_S_MOTOR_POWER, k] = abs(records[k, columns[9]] * records[k, columns[10]])
-        samples[_S_TORQUE, k] = records[k, columns[11]]
+        w = records[k, columns[Channel.BIT_SPEED]]
+        samples[Sample.BIT_SPEED, k] = w
+        samples[Sample.WHIRL_SPEED, k] = records[k, columns[Channel.WHIRL_SPEED]]
+        samples[Sample.RADIAL_RATIO, k] = math.hypot(records[k, columns[Channel.BIT_X]],
+                                                     records[k, columns[Channel.BIT_Y]]) \
+            / clearance
+        samples[Sample.LATERAL_FORCE, k] = math.hypot(records[k, columns[Channel.BIT_FORCE_X]],
+                                                      records[k, columns[Channel.BIT_FORCE_Y]])
+        samples[Sample.ROP, k] = records[k, columns[Channel.ROP]]
+        samples[Sample.WEIGHT_ON_BIT, k] = records[k, columns[Channel.WEIGHT_ON_BIT]]
+        samples[Sample.BIT_POWER, k] = records[k, columns[Channel.TORQUE_ON_BIT]] * w
+        samples[Sample.MOTOR_POWER, k] = abs(records[k, columns[Channel.MOTOR_TORQUE]]
+                                             * records[k, columns[Channel.SURFACE_SPEED]])
+        samples[Sample.SURFACE_TORQUE, k] = records[k, columns[Channel.SURFACE_TORQUE]]
         finite = 1.0
         for j in range(n_channels):
             if not math.isfinite(records[k, j]):
                 finite = 0.0
                 break
-        samples[_S_FINITE, k] = finite
+        samples[Sample.FINITE, k] = finite
 
 
 @njit(cache=True, nogil=True)
 def reduce_metric_samples(samples, dt, area, out, tasks, partial):
-    """The :data:`WINDOW_METRICS` of ``samples`` (at least one) into ``out``.
+    """The :data:`Metric` values of ``samples`` (at least one) into ``out``.
 
     ``dt``: sample spacing (s); ``area``: :func:`bit_area`; ``tasks``, ``partial``: the
     scratch stacks of :func:`_pairwise_sum`, from :func:`sum_scratch`. Returns whether every
@@ -351,7 +377,7 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
     their NaN behaviour (``np.max`` propagates NaN, Python's ``max(nan, x)`` is NaN).
     """
     n = samples.shape[1]
-    w = samples[_S_SPEED]
+    w = samples[Sample.BIT_SPEED]
 
     w_max, w_min = w[0], w[0]  # np.max / np.min: NaN if any is NaN
     stuck = 0
@@ -366,47 +392,55 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
     floor = abs(mean_speed)  # max(|mean|, SSI_MIN_MEAN_SPEED)
     if floor < SSI_MIN_MEAN_SPEED:
         floor = SSI_MIN_MEAN_SPEED
-    out[0] = (w_max - w_min) / (2.0 * floor)  # ssi
-    out[1] = stuck / n  # stuck_fraction
-    whirl = _pairwise_sum(samples[_S_WHIRL], tasks, partial) / n
-    out[2] = whirl / math.copysign(floor, mean_speed if mean_speed != 0 else 1.0)  # ratio
-    out[3] = _pairwise_sum(samples[_S_RADIAL], tasks, partial) / n  # radial_ratio
-    out[4] = _max(samples[_S_RADIAL])
-    out[5] = _pairwise_sum(samples[_S_FORCE], tasks, partial) / n  # lateral_force
-    out[6] = _max(samples[_S_FORCE])
-    rop = _pairwise_sum(samples[_S_ROP], tasks, partial) / n
-    out[7] = rop
-    wob = _pairwise_sum(samples[_S_WOB], tasks, partial) / n
-    power = _pairwise_sum(samples[_S_BIT_POWER], tasks, partial) / n
-    if rop < MSE_MIN_ROP:  # mse
-        out[8] = MSE_CEILING if power > 0 else min(wob / area, MSE_CEILING)
+    out[Metric.SSI] = (w_max - w_min) / (2.0 * floor)
+    out[Metric.STUCK_FRACTION] = stuck / n
+    whirl = _pairwise_sum(samples[Sample.WHIRL_SPEED], tasks, partial) / n
+    out[Metric.WHIRL_RATIO] = whirl / math.copysign(floor, mean_speed if mean_speed != 0 else
+                                                    1.0)
+    out[Metric.RADIAL_RATIO] = _pairwise_sum(samples[Sample.RADIAL_RATIO], tasks, partial) / n
+    out[Metric.RADIAL_RATIO_MAX] = _max(samples[Sample.RADIAL_RATIO])
+    out[Metric.LATERAL_FORCE] = _pairwise_sum(samples[Sample.LATERAL_FORCE], tasks,
+                                              partial) / n
+    out[Metric.LATERAL_FORCE_MAX] = _max(samples[Sample.LATERAL_FORCE])
+    rop = _pairwise_sum(samples[Sample.ROP], tasks, partial) / n
+    out[Metric.ROP] = rop
+    wob = _pairwise_sum(samples[Sample.WEIGHT_ON_BIT], tasks, partial) / n
+    power = _pairwise_sum(samples[Sample.BIT_POWER], tasks, partial) / n
+    if rop < MSE_MIN_ROP:
+        out[Metric.MSE] = MSE_CEILING if power > 0 else min(wob / area, MSE_CEILING)
     else:
-        out[8] = min(wob / area + power / (area * rop), MSE_CEILING)
-    out[9] = _pairwise_sum(samples[_S_MOTOR_POWER], tasks, partial) * dt  # energy
-    torque = samples[_S_TORQUE]
+        out[Metric.MSE] = min(wob / area + power / (area * rop), MSE_CEILING)
+    out[Metric.TOP_DRIVE_ENERGY] = _pairwise_sum(samples[Sample.MOTOR_POWER], tasks,
+                                                 partial) * dt
+    torque = samples[Sample.SURFACE_TORQUE]
     peak = abs(torque[0])  # surface_torque_max, NaN if any is NaN
     for v in torque:
         if abs(v) > peak or v != v:
             peak = abs(v)
-    out[10] = peak
-    for v in samples[_S_FINITE]:
+    out[Metric.SURFACE_TORQUE_MAX] = peak
+    for v in samples[Sample.FINITE]:
         if v == 0.0:
             return False
     return True
 
 
 @njit(cache=True, nogil=True)
-def rolling_add(records, columns, clearance, dt, area, size, samples, bounds, step_out,
-                window_out, with_window, tasks, partial):
+def rolling_add(records, window, with_window):
     """Append the samples of ``records`` (at least one) to a rolling window; metrics.
 
-    ``samples``: the window buffer (``(len(METRIC_SAMPLES), capacity)``, capacity at least
-    ``size + len(records)``); ``bounds``: int64 ``[start, end]`` of the window in it,
+    ``window``: the :class:`WindowArrays`; its ``samples`` buffer must hold at least
+    ``size + len(records)`` samples and ``bounds`` ([start, end) of the window in it) is
     updated. When the records do not fit after ``end`` the kept samples move to the
     front first. Writes the metrics of ``records`` into ``step_out`` and, if
     ``with_window``, those of the last ``size`` samples into ``window_out``. Returns
     1 if the step's records were all finite, plus 2 if the window's were.
     """
+    samples = window.samples
+    bounds = window.bounds
+    params = window.params
+    dt = params[WindowParam.DT]
+    area = params[WindowParam.AREA]
+    size = np.int64(params[WindowParam.SIZE])
     n = records.shape[0]
     start, end = bounds[0], bounds[1]
     if end + n > samples.shape[1]:
@@ -416,13 +450,15 @@ def rolling_add(records, columns, clearance, dt, area, size, samples, bounds, st
                 samples[row, k] = samples[row, start + k]
         start, end = 0, kept
     new = samples[:, end:end + n]
-    metric_samples_into(records, columns, clearance, new)
+    metric_samples_into(records, window.columns, params[WindowParam.CLEARANCE], new)
     end += n
     start = max(start, end - size)
     bounds[0], bounds[1] = start, end
-    flags = 1 if reduce_metric_samples(new, dt, area, step_out, tasks, partial) else 0
-    if with_window and reduce_metric_samples(samples[:, start:end], dt, area, window_out,
-                                             tasks, partial):
+    flags = 1 if reduce_metric_samples(new, dt, area, window.step_out, window.tasks,
+                                       window.partial) else 0
+    if with_window and reduce_metric_samples(samples[:, start:end], dt, area,
+                                             window.window_out, window.tasks,
+                                             window.partial):
         flags += 2
     return flags
 
@@ -435,13 +471,14 @@ class RollingMetrics:
         channels: names of the record columns (the simulator's ``RECORD_CHANNELS``).
         dt: record spacing (s); clearance: gauge clearance (m); bit_diameter: (m).
 
-    ``add(records)`` appends the :data:`METRIC_SAMPLES` of new records to a buffer twice
-    the window long (the kept samples move to its front once every ``size`` records; it
-    grows if one ``add`` brings more) and returns the metrics of those records;
-    ``window()`` those of the whole window; ``update(records)`` both, in one compiled
-    call (the env's step).
-    Metrics come as a list of floats in the order of :data:`WINDOW_METRICS`, with a flag
-    telling whether every value of the records behind them is finite.
+    ``add(records)`` appends the :data:`Sample` quantities of new records to a buffer
+    twice the window long (the kept samples move to its front once every ``size``
+    records; it grows if one ``add`` brings more) and returns the metrics of those
+    records; ``window()`` those of the whole window; ``update(records)`` both, in one
+    compiled call (the env's step). Metrics come as a list of floats in the order of
+    :data:`WINDOW_METRICS`, with a flag telling whether every value of the records behind
+    them is finite. :attr:`arrays` is what a compiled caller hands to :func:`rolling_add`
+    (a batch of envs does, :mod:`drill_env.batching`).
     """
 
     def __init__(self, size: int, channels, dt: float, clearance: float,
@@ -454,52 +491,51 @@ class RollingMetrics:
         self.dt = float(dt)
         self.clearance = float(clearance)
         self.area = bit_area(bit_diameter)
-        self._columns = metric_columns(channels)
-        self._samples = np.empty((len(METRIC_SAMPLES), 2 * self.size))
-        self._bounds = np.zeros(2, dtype=np.int64)  # [start, end) of the window
-        self._step = np.empty(len(WINDOW_METRICS))
-        self._out = np.empty(len(WINDOW_METRICS))
-        self._scratch = sum_scratch()
-        self._params = np.array([self.clearance, self.dt, self.area, self.size])
+        params = np.zeros(len(WindowParam))
+        params[WindowParam.CLEARANCE] = self.clearance
+        params[WindowParam.DT] = self.dt
+        params[WindowParam.AREA] = self.area
+        params[WindowParam.SIZE] = self.size
+        tasks, partial = sum_scratch()
+        self.arrays = WindowArrays(
+            columns=metric_columns(channels), params=params,
+            samples=np.empty((len(Sample), 2 * self.size)),
+            bounds=np.zeros(2, dtype=np.int64), step_out=np.empty(len(Metric)),
+            window_out=np.empty(len(Metric)), tasks=tasks, partial=partial)
 
     def __len__(self) -> int:
-        return int(self._bounds[1] - self._bounds[0])
+        bounds = self.arrays.bounds
+        return int(bounds[1] - bounds[0])
 
     def clear(self) -> None:
-        self._bounds[:] = 0
+        self.arrays.bounds[:] = 0
 
     @property
     def bit_speed(self) -> np.ndarray:
         """The bit speed of the window's records (a view, valid until the next ``add``)."""
-        start, end = self._bounds.tolist()
-        return self._samples[_S_SPEED, start:end]
+        start, end = self.arrays.bounds.tolist()
+        return self.arrays.samples[Sample.BIT_SPEED, start:end]
 
     def reserve(self, n: int) -> None:
-        """Make room for adding ``n`` records at once (grows the buffer if needed)."""
-        if self.size + n > self._samples.shape[1]:
-            start, end = self._bounds.tolist()
-            grown = np.empty((len(METRIC_SAMPLES), self.size + n))
-            grown[:, :end - start] = self._samples[:, start:end]
-            self._samples = grown
-            self._bounds[:] = (0, end - start)
-
-    def kernel_arrays(self) -> tuple[np.ndarray, ...]:
-        """The arrays a compiled caller passes to :func:`rolling_add` (after ``records``):
-        columns, [clearance, dt, area, size], samples, bounds, step and window outputs,
-        and the summation scratch. Valid until :meth:`reserve` grows the buffer."""
-        return (self._columns, self._params, self._samples, self._bounds, self._step,
-                self._out, *self._scratch)
+        """Make room for adding ``n`` records at once (grows the buffer if needed; a new
+        buffer means a new :attr:`arrays`)."""
+        samples = self.arrays.samples
+        if self.size + n > samples.shape[1]:
+            start, end = self.arrays.bounds.tolist()
+            grown = np.empty((len(Sample), self.size + n))
+            grown[:, :end - start] = samples[:, start:end]
+            self.arrays = self.arrays._replace(samples=grown)
+            self.arrays.bounds[:] = (0, end - start)
 
     def result(self, flags: int) -> tuple[tuple[list[float], bool], tuple[list[float], bool]]:
         """The (step, window) metrics a :func:`rolling_add` call with ``with_window`` left
         in this window's outputs, given the flags it returned."""
-        return (self._step.tolist(), bool(flags & 1)), (self._out.tolist(), bool(flags & 2))
+        return ((self.arrays.step_out.tolist(), bool(flags & 1)),
+                (self.arrays.window_out.tolist(), bool(flags & 2)))
 
     def _add(self, records: np.ndarray, with_window: bool) -> int:
         self.reserve(len(records))
-        return rolling_add(records, self._columns, self.clearance, self.dt, self.area,
-                           self.size, self._samples, self._bounds, self._step, self._out,
-                           with_window, *self._scratch)
+        return rolling_add(records, self.arrays, with_window)
 
     def add(self, records: np.ndarray) -> tuple[list[float], bool] | None:
         """Append ``records`` (rows); their metrics and whether they are all finite.
@@ -509,7 +545,7 @@ class RollingMetrics:
         if len(records) == 0:
             return None
         flags = self._add(records, False)
-        return self._step.tolist(), bool(flags & 1)
+        return self.arrays.step_out.tolist(), bool(flags & 1)
 
     def update(self, records: np.ndarray) -> tuple[tuple[list[float], bool] | None,
                                                    tuple[list[float], bool] | None]:
@@ -521,9 +557,10 @@ class RollingMetrics:
 
     def window(self) -> tuple[list[float], bool] | None:
         """The metrics of the window and whether they are all finite (``None``: empty)."""
-        start, end = self._bounds.tolist()
+        a = self.arrays
+        start, end = a.bounds.tolist()
         if end == start:
             return None
-        finite = reduce_metric_samples(self._samples[:, start:end], self.dt, self.area,
-                                       self._out, *self._scratch)
-        return self._out.tolist(), finite
+        finite = reduce_metric_samples(a.samples[:, start:end], self.dt, self.area,
+                                       a.window_out, a.tasks, a.partial)
+        return a.window_out.tolist(), finite

@@ -54,8 +54,8 @@ import gymnasium
 import numpy as np
 
 from drill_env.metrics import STUCK_SPEED
-
-RPM = 2.0 * math.pi / 60.0
+from drill_env.physics.formation import FormationArrays
+from drill_env.physics.units import RPM
 
 APPLICATION_ID = "drill_env"
 TIMELINE = "sim_time"
@@ -417,10 +417,11 @@ class EpisodeRecorder:
             return g
         if not math.isfinite(g["clearance"]) and hasattr(sim, "node_clearance"):
             g["clearance"] = float(sim.node_clearance[-1])
-        for attr in ("node_depth", "node_clearance", "blades", "normals", "offsets",
-                     "layer_rock"):
+        for attr in ("node_depth", "node_clearance", "blades"):
             if hasattr(sim, attr):
                 g[attr] = np.array(getattr(sim, attr), copy=True)
+        if hasattr(sim, "formation"):
+            g["formation"] = FormationArrays(*(a.copy() for a in sim.formation))
         g["depth0"] = _num(getattr(sim, "depth", None))
         return g
 
@@ -649,7 +650,7 @@ class EpisodeRecorder:
 
     def _write_bit(self, stream: Any, rr: Any) -> None:
         g = self._geometry
-        if "blades" not in g or not self._string_t:
+        if "blades" not in g or "formation" not in g or not self._string_t:
             return
         names = g["rock_names"] or ["rock0"]
         stream.log("bit", rr.AnnotationContext(
@@ -711,9 +712,9 @@ class EpisodeRecorder:
 
         g = self._geometry
         blades = g["blades"]
-        normals, offsets = g["normals"], g["offsets"]
-        layer_rock = g["layer_rock"]
-        scratch = make_bit_scratch(blades.shape[0], offsets.shape[0])
+        formation = g["formation"]
+        layer_rock = formation.layer_rock
+        scratch = make_bit_scratch(blades.shape[0], formation.n_interfaces)
         names = g["rock_names"]
         n_blades = blades.shape[0]
         n_rocks = max(len(names), int(np.max(layer_rock)) + 1 if layer_rock.size else 1)
@@ -727,8 +728,7 @@ class EpisodeRecorder:
             if not (math.isfinite(bx) and math.isfinite(by) and math.isfinite(depth)):
                 continue
             phi = phi if math.isfinite(phi) else 0.0
-            n = int(split_blades(blades, normals, offsets, layer_rock, bx, by, depth, phi,
-                                 *scratch))
+            n = int(split_blades(blades, formation, bx, by, depth, phi, scratch))
             cols[0].append(np.full(n, len(samples)))
             for c, arr in zip(cols[1:], scratch[:4], strict=True):
                 c.append(arr[:n].copy())
@@ -952,20 +952,11 @@ def layer_events(t: np.ndarray, shares: np.ndarray, names: list[str]
 def _blade_segments(blades: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per blade and segment (face, shoulder, gauge): (radius, z offset) of both ends and
     the segment length (the geometry of ``drill_env.physics.bit.split_blades``)."""
-    from drill_env.physics.bit import ALPHA_SH, L_G, L_SH, R_A, R_B, R_C
+    from drill_env.physics.bit import blade_points, segment_lengths
 
-    n = blades.shape[0]
-    ends = np.zeros((n, 3, 2, 2))  # blade, segment, end, (radius, dz above the face)
-    seg_len = np.zeros((n, 3))
-    for i in range(n):
-        r_a, r_b, r_c = blades[i, R_A], blades[i, R_B], blades[i, R_C]
-        l_sh, l_g = blades[i, L_SH], blades[i, L_G]
-        h_c = l_sh * math.cos(blades[i, ALPHA_SH])
-        ends[i, 0] = [[r_a, 0.0], [r_b, 0.0]]
-        ends[i, 1] = [[r_b, 0.0], [r_c, h_c]]
-        ends[i, 2] = [[r_c, h_c], [r_c, h_c + l_g]]
-        seg_len[i] = [r_b - r_a, l_sh, l_g]
-    return ends, seg_len
+    points = blade_points(blades)  # A, B, C, D: (radius, height above the face)
+    ends = np.stack([points[:, :3], points[:, 1:]], axis=2)  # blade, segment, end, (r, h)
+    return ends, segment_lengths(blades)
 
 
 def _piece_points(blades: np.ndarray, si: np.ndarray, pb: np.ndarray, ps: np.ndarray,
@@ -976,7 +967,7 @@ def _piece_points(blades: np.ndarray, si: np.ndarray, pb: np.ndarray, ps: np.nda
     The pieces come from :func:`~drill_env.physics.bit.split_blades` (in order along each
     segment), ``si`` numbering the snapshot each belongs to; ``bx .. phi_z`` are per piece.
     """
-    from drill_env.physics.bit import PHI
+    from drill_env.physics.bit import Blade
 
     n = pb.shape[0]
     if n == 0:
@@ -998,7 +989,7 @@ def _piece_points(blades: np.ndarray, si: np.ndarray, pb: np.ndarray, ps: np.nda
     r1 = e0[:, 0] + t1 * (e1[:, 0] - e0[:, 0])
     h0 = e0[:, 1] + t0 * (e1[:, 1] - e0[:, 1])
     h1 = e0[:, 1] + t1 * (e1[:, 1] - e0[:, 1])
-    theta = blades[pb, PHI] + phi_z
+    theta = blades[pb, Blade.PHI] + phi_z
     c, s = np.cos(theta), np.sin(theta)
     p0 = np.stack([bx + r0 * c, by + r0 * s, depth - h0], axis=1)
     p1 = np.stack([bx + r1 * c, by + r1 * s, depth - h1], axis=1)

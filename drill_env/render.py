@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-RPM = 2.0 * math.pi / 60.0
+from drill_env.physics.units import RPM
 
 #: Colours (RGB) of the traces.
 BIT = (31, 119, 180)

@@ -55,9 +55,8 @@ from drill_env.physics.config import (
     replace,
 )
 from drill_env.physics.formation import interface_depth_for_share
+from drill_env.physics.units import RPM
 from drill_env.physics.validation import Finite, NonNegative, Positive, config_dataclass, validated
-
-RPM = 2.0 * math.pi / 60.0
 
 # --------------------------------------------------------------------------- rock presets
 # MODELLING CHOICES TO BE TUNED: the paper gives no rock-curve numbers (SPEC 2.3). They

@@ -47,13 +47,12 @@ import numpy as np
 from pydantic import Field
 
 from drill_env import metrics
-from drill_env.physics import integrator as ig
 from drill_env.physics.config import replace, require_positive
+from drill_env.physics.layout import R
 from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.units import RPM
 from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass
 from drill_env.scenarios import POSITIONS, make_scenario
-
-RPM = 2.0 * math.pi / 60.0
 
 #: The paper's grid: 0-250 rpm and 0-200 kN in steps of 5 rpm / 5 kN (0 itself is
 #: steady by definition: no rotation, or no bit load).
@@ -157,13 +156,13 @@ def point_sticks(config, rpm: float, weight_on_bit: float, settings: MapSettings
     while done < steps and not sim.status:
         n = min(chunk, steps - done)
         records.append(sim.advance(n, omega, hook, settings.record_every))
-        sim.state[ig.S_DEPTH] = depth  # hold the position
+        sim.set_depth(depth)  # hold the position
         done += n
     if sim.status:
         raise RuntimeError(f"stability map point {rpm:.0f} rpm, {weight_on_bit / 1e3:.0f} kN: "
                            f"{sim.status_message}")
     rec = np.concatenate(records)
-    late = rec[rec[:, 0] > sim.time - settings.measure, 1]
+    late = rec[rec[:, R.TIME] > sim.time - settings.measure, R.BIT_SPEED]
     return {"stuck_fraction": metrics.stuck_fraction(late),
             "ssi": metrics.stick_slip_severity(late)}
 

@@ -14,8 +14,8 @@ from tqdm import tqdm
 from drill_env import metrics
 from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
+from drill_env.physics.units import RPM
 
-RPM = 2 * np.pi / 60
 COL = {name: i for i, name in enumerate(RECORD_CHANNELS)}
 
 

@@ -17,13 +17,11 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
-RPM = 2.0 * math.pi / 60.0
 #: info keys of SPEC section 6 that every version of the env reports.
 INFO_KEYS = ("time", "bit_speed", "surface_speed", "torque_on_bit", "surface_torque",
              "weight_on_bit", "hook_load", "bit_lateral", "whirl_speed", "depth", "rop",

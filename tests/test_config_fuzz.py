@@ -23,9 +23,8 @@ from hypothesis import strategies as st
 from drill_env.env import EnvConfig
 from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.units import RPM
 from drill_env.scenarios import SCENARIOS, make_scenario, scenario_parameters
-
-RPM = 2.0 * math.pi / 60.0
 
 #: The bad values every field is tried with.
 BAD_VALUES = (math.nan, math.inf, -math.inf, 0.0, 0, -1.0, -1e300, 1e300, 1e30, 1e-300,

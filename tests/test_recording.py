@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import drill_env  # noqa: F401  (registers the envs)
+from drill_env.physics.units import RPM
 from drill_env.recording import (
     APPLICATION_ID,
     SERIES,
@@ -29,7 +30,6 @@ from drill_env.recording import (
     whirl_events,
 )
 
-RPM = 2.0 * math.pi / 60.0
 T_TOL = 2e-9  # sim_time is stored as integer nanoseconds
 
 

@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit, prange
 from numba.typed import List
 
+from drill_env.physics.layout import KernelArrays
 from drill_env.physics.readings import advance_and_read
 from drill_env.physics.simulator import Simulator
 
@@ -32,23 +33,21 @@ def advance_many(lo, hi, n_steps, record_every, active, n_rec, sims):
     """Advance simulator e (lo <= e < hi) by ``n_steps[e]`` steps where ``active[e]``;
     ``n_rec[e]`` receives its number of records.
 
-    ``sims``: a typed list with one tuple per simulator, the arguments of
-    :func:`~drill_env.physics.readings.advance_and_read` after ``n_steps`` and
-    ``record_every`` (:meth:`SimulatorBatch.kernel_arrays`); each simulator's readings
-    are refreshed. One list of tuples rather than one list per argument: each typed list
-    costs about a microsecond to pass into the call.
+    ``sims``: a typed list with one ``(KernelArrays, readings)`` pair per simulator
+    (:func:`simulator_arrays`); each simulator's readings are refreshed.
     """
     for i in prange(lo, hi):
         e = np.int64(i)  # typed lists take signed indices; prange's are unsigned
         if not active[e]:
             n_rec[e] = 0
             continue
-        n_rec[e] = advance_and_read(n_steps[e], record_every[e], *sims[e])
+        arrays, readings = sims[e]
+        n_rec[e] = advance_and_read(n_steps[e], record_every[e], arrays, readings)
 
 
-def simulator_arrays(sim: Simulator) -> tuple[np.ndarray, ...]:
-    """The arrays of one simulator in :func:`advance_many`'s tuples (kernel + readings)."""
-    return (*sim.kernel_arrays(), sim.readings)
+def simulator_arrays(sim: Simulator) -> tuple[KernelArrays, np.ndarray]:
+    """One simulator in :func:`advance_many`'s list: its kernel arrays and readings."""
+    return sim.kernel_arrays(), sim.readings
 
 
 def simulator_key(sim: Simulator) -> tuple[int, int]:
@@ -57,7 +56,7 @@ def simulator_key(sim: Simulator) -> tuple[int, int]:
     Safe against reused ids: the list keeps the old record buffer alive, so a new
     simulator's buffer cannot have its id.
     """
-    return id(sim), id(sim._record)
+    return id(sim), id(sim.kernel_arrays().record)
 
 
 class TupleSlots:

@@ -11,106 +11,133 @@ Every straight blade segment is split EXACTLY at every interface plane it crosse
 Each piece carries its rock, length and lever arm = radius of its midpoint from the bit
 axis (the midpoint rule of SPEC 2.2).
 
-:func:`mesoscopic_bit_loads` writes, into ``out`` (length ``N_OUT_FIXED + n_rock``):
+:func:`mesoscopic_bit_loads` writes, into ``out`` (length ``N_BIT_OUT + n_rock``, the
+names of :data:`BitOut`):
 
-====================  ==========================================================
-``out[TORQUE]``        front torque magnitude at bit speed ``|omega|`` (eqs. 40-53)
-``out[TORQUE_STATIC]`` the same at omega -> 0+ (mu = mu_max of each rock)
-``out[FORCE_X:+2]``    front lateral force for POSITIVE rotation at ``|omega|``
-                       (eqs. 46, 49, 52, 62); the caller multiplies by sign(omega)
-``out[FORCE_STATIC_X:+2]`` the same at 0+
-``out[GAUGE_X:+2]``    gauge force on the bit, normal + cutting/friction (eqs. 55-60)
-``out[GAUGE_TORQUE]``  torque of the gauge forces about the bit axis (signed)
-``out[DEPTH_OF_CUT]``  depth of cut per revolution (m/rev): wob sum_j share_j doc_j
-``out[SHARES + j]``    share of FRONT blade length in rock j (sums to 1)
-====================  ==========================================================
+=========================  ==========================================================
+``TORQUE``                 front torque magnitude at bit speed ``|omega|`` (eqs. 40-53)
+``TORQUE_STATIC``          the same at omega -> 0+ (mu = mu_max of each rock)
+``FORCE_X``, ``FORCE_Y``   front lateral force for POSITIVE rotation at ``|omega|``
+                           (eqs. 46, 49, 52, 62); the caller multiplies by sign(omega)
+``FORCE_STATIC_X``, ``_Y`` the same at 0+
+``GAUGE_X``, ``GAUGE_Y``   gauge force on the bit, normal + cutting/friction (eqs. 55-60)
+``GAUGE_TORQUE``           torque of the gauge forces about the bit axis (signed)
+``DEPTH_OF_CUT``           depth of cut per revolution (m/rev): wob sum_j share_j doc_j
+``N_BIT_OUT + j``          share of FRONT blade length in rock j (sums to 1)
+=========================  ==========================================================
 """
 
 from __future__ import annotations
 
 import math
+from enum import IntEnum
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from drill_env.physics.config import BitConfig
-from drill_env.physics.formation import (
-    DEPTH_OF_CUT as ROCK_DEPTH_OF_CUT,
-)
-from drill_env.physics.formation import (
-    MU_MAX,
-    MU_MIN,
-    ST1,
-    ST2,
-    WALL_DAMPING,
-    WALL_STIFFNESS,
-    layer_at,
-    resistance,
-)
+from drill_env.physics.formation import Rock, layer_at, resistance
 
-# Columns of blade_arrays().
-PHI = 0
-R_A = 1
-R_B = 2
-R_C = 3
-ALPHA_SH = 4
-L_SH = 5
-L_G = 6
-COS_PHI = 7  # cos and sin of PHI, so a step needs one sincos (of phi_z), not one per blade
-SIN_PHI = 8
-RISE_SH = 9  # l_sh cos(alpha_sh): height of point C above the face
-N_BLADE_COLUMNS = 10
+#: Columns of :func:`blade_arrays`, one row per blade.
+Blade = IntEnum("Blade", [
+    "PHI",       # blade angle phi_i (rad)
+    "R_A",       # radius of point A, where the face starts (m)
+    "R_B",       # radius of point B, face to shoulder (m)
+    "R_C",       # radius of point C, shoulder to gauge (m)
+    "ALPHA_SH",  # shoulder angle from the bit axis (rad)
+    "L_SH",      # shoulder length (m)
+    "L_G",       # gauge length (m)
+    "COS_PHI",   # cos and sin of PHI: a step needs one sincos (of phi_z), not one per blade
+    "SIN_PHI",
+    "RISE_SH",   # l_sh cos(alpha_sh): height of point C above the face (m)
+], start=0)
+N_BLADE_COLUMNS = len(Blade)
 
-# Segment codes of the pieces.
-FACE = 0
-SHOULDER = 1
-GAUGE = 2
-N_SEGMENTS = 3
+#: Segment codes of the pieces (face A-B, shoulder B-C, gauge C-D).
+Segment = IntEnum("Segment", ["FACE", "SHOULDER", "GAUGE"], start=0)
+N_SEGMENTS = len(Segment)
 
-# Layout of ``out``.
-TORQUE = 0
-TORQUE_STATIC = 1
-FORCE_X = 2
-FORCE_Y = 3
-FORCE_STATIC_X = 4
-FORCE_STATIC_Y = 5
-GAUGE_X = 6
-GAUGE_Y = 7
-GAUGE_TORQUE = 8
-DEPTH_OF_CUT = 9
-SHARES = 10
-N_OUT_FIXED = 10
+#: Layout of the bit's load vector (see the module docstring); rock shares follow.
+BitOut = IntEnum("BitOut", [
+    "TORQUE", "TORQUE_STATIC", "FORCE_X", "FORCE_Y", "FORCE_STATIC_X", "FORCE_STATIC_Y",
+    "GAUGE_X", "GAUGE_Y", "GAUGE_TORQUE", "DEPTH_OF_CUT",
+], start=0)
+N_BIT_OUT = len(BitOut)
+SHARES = N_BIT_OUT
+
+
+class BitKinematics(NamedTuple):
+    """Position and motion of the bit in the hole frame."""
+
+    x: float      # bit centre (m)
+    y: float
+    vx: float     # bit centre velocity (m/s)
+    vy: float
+    depth: float  # bit face depth (m)
+    phi_z: float  # rotation angle (rad)
+    omega: float  # rotation speed (rad/s)
+
+
+class GaugeContact(NamedTuple):
+    """What the gauge model needs besides the bit's motion."""
+
+    hole_radius: float             # m
+    tangential_compliance: float   # m/(N s); > 0 caps friction at |v_r| / compliance
+    regularisation_speed: float    # m/s: friction linear below it
 
 
 # --------------------------------------------------------------------------- geometry
 
 
 def blade_arrays(cfg: BitConfig) -> np.ndarray:
-    """``(n_blades, 10)``: ``[phi (rad), r_A, r_B, r_C, alpha_sh (rad), l_sh, l_g, cos phi,
-    sin phi, l_sh cos alpha_sh]`` (eq. 29)."""
+    """``(n_blades, N_BLADE_COLUMNS)``: the columns of :data:`Blade` (eq. 29)."""
     n = cfg.n_blades
     alpha = math.radians(cfg.shoulder_angle)
     blades = np.empty((n, N_BLADE_COLUMNS))
     for i in range(n):
-        blades[i, PHI] = math.radians(cfg.blade_angles[i])
-        blades[i, R_A] = cfg.face_start[i]
-        blades[i, R_B] = cfg.face_end[i]
+        blades[i, Blade.PHI] = math.radians(cfg.blade_angles[i])
+        blades[i, Blade.R_A] = cfg.face_start[i]
+        blades[i, Blade.R_B] = cfg.face_end[i]
         # SPEC 2.2: the shoulder's radial extent is l_sh sin(alpha_sh).
-        blades[i, R_C] = cfg.face_end[i] + cfg.shoulder_length[i] * math.sin(alpha)
-        blades[i, ALPHA_SH] = alpha
-        blades[i, L_SH] = cfg.shoulder_length[i]
-        blades[i, L_G] = cfg.gauge_length[i]
-        blades[i, COS_PHI] = math.cos(blades[i, PHI])
-        blades[i, SIN_PHI] = math.sin(blades[i, PHI])
-        blades[i, RISE_SH] = cfg.shoulder_length[i] * math.cos(alpha)
+        blades[i, Blade.R_C] = cfg.face_end[i] + cfg.shoulder_length[i] * math.sin(alpha)
+        blades[i, Blade.ALPHA_SH] = alpha
+        blades[i, Blade.L_SH] = cfg.shoulder_length[i]
+        blades[i, Blade.L_G] = cfg.gauge_length[i]
+        blades[i, Blade.COS_PHI] = math.cos(blades[i, Blade.PHI])
+        blades[i, Blade.SIN_PHI] = math.sin(blades[i, Blade.PHI])
+        blades[i, Blade.RISE_SH] = cfg.shoulder_length[i] * math.cos(alpha)
     return blades
+
+
+def blade_points(blades: np.ndarray) -> np.ndarray:
+    """Points A, B, C, D of every blade as (radius from the bit axis, height above the
+    face): shape ``(n_blades, 4, 2)``. Segment k runs from point k to point k + 1.
+
+    The one place the blade's shape is derived from :func:`blade_arrays` outside the
+    kernels (the formation's share bracket, the recorder's 3-D blades, the test oracle).
+    """
+    n = blades.shape[0]
+    points = np.zeros((n, 4, 2))
+    points[:, 0, 0] = blades[:, Blade.R_A]
+    points[:, 1, 0] = blades[:, Blade.R_B]
+    points[:, 2, 0] = blades[:, Blade.R_C]
+    points[:, 2, 1] = blades[:, Blade.RISE_SH]
+    points[:, 3, 0] = blades[:, Blade.R_C]
+    points[:, 3, 1] = blades[:, Blade.RISE_SH] + blades[:, Blade.L_G]
+    return points
+
+
+def segment_lengths(blades: np.ndarray) -> np.ndarray:
+    """``(n_blades, N_SEGMENTS)`` lengths of face, shoulder and gauge (m)."""
+    return np.stack([blades[:, Blade.R_B] - blades[:, Blade.R_A], blades[:, Blade.L_SH],
+                     blades[:, Blade.L_G]], axis=1)
 
 
 def front_lengths(cfg: BitConfig) -> np.ndarray:
     """l_front,i = l_f,i + l_sh,i per blade (eq. 30)."""
-    blades = blade_arrays(cfg)
-    return blades[:, R_B] - blades[:, R_A] + blades[:, L_SH]
+    lengths = segment_lengths(blade_arrays(cfg))
+    return lengths[:, Segment.FACE] + lengths[:, Segment.SHOULDER]
 
 
 def front_length(cfg: BitConfig) -> float:
@@ -125,10 +152,10 @@ def bit_lever_arm(cfg: BitConfig) -> float:
     (eq. 31), so TOB = a_bit mu WOB (eq. 38) for a bit in one rock.
     """
     b = blade_arrays(cfg)
-    l_f = b[:, R_B] - b[:, R_A]
-    a_f = 0.5 * (b[:, R_A] + b[:, R_B])
-    a_sh = b[:, R_B] + 0.5 * b[:, L_SH] * np.sin(b[:, ALPHA_SH])
-    return float(np.sum(l_f * a_f + b[:, L_SH] * a_sh) / front_length(cfg))
+    l_f = b[:, Blade.R_B] - b[:, Blade.R_A]
+    a_f = 0.5 * (b[:, Blade.R_A] + b[:, Blade.R_B])
+    a_sh = b[:, Blade.R_B] + 0.5 * b[:, Blade.L_SH] * np.sin(b[:, Blade.ALPHA_SH])
+    return float(np.sum(l_f * a_f + b[:, Blade.L_SH] * a_sh) / front_length(cfg))
 
 
 def front_imbalance(cfg: BitConfig, phi_z: float = 0.0) -> np.ndarray:
@@ -136,7 +163,7 @@ def front_imbalance(cfg: BitConfig, phi_z: float = 0.0) -> np.ndarray:
     per unit mu WOB (eqs. 46, 52). Zero for a symmetric bit."""
     b = blade_arrays(cfg)
     lengths = front_lengths(cfg)
-    theta = b[:, PHI] + phi_z
+    theta = b[:, Blade.PHI] + phi_z
     return np.array([np.sum(lengths * np.sin(theta)),
                      -np.sum(lengths * np.cos(theta))]) / lengths.sum()
 
@@ -174,11 +201,11 @@ def asymmetric_bit() -> BitConfig:
 class BitScratch(NamedTuple):
     """Preallocated piece arrays for :func:`split_blades` (blade-major, segment order)."""
 
-    piece_blade: np.ndarray  # int64
-    piece_segment: np.ndarray  # int64: FACE, SHOULDER, GAUGE
-    piece_rock: np.ndarray  # int64
-    piece_length: np.ndarray  # float64 (m)
-    piece_lever: np.ndarray  # float64: radius of the piece midpoint from the bit axis (m)
+    blade: np.ndarray    # int64
+    segment: np.ndarray  # int64: Segment
+    rock: np.ndarray     # int64
+    length: np.ndarray   # float64 (m)
+    lever: np.ndarray    # float64: radius of the piece midpoint from the bit axis (m)
 
 
 def max_pieces(n_blades: int, n_interfaces: int) -> int:
@@ -193,7 +220,7 @@ def make_bit_scratch(n_blades: int, n_interfaces: int) -> BitScratch:
 
 
 def make_loads_out(n_rocks: int) -> np.ndarray:
-    return np.zeros(N_OUT_FIXED + n_rocks)
+    return np.zeros(N_BIT_OUT + n_rocks)
 
 
 # --------------------------------------------------------------------------- kernels
@@ -203,17 +230,19 @@ def make_loads_out(n_rocks: int) -> np.ndarray:
 def _blade_direction(blades, i, cos_z, sin_z):
     """(cos theta_i, sin theta_i) of theta_i = phi_i + phi_z (eq. 35) from the stored
     cos/sin of phi_i and those of phi_z: two rotations' worth of multiplies, no sincos."""
-    c = blades[i, COS_PHI] * cos_z - blades[i, SIN_PHI] * sin_z
-    s = blades[i, SIN_PHI] * cos_z + blades[i, COS_PHI] * sin_z
+    c = blades[i, Blade.COS_PHI] * cos_z - blades[i, Blade.SIN_PHI] * sin_z
+    s = blades[i, Blade.SIN_PHI] * cos_z + blades[i, Blade.COS_PHI] * sin_z
     return c, s
 
 
 @njit(cache=True, inline="always")
-def _split_segment(x0, y0, z0, x1, y1, z1, r0, r1, length, blade, segment, normals,
-                   offsets, layer_rock, piece_blade, piece_segment, piece_rock,
-                   piece_length, piece_lever, n):
-    """Split the segment p0 -> p1 (radii r0 -> r1 from the bit axis) at every plane it
-    crosses; append the pieces from index n on and return the new count."""
+def _split_segment(p0, p1, r0, r1, length, blade, segment, formation, pieces, n):
+    """Split the segment p0 -> p1 (points (x, y, z); radii r0 -> r1 from the bit axis) at
+    every plane it crosses; append the pieces from index n on and return the new count."""
+    x0, y0, z0 = p0
+    x1, y1, z1 = p1
+    normals = formation.normals
+    offsets = formation.offsets
     n_if = offsets.shape[0]
     t_prev = 0.0
     while True:
@@ -229,12 +258,12 @@ def _split_segment(x0, y0, z0, x1, y1, z1, r0, r1, length, blade, segment, norma
         tm = 0.5 * (t_prev + t_next)
         layer = layer_at(x0 + tm * (x1 - x0), y0 + tm * (y1 - y0), z0 + tm * (z1 - z0),
                          normals, offsets)
-        piece_blade[n] = blade
-        piece_segment[n] = segment
-        piece_rock[n] = layer_rock[layer]
-        piece_length[n] = (t_next - t_prev) * length
+        pieces.blade[n] = blade
+        pieces.segment[n] = segment
+        pieces.rock[n] = formation.layer_rock[layer]
+        pieces.length[n] = (t_next - t_prev) * length
         # The blade is radial in the bit frame, so the radius is linear along it.
-        piece_lever[n] = r0 + tm * (r1 - r0)
+        pieces.lever[n] = r0 + tm * (r1 - r0)
         n += 1
         if t_next >= 1.0:
             return n
@@ -242,8 +271,7 @@ def _split_segment(x0, y0, z0, x1, y1, z1, r0, r1, length, blade, segment, norma
 
 
 @njit(cache=True)
-def split_blades(blades, normals, offsets, layer_rock, bx, by, depth, phi_z, piece_blade,
-                 piece_segment, piece_rock, piece_length, piece_lever):
+def split_blades(blades, formation, bx, by, depth, phi_z, pieces):
     """Split face A->B, shoulder B->C and gauge C->D of every blade at every interface.
 
     Points in the hole frame (eq. 35, SPEC 2.2 geometry): A, B at z = depth, C at
@@ -251,104 +279,102 @@ def split_blades(blades, normals, offsets, layer_rock, bx, by, depth, phi_z, pie
     (blade-major, then segment, then along the segment). Zero-length segments give no
     piece. The rock of a piece is that of its midpoint, so the split is exact.
     """
-    return _split_blades(blades, normals, offsets, layer_rock, bx, by, depth,
-                         math.cos(phi_z), math.sin(phi_z), piece_blade, piece_segment,
-                         piece_rock, piece_length, piece_lever)
+    return _split_blades(blades, formation, bx, by, depth, math.cos(phi_z), math.sin(phi_z),
+                         pieces)
 
 
 @njit(cache=True)
-def _split_blades(blades, normals, offsets, layer_rock, bx, by, depth, cos_z, sin_z,
-                  piece_blade, piece_segment, piece_rock, piece_length, piece_lever):
+def _split_blades(blades, formation, bx, by, depth, cos_z, sin_z, pieces):
     """:func:`split_blades` with the bit angle given as its cosine and sine."""
     # np.int64(): plain ints, not literals, so _split_segment compiles only once.
     n = np.int64(0)
-    face, shoulder, gauge = np.int64(FACE), np.int64(SHOULDER), np.int64(GAUGE)
+    face = np.int64(Segment.FACE)
+    shoulder = np.int64(Segment.SHOULDER)
+    gauge = np.int64(Segment.GAUGE)
     for i in range(blades.shape[0]):
         c, s = _blade_direction(blades, i, cos_z, sin_z)  # eq. (35)
-        r_a = blades[i, R_A]
-        r_b = blades[i, R_B]
-        r_c = blades[i, R_C]
-        l_sh = blades[i, L_SH]
-        l_g = blades[i, L_G]
-        z_c = depth - blades[i, RISE_SH]
+        r_a = blades[i, Blade.R_A]
+        r_b = blades[i, Blade.R_B]
+        r_c = blades[i, Blade.R_C]
+        l_sh = blades[i, Blade.L_SH]
+        l_g = blades[i, Blade.L_G]
+        z_c = depth - blades[i, Blade.RISE_SH]
         z_d = z_c - l_g
         if r_b - r_a > 0.0:
-            n = _split_segment(bx + r_a * c, by + r_a * s, depth, bx + r_b * c, by + r_b * s,
-                               depth, r_a, r_b, r_b - r_a, i, face, normals, offsets,
-                               layer_rock, piece_blade, piece_segment, piece_rock,
-                               piece_length, piece_lever, n)
+            n = _split_segment((bx + r_a * c, by + r_a * s, depth),
+                               (bx + r_b * c, by + r_b * s, depth), r_a, r_b, r_b - r_a, i,
+                               face, formation, pieces, n)
         if l_sh > 0.0:
-            n = _split_segment(bx + r_b * c, by + r_b * s, depth, bx + r_c * c, by + r_c * s,
-                               z_c, r_b, r_c, l_sh, i, shoulder, normals, offsets,
-                               layer_rock, piece_blade, piece_segment, piece_rock,
-                               piece_length, piece_lever, n)
+            n = _split_segment((bx + r_b * c, by + r_b * s, depth),
+                               (bx + r_c * c, by + r_c * s, z_c), r_b, r_c, l_sh, i,
+                               shoulder, formation, pieces, n)
         if l_g > 0.0:
-            n = _split_segment(bx + r_c * c, by + r_c * s, z_c, bx + r_c * c, by + r_c * s,
-                               z_d, r_c, r_c, l_g, i, gauge, normals, offsets, layer_rock,
-                               piece_blade, piece_segment, piece_rock, piece_length,
-                               piece_lever, n)
+            n = _split_segment((bx + r_c * c, by + r_c * s, z_c),
+                               (bx + r_c * c, by + r_c * s, z_d), r_c, r_c, l_g, i, gauge,
+                               formation, pieces, n)
     return n
 
 
 @njit(cache=True)
-def _front_loads(blades, rock_params, cos_z, sin_z, omega, wob, n, piece_blade, piece_segment,
-                 piece_rock, piece_length, piece_lever, out):
+def _front_loads(blades, rock_params, cos_z, sin_z, omega, wob, n, pieces, out):
     """Front (face + shoulder) torque, lateral force, shares and depth of cut."""
     l_front = 0.0
     for i in range(blades.shape[0]):
-        l_front += blades[i, R_B] - blades[i, R_A] + blades[i, L_SH]  # eq. (30)
+        l_front += blades[i, Blade.R_B] - blades[i, Blade.R_A] + blades[i, Blade.L_SH]  # (30)
     load = wob / l_front  # eq. (40): line load on the front blades
     w = abs(omega)
     last_rock = -1
     mu = 0.0
     for p in range(n):
-        if piece_segment[p] == GAUGE:
+        if pieces.segment[p] == Segment.GAUGE:
             continue
-        j = piece_rock[p]
-        length = piece_length[p]
+        j = pieces.rock[p]
+        length = pieces.length[p]
         if j != last_rock:  # pieces come in runs of one rock: one exp per run
-            mu = resistance(w, rock_params[j, MU_MIN], rock_params[j, MU_MAX],
-                            rock_params[j, ST1], rock_params[j, ST2])
+            mu = resistance(w, rock_params[j, Rock.MU_MIN], rock_params[j, Rock.MU_MAX],
+                            rock_params[j, Rock.ST1], rock_params[j, Rock.ST2])
             last_rock = j
-        mu0 = rock_params[j, MU_MAX]  # eq. (39) at 0+
-        c, s = _blade_direction(blades, piece_blade[p], cos_z, sin_z)
+        mu0 = rock_params[j, Rock.MU_MAX]  # eq. (39) at 0+
+        c, s = _blade_direction(blades, pieces.blade[p], cos_z, sin_z)
         sx = s
         cy = -c
+        lever = pieces.lever[p]
         # eqs. (47), (50): cutting force mu l F/L and its torque with the piece lever arm
-        out[TORQUE] += mu * piece_lever[p] * length
-        out[TORQUE_STATIC] += mu0 * piece_lever[p] * length
+        out[BitOut.TORQUE] += mu * lever * length
+        out[BitOut.TORQUE_STATIC] += mu0 * lever * length
         # eqs. (46), (49), (52): the force opposes the blade's motion for omega > 0
-        out[FORCE_X] += mu * length * sx
-        out[FORCE_Y] += mu * length * cy
-        out[FORCE_STATIC_X] += mu0 * length * sx
-        out[FORCE_STATIC_Y] += mu0 * length * cy
+        out[BitOut.FORCE_X] += mu * length * sx
+        out[BitOut.FORCE_Y] += mu * length * cy
+        out[BitOut.FORCE_STATIC_X] += mu0 * length * sx
+        out[BitOut.FORCE_STATIC_Y] += mu0 * length * cy
         out[SHARES + j] += length / l_front
-    for k in range(FORCE_STATIC_Y + 1):
+    for k in range(BitOut.FORCE_STATIC_Y + 1):
         out[k] *= load
     for j in range(rock_params.shape[0]):
-        out[DEPTH_OF_CUT] += wob * out[SHARES + j] * rock_params[j, ROCK_DEPTH_OF_CUT]
+        out[BitOut.DEPTH_OF_CUT] += wob * out[SHARES + j] * rock_params[j, Rock.DEPTH_OF_CUT]
 
 
 @njit(cache=True)
-def _gauge_loads(blades, rock_params, bx, by, vx, vy, cos_z, sin_z, omega, hole_radius,
-                 tangential_compliance, regularisation_speed, n, piece_blade, piece_segment,
-                 piece_rock, piece_length, out):
+def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
     """Gauge contact of every blade's point D with the wall (eqs. 36, 37, 55-60)."""
+    bx = kin.x
+    by = kin.y
+    omega = kin.omega
     for i in range(blades.shape[0]):
-        l_g = blades[i, L_G]
+        l_g = blades[i, Blade.L_G]
         if l_g <= 0.0:
             continue
-        r_c = blades[i, R_C]
+        r_c = blades[i, Blade.R_C]
         c, s = _blade_direction(blades, i, cos_z, sin_z)
         px = bx + r_c * c
         py = by + r_c * s
         radius = math.sqrt(px * px + py * py)
-        penetration = radius - hole_radius  # eq. (36), SPEC: max(0, r - r_limit)
+        penetration = radius - gauge.hole_radius  # eq. (36), SPEC: max(0, r - r_limit)
         if penetration <= 0.0:
             continue
         # Velocity of the contact point: bit translation + rotation about the bit axis.
-        wx = vx - omega * r_c * s
-        wy = vy + omega * r_c * c
+        wx = kin.vx - omega * r_c * s
+        wy = kin.vy + omega * r_c * c
         ex = px / radius
         ey = py / radius
         penetration_rate = ex * wx + ey * wy
@@ -360,25 +386,28 @@ def _gauge_loads(blades, rock_params, bx, by, vx, vy, cos_z, sin_z, omega, hole_
         normal = 0.0
         friction = 0.0
         for p in range(n):
-            if piece_blade[p] != i or piece_segment[p] != GAUGE:
+            if pieces.blade[p] != i or pieces.segment[p] != Segment.GAUGE:
                 continue
-            j = piece_rock[p]
+            j = pieces.rock[p]
             # eq. (55): normal force split by the gauge length in each rock; no adhesion,
             # so each rock's part is clamped at >= 0 (hence also the total).
-            f_n = piece_length[p] / l_g * (rock_params[j, WALL_STIFFNESS] * penetration
-                                           + rock_params[j, WALL_DAMPING] * penetration_rate)
+            f_n = pieces.length[p] / l_g * (rock_params[j, Rock.WALL_STIFFNESS] * penetration
+                                            + rock_params[j, Rock.WALL_DAMPING]
+                                            * penetration_rate)
             if f_n <= 0.0:
                 continue
             normal += f_n
-            friction += resistance(w, rock_params[j, MU_MIN], rock_params[j, MU_MAX],
-                                   rock_params[j, ST1], rock_params[j, ST2]) * f_n  # eq. (57)
+            friction += resistance(w, rock_params[j, Rock.MU_MIN], rock_params[j, Rock.MU_MAX],
+                                   rock_params[j, Rock.ST1], rock_params[j, Rock.ST2]) \
+                * f_n  # eq. (57)
         if normal <= 0.0:
             continue
         speed = abs(slip)
-        if speed < regularisation_speed:
-            friction *= speed / regularisation_speed
-        if tangential_compliance > 0.0 and friction > speed / tangential_compliance:
-            friction = speed / tangential_compliance
+        if speed < gauge.regularisation_speed:
+            friction *= speed / gauge.regularisation_speed
+        compliance = gauge.tangential_compliance
+        if compliance > 0.0 and friction > speed / compliance:
+            friction = speed / compliance
         if slip < 0.0:
             friction = -friction
         elif slip == 0.0:
@@ -387,34 +416,29 @@ def _gauge_loads(blades, rock_params, bx, by, vx, vy, cos_z, sin_z, omega, hole_
         # offset this is eq. (56)'s -(cos theta, sin theta). Friction along -sign(v_r) t.
         fx = -normal * ex - friction * tx
         fy = -normal * ey - friction * ty
-        out[GAUGE_X] += fx
-        out[GAUGE_Y] += fy
-        out[GAUGE_TORQUE] += r_c * c * fy - r_c * s * fx  # exact lever from the bit axis
+        out[BitOut.GAUGE_X] += fx
+        out[BitOut.GAUGE_Y] += fy
+        out[BitOut.GAUGE_TORQUE] += r_c * c * fy - r_c * s * fx  # exact lever from the axis
 
 
 @njit(cache=True)
-def mesoscopic_bit_loads(blades, normals, offsets, layer_rock, rock_params, bx, by, vx, vy,
-                         depth, phi_z, omega, wob, hole_radius, tangential_compliance,
-                         regularisation_speed, piece_blade, piece_segment, piece_rock,
-                         piece_length, piece_lever, out):
+def mesoscopic_bit_loads(blades, formation, pieces, kin, wob, gauge, out):
     """Front and gauge loads of the mesoscopic bit; see the module docstring for ``out``.
 
-    ``(bx, by)``, ``(vx, vy)``: bit centre position and velocity (m, m/s); ``depth``: bit
-    face depth (m); ``phi_z``, ``omega``: bit rotation angle and speed (rad, rad/s);
-    ``wob``: weight on bit (N, >= 0); ``hole_radius``: borehole radius (m). Gauge friction
-    is regularised linearly below ``regularisation_speed`` (m/s) and, when
-    ``tangential_compliance`` > 0 (m/(N s)), capped at ``|v_r| / tangential_compliance``.
-    Returns the number of pieces (the pieces stay in the scratch arrays).
+    ``blades``: :func:`blade_arrays`; ``formation``: a
+    :class:`~drill_env.physics.formation.FormationArrays`; ``pieces``: a
+    :class:`BitScratch` (left holding the pieces); ``kin``: the :class:`BitKinematics`;
+    ``wob``: weight on bit (N, >= 0); ``gauge``: the :class:`GaugeContact` (gauge
+    friction is regularised linearly below its ``regularisation_speed`` and, when its
+    ``tangential_compliance`` > 0, capped at ``|v_r| / tangential_compliance``).
+    Returns the number of pieces.
     """
     for k in range(out.shape[0]):
         out[k] = 0.0
-    cos_z = math.cos(phi_z)
-    sin_z = math.sin(phi_z)
-    n = _split_blades(blades, normals, offsets, layer_rock, bx, by, depth, cos_z, sin_z,
-                      piece_blade, piece_segment, piece_rock, piece_length, piece_lever)
-    _front_loads(blades, rock_params, cos_z, sin_z, omega, wob, n, piece_blade, piece_segment,
-                 piece_rock, piece_length, piece_lever, out)
-    _gauge_loads(blades, rock_params, bx, by, vx, vy, cos_z, sin_z, omega, hole_radius,
-                 tangential_compliance, regularisation_speed, n, piece_blade, piece_segment,
-                 piece_rock, piece_length, out)
+    cos_z = math.cos(kin.phi_z)
+    sin_z = math.sin(kin.phi_z)
+    n = _split_blades(blades, formation, kin.x, kin.y, kin.depth, cos_z, sin_z, pieces)
+    rock_params = formation.rock_params
+    _front_loads(blades, rock_params, cos_z, sin_z, kin.omega, wob, n, pieces, out)
+    _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out)
     return n

@@ -14,11 +14,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from drill_env.physics.bit import N_BIT_OUT, SHARES, BitOut, Blade, Segment
+from drill_env.physics.formation import Rock
+
 
 @dataclass(frozen=True)
 class Piece:
     blade: int
-    segment: int  # 0 face, 1 shoulder, 2 gauge
+    segment: int  # Segment: face, shoulder, gauge
     rock: int
     length: float
     lever: float
@@ -41,7 +44,9 @@ def rock_of_point(point: np.ndarray, normals: np.ndarray, offsets: np.ndarray,
 def blade_points(blade: np.ndarray, bx: float, by: float, depth: float,
                  phi_z: float) -> tuple[np.ndarray, ...]:
     """A, B, C, D of one blade in the hole frame (eq. 35, z down, SPEC geometry)."""
-    phi, r_a, r_b, _r_c, alpha, l_sh, l_g = blade[:7]  # the geometry, not the cached trig
+    # The geometry from the config's numbers, not the kernel's cached R_C, trig and rise.
+    phi, r_a, r_b = blade[Blade.PHI], blade[Blade.R_A], blade[Blade.R_B]
+    alpha, l_sh, l_g = blade[Blade.ALPHA_SH], blade[Blade.L_SH], blade[Blade.L_G]
     r_c = r_b + l_sh * math.sin(alpha)
     direction = np.array([math.cos(phi + phi_z), math.sin(phi + phi_z), 0.0])
     centre = np.array([bx, by, depth])
@@ -88,31 +93,36 @@ def bit_loads(blades, normals, offsets, layer_rock, rock_params, bx, by, vx, vy,
     rock_params = np.asarray(rock_params, dtype=float)
     n_rock = rock_params.shape[0]
     pieces = split(blades, normals, offsets, layer_rock, bx, by, depth, phi_z)
-    out = np.zeros(10 + n_rock)
+    out = np.zeros(N_BIT_OUT + n_rock)
 
     def mu(j: int, w: float) -> float:
-        mu_min, mu_max, st1, st2 = rock_params[j, :4]
-        return mu_curve(w, mu_min, mu_max, st1, st2)
+        rp = rock_params[j]
+        return mu_curve(w, rp[Rock.MU_MIN], rp[Rock.MU_MAX], rp[Rock.ST1], rp[Rock.ST2])
 
-    l_front = sum((bl[2] - bl[1]) + bl[5] for bl in blades)  # eq. (30)
+    l_front = sum((bl[Blade.R_B] - bl[Blade.R_A]) + bl[Blade.L_SH] for bl in blades)  # (30)
     per_len = wob / l_front  # eq. (40)
     for i, blade in enumerate(blades):
-        theta = blade[0] + phi_z
-        front = [p for p in pieces if p.blade == i and p.segment in (0, 1)]
+        theta = blade[Blade.PHI] + phi_z
+        front = [p for p in pieces if p.blade == i and p.segment != Segment.GAUGE]
         # eqs. (48), (51): blade force and torque summed over rocks and pieces
         f_blade = sum(mu(p.rock, abs(omega)) * p.length for p in front) * per_len
-        f_blade0 = sum(rock_params[p.rock, 1] * p.length for p in front) * per_len
-        out[0] += sum(mu(p.rock, abs(omega)) * p.lever * p.length for p in front) * per_len
-        out[1] += sum(rock_params[p.rock, 1] * p.lever * p.length for p in front) * per_len
-        out[2:4] += f_blade * np.array([math.sin(theta), -math.cos(theta)])  # eq. (49)
-        out[4:6] += f_blade0 * np.array([math.sin(theta), -math.cos(theta)])
+        mu_max = rock_params[:, Rock.MU_MAX]
+        f_blade0 = sum(mu_max[p.rock] * p.length for p in front) * per_len
+        out[BitOut.TORQUE] += sum(mu(p.rock, abs(omega)) * p.lever * p.length
+                                  for p in front) * per_len
+        out[BitOut.TORQUE_STATIC] += sum(mu_max[p.rock] * p.lever * p.length
+                                         for p in front) * per_len
+        direction = np.array([math.sin(theta), -math.cos(theta)])  # eq. (49)
+        out[BitOut.FORCE_X:BitOut.FORCE_Y + 1] += f_blade * direction
+        out[BitOut.FORCE_STATIC_X:BitOut.FORCE_STATIC_Y + 1] += f_blade0 * direction
         for p in front:
-            out[10 + p.rock] += p.length / l_front
-    out[9] = wob * float(np.dot(out[10:], rock_params[:, 6]))
+            out[SHARES + p.rock] += p.length / l_front
+    out[BitOut.DEPTH_OF_CUT] = wob * float(np.dot(out[SHARES:],
+                                                  rock_params[:, Rock.DEPTH_OF_CUT]))
 
     for i, blade in enumerate(blades):
         _, _, _, d = blade_points(blade, bx, by, depth, phi_z)
-        gauge = [p for p in pieces if p.blade == i and p.segment == 2]
+        gauge = [p for p in pieces if p.blade == i and p.segment == Segment.GAUGE]
         l_g = sum(p.length for p in gauge)
         position = d[:2]
         distance = float(np.linalg.norm(position))
@@ -129,7 +139,8 @@ def bit_loads(blades, normals, offsets, layer_rock, rock_params, bx, by, vx, vy,
         l_by_rock = np.zeros(n_rock)
         for p in gauge:
             l_by_rock[p.rock] += p.length
-        f_n = l_by_rock / l_g * (rock_params[:, 4] * f + rock_params[:, 5] * f_dot)
+        f_n = l_by_rock / l_g * (rock_params[:, Rock.WALL_STIFFNESS] * f
+                                 + rock_params[:, Rock.WALL_DAMPING] * f_dot)
         f_n = np.maximum(f_n, 0.0)
         if f_n.sum() == 0.0:
             continue
@@ -142,6 +153,6 @@ def bit_loads(blades, normals, offsets, layer_rock, rock_params, bx, by, vx, vy,
             f_r = min(f_r, abs(v_r) / tangential_compliance)
         f_r *= -np.sign(v_r)
         force = -f_n.sum() * e_n + f_r * e_t
-        out[6:8] += force
-        out[8] += float(arm[0] * force[1] - arm[1] * force[0])
+        out[BitOut.GAUGE_X:BitOut.GAUGE_Y + 1] += force
+        out[BitOut.GAUGE_TORQUE] += float(arm[0] * force[1] - arm[1] * force[0])
     return out

@@ -16,6 +16,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
+from drill_env.physics.units import GRAVITY, INCH
 from drill_env.physics.validation import (
     ConfigError,
     Count,
@@ -41,8 +42,6 @@ __all__ = [
     "require_positive",
 ]
 
-INCH = 0.0254
-GRAVITY = 9.81
 
 #: Longest string (m): the deepest wells drilled are ~12 km measured depth.
 MAX_STRING_LENGTH = 15_000.0

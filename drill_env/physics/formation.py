@@ -19,6 +19,7 @@ numba code without Python objects.
 from __future__ import annotations
 
 import math
+from enum import IntEnum
 from typing import NamedTuple
 
 import numpy as np
@@ -27,15 +28,13 @@ from scipy.optimize import brentq
 
 from drill_env.physics.config import BitConfig, FormationConfig, Interface, RockConfig
 
-# Columns of ``FormationArrays.rock_params``.
-MU_MIN = 0
-MU_MAX = 1
-ST1 = 2
-ST2 = 3
-WALL_STIFFNESS = 4
-WALL_DAMPING = 5
-DEPTH_OF_CUT = 6
-N_ROCK_PARAMS = 7
+#: Columns of ``FormationArrays.rock_params``: one row per rock (RockConfig fields).
+Rock = IntEnum("Rock", [
+    "MU_MIN", "MU_MAX", "ST1", "ST2",     # resistance curve, eq. (39)
+    "WALL_STIFFNESS", "WALL_DAMPING",     # gauge contact, eq. (55)
+    "DEPTH_OF_CUT",                       # m/(rev N), docs/model.md "Penetration"
+], start=0)
+N_ROCK_PARAMS = len(Rock)
 
 
 class FormationArrays(NamedTuple):
@@ -65,16 +64,11 @@ def interface_plane(depth: float, dip: float, azimuth: float) -> tuple[np.ndarra
 
 
 def rock_parameter_table(rocks) -> np.ndarray:
-    """``(n_rock, 7)`` table of ``[mu_min, mu_max, st1, st2, k, c, depth_of_cut]``."""
+    """``(n_rock, N_ROCK_PARAMS)`` table: row j holds rock j's fields in :data:`Rock` order."""
     table = np.empty((len(rocks), N_ROCK_PARAMS))
     for j, rock in enumerate(rocks):
-        table[j, MU_MIN] = rock.mu_min
-        table[j, MU_MAX] = rock.mu_max
-        table[j, ST1] = rock.st1
-        table[j, ST2] = rock.st2
-        table[j, WALL_STIFFNESS] = rock.wall_stiffness
-        table[j, WALL_DAMPING] = rock.wall_damping
-        table[j, DEPTH_OF_CUT] = rock.depth_of_cut
+        for column in Rock:
+            table[j, column] = getattr(rock, column.name.lower())
     return table
 
 
@@ -107,12 +101,6 @@ def resistance(omega, mu_min, mu_max, st1, st2):
     return magnitude if omega > 0.0 else -magnitude
 
 
-@njit(cache=True)
-def static_resistance(mu_min, mu_max, st1, st2):
-    """Magnitude of eq. (39) at omega -> 0+ (the static, breakaway coefficient)."""
-    return mu_max
-
-
 @njit(cache=True, inline="always")
 def layer_at(x, y, z, normals, offsets):
     """Number of interfaces the point (x, y, z) lies below (its layer index)."""
@@ -142,13 +130,12 @@ def front_shares(bit_cfg: BitConfig, formation: FormationArrays, depth: float,
     from drill_env.physics import bit  # late import: bit imports this module
 
     blades = bit.blade_arrays(bit_cfg)
-    scratch = bit.make_bit_scratch(blades.shape[0], formation.n_interfaces)
+    pieces = bit.make_bit_scratch(blades.shape[0], formation.n_interfaces)
     shares = np.zeros(formation.n_rocks)
     for phi_z in np.arange(n_phi) * (2.0 * math.pi / n_phi):
-        n = bit.split_blades(blades, formation.normals, formation.offsets,
-                             formation.layer_rock, bx, by, depth, phi_z, *scratch)
-        front = scratch.piece_segment[:n] != bit.GAUGE
-        np.add.at(shares, scratch.piece_rock[:n][front], scratch.piece_length[:n][front])
+        n = bit.split_blades(blades, formation, bx, by, depth, phi_z, pieces)
+        front = pieces.segment[:n] != bit.Segment.GAUGE
+        np.add.at(shares, pieces.rock[:n][front], pieces.length[:n][front])
     return shares / shares.sum()
 
 
@@ -156,10 +143,9 @@ def _front_points(bit_cfg: BitConfig) -> tuple[np.ndarray, np.ndarray]:
     """Radii and axial offsets (z - face depth) of points A, B, C of every blade."""
     from drill_env.physics import bit
 
-    blades = bit.blade_arrays(bit_cfg)
-    cos_a = np.cos(blades[:, bit.ALPHA_SH])
-    radii = np.concatenate([blades[:, bit.R_A], blades[:, bit.R_B], blades[:, bit.R_C]])
-    dz = np.concatenate([np.zeros(2 * len(blades)), -blades[:, bit.L_SH] * cos_a])
+    points = bit.blade_points(bit.blade_arrays(bit_cfg))[:, :3]  # A, B, C
+    radii = points[:, :, 0].T.reshape(-1)
+    dz = -points[:, :, 1].T.reshape(-1)  # z grows downward; heights are above the face
     return radii, dz
 
 

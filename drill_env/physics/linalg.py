@@ -12,105 +12,27 @@ from numba import njit
 
 
 @njit(cache=True)
-def band_cholesky(band, out):
-    """Factor the SPD band matrix ``band`` into ``out``; returns False if not SPD."""
+def band_cholesky(band, factor):
+    """Factor the SPD band matrix ``band`` into ``factor``; returns False if not SPD."""
     p = band.shape[0] - 1
     n = band.shape[1]
     for i in range(n):
         s = band[0, i]
         for k in range(max(0, i - p), i):
-            u = out[i - k, k]
+            u = factor[i - k, k]
             s -= u * u
         if not s > 0.0:
             return False
         diag = np.sqrt(s)
-        out[0, i] = 1.0 / diag
+        factor[0, i] = 1.0 / diag
         for j in range(i + 1, min(n, i + p + 1)):
             s = band[j - i, i]
             for k in range(max(0, j - p), i):
-                s -= out[i - k, k] * out[j - k, k]
-            out[j - i, i] = s / diag
+                s -= factor[i - k, k] * factor[j - k, k]
+            factor[j - i, i] = s / diag
         for d in range(min(n, i + p + 1) - i, p + 1):
-            out[d, i] = 0.0
+            factor[d, i] = 0.0
     return True
-
-
-@njit(cache=True)
-def band_solve(factor, b):
-    """Solve A x = b in place for a vector b, given ``band_cholesky``'s factor."""
-    p = factor.shape[0] - 1
-    n = factor.shape[1]
-    for i in range(n):  # U^T y = b
-        s = b[i]
-        for k in range(max(0, i - p), i):
-            s -= factor[i - k, k] * b[k]
-        b[i] = s * factor[0, i]
-    for i in range(n - 1, -1, -1):  # U x = y
-        s = b[i]
-        for j in range(i + 1, min(n, i + p + 1)):
-            s -= factor[j - i, i] * b[j]
-        b[i] = s * factor[0, i]
-
-
-@njit(cache=True)
-def band_solve2(factor, b):
-    """Solve A X = B in place for B of shape (n, 2): the two bending planes at once."""
-    p = factor.shape[0] - 1
-    n = factor.shape[1]
-    for i in range(n):
-        s0 = b[i, 0]
-        s1 = b[i, 1]
-        for k in range(max(0, i - p), i):
-            f = factor[i - k, k]
-            s0 -= f * b[k, 0]
-            s1 -= f * b[k, 1]
-        b[i, 0] = s0 * factor[0, i]
-        b[i, 1] = s1 * factor[0, i]
-    for i in range(n - 1, -1, -1):
-        s0 = b[i, 0]
-        s1 = b[i, 1]
-        for j in range(i + 1, min(n, i + p + 1)):
-            f = factor[j - i, i]
-            s0 -= f * b[j, 0]
-            s1 -= f * b[j, 1]
-        b[i, 0] = s0 * factor[0, i]
-        b[i, 1] = s1 * factor[0, i]
-
-
-@njit(cache=True)
-def band_matvec_sub(band, x, y, scale):
-    """y -= scale * A x for a symmetric band matrix and vectors x, y."""
-    p = band.shape[0] - 1
-    n = band.shape[1]
-    for i in range(n):
-        s = band[0, i] * x[i]
-        for d in range(1, p + 1):
-            if i + d < n:
-                s += band[d, i] * x[i + d]
-            if i - d >= 0:
-                s += band[d, i - d] * x[i - d]
-        y[i] -= scale * s
-
-
-@njit(cache=True)
-def band_matvec_sub2(band, x, y, scale):
-    """y -= scale * A x for x, y of shape (n, 2)."""
-    p = band.shape[0] - 1
-    n = band.shape[1]
-    for i in range(n):
-        s0 = band[0, i] * x[i, 0]
-        s1 = band[0, i] * x[i, 1]
-        for d in range(1, p + 1):
-            if i + d < n:
-                a = band[d, i]
-                s0 += a * x[i + d, 0]
-                s1 += a * x[i + d, 1]
-            if i - d >= 0:
-                a = band[d, i - d]
-                s0 += a * x[i - d, 0]
-                s1 += a * x[i - d, 1]
-        y[i, 0] -= scale * s0
-        y[i, 1] -= scale * s1
 
 
 # --------------------------------------------------------------------------- fast paths

@@ -18,18 +18,11 @@ import math
 
 from numba import njit
 
-from drill_env.physics import integrator as ig
-from drill_env.physics.bit import mesoscopic_bit_loads
+from drill_env.physics import integrator
+from drill_env.physics.bit import SHARES, BitKinematics, GaugeContact, mesoscopic_bit_loads
+from drill_env.physics.layout import N_READINGS, READ, READINGS, P, S
 
-#: The readings, in the order of the array :func:`readout` fills; the share of each rock
-#: of the formation (``Simulator.rock_share``) follows them.
-READINGS = (
-    "time", "depth", "bit_speed", "surface_speed", "torque_on_bit", "surface_torque",
-    "weight_on_bit", "hook_load", "rop", "bit_x", "bit_y", "bit_vx", "bit_vy", "whirl_speed",
-    "bit_force_x", "bit_force_y", "max_contact_force", "status",
-)
-N_READINGS = len(READINGS)
-R = {name: k for k, name in enumerate(READINGS)}
+__all__ = ["N_READINGS", "READ", "READINGS", "advance_and_read", "readout", "whirl_speed"]
 
 #: Radius^2 (m^2) below which the bit counts as centred and its whirl speed is 0.
 WHIRL_MIN_RADIUS_SQ = 1e-12
@@ -47,82 +40,72 @@ def whirl_speed(x, y, vx, vy):
 
 
 @njit(cache=True, nogil=True)
-def readout(p, state, ul, vl, ut, vt, node_force, blades, normals, offsets, layer_rock,
-            rock_params, piece_blade, piece_segment, piece_rock, piece_length, piece_lever,
-            bit_out, out):
-    """Write the :data:`READINGS` and the rock shares of one simulator into ``out``.
+def readout(a, out):
+    """Write the :data:`READINGS` and the rock shares of one simulator (its
+    :class:`~drill_env.physics.layout.KernelArrays`) into ``out``.
 
-    ``ul``, ``vl``: the plane-major lateral displacement and velocity ``(2, n_lat)``; the
-    bit's lateral DOFs are column ``n_lat - 2``. The rock share runs the bit model once
-    more (its scratch arrays and ``bit_out`` are overwritten; the integrator writes them
-    before reading them every step). A stopped simulator gets NaN rock shares.
+    The bit's lateral DOFs are the next-to-last column of the plane-major ``motion.ul``.
+    The rock share runs the bit model once more (its piece scratch and ``bit.out`` are
+    overwritten; the integrator writes them before reading them every step). A stopped
+    simulator gets NaN rock shares.
     """
-    n_lat = ul.shape[1]
-    x = ul[0, n_lat - 2]
-    y = ul[1, n_lat - 2]
-    vx = vl[0, n_lat - 2]
-    vy = vl[1, n_lat - 2]
-    omega = vt[vt.shape[0] - 1]
-    wob = state[ig.S_WOB]
-    status = state[ig.S_STATUS]
-    out[0] = state[ig.S_TIME]
-    out[1] = state[ig.S_DEPTH]
-    out[2] = omega
-    out[3] = vt[0]
-    out[4] = state[ig.S_TOB]
-    out[5] = state[ig.S_SURFACE_TORQUE]
-    out[6] = wob
-    out[7] = state[ig.S_HOOK_LOAD]
-    out[8] = state[ig.S_ROP]
-    out[9] = x
-    out[10] = y
-    out[11] = vx
-    out[12] = vy
-    out[13] = whirl_speed(x, y, vx, vy)
-    out[14] = state[ig.S_BIT_FX]
-    out[15] = state[ig.S_BIT_FY]
+    p = a.params
+    state = a.state
+    m = a.motion
+    n_lat = m.ul.shape[1]
+    x = m.ul[0, n_lat - 2]
+    y = m.ul[1, n_lat - 2]
+    vx = m.vl[0, n_lat - 2]
+    vy = m.vl[1, n_lat - 2]
+    omega = m.vt[m.vt.shape[0] - 1]
+    wob = state[S.WOB]
+    status = state[S.STATUS]
+    out[READ.TIME] = state[S.TIME]
+    out[READ.DEPTH] = state[S.DEPTH]
+    out[READ.BIT_SPEED] = omega
+    out[READ.SURFACE_SPEED] = m.vt[0]
+    out[READ.TORQUE_ON_BIT] = state[S.TOB]
+    out[READ.SURFACE_TORQUE] = state[S.SURFACE_TORQUE]
+    out[READ.WEIGHT_ON_BIT] = wob
+    out[READ.HOOK_LOAD] = state[S.HOOK_LOAD]
+    out[READ.ROP] = state[S.ROP]
+    out[READ.BIT_X] = x
+    out[READ.BIT_Y] = y
+    out[READ.BIT_VX] = vx
+    out[READ.BIT_VY] = vy
+    out[READ.WHIRL_SPEED] = whirl_speed(x, y, vx, vy)
+    out[READ.BIT_FORCE_X] = state[S.BIT_FX]
+    out[READ.BIT_FORCE_Y] = state[S.BIT_FY]
     # Largest wall force; the mesoscopic bit node shows its gauge force (contact_forces).
+    node_force = a.work.node_force
     n = node_force.shape[0]
-    peak = state[ig.S_GAUGE_FORCE] if p[ig.P_MACRO_BIT] == 0.0 else node_force[n - 1]
+    peak = state[S.GAUGE_FORCE] if p[P.MACRO_BIT] == 0.0 else node_force[n - 1]
     for k in range(n - 1):  # np.max: NaN wins
         if node_force[k] > peak or node_force[k] != node_force[k]:
             peak = node_force[k]
             if peak != peak:
                 break
-    out[16] = peak
-    out[17] = status
+    out[READ.MAX_CONTACT_FORCE] = peak
+    out[READ.STATUS] = status
     n_rocks = out.shape[0] - N_READINGS
     if status != 0.0:
         for k in range(n_rocks):
             out[N_READINGS + k] = math.nan
         return
-    mesoscopic_bit_loads(blades, normals, offsets, layer_rock, rock_params, x, y, 0.0, 0.0,
-                         state[ig.S_DEPTH], ut[ut.shape[0] - 1],
-                         max(abs(omega), SHARE_MIN_SPEED), max(wob, SHARE_MIN_WOB),
-                         p[ig.P_HOLE_RADIUS], 0.0, p[ig.P_V_REG], piece_blade, piece_segment,
-                         piece_rock, piece_length, piece_lever, bit_out)
+    bit = a.bit
+    mesoscopic_bit_loads(bit.blades, bit.formation, bit.pieces,
+                         BitKinematics(x, y, 0.0, 0.0, state[S.DEPTH], m.ut[m.ut.shape[0] - 1],
+                                       max(abs(omega), SHARE_MIN_SPEED)),
+                         max(wob, SHARE_MIN_WOB), GaugeContact(p[P.HOLE_RADIUS], 0.0, p[P.V_REG]),
+                         bit.out)
     for k in range(n_rocks):
-        out[N_READINGS + k] = bit_out[10 + k]
+        out[N_READINGS + k] = bit.out[SHARES + k]
 
 
 @njit(cache=True, nogil=True)
-def advance_and_read(n_steps, record_every, p, state,
-                     lat_k, lat_kg_weight, lat_kg_unit, lat_m, lat_factor, lat_work_band,
-                     lat_k_total, lat_k_damp, tor_k, tor_c, tor_factor, col_bit,
-                     node_clearance, node_radius, node_contact, compliance,
-                     ul, vl, al, ut, vt, at, rl, rt, contact_out, node_force,
-                     blades, normals, offsets, layer_rock, rock_params,
-                     piece_blade, piece_segment, piece_rock, piece_length, piece_lever,
-                     bit_out, record, readings):
+def advance_and_read(n_steps, record_every, a, readings):
     """:func:`~drill_env.physics.integrator.advance`, then :func:`readout` into
     ``readings``; returns the number of records."""
-    n_rec = ig.advance(n_steps, record_every, p, state, lat_k, lat_kg_weight, lat_kg_unit,
-                       lat_m, lat_factor, lat_work_band, lat_k_total, lat_k_damp, tor_k,
-                       tor_c, tor_factor, col_bit, node_clearance, node_radius, node_contact,
-                       compliance, ul, vl, al, ut, vt, at, rl, rt, contact_out, node_force,
-                       blades, normals, offsets, layer_rock, rock_params, piece_blade,
-                       piece_segment, piece_rock, piece_length, piece_lever, bit_out, record)
-    readout(p, state, ul, vl, ut, vt, node_force, blades, normals, offsets, layer_rock,
-            rock_params, piece_blade, piece_segment, piece_rock, piece_length, piece_lever,
-            bit_out, readings)
+    n_rec = integrator.advance(n_steps, record_every, a)
+    readout(a, readings)
     return n_rec

@@ -36,15 +36,16 @@ import numpy as np
 import scipy.linalg
 
 from drill_env.physics import bit_reference
-from drill_env.physics import integrator as ig
-from drill_env.physics.bit import bit_lever_arm
-from drill_env.physics.config import GRAVITY
+from drill_env.physics.bit import BitOut, bit_lever_arm
 from drill_env.physics.fem import (
     assemble_lateral,
     assemble_torsion,
     axial_force_profile,
     mud_torsional_damping,
 )
+from drill_env.physics.formation import Rock
+from drill_env.physics.layout import N_RECORD, R, S, Status
+from drill_env.physics.units import GRAVITY
 
 BETA = 0.25  # Newmark average acceleration
 GAMMA = 0.5
@@ -193,13 +194,13 @@ class ReferenceStepper:
         """Same contract as :meth:`Simulator.advance`."""
         st = self.state
         if speed_setpoint is not None:
-            st[ig.S_SETPOINT_TARGET] = speed_setpoint
+            st[S.SETPOINT_TARGET] = speed_setpoint
         if hook_load is not None:
-            st[ig.S_HOOK_LOAD] = hook_load
-            st[ig.S_WOB] = max(0.0, self.string_weight - hook_load)
-        wob = st[ig.S_WOB]
+            st[S.HOOK_LOAD] = hook_load
+            st[S.WOB] = max(0.0, self.string_weight - hook_load)
+        wob = st[S.WOB]
         self._factor_lateral(wob)
-        st[ig.S_WOB_FACTORED] = wob
+        st[S.WOB_FACTORED] = wob
         records = []
         for step in range(n_steps):
             rec = self.step(wob)
@@ -207,7 +208,7 @@ class ReferenceStepper:
                 break
             if record_every > 0 and (step + 1) % record_every == 0:
                 records.append(rec)
-        return np.array(records).reshape(-1, ig.N_RECORD)
+        return np.array(records).reshape(-1, N_RECORD)
 
     def step(self, wob: float) -> np.ndarray | None:
         """One Newmark step; returns the record row, or None if the state diverged."""
@@ -226,17 +227,17 @@ class ReferenceStepper:
 
         # --- top drive: rate-limited set point, PI with torque limit and anti-windup
         lim = cfg.top_drive.max_acceleration * dt
-        sp = st[ig.S_SETPOINT] + float(np.clip(st[ig.S_SETPOINT_TARGET] - st[ig.S_SETPOINT],
+        sp = st[S.SETPOINT] + float(np.clip(st[S.SETPOINT_TARGET] - st[S.SETPOINT],
                                                -lim, lim))
-        st[ig.S_SETPOINT] = sp
+        st[S.SETPOINT] = sp
         err = sp - vt[0]
-        t_unsat = self.kp * err + self.ki * st[ig.S_PI_INTEGRAL]
+        t_unsat = self.kp * err + self.ki * st[S.PI_INTEGRAL]
         t_max = cfg.top_drive.max_torque
         t_motor = min(max(t_unsat, -t_max), t_max)
         if t_motor == t_unsat or (err > 0.0) != (t_unsat > 0.0):
-            st[ig.S_PI_INTEGRAL] += err * dt
+            st[S.PI_INTEGRAL] += err * dt
         rt[0] += t_motor
-        st[ig.S_MOTOR_TORQUE] = t_motor
+        st[S.MOTOR_TORQUE] = t_motor
 
         # --- wall contact
         max_wall = 0.0
@@ -252,38 +253,40 @@ class ReferenceStepper:
             self.node_force[1:] = 0.0
             self.node_force[k] = fn
             max_wall = float(fn.max(initial=0.0))
-        st[ig.S_MAX_WALL_FORCE] = max_wall
+        st[S.MAX_WALL_FORCE] = max_wall
 
         # --- bit at the predicted state
         bx, by = ul[2 * bit, 0], ul[2 * bit, 1]
         omega_p = vt[bit]
-        depth = st[ig.S_DEPTH]
+        depth = st[S.DEPTH]
         gauge_x = gauge_y = 0.0
         if self.macroscopic:
             point = np.array([bx, by, depth])
             rock = int(self.layer_rock[int(np.count_nonzero(
                 self.normals.reshape(-1, 3) @ point > self.offsets))])
             rp = self.rock_params[rock]
-            mu_slip = abs(bit_reference.mu_curve(max(abs(omega_p), 1e-9), *rp[:4]))
+            mu_slip = abs(bit_reference.mu_curve(max(abs(omega_p), 1e-9), rp[Rock.MU_MIN],
+                                                 rp[Rock.MU_MAX], rp[Rock.ST1], rp[Rock.ST2]))
             t_slip = self.lever_arm * mu_slip * wob  # eq. (38)
-            t_static = self.lever_arm * rp[1] * wob
+            t_static = self.lever_arm * rp[Rock.MU_MAX] * wob
             fx_slip = fy_slip = fx_static = fy_static = 0.0
-            st[ig.S_DEPTH_OF_CUT] = rp[6] * wob
-            st[ig.S_GAUGE_FORCE] = 0.0
+            st[S.DEPTH_OF_CUT] = rp[Rock.DEPTH_OF_CUT] * wob
+            st[S.GAUGE_FORCE] = 0.0
         else:
             out = bit_reference.bit_loads(
                 self.blades, self.normals, self.offsets, self.layer_rock, self.rock_params,
                 bx, by, vl[2 * bit, 0], vl[2 * bit, 1], depth, ut[bit],
                 omega_p if omega_p != 0.0 else 1e-9, wob,  # mu(0) = 0: break away at 0+
                 self.hole_radius, self.compliance[bit], cfg.contact.regularisation_speed)
-            t_slip, t_static = out[0], out[1]
-            fx_slip, fy_slip, fx_static, fy_static = out[2:6]
-            gauge_x, gauge_y = out[6], out[7]
+            t_slip, t_static = out[BitOut.TORQUE], out[BitOut.TORQUE_STATIC]
+            fx_slip, fy_slip = out[BitOut.FORCE_X], out[BitOut.FORCE_Y]
+            fx_static, fy_static = out[BitOut.FORCE_STATIC_X], out[BitOut.FORCE_STATIC_Y]
+            gauge_x, gauge_y = out[BitOut.GAUGE_X], out[BitOut.GAUGE_Y]
             rl[2 * bit, 0] += gauge_x
             rl[2 * bit, 1] += gauge_y
-            rt[bit] += out[8]
-            st[ig.S_GAUGE_FORCE] = math.hypot(gauge_x, gauge_y)
-            st[ig.S_DEPTH_OF_CUT] = out[9]
+            rt[bit] += out[BitOut.GAUGE_TORQUE]
+            st[S.GAUGE_FORCE] = math.hypot(gauge_x, gauge_y)
+            st[S.DEPTH_OF_CUT] = out[BitOut.DEPTH_OF_CUT]
 
         # --- torsion: free solution, then exact stick or slip of the bit
         rt -= self.c_tor @ vt + self.k_tor @ ut
@@ -296,8 +299,8 @@ class ReferenceStepper:
             t_bit = -t_slip if v_free > 0.0 else t_slip
             stuck = 0.0
         at[:] = a_free + t_bit * self.col_bit
-        st[ig.S_STUCK] = stuck
-        st[ig.S_TOB] = -t_bit
+        st[S.STUCK] = stuck
+        st[S.TOB] = -t_bit
 
         # --- lateral: the front cutting force follows the bit torque
         if stuck > 0.0:
@@ -309,8 +312,8 @@ class ReferenceStepper:
             fbx, fby = -fx_slip, -fy_slip
         rl[2 * bit, 0] += fbx
         rl[2 * bit, 1] += fby
-        st[ig.S_BIT_FX] = fbx + gauge_x
-        st[ig.S_BIT_FY] = fby + gauge_y
+        st[S.BIT_FX] = fbx + gauge_x
+        st[S.BIT_FY] = fby + gauge_y
         f = self.free
         if lateral:
             rl[f] -= (self.a_ray * self.m_lat[f])[:, None] * vl[f] \
@@ -329,39 +332,39 @@ class ReferenceStepper:
 
         # --- penetration, bookkeeping
         omega_bit = vt[bit]
-        rop = st[ig.S_DEPTH_OF_CUT] * max(omega_bit, 0.0) / (2.0 * np.pi)
-        st[ig.S_ROP] = rop
-        st[ig.S_DEPTH] += rop * dt
-        st[ig.S_TIME] += dt
-        st[ig.S_STEPS] += 1.0
-        st[ig.S_MECH_ENERGY_BIT] += abs(t_bit * omega_bit) * dt
-        st[ig.S_TOP_DRIVE_ENERGY] += abs(t_motor * vt[0]) * dt
+        rop = st[S.DEPTH_OF_CUT] * max(omega_bit, 0.0) / (2.0 * np.pi)
+        st[S.ROP] = rop
+        st[S.DEPTH] += rop * dt
+        st[S.TIME] += dt
+        st[S.STEPS] += 1.0
+        st[S.MECH_ENERGY_BIT] += abs(t_bit * omega_bit) * dt
+        st[S.TOP_DRIVE_ENERGY] += abs(t_motor * vt[0]) * dt
         k0 = self.mesh.torsional_stiffness[0] / self.mesh.element_length[0]
-        st[ig.S_SURFACE_TORQUE] = k0 * ((ut[0] - ut[1]) + self.b_ray * (vt[0] - vt[1]))
+        st[S.SURFACE_TORQUE] = k0 * ((ut[0] - ut[1]) + self.b_ray * (vt[0] - vt[1]))
         if not np.all(np.isfinite([omega_bit, ul[2 * bit, 0], ul[2 * bit, 1], vt[0]])):
-            st[ig.S_STATUS] = ig.STATUS_NONFINITE
+            st[S.STATUS] = Status.NONFINITE
             return None
         if abs(omega_bit) > 1.0e3 or bx * bx + by * by > 1.0:
-            st[ig.S_STATUS] = ig.STATUS_RUNAWAY
+            st[S.STATUS] = Status.RUNAWAY
             return None
 
         x, y = ul[2 * bit]
         r2 = x * x + y * y
-        rec = np.zeros(ig.N_RECORD)
-        rec[ig.R_TIME] = st[ig.S_TIME]
-        rec[ig.R_BIT_SPEED] = omega_bit
-        rec[ig.R_SURFACE_SPEED] = vt[0]
-        rec[ig.R_TOB] = st[ig.S_TOB]
-        rec[ig.R_SURFACE_TORQUE] = st[ig.S_SURFACE_TORQUE]
-        rec[ig.R_WOB] = wob
-        rec[ig.R_BIT_X] = x
-        rec[ig.R_BIT_Y] = y
-        rec[ig.R_WHIRL] = (x * vl[2 * bit, 1] - vl[2 * bit, 0] * y) / r2 if r2 > 1e-12 else 0.0
-        rec[ig.R_DEPTH] = st[ig.S_DEPTH]
-        rec[ig.R_ROP] = rop
-        rec[ig.R_MOTOR_TORQUE] = t_motor
-        rec[ig.R_BIT_FX] = st[ig.S_BIT_FX]
-        rec[ig.R_BIT_FY] = st[ig.S_BIT_FY]
-        rec[ig.R_MAX_WALL_FORCE] = max_wall
-        rec[ig.R_STUCK] = stuck
+        rec = np.zeros(N_RECORD)
+        rec[R.TIME] = st[S.TIME]
+        rec[R.BIT_SPEED] = omega_bit
+        rec[R.SURFACE_SPEED] = vt[0]
+        rec[R.TORQUE_ON_BIT] = st[S.TOB]
+        rec[R.SURFACE_TORQUE] = st[S.SURFACE_TORQUE]
+        rec[R.WEIGHT_ON_BIT] = wob
+        rec[R.BIT_X] = x
+        rec[R.BIT_Y] = y
+        rec[R.WHIRL_SPEED] = (x * vl[2 * bit, 1] - vl[2 * bit, 0] * y) / r2 if r2 > 1e-12 else 0.0
+        rec[R.DEPTH] = st[S.DEPTH]
+        rec[R.ROP] = rop
+        rec[R.MOTOR_TORQUE] = t_motor
+        rec[R.BIT_FORCE_X] = st[S.BIT_FX]
+        rec[R.BIT_FORCE_Y] = st[S.BIT_FY]
+        rec[R.MAX_WALL_FORCE] = max_wall
+        rec[R.STUCK] = stuck
         return rec

@@ -13,8 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drill_env.physics import integrator as ig
+from drill_env.physics import integrator
 from drill_env.physics.bit import (
+    SHARES,
+    BitKinematics,
+    BitOut,
+    GaugeContact,
     bit_lever_arm,
     blade_arrays,
     make_bit_scratch,
@@ -32,28 +36,38 @@ from drill_env.physics.fem import (
     mud_torsional_damping,
     to_band,
 )
-from drill_env.physics.formation import DEPTH_OF_CUT, formation_arrays, resistance, rock_at
+from drill_env.physics.formation import Rock, formation_arrays, resistance, rock_at
+from drill_env.physics.layout import (
+    N_PARAMS,
+    N_READINGS,
+    N_RECORD,
+    N_STATE,
+    RECORD_CHANNELS,
+    BitArrays,
+    KernelArrays,
+    LateralSystem,
+    Motion,
+    Nodes,
+    P,
+    S,
+    Status,
+    TorsionSystem,
+    Work,
+)
 from drill_env.physics.linalg import band_cholesky, cholesky_to_ldl
-from drill_env.physics.readings import N_READINGS, advance_and_read, readout
+from drill_env.physics.readings import advance_and_read, readout
+from drill_env.physics.top_drive import stiff_pi_gains
 
-#: Status set by :meth:`Simulator.advance` when a hook load compresses the string
-#: beyond what the mesh resolves (see :meth:`Simulator.check_mesh_resolves`).
-STATUS_MESH_BUCKLING = 4
+__all__ = ["RECORD_CHANNELS", "STATUS_MESSAGES", "OperatingPoint", "Simulator", "Status"]
 
 STATUS_MESSAGES = {
-    ig.STATUS_OK: "",
-    ig.STATUS_NONFINITE: "simulation diverged: non-finite state",
-    ig.STATUS_RUNAWAY: "simulation diverged: bit speed or lateral displacement out of range",
-    ig.STATUS_SINGULAR: "lateral stiffness not positive definite: string buckled beyond "
-                        "what the time step can hold (reduce weight on bit)",
+    Status.OK: "",
+    Status.NONFINITE: "simulation diverged: non-finite state",
+    Status.RUNAWAY: "simulation diverged: bit speed or lateral displacement out of range",
+    Status.SINGULAR: "lateral stiffness not positive definite: string buckled beyond what "
+                     "the time step can hold (reduce weight on bit)",
+    Status.MESH_BUCKLING: "string buckled beyond the mesh resolution",
 }
-
-#: Record channels, in the order of the ``record`` columns.
-RECORD_CHANNELS = (
-    "time", "bit_speed", "surface_speed", "torque_on_bit", "surface_torque", "weight_on_bit",
-    "bit_x", "bit_y", "whirl_speed", "depth", "rop", "motor_torque", "bit_force_x",
-    "bit_force_y", "max_wall_force", "stuck",
-)
 
 
 @dataclass
@@ -153,8 +167,9 @@ class Simulator:
         fa = formation_arrays(cfg.formation)
         self.normals, self.offsets = fa.normals, fa.offsets
         self.layer_rock, self.rock_params = fa.layer_rock, fa.rock_params
+        self.formation = fa
         self.bit_scratch = make_bit_scratch(cfg.bit.n_blades, fa.offsets.shape[0])
-        self.bit_out = np.zeros(10 + self.rock_params.shape[0])
+        self.bit_out = np.zeros(SHARES + self.rock_params.shape[0])
 
         # ---- time step and the implicit matrices
         self.dt = self.stable_time_step()
@@ -176,12 +191,12 @@ class Simulator:
         self.rt = np.zeros(n)
         self.contact_out = np.zeros(4)
         self.node_force = np.zeros(n)
-        self.state = np.zeros(ig.N_STATE)
-        self._record = np.zeros((1, ig.N_RECORD))
-        #: :data:`~drill_env.physics.readings.READINGS` + rock shares, refreshed by
+        self.state = np.zeros(N_STATE)
+        #: :data:`~drill_env.physics.layout.READINGS` + rock shares, refreshed by
         #: :meth:`read` (and by ``advance(..., read=True)`` and batched advances).
         self.readings = np.zeros(N_READINGS + self.rock_params.shape[0])
         self._warned_compression = False
+        self._bind_arrays(np.zeros((1, N_RECORD)))
         self.reset()
 
     # ------------------------------------------------------------------ set-up
@@ -189,23 +204,44 @@ class Simulator:
     def _bind_lateral_views(self) -> None:
         self.ul, self.vl, self.al = (plane.T for plane in self.lat_planes)
 
+    def _bind_arrays(self, record: np.ndarray) -> None:
+        """(Re)build :attr:`arrays`, the kernel's view of this simulator's storage."""
+        self.arrays = KernelArrays(
+            params=self.params, state=self.state,
+            lateral=LateralSystem(self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m,
+                                  self.lat_k_damp, self.lat_k_total, self.lat_work_band,
+                                  self.lat_factor),
+            torsion=TorsionSystem(self.tor_k, self.tor_c, self.tor_factor, self.col_bit),
+            nodes=Nodes(self.node_clearance, self.node_radius, self.node_contact,
+                        self.compliance),
+            motion=Motion(self.lat_planes[0], self.lat_planes[1], self.lat_planes[2],
+                          self.ut, self.vt, self.at),
+            work=Work(self.rl, self.rt, self.contact_out, self.node_force),
+            bit=BitArrays(self.blades, self.formation, self.bit_scratch, self.bit_out),
+            record=record)
+
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        for name in ("ul", "vl", "al"):  # views: pickling would detach them
+        for name in ("ul", "vl", "al", "arrays"):  # views: pickling would detach them
             del state[name]
+        state["_record"] = self.arrays.record
         return state
 
     def __setstate__(self, state: dict) -> None:
+        record = state.pop("_record")
         self.__dict__.update(state)
         self._bind_lateral_views()
+        self._bind_arrays(record)
 
     @property
     def top_drive_gains(self) -> tuple[float, float]:
-        """(P, I) of the speed loop; the stiff defaults are 50 Z and 5 J_td."""
+        """(P, I) of the speed loop; by default the stiff PI rule (:func:`~drill_env.
+        physics.top_drive.stiff_pi_gains`)."""
         td = self.config.top_drive
-        z = self.config.string.drill_pipe.torsional_impedance
-        kp = 50.0 * z if td.proportional_gain is None else td.proportional_gain
-        ki = 5.0 * td.inertia if td.integral_gain is None else td.integral_gain
+        kp, ki = stiff_pi_gains(self.config.string.drill_pipe.torsional_impedance,
+                                td.inertia)
+        kp = kp if td.proportional_gain is None else td.proportional_gain
+        ki = ki if td.integral_gain is None else td.integral_gain
         return kp, ki
 
     def stable_time_step(self) -> float:
@@ -237,37 +273,37 @@ class Simulator:
 
     def _build_parameters(self) -> None:
         cfg = self.config
-        p = np.zeros(ig.N_PARAMS)
-        p[ig.P_DT] = self.dt
-        p[ig.P_BETA] = 0.25
-        p[ig.P_GAMMA] = 0.5
-        p[ig.P_RAYLEIGH_A] = cfg.damping.mass_proportional
-        p[ig.P_RAYLEIGH_B] = cfg.damping.stiffness_proportional
+        p = np.zeros(N_PARAMS)
+        p[P.DT] = self.dt
+        p[P.BETA] = 0.25
+        p[P.GAMMA] = 0.5
+        p[P.RAYLEIGH_A] = cfg.damping.mass_proportional
+        p[P.RAYLEIGH_B] = cfg.damping.stiffness_proportional
         c = cfg.contact
-        p[ig.P_WALL_K] = c.stiffness
-        p[ig.P_WALL_C] = c.damping
-        p[ig.P_MU_STATIC] = c.friction_static
-        p[ig.P_MU_KINETIC] = c.friction_kinetic
-        p[ig.P_MU_DECAY] = c.friction_decay_speed
-        p[ig.P_V_REG] = c.regularisation_speed
-        p[ig.P_CONTACT_ON] = 1.0 if c.enabled else 0.0
+        p[P.WALL_K] = c.stiffness
+        p[P.WALL_C] = c.damping
+        p[P.MU_STATIC] = c.friction_static
+        p[P.MU_KINETIC] = c.friction_kinetic
+        p[P.MU_DECAY] = c.friction_decay_speed
+        p[P.V_REG] = c.regularisation_speed
+        p[P.CONTACT_ON] = 1.0 if c.enabled else 0.0
         kp, ki = self.top_drive_gains
-        p[ig.P_KP] = kp
-        p[ig.P_KI] = ki
-        p[ig.P_TORQUE_MAX] = cfg.top_drive.max_torque
-        p[ig.P_ACCEL_MAX] = cfg.top_drive.max_acceleration
-        p[ig.P_HOLE_RADIUS] = cfg.string.hole_diameter / 2
-        p[ig.P_MACRO_BIT] = 1.0 if cfg.bit_model == "macroscopic" else 0.0
-        p[ig.P_LEVER_ARM] = self.lever_arm
-        p[ig.P_LATERAL] = 1.0 if cfg.solver.lateral else 0.0
-        p[ig.P_LATERAL_START] = self.lateral_start
+        p[P.KP] = kp
+        p[P.KI] = ki
+        p[P.TORQUE_MAX] = cfg.top_drive.max_torque
+        p[P.ACCEL_MAX] = cfg.top_drive.max_acceleration
+        p[P.HOLE_RADIUS] = cfg.string.hole_diameter / 2
+        p[P.MACRO_BIT] = 1.0 if cfg.bit_model == "macroscopic" else 0.0
+        p[P.LEVER_ARM] = self.lever_arm
+        p[P.LATERAL] = 1.0 if cfg.solver.lateral else 0.0
+        p[P.LATERAL_START] = self.lateral_start
         self.params = p
 
     def _torsion_system(self) -> np.ndarray:
         dt, p = self.dt, self.params
-        band = p[ig.P_BETA] * dt * dt * self.tor_k + p[ig.P_GAMMA] * dt * (
-            p[ig.P_RAYLEIGH_B] * self.tor_k)
-        band[0] += self.tor_m + p[ig.P_GAMMA] * dt * self.tor_c
+        band = p[P.BETA] * dt * dt * self.tor_k + p[P.GAMMA] * dt * (
+            p[P.RAYLEIGH_B] * self.tor_k)
+        band[0] += self.tor_m + p[P.GAMMA] * dt * self.tor_c
         return band
 
     def _factor_torsion(self) -> None:
@@ -278,21 +314,22 @@ class Simulator:
         cholesky_to_ldl(self.tor_factor)
         a_inv = np.linalg.inv(from_band(band))
         self.col_bit = a_inv[:, -1].copy()
-        self.params[ig.P_G_BIT] = self.params[ig.P_GAMMA] * self.dt * a_inv[-1, -1]
+        self.params[P.G_BIT] = self.params[P.GAMMA] * self.dt * a_inv[-1, -1]
         self._tor_inv_diag = np.diag(a_inv).copy()
 
     def _compute_compliance(self) -> None:
         """Tangential compliance of each contact point within one step (friction cap)."""
         work = np.zeros_like(self.lat_k)
         factor = np.zeros_like(self.lat_k)
-        if not ig.factor_lateral(self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m,
-                                 0.0, self.params, work, factor, np.zeros_like(self.lat_k)):
+        system = LateralSystem(self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m,
+                               self.lat_k_damp, np.zeros_like(self.lat_k), work, factor)
+        if not integrator.factor_lateral(system, 0.0, self.params):
             raise ValueError("lateral system matrix is not positive definite")
         lat_inv = np.zeros(self.n_nodes)
         lat_inv[self.lateral_start:] = np.diag(np.linalg.inv(from_band(work)))[0::2]
         radius = self.node_radius.copy()
         radius[-1] = self.config.bit.gauge_radius
-        self.compliance = self.params[ig.P_GAMMA] * self.dt * (
+        self.compliance = self.params[P.GAMMA] * self.dt * (
             lat_inv + radius**2 * self._tor_inv_diag)
         self.compliance[: self.lateral_start + 1] = 0.0
 
@@ -353,16 +390,19 @@ class Simulator:
         if self.config.bit_model == "macroscopic":
             rock = rock_at(0.0, 0.0, self.depth, self.normals, self.offsets, self.layer_rock)
             rp = self.rock_params[rock]
-            return self.lever_arm * abs(resistance(surface_speed, rp[0], rp[1], rp[2], rp[3])) \
-                * weight_on_bit
+            return self.lever_arm * abs(resistance(surface_speed, rp[Rock.MU_MIN],
+                                                   rp[Rock.MU_MAX], rp[Rock.ST1],
+                                                   rp[Rock.ST2])) * weight_on_bit
         self._bit_loads(surface_speed, weight_on_bit)
-        return float(self.bit_out[0]) * math.copysign(1.0, surface_speed)
+        return float(self.bit_out[BitOut.TORQUE]) * math.copysign(1.0, surface_speed)
 
     def _bit_loads(self, omega: float, wob: float) -> np.ndarray:
-        mesoscopic_bit_loads(self.blades, self.normals, self.offsets, self.layer_rock,
-                             self.rock_params, self.ul[-2, 0], self.ul[-2, 1], 0.0, 0.0,
-                             self.depth, self.ut[-1], omega, wob, self.params[ig.P_HOLE_RADIUS],
-                             0.0, self.params[ig.P_V_REG], *self.bit_scratch, self.bit_out)
+        """The mesoscopic bit's loads at the current position, centred velocity 0."""
+        kin = BitKinematics(self.ul[-2, 0], self.ul[-2, 1], 0.0, 0.0, self.depth, self.ut[-1],
+                            omega)
+        gauge = GaugeContact(self.params[P.HOLE_RADIUS], 0.0, self.params[P.V_REG])
+        mesoscopic_bit_loads(self.blades, self.formation, self.bit_scratch, kin, wob, gauge,
+                             self.bit_out)
         return self.bit_out
 
     def reset(self, operating_point: OperatingPoint | None = None,
@@ -382,7 +422,7 @@ class Simulator:
         self._mesh_message = ""
         if depth is None:
             depth = cfg.initial_depth if cfg.initial_depth is not None else cfg.string.length
-        self.state[ig.S_DEPTH] = depth
+        self.state[S.DEPTH] = depth
         omega, wob = op.surface_speed, op.weight_on_bit
         self.check_mesh_resolves(wob)
         self._warn_if_straight_pipe_compressed(wob)
@@ -395,25 +435,25 @@ class Simulator:
         self.ut[1:] = np.linalg.solve(k, load[1:])
         self.vt[:] = omega
         kp, ki = self.top_drive_gains
-        self.state[ig.S_PI_INTEGRAL] = total / ki if ki > 0 else 0.0
-        self.state[ig.S_SETPOINT] = omega
-        self.state[ig.S_SETPOINT_TARGET] = omega
-        self.state[ig.S_WOB] = wob
-        self.state[ig.S_HOOK_LOAD] = self.hook_load_for(wob)
-        self.state[ig.S_WOB_FACTORED] = np.nan
-        self.state[ig.S_MOTOR_TORQUE] = total
-        self.state[ig.S_TOB] = tob
+        self.state[S.PI_INTEGRAL] = total / ki if ki > 0 else 0.0
+        self.state[S.SETPOINT] = omega
+        self.state[S.SETPOINT_TARGET] = omega
+        self.state[S.WOB] = wob
+        self.state[S.HOOK_LOAD] = self.hook_load_for(wob)
+        self.state[S.WOB_FACTORED] = np.nan
+        self.state[S.MOTOR_TORQUE] = total
+        self.state[S.TOB] = tob
         # Readings of the settled state, as the kernel would report them.
         k0 = -self.tor_k[1, 0]
-        self.state[ig.S_SURFACE_TORQUE] = k0 * (self.ut[0] - self.ut[1])
+        self.state[S.SURFACE_TORQUE] = k0 * (self.ut[0] - self.ut[1])
         if wob > 0.0 and omega != 0.0:
             if cfg.bit_model == "macroscopic":
                 rock = rock_at(0.0, 0.0, depth, self.normals, self.offsets, self.layer_rock)
-                doc = self.rock_params[rock, DEPTH_OF_CUT] * wob
+                doc = self.rock_params[rock, Rock.DEPTH_OF_CUT] * wob
             else:
-                doc = float(self._bit_loads(omega, wob)[9])
-            self.state[ig.S_DEPTH_OF_CUT] = doc
-            self.state[ig.S_ROP] = doc * max(omega, 0.0) / (2 * np.pi)
+                doc = float(self._bit_loads(omega, wob)[BitOut.DEPTH_OF_CUT])
+            self.state[S.DEPTH_OF_CUT] = doc
+            self.state[S.ROP] = doc * max(omega, 0.0) / (2 * np.pi)
         self.read()
 
     def advance(self, n_steps: int, speed_setpoint: float | None = None,
@@ -428,24 +468,17 @@ class Simulator:
         if not self.prepare(n_steps, speed_setpoint, hook_load, record_every):
             if read:
                 self.read()
-            return np.zeros((0, ig.N_RECORD))
+            return np.zeros((0, N_RECORD))
         if read:
-            n_rec = advance_and_read(n_steps, record_every, *self.kernel_arrays(),
-                                     self.readings)
+            n_rec = advance_and_read(n_steps, record_every, self.arrays, self.readings)
         else:
-            n_rec = ig.advance(n_steps, record_every, *self.kernel_arrays())
+            n_rec = integrator.advance(n_steps, record_every, self.arrays)
         return self.records(n_rec)
 
     def read(self) -> np.ndarray:
         """Refresh and return :attr:`readings` (the current state's observables)."""
-        readout(*self.readout_arrays(), self.readings)
+        readout(self.arrays, self.readings)
         return self.readings
-
-    def readout_arrays(self) -> tuple[np.ndarray, ...]:
-        """The arrays of :func:`~drill_env.physics.readings.readout` but its output."""
-        return (self.params, self.state, self.lat_planes[0], self.lat_planes[1], self.ut,
-                self.vt, self.node_force, self.blades, self.normals, self.offsets,
-                self.layer_rock, self.rock_params, *self.bit_scratch, self.bit_out)
 
     def prepare(self, n_steps: int, speed_setpoint: float | None = None,
                 hook_load: float | None = None, record_every: int = 0) -> bool:
@@ -459,44 +492,40 @@ class Simulator:
         if speed_setpoint is not None:
             if not math.isfinite(speed_setpoint):
                 raise ValueError(f"speed_setpoint must be finite, got {speed_setpoint}")
-            self.state[ig.S_SETPOINT_TARGET] = speed_setpoint
+            self.state[S.SETPOINT_TARGET] = speed_setpoint
         if hook_load is not None:
             if not math.isfinite(hook_load):
                 raise ValueError(f"hook_load must be finite, got {hook_load}")
             wob = self.weight_on_bit_for(hook_load)
-            if wob != self.state[ig.S_WOB]:
+            if wob != self.state[S.WOB]:
                 try:
                     self.check_mesh_resolves(wob)
                 except ValueError as err:  # a control input, not a config error: stop
-                    self.state[ig.S_STATUS] = STATUS_MESH_BUCKLING
+                    self.state[S.STATUS] = Status.MESH_BUCKLING
                     self._mesh_message = str(err)
                     return False
-            self.state[ig.S_HOOK_LOAD] = hook_load
-            self.state[ig.S_WOB] = wob
+            self.state[S.HOOK_LOAD] = hook_load
+            self.state[S.WOB] = wob
         n_rec_max = n_steps // record_every if record_every > 0 else 0
-        if self._record.shape[0] < max(n_rec_max, 1):
-            self._record = np.zeros((max(n_rec_max, 1), ig.N_RECORD))
+        if self.arrays.record.shape[0] < max(n_rec_max, 1):
+            self._bind_arrays(np.zeros((max(n_rec_max, 1), N_RECORD)))
         return True
 
-    def kernel_arrays(self) -> tuple[np.ndarray, ...]:
-        """The arrays of :func:`~drill_env.physics.integrator.advance`, in its order.
-
-        They are the simulator's own storage: the kernel updates them in place. The
-        record buffer is the last one; :meth:`prepare` may replace it by a larger one.
-        """
-        return (self.params, self.state,
-                self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m, self.lat_factor,
-                self.lat_work_band, self.lat_k_total, self.lat_k_damp, self.tor_k, self.tor_c,
-                self.tor_factor, self.col_bit,
-                self.node_clearance, self.node_radius, self.node_contact, self.compliance,
-                self.lat_planes[0], self.lat_planes[1], self.lat_planes[2], self.ut, self.vt,
-                self.at, self.rl, self.rt, self.contact_out, self.node_force,
-                self.blades, self.normals, self.offsets, self.layer_rock, self.rock_params,
-                *self.bit_scratch, self.bit_out, self._record)
+    def kernel_arrays(self) -> KernelArrays:
+        """The simulator's storage as the kernel takes it (updated in place by a kernel
+        call); :meth:`prepare` may replace the record buffer, and with it this tuple."""
+        return self.arrays
 
     def records(self, n_rec: int) -> np.ndarray:
         """A copy of the first ``n_rec`` rows the last kernel call recorded."""
-        return self._record[:n_rec].copy()
+        return self.arrays.record[:n_rec].copy()
+
+    def set_depth(self, depth: float) -> None:
+        """Move the bit face to ``depth`` (m) without moving the string: a study that holds
+        the bit at a position in the formation (the stability map) sets it back."""
+        if not math.isfinite(depth):
+            raise ValueError(f"depth: must be finite, got {depth!r}")
+        self.state[S.DEPTH] = depth
 
     def run(self, duration: float, speed_setpoint: float | None = None,
             hook_load: float | None = None, record_every: int = 0) -> np.ndarray:
@@ -507,21 +536,21 @@ class Simulator:
 
     @property
     def status(self) -> int:
-        return int(self.state[ig.S_STATUS])
+        return int(self.state[S.STATUS])
 
     @property
     def status_message(self) -> str:
-        if self.status == STATUS_MESH_BUCKLING:
-            return "string buckled beyond the mesh resolution: " + self._mesh_message
-        return STATUS_MESSAGES[self.status]
+        if self.status == Status.MESH_BUCKLING:
+            return f"{STATUS_MESSAGES[Status.MESH_BUCKLING]}: {self._mesh_message}"
+        return STATUS_MESSAGES[Status(self.status)]
 
     @property
     def time(self) -> float:
-        return float(self.state[ig.S_TIME])
+        return float(self.state[S.TIME])
 
     @property
     def depth(self) -> float:
-        return float(self.state[ig.S_DEPTH])
+        return float(self.state[S.DEPTH])
 
     @property
     def bit_speed(self) -> float:
@@ -533,27 +562,27 @@ class Simulator:
 
     @property
     def torque_on_bit(self) -> float:
-        return float(self.state[ig.S_TOB])
+        return float(self.state[S.TOB])
 
     @property
     def surface_torque(self) -> float:
-        return float(self.state[ig.S_SURFACE_TORQUE])
+        return float(self.state[S.SURFACE_TORQUE])
 
     @property
     def motor_torque(self) -> float:
-        return float(self.state[ig.S_MOTOR_TORQUE])
+        return float(self.state[S.MOTOR_TORQUE])
 
     @property
     def weight_on_bit(self) -> float:
-        return float(self.state[ig.S_WOB])
+        return float(self.state[S.WOB])
 
     @property
     def hook_load(self) -> float:
-        return float(self.state[ig.S_HOOK_LOAD])
+        return float(self.state[S.HOOK_LOAD])
 
     @property
     def rop(self) -> float:
-        return float(self.state[ig.S_ROP])
+        return float(self.state[S.ROP])
 
     @property
     def bit_lateral(self) -> np.ndarray:
@@ -572,7 +601,7 @@ class Simulator:
 
     @property
     def bit_lateral_force(self) -> np.ndarray:
-        return np.array([self.state[ig.S_BIT_FX], self.state[ig.S_BIT_FY]])
+        return np.array([self.state[S.BIT_FX], self.state[S.BIT_FY]])
 
     @property
     def lateral_displacement(self) -> np.ndarray:
@@ -586,14 +615,14 @@ class Simulator:
         """(n_nodes,) wall normal force at each node (N); the bit node shows the gauge force."""
         f = self.node_force.copy()
         if self.config.bit_model == "mesoscopic":
-            f[-1] = self.state[ig.S_GAUGE_FORCE]
+            f[-1] = self.state[S.GAUGE_FORCE]
         return f
 
     @property
     def rock_share(self) -> np.ndarray:
         """Share of front blade length in each rock (sums to 1)."""
         self._bit_loads(max(abs(self.bit_speed), 1e-9), max(self.weight_on_bit, 1.0))
-        return self.bit_out[10:].copy()
+        return self.bit_out[SHARES:].copy()
 
     @property
     def node_depth(self) -> np.ndarray:

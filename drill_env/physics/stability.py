@@ -16,6 +16,7 @@ import scipy.linalg
 from scipy.optimize import brentq
 
 from drill_env.physics.fem import from_band
+from drill_env.physics.formation import Rock
 
 
 def resistance_slope(omega: float, mu_min: float, mu_max: float, st1: float,
@@ -41,7 +42,8 @@ def torsional_growth_rate(sim, omega: float, weight_on_bit: float,
     k[0, 0] += ki
     if bit_damping is None:
         rp = sim.rock_params[rock]
-        bit_damping = sim.lever_arm * weight_on_bit * resistance_slope(omega, *rp[:4])
+        bit_damping = sim.lever_arm * weight_on_bit * resistance_slope(
+            omega, rp[Rock.MU_MIN], rp[Rock.MU_MAX], rp[Rock.ST1], rp[Rock.ST2])
     c[-1, -1] += bit_damping
     m_inv = 1.0 / sim.tor_m
     n = k.shape[0]

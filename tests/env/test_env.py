@@ -12,10 +12,10 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import drill_env
 from drill_env.env import OBSERVATIONS, DrillStringEnv
+from drill_env.physics.units import RPM
 from drill_env.scenarios import SCENARIOS
 
 SHORT = {"episode_duration": 0.5}
-RPM = 2 * np.pi / 60
 SPEC6_KEYS = ("time", "bit_speed", "surface_speed", "torque_on_bit", "surface_torque",
               "weight_on_bit", "hook_load", "bit_lateral", "whirl_speed", "depth", "rop",
               "rock_share")

@@ -20,14 +20,14 @@ COL = {name: k for k, name in enumerate(RECORD_CHANNELS)}
 def recording(env):
     """Make ``env`` keep every record its simulator returns (in ``env.seen``)."""
     env.seen = []
-    advance = env._advance
+    advance = env.advance
 
     def advance_and_keep():
         records = advance()
         env.seen.append(records.copy())
         return records
 
-    env._advance = advance_and_keep
+    env.advance = advance_and_keep
     return env
 
 
@@ -124,7 +124,7 @@ def test_non_finite_records_zero_the_window_metrics_and_cap_the_stick_slip_penal
     env = DrillStringEnv(episode_duration=2.0, metric_window=0.3)
     cfg = env.config
     env.reset(seed=0)
-    advance, calls = env._advance, []
+    advance, calls = env.advance, []
 
     def advance_with_a_bad_sample():
         records = advance()
@@ -133,7 +133,7 @@ def test_non_finite_records_zero_the_window_metrics_and_cap_the_stick_slip_penal
             records[3, COL["bit_speed"]] = np.nan
         return records
 
-    env._advance = advance_with_a_bad_sample
+    env.advance = advance_with_a_bad_sample
     env.step(np.zeros(2))
     _, _, terminated, _, info = env.step(np.zeros(2))
     assert not terminated

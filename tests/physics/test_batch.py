@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import pickle
 
 import numpy as np
@@ -11,8 +10,7 @@ import pytest
 from drill_env.physics.batch import SimulatorBatch
 from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.simulator import OperatingPoint, Simulator
-
-RPM = 2.0 * math.pi / 60.0
+from drill_env.physics.units import RPM
 
 
 def make(length: float, rpm: float) -> Simulator:

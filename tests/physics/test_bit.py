@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from drill_env.physics import bit, bit_reference, formation
+from drill_env.physics.bit import BitOut, Blade, Segment
 from drill_env.physics.config import BitConfig, FormationConfig, Interface, RockConfig
 
 HARD = RockConfig(name="hard", mu_min=0.5, mu_max=0.9, st1=3.0, st2=0.0,
@@ -31,11 +32,9 @@ def pieces(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, de
     """(blade, segment, rock, length, lever) of every piece, from the kernel."""
     blades = bit.blade_arrays(bit_cfg)
     scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
-    n = bit.split_blades(blades, fa.normals, fa.offsets, fa.layer_rock, bx, by, depth, phi_z,
-                         *scratch)
-    return [(int(scratch.piece_blade[p]), int(scratch.piece_segment[p]),
-             int(scratch.piece_rock[p]), float(scratch.piece_length[p]),
-             float(scratch.piece_lever[p])) for p in range(n)]
+    n = bit.split_blades(blades, fa, bx, by, depth, phi_z, scratch)
+    return [(int(scratch.blade[p]), int(scratch.segment[p]), int(scratch.rock[p]),
+             float(scratch.length[p]), float(scratch.lever[p])) for p in range(n)]
 
 
 def loads(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, vx=0.0, vy=0.0,
@@ -44,8 +43,10 @@ def loads(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, vx=
     blades = bit.blade_arrays(bit_cfg)
     scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
     out = bit.make_loads_out(fa.n_rocks)
-    bit.mesoscopic_bit_loads(blades, *fa, bx, by, vx, vy, depth, phi_z, omega, wob,
-                             bit_cfg.hole_radius, compliance, regularisation, *scratch, out)
+    bit.mesoscopic_bit_loads(blades, fa, scratch,
+                             bit.BitKinematics(bx, by, vx, vy, depth, phi_z, omega), wob,
+                             bit.GaugeContact(bit_cfg.hole_radius, compliance, regularisation),
+                             out)
     return out
 
 
@@ -62,11 +63,11 @@ def reference_loads(bit_cfg, fa, bx=0.0, by=0.0, vx=0.0, vy=0.0, depth=DEPTH, ph
 def test_blade_arrays_put_point_c_at_the_gauge_radius():
     cfg = bit.symmetric_bit()
     blades = bit.blade_arrays(cfg)
-    np.testing.assert_allclose(blades[:, bit.R_C], cfg.gauge_radius)
+    np.testing.assert_allclose(blades[:, Blade.R_C], cfg.gauge_radius)
     np.testing.assert_allclose(
-        blades[:, bit.R_C] - blades[:, bit.R_B],
-        blades[:, bit.L_SH] * np.sin(blades[:, bit.ALPHA_SH]))  # SPEC 2.2
-    np.testing.assert_allclose(np.degrees(blades[:, bit.PHI]), cfg.blade_angles)
+        blades[:, Blade.R_C] - blades[:, Blade.R_B],
+        blades[:, Blade.L_SH] * np.sin(blades[:, Blade.ALPHA_SH]))  # SPEC 2.2
+    np.testing.assert_allclose(np.degrees(blades[:, Blade.PHI]), cfg.blade_angles)
 
 
 def test_front_length_and_lever_arm_follow_eqs_30_and_34_with_the_midpoint_rule():
@@ -105,6 +106,7 @@ class TestPaperCasesOneToFour:
     r_c = cfg.gauge_radius
     l_sh = (r_c - r_b) / math.sin(alpha)
     l_g = 0.05
+    a_sh = r_b + l_sh * math.sin(alpha) / 2  # the shoulder's midpoint lever arm
 
     def blade_zero(self, d):
         return [p[1:] for p in pieces(self.cfg, one_interface(d)) if p[0] == 0]
@@ -115,15 +117,15 @@ class TestPaperCasesOneToFour:
                                    rtol=1e-12, atol=1e-15)
 
     def test_case_1_blade_fully_in_rock_1(self):
-        expected = [(bit.FACE, 0, self.r_b - self.r_a, (self.r_a + self.r_b) / 2),
-                    (bit.SHOULDER, 0, self.l_sh, self.r_b + self.l_sh * math.sin(self.alpha) / 2),
-                    (bit.GAUGE, 0, self.l_g, self.r_c)]
+        expected = [(Segment.FACE, 0, self.r_b - self.r_a, (self.r_a + self.r_b) / 2),
+                    (Segment.SHOULDER, 0, self.l_sh, self.a_sh),
+                    (Segment.GAUGE, 0, self.l_g, self.r_c)]
         self.assert_pieces(self.blade_zero(DEPTH + 1.0), expected)
 
     def test_case_2_blade_fully_in_rock_2(self):
-        expected = [(bit.FACE, 1, self.r_b - self.r_a, (self.r_a + self.r_b) / 2),
-                    (bit.SHOULDER, 1, self.l_sh, self.r_b + self.l_sh * math.sin(self.alpha) / 2),
-                    (bit.GAUGE, 1, self.l_g, self.r_c)]
+        expected = [(Segment.FACE, 1, self.r_b - self.r_a, (self.r_a + self.r_b) / 2),
+                    (Segment.SHOULDER, 1, self.l_sh, self.a_sh),
+                    (Segment.GAUGE, 1, self.l_g, self.r_c)]
         self.assert_pieces(self.blade_zero(DEPTH - 1.0), expected)
 
     def test_case_3_interface_crosses_the_shoulder(self):
@@ -133,10 +135,10 @@ class TestPaperCasesOneToFour:
         ic = self.l_sh - bi
         # Paper's case 3 with the midpoint rule: a = r_b - |C M| sin(a_sh), M mid of I, C.
         cm, cn = ic / 2, ic + bi / 2
-        expected = [(bit.FACE, 1, self.r_b - self.r_a, (self.r_a + self.r_b) / 2),
-                    (bit.SHOULDER, 1, bi, self.r_c - cn * math.sin(self.alpha)),
-                    (bit.SHOULDER, 0, ic, self.r_c - cm * math.sin(self.alpha)),
-                    (bit.GAUGE, 0, self.l_g, self.r_c)]
+        expected = [(Segment.FACE, 1, self.r_b - self.r_a, (self.r_a + self.r_b) / 2),
+                    (Segment.SHOULDER, 1, bi, self.r_c - cn * math.sin(self.alpha)),
+                    (Segment.SHOULDER, 0, ic, self.r_c - cm * math.sin(self.alpha)),
+                    (Segment.GAUGE, 0, self.l_g, self.r_c)]
         self.assert_pieces(self.blade_zero(d), expected)
 
     def test_case_4_interface_crosses_the_face(self):
@@ -144,10 +146,10 @@ class TestPaperCasesOneToFour:
         d = DEPTH - r_i
         # Paper's case 4 with the midpoint rule: a = r_B - |B M|, M mid of I, B (or A, I).
         bm, bn = (self.r_b - r_i) / 2, (self.r_b - r_i) + (r_i - self.r_a) / 2
-        expected = [(bit.FACE, 1, r_i - self.r_a, self.r_b - bn),
-                    (bit.FACE, 0, self.r_b - r_i, self.r_b - bm),
-                    (bit.SHOULDER, 0, self.l_sh, self.r_b + self.l_sh * math.sin(self.alpha) / 2),
-                    (bit.GAUGE, 0, self.l_g, self.r_c)]
+        expected = [(Segment.FACE, 1, r_i - self.r_a, self.r_b - bn),
+                    (Segment.FACE, 0, self.r_b - r_i, self.r_b - bm),
+                    (Segment.SHOULDER, 0, self.l_sh, self.a_sh),
+                    (Segment.GAUGE, 0, self.l_g, self.r_c)]
         self.assert_pieces(self.blade_zero(d), expected)
 
 
@@ -161,12 +163,14 @@ def test_symmetric_bit_in_one_rock_has_no_net_lateral_force_and_tob_is_a_bit_mu_
     omega = 7.0
     out = loads(cfg, fa, phi_z=phi_z, omega=omega)
     mu = formation.resistance(omega, HARD.mu_min, HARD.mu_max, HARD.st1, HARD.st2)
-    assert out[bit.TORQUE] == pytest.approx(bit.bit_lever_arm(cfg) * mu * WOB, rel=1e-12)  # eq. 38
-    assert out[bit.TORQUE_STATIC] == pytest.approx(bit.bit_lever_arm(cfg) * HARD.mu_max * WOB,
+    # eq. (38)
+    assert out[BitOut.TORQUE] == pytest.approx(bit.bit_lever_arm(cfg) * mu * WOB, rel=1e-12)
+    assert out[BitOut.TORQUE_STATIC] == pytest.approx(bit.bit_lever_arm(cfg) * HARD.mu_max * WOB,
                                                    rel=1e-12)
     total_cutting_force = mu * WOB
-    assert np.hypot(*out[bit.FORCE_X:bit.FORCE_Y + 1]) < 1e-9 * total_cutting_force
-    assert np.hypot(*out[bit.FORCE_STATIC_X:bit.FORCE_STATIC_Y + 1]) < 1e-9 * total_cutting_force
+    assert np.hypot(*out[BitOut.FORCE_X:BitOut.FORCE_Y + 1]) < 1e-9 * total_cutting_force
+    static = out[BitOut.FORCE_STATIC_X:BitOut.FORCE_STATIC_Y + 1]
+    assert np.hypot(*static) < 1e-9 * total_cutting_force
     assert out[bit.SHARES] == pytest.approx(1.0)
 
 
@@ -175,15 +179,15 @@ def test_asymmetric_bit_in_one_rock_pushes_sideways_and_the_force_turns_with_the
     fa = formation.formation_arrays(FormationConfig(rocks=(HARD,)))
     omega = 7.0
     mu = formation.resistance(omega, HARD.mu_min, HARD.mu_max, HARD.st1, HARD.st2)
-    force0 = loads(cfg, fa, phi_z=0.3, omega=omega)[bit.FORCE_X:bit.FORCE_Y + 1]
+    force0 = loads(cfg, fa, phi_z=0.3, omega=omega)[BitOut.FORCE_X:BitOut.FORCE_Y + 1]
     np.testing.assert_allclose(force0, mu * WOB * bit.front_imbalance(cfg, 0.3), rtol=1e-12)
     assert np.linalg.norm(force0) > 0.1 * mu * WOB
     for delta in (0.5, 2.0, -1.2):
-        turned = loads(cfg, fa, phi_z=0.3 + delta, omega=omega)[bit.FORCE_X:bit.FORCE_Y + 1]
+        turned = loads(cfg, fa, phi_z=0.3 + delta, omega=omega)[BitOut.FORCE_X:BitOut.FORCE_Y + 1]
         rotation = np.array([[math.cos(delta), -math.sin(delta)],
                              [math.sin(delta), math.cos(delta)]])
         np.testing.assert_allclose(turned, rotation @ force0, rtol=1e-10, atol=1e-9)
-    assert loads(cfg, fa, omega=omega)[bit.TORQUE] == pytest.approx(
+    assert loads(cfg, fa, omega=omega)[BitOut.TORQUE] == pytest.approx(
         bit.bit_lever_arm(cfg) * mu * WOB, rel=1e-12)
 
 
@@ -218,8 +222,8 @@ def test_pieces_add_up_to_the_blade_lengths_for_any_interfaces_and_bit_motion():
         got = pieces(cfg, fa, bx=rng.uniform(-0.01, 0.01), by=rng.uniform(-0.01, 0.01),
                      phi_z=rng.uniform(-10, 10))
         for i, blade in enumerate(blades):
-            expected = (blade[bit.R_B] - blade[bit.R_A], blade[bit.L_SH], blade[bit.L_G])
-            for segment in (bit.FACE, bit.SHOULDER, bit.GAUGE):
+            expected = (blade[Blade.R_B] - blade[Blade.R_A], blade[Blade.L_SH], blade[Blade.L_G])
+            for segment in (Segment.FACE, Segment.SHOULDER, Segment.GAUGE):
                 total = sum(p[3] for p in got if p[0] == i and p[1] == segment)
                 assert total == pytest.approx(expected[segment], rel=1e-12, abs=1e-15)
         out = loads(cfg, fa, bx=0.0, by=0.0, phi_z=rng.uniform(0, 7))
@@ -239,8 +243,8 @@ def test_three_rocks_can_cut_one_bit_at_once():
     got = pieces(bit.symmetric_bit(), fa, phi_z=0.2)
     mu = [formation.resistance(10.0, r.mu_min, r.mu_max, r.st1, r.st2) for r in cfg.rocks]
     torque = WOB / bit.front_length(bit.symmetric_bit()) * sum(
-        mu[p[2]] * p[3] * p[4] for p in got if p[1] != bit.GAUGE)
-    assert out[bit.TORQUE] == pytest.approx(torque, rel=1e-12)
+        mu[p[2]] * p[3] * p[4] for p in got if p[1] != Segment.GAUGE)
+    assert out[BitOut.TORQUE] == pytest.approx(torque, rel=1e-12)
 
 
 def test_loads_are_continuous_as_an_interface_sweeps_across_the_bit():
@@ -267,7 +271,7 @@ def test_depth_of_cut_per_revolution_mixes_the_rocks_by_front_share():
     shares = out[bit.SHARES:]
     assert 0.0 < shares[1] < 1.0
     expected = WOB * (shares[0] * HARD.depth_of_cut + shares[1] * SOFT.depth_of_cut)
-    assert out[bit.DEPTH_OF_CUT] == pytest.approx(expected, rel=1e-14)
+    assert out[BitOut.DEPTH_OF_CUT] == pytest.approx(expected, rel=1e-14)
 
 
 # --------------------------------------------------------------------------- oracle
@@ -301,7 +305,7 @@ def test_kernels_agree_with_the_reference_on_random_states():
         expected = reference_loads(cfg, fa, **state)
         scale = max(1.0, np.abs(expected).max())
         np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-10 * scale)
-        n_contacts += expected[bit.GAUGE_X] != 0.0
+        n_contacts += expected[BitOut.GAUGE_X] != 0.0
         kernel_pieces = pieces(cfg, fa, state["bx"], state["by"], phi_z=state["phi_z"])
         reference_pieces = bit_reference.split(bit.blade_arrays(cfg), *fa[:3], state["bx"],
                                                state["by"], DEPTH, state["phi_z"])
@@ -339,20 +343,20 @@ class TestGauge:
 
     def test_centred_bit_has_no_gauge_contact(self):
         out = loads(self.cfg, self.fa, vx=0.1, omega=10.0)
-        assert np.all(out[bit.GAUGE_X:bit.GAUGE_TORQUE + 1] == 0.0)
+        assert np.all(out[BitOut.GAUGE_X:BitOut.GAUGE_TORQUE + 1] == 0.0)
 
     def test_normal_force_is_k_f_plus_c_fdot_split_by_gauge_length_in_each_rock(self):
         vx = 0.01
         out = loads(self.cfg, self.fa, bx=self.bx, vx=vx, omega=0.0)
         k = 0.3 * HARD.wall_stiffness + 0.7 * SOFT.wall_stiffness
         c = 0.3 * HARD.wall_damping + 0.7 * SOFT.wall_damping
-        assert out[bit.GAUGE_X] == pytest.approx(-(k * self.penetration + c * vx), rel=1e-9)
-        assert out[bit.GAUGE_Y] == 0.0  # no slip, no friction
-        assert out[bit.GAUGE_TORQUE] == 0.0
+        assert out[BitOut.GAUGE_X] == pytest.approx(-(k * self.penetration + c * vx), rel=1e-9)
+        assert out[BitOut.GAUGE_Y] == 0.0  # no slip, no friction
+        assert out[BitOut.GAUGE_TORQUE] == 0.0
 
     def test_the_wall_does_not_pull_on_a_receding_bit(self):
         out = loads(self.cfg, self.fa, bx=self.bx, vx=-100.0, omega=10.0)
-        assert np.all(out[bit.GAUGE_X:bit.GAUGE_TORQUE + 1] == 0.0)
+        assert np.all(out[BitOut.GAUGE_X:BitOut.GAUGE_TORQUE + 1] == 0.0)
 
     @pytest.mark.parametrize("omega", [5.0, -5.0])
     def test_gauge_friction_opposes_the_slip_and_its_torque_opposes_rotation(self, omega):
@@ -363,19 +367,19 @@ class TestGauge:
         mu_hard = formation.resistance(w, HARD.mu_min, HARD.mu_max, HARD.st1, HARD.st2)
         mu_soft = formation.resistance(w, SOFT.mu_min, SOFT.mu_max, SOFT.st1, SOFT.st2)
         friction = -math.copysign(mu_hard * f_hard + mu_soft * f_soft, omega)
-        assert out[bit.GAUGE_X] == pytest.approx(-(f_hard + f_soft), rel=1e-9)
-        assert out[bit.GAUGE_Y] == pytest.approx(friction, rel=1e-9)
-        assert out[bit.GAUGE_TORQUE] == pytest.approx(self.r_c * friction, rel=1e-9)
-        assert out[bit.GAUGE_TORQUE] * omega < 0.0
+        assert out[BitOut.GAUGE_X] == pytest.approx(-(f_hard + f_soft), rel=1e-9)
+        assert out[BitOut.GAUGE_Y] == pytest.approx(friction, rel=1e-9)
+        assert out[BitOut.GAUGE_TORQUE] == pytest.approx(self.r_c * friction, rel=1e-9)
+        assert out[BitOut.GAUGE_TORQUE] * omega < 0.0
 
     def test_friction_opposes_a_lateral_slide_of_the_contact_point(self):
         out = loads(self.cfg, self.fa, bx=self.bx, vy=0.05, omega=0.0)
-        assert out[bit.GAUGE_Y] < 0.0
+        assert out[BitOut.GAUGE_Y] < 0.0
 
     def test_friction_is_regularised_and_capped_at_low_slip(self):
         vy = 1e-4
         full = loads(self.cfg, self.fa, bx=self.bx, vy=vy, omega=0.0, regularisation=0.0)
         regular = loads(self.cfg, self.fa, bx=self.bx, vy=vy, omega=0.0, regularisation=1e-3)
-        assert regular[bit.GAUGE_Y] == pytest.approx(0.1 * full[bit.GAUGE_Y], rel=1e-12)
+        assert regular[BitOut.GAUGE_Y] == pytest.approx(0.1 * full[BitOut.GAUGE_Y], rel=1e-12)
         capped = loads(self.cfg, self.fa, bx=self.bx, vy=vy, omega=0.0, compliance=1e-3)
-        assert capped[bit.GAUGE_Y] == pytest.approx(-vy / 1e-3, rel=1e-12)
+        assert capped[BitOut.GAUGE_Y] == pytest.approx(-vy / 1e-3, rel=1e-12)

@@ -24,10 +24,9 @@ from drill_env.physics.config import (
 )
 from drill_env.physics.fem import from_band
 from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.units import RPM
 from drill_env.scenarios import HARD, make_scenario
 from drill_env.studies import simulate, stick_slip_summary
-
-RPM = 2.0 * math.pi / 60.0
 
 
 def fast(config: SimulationConfig) -> SimulationConfig:

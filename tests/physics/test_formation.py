@@ -57,22 +57,17 @@ def test_no_interfaces_means_everything_is_layer_zero():
     assert formation.rock_at(0.3, -0.2, 1234.0, *fa[:3]) == 0
 
 
-def test_rock_parameter_table_columns_follow_the_module_constants():
+def test_rock_parameter_table_columns_follow_the_rock_layout():
     table = formation.formation_arrays(sandwich()).rock_params
-    assert table[1, formation.MU_MIN] == SOFT.mu_min
-    assert table[1, formation.MU_MAX] == SOFT.mu_max
-    assert table[1, formation.ST1] == SOFT.st1
-    assert table[1, formation.ST2] == SOFT.st2
-    assert table[1, formation.WALL_STIFFNESS] == SOFT.wall_stiffness
-    assert table[1, formation.WALL_DAMPING] == SOFT.wall_damping
-    assert table[1, formation.DEPTH_OF_CUT] == SOFT.depth_of_cut
+    assert table.shape[1] == len(formation.Rock)
+    for column in formation.Rock:
+        assert table[1, column] == getattr(SOFT, column.name.lower()), column
 
 
 def test_resistance_is_zero_at_rest_odd_and_falls_from_mu_max_to_mu_min():
     args = (0.5, 0.9, 3.0, 0.0)
     assert formation.resistance(0.0, *args) == 0.0
     assert formation.resistance(1e-12, *args) == pytest.approx(0.9)
-    assert formation.static_resistance(*args) == 0.9
     assert formation.resistance(1e3, *args) == pytest.approx(0.5)
     assert formation.resistance(-2.0, *args) == -formation.resistance(2.0, *args)
 

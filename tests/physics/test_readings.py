@@ -7,12 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from drill_env.physics import integrator as ig
 from drill_env.physics.config import SimulationConfig, replace
-from drill_env.physics.readings import N_READINGS, READINGS, R, whirl_speed
+from drill_env.physics.layout import N_READINGS, READ, READINGS, S, Status
+from drill_env.physics.readings import whirl_speed
 from drill_env.physics.simulator import OperatingPoint, Simulator
-
-RPM = 2.0 * math.pi / 60.0
+from drill_env.physics.units import RPM
 
 
 def whirling(bit_model: str) -> Simulator:
@@ -56,16 +55,16 @@ def test_advance_with_read_is_advance_then_read():
 def test_reset_leaves_fresh_readings():
     sim = Simulator(SimulationConfig())
     sim.reset(OperatingPoint(90 * RPM, 50e3))
-    assert sim.readings[R["bit_speed"]] == pytest.approx(90 * RPM)
-    assert sim.readings[R["weight_on_bit"]] == 50e3
-    assert sim.readings[R["time"]] == 0.0
+    assert sim.readings[READ.BIT_SPEED] == pytest.approx(90 * RPM)
+    assert sim.readings[READ.WEIGHT_ON_BIT] == 50e3
+    assert sim.readings[READ.TIME] == 0.0
 
 
 def test_a_stopped_simulator_reads_nan_rock_shares():
     sim = whirling("mesoscopic")
-    sim.state[ig.S_STATUS] = ig.STATUS_NONFINITE
+    sim.state[S.STATUS] = Status.NONFINITE
     readings = sim.read()
-    assert readings[R["status"]] == ig.STATUS_NONFINITE
+    assert readings[READ.STATUS] == Status.NONFINITE
     assert np.isnan(readings[N_READINGS:]).all()
 
 

@@ -21,8 +21,8 @@ from drill_env.physics.config import (
 )
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.stability import stick_slip_threshold, torsional_growth_rate
+from drill_env.physics.units import RPM
 
-RPM = 2 * np.pi / 60
 WOB = 80e3
 ROCK = RockConfig(name="falling", mu_min=0.5, mu_max=0.9, st1=3.0)
 

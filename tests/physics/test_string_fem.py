@@ -29,10 +29,9 @@ from drill_env.physics.fem import (
     beam_stiffness,
     build_mesh,
 )
+from drill_env.physics.layout import R
 from drill_env.physics.simulator import OperatingPoint, Simulator
-
-RPM = 2.0 * math.pi / 60.0
-
+from drill_env.physics.units import RPM
 
 # --------------------------------------------------------------------------- torsion: modes
 
@@ -112,9 +111,9 @@ def test_free_torsional_oscillation_after_speed_step_has_the_first_mode_frequenc
     sim.reset(OperatingPoint(60 * RPM, 0.0))
     rec = sim.run(30.0, speed_setpoint=70 * RPM, hook_load=sim.string_weight, record_every=1)
     assert sim.status == 0
-    assert np.all(rec[:, ig.R_WOB] == 0.0)
-    t = rec[:, ig.R_TIME]
-    speed = rec[:, ig.R_BIT_SPEED]
+    assert np.all(rec[:, R.WEIGHT_ON_BIT] == 0.0)
+    t = rec[:, R.TIME]
+    speed = rec[:, R.BIT_SPEED]
     late = t > 2.0
     x = speed[late] - speed[late].mean()
     crossings = t[late][1:][np.diff(np.sign(x)) > 0]  # upward zero crossings
@@ -249,10 +248,10 @@ def test_rigid_rotation_without_mud_needs_no_surface_torque():
     sim.reset(OperatingPoint(60 * RPM, 0.0))
     rec = sim.run(10.0, 60 * RPM, sim.string_weight, record_every=10)
     assert sim.status == 0
-    print("max |surface torque| (N m):", np.abs(rec[:, ig.R_SURFACE_TORQUE]).max())
-    assert np.abs(rec[-100:, ig.R_SURFACE_TORQUE]).max() < 1.0
-    assert np.abs(rec[-100:, ig.R_MOTOR_TORQUE]).max() < 1.0
-    assert rec[-1, ig.R_BIT_SPEED] == pytest.approx(60 * RPM, rel=1e-6)
+    print("max |surface torque| (N m):", np.abs(rec[:, R.SURFACE_TORQUE]).max())
+    assert np.abs(rec[-100:, R.SURFACE_TORQUE]).max() < 1.0
+    assert np.abs(rec[-100:, R.MOTOR_TORQUE]).max() < 1.0
+    assert rec[-1, R.BIT_SPEED] == pytest.approx(60 * RPM, rel=1e-6)
 
 
 def test_off_bottom_motor_torque_equals_mud_drag():
@@ -265,9 +264,9 @@ def test_off_bottom_motor_torque_equals_mud_drag():
     rec = sim.run(40.0, omega, sim.string_weight, record_every=10)
     assert sim.status == 0
     expected = c_t * cfg.string.length * omega
-    print(f"motor torque {rec[-1, ig.R_MOTOR_TORQUE]:.2f} N m, c_t L omega {expected:.2f} N m")
-    assert rec[-1, ig.R_MOTOR_TORQUE] == pytest.approx(expected, rel=0.01)
-    assert rec[-1, ig.R_BIT_SPEED] == pytest.approx(omega, rel=0.01)
+    print(f"motor torque {rec[-1, R.MOTOR_TORQUE]:.2f} N m, c_t L omega {expected:.2f} N m")
+    assert rec[-1, R.MOTOR_TORQUE] == pytest.approx(expected, rel=0.01)
+    assert rec[-1, R.BIT_SPEED] == pytest.approx(omega, rel=0.01)
 
 
 # --------------------------------------------------------------------------- energy

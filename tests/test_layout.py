@@ -1,0 +1,136 @@
+"""The kernel data layout: named once, no literal indices, small compiled functions, layers."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+import pkgutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numba
+import pytest
+
+import drill_env
+from drill_env.physics import layout
+
+PACKAGE = Path(drill_env.__file__).parent
+#: Names the code gives to arrays with a named layout (params, state, records, readings,
+#: bit loads, blades, rock parameters, metric samples and outputs, contact results).
+LAYOUT_ARRAYS = frozenset({
+    "p", "params", "state", "st", "record", "rec", "row", "out", "bit_out", "readings",
+    "fresh", "rock_params", "rp", "blades", "blade", "samples", "columns", "step_out",
+    "window_out", "contact", "contact_out", "_readings", "r",
+})
+MAX_KERNEL_ARGUMENTS = 12
+
+
+def _modules():
+    for info in pkgutil.walk_packages([str(PACKAGE)], "drill_env."):
+        yield info.name
+
+
+def _literal_index(node: ast.AST) -> bool:
+    if isinstance(node, ast.Constant) and isinstance(node.value, int):
+        return True
+    if isinstance(node, ast.UnaryOp) and isinstance(node.operand, ast.Constant):
+        return True
+    if isinstance(node, ast.Tuple):
+        return any(_literal_index(e) for e in node.elts)
+    if isinstance(node, ast.Slice):
+        return any(b is not None and _literal_index(b) for b in (node.lower, node.upper))
+    return False
+
+
+def literal_layout_indices(source: str) -> list[tuple[int, str]]:
+    """(line, text) of every subscript of a layout array by an integer literal."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.Subscript):
+            continue
+        target = node.value
+        name = target.id if isinstance(target, ast.Name) else (
+            target.attr if isinstance(target, ast.Attribute) else None)
+        if name in LAYOUT_ARRAYS and _literal_index(node.slice):
+            found.append((node.lineno, ast.unparse(node)))
+    return sorted(found)
+
+
+def test_the_scan_finds_a_literal_index():
+    assert literal_layout_indices("x = p[3] + state[S.TIME]\nout[0:2] = 1") == [
+        (1, "p[3]"), (2, "out[0:2]")]
+    assert literal_layout_indices("x = p[P.DT] + rec[:, k] + ul[0, j]") == []
+
+
+def test_no_literal_index_into_a_layout_array_remains():
+    offenders = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for line, text in literal_layout_indices(path.read_text()):
+            offenders.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {text}")
+    assert not offenders, "\n".join(offenders)
+
+
+def compiled_functions():
+    for name in _modules():
+        module = importlib.import_module(name)
+        for attr, obj in vars(module).items():
+            if isinstance(obj, numba.core.registry.CPUDispatcher) and \
+                    obj.py_func.__module__ == name:
+                yield f"{name}.{attr}", obj
+
+
+def test_no_compiled_function_takes_more_than_twelve_arguments():
+    functions = dict(compiled_functions())
+    assert len(functions) > 20  # the scan sees the kernels
+    wide = {name: len(inspect.signature(f.py_func).parameters)
+            for name, f in functions.items()
+            if len(inspect.signature(f.py_func).parameters) > MAX_KERNEL_ARGUMENTS}
+    assert not wide, wide
+
+
+def test_channel_names_derive_from_the_layout_lists():
+    from drill_env.env import DrillStringEnv
+    from drill_env.physics.simulator import RECORD_CHANNELS
+
+    assert RECORD_CHANNELS == tuple(m.name.lower() for m in layout.R)
+    assert layout.READINGS == tuple(m.name.lower() for m in layout.READ)
+    env = DrillStringEnv(episode_duration=0.2)
+    _, info = env.reset(seed=0)
+    shown = set(layout.READINGS) - {"bit_x", "bit_y", "bit_vx", "bit_vy", "status"}
+    assert shown <= set(info)  # a new reading is an info key without touching the env
+    assert set(env.observation_names) <= set(layout.READINGS) | {
+        "speed_setpoint", "weight_on_bit_setpoint"}
+
+
+def _imports(path: Path) -> set[str]:
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+def test_drill_env_never_imports_agents_or_training():
+    offenders = [str(p.relative_to(PACKAGE.parent)) for p in PACKAGE.rglob("*.py")
+                 if _imports(p) & {"agents", "training"}]
+    assert not offenders, offenders
+
+
+@pytest.mark.parametrize("module", ["drill_env.physics.simulator", "drill_env.physics"])
+def test_importing_the_physics_leaves_gymnasium_unimported(module):
+    code = (f"import sys, {module}; "
+            "print(sorted(m for m in ('gymnasium', 'torch', 'stable_baselines3', 'rerun') "
+            "if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_no_drill_env_file_is_much_longer_than_one_concern():
+    sizes = {str(p.relative_to(PACKAGE.parent)): len(p.read_text().splitlines())
+             for p in PACKAGE.rglob("*.py")}
+    assert not {k: v for k, v in sizes.items() if v > 700}, sizes
