@@ -14,16 +14,17 @@ PIP := .venv/bin/pip
 	touch .venv/installed
 
 demo: .venv/installed
-	$(PY) -m drill_env.cli demo --out logs
+	$(PY) -m drill_cli demo --out logs
 
 test: .venv/installed
 	$(PY) -m pytest -q
 
 lint: .venv/installed
-	.venv/bin/ruff check drill_env agents training tests scripts
+	.venv/bin/ruff check drill_env drill_cli agents training tests scripts
+	.venv/bin/mypy
 
 bench: .venv/installed
-	$(PY) -m drill_env.cli benchmark --out logs
+	$(PY) -m drill_cli speed --out logs
 
 clean:
 	rm -rf .venv

@@ -77,11 +77,11 @@ MAX_RECORDS_PER_STEP = 100_000
 
 
 def _weight(default: float) -> Any:
-    return Field(default, ge=0.0, le=MAX_WEIGHT)
+    return Field(default=default, ge=0.0, le=MAX_WEIGHT)
 
 
 def _scale(default: float) -> Any:
-    return Field(default, ge=MIN_SCALE, le=1.0e12)
+    return Field(default=default, ge=MIN_SCALE, le=1.0e12)
 
 
 @config_dataclass
@@ -90,7 +90,7 @@ class EnvConfig:
 
     #: Policy period (s); the simulator takes ``round(control_interval / dt)`` steps per
     #: action (10 Hz by default).
-    control_interval: Positive = Field(0.1, le=60.0)
+    control_interval: Positive = Field(default=0.1, le=60.0)
     #: Episode length in simulated seconds; ``None`` takes the scenario's default.
     episode_duration: Annotated[Positive, Field(le=MAX_EPISODE_DURATION)] | None = None
     #: Surface speed set-point range (rpm) mapped from action[0] in [-1, 1].
@@ -103,27 +103,27 @@ class EnvConfig:
     #: "absolute": action -> set point in the range; "incremental": action -> change of
     #: the set point, at most ``rpm_step`` / ``weight_on_bit_step`` per control step.
     action_mode: Literal["absolute", "incremental"] = "absolute"
-    rpm_step: Positive = Field(10.0, le=1000.0)
-    weight_on_bit_step: Positive = Field(10.0e3, le=1.0e7)
+    rpm_step: Positive = Field(default=10.0, le=1000.0)
+    weight_on_bit_step: Positive = Field(default=10.0e3, le=1.0e7)
     #: Drawworks rate limit of the applied WOB (N/s). The top-drive acceleration limit is
     #: in the simulator (``TopDriveConfig.max_acceleration``).
-    drawworks_rate: Positive = Field(50.0e3, le=1.0e9)
+    drawworks_rate: Positive = Field(default=50.0e3, le=1.0e9)
     #: "downhole" (MWD at the bit + surface) or "surface" (surface measurements only).
     sensors: Literal["downhole", "surface"] = "downhole"
     #: Telemetry delay of the observation, in control steps.
-    telemetry_delay: Count = Field(0, ge=0, le=10_000)
+    telemetry_delay: Count = Field(default=0, ge=0, le=10_000)
     #: Std of Gaussian noise added to the normalised observation (from ``np_random``).
-    observation_noise: NonNegative = Field(0.0, le=100.0)
+    observation_noise: NonNegative = Field(default=0.0, le=100.0)
     #: Make-up torque of the drill-pipe connections (N m): exceeding it terminates.
-    makeup_torque: Positive = Field(40.0e3, le=1.0e7)
+    makeup_torque: Positive = Field(default=40.0e3, le=1.0e7)
     #: "settled": start at the scenario's operating point in steady rotation (see
     #: ``Simulator.reset``); "paper": ramp the rpm over 10 s, hold 10 s off bottom,
     #: apply the WOB at 20 s, then hand over to the agent.
     startup: Literal["settled", "paper"] = "settled"
     #: Record every k simulator steps inside a control interval (for the metrics).
-    record_every: Count = Field(10, ge=1, le=1_000_000)
+    record_every: Count = Field(default=10, ge=1, le=1_000_000)
     #: Length of the rolling window of the stick-slip metrics (s).
-    metric_window: Positive = Field(3.0, le=3600.0)
+    metric_window: Positive = Field(default=3.0, le=3600.0)
     #: Cap the applied WOB at the largest WOB the FE mesh resolves
     #: (``Simulator.check_mesh_resolves``); without the cap a larger WOB stops the
     #: simulator (terminated, "mesh buckling" status). The cap is ``info[
@@ -136,7 +136,7 @@ class EnvConfig:
     effort_weight: NonNegative = _weight(0.1)
     failure_weight: NonNegative = _weight(10.0)
     #: Cap on the SSI entering the reward (a stalled bit has an unbounded SSI).
-    ssi_cap: Positive = Field(2.0, le=1.0e3)
+    ssi_cap: Positive = Field(default=2.0, le=1.0e3)
     #: Normalisation scales of the observation.
     torque_scale: Positive = _scale(10.0e3)
     force_scale: Positive = _scale(10.0e3)
@@ -400,7 +400,7 @@ class DrillStringEnv(gym.Env):
             self._clearance, self.sim.config.bit.diameter)
         self._window_metrics: tuple[list[float], bool] | None = None
         self._obs_queue: deque[list[float]] = deque(maxlen=self.config.telemetry_delay + 1)
-        self._last_obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self._last_obs = np.zeros(len(self.observation_names), dtype=np.float32)
         self._episode_energy = 0.0
         self._start_time = 0.0
         self._frames = None

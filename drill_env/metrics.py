@@ -10,6 +10,8 @@ metric                     definition
 stick-slip severity (SSI)  (max - min) / (2 |mean|) of the bit speed over a window
 stuck fraction             share of samples with |bit speed| < 1 rpm
 whirl ratio                mean whirl speed / mean bit speed: > 0 forward, < 0 backward
+whirl fraction             share of samples that whirl (:func:`whirling`: the one rule)
+backward whirl fraction    share of samples that whirl against the rotation
 radial ratio               bit lateral displacement over the gauge clearance
 lateral force              magnitude of the bit's lateral force (N)
 ROP                        mean rate of penetration (m/s)
@@ -37,8 +39,14 @@ from drill_env.physics.units import RPM
 STUCK_SPEED = 1.0 * RPM
 #: Floor of |mean bit speed| in the SSI denominator (rad/s): 1 rpm.
 SSI_MIN_MEAN_SPEED = 1.0 * RPM
-#: Below this radial ratio the bit counts as centred and whirl has no direction.
-WHIRL_MIN_RADIAL_RATIO = 0.1
+#: The whirl rule, used by the metrics, the env, the benchmark and the recorder's events:
+#: a sample whirls when the bit centre is at least WHIRL_RADIAL_RATIO of the gauge
+#: clearance off the hole axis AND orbits at at least WHIRL_SPEED_RATIO of the bit speed
+#: (floored at 1 rpm), in either direction. Half the clearance keeps the small static
+#: offset of a bit pushed by a dipping interface out; a quarter of the bit speed keeps a
+#: slow drift out and catches forward (~1x) and backward (~ -R/clearance, ~ -20x) whirl.
+WHIRL_RADIAL_RATIO = 0.5
+WHIRL_SPEED_RATIO = 0.25
 #: Below this mean ROP (m/s) the bit is not drilling and the MSE rotary term is undefined.
 MSE_MIN_ROP = 1e-9
 #: Ceiling of the reported MSE (Pa). Hard rock has a compressive strength of ~200 MPa and
@@ -96,15 +104,35 @@ def whirl_ratio(whirl_speed, bit_speed, min_mean_speed: float = SSI_MIN_MEAN_SPE
     return float(np.mean(ws)) / denom
 
 
-def whirl_direction(whirl_speed, bit_speed, radial, min_radial: float = WHIRL_MIN_RADIAL_RATIO
-                    ) -> str:
-    """"forward", "backward" or "none" (bit centred: mean radial ratio < ``min_radial``).
+def whirling(radial, whirl_speed, bit_speed) -> np.ndarray:
+    """The whirl rule per sample (module constants WHIRL_RADIAL_RATIO, WHIRL_SPEED_RATIO):
+    the bit is off the axis AND its centre orbits fast. NaN samples do not whirl."""
+    radial = np.nan_to_num(np.asarray(radial, dtype=float))
+    ws = np.nan_to_num(np.asarray(whirl_speed, dtype=float))
+    floor = np.maximum(np.abs(np.nan_to_num(np.asarray(bit_speed, dtype=float))), STUCK_SPEED)
+    return (radial > WHIRL_RADIAL_RATIO) & (np.abs(ws) > WHIRL_SPEED_RATIO * floor)
 
-    The sign of the mean whirl speed relative to the mean rotation decides the direction.
+
+def backward_whirling(radial, whirl_speed, bit_speed) -> np.ndarray:
+    """Samples that whirl (:func:`whirling`) against the rotation: the whirl speed has the
+    opposite sign of the bit speed (a stuck bit, speed 0, counts its whirl as backward
+    if it orbits against the positive drilling direction)."""
+    w = np.nan_to_num(np.asarray(bit_speed, dtype=float))
+    ws = np.nan_to_num(np.asarray(whirl_speed, dtype=float))
+    return whirling(radial, whirl_speed, bit_speed) & (ws * np.where(w != 0.0, w, 1.0) < 0.0)
+
+
+def whirl_direction(whirl_speed, bit_speed, radial) -> str:
+    """"forward", "backward" or "none" (no sample whirls by :func:`whirling`).
+
+    Among the whirling samples, the sign of the mean whirl speed relative to the mean
+    rotation decides the direction.
     """
-    if float(np.mean(_signal(radial, "radial"))) < min_radial:
+    mask = whirling(_signal(radial, "radial"), whirl_speed, bit_speed)
+    if not mask.any():
         return "none"
-    r = whirl_ratio(whirl_speed, bit_speed)
+    r = whirl_ratio(np.asarray(whirl_speed, dtype=float)[mask],
+                    np.asarray(bit_speed, dtype=float)[mask])
     if r > 0:
         return "forward"
     if r < 0:
@@ -172,7 +200,7 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
     ``channels`` names the record columns (the simulator's ``RECORD_CHANNELS``). Returns
     the :data:`WINDOW_METRICS`: ``ssi, stuck_fraction, whirl_ratio, radial_ratio (mean),
     radial_ratio_max, lateral_force (mean), lateral_force_max, rop, mse,
-    top_drive_energy, surface_torque_max``.
+    top_drive_energy, surface_torque_max, whirl_fraction, backward_whirl_fraction``.
     """
     col = {name: k for k, name in enumerate(channels)}
     rec = np.asarray(records, dtype=float)
@@ -197,6 +225,9 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
                                           c("bit_speed"), c("rop"), bit_diameter),
         "top_drive_energy": top_drive_energy(c("motor_torque"), c("surface_speed"), dt),
         "surface_torque_max": peak_surface_torque(c("surface_torque")),
+        "whirl_fraction": float(np.mean(whirling(radial, c("whirl_speed"), c("bit_speed")))),
+        "backward_whirl_fraction": float(np.mean(
+            backward_whirling(radial, c("whirl_speed"), c("bit_speed")))),
     }
 
 
@@ -212,7 +243,7 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
 Metric = IntEnum("Metric", [
     "SSI", "STUCK_FRACTION", "WHIRL_RATIO", "RADIAL_RATIO", "RADIAL_RATIO_MAX",
     "LATERAL_FORCE", "LATERAL_FORCE_MAX", "ROP", "MSE", "TOP_DRIVE_ENERGY",
-    "SURFACE_TORQUE_MAX",
+    "SURFACE_TORQUE_MAX", "WHIRL_FRACTION", "BACKWARD_WHIRL_FRACTION",
 ], start=0)
 WINDOW_METRICS: tuple[str, ...] = tuple(m.name.lower() for m in Metric)
 #: The record channels the metrics read, in the order of :func:`metric_columns`.
@@ -418,6 +449,20 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
         if abs(v) > peak or v != v:
             peak = abs(v)
     out[Metric.SURFACE_TORQUE_MAX] = peak
+    whirls = 0  # the whirl rule of whirling() / backward_whirling(), NaN: no whirl
+    backward = 0
+    radial = samples[Sample.RADIAL_RATIO]
+    ws = samples[Sample.WHIRL_SPEED]
+    for k in range(n):
+        speed = abs(w[k])
+        floor_k = speed if speed > STUCK_SPEED else STUCK_SPEED
+        if radial[k] > WHIRL_RADIAL_RATIO and abs(ws[k]) > WHIRL_SPEED_RATIO * floor_k:
+            whirls += 1
+            sign = w[k] if (w[k] != 0.0 and w[k] == w[k]) else 1.0
+            if ws[k] * sign < 0.0:
+                backward += 1
+    out[Metric.WHIRL_FRACTION] = whirls / n
+    out[Metric.BACKWARD_WHIRL_FRACTION] = backward / n
     for v in samples[Sample.FINITE]:
         if v == 0.0:
             return False

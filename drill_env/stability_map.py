@@ -36,12 +36,14 @@ inside the linearly unstable one (:func:`linear_boundary`) and approaches it as
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from pydantic import Field
@@ -51,8 +53,9 @@ from drill_env.physics.config import replace, require_positive
 from drill_env.physics.layout import R
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
-from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass
+from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass, jsonable
 from drill_env.scenarios import POSITIONS, make_scenario
+from drill_env.sweep import ResultStore, make_executor
 
 #: The paper's grid: 0-250 rpm and 0-200 kN in steps of 5 rpm / 5 kN (0 itself is
 #: steady by definition: no rotation, or no bit load).
@@ -67,15 +70,15 @@ class MapSettings:
     """How each grid point is simulated and classified."""
 
     #: Simulated seconds per point, from the kicked settled state.
-    seconds: Positive = Field(30.0, le=3600.0)
+    seconds: Positive = Field(default=30.0, le=3600.0)
     #: The last ``measure`` seconds decide: stick-slip if the bit sticks in them.
-    measure: Positive = Field(10.0, le=3600.0)
+    measure: Positive = Field(default=10.0, le=3600.0)
     #: Seconds between two returns of the bit to its position.
-    hold: Positive = Field(0.5, le=3600.0)
+    hold: Positive = Field(default=0.5, le=3600.0)
     #: Initial kick: the bit speed starts ``kick`` below steady (a 1 % disturbance).
-    kick: NonNegative = Field(0.01, lt=1.0)
+    kick: NonNegative = Field(default=0.01, lt=1.0)
     #: Record every k simulator steps (the stick test reads these samples).
-    record_every: Count = Field(5, ge=1, le=100_000)
+    record_every: Count = Field(default=5, ge=1, le=100_000)
 
     def __post_init__(self) -> None:
         if self.measure > self.seconds:
@@ -115,28 +118,47 @@ class StabilityMap:
         return d
 
 
+class BoundaryTracker:
+    """The boundary tracking of the module docstring as a state machine over an
+    (n_wob x n_rpm) grid: :meth:`next_point` says which point to simulate, :meth:`report`
+    takes its verdict. A sweep can so run the next points of many maps at once."""
+
+    def __init__(self, n_rpm: int, n_wob: int) -> None:
+        if n_rpm < 1 or n_wob < 1:
+            raise ValueError(f"grid: needs at least one speed and one WOB, got "
+                             f"{n_rpm} x {n_wob}")
+        self.n_rpm, self.n_wob = n_rpm, n_wob
+        self.unstable = np.zeros((n_wob, n_rpm), dtype=np.bool_)
+        self.tested = np.full((n_wob, n_rpm), -1, dtype=np.int8)
+        self.i = self.j = 0
+
+    def next_point(self) -> tuple[int, int] | None:
+        """(speed index, WOB index) of the next point, or None when the map is done.
+        Speeds past the last one reached (the WOB ran out) count as steady: the
+        boundary rises with speed."""
+        if self.i < self.n_rpm and self.j < self.n_wob:
+            return self.i, self.j
+        return None
+
+    def report(self, stick_slip: bool) -> None:
+        i, j = self.i, self.j
+        if stick_slip:
+            self.tested[j, i] = 1
+            self.unstable[j:, i] = True  # rule 1: every higher WOB sticks too; next speed
+            self.i += 1
+        else:
+            self.tested[j, i] = 0  # rule 2: only the WOB increases
+            self.j += 1
+
+
 def track_boundary(stick_slip: Callable[[int, int], bool], n_rpm: int, n_wob: int
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """The boundary tracking of the module docstring over an (n_wob x n_rpm) grid.
-
-    ``stick_slip(i_rpm, j_wob)`` simulates one point. Returns ``(unstable, tested)``
-    as in :class:`StabilityMap`. Speeds past the last one reached (the WOB ran out)
-    count as steady: the boundary rises with speed.
-    """
-    if n_rpm < 1 or n_wob < 1:
-        raise ValueError(f"grid: needs at least one speed and one WOB, got {n_rpm} x {n_wob}")
-    unstable = np.zeros((n_wob, n_rpm), dtype=np.bool_)
-    tested = np.full((n_wob, n_rpm), -1, dtype=np.int8)
-    i = j = 0
-    while i < n_rpm and j < n_wob:
-        if stick_slip(i, j):
-            tested[j, i] = 1
-            unstable[j:, i] = True  # rule 1: every higher WOB sticks too; next speed
-            i += 1
-        else:
-            tested[j, i] = 0  # rule 2: only the WOB increases
-            j += 1
-    return unstable, tested
+    """:class:`BoundaryTracker` with ``stick_slip(i_rpm, j_wob)`` simulating each point.
+    Returns ``(unstable, tested)`` as in :class:`StabilityMap`."""
+    tracker = BoundaryTracker(n_rpm, n_wob)
+    while (point := tracker.next_point()) is not None:
+        tracker.report(stick_slip(*point))
+    return tracker.unstable, tracker.tested
 
 
 def point_sticks(config, rpm: float, weight_on_bit: float, settings: MapSettings
@@ -184,54 +206,112 @@ def grid(rpm_step: float = PAPER_RPM_STEP, wob_step: float = PAPER_WOB_STEP,
 def stability_map(position: str, rpm: Sequence[float], weight_on_bit: Sequence[float],
                   settings: MapSettings = DEFAULT_SETTINGS, config=None,
                   progress: Callable[[], None] | None = None) -> StabilityMap:
-    """The map of ``position`` (P1..P6) over the grid, by :func:`track_boundary`.
+    """The map of one ``position`` (P1..P6) over the grid, serially (see
+    :func:`stability_maps` for several maps, in parallel and resumable).
 
     ``config``: the simulation config (default: ``paper_case1`` at ``position``);
     ``progress``: called after every simulated point.
     """
-    if position not in POSITIONS:
-        raise ValueError(f"position: must be one of {sorted(POSITIONS)}, got {position!r}")
-    rpm = np.asarray(rpm, dtype=float)
-    wob = np.asarray(weight_on_bit, dtype=float)
-    if config is None:
-        config = make_scenario("paper_case1", position=position).config
-    t0 = time.perf_counter()
-    runs = 0
+    return stability_maps([position], settings=settings, grid_points=(rpm, weight_on_bit),
+                          configs={position: config} if config is not None else None,
+                          progress=progress or False, workers=1)[0]
 
-    def sticks(i: int, j: int) -> bool:
-        nonlocal runs
-        runs += 1
-        result = point_sticks(config, float(rpm[i]), float(wob[j]), settings)
-        if progress is not None:
-            progress()
-        return result["stuck_fraction"] > 0.0
 
-    unstable, tested = track_boundary(sticks, len(rpm), len(wob))
-    first = np.where(unstable.any(axis=0), unstable.argmax(axis=0), -1)
-    boundary = np.where(first >= 0, wob[np.maximum(first, 0)], np.nan)
-    return StabilityMap(position, POSITIONS[position][0], rpm, wob, unstable, tested,
-                        boundary, runs, time.perf_counter() - t0)
+def map_config(position: str, top_drive: dict[str, float] | None = None):
+    """``paper_case1`` at ``position``, with top-drive gain overrides (a controller)."""
+    config = make_scenario("paper_case1", position=position).config
+    if top_drive:
+        config = replace(config, **{f"top_drive.{k}": v for k, v in top_drive.items()})
+    return config
+
+
+def _point_task(args: tuple) -> dict[str, float]:
+    config, rpm, wob, settings = args
+    return point_sticks(config, rpm, wob, settings)
+
+
+def fingerprint(config, settings: MapSettings) -> str:
+    """What a point's result depends on: the physics and how it is simulated and judged."""
+    text = json.dumps({"config": jsonable(config), "settings": asdict(settings)},
+                      sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float = PAPER_RPM_STEP,
                    wob_step: float = PAPER_WOB_STEP, settings: MapSettings = DEFAULT_SETTINGS,
                    max_rpm: float = PAPER_MAX_RPM, max_wob: float = PAPER_MAX_WOB,
-                   progress: bool = False) -> list[StabilityMap]:
-    """:func:`stability_map` of each position on one grid (tqdm bar if ``progress``)."""
-    rpm, wob = grid(rpm_step, wob_step, max_rpm, max_wob)
+                   progress: bool | Callable[[], None] = False, *,
+                   grid_points: tuple[Sequence[float], Sequence[float]] | None = None,
+                   configs: dict[str, Any] | None = None, store: Path | None = None,
+                   workers: int | None = 1, ray_address: str | None = None,
+                   ) -> list[StabilityMap]:
+    """The maps of ``positions`` on one grid, boundary tracking all of them in lockstep.
+
+    Each round simulates the next point of every unfinished map at once, on ``workers``
+    local processes (1: serially) or on Ray (``ray_address``); the results do not depend
+    on the backend. ``store``: a JSON-lines file of finished points, appended as they
+    arrive; a run with the same physics and settings skips the points already in it (an
+    interrupted map resumes where it stopped). ``configs``: per position (default
+    :func:`map_config`). ``progress``: True for a tqdm bar, or a function called after
+    every simulated point (stored points are not simulated and do not call it).
+    """
+    if grid_points is None:
+        rpm, wob = grid(rpm_step, wob_step, max_rpm, max_wob)
+    else:
+        rpm, wob = (np.asarray(g, dtype=float) for g in grid_points)
+    for position in positions:
+        if position not in POSITIONS:
+            raise ValueError(f"position: must be one of {sorted(POSITIONS)}, got "
+                             f"{position!r}")
+    configs = {p: (configs or {}).get(p) or map_config(p) for p in positions}
+    prints = {p: fingerprint(configs[p], settings) for p in positions}
+    results = ResultStore(store, "stability-map") if store is not None else None
+    trackers = {p: BoundaryTracker(len(rpm), len(wob)) for p in positions}
+    runs = dict.fromkeys(positions, 0)
+    t0 = time.perf_counter()
     bar = None
-    if progress:
+    tick = progress if callable(progress) else None
+    if progress is True:
         from tqdm import tqdm
 
         bar = tqdm(total=len(positions) * (len(rpm) + len(wob)), desc="  stability map",
-                   unit="run", leave=False)
+                   unit="point", leave=False)
+        tick = bar.update
+    executor = make_executor(workers, ray_address)
     try:
-        return [stability_map(p, rpm, wob, settings,
-                              progress=bar.update if bar is not None else None)
-                for p in positions]
+        while True:
+            wanted = {p: ij for p, t in trackers.items() if (ij := t.next_point()) is not None}
+            if not wanted:
+                break
+            keys = {p: f"{prints[p]}|{rpm[i]:g}|{wob[j]:g}" for p, (i, j) in wanted.items()}
+            todo = [p for p in wanted if results is None or keys[p] not in results]
+            found = {p: results.get(keys[p]) for p in wanted if p not in todo} \
+                if results is not None else {}
+            tasks = [(configs[p], float(rpm[wanted[p][0]]), float(wob[wanted[p][1]]),
+                      settings) for p in todo]
+            for k, result in executor.map_unordered(_point_task, tasks):
+                p = todo[k]
+                found[p] = result
+                runs[p] += 1
+                if results is not None:
+                    results.put(keys[p], result)
+                if tick is not None:
+                    tick()
+            for p in wanted:
+                trackers[p].report(found[p]["stuck_fraction"] > 0.0)
     finally:
+        executor.close()
         if bar is not None:
             bar.close()
+    wall = time.perf_counter() - t0
+    maps = []
+    for p in positions:
+        t = trackers[p]
+        first = np.where(t.unstable.any(axis=0), t.unstable.argmax(axis=0), -1)
+        boundary = np.where(first >= 0, wob[np.maximum(first, 0)], np.nan)
+        maps.append(StabilityMap(p, POSITIONS[p][0], rpm, wob, t.unstable, t.tested, boundary,
+                                 runs[p], wall))
+    return maps
 
 
 def linear_boundary(position: str, rpm: Sequence[float], max_wob: float = PAPER_MAX_WOB,

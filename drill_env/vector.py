@@ -66,7 +66,7 @@ class DrillStringVectorEnv(VectorEnv):
         self.single_action_space = self.envs[0].action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        n_obs = self.single_observation_space.shape[0]
+        n_obs = len(self.envs[0].observation_names)
         self._obs = np.zeros((self.num_envs, n_obs), dtype=np.float32)
         self._rewards = np.zeros(self.num_envs, dtype=np.float64)
         self._terminations = np.zeros(self.num_envs, dtype=np.bool_)
@@ -132,7 +132,7 @@ class DrillStringVectorEnv(VectorEnv):
                      and (self._terminations[stepping] | self._truncations[stepping]).any())
             for i, info in zip(stepping.tolist(), infos, strict=True):
                 if ended and (self._terminations[i] or self._truncations[i]):
-                    entries.append((i, {"final_obs": results[i][0], "final_info": info}))
+                    entries.append((i, {"final_obs": self._obs[i].copy(), "final_info": info}))
                     self._obs[i], info = self.envs[i].reset()
                 entries.append((i, info))
         infos = self._batch_infos(entries)

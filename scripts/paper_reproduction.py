@@ -2,7 +2,7 @@
 
     .venv/bin/python scripts/paper_reproduction.py [--out docs/img]
 
-Every run comes from drill_env.studies.simulate, the same code the paper-result tests use;
+Every run comes from drill_env.tools.studies.simulate, the same code the paper-result tests use;
 the stability maps (Fig. 15) from drill_env.stability_map, as ``drill-env stability-map``.
 """
 
@@ -20,7 +20,7 @@ import numpy as np  # noqa: E402
 from drill_env.physics.config import replace  # noqa: E402
 from drill_env.scenarios import make_scenario  # noqa: E402
 from drill_env.stability_map import plot_maps, stability_maps  # noqa: E402
-from drill_env.studies import RPM, lateral_force, simulate  # noqa: E402
+from drill_env.tools.studies import RPM, lateral_force, simulate  # noqa: E402
 
 
 def torsional_crossing(rpm: float):

@@ -1,10 +1,10 @@
-"""The ``drill-env run`` command: one constant-set-point episode, summary and recording."""
+"""The command line: arguments checked in the units typed, summaries, recordings, maps."""
 
 import json
 
 import pytest
 
-from drill_env.cli import main
+from drill_cli.main import main
 
 
 def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
@@ -14,7 +14,7 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
     assert code == 0
     summary = json.loads((tmp_path / "run_summary.json").read_text())
     assert summary["steps"] == 5 and summary["termination_reason"] == ""
-    assert summary["rpm"] == 60.0 and summary["weight_on_bit"] == 80e3
+    assert summary["rpm"] == 60.0 and summary["weight_on_bit_kN"] == 80.0
     assert summary["simulated_s"] == pytest.approx(0.5)
     assert summary["mean_rop"] > 0.0
     recordings = list((tmp_path / "rec").glob("paper_case1_seed0_*.rrd"))
@@ -25,15 +25,34 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
 def test_run_names_an_unknown_scenario(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--scenario", "nope"])
-    assert "--scenario: unknown 'nope'" in capsys.readouterr().err
+    assert "--scenario: invalid choice: 'nope'" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(("args", "name"), [(["--rpm", "500"], "rpm"),
-                                            (["--duration", "-1"], "episode_duration")])
-def test_run_names_a_bad_argument(tmp_path, capsys, args, name):
+@pytest.mark.parametrize(("args", "message"), [
+    (["--rpm", "500"], "--rpm: 500 rpm is outside the env's range 0-200 rpm"),
+    (["--wob", "250"], "--wob: 250 kN is outside the env's range 0-200 kN"),  # kN, not N
+    (["--wob", "-5"], "--wob: must be >= 0 kN, got -5"),
+    (["--wob", "nan"], "--wob: must be a finite number of kN"),
+    (["--duration", "-1"], "--duration: must be > 0 s"),
+    (["--seed", "-2"], "--seed: must be >= 0")])
+def test_run_names_a_bad_argument_in_the_units_typed(tmp_path, capsys, args, message):
     with pytest.raises(SystemExit):
         main(["run", *args, "--out", str(tmp_path)])
-    assert name in capsys.readouterr().err
+    assert message in capsys.readouterr().err
+
+
+def test_help_shows_defaults_and_scenario_names(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    out = capsys.readouterr().out
+    assert "(default: logs)" in out and "paper_case1" in out and "random" in out
+
+
+def test_replay_of_a_missing_file_is_one_line(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        main(["replay", str(tmp_path / "missing.rrd")])
+    err = capsys.readouterr().err
+    assert "no recording at" in err and "Traceback" not in err
 
 
 def test_stability_map_command_writes_the_map_and_its_picture(tmp_path, capsys):

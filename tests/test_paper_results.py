@@ -12,7 +12,7 @@ import pytest
 
 from drill_env.physics.config import FormationConfig, SimulationConfig, SolverConfig, replace
 from drill_env.scenarios import HARD, SOFT, make_scenario
-from drill_env.studies import (
+from drill_env.tools.studies import (
     lateral_force,
     radial_displacement,
     simulate,

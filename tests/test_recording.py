@@ -222,3 +222,120 @@ def test_replay_is_not_started_here(tmp_path: Path) -> None:
     assert "--web-viewer" not in replay_command(tmp_path / "x.rrd")
     with pytest.raises(FileNotFoundError, match="path"):
         replay(tmp_path / "missing.rrd")
+
+
+# --------------------------------------------------------------------------- interrupts
+
+_RECORD_FOREVER = """
+import sys, numpy as np, gymnasium as gym
+import drill_env
+from drill_env.recording import RecordEpisode
+env = RecordEpisode(gym.make("DrillString-v0", scenario="paper_case1", episode_duration=1e4),
+                    sys.argv[1], flush_every=20, string_period=1.0)
+try:
+    env.reset(seed=0)
+    while True:
+        env.step(np.zeros(2, dtype=np.float32))
+finally:
+    env.close()
+"""
+
+
+def _wait_for_chunks(directory: Path, proc, min_bytes: int = 200_000) -> Path:
+    import time
+
+    deadline = time.monotonic() + 120.0
+    while time.monotonic() < deadline:
+        files = list(directory.glob("*.rrd"))
+        if files and files[0].stat().st_size > min_bytes:
+            return files[0]
+        assert proc.poll() is None, proc.stderr.read()
+        time.sleep(0.2)
+    raise AssertionError("the recording did not grow")
+
+
+@pytest.mark.parametrize("how", ["interrupt", "kill"])
+def test_a_recording_interrupted_mid_episode_reads_back(tmp_path: Path, how: str) -> None:
+    import signal
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-c", _RECORD_FOREVER, str(tmp_path)],
+                            stderr=subprocess.PIPE, text=True)
+    path = _wait_for_chunks(tmp_path, proc)
+    proc.send_signal(signal.SIGINT if how == "interrupt" else signal.SIGKILL)
+    proc.wait(timeout=60)
+    with pytest.warns() if how == "kill" else _no_warning():
+        back = read_recording(path)
+    times, values = back.scalars["/timeseries/speed_rpm/bit"]
+    assert len(times) >= 20 and np.all(np.isfinite(values))
+    np.testing.assert_allclose(np.diff(times), 0.1, atol=1e-6)  # every step, in order
+    texts = [text for _, _, text in back.text_logs["/events"]]
+    assert texts[0].startswith("episode start")
+    if how == "interrupt":  # the wrapper finished the episode on the way out
+        assert texts[-1] == "episode end: env closed before the episode ended"
+
+
+class _no_warning:
+    def __enter__(self):
+        import warnings
+
+        self._catch = warnings.catch_warnings()
+        self._catch.__enter__()
+        warnings.simplefilter("error")
+
+    def __exit__(self, *exc):
+        return self._catch.__exit__(*exc)
+
+
+def test_an_unwritable_directory_fails_at_once_in_one_line(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    with pytest.raises(OSError, match=r"^directory: cannot write recordings to .*file/sub"):
+        RecordEpisode(_make_env(0.2), blocker / "sub")
+
+
+_FAKE_VIEWER = """#!/bin/sh
+sleep 600 &
+echo $! > "$VIEWER_CHILD"
+wait
+"""
+
+
+def test_stopping_replay_stops_the_viewer_and_its_children(tmp_path: Path) -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    viewer = tmp_path / "viewer.sh"
+    viewer.write_text(_FAKE_VIEWER)
+    viewer.chmod(0o755)
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"")
+    child = tmp_path / "child.pid"
+    env = {**os.environ, "DRILL_ENV_RERUN": str(viewer), "VIEWER_CHILD": str(child)}
+    proc = subprocess.Popen([sys.executable, "-c", "import sys; from drill_env.recording "
+                             "import replay; sys.exit(replay(sys.argv[1]))", str(recording)],
+                            env=env)
+    deadline = time.monotonic() + 30
+    while not (child.exists() and child.read_text().strip()) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    pid = int(child.read_text())
+    assert _alive(pid)  # the viewer's own child runs
+    proc.send_signal(signal.SIGTERM)
+    proc.wait(timeout=30)
+    deadline = time.monotonic() + 10
+    while _alive(pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not _alive(pid)
+
+
+def _alive(pid: int) -> bool:
+    """Running (a zombie waiting for a reaper counts as gone)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state != "Z"

@@ -139,3 +139,53 @@ def test_linear_boundary_brackets_the_sign_change_and_bounds_the_map(maps):
     assert np.all(simulated >= limit)
     with pytest.raises(ValueError, match="straddles"):
         linear_boundary("P2", rpm)
+
+
+# --------------------------------------------------------------------------- resume
+
+def test_an_interrupted_map_resumes_computing_only_the_missing_points(tmp_path):
+    from drill_env.stability_map import MapSettings, stability_maps
+
+    settings = MapSettings(seconds=4.0, measure=2.0)
+    grid_points = ([40.0, 80.0, 120.0], [40e3, 90e3, 140e3])
+    store = tmp_path / "points.jsonl"
+    fresh = stability_maps(["P1", "P4"], settings=settings, grid_points=grid_points)
+    total = sum(m.runs for m in fresh)
+    assert total >= 6
+
+    calls = []
+
+    def stop_after_three():
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        stability_maps(["P1", "P4"], settings=settings, grid_points=grid_points, store=store,
+                       progress=stop_after_three)
+    assert len(store.read_text().splitlines()) == 3  # written as they arrived
+
+    resumed_calls = []
+    resumed = stability_maps(["P1", "P4"], settings=settings, grid_points=grid_points,
+                             store=store, progress=lambda: resumed_calls.append(1))
+    assert len(resumed_calls) == total - 3  # only the missing points were simulated
+    for a, b in zip(resumed, fresh, strict=True):
+        np.testing.assert_array_equal(a.unstable, b.unstable)
+        np.testing.assert_array_equal(a.tested, b.tested)
+    # the same points under other settings are not reused
+    other = []
+    stability_maps(["P1"], settings=MapSettings(seconds=4.0, measure=1.0),
+                   grid_points=grid_points, store=store, progress=lambda: other.append(1))
+    assert other
+
+
+def test_a_map_on_local_processes_equals_the_serial_map():
+    from drill_env.stability_map import MapSettings, stability_maps
+
+    settings = MapSettings(seconds=4.0, measure=2.0)
+    grid_points = ([40.0, 100.0], [50e3, 150e3])
+    serial = stability_maps(["P1", "P3"], settings=settings, grid_points=grid_points)
+    pooled = stability_maps(["P1", "P3"], settings=settings, grid_points=grid_points,
+                            workers=2)
+    for a, b in zip(serial, pooled, strict=True):
+        np.testing.assert_array_equal(a.tested, b.tested)

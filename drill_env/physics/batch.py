@@ -69,7 +69,7 @@ class TupleSlots:
     slots pickle (the list itself is rebuilt after unpickling).
     """
 
-    def __init__(self, size: int, arrays: Callable[[Any], tuple], key: Callable[[Any], tuple]
+    def __init__(self, size: int, arrays: Callable[[Any], tuple], key: Callable[[Any], Any]
                  ) -> None:
         self.size = int(size)
         self._arrays, self._key = arrays, key
@@ -118,7 +118,7 @@ class SimulatorBatch:
 
     def prepare(self, sims: Sequence[Simulator], n_steps: Sequence[int],
                 speed_setpoints: Sequence[float | None], hook_loads: Sequence[float | None],
-                record_every: Sequence[int], active: Sequence[bool] | None
+                record_every: Sequence[int], active: Sequence[bool] | np.ndarray | None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``Simulator.prepare`` each active simulator: (n_steps, record_every, run)."""
         if len(sims) != self.size:
@@ -132,7 +132,7 @@ class SimulatorBatch:
 
     @staticmethod
     def finish(sims: Sequence[Simulator], run: np.ndarray,
-               active: Sequence[bool] | None) -> None:
+               active: Sequence[bool] | np.ndarray | None) -> None:
         """Read the simulators that were active but stopped before the kernel."""
         for e, sim in enumerate(sims):
             if not run[e] and (active is None or active[e]):
@@ -140,7 +140,7 @@ class SimulatorBatch:
 
     def advance(self, sims: Sequence[Simulator], n_steps: Sequence[int],
                 speed_setpoints: Sequence[float | None], hook_loads: Sequence[float | None],
-                record_every: Sequence[int], active: Sequence[bool] | None = None
+                record_every: Sequence[int], active: Sequence[bool] | np.ndarray | None = None
                 ) -> list[np.ndarray]:
         """All simulators in one parallel kernel call; one record array per simulator.
 

@@ -74,9 +74,9 @@ class Section:
     element_length: Positive = Field(ge=0.01, le=MAX_STRING_LENGTH)
     #: Steel, API 5DP / 7-1 (E = 207 GPa, G = 79.5 GPa, rho = 7850 kg/m^3). Bounds: any
     #: engineering metal (aluminium 70 GPa, tungsten 19300 kg/m^3) fits inside them.
-    youngs_modulus: Positive = Field(2.07e11, ge=1.0e9, le=1.0e12)
-    shear_modulus: Positive = Field(7.95e10, ge=1.0e9, le=1.0e12)
-    density: Positive = Field(7850.0, ge=1000.0, le=25_000.0)
+    youngs_modulus: Positive = Field(default=2.07e11, ge=1.0e9, le=1.0e12)
+    shear_modulus: Positive = Field(default=7.95e10, ge=1.0e9, le=1.0e12)
+    density: Positive = Field(default=7850.0, ge=1000.0, le=25_000.0)
 
     def __post_init__(self) -> None:
         _require(self.inner_diameter < self.outer_diameter, "inner_diameter",
@@ -138,14 +138,14 @@ class StringConfig:
     drill_pipe: Section = field(default_factory=_default_pipe)
     bha: Section = field(default_factory=_default_bha)
     #: Borehole diameter; an 8 3/4 in PDC bit drills an 8 3/4 in hole.
-    hole_diameter: Positive = Field(8.75 * INCH, le=MAX_DIAMETER)
+    hole_diameter: Positive = Field(default=8.75 * INCH, le=MAX_DIAMETER)
     #: Stabilizer positions, metres above the bit. A slick 35 m BHA of 6 1/2 in collars
     #: buckles at ~60 kN (pi^2 EI / L^2), below the paper's 75-100 kN WOB, so the default
     #: is a packed BHA: near-bit stabilizer plus two string stabilizers (a common
     #: vertical-hole assembly). Each sits on the nearest node.
     stabilizers: tuple[Positive, ...] = (1.0, 10.0, 19.0)
     #: Stabilizer blade diameter: 1/8 in under gauge, the usual API undergauge.
-    stabilizer_diameter: Positive = Field(8.625 * INCH, le=MAX_DIAMETER)
+    stabilizer_diameter: Positive = Field(default=8.625 * INCH, le=MAX_DIAMETER)
 
     def __post_init__(self) -> None:
         _require(self.stabilizer_diameter < self.hole_diameter, "stabilizer_diameter",
@@ -176,15 +176,15 @@ class MudConfig:
 
     #: 10 ppg water-based mud. Must be lighter than the string (checked by
     #: SimulationConfig): a string lighter than its mud floats.
-    density: NonNegative = Field(1200.0, le=MAX_MUD_DENSITY)
+    density: NonNegative = Field(default=1200.0, le=MAX_MUD_DENSITY)
     #: Added-mass coefficient of the displaced fluid for lateral motion; 1.0 is the
     #: potential-flow value for a cylinder in unbounded fluid (confinement raises it).
-    added_mass_coefficient: NonNegative = Field(1.0, le=10.0)
+    added_mass_coefficient: NonNegative = Field(default=1.0, le=10.0)
     #: Viscous drag torque per unit length and angular speed (N m s/rad per m). Chosen so
     #: the 1035 m string needs ~1 kN m off-bottom torque at 100 rpm, a typical field
     #: figure for a shallow vertical well; it also sets the damping of the first
     #: torsional mode, and so the stick-slip threshold.
-    torsional_damping: NonNegative = Field(0.1, le=100.0)
+    torsional_damping: NonNegative = Field(default=0.1, le=100.0)
 
 
 @config_dataclass
@@ -196,10 +196,10 @@ class DampingConfig:
     """
 
     #: a (1/s): 8 % damping of a 1 Hz lateral mode, a rough stand-in for mud drag.
-    mass_proportional: NonNegative = Field(1.0, le=1.0e3)
+    mass_proportional: NonNegative = Field(default=1.0, le=1.0e3)
     #: b (s): damps the mesh-scale modes (zeta ~ 0.3 at the highest torsional frequency)
     #: while leaving the first torsional mode almost untouched (zeta ~ 2e-4).
-    stiffness_proportional: NonNegative = Field(1.0e-4, le=1.0)
+    stiffness_proportional: NonNegative = Field(default=1.0e-4, le=1.0)
 
 
 @config_dataclass
@@ -210,15 +210,15 @@ class ContactConfig:
     #: Penalty stiffness k of eq. (18). Formation + tool-joint compliance of the order of
     #: 1e7 N/m is common in FE drill-string codes; the explicit contact step needs
     #: dt < 2 sqrt(m/k), which holds at dt = 1 ms for every node of the default mesh.
-    stiffness: Positive = Field(1.0e7, le=1.0e10)
+    stiffness: Positive = Field(default=1.0e7, le=1.0e10)
     #: Penalty damping c of eq. (18): ~10 % of critical for a 1 m collar node.
-    damping: NonNegative = Field(5.0e3, le=1.0e8)
+    damping: NonNegative = Field(default=5.0e3, le=1.0e8)
     #: Velocity-dependent wall friction mu(v) = mu_kin + (mu_static - mu_kin) exp(-|v|/v_s).
-    friction_static: NonNegative = Field(0.30, le=2.0)
-    friction_kinetic: NonNegative = Field(0.25, le=2.0)
-    friction_decay_speed: Positive = Field(0.1, le=100.0)
+    friction_static: NonNegative = Field(default=0.30, le=2.0)
+    friction_kinetic: NonNegative = Field(default=0.25, le=2.0)
+    friction_decay_speed: Positive = Field(default=0.1, le=100.0)
     #: Friction is regularised linearly below this slip speed (m/s), see docs/model.md.
-    regularisation_speed: Positive = Field(1.0e-3, le=1.0)
+    regularisation_speed: Positive = Field(default=1.0e-3, le=1.0)
 
 
 @config_dataclass
@@ -227,16 +227,16 @@ class TopDriveConfig:
 
     #: Top-drive rotor inertia referred to the output shaft (kg m^2); Kyllingstad &
     #: Nessjoen (2009) quote 500-3000 kg m^2 for electric top drives.
-    inertia: Positive = Field(1000.0, le=1.0e6)
+    inertia: Positive = Field(default=1000.0, le=1.0e6)
     #: PI gains of the speed loop. None selects the stiff controller of the literature:
     #: P = 50 Z (Z: drill-pipe torsional impedance), I = 5 J_td (1/s^2).
     proportional_gain: Annotated[NonNegative, Field(le=1.0e9)] | None = None
     integral_gain: Annotated[NonNegative, Field(le=1.0e9)] | None = None
     #: Continuous torque rating of a mid-size top drive (N m).
-    max_torque: Positive = Field(50.0e3, le=1.0e6)
+    max_torque: Positive = Field(default=50.0e3, le=1.0e6)
     #: Rate limit of the speed set point (rad/s^2): 0 -> 150 rpm in ~5 s. (Tests take a
     #: step of the set point with 1e4.)
-    max_acceleration: Positive = Field(3.0, le=1.0e6)
+    max_acceleration: Positive = Field(default=3.0, le=1.0e6)
 
 
 # --------------------------------------------------------------------------- bit & rock
@@ -250,18 +250,18 @@ class RockConfig:
     """
 
     name: str = "rock"
-    mu_min: NonNegative = Field(0.5, le=5.0)
-    mu_max: NonNegative = Field(0.9, le=5.0)
+    mu_min: NonNegative = Field(default=0.5, le=5.0)
+    mu_max: NonNegative = Field(default=0.9, le=5.0)
     #: Decay speed of the falling curve (rad/s).
-    st1: Positive = Field(3.0, le=1.0e3)
+    st1: Positive = Field(default=3.0, le=1.0e3)
     #: Slope of the rising branch (s/rad).
-    st2: NonNegative = Field(0.0, le=10.0)
+    st2: NonNegative = Field(default=0.0, le=10.0)
     #: Gauge contact stiffness and damping of eq. (55).
-    wall_stiffness: Positive = Field(2.0e7, le=1.0e10)
-    wall_damping: NonNegative = Field(2.0e3, le=1.0e8)
+    wall_stiffness: Positive = Field(default=2.0e7, le=1.0e10)
+    wall_damping: NonNegative = Field(default=2.0e3, le=1.0e8)
     #: Depth of cut per bit revolution and per newton of WOB (m/(rev N)); 1e-6 is 100 mm
     #: per revolution at 100 kN, beyond any PDC bit.
-    depth_of_cut: NonNegative = Field(2.0e-8, le=1.0e-6)
+    depth_of_cut: NonNegative = Field(default=2.0e-8, le=1.0e-6)
 
     def __post_init__(self) -> None:
         _require(self.mu_max >= self.mu_min, "mu_max",
@@ -278,8 +278,8 @@ class Interface:
     """
 
     depth: Finite = Field(ge=-1.0e5, le=1.0e5)
-    dip: Finite = Field(45.0, ge=0.0, lt=90.0)
-    azimuth: Finite = Field(0.0, ge=-3600.0, le=3600.0)
+    dip: Finite = Field(default=45.0, ge=0.0, lt=90.0)
+    azimuth: Finite = Field(default=0.0, ge=-3600.0, le=3600.0)
 
 
 #: Most rocks and interfaces of one formation: the bit kernel splits every blade segment
@@ -331,19 +331,19 @@ class BitConfig:
     """
 
     #: 8 3/4 in PDC bit, six blades.
-    diameter: Positive = Field(8.75 * INCH, le=MAX_DIAMETER)
+    diameter: Positive = Field(default=8.75 * INCH, le=MAX_DIAMETER)
     #: Radial clearance between gauge pads and borehole wall (paper section 4: 0.005 m).
     gauge_clearance: Positive = 0.005
     blade_angles: tuple[Annotated[Finite, Field(ge=-360.0, le=360.0)], ...] = (
         0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
     face_start: tuple[NonNegative, ...] = (0.015,) * 6
     face_end: tuple[NonNegative, ...] = (0.070,) * 6
-    shoulder_angle: Positive = Field(60.0, le=90.0)
+    shoulder_angle: Positive = Field(default=60.0, le=90.0)
     shoulder_length: tuple[NonNegative, ...] = ()
     gauge_length: tuple[Annotated[NonNegative, Field(le=1.0)], ...] = (0.05,) * 6
     #: Bit mass (kg) and polar inertia (kg m^2): ~ a 50 kg steel body, m r^2 / 2.
-    mass: Positive = Field(50.0, le=1.0e4)
-    inertia: Positive = Field(0.3, le=1.0e3)
+    mass: Positive = Field(default=50.0, le=1.0e4)
+    inertia: Positive = Field(default=0.3, le=1.0e3)
     #: Hold the bit axis parallel to the hole axis (paper section 3.1.1: with a 1/16 in
     #: gauge clearance the tilt of the bit is negligible). The bit node's tilt DOFs are
     #: then fixed; lateral translation stays free. Without it the free bit end under the
@@ -421,7 +421,7 @@ class SolverConfig:
     #: explicit force terms and to divide the control interval evenly. Bounded below by
     #: MIN_TIME_STEP (time per simulated second) and above by 50 ms (the top drive's PI
     #: loop and the bit's stick test are explicit in the step).
-    time_step: Positive = Field(2.0e-3, ge=MIN_TIME_STEP, le=0.05)
+    time_step: Positive = Field(default=2.0e-3, ge=MIN_TIME_STEP, le=0.05)
     #: False freezes the lateral DOFs (torsion only): the paper's case 1 studies torsion
     #: alone, and torsion-only runs are ~3x cheaper for stability maps.
     lateral: StrictBool = True
@@ -440,7 +440,7 @@ class SolverConfig:
     #: explicit wall and gauge penalties, computed from the lumped node mass alone. The
     #: implicit neighbours add effective mass, so even 1.0 keeps a margin; 0.5 is the
     #: full model's conservative choice, the fast level uses FAST_CRITICAL_STEP_FRACTION.
-    critical_step_fraction: Positive = Field(0.5, ge=0.01, le=1.0)
+    critical_step_fraction: Positive = Field(default=0.5, ge=0.01, le=1.0)
 
 
 BIT_MODELS = ("mesoscopic", "macroscopic")

@@ -78,10 +78,10 @@ def build_mesh(config: SimulationConfig) -> Mesh:
         lengths += [le] * n
         props += [row] * n
     cols = list(zip(*props, strict=True))
-    le = np.asarray(lengths)
+    element_length = np.asarray(lengths)
     return Mesh(
-        node_depth=np.concatenate(([0.0], np.cumsum(le))),
-        element_length=le,
+        node_depth=np.concatenate(([0.0], np.cumsum(element_length))),
+        element_length=element_length,
         bending_stiffness=np.asarray(cols[0]),
         torsional_stiffness=np.asarray(cols[1]),
         steel_mass=np.asarray(cols[2]),

@@ -115,7 +115,7 @@ class ReferenceStepper:
         # (paper section 3.1.1), the bit's tilt
         last = 2 * n - 1 if cfg.bit.axis_aligned else 2 * n
         self.free = np.arange(1, last)
-        self._lat_wob = None
+        self._lat_wob: float | None = None
 
         # ---- torsion: top-drive rotor on node 0, bit on the last node, mud drag
         k_tor, j_tor = assemble_torsion(mesh)

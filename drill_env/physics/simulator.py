@@ -625,5 +625,10 @@ class Simulator:
         return self.bit_out[SHARES:].copy()
 
     @property
+    def bit_angle(self) -> float:
+        """Rotation angle of the bit phi_z (rad): where its blades point."""
+        return float(self.ut[-1])
+
+    @property
     def node_depth(self) -> np.ndarray:
         return self.mesh.node_depth

@@ -37,8 +37,8 @@ from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 __all__ = [
     "ConfigError", "Count", "Finite", "NonNegative", "Positive", "StrictBool", "config_dataclass",
-    "flatten", "from_dict", "load_yaml", "replace", "require_finite", "require_non_negative",
-    "require_positive", "validated",
+    "flatten", "from_dict", "jsonable", "load_yaml", "replace", "require_finite",
+    "require_non_negative", "require_positive", "validated",
 ]
 
 T = TypeVar("T")
@@ -268,6 +268,24 @@ def flatten(changes: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
         else:
             out[path] = value
     return out
+
+
+def jsonable(obj: Any) -> Any:
+    """A JSON-ready copy of configs (dataclasses), dicts, arrays and NumPy scalars: what
+    result files and recordings store to say which configuration they belong to."""
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return jsonable(dataclasses.asdict(obj))
+    if isinstance(obj, Mapping):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.integer, np.floating, np.bool_)):
+        return obj.item()
+    if obj is None or isinstance(obj, (str, int, float, bool)):
+        return obj
+    return repr(obj)
 
 
 # --------------------------------------------------------------------------- plain checks

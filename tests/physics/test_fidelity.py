@@ -26,7 +26,7 @@ from drill_env.physics.fem import from_band
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 from drill_env.scenarios import HARD, make_scenario
-from drill_env.studies import simulate, stick_slip_summary
+from drill_env.tools.studies import simulate, stick_slip_summary
 
 
 def fast(config: SimulationConfig) -> SimulationConfig:

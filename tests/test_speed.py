@@ -1,4 +1,4 @@
-"""``drill-env benchmark``: the quick run produces every figure, finite and positive.
+"""``drill-env speed``: the quick run produces every figure, finite and positive.
 
 No timing thresholds: the figures depend on the machine and its load.
 """
@@ -9,9 +9,9 @@ import math
 
 import pytest
 
-from drill_env import benchmark
-from drill_env.benchmark import QUICK, BenchmarkSettings, parse_sections, run_benchmark
-from drill_env.cli import main
+from drill_cli.main import main
+from drill_env.tools.speed import QUICK, BenchmarkSettings, parse_sections, run_speed
+from drill_env.tools.speed import core as speed_core
 
 TINY = dataclasses.replace(
     QUICK, core_seconds=0.1, repeats=1, warmup_steps=10, reference_steps=2,
@@ -27,12 +27,12 @@ def positive_finite(value) -> bool:
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
-    run_benchmark(("core", "scaling"), TINY, out, progress=False, echo=None)
+    run_speed(("core", "scaling"), TINY, out, progress=False, echo=None)
     return out
 
 
 def test_quick_core_and_scaling_write_every_figure_as_a_positive_number(tiny_run):
-    result = json.loads((tiny_run / "benchmark.json").read_text())
+    result = json.loads((tiny_run / "speed.json").read_text())
     assert {"machine", "settings", "fidelity_levels", "core", "scaling"} <= set(result)
     assert "env" not in result
     core = result["core"]
@@ -55,28 +55,20 @@ def test_quick_core_and_scaling_write_every_figure_as_a_positive_number(tiny_run
     assert math.isfinite(fit["us_per_step_intercept"])
     assert 0.0 <= fit["r_squared"] <= 1.0
     assert fit["cost_per_dof_max_over_min"] >= 1.0
-    assert (tiny_run / "benchmark_scaling.png").stat().st_size > 0
+    assert (tiny_run / "speed_scaling.png").stat().st_size > 0
 
 
-def test_both_fidelity_levels_get_a_fast_over_full_ratio(monkeypatch):
-    monkeypatch.setattr(benchmark, "fidelity_levels", lambda: {"full": {}, "fast": {}})
-    result = benchmark.bench_core(TINY, progress=False)
+def test_both_fidelity_levels_get_a_fast_over_full_ratio():
+    result = speed_core.bench_core(TINY, progress=False)
     assert set(result["fidelity"]) == {"full", "fast"}
     assert positive_finite(result["fast_over_full_speed"])
-
-
-def test_fidelity_levels_start_with_full_without_overrides_when_absent():
-    levels = benchmark.fidelity_levels()
-    assert "full" in levels
-    if len(levels) == 1:
-        assert levels["full"] == {}
 
 
 def test_unknown_section_is_named():
     with pytest.raises(ValueError, match="bogus"):
         parse_sections("core,bogus")
     with pytest.raises(SystemExit):
-        main(["benchmark", "--sections", "bogus"])
+        main(["speed", "--sections", "bogus"])
 
 
 def test_settings_reject_non_positive_sizes_by_name():

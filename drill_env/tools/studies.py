@@ -12,11 +12,11 @@ import numpy as np
 from tqdm import tqdm
 
 from drill_env import metrics
-from drill_env.physics.config import SimulationConfig, replace
+from drill_env.physics.config import SimulationConfig
 from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 
-COL = {name: i for i, name in enumerate(RECORD_CHANNELS)}
+COL = {name: i for i, name in enumerate(RECORD_CHANNELS)}  # column of each record channel
 
 
 @dataclass
@@ -72,12 +72,6 @@ def simulate(config: SimulationConfig, rpm: float, weight_on_bit: float, seconds
         bar.close()
     return Run(config, np.concatenate(records), np.asarray(times), np.asarray(shares),
                sim.status_message)
-
-
-def crossing_config(config: SimulationConfig, lead: float) -> SimulationConfig:
-    """Start ``lead`` metres above the scenario's bit depth (time in rock 1 first)."""
-    depth = config.initial_depth if config.initial_depth is not None else config.string.length
-    return replace(config, initial_depth=depth - lead)
 
 
 def stick_slip_summary(run: Run, t0: float, t1: float = np.inf) -> dict[str, float]:

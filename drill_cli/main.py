@@ -1,0 +1,293 @@
+"""Command line: ``drill-env <command>`` (or ``python -m drill_cli <command>``).
+
+The top layer: it parses arguments in the units people type (rpm, kN, seconds), checks
+them in those units, and calls the libraries below (``drill_env``, ``agents``,
+``training``), which work in SI. Every command prints a table and writes its outputs
+under ``--out`` (default ``logs/``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from drill_env.physics.units import HOUR, KILO, RPM
+
+DESCRIPTION = """\
+drill-env: drill-string dynamics, classical top-drive controllers and RL agents.
+
+commands:
+  demo           the main job on the built-in default case (outputs in logs/)
+  run            one episode at a constant set point, optionally recorded to rerun
+  stability-map  the paper's torsional stability maps P1-P6 (Fig. 15), resumable
+  speed          the performance benchmark (ratios measured in one run, JSON)
+  replay         open a recording in the rerun viewer
+
+SI inside; rpm, kN and m/h only on this command line and in its tables."""
+
+
+class _Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Shows defaults, except where there is none (the help then says what happens)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if action.default is None or isinstance(action.default, bool):
+            return action.help
+        return super()._get_help_string(action)
+
+
+def number(unit: str, low: float | None = 0.0, high: float | None = None,
+           low_inclusive: bool = True) -> Callable[[str], float]:
+    """An argparse type: a finite number in [low, high] of ``unit``; errors in that unit."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number ({unit})") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"must be a finite number of {unit}, got {text}")
+        if low is not None and (value < low or (value == low and not low_inclusive)):
+            bound = ">=" if low_inclusive else ">"
+            raise argparse.ArgumentTypeError(f"must be {bound} {low:g} {unit}, got {text}")
+        if high is not None and value > high:
+            raise argparse.ArgumentTypeError(f"must be <= {high:g} {unit}, got {text}")
+        return value
+    parse.__name__ = unit  # argparse names the type in its messages
+    return parse
+
+
+def integer(low: int = 0) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
+        return value
+    parse.__name__ = "integer"
+    return parse
+
+
+# --------------------------------------------------------------------------- commands
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from drill_env.tools.demo import stick_slip_demo
+
+    _, reproduced = stick_slip_demo(args.out)
+    return 0 if reproduced else 1
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401  (registers the ids)
+    from agents.policies import ConstantSetpoint
+
+    kwargs: dict[str, Any] = {"scenario": args.scenario, "fidelity": args.fidelity}
+    if args.duration is not None:
+        kwargs["episode_duration"] = args.duration
+    env: Any = gym.make("DrillString-v0", **kwargs)
+    base: Any = env.unwrapped
+    cfg = base.config
+    rpm = args.rpm if args.rpm is not None else base.scenario.surface_speed / RPM
+    wob_kn = args.wob if args.wob is not None else base.scenario.weight_on_bit / KILO
+    for flag, value, (low, high), unit in (("--rpm", rpm, cfg.rpm_range, "rpm"),
+                                           ("--wob", wob_kn, tuple(v / KILO for v in
+                                                                   cfg.weight_on_bit_range),
+                                            "kN")):
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{flag}: {value:g} {unit} is outside the env's "
+                                             f"range {low:g}-{high:g} {unit}")
+    policy = ConstantSetpoint(rpm, wob_kn * KILO, cfg.rpm_range, cfg.weight_on_bit_range)
+    if args.record is not None:
+        from drill_env.recording import RecordEpisode
+
+        env = RecordEpisode(env, args.record)
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    keys = ("ssi", "stuck_fraction", "whirl_ratio", "radial_ratio", "lateral_force", "rop")
+    totals = dict.fromkeys(keys, 0.0)
+    steps, reward, reason = 0, 0.0, ""
+    info: dict[str, Any] = {}
+    try:
+        obs, info = env.reset(seed=args.seed, options={"surface_speed": rpm * RPM,
+                                                       "weight_on_bit": wob_kn * KILO})
+        for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario} {rpm:.0f} rpm",
+                      leave=False, file=sys.stderr):
+            obs, r, terminated, truncated, info = env.step(policy.act(obs, info))
+            steps += 1
+            reward += float(r)
+            for key in keys:
+                totals[key] += info[key]
+            if terminated or truncated:
+                reason = info["termination_reason"]
+                break
+    except KeyboardInterrupt:
+        reason = "interrupted"
+    finally:
+        env.close()  # finishes a recording, interrupted or not
+    summary = {
+        "scenario": args.scenario, "rpm": rpm, "weight_on_bit_kN": wob_kn, "seed": args.seed,
+        "fidelity": args.fidelity, "steps": steps, "simulated_s": info.get("episode_time", 0.0),
+        "return": reward, "termination_reason": reason,
+        **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
+        "wall_s": time.perf_counter() - t0,
+    }
+    if args.record is not None:
+        summary["recording"] = str(env.last_path) if env.last_path else None
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "run_summary.json").write_text(json.dumps(summary, indent=2))
+    print(f"{args.scenario}: {steps} steps ({summary['simulated_s']:.1f} s) at {rpm:.0f} rpm, "
+          f"{wob_kn:.0f} kN in {summary['wall_s']:.1f} s; return {reward:.2f}"
+          + (f"; ended: {reason}" if reason else ""))
+    print(f"  mean over the episode: SSI {summary['mean_ssi']:.2f}, stuck "
+          f"{summary['mean_stuck_fraction']:.2f}, whirl ratio "
+          f"{summary['mean_whirl_ratio']:.2f}, radial ratio "
+          f"{summary['mean_radial_ratio']:.2f}, lateral force "
+          f"{summary['mean_lateral_force'] / KILO:.1f} kN, ROP "
+          f"{summary['mean_rop'] * HOUR:.1f} m/h")
+    if args.record is not None:
+        print(f"  recording: {summary['recording']} (drill-env replay <file>)")
+    print(f"wrote {args.out / 'run_summary.json'}")
+    return 130 if reason == "interrupted" else 0
+
+
+def cmd_stability_map(args: argparse.Namespace) -> int:
+    from drill_env import stability_map as sm
+
+    names = tuple(p.strip() for p in args.positions.split(",") if p.strip())
+    unknown = [p for p in names if p not in sm.POSITIONS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(f"--positions: unknown {unknown or args.positions!r};"
+                                         f" choose from {','.join(sm.POSITIONS)}")
+    settings = sm.MapSettings(seconds=args.seconds,
+                              measure=min(sm.DEFAULT_SETTINGS.measure, args.seconds))
+    store = args.out / "stability_map.points.jsonl"
+    t0 = time.perf_counter()
+    maps = sm.stability_maps(names, args.rpm_step, args.wob_step * KILO, settings,
+                             args.max_rpm, args.max_wob * KILO, progress=True, store=store,
+                             workers=args.workers)
+    print(sm.format_maps(maps))
+    runs = sum(m.runs for m in maps)
+    cells = sum(m.unstable.size for m in maps)
+    print(f"{runs} simulations of {args.seconds:.0f} s for {cells} grid points (boundary "
+          f"tracking; points found in {store.name} reused) in "
+          f"{time.perf_counter() - t0:.1f} s")
+    paths = sm.write_maps(maps, args.out, settings)
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return 0
+
+
+def cmd_speed(args: argparse.Namespace) -> int:
+    from drill_env.tools.speed import FULL, QUICK, SECTIONS, parse_sections, run_speed
+
+    try:
+        sections = parse_sections(args.sections) if args.sections else SECTIONS
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"--{err}") from None
+    run_speed(sections, QUICK if args.quick else FULL, args.out)
+    return 0
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from drill_env.recording import replay
+
+    if not args.path.is_file():
+        raise argparse.ArgumentTypeError(f"path: no recording at {args.path}")
+    code = replay(args.path, web=args.web)
+    return int(code) if isinstance(code, int) else 0
+
+
+# --------------------------------------------------------------------------- parser
+
+
+def parser() -> argparse.ArgumentParser:
+    from drill_env.scenarios import SCENARIOS
+
+    top = argparse.ArgumentParser(prog="drill-env", description=DESCRIPTION,
+                                  formatter_class=_Formatter)
+    sub = top.add_subparsers(dest="command", required=True, metavar="command")
+
+    def add(name: str, help_text: str, func: Callable[[argparse.Namespace], int]
+            ) -> argparse.ArgumentParser:
+        p = sub.add_parser(name, help=help_text, description=help_text,
+                           formatter_class=_Formatter)
+        p.set_defaults(func=func)
+        return p
+
+    p = add("demo", "the main job on the built-in default case; outputs in --out", cmd_demo)
+    p.add_argument("--out", type=Path, default=Path("logs"), help="output folder")
+
+    p = add("run", "one episode at a constant set point; optional rerun recording", cmd_run)
+    p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
+                   help="the scenario")
+    p.add_argument("--rpm", type=number("rpm"), default=None,
+                   help="surface speed set point in rpm (default: the scenario's)")
+    p.add_argument("--wob", type=number("kN"), default=None,
+                   help="weight on bit in kN (default: the scenario's)")
+    p.add_argument("--seed", type=integer(0), default=0, help="episode seed")
+    p.add_argument("--duration", type=number("s", low=0.0, low_inclusive=False), default=None,
+                   help="episode length in simulated s (default: the scenario's)")
+    p.add_argument("--fidelity", choices=("full", "fast"), default="full",
+                   help="physics level (docs/performance.md)")
+    p.add_argument("--record", type=Path, default=None, nargs="?",
+                   const=Path("logs/recordings"),
+                   help="write a rerun .rrd of the episode into this folder (given without "
+                        "a folder: logs/recordings)")
+    p.add_argument("--out", type=Path, default=Path("logs"), help="folder for run_summary.json")
+
+    p = add("stability-map", "torsional stability maps P1-P6 (paper Fig. 15) by boundary "
+                             "tracking; finished points are kept in --out and reused",
+            cmd_stability_map)
+    p.add_argument("--positions", default="P1,P2,P3,P4,P5,P6",
+                   help="comma-separated bit positions")
+    p.add_argument("--rpm-step", type=number("rpm", low_inclusive=False), default=5.0,
+                   help="speed step")
+    p.add_argument("--wob-step", type=number("kN", low_inclusive=False), default=5.0,
+                   help="WOB step")
+    p.add_argument("--max-rpm", type=number("rpm", low_inclusive=False), default=250.0,
+                   help="highest speed")
+    p.add_argument("--max-wob", type=number("kN", low_inclusive=False), default=200.0,
+                   help="highest WOB")
+    p.add_argument("--seconds", type=number("s", low_inclusive=False), default=30.0,
+                   help="simulated seconds per grid point")
+    p.add_argument("--workers", type=integer(1), default=None,
+                   help="local processes (default: all cores)")
+    p.add_argument("--out", type=Path, default=Path("logs"),
+                   help="folder for stability_map.png/.json and the points file")
+
+    p = add("speed", "speed and memory benchmark; speed.json and speed.md in --out", cmd_speed)
+    p.add_argument("--out", type=Path, default=Path("logs"), help="output folder")
+    p.add_argument("--quick", action="store_true", help="short runs (smoke test, ~1 min)")
+    p.add_argument("--sections", default=None,
+                   help="comma-separated subset of core,env,scaling,compile,memory "
+                        "(default: all)")
+
+    p = add("replay", "open a .rrd recording in the rerun viewer", cmd_replay)
+    p.add_argument("path", type=Path, help="the .rrd file")
+    p.add_argument("--web", action="store_true", help="serve the web viewer instead")
+    return top
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    top = parser()
+    args = top.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except argparse.ArgumentTypeError as err:  # a bad argument found after parsing
+        top.error(f"{args.command}: {err}")
+    except (ValueError, OSError) as err:  # a bad value named by the library below
+        print(f"drill-env {args.command}: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"drill-env {args.command}: interrupted", file=sys.stderr)
+        return 130
+    return 2

@@ -1,0 +1,168 @@
+"""Drilling events from sampled signals: stick-slip onsets, whirl on/off, layer changes.
+
+The rules sit next to :mod:`drill_env.metrics` and use its definitions (a stuck bit is
+``|bit speed| < STUCK_SPEED``; whirl is :func:`drill_env.metrics.whirling`, the one rule
+the metrics, the benchmark and the recordings share). Each detector is streaming: feed
+it the samples chunk by chunk (``update``) and it returns the events that the chunk
+completes, carrying its state across chunks, so a recording writes events as the
+episode runs. An event is ``(time s, level, text)`` with the levels of rerun's text log.
+The functions :func:`stick_slip_events`, :func:`whirl_events` and :func:`layer_events`
+run one detector over whole arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from drill_env.metrics import STUCK_SPEED, whirling
+from drill_env.physics.units import RPM
+
+Event = tuple[float, str, str]
+
+#: A stick after this long (s) without one is a stick-slip ONSET (else one more cycle).
+STICK_SLIP_QUIET = 5.0
+#: Whirl (the rule of :func:`drill_env.metrics.whirling`) counts as on after it has held
+#: this long (s), and as off after the same time without it: the orbit passes through
+#: the rule's thresholds twice a cycle in a transition.
+WHIRL_MIN_DURATION = 0.3
+
+
+class StickSlipDetector:
+    """A stick is a sample with ``|bit speed| < STUCK_SPEED`` after one at or above it (the
+    bit was moving). The first stick, or the first after ``quiet`` seconds without one,
+    is a WARN "stick-slip onset"; the others are DEBUG "bit stuck" lines with their
+    cycle count."""
+
+    def __init__(self, quiet: float = STICK_SLIP_QUIET) -> None:
+        self.quiet = quiet
+        self._was_moving = False
+        self._last = -math.inf
+        self._cycle = 0
+
+    def update(self, t: np.ndarray, bit_speed: np.ndarray) -> list[Event]:
+        events: list[Event] = []
+        w = np.abs(np.asarray(bit_speed, dtype=np.float64))
+        if w.size == 0:
+            return events
+        finite = np.isfinite(w)
+        stuck = finite & (w < STUCK_SPEED)
+        moving = finite & ~stuck
+        was_moving = np.empty_like(stuck)
+        was_moving[0] = self._was_moving
+        was_moving[1:] = moving[:-1]
+        self._was_moving = bool(moving[-1])
+        for i in np.flatnonzero(stuck & was_moving):
+            ti = float(t[i])
+            if ti - self._last >= self.quiet:
+                self._cycle = 1
+                events.append((ti, "WARN", "stick-slip onset: bit speed below 1 rpm after "
+                                           "moving"))
+            else:
+                self._cycle += 1
+                events.append((ti, "DEBUG", f"bit stuck (cycle {self._cycle})"))
+            self._last = ti
+        return events
+
+
+class WhirlDetector:
+    """Whirl on and off by :func:`drill_env.metrics.whirling`, held ``min_duration``;
+    the onset says forward or backward (the sign of whirl against rotation while it
+    held) and the radial ratio, whirl and bit speeds where it began."""
+
+    def __init__(self, clearance: float, min_duration: float = WHIRL_MIN_DURATION) -> None:
+        if not clearance > 0:
+            raise ValueError(f"clearance: must be > 0, got {clearance!r}")
+        self.clearance = clearance
+        self.min_duration = min_duration
+        self._on = False
+        # The candidate change: its first sample's time and values, and the samples'
+        # whirl-against-rotation signs since then.
+        self._since: tuple[float, float, float, float] | None = None
+        self._signs: list[float] = []
+
+    def update(self, t: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray,
+               whirl_speed: np.ndarray, bit_speed: np.ndarray) -> list[Event]:
+        events: list[Event] = []
+        radial = np.hypot(bit_x, bit_y) / self.clearance
+        ws = np.asarray(whirl_speed, dtype=np.float64)
+        w = np.asarray(bit_speed, dtype=np.float64)
+        cond = whirling(radial, ws, w)
+        sign = np.sign(ws * np.where(np.isfinite(w), w, 1.0))
+        for i in range(len(t)):
+            if bool(cond[i]) == self._on:
+                self._since = None
+                self._signs = []
+                continue
+            if self._since is None:
+                self._since = (float(t[i]), float(radial[i]), float(ws[i]), float(w[i]))
+            self._signs.append(float(sign[i]))
+            start, r0, ws0, w0 = self._since
+            if float(t[i]) - start < self.min_duration:
+                continue
+            self._on = not self._on
+            if self._on:
+                direction = "forward" if np.nanmean(self._signs) > 0 else "backward"
+                events.append((start, "WARN",
+                               f"whirl onset ({direction}): radial ratio {r0:.2f}, whirl "
+                               f"{ws0 / RPM:.0f} rpm, bit {w0 / RPM:.0f} rpm"))
+            else:
+                events.append((start, "INFO", "whirl ended"))
+            self._since = None
+            self._signs = []
+        return events
+
+
+class LayerDetector:
+    """"layer change" when the dominant rock under the front blades changes (the first
+    sample with a known rock says which rock the bit is in)."""
+
+    def __init__(self, names: Sequence[str]) -> None:
+        self.names = list(names)
+        self._previous: int | None = None
+
+    def _name(self, j: int) -> str:
+        return self.names[j] if j < len(self.names) else f"rock{j}"
+
+    def update(self, t: np.ndarray, shares: np.ndarray) -> list[Event]:
+        events: list[Event] = []
+        shares = np.asarray(shares, dtype=np.float64)
+        if shares.ndim != 2 or shares.shape[1] == 0:
+            return events
+        for i in np.flatnonzero(np.isfinite(shares).any(axis=1)):
+            row = shares[i]
+            dominant = int(np.argmax(np.where(np.isfinite(row), row, -np.inf)))
+            if dominant == self._previous:
+                continue
+            mix = ", ".join(f"{self._name(j)} {row[j] * 100:.0f}%" for j in range(len(row))
+                            if np.isfinite(row[j]) and row[j] > 0)
+            if self._previous is None:
+                events.append((float(t[i]), "INFO", f"bit in {self._name(dominant)} ({mix})"))
+            else:
+                events.append((float(t[i]), "WARN", f"layer change: "
+                               f"{self._name(self._previous)} -> {self._name(dominant)} "
+                               f"({mix})"))
+            self._previous = dominant
+        return events
+
+
+def stick_slip_events(t: np.ndarray, bit_speed: np.ndarray, quiet: float = STICK_SLIP_QUIET
+                      ) -> list[Event]:
+    """:class:`StickSlipDetector` over whole arrays."""
+    return StickSlipDetector(quiet).update(np.asarray(t), bit_speed)
+
+
+def whirl_events(t: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray, whirl_speed: np.ndarray,
+                 bit_speed: np.ndarray, clearance: float,
+                 min_duration: float = WHIRL_MIN_DURATION) -> list[Event]:
+    """:class:`WhirlDetector` over whole arrays."""
+    return WhirlDetector(clearance, min_duration).update(
+        np.asarray(t), np.asarray(bit_x, dtype=np.float64),
+        np.asarray(bit_y, dtype=np.float64), whirl_speed, bit_speed)
+
+
+def layer_events(t: np.ndarray, shares: np.ndarray, names: Sequence[str]) -> list[Event]:
+    """:class:`LayerDetector` over whole arrays."""
+    return LayerDetector(names).update(np.asarray(t), shares)

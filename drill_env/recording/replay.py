@@ -1,0 +1,148 @@
+"""Opening a recording in the rerun viewer, and reading one back (tests, tools)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drill_env.recording.writer import TIMELINE
+
+#: Environment variable naming the viewer executable (default: rerun-sdk's ``rerun``).
+VIEWER_VARIABLE = "DRILL_ENV_RERUN"
+
+
+def replay_command(path: str | os.PathLike, web: bool = False,
+                   web_viewer_port: int | None = None) -> list[str]:
+    """The command line that opens ``path`` in the rerun viewer (see :func:`replay`)."""
+    exe = os.environ.get(VIEWER_VARIABLE) or shutil.which(
+        "rerun", path=str(Path(sys.executable).parent)) or shutil.which("rerun")
+    cmd = [exe] if exe else [sys.executable, "-m", "rerun"]
+    if web:
+        cmd.append("--web-viewer")
+        if web_viewer_port is not None:
+            cmd += ["--web-viewer-port", str(int(web_viewer_port))]
+    cmd.append(str(path))
+    return cmd
+
+
+def stop_viewer(proc: subprocess.Popen, timeout: float = 5.0) -> int:
+    """Stop the viewer and every process it started (its process group): SIGTERM, then
+    SIGKILL after ``timeout`` seconds. Returns its exit code."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            break
+        try:
+            return proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            continue
+    return proc.wait()
+
+
+def replay(path: str | os.PathLike, web: bool = False, *, web_viewer_port: int | None = None,
+           wait: bool = True) -> int | subprocess.Popen:
+    """Open a recording in the rerun viewer (the ``rerun`` binary shipped with rerun-sdk).
+
+    ``web=True`` serves the web viewer over HTTP instead (``rerun --web-viewer``; port
+    9090 unless ``web_viewer_port``) and opens a browser if there is one. Blocks until
+    the viewer exits and returns its exit code; ``wait=False`` returns the process. The
+    viewer runs in its own process group: Ctrl-C or SIGTERM stops it and its servers
+    (nothing is left holding the ports). Needs a display (native) or a browser (web).
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"path: no recording at {p}")
+    proc = subprocess.Popen(replay_command(p, web, web_viewer_port), start_new_session=True)
+    if not wait:
+        return proc
+
+    def terminate(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        return proc.wait()
+    except KeyboardInterrupt:
+        return stop_viewer(proc)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        if proc.poll() is None:
+            stop_viewer(proc)
+
+
+# --------------------------------------------------------------------------- reading back
+
+
+@dataclass
+class RecordingContents:
+    """What :func:`read_recording` found in a ``.rrd`` file."""
+
+    application_id: str
+    recording_id: str
+    #: Every entity path (leading ``/``) with at least one chunk.
+    entities: set[str]
+    #: Scalar series: entity -> (sim_time in s, values), sorted by time.
+    scalars: dict[str, tuple[np.ndarray, np.ndarray]]
+    #: Text log lines: entity -> list of (sim_time s, level, text), sorted by time.
+    text_logs: dict[str, list[tuple[float, str, str]]]
+    #: Number of blueprint stores in the file.
+    n_blueprints: int
+
+
+def _first(cell: list | None, empty: Any) -> Any:
+    """The one value of a rerun component cell (a list), ``empty`` for an empty cell."""
+    return cell[0] if cell else empty
+
+
+def read_recording(path: str | os.PathLike) -> RecordingContents:
+    """Read a recording back with rerun's own reader (``rerun.chunk.RrdReader``)."""
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(str(path))
+    stores = reader.recordings()
+    if not stores:
+        raise ValueError(f"path: {path} holds no recording")
+    entry = stores[0]
+    entities: set[str] = set()
+    raw: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+    logs: dict[str, list[tuple[float, str, str]]] = {}
+    for chunk in reader.stream(store=entry):
+        entity = chunk.entity_path
+        entities.add(entity)
+        batch = chunk.to_record_batch()
+        names = batch.schema.names
+        if TIMELINE not in names:
+            continue
+        times = batch.column(TIMELINE).cast(pa.int64()).to_numpy(
+            zero_copy_only=False).astype(np.float64) * 1e-9
+        if "Scalars:scalars" in names:
+            col = batch.column("Scalars:scalars")
+            values = np.array([_first(cell, np.nan) for cell in col.to_pylist()],
+                              dtype=np.float64)
+            raw.setdefault(entity, []).append((times, values))
+        if "TextLog:text" in names:
+            texts = [_first(cell, "") for cell in batch.column("TextLog:text").to_pylist()]
+            levels = (["" for _ in texts] if "TextLog:level" not in names else
+                      [_first(cell, "") for cell in
+                       batch.column("TextLog:level").to_pylist()])
+            logs.setdefault(entity, []).extend(zip(times.tolist(), levels, texts, strict=True))
+    scalars = {}
+    for entity, parts in raw.items():
+        tt = np.concatenate([times for times, _ in parts])
+        vv = np.concatenate([values for _, values in parts])
+        order = np.argsort(tt, kind="stable")
+        scalars[entity] = (tt[order], vv[order])
+    for lines in logs.values():
+        lines.sort(key=lambda e: e[0])
+    return RecordingContents(entry.application_id, entry.recording_id, entities, scalars,
+                             logs, len(reader.blueprints()))

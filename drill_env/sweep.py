@@ -1,0 +1,153 @@
+"""Running many independent simulations: serially, on local processes, or on Ray.
+
+Sweeps (stability maps, the controller benchmark, training seeds) hand a module-level
+function and a list of picklable arguments to an :class:`Executor` and get the results
+back AS THEY FINISH, each with the index of its argument, so the caller can write them
+down at once (an interrupted sweep keeps them) and show progress. Every task is a pure
+function of its argument (its own simulator, its own seed), so the results do not depend
+on the backend or on the order tasks finish in.
+
+=====================  =====================================================================
+backend                what runs the tasks
+=====================  =====================================================================
+``serial``             this process, one after the other (``workers=1``)
+``processes``          a pool of local processes (``workers``, default: all cores)
+``ray``                a Ray cluster (``ray_address``: ``"local"``, ``"auto"`` or an address;
+                       the ``distributed`` extra); a lost worker's task is retried
+=====================  =====================================================================
+
+:class:`ResultStore` keeps finished results in a JSON-lines file, one line a result, so
+a sweep run again skips what is already there.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from pathlib import Path
+from typing import Any, Protocol
+
+
+class Executor(Protocol):
+    """Runs ``fn(item)`` for every item; yields ``(index, result)`` as tasks finish."""
+
+    name: str
+
+    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any]
+                      ) -> Iterator[tuple[int, Any]]: ...
+
+    def close(self) -> None: ...
+
+
+class SerialExecutor:
+    """This process, one task after the other."""
+
+    name = "serial"
+
+    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any]
+                      ) -> Iterator[tuple[int, Any]]:
+        for k, item in enumerate(items):
+            yield k, fn(item)
+
+    def close(self) -> None:
+        pass
+
+
+def _single_threaded_worker() -> None:
+    """Process-pool workers run one numba thread each: the pool is the parallelism."""
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+
+class ProcessExecutor:
+    """A pool of ``workers`` local processes (spawned, so numba and threads start clean)."""
+
+    name = "processes"
+
+    def __init__(self, workers: int | None = None) -> None:
+        import multiprocessing as mp
+
+        self.workers = max(1, workers or os.cpu_count() or 1)
+        self._pool = ProcessPoolExecutor(self.workers, mp_context=mp.get_context("spawn"),
+                                         initializer=_single_threaded_worker)
+
+    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any]
+                      ) -> Iterator[tuple[int, Any]]:
+        futures: dict[Future, int] = {}
+        pending = iter(enumerate(items))
+        try:
+            # Keep a few tasks per worker in flight: results stream back in order of
+            # completion and an interrupt leaves little work half done.
+            for k, item in pending:
+                futures[self._pool.submit(fn, item)] = k
+                if len(futures) >= 2 * self.workers:
+                    break
+            while futures:
+                done, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for future in done:
+                    k = futures.pop(future)
+                    yield k, future.result()
+                    for k_next, item in pending:
+                        futures[self._pool.submit(fn, item)] = k_next
+                        break
+        finally:
+            for future in futures:
+                future.cancel()
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+def make_executor(workers: int | None = None, ray_address: str | None = None) -> Executor:
+    """The executor a sweep command asked for: Ray when ``ray_address`` is given, else
+    local processes (``workers`` > 1, default all cores) or serial (``workers`` == 1)."""
+    if ray_address is not None:
+        from drill_env.distributed import RayExecutor
+
+        return RayExecutor(ray_address)
+    if workers is not None and workers < 1:
+        raise ValueError(f"workers: must be >= 1, got {workers}")
+    n = workers or os.cpu_count() or 1
+    return SerialExecutor() if n == 1 else ProcessExecutor(n)
+
+
+class ResultStore:
+    """Finished results of a sweep, one JSON object per line, appended as they arrive.
+
+    ``fingerprint`` identifies what the results belong to (settings, configs): lines
+    written under another fingerprint are ignored, so a changed sweep starts afresh
+    instead of mixing old results in. A half-written last line (a killed process) is
+    skipped.
+    """
+
+    def __init__(self, path: Path, fingerprint: str) -> None:
+        self.path = Path(path)
+        self.fingerprint = fingerprint
+        self._results: dict[str, Any] = {}
+        if self.path.exists():
+            for line in self.path.read_text().splitlines():
+                try:
+                    entry = json.loads(line)
+                except json.JSONDecodeError:
+                    continue
+                if isinstance(entry, dict) and entry.get("fingerprint") == fingerprint:
+                    self._results[entry["key"]] = entry["result"]
+
+    def __contains__(self, key: str) -> bool:
+        return key in self._results
+
+    def __len__(self) -> int:
+        return len(self._results)
+
+    def get(self, key: str) -> Any:
+        return self._results[key]
+
+    def put(self, key: str, result: Any) -> None:
+        self._results[key] = result
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with self.path.open("a") as f:
+            f.write(json.dumps({"fingerprint": self.fingerprint, "key": key,
+                                "result": result}) + "\n")
+            f.flush()

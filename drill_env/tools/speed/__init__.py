@@ -1,0 +1,149 @@
+"""Speed and memory figures of the simulator and the environment (``drill-env speed``).
+
+Five sections, each printed as a table and saved under one key of ``speed.json``:
+
+core      real-time factor, us per step and ns per DOF per step of the default
+          simulator (1000 m drill pipe + 35 m BHA, mesoscopic bit, wall contact on) on ONE
+          numba thread; the plain NumPy stepper (:mod:`drill_env.physics.reference`) on a
+          short run; the speed-up numba / NumPy.
+env       env steps/s at the default 10 Hz policy rate: one env, N single envs looped in
+          one process, the batched :class:`~drill_env.vector.DrillStringVectorEnv`; the
+          Python share of a single env step (env.step minus the time inside
+          ``Simulator.advance``).
+scaling   us per step against string length and against element count at fixed length,
+          with a least-squares line of cost against DOFs (R^2) and the spread of the cost
+          per DOF; a PNG of it next to the JSON.
+compile   first import to first env step in a fresh process with numba's cache cold and
+          then warm (``NUMBA_CACHE_DIR`` pointing at a new temporary folder).
+memory    bytes of one simulator's NumPy arrays and the RSS growth per env over 64 envs,
+          measured in a fresh process.
+
+The machines this runs on are shared and noisy, so every figure comes with a ratio
+against a reference measured in the same run (the NumPy stepper, a single env, the
+default mesh, the warm start, the simulator's own arrays): ratios survive a busy machine
+better than absolute times. Timed loops report the best of several repeats.
+
+The core and env sections run once per fidelity level (``FIDELITY_LEVELS``) and report
+the fast / full ratio.
+
+Use ``drill-env speed [--quick] [--sections core,env] [--out logs]`` or :func:`run_speed`.
+The sections live in :mod:`.core` (core, scaling), :mod:`.env`, :mod:`.system`
+(compile, memory); the shared timing helpers in :mod:`.common`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+from drill_env.tools.speed.common import (
+    FULL,
+    QUICK,
+    SECTIONS,
+    BenchmarkSettings,
+    fidelity_levels,
+    machine_info,
+    source_stamp,
+)
+from drill_env.tools.speed.core import (
+    bench_core,
+    bench_scaling,
+    format_core,
+    format_scaling,
+    plot_scaling,
+)
+from drill_env.tools.speed.env import bench_env, format_env
+from drill_env.tools.speed.system import (
+    bench_compile,
+    bench_memory,
+    format_compile,
+    format_memory,
+)
+
+# --------------------------------------------------------------------------- driver
+
+RUNNERS: dict[str, tuple[Callable[..., dict[str, Any]], Callable[[dict[str, Any]], str]]] = {
+    "core": (bench_core, format_core),
+    "env": (bench_env, format_env),
+    "scaling": (bench_scaling, format_scaling),
+    "compile": (bench_compile, format_compile),
+    "memory": (bench_memory, format_memory),
+}
+
+
+def parse_sections(text: str) -> tuple[str, ...]:
+    """``"core,env"`` -> ``("core", "env")``; ``ValueError`` naming an unknown section."""
+    names = tuple(s.strip() for s in text.split(",") if s.strip())
+    unknown = [s for s in names if s not in SECTIONS]
+    if unknown or not names:
+        raise ValueError(f"sections: unknown {unknown or text!r}; choose from "
+                         f"{','.join(SECTIONS)}")
+    return names
+
+
+def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = FULL,
+                  out: Path | None = Path("logs"), progress: bool = True,
+                  echo: Callable[[str], Any] | None = print) -> dict[str, Any]:
+    """Run ``sections`` in order and print each table as it finishes.
+
+    Unless ``out`` is None, writes ``out/speed.json`` (every figure),
+    ``out/speed.md`` (the tables, for docs/performance.md) and, with the scaling
+    section, ``out/speed_scaling.png``.
+    """
+    sections = tuple(sections)
+    parse_sections(",".join(sections))
+    levels = fidelity_levels()
+    result: dict[str, Any] = {
+        "machine": machine_info(),
+        "settings": dataclasses.asdict(settings),
+        "fidelity_levels": list(levels),
+    }
+    say = echo or (lambda _text: None)
+    machine = result["machine"]
+    tables = []
+    say(f"drill-env speed {machine['date']}: {','.join(sections)}; "
+        f"{machine['cpu_count']} cores; fidelity levels: {', '.join(levels)}")
+    stamp = source_stamp()
+    t0 = time.perf_counter()
+    for name in sections:
+        bench, fmt = RUNNERS[name]
+        tic = time.perf_counter()
+        result[name] = bench(settings, progress)
+        result[name]["section_wall_s"] = time.perf_counter() - tic
+        tables.append(fmt(result[name]))
+        say("\n" + tables[-1])
+    result["total_wall_s"] = time.perf_counter() - t0
+    machine["sources_changed_during_run"] = source_stamp() != stamp
+    if machine["sources_changed_during_run"]:
+        say("\nWARNING: drill_env sources changed during the run: the figures mix versions, "
+            "rerun")
+    if hasattr(os, "getloadavg"):
+        machine["load_average_1min_end"] = os.getloadavg()[0]
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        path = out / "speed.json"
+        path.write_text(json.dumps(result, indent=2) + "\n")
+        # The same tables as markdown, to paste into docs/performance.md.
+        report = out / "speed.md"
+        kind = {FULL: "", QUICK: " --quick"}.get(settings, " (custom settings)")
+        head = (f"`drill-env speed{kind}`, "
+                f"{machine['date'][:10]}, commit {machine.get('git_commit', '?')}: "
+                f"{machine['cpu']}, {machine['cpu_count']} cores, {machine['platform']}, "
+                f"Python {machine['python']}, NumPy {machine['numpy']}, numba "
+                f"{machine['numba']}; load average {machine.get('load_average_1min', 0):.1f} "
+                f"at the start, {machine.get('load_average_1min_end', 0):.1f} at the end"
+                + ("; SOURCES CHANGED DURING THE RUN." if machine["sources_changed_during_run"]
+                   else "; sources unchanged during the run."))
+        report.write_text(head + "\n\n```text\n" + "\n\n".join(tables) + "\n```\n")
+        written = [path, report]
+        if "scaling" in result:
+            png = plot_scaling(result["scaling"], out / "speed_scaling.png")
+            if png is not None:
+                written.append(png)
+        say(f"\nwrote {', '.join(str(p) for p in written)} ({result['total_wall_s']:.0f} s)")
+    return result
