@@ -1,4 +1,4 @@
-"""Drilling-performance metrics: the ONE source of truth (SPEC section 5).
+"""Drilling-performance metrics: the ONE source of truth (docs/model.md, "Metrics").
 
 The env's reward and ``info``, the benchmark tables and the rerun plots all use these
 definitions. They are pure NumPy, take signals in SI units (rad/s, N, N m, m, m/s)
@@ -33,6 +33,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.units import RPM
 
 #: The bit counts as stuck below this speed (rad/s): 1 rpm.
@@ -469,7 +470,7 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
     return True
 
 
-@njit(cache=True, nogil=True)
+@njit(**TUPLE_KERNEL)
 def rolling_add(records, window, with_window):
     """Append the samples of ``records`` (at least one) to a rolling window; metrics.
 

@@ -59,10 +59,10 @@ from drill_env.physics.units import RPM
 from drill_env.physics.validation import Finite, NonNegative, Positive, config_dataclass, validated
 
 # --------------------------------------------------------------------------- rock presets
-# MODELLING CHOICES TO BE TUNED: the paper gives no rock-curve numbers (SPEC 2.3). They
-# are chosen so that hard rock has a strongly falling curve (stick-slip tendency at low
-# rpm and high WOB), soft rock a flat one, very soft rock a low, rising one. Tune them
-# HERE; every scenario reads these three constants.
+# MODELLING CHOICES: the paper gives no rock-curve numbers (docs/model.md, "Rocks and
+# scenarios"). They are chosen so that hard rock has a strongly falling curve
+# (stick-slip tendency at low rpm and high WOB), soft rock a flat one, very soft rock a
+# low, rising one. Tune them HERE; every scenario reads these three constants.
 
 #: Hard rock: falling curve mu 0.9 -> 0.5 over ~3 rad/s (stick-slip tendency).
 #: Linear stability of the default string puts its stick-slip threshold at 71 rpm for
@@ -214,7 +214,7 @@ def default(surface_speed: SurfaceSpeed = DEFAULT_SURFACE_SPEED,
             weight_on_bit: WeightOnBit = DEFAULT_WEIGHT_ON_BIT,
             episode_duration: Duration = DEFAULT_EPISODE_DURATION,
             string_length: StringLength = None) -> Scenario:
-    """Homogeneous hard rock, symmetric bit, default string (SPEC 2.3)."""
+    """Homogeneous hard rock, symmetric bit, default string (paper section 4)."""
     cfg = _base(string_length)
     cfg = replace(cfg, formation=FormationConfig(rocks=(HARD,)))
     return Scenario("default", cfg, surface_speed, weight_on_bit, episode_duration,
@@ -266,40 +266,39 @@ def _lateral_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
     return Scenario(name, cfg, surface_speed, weight_on_bit, episode_duration, description)
 
 
-@validated
-def paper_case2(position: Position = "P1", thickness: Thickness = 0.3, dip: Dip = 45.0,
-                lead: Lead = 0.05, surface_speed: SurfaceSpeed = PAPER_LATERAL_RPM * RPM,
-                weight_on_bit: WeightOnBit = PAPER_LATERAL_WOB,
-                episode_duration: Duration = 240.0,
-                string_length: StringLength = None) -> Scenario:
-    """Symmetric bit drilling through a hard-soft-hard sandwich dipping 45 deg (Fig. 16-18)."""
-    return _lateral_case("paper_case2", symmetric_bit(), SOFT, position, thickness, dip, lead,
-                         surface_speed, weight_on_bit, episode_duration, string_length,
-                         "symmetric bit through a hard-soft-hard 45 deg sandwich")
+#: Paper cases 2-4 (Table 2, Figs. 16-18): the crossing of a 45 deg sandwich at 50 rpm and
+#: 75 kN with the coupled lateral-torsional model: name -> (bit, middle rock, description).
+CROSSING_CASES: dict[str, tuple[Callable[[], BitConfig], RockConfig, str]] = {
+    "paper_case2": (symmetric_bit, SOFT,
+                    "symmetric bit through a hard-soft-hard 45 deg sandwich"),
+    "paper_case3": (symmetric_bit, VERY_SOFT,
+                    "symmetric bit through a hard-very soft-hard 45 deg sandwich"),
+    "paper_case4": (asymmetric_bit, SOFT,
+                    "asymmetric bit through a hard-soft-hard 45 deg sandwich"),
+}
 
 
-@validated
-def paper_case3(position: Position = "P1", thickness: Thickness = 0.3, dip: Dip = 45.0,
-                lead: Lead = 0.05, surface_speed: SurfaceSpeed = PAPER_LATERAL_RPM * RPM,
-                weight_on_bit: WeightOnBit = PAPER_LATERAL_WOB,
-                episode_duration: Duration = 240.0,
-                string_length: StringLength = None) -> Scenario:
-    """Symmetric bit through a hard - very soft - hard sandwich (larger lateral forces)."""
-    return _lateral_case("paper_case3", symmetric_bit(), VERY_SOFT, position, thickness, dip,
-                         lead, surface_speed, weight_on_bit, episode_duration, string_length,
-                         "symmetric bit through a hard-very soft-hard 45 deg sandwich")
+def _crossing_scenario(name: str) -> Callable[..., Scenario]:
+    bit, middle, description = CROSSING_CASES[name]
+
+    def scenario(position: Position = "P1", thickness: Thickness = 0.3, dip: Dip = 45.0,
+                 lead: Lead = 0.05, surface_speed: SurfaceSpeed = PAPER_LATERAL_RPM * RPM,
+                 weight_on_bit: WeightOnBit = PAPER_LATERAL_WOB,
+                 episode_duration: Duration = 240.0,
+                 string_length: StringLength = None) -> Scenario:
+        return _lateral_case(name, bit(), middle, position, thickness, dip, lead,
+                             surface_speed, weight_on_bit, episode_duration, string_length,
+                             description)
+
+    scenario.__name__ = scenario.__qualname__ = name
+    scenario.__doc__ = (f"{description[0].upper()}{description[1:]} (paper Table 2): the bit "
+                        "starts ``lead`` m above ``position`` and drills through the layer.")
+    return validated(scenario)
 
 
-@validated
-def paper_case4(position: Position = "P1", thickness: Thickness = 0.3, dip: Dip = 45.0,
-                lead: Lead = 0.05, surface_speed: SurfaceSpeed = PAPER_LATERAL_RPM * RPM,
-                weight_on_bit: WeightOnBit = PAPER_LATERAL_WOB,
-                episode_duration: Duration = 240.0,
-                string_length: StringLength = None) -> Scenario:
-    """Asymmetric bit through the hard-soft-hard sandwich (continuous forward whirl)."""
-    return _lateral_case("paper_case4", asymmetric_bit(), SOFT, position, thickness, dip, lead,
-                         surface_speed, weight_on_bit, episode_duration, string_length,
-                         "asymmetric bit through a hard-soft-hard 45 deg sandwich")
+paper_case2 = _crossing_scenario("paper_case2")
+paper_case3 = _crossing_scenario("paper_case3")
+paper_case4 = _crossing_scenario("paper_case4")
 
 
 def _jitter(rng: np.random.Generator, rock: RockConfig, name: str) -> RockConfig:

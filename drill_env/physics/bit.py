@@ -2,14 +2,14 @@
 
 Hole-fixed frame: ``x, y`` lateral (m), ``z`` measured depth positive DOWNWARD. The bit
 face (points A, B of every blade) lies at ``z = depth``; the shoulder B->C rises by
-``l_sh cos(alpha_sh)`` while it widens by ``l_sh sin(alpha_sh)`` (SPEC 2.2 correction of
+``l_sh cos(alpha_sh)`` while it widens by ``l_sh sin(alpha_sh)`` (docs/model.md 4.1 correction of
 eq. 29), and the gauge pad C->D is axial at radius ``r_C``, ``D_z = C_z - l_g``. Blade i
 points along ``theta_i = phi_i + phi_z`` (eq. 35) from the bit centre ``(bx, by)``.
 
 Every straight blade segment is split EXACTLY at every interface plane it crosses
 (:func:`split_blades`), which generalises the paper's cases 1-4 to any number of layers.
 Each piece carries its rock, length and lever arm = radius of its midpoint from the bit
-axis (the midpoint rule of SPEC 2.2).
+axis (the midpoint rule, docs/model.md 4.1).
 
 :func:`mesoscopic_bit_loads` writes, into ``out`` (length ``N_BIT_OUT + n_rock``, the
 names of :data:`BitOut`):
@@ -38,6 +38,7 @@ from numba import njit
 
 from drill_env.physics.config import BitConfig
 from drill_env.physics.formation import Rock, layer_at, resistance
+from drill_env.physics.jit import TUPLE_KERNEL
 
 #: Columns of :func:`blade_arrays`, one row per blade.
 Blade = IntEnum("Blade", [
@@ -99,7 +100,7 @@ def blade_arrays(cfg: BitConfig) -> np.ndarray:
         blades[i, Blade.PHI] = math.radians(cfg.blade_angles[i])
         blades[i, Blade.R_A] = cfg.face_start[i]
         blades[i, Blade.R_B] = cfg.face_end[i]
-        # SPEC 2.2: the shoulder's radial extent is l_sh sin(alpha_sh).
+        # docs/model.md 4.1: the shoulder's radial extent is l_sh sin(alpha_sh).
         blades[i, Blade.R_C] = cfg.face_end[i] + cfg.shoulder_length[i] * math.sin(alpha)
         blades[i, Blade.ALPHA_SH] = alpha
         blades[i, Blade.L_SH] = cfg.shoulder_length[i]
@@ -146,7 +147,7 @@ def front_length(cfg: BitConfig) -> float:
 
 
 def bit_lever_arm(cfg: BitConfig) -> float:
-    """a_bit of eq. (34) with midpoint lever arms (SPEC 2.2).
+    """a_bit of eq. (34) with midpoint lever arms (docs/model.md 4.1).
 
     a_f,i = (r_A,i + r_B,i) / 2 (eq. 32) and a_sh,i = r_B,i + l_sh,i sin(alpha_sh) / 2
     (eq. 31), so TOB = a_bit mu WOB (eq. 38) for a bit in one rock.
@@ -270,11 +271,11 @@ def _split_segment(p0, p1, r0, r1, length, blade, segment, formation, pieces, n)
         t_prev = t_next
 
 
-@njit(cache=True)
+@njit(**TUPLE_KERNEL)
 def split_blades(blades, formation, bx, by, depth, phi_z, pieces):
     """Split face A->B, shoulder B->C and gauge C->D of every blade at every interface.
 
-    Points in the hole frame (eq. 35, SPEC 2.2 geometry): A, B at z = depth, C at
+    Points in the hole frame (eq. 35, docs/model.md 4.1 geometry): A, B at z = depth, C at
     z = depth - l_sh cos(alpha_sh), D at C_z - l_g. Returns the number of pieces written
     (blade-major, then segment, then along the segment). Zero-length segments give no
     piece. The rock of a piece is that of its midpoint, so the split is exact.
@@ -283,7 +284,7 @@ def split_blades(blades, formation, bx, by, depth, phi_z, pieces):
                          pieces)
 
 
-@njit(cache=True)
+@njit(**TUPLE_KERNEL)
 def _split_blades(blades, formation, bx, by, depth, cos_z, sin_z, pieces):
     """:func:`split_blades` with the bit angle given as its cosine and sine."""
     # np.int64(): plain ints, not literals, so _split_segment compiles only once.
@@ -315,7 +316,7 @@ def _split_blades(blades, formation, bx, by, depth, cos_z, sin_z, pieces):
     return n
 
 
-@njit(cache=True)
+@njit(**TUPLE_KERNEL)
 def _front_loads(blades, rock_params, cos_z, sin_z, omega, wob, n, pieces, out):
     """Front (face + shoulder) torque, lateral force, shares and depth of cut."""
     l_front = 0.0
@@ -354,7 +355,7 @@ def _front_loads(blades, rock_params, cos_z, sin_z, omega, wob, n, pieces, out):
         out[BitOut.DEPTH_OF_CUT] += wob * out[SHARES + j] * rock_params[j, Rock.DEPTH_OF_CUT]
 
 
-@njit(cache=True)
+@njit(**TUPLE_KERNEL)
 def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
     """Gauge contact of every blade's point D with the wall (eqs. 36, 37, 55-60)."""
     bx = kin.x
@@ -369,7 +370,7 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
         px = bx + r_c * c
         py = by + r_c * s
         radius = math.sqrt(px * px + py * py)
-        penetration = radius - gauge.hole_radius  # eq. (36), SPEC: max(0, r - r_limit)
+        penetration = radius - gauge.hole_radius  # eq. (36) as max(0, r - r_limit)
         if penetration <= 0.0:
             continue
         # Velocity of the contact point: bit translation + rotation about the bit axis.
@@ -421,7 +422,7 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
         out[BitOut.GAUGE_TORQUE] += r_c * c * fy - r_c * s * fx  # exact lever from the axis
 
 
-@njit(cache=True)
+@njit(**TUPLE_KERNEL)
 def mesoscopic_bit_loads(blades, formation, pieces, kin, wob, gauge, out):
     """Front and gauge loads of the mesoscopic bit; see the module docstring for ``out``.
 

@@ -1,10 +1,11 @@
 """Slow, independent NumPy/Python version of the mesoscopic bit, the test oracle.
 
-Written from the paper's equations (section 3, eqs. 28-62, with the SPEC 2.2 corrections)
-without calling the numba kernels of :mod:`drill_env.physics.bit`: blade points are built
-as 3-vectors, every segment is cut at the sorted plane crossings, rocks are looked up by
-counting the planes above a point, lever arms are measured as distances from the bit
-axis, and the loads are assembled per blade and per rock as in eqs. (47)-(60).
+Written from the paper's equations (section 3, eqs. 28-62, with the corrections of
+docs/model.md 4.1) without calling the numba kernels of :mod:`drill_env.physics.bit`:
+blade points are built as 3-vectors, every segment is cut at the sorted plane crossings,
+rocks are looked up by counting the planes above a point, lever arms are measured as
+distances from the bit axis, and the loads are assembled per blade and per rock as in
+eqs. (47)-(60).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ class Piece:
 
 
 def mu_curve(omega: float, mu_min: float, mu_max: float, st1: float, st2: float) -> float:
-    """eq. (39) (SPEC-corrected)."""
+    """eq. (39), corrected (docs/model.md 4.1)."""
     if omega == 0.0:
         return 0.0
     return math.copysign(mu_min + (mu_max - mu_min) * math.exp(-abs(omega / st1))
@@ -43,7 +44,7 @@ def rock_of_point(point: np.ndarray, normals: np.ndarray, offsets: np.ndarray,
 
 def blade_points(blade: np.ndarray, bx: float, by: float, depth: float,
                  phi_z: float) -> tuple[np.ndarray, ...]:
-    """A, B, C, D of one blade in the hole frame (eq. 35, z down, SPEC geometry)."""
+    """A, B, C, D of one blade in the hole frame (eq. 35, z down; geometry of docs/model.md 4.1)."""
     # The geometry from the config's numbers, not the kernel's cached R_C, trig and rise.
     phi, r_a, r_b = blade[Blade.PHI], blade[Blade.R_A], blade[Blade.R_B]
     alpha, l_sh, l_g = blade[Blade.ALPHA_SH], blade[Blade.L_SH], blade[Blade.L_G]

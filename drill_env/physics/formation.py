@@ -91,7 +91,7 @@ def formation_arrays(cfg: FormationConfig) -> FormationArrays:
 def resistance(omega, mu_min, mu_max, st1, st2):
     """Bit resistance coefficient mu(omega), omega in rad/s.
 
-    eq. (39), corrected (SPEC 2.2):
+    eq. (39), as corrected in docs/model.md section 4.1:
     mu = sign(w) (mu_min + (mu_max - mu_min) exp(-|w / st1|) + st2 |w|); 0 at w == 0.
     """
     if omega == 0.0:

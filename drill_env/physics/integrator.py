@@ -26,6 +26,7 @@ from numba import njit
 
 from drill_env.physics.bit import BitKinematics, BitOut, GaugeContact, mesoscopic_bit_loads
 from drill_env.physics.formation import Rock, resistance, rock_at
+from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import CONTACT, P, R, S, Status
 from drill_env.physics.linalg import (
     band_cholesky,
@@ -97,7 +98,7 @@ def wall_contact(x, y, vx, vy, omega, clearance, radius, p, compliance, out):
     out[CONTACT.NORMAL] = fn
 
 
-@njit(cache=True)
+@njit(**TUPLE_KERNEL)
 def factor_lateral(lateral, wob, p):
     """Assemble A = M + gamma dt C + beta dt^2 (K + K_g(WOB)) and factorise it.
 
@@ -356,7 +357,7 @@ def _record(row, state, m, lb, wob, rop, t_motor, max_wall, stuck):
 # ----------------------------------------------------------------- the step loop
 
 
-@njit(cache=True, nogil=True)
+@njit(**TUPLE_KERNEL)
 def advance(n_steps, record_every, a):
     """Advance one simulator (its :class:`~drill_env.physics.layout.KernelArrays`) by
     ``n_steps`` steps; returns the number of records written.
@@ -367,6 +368,11 @@ def advance(n_steps, record_every, a):
     state = a.state
     m = a.motion
     work = a.work
+    nodes = a.nodes
+    bit_arrays = a.bit
+    torsion = a.torsion
+    lateral_system = a.lateral
+    record = a.record
     n = m.ut.shape[0]
     bit = n - 1
     l0 = int(p[P.LATERAL_START])  # node k has lateral DOFs 2 (k - l0), 2 (k - l0) + 1
@@ -374,7 +380,7 @@ def advance(n_steps, record_every, a):
     n_rec = 0
     wob = state[S.WOB]
     if state[S.WOB_FACTORED] != wob:
-        if not factor_lateral(a.lateral, wob, p):
+        if not factor_lateral(lateral_system, wob, p):
             state[S.STATUS] = _SINGULAR
             return 0
         state[S.WOB_FACTORED] = wob
@@ -390,13 +396,13 @@ def advance(n_steps, record_every, a):
     for step in range(n_steps):
         _predict(p, m, work, moving)
         t_motor = _top_drive(p, state, m, work)
-        max_wall = _wall_contacts(p, a.nodes, m, work, l0) if contact_on else 0.0
+        max_wall = _wall_contacts(p, nodes, m, work, l0) if contact_on else 0.0
         state[S.MAX_WALL_FORCE] = max_wall
         bx = m.ul[0, lb]
         by = m.ul[1, lb]
         t_slip, t_static, fx_slip, fy_slip, fx_static, fy_static, gauge_x, gauge_y = \
-            _bit_loads(p, state, m, work, a.nodes.compliance[bit], a.bit, wob, lb, lateral)
-        t_bit, stuck = _torsion(p, state, a.torsion, m, work, t_slip, t_static)
+            _bit_loads(p, state, m, work, nodes.compliance[bit], bit_arrays, wob, lb, lateral)
+        t_bit, stuck = _torsion(p, state, torsion, m, work, t_slip, t_static)
         fbx, fby = _front_force(t_bit, stuck, t_static, fx_slip, fy_slip, fx_static,
                                 fy_static)
         state[S.BIT_FX] = fbx + gauge_x
@@ -404,9 +410,9 @@ def advance(n_steps, record_every, a):
         if lateral:
             work.rl[0, lb] += fbx
             work.rl[1, lb] += fby
-            _lateral(p, a.lateral, m, work)
+            _lateral(p, lateral_system, m, work)
         _correct(p, m, work, lateral, moving)
-        rop = _bookkeeping(p, state, a.torsion, m, t_bit, t_motor)
+        rop = _bookkeeping(p, state, torsion, m, t_bit, t_motor)
 
         omega_bit = m.vt[bit]
         if not (np.isfinite(omega_bit) and np.isfinite(m.ul[0, lb])
@@ -417,7 +423,7 @@ def advance(n_steps, record_every, a):
             state[S.STATUS] = _RUNAWAY
             return n_rec
 
-        if record_every > 0 and (step + 1) % record_every == 0 and n_rec < a.record.shape[0]:
-            _record(a.record[n_rec], state, m, lb, wob, rop, t_motor, max_wall, stuck)
+        if record_every > 0 and (step + 1) % record_every == 0 and n_rec < record.shape[0]:
+            _record(record[n_rec], state, m, lb, wob, rop, t_motor, max_wall, stuck)
             n_rec += 1
     return n_rec

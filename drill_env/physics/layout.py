@@ -7,8 +7,10 @@ Adding a channel is one name here plus the line of the kernel that computes it.
 
 The arrays of one simulator travel as one :class:`KernelArrays` named tuple, grouped by
 concern (the string's linear systems, the node contact geometry, the motion, scratch,
-the bit and formation). The bit's own layouts (blade columns, its output vector) live
-in :mod:`drill_env.physics.bit`, the rock parameters in :mod:`drill_env.physics.formation`.
+the bit and formation). The kernels that take these tuples are compiled without
+reference counting (:data:`drill_env.physics.jit.TUPLE_KERNEL`). The bit's own layouts
+(blade columns, its output vector) live in :mod:`drill_env.physics.bit`, the rock
+parameters in :mod:`drill_env.physics.formation`.
 """
 
 from __future__ import annotations

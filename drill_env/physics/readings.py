@@ -20,6 +20,7 @@ from numba import njit
 
 from drill_env.physics import integrator
 from drill_env.physics.bit import SHARES, BitKinematics, GaugeContact, mesoscopic_bit_loads
+from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import N_READINGS, READ, READINGS, P, S
 
 __all__ = ["N_READINGS", "READ", "READINGS", "advance_and_read", "readout", "whirl_speed"]
@@ -39,7 +40,7 @@ def whirl_speed(x, y, vx, vy):
     return (x * vy - vx * y) / r2 if r2 > WHIRL_MIN_RADIUS_SQ else 0.0
 
 
-@njit(cache=True, nogil=True)
+@njit(**TUPLE_KERNEL)
 def readout(a, out):
     """Write the :data:`READINGS` and the rock shares of one simulator (its
     :class:`~drill_env.physics.layout.KernelArrays`) into ``out``.
@@ -102,7 +103,7 @@ def readout(a, out):
         out[N_READINGS + k] = bit.out[SHARES + k]
 
 
-@njit(cache=True, nogil=True)
+@njit(**TUPLE_KERNEL)
 def advance_and_read(n_steps, record_every, a, readings):
     """:func:`~drill_env.physics.integrator.advance`, then :func:`readout` into
     ``readings``; returns the number of records."""

@@ -104,19 +104,11 @@ def fidelity_levels() -> dict[str, dict[str, str]]:
 
 
 def progress_bar(items: Iterable, desc: str, enabled: bool) -> Iterator:
-    """tqdm over ``items`` when installed and enabled; plain prints otherwise."""
-    items = list(items)
-    if not enabled:
-        yield from items
-        return
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        for k, item in enumerate(items):
-            print(f"  {desc}: {k + 1}/{len(items)}", file=sys.stderr, flush=True)
-            yield item
-        return
-    yield from tqdm(items, desc=f"  {desc}", leave=False, file=sys.stderr)
+    """A tqdm bar over ``items`` when enabled."""
+    from tqdm import tqdm
+
+    yield from tqdm(list(items), desc=f"  {desc}", leave=False, file=sys.stderr,
+                    disable=not enabled)
 
 
 @contextlib.contextmanager

@@ -174,12 +174,9 @@ def format_scaling(result: dict[str, Any]) -> str:
 
 
 def plot_scaling(result: dict[str, Any], path: Path) -> Path | None:
-    """us/step and ns/DOF/step against DOFs, with the fitted line; ``None`` without
-    matplotlib."""
-    try:
-        import matplotlib
-    except ImportError:
-        return None
+    """us/step and ns/DOF/step against DOFs, with the fitted line."""
+    import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

@@ -61,13 +61,10 @@ def make_env(override: dict[str, str]):
 
 def _sb3_vec_env(n: int, override: dict[str, str]):
     """The Stable-Baselines3 VecEnv of ``n`` envs, or None without SB3 installed."""
-    try:
-        from drill_env.vector import make_sb3_vec_env
+    from drill_env.vector import make_sb3_vec_env
 
-        return make_sb3_vec_env(n, episode_duration=1e6,
-                                **({"physics": dict(override)} if override else {}))
-    except ImportError:
-        return None
+    return make_sb3_vec_env(n, episode_duration=1e6,
+                            **({"physics": dict(override)} if override else {}))
 
 
 def _python_overhead(env, action: np.ndarray, n_steps: int) -> dict[str, float]:

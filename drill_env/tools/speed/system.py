@@ -111,12 +111,6 @@ def array_bytes(obj: Any) -> int:
 
 def _rss_bytes() -> int | None:
     try:
-        import psutil
-
-        return int(psutil.Process().memory_info().rss)
-    except ImportError:
-        pass
-    try:
         with open("/proc/self/statm") as f:
             return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
     except (OSError, ValueError, IndexError):
