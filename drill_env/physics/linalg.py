@@ -38,8 +38,12 @@ def band_cholesky(band, factor):
 # --------------------------------------------------------------------------- fast paths
 #: Reassociation lets LLVM split the long dependent sums of a band row into parallel
 #: chains (the kernels are latency-bound otherwise); NaN/inf semantics are kept, so the
-#: integrator's divergence checks still see a non-finite state.
-FAST = {"reassoc", "contract"}
+#: integrator's divergence checks still see a non-finite state. No "contract": with it
+#: LLVM may fuse multiply-adds, and numba's in-process JIT and its cached object code
+#: fused differently, so a run compiled fresh and a run from the cache gave different
+#: trajectories on the same machine (tests/physics/test_determinism.py); fusing was
+#: worth ~10 % of the coupled step.
+FAST = {"reassoc"}
 # The lateral matrices always have half bandwidth 3 (two DOFs per node, Hermite beams)
 # and torsion bandwidth 1. The lateral kernels below work on PLANE-MAJOR arrays of shape
 # (2, n): each bending plane is one contiguous vector, so the band products run as
