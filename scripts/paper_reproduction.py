@@ -1,6 +1,7 @@
 """Regenerate the figures of docs/paper-reproduction.md (paper Figs. 13-18).
 
-    .venv/bin/python scripts/paper_reproduction.py [--out docs/img]
+    .venv/bin/python scripts/paper_reproduction.py                 # -> logs/paper_figures/
+    .venv/bin/python scripts/paper_reproduction.py --out docs/img  # refresh the docs' figures
 
 Every run comes from drill_env.tools.studies.simulate, the same code the paper-result tests use;
 the stability maps (Fig. 15) from drill_env.stability_map, as ``drill-env stability-map``.
@@ -106,7 +107,8 @@ def figure_16_17_18(runs, out: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--out", type=Path, default=Path("docs/img"))
+    parser.add_argument("--out", type=Path, default=Path("logs/paper_figures"),
+                        help="output folder (docs/img to refresh the figures of the docs)")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     figure_13_14(args.out)

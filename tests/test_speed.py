@@ -10,6 +10,7 @@ import math
 import pytest
 
 from drill_cli.main import main
+from drill_env.tools import speed
 from drill_env.tools.speed import QUICK, BenchmarkSettings, parse_sections, run_speed
 from drill_env.tools.speed import core as speed_core
 
@@ -76,3 +77,14 @@ def test_settings_reject_non_positive_sizes_by_name():
         BenchmarkSettings(repeats=0)
     with pytest.raises(ValueError, match="pipe_lengths"):
         BenchmarkSettings(pipe_lengths=(-1.0,))
+
+
+def test_finished_sections_are_written_before_an_interrupt(tmp_path, monkeypatch):
+    def interrupted(settings, progress=True):
+        raise KeyboardInterrupt
+
+    monkeypatch.setitem(speed.RUNNERS, "scaling", (interrupted, speed.RUNNERS["scaling"][1]))
+    with pytest.raises(KeyboardInterrupt):
+        run_speed(("core", "scaling"), TINY, tmp_path, progress=False, echo=None)
+    result = json.loads((tmp_path / "speed.json").read_text())
+    assert result["finished_sections"] == ["core"] and "core" in result

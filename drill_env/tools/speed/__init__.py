@@ -91,7 +91,8 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
                   echo: Callable[[str], Any] | None = print) -> dict[str, Any]:
     """Run ``sections`` in order and print each table as it finishes.
 
-    Unless ``out`` is None, writes ``out/speed.json`` (every figure),
+    Unless ``out`` is None, writes ``out/speed.json`` (every figure, rewritten after each
+    section, so an interrupted run keeps the sections it finished),
     ``out/speed.md`` (the tables, for docs/performance.md) and, with the scaling
     section, ``out/speed_scaling.png``.
     """
@@ -110,6 +111,8 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
         f"{machine['cpu_count']} cores; fidelity levels: {', '.join(levels)}")
     stamp = source_stamp()
     t0 = time.perf_counter()
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
     for name in sections:
         bench, fmt = RUNNERS[name]
         tic = time.perf_counter()
@@ -117,6 +120,9 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
         result[name]["section_wall_s"] = time.perf_counter() - tic
         tables.append(fmt(result[name]))
         say("\n" + tables[-1])
+        if out is not None:  # each section as it finishes: an interrupt keeps them
+            result["finished_sections"] = [s for s in sections if s in result]
+            (out / "speed.json").write_text(json.dumps(result, indent=2) + "\n")
     result["total_wall_s"] = time.perf_counter() - t0
     machine["sources_changed_during_run"] = source_stamp() != stamp
     if machine["sources_changed_during_run"]:
