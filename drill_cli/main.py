@@ -26,6 +26,7 @@ commands:
   demo           the main job on the built-in default case (outputs in logs/)
   run            one episode at a constant set point, optionally recorded to rerun
   stability-map  the paper's torsional stability maps P1-P6 (Fig. 15), resumable
+  modes          natural frequencies, damping and critical-speed chart of a string
   speed          the performance benchmark (ratios measured in one run, JSON)
   replay         open a recording in the rerun viewer
 
@@ -186,6 +187,44 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_modes(args: argparse.Namespace) -> int:
+    from drill_env.physics import modes as md
+    from drill_env.scenarios import make_scenario
+
+    scenario = make_scenario(args.scenario)
+    config = scenario.config
+    wob = args.wob * KILO if args.wob is not None else scenario.weight_on_bit
+    torsional = md.torsional_modes(config, args.top, args.n)
+    lateral = md.lateral_modes(config, wob, n_modes=args.n)
+    print(f"{args.scenario}: {scenario.description}; string {config.string.length:.0f} m, "
+          f"WOB {wob / KILO:.0f} kN, neutral point "
+          f"{md.neutral_point_height(config, wob):.0f} m above the bit")
+    header = f"{'mode':<12} {'f (Hz)':>8} {'damping':>8}   boundary"
+    print(header + "\n" + "-" * 78)
+    for m in (torsional, lateral):
+        for i, (f, z) in enumerate(zip(m.frequency, m.damping_ratio, strict=True)):
+            print(f"{m.kind + ' ' + str(i + 1):<12} {f:8.3f} {z:8.1%}   "
+                  + (m.boundary if i == 0 else ""))
+    crit = md.critical_speeds(config, (torsional, lateral), args.max_rpm)
+    print(f"\ncritical speeds up to {args.max_rpm:.0f} rpm:")
+    for c in crit:
+        print(f"  {c.rpm:6.1f} rpm   {c.mode:<12} x {c.excitation}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    png = args.out / "modes_critical_speeds.png"
+    md.critical_speed_chart(config, (torsional, lateral), png, args.max_rpm,
+                            f"{args.scenario}: natural frequencies and excitations "
+                            f"(WOB {wob / KILO:.0f} kN)")
+    data = {"scenario": args.scenario, "weight_on_bit_N": wob,
+            "modes": [{"kind": m.kind, "boundary": m.boundary,
+                       "frequency_Hz": m.frequency.tolist(),
+                       "damping_ratio": m.damping_ratio.tolist()}
+                      for m in (torsional, lateral)],
+            "critical_speeds": [c.__dict__ for c in crit]}
+    (args.out / "modes.json").write_text(json.dumps(data, indent=2))
+    print(f"wrote {png} and {args.out / 'modes.json'}")
+    return 0
+
+
 def cmd_speed(args: argparse.Namespace) -> int:
     from drill_env.tools.speed import FULL, QUICK, SECTIONS, parse_sections, run_speed
 
@@ -263,6 +302,20 @@ def parser() -> argparse.ArgumentParser:
                    help="local processes (default: all cores)")
     p.add_argument("--out", type=Path, default=Path("logs"),
                    help="folder for stability_map.png/.json and the points file")
+
+    p = add("modes", "natural frequencies, damping and the critical-speed chart of a "
+                     "scenario's string", cmd_modes)
+    p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
+                   help="the scenario whose string to analyse")
+    p.add_argument("--wob", type=number("kN"), default=None,
+                   help="weight on bit in kN (default: the scenario's)")
+    p.add_argument("--top", choices=("fixed", "top_drive"), default="fixed",
+                   help="torsional boundary at the top")
+    p.add_argument("-n", type=integer(1), default=5, help="modes of each kind")
+    p.add_argument("--max-rpm", type=number("rpm", low_inclusive=False), default=250.0,
+                   help="highest speed of the chart")
+    p.add_argument("--out", type=Path, default=Path("logs"),
+                   help="folder for modes_critical_speeds.png and modes.json")
 
     p = add("speed", "speed and memory benchmark; speed.json and speed.md in --out", cmd_speed)
     p.add_argument("--out", type=Path, default=Path("logs"), help="output folder")

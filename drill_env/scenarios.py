@@ -8,7 +8,8 @@ episode starts from and its default duration. :func:`make_scenario` looks one up
 ========================  ==============================================================
 name                      what it is (parameters)
 ========================  ==============================================================
-``default``               homogeneous hard rock, symmetric bit, 1000 m string + 35 m BHA
+``default``               homogeneous hard rock, symmetric bit, realistic 1250 m string
+                          (packed 108 m BHA + 140 m HWDP + 5 in DP)
 ``paper_case1``           hard-soft-hard sandwich dipping 45 deg, symmetric bit placed at
                           one of the paper's torsional-map positions ``position`` = P1..P6
                           (share of the bit in rock 2: 0, 25, 75, 100, 50, 0 %)
@@ -31,7 +32,6 @@ The rock presets :data:`HARD`, :data:`SOFT` and :data:`VERY_SOFT` live here and 
 
 from __future__ import annotations
 
-import dataclasses
 import inspect
 import math
 from collections.abc import Callable
@@ -41,6 +41,7 @@ import numpy as np
 from pydantic import Field
 
 from drill_env.physics.bit import asymmetric_bit, symmetric_bit
+from drill_env.physics.components import realistic_string
 from drill_env.physics.config import (
     INCH,
     MAX_STRING_LENGTH,
@@ -55,8 +56,16 @@ from drill_env.physics.config import (
     replace,
 )
 from drill_env.physics.formation import interface_depth_for_share
+from drill_env.physics.statics import neutral_point_height, pipe_buckling
 from drill_env.physics.units import RPM
-from drill_env.physics.validation import Finite, NonNegative, Positive, config_dataclass, validated
+from drill_env.physics.validation import (
+    Finite,
+    NonNegative,
+    Positive,
+    StrictBool,
+    config_dataclass,
+    validated,
+)
 
 # --------------------------------------------------------------------------- rock presets
 # MODELLING CHOICES: the paper gives no rock-curve numbers (docs/model.md, "Rocks and
@@ -111,7 +120,14 @@ Lead = Annotated[NonNegative, Field(le=100.0)]  # m
 
 @config_dataclass
 class Scenario:
-    """A physics configuration and the defaults of an episode in it."""
+    """A physics configuration and the defaults of an episode in it.
+
+    A scenario whose starting WOB compresses drill pipe or heavy-weight pipe beyond its
+    buckling load (:func:`~drill_env.physics.statics.pipe_buckling`) in the coupled
+    lateral model is refused unless ``allow_pipe_buckling``: such a string buckles into
+    the wall and whirls (docs/model.md, "Axial load and buckling"). The torsion-only
+    model has no lateral motion and is exempt.
+    """
 
     name: str
     config: SimulationConfig
@@ -121,6 +137,25 @@ class Scenario:
     #: Default episode length (s of simulated time).
     episode_duration: Duration = DEFAULT_EPISODE_DURATION
     description: str = ""
+    allow_pipe_buckling: StrictBool = False
+
+    def __post_init__(self) -> None:
+        if self.allow_pipe_buckling or not self.config.solver.lateral:
+            return
+        buckled = pipe_buckling(self.config, self.weight_on_bit)
+        if buckled:
+            b = buckled[0]
+            raise ValueError(
+                f"weight_on_bit: {self.weight_on_bit / 1e3:.0f} kN compresses the "
+                f"{b.component} by {b.compression / 1e3:.1f} kN, beyond its buckling load "
+                f"{b.buckling_load / 1e3:.1f} kN (neutral point "
+                f"{self.neutral_point:.0f} m above the bit): lower the WOB, use a heavier "
+                "BHA, or pass allow_pipe_buckling=True")
+
+    @property
+    def neutral_point(self) -> float:
+        """Height above the bit (m) of the neutral point at the starting WOB."""
+        return neutral_point_height(self.config, self.weight_on_bit)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -134,7 +169,7 @@ def with_string_length(config: SimulationConfig, string_length: float | None) ->
     """
     if string_length is None:
         return config
-    bha = config.string.bha.length
+    bha = config.string.bha_length
     if not (math.isfinite(string_length) and string_length <= MAX_STRING_LENGTH):
         raise ValueError(f"string_length: must be a finite length up to "
                          f"{MAX_STRING_LENGTH} m, got {string_length!r}")
@@ -199,8 +234,12 @@ def collar_weighted_string(string: StringConfig | None = None,
     return replace(string, bha=bha, stabilizers=stabilizers)
 
 
-def _base(string_length: float | None, bit: BitConfig | None = None) -> SimulationConfig:
-    cfg = with_string_length(SimulationConfig(), string_length)
+def _base(string_length: float | None, bit: BitConfig | None = None,
+          string: StringConfig | None = None) -> SimulationConfig:
+    """A config on ``string`` (default: the paper's 1000 m + 35 m string) with the bit face
+    at the bottom of the string."""
+    cfg = SimulationConfig() if string is None else SimulationConfig(string=string)
+    cfg = with_string_length(cfg, string_length)
     if bit is not None:
         cfg = replace(cfg, bit=bit)
     return replace(cfg, initial_depth=cfg.string.length)
@@ -214,21 +253,25 @@ def default(surface_speed: SurfaceSpeed = DEFAULT_SURFACE_SPEED,
             weight_on_bit: WeightOnBit = DEFAULT_WEIGHT_ON_BIT,
             episode_duration: Duration = DEFAULT_EPISODE_DURATION,
             string_length: StringLength = None) -> Scenario:
-    """Homogeneous hard rock, symmetric bit, default string (paper section 4)."""
-    cfg = _base(string_length)
+    """Homogeneous hard rock, symmetric bit, on the realistic string of
+    :func:`~drill_env.physics.components.realistic_string` (1250 m: 5 in pipe, 140 m of
+    heavy-weight pipe, a 108 m packed BHA that carries the WOB: neutral point 88 m above
+    the bit at 100 kN)."""
+    cfg = _base(string_length, string=realistic_string())
     cfg = replace(cfg, formation=FormationConfig(rocks=(HARD,)))
     return Scenario("default", cfg, surface_speed, weight_on_bit, episode_duration,
                     "homogeneous hard rock")
 
 
-def _sandwich_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
-                   thickness: float, dip: float, surface_speed: float, weight_on_bit: float,
-                   episode_duration: float, string_length: float | None,
-                   description: str) -> Scenario:
+def _torsional_sandwich_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
+                             thickness: float, dip: float, surface_speed: float,
+                             weight_on_bit: float, episode_duration: float,
+                             string_length: float | None, description: str) -> Scenario:
+    """The paper's string in a sandwich, bit at ``position``, torsion only (case 1)."""
     cfg = _base(string_length, bit)
     formation = sandwich(bit, middle, _bit_depth(cfg), position, thickness, dip)
-    return Scenario(name, replace(cfg, formation=formation), surface_speed, weight_on_bit,
-                    episode_duration, description)
+    cfg = replace(cfg, formation=formation, solver=SolverConfig(lateral=False))
+    return Scenario(name, cfg, surface_speed, weight_on_bit, episode_duration, description)
 
 
 @validated
@@ -241,11 +284,10 @@ def paper_case1(position: Position = "P1", thickness: Thickness = 1.0, dip: Dip 
 
     Torsion only (``SolverConfig(lateral=False)``), as the paper's case 1.
     """
-    scenario = _sandwich_case("paper_case1", symmetric_bit(), SOFT, position, thickness, dip,
-                              surface_speed, weight_on_bit, episode_duration, string_length,
-                              f"hard-soft-hard 45 deg sandwich, bit at {position}")
-    cfg = replace(scenario.config, solver=SolverConfig(lateral=False))
-    return dataclasses.replace(scenario, config=cfg)
+    return _torsional_sandwich_case("paper_case1", symmetric_bit(), SOFT, position, thickness,
+                                    dip, surface_speed, weight_on_bit, episode_duration,
+                                    string_length,
+                                    f"hard-soft-hard 45 deg sandwich, bit at {position}")
 
 
 def _lateral_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
@@ -315,7 +357,7 @@ def _jitter(rng: np.random.Generator, rock: RockConfig, name: str) -> RockConfig
 
 @validated
 def random(rng: np.random.Generator | None = None,
-           string_length_range: tuple[StringLengthValue, StringLengthValue] = (500.0, 1035.0),
+           string_length_range: tuple[StringLengthValue, StringLengthValue] = (900.0, 1600.0),
            rpm_range: tuple[Rpm, Rpm] = (40.0, 160.0),
            weight_on_bit_range: tuple[WeightOnBit, WeightOnBit] = (50.0e3, 130.0e3),
            episode_duration: Duration = DEFAULT_EPISODE_DURATION) -> Scenario:
@@ -324,12 +366,13 @@ def random(rng: np.random.Generator | None = None,
     Drawn: three rocks (hard, soft, very soft presets, each curve parameter within
     +-30 %); a middle layer of soft or very soft rock between two parallel interfaces
     whose top lies 0.3 m above to 0.5 m below the bit, 0.1-1 m thick along the axis,
-    dipping 0-60 deg at any azimuth; a symmetric or asymmetric bit (even odds); the string
-    length in ``string_length_range`` (pipe element LENGTH changes, element count does
-    not; longer pipe elements buckle under less compression, and above 1035 m the mesh
-    limits the WOB below 138 kN, see ``Simulator.check_mesh_resolves``); the start
-    operating point (rpm, WOB) uniformly in the given ranges. The shapes
-    of every draw are equal: 3 rocks, 2 interfaces, 6 blades, same node count.
+    dipping 0-60 deg at any azimuth; a symmetric or asymmetric bit (even odds); the length
+    of the realistic string (:func:`~drill_env.physics.components.realistic_string`) in
+    ``string_length_range`` (the drill pipe's element LENGTH changes, the element count
+    does not); the start operating point (rpm, WOB) uniformly in the given ranges (up to
+    130 kN the neutral point stays in the BHA or the heavy-weight pipe, which does not
+    buckle). The shapes of every draw are equal: 3 rocks, 2 interfaces, 6 blades, same
+    node count.
     """
     for name, (low, high) in (("string_length_range", string_length_range),
                               ("rpm_range", rpm_range),
@@ -340,7 +383,8 @@ def random(rng: np.random.Generator | None = None,
     rng = rng if rng is not None else np.random.default_rng()
     lo, hi = string_length_range
     cfg = _base(float(rng.uniform(lo, hi)),
-                symmetric_bit() if rng.random() < 0.5 else asymmetric_bit())
+                symmetric_bit() if rng.random() < 0.5 else asymmetric_bit(),
+                string=realistic_string())
     rocks = (_jitter(rng, HARD, "hard"), _jitter(rng, SOFT, "soft"),
              _jitter(rng, VERY_SOFT, "very_soft"))
     middle = int(rng.integers(1, 3))

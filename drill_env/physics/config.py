@@ -35,7 +35,7 @@ from drill_env.physics.validation import (
 )
 
 __all__ = [
-    "BIT_MODELS", "FIDELITY_LEVELS", "GRAVITY", "INCH", "BitConfig", "ConfigError",
+    "BIT_MODELS", "FIDELITY_LEVELS", "GRAVITY", "INCH", "BitConfig", "Component", "ConfigError",
     "ContactConfig", "DampingConfig", "FormationConfig", "Interface", "MudConfig", "RockConfig",
     "Section", "SimulationConfig", "SolverConfig", "StringConfig", "TopDriveConfig", "flatten",
     "from_dict", "load_yaml", "replace", "require_finite", "require_non_negative",
@@ -64,9 +64,21 @@ def _require(condition: bool, name: str, message: str) -> None:
 # --------------------------------------------------------------------------- string
 
 
+#: What a component is (labels for tables and plots; the physics reads the numbers only).
+ComponentKind = Literal["drill_pipe", "heavy_weight", "collar", "stabilizer", "mwd", "jar",
+                        "motor", "bit_sub", "other"]
+
+
 @config_dataclass
 class Section:
-    """A uniform tubular section of the string (drill pipe or drill collars)."""
+    """A uniform tubular component of the string: drill pipe, heavy-weight pipe, collars, a
+    stabilizer, an MWD tool, a jar, ... (``Component`` is the same class).
+
+    A component touches the wall at ``contact_diameter`` (stabilizer blades, wear pads)
+    when given, else at its outer diameter; its mass and stiffness come from the outer
+    and inner diameters of its body. Presets of common sizes: :mod:`drill_env.physics.
+    components`.
+    """
 
     length: Positive = Field(le=MAX_STRING_LENGTH)
     outer_diameter: Positive = Field(lt=MAX_DIAMETER)
@@ -77,6 +89,10 @@ class Section:
     youngs_modulus: Positive = Field(default=2.07e11, ge=1.0e9, le=1.0e12)
     shear_modulus: Positive = Field(default=7.95e10, ge=1.0e9, le=1.0e12)
     density: Positive = Field(default=7850.0, ge=1000.0, le=25_000.0)
+    kind: ComponentKind = "other"
+    name: str = ""
+    #: Diameter that touches the wall (stabilizer blades); None: the outer diameter.
+    contact_diameter: Annotated[Positive, Field(lt=MAX_DIAMETER)] | None = None
 
     def __post_init__(self) -> None:
         _require(self.inner_diameter < self.outer_diameter, "inner_diameter",
@@ -88,6 +104,26 @@ class Section:
         _require(self.n_elements <= MAX_ELEMENTS, "element_length",
                  f"{self.length} m / {self.element_length} m gives {self.n_elements} "
                  f"elements, more than {MAX_ELEMENTS}")
+        if self.contact_diameter is not None:
+            _require(self.contact_diameter >= self.outer_diameter, "contact_diameter",
+                     f"{self.contact_diameter} m must not be smaller than outer_diameter "
+                     f"({self.outer_diameter} m)")
+
+    @property
+    def label(self) -> str:
+        """Its name, or its kind when it has none."""
+        return self.name or self.kind.replace("_", " ")
+
+    @property
+    def wall_diameter(self) -> float:
+        """The diameter that touches the wall (m)."""
+        return self.contact_diameter if self.contact_diameter is not None else \
+            self.outer_diameter
+
+    @property
+    def buoyed_weight_per_length(self) -> float:
+        """Weight in a fluid of ``mud_density`` is this times (1 - mud / steel density)."""
+        return self.density * self.area * GRAVITY
 
     @property
     def area(self) -> float:
@@ -121,53 +157,101 @@ def _default_pipe() -> Section:
     # 5 in, 19.5 lb/ft drill pipe: OD 127.0 mm, ID 108.6 mm (API 5DP). 10 m elements
     # resolve the first torsional modes and the helical-buckling pitch (~40 m).
     return Section(length=1000.0, outer_diameter=5.0 * INCH, inner_diameter=4.276 * INCH,
-                   element_length=10.0)
+                   element_length=10.0, kind="drill_pipe")
 
 
 def _default_bha() -> Section:
     # 6 1/2 in x 2 13/16 in drill collars (API 7-1), meshed 10x finer than the pipe
     # because the BHA carries the lateral dynamics and the wall contacts near the bit.
     return Section(length=35.0, outer_diameter=6.5 * INCH, inner_diameter=2.8125 * INCH,
-                   element_length=1.0)
+                   element_length=1.0, kind="collar")
+
+
+#: Component is the name to use when building a string from parts.
+Component = Section
+
+#: Stabilizers of the paper's 35 m single-section BHA (metres above the bit): see
+#: StringConfig.stabilizers.
+LEGACY_STABILIZERS = (1.0, 10.0, 19.0)
 
 
 @config_dataclass
 class StringConfig:
-    """Drill pipe over a BHA of drill collars (paper Table 1: 1000 m string, 35 m BHA)."""
+    """The drill string: ``drill_pipe`` at the top, over a BHA.
+
+    The BHA is either one section (``bha``: the paper's Table 1, 35 m of collars under
+    1000 m of pipe, the default) or an ordered list of ``components`` from the bit up
+    (bit sub, stabilizers, MWD, collars, jar, heavy-weight pipe, lower drill pipe, ...);
+    giving ``components`` replaces ``bha``. Presets of common sizes and the realistic
+    strings of the scenarios: :mod:`drill_env.physics.components`.
+    """
 
     drill_pipe: Section = field(default_factory=_default_pipe)
     bha: Section = field(default_factory=_default_bha)
+    #: The BHA (and any pipe below the top drill pipe) from the bit up; replaces ``bha``.
+    components: tuple[Section, ...] = ()
     #: Borehole diameter; an 8 3/4 in PDC bit drills an 8 3/4 in hole.
     hole_diameter: Positive = Field(default=8.75 * INCH, le=MAX_DIAMETER)
-    #: Stabilizer positions, metres above the bit. A slick 35 m BHA of 6 1/2 in collars
-    #: buckles at ~60 kN (pi^2 EI / L^2), below the paper's 75-100 kN WOB, so the default
-    #: is a packed BHA: near-bit stabilizer plus two string stabilizers (a common
-    #: vertical-hole assembly). Each sits on the nearest node.
-    stabilizers: tuple[Positive, ...] = (1.0, 10.0, 19.0)
+    #: Extra stabilizer positions, metres above the bit, each on the nearest node with
+    #: ``stabilizer_diameter``. None: the paper BHA's (1, 10, 19) with the single-section
+    #: ``bha`` (a slick 35 m BHA of 6 1/2 in collars buckles at ~60 kN, pi^2 EI / L^2,
+    #: below the paper's 75-100 kN WOB, so it is packed: near-bit stabilizer plus two
+    #: string stabilizers), none with ``components`` (stabilizers are components there).
+    stabilizers: tuple[Positive, ...] | None = None
     #: Stabilizer blade diameter: 1/8 in under gauge, the usual API undergauge.
     stabilizer_diameter: Positive = Field(default=8.625 * INCH, le=MAX_DIAMETER)
 
     def __post_init__(self) -> None:
+        if self.components:
+            _require(self.bha == _default_bha(), "components",
+                     "give the BHA either as one section (bha) or as components, not both")
         _require(self.stabilizer_diameter < self.hole_diameter, "stabilizer_diameter",
                  f"must be smaller than hole_diameter ({self.hole_diameter} m): clearance "
                  f"<= 0, got {self.stabilizer_diameter} m")
-        for k, pos in enumerate(self.stabilizers):
+        for k, pos in enumerate(self.stabilizer_positions):
             _require(pos < self.length, f"stabilizers[{k}]",
                      f"{pos} m above the bit is outside the {self.length} m string")
-        for name in ("drill_pipe", "bha"):
-            od = getattr(self, name).outer_diameter
-            _require(od < self.hole_diameter, f"{name}.outer_diameter",
-                     f"{od} m must be smaller than hole_diameter {self.hole_diameter} m "
+        named = [("drill_pipe", self.drill_pipe)] + (
+            [(f"components[{k}]", c) for k, c in enumerate(self.components)]
+            if self.components else [("bha", self.bha)])
+        for name, section in named:
+            diameter = section.wall_diameter
+            field_name = "contact_diameter" if section.contact_diameter is not None else \
+                "outer_diameter"
+            _require(diameter < self.hole_diameter, f"{name}.{field_name}",
+                     f"{diameter} m must be smaller than hole_diameter {self.hole_diameter} m "
                      "(clearance <= 0)")
         _require(self.length <= MAX_STRING_LENGTH, "drill_pipe.length",
                  f"the string is {self.length} m long, more than {MAX_STRING_LENGTH} m")
-        n = self.drill_pipe.n_elements + self.bha.n_elements
+        n = sum(s.n_elements for s in self.sections)
         _require(n <= MAX_ELEMENTS, "drill_pipe.element_length",
                  f"the string has {n} elements, more than {MAX_ELEMENTS}")
 
     @property
+    def lower(self) -> tuple[Section, ...]:
+        """Everything below the top drill pipe, from the bit up."""
+        return self.components if self.components else (self.bha,)
+
+    @property
+    def sections(self) -> tuple[Section, ...]:
+        """Every component from the surface down (the order of the mesh)."""
+        return (self.drill_pipe, *reversed(self.lower))
+
+    @property
+    def bha_length(self) -> float:
+        """Length of everything below the top drill pipe (m)."""
+        return sum(s.length for s in self.lower)
+
+    @property
     def length(self) -> float:
-        return self.drill_pipe.length + self.bha.length
+        return self.drill_pipe.length + self.bha_length
+
+    @property
+    def stabilizer_positions(self) -> tuple[float, ...]:
+        """The extra stabilizers placed on nodes (see ``stabilizers``)."""
+        if self.stabilizers is not None:
+            return self.stabilizers
+        return () if self.components else LEGACY_STABILIZERS
 
 
 @config_dataclass
@@ -465,7 +549,7 @@ class SimulationConfig:
         _require(self.bit.diameter <= self.string.hole_diameter + 1e-12, "bit.diameter",
                  f"{self.bit.diameter} m must not exceed string.hole_diameter "
                  f"({self.string.hole_diameter} m)")
-        lightest = min(self.string.drill_pipe.density, self.string.bha.density)
+        lightest = min(s.density for s in self.string.sections)
         _require(self.mud.density < lightest, "mud.density",
                  f"{self.mud.density} kg/m^3 must be below the density of the string "
                  f"({lightest} kg/m^3): the string would float")

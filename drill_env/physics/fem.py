@@ -44,7 +44,9 @@ class Mesh:
     polar_inertia: np.ndarray  # rho J per length, torsion (kg m)
     buoyed_weight: np.ndarray  # (rho_s - rho_m) A g (N/m)
     outer_radius: np.ndarray  # (n_el,)
-    is_bha: np.ndarray  # (n_el,) bool
+    is_bha: np.ndarray  # (n_el,) bool: below the top drill pipe
+    contact_radius: np.ndarray  # (n_el,) radius that touches the wall (stabilizer blades)
+    component: np.ndarray  # (n_el,) int: index into StringConfig.sections (surface down)
 
     @property
     def n_nodes(self) -> int:
@@ -56,9 +58,11 @@ class Mesh:
 
 
 def build_mesh(config: SimulationConfig) -> Mesh:
+    """The elements of every component, surface down (``StringConfig.sections``)."""
     mud = config.mud
     lengths, props = [], []
-    for section, is_bha in ((config.string.drill_pipe, False), (config.string.bha, True)):
+    for index, section in enumerate(config.string.sections):
+        is_bha = index > 0
         n = section.n_elements
         le = section.length / n
         ro, ri = section.outer_diameter / 2, section.inner_diameter / 2
@@ -74,6 +78,8 @@ def build_mesh(config: SimulationConfig) -> Mesh:
             (section.density - mud.density) * section.area * GRAVITY,
             ro,
             is_bha,
+            section.wall_diameter / 2,
+            index,
         )
         lengths += [le] * n
         props += [row] * n
@@ -91,6 +97,8 @@ def build_mesh(config: SimulationConfig) -> Mesh:
         buoyed_weight=np.asarray(cols[6]),
         outer_radius=np.asarray(cols[7]),
         is_bha=np.asarray(cols[8], dtype=bool),
+        contact_radius=np.asarray(cols[9]),
+        component=np.asarray(cols[10], dtype=np.int64),
     )
 
 

@@ -102,7 +102,7 @@ class ReferenceStepper:
         self.a_ray = cfg.damping.mass_proportional
         self.b_ray = cfg.damping.stiffness_proportional
         self.bit_buoyed_weight = cfg.bit.mass * GRAVITY * (
-            1.0 - cfg.mud.density / cfg.string.bha.density)
+            1.0 - cfg.mud.density / cfg.string.lower[0].density)
         self.string_weight = float(np.sum(mesh.buoyed_weight * mesh.element_length)
                                    + self.bit_buoyed_weight)
 

@@ -97,8 +97,9 @@ class Simulator:
         mesh = self.mesh
         n = mesh.n_nodes
         self.n_nodes = n
+        # the bit is steel like the component it hangs from
         self.bit_buoyed_weight = cfg.bit.mass * GRAVITY * (
-            1.0 - cfg.mud.density / cfg.string.bha.density)
+            1.0 - cfg.mud.density / cfg.string.lower[0].density)
         self.string_weight = float(np.sum(mesh.buoyed_weight * mesh.element_length)
                                    + self.bit_buoyed_weight)
 
@@ -144,13 +145,13 @@ class Simulator:
 
         # ---- node geometry for wall contact
         radius = np.empty(n)
-        radius[0] = mesh.outer_radius[0]
-        radius[1:] = mesh.outer_radius  # a node takes the section below it
+        radius[0] = mesh.contact_radius[0]
+        radius[1:] = mesh.contact_radius  # a node takes the component below it
         hole_r = cfg.string.hole_diameter / 2
         self.node_radius = radius
         self.node_contact = np.ones(n)
         self.node_contact[: self.lateral_start + 1] = 0.0  # pinned or held straight
-        for height in cfg.string.stabilizers:
+        for height in cfg.string.stabilizer_positions:
             k = int(np.argmin(np.abs(mesh.node_depth[-1] - mesh.node_depth - height)))
             if 0 < k < n - 1:
                 radius[k] = cfg.string.stabilizer_diameter / 2
@@ -355,11 +356,19 @@ class Simulator:
         ratio[: self.lateral_start] = 0.0  # pipe held straight: no lateral DOFs to buckle
         worst = int(np.argmax(ratio))
         if ratio[worst] > 0.8:
-            section = "bha" if mesh.is_bha[worst] else "drill_pipe"
+            string = self.config.string
+            index = int(mesh.component[worst])
+            if index == 0:
+                field_name = "drill_pipe"
+            elif string.components:
+                field_name = f"components[{len(string.components) - index}]"
+            else:
+                field_name = "bha"
             raise ValueError(
                 f"weight_on_bit={weight_on_bit:.0f} N compresses element {worst} "
-                f"({section}, {mesh.element_length[worst]:.1f} m) to {ratio[worst]:.0%} of its "
-                f"own buckling load: refine string.{section}.element_length or reduce WOB")
+                f"({string.sections[index].label}, {mesh.element_length[worst]:.1f} m) to "
+                f"{ratio[worst]:.0%} of its own buckling load: refine "
+                f"string.{field_name}.element_length or reduce WOB")
 
     def _warn_if_straight_pipe_compressed(self, weight_on_bit: float) -> None:
         """Warn (once per simulator) if a laterally straight pipe would be in compression.

@@ -1,0 +1,122 @@
+"""String components of common sizes, and the realistic strings of the scenarios.
+
+Dimensions of the tube bodies (the FE model's mass and stiffness): drill pipe from API
+Spec 5DP, heavy-weight pipe and drill collars from API RP 7G / IADC Drilling Manual
+tables, MWD, jar and stabilizer bodies typical of 8 1/2 - 8 3/4 in hole tools. Tool
+joints and upsets are not modelled: drill pipe and heavy-weight pipe weigh ~10-20 % less
+than their nominal "adjusted" weight per foot here, collars (plain bodies) match theirs
+(6 1/2 x 2 13/16 in: 136.6 kg/m, nominal 91 lb/ft = 135.4 kg/m).
+
+Every function returns a :class:`~drill_env.physics.config.Component`; lengths and element
+lengths in metres. Strings list their components from the bit up.
+"""
+
+from __future__ import annotations
+
+from drill_env.physics.config import Component, StringConfig
+from drill_env.physics.units import GRAVITY, INCH
+
+#: Stabilizer blades 1/8 in under an 8 3/4 in gauge (the usual API undergauge).
+STABILIZER_8_3_4 = 8.625 * INCH
+
+
+def drill_pipe_5(length: float, element_length: float = 10.0) -> Component:
+    """5 in 19.5 lb/ft drill pipe (API 5DP: OD 5.000, ID 4.276 in)."""
+    return Component(length=length, outer_diameter=5.0 * INCH, inner_diameter=4.276 * INCH,
+                     element_length=element_length, kind="drill_pipe", name="5 in DP")
+
+
+def drill_pipe_5_5(length: float, element_length: float = 10.0) -> Component:
+    """5 1/2 in 21.9 lb/ft drill pipe (API 5DP: OD 5.500, ID 4.778 in)."""
+    return Component(length=length, outer_diameter=5.5 * INCH, inner_diameter=4.778 * INCH,
+                     element_length=element_length, kind="drill_pipe", name="5 1/2 in DP")
+
+
+def heavy_weight_5(length: float, element_length: float = 7.0) -> Component:
+    """5 in heavy-weight drill pipe, 49.3 lb/ft (tube OD 5.0, ID 3.0 in)."""
+    return Component(length=length, outer_diameter=5.0 * INCH, inner_diameter=3.0 * INCH,
+                     element_length=element_length, kind="heavy_weight", name="5 in HWDP")
+
+
+def collar_6_5(length: float, element_length: float = 1.5) -> Component:
+    """6 1/2 x 2 13/16 in drill collars (API RP 7G, 91 lb/ft)."""
+    return Component(length=length, outer_diameter=6.5 * INCH, inner_diameter=2.8125 * INCH,
+                     element_length=element_length, kind="collar", name="6 1/2 in DC")
+
+
+def collar_8(length: float, element_length: float = 1.5) -> Component:
+    """8 x 2 13/16 in drill collars (API RP 7G, 150 lb/ft), for 12 1/4 in hole and up."""
+    return Component(length=length, outer_diameter=8.0 * INCH, inner_diameter=2.8125 * INCH,
+                     element_length=element_length, kind="collar", name="8 in DC")
+
+
+def stabilizer(blade_diameter: float = STABILIZER_8_3_4, length: float = 1.5,
+               element_length: float = 0.75, name: str = "stabilizer") -> Component:
+    """Integral-blade stabilizer: a 6 1/2 x 2 13/16 in body with blades of
+    ``blade_diameter`` (m), the diameter that touches the wall."""
+    return Component(length=length, outer_diameter=6.5 * INCH, inner_diameter=2.8125 * INCH,
+                     element_length=element_length, kind="stabilizer", name=name,
+                     contact_diameter=blade_diameter)
+
+
+def mwd(length: float = 9.0, element_length: float = 1.5) -> Component:
+    """6 3/4 in MWD / LWD collar (ID 3 1/4 in; the electronics add little mass)."""
+    return Component(length=length, outer_diameter=6.75 * INCH, inner_diameter=3.25 * INCH,
+                     element_length=element_length, kind="mwd", name="MWD")
+
+
+def jar(length: float = 9.0, element_length: float = 3.0) -> Component:
+    """6 1/2 in drilling jar (ID 2 3/4 in)."""
+    return Component(length=length, outer_diameter=6.5 * INCH, inner_diameter=2.75 * INCH,
+                     element_length=element_length, kind="jar", name="jar")
+
+
+def bit_sub(length: float = 1.0, element_length: float = 0.5) -> Component:
+    """6 1/2 in bit sub (float valve) between the bit and the near-bit stabilizer."""
+    return Component(length=length, outer_diameter=6.5 * INCH, inner_diameter=2.8125 * INCH,
+                     element_length=element_length, kind="bit_sub", name="bit sub")
+
+
+#: The packed vertical-hole BHA of the realistic strings, from the bit up: stabilizers at
+#: 1-2.5, 12-13.5, 31.5-33, 51-52.5 and 70.5-72 m keep every span that carries more than
+#: ~40 kN of compression below a third of its Euler load (the compressed collars stay
+#: straight), 108 m in all (~123 kN in 1.2 g/cc mud): 100 kN of WOB puts the neutral point
+#: in the collars ~90 m above the bit, with ~20 % of the BHA weight to spare (API RP 7G
+#: asks for 15-25 %).
+def packed_bha() -> tuple[Component, ...]:
+    return (
+        bit_sub(),
+        stabilizer(length=1.5, name="near-bit stabilizer"),
+        mwd(),
+        stabilizer(name="string stabilizer 1"),
+        collar_6_5(18.0),
+        stabilizer(name="string stabilizer 2"),
+        collar_6_5(18.0),
+        stabilizer(name="string stabilizer 3"),
+        collar_6_5(18.0, element_length=2.0),
+        stabilizer(name="string stabilizer 4"),
+        jar(),
+        collar_6_5(27.0, element_length=3.0),
+    )
+
+
+#: Heavy-weight pipe above the BHA: 15 joints (140 m), a stiff transition to the pipe.
+HEAVY_WEIGHT_LENGTH = 140.0
+
+
+def realistic_string(total_length: float = 1250.0, pipe_element_length: float = 10.0
+                     ) -> StringConfig:
+    """5 in drill pipe over 140 m of 5 in HWDP over the :func:`packed_bha` in an
+    8 3/4 in hole, ``total_length`` m in all (default 1250 m: a shallow vertical well)."""
+    lower = (*packed_bha(), heavy_weight_5(HEAVY_WEIGHT_LENGTH))
+    pipe_length = total_length - sum(c.length for c in lower)
+    if pipe_length <= 0:
+        raise ValueError(f"total_length: {total_length} m leaves no room for the drill pipe "
+                         f"above {sum(c.length for c in lower):.0f} m of BHA and HWDP")
+    return StringConfig(drill_pipe=drill_pipe_5(pipe_length, pipe_element_length),
+                        components=lower)
+
+
+def buoyed_weight(components: tuple[Component, ...], mud_density: float) -> float:
+    """Weight in mud of some components (N), tube bodies only."""
+    return sum(c.area * c.length * (c.density - mud_density) * GRAVITY for c in components)

@@ -1,0 +1,292 @@
+"""Modal analysis of a configured string: natural frequencies, mode shapes, damping.
+
+From the assembled FE matrices (:mod:`drill_env.physics.fem`), independent of the time
+integrator:
+
+* torsion: polar inertia J (top-drive rotor at the top, bit at the bottom), stiffness K,
+  damping C = mud drag + b K. The top is ``"fixed"`` (a stiff speed loop: the
+  literature's fixed-top boundary) or the ``"top_drive"``: its rotor inertia on the top
+  node with the PI speed loop acting as a damper ``kp`` and a spring ``ki`` (the PI as
+  an impedance, Kyllingstad & Nessjoen 2009). The bit end is free (off bottom).
+* lateral (one bending plane; the other is the same): lumped mass with rotary inertia,
+  K + K_g(WOB) with the static axial force at ``weight_on_bit``, Rayleigh damping
+  a M + b K; the top node pinned, and with ``supports="stabilizers"`` (the usual BHA
+  analysis) every stabilizer node and the bit pinned too (in contact with the wall).
+
+Damped modes come from the eigenvalues ``lambda`` of the first-order system:
+natural frequency ``|lambda| / 2 pi`` and damping ratio ``-Re(lambda) / |lambda|``;
+:func:`undamped_frequencies` solves ``K phi = w^2 M phi`` (scipy ``eigh``).
+
+:func:`critical_speeds` intersects the natural frequencies with the excitations of a
+rotating string: once per revolution (mass imbalance, bent pipe), blade count per
+revolution (the bit's blades), and backward whirl of a component rolling on the wall
+(its centre orbits at ``w R / clearance`` against the rotation).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import scipy.linalg
+
+from drill_env.physics.config import SimulationConfig
+from drill_env.physics.fem import (
+    assemble_lateral,
+    assemble_torsion,
+    axial_force_profile,
+    build_mesh,
+    mud_torsional_damping,
+)
+from drill_env.physics.statics import PIPE_KINDS, bit_buoyed_weight, neutral_point_height
+from drill_env.physics.top_drive import stiff_pi_gains
+from drill_env.physics.units import RPM
+
+__all__ = ["CriticalSpeed", "Modes", "critical_speed_chart", "critical_speeds", "excitations",
+           "lateral_modes", "neutral_point_height", "torsional_modes", "undamped_frequencies"]
+
+TopBoundary = Literal["fixed", "top_drive"]
+LateralSupports = Literal["stabilizers", "top_only"]
+
+
+@dataclass(frozen=True)
+class Modes:
+    """The lowest modes of one kind, sorted by frequency."""
+
+    kind: str  # "torsional" or "lateral"
+    frequency: np.ndarray  # (n,) natural frequency |lambda| / 2 pi (Hz)
+    damping_ratio: np.ndarray  # (n,) -Re(lambda) / |lambda|
+    shapes: np.ndarray  # (n, n_nodes) mode shapes over the nodes, max |.| = 1
+    node_depth: np.ndarray  # (n_nodes,) measured depth of the nodes (m)
+    boundary: str  # the boundary conditions, in words
+
+
+def _damped(k: np.ndarray, c: np.ndarray, m: np.ndarray, n_modes: int
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Frequencies (Hz), damping ratios and displacement shapes of the ``n_modes`` lowest
+    oscillating modes of ``M x'' + C x' + K x = 0`` (``m`` diagonal)."""
+    n = k.shape[0]
+    m_inv = 1.0 / m
+    a = np.zeros((2 * n, 2 * n))
+    a[:n, n:] = np.eye(n)
+    a[n:, :n] = -m_inv[:, None] * k
+    a[n:, n:] = -m_inv[:, None] * c
+    lam, vec = scipy.linalg.eig(a)
+    keep = lam.imag > 1e-9  # one of each conjugate pair; overdamped modes dropped
+    lam, vec = lam[keep], vec[:n, keep]
+    order = np.argsort(np.abs(lam))[:n_modes]
+    lam, vec = lam[order], vec[:, order]
+    freq = np.abs(lam) / (2 * math.pi)
+    zeta = -lam.real / np.abs(lam)
+    shapes = np.real(vec * np.exp(-1j * np.angle(vec[np.argmax(np.abs(vec), axis=0),
+                                                     np.arange(vec.shape[1])])))
+    shapes /= np.max(np.abs(shapes), axis=0)
+    return freq, zeta, shapes.T
+
+
+def torsional_system(config: SimulationConfig, top: TopBoundary = "fixed"
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(K, C, J, free DOFs) of the torsional model with the top boundary ``top``."""
+    cfg = config.resolved()
+    mesh = build_mesh(cfg)
+    k, j = assemble_torsion(mesh)
+    j[-1] += cfg.bit.inertia
+    c = np.diag(mud_torsional_damping(mesh, cfg.mud.torsional_damping)) \
+        + cfg.damping.stiffness_proportional * k
+    free = np.arange(mesh.n_nodes)
+    if top == "fixed":
+        free = free[1:]
+    else:
+        td = cfg.top_drive
+        kp, ki = stiff_pi_gains(cfg.string.drill_pipe.torsional_impedance, td.inertia)
+        kp = kp if td.proportional_gain is None else td.proportional_gain
+        ki = ki if td.integral_gain is None else td.integral_gain
+        j[0] += td.inertia
+        c[0, 0] += kp
+        k[0, 0] += ki
+    return k, c, j, free
+
+
+def torsional_modes(config: SimulationConfig, top: TopBoundary = "fixed",
+                    n_modes: int = 6) -> Modes:
+    """The lowest torsional modes (module docstring)."""
+    k, c, j, free = torsional_system(config, top)
+    ix = np.ix_(free, free)
+    freq, zeta, shapes = _damped(k[ix], c[ix], j[free], n_modes)
+    full = np.zeros((len(freq), k.shape[0]))
+    full[:, free] = shapes
+    depth = build_mesh(config.resolved()).node_depth
+    where = "fixed top" if top == "fixed" else "top drive (inertia + PI) at the top"
+    return Modes("torsional", freq, zeta, full, depth, f"{where}, bit free (off bottom)")
+
+
+def _lateral_supports(config: SimulationConfig, supports: LateralSupports, top_node: int
+                      ) -> np.ndarray:
+    """Nodes held at zero lateral displacement: ``top_node``, and with "stabilizers" every
+    node below it whose wall clearance is that of a stabilizer, and the bit."""
+    from drill_env.physics.simulator import Simulator
+
+    sim = Simulator(config.resolved())
+    pinned = [top_node]
+    if supports == "stabilizers":
+        tight = sim.node_clearance <= (sim.config.string.hole_diameter
+                                       - sim.config.string.stabilizer_diameter) / 2 + 1e-9
+        stabilized = np.flatnonzero(tight[top_node + 1:-1]) + top_node + 1
+        pinned += stabilized.tolist() + [sim.n_nodes - 1]
+    return np.asarray(sorted(set(pinned)))
+
+
+def bha_top_node(config: SimulationConfig) -> int:
+    """Node where the BHA joins the lowest pipe (``statics.PIPE_KINDS``, and the top
+    section whatever its label)."""
+    node = 0
+    for index, section in enumerate(config.string.sections):
+        if index > 0 and section.kind not in PIPE_KINDS:
+            return node
+        node += section.n_elements
+    return node - config.string.sections[-1].n_elements
+
+
+def lateral_modes(config: SimulationConfig, weight_on_bit: float = 0.0,
+                  supports: LateralSupports = "stabilizers", n_modes: int = 6,
+                  region: Literal["bha", "string"] = "bha") -> Modes:
+    """The lowest lateral (bending) modes at ``weight_on_bit`` (module docstring).
+
+    ``region="bha"`` (what BHA design tools analyse) keeps the BHA below the lowest pipe
+    (drill pipe, heavy-weight pipe), pinned where it joins the pipe: the tensioned pipe
+    above has its own slow string modes (~0.1 Hz for 1000 m), which ``region="string"``
+    includes (the whole string pinned at the surface)."""
+    cfg = config.resolved()
+    mesh = build_mesh(cfg)
+    force = axial_force_profile(mesh, weight_on_bit, bit_buoyed_weight(cfg))
+    k, kg, m = assemble_lateral(mesh, force)
+    m[-2] += cfg.bit.mass
+    k = k + kg
+    c = cfg.damping.mass_proportional * np.diag(m) + cfg.damping.stiffness_proportional * \
+        (k - kg)
+    n = mesh.n_nodes
+    top_node = bha_top_node(cfg) if region == "bha" else 0
+    fixed = list(range(2 * top_node)) + [2 * node for node in
+                                         _lateral_supports(cfg, supports, top_node)]
+    if cfg.bit.axis_aligned:
+        fixed.append(2 * n - 1)  # bit tilt held (paper section 3.1.1)
+    free = np.setdiff1d(np.arange(2 * n), fixed)
+    ix = np.ix_(free, free)
+    freq, zeta, shapes = _damped(k[ix], c[ix], m[free], n_modes)
+    full = np.zeros((len(freq), 2 * n))
+    full[:, free] = shapes
+    displacement = full[:, 0::2]
+    displacement /= np.maximum(np.max(np.abs(displacement), axis=1, keepdims=True), 1e-300)
+    where = ("BHA pinned below the drill pipe" if region == "bha" else "top pinned") + (
+        ", stabilizers and bit pinned" if supports == "stabilizers" else "")
+    return Modes("lateral", freq, zeta, displacement, mesh.node_depth,
+                 f"{where}, WOB {weight_on_bit / 1e3:.0f} kN")
+
+
+def undamped_frequencies(k: np.ndarray, m: np.ndarray, n_modes: int) -> np.ndarray:
+    """The ``n_modes`` lowest natural frequencies (Hz) of ``K phi = w^2 diag(m) phi``."""
+    w2 = scipy.linalg.eigh(k, np.diag(m), eigvals_only=True, subset_by_index=[0, n_modes - 1])
+    return np.sqrt(np.maximum(w2, 0.0)) / (2 * math.pi)
+
+
+@dataclass(frozen=True)
+class CriticalSpeed:
+    """A rotary speed where an excitation meets a natural frequency."""
+
+    rpm: float
+    frequency: float  # Hz
+    mode: str  # e.g. "lateral 1"
+    excitation: str  # "1x", "6x (blades)", "backward whirl (collars)"
+
+
+def excitations(config: SimulationConfig, kind: str = "lateral") -> list[tuple[str, float]]:
+    """(name, excitation frequency per rev/s) of a rotating string. Lateral modes: 1x
+    (imbalance, a bent collar), the blade count (the bit's blades passing), and backward
+    whirl of the bit and of the largest BHA body rolling on the wall. Torsional modes:
+    the blade count (the bit's torque fluctuating as the blades pass)."""
+    cfg = config.resolved()
+    if kind == "torsional":
+        return [(f"{cfg.bit.n_blades}x (blades)", float(cfg.bit.n_blades))]
+    out = [("1x", 1.0), (f"{cfg.bit.n_blades}x (blades)", float(cfg.bit.n_blades))]
+    hole = cfg.string.hole_diameter / 2
+    bit_radius = cfg.bit.gauge_radius
+    out.append(("backward whirl (bit)", bit_radius / cfg.bit.gauge_clearance))
+    body = max(cfg.string.lower, key=lambda s: s.outer_diameter)
+    clearance = hole - body.outer_diameter / 2
+    out.append((f"backward whirl ({body.label})", body.outer_diameter / 2 / clearance))
+    return out
+
+
+def critical_speeds(config: SimulationConfig, modes: Sequence[Modes],
+                    max_rpm: float = 300.0) -> list[CriticalSpeed]:
+    """Every speed up to ``max_rpm`` where an :func:`excitations` line crosses a mode."""
+    out = []
+    for m in modes:
+        for i, f in enumerate(m.frequency):
+            for name, per_rev in excitations(config, m.kind):
+                rpm = 60.0 * f / per_rev
+                if 0.0 < rpm <= max_rpm:
+                    out.append(CriticalSpeed(rpm, float(f), f"{m.kind} {i + 1}", name))
+    return sorted(out, key=lambda c: c.rpm)
+
+
+def _spread(values: list[float], gap: float) -> list[float]:
+    """Label positions near ``values`` (sorted ascending) at least ``gap`` apart."""
+    out: list[float] = []
+    for v in values:
+        out.append(max(v, out[-1] + gap) if out else v)
+    return out
+
+
+def critical_speed_chart(config: SimulationConfig, modes: Sequence[Modes], path,
+                         max_rpm: float = 300.0, title: str = "") -> None:
+    """The chart BHA design tools show: natural frequencies (horizontal lines) against
+    rotary speed, with the excitation lines; the circles are the critical speeds."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rpm = np.linspace(0.0, max_rpm, 301)
+    fig, ax = plt.subplots(figsize=(10, 6.5))
+    styles = {"lateral": ("tab:blue", "-", 1.0), "torsional": ("tab:red", "--", 0.0)}
+    f_top = max((float(np.max(m.frequency)) for m in modes if len(m.frequency)), default=1.0)
+    y_max = 1.12 * f_top
+    for m in modes:
+        color, line, side = styles.get(m.kind, ("k", ":", 1.0))
+        labels = _spread(sorted(m.frequency.tolist()), 0.028 * y_max)
+        for i, (f, y) in enumerate(zip(m.frequency, labels, strict=True)):
+            ax.axhline(f, color=color, ls=line, lw=1.0,
+                       label=f"{m.kind} modes: {m.boundary}" if i == 0 else None)
+            x = max_rpm * (0.995 if side else 0.005)
+            ax.text(x, y, f"{m.kind[0].upper()}{i + 1} {f:.2f} Hz", color=color, fontsize=7,
+                    ha="right" if side else "left", va="bottom")
+    lines: dict[str, float] = {}
+    for m in modes:
+        lines.update(excitations(config, m.kind))
+    for name, per_rev in lines.items():
+        ax.plot(rpm, per_rev * rpm / 60.0, color="0.35", lw=0.8)
+        r_end = min(max_rpm, 60.0 * 0.97 * y_max / per_rev)
+        ax.text(r_end, per_rev * r_end / 60.0, f"{name} ", fontsize=7, color="0.25",
+                ha="right", va="top")
+    for cs in critical_speeds(config, modes, max_rpm):
+        ax.plot(cs.rpm, cs.frequency, "o", ms=4, mfc="none", color="k")
+    ax.set_xlim(0, max_rpm)
+    ax.set_ylim(0, y_max)
+    ax.set_xlabel("rotary speed (rpm)")
+    ax.set_ylabel("frequency (Hz)")
+    ax.set_title(title or "Critical-speed chart", fontsize=10)
+    ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def rpm_of(frequency: float, per_rev: float) -> float:
+    """Rotary speed (rpm) at which an excitation of ``per_rev`` per revolution has
+    ``frequency`` (Hz)."""
+    return frequency / per_rev / (RPM / (2 * math.pi))

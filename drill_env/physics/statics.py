@@ -1,0 +1,78 @@
+"""Static axial loads of a hanging string: neutral point and pipe buckling.
+
+The axial force is the buoyed weight below a point minus the WOB
+(:func:`drill_env.physics.fem.axial_force_profile`). Below the neutral point the string
+is in compression; a BHA of collars is built to carry that, drill pipe is not: in a
+vertical hole a pipe column under its own weight buckles once its compression exceeds
+the heavy-column limit ``1.94 (E I w^2)^(1/3)`` (Lubinski 1950, "first-order buckling";
+w the buoyed weight per length), ~8 kN for 5 in drill pipe.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from drill_env.physics.config import SimulationConfig
+from drill_env.physics.fem import axial_force_profile, build_mesh
+from drill_env.physics.units import GRAVITY
+
+#: Kinds of component that are pipe (not built to carry compression).
+PIPE_KINDS = frozenset({"drill_pipe", "heavy_weight"})
+#: Lubinski's heavy-column coefficient: F_c = 1.94 (E I w^2)^(1/3).
+LUBINSKI = 1.94
+
+
+def bit_buoyed_weight(config: SimulationConfig) -> float:
+    """The bit's weight in mud (N); steel like the component it hangs from."""
+    return config.bit.mass * GRAVITY * (1.0 - config.mud.density /
+                                        config.string.lower[0].density)
+
+
+def neutral_point_height(config: SimulationConfig, weight_on_bit: float) -> float:
+    """Height above the bit (m) where the axial force changes from compression to tension,
+    interpolated between element midpoints; the string length if all of it is compressed,
+    0 off bottom."""
+    if weight_on_bit <= 0.0:
+        return 0.0
+    mesh = build_mesh(config)
+    force = axial_force_profile(mesh, weight_on_bit, bit_buoyed_weight(config))
+    bottom = mesh.node_depth[-1]
+    height = bottom - 0.5 * (mesh.node_depth[:-1] + mesh.node_depth[1:])  # midpoints
+    compressed = force < 0.0
+    if compressed.all():
+        return float(config.string.length)
+    # force rises going up the string; the last compressed midpoint from the top
+    k = int(np.flatnonzero(compressed)[0])  # highest compressed element
+    if k == 0:
+        return float(height[0])
+    f0, f1 = force[k], force[k - 1]  # compressed below, tension above
+    h0, h1 = height[k], height[k - 1]
+    return float(h0 + (h1 - h0) * (-f0) / (f1 - f0))
+
+
+@dataclass(frozen=True)
+class PipeBuckling:
+    """A pipe component compressed beyond its buckling load."""
+
+    component: str
+    compression: float  # largest compression in it (N)
+    buckling_load: float  # heavy-column limit (N)
+
+
+def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBuckling]:
+    """The pipe components (drill pipe, heavy-weight pipe) whose compression at this WOB
+    exceeds their vertical-hole buckling load; empty when the pipe is safe."""
+    mesh = build_mesh(config)
+    force = axial_force_profile(mesh, weight_on_bit, bit_buoyed_weight(config))
+    out = []
+    for index, section in enumerate(config.string.sections):
+        if section.kind not in PIPE_KINDS and index != 0:
+            continue  # the top section is pipe whatever its label
+        compression = -float(np.min(force[mesh.component == index]))
+        w = (section.density - config.mud.density) * section.area * GRAVITY
+        limit = LUBINSKI * (section.youngs_modulus * section.second_moment * w * w) ** (1 / 3)
+        if compression > limit:
+            out.append(PipeBuckling(section.label, compression, limit))
+    return out
