@@ -45,8 +45,16 @@ class Mesh:
     buoyed_weight: np.ndarray  # (rho_s - rho_m) A g (N/m)
     outer_radius: np.ndarray  # (n_el,)
     is_bha: np.ndarray  # (n_el,) bool: below the top drill pipe
-    contact_radius: np.ndarray  # (n_el,) radius that touches the wall (stabilizer blades)
-    component: np.ndarray  # (n_el,) int: index into StringConfig.sections (surface down)
+    #: (n_el,) radius that touches the wall (stabilizer blades); default: outer_radius
+    contact_radius: np.ndarray = None  # type: ignore[assignment]
+    #: (n_el,) int: index into StringConfig.sections (surface down); default: all 0
+    component: np.ndarray = None  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        if self.contact_radius is None:
+            self.contact_radius = self.outer_radius.copy()
+        if self.component is None:
+            self.component = np.zeros(self.element_length.size, dtype=np.int64)
 
     @property
     def n_nodes(self) -> int:

@@ -235,10 +235,10 @@ def critical_speeds(config: SimulationConfig, modes: Sequence[Modes],
 
 def _spread(values: list[float], gap: float) -> list[float]:
     """Label positions near ``values`` (sorted ascending) at least ``gap`` apart."""
-    out: list[float] = []
+    placed: list[float] = []
     for v in values:
-        out.append(max(v, out[-1] + gap) if out else v)
-    return out
+        placed.append(max(v, placed[-1] + gap) if placed else v)
+    return placed
 
 
 def critical_speed_chart(config: SimulationConfig, modes: Sequence[Modes], path,
