@@ -215,6 +215,7 @@ class EpisodeRecorder:
         self._styled: set[str] = set()
         self._start_time = math.nan
         self._last_time = math.nan
+        self._orbit_history = np.zeros((0, 2))
         self.path = self.directory / self.file_name()
         stream = rr.RecordingStream(self.application_id, recording_id=self.recording_id)
         self._stream = stream
@@ -223,7 +224,8 @@ class EpisodeRecorder:
             self._writer = None
             return self.recording_id
         stream.set_log_time_enabled(False)
-        stream.save(self.path, default_blueprint=blueprint(geometry.clearance))
+        stream.save(self.path, default_blueprint=blueprint(
+            geometry, geometry.exaggeration(self.exaggeration)))
         stream.send_recording_name(
             f"{self.scenario} seed {self.seed} episode {self.episode_index}")
         k = geometry.exaggeration(self.exaggeration)
@@ -356,7 +358,7 @@ class EpisodeRecorder:
         for name, (times, vals) in sorted(c.sparse.items()):
             self._scalars(name, np.asarray(times), np.asarray(vals, dtype=np.float64),
                           name.rsplit("/", 1)[-1])
-        writer.orbit(t, bx, by)
+        self._orbit_history = writer.orbit(t, bx, by, self._orbit_history)
         writer.string(np.asarray(c.string_t), c.string_xy, np.asarray(c.string_depth))
         writer.blades(np.asarray(c.string_t), np.asarray(c.string_state).reshape(-1, 4))
         # events: the streaming detectors carry their state from chunk to chunk

@@ -50,6 +50,9 @@ from drill_env.physics.units import RPM
 APPLICATION_ID = "drill_env"
 TIMELINE = "sim_time"
 
+#: Samples in the orbit's trail (2 s at the default 10 Hz).
+ORBIT_TRAIL = 20
+
 #: Rock colours by rock index (RGB), cycled.
 ROCK_COLORS = ((200, 90, 60), (70, 150, 230), (110, 200, 110), (230, 190, 60),
                (170, 110, 220), (120, 120, 120))
@@ -224,7 +227,10 @@ class RerunWriter:
                                        radii=0.03, labels="gauge clearance"), static=True)
             stream.log("orbit_mm/centre", rr.Points2D([[0.0, 0.0]], radii=0.08,
                                                       colors=(120, 120, 120)), static=True)
-        stream.log("orbit_mm/bit", rr.Points2D.from_fields(radii=0.12, colors=(220, 60, 50)),
+        stream.log("orbit_mm/bit", rr.Points2D.from_fields(radii=0.15, colors=(220, 60, 50)),
+                   static=True)
+        stream.log("orbit_mm/trail", rr.LineStrips2D.from_fields(radii=0.04,
+                                                                 colors=(230, 140, 120)),
                    static=True)
         if g.node_depth is not None:
             k = self.exaggeration
@@ -247,13 +253,14 @@ class RerunWriter:
             stream.log("bit", rr.AnnotationContext(
                 [(j, names[j], ROCK_COLORS[j % len(ROCK_COLORS)]) for j in range(len(names))]),
                 static=True)
-            stream.log("bit/blades", rr.LineStrips3D.from_fields(radii=0.002), static=True)
+            stream.log("bit/blades", rr.LineStrips3D.from_fields(radii=0.002, show_labels=False),
+                       static=True)
             self._bit_surroundings()
 
     def _bit_surroundings(self) -> None:
         """Borehole wall and interfaces within ~2 m of the starting bit depth."""
         rr, g = self.rr, self.geometry
-        top, bottom = 0.3, -2.0
+        top, bottom = 0.15, -0.5
         hole_r = g.hole_radius
         if math.isfinite(hole_r):
             a = np.linspace(0.0, 2 * math.pi, 8, endpoint=False)
@@ -294,11 +301,22 @@ class RerunWriter:
 
     # ------------------------------------------------------------------ chunks
 
-    def orbit(self, times: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray) -> None:
+    def orbit(self, times: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray,
+              history: np.ndarray) -> np.ndarray:
+        """At every sample, the bit centre (mm) and its trail over the last
+        ``ORBIT_TRAIL`` samples as a line. ``history``: the trail points
+        of the samples before this chunk; returns the history for the next chunk."""
         xy = np.stack([bit_x, bit_y], axis=1) * 1e3
-        mask = np.all(np.isfinite(xy), axis=1) & np.isfinite(times)
-        if mask.any():
-            self._send("orbit_mm/bit", times[mask], self.rr.Points2D.columns(positions=xy[mask]))
+        finite = np.all(np.isfinite(xy), axis=1) & np.isfinite(times)
+        points = np.concatenate([history, xy[finite]])
+        t = times[finite]
+        if len(t):
+            self._send("orbit_mm/bit", t, self.rr.Points2D.columns(positions=xy[finite]))
+            n_old = len(history)
+            strips = [points[max(0, n_old + i + 1 - ORBIT_TRAIL):n_old + i + 1]
+                      for i in range(len(t))]
+            self._send("orbit_mm/trail", t, self.rr.LineStrips2D.columns(strips=strips))
+        return points[-ORBIT_TRAIL:]
 
     def string(self, times: np.ndarray, lateral: Sequence[np.ndarray],
                depths: np.ndarray) -> None:
@@ -424,26 +442,35 @@ def piece_points(blades: np.ndarray, si: np.ndarray, pb: np.ndarray, ps: np.ndar
     return p0, p1
 
 
-def blueprint(clearance: float) -> Any:
-    """Default layout: time series left; string, bit, orbit, events, config right."""
-    import rerun as rr
+def blueprint(geometry: Geometry, exaggeration: float) -> Any:
+    """Default layout: time series left; string, bit, orbit, events, texts right. The 3-D
+    cameras look at the bottom of the string and at the bit (a whole 1 km string is a
+    line), the time panel starts folded."""
     import rerun.blueprint as rrb
 
     def ts(group: str, name: str) -> Any:
-        return rrb.TimeSeriesView(origin=f"/timeseries/{group}", name=name)
+        return rrb.TimeSeriesView(origin=f"/timeseries/{group}", name=name,
+                                  plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop))
 
+    clearance = geometry.clearance
     bounds = None
     if math.isfinite(clearance) and clearance > 0:
         c = clearance * 1e3 * 1.15
         bounds = rrb.VisualBounds2D(x_range=[-c, c], y_range=[-c, c])
-    trail = rr.VisibleTimeRange(TIMELINE,
-                                start=rr.TimeRangeBoundary.cursor_relative(seconds=-2.0),
-                                end=rr.TimeRangeBoundary.cursor_relative())
+    string_camera = None
+    if geometry.node_depth is not None:
+        bottom = -float(geometry.node_depth[-1])
+        width = 2.0 * exaggeration * float(np.max(geometry.node_clearance)) \
+            if geometry.node_clearance is not None else 10.0
+        string_camera = rrb.EyeControls3D(position=[3.0 * width, -3.0 * width, bottom + 60.0],
+                                          look_target=[0.0, 0.0, bottom + 20.0])
+    bit_camera = rrb.EyeControls3D(position=[0.45, -0.45, 0.25], look_target=[0.0, 0.0, -0.05])
     left = rrb.Vertical(
         ts("speed_rpm", "Speed (rpm)"),
         ts("torque_kNm", "Torque (kN m)"),
         rrb.Tabs(ts("wob_kN", "WOB (kN)"), ts("hook_load_kN", "Hook load (kN)"),
-                 ts("rop_m_per_h", "ROP (m/h)"), ts("depth_m", "Depth (m)")),
+                 ts("rop_m_per_h", "ROP (m/h)"), ts("depth_m", "Depth (m)"),
+                 active_tab="ROP (m/h)"),
         rrb.Tabs(ts("stick_slip", "Stick-slip (SSI)"), ts("whirl_rpm", "Whirl (rpm)"),
                  ts("lateral", "Radial ratio"), ts("rock_share", "Rock share")),
         rrb.Tabs(ts("reward", "Reward"), ts("action", "Action"),
@@ -451,18 +478,22 @@ def blueprint(clearance: float) -> Any:
     )
     right = rrb.Vertical(
         rrb.Horizontal(
-            rrb.Spatial3DView(origin="/string", name="String deflection (exaggerated)"),
-            rrb.Spatial3DView(origin="/bit", name="Bit, blades and layers"),
+            rrb.Spatial3DView(origin="/string", name="String, bottom (lateral exaggerated)",
+                              eye_controls=string_camera),
+            rrb.Spatial3DView(origin="/bit", name="Bit, blades and layers",
+                              eye_controls=bit_camera),
         ),
         rrb.Horizontal(
-            rrb.Spatial2DView(origin="/orbit_mm", name="Bit orbit (mm)",
-                              visual_bounds=bounds, time_ranges=trail),
+            rrb.Spatial2DView(origin="/orbit_mm", name="Bit orbit (mm), last 2 s",
+                              visual_bounds=bounds),
             rrb.TextLogView(origin="/events", name="Events"),
+            column_shares=[3, 2],
         ),
         rrb.Tabs(rrb.TextDocumentView(origin="/bit/blade_rocks", name="Blade rocks"),
                  rrb.TextDocumentView(origin="/config/document", name="Config")),
-        row_shares=[3, 3, 2],
+        row_shares=[4, 4, 2],
     )
     return rrb.Blueprint(rrb.Horizontal(left, right, column_shares=[1, 1]),
                          rrb.BlueprintPanel(state="collapsed"),
-                         rrb.SelectionPanel(state="collapsed"))
+                         rrb.SelectionPanel(state="collapsed"),
+                         rrb.TimePanel(state="collapsed"))
