@@ -21,12 +21,44 @@ All take the keywords of :class:`drill_env.env.DrillStringEnv`;
 
 from __future__ import annotations
 
+import hashlib
 import importlib.abc
 import importlib.util
+import os
 import sys
+from pathlib import Path
 from typing import Any
 
 __version__ = "0.1.0"
+
+
+def _numba_cache_dir() -> str:
+    """numba's cache folder for this version of the sources.
+
+    numba invalidates a cached function when ITS file changes, but not when a function it
+    calls (from another file) does: a kernel cached before an edit of the bit model would
+    run the old bit model. Keying the whole cache by a hash of every source file of the
+    package makes an edit start a fresh cache. The base is ``NUMBA_CACHE_DIR`` if set,
+    else ``~/.cache/drill_env/numba``.
+    """
+    root = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode())
+        digest.update(path.read_bytes())
+    key = digest.hexdigest()[:16]
+    base = os.environ.get("NUMBA_CACHE_DIR") or str(
+        Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "drill_env" / "numba")
+    if Path(base).name == key:  # inherited from a parent process that set it already
+        return base
+    return str(Path(base) / key)
+
+
+_CACHE_DIR = _numba_cache_dir()
+if "numba" in sys.modules:  # numba read its settings already: change them in place
+    sys.modules["numba"].config.CACHE_DIR = _CACHE_DIR
+else:
+    os.environ["NUMBA_CACHE_DIR"] = _CACHE_DIR
 
 ENTRY_POINT = "drill_env.env:DrillStringEnv"
 VECTOR_ENTRY_POINT = "drill_env.vector:DrillStringVectorEnv"

@@ -78,15 +78,26 @@ from drill_env.physics.validation import (
 #: 75 kN and 79 rpm for 100 kN (stiff top drive): stick-slip at 50 rpm, none at 100 rpm
 #: (paper Fig. 13, 14). Depth of cut 3 mm/rev at 75 kN (~9 m/h at 50 rpm).
 HARD = RockConfig(name="hard", mu_min=0.5, mu_max=0.9, st1=3.0, st2=0.0,
-                  wall_stiffness=2.0e7, wall_damping=2.0e3, depth_of_cut=4.0e-8)
+                  wall_stiffness=2.0e7, wall_damping=2.0e3, depth_of_cut=4.0e-8,
+                  founder_wob_per_diameter=6.8e5, post_founder_slope=0.5)
 #: Soft rock: nearly flat curve, softer wall, twice the depth of cut of hard rock.
 #: Threshold 29 rpm at 75 kN, 38 rpm at 100 kN: steady at 50 rpm.
 SOFT = RockConfig(name="soft", mu_min=0.3, mu_max=0.45, st1=5.0, st2=0.005,
-                  wall_stiffness=5.0e6, wall_damping=1.0e3, depth_of_cut=8.0e-8)
+                  wall_stiffness=5.0e6, wall_damping=1.0e3, depth_of_cut=8.0e-8,
+                  founder_wob_per_diameter=5.0e5, post_founder_slope=0.5)
 #: Very soft rock: low, rising curve, very soft wall, fast drilling.
 #: Rising at every speed above 0.5 rpm: never unstable.
+#:
+#: Founder points (Dupriest & Koederitz 2005: the WOB beyond which the depth of cut stops
+#: responding, from bit balling or vibrations; field founder points of PDC bits lie at
+#: roughly 2-5 klbf per inch of bit diameter, 0.35-0.9 MN/m): 680 kN/m for hard rock
+#: (151 kN on an 8 3/4 in bit), 500 kN/m for soft (111 kN) and 360 kN/m for very soft
+#: rock (80 kN; soft rocks ball the bit at lower loads); past them the depth of cut falls
+#: by half the excess WOB (post_founder_slope 0.5), so the ROP peaks at the founder WOB.
+#: The paper's cases (75-100 kN) stay below them.
 VERY_SOFT = RockConfig(name="very_soft", mu_min=0.2, mu_max=0.3, st1=8.0, st2=0.01,
-                       wall_stiffness=1.0e6, wall_damping=5.0e2, depth_of_cut=1.6e-7)
+                       wall_stiffness=1.0e6, wall_damping=5.0e2, depth_of_cut=1.6e-7,
+                       founder_wob_per_diameter=3.6e5, post_founder_slope=0.5)
 
 #: Paper section 4: share of rock 2 (the middle layer) under the front blades at the
 #: torsional-map positions, and which interface sets it ("top": entering the layer,
@@ -350,9 +361,12 @@ def _jitter(rng: np.random.Generator, rock: RockConfig, name: str) -> RockConfig
 
     mu_min = f(rock.mu_min)
     mu_max = max(mu_min, f(rock.mu_max))
+    founder = rock.founder_wob_per_diameter
     return RockConfig(name=name, mu_min=mu_min, mu_max=mu_max, st1=f(rock.st1),
                       st2=f(rock.st2), wall_stiffness=f(rock.wall_stiffness),
-                      wall_damping=f(rock.wall_damping), depth_of_cut=f(rock.depth_of_cut))
+                      wall_damping=f(rock.wall_damping), depth_of_cut=f(rock.depth_of_cut),
+                      founder_wob_per_diameter=None if founder is None else f(founder),
+                      post_founder_slope=rock.post_founder_slope)
 
 
 @validated
@@ -380,6 +394,11 @@ def random(rng: np.random.Generator | None = None,
         if not low <= high:
             raise ValueError(f"{name}: the low end must not exceed the high end, got "
                              f"{(low, high)}")
+    lower = realistic_string().bha_length
+    if not string_length_range[0] > lower + 10.0:
+        raise ValueError(f"string_length_range: the strings need more than {lower + 10.0:.0f} m "
+                         f"(BHA and heavy-weight pipe, plus a pipe joint), got "
+                         f"{string_length_range}")
     rng = rng if rng is not None else np.random.default_rng()
     lo, hi = string_length_range
     cfg = _base(float(rng.uniform(lo, hi)),

@@ -136,3 +136,21 @@ def test_asymmetric_bit_whirls_forward_for_most_of_the_run():
     assert moving.mean() > 0.5
     assert forward.mean() > 0.6
     assert lateral_force(run)[late].min() > 100.0  # a lateral force all the time
+
+
+def test_symmetric_bit_settles_after_the_layer_and_stick_slip_returns():
+    """Paper Fig. 17/18, P6: after the transition threw it against the wall, the symmetric
+    bit is laterally quiet again in homogeneous rock, and the stick-slip of the hard rock
+    returns (Fig. 16). Needs the stabilizers' wall impacts damped as through a mud film
+    (ContactConfig.damping, docs/paper-reproduction.md); with a restitution of 0.8 a
+    backward whirl of the stabilizers kept the bit on the wall."""
+    for case, kick in (("paper_case2", 0.01), ("paper_case2", 0.03), ("paper_case3", 0.01)):
+        sc = make_scenario(case)
+        run = simulate(sc.config, 50.0, sc.weight_on_bit, 200.0, kick=kick)
+        _, _, after = _windows(run)
+        t = run.time
+        late = after & (t > t[after][0] + 40.0)
+        assert late.sum() > 100, case
+        assert lateral_force(run)[late].mean() < 100.0, case  # N: no contact, no whirl
+        summary = stick_slip_summary(run, t[after][0] + 10.0)
+        assert summary["ssi"] > 0.8 and summary["stuck_fraction"] > 0.1, case

@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from drill_env.physics.config import BitConfig
-from drill_env.physics.formation import Rock, layer_at, resistance
+from drill_env.physics.formation import Rock, effective_wob, layer_at, resistance
 from drill_env.physics.jit import TUPLE_KERNEL
 
 #: Columns of :func:`blade_arrays`, one row per blade.
@@ -86,6 +86,7 @@ class GaugeContact(NamedTuple):
     hole_radius: float             # m
     tangential_compliance: float   # m/(N s); > 0 caps friction at |v_r| / compliance
     regularisation_speed: float    # m/s: friction linear below it
+    friction: float                # gauge-pad friction; NaN: each rock's resistance curve
 
 
 # --------------------------------------------------------------------------- geometry
@@ -352,7 +353,9 @@ def _front_loads(blades, rock_params, cos_z, sin_z, omega, wob, n, pieces, out):
     for k in range(BitOut.FORCE_STATIC_Y + 1):
         out[k] *= load
     for j in range(rock_params.shape[0]):
-        out[BitOut.DEPTH_OF_CUT] += wob * out[SHARES + j] * rock_params[j, Rock.DEPTH_OF_CUT]
+        acting = effective_wob(wob, rock_params[j, Rock.FOUNDER_WOB],
+                               rock_params[j, Rock.POST_FOUNDER_SLOPE])
+        out[BitOut.DEPTH_OF_CUT] += acting * out[SHARES + j] * rock_params[j, Rock.DEPTH_OF_CUT]
 
 
 @njit(**TUPLE_KERNEL)
@@ -398,9 +401,12 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
             if f_n <= 0.0:
                 continue
             normal += f_n
-            friction += resistance(w, rock_params[j, Rock.MU_MIN], rock_params[j, Rock.MU_MAX],
-                                   rock_params[j, Rock.ST1], rock_params[j, Rock.ST2]) \
-                * f_n  # eq. (57)
+            if gauge.friction >= 0.0:  # the pads' own coefficient (BitConfig.gauge_friction)
+                friction += gauge.friction * f_n
+            else:  # eq. (57): the rock's resistance curve
+                friction += resistance(w, rock_params[j, Rock.MU_MIN],
+                                       rock_params[j, Rock.MU_MAX], rock_params[j, Rock.ST1],
+                                       rock_params[j, Rock.ST2]) * f_n
         if normal <= 0.0:
             continue
         speed = abs(slip)

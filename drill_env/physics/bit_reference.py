@@ -88,7 +88,7 @@ def split(blades: np.ndarray, normals: np.ndarray, offsets: np.ndarray,
 
 def bit_loads(blades, normals, offsets, layer_rock, rock_params, bx, by, vx, vy, depth, phi_z,
               omega, wob, hole_radius, tangential_compliance,
-              regularisation_speed) -> np.ndarray:
+              regularisation_speed, gauge_friction=math.nan) -> np.ndarray:
     """Same output layout as :func:`drill_env.physics.bit.mesoscopic_bit_loads`."""
     blades = np.asarray(blades, dtype=float)
     rock_params = np.asarray(rock_params, dtype=float)
@@ -118,8 +118,13 @@ def bit_loads(blades, normals, offsets, layer_rock, rock_params, bx, by, vx, vy,
         out[BitOut.FORCE_STATIC_X:BitOut.FORCE_STATIC_Y + 1] += f_blade0 * direction
         for p in front:
             out[SHARES + p.rock] += p.length / l_front
-    out[BitOut.DEPTH_OF_CUT] = wob * float(np.dot(out[SHARES:],
-                                                  rock_params[:, Rock.DEPTH_OF_CUT]))
+    # the founder point: the depth of cut stops following WOB above each rock's W_f
+    founder = rock_params[:, Rock.FOUNDER_WOB]
+    slope = rock_params[:, Rock.POST_FOUNDER_SLOPE]
+    acting = np.where(wob <= founder, wob,
+                      np.maximum(0.0, founder - slope * (wob - np.minimum(founder, wob))))
+    out[BitOut.DEPTH_OF_CUT] = float(np.dot(acting * out[SHARES:],
+                                            rock_params[:, Rock.DEPTH_OF_CUT]))
 
     for i, blade in enumerate(blades):
         _, _, _, d = blade_points(blade, bx, by, depth, phi_z)
@@ -147,7 +152,10 @@ def bit_loads(blades, normals, offsets, layer_rock, rock_params, bx, by, vx, vy,
             continue
         # eq. (57), the curves in rad/s: slip speed / r_C
         w = abs(v_r) / float(np.linalg.norm(arm))
-        f_r = sum(mu(j, w) * abs(f_n[j]) for j in range(n_rock))
+        if gauge_friction >= 0.0:  # the pads' own coefficient
+            f_r = gauge_friction * float(np.sum(np.abs(f_n)))
+        else:
+            f_r = sum(mu(j, w) * abs(f_n[j]) for j in range(n_rock))
         if abs(v_r) < regularisation_speed:
             f_r *= abs(v_r) / regularisation_speed
         if tangential_compliance > 0.0:

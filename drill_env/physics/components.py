@@ -51,7 +51,7 @@ def collar_8(length: float, element_length: float = 1.5) -> Component:
 
 
 def stabilizer(blade_diameter: float = STABILIZER_8_3_4, length: float = 1.5,
-               element_length: float = 0.75, name: str = "stabilizer") -> Component:
+               element_length: float = 1.5, name: str = "stabilizer") -> Component:
     """Integral-blade stabilizer: a 6 1/2 x 2 13/16 in body with blades of
     ``blade_diameter`` (m), the diameter that touches the wall."""
     return Component(length=length, outer_diameter=6.5 * INCH, inner_diameter=2.8125 * INCH,
@@ -71,7 +71,7 @@ def jar(length: float = 9.0, element_length: float = 3.0) -> Component:
                      element_length=element_length, kind="jar", name="jar")
 
 
-def bit_sub(length: float = 1.0, element_length: float = 0.5) -> Component:
+def bit_sub(length: float = 1.0, element_length: float = 1.0) -> Component:
     """6 1/2 in bit sub (float valve) between the bit and the near-bit stabilizer."""
     return Component(length=length, outer_diameter=6.5 * INCH, inner_diameter=2.8125 * INCH,
                      element_length=element_length, kind="bit_sub", name="bit sub")

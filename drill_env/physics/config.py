@@ -295,8 +295,13 @@ class ContactConfig:
     #: 1e7 N/m is common in FE drill-string codes; the explicit contact step needs
     #: dt < 2 sqrt(m/k), which holds at dt = 1 ms for every node of the default mesh.
     stiffness: Positive = Field(default=1.0e7, le=1.0e10)
-    #: Penalty damping c of eq. (18): ~10 % of critical for a 1 m collar node.
-    damping: NonNegative = Field(default=5.0e3, le=1.0e8)
+    #: Penalty damping c of eq. (18). 3e4 N s/m is ~40 % of critical for a 1 m collar node
+    #: (m ~ 140 kg with mud, k = 1e7 N/m): a coefficient of restitution of ~0.25 for steel
+    #: striking rock through a mud film (squeeze-film damping makes such impacts nearly
+    #: plastic). With the earlier 5e3 (6 %, restitution 0.8) a symmetric bit thrown to the
+    #: wall by a layer kept whirling backward in homogeneous rock forever; with this value
+    #: it settles after the layer, as in the paper (docs/paper-reproduction.md, P6).
+    damping: NonNegative = Field(default=3.0e4, le=1.0e8)
     #: Velocity-dependent wall friction mu(v) = mu_kin + (mu_static - mu_kin) exp(-|v|/v_s).
     friction_static: NonNegative = Field(default=0.30, le=2.0)
     friction_kinetic: NonNegative = Field(default=0.25, le=2.0)
@@ -346,6 +351,13 @@ class RockConfig:
     #: Depth of cut per bit revolution and per newton of WOB (m/(rev N)); 1e-6 is 100 mm
     #: per revolution at 100 kN, beyond any PDC bit.
     depth_of_cut: NonNegative = Field(default=2.0e-8, le=1.0e-6)
+    #: Founder point (Dupriest & Koederitz 2005, SPE 92194): the WOB per unit bit diameter
+    #: (N/m) above which the depth of cut stops growing with WOB (bit balling, bottom-hole
+    #: balling, vibrations); None: the linear law at any WOB. See ``post_founder_slope``.
+    founder_wob_per_diameter: Annotated[Positive, Field(le=1.0e8)] | None = None
+    #: Above the founder WOB W_f the depth of cut is that of W_f minus this fraction of the
+    #: excess: doc (W_f - s (W - W_f)), never below 0, so the ROP peaks at W_f.
+    post_founder_slope: NonNegative = Field(default=0.5, le=10.0)
 
     def __post_init__(self) -> None:
         _require(self.mu_max >= self.mu_min, "mu_max",
@@ -428,6 +440,10 @@ class BitConfig:
     #: Bit mass (kg) and polar inertia (kg m^2): ~ a 50 kg steel body, m r^2 / 2.
     mass: Positive = Field(default=50.0, le=1.0e4)
     inertia: Positive = Field(default=0.3, le=1.0e3)
+    #: Friction coefficient of the gauge pads against the wall. None: the rock's resistance
+    #: curve (eq. 57 as written, mu 0.5-0.9 for hard rock); gauge pads are smooth,
+    #: hard-faced surfaces, closer to 0.2-0.3 against rock (docs/model.md, "Gauge").
+    gauge_friction: Annotated[NonNegative, Field(le=2.0)] | None = None
     #: Hold the bit axis parallel to the hole axis (paper section 3.1.1: with a 1/16 in
     #: gauge clearance the tilt of the bit is negligible). The bit node's tilt DOFs are
     #: then fixed; lateral translation stays free. Without it the free bit end under the

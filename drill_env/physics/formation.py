@@ -33,6 +33,8 @@ Rock = IntEnum("Rock", [
     "MU_MIN", "MU_MAX", "ST1", "ST2",     # resistance curve, eq. (39)
     "WALL_STIFFNESS", "WALL_DAMPING",     # gauge contact, eq. (55)
     "DEPTH_OF_CUT",                       # m/(rev N), docs/model.md "Penetration"
+    "FOUNDER_WOB",                        # N: founder WOB for the formation's bit (inf: none)
+    "POST_FOUNDER_SLOPE",                 # depth of cut lost per unit WOB above it
 ], start=0)
 N_ROCK_PARAMS = len(Rock)
 
@@ -63,17 +65,25 @@ def interface_plane(depth: float, dip: float, azimuth: float) -> tuple[np.ndarra
     return normal, depth * math.cos(delta)
 
 
-def rock_parameter_table(rocks) -> np.ndarray:
-    """``(n_rock, N_ROCK_PARAMS)`` table: row j holds rock j's fields in :data:`Rock` order."""
+def rock_parameter_table(rocks, bit_diameter: float = math.inf) -> np.ndarray:
+    """``(n_rock, N_ROCK_PARAMS)`` table: row j holds rock j's fields in :data:`Rock` order;
+    the founder WOB is the rock's founder WOB per diameter times ``bit_diameter`` (m)."""
     table = np.empty((len(rocks), N_ROCK_PARAMS))
     for j, rock in enumerate(rocks):
         for column in Rock:
-            table[j, column] = getattr(rock, column.name.lower())
+            if column == Rock.FOUNDER_WOB:
+                per_diameter = rock.founder_wob_per_diameter
+                table[j, column] = math.inf if per_diameter is None else \
+                    per_diameter * bit_diameter
+            else:
+                table[j, column] = getattr(rock, column.name.lower())
     return table
 
 
-def formation_arrays(cfg: FormationConfig) -> FormationArrays:
-    """Convert a :class:`FormationConfig` into the arrays the kernels read."""
+def formation_arrays(cfg: FormationConfig, bit_diameter: float = math.inf
+                     ) -> FormationArrays:
+    """Convert a :class:`FormationConfig` into the arrays the kernels read (the founder
+    WOB of each rock for a bit of ``bit_diameter``, m)."""
     n_if = len(cfg.interfaces)
     normals = np.zeros((n_if, 3))
     offsets = np.zeros(n_if)
@@ -81,7 +91,8 @@ def formation_arrays(cfg: FormationConfig) -> FormationArrays:
         normals[k], offsets[k] = interface_plane(interface.depth, interface.dip,
                                                  interface.azimuth)
     layer_rock = np.asarray(cfg.layers, dtype=np.int64)
-    return FormationArrays(normals, offsets, layer_rock, rock_parameter_table(cfg.rocks))
+    return FormationArrays(normals, offsets, layer_rock,
+                           rock_parameter_table(cfg.rocks, bit_diameter))
 
 
 # --------------------------------------------------------------------------- kernels
@@ -99,6 +110,16 @@ def resistance(omega, mu_min, mu_max, st1, st2):
     w = abs(omega)
     magnitude = mu_min + (mu_max - mu_min) * math.exp(-w / st1) + st2 * w
     return magnitude if omega > 0.0 else -magnitude
+
+
+@njit(cache=True, inline="always")
+def effective_wob(wob, founder_wob, slope):
+    """The WOB that acts on the depth of cut: ``wob`` up to the founder point, then
+    ``founder - slope (wob - founder)``, never below 0 (docs/model.md, "Penetration")."""
+    if wob <= founder_wob:
+        return wob
+    acting = founder_wob - slope * (wob - founder_wob)
+    return acting if acting > 0.0 else 0.0
 
 
 @njit(cache=True, inline="always")

@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from drill_env.physics.bit import BitKinematics, BitOut, GaugeContact, mesoscopic_bit_loads
-from drill_env.physics.formation import Rock, resistance, rock_at
+from drill_env.physics.formation import Rock, effective_wob, resistance, rock_at
 from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import CONTACT, P, R, S, Status
 from drill_env.physics.linalg import (
@@ -219,7 +219,8 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
                                  rock_params[rock, Rock.ST2]))
         t_slip = p[P.LEVER_ARM] * mu_slip * wob  # eq. (38)
         t_static = p[P.LEVER_ARM] * rock_params[rock, Rock.MU_MAX] * wob
-        state[S.DEPTH_OF_CUT] = rock_params[rock, Rock.DEPTH_OF_CUT] * wob
+        state[S.DEPTH_OF_CUT] = rock_params[rock, Rock.DEPTH_OF_CUT] * effective_wob(
+            wob, rock_params[rock, Rock.FOUNDER_WOB], rock_params[rock, Rock.POST_FOUNDER_SLOPE])
         state[S.GAUGE_FORCE] = 0.0
         return t_slip, t_static, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     # mu(0) = 0 by eq. (39)'s sign: a bit breaking away from exact rest is evaluated just
@@ -229,7 +230,8 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
     mesoscopic_bit_loads(bit.blades, formation, bit.pieces,
                          BitKinematics(bx, by, m.vl[0, lb], m.vl[1, lb], depth, m.ut[n - 1],
                                        omega_eval),
-                         wob, GaugeContact(p[P.HOLE_RADIUS], compliance, p[P.V_REG]), out)
+                         wob, GaugeContact(p[P.HOLE_RADIUS], compliance, p[P.V_REG],
+                                           p[P.GAUGE_FRICTION]), out)
     gauge_x = out[BitOut.GAUGE_X]
     gauge_y = out[BitOut.GAUGE_Y]
     if lateral:

@@ -47,6 +47,7 @@ P = IntEnum("P", [
     "G_BIT",          # end-of-step bit speed per unit bit torque (rad/s per N m)
     "LATERAL",        # 1: coupled lateral + torsion, 0: torsion only (lateral frozen)
     "LATERAL_START",  # first node with lateral DOFs (> 0: drill pipe held straight)
+    "GAUGE_FRICTION",  # gauge-pad friction coefficient; NaN: the rocks' resistance curves
 ], start=0)
 N_PARAMS = len(P)
 

@@ -36,14 +36,12 @@ def band_cholesky(band, factor):
 
 
 # --------------------------------------------------------------------------- fast paths
-#: Reassociation lets LLVM split the long dependent sums of a band row into parallel
-#: chains (the kernels are latency-bound otherwise); NaN/inf semantics are kept, so the
-#: integrator's divergence checks still see a non-finite state. No "contract": with it
-#: LLVM may fuse multiply-adds, and numba's in-process JIT and its cached object code
-#: fused differently, so a run compiled fresh and a run from the cache gave different
-#: trajectories on the same machine (tests/physics/test_determinism.py); fusing was
-#: worth ~10 % of the coupled step.
-FAST = {"reassoc"}
+#: No fastmath: reassociation and FMA contraction let LLVM compile the same kernel into
+#: different operation orders depending on where it was inlined and on whether the code
+#: came from the JIT or numba's cache, so the batched and single-env paths, or a fresh and
+#: a cached process, drilled slightly different trajectories (tests/physics/
+#: test_determinism.py, test_batch.py). Measured without it: the same speed (the solves
+#: are latency-bound chains either way).
 # The lateral matrices always have half bandwidth 3 (two DOFs per node, Hermite beams)
 # and torsion bandwidth 1. The lateral kernels below work on PLANE-MAJOR arrays of shape
 # (2, n): each bending plane is one contiguous vector, so the band products run as
@@ -51,7 +49,7 @@ FAST = {"reassoc"}
 # the generic kernels and numpy.
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(cache=True)
 def lateral_residual(k_total, k_damp, ul, vl, lat_m, mass_damping, rl):
     """rl -= K_total ul + K_damp vl + mass_damping * M vl, plane-major (2, n), bandwidth 3.
 
@@ -93,7 +91,7 @@ def cholesky_to_ldl(factor):
         factor[0, i] = inv_u * inv_u
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(cache=True)
 def solve3_planes(factor, b):
     """Solve A X = B in place for plane-major B (2, n), half bandwidth 3, LDL^T factor.
 
@@ -146,7 +144,7 @@ def solve3_planes(factor, b):
             y[i] = y1
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(cache=True)
 def torsion_residual(k_band, k_damp_scale, c_diag, ut, vt, rt):
     """rt -= K ut + b K vt + diag(c) vt for a tridiagonal K (band layout, bandwidth 1)."""
     n = ut.shape[0]
@@ -158,7 +156,7 @@ def torsion_residual(k_band, k_damp_scale, c_diag, ut, vt, rt):
         rt[i + 1] -= k * (ut[i] + k_damp_scale * vt[i])
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(cache=True)
 def solve_tridiagonal(factor, b):
     """Solve A x = b in place for a tridiagonal SPD A, given its LDL^T factor.
 

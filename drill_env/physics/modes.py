@@ -35,6 +35,7 @@ import scipy.linalg
 
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.fem import (
+    Mesh,
     assemble_lateral,
     assemble_torsion,
     axial_force_profile,
@@ -139,6 +140,21 @@ def _lateral_supports(config: SimulationConfig, supports: LateralSupports, top_n
     return np.asarray(sorted(set(pinned)))
 
 
+def _below(mesh: Mesh, first_node: int) -> Mesh:
+    """The part of ``mesh`` from node ``first_node`` down (its elements from there)."""
+    if first_node == 0:
+        return mesh
+    e = first_node
+    return Mesh(node_depth=mesh.node_depth[first_node:], element_length=mesh.element_length[e:],
+                bending_stiffness=mesh.bending_stiffness[e:],
+                torsional_stiffness=mesh.torsional_stiffness[e:],
+                steel_mass=mesh.steel_mass[e:], lateral_mass=mesh.lateral_mass[e:],
+                rotary_inertia=mesh.rotary_inertia[e:], polar_inertia=mesh.polar_inertia[e:],
+                buoyed_weight=mesh.buoyed_weight[e:], outer_radius=mesh.outer_radius[e:],
+                is_bha=mesh.is_bha[e:], contact_radius=mesh.contact_radius[e:],
+                component=mesh.component[e:])
+
+
 def bha_top_node(config: SimulationConfig) -> int:
     """Node where the BHA joins the lowest pipe (``statics.PIPE_KINDS``, and the top
     section whatever its label)."""
@@ -160,27 +176,27 @@ def lateral_modes(config: SimulationConfig, weight_on_bit: float = 0.0,
     above has its own slow string modes (~0.1 Hz for 1000 m), which ``region="string"``
     includes (the whole string pinned at the surface)."""
     cfg = config.resolved()
-    mesh = build_mesh(cfg)
-    force = axial_force_profile(mesh, weight_on_bit, bit_buoyed_weight(cfg))
-    k, kg, m = assemble_lateral(mesh, force)
+    full = build_mesh(cfg)
+    force = axial_force_profile(full, weight_on_bit, bit_buoyed_weight(cfg))
+    top_node = bha_top_node(cfg) if region == "bha" else 0
+    mesh = _below(full, top_node)  # the BHA alone: pinned at its top, free to tilt there
+    k, kg, m = assemble_lateral(mesh, force[top_node:])
     m[-2] += cfg.bit.mass
     k = k + kg
     c = cfg.damping.mass_proportional * np.diag(m) + cfg.damping.stiffness_proportional * \
         (k - kg)
     n = mesh.n_nodes
-    top_node = bha_top_node(cfg) if region == "bha" else 0
-    fixed = list(range(2 * top_node)) + [2 * node for node in
-                                         _lateral_supports(cfg, supports, top_node)]
+    fixed = [2 * (node - top_node) for node in _lateral_supports(cfg, supports, top_node)]
     if cfg.bit.axis_aligned:
         fixed.append(2 * n - 1)  # bit tilt held (paper section 3.1.1)
     free = np.setdiff1d(np.arange(2 * n), fixed)
     ix = np.ix_(free, free)
     freq, zeta, shapes = _damped(k[ix], c[ix], m[free], n_modes)
-    full = np.zeros((len(freq), 2 * n))
-    full[:, free] = shapes
-    displacement = full[:, 0::2]
+    dofs = np.zeros((len(freq), 2 * n))
+    dofs[:, free] = shapes
+    displacement = dofs[:, 0::2]
     displacement /= np.maximum(np.max(np.abs(displacement), axis=1, keepdims=True), 1e-300)
-    where = ("BHA pinned below the drill pipe" if region == "bha" else "top pinned") + (
+    where = ("BHA pinned below the pipe" if region == "bha" else "top pinned") + (
         ", stabilizers and bit pinned" if supports == "stabilizers" else "")
     return Modes("lateral", freq, zeta, displacement, mesh.node_depth,
                  f"{where}, WOB {weight_on_bit / 1e3:.0f} kN")

@@ -270,14 +270,17 @@ class ReferenceStepper:
             t_slip = self.lever_arm * mu_slip * wob  # eq. (38)
             t_static = self.lever_arm * rp[Rock.MU_MAX] * wob
             fx_slip = fy_slip = fx_static = fy_static = 0.0
-            st[S.DEPTH_OF_CUT] = rp[Rock.DEPTH_OF_CUT] * wob
+            founder, slope = rp[Rock.FOUNDER_WOB], rp[Rock.POST_FOUNDER_SLOPE]
+            acting = wob if wob <= founder else max(0.0, founder - slope * (wob - founder))
+            st[S.DEPTH_OF_CUT] = rp[Rock.DEPTH_OF_CUT] * acting
             st[S.GAUGE_FORCE] = 0.0
         else:
             out = bit_reference.bit_loads(
                 self.blades, self.normals, self.offsets, self.layer_rock, self.rock_params,
                 bx, by, vl[2 * bit, 0], vl[2 * bit, 1], depth, ut[bit],
                 omega_p if omega_p != 0.0 else 1e-9, wob,  # mu(0) = 0: break away at 0+
-                self.hole_radius, self.compliance[bit], cfg.contact.regularisation_speed)
+                self.hole_radius, self.compliance[bit], cfg.contact.regularisation_speed,
+                math.nan if cfg.bit.gauge_friction is None else cfg.bit.gauge_friction)
             t_slip, t_static = out[BitOut.TORQUE], out[BitOut.TORQUE_STATIC]
             fx_slip, fy_slip = out[BitOut.FORCE_X], out[BitOut.FORCE_Y]
             fx_static, fy_static = out[BitOut.FORCE_STATIC_X], out[BitOut.FORCE_STATIC_Y]

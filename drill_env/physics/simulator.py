@@ -36,7 +36,13 @@ from drill_env.physics.fem import (
     mud_torsional_damping,
     to_band,
 )
-from drill_env.physics.formation import Rock, formation_arrays, resistance, rock_at
+from drill_env.physics.formation import (
+    Rock,
+    effective_wob,
+    formation_arrays,
+    resistance,
+    rock_at,
+)
 from drill_env.physics.layout import (
     N_PARAMS,
     N_READINGS,
@@ -165,7 +171,7 @@ class Simulator:
         # ---- bit and formation
         self.blades = blade_arrays(cfg.bit)
         self.lever_arm = bit_lever_arm(cfg.bit)
-        fa = formation_arrays(cfg.formation)
+        fa = formation_arrays(cfg.formation, cfg.bit.diameter)
         self.normals, self.offsets = fa.normals, fa.offsets
         self.layer_rock, self.rock_params = fa.layer_rock, fa.rock_params
         self.formation = fa
@@ -250,18 +256,27 @@ class Simulator:
         the critical step of the explicit terms.
 
         The implicit string imposes no limit. The explicit wall and gauge penalties act
-        on a node mass m with stiffness k (critical step 2 sqrt(m/k)); the limit uses the
-        lumped mass alone, which is conservative because the implicit neighbours add
-        effective mass.
+        on a node mass m with stiffness k and damping c: the critical step of an explicit
+        damped oscillator is (2 / w) (sqrt(1 + z^2) - z) with w = sqrt(k/m) and
+        z = c / (2 sqrt(k m)) (2 sqrt(m/k) without damping). The limit uses the lumped
+        mass alone, which is conservative because the implicit neighbours add effective
+        mass.
         """
         cfg = self.config
         node_mass = self.lat_m[0::2]  # lumped masses of the lateral nodes, the bit's included
+
+        def critical(m: float, k: float, c: float) -> float:
+            zeta = c / (2.0 * math.sqrt(k * m))
+            return 2.0 * math.sqrt(m / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
+
         limits = {}
-        if cfg.contact.enabled:
-            limits["contact.stiffness"] = 2.0 * math.sqrt(np.min(node_mass[1:])
-                                                          / cfg.contact.stiffness)
-        k_rock = max(r.wall_stiffness for r in cfg.formation.rocks)
-        limits["formation.rocks[].wall_stiffness"] = 2.0 * math.sqrt(node_mass[-1] / k_rock)
+        touching = self.node_contact[self.lateral_start:] > 0.0  # wall-contact nodes
+        if cfg.contact.enabled and touching.any():
+            limits["contact.stiffness"] = critical(float(np.min(node_mass[touching])),
+                                                   cfg.contact.stiffness, cfg.contact.damping)
+        limits["formation.rocks[].wall_stiffness"] = min(
+            critical(float(node_mass[-1]), r.wall_stiffness, r.wall_damping)
+            for r in cfg.formation.rocks)
         binding = min(limits, key=limits.__getitem__)
         dt = min(cfg.solver.time_step, cfg.solver.critical_step_fraction * limits[binding])
         if dt < MIN_TIME_STEP:
@@ -298,6 +313,8 @@ class Simulator:
         p[P.LEVER_ARM] = self.lever_arm
         p[P.LATERAL] = 1.0 if cfg.solver.lateral else 0.0
         p[P.LATERAL_START] = self.lateral_start
+        friction = cfg.bit.gauge_friction
+        p[P.GAUGE_FRICTION] = math.nan if friction is None else friction
         self.params = p
 
     def _torsion_system(self) -> np.ndarray:
@@ -409,7 +426,8 @@ class Simulator:
         """The mesoscopic bit's loads at the current position, centred velocity 0."""
         kin = BitKinematics(self.ul[-2, 0], self.ul[-2, 1], 0.0, 0.0, self.depth, self.ut[-1],
                             omega)
-        gauge = GaugeContact(self.params[P.HOLE_RADIUS], 0.0, self.params[P.V_REG])
+        gauge = GaugeContact(self.params[P.HOLE_RADIUS], 0.0, self.params[P.V_REG],
+                             self.params[P.GAUGE_FRICTION])
         mesoscopic_bit_loads(self.blades, self.formation, self.bit_scratch, kin, wob, gauge,
                              self.bit_out)
         return self.bit_out
@@ -458,7 +476,9 @@ class Simulator:
         if wob > 0.0 and omega != 0.0:
             if cfg.bit_model == "macroscopic":
                 rock = rock_at(0.0, 0.0, depth, self.normals, self.offsets, self.layer_rock)
-                doc = self.rock_params[rock, Rock.DEPTH_OF_CUT] * wob
+                rp = self.rock_params[rock]
+                doc = rp[Rock.DEPTH_OF_CUT] * effective_wob(wob, rp[Rock.FOUNDER_WOB],
+                                                            rp[Rock.POST_FOUNDER_SLOPE])
             else:
                 doc = float(self._bit_loads(omega, wob)[BitOut.DEPTH_OF_CUT])
             self.state[S.DEPTH_OF_CUT] = doc

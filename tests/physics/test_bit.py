@@ -1,5 +1,6 @@
 """Mesoscopic bit (paper section 3): blade splitting, front and gauge loads."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -39,22 +40,24 @@ def pieces(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, de
 
 def loads(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, vx=0.0, vy=0.0,
           depth=DEPTH, phi_z=0.0, omega=10.0, wob=WOB, compliance=0.0,
-          regularisation=1e-3) -> np.ndarray:
+          regularisation=1e-3, gauge_friction=math.nan) -> np.ndarray:
     blades = bit.blade_arrays(bit_cfg)
     scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
     out = bit.make_loads_out(fa.n_rocks)
     bit.mesoscopic_bit_loads(blades, fa, scratch,
                              bit.BitKinematics(bx, by, vx, vy, depth, phi_z, omega), wob,
-                             bit.GaugeContact(bit_cfg.hole_radius, compliance, regularisation),
+                             bit.GaugeContact(bit_cfg.hole_radius, compliance, regularisation,
+                                              gauge_friction),
                              out)
     return out
 
 
 def reference_loads(bit_cfg, fa, bx=0.0, by=0.0, vx=0.0, vy=0.0, depth=DEPTH, phi_z=0.0,
-                    omega=10.0, wob=WOB, compliance=0.0, regularisation=1e-3) -> np.ndarray:
+                    omega=10.0, wob=WOB, compliance=0.0, regularisation=1e-3,
+                    gauge_friction=math.nan) -> np.ndarray:
     return bit_reference.bit_loads(bit.blade_arrays(bit_cfg), *fa, bx, by, vx, vy, depth,
                                    phi_z, omega, wob, bit_cfg.hole_radius, compliance,
-                                   regularisation)
+                                   regularisation, gauge_friction)
 
 
 # --------------------------------------------------------------------------- geometry
@@ -195,13 +198,18 @@ def test_asymmetric_bit_in_one_rock_pushes_sideways_and_the_force_turns_with_the
 
 
 def random_formation(rng, n_interfaces, n_rocks=3, spread=0.12):
+    """Random interfaces; half the time the rocks have founder points (at 8.75 in,
+    30-180 kN) so that WOBs up to 200 kN cross them."""
     rocks = (HARD, SOFT, VERY_SOFT)[:n_rocks]
+    if rng.random() < 0.5:
+        rocks = tuple(dataclasses.replace(r, founder_wob_per_diameter=float(rng.uniform(
+            1.4e5, 8e5)), post_founder_slope=float(rng.uniform(0.0, 2.0))) for r in rocks)
     depths = np.sort(DEPTH + rng.uniform(-spread, spread / 2, n_interfaces))
     interfaces = tuple(Interface(float(d), float(rng.uniform(0, 80)), float(rng.uniform(0, 360)))
                        for d in depths)
     layers = tuple(int(j) for j in rng.integers(0, n_rocks, n_interfaces + 1))
     return formation.formation_arrays(FormationConfig(rocks=rocks, interfaces=interfaces,
-                                                      layers=layers))
+                                                      layers=layers), 8.75 * 0.0254)
 
 
 def random_bit(rng) -> BitConfig:
@@ -300,7 +308,8 @@ def test_kernels_agree_with_the_reference_on_random_states():
                      vx=rng.normal(scale=0.05), vy=rng.normal(scale=0.05),
                      phi_z=rng.uniform(-20, 20), omega=rng.normal(scale=10.0) * (trial % 7 != 0),
                      wob=rng.uniform(0, 2e5), compliance=rng.choice([0.0, 1e-6, 1e-4]),
-                     regularisation=rng.choice([0.0, 1e-3, 0.1]))
+                     regularisation=rng.choice([0.0, 1e-3, 0.1]),
+                     gauge_friction=math.nan if trial % 2 else rng.uniform(0.0, 0.5))
         got = loads(cfg, fa, **state)
         expected = reference_loads(cfg, fa, **state)
         scale = max(1.0, np.abs(expected).max())
@@ -372,6 +381,12 @@ class TestGauge:
         assert out[BitOut.GAUGE_TORQUE] == pytest.approx(self.r_c * friction, rel=1e-9)
         assert out[BitOut.GAUGE_TORQUE] * omega < 0.0
 
+    def test_a_gauge_friction_of_its_own_replaces_the_rock_curve(self):
+        out = loads(self.cfg, self.fa, bx=self.bx, omega=5.0, regularisation=1e-3,
+                    gauge_friction=0.25)
+        normal = (0.3 * HARD.wall_stiffness + 0.7 * SOFT.wall_stiffness) * self.penetration
+        assert out[BitOut.GAUGE_Y] == pytest.approx(-0.25 * normal, rel=1e-9)
+
     def test_friction_opposes_a_lateral_slide_of_the_contact_point(self):
         out = loads(self.cfg, self.fa, bx=self.bx, vy=0.05, omega=0.0)
         assert out[BitOut.GAUGE_Y] < 0.0
@@ -383,3 +398,24 @@ class TestGauge:
         assert regular[BitOut.GAUGE_Y] == pytest.approx(0.1 * full[BitOut.GAUGE_Y], rel=1e-12)
         capped = loads(self.cfg, self.fa, bx=self.bx, vy=vy, omega=0.0, compliance=1e-3)
         assert capped[BitOut.GAUGE_Y] == pytest.approx(-vy / 1e-3, rel=1e-12)
+
+
+# --------------------------------------------------------------------------- penetration
+
+
+def test_depth_of_cut_peaks_at_the_founder_point():
+    """Linear in WOB up to W_f = founder per diameter x bit diameter, then falling by
+    ``post_founder_slope`` per unit of excess WOB (docs/model.md, "Penetration")."""
+    cfg = bit.symmetric_bit()
+    rock = dataclasses.replace(HARD, founder_wob_per_diameter=5e5, post_founder_slope=0.5)
+    fa = formation.formation_arrays(FormationConfig(rocks=(rock,)), cfg.diameter)
+    w_f = 5e5 * cfg.diameter
+    wobs = np.linspace(10e3, 2.5 * w_f, 40)
+    doc = np.array([loads(cfg, fa, wob=w)[BitOut.DEPTH_OF_CUT] for w in wobs])
+    expected = rock.depth_of_cut * np.where(wobs <= w_f, wobs,
+                                            np.maximum(0.0, w_f - 0.5 * (wobs - w_f)))
+    np.testing.assert_allclose(doc, expected, rtol=1e-12)
+    assert wobs[np.argmax(doc)] == pytest.approx(w_f, rel=0.06)
+    no_founder = formation.formation_arrays(FormationConfig(rocks=(HARD,)), cfg.diameter)
+    assert loads(cfg, no_founder, wob=3 * w_f)[BitOut.DEPTH_OF_CUT] == pytest.approx(
+        HARD.depth_of_cut * 3 * w_f, rel=1e-12)  # no founder point: linear at any WOB

@@ -1,5 +1,6 @@
 """Formation geometry, rock lookup, resistance curve (eq. 39) and bit placement P1-P6."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -58,10 +59,16 @@ def test_no_interfaces_means_everything_is_layer_zero():
 
 
 def test_rock_parameter_table_columns_follow_the_rock_layout():
-    table = formation.formation_arrays(sandwich()).rock_params
+    soft = dataclasses.replace(SOFT, founder_wob_per_diameter=4e5)
+    cfg = dataclasses.replace(sandwich(), rocks=(sandwich().rocks[0], soft))
+    table = formation.formation_arrays(cfg, 0.2).rock_params
     assert table.shape[1] == len(formation.Rock)
     for column in formation.Rock:
-        assert table[1, column] == getattr(SOFT, column.name.lower()), column
+        if column == formation.Rock.FOUNDER_WOB:  # per diameter x the bit diameter
+            assert table[1, column] == pytest.approx(4e5 * 0.2)
+            assert table[0, column] == math.inf  # no founder point given
+        else:
+            assert table[1, column] == getattr(soft, column.name.lower()), column
 
 
 def test_resistance_is_zero_at_rest_odd_and_falls_from_mu_max_to_mu_min():

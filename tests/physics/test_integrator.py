@@ -1,5 +1,7 @@
 """The numba time step against the plain NumPy oracle, and the band kernels against SciPy."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -7,6 +9,7 @@ import scipy.linalg
 from drill_env.physics import integrator as ig
 from drill_env.physics import linalg
 from drill_env.physics.config import (
+    BitConfig,
     FormationConfig,
     Interface,
     RockConfig,
@@ -271,3 +274,25 @@ def test_lateral_system_matches_dense_assembly():
     dense = from_band(sim.lat_work_band)[1:-1, 1:-1]  # pinned top, held bit tilt
     expected = ref._lateral_system(wob)
     np.testing.assert_allclose(dense, expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize("bit_model", ["mesoscopic", "macroscopic"])
+def test_founder_point_and_gauge_friction_match_the_numpy_reference(bit_model):
+    """The depth-of-cut law above the founder point and a gauge-pad friction of its own,
+    in both implementations (WOB 150 kN above founder points of 90 and 110 kN)."""
+    rocks = tuple(dataclasses.replace(r, founder_wob_per_diameter=f, post_founder_slope=0.7)
+                  for r, f in ((HARD, 5e5), (SOFT, 4e5)))
+    formation = dataclasses.replace(SANDWICH, rocks=rocks)
+    cfg = SimulationConfig(bit_model=bit_model, formation=formation,
+                           bit=BitConfig(gauge_friction=0.25))
+    sim = Simulator(cfg)
+    random_state(sim, np.random.default_rng(9), 6.0, 150e3)
+    ref = ReferenceStepper(sim)
+    expected = ref.advance(N_STEPS, record_every=1)
+    actual = sim.advance(N_STEPS, record_every=1)
+    assert sim.status == 0
+    for name in ("ul", "vl", "ut", "vt"):
+        assert_agree(getattr(sim, name), getattr(ref, name), name)
+    assert_agree(actual, expected, "records")
+    linear = max(r.depth_of_cut for r in rocks) * 150e3
+    assert sim.state[S.DEPTH_OF_CUT] < 0.5 * linear  # past the founder points

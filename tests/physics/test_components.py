@@ -1,0 +1,194 @@
+"""Component strings: torsional frequency against the transfer-matrix solution, neutral
+point against statics, the legacy two-section config unchanged, realistic defaults."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from drill_env.physics import components as cp
+from drill_env.physics.config import INCH, Section, SimulationConfig, StringConfig, replace
+from drill_env.physics.modes import torsional_modes
+from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.statics import neutral_point_height, pipe_buckling
+from drill_env.physics.units import GRAVITY, RPM
+
+
+def field_well_string() -> StringConfig:
+    """Every kind of component once or more: bit sub, stabilizers, MWD, collars, jar,
+    heavy-weight pipe, drill pipe (2500 m, a field-like well)."""
+    lower = (cp.bit_sub(), cp.stabilizer(name="near-bit"), cp.mwd(), cp.stabilizer(),
+             cp.collar_6_5(27.0), cp.stabilizer(), cp.collar_6_5(27.0, 3.0), cp.jar(),
+             cp.collar_8(18.0, 3.0), cp.heavy_weight_5(190.0))
+    pipe = 2500.0 - sum(c.length for c in lower)
+    return StringConfig(drill_pipe=cp.drill_pipe_5_5(pipe), components=lower)
+
+
+def transfer_matrix_frequency(sections_top_down, bit_inertia: float, f_max: float) -> float:
+    """First natural frequency (Hz) of a fixed-top string of uniform shafts with a bit
+    inertia at the free bottom: distributed (exact) torsion, no FE.
+
+    Each shaft carries (twist, torque); across a length L at circular frequency w,
+    k = w sqrt(rho / G) and the state moves by [[cos kL, sin kL / (GJ k)],
+    [-GJ k sin kL, cos kL]]. The bottom condition is T = J_bit w^2 theta.
+    """
+    def residual(f: float) -> float:
+        w = 2 * math.pi * f
+        theta, torque = 0.0, 1.0  # fixed top, unit torque
+        for s in sections_top_down:
+            k = w * math.sqrt(s.density / s.shear_modulus)
+            gjk = s.shear_modulus * s.polar_moment * k
+            c, sn = math.cos(k * s.length), math.sin(k * s.length)
+            theta, torque = theta * c + torque * sn / gjk, -theta * gjk * sn + torque * c
+        return torque - bit_inertia * w * w * theta
+
+    grid = np.linspace(1e-3, f_max, 2000)
+    values = [residual(f) for f in grid]
+    k = next(i for i in range(len(values) - 1) if values[i] * values[i + 1] < 0)
+    return brentq(residual, grid[k], grid[k + 1], xtol=1e-12)
+
+
+@pytest.mark.parametrize("string", [field_well_string(), cp.realistic_string(),
+                                    StringConfig()], ids=["field well", "default", "paper"])
+def test_first_torsional_frequency_matches_the_transfer_matrix_solution(string):
+    config = SimulationConfig(string=string)
+    fe = torsional_modes(replace(config, **{"mud.torsional_damping": 0.0,
+                                            "damping.stiffness_proportional": 0.0}),
+                         "fixed", 2).frequency[0]
+    exact = transfer_matrix_frequency(string.sections, config.bit.inertia, 2.0)
+    assert fe == pytest.approx(exact, rel=0.01)
+    assert fe == pytest.approx(exact, rel=2e-3)  # in fact much closer
+
+
+def statics_neutral_point(config: SimulationConfig, wob: float) -> float:
+    """Height above the bit where the buoyed weight below balances the WOB."""
+    rest = wob - config.bit.mass * GRAVITY * (1 - config.mud.density /
+                                              config.string.lower[0].density)
+    height = 0.0
+    for s in (*config.string.lower, config.string.drill_pipe):
+        w = (s.density - config.mud.density) * s.area * GRAVITY
+        if rest <= w * s.length:
+            return height + rest / w
+        rest -= w * s.length
+        height += s.length
+    return height
+
+
+@pytest.mark.parametrize("wob", [20e3, 60e3, 100e3, 140e3, 180e3])
+def test_neutral_point_matches_statics(wob):
+    config = SimulationConfig(string=field_well_string())
+    assert neutral_point_height(config, wob) == pytest.approx(
+        statics_neutral_point(config, wob), rel=0.01)
+
+
+def test_the_two_section_config_is_the_same_string_as_its_components():
+    """The legacy drill_pipe + bha config and the same BHA given as one component drill
+    the same trajectory, bit for bit (same code, same machine)."""
+    legacy = SimulationConfig()
+    as_components = SimulationConfig(string=StringConfig(
+        drill_pipe=legacy.string.drill_pipe, components=(legacy.string.bha,),
+        stabilizers=(1.0, 10.0, 19.0)))
+    runs = []
+    for cfg in (legacy, as_components):
+        sim = Simulator(cfg)
+        sim.reset(OperatingPoint(60 * RPM, 30e3))
+        sim.ul[-2, 0] = 0.004  # exercise the lateral model and the contacts
+        runs.append(sim.advance(3000, 60 * RPM, sim.hook_load_for(30e3), 10))
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def test_giving_both_a_bha_and_components_is_refused():
+    other_bha = Section(length=50.0, outer_diameter=6.5 * INCH, inner_diameter=2.8 * INCH,
+                        element_length=1.0)
+    with pytest.raises(ValueError, match="components"):
+        StringConfig(bha=other_bha, components=(cp.collar_6_5(30.0),))
+
+
+def test_stabilizer_components_touch_the_wall_at_their_blades():
+    sim = Simulator(SimulationConfig(string=cp.realistic_string()))
+    blade = cp.STABILIZER_8_3_4 / 2
+    hole = sim.config.string.hole_diameter / 2
+    assert np.sum(np.isclose(sim.node_clearance, hole - blade)) >= 5  # five stabilizers
+    assert sim.node_clearance.min() == pytest.approx(hole - blade)
+
+
+def test_the_default_string_carries_its_wob_in_the_bha_with_margin():
+    config = SimulationConfig(string=cp.realistic_string())
+    bha = cp.packed_bha()
+    assert not pipe_buckling(config, 100e3)
+    assert 80.0 < neutral_point_height(config, 100e3) < sum(c.length for c in bha)
+    assert cp.buoyed_weight(bha, config.mud.density) > 1.15 * 100e3  # API RP 7G margin
+    assert pipe_buckling(SimulationConfig(), 100e3)  # the paper's 35 m BHA cannot
+
+
+@pytest.mark.parametrize("rpm", [50.0, 100.0, 150.0])
+def test_the_default_scenario_keeps_its_pipe_in_tension_and_off_the_wall(rpm):
+    """Coupled model at the default WOB: the drill pipe and HWDP stay in tension, nothing
+    above the BHA touches the wall after a lateral kick of the BHA, and at 100 rpm the
+    coupled SSI equals the torsion-only one within 0.05."""
+    from drill_env import metrics
+    from drill_env.physics.fem import axial_force_profile, build_mesh
+    from drill_env.physics.layout import R
+    from drill_env.physics.statics import bit_buoyed_weight
+    from drill_env.scenarios import make_scenario
+
+    sc = make_scenario("default")
+    config = sc.config
+    mesh = build_mesh(config)
+    force = axial_force_profile(mesh, sc.weight_on_bit, bit_buoyed_weight(config))
+    pipe = np.isin(mesh.component, [0, 1])  # drill pipe and heavy-weight pipe, surface down
+    assert config.string.sections[1].kind == "heavy_weight"
+    assert force[pipe].min() > 0.0
+    bha_top = mesh.node_depth[-1] - sum(c.length for c in cp.packed_bha())
+    above_bha = mesh.node_depth < bha_top - 1e-6
+
+    def run(lateral: bool) -> tuple[float, float]:
+        cfg = config if lateral else replace(config, **{"solver.lateral": False})
+        sim = Simulator(cfg)
+        sim.reset(OperatingPoint(rpm * RPM, sc.weight_on_bit))
+        sim.vt[-1] *= 0.99
+        if lateral:
+            sim.ul[-2, 0] = 0.5 * cfg.bit.gauge_clearance  # kick the bit ...
+            sim.ul[-40::2, 1] = 0.002  # ... and the lower BHA
+        wall_above, records = 0.0, []
+        for _ in range(60):
+            records.append(sim.advance(500, rpm * RPM, sim.hook_load_for(sc.weight_on_bit),
+                                       5))
+            wall_above = max(wall_above, float(sim.contact_forces[above_bha].max()))
+        assert sim.status == 0
+        rec = np.concatenate(records)
+        late = rec[rec[:, R.TIME] > 30.0, R.BIT_SPEED]
+        return metrics.stick_slip_severity(late), wall_above
+
+    ssi_coupled, wall_above = run(True)
+    assert wall_above == 0.0
+    if rpm == 100.0:
+        ssi_torsion, _ = run(False)
+        assert abs(ssi_coupled - ssi_torsion) < 0.05
+
+
+def test_a_scenario_refuses_a_wob_that_buckles_its_pipe_unless_allowed():
+    from drill_env.scenarios import Scenario, make_scenario
+
+    coupled_paper = make_scenario("paper_case2").config  # 120 m of collars
+    legacy = replace(coupled_paper, string=StringConfig())  # the paper's 35 m BHA
+    with pytest.raises(ValueError, match=r"weight_on_bit: 100 kN compresses the 5 in|"
+                                         r"weight_on_bit: 100 kN compresses the drill pipe"):
+        Scenario("x", legacy, 50 * RPM, 100e3)
+    assert Scenario("x", legacy, 50 * RPM, 100e3, allow_pipe_buckling=True)
+    assert Scenario("x", legacy, 50 * RPM, 40e3)  # neutral point in the collars
+
+
+def test_every_named_scenario_states_its_neutral_point():
+    from drill_env.scenarios import SCENARIOS, make_scenario
+
+    for name in SCENARIOS:
+        sc = make_scenario(name, rng=np.random.default_rng(3)) if name == "random" else \
+            make_scenario(name)
+        height = sc.neutral_point
+        assert 0.0 < height < sc.config.string.length
+        if sc.config.solver.lateral:  # coupled scenarios carry the WOB in the BHA
+            assert height < sc.config.string.bha_length, name

@@ -1,0 +1,124 @@
+"""Modal analysis: the eigenvalues of the assembled matrices, the closed forms of the FE
+validation, the damping ratio against its perturbation estimate, the critical speeds."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+from scipy.optimize import brentq
+
+from drill_env.physics import components as cp
+from drill_env.physics.config import (
+    BitConfig,
+    DampingConfig,
+    MudConfig,
+    SimulationConfig,
+    StringConfig,
+    replace,
+)
+from drill_env.physics.fem import assemble_lateral, assemble_torsion, build_mesh
+from drill_env.physics.modes import (
+    critical_speeds,
+    excitations,
+    lateral_modes,
+    torsional_modes,
+    torsional_system,
+    undamped_frequencies,
+)
+
+UNDAMPED = {"mud.torsional_damping": 0.0, "damping.stiffness_proportional": 0.0,
+            "damping.mass_proportional": 0.0}
+
+
+def test_torsional_modes_are_the_eigenvalues_of_the_assembled_matrices():
+    config = replace(SimulationConfig(string=cp.realistic_string()), **UNDAMPED)
+    modes = torsional_modes(config, "fixed", 5)
+    mesh = build_mesh(config)
+    k, j = assemble_torsion(mesh)
+    j[-1] += config.bit.inertia
+    w2 = scipy.linalg.eigh(k[1:, 1:], np.diag(j[1:]), eigvals_only=True)[:5]
+    np.testing.assert_allclose(modes.frequency, np.sqrt(w2) / (2 * math.pi), rtol=1e-9)
+    np.testing.assert_allclose(modes.damping_ratio, 0.0, atol=1e-9)
+
+
+def test_first_torsional_mode_of_the_paper_string_is_the_shaft_with_end_inertia():
+    """SPEC section 3: 1000 m of 5 in pipe over 35 m of 6 1/2 in collars, fixed top: the
+    BHA (short and stiff) acts as an end inertia on the pipe shaft:
+    cot(w L / c) = (J_BHA w) / (Z) ... solved here in the form tan(kL) kL = J_pipe / J_end."""
+    config = replace(SimulationConfig(), **UNDAMPED)
+    pipe, bha = config.string.drill_pipe, config.string.bha
+    j_pipe = pipe.density * pipe.polar_moment * pipe.length
+    j_end = bha.density * bha.polar_moment * bha.length + config.bit.inertia
+    x = brentq(lambda x: x * math.tan(x) - j_pipe / j_end, 1e-6, math.pi / 2 - 1e-9)
+    f = x / pipe.length * pipe.torsional_wave_speed / (2 * math.pi)
+    assert torsional_modes(config, "fixed", 1).frequency[0] == pytest.approx(f, rel=0.01)
+    assert f == pytest.approx(0.66, abs=0.01)
+
+
+def test_lateral_modes_are_the_eigenvalues_of_the_assembled_matrices():
+    config = replace(SimulationConfig(string=cp.realistic_string()), **UNDAMPED)
+    wob = 80e3
+    modes = lateral_modes(config, wob, supports="top_only", n_modes=4, region="string")
+    mesh = build_mesh(config)
+    from drill_env.physics.fem import axial_force_profile
+    from drill_env.physics.statics import bit_buoyed_weight
+
+    k, kg, m = assemble_lateral(mesh, axial_force_profile(mesh, wob,
+                                                          bit_buoyed_weight(config)))
+    m[-2] += config.bit.mass
+    free = np.arange(1, 2 * mesh.n_nodes - 1)  # top w pinned, bit tilt held
+    expected = undamped_frequencies((k + kg)[np.ix_(free, free)], m[free], 5)
+    expected = expected[expected > 1e-4][:4]  # a hanging string's near-neutral pendulum mode
+    # The first-order eigenproblem spans stiffness ratios of ~1e12 (tilt DOFs of 1 m collar
+    # elements vs a 1 km pendulum): the slowest modes keep ~7 digits, hence 1e-5.
+    np.testing.assert_allclose(modes.frequency, expected, rtol=1e-5)
+
+
+def test_lateral_modes_of_a_short_collar_are_the_pinned_pinned_beam():
+    """A 6 m collar, pinned at the top and at the (tilt-free) bit, no mud: Euler-Bernoulli
+    w_n = (n pi / L)^2 sqrt(EI / rho A); its own weight (7 kN of tension against a 2 MN
+    buckling load) moves the frequencies by < 0.2 %."""
+    collar = cp.collar_6_5(6.0, 0.3)
+    string = StringConfig(drill_pipe=cp.collar_6_5(1.0, 0.5), components=(collar,))
+    config = SimulationConfig(string=string, mud=MudConfig(density=0.0),
+                              bit=BitConfig(axis_aligned=False, mass=1e-6, inertia=1e-6),
+                              damping=DampingConfig(mass_proportional=0.0,
+                                                    stiffness_proportional=0.0))
+    modes = lateral_modes(config, 0.0, supports="stabilizers", n_modes=3, region="bha")
+    ei = collar.youngs_modulus * collar.second_moment
+    rho_a = collar.density * collar.area
+    expected = [(n * math.pi / collar.length) ** 2 * math.sqrt(ei / rho_a) / (2 * math.pi)
+                for n in (1, 2, 3)]
+    np.testing.assert_allclose(modes.frequency, expected, rtol=0.01)
+
+
+def test_the_first_torsional_damping_ratio_matches_its_perturbation_estimate():
+    """Light, non-proportional damping: zeta ~ phi^T C phi / (2 w phi^T J phi) with the
+    undamped mode phi. The mud drag of MudConfig.torsional_damping (0.1 N m s/rad per m)
+    gives the paper string's first mode ~9 % (docs/model.md, "Torsional damping")."""
+    config = SimulationConfig()
+    modes = torsional_modes(config, "fixed", 1)
+    k, c, j, free = torsional_system(config, "fixed")
+    ix = np.ix_(free, free)
+    w2, phi = scipy.linalg.eigh(k[ix], np.diag(j[free]), subset_by_index=[0, 0])
+    phi = phi[:, 0]
+    estimate = phi @ c[ix] @ phi / (2 * math.sqrt(w2[0]) * phi @ (j[free] * phi))
+    assert modes.damping_ratio[0] == pytest.approx(estimate, rel=0.05)
+    assert 0.05 < modes.damping_ratio[0] < 0.15
+
+
+def test_critical_speeds_are_where_the_excitations_meet_the_modes():
+    config = SimulationConfig(string=cp.realistic_string())
+    lateral = lateral_modes(config, 100e3, n_modes=3)
+    torsional = torsional_modes(config, "fixed", 3)
+    crit = critical_speeds(config, (lateral, torsional), 300.0)
+    assert crit == sorted(crit, key=lambda c: c.rpm)
+    for c in crit:
+        per_rev = dict(excitations(config, c.mode.split()[0]))[c.excitation]
+        assert per_rev * c.rpm / 60.0 == pytest.approx(c.frequency)
+    first_lateral = lateral.frequency[0]
+    assert any(c.excitation == "1x" and c.rpm == pytest.approx(60 * first_lateral)
+               for c in crit)
