@@ -187,18 +187,42 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     return 0
 
 
+def with_overrides(config, path: Path | None):
+    """``config`` with the nested overrides of a YAML file merged in (dotted-path errors)."""
+    if path is None:
+        return config
+    import yaml
+
+    from drill_env.physics.config import flatten, replace
+
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise ValueError(f"--config {path}: not valid YAML ({err})") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"--config {path}: expected a mapping of config sections")
+    return replace(config, **flatten(data))
+
+
 def cmd_modes(args: argparse.Namespace) -> int:
     from drill_env.physics import modes as md
     from drill_env.scenarios import make_scenario
 
     scenario = make_scenario(args.scenario)
-    config = scenario.config
+    config = with_overrides(scenario.config, args.config)
     wob = args.wob * KILO if args.wob is not None else scenario.weight_on_bit
     torsional = md.torsional_modes(config, args.top, args.n)
     lateral = md.lateral_modes(config, wob, n_modes=args.n)
     print(f"{args.scenario}: {scenario.description}; string {config.string.length:.0f} m, "
           f"WOB {wob / KILO:.0f} kN, neutral point "
           f"{md.neutral_point_height(config, wob):.0f} m above the bit")
+    print(f"\n{'component (bit up)':<22} {'length':>7} {'air':>8} {'in mud':>8} "
+          f"{'N bottom':>9} {'N top':>9}   (m, kN; tension > 0)")
+    for load in md.component_loads(config, wob):
+        print(f"{load.component:<22} {load.length:7.1f} {load.weight / KILO:8.1f} "
+              f"{load.buoyed_weight / KILO:8.1f} {load.force_bottom / KILO:9.1f} "
+              f"{load.force_top / KILO:9.1f}")
+    print()
     header = f"{'mode':<12} {'f (Hz)':>8} {'damping':>8}   boundary"
     print(header + "\n" + "-" * 78)
     for m in (torsional, lateral):
@@ -215,6 +239,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
                             f"{args.scenario}: natural frequencies and excitations "
                             f"(WOB {wob / KILO:.0f} kN)")
     data = {"scenario": args.scenario, "weight_on_bit_N": wob,
+            "components_N": [vars(load) for load in md.component_loads(config, wob)],
             "modes": [{"kind": m.kind, "boundary": m.boundary,
                        "frequency_Hz": m.frequency.tolist(),
                        "damping_ratio": m.damping_ratio.tolist()}
@@ -309,6 +334,9 @@ def parser() -> argparse.ArgumentParser:
                    help="the scenario whose string to analyse")
     p.add_argument("--wob", type=number("kN"), default=None,
                    help="weight on bit in kN (default: the scenario's)")
+    p.add_argument("--config", type=Path, default=None,
+                   help="YAML of config overrides merged into the scenario's (e.g. a "
+                        "string of components: examples/field_well_string.yaml)")
     p.add_argument("--top", choices=("fixed", "top_drive"), default="fixed",
                    help="torsional boundary at the top")
     p.add_argument("-n", type=integer(1), default=5, help="modes of each kind")

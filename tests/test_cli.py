@@ -72,3 +72,23 @@ def test_stability_map_command_names_a_bad_position(capsys):
     with pytest.raises(SystemExit):
         main(["stability-map", "--positions", "P7"])
     assert "position" in capsys.readouterr().err
+
+
+def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
+    root = __import__("pathlib").Path(__file__).parents[1]
+    code = main(["modes", "--config", str(root / "examples/field_well_string.yaml"),
+                 "--out", str(tmp_path)])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "string 2500 m" in out and "8 in DC" in out and "5 1/2 in DP" in out
+    data = json.loads((tmp_path / "modes.json").read_text())
+    assert data["modes"][0]["frequency_Hz"][0] > 0.0
+    assert (tmp_path / "modes_critical_speeds.png").stat().st_size > 10_000
+
+
+def test_modes_command_names_the_bad_field_of_the_yaml(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("string:\n  components:\n    - {length: -1, outer_diameter: 0.1, "
+                   "inner_diameter: 0.05, element_length: 1}\n")
+    assert main(["modes", "--config", str(bad), "--out", str(tmp_path)]) == 2
+    assert "string.components[0].length" in capsys.readouterr().err

@@ -42,7 +42,12 @@ from drill_env.physics.fem import (
     build_mesh,
     mud_torsional_damping,
 )
-from drill_env.physics.statics import PIPE_KINDS, bit_buoyed_weight, neutral_point_height
+from drill_env.physics.statics import (  # noqa: F401  (re-exported for the CLI)
+    PIPE_KINDS,
+    bit_buoyed_weight,
+    component_loads,
+    neutral_point_height,
+)
 from drill_env.physics.top_drive import stiff_pi_gains
 from drill_env.physics.units import RPM
 

@@ -53,6 +53,39 @@ def neutral_point_height(config: SimulationConfig, weight_on_bit: float) -> floa
 
 
 @dataclass(frozen=True)
+class ComponentLoad:
+    """Weights and static axial force of one component (tension > 0)."""
+
+    component: str
+    kind: str
+    length: float  # m
+    bottom_depth: float  # measured depth of its lower end (m)
+    weight: float  # in air (N)
+    buoyed_weight: float  # in mud (N)
+    force_bottom: float  # axial force at its lower end (N)
+    force_top: float  # axial force at its upper end (N)
+
+
+def component_loads(config: SimulationConfig, weight_on_bit: float) -> list[ComponentLoad]:
+    """Per component, from the bit up: weight in air and in mud (buoyancy factor
+    ``1 - rho_mud / rho_steel``) and the static axial force at both ends,
+    ``N = (buoyed weight below) - WOB``, the bit's own weight included."""
+    mud = config.mud.density
+    force = bit_buoyed_weight(config) - weight_on_bit
+    depth = config.string.length
+    out = []
+    for section in config.string.lower + (config.string.drill_pipe,):
+        volume = section.area * section.length
+        buoyed = volume * (section.density - mud) * GRAVITY
+        out.append(ComponentLoad(section.label, section.kind, section.length, depth,
+                                 volume * section.density * GRAVITY, buoyed,
+                                 force, force + buoyed))
+        force += buoyed
+        depth -= section.length
+    return out
+
+
+@dataclass(frozen=True)
 class PipeBuckling:
     """A pipe component compressed beyond its buckling load."""
 

@@ -13,7 +13,7 @@ from drill_env.physics import components as cp
 from drill_env.physics.config import INCH, Section, SimulationConfig, StringConfig, replace
 from drill_env.physics.modes import torsional_modes
 from drill_env.physics.simulator import OperatingPoint, Simulator
-from drill_env.physics.statics import neutral_point_height, pipe_buckling
+from drill_env.physics.statics import component_loads, neutral_point_height, pipe_buckling
 from drill_env.physics.units import GRAVITY, RPM
 
 
@@ -82,6 +82,27 @@ def test_neutral_point_matches_statics(wob):
     config = SimulationConfig(string=field_well_string())
     assert neutral_point_height(config, wob) == pytest.approx(
         statics_neutral_point(config, wob), rel=0.01)
+
+
+def test_component_loads_follow_archimedes_and_the_hook_load():
+    """Each component's weight in mud is its weight in air times the buoyancy factor
+    1 - rho_mud / rho_steel; the axial force at the top of the string is the hook load
+    (buoyed weight of string and bit minus the WOB), and the neutral point lies in the
+    component where the axial force changes sign."""
+    config = SimulationConfig(string=field_well_string())
+    wob = 100e3
+    loads = component_loads(config, wob)
+    factor = 1.0 - config.mud.density / 7850.0
+    for c in loads:
+        assert c.buoyed_weight == pytest.approx(c.weight * factor, rel=1e-9)
+    total = sum(c.buoyed_weight for c in loads)
+    bit = config.bit.mass * GRAVITY * factor
+    assert loads[-1].force_top == pytest.approx(total + bit - wob, rel=1e-9)
+    assert sum(c.length for c in loads) == pytest.approx(config.string.length)
+    height = neutral_point_height(config, wob)
+    bottom_height = np.cumsum([0.0] + [c.length for c in loads])
+    k = int(np.searchsorted(bottom_height, height)) - 1
+    assert loads[k].force_bottom < 0.0 <= loads[k].force_top
 
 
 def test_the_two_section_config_is_the_same_string_as_its_components():
