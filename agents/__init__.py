@@ -1,6 +1,13 @@
-"""Controllers for DrillString-v0: one interface for classical and learned policies."""
+"""Controllers for the drill-string envs: one interface for classical and learned ones
+(:mod:`agents.base`), a registry by name (:mod:`agents.registry`), the benchmark that
+compares them (:mod:`agents.benchmark`)."""
 
+from agents.base import Controller, SetPointController
+from agents.classical import SoftSpeed, SoftTorque, StiffPI, ZTorque
+from agents.driller import Driller, DrillerRules
 from agents.policies import ConstantSetpoint, Policy, SB3Policy
-from agents.top_drive import soft_speed_gains, stiff_gains
+from agents.registry import CLASSICAL, CONTROLLERS, make_controller, parse_controllers
 
-__all__ = ["ConstantSetpoint", "Policy", "SB3Policy", "soft_speed_gains", "stiff_gains"]
+__all__ = ["CLASSICAL", "CONTROLLERS", "ConstantSetpoint", "Controller", "Driller",
+           "DrillerRules", "Policy", "SB3Policy", "SetPointController", "SoftSpeed",
+           "SoftTorque", "StiffPI", "ZTorque", "make_controller", "parse_controllers"]

@@ -24,7 +24,8 @@ drill-env: drill-string dynamics, classical top-drive controllers and RL agents.
 
 commands:
   demo           the main job on the built-in default case (outputs in logs/)
-  run            one episode at a constant set point, optionally recorded to rerun
+  run            one episode with a controller, optionally recorded to rerun
+  benchmark      controllers x scenarios x seeds: table, benchmark.csv, plots
   stability-map  the paper's torsional stability maps P1-P6 (Fig. 15), resumable
   modes          natural frequencies, damping and critical-speed chart of a string
   speed          the performance benchmark (ratios measured in one run, JSON)
@@ -79,9 +80,19 @@ def integer(low: int = 0) -> Callable[[str], int]:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    from agents.benchmark import BenchmarkSettings, run_benchmark
+    from agents.registry import CLASSICAL
     from drill_env.tools.demo import stick_slip_demo
 
     _, reproduced = stick_slip_demo(args.out)
+    print("\nController benchmark (as drill-env benchmark): the classical controllers at "
+          "the set points of the default scenario (100 rpm) and of stick_slip (50 rpm)")
+    t0 = time.perf_counter()
+    out = args.out / "benchmark"
+    run_benchmark(list(CLASSICAL), ["default", "stick_slip"], [0, 1, 2], out,
+                  BenchmarkSettings(), workers=args.workers)
+    print(f"benchmark in {time.perf_counter() - t0:.0f} s: {out / 'benchmark.csv'}, "
+          f"{out / 'benchmark.md'}, {out / 'benchmark_bars.png'}")
     return 0 if reproduced else 1
 
 
@@ -89,12 +100,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import drill_env  # noqa: F401  (registers the ids)
-    from agents.policies import ConstantSetpoint
+    from agents.registry import make_controller
 
-    kwargs: dict[str, Any] = {"scenario": args.scenario, "fidelity": args.fidelity}
+    controller = make_controller(args.controller)
+    kwargs: dict[str, Any] = {"scenario": args.scenario, "fidelity": args.fidelity,
+                              "physics": controller.physics(),
+                              **dict(getattr(controller, "env_kwargs", dict)())}
     if args.duration is not None:
         kwargs["episode_duration"] = args.duration
-    env: Any = gym.make("DrillString-v0", **kwargs)
+    env: Any = gym.make(controller.env_id, **kwargs)
     base: Any = env.unwrapped
     cfg = base.config
     rpm = args.rpm if args.rpm is not None else base.scenario.surface_speed / RPM
@@ -106,7 +120,6 @@ def cmd_run(args: argparse.Namespace) -> int:
         if not low <= value <= high:
             raise argparse.ArgumentTypeError(f"{flag}: {value:g} {unit} is outside the env's "
                                              f"range {low:g}-{high:g} {unit}")
-    policy = ConstantSetpoint(rpm, wob_kn * KILO, cfg.rpm_range, cfg.weight_on_bit_range)
     if args.record is not None:
         from drill_env.recording import RecordEpisode
 
@@ -121,9 +134,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         obs, info = env.reset(seed=args.seed, options={"surface_speed": rpm * RPM,
                                                        "weight_on_bit": wob_kn * KILO})
+        controller.reset(base)
         for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario} {rpm:.0f} rpm",
                       leave=False, file=sys.stderr):
-            obs, r, terminated, truncated, info = env.step(policy.act(obs, info))
+            obs, r, terminated, truncated, info = env.step(controller.act(obs, info))
             steps += 1
             reward += float(r)
             for key in keys:
@@ -136,7 +150,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     finally:
         env.close()  # finishes a recording, interrupted or not
     summary = {
-        "scenario": args.scenario, "rpm": rpm, "weight_on_bit_kN": wob_kn, "seed": args.seed,
+        "scenario": args.scenario, "controller": args.controller, "rpm": rpm,
+        "weight_on_bit_kN": wob_kn, "seed": args.seed,
         "fidelity": args.fidelity, "steps": steps, "simulated_s": info.get("episode_time", 0.0),
         "return": reward, "termination_reason": reason,
         **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
@@ -161,6 +176,35 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 130 if reason == "interrupted" else 0
 
 
+def cmd_benchmark(args: argparse.Namespace) -> int:
+    from agents.benchmark import BenchmarkSettings, run_benchmark
+    from agents.registry import parse_controllers
+    from drill_env.scenarios import SCENARIOS
+
+    try:
+        controllers = parse_controllers(args.controllers)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"--{err}") from None
+    scenarios = [n.strip() for n in args.scenarios.split(",") if n.strip()]
+    unknown = [n for n in scenarios if n not in SCENARIOS]
+    if unknown or not scenarios:
+        raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or args.scenarios!r};"
+                                         f" known: {','.join(SCENARIOS)}")
+    if args.warmup >= args.duration:
+        raise argparse.ArgumentTypeError(f"--warmup: {args.warmup:g} s must be shorter than "
+                                         f"--duration ({args.duration:g} s)")
+    settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
+                                 start_kick=args.start_kick, fidelity=args.fidelity)
+    t0 = time.perf_counter()
+    rows = run_benchmark(controllers, scenarios, list(range(args.seeds)), args.out, settings,
+                         workers=args.workers, record=args.record)
+    print(f"{len(rows)} episodes ({len(controllers)} controllers x {len(scenarios)} "
+          f"scenarios x {args.seeds} seeds) in {time.perf_counter() - t0:.0f} s; finished "
+          f"episodes found in {args.out / 'benchmark_results.jsonl'} were reused")
+    print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md and the plots in {args.out}")
+    return 0
+
+
 def cmd_stability_map(args: argparse.Namespace) -> int:
     from drill_env import stability_map as sm
 
@@ -171,18 +215,29 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                                          f" choose from {','.join(sm.POSITIONS)}")
     settings = sm.MapSettings(seconds=args.seconds,
                               measure=min(sm.DEFAULT_SETTINGS.measure, args.seconds))
+    configs = None
+    if args.controller is not None:
+        from agents.registry import make_controller
+
+        controller = make_controller(args.controller)
+        if controller.rate != "drive":
+            raise argparse.ArgumentTypeError(
+                f"--controller: {args.controller} acts on the set points; the map holds "
+                "them fixed, so choose a drive-rate controller (stiff, soft-speed, "
+                "soft-torque, z-torque)")
+        configs = {p: sm.map_config(p, controller.physics()) for p in names}
     store = args.out / "stability_map.points.jsonl"
     t0 = time.perf_counter()
     maps = sm.stability_maps(names, args.rpm_step, args.wob_step * KILO, settings,
                              args.max_rpm, args.max_wob * KILO, progress=True, store=store,
-                             workers=args.workers)
+                             workers=args.workers, configs=configs)
     print(sm.format_maps(maps))
     runs = sum(m.runs for m in maps)
     cells = sum(m.unstable.size for m in maps)
     print(f"{runs} simulations of {args.seconds:.0f} s for {cells} grid points (boundary "
           f"tracking; points found in {store.name} reused) in "
           f"{time.perf_counter() - t0:.1f} s")
-    paths = sm.write_maps(maps, args.out, settings)
+    paths = sm.write_maps(maps, args.out, settings, args.controller or "stiff")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 
@@ -287,12 +342,19 @@ def parser() -> argparse.ArgumentParser:
         p.set_defaults(func=func)
         return p
 
-    p = add("demo", "the main job on the built-in default case; outputs in --out", cmd_demo)
+    p = add("demo", "the main job: stick-slip at 50 vs 100 rpm, then the controller "
+                    "benchmark on the default scenarios; outputs in --out", cmd_demo)
     p.add_argument("--out", type=Path, default=Path("logs"), help="output folder")
+    p.add_argument("--workers", type=integer(1), default=None,
+                   help="local processes for the benchmark (default: all cores)")
 
-    p = add("run", "one episode at a constant set point; optional rerun recording", cmd_run)
+    p = add("run", "one episode with a controller at the scenario's (or the given) set "
+                   "points; optional rerun recording", cmd_run)
     p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
                    help="the scenario")
+    p.add_argument("--controller", default="stiff",
+                   help="controller name (stiff, soft-speed, soft-torque, z-torque, driller, "
+                        "learned)")
     p.add_argument("--rpm", type=number("rpm"), default=None,
                    help="surface speed set point in rpm (default: the scenario's)")
     p.add_argument("--wob", type=number("kN"), default=None,
@@ -308,11 +370,37 @@ def parser() -> argparse.ArgumentParser:
                         "a folder: logs/recordings)")
     p.add_argument("--out", type=Path, default=Path("logs"), help="folder for run_summary.json")
 
+    p = add("benchmark", "controllers x scenarios x seeds at each scenario's set points: "
+                         "table, benchmark.csv, benchmark.md and plots in --out; resumable",
+            cmd_benchmark)
+    p.add_argument("--controllers", default="stiff,soft-speed,soft-torque,z-torque,driller",
+                   help="comma-separated controller names")
+    p.add_argument("--scenarios", default="default,stick_slip",
+                   help="comma-separated scenario names")
+    p.add_argument("--seeds", type=integer(1), default=3, help="seeds per pair")
+    p.add_argument("--duration", type=number("s", low_inclusive=False), default=60.0,
+                   help="simulated seconds per episode")
+    p.add_argument("--warmup", type=number("s"), default=30.0,
+                   help="seconds at the start left out of the metrics")
+    p.add_argument("--start-kick", type=number("", high=0.5), default=0.02,
+                   help="relative bit-speed kick at the start, drawn from the seed")
+    p.add_argument("--fidelity", choices=("full", "fast"), default="full",
+                   help="physics level (docs/performance.md)")
+    p.add_argument("--workers", type=integer(1), default=None,
+                   help="local processes (default: all cores)")
+    p.add_argument("--record", action="store_true",
+                   help="write one rerun recording per episode to --out/recordings, named "
+                        "<controller>_<scenario>_seed<N>")
+    p.add_argument("--out", type=Path, default=Path("logs/benchmark"), help="output folder")
+
     p = add("stability-map", "torsional stability maps P1-P6 (paper Fig. 15) by boundary "
                              "tracking; finished points are kept in --out and reused",
             cmd_stability_map)
     p.add_argument("--positions", default="P1,P2,P3,P4,P5,P6",
                    help="comma-separated bit positions")
+    p.add_argument("--controller", default=None,
+                   help="drive-rate top-drive controller (stiff, soft-speed, soft-torque, "
+                        "z-torque; default: the scenario's stiff PI)")
     p.add_argument("--rpm-step", type=number("rpm", low_inclusive=False), default=5.0,
                    help="speed step")
     p.add_argument("--wob-step", type=number("kN", low_inclusive=False), default=5.0,

@@ -10,6 +10,8 @@ name                      what it is (parameters)
 ========================  ==============================================================
 ``default``               homogeneous hard rock, symmetric bit, realistic 1250 m string
                           (packed 108 m BHA + 140 m HWDP + 5 in DP)
+``stick_slip``            the default string and rock at 50 rpm, 100 kN: a stiff top drive
+                          stick-slips there (SSI ~1.2), the benchmark's second scenario
 ``paper_case1``           hard-soft-hard sandwich dipping 45 deg, symmetric bit placed at
                           one of the paper's torsional-map positions ``position`` = P1..P6
                           (share of the bit in rock 2: 0, 25, 75, 100, 50, 0 %)
@@ -274,6 +276,19 @@ def default(surface_speed: SurfaceSpeed = DEFAULT_SURFACE_SPEED,
                     "homogeneous hard rock")
 
 
+@validated
+def stick_slip(surface_speed: SurfaceSpeed = 50.0 * RPM,
+               weight_on_bit: WeightOnBit = DEFAULT_WEIGHT_ON_BIT,
+               episode_duration: Duration = 60.0,
+               string_length: StringLength = None) -> Scenario:
+    """The default string and rock at 50 rpm: below the stick-slip threshold of a stiff
+    top drive (~80 rpm at 100 kN), where the anti-stick-slip controllers earn their keep
+    (the paper's Fig. 13 operating point on a realistic string)."""
+    sc = default(surface_speed, weight_on_bit, episode_duration, string_length)
+    return Scenario("stick_slip", sc.config, surface_speed, weight_on_bit, episode_duration,
+                    "homogeneous hard rock at 50 rpm")
+
+
 def _torsional_sandwich_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
                              thickness: float, dip: float, surface_speed: float,
                              weight_on_bit: float, episode_duration: float,
@@ -425,6 +440,7 @@ def random(rng: np.random.Generator | None = None,
 #: Scenario functions by name.
 SCENARIOS: dict[str, Callable[..., Scenario]] = {
     "default": default,
+    "stick_slip": stick_slip,
     "paper_case1": paper_case1,
     "paper_case2": paper_case2,
     "paper_case3": paper_case3,

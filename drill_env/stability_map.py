@@ -217,12 +217,11 @@ def stability_map(position: str, rpm: Sequence[float], weight_on_bit: Sequence[f
                           progress=progress or False, workers=1)[0]
 
 
-def map_config(position: str, top_drive: dict[str, float] | None = None):
-    """``paper_case1`` at ``position``, with top-drive gain overrides (a controller)."""
+def map_config(position: str, physics: dict[str, Any] | None = None):
+    """``paper_case1`` at ``position``, with dotted physics overrides (a controller's
+    top drive: ``{"top_drive.controller": "z_torque"}``)."""
     config = make_scenario("paper_case1", position=position).config
-    if top_drive:
-        config = replace(config, **{f"top_drive.{k}": v for k, v in top_drive.items()})
-    return config
+    return replace(config, **physics) if physics else config
 
 
 def _point_task(args: tuple) -> dict[str, float]:
@@ -344,7 +343,7 @@ def linear_boundary(position: str, rpm: Sequence[float], max_wob: float = PAPER_
     return out
 
 
-def plot_maps(maps: Sequence[StabilityMap], path: Path) -> Path:
+def plot_maps(maps: Sequence[StabilityMap], path: Path, controller: str = "stiff") -> Path:
     """Fig. 15 style: one panel per position, the stick-slip zone shaded, simulated
     points marked (x steady, o stick-slip)."""
     import matplotlib
@@ -374,7 +373,8 @@ def plot_maps(maps: Sequence[StabilityMap], path: Path) -> Path:
     for ax in list(axes.flat)[len(maps):]:
         ax.set_visible(False)
     axes.flat[0].legend(loc="upper right", fontsize=7)
-    fig.suptitle("Torsional stability maps by boundary tracking (paper Fig. 15)")
+    fig.suptitle("Torsional stability maps by boundary tracking (paper Fig. 15), "
+                 f"{controller} top drive")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
@@ -382,13 +382,15 @@ def plot_maps(maps: Sequence[StabilityMap], path: Path) -> Path:
     return path
 
 
-def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings) -> list[Path]:
+def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings,
+               controller: str = "stiff") -> list[Path]:
     """``stability_map.json`` and ``stability_map.png`` in ``out``."""
     out.mkdir(parents=True, exist_ok=True)
-    data = {"settings": asdict(settings), "maps": [m.to_json() for m in maps]}
+    data = {"settings": asdict(settings), "controller": controller,
+            "maps": [m.to_json() for m in maps]}
     json_path = out / "stability_map.json"
     json_path.write_text(json.dumps(data, indent=1))
-    return [json_path, plot_maps(maps, out / "stability_map.png")]
+    return [json_path, plot_maps(maps, out / "stability_map.png", controller)]
 
 
 def format_maps(maps: Sequence[StabilityMap]) -> str:

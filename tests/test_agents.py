@@ -2,33 +2,12 @@
 
 from __future__ import annotations
 
-import math
-
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import drill_env  # noqa: F401
-from agents import ConstantSetpoint, soft_speed_gains, stiff_gains
-from drill_env.physics.config import SimulationConfig
-
-
-def test_stiff_gains_follow_the_impedance_rule():
-    cfg = SimulationConfig()
-    td = stiff_gains(cfg)
-    z = cfg.string.drill_pipe.torsional_impedance
-    assert td.proportional_gain == pytest.approx(50 * z)
-    assert td.integral_gain == pytest.approx(5 * cfg.top_drive.inertia)
-
-
-def test_soft_speed_cancels_top_drive_inertia_at_the_tuning_frequency():
-    cfg = SimulationConfig()
-    td = soft_speed_gains(cfg, stick_slip_frequency=0.66)
-    w = 2 * math.pi * 0.66
-    # the I-term's impedance ki / (j w) cancels the inertia's j w J at w
-    assert td.integral_gain / w == pytest.approx(w * cfg.top_drive.inertia)
-    with pytest.raises(ValueError, match="stick_slip_frequency"):
-        soft_speed_gains(cfg, stick_slip_frequency=0.0)
+from agents import ConstantSetpoint
 
 
 def test_constant_setpoint_drives_the_env_to_its_rpm():

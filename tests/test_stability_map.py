@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from drill_env import stability_map as sm
 from drill_env.physics.config import replace
 from drill_env.physics.simulator import Simulator
 from drill_env.physics.stability import torsional_growth_rate
@@ -189,3 +190,20 @@ def test_a_map_on_local_processes_equals_the_serial_map():
                             workers=2)
     for a, b in zip(serial, pooled, strict=True):
         np.testing.assert_array_equal(a.tested, b.tested)
+
+
+@pytest.mark.slow
+def test_tuned_controllers_shrink_the_stick_slip_zone_at_every_position():
+    """The paper's maps (10 rpm / 10 kN grid) under SoftSpeed and ZTorque: a smaller
+    stick-slip zone than under stiff PI at each of P1-P6 (docs/controllers.md)."""
+    zones = {}
+    for controller in ("stiff", "soft_speed", "z_torque"):
+        configs = {p: sm.map_config(p, {"top_drive.controller": controller})
+                   for p in sm.POSITIONS}
+        maps = sm.stability_maps(tuple(sm.POSITIONS), 10.0, 10e3, configs=configs,
+                                 workers=1)
+        zones[controller] = {m.position: int(m.unstable.sum()) for m in maps}
+    for position in sm.POSITIONS:
+        assert zones["stiff"][position] > 0, position
+        for tuned in ("soft_speed", "z_torque"):
+            assert zones[tuned][position] < zones["stiff"][position], (tuned, position)

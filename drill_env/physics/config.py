@@ -312,15 +312,51 @@ class ContactConfig:
 
 @config_dataclass
 class TopDriveConfig:
-    """Top drive: motor inertia, PI speed loop, torque limit."""
+    """Top drive: motor inertia, speed controller, torque limit.
+
+    ``controller`` names the drive-rate controller; its gains and filters follow from the
+    configured string by the rules of :mod:`drill_env.physics.top_drive` (docs/model.md,
+    "Top drive"), so a string change retunes it. A field given explicitly overrides the
+    rule's value.
+    """
 
     #: Top-drive rotor inertia referred to the output shaft (kg m^2); Kyllingstad &
     #: Nessjoen (2009) quote 500-3000 kg m^2 for electric top drives.
     inertia: Positive = Field(default=1000.0, le=1.0e6)
-    #: PI gains of the speed loop. None selects the stiff controller of the literature:
-    #: P = 50 Z (Z: drill-pipe torsional impedance), I = 5 J_td (1/s^2).
+    #: "stiff": PI with P = 50 Z, I = 5 J_td; "soft_speed": tuned PI (Kyllingstad &
+    #: Nessjoen 2009); "soft_torque": stiff PI + band-pass torque feedback at the
+    #: stick-slip frequency; "z_torque": stiff PI + high-pass torque feedback through
+    #: 1/Z (Dwars 2015). Formulas and sources: drill_env.physics.top_drive.
+    controller: Literal["stiff", "soft_speed", "soft_torque", "z_torque"] = "stiff"
+    #: PI gains of the speed loop (N m s/rad, N m/rad); None: the controller's rule.
     proportional_gain: Annotated[NonNegative, Field(le=1.0e9)] | None = None
     integral_gain: Annotated[NonNegative, Field(le=1.0e9)] | None = None
+    #: Frequency the soft controllers tune to (Hz); None: the first torsional natural
+    #: frequency of the string with a fixed top and a free bit, which stick-slip
+    #: oscillates close to (Kyllingstad & Nessjoen 2009).
+    tuning_frequency: Annotated[Positive, Field(le=100.0)] | None = None
+    #: SoftSpeed's P = impedance_factor x Z. k = 1 matches the pipe exactly (no
+    #: reflection at the tuning frequency) but leaves the speed loop so soft that on the
+    #: default string at 50 rpm / 100 kN the top-drive speed swings +-25 rpm and the bit
+    #: still stick-slips (SSI 1.13 against 1.21 stiff); k = 1.5-3 cures it (SSI <= 0.03),
+    #: and k = 1.5 keeps the reflection at the tuning frequency at (k - 1)/(k + 1) = 0.2.
+    #: Measured in docs/controllers.md.
+    impedance_factor: Positive = Field(default=1.5, le=100.0)
+    #: Feedback of the string torque at the top T_s (the torque in the top pipe element,
+    #: as a torque sub measures it) into the speed command at every time step:
+    #: ``w_cmd = w_set - feedback_gain H(T_s)``; "high_pass": H first-order with corner
+    #: ``filter_frequency``; "band_pass": H second-order of unit gain at
+    #: ``filter_frequency`` with damping ``filter_damping``. Neither passes DC: the mean
+    #: speed still follows the set point. None: the controller's choice.
+    torque_feedback: Literal["none", "high_pass", "band_pass"] | None = None
+    #: (rad/s per N m); None: 1/Z of the drill pipe, which makes the top absorb the
+    #: torsional waves that the filter passes.
+    feedback_gain: Annotated[NonNegative, Field(le=1.0)] | None = None
+    #: Corner (high-pass) or centre (band-pass) of the torque filter (Hz); None: the
+    #: controller's rule.
+    filter_frequency: Annotated[Positive, Field(le=100.0)] | None = None
+    #: Damping ratio of the band-pass: its -3 dB band is 2 zeta f wide.
+    filter_damping: Positive = Field(default=0.5, le=10.0)
     #: Continuous torque rating of a mid-size top drive (N m).
     max_torque: Positive = Field(default=50.0e3, le=1.0e6)
     #: Rate limit of the speed set point (rad/s^2): 0 -> 150 rpm in ~5 s. (Tests take a

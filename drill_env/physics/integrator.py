@@ -27,7 +27,7 @@ from numba import njit
 from drill_env.physics.bit import BitKinematics, BitOut, GaugeContact, mesoscopic_bit_loads
 from drill_env.physics.formation import Rock, effective_wob, resistance, rock_at
 from drill_env.physics.jit import TUPLE_KERNEL
-from drill_env.physics.layout import CONTACT, P, R, S, Status
+from drill_env.physics.layout import CONTACT, Feedback, P, R, S, Status
 from drill_env.physics.linalg import (
     band_cholesky,
     cholesky_to_ldl,
@@ -45,6 +45,8 @@ RUNAWAY_DISPLACEMENT = 1.0
 _SINGULAR = float(Status.SINGULAR)
 _NONFINITE = float(Status.NONFINITE)
 _RUNAWAY = float(Status.RUNAWAY)
+_NO_FEEDBACK = float(Feedback.NONE)
+_HIGH_PASS = float(Feedback.HIGH_PASS)
 
 
 @njit(cache=True)
@@ -148,8 +150,39 @@ def _predict(p, m, work, moving):
 
 
 @njit(cache=True, inline="always")
+def _torque_feedback(p, state, mode):
+    """Speed command correction ``g H(T_s)`` of a torque-feedback top drive (SoftTorque,
+    ZTorque), from the string torque at the top at the end of the last step.
+
+    High-pass ``H = s / (s + w_c)``: ``T_s`` minus its low-pass, backward Euler.
+    Band-pass ``H = 2 z w0 s / (s^2 + 2 z w0 s + w0^2)`` (unit gain at w0) as a state-variable
+    filter ``x1' = x2``, ``x2' = T_s - w0^2 x1 - 2 z w0 x2``, ``H T_s = 2 z w0 x2``,
+    semi-implicit Euler (damping implicit): stable for ``w0 dt < 2``, checked at set-up.
+    """
+    dt = p[P.DT]
+    w = p[P.TD_FILTER_W]
+    torque = state[S.SURFACE_TORQUE]
+    if mode == _HIGH_PASS:
+        low = state[S.TD_LOW_PASS]
+        low += w * dt / (1.0 + w * dt) * (torque - low)
+        state[S.TD_LOW_PASS] = low
+        filtered = torque - low
+    else:
+        two_zw = 2.0 * p[P.TD_FILTER_ZETA] * w
+        x1 = state[S.TD_BAND_1]
+        x2 = (state[S.TD_BAND_2] + dt * (torque - w * w * x1)) / (1.0 + two_zw * dt)
+        state[S.TD_BAND_1] = x1 + dt * x2
+        state[S.TD_BAND_2] = x2
+        filtered = two_zw * x2
+    correction = p[P.TD_FEEDBACK_GAIN] * filtered
+    state[S.TD_CORRECTION] = correction
+    return correction
+
+
+@njit(cache=True, inline="always")
 def _top_drive(p, state, m, work):
-    """Rate-limited set point, PI speed loop with torque limit; returns the motor torque."""
+    """Rate-limited set point, optional torque feedback, PI speed loop with torque limit;
+    returns the motor torque."""
     dt = p[P.DT]
     sp = state[S.SETPOINT]
     dsp = state[S.SETPOINT_TARGET] - sp
@@ -160,6 +193,9 @@ def _top_drive(p, state, m, work):
         dsp = -lim
     sp += dsp
     state[S.SETPOINT] = sp
+    mode = p[P.TD_FEEDBACK]
+    if mode != _NO_FEEDBACK:
+        sp -= _torque_feedback(p, state, mode)
     err = sp - m.vt[0]
     t_unsat = p[P.KP] * err + p[P.KI] * state[S.PI_INTEGRAL]
     t_max = p[P.TORQUE_MAX]

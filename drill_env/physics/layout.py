@@ -48,6 +48,10 @@ P = IntEnum("P", [
     "LATERAL",        # 1: coupled lateral + torsion, 0: torsion only (lateral frozen)
     "LATERAL_START",  # first node with lateral DOFs (> 0: drill pipe held straight)
     "GAUGE_FRICTION",  # gauge-pad friction coefficient; NaN: the rocks' resistance curves
+    "TD_FEEDBACK",    # top-drive torque feedback: 0 none, 1 high-pass, 2 band-pass
+    "TD_FEEDBACK_GAIN",  # speed command per string torque (rad/s per N m)
+    "TD_FILTER_W",    # filter corner / centre (rad/s)
+    "TD_FILTER_ZETA",  # band-pass damping ratio
 ], start=0)
 N_PARAMS = len(P)
 
@@ -75,8 +79,20 @@ S = IntEnum("S", [
     "MECH_ENERGY_BIT",    # work done by the bit torque (J), for MSE
     "TOP_DRIVE_ENERGY",   # work done by the motor (J)
     "STEPS",              # steps taken
+    "TD_LOW_PASS",        # high-pass filter: low-passed string torque (N m)
+    "TD_BAND_1",          # band-pass filter state 1 (N m s^2)
+    "TD_BAND_2",          # band-pass filter state 2 (N m s)
+    "TD_CORRECTION",      # speed command correction of the torque feedback (rad/s)
 ], start=0)
 N_STATE = len(S)
+
+
+class Feedback(IntEnum):
+    """``params[P.TD_FEEDBACK]``: the top drive's torque feedback filter."""
+
+    NONE = 0
+    HIGH_PASS = 1
+    BAND_PASS = 2
 
 
 class Status(IntEnum):

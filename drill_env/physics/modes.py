@@ -48,7 +48,7 @@ from drill_env.physics.statics import (  # noqa: F401  (re-exported for the CLI)
     component_loads,
     neutral_point_height,
 )
-from drill_env.physics.top_drive import stiff_pi_gains
+from drill_env.physics.top_drive import resolve as resolve_top_drive
 from drill_env.physics.units import RPM
 
 __all__ = ["CriticalSpeed", "Modes", "critical_speed_chart", "critical_speeds", "excitations",
@@ -107,9 +107,8 @@ def torsional_system(config: SimulationConfig, top: TopBoundary = "fixed"
         free = free[1:]
     else:
         td = cfg.top_drive
-        kp, ki = stiff_pi_gains(cfg.string.drill_pipe.torsional_impedance, td.inertia)
-        kp = kp if td.proportional_gain is None else td.proportional_gain
-        ki = ki if td.integral_gain is None else td.integral_gain
+        law = resolve_top_drive(cfg)  # the speed loop; a torque feedback is not modelled
+        kp, ki = law.proportional_gain, law.integral_gain
         j[0] += td.inertia
         c[0, 0] += kp
         k[0, 0] += ki

@@ -3,11 +3,9 @@ point against statics, the legacy two-section config unchanged, realistic defaul
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-from scipy.optimize import brentq
+from reference_solutions import transfer_matrix_frequency
 
 from drill_env.physics import components as cp
 from drill_env.physics.config import INCH, Section, SimulationConfig, StringConfig, replace
@@ -25,30 +23,6 @@ def field_well_string() -> StringConfig:
              cp.collar_8(18.0, 3.0), cp.heavy_weight_5(190.0))
     pipe = 2500.0 - sum(c.length for c in lower)
     return StringConfig(drill_pipe=cp.drill_pipe_5_5(pipe), components=lower)
-
-
-def transfer_matrix_frequency(sections_top_down, bit_inertia: float, f_max: float) -> float:
-    """First natural frequency (Hz) of a fixed-top string of uniform shafts with a bit
-    inertia at the free bottom: distributed (exact) torsion, no FE.
-
-    Each shaft carries (twist, torque); across a length L at circular frequency w,
-    k = w sqrt(rho / G) and the state moves by [[cos kL, sin kL / (GJ k)],
-    [-GJ k sin kL, cos kL]]. The bottom condition is T = J_bit w^2 theta.
-    """
-    def residual(f: float) -> float:
-        w = 2 * math.pi * f
-        theta, torque = 0.0, 1.0  # fixed top, unit torque
-        for s in sections_top_down:
-            k = w * math.sqrt(s.density / s.shear_modulus)
-            gjk = s.shear_modulus * s.polar_moment * k
-            c, sn = math.cos(k * s.length), math.sin(k * s.length)
-            theta, torque = theta * c + torque * sn / gjk, -theta * gjk * sn + torque * c
-        return torque - bit_inertia * w * w * theta
-
-    grid = np.linspace(1e-3, f_max, 2000)
-    values = [residual(f) for f in grid]
-    k = next(i for i in range(len(values) - 1) if values[i] * values[i + 1] < 0)
-    return brentq(residual, grid[k], grid[k + 1], xtol=1e-12)
 
 
 @pytest.mark.parametrize("string", [field_well_string(), cp.realistic_string(),

@@ -1,0 +1,78 @@
+"""The controller interface shared by classical and learned controllers.
+
+A controller has two parts, either of which may be trivial:
+
+* a **drive-rate** part, ``physics``: dotted overrides of the simulator config that
+  select what the top drive runs at every time step inside the compiled step (the
+  stiff, SoftSpeed, SoftTorque and ZTorque loops of :mod:`drill_env.physics.top_drive`,
+  whose gains follow from the configured string);
+* a **policy-rate** part, ``act``: the action it sends the env every control interval
+  (10 Hz by default), from the observation and ``info``.
+
+``env_id`` is the env the controller acts in (its observation and action spaces); the
+benchmark builds that env for every controller from the same scenario, seed and targets.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, Literal, Protocol, runtime_checkable
+
+import numpy as np
+
+Rate = Literal["drive", "policy"]
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """What the benchmark, ``drill-env run`` and the tasks drive."""
+
+    @property
+    def name(self) -> str:
+        """Registry name (``stiff``, ``soft-speed``, ...)."""
+        ...
+
+    @property
+    def rate(self) -> Rate:
+        """"drive": acts inside the compiled step at every time step; "policy": acts at
+        the env's control interval."""
+        ...
+
+    @property
+    def env_id(self) -> str:
+        """The gymnasium id of the env it acts in."""
+        ...
+
+    def physics(self) -> dict[str, Any]:
+        """Dotted ``SimulationConfig`` overrides of its drive-rate part (may be empty)."""
+        ...
+
+    def reset(self, env: Any) -> None:
+        """Start an episode; ``env`` is the unwrapped env (targets, action mapping)."""
+        ...
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """The action for this control interval."""
+        ...
+
+
+class SetPointController:
+    """Holds the driller's set points of the episode (the scenario's, or the env's reset
+    options) in ``DrillString-v0``'s absolute action mode; subclasses pick the top
+    drive's drive-rate loop."""
+
+    name: ClassVar[str] = "set-point"
+    rate: ClassVar[Rate] = "drive"
+    env_id: ClassVar[str] = "DrillString-v0"
+
+    def __init__(self) -> None:
+        self._action = np.zeros(2, dtype=np.float32)
+
+    def physics(self) -> dict[str, Any]:
+        return {}
+
+    def reset(self, env: Any) -> None:
+        speed, wob = env.targets
+        self._action = env.action_for(speed, wob)
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        return self._action.copy()

@@ -1,0 +1,295 @@
+"""The controller benchmark: controllers x scenarios x seeds on equal terms.
+
+Every episode starts from the scenario's settled operating point at the driller's set
+points (the scenario's rpm and WOB), with the bit speed kicked by up to
+``start_kick`` from the seed, and runs ``duration`` simulated seconds; the metrics
+(:func:`drill_env.metrics.window_metrics`, the code of the env's reward) are taken over
+the part after ``warmup`` (stick-slip takes 5-20 s to grow from a settled start). Each
+controller acts in its own env (``Controller.env_id``) built from the same scenario,
+seed and targets, so all of them see the same string, rock and start.
+
+Results stream into ``benchmark_results.jsonl`` as episodes finish (an interrupted
+benchmark keeps them; rerunning computes only the rest), then ``benchmark.csv`` (one row
+per controller, scenario and seed, the columns of SPEC section 5), ``benchmark.md`` and
+the plots are written from all finished rows.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from drill_env.physics.validation import NonNegative, Positive, config_dataclass, jsonable
+
+#: benchmark.csv columns, in order (SPEC section 5); units in the names.
+COLUMNS = ("controller", "scenario", "seed", "ssi", "stuck_fraction", "mean_bit_rpm",
+           "target_rpm", "rpm_tracking_error", "rop_m_per_h", "radial_ratio",
+           "backward_whirl_fraction", "max_lateral_force_kN", "mse_MPa",
+           "top_drive_energy_MJ", "episode_return")
+#: Channels kept for the time-series plots (every record sample of seed 0).
+SERIES_CHANNELS = ("time", "bit_speed", "surface_speed", "torque_on_bit", "surface_torque",
+                   "bit_x", "bit_y", "weight_on_bit")
+RESULTS_FILE = "benchmark_results.jsonl"
+
+
+@config_dataclass
+class BenchmarkSettings:
+    """What every episode of a benchmark shares."""
+
+    #: Simulated seconds per episode.
+    duration: Positive = Field(default=60.0, le=36_000.0)
+    #: Seconds at the start left out of the metrics: from a settled start with a 2 % kick
+    #: stick-slip under a stiff top drive takes ~25 s to grow to full size on the default
+    #: string at 50 rpm (benchmark_stick_slip_series.png).
+    warmup: NonNegative = Field(default=30.0, le=36_000.0)
+    #: Relative kick of the bit speed at the start, drawn from the seed.
+    start_kick: NonNegative = Field(default=0.02, le=0.5)
+    #: Physics level ("full" or "fast", docs/performance.md).
+    fidelity: str = "full"
+
+    def __post_init__(self) -> None:
+        if self.warmup >= self.duration:
+            from drill_env.physics.validation import ConfigError
+
+            raise ConfigError(f"warmup: {self.warmup} s must be shorter than the duration "
+                              f"({self.duration} s)")
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One benchmark episode (picklable: runs in a worker process)."""
+
+    controller: str
+    scenario: str
+    seed: int
+    settings: dict[str, Any]
+    out: str
+    record: bool = False
+    series: bool = False
+
+    @property
+    def key(self) -> str:
+        return f"{self.controller}|{self.scenario}|{self.seed}"
+
+    @property
+    def stem(self) -> str:
+        return f"{self.controller}_{self.scenario}_seed{self.seed}"
+
+
+def run_episode(episode: Episode) -> dict[str, Any]:
+    """Run one episode; returns its benchmark row (plus ``termination``)."""
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401  (registers the env ids)
+    from agents.registry import make_controller
+    from drill_env.metrics import window_metrics
+    from drill_env.physics.layout import RECORD_CHANNELS
+    from drill_env.physics.units import RPM
+
+    settings = BenchmarkSettings(**episode.settings)
+    controller = make_controller(episode.controller)
+    env_kwargs = dict(getattr(controller, "env_kwargs", dict)())
+    env: Any = gym.make(controller.env_id, scenario=episode.scenario,
+                        physics=controller.physics(), episode_duration=settings.duration,
+                        start_kick=settings.start_kick, fidelity=settings.fidelity,
+                        **env_kwargs)
+    if episode.record:
+        from drill_env.recording import RecordEpisode
+
+        env = RecordEpisode(env, Path(episode.out) / "recordings",
+                            scenario=f"{episode.controller}_{episode.scenario}")
+    base = env.unwrapped
+    kept: list[np.ndarray] = []
+    total = 0.0
+    reason = ""
+    try:
+        obs, info = env.reset(seed=episode.seed)
+        controller.reset(base)
+        start = float(info["time"])
+        target_speed, _ = base.targets
+        while True:
+            obs, reward, terminated, truncated, info = env.step(controller.act(obs, info))
+            total += float(reward)
+            kept.append(base.last_records)
+            if terminated or truncated:
+                reason = str(info.get("termination_reason", "")) if terminated else ""
+                break
+    finally:
+        env.close()
+    everything = np.concatenate(kept) if kept else np.zeros((0, len(RECORD_CHANNELS)))
+    records = everything[everything[:, 0] >= start + settings.warmup]
+    if len(records) < 2:
+        raise RuntimeError(f"{episode.key}: the episode ended before the warm-up was over "
+                           f"({reason or 'no samples'})")
+    dt = float(records[1, 0] - records[0, 0])
+    m = window_metrics(records, RECORD_CHANNELS, dt, base.clearance,
+                       base.sim.config.bit.diameter)
+    col = {name: k for k, name in enumerate(RECORD_CHANNELS)}
+    mean_speed = float(np.mean(records[:, col["bit_speed"]]))
+    target_rpm = target_speed / RPM
+    row = {
+        "controller": episode.controller, "scenario": episode.scenario, "seed": episode.seed,
+        "ssi": m["ssi"], "stuck_fraction": m["stuck_fraction"],
+        "mean_bit_rpm": mean_speed / RPM, "target_rpm": target_rpm,
+        "rpm_tracking_error": abs(mean_speed / RPM - target_rpm) / target_rpm
+        if target_rpm > 0 else math.nan,
+        "rop_m_per_h": m["rop"] * 3600.0, "radial_ratio": m["radial_ratio"],
+        "backward_whirl_fraction": m["backward_whirl_fraction"],
+        "max_lateral_force_kN": m["lateral_force_max"] / 1e3,
+        "mse_MPa": m["mse"] / 1e6, "top_drive_energy_MJ": m["top_drive_energy"] / 1e6,
+        "episode_return": total, "termination": reason,
+    }
+    if episode.series:
+        series_dir = Path(episode.out) / "series"
+        series_dir.mkdir(parents=True, exist_ok=True)
+        arrays: dict[str, Any] = {name: everything[:, col[name]] for name in SERIES_CHANNELS}
+        arrays["time"] = arrays["time"] - start
+        arrays["clearance"] = base.clearance
+        np.savez_compressed(series_dir / f"{episode.stem}.npz", **arrays)
+    return row
+
+
+def episodes(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],
+             settings: BenchmarkSettings, out: Path, record: bool = False
+             ) -> list[Episode]:
+    """Every (controller, scenario, seed); the first seed keeps its time series."""
+    plain = dataclasses.asdict(settings)
+    return [Episode(c, s, seed, plain, str(out), record, seed == seeds[0])
+            for s in scenarios for seed in seeds for c in controllers]
+
+
+def fingerprint(settings: BenchmarkSettings) -> str:
+    """What a stored row depends on besides its key: rows of other settings are not reused."""
+    return json.dumps(jsonable(settings), sort_keys=True)
+
+
+def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],
+                  out: Path, settings: BenchmarkSettings | None = None,
+                  workers: int | None = None, ray_address: str | None = None,
+                  record: bool = False, progress: bool = True) -> list[dict[str, Any]]:
+    """Run what is not in ``out/benchmark_results.jsonl`` yet, then write the table,
+    summary and plots of every finished row. Returns the rows."""
+    from tqdm import tqdm
+
+    from drill_env.sweep import ResultStore, make_executor
+
+    settings = settings or BenchmarkSettings()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    store = ResultStore(out / RESULTS_FILE, fingerprint(settings))
+    todo_all = episodes(controllers, scenarios, seeds, settings, out, record)
+    todo = [e for e in todo_all if e.key not in store]
+    if todo:
+        import os
+
+        local = min(workers or os.cpu_count() or 1, len(todo))
+        executor = make_executor(local if ray_address is None else None, ray_address)
+        bar = tqdm(total=len(todo_all), initial=len(todo_all) - len(todo), unit="episode",
+                   desc="benchmark", disable=not progress, file=sys.stderr)
+        try:
+            for k, row in executor.map_unordered(run_episode, todo):
+                store.put(todo[k].key, row)
+                bar.update(1)
+        finally:
+            bar.close()
+            executor.close()
+    rows = [store.get(e.key) for e in todo_all]
+    write_outputs(rows, out, controllers, scenarios, settings)
+    return rows
+
+
+# --------------------------------------------------------------------------- outputs
+
+
+def write_csv(rows: Sequence[dict[str, Any]], path: Path) -> None:
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(COLUMNS)
+        for row in rows:
+            writer.writerow([_csv_value(row[c]) for c in COLUMNS])
+
+
+def _csv_value(value: Any) -> Any:
+    return f"{value:.6g}" if isinstance(value, float) else value
+
+
+#: Columns of the summary table: (column, header, format).
+SUMMARY = (("ssi", "SSI", "{:.2f}"), ("stuck_fraction", "stuck", "{:.0%}"),
+           ("mean_bit_rpm", "bit rpm", "{:.1f}"), ("rpm_tracking_error", "rpm error", "{:.1%}"),
+           ("rop_m_per_h", "ROP m/h", "{:.1f}"),
+           ("backward_whirl_fraction", "bwd whirl", "{:.0%}"),
+           ("max_lateral_force_kN", "max lat. kN", "{:.1f}"), ("mse_MPa", "MSE MPa", "{:.0f}"),
+           ("top_drive_energy_MJ", "TD MJ", "{:.2f}"), ("episode_return", "return", "{:.1f}"))
+
+
+def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
+                  scenarios: Sequence[str]) -> list[list[str]]:
+    """Per scenario and controller: the mean over seeds (+- the spread when seeds differ)."""
+    table = []
+    for s in scenarios:
+        for c in controllers:
+            sel = [r for r in rows if r["controller"] == c and r["scenario"] == s]
+            if not sel:
+                continue
+            cells = [s, c, str(len(sel))]
+            for key, _, fmt in SUMMARY:
+                values = np.array([r[key] for r in sel], dtype=float)
+                text = fmt.format(float(np.mean(values)))
+                half = fmt.format(float(np.max(values) - np.min(values)) / 2)
+                if half != fmt.format(0.0):  # seeds differ at the shown precision
+                    text += " +-" + half
+                cells.append(text)
+            table.append(cells)
+    return table
+
+
+def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequence[str],
+                  scenarios: Sequence[str], settings: BenchmarkSettings) -> None:
+    """benchmark.csv, benchmark.md and the plots; prints the table."""
+    write_csv(rows, out / "benchmark.csv")
+    header = ["scenario", "controller", "seeds"] + [h for _, h, _ in SUMMARY]
+    table = summary_table(rows, controllers, scenarios)
+    _print_table(header, table)
+    lines = ["# Controller benchmark", "",
+             f"{settings.duration:g} s episodes from the settled state at each scenario's "
+             f"set points (bit speed kicked by up to {settings.start_kick:.0%} by the seed); "
+             f"metrics over the last {settings.duration - settings.warmup:g} s. Means over "
+             "seeds, +- half the range. Rows: benchmark.csv.", "",
+             "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in table]
+    failed = [r for r in rows if r.get("termination")]
+    if failed:
+        lines += ["", "Episodes that ended early: " + ", ".join(
+            f"{r['controller']}/{r['scenario']}/{r['seed']} ({r['termination']})"
+            for r in failed)]
+    lines += ["", "![metrics](benchmark_bars.png)", ""]
+    lines += [f"![{s}](benchmark_{s}_series.png)" for s in scenarios]
+    (out / "benchmark.md").write_text("\n".join(lines) + "\n")
+    from agents.plots import bar_chart, series_chart
+
+    bar_chart(rows, controllers, scenarios, out / "benchmark_bars.png")
+    for s in scenarios:
+        series_chart(out / "series", controllers, s, out / f"benchmark_{s}_series.png",
+                     settings.warmup)
+
+
+def _print_table(header: Sequence[str], table: Sequence[Sequence[str]]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    t = Table(*header, title="controller benchmark (means over seeds)")
+    for r in table:
+        t.add_row(*r)
+    console = Console()
+    console.width = max(console.width, 150)  # a narrow terminal wraps; it never truncates
+    console.print(t)

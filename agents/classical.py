@@ -1,0 +1,71 @@
+"""Classical top-drive controllers: the drive-rate loops of the literature.
+
+Each one holds the driller's set points and selects a top-drive controller that runs at
+every simulator time step (``rate = "drive"``) inside the compiled step; its gains and
+filters come from the configured string (drill-pipe impedance ``Z = J_p sqrt(G rho)``,
+top-drive inertia ``J_td``, stick-slip frequency ``f_s`` = first torsional natural
+frequency with a fixed top and a free bit) by :func:`drill_env.physics.top_drive.resolve`
+when the simulator is built, so a scenario with another string retunes them.
+:func:`tuning` shows the numbers for a config.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+from agents.base import SetPointController
+from drill_env.physics.config import SimulationConfig, replace
+from drill_env.physics.top_drive import TopDriveLaw, resolve
+
+
+class _DriveLoop(SetPointController):
+    #: ``TopDriveConfig.controller`` value.
+    top_drive: ClassVar[str]
+
+    def physics(self) -> dict[str, Any]:
+        return {"top_drive.controller": self.top_drive}
+
+    def tuning(self, config: SimulationConfig) -> TopDriveLaw:
+        """Gains and filters this controller gets on ``config``'s string."""
+        return resolve(replace(config, **self.physics()))
+
+
+class StiffPI(_DriveLoop):
+    """Stiff PI speed loop, the usual factory tuning (Kyllingstad & Nessjoen 2009,
+    SPE-119660): ``P = 50 Z``, ``I = 5 J_td`` (1/s^2). The top reflects ~96 % of the
+    torsional waves: a fixed end, so stick-slip develops freely. Drive rate."""
+
+    name = "stiff"
+    top_drive = "stiff"
+
+
+class SoftSpeed(_DriveLoop):
+    """SoftSpeed / tuned PI (Kyllingstad & Nessjoen 2009, SPE-119660): ``P = k Z`` so the
+    top absorbs the waves coming up the string, ``I = (2 pi f_s)^2 J_td`` so the integral
+    term cancels the top-drive inertia at the stick-slip frequency; k = 1.5
+    (``TopDriveConfig.impedance_factor``: reflection (k-1)/(k+1) = 0.2 at f_s; k = 1 left
+    the default string stick-slipping, docs/controllers.md). Drive rate."""
+
+    name = "soft-speed"
+    top_drive = "soft_speed"
+
+
+class SoftTorque(_DriveLoop):
+    """SoftTorque (Shell's Soft Torque Rotary System, as Dwars 2015, SPE/IADC-173037,
+    describes it): the stiff speed loop with its command lowered by the string torque
+    through a band-pass at the stick-slip frequency and the gain 1/Z,
+    ``w_cmd = w_set - BP(T_s) / Z``, ``BP(s) = 2 z w_s s / (s^2 + 2 z w_s s + w_s^2)``,
+    z = 0.5: the top absorbs near f_s and stays stiff at DC. Drive rate."""
+
+    name = "soft-torque"
+    top_drive = "soft_torque"
+
+
+class ZTorque(_DriveLoop):
+    """ZTorque (Dwars 2015, SPE/IADC-173037): the stiff speed loop with the string torque
+    high-pass filtered and fed back through 1/Z, ``w_cmd = w_set - HP(T_s) / Z``,
+    ``HP(s) = s / (s + w_c)``, corner ``w_c = 2 pi f_s / 4``: above the corner the top
+    is an impedance-matched absorber for the first and every higher mode. Drive rate."""
+
+    name = "z-torque"
+    top_drive = "z_torque"

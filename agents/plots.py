@@ -1,0 +1,97 @@
+"""Pictures of the controller benchmark."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from drill_env.physics.units import RPM  # noqa: E402
+
+#: (column, axis label, scale) of the bar chart.
+BARS = (("ssi", "stick-slip severity (SSI)", 1.0),
+        ("stuck_fraction", "share of time stuck", 1.0),
+        ("rop_m_per_h", "ROP (m/h)", 1.0),
+        ("backward_whirl_fraction", "share of time in backward whirl", 1.0))
+
+
+def _colours(controllers: Sequence[str]) -> dict[str, Any]:
+    cmap = plt.get_cmap("tab10")
+    return {c: cmap(k % 10) for k, c in enumerate(controllers)}
+
+
+def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
+              scenarios: Sequence[str], path: Path) -> None:
+    """One panel per metric; bars per controller, grouped by scenario; whiskers span the
+    seeds (min to max)."""
+    colours = _colours(controllers)
+    fig, axes = plt.subplots(1, len(BARS), figsize=(4.2 * len(BARS), 4.2))
+    width = 0.8 / max(len(controllers), 1)
+    for ax, (key, label, scale) in zip(axes, BARS, strict=True):
+        for i, c in enumerate(controllers):
+            for j, s in enumerate(scenarios):
+                values = np.array([r[key] for r in rows
+                                   if r["controller"] == c and r["scenario"] == s], float)
+                if values.size == 0:
+                    continue
+                mean = float(values.mean()) * scale
+                x = j + (i - (len(controllers) - 1) / 2) * width
+                ax.bar(x, mean, width * 0.9, color=colours[c],
+                       label=c if j == 0 else None)
+                if values.size > 1:
+                    ax.plot([x, x], [values.min() * scale, values.max() * scale], color="k",
+                            lw=1)
+        ax.set_xticks(range(len(scenarios)), scenarios)
+        ax.set_title(label, fontsize=10)
+        ax.grid(axis="y", alpha=0.3)
+        top = ax.get_ylim()[1]
+        ax.set_ylim(0.0, max(top, 0.05))  # an all-zero metric shows as zero, not noise
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(controllers), fontsize=9)
+    fig.suptitle("Controller benchmark: means over seeds, whiskers min-max")
+    fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
+                 warmup: float) -> None:
+    """Bit speed, torque on bit and the bit's radial position over the gauge clearance,
+    one line per controller (first seed), on one time axis; the grey band is the warm-up
+    the metrics leave out."""
+    colours = _colours(controllers)
+    fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+    found = False
+    for c in controllers:
+        files = sorted(Path(series_dir).glob(f"{c}_{scenario}_seed*.npz"))
+        if not files:
+            continue
+        found = True
+        d = np.load(files[0])
+        t = d["time"]
+        radial = np.hypot(d["bit_x"], d["bit_y"]) / float(d["clearance"])
+        kw = {"color": colours[c], "lw": 0.7, "label": c}
+        axes[0].plot(t, d["bit_speed"] / RPM, **kw)
+        axes[1].plot(t, d["torque_on_bit"] / 1e3, **kw)
+        axes[2].plot(t, radial, **kw)
+    if not found:
+        plt.close(fig)
+        return
+    for ax, label in zip(axes, ("bit speed (rpm)", "torque on bit (kN m)",
+                                "bit radial position / clearance"), strict=True):
+        ax.set_ylabel(label)
+        ax.axvspan(0.0, warmup, color="0.85", zorder=0)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8, ncol=len(controllers), loc="upper right")
+    axes[-1].set_xlabel("time (s)")
+    axes[0].set_title(f"{scenario}: each controller at the scenario's set points "
+                      "(first seed; grey: warm-up, not in the metrics)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,50 @@
+"""Controllers by name: what ``drill-env run --controller`` and ``benchmark`` accept."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from agents.base import Controller
+from agents.classical import SoftSpeed, SoftTorque, StiffPI, ZTorque
+from agents.driller import Driller
+
+
+def _learned(**kwargs: Any) -> Controller:
+    from agents.learned import LearnedController
+
+    return LearnedController.load(**kwargs)
+
+
+#: name -> factory. ``learned`` loads a trained policy (the shipped one by default).
+CONTROLLERS: dict[str, Callable[..., Controller]] = {
+    StiffPI.name: StiffPI,
+    SoftSpeed.name: SoftSpeed,
+    SoftTorque.name: SoftTorque,
+    ZTorque.name: ZTorque,
+    Driller.name: Driller,
+    "learned": _learned,
+}
+CLASSICAL = ("stiff", "soft-speed", "soft-torque", "z-torque", "driller")
+
+
+def make_controller(name: str, **kwargs: Any) -> Controller:
+    """The controller called ``name`` (``CONTROLLERS``); unknown names are named."""
+    try:
+        factory = CONTROLLERS[name]
+    except KeyError:
+        raise ValueError(f"controller: unknown name {name!r}; known: "
+                         f"{', '.join(CONTROLLERS)}") from None
+    return factory(**kwargs)
+
+
+def parse_controllers(text: str) -> list[str]:
+    """``"stiff,z-torque"`` -> the names, each checked."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise ValueError("controllers: give at least one name")
+    for n in names:
+        if n not in CONTROLLERS:
+            raise ValueError(f"controllers: unknown name {n!r}; known: "
+                             f"{', '.join(CONTROLLERS)}")
+    return names

@@ -1,0 +1,107 @@
+"""``EnvConfig``: the settings of ``DrillString-v0`` (typed, validated, dotted-path errors)."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Annotated, Any, Literal
+
+from pydantic import Field
+
+from drill_env.physics.validation import (
+    Count,
+    NonNegative,
+    Positive,
+    StrictBool,
+    config_dataclass,
+)
+
+#: Bounds that keep the reward and the episode finite: weights up to 1e6 times terms that
+#: are themselves bounded (SSI capped, radial ratio below the runaway limit, ROP over a
+#: scale of at least 1e-6 m/s) cannot overflow; time spans up to a year of simulated time.
+MAX_WEIGHT = 1.0e6
+MIN_SCALE = 1.0e-6
+MAX_EPISODE_DURATION = 3.2e7
+#: Records one control step may hold (memory of the record buffer: 16 floats each).
+MAX_RECORDS_PER_STEP = 100_000
+
+
+def _weight(default: float) -> Any:
+    return Field(default=default, ge=0.0, le=MAX_WEIGHT)
+
+
+def _scale(default: float) -> Any:
+    return Field(default=default, ge=MIN_SCALE, le=1.0e12)
+
+
+@config_dataclass
+class EnvConfig:
+    """Environment settings (typed defaults; ``gymnasium.make`` keywords override them)."""
+
+    #: Policy period (s); the simulator takes ``round(control_interval / dt)`` steps per
+    #: action (10 Hz by default).
+    control_interval: Positive = Field(default=0.1, le=60.0)
+    #: Episode length in simulated seconds; ``None`` takes the scenario's default.
+    episode_duration: Annotated[Positive, Field(le=MAX_EPISODE_DURATION)] | None = None
+    #: Surface speed set-point range (rpm) mapped from action[0] in [-1, 1].
+    rpm_range: tuple[Annotated[NonNegative, Field(le=1000.0)],
+                     Annotated[NonNegative, Field(le=1000.0)]] = (0.0, 200.0)
+    #: Weight-on-bit range (N) mapped from action[1]; applied as the hook load
+    #: ``string_weight - WOB``.
+    weight_on_bit_range: tuple[Annotated[NonNegative, Field(le=1.0e7)],
+                               Annotated[NonNegative, Field(le=1.0e7)]] = (0.0, 200.0e3)
+    #: "absolute": action -> set point in the range; "incremental": action -> change of
+    #: the set point, at most ``rpm_step`` / ``weight_on_bit_step`` per control step.
+    action_mode: Literal["absolute", "incremental"] = "absolute"
+    rpm_step: Positive = Field(default=10.0, le=1000.0)
+    weight_on_bit_step: Positive = Field(default=10.0e3, le=1.0e7)
+    #: Drawworks rate limit of the applied WOB (N/s). The top-drive acceleration limit is
+    #: in the simulator (``TopDriveConfig.max_acceleration``).
+    drawworks_rate: Positive = Field(default=50.0e3, le=1.0e9)
+    #: "downhole" (MWD at the bit + surface) or "surface" (surface measurements only).
+    sensors: Literal["downhole", "surface"] = "downhole"
+    #: Telemetry delay of the observation, in control steps.
+    telemetry_delay: Count = Field(default=0, ge=0, le=10_000)
+    #: Std of Gaussian noise added to the normalised observation (from ``np_random``).
+    observation_noise: NonNegative = Field(default=0.0, le=100.0)
+    #: Make-up torque of the drill-pipe connections (N m): exceeding it terminates.
+    makeup_torque: Positive = Field(default=40.0e3, le=1.0e7)
+    #: "settled": start at the scenario's operating point in steady rotation (see
+    #: ``Simulator.reset``); "paper": ramp the rpm over 10 s, hold 10 s off bottom,
+    #: apply the WOB at 20 s, then hand over to the agent.
+    startup: Literal["settled", "paper"] = "settled"
+    #: Relative kick of the bit speed after a settled start, drawn uniformly in
+    #: +-start_kick from the episode's ``np_random``: steady rotation is an equilibrium,
+    #: and the kick lets seeds start different episodes (the benchmark and the control
+    #: tasks use 0.02). 0: every seed starts in the same settled state.
+    start_kick: NonNegative = Field(default=0.0, le=0.5)
+    #: Record every k simulator steps inside a control interval (for the metrics).
+    record_every: Count = Field(default=10, ge=1, le=1_000_000)
+    #: Length of the rolling window of the stick-slip metrics (s).
+    metric_window: Positive = Field(default=3.0, le=3600.0)
+    #: Cap the applied WOB at the largest WOB the FE mesh resolves
+    #: (``Simulator.check_mesh_resolves``); without the cap a larger WOB stops the
+    #: simulator (terminated, "mesh buckling" status). The cap is ``info[
+    #: "weight_on_bit_limit"]``.
+    limit_weight_on_bit_to_mesh: StrictBool = True
+    #: Reward weights (see the class docstring).
+    rop_weight: NonNegative = _weight(1.0)
+    stick_slip_weight: NonNegative = _weight(1.0)
+    whirl_weight: NonNegative = _weight(0.5)
+    effort_weight: NonNegative = _weight(0.1)
+    failure_weight: NonNegative = _weight(10.0)
+    #: Cap on the SSI entering the reward (a stalled bit has an unbounded SSI).
+    ssi_cap: Positive = Field(default=2.0, le=1.0e3)
+    #: Normalisation scales of the observation.
+    torque_scale: Positive = _scale(10.0e3)
+    force_scale: Positive = _scale(10.0e3)
+    rop_scale: Positive = _scale(0.01)
+
+    def __post_init__(self) -> None:
+        for name in ("rpm_range", "weight_on_bit_range"):
+            low, high = getattr(self, name)
+            if not high > low:
+                raise ValueError(f"{name}: the high end must exceed the low end, got "
+                                 f"{(low, high)}")
+
+
+ENV_FIELDS = frozenset(f.name for f in dataclasses.fields(EnvConfig))

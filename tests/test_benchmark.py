@@ -1,0 +1,95 @@
+"""The controller benchmark: its files, its columns, and resuming after an interrupt."""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+
+import agents.benchmark as bm
+from drill_cli.main import main
+from drill_env.sweep import ResultStore
+
+SPEC_COLUMNS = ["controller", "scenario", "seed", "ssi", "stuck_fraction", "mean_bit_rpm",
+                "target_rpm", "rpm_tracking_error", "rop_m_per_h", "radial_ratio",
+                "backward_whirl_fraction", "max_lateral_force_kN", "mse_MPa",
+                "top_drive_energy_MJ", "episode_return"]
+SHORT = bm.BenchmarkSettings(duration=6.0, warmup=2.0)
+
+
+def test_benchmark_command_writes_table_summary_plots_and_recordings(tmp_path, capsys):
+    code = main(["benchmark", "--controllers", "stiff,driller", "--scenarios", "stick_slip",
+                 "--seeds", "2", "--duration", "6", "--warmup", "2", "--workers", "1",
+                 "--record", "--out", str(tmp_path)])
+    assert code == 0
+    with (tmp_path / "benchmark.csv").open() as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == SPEC_COLUMNS
+    body = [dict(zip(rows[0], r, strict=True)) for r in rows[1:]]
+    assert {(r["controller"], r["seed"]) for r in body} == {
+        ("stiff", "0"), ("stiff", "1"), ("driller", "0"), ("driller", "1")}
+    for r in body:
+        assert float(r["target_rpm"]) == 50.0
+        assert float(r["mean_bit_rpm"]) == pytest.approx(50.0, rel=0.05)
+        assert float(r["rop_m_per_h"]) > 0.0
+    assert "controller benchmark" in capsys.readouterr().out
+    assert "| stick_slip | stiff | 2 |" in (tmp_path / "benchmark.md").read_text()
+    for png in ("benchmark_bars.png", "benchmark_stick_slip_series.png"):
+        assert (tmp_path / png).stat().st_size > 20_000
+    names = sorted(p.name for p in (tmp_path / "recordings").glob("*.rrd"))
+    assert len(names) == 4
+    assert any(n.startswith("driller_stick_slip_seed1_") for n in names)
+
+
+def test_two_seeds_start_different_episodes():
+    rows = [bm.run_episode(bm.Episode("stiff", "stick_slip", seed, vars(SHORT), "unused"))
+            for seed in (0, 1)]
+    assert rows[0]["mean_bit_rpm"] != rows[1]["mean_bit_rpm"]
+
+
+def test_an_interrupted_benchmark_keeps_its_rows_and_reruns_only_the_rest(tmp_path,
+                                                                          monkeypatch):
+    real = bm.run_episode
+    calls: list[str] = []
+
+    def interrupted_after_two(episode):
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        calls.append(episode.key)
+        return real(episode)
+
+    monkeypatch.setattr(bm, "run_episode", interrupted_after_two)
+    with pytest.raises(KeyboardInterrupt):
+        bm.run_benchmark(["stiff", "z-torque"], ["stick_slip"], [0, 1], tmp_path, SHORT,
+                         workers=1, progress=False)
+    assert len((tmp_path / bm.RESULTS_FILE).read_text().splitlines()) == 2
+    done = list(calls)
+
+    calls.clear()
+    monkeypatch.setattr(bm, "run_episode", lambda e: calls.append(e.key) or real(e))
+    rows = bm.run_benchmark(["stiff", "z-torque"], ["stick_slip"], [0, 1], tmp_path, SHORT,
+                            workers=1, progress=False)
+    assert len(rows) == 4 and len(calls) == 2 and not set(calls) & set(done)
+
+    calls.clear()  # everything there: nothing runs, the outputs are rewritten
+    bm.run_benchmark(["stiff", "z-torque"], ["stick_slip"], [0, 1], tmp_path, SHORT,
+                     workers=1, progress=False)
+    assert calls == []
+    assert len((tmp_path / "benchmark.csv").read_text().splitlines()) == 5
+
+
+def test_changed_settings_do_not_reuse_old_rows(tmp_path):
+    bm.run_benchmark(["stiff"], ["stick_slip"], [0], tmp_path, SHORT, workers=1,
+                     progress=False)
+    other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
+    assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(SHORT))) == 1
+    assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(other))) == 0
+
+
+def test_benchmark_names_bad_input(capsys):
+    for args, message in ((["--controllers", "pid"], "unknown name 'pid'"),
+                          (["--scenarios", "moon"], "--scenarios"),
+                          (["--duration", "10", "--warmup", "20"], "--warmup")):
+        with pytest.raises(SystemExit):
+            main(["benchmark", *args])
+        assert message in capsys.readouterr().err

@@ -1,0 +1,214 @@
+"""Classical top-drive controllers: tuning rules against independent numbers, the
+reflection coefficient of a simulated pulse against the closed form, stick-slip cured at
+the same mean speed, and the rule-based driller's decisions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from reference_solutions import torsional_impedance, transfer_matrix_frequency
+
+from agents import CLASSICAL, Driller, DrillerRules, make_controller, parse_controllers
+from agents.classical import SoftSpeed, SoftTorque, StiffPI, ZTorque
+from drill_env.physics.config import INCH, Section, SimulationConfig, StringConfig, replace
+from drill_env.physics.top_drive import measured_reflection, resolve
+from drill_env.physics.units import RPM
+from drill_env.scenarios import make_scenario
+from drill_env.tools.studies import simulate, stick_slip_summary
+
+
+def strings() -> list[tuple[str, SimulationConfig, float, float]]:
+    """Two strings whose impedance and stick-slip frequency differ: the realistic default
+    (5 in DP) and a 3000 m string of 5 1/2 in DP over 200 m of 8 in collars. Each with
+    its drill pipe's Z and its exact fixed-top first frequency, from closed forms."""
+    default = make_scenario("default").config
+    long = SimulationConfig(string=StringConfig(
+        drill_pipe=Section(length=2800.0, outer_diameter=5.5 * INCH,
+                           inner_diameter=4.778 * INCH, element_length=20.0),
+        bha=Section(length=200.0, outer_diameter=8.0 * INCH, inner_diameter=2.8125 * INCH,
+                    element_length=5.0)))
+    out = []
+    for name, cfg in (("default", default), ("long 5 1/2 in", long)):
+        pipe = cfg.string.drill_pipe
+        z = torsional_impedance(pipe.outer_diameter, pipe.inner_diameter)
+        f1 = transfer_matrix_frequency(cfg.string.sections, cfg.bit.inertia, 2.0)
+        out.append((name, cfg, z, f1))
+    return out
+
+
+STRINGS = strings()
+
+
+def test_the_two_strings_differ():
+    (_, _, z1, f1), (_, _, z2, f2) = STRINGS
+    assert z2 / z1 > 1.3 and f1 / f2 > 1.5
+
+
+@pytest.mark.parametrize(("name", "config", "z", "f_s"), STRINGS, ids=[s[0] for s in STRINGS])
+def test_gains_follow_their_formulas_on_the_string(name, config, z, f_s):
+    j = config.top_drive.inertia
+    # FE tuning frequency against the exact continuous string (mesh error < 0.5 %)
+    tol = {"rel": 5e-3}
+    stiff = StiffPI().tuning(config)
+    assert stiff.proportional_gain == pytest.approx(50.0 * z, rel=1e-9)
+    assert stiff.integral_gain == pytest.approx(5.0 * j, rel=1e-12)
+    assert stiff.torque_feedback == "none"
+
+    soft = SoftSpeed().tuning(config)
+    k = config.top_drive.impedance_factor
+    assert soft.tuning_frequency == pytest.approx(f_s, **tol)
+    assert soft.proportional_gain == pytest.approx(k * z, rel=1e-9)
+    assert soft.integral_gain == pytest.approx((2 * math.pi * f_s) ** 2 * j, rel=1e-2)
+
+    torque = SoftTorque().tuning(config)
+    assert (torque.proportional_gain, torque.integral_gain) == pytest.approx(
+        (50.0 * z, 5.0 * j), rel=1e-9)
+    assert torque.torque_feedback == "band_pass"
+    assert torque.filter_frequency == pytest.approx(f_s, **tol)
+    assert torque.feedback_gain == pytest.approx(1.0 / z, rel=1e-9)
+
+    zt = ZTorque().tuning(config)
+    assert zt.torque_feedback == "high_pass"
+    assert zt.filter_frequency == pytest.approx(f_s / 4.0, **tol)
+    assert zt.feedback_gain == pytest.approx(1.0 / z, rel=1e-9)
+
+
+def test_soft_speed_cancels_the_top_drive_inertia_at_its_tuning_frequency():
+    """At f_s the I-term's impedance I / (j w) cancels the inertia's j w J_td: the top is
+    the real k Z, and reflects (1 - k) / (1 + k)."""
+    _, config, z, _ = STRINGS[0]
+    law = SoftSpeed().tuning(config)
+    z_td = law.impedance_at(law.tuning_frequency)
+    assert z_td.imag == pytest.approx(0.0, abs=1e-9 * abs(z_td))
+    k = config.top_drive.impedance_factor
+    assert z_td.real == pytest.approx(k * z, rel=1e-9)
+    assert abs(law.reflection_coefficient(law.tuning_frequency)) == pytest.approx(
+        (k - 1) / (k + 1), rel=1e-9)
+
+
+def test_z_torque_filter_corner_is_where_the_high_pass_is_3_db_down():
+    _, config, _, _ = STRINGS[0]
+    law = ZTorque().tuning(config)
+    h = law.filter_response(law.filter_frequency)
+    assert abs(h) == pytest.approx(1 / math.sqrt(2), rel=1e-12)
+    assert math.degrees(math.atan2(h.imag, h.real)) == pytest.approx(45.0, rel=1e-12)
+    assert abs(law.filter_response(100 * law.filter_frequency)) > 0.9999
+    assert abs(law.filter_response(1e-4 * law.filter_frequency)) < 1e-3
+
+
+@pytest.fixture(scope="module")
+def reflections():
+    """Measured (pulse) and closed-form reflection at the top, per controller, at the
+    filter corner, half, once and twice the stick-slip frequency."""
+    config = make_scenario("default").config
+    out = {}
+    for name in ("stiff", "soft-speed", "soft-torque", "z-torque"):
+        controller = make_controller(name)
+        cfg = replace(config, **controller.physics())
+        law = resolve(cfg)
+        f_s = resolve(replace(config, **{"top_drive.controller": "soft_speed"})
+                      ).tuning_frequency
+        freqs = np.array([0.25 * f_s, 0.5 * f_s, f_s, 2.0 * f_s])
+        measured = measured_reflection(cfg, freqs)
+        theory = np.array([law.reflection_coefficient(f) for f in freqs])
+        out[name] = (measured, theory)
+    return out
+
+
+@pytest.mark.parametrize("name", ["stiff", "soft-speed", "soft-torque", "z-torque"])
+def test_the_pulse_reflection_matches_the_top_drive_impedance(reflections, name):
+    """The compiled controller (filters, one-step torque delay, FE string) against
+    (Z - Z_td) / (Z + Z_td) from its transfer function: this checks the filter corners
+    and centres numerically, in the time domain."""
+    measured, theory = reflections[name]
+    assert np.abs(measured - theory).max() < 0.03
+
+
+def test_tuned_controllers_absorb_at_their_frequency_and_stiff_reflects(reflections):
+    f_s_index = 2
+    assert abs(reflections["stiff"][0][f_s_index]) > 0.9
+    for name in ("soft-speed", "soft-torque", "z-torque"):
+        assert abs(reflections[name][0][f_s_index]) < 0.3, name
+
+
+@pytest.mark.slow
+def test_tuned_controllers_cure_stick_slip_at_the_same_mean_speed():
+    """50 rpm, 100 kN in hard rock on the default string (coupled): stiff PI stick-slips;
+    SoftSpeed, SoftTorque and ZTorque cut the SSI by at least half with the bit at the
+    same mean speed."""
+    config = make_scenario("default").config
+    results = {}
+    for name in ("stiff", "soft-speed", "soft-torque", "z-torque"):
+        cfg = replace(config, **make_controller(name).physics())
+        run = simulate(cfg, 50.0, 100e3, 80.0)
+        tail = run.time > 40.0
+        results[name] = (stick_slip_summary(run, 40.0)["ssi"],
+                         float(np.mean(run.channel("bit_speed")[tail])) / RPM)
+    ssi_stiff, rpm_stiff = results["stiff"]
+    assert ssi_stiff > 1.0
+    for name in ("soft-speed", "soft-torque", "z-torque"):
+        ssi, rpm = results[name]
+        assert ssi <= 0.5 * ssi_stiff, name
+        assert rpm == pytest.approx(50.0, abs=1.0), name
+        assert rpm == pytest.approx(rpm_stiff, abs=1.5), name
+
+
+def test_registry_names_every_controller_and_refuses_unknown_ones():
+    assert parse_controllers("stiff, z-torque") == ["stiff", "z-torque"]
+    for name in CLASSICAL:
+        assert make_controller(name).name == name
+    with pytest.raises(ValueError, match="unknown name 'pid'.*stiff"):
+        make_controller("pid")
+    with pytest.raises(ValueError, match="controllers"):
+        parse_controllers("stiff,pid")
+
+
+class FakeEnv:
+    """What a controller reads from an env: targets, action mapping, control interval."""
+
+    class config:  # noqa: N801 - mimics EnvConfig's attribute
+        control_interval = 0.1
+
+    def __init__(self, rpm: float, wob: float) -> None:
+        self.targets = (rpm * RPM, wob)
+
+    def action_for(self, speed: float, wob: float) -> np.ndarray:
+        return np.array([speed, wob])
+
+
+def run_driller(driller: Driller, torque: np.ndarray) -> np.ndarray:
+    out = []
+    for value in torque:
+        out.append(driller.act(np.zeros(1), {"surface_torque": value}))
+    return np.array(out)
+
+
+def test_driller_raises_rpm_then_lowers_wob_on_stick_slip_and_steps_back_when_calm():
+    rules = DrillerRules()
+    driller = Driller(rules)
+    driller.reset(FakeEnv(50.0, 100e3))
+    t = np.arange(0, 100.0, 0.1)
+    swinging = 10e3 * (1.0 + 0.5 * np.sin(2 * np.pi * 0.5 * t))  # swing 0.5 > 0.15
+    actions = run_driller(driller, swinging)
+    decisions = len(t) // 50
+    raises = round(rules.max_rpm_raise / rules.rpm_step)
+    assert actions[-1, 0] == pytest.approx((50.0 + rules.max_rpm_raise) * RPM)
+    lowered = decisions - raises
+    assert actions[-1, 1] == pytest.approx(
+        max(100e3 - lowered * rules.weight_on_bit_step, rules.min_weight_fraction * 100e3))
+    # calm: one step back toward the plan every ``calm_decisions`` decisions, WOB first
+    calm = np.full(50 * rules.calm_decisions, 10e3)
+    actions = run_driller(driller, calm)
+    assert actions[-1, 1] == pytest.approx(
+        max(100e3 - lowered * rules.weight_on_bit_step, 50e3) + rules.weight_on_bit_step)
+    assert actions[-1, 0] == pytest.approx((50.0 + rules.max_rpm_raise) * RPM)
+
+
+def test_driller_keeps_the_plan_while_drilling_is_smooth():
+    driller = Driller()
+    driller.reset(FakeEnv(80.0, 120e3))
+    actions = run_driller(driller, np.full(3000, 12e3) + 100.0 * np.sin(np.arange(3000)))
+    assert np.all(actions[:, 0] == pytest.approx(80.0 * RPM))
+    assert np.all(actions[:, 1] == 120e3)
