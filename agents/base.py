@@ -56,23 +56,23 @@ class Controller(Protocol):
 
 
 class SetPointController:
-    """Holds the driller's set points of the episode (the scenario's, or the env's reset
-    options) in ``DrillString-v0``'s absolute action mode; subclasses pick the top
-    drive's drive-rate loop."""
+    """Asks for the driller's set points of the episode (``env.targets``: the scenario's,
+    the reset options', or a task's drawn targets) through ``env.action_for``; subclasses
+    pick the top drive's drive-rate loop."""
 
     name: ClassVar[str] = "set-point"
     rate: ClassVar[Rate] = "drive"
     env_id: ClassVar[str] = "DrillString-v0"
 
     def __init__(self) -> None:
-        self._action = np.zeros(2, dtype=np.float32)
+        self._env: Any = None
 
     def physics(self) -> dict[str, Any]:
         return {}
 
     def reset(self, env: Any) -> None:
-        speed, wob = env.targets
-        self._action = env.action_for(speed, wob)
+        self._env = env
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        return self._action.copy()
+        # the targets may change during an episode (the control tasks' driller does)
+        return self._env.action_for(*self._env.targets)

@@ -76,14 +76,31 @@ class Episode:
     out: str
     record: bool = False
     series: bool = False
+    #: The env every controller acts in (a control task's id); None: each controller's
+    #: own (``DrillString-v0`` for the classical ones).
+    env_id: str | None = None
+
+    @property
+    def label(self) -> str:
+        return label(self.controller)
 
     @property
     def key(self) -> str:
-        return f"{self.controller}|{self.scenario}|{self.seed}"
+        return f"{self.label}|{self.scenario}|{self.seed}"
 
     @property
     def stem(self) -> str:
-        return f"{self.controller}_{self.scenario}_seed{self.seed}"
+        return f"{self.label}_{self.scenario}_seed{self.seed}"
+
+
+def label(controller: str) -> str:
+    """The name a controller has in the tables and file names: ``learned:PATH`` ->
+    ``learned``, ``constant:120/100`` -> ``constant-120rpm-100kN``."""
+    head, _, rest = controller.partition(":")
+    if head == "constant" and rest:
+        rpm, _, kn = rest.partition("/")
+        return f"constant-{rpm}rpm-{kn}kN"
+    return head
 
 
 def run_episode(episode: Episode) -> dict[str, Any]:
@@ -97,30 +114,37 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     from drill_env.physics.units import RPM
 
     settings = BenchmarkSettings(**episode.settings)
-    controller = make_controller(episode.controller)
+    controller = make_controller(episode.controller, env_id=episode.env_id)
     env_kwargs = dict(getattr(controller, "env_kwargs", dict)())
-    env: Any = gym.make(controller.env_id, scenario=episode.scenario,
-                        physics=controller.physics(), episode_duration=settings.duration,
-                        start_kick=settings.start_kick, fidelity=settings.fidelity,
-                        **env_kwargs)
+    env_id = episode.env_id or controller.env_id
+    if controller.rate == "policy" and controller.env_id != env_id \
+            and controller.name == "learned":
+        raise ValueError(f"{episode.controller}: a policy trained on {controller.env_id} "
+                         f"cannot act in {env_id}")
+    # the policy's own env keywords (what shapes its observation), under the
+    # benchmark's episode settings, which are the same for every controller
+    env_kwargs.update(scenario=episode.scenario, episode_duration=settings.duration,
+                      start_kick=settings.start_kick, fidelity=settings.fidelity)
+    env: Any = gym.make(env_id, physics=controller.physics(), **env_kwargs)
     if episode.record:
         from drill_env.recording import RecordEpisode
 
         env = RecordEpisode(env, Path(episode.out) / "recordings",
-                            scenario=f"{episode.controller}_{episode.scenario}")
+                            scenario=f"{episode.label}_{episode.scenario}")
     base = env.unwrapped
     kept: list[np.ndarray] = []
+    targets: list[tuple[float, float]] = []  # (time, target speed) per step
     total = 0.0
     reason = ""
     try:
         obs, info = env.reset(seed=episode.seed)
         controller.reset(base)
         start = float(info["time"])
-        target_speed, _ = base.targets
         while True:
             obs, reward, terminated, truncated, info = env.step(controller.act(obs, info))
             total += float(reward)
             kept.append(base.last_records)
+            targets.append((float(info["time"]), base.targets[0]))
             if terminated or truncated:
                 reason = str(info.get("termination_reason", "")) if terminated else ""
                 break
@@ -136,9 +160,12 @@ def run_episode(episode: Episode) -> dict[str, Any]:
                        base.sim.config.bit.diameter)
     col = {name: k for k, name in enumerate(RECORD_CHANNELS)}
     mean_speed = float(np.mean(records[:, col["bit_speed"]]))
-    target_rpm = target_speed / RPM
+    # the target may change during an episode (the tasks' driller): its mean over the
+    # measured part, step by step
+    in_window = [speed for t, speed in targets if t >= start + settings.warmup]
+    target_rpm = float(np.mean(in_window or [targets[-1][1]])) / RPM
     row = {
-        "controller": episode.controller, "scenario": episode.scenario, "seed": episode.seed,
+        "controller": episode.label, "scenario": episode.scenario, "seed": episode.seed,
         "ssi": m["ssi"], "stuck_fraction": m["stuck_fraction"],
         "mean_bit_rpm": mean_speed / RPM, "target_rpm": target_rpm,
         "rpm_tracking_error": abs(mean_speed / RPM - target_rpm) / target_rpm
@@ -160,23 +187,24 @@ def run_episode(episode: Episode) -> dict[str, Any]:
 
 
 def episodes(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],
-             settings: BenchmarkSettings, out: Path, record: bool = False
-             ) -> list[Episode]:
+             settings: BenchmarkSettings, out: Path, record: bool = False,
+             env_id: str | None = None) -> list[Episode]:
     """Every (controller, scenario, seed); the first seed keeps its time series."""
     plain = dataclasses.asdict(settings)
-    return [Episode(c, s, seed, plain, str(out), record, seed == seeds[0])
+    return [Episode(c, s, seed, plain, str(out), record, seed == seeds[0], env_id)
             for s in scenarios for seed in seeds for c in controllers]
 
 
-def fingerprint(settings: BenchmarkSettings) -> str:
+def fingerprint(settings: BenchmarkSettings, env_id: str | None = None) -> str:
     """What a stored row depends on besides its key: rows of other settings are not reused."""
-    return json.dumps(jsonable(settings), sort_keys=True)
+    return json.dumps({"settings": jsonable(settings), "env_id": env_id}, sort_keys=True)
 
 
 def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],
                   out: Path, settings: BenchmarkSettings | None = None,
                   workers: int | None = None, ray_address: str | None = None,
-                  record: bool = False, progress: bool = True) -> list[dict[str, Any]]:
+                  record: bool = False, progress: bool = True, env_id: str | None = None
+                  ) -> list[dict[str, Any]]:
     """Run what is not in ``out/benchmark_results.jsonl`` yet, then write the table,
     summary and plots of every finished row. Returns the rows."""
     from tqdm import tqdm
@@ -186,8 +214,8 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     settings = settings or BenchmarkSettings()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    store = ResultStore(out / RESULTS_FILE, fingerprint(settings))
-    todo_all = episodes(controllers, scenarios, seeds, settings, out, record)
+    store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))
+    todo_all = episodes(controllers, scenarios, seeds, settings, out, record, env_id)
     todo = [e for e in todo_all if e.key not in store]
     if todo:
         import os
@@ -204,7 +232,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             bar.close()
             executor.close()
     rows = [store.get(e.key) for e in todo_all]
-    write_outputs(rows, out, controllers, scenarios, settings)
+    write_outputs(rows, out, [label(c) for c in controllers], scenarios, settings)
     return rows
 
 

@@ -11,11 +11,13 @@ when the simulator is built, so a scenario with another string retunes them.
 
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar
 
 from agents.base import SetPointController
 from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.top_drive import TopDriveLaw, resolve
+from drill_env.physics.units import RPM
 
 
 class _DriveLoop(SetPointController):
@@ -69,3 +71,37 @@ class ZTorque(_DriveLoop):
 
     name = "z-torque"
     top_drive = "z_torque"
+
+
+class ConstantSetPoints(SetPointController):
+    """Fixed rpm and WOB, whatever the episode's targets: a driller who never adjusts;
+    with the best point of a grid search, the drilling task's constant baseline. The
+    stiff top drive. Registry name ``constant:<rpm>/<kN>``, e.g. ``constant:120/100``."""
+
+    name = "constant"
+    rate = "policy"
+
+    def __init__(self, rpm: float, weight_on_bit: float) -> None:
+        super().__init__()
+        if not (math.isfinite(rpm) and math.isfinite(weight_on_bit) and rpm >= 0.0
+                and weight_on_bit >= 0.0):
+            raise ValueError(f"constant: rpm and WOB must be finite and >= 0, got "
+                             f"{rpm}, {weight_on_bit}")
+        self.speed = rpm * RPM
+        self.weight_on_bit = weight_on_bit
+
+    @classmethod
+    def parse(cls, text: str) -> ConstantSetPoints:
+        """``"120/100"`` -> 120 rpm, 100 kN."""
+        try:
+            rpm, kn = (float(v) for v in text.split("/"))
+        except ValueError:
+            raise ValueError(f"controller: constant:<rpm>/<kN> expected, got "
+                             f"'constant:{text}'") from None
+        return cls(rpm, kn * 1e3)
+
+    def physics(self) -> dict[str, Any]:
+        return {"top_drive.controller": "stiff"}
+
+    def act(self, observation: Any, info: dict[str, Any]) -> Any:
+        return self._env.action_for(self.speed, self.weight_on_bit)

@@ -81,6 +81,10 @@ class Driller(SetPointController):
         return self._speed, self._wob
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        if self._env.targets != self._plan:  # the plan changed: start from the new one
+            self._plan = self._env.targets
+            self._speed, self._wob = self._plan
+            self._calm = 0
         self._torque.append(float(info["surface_torque"]))
         self._step += 1
         if self._step % self._steps_per_decision == 0:

@@ -6,7 +6,7 @@ from collections.abc import Callable
 from typing import Any
 
 from agents.base import Controller
-from agents.classical import SoftSpeed, SoftTorque, StiffPI, ZTorque
+from agents.classical import ConstantSetPoints, SoftSpeed, SoftTorque, StiffPI, ZTorque
 from agents.driller import Driller
 
 
@@ -29,7 +29,17 @@ CLASSICAL = ("stiff", "soft-speed", "soft-torque", "z-torque", "driller")
 
 
 def make_controller(name: str, **kwargs: Any) -> Controller:
-    """The controller called ``name`` (``CONTROLLERS``); unknown names are named."""
+    """The controller called ``name`` (``CONTROLLERS``); unknown names are named.
+
+    ``learned:PATH`` loads the policy of a training run folder (``logs/runs/<name>``);
+    plain ``learned`` the shipped policy (of ``env_id``'s task if given);
+    ``constant:<rpm>/<kN>`` holds those set points."""
+    if name.startswith("learned:"):
+        return _learned(path=name.partition(":")[2], **kwargs)
+    if name.startswith("constant:"):
+        return ConstantSetPoints.parse(name.partition(":")[2])
+    if name != "learned":
+        kwargs.pop("env_id", None)  # only the learned controller depends on the task
     try:
         factory = CONTROLLERS[name]
     except KeyError:
@@ -44,7 +54,9 @@ def parse_controllers(text: str) -> list[str]:
     if not names:
         raise ValueError("controllers: give at least one name")
     for n in names:
-        if n not in CONTROLLERS:
+        if n.startswith("constant:"):
+            ConstantSetPoints.parse(n.partition(":")[2])  # checks the numbers
+        elif n not in CONTROLLERS and not n.startswith("learned:"):
             raise ValueError(f"controllers: unknown name {n!r}; known: "
                              f"{', '.join(CONTROLLERS)}")
     return names

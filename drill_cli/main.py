@@ -27,6 +27,8 @@ commands:
   run            one episode with a controller, optionally recorded to rerun
   benchmark      controllers x scenarios x seeds: table, benchmark.csv, plots
   stability-map  the paper's torsional stability maps P1-P6 (Fig. 15), resumable
+  train          train PPO / SAC on a control task (logs/runs/<name>)
+  evaluate       a trained run against the classical controllers, held-out seeds
   modes          natural frequencies, damping and critical-speed chart of a string
   speed          the performance benchmark (ratios measured in one run, JSON)
   replay         open a recording in the rerun viewer
@@ -185,10 +187,16 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         controllers = parse_controllers(args.controllers)
     except ValueError as err:
         raise argparse.ArgumentTypeError(f"--{err}") from None
-    scenarios = [n.strip() for n in args.scenarios.split(",") if n.strip()]
+    env_id = None
+    if args.task is not None:
+        from training.config import TASKS
+
+        env_id = TASKS[args.task]
+    text = args.scenarios or ("random" if env_id else "default,stick_slip")
+    scenarios = [n.strip() for n in text.split(",") if n.strip()]
     unknown = [n for n in scenarios if n not in SCENARIOS]
     if unknown or not scenarios:
-        raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or args.scenarios!r};"
+        raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or text!r};"
                                          f" known: {','.join(SCENARIOS)}")
     if args.warmup >= args.duration:
         raise argparse.ArgumentTypeError(f"--warmup: {args.warmup:g} s must be shorter than "
@@ -196,12 +204,41 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
                                  start_kick=args.start_kick, fidelity=args.fidelity)
     t0 = time.perf_counter()
-    rows = run_benchmark(controllers, scenarios, list(range(args.seeds)), args.out, settings,
-                         workers=args.workers, record=args.record)
+    seeds = list(range(args.seed_start, args.seed_start + args.seeds))
+    rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,
+                         workers=args.workers, record=args.record, env_id=env_id)
     print(f"{len(rows)} episodes ({len(controllers)} controllers x {len(scenarios)} "
           f"scenarios x {args.seeds} seeds) in {time.perf_counter() - t0:.0f} s; finished "
           f"episodes found in {args.out / 'benchmark_results.jsonl'} were reused")
     print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md and the plots in {args.out}")
+    return 0
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from training.config import load_config
+    from training.train import train
+
+    config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
+                         seed=args.seed, n_envs=args.n_envs)
+    run = args.out / (args.name or f"{args.task}_{args.algo}_seed{config.seed}")
+    print(f"training {config.algo.upper()} on {config.env_id}: {config.n_timesteps} env steps, "
+          f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
+    t0 = time.perf_counter()
+    model = train(config, run, resume=args.resume, progress=not args.no_progress)
+    print(f"trained in {time.perf_counter() - t0:.0f} s: {model}, {run / 'vecnormalize.pkl'}, "
+          f"{run / 'learning_curve.png'}; drill-env evaluate {run}")
+    return 0
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from training.evaluate import evaluate_run
+
+    if not (args.run / "config.yaml").exists():
+        raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
+                                         "train (no config.yaml)")
+    out = args.out or args.run / "evaluation"
+    evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out)
+    print(f"wrote {out / 'benchmark.csv'}, benchmark.md and the plots")
     return 0
 
 
@@ -375,9 +412,15 @@ def parser() -> argparse.ArgumentParser:
             cmd_benchmark)
     p.add_argument("--controllers", default="stiff,soft-speed,soft-torque,z-torque,driller",
                    help="comma-separated controller names")
-    p.add_argument("--scenarios", default="default,stick_slip",
-                   help="comma-separated scenario names")
+    p.add_argument("--scenarios", default=None,
+                   help="comma-separated scenario names (default: default,stick_slip; with "
+                        "--task: random)")
+    p.add_argument("--task", choices=("stick_slip", "drilling"), default=None,
+                   help="run every controller in this control task's env (its targets, "
+                        "observation, reward); default: DrillString-v0")
     p.add_argument("--seeds", type=integer(1), default=3, help="seeds per pair")
+    p.add_argument("--seed-start", type=integer(0), default=0,
+                   help="first seed (the held-out evaluation seeds start at 1000000)")
     p.add_argument("--duration", type=number("s", low_inclusive=False), default=60.0,
                    help="simulated seconds per episode")
     p.add_argument("--warmup", type=number("s"), default=30.0,
@@ -392,6 +435,34 @@ def parser() -> argparse.ArgumentParser:
                    help="write one rerun recording per episode to --out/recordings, named "
                         "<controller>_<scenario>_seed<N>")
     p.add_argument("--out", type=Path, default=Path("logs/benchmark"), help="output folder")
+
+    p = add("train", "train PPO or SAC on a control task; the run (model, VecNormalize, "
+                     "checkpoints, learning curve, TensorBoard) in --out/<name>", cmd_train)
+    p.add_argument("--task", required=True, choices=("stick_slip", "drilling"),
+                   help="stick_slip: DrillStickSlip-v0, drilling: DrillOptimise-v0")
+    p.add_argument("--algo", choices=("ppo", "sac"), default="ppo", help="algorithm")
+    p.add_argument("--config", type=Path, default=None,
+                   help="hyperparameter YAML (default: training/hyperparams/<task>.yml)")
+    p.add_argument("--timesteps", type=integer(1), default=None,
+                   help="env steps (default: the YAML's n_timesteps)")
+    p.add_argument("--n-envs", type=integer(1), default=None,
+                   help="batched envs (default: the YAML's n_envs)")
+    p.add_argument("--seed", type=integer(0), default=None, help="training seed")
+    p.add_argument("--name", default=None,
+                   help="run name (default: <task>_<algo>_seed<seed>)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run from its last checkpoint")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--out", type=Path, default=Path("logs/runs"), help="folder of runs")
+
+    p = add("evaluate", "a trained run against the classical controllers on the held-out "
+                        "seeds, through the benchmark", cmd_evaluate)
+    p.add_argument("run", type=Path, help="run folder of drill-env train")
+    p.add_argument("--seeds", type=integer(1), default=20, help="held-out seeds")
+    p.add_argument("--workers", type=integer(1), default=None,
+                   help="local processes (default: all cores)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="output folder (default: RUN/evaluation)")
 
     p = add("stability-map", "torsional stability maps P1-P6 (paper Fig. 15) by boundary "
                              "tracking; finished points are kept in --out and reused",

@@ -13,6 +13,8 @@ id                         what it is
 ``DrillStringMacro-v0``    macroscopic bit (eq. 38: torque only, no lateral bit)
 ``DrillStringSurface-v0``  surface measurements only (``sensors="surface"``)
 ``DrillStringRandom-v0``   randomised training scenario (``scenario="random"``)
+``DrillStickSlip-v0``      task 1: the agent corrects the top drive's speed command
+``DrillOptimise-v0``       task 2: the agent is the driller (rpm and WOB)
 =========================  =====================================================
 
 All take the keywords of :class:`drill_env.env.DrillStringEnv`;
@@ -70,6 +72,14 @@ ENV_IDS: dict[str, dict[str, Any]] = {
     "DrillStringSurface-v0": {"sensors": "surface"},
     "DrillStringRandom-v0": {"scenario": "random"},
 }
+#: The control tasks (SPEC section 7, :mod:`drill_env.tasks`): id -> (env class, batched
+#: vector env), as import strings so that registering imports nothing.
+TASK_IDS: dict[str, tuple[str, str]] = {
+    "DrillStickSlip-v0": ("drill_env.tasks.stick_slip:StickSlipEnv",
+                          "drill_env.vector:stick_slip_vector_env"),
+    "DrillOptimise-v0": ("drill_env.tasks.drilling:DrillingEnv",
+                         "drill_env.vector:drilling_vector_env"),
+}
 
 
 def register_envs() -> None:
@@ -84,6 +94,10 @@ def register_envs() -> None:
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=ENTRY_POINT,
                                vector_entry_point=VECTOR_ENTRY_POINT, kwargs=dict(kwargs))
+    for env_id, (entry_point, vector_entry_point) in TASK_IDS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=entry_point,
+                               vector_entry_point=vector_entry_point)
 
 
 class _RegisterWhenGymnasiumLoads(importlib.abc.MetaPathFinder):

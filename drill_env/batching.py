@@ -107,7 +107,8 @@ def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray,
     one parallel numba call; without one, env after env. The results are bit-identical
     either way. Envs with ``active[i]`` False are left alone (None).
     """
-    a = check_actions(actions, len(envs))
+    size = int(np.prod(envs[0].action_space.shape or (2,))) if envs else 2
+    a = check_actions(actions, len(envs), size)
     if active is None:
         active = np.ones(len(envs), dtype=np.bool_)
     for env, row, on in zip(envs, a, active, strict=True):
@@ -125,11 +126,11 @@ def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray,
     return results
 
 
-def check_actions(actions: np.ndarray, n: int) -> np.ndarray:
-    """``actions`` as a float64 (n, 2) array; ValueError naming a non-finite one."""
+def check_actions(actions: np.ndarray, n: int, size: int = 2) -> np.ndarray:
+    """``actions`` as a float64 (n, size) array; ValueError naming a non-finite one."""
     a = np.asarray(actions, dtype=np.float64)
-    if a.shape != (n, 2):
-        raise ValueError(f"actions: expected shape ({n}, 2), got {a.shape}")
+    if a.shape != (n, size):
+        raise ValueError(f"actions: expected shape ({n}, {size}), got {a.shape}")
     if np.isfinite(a.sum()):  # one reduction for the usual case; a sum that overflows
         return a              # goes on to the exact check below
     bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))

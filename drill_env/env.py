@@ -29,7 +29,7 @@ from drill_env.scenarios import RANDOMISED, Scenario, make_scenario, scenario_pa
 
 ACTION_MODES = ("absolute", "incremental")
 SENSORS = ("downhole", "surface")
-STARTUPS = ("settled", "paper")
+STARTUPS = ("settled", "stalled", "paper")
 
 #: Observation layout per ``sensors`` mode (names of the vector entries, in order).
 OBSERVATIONS: dict[str, tuple[str, ...]] = {
@@ -173,7 +173,10 @@ class DrillStringEnv(gym.Env):
 
     ``startup="settled"`` (default): ``Simulator.reset`` at the scenario's operating point,
     i.e. steady rotation with the static twist that balances mud drag and bit torque, the
-    string laterally straight. ``startup="paper"``: rest, rpm ramped to the target over
+    string laterally straight. ``startup="stalled"``: the same twist with the string
+    below the top drive at rest (the bit sticks at once). ``start_kick`` kicks the bit
+    speed by a random fraction drawn from the seed. ``startup="paper"``: rest, rpm
+    ramped to the target over
     10 s, held 10 s off bottom, WOB applied at 20 s; the agent starts at 20 s. ``reset``
     options ``surface_speed`` (rad/s) and ``weight_on_bit`` (N) override the scenario's
     operating point.
@@ -357,6 +360,7 @@ class DrillStringEnv(gym.Env):
               ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         options = dict(options or {})
+        given = "surface_speed" in options or "weight_on_bit" in options
         if self.randomised:
             self.scenario = self._build_scenario(self.np_random)
             self._set_simulator(Simulator(self.scenario.config))
@@ -368,14 +372,18 @@ class DrillStringEnv(gym.Env):
         for name, value in (("surface_speed", speed), ("weight_on_bit", wob)):
             if not math.isfinite(value):
                 raise ValueError(f"reset options: {name} must be finite, got {value}")
+        speed, wob = self._start_targets(speed, wob, given)
         speed = min(max(speed, self._speed_range[0]), self._speed_range[1])
         wob = min(max(wob, self._wob_range[0]), self._wob_range[1])
 
         self._init_episode_state()
         wob_start = min(wob, self.weight_on_bit_limit)
         sim = self.sim
-        if self.config.startup == "settled":
+        if self.config.startup in ("settled", "stalled"):
             sim.reset(OperatingPoint(surface_speed=speed, weight_on_bit=wob_start))
+            if self.config.startup == "stalled":
+                sim.vt[1:] = 0.0  # the string below the top drive at rest, twisted
+                sim.read()
             if self.config.start_kick > 0.0:
                 kick = self.config.start_kick * self.np_random.uniform(-1.0, 1.0)
                 sim.vt[-1] *= 1.0 + kick
@@ -393,6 +401,11 @@ class DrillStringEnv(gym.Env):
         self._status = self._readings[_STATUS]
         info = self._info()
         return self._observation(info), info
+
+    def _start_targets(self, speed: float, wob: float, given: bool) -> tuple[float, float]:
+        """The episode's set points (rad/s, N) from the scenario's or the reset options'
+        (``given``); a task draws its own here from ``np_random``."""
+        return speed, wob
 
     def _paper_startup(self, speed: float, wob: float) -> None:
         """Paper section 4 start-up: ramp rpm over 10 s, hold 10 s off bottom, WOB at 20 s."""
@@ -457,6 +470,13 @@ class DrillStringEnv(gym.Env):
         else:
             speed = self._speed_target + a0 * cfg.rpm_step * RPM
             wob = self._wob_target + a1 * cfg.weight_on_bit_step
+        self._command(speed, wob)
+
+    def _command(self, speed: float, wob: float) -> None:
+        """Send set points (rad/s, N): clipped to the ranges; the applied WOB follows at
+        the drawworks rate and stays under the mesh limit; ``_effort`` is their change."""
+        s_lo, s_hi = self._speed_range
+        w_lo, w_hi = self._wob_range
         speed = s_hi if speed > s_hi else s_lo if speed < s_lo else speed
         wob = w_hi if wob > w_hi else w_lo if wob < w_lo else wob
         self._effort = ((speed - self._speed_target) / (s_hi - s_lo)) ** 2 + (

@@ -66,9 +66,11 @@ class EnvConfig:
     #: Make-up torque of the drill-pipe connections (N m): exceeding it terminates.
     makeup_torque: Positive = Field(default=40.0e3, le=1.0e7)
     #: "settled": start at the scenario's operating point in steady rotation (see
-    #: ``Simulator.reset``); "paper": ramp the rpm over 10 s, hold 10 s off bottom,
-    #: apply the WOB at 20 s, then hand over to the agent.
-    startup: Literal["settled", "paper"] = "settled"
+    #: ``Simulator.reset``); "stalled": the same twist, but the string below the top drive
+    #: at rest, as after a stall: the bit sticks at once and, where stick-slip can live,
+    #: the first cycle is full size (the control tasks start so); "paper": ramp the rpm
+    #: over 10 s, hold 10 s off bottom, apply the WOB at 20 s, then hand over.
+    startup: Literal["settled", "stalled", "paper"] = "settled"
     #: Relative kick of the bit speed after a settled start, drawn uniformly in
     #: +-start_kick from the episode's ``np_random``: steady rotation is an equilibrium,
     #: and the kick lets seeds start different episodes (the benchmark and the control

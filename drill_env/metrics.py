@@ -201,7 +201,8 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
     ``channels`` names the record columns (the simulator's ``RECORD_CHANNELS``). Returns
     the :data:`WINDOW_METRICS`: ``ssi, stuck_fraction, whirl_ratio, radial_ratio (mean),
     radial_ratio_max, lateral_force (mean), lateral_force_max, rop, mse,
-    top_drive_energy, surface_torque_max, whirl_fraction, backward_whirl_fraction``.
+    top_drive_energy, surface_torque_max, whirl_fraction, backward_whirl_fraction,
+    mean_bit_speed``.
     """
     col = {name: k for k, name in enumerate(channels)}
     rec = np.asarray(records, dtype=float)
@@ -229,6 +230,7 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
         "whirl_fraction": float(np.mean(whirling(radial, c("whirl_speed"), c("bit_speed")))),
         "backward_whirl_fraction": float(np.mean(
             backward_whirling(radial, c("whirl_speed"), c("bit_speed")))),
+        "mean_bit_speed": float(np.mean(c("bit_speed"))),
     }
 
 
@@ -244,7 +246,7 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
 Metric = IntEnum("Metric", [
     "SSI", "STUCK_FRACTION", "WHIRL_RATIO", "RADIAL_RATIO", "RADIAL_RATIO_MAX",
     "LATERAL_FORCE", "LATERAL_FORCE_MAX", "ROP", "MSE", "TOP_DRIVE_ENERGY",
-    "SURFACE_TORQUE_MAX", "WHIRL_FRACTION", "BACKWARD_WHIRL_FRACTION",
+    "SURFACE_TORQUE_MAX", "WHIRL_FRACTION", "BACKWARD_WHIRL_FRACTION", "MEAN_BIT_SPEED",
 ], start=0)
 WINDOW_METRICS: tuple[str, ...] = tuple(m.name.lower() for m in Metric)
 #: The record channels the metrics read, in the order of :func:`metric_columns`.
@@ -426,6 +428,7 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
         floor = SSI_MIN_MEAN_SPEED
     out[Metric.SSI] = (w_max - w_min) / (2.0 * floor)
     out[Metric.STUCK_FRACTION] = stuck / n
+    out[Metric.MEAN_BIT_SPEED] = mean_speed
     whirl = _pairwise_sum(samples[Sample.WHIRL_SPEED], tasks, partial) / n
     out[Metric.WHIRL_RATIO] = whirl / math.copysign(floor, mean_speed if mean_speed != 0 else
                                                     1.0)

@@ -53,11 +53,13 @@ class DrillStringVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int = 1,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+                 env_class: type[DrillStringEnv] | str | None = None,
                  **env_kwargs: Any) -> None:
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
         self.autoreset_mode = AutoresetMode(autoreset_mode)
-        self.envs = [DrillStringEnv(**env_kwargs) for _ in range(num_envs)]
+        cls = env_class_of(env_class)
+        self.envs = [cls(**env_kwargs) for _ in range(num_envs)]
         self.num_envs = int(num_envs)
         self._batch = EnvBatch(self.num_envs)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
@@ -278,15 +280,18 @@ def _sb3_class() -> type:
         ``seed(s)`` seeds env i with ``s + i`` at the next ``reset``.
         """
 
-        def __init__(self, num_envs: int = 1, **env_kwargs: Any) -> None:
+        def __init__(self, num_envs: int = 1,
+                     env_class: type[DrillStringEnv] | str | None = None,
+                     **env_kwargs: Any) -> None:
             if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
                 raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
+            self.env_class = env_class_of(env_class)
             self.env_kwargs = dict(env_kwargs)
             super().__init__([self._make_env for _ in range(int(num_envs))])
             self._batch = EnvBatch(self.num_envs)
 
         def _make_env(self) -> DrillStringEnv:
-            return DrillStringEnv(**self.env_kwargs)
+            return self.env_class(**self.env_kwargs)
 
         def step_wait(self):
             results = step_all(self.envs, self.actions, self._batch)
@@ -308,12 +313,52 @@ def _sb3_class() -> type:
     return _SB3_CLASS
 
 
-def make_sb3_vec_env(num_envs: int = 1, **env_kwargs: Any):
-    """A Stable-Baselines3 ``VecEnv`` of ``num_envs`` drill-string envs (imports SB3)."""
+def make_sb3_vec_env(num_envs: int = 1, env_id: str | None = None, **env_kwargs: Any):
+    """A Stable-Baselines3 ``VecEnv`` of ``num_envs`` drill-string envs (imports SB3).
+
+    ``env_id``: a registered id (``DrillStickSlip-v0``, ...) whose class and default
+    keywords to use; ``env_kwargs`` override its keywords. Default: ``DrillString-v0``."""
+    if env_id is not None:
+        cls, defaults = registered(env_id)
+        env_kwargs = {**defaults, **env_kwargs}
+        env_kwargs.setdefault("env_class", cls)
     return _sb3_class()(num_envs=num_envs, **env_kwargs)
 
 
-def __getattr__(name: str) -> Any:
-    if name == "DrillStringSB3VecEnv":
-        return _sb3_class()
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+def env_class_of(env_class: type[DrillStringEnv] | str | None) -> type[DrillStringEnv]:
+    """The env class: a class, ``"module:Class"`` or None (``DrillStringEnv``)."""
+    if env_class is None:
+        return DrillStringEnv
+    if isinstance(env_class, str):
+        import importlib
+
+        module, _, name = env_class.partition(":")
+        env_class = getattr(importlib.import_module(module), name)
+    if not (isinstance(env_class, type) and issubclass(env_class, DrillStringEnv)):
+        raise ValueError(f"env_class: must be DrillStringEnv or a subclass, got {env_class!r}")
+    return env_class
+
+
+def registered(env_id: str) -> tuple[type[DrillStringEnv], dict[str, Any]]:
+    """Class and default keywords of a registered drill-env id."""
+    import gymnasium
+
+    import drill_env  # noqa: F401  (registers the ids)
+
+    spec = gymnasium.spec(env_id)
+    entry = spec.entry_point
+    if not isinstance(entry, str):
+        raise ValueError(f"env_id: {env_id} has no importable entry point")
+    return env_class_of(entry), dict(spec.kwargs or {})
+
+
+def stick_slip_vector_env(num_envs: int = 1, **kwargs: Any) -> DrillStringVectorEnv:
+    """``gymnasium.make_vec("DrillStickSlip-v0", num_envs)``: batched task 1."""
+    return DrillStringVectorEnv(num_envs, env_class="drill_env.tasks.stick_slip:StickSlipEnv",
+                                **kwargs)
+
+
+def drilling_vector_env(num_envs: int = 1, **kwargs: Any) -> DrillStringVectorEnv:
+    """``gymnasium.make_vec("DrillOptimise-v0", num_envs)``: batched task 2."""
+    return DrillStringVectorEnv(num_envs, env_class="drill_env.tasks.drilling:DrillingEnv",
+                                **kwargs)

@@ -196,6 +196,7 @@ def _top_drive(p, state, m, work):
     mode = p[P.TD_FEEDBACK]
     if mode != _NO_FEEDBACK:
         sp -= _torque_feedback(p, state, mode)
+    sp += state[S.SPEED_CORRECTION]
     err = sp - m.vt[0]
     t_unsat = p[P.KP] * err + p[P.KI] * state[S.PI_INTEGRAL]
     t_max = p[P.TORQUE_MAX]

@@ -83,6 +83,8 @@ S = IntEnum("S", [
     "TD_BAND_1",          # band-pass filter state 1 (N m s^2)
     "TD_BAND_2",          # band-pass filter state 2 (N m s)
     "TD_CORRECTION",      # speed command correction of the torque feedback (rad/s)
+    "SPEED_CORRECTION",   # correction added to the speed command after the set-point rate
+                          # limit (rad/s): a policy acting as a stick-slip controller
 ], start=0)
 N_STATE = len(S)
 

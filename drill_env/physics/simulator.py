@@ -508,6 +508,20 @@ class Simulator:
             self.state[S.ROP] = doc * max(omega, 0.0) / (2 * np.pi)
         self.read()
 
+    @property
+    def speed_correction(self) -> float:
+        """Added to the speed command after the set-point rate limit (rad/s), held until
+        changed: the command of a stick-slip controller acting at the policy rate (the
+        set-point ramp protects the driller's set points, not a controller's fast
+        corrections). ``reset`` sets it to 0."""
+        return float(self.state[S.SPEED_CORRECTION])
+
+    @speed_correction.setter
+    def speed_correction(self, value: float) -> None:
+        if not math.isfinite(value):
+            raise ValueError(f"speed_correction: must be finite, got {value}")
+        self.state[S.SPEED_CORRECTION] = value
+
     def advance(self, n_steps: int, speed_setpoint: float | None = None,
                 hook_load: float | None = None, record_every: int = 0,
                 read: bool = False) -> np.ndarray:

@@ -63,8 +63,8 @@ def _sb3_vec_env(n: int, override: dict[str, str]):
     """The Stable-Baselines3 VecEnv of ``n`` envs, or None without SB3 installed."""
     from drill_env.vector import make_sb3_vec_env
 
-    return make_sb3_vec_env(n, episode_duration=1e6,
-                            **({"physics": dict(override)} if override else {}))
+    kwargs: dict = {"physics": dict(override)} if override else {}
+    return make_sb3_vec_env(n, episode_duration=1e6, **kwargs)
 
 
 def _python_overhead(env, action: np.ndarray, n_steps: int) -> dict[str, float]:

@@ -1,0 +1,92 @@
+"""A trained policy behind the controller interface: the controller ``learned``.
+
+``LearnedController.load()`` takes a run folder of ``drill-env train``
+(``logs/runs/<name>``: its best model on the validation seeds if there is one, else its
+final model) or a shipped policy (``agents/trained/<task>/``, the default). It acts in
+the env of its task (``env_id``) with the env keywords it was trained with, normalises
+the observation with the training statistics (VecNormalize, frozen) and predicts
+deterministically. Policy rate.
+"""
+
+from __future__ import annotations
+
+import pickle
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import yaml
+
+from agents.base import Rate
+
+#: Shipped policies, one folder per task: model.zip, vecnormalize.pkl, config.yaml,
+#: README.md (how it was trained, the command that reproduces it).
+TRAINED = Path(__file__).resolve().parent / "trained"
+#: Env id -> task name of the shipped policies.
+TASK_OF_ENV = {"DrillStickSlip-v0": "stick_slip", "DrillOptimise-v0": "drilling"}
+
+
+class LearnedController:
+    """A Stable-Baselines3 policy with its observation normalisation."""
+
+    name: ClassVar[str] = "learned"
+    rate: ClassVar[Rate] = "policy"
+
+    def __init__(self, model: Any, normalizer: Any, env_id: str, env_kwargs: dict[str, Any],
+                 source: Path) -> None:
+        self.model = model
+        self.normalizer = normalizer
+        self.env_id = env_id
+        self._env_kwargs = dict(env_kwargs)
+        self.source = source
+
+    @classmethod
+    def load(cls, path: str | Path | None = None, env_id: str | None = None
+             ) -> LearnedController:
+        """From a run folder or a shipped policy folder; default: the shipped policy of
+        ``env_id``'s task (``DrillStickSlip-v0`` when none is given)."""
+        if path is None:
+            task = TASK_OF_ENV.get(env_id or "DrillStickSlip-v0")
+            if task is None:
+                raise ValueError(f"learned: no shipped policy for {env_id}; known: "
+                                 f"{sorted(TASK_OF_ENV)}")
+            path = TRAINED / task
+        folder = Path(path)
+        model_file, norm_file = _files(folder)
+        config = yaml.safe_load((folder / "config.yaml").read_text())
+        from training.config import TASKS
+
+        algo = config.get("algo", "ppo")
+        from stable_baselines3 import PPO, SAC
+
+        algo_class: Any = {"ppo": PPO, "sac": SAC}[algo]
+        model = algo_class.load(str(model_file), device="cpu")
+        with norm_file.open("rb") as f:
+            normalizer = pickle.load(f)  # a VecNormalize without its venv: statistics only
+        normalizer.training = False
+        return cls(model, normalizer, TASKS[config["task"]], config.get("env_kwargs", {}),
+                   folder)
+
+    def env_kwargs(self) -> dict[str, Any]:
+        return dict(self._env_kwargs)
+
+    def physics(self) -> dict[str, Any]:
+        return {}  # the task's top drive (stiff PI) with the policy's correction
+
+    def reset(self, env: Any) -> None:
+        pass
+
+    def act(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        obs = self.normalizer.normalize_obs(np.asarray(observation, dtype=np.float32)[None])
+        action, _ = self.model.predict(obs, deterministic=True)
+        return np.asarray(action[0], dtype=np.float32)
+
+
+def _files(folder: Path) -> tuple[Path, Path]:
+    """(model, normalisation) of a run or policy folder: the best model if kept."""
+    for model, norm in (("best_model.zip", "best_vecnormalize.pkl"),
+                        ("model.zip", "vecnormalize.pkl")):
+        if (folder / model).exists() and (folder / norm).exists():
+            return folder / model, folder / norm
+    raise FileNotFoundError(f"learned: {folder} holds no model.zip + vecnormalize.pkl "
+                            "(a run folder of drill-env train or a shipped policy)")

@@ -1,0 +1,211 @@
+"""``DrillOptimise-v0``: the agent is the driller, choosing rpm and WOB set points."""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from pydantic import Field
+
+from drill_env.env import OBS_BOUND, DrillStringEnv
+from drill_env.metrics import Metric
+from drill_env.physics.layout import READ
+from drill_env.physics.units import HOUR, RPM
+from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass
+from drill_env.tasks.telemetry import Telemetry, TelemetryKind
+
+#: What the task sets differently from ``DrillString-v0`` unless the caller says otherwise.
+ENV_DEFAULTS: dict[str, Any] = {
+    # the randomised sandwich-crossing distribution: at 10-40 m/h the bit drills
+    # 1-3 m in an episode and crosses the dipping layer near it
+    "scenario": "random",
+    "fidelity": "fast",
+    # a driller's rate: one decision a second (an autodriller's loop; people act every
+    # 10-60 s), 300 decisions an episode
+    "control_interval": 1.0,
+    "episode_duration": 300.0,
+    # the set points' ranges: 40-200 rpm; 40-140 kN, the most WOB the realistic strings
+    # carry without compressing their heavy-weight pipe beyond its buckling load
+    "rpm_range": (40.0, 200.0),
+    "weight_on_bit_range": (40.0e3, 140.0e3),
+    "start_kick": 0.02,
+}
+
+
+@config_dataclass
+class DrillingTask:
+    """Observation and reward of the drilling-optimisation task (weights per second)."""
+
+    #: Depth per time: ``rop_weight * ROP / rop_reference`` (30 m/h: a good PDC run in
+    #: hard rock); the value of progress.
+    rop_weight: NonNegative = Field(default=1.0, le=1.0e6)
+    rop_reference: Positive = Field(default=30.0 / HOUR, le=1.0)
+    #: Vibration damage: SSI (capped) and stuck share of the 3 s window, and the share of
+    #: the step the bit whirls (``metrics.whirling``: off centre and orbiting; a bit
+    #: resting off centre in its clearance is not damage).
+    stick_slip_weight: NonNegative = Field(default=1.0, le=1.0e6)
+    stuck_weight: NonNegative = Field(default=1.0, le=1.0e6)
+    whirl_weight: NonNegative = Field(default=1.0, le=1.0e6)
+    ssi_cap: Positive = Field(default=2.0, le=1.0e3)
+    #: Bit wear per second ``(rpm / 100)^wear_exponent (WOB / 100 kN)``: cutter wear grows
+    #: with the sliding distance (rpm), faster than linearly as the cutters heat, and with
+    #: the load (the form of Bourgoyne & Young's 1974 wear law, exponent 1.5). With
+    #: ROP ~ rpm x WOB below the founder point, depth per unit wear falls as rpm^-0.5, so
+    #: the best speed is finite (~90-100 rpm averaged over the rocks at this weight, where
+    #: the corner 200 rpm / 140 kN nets about nothing) and WOB beyond the founder point
+    #: costs wear without depth.
+    wear_weight: NonNegative = Field(default=0.4, le=1.0e6)
+    wear_exponent: Positive = Field(default=1.5, le=5.0)
+    #: Energy: top-drive power / 100 kW (a mid-size top drive runs at 100-400 kW).
+    energy_weight: NonNegative = Field(default=0.05, le=1.0e6)
+    failure_weight: NonNegative = Field(default=10.0, le=1.0e6)
+    #: Frames of history in the observation (control steps).
+    history: Count = Field(default=4, ge=1, le=1000)
+    #: Downhole data (bit speed, SSI, stuck share, radial displacement) comes only
+    #: through this (drill_env.tasks.telemetry).
+    telemetry: TelemetryKind = "mud_pulse"
+
+
+TASK_FIELDS = frozenset(DrillingTask.__dataclass_fields__)
+FRAME = ("surface_torque", "rop", "speed_setpoint", "weight_on_bit_setpoint")
+EXTRAS = ("telemetry_bit_speed", "telemetry_ssi", "telemetry_stuck_fraction",
+          "telemetry_radial_ratio", "telemetry_age")
+
+
+class DrillingEnv(DrillStringEnv):
+    r"""Drilling optimisation: the agent chooses the rpm and WOB set points.
+
+    ## Description
+
+    The bit drills the randomised sandwich-crossing scenario (three jittered rocks, a
+    dipping layer near the bit, a symmetric or asymmetric bit) for 300 s; once a second
+    the agent sets the surface rpm and the WOB, as a driller (or an autodriller) does.
+    The reward is depth per time minus vibration damage and cost: the ROP law has a
+    founder point (more WOB is not always more ROP), bit wear grows with rpm^1.5 x WOB,
+    stick-slip lives at low rpm and high WOB, so no corner is best. The top drive runs
+    its stiff PI loop. Baselines: the rule-based driller and the best constant set
+    point of a grid search (docs/tasks.md).
+
+    ## Action Space
+
+    ``Box(-1, 1, (2,), float32)``: absolute set points, rpm in ``rpm_range`` (40-200)
+    and WOB in ``weight_on_bit_range`` (40-140 kN), clipped; the top drive's
+    acceleration and the drawworks' rate limit how fast they are reached.
+
+    ## Observation Space
+
+    ``Box(-10, 10, (4 history + 5,), float32)``, oldest frame first. Each frame: surface
+    torque / ``torque_scale``, ROP / ``rop_reference`` (measured at the surface), rpm set
+    point / 200 rpm, WOB set point / 140 kN. Then the mud-pulse telemetry: bit speed /
+    set point, min(SSI, cap) / cap, stuck share, radial displacement / clearance, and
+    the age of that message / 10 s.
+
+    ## Rewards
+
+    Per step: ``rop_weight ROP / rop_reference - stick_slip_weight min(SSI, cap) -
+    stuck_weight stuck - whirl_weight whirl share - wear_weight (rpm/100)^1.5 (WOB/100 kN) -
+    energy_weight P_td / 100 kW``; ``-failure_weight`` on termination. Terms in
+    ``info["reward_terms"]``.
+
+    ## Starting State, Episode End, Info, Arguments
+
+    As ``DrillString-v0``: settled at the scenario's start point, kicked 2 %; 300 s
+    episodes. Every field of :class:`DrillingTask` and every ``DrillString-v0`` keyword
+    is an argument of ``gymnasium.make("DrillOptimise-v0", ...)``.
+
+    ## Version History
+
+    - v0: initial version.
+    """
+
+    def __init__(self, scenario: str = ENV_DEFAULTS["scenario"],
+                 task: DrillingTask | dict | None = None, **kwargs: Any) -> None:
+        given = {k: kwargs.pop(k) for k in list(kwargs) if k in TASK_FIELDS}
+        base = task if isinstance(task, DrillingTask) else DrillingTask(**(task or {}))
+        from drill_env.physics.config import replace
+
+        self.task = replace(base, **given) if given else base
+        for key, value in ENV_DEFAULTS.items():
+            if key != "scenario":
+                kwargs.setdefault(key, value)
+        super().__init__(scenario, **kwargs)
+        self.observation_names = tuple(f"{name}[{k}]" for k in range(self.task.history)
+                                       for name in FRAME) + EXTRAS
+        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND,
+                                            shape=(len(self.observation_names),),
+                                            dtype=np.float32)
+        self._init_task_state()
+
+    def _observation_plan(self) -> list[tuple[int, float]]:
+        return []  # the task builds its own observation (_observation)
+
+    def _init_task_state(self) -> None:
+        self._history: deque[list[float]] = deque(maxlen=self.task.history)
+        self._telemetry = Telemetry(self.task.telemetry, 4)
+        self._telemetry_started = False
+        self._step_rop = 0.0
+
+    def _init_episode_state(self) -> None:
+        super()._init_episode_state()
+        if hasattr(self, "task"):
+            self._init_task_state()
+
+    # ------------------------------------------------------------------ reward
+
+    def _reward_terms(self, step: tuple[list[float], bool] | None, terminated: bool
+                      ) -> dict[str, float]:
+        t = self.task
+        values = step[0] if step is not None and step[1] else None
+        rop = values[Metric.ROP] if values is not None else 0.0
+        whirl = values[Metric.WHIRL_FRACTION] if values is not None else 1.0
+        power = values[Metric.TOP_DRIVE_ENERGY] / self.config.control_interval \
+            if values is not None else 0.0
+        self._step_rop = rop
+        window = self._window_metrics
+        values = window[0] if window is not None and window[1] else None
+        stuck = values[Metric.STUCK_FRACTION] if values is not None else 1.0
+        ssi = self._window_ssi()
+        rpm, wob = self._speed_target / RPM, self._wob_target
+        return {
+            "rop": t.rop_weight * rop / t.rop_reference,
+            "stick_slip": -t.stick_slip_weight * min(ssi, t.ssi_cap),
+            "stuck": -t.stuck_weight * stuck,
+            "whirl": -t.whirl_weight * whirl,
+            "wear": -t.wear_weight * (rpm / 100.0) ** t.wear_exponent * (wob / 100.0e3),
+            "energy": -t.energy_weight * power / 100.0e3,
+            "failure": -t.failure_weight if terminated else 0.0,
+        }
+
+    # ------------------------------------------------------------------ observation
+
+    def _observation(self, info: dict[str, Any]) -> np.ndarray:
+        t = self.task
+        r = self._readings
+        frame = [r[READ.SURFACE_TORQUE] / self.config.torque_scale,
+                 self._step_rop / t.rop_reference,
+                 self._speed_target / (200.0 * RPM), self._wob_target / 140.0e3]
+        if not self._history:
+            self._history.extend([frame] * t.history)
+        else:
+            self._history.append(frame)
+        window = self._window_metrics
+        values = window[0] if window is not None and window[1] else None
+        floor = max(abs(self._speed_target), 1e-6)
+        downhole = [r[READ.BIT_SPEED] / floor,
+                    min(self._window_ssi(), t.ssi_cap) / t.ssi_cap if values else 0.0,
+                    values[Metric.STUCK_FRACTION] if values else 0.0,
+                    values[Metric.RADIAL_RATIO] if values else 0.0]
+        now = r[READ.TIME]
+        if not self._telemetry_started:
+            self._telemetry.reset(now)
+            self._telemetry_started = True
+        held = self._telemetry.update(now, downhole)
+        age = min(self._telemetry.age(now), 100.0) / 10.0
+        raw = [v for f in self._history for v in f] + [*held, age]
+        obs = np.clip(np.nan_to_num(np.array(raw, dtype=np.float64), nan=0.0),
+                      -OBS_BOUND, OBS_BOUND).astype(np.float32)
+        self._last_obs = obs
+        return obs.copy()
+

@@ -1,0 +1,61 @@
+"""Downhole data as a surface controller gets it: sampled, delayed, held.
+
+A mud-pulse MWD tool sends a few words every couple of seconds (1-10 bit/s) and the
+pressure pulses need about a second per 1.2 km to reach the surface, plus decoding; wired
+drill pipe delivers ~10 samples a second within tens of milliseconds. :class:`Telemetry`
+samples a vector of downhole values every ``period`` seconds and delivers it ``delay``
+seconds later; between deliveries the last delivered message is held (zeros before the
+first one arrives, with ``age`` telling how old the held message is).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Literal
+
+#: (period, delay) in seconds of each telemetry kind ("none": nothing is delivered).
+TELEMETRY: dict[str, tuple[float, float]] = {
+    # mud pulse: one message every 2 s (~10 words at a few bit/s), 3 s of pulse travel
+    # and decoding on a 1-2 km well
+    "mud_pulse": (2.0, 3.0),
+    # wired drill pipe: 10 samples/s, 50 ms latency
+    "wired_pipe": (0.1, 0.05),
+}
+TelemetryKind = Literal["mud_pulse", "wired_pipe", "none"]
+
+
+class Telemetry:
+    """Sample-and-delay channel for a fixed-length vector of downhole values."""
+
+    def __init__(self, kind: TelemetryKind, size: int) -> None:
+        if kind != "none" and kind not in TELEMETRY:
+            raise ValueError(f"telemetry: must be one of {sorted(TELEMETRY)} or 'none', got "
+                             f"{kind!r}")
+        self.kind = kind
+        self.size = size
+        self.period, self.delay = TELEMETRY.get(kind, (float("inf"), 0.0))
+        self.reset(0.0)
+
+    def reset(self, time: float) -> None:
+        self._next_sample = time
+        self._in_flight: deque[tuple[float, list[float]]] = deque()
+        self.held = [0.0] * self.size
+        self.sent_at = time - 1.0e9
+
+    def update(self, time: float, values: list[float]) -> list[float]:
+        """Sample ``values`` if a period has passed, deliver what has arrived by ``time``;
+        returns the held message."""
+        if self.kind == "none":
+            return self.held
+        if time >= self._next_sample - 1e-9:
+            self._in_flight.append((time + self.delay, list(values)))
+            self._next_sample = time + self.period
+        while self._in_flight and self._in_flight[0][0] <= time + 1e-9:
+            arrival, message = self._in_flight.popleft()
+            self.held = message
+            self.sent_at = arrival - self.delay
+        return self.held
+
+    def age(self, time: float) -> float:
+        """Seconds since the held message was sampled downhole."""
+        return time - self.sent_at

@@ -1,0 +1,59 @@
+"""Copy a training run's policy into agents/trained/<task>/ (the controller ``learned``).
+
+    .venv/bin/python scripts/ship_policy.py logs/runs/stick_slip_ppo_seed0
+
+Copies the best model on the validation seeds (else the final one) with its
+VecNormalize statistics and the run's config, and writes a README with the command that
+reproduces it, its env steps and wall time. Refuses a policy over 2 MB.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+from pathlib import Path
+
+import yaml
+
+from agents.learned import TRAINED, _files
+
+LIMIT = 2 * 1024 * 1024
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", type=Path)
+    args = parser.parse_args()
+    config = yaml.safe_load((args.run / "config.yaml").read_text())
+    info = json.loads((args.run / "run.json").read_text())
+    model, norm = _files(args.run)
+    size = model.stat().st_size + norm.stat().st_size
+    if size > LIMIT:
+        raise SystemExit(f"{model} + {norm}: {size / 1e6:.1f} MB, over the 2 MB limit")
+    target = TRAINED / config["task"]
+    target.mkdir(parents=True, exist_ok=True)
+    shutil.copy(model, target / "model.zip")
+    shutil.copy(norm, target / "vecnormalize.pkl")
+    shutil.copy(args.run / "config.yaml", target / "config.yaml")
+    best = "best model on the validation seeds" if model.name.startswith("best") else \
+        "final model"
+    (target / "README.md").write_text(f"""# Shipped policy: {config['task']}
+
+{config['algo'].upper()} on `{info['env_id']}`, seed {config['seed']}: the {best} of a run
+of {info['env_steps']:,} env steps ({config['n_envs']} batched envs) that took
+{info['wall_s'] / 60:.0f} min on {info['machine']}. Reproduce with
+
+    drill-env train --task {config['task']} --algo {config['algo']} --seed {config['seed']}
+
+(hyperparameters: `training/hyperparams/{config['task']}.yml`, copied here as
+`config.yaml`). Use it as the controller `learned`
+(`drill-env benchmark --task {config['task']} --controllers learned,...`); measured
+results: docs/tasks.md.
+""")
+    print(f"shipped {model.name} ({size / 1e3:.0f} kB) to {target}")
+
+
+if __name__ == "__main__":
+    main()

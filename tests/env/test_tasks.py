@@ -1,0 +1,164 @@
+"""The control tasks: spaces, targets, telemetry, rewards, batching, baselines."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import drill_env  # noqa: F401
+from drill_env.physics.units import RPM
+from drill_env.tasks.telemetry import Telemetry
+
+TASKS = ("DrillStickSlip-v0", "DrillOptimise-v0")
+
+
+@pytest.mark.parametrize("env_id", TASKS)
+def test_task_passes_gymnasiums_checker(env_id):
+    env = gym.make(env_id, episode_duration=5.0)
+    check_env(env.unwrapped, skip_render_check=True)
+
+
+@pytest.mark.parametrize("env_id", TASKS)
+def test_same_seed_same_episode_and_seeds_differ(env_id):
+    def run(seed):
+        env = gym.make(env_id, episode_duration=4.0)
+        obs, _ = env.reset(seed=seed)
+        out = [obs]
+        for _ in range(10):
+            obs, *_ = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+            out.append(obs)
+        return np.array(out)
+
+    np.testing.assert_array_equal(run(5), run(5))
+    assert not np.array_equal(run(5), run(6))
+
+
+def test_stick_slip_targets_are_drawn_in_range_and_observed():
+    env = gym.make("DrillStickSlip-v0")
+    base = env.unwrapped
+    speeds = []
+    for seed in range(20):
+        obs, info = env.reset(seed=seed)
+        speed, wob = base.targets
+        assert 40.0 * RPM <= speed <= 100.0 * RPM and 70e3 <= wob <= 130e3
+        assert obs[-6] == pytest.approx(speed / (100.0 * RPM), rel=1e-6)  # target rpm entry
+        assert info["target_speed"] == speed
+        speeds.append(speed)
+    assert np.std(speeds) > 10.0 * RPM
+
+
+def test_stick_slip_target_changes_once_during_some_episodes():
+    env = gym.make("DrillStickSlip-v0", target_change_probability=1.0,
+                   target_change_time=(1.0, 1.0))
+    obs, info = env.reset(seed=3)
+    first = env.unwrapped.targets
+    for _ in range(15):
+        obs, _, _, _, info = env.step(np.zeros(1, dtype=np.float32))
+    second = env.unwrapped.targets
+    assert second != first
+    assert 5.0 <= abs(second[0] - first[0]) / RPM <= 20.0 + 1e-9
+    assert info["target_speed"] == second[0]
+
+
+def test_stick_slip_correction_reaches_the_top_drive_at_once():
+    """+1 asks for target + 30 rpm through Simulator.speed_correction, past the set-point
+    ramp: within a second the surface speed is there (the PI loop's time constant)."""
+    env = gym.make("DrillStickSlip-v0", startup="settled", start_kick=0.0,
+                   target_change_probability=0.0)
+    obs, info = env.reset(seed=1, options={"surface_speed": 60 * RPM,
+                                           "weight_on_bit": 60e3})
+    for _ in range(10):
+        obs, _, _, _, info = env.step(np.ones(1, dtype=np.float32))
+    assert info["correction"] == pytest.approx(30 * RPM)
+    assert info["surface_speed"] == pytest.approx(90 * RPM, rel=0.05)
+    assert info["speed_setpoint"] == pytest.approx(60 * RPM)
+
+
+def test_stick_slip_reward_has_no_rop_term_and_punishes_the_shortcut():
+    """Turning 30 rpm faster cures stick-slip but misses the target: the tracking term
+    makes it cost more than the stick-slip it avoids (design note, lesson 4)."""
+    env = gym.make("DrillStickSlip-v0", target_change_probability=0.0)
+    totals = {}
+    for a in (0.0, 1.0):
+        obs, info = env.reset(seed=7, options={"surface_speed": 50 * RPM,
+                                               "weight_on_bit": 110e3})
+        terms: dict[str, float] = {}
+        while True:
+            obs, r, term, trunc, info = env.step(np.array([a], dtype=np.float32))
+            for k, v in info["reward_terms"].items():
+                terms[k] = terms.get(k, 0.0) + v
+            if term or trunc:
+                break
+        assert "rop" not in terms
+        totals[a] = terms
+    assert totals[1.0]["stick_slip"] > totals[0.0]["stick_slip"]  # less stick-slip ...
+    assert sum(totals[1.0].values()) < sum(totals[0.0].values())  # ... but worse overall
+
+
+def test_mud_pulse_telemetry_is_sampled_delayed_and_held():
+    tele = Telemetry("mud_pulse", 1)
+    got = [tele.update(t, [t])[0] for t in np.arange(0.0, 10.01, 0.1)]
+    times = np.arange(0.0, 10.01, 0.1)
+    assert all(v == 0.0 for v, t in zip(got, times, strict=True) if t < 3.0 - 1e-9)
+    for v, t in zip(got, times, strict=True):
+        if t >= 3.0 - 1e-9:  # the message sampled at the last multiple of 2 s, 3 s ago
+            assert v == pytest.approx(2.0 * np.floor((t - 3.0 + 1e-9) / 2.0), abs=1e-6)
+    with pytest.raises(ValueError, match="telemetry"):
+        Telemetry("smoke", 1)
+
+
+@pytest.mark.parametrize("env_id", TASKS)
+def test_batched_task_env_follows_the_single_env(env_id):
+    from drill_env.vector import make_sb3_vec_env
+
+    venv = make_sb3_vec_env(2, env_id=env_id, episode_duration=10.0)  # no reset in 5 steps
+    venv.seed(11)
+    obs = venv.reset()
+    single = gym.make(env_id, episode_duration=10.0)
+    ref, _ = single.reset(seed=12)
+    np.testing.assert_array_equal(obs[1], ref)
+    action = np.full((2,) + single.action_space.shape, 0.3, dtype=np.float32)
+    for _ in range(5):
+        obs, rew, done, _ = venv.step(action)
+        ref, r, *_ = single.step(action[1])
+    np.testing.assert_array_equal(obs[1], ref)
+    assert rew[1] == r
+
+
+def test_make_vec_builds_the_batched_task():
+    venv = gym.make_vec("DrillStickSlip-v0", num_envs=2, episode_duration=2.0)
+    obs, _ = venv.reset(seed=0)
+    assert obs.shape == (2, venv.single_observation_space.shape[0])
+    obs, *_ = venv.step(np.zeros((2, 1), dtype=np.float32))
+    assert np.all(np.isfinite(obs))
+
+
+def test_drilling_task_founder_point_makes_more_weight_worse_in_soft_rock():
+    """Above the founder WOB the depth of cut falls: holding 140 kN in homogeneous soft
+    rock drills slower than 100 kN (founder 111 kN) and wears the bit more."""
+    from drill_env.scenarios import SOFT
+
+    physics = {"formation.rocks": [vars_of(SOFT)], "formation.interfaces": [],
+               "formation.layers": [0]}
+    rewards = {}
+    for wob in (100e3, 140e3):
+        env = gym.make("DrillOptimise-v0", scenario="default", physics=physics,
+                       episode_duration=30.0)
+        base = env.unwrapped
+        env.reset(seed=0, options={"surface_speed": 120 * RPM, "weight_on_bit": wob})
+        terms: dict[str, float] = {}
+        for _ in range(30):
+            _, _, _, _, info = env.step(base.action_for(120 * RPM, wob))
+            for k, v in info["reward_terms"].items():
+                terms[k] = terms.get(k, 0.0) + v
+        rewards[wob] = terms
+    assert rewards[140e3]["rop"] < rewards[100e3]["rop"]
+    assert rewards[140e3]["wear"] < rewards[100e3]["wear"]
+
+
+def vars_of(rock):
+    import dataclasses
+
+    return {f.name: getattr(rock, f.name) for f in dataclasses.fields(rock)}

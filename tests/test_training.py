@@ -1,0 +1,134 @@
+"""The training pipeline at CI size: train, save, reload, evaluate, resume."""
+
+from __future__ import annotations
+
+import csv
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+from agents.learned import LearnedController
+from agents.registry import make_controller
+from drill_cli.main import main
+from training.config import load_config
+from training.train import train
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("runs") / "tiny"
+    cfg = load_config("stick_slip", "ppo", n_timesteps=2048, n_envs=4, eval_freq=1024,
+                      eval_episodes=2, checkpoint_freq=1024,
+                      env_kwargs={"episode_duration": 3.0})
+    hyper = dict(cfg.hyperparams, n_steps=128, batch_size=128, n_epochs=2)
+    from drill_env.physics.config import replace
+
+    cfg = replace(cfg, hyperparams=hyper)
+    train(cfg, folder, progress=False)
+    return folder, cfg
+
+
+def test_a_run_folder_holds_everything(run):
+    folder, cfg = run
+    for name in ("config.yaml", "model.zip", "vecnormalize.pkl", "best_model.zip",
+                 "best_vecnormalize.pkl", "evaluations.csv", "learning_curve.png",
+                 "run.json"):
+        assert (folder / name).exists(), name
+    assert yaml.safe_load((folder / "config.yaml").read_text())["n_timesteps"] == 2048
+    with (folder / "evaluations.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["timesteps"]) for r in rows] == [1024, 2048]
+    assert list((folder / "checkpoints").glob("model_*_steps.zip"))
+    assert list((folder / "tb").iterdir())
+
+
+def test_reloaded_policy_acts_deterministically_with_its_normalisation(run):
+    folder, _ = run
+    controller = make_controller(f"learned:{folder}")
+    assert isinstance(controller, LearnedController)
+    assert controller.env_id == "DrillStickSlip-v0"
+
+    def episode():
+        env = gym.make(controller.env_id, **controller.env_kwargs())
+        obs, info = env.reset(seed=123)
+        controller.reset(env.unwrapped)
+        actions, total = [], 0.0
+        while True:
+            a = controller.act(obs, info)
+            actions.append(a.copy())
+            obs, r, term, trunc, info = env.step(a)
+            total += r
+            if term or trunc:
+                return np.array(actions), total
+
+    (a1, r1), (a2, r2) = episode(), episode()
+    np.testing.assert_array_equal(a1, a2)
+    assert r1 == r2
+    # the normalisation is the training one, frozen
+    assert controller.normalizer.training is False
+    assert controller.normalizer.obs_rms.count > 1000
+
+
+def test_evaluate_runs_the_policy_through_the_benchmark(run, tmp_path):
+    folder, _ = run
+    code = main(["evaluate", str(folder), "--seeds", "2", "--workers", "1",
+                 "--out", str(tmp_path)])
+    assert code == 0
+    with (tmp_path / "benchmark.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert {r["controller"] for r in rows} == {"learned", "stiff", "soft-speed",
+                                               "soft-torque", "z-torque", "driller"}
+    assert {int(r["seed"]) for r in rows} == {1_000_000, 1_000_001}
+    # same targets for every controller of a seed
+    for seed in ("1000000", "1000001"):
+        assert len({r["target_rpm"] for r in rows if r["seed"] == seed}) == 1
+
+
+def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
+    """A resumed run may run longer (n_timesteps), not with other settings."""
+    import shutil
+
+    from drill_env.physics.config import replace
+
+    folder, cfg = run
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    with pytest.raises(ValueError, match="another config"):
+        train(replace(cfg, seed=5), copy, resume=True, progress=False)
+    train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
+    with (copy / "evaluations.csv").open() as f:
+        steps = [int(r["timesteps"]) for r in csv.DictReader(f)]
+    assert steps[:2] == [1024, 2048] and steps[-1] == 3072
+
+
+def test_train_command_names_bad_input(capsys):
+    with pytest.raises(SystemExit):
+        main(["train", "--task", "juggling"])
+    assert "--task" in capsys.readouterr().err
+
+
+def test_the_standard_rl_zoo3_client_trains_a_task(tmp_path):
+    """``python -m rl_zoo3.train --gym-packages drill_env --conf-file training.zoo.ppo``."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("rl_zoo3")
+    result = subprocess.run(
+        [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "DrillStickSlip-v0",
+         "--gym-packages", "drill_env", "--conf-file", "training.zoo.ppo", "-n", "512",
+         "--eval-freq", "-1", "-f", str(tmp_path), "--hyperparams", "n_envs:2",
+         "n_steps:256", "batch_size:256", "--env-kwargs", "episode_duration:3.0"],
+        capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert list(tmp_path.glob("ppo/DrillStickSlip-v0_1/DrillStickSlip-v0.zip"))
+
+
+def test_zoo_hyperparameters_are_the_yaml_ones():
+    from training.zoo import zoo_hyperparams
+
+    zoo = zoo_hyperparams("ppo")["DrillStickSlip-v0"]
+    cfg = load_config("stick_slip", "ppo")
+    assert zoo["n_timesteps"] == cfg.n_timesteps and zoo["gamma"] == cfg.hyperparams["gamma"]
+    assert zoo["policy_kwargs"] == cfg.policy_kwargs

@@ -1,0 +1,73 @@
+"""``drill-env evaluate RUN``: a trained policy through the controller benchmark.
+
+The policy (the controller ``learned``, from the run folder) and the classical
+controllers act in the run's task env on the held-out seeds
+(``drill_env.scenarios.EVALUATION_SEEDS``, never used in training or model selection),
+each from the same targets and start; the benchmark writes its table, csv and plots to
+``RUN/evaluation/``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from agents.benchmark import BenchmarkSettings, label, run_benchmark
+from agents.registry import CLASSICAL
+from drill_env.scenarios import EVALUATION_SEEDS
+from training.config import TASKS
+
+#: Per task: (episode seconds, warm-up seconds the metrics leave out). Task 1 starts with
+#: the bit stuck; 5 s lets every controller take hold before the metrics start. Task 2
+#: is judged over its whole episode after the first 10 s.
+EVALUATION_WINDOWS = {"stick_slip": (30.0, 5.0), "drilling": (300.0, 10.0)}
+
+
+#: The constant set points the drilling task's grid search tries (rpm, kN): its whole
+#: action range in 5 x 5 steps.
+GRID_RPM = (40.0, 80.0, 120.0, 160.0, 200.0)
+GRID_KN = (40.0, 65.0, 90.0, 115.0, 140.0)
+#: Training-distribution seeds the grid search picks its point on (not held out).
+GRID_SEEDS = tuple(range(8))
+
+
+def settings_of(task: str, fidelity: str = "fast") -> BenchmarkSettings:
+    duration, warmup = EVALUATION_WINDOWS[task]
+    return BenchmarkSettings(duration=duration, warmup=warmup, start_kick=0.02,
+                             fidelity=fidelity)
+
+
+def best_constant(out: Path, workers: int | None = None, progress: bool = True
+                  ) -> tuple[str, list[dict[str, Any]]]:
+    """The drilling task's best constant set point: the grid point of highest mean return
+    on ``GRID_SEEDS`` (training seeds). Returns its controller name and the grid rows."""
+    names = [f"constant:{r:g}/{w:g}" for r in GRID_RPM for w in GRID_KN]
+    rows = run_benchmark(names, ["random"], list(GRID_SEEDS), out, settings_of("drilling"),
+                         workers=workers, progress=progress, env_id=TASKS["drilling"])
+    means: dict[str, list[float]] = {}
+    for row in rows:
+        means.setdefault(row["controller"], []).append(row["episode_return"])
+    best = max(means, key=lambda c: sum(means[c]) / len(means[c]))
+    return names[[label(n) for n in names].index(best)], rows
+
+
+def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | None = None,
+                 out: Path | None = None, controllers: tuple[str, ...] = CLASSICAL,
+                 progress: bool = True) -> list[dict[str, Any]]:
+    """Benchmark ``learned:<run>`` against ``controllers`` on ``seeds`` held-out seeds;
+    for the drilling task also against the best constant set point of a grid search."""
+    config = yaml.safe_load((Path(run) / "config.yaml").read_text())
+    task = config["task"]
+    if seeds > len(EVALUATION_SEEDS):
+        raise ValueError(f"seeds: at most {len(EVALUATION_SEEDS)} held-out seeds")
+    out = out or Path(run) / "evaluation"
+    names = [f"learned:{run}", *controllers]
+    if task == "drilling":
+        constant, _ = best_constant(out / "grid_search", workers, progress)
+        names.append(constant)
+    fidelity = config.get("env_kwargs", {}).get("fidelity", "fast")
+    return run_benchmark(names, ["random"], list(EVALUATION_SEEDS[:seeds]), out,
+                         settings_of(task, fidelity), workers=workers, progress=progress,
+                         env_id=TASKS[task])

@@ -1,0 +1,237 @@
+"""Train PPO or SAC on a control task: ``drill-env train --task stick_slip``.
+
+A run lives in ``logs/runs/<name>/``:
+
+==========================  ===========================================================
+``config.yaml``             the exact :class:`~training.config.TrainConfig` of the run
+``model.zip``               the final model; ``vecnormalize.pkl`` its normalisation
+``best_model.zip``          the best model on the validation seeds (+ its
+                            ``best_vecnormalize.pkl``)
+``checkpoints/``            models every ``checkpoint_freq`` steps (resume from the last)
+``evaluations.csv``         validation return, SSI, stuck share per evaluation
+``learning_curve.png``      the validation curve, redrawn at every evaluation
+``tb/``                     TensorBoard logs
+``run.json``                seeds, env steps, wall time, versions
+==========================  ===========================================================
+
+The training envs are the batched SB3 VecEnv (:func:`drill_env.vector.make_sb3_vec_env`):
+all envs' physics in one compiled call per step. Training seeds lie below
+``VALIDATION_SEED``; the evaluation callback replays fixed validation seeds (deterministic
+policy, the training normalisation frozen), so its curve is comparable across
+evaluations.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import platform
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from drill_env.physics.validation import jsonable
+from training.config import VALIDATION_SEED, TrainConfig
+
+ALGOS = ("ppo", "sac")
+
+
+def _algo_class(name: str) -> Any:
+    from stable_baselines3 import PPO, SAC
+
+    return {"ppo": PPO, "sac": SAC}[name]
+
+
+def make_train_env(config: TrainConfig, seed: int) -> Any:
+    """The batched training VecEnv, seeded, wrapped in VecNormalize."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from drill_env.vector import make_sb3_vec_env
+
+    venv = make_sb3_vec_env(config.n_envs, env_id=config.env_id, **config.env_kwargs)
+    venv.seed(seed)
+    n = config.normalize
+    return VecNormalize(venv, norm_obs=n.norm_obs, norm_reward=n.norm_reward,
+                        clip_obs=n.clip_obs, gamma=n.gamma)
+
+
+def evaluate_policy_on_seeds(model: Any, normalizer: Any, env: Any, seeds: list[int]
+                             ) -> dict[str, float]:
+    """Deterministic episodes on ``seeds``: mean return, SSI and stuck share (info)."""
+    returns, ssi, stuck = [], [], []
+    for seed in seeds:
+        obs, info = env.reset(seed=seed)
+        total, ssis, stucks = 0.0, [], []
+        while True:
+            a, _ = model.predict(normalizer.normalize_obs(obs[None]), deterministic=True)
+            obs, reward, terminated, truncated, info = env.step(a[0])
+            total += float(reward)
+            ssis.append(info["ssi"])
+            stucks.append(info["stuck_fraction"])
+            if terminated or truncated:
+                break
+        returns.append(total)
+        ssi.append(float(np.mean(ssis)))
+        stuck.append(float(np.mean(stucks)))
+    return {"return": float(np.mean(returns)), "return_std": float(np.std(returns)),
+            "ssi": float(np.mean(ssi)), "stuck_fraction": float(np.mean(stuck))}
+
+
+def _callbacks(config: TrainConfig, run: Path, train_env: Any) -> list[Any]:
+    import gymnasium as gym
+    from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+
+    seeds = list(range(VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes))
+    eval_env = gym.make(config.env_id, **config.env_kwargs)
+    per_env = max(1, config.eval_freq // config.n_envs)
+
+    class SeededEval(BaseCallback):
+        """EvalCallback on fixed validation seeds: the same episodes every time."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.best = -np.inf
+            self.path = run / "evaluations.csv"
+
+        def _on_step(self) -> bool:
+            if self.n_calls % per_env:
+                return True
+            self.evaluate()
+            return True
+
+        def evaluate(self) -> None:
+            result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
+            row = {"timesteps": self.num_timesteps, **result,
+                   "wall_s": time.perf_counter() - self._t0}
+            new = not self.path.exists()
+            with self.path.open("a", newline="") as f:
+                writer = csv.DictWriter(f, fieldnames=list(row))
+                if new:
+                    writer.writeheader()
+                writer.writerow(row)
+            for key in ("return", "ssi", "stuck_fraction"):
+                self.logger.record(f"validation/{key}", result[key])
+            if result["return"] > self.best:
+                self.best = result["return"]
+                self.model.save(run / "best_model.zip")
+                train_env.save(str(run / "best_vecnormalize.pkl"))
+            plot_learning_curve(run)
+
+        def _on_training_start(self) -> None:
+            self._t0 = time.perf_counter()
+
+    class SaveNormalizer(BaseCallback):
+        """Keeps vecnormalize.pkl beside every checkpoint (resume needs both)."""
+
+        def _on_step(self) -> bool:
+            if self.n_calls % max(1, config.checkpoint_freq // config.n_envs) == 0:
+                train_env.save(str(run / "checkpoints" / f"vecnormalize_{self.num_timesteps}"
+                                                         ".pkl"))
+            return True
+
+    checkpoints = CheckpointCallback(max(1, config.checkpoint_freq // config.n_envs),
+                                     str(run / "checkpoints"), name_prefix="model")
+    return [SeededEval(), checkpoints, SaveNormalizer()]
+
+
+def _latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
+    found = []
+    for path in (run / "checkpoints").glob("model_*_steps.zip"):
+        steps = int(path.stem.split("_")[1])
+        norm = run / "checkpoints" / f"vecnormalize_{steps}.pkl"
+        if norm.exists():
+            found.append((steps, path, norm))
+    if not found:
+        return None
+    _, model, norm = max(found)
+    return model, norm
+
+
+def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool = True
+          ) -> Path:
+    """Train (or resume) the run in folder ``run``; returns the path of the final model."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    run.mkdir(parents=True, exist_ok=True)
+    saved = run / "config.yaml"
+    if resume and saved.exists():
+        old = yaml.safe_load(saved.read_text())
+        new = jsonable(config)
+        if {k: v for k, v in old.items() if k != "n_timesteps"} != \
+                {k: v for k, v in new.items() if k != "n_timesteps"}:
+            raise ValueError(f"resume: {run} was trained with another config (only "
+                             "n_timesteps may change); start a new run name or drop --resume")
+    saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
+    algo = _algo_class(config.algo)
+    latest = _latest_checkpoint(run) if resume else None
+    env = make_train_env(config, config.seed)
+    if latest is not None:
+        model_path, norm_path = latest
+        env = VecNormalize.load(str(norm_path), env.venv)
+        model = algo.load(str(model_path), env=env, tensorboard_log=str(run / "tb"))
+        print(f"resuming from {model_path.name} ({model.num_timesteps} steps)")
+    else:
+        policy_kwargs = dict(config.policy_kwargs)
+        if config.algo == "sac":  # SAC's net_arch is per network; a list is shared
+            policy_kwargs.setdefault("net_arch", [256, 256])
+        model = algo(config.policy, env, seed=config.seed, verbose=0,
+                     policy_kwargs=policy_kwargs, tensorboard_log=str(run / "tb"),
+                     **config.hyperparams)
+    t0 = time.perf_counter()
+    remaining = max(0, config.n_timesteps - model.num_timesteps)
+    model.learn(remaining, callback=_callbacks(config, run, env), progress_bar=progress,
+                reset_num_timesteps=latest is None, tb_log_name=config.algo)
+    wall = time.perf_counter() - t0
+    model.save(run / "model.zip")
+    env.save(str(run / "vecnormalize.pkl"))
+    info = {"env_id": config.env_id, "algo": config.algo, "seed": config.seed,
+            "env_steps": int(model.num_timesteps), "wall_s_this_session": wall,
+            "validation_seeds": [VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes],
+            "machine": platform.platform(), "python": platform.python_version()}
+    previous = json.loads((run / "run.json").read_text()) if (run / "run.json").exists() \
+        else {}
+    info["wall_s"] = previous.get("wall_s", 0.0) + wall if latest else wall
+    (run / "run.json").write_text(json.dumps(info, indent=2))
+    plot_learning_curve(run)
+    env.close()
+    return run / "model.zip"
+
+
+def plot_learning_curve(run: Path) -> Path | None:
+    """``learning_curve.png``: validation return, SSI and stuck share against env steps."""
+    path = run / "evaluations.csv"
+    if not path.exists():
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        return None
+    steps = np.array([float(r["timesteps"]) for r in rows])
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
+    ret = np.array([float(r["return"]) for r in rows])
+    std = np.array([float(r["return_std"]) for r in rows])
+    axes[0].plot(steps, ret, "o-", ms=3)
+    axes[0].fill_between(steps, ret - std, ret + std, alpha=0.2)
+    axes[0].set_ylabel("validation return (mean +- std)")
+    axes[1].plot(steps, [float(r["ssi"]) for r in rows], "o-", ms=3, label="SSI")
+    axes[1].plot(steps, [float(r["stuck_fraction"]) for r in rows], "s-", ms=3,
+                 label="stuck share")
+    axes[1].legend(fontsize=8)
+    axes[1].set_ylabel("episode mean")
+    for ax in axes:
+        ax.set_xlabel("env steps")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{run.name}: deterministic policy on the fixed validation seeds")
+    fig.tight_layout()
+    out = run / "learning_curve.png"
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
