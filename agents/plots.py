@@ -90,7 +90,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, ncol=len(controllers), loc="upper right")
     axes[-1].set_xlabel("time (s)")
-    axes[0].set_title(f"{scenario}: each controller at the scenario's set points "
+    axes[0].set_title(f"{scenario}: every controller from the same start and targets "
                       "(first seed; grey: warm-up, not in the metrics)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -37,8 +37,15 @@ def main() -> None:
     shutil.copy(model, target / "model.zip")
     shutil.copy(norm, target / "vecnormalize.pkl")
     shutil.copy(args.run / "config.yaml", target / "config.yaml")
-    best = "best model on the validation seeds" if model.name.startswith("best") else \
-        "final model"
+    best = "final model"
+    if model.name.startswith("best"):
+        import csv
+
+        with (args.run / "evaluations.csv").open() as f:
+            rows = list(csv.DictReader(f))
+        top = max(rows, key=lambda r: float(r["return"]))
+        best = (f"best model on the validation seeds (after {int(top['timesteps']):,} steps, "
+                f"{float(top['wall_s']) / 60:.0f} min; validation SSI {float(top['ssi']):.2f})")
     (target / "README.md").write_text(f"""# Shipped policy: {config['task']}
 
 {config['algo'].upper()} on `{info['env_id']}`, seed {config['seed']}: the {best} of a run

@@ -214,7 +214,7 @@ def plot_learning_curve(run: Path) -> Path | None:
         rows = list(csv.DictReader(f))
     if not rows:
         return None
-    steps = np.array([float(r["timesteps"]) for r in rows])
+    steps = np.array([float(r["timesteps"]) for r in rows]) / 1e3
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
     ret = np.array([float(r["return"]) for r in rows])
     std = np.array([float(r["return_std"]) for r in rows])
@@ -225,9 +225,9 @@ def plot_learning_curve(run: Path) -> Path | None:
     axes[1].plot(steps, [float(r["stuck_fraction"]) for r in rows], "s-", ms=3,
                  label="stuck share")
     axes[1].legend(fontsize=8)
-    axes[1].set_ylabel("episode mean")
+    axes[1].set_ylabel("episode mean of the 3 s window")
     for ax in axes:
-        ax.set_xlabel("env steps")
+        ax.set_xlabel("env steps (thousands)")
         ax.grid(alpha=0.3)
     fig.suptitle(f"{run.name}: deterministic policy on the fixed validation seeds")
     fig.tight_layout()
