@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import Any
 
@@ -69,7 +70,12 @@ class DrillingTask:
 
 
 TASK_FIELDS = frozenset(DrillingTask.__dataclass_fields__)
-FRAME = ("surface_torque", "rop", "speed_setpoint", "weight_on_bit_setpoint")
+FRAME = ("surface_torque", "rop", "drillability", "speed_setpoint", "weight_on_bit_setpoint")
+#: Depth of cut per revolution and per newton of WOB that reads 1 in the observation
+#: (m/(rev N)): the hard rock preset reads 2, the soft one 4 (measured below the founder
+#: point, tests/env/test_tasks.py), so the feature sits in the O(1) range VecNormalize
+#: expects before its statistics settle.
+DRILLABILITY_SCALE = 2.0e-8
 EXTRAS = ("telemetry_bit_speed", "telemetry_ssi", "telemetry_stuck_fraction",
           "telemetry_radial_ratio", "telemetry_age")
 
@@ -96,11 +102,12 @@ class DrillingEnv(DrillStringEnv):
 
     ## Observation Space
 
-    ``Box(-10, 10, (4 history + 5,), float32)``, oldest frame first. Each frame: surface
-    torque / ``torque_scale``, ROP / ``rop_reference`` (measured at the surface), rpm set
-    point / 200 rpm, WOB set point / 140 kN. Then the mud-pulse telemetry: bit speed /
-    set point, min(SSI, cap) / cap, stuck share, radial displacement / clearance, and
-    the age of that message / 10 s.
+    ``Box(-10, 10, (5 history + 5,), float32)``, oldest frame first. Each frame: surface
+    torque / ``torque_scale``, ROP / ``rop_reference`` (measured at the surface), the
+    drillability ROP / (rev/s x WOB) / ``DRILLABILITY_SCALE`` (the mud logger's d-exponent
+    idea: which rock the bit is in), rpm set point / 200 rpm, WOB set point / 140 kN.
+    Then the mud-pulse telemetry: bit speed / set point, min(SSI, cap) / cap, stuck
+    share, radial displacement / clearance, and the age of that message / 10 s.
 
     ## Rewards
 
@@ -183,8 +190,12 @@ class DrillingEnv(DrillStringEnv):
     def _observation(self, info: dict[str, Any]) -> np.ndarray:
         t = self.task
         r = self._readings
+        # drillability: depth per revolution per newton of WOB, from surface data (what
+        # the mud logger's d-exponent measures): tells the rock under the bit apart
+        revs = max(self._speed_target, 1.0 * RPM) / (2.0 * math.pi)
+        drillability = self._step_rop / (revs * max(self._wob_target, 1.0e3))
         frame = [r[READ.SURFACE_TORQUE] / self.config.torque_scale,
-                 self._step_rop / t.rop_reference,
+                 self._step_rop / t.rop_reference, drillability / DRILLABILITY_SCALE,
                  self._speed_target / (200.0 * RPM), self._wob_target / 140.0e3]
         if not self._history:
             self._history.extend([frame] * t.history)

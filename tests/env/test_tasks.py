@@ -162,3 +162,27 @@ def vars_of(rock):
     import dataclasses
 
     return {f.name: getattr(rock, f.name) for f in dataclasses.fields(rock)}
+
+
+def test_drilling_observation_tells_the_rock_apart_by_its_drillability():
+    """The drillability feature (ROP per revolution per newton of WOB, from surface data)
+    reads O(1) in hard rock (2 by the scale's choice) and clearly more in soft rock at
+    the same set points (4: the soft rock's depth of cut per unit WOB is twice the hard
+    one's in the presets), so a policy can see which rock it is in."""
+    from drill_env.scenarios import HARD, SOFT
+    from drill_env.tasks.drilling import FRAME
+
+    readings = {}
+    for rock in (HARD, SOFT):
+        physics = {"formation.rocks": [vars_of(rock)], "formation.interfaces": [],
+                   "formation.layers": [0]}
+        env = gym.make("DrillOptimise-v0", scenario="default", physics=physics,
+                       episode_duration=30.0)
+        base = env.unwrapped
+        env.reset(seed=0, options={"surface_speed": 100 * RPM, "weight_on_bit": 80e3})
+        for _ in range(20):
+            obs, *_ = env.step(base.action_for(100 * RPM, 80e3))
+        last_frame = (base.task.history - 1) * len(FRAME)
+        readings[rock.name] = float(obs[last_frame + FRAME.index("drillability")])
+    assert 1.0 < readings["hard"] < 3.0
+    assert readings["soft"] > 1.5 * readings["hard"]
