@@ -102,7 +102,7 @@ class DrillingEnv(DrillStringEnv):
 
     ## Observation Space
 
-    ``Box(-10, 10, (5 history + 5,), float32)``, oldest frame first. Each frame: surface
+    ``Box(-10, 10, (history x 5 + 5,), float32)`` (history: 4 frames), oldest first. Frame:
     torque / ``torque_scale``, ROP / ``rop_reference`` (measured at the surface), the
     drillability ROP / (rev/s x WOB) / ``DRILLABILITY_SCALE`` (the mud logger's d-exponent
     idea: which rock the bit is in), rpm set point / 200 rpm, WOB set point / 140 kN.
