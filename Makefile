@@ -10,7 +10,7 @@ PIP := .venv/bin/pip
 	python3 -m venv .venv
 	$(PIP) install -q --upgrade pip
 	$(PIP) install -q torch==2.13.0
-	$(PIP) install -q -e ".[dev]"
+	$(PIP) install -q -e ".[dev,distributed]"
 	touch .venv/installed
 
 demo: .venv/installed

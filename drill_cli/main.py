@@ -206,7 +206,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
     rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,
-                         workers=args.workers, record=args.record, env_id=env_id)
+                         workers=args.workers, record=args.record, env_id=env_id,
+                         ray_address=args.ray_address)
     print(f"{len(rows)} episodes ({len(controllers)} controllers x {len(scenarios)} "
           f"scenarios x {args.seeds} seeds) in {time.perf_counter() - t0:.0f} s; finished "
           f"episodes found in {args.out / 'benchmark_results.jsonl'} were reused")
@@ -220,6 +221,11 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
                          seed=args.seed, n_envs=args.n_envs)
+    if args.seeds is not None:
+        return train_sweep(args, config)
+    if args.ray_address is not None:
+        raise argparse.ArgumentTypeError("--ray-address: a single run trains here; give "
+                                         "--seeds to fan several runs out")
     run = args.out / (args.name or f"{args.task}_{args.algo}_seed{config.seed}")
     print(f"training {config.algo.upper()} on {config.env_id}: {config.n_timesteps} env steps, "
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
@@ -227,6 +233,28 @@ def cmd_train(args: argparse.Namespace) -> int:
     model = train(config, run, resume=args.resume, progress=not args.no_progress)
     print(f"trained in {time.perf_counter() - t0:.0f} s: {model}, {run / 'vecnormalize.pkl'}, "
           f"{run / 'learning_curve.png'}; drill-env evaluate {run}")
+    return 0
+
+
+def train_sweep(args: argparse.Namespace, config) -> int:
+    from training.sweep import train_seeds
+
+    try:
+        seeds = [int(k) for k in args.seeds.split(",") if k.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--seeds: comma-separated integers, got "
+                                         f"{args.seeds!r}") from None
+    if args.name is not None or args.resume:
+        raise argparse.ArgumentTypeError("--seeds: runs are named <task>_<algo>_seed<k> and "
+                                         "always resume; drop --name / --resume")
+    t0 = time.perf_counter()
+    results = train_seeds(config, seeds, args.out, workers=args.workers,
+                          ray_address=args.ray_address, progress=not args.no_progress)
+    for r in results:
+        print(f"seed {r['seed']}: best validation return {r['best_return']} at "
+              f"{r['best_at_steps']} steps -> {r['run']}")
+    print(f"{len(results)} runs in {time.perf_counter() - t0:.0f} s; summary in "
+          f"{args.out / 'train_sweep.md'}")
     return 0
 
 
@@ -267,7 +295,8 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     maps = sm.stability_maps(names, args.rpm_step, args.wob_step * KILO, settings,
                              args.max_rpm, args.max_wob * KILO, progress=True, store=store,
-                             workers=args.workers, configs=configs)
+                             workers=args.workers, configs=configs,
+                             ray_address=args.ray_address)
     print(sm.format_maps(maps))
     runs = sum(m.runs for m in maps)
     cells = sum(m.unstable.size for m in maps)
@@ -431,6 +460,10 @@ def parser() -> argparse.ArgumentParser:
                    help="physics level (docs/performance.md)")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
+    p.add_argument("--ray-address", default=None,
+                   help="run the simulations on Ray: 'local' (a one-machine Ray here), "
+                        "'auto' (the cluster of `ray start` on this machine) or an address; "
+                        "needs the distributed extra (README: Scaling out on Ray)")
     p.add_argument("--record", action="store_true",
                    help="write one rerun recording per episode to --out/recordings, named "
                         "<controller>_<scenario>_seed<N>")
@@ -448,6 +481,14 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--n-envs", type=integer(1), default=None,
                    help="batched envs (default: the YAML's n_envs)")
     p.add_argument("--seed", type=integer(0), default=None, help="training seed")
+    p.add_argument("--seeds", default=None,
+                   help="comma-separated seeds: a seed sweep, one run per seed in parallel "
+                        "(resumable; summary in --out/train_sweep.md)")
+    p.add_argument("--workers", type=integer(1), default=None,
+                   help="with --seeds: local processes (default: one per seed)")
+    p.add_argument("--ray-address", default=None,
+                   help="with --seeds: train the runs on Ray ('local', 'auto' or an "
+                        "address; the distributed extra)")
     p.add_argument("--name", default=None,
                    help="run name (default: <task>_<algo>_seed<seed>)")
     p.add_argument("--resume", action="store_true",
@@ -484,6 +525,10 @@ def parser() -> argparse.ArgumentParser:
                    help="simulated seconds per grid point")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
+    p.add_argument("--ray-address", default=None,
+                   help="run the simulations on Ray: 'local' (a one-machine Ray here), "
+                        "'auto' (the cluster of `ray start` on this machine) or an address; "
+                        "needs the distributed extra (README: Scaling out on Ray)")
     p.add_argument("--out", type=Path, default=Path("logs"),
                    help="folder for stability_map.png/.json and the points file")
 

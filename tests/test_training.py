@@ -16,16 +16,21 @@ from training.config import load_config
 from training.train import train
 
 
+def tiny_config(**overrides):
+    """PPO on task 1 at CI size: 2048 steps, 3 s episodes, evaluated every 1024 steps."""
+    from drill_env.physics.config import replace
+
+    cfg = load_config("stick_slip", "ppo", n_timesteps=2048, n_envs=4, eval_freq=1024,
+                      eval_episodes=2, checkpoint_freq=1024,
+                      env_kwargs={"episode_duration": 3.0}, **overrides)
+    hyper = dict(cfg.hyperparams, n_steps=128, batch_size=128, n_epochs=2)
+    return replace(cfg, hyperparams=hyper)
+
+
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("runs") / "tiny"
-    cfg = load_config("stick_slip", "ppo", n_timesteps=2048, n_envs=4, eval_freq=1024,
-                      eval_episodes=2, checkpoint_freq=1024,
-                      env_kwargs={"episode_duration": 3.0})
-    hyper = dict(cfg.hyperparams, n_steps=128, batch_size=128, n_epochs=2)
-    from drill_env.physics.config import replace
-
-    cfg = replace(cfg, hyperparams=hyper)
+    cfg = tiny_config()
     train(cfg, folder, progress=False)
     return folder, cfg
 
@@ -132,3 +137,25 @@ def test_zoo_hyperparameters_are_the_yaml_ones():
     cfg = load_config("stick_slip", "ppo")
     assert zoo["n_timesteps"] == cfg.n_timesteps and zoo["gamma"] == cfg.hyperparams["gamma"]
     assert zoo["policy_kwargs"] == cfg.policy_kwargs
+
+
+def test_a_seed_sweep_trains_one_run_per_seed_and_skips_finished_ones(tmp_path):
+    from training.sweep import RESULTS_FILE, train_seeds
+
+    cfg = tiny_config()
+    results = train_seeds(cfg, [3, 4], tmp_path, workers=2, progress=False)
+    assert [r["seed"] for r in results] == [3, 4]
+    for r in results:
+        folder = tmp_path / f"stick_slip_ppo_seed{r['seed']}"
+        assert r["run"] == str(folder) and r["env_steps"] >= 2048
+        assert yaml.safe_load((folder / "config.yaml").read_text())["seed"] == r["seed"]
+        assert np.isfinite(r["best_return"])
+    assert "+-" in (tmp_path / "train_sweep.md").read_text()
+    stamp = (tmp_path / "stick_slip_ppo_seed3" / "run.json").stat().st_mtime_ns
+    # run again with one more seed: only seed 5 trains
+    again = train_seeds(cfg, [3, 4, 5], tmp_path, workers=1, progress=False)
+    assert [r["seed"] for r in again] == [3, 4, 5] and again[:2] == results
+    assert (tmp_path / "stick_slip_ppo_seed3" / "run.json").stat().st_mtime_ns == stamp
+    assert len((tmp_path / RESULTS_FILE).read_text().splitlines()) == 3
+    with pytest.raises(ValueError, match="seeds"):
+        train_seeds(cfg, [1, 1], tmp_path)

@@ -1,0 +1,183 @@
+"""Sweeps on Ray (drill_env.distributed): same numbers as local processes, a lost
+worker's task retried and counted once, an interrupted sweep resumed.
+
+The cluster is real: a head and two one-CPU worker nodes on this machine, started by
+``ray.cluster_utils.Cluster`` (separate GCS, raylet and worker processes per node); the
+sweep joins it by its address as it would join a remote one."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import ray
+from ray.cluster_utils import Cluster
+
+from drill_env.stability_map import MapSettings, stability_maps
+
+SETTINGS = MapSettings(seconds=4.0, measure=2.0)
+GRID = ([40.0, 80.0, 120.0], [40e3, 90e3, 140e3])
+POSITIONS = ["P1", "P4"]
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    c = Cluster(initialize_head=True,
+                head_node_args={"num_cpus": 0, "include_dashboard": False})
+    for _ in range(2):
+        c.add_node(num_cpus=1)
+    c.wait_for_nodes()
+    yield c
+    if ray.is_initialized():
+        ray.shutdown()
+    c.shutdown()
+
+
+@pytest.fixture(scope="module")
+def local_points(tmp_path_factory):
+    """The map's points computed on local processes, as stored."""
+    store = tmp_path_factory.mktemp("local") / "points.jsonl"
+    maps = stability_maps(POSITIONS, settings=SETTINGS, grid_points=GRID, store=store,
+                          workers=2)
+    return maps, points(store)
+
+
+def points(store: Path) -> dict[str, dict]:
+    lines = [json.loads(line) for line in store.read_text().splitlines()]
+    keys = [entry["key"] for entry in lines]
+    assert len(keys) == len(set(keys)), "a point was stored twice"
+    return {entry["key"]: entry["result"] for entry in lines}
+
+
+def same_maps(a_maps, b_maps):
+    for a, b in zip(a_maps, b_maps, strict=True):
+        np.testing.assert_array_equal(a.tested, b.tested)
+        np.testing.assert_array_equal(a.unstable, b.unstable)
+
+
+def test_a_map_on_a_ray_cluster_equals_the_local_process_map(cluster, local_points,
+                                                             tmp_path):
+    maps, expected = local_points
+    store = tmp_path / "points.jsonl"
+    on_ray = stability_maps(POSITIONS, settings=SETTINGS, grid_points=GRID, store=store,
+                            ray_address=cluster.address)
+    same_maps(on_ray, maps)
+    assert points(store) == expected  # every number, not just the map
+    assert not ray.is_initialized()  # the executor let go of the cluster
+
+
+def ray_task_processes() -> list[int]:
+    """Pids of Ray worker processes running a task now (their title is ray::_call)."""
+    pids = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            cmdline = Path(f"/proc/{entry}/cmdline").read_bytes()
+        except OSError:
+            continue
+        if cmdline.startswith(b"ray::_call"):
+            pids.append(int(entry))
+    return pids
+
+
+def test_a_killed_worker_loses_no_point_and_counts_none_twice(cluster, local_points,
+                                                            tmp_path):
+    maps, expected = local_points
+    killed: list[int] = []
+    stop = threading.Event()
+
+    def kill_one_busy_worker():
+        while not stop.is_set() and not killed:
+            for pid in ray_task_processes():
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+                break
+            time.sleep(0.01)
+
+    killer = threading.Thread(target=kill_one_busy_worker, daemon=True)
+    killer.start()
+    store = tmp_path / "points.jsonl"
+    simulated = []
+    try:
+        on_ray = stability_maps(POSITIONS, settings=SETTINGS, grid_points=GRID, store=store,
+                                ray_address=cluster.address,
+                                progress=lambda: simulated.append(1))
+    finally:
+        stop.set()
+        killer.join()
+    assert killed, "no busy worker was found to kill"
+    same_maps(on_ray, maps)
+    assert points(store) == expected
+    assert len(simulated) == len(expected)  # each point reported once
+
+
+def test_an_interrupted_ray_sweep_resumes_computing_only_the_missing_points(
+        cluster, local_points, tmp_path):
+    maps, expected = local_points
+    store = tmp_path / "points.jsonl"
+    calls = []
+
+    def stop_after_three():
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        stability_maps(POSITIONS, settings=SETTINGS, grid_points=GRID, store=store,
+                       ray_address=cluster.address, progress=stop_after_three)
+    assert len(points(store)) == 3
+    resumed = []
+    again = stability_maps(POSITIONS, settings=SETTINGS, grid_points=GRID, store=store,
+                           ray_address=cluster.address, progress=lambda: resumed.append(1))
+    assert len(resumed) == len(expected) - 3
+    same_maps(again, maps)
+    assert points(store) == expected
+
+
+def test_a_bad_ray_address_names_the_field():
+    from drill_env.distributed import RayExecutor
+
+    with pytest.raises(ValueError, match="ray_address"):
+        RayExecutor("")
+
+
+def test_the_stability_map_command_runs_on_the_cluster(cluster, tmp_path):
+    from drill_cli.main import main
+
+    args = ["stability-map", "--positions", "P1", "--rpm-step", "100", "--wob-step", "100",
+            "--max-rpm", "200", "--max-wob", "200", "--seconds", "4", "--out", str(tmp_path)]
+    assert main([*args, "--ray-address", cluster.address]) == 0
+    on_ray = points(tmp_path / "stability_map.points.jsonl")
+    local = tmp_path / "local"
+    assert main([*args[:-1], str(local), "--workers", "1"]) == 0
+    assert points(local / "stability_map.points.jsonl") == on_ray
+
+
+def test_a_training_seed_sweep_runs_its_trials_on_the_cluster(cluster, tmp_path):
+    from test_training import tiny_config
+
+    from training.sweep import train_seeds
+
+    results = train_seeds(tiny_config(), [7, 8], tmp_path, ray_address=cluster.address,
+                          progress=False)
+    assert [r["seed"] for r in results] == [7, 8]
+    for r in results:
+        assert (Path(r["run"]) / "model.zip").exists() and r["env_steps"] >= 2048
+
+
+def test_the_benchmark_on_the_cluster_equals_the_local_benchmark(cluster, tmp_path):
+    from agents.benchmark import BenchmarkSettings, run_benchmark
+
+    settings = BenchmarkSettings(duration=4.0, warmup=2.0, fidelity="fast")
+    args = (["stiff", "z-torque"], ["stick_slip"], [0, 1])
+    local = run_benchmark(*args, tmp_path / "local", settings, workers=2, progress=False)
+    on_ray = run_benchmark(*args, tmp_path / "ray", settings, ray_address=cluster.address,
+                           progress=False)
+    assert on_ray == local

@@ -1,0 +1,105 @@
+"""A training seed sweep: one run per seed, on local processes or on Ray.
+
+``drill-env train --task stick_slip --seeds 0,1,2,3 [--ray-address auto]`` trains the same
+config once per seed, each run in its own folder ``<out>/<task>_<algo>_seed<k>`` as a
+single ``drill-env train`` would, one run per worker (torch and numba single-threaded:
+the workers are the parallelism). Each finished run's summary is appended to
+``<out>/train_sweep.jsonl`` as it arrives; the sweep run again skips finished seeds, and
+a run whose worker died (or that was interrupted) resumes from its last checkpoint
+(SAC restarts its replay buffer there, see :func:`training.train.train`). The summary
+table is ``<out>/train_sweep.md``: validation return of the best model per seed, and
+mean +- std over seeds.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import hashlib
+import json
+import statistics
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from drill_env.physics.validation import jsonable
+from drill_env.sweep import ResultStore, make_executor
+from training.config import TrainConfig
+
+RESULTS_FILE = "train_sweep.jsonl"
+
+
+def run_name(config: TrainConfig) -> str:
+    return f"{config.task}_{config.algo}_seed{config.seed}"
+
+
+def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
+    """One seed's run (resumed from its last checkpoint if it has one)."""
+    import torch
+
+    from training.train import train
+
+    config, folder = args
+    torch.set_num_threads(1)
+    run = Path(folder)
+    train(config, run, resume=True, progress=False)
+    info = json.loads((run / "run.json").read_text())
+    with (run / "evaluations.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    best = max(rows, key=lambda r: float(r["return"])) if rows else None
+    return {"seed": config.seed, "run": str(run), "env_steps": info["env_steps"],
+            "wall_s": info["wall_s"],
+            "best_return": float(best["return"]) if best else None,
+            "best_at_steps": int(float(best["timesteps"])) if best else None,
+            "best_ssi": float(best["ssi"]) if best else None}
+
+
+def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
+                workers: int | None = None, ray_address: str | None = None,
+                progress: bool = True) -> list[dict[str, Any]]:
+    """Train ``config`` once per seed; returns one summary per seed, in seed order."""
+    from tqdm import tqdm
+
+    if not seeds or len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds: give distinct seeds, got {list(seeds)}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    common = {k: v for k, v in jsonable(config).items() if k != "seed"}
+    fingerprint = hashlib.sha256(json.dumps(common, sort_keys=True).encode()).hexdigest()[:16]
+    store = ResultStore(out / RESULTS_FILE, fingerprint)
+    configs = [dataclasses.replace(config, seed=int(s)) for s in seeds]
+    todo = [c for c in configs if str(c.seed) not in store]
+    if todo:
+        executor = make_executor(min(workers or len(todo), len(todo))
+                                 if ray_address is None else None, ray_address)
+        bar = tqdm(total=len(configs), initial=len(configs) - len(todo), unit="run",
+                   desc="training seeds", disable=not progress)
+        try:
+            items = [(c, str(out / run_name(c))) for c in todo]
+            for k, summary in executor.map_unordered(_train_task, items):
+                store.put(str(todo[k].seed), summary)
+                bar.update(1)
+        finally:
+            bar.close()
+            executor.close()
+    results = [store.get(str(c.seed)) for c in configs]
+    write_summary(results, out / "train_sweep.md", config)
+    return results
+
+
+def write_summary(results: list[dict[str, Any]], path: Path, config: TrainConfig) -> Path:
+    lines = [f"# Seed sweep: {config.algo.upper()} on {config.env_id}, "
+             f"{config.n_timesteps} env steps per seed", "",
+             "| seed | best validation return | at env steps | SSI there | wall s | run |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for r in results:
+        best = "-" if r["best_return"] is None else f"{r['best_return']:.1f}"
+        lines.append(f"| {r['seed']} | {best} | {r['best_at_steps']} | "
+                     f"{r['best_ssi'] if r['best_ssi'] is None else round(r['best_ssi'], 3)}"
+                     f" | {r['wall_s']:.0f} | {r['run']} |")
+    values = [r["best_return"] for r in results if r["best_return"] is not None]
+    if len(values) > 1:
+        lines += ["", f"Best validation return over seeds: {statistics.mean(values):.1f} +- "
+                      f"{statistics.stdev(values):.1f} (mean +- std, {len(values)} seeds)."]
+    path.write_text("\n".join(lines) + "\n")
+    return path
