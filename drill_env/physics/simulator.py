@@ -208,6 +208,7 @@ class Simulator:
         #: :meth:`read` (and by ``advance(..., read=True)`` and batched advances).
         self.readings = np.zeros(N_READINGS + self.rock_params.shape[0])
         self._warned_compression = False
+        self.resolved_weight_on_bit = self._resolved_weight_on_bit()
         self._bind_arrays(np.zeros((1, N_RECORD)))
         self.reset()
 
@@ -385,6 +386,8 @@ class Simulator:
         """
         if not self.config.solver.lateral or weight_on_bit <= 0.0:
             return
+        if weight_on_bit < self.resolved_weight_on_bit:
+            return  # below the precomputed limit: no per-step profile in Python
         mesh = self.mesh
         n = axial_force_profile(mesh, weight_on_bit, self.bit_buoyed_weight)
         limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
@@ -405,6 +408,22 @@ class Simulator:
                 f"({string.sections[index].label}, {mesh.element_length[worst]:.1f} m) to "
                 f"{ratio[worst]:.0%} of its own buckling load: refine "
                 f"string.{field_name}.element_length or reduce WOB")
+
+    def _resolved_weight_on_bit(self) -> float:
+        """A WOB (N) below which :meth:`check_mesh_resolves` cannot raise, so control
+        steps skip the axial profile. The force is affine in WOB (N_e = c_e - WOB), so
+        ratio_e > 0.8 iff WOB > c_e + 0.8 limit_e; the margin of 1e-9 relative keeps
+        rounding on the safe side: at and above it the full check decides as before."""
+        if not self.config.solver.lateral:
+            return math.inf
+        mesh = self.mesh
+        tension = axial_force_profile(mesh, 0.0, self.bit_buoyed_weight)
+        limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
+        allowed = (tension + 0.8 * limit)[self.lateral_start:]
+        if allowed.size == 0:
+            return math.inf
+        lowest = float(np.min(allowed))
+        return lowest - 1.0e-9 * abs(lowest)
 
     def _warn_if_straight_pipe_compressed(self, weight_on_bit: float) -> None:
         """Warn (once per simulator) if a laterally straight pipe would be in compression.

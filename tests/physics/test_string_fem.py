@@ -416,3 +416,32 @@ def test_span_thrown_at_the_wall_does_not_tunnel(speed):
           f"of {clearance * 1e3:.1f} mm clearance")
     assert 0.0 < peak < 0.5 * clearance
     assert peak == pytest.approx(fine, rel=0.1)
+
+
+def test_mesh_check_raises_exactly_where_an_element_passes_80_percent_of_its_buckling_load():
+    """The precomputed WOB limit (control steps skip the axial profile below it) must
+    give the same decision as the element-by-element ratio N_e / (pi^2 EI / L_e^2)."""
+    from drill_env.physics.fem import axial_force_profile
+    from drill_env.scenarios import make_scenario
+
+    sim = Simulator(make_scenario("default").config)
+    mesh = sim.mesh
+
+    def worst_ratio(wob):
+        n = axial_force_profile(mesh, wob, sim.bit_buoyed_weight)
+        limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
+        return float(np.max((-n / limit)[sim.lateral_start:]))
+
+    threshold = brentq(lambda w: worst_ratio(w) - 0.8, 1.0, 1.0e7, xtol=1e-6, rtol=1e-14)
+    assert sim.resolved_weight_on_bit == pytest.approx(threshold, rel=1e-8)
+    rng = np.random.default_rng(0)
+    for wob in np.concatenate([threshold * (1 + rng.uniform(-0.05, 0.05, 200)),
+                               threshold * (1 + np.array([-1e-6, 1e-6]))]):
+        if worst_ratio(wob) > 0.8:
+            with pytest.raises(ValueError, match="weight_on_bit"):
+                sim.check_mesh_resolves(wob)
+        else:
+            sim.check_mesh_resolves(wob)
+    # a control step asking for more stops the simulator with the reason
+    assert not sim.prepare(1, hook_load=sim.hook_load_for(1.01 * threshold))
+    assert "buckling load" in sim.status_message
