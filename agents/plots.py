@@ -83,11 +83,21 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     if not found:
         plt.close(fig)
         return
-    for ax, label in zip(axes, ("bit speed (rpm)", "torque on bit (kN m)",
-                                "bit radial position / clearance"), strict=True):
+    # the smallest span each axis shows (rpm, kN m, -): a steady run is a flat line,
+    # not its last digits magnified into what looks like an oscillation
+    spans = (20.0, 1.0, 0.2)
+    for ax, label, span in zip(axes, ("bit speed (rpm)", "torque on bit (kN m)",
+                                      "bit radial position / clearance"), spans,
+                               strict=True):
         ax.set_ylabel(label)
+        low, high = ax.get_ylim()
+        if high - low < span:
+            middle = 0.5 * (low + high)
+            ax.set_ylim(middle - 0.5 * span, middle + 0.5 * span)
+        ax.ticklabel_format(axis="y", useOffset=False)
         ax.axvspan(0.0, warmup, color="0.85", zorder=0)
         ax.grid(alpha=0.3)
+    axes[2].set_ylim(bottom=0.0)  # a distance
     axes[0].legend(fontsize=8, ncol=len(controllers), loc="upper right")
     axes[-1].set_xlabel("time (s)")
     axes[0].set_title(f"{scenario}: every controller from the same start and targets "

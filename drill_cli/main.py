@@ -209,8 +209,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                          workers=args.workers, record=args.record, env_id=env_id,
                          ray_address=args.ray_address)
     print(f"{len(rows)} episodes ({len(controllers)} controllers x {len(scenarios)} "
-          f"scenarios x {args.seeds} seeds) in {time.perf_counter() - t0:.0f} s; finished "
-          f"episodes found in {args.out / 'benchmark_results.jsonl'} were reused")
+          f"scenario(s) x {args.seeds} seeds) in {time.perf_counter() - t0:.0f} s; finished "
+          f"episodes are kept in {args.out / 'benchmark_results.jsonl'} (a rerun reuses "
+          "them)")
     print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md and the plots in {args.out}")
     return 0
 
@@ -231,8 +232,10 @@ def cmd_train(args: argparse.Namespace) -> int:
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
     t0 = time.perf_counter()
     model = train(config, run, resume=args.resume, progress=not args.no_progress)
-    print(f"trained in {time.perf_counter() - t0:.0f} s: {model}, {run / 'vecnormalize.pkl'}, "
-          f"{run / 'learning_curve.png'}; drill-env evaluate {run}")
+    curve = run / "learning_curve.png"
+    made = f", {curve}" if curve.exists() else " (no evaluation yet: no learning curve)"
+    print(f"trained in {time.perf_counter() - t0:.0f} s: {model}, {run / 'vecnormalize.pkl'}"
+          f"{made}; drill-env evaluate {run}")
     return 0
 
 
@@ -301,7 +304,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     runs = sum(m.runs for m in maps)
     cells = sum(m.unstable.size for m in maps)
     print(f"{runs} simulations of {args.seconds:.0f} s for {cells} grid points (boundary "
-          f"tracking; points found in {store.name} reused) in "
+          f"tracking; finished points are kept in {store} and reused by a rerun) in "
           f"{time.perf_counter() - t0:.1f} s")
     paths = sm.write_maps(maps, args.out, settings, args.controller or "stiff")
     print("wrote " + ", ".join(str(p) for p in paths))

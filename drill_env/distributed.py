@@ -53,6 +53,9 @@ class RayExecutor:
         self._ray = ray
         self._owns = not ray.is_initialized()
         if self._owns:
+            # Ray's C++ core logs every failed connection attempt at WARNING: keep the
+            # console for our progress bar and one clear error
+            os.environ.setdefault("RAY_BACKEND_LOG_LEVEL", "error")
             runtime_env = {"env_vars": dict(WORKER_ENV)}
             if ray_address == "local":
                 ray.init(num_cpus=os.cpu_count() or 1, include_dashboard=False,
@@ -94,8 +97,9 @@ class RayExecutor:
                         in_flight[self._remote.remote(fn_ref, item)] = k_next
                         break
         finally:
-            for ref in in_flight:
-                ray.cancel(ref, force=True)
+            if ray.is_initialized():  # not after close(): these refs belong to that session
+                for ref in in_flight:
+                    ray.cancel(ref, force=True)
 
     def close(self) -> None:
         if self._owns and self._ray.is_initialized():

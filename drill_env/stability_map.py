@@ -276,7 +276,7 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
         bar = tqdm(total=len(positions) * (len(rpm) + len(wob)), desc="  stability map",
                    unit="point", leave=False)
         tick = bar.update
-    executor = make_executor(workers, ray_address)
+    executor = None  # started at the first point to simulate (a finished map needs none)
     try:
         while True:
             wanted = {p: ij for p, t in trackers.items() if (ij := t.next_point()) is not None}
@@ -288,18 +288,24 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
                 if results is not None else {}
             tasks = [(configs[p], float(rpm[wanted[p][0]]), float(wob[wanted[p][1]]),
                       settings) for p in todo]
-            for k, result in executor.map_unordered(_point_task, tasks):
-                p = todo[k]
-                found[p] = result
-                runs[p] += 1
-                if results is not None:
-                    results.put(keys[p], result)
-                if tick is not None:
-                    tick()
+            if tasks:
+                if executor is None:
+                    executor = make_executor(workers, ray_address)
+                # the results' iterator is not kept in a variable: an exception (an
+                # interrupt) closes it at once, before the executor shuts down
+                for k, result in executor.map_unordered(_point_task, tasks):
+                    p = todo[k]
+                    found[p] = result
+                    runs[p] += 1
+                    if results is not None:
+                        results.put(keys[p], result)
+                    if tick is not None:
+                        tick()
             for p in wanted:
                 trackers[p].report(found[p]["stuck_fraction"] > 0.0)
     finally:
-        executor.close()
+        if executor is not None:
+            executor.close()
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - t0

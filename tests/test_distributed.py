@@ -165,11 +165,15 @@ def test_a_training_seed_sweep_runs_its_trials_on_the_cluster(cluster, tmp_path)
 
     from training.sweep import train_seeds
 
-    results = train_seeds(tiny_config(), [7, 8], tmp_path, ray_address=cluster.address,
+    # no evaluation within the run (eval_freq > steps): a short sweep still summarises
+    config = tiny_config(eval_freq=10**6)
+    results = train_seeds(config, [7, 8], tmp_path, ray_address=cluster.address,
                           progress=False)
     assert [r["seed"] for r in results] == [7, 8]
     for r in results:
         assert (Path(r["run"]) / "model.zip").exists() and r["env_steps"] >= 2048
+        assert r["best_return"] is None
+    assert "| 7 | - |" in (tmp_path / "train_sweep.md").read_text()
 
 
 def test_the_benchmark_on_the_cluster_equals_the_local_benchmark(cluster, tmp_path):

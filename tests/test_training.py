@@ -20,9 +20,9 @@ def tiny_config(**overrides):
     """PPO on task 1 at CI size: 2048 steps, 3 s episodes, evaluated every 1024 steps."""
     from drill_env.physics.config import replace
 
-    cfg = load_config("stick_slip", "ppo", n_timesteps=2048, n_envs=4, eval_freq=1024,
-                      eval_episodes=2, checkpoint_freq=1024,
-                      env_kwargs={"episode_duration": 3.0}, **overrides)
+    settings = {"n_timesteps": 2048, "n_envs": 4, "eval_freq": 1024, "eval_episodes": 2,
+                "checkpoint_freq": 1024, "env_kwargs": {"episode_duration": 3.0}}
+    cfg = load_config("stick_slip", "ppo", **{**settings, **overrides})
     hyper = dict(cfg.hyperparams, n_steps=128, batch_size=128, n_epochs=2)
     return replace(cfg, hyperparams=hyper)
 

@@ -44,8 +44,10 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     run = Path(folder)
     train(config, run, resume=True, progress=False)
     info = json.loads((run / "run.json").read_text())
-    with (run / "evaluations.csv").open() as f:
-        rows = list(csv.DictReader(f))
+    rows = []
+    if (run / "evaluations.csv").exists():  # none before the first evaluation
+        with (run / "evaluations.csv").open() as f:
+            rows = list(csv.DictReader(f))
     best = max(rows, key=lambda r: float(r["return"])) if rows else None
     return {"seed": config.seed, "run": str(run), "env_steps": info["env_steps"],
             "wall_s": info["wall_s"],
@@ -61,7 +63,7 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
     from tqdm import tqdm
 
     if not seeds or len(set(seeds)) != len(seeds):
-        raise ValueError(f"seeds: give distinct seeds, got {list(seeds)}")
+        raise ValueError(f"--seeds: give one or more distinct seeds, got {list(seeds)}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     common = {k: v for k, v in jsonable(config).items() if k != "seed"}
