@@ -63,6 +63,7 @@ from drill_env.physics.layout import (
 )
 from drill_env.physics.linalg import band_cholesky, cholesky_to_ldl
 from drill_env.physics.readings import advance_and_read, readout
+from drill_env.physics.statics import element_buckling_error, resolved_weight_on_bit
 
 __all__ = ["MAX_FILTER_W_DT", "RECORD_CHANNELS", "STATUS_MESSAGES", "OperatingPoint",
            "Simulator", "Status"]
@@ -208,7 +209,9 @@ class Simulator:
         #: :meth:`read` (and by ``advance(..., read=True)`` and batched advances).
         self.readings = np.zeros(N_READINGS + self.rock_params.shape[0])
         self._warned_compression = False
-        self.resolved_weight_on_bit = self._resolved_weight_on_bit()
+        #: WOB (N) below which no element is near its own buckling load
+        self.resolved_weight_on_bit = resolved_weight_on_bit(
+            self.config, self.mesh, self.bit_buoyed_weight, self.lateral_start)
         self._bind_arrays(np.zeros((1, N_RECORD)))
         self.reset()
 
@@ -378,52 +381,17 @@ class Simulator:
         return self.string_weight - weight_on_bit
 
     def check_mesh_resolves(self, weight_on_bit: float) -> None:
-        """Raise if an element is compressed beyond what one Hermite element can bend.
-
-        A single element buckles (pinned-pinned, its own length) at ~pi^2 EI / L_e^2; past
-        that the lumped tilt DOFs go spuriously unstable within milliseconds. Only the
-        coupled lateral model is affected.
-        """
+        """Raise if an element is compressed beyond what one Hermite element can bend
+        (:func:`~drill_env.physics.statics.element_buckling_error`); below
+        ``resolved_weight_on_bit`` at once, without the axial profile."""
         if not self.config.solver.lateral or weight_on_bit <= 0.0:
             return
         if weight_on_bit < self.resolved_weight_on_bit:
-            return  # below the precomputed limit: no per-step profile in Python
-        mesh = self.mesh
-        n = axial_force_profile(mesh, weight_on_bit, self.bit_buoyed_weight)
-        limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
-        ratio = -n / limit
-        ratio[: self.lateral_start] = 0.0  # pipe held straight: no lateral DOFs to buckle
-        worst = int(np.argmax(ratio))
-        if ratio[worst] > 0.8:
-            string = self.config.string
-            index = int(mesh.component[worst])
-            if index == 0:
-                field_name = "drill_pipe"
-            elif string.components:
-                field_name = f"components[{len(string.components) - index}]"
-            else:
-                field_name = "bha"
-            raise ValueError(
-                f"weight_on_bit={weight_on_bit:.0f} N compresses element {worst} "
-                f"({string.sections[index].label}, {mesh.element_length[worst]:.1f} m) to "
-                f"{ratio[worst]:.0%} of its own buckling load: refine "
-                f"string.{field_name}.element_length or reduce WOB")
-
-    def _resolved_weight_on_bit(self) -> float:
-        """A WOB (N) below which :meth:`check_mesh_resolves` cannot raise, so control
-        steps skip the axial profile. The force is affine in WOB (N_e = c_e - WOB), so
-        ratio_e > 0.8 iff WOB > c_e + 0.8 limit_e; the margin of 1e-9 relative keeps
-        rounding on the safe side: at and above it the full check decides as before."""
-        if not self.config.solver.lateral:
-            return math.inf
-        mesh = self.mesh
-        tension = axial_force_profile(mesh, 0.0, self.bit_buoyed_weight)
-        limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
-        allowed = (tension + 0.8 * limit)[self.lateral_start:]
-        if allowed.size == 0:
-            return math.inf
-        lowest = float(np.min(allowed))
-        return lowest - 1.0e-9 * abs(lowest)
+            return
+        message = element_buckling_error(self.config, self.mesh, weight_on_bit,
+                                         self.bit_buoyed_weight, self.lateral_start)
+        if message:
+            raise ValueError(message)
 
     def _warn_if_straight_pipe_compressed(self, weight_on_bit: float) -> None:
         """Warn (once per simulator) if a laterally straight pipe would be in compression.

@@ -10,6 +10,7 @@ w the buoyed weight per length), ~8 kN for 5 in drill pipe.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -109,3 +110,52 @@ def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBu
         if compression > limit:
             out.append(PipeBuckling(section.label, compression, limit))
     return out
+
+
+#: An element may carry this share of its own (pinned-pinned, element-length) buckling
+#: load: past ~pi^2 EI / L_e^2 the lumped tilt DOFs of one Hermite element go spuriously
+#: unstable within milliseconds (coupled lateral model only).
+ELEMENT_BUCKLING_SHARE = 0.8
+
+
+def element_buckling_error(config: SimulationConfig, mesh, weight_on_bit: float,
+                           bit_weight: float, lateral_start: int) -> str:
+    """Why ``weight_on_bit`` (N) compresses an element with lateral DOFs (from
+    ``lateral_start`` on) beyond what it resolves, naming the field to refine; "" if
+    none does."""
+    n = axial_force_profile(mesh, weight_on_bit, bit_weight)
+    limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
+    ratio = -n / limit
+    ratio[:lateral_start] = 0.0  # pipe held straight: no lateral DOFs to buckle
+    worst = int(np.argmax(ratio))
+    if ratio[worst] <= ELEMENT_BUCKLING_SHARE:
+        return ""
+    string = config.string
+    index = int(mesh.component[worst])
+    if index == 0:
+        field_name = "drill_pipe"
+    elif string.components:
+        field_name = f"components[{len(string.components) - index}]"
+    else:
+        field_name = "bha"
+    return (f"weight_on_bit={weight_on_bit:.0f} N compresses element {worst} "
+            f"({string.sections[index].label}, {mesh.element_length[worst]:.1f} m) to "
+            f"{ratio[worst]:.0%} of its own buckling load: refine "
+            f"string.{field_name}.element_length or reduce WOB")
+
+
+def resolved_weight_on_bit(config: SimulationConfig, mesh, bit_weight: float,
+                           lateral_start: int) -> float:
+    """A WOB (N) below which :func:`element_buckling_error` finds nothing, so control
+    steps skip the axial profile. The force is affine in WOB (N_e = c_e - WOB), so the
+    ratio passes the share iff WOB > c_e + share x limit_e; the margin of 1e-9 relative
+    keeps rounding on the safe side: at and above it the full check decides."""
+    if not config.solver.lateral:
+        return math.inf
+    tension = axial_force_profile(mesh, 0.0, bit_weight)
+    limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
+    allowed = (tension + ELEMENT_BUCKLING_SHARE * limit)[lateral_start:]
+    if allowed.size == 0:
+        return math.inf
+    lowest = float(np.min(allowed))
+    return lowest - 1.0e-9 * abs(lowest)
