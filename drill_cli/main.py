@@ -374,6 +374,36 @@ def cmd_modes(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_well(args: argparse.Namespace) -> int:
+    from drill_env.physics.trajectory import Survey, Trajectory
+    from drill_env.scenarios import make_scenario
+    from drill_env.well import WELLS, write_well
+
+    if args.survey is not None:
+        survey = Survey.from_csv(args.survey)
+        name = args.survey.stem
+    else:
+        survey = WELLS[args.well](args.total_md)
+        name = args.well
+    try:
+        frictions = [float(v) for v in args.friction.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--friction: comma-separated numbers, got "
+                                         f"{args.friction!r}") from None
+    bad = [f for f in frictions if not (math.isfinite(f) and 0.0 <= f <= 2.0)]
+    if bad or not frictions:
+        raise argparse.ArgumentTypeError(f"--friction: factors in [0, 2], got {args.friction!r}")
+    trajectory = Trajectory(survey)
+    config = with_overrides(make_scenario(args.scenario).config, args.config)
+    paths = write_well(name, trajectory, config, args.out, frictions)
+    end, _, _ = trajectory.at(trajectory.total_md)
+    print(f"well {name}: {trajectory.total_md:.0f} m MD, TVD {end[0, 2]:.0f} m, departure "
+          f"{math.hypot(end[0, 0], end[0, 1]):.0f} m, inclination at TD "
+          f"{math.degrees(trajectory.inclination(trajectory.total_md)[0]):.1f} deg")
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return 0
+
+
 def cmd_speed(args: argparse.Namespace) -> int:
     from drill_env.tools.speed import FULL, QUICK, SECTIONS, parse_sections, run_speed
 
@@ -551,6 +581,26 @@ def parser() -> argparse.ArgumentParser:
                    help="highest speed of the chart")
     p.add_argument("--out", type=Path, default=Path("logs"),
                    help="folder for modes_critical_speeds.png and modes.json")
+
+    p = add("well", "a well path (preset or survey CSV) and the soft-string torque-and-drag "
+                    "chart of a scenario's string: hook load and torque against bit depth",
+            cmd_well)
+    p.add_argument("--well", default="j_shaped",
+                   choices=("vertical", "j_shaped", "s_shaped", "lateral_60"),
+                   help="preset well shape (drill_env/well.py)")
+    p.add_argument("--survey", type=Path, default=None,
+                   help="survey CSV with columns md (m), inclination, azimuth (deg); "
+                        "instead of --well")
+    p.add_argument("--total-md", type=number("m", low_inclusive=False), default=3000.0,
+                   help="measured depth of the preset well")
+    p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
+                   help="whose string (its BHA and pipe; drill pipe added to reach TD)")
+    p.add_argument("--config", type=Path, default=None,
+                   help="YAML of config overrides (e.g. examples/field_well_string.yaml)")
+    p.add_argument("--friction", default="0.1,0.2,0.3,0.4",
+                   help="comma-separated friction factors")
+    p.add_argument("--out", type=Path, default=Path("logs"),
+                   help="folder for well_<name>.png and .json")
 
     p = add("speed", "speed and memory benchmark; speed.json and speed.md in --out", cmd_speed)
     p.add_argument("--out", type=Path, default=Path("logs"), help="output folder")

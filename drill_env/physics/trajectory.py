@@ -1,0 +1,317 @@
+"""Well paths: surveys, the minimum-curvature method, local frames along the hole.
+
+A survey is a list of stations (measured depth MD, inclination from the vertical,
+azimuth from north). Between two stations the minimum-curvature method (Sawaryn &
+Thorogood, SPE 84246, 2005) takes the hole as the circular arc that joins the two
+tangents: with the dogleg angle beta between the unit tangents t1 and t2 and the course
+length dMD, the arc has radius dMD / beta, and
+
+    r(tau) = r1 + (dMD / beta) (sin(tau beta) t1 + (1 - cos(tau beta)) n),  tau in [0, 1]
+    n = (t2 - cos(beta) t1) / sin(beta)        (unit normal toward the centre of the arc)
+
+(a straight line where beta = 0). Coordinates are (north, east, down) in metres from the
+wellhead; TVD is the down coordinate, the departure the horizontal distance.
+
+The local frame along the hole (t, e1, e2) is carried by parallel transport: from one
+point to the next, e1 and e2 are turned by the smallest rotation that takes one tangent
+into the next, so the frame does not twist about the hole axis. On a planar well e2 is
+the normal of the plane throughout. At a vertical top e1 points north.
+
+:func:`soft_string` is the soft-string torque-and-drag model in its vector form
+(Johancsik, Friesen & Dawson, SPE 11380, 1984; Aadnoy et al. 2010): the string lies on
+the wall, each element's contact force balances the tension turning with the hole and
+the buoyed weight across it, and Coulomb friction on that force adds drag or torque.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: Degrees per 30 m, the oilfield unit of build rate and dogleg severity.
+DEG_PER_30M = math.radians(1.0) / 30.0
+DOWN = np.array([0.0, 0.0, 1.0])
+
+
+def tangent(inclination: np.ndarray | float, azimuth: np.ndarray | float) -> np.ndarray:
+    """Unit tangent(s) (north, east, down) of inclination and azimuth (rad)."""
+    inc = np.asarray(inclination, dtype=float)
+    azi = np.asarray(azimuth, dtype=float)
+    return np.stack([np.sin(inc) * np.cos(azi), np.sin(inc) * np.sin(azi), np.cos(inc)],
+                    axis=-1)
+
+
+@dataclass(frozen=True)
+class Survey:
+    """Survey stations: measured depth (m, from 0, increasing), inclination and azimuth
+    (rad). Build with :meth:`from_stations` (degrees), :meth:`from_csv` or
+    :meth:`profile`, which check their input and name the bad field."""
+
+    md: np.ndarray
+    inclination: np.ndarray
+    azimuth: np.ndarray
+
+    @classmethod
+    def from_stations(cls, md, inclination_deg, azimuth_deg) -> Survey:
+        md = np.asarray(md, dtype=float)
+        inc = np.asarray(inclination_deg, dtype=float)
+        azi = np.asarray(azimuth_deg, dtype=float)
+        for name, values in (("md", md), ("inclination", inc), ("azimuth", azi)):
+            if values.ndim != 1 or values.size < 2:
+                raise ValueError(f"survey.{name}: at least two stations, one value each")
+            if not np.all(np.isfinite(values)):
+                raise ValueError(f"survey.{name}: must be finite, got {values.tolist()}")
+        if not md.size == inc.size == azi.size:
+            raise ValueError("survey: md, inclination and azimuth need one value per "
+                             f"station, got {md.size}, {inc.size}, {azi.size}")
+        if md[0] != 0.0 or np.any(np.diff(md) <= 0.0):
+            raise ValueError("survey.md: must start at 0 and increase, got "
+                             f"{md.tolist()}")
+        if np.any(inc < 0.0) or np.any(inc > 180.0):
+            raise ValueError(f"survey.inclination: degrees in [0, 180], got {inc.tolist()}")
+        survey = cls(md, np.radians(inc), np.radians(azi))
+        dogleg = survey.doglegs()
+        if np.any(dogleg >= math.pi - 1e-6):
+            k = int(np.argmax(dogleg))
+            raise ValueError(f"survey: stations {k} and {k + 1} turn the hole back on "
+                             "itself (dogleg 180 degrees)")
+        return survey
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> Survey:
+        """A CSV with columns ``md`` (m), ``inclination`` and ``azimuth`` (degrees)."""
+        with Path(path).open(newline="") as f:
+            rows = list(csv.DictReader(f))
+        missing = {"md", "inclination", "azimuth"} - set(rows[0] if rows else {})
+        if missing:
+            raise ValueError(f"survey {path}: missing column(s) {sorted(missing)}")
+        try:
+            columns = [[float(r[k]) for r in rows] for k in ("md", "inclination", "azimuth")]
+        except ValueError as err:
+            raise ValueError(f"survey {path}: not a number ({err})") from None
+        return cls.from_stations(*columns)
+
+    @classmethod
+    def profile(cls, total_md: float, kickoff: float | None = None,
+                build_rate: float = 3.0, hold_inclination: float = 0.0,
+                azimuth: float = 0.0, drop_start: float | None = None,
+                drop_rate: float = 2.0, final_inclination: float = 0.0) -> Survey:
+        """A vertical, J-shaped or S-shaped well: vertical to ``kickoff`` (m), build at
+        ``build_rate`` (deg/30 m) to ``hold_inclination`` (deg), hold; with
+        ``drop_start`` (m) drop at ``drop_rate`` (deg/30 m) to ``final_inclination``
+        and hold to ``total_md``. Stations at every change of curvature."""
+        for name, value in (("total_md", total_md), ("build_rate", build_rate),
+                            ("drop_rate", drop_rate)):
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"survey.{name}: must be positive, got {value}")
+        if kickoff is None or hold_inclination == 0.0:
+            return cls.from_stations([0.0, total_md], [0.0, 0.0], [azimuth, azimuth])
+        md, inc = [0.0, kickoff], [0.0, 0.0]
+        end_build = kickoff + hold_inclination / build_rate * 30.0
+        md.append(end_build)
+        inc.append(hold_inclination)
+        if drop_start is not None:
+            if drop_start < end_build:
+                raise ValueError(f"survey.drop_start: {drop_start} m lies inside the "
+                                 f"build, which ends at {end_build:.1f} m")
+            end_drop = drop_start + abs(hold_inclination - final_inclination) / drop_rate * 30
+            md += [drop_start, end_drop]
+            inc += [hold_inclination, final_inclination]
+        if md[-1] >= total_md:
+            raise ValueError(f"survey.total_md: {total_md} m ends before the profile's "
+                             f"last curve ({md[-1]:.1f} m)")
+        md.append(total_md)
+        inc.append(inc[-1])
+        keep = np.concatenate([[True], np.diff(md) > 0.0])
+        return cls.from_stations(np.array(md)[keep], np.array(inc)[keep],
+                                 np.full(int(keep.sum()), azimuth))
+
+    def tangents(self) -> np.ndarray:
+        return tangent(self.inclination, self.azimuth)
+
+    def doglegs(self) -> np.ndarray:
+        """Dogleg angle (rad) of each course between two stations."""
+        t = self.tangents()
+        cos = np.clip(np.sum(t[1:] * t[:-1], axis=1), -1.0, 1.0)
+        # the angle from the cross product is exact for the small angles surveys have
+        sin = np.linalg.norm(np.cross(t[:-1], t[1:]), axis=1)
+        return np.arctan2(sin, cos)
+
+
+class Trajectory:
+    """The hole of a survey by minimum curvature: positions, tangents, curvature and the
+    twist-free frame at any measured depth."""
+
+    def __init__(self, survey: Survey) -> None:
+        self.survey = survey
+        self._t = survey.tangents()
+        self._beta = survey.doglegs()
+        course = np.diff(survey.md)
+        steps = np.array([self._arc(k, 1.0)[0] for k in range(course.size)])
+        self._r = np.vstack([np.zeros(3), np.cumsum(steps, axis=0)])
+
+    @property
+    def total_md(self) -> float:
+        return float(self.survey.md[-1])
+
+    def _arc(self, k: int, tau: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Offset from station k and unit tangent at fraction ``tau`` of course k."""
+        tau = np.asarray(tau, dtype=float)[..., None]
+        t1, t2 = self._t[k], self._t[k + 1]
+        length = self.survey.md[k + 1] - self.survey.md[k]
+        beta = self._beta[k]
+        if beta < 1e-12:
+            return tau * length * t1, np.broadcast_to(t1, tau.shape[:-1] + (3,)).copy()
+        n = (t2 - math.cos(beta) * t1) / math.sin(beta)
+        offset = length / beta * (np.sin(tau * beta) * t1 + (1.0 - np.cos(tau * beta)) * n)
+        direction = np.cos(tau * beta) * t1 + np.sin(tau * beta) * n
+        return offset, direction
+
+    def _locate(self, md: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        md = np.asarray(md, dtype=float)
+        if np.any(md < 0.0) or np.any(md > self.total_md * (1.0 + 1e-12)):
+            raise ValueError(f"md: within 0-{self.total_md:g} m of the survey")
+        k = np.clip(np.searchsorted(self.survey.md, md, side="right") - 1, 0,
+                    self._beta.size - 1)
+        tau = (md - self.survey.md[k]) / np.diff(self.survey.md)[k]
+        return k, tau
+
+    def at(self, md) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions (n, 3), unit tangents (n, 3) and curvature (1/m, n) at ``md``."""
+        md = np.atleast_1d(np.asarray(md, dtype=float))
+        k, tau = self._locate(md)
+        pos = np.empty((md.size, 3))
+        tan = np.empty((md.size, 3))
+        for j in np.unique(k):
+            sel = k == j
+            offset, direction = self._arc(int(j), tau[sel])
+            pos[sel] = self._r[j] + offset
+            tan[sel] = direction
+        curvature = self._beta[k] / np.diff(self.survey.md)[k]
+        return pos, tan, curvature
+
+    def inclination(self, md) -> np.ndarray:
+        _, t, _ = self.at(md)
+        return np.arccos(np.clip(t[:, 2], -1.0, 1.0))
+
+    def frames(self, md) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(t, e1, e2) at increasing ``md``, carried by parallel transport from the
+        first point (e1 north there if the hole is vertical, else the high side)."""
+        md = np.atleast_1d(np.asarray(md, dtype=float))
+        if np.any(np.diff(md) <= 0.0):
+            raise ValueError("md: must increase")
+        _, t, _ = self.at(md)
+        e1 = np.empty_like(t)
+        first = np.array([1.0, 0.0, 0.0]) if abs(t[0, 2]) > 1.0 - 1e-12 else \
+            -(DOWN - t[0, 2] * t[0]) / np.linalg.norm(DOWN - t[0, 2] * t[0])
+        e1[0] = first - (first @ t[0]) * t[0]
+        e1[0] /= np.linalg.norm(e1[0])
+        for i in range(1, md.size):
+            e1[i] = _rotate_minimal(t[i - 1], t[i], e1[i - 1])
+            e1[i] -= (e1[i] @ t[i]) * t[i]  # keep it exactly normal to the tangent
+            e1[i] /= np.linalg.norm(e1[i])
+        e2 = np.cross(t, e1)
+        return t, e1, e2
+
+
+def _rotate_minimal(a: np.ndarray, b: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``v`` turned by the smallest rotation that takes unit ``a`` into unit ``b``
+    (Rodrigues, about a x b)."""
+    axis = np.cross(a, b)
+    s = np.linalg.norm(axis)
+    c = float(a @ b)
+    if s < 1e-15:
+        return v.copy()
+    k = axis / s
+    return v * c + np.cross(k, v) * s + k * (k @ v) * (1.0 - c)
+
+
+@dataclass(frozen=True)
+class StringColumn:
+    """A string for the soft-string model, element by element from the bit up: length
+    (m), buoyed weight per length (N/m) and contact radius (m, the tool joint's or the
+    stabilizer's)."""
+
+    length: np.ndarray
+    buoyed_weight: np.ndarray
+    radius: np.ndarray
+
+
+@dataclass(frozen=True)
+class TorqueDrag:
+    """Soft-string result along the string, from the bit (index 0) to the surface."""
+
+    md: np.ndarray  # measured depth of each element boundary (m), bit first
+    tension: np.ndarray  # axial force (N, tension > 0) at each boundary
+    torque: np.ndarray  # torque (N m) at each boundary
+    normal_force: np.ndarray  # contact force of each element (N)
+
+    @property
+    def hook_load(self) -> float:
+        return float(self.tension[-1])
+
+    @property
+    def surface_torque(self) -> float:
+        return float(self.torque[-1])
+
+
+#: Axial motion of the string: friction along the string opposes it.
+MODES = ("rotating", "pick_up", "slack_off")
+
+
+def soft_string(trajectory: Trajectory, column: StringColumn, bit_md: float,
+                friction: float, mode: str = "rotating", weight_on_bit: float = 0.0,
+                torque_on_bit: float = 0.0) -> TorqueDrag:
+    """Tension and torque along a string whose bit is at ``bit_md``, walking up from the
+    bit. Per element (length L, buoyed weight w, mean tangent t, end tangents t_low and
+    t_up, tension T at its lower end):
+
+        F_n = | T (t_low - t_up) + w L (d - (d . t) t) |      (d: down)
+        T_up = T + w dz + {0, +mu F_n, -mu F_n}   (rotating, pick-up, slack-off)
+        M_up = M + mu F_n r                        (rotating only)
+
+    where dz is the element's exact vertical extent on the minimum-curvature hole, so an
+    off-bottom frictionless string hangs w x TVD. In a build the tension pulls the
+    string toward the high side against its weight: the sign of build or drop matters.
+    Rotating, the friction is all tangential (the soft-string limit). The column is cut
+    at the surface when the bit is shallower than the column is long. Buckling is not
+    modelled."""
+    if mode not in MODES:
+        raise ValueError(f"mode: one of {MODES}, got {mode!r}")
+    if not (math.isfinite(friction) and 0.0 <= friction <= 2.0):
+        raise ValueError(f"friction: a factor in [0, 2], got {friction}")
+    if not (0.0 < bit_md <= trajectory.total_md * (1.0 + 1e-12)):
+        raise ValueError(f"bit_md: within (0, {trajectory.total_md:g}] m, got {bit_md}")
+    lengths = np.cumsum(column.length)
+    if lengths[-1] < bit_md * (1.0 - 1e-12):
+        raise ValueError(f"bit_md: {bit_md:g} m is deeper than the string is long "
+                         f"({lengths[-1]:g} m)")
+    n = min(int(np.searchsorted(lengths, bit_md - 1e-9)) + 1, column.length.size)
+    length = column.length[:n].copy()
+    length[-1] += bit_md - float(np.sum(length))  # the top element cut at the surface
+    bounds = bit_md - np.concatenate([[0.0], np.cumsum(length)])
+    bounds[-1] = 0.0
+    pos, tan, _ = trajectory.at(bounds)
+    tension = np.empty(n + 1)
+    torque = np.empty(n + 1)
+    normal = np.empty(n)
+    tension[0] = -weight_on_bit
+    torque[0] = torque_on_bit
+    sign = {"rotating": 0.0, "pick_up": 1.0, "slack_off": -1.0}[mode]
+    for e in range(n):
+        low, up = tan[e], tan[e + 1]
+        mean = low + up
+        mean /= np.linalg.norm(mean)
+        w = column.buoyed_weight[e] * length[e]
+        across = tension[e] * (low - up) + w * (DOWN - mean[2] * mean)
+        normal[e] = float(np.linalg.norm(across))
+        dz = pos[e, 2] - pos[e + 1, 2]
+        tension[e + 1] = tension[e] + column.buoyed_weight[e] * dz + \
+            sign * friction * normal[e]
+        torque[e + 1] = torque[e] + (friction * normal[e] * column.radius[e]
+                                     if mode == "rotating" else 0.0)
+    return TorqueDrag(bounds, tension, torque, normal)

@@ -1,0 +1,165 @@
+"""``drill-env well``: a well path and the soft-string torque-and-drag chart of a string.
+
+For a survey (a preset of :data:`WELLS` or a CSV) and a scenario's string, the chart
+drilling engineers use to plan and to read friction from the rig's data: hook load
+against bit depth while picking up, slacking off and rotating off bottom, and the
+rotating off-bottom surface torque, at several friction factors
+(:func:`drill_env.physics.trajectory.soft_string`). Plus the path: 3-D, plan and
+vertical section. The dynamic FE string does not follow a curved hole yet (vertical
+holes only); this is the static soft-string model.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from drill_env.physics.config import SimulationConfig
+from drill_env.physics.fem import build_mesh
+from drill_env.physics.trajectory import MODES, StringColumn, Survey, Trajectory, soft_string
+
+#: Well shapes by name: total measured depth (m) -> survey. Build rates and angles are
+#: typical of land wells (2-4 deg/30 m builds; Mitchell & Miska, Fundamentals of
+#: Drilling Engineering, ch. 11).
+WELLS: dict[str, Callable[[float], Survey]] = {
+    "vertical": lambda md: Survey.profile(md),
+    "j_shaped": lambda md: Survey.profile(md, kickoff=500.0, build_rate=3.0,
+                                          hold_inclination=45.0),
+    "s_shaped": lambda md: Survey.profile(md, kickoff=400.0, build_rate=3.0,
+                                          hold_inclination=40.0, drop_start=1400.0,
+                                          drop_rate=2.0, final_inclination=0.0),
+    "lateral_60": lambda md: Survey.profile(md, kickoff=300.0, build_rate=4.0,
+                                            hold_inclination=60.0),
+}
+#: Friction factors of the chart: cased hole ~0.15-0.25, open hole ~0.25-0.4 in
+#: water-based mud (Johancsik et al. 1984; Aadnoy et al. 2010).
+FRICTIONS = (0.1, 0.2, 0.3, 0.4)
+#: Length (m) of the drill-pipe pieces added above the scenario's string to reach a
+#: deeper bit (the pipe's own elements are coarser; the chart needs the hole's shape).
+PIPE_PIECE = 10.0
+
+
+def column_for(config: SimulationConfig, bit_md: float) -> StringColumn:
+    """The scenario's string from the bit up (its BHA and pipe elements), drill pipe
+    added in ``PIPE_PIECE`` lengths to reach ``bit_md``. Contact at each element's
+    contact radius (stabilizer blades; pipe body: tool joints are not modelled)."""
+    mesh = build_mesh(config)
+    length = mesh.element_length[::-1]
+    weight = mesh.buoyed_weight[::-1]
+    radius = mesh.contact_radius[::-1]
+    missing = bit_md - float(np.sum(length))
+    if missing > 0.0:
+        n = math.ceil(missing / PIPE_PIECE)
+        length = np.concatenate([length, np.full(n, missing / n)])
+        weight = np.concatenate([weight, np.full(n, mesh.buoyed_weight[0])])
+        radius = np.concatenate([radius, np.full(n, mesh.contact_radius[0])])
+    return StringColumn(length.copy(), weight.copy(), radius.copy())
+
+
+def torque_drag_table(trajectory: Trajectory, config: SimulationConfig,
+                      frictions: Sequence[float] = FRICTIONS, step: float = 100.0
+                      ) -> dict[str, object]:
+    """Hook load (N) per mode and rotating off-bottom surface torque (N m) against bit
+    depth, per friction factor."""
+    depths = np.arange(step, trajectory.total_md + 1e-9, step)
+    if depths.size == 0 or depths[-1] < trajectory.total_md - 1e-9:
+        depths = np.append(depths, trajectory.total_md)
+    column = column_for(config, float(depths[-1]))
+    table: dict[str, object] = {"bit_md": depths.tolist(), "frictions": list(frictions)}
+    for mu in frictions:
+        entry: dict[str, list[float]] = {m: [] for m in MODES}
+        entry["torque"] = []
+        for depth in depths:
+            for mode in MODES:
+                result = soft_string(trajectory, column, float(depth), mu, mode)
+                entry[mode].append(result.hook_load)
+                if mode == "rotating":
+                    entry["torque"].append(result.surface_torque)
+        table[f"mu={mu:g}"] = entry
+    return table
+
+
+def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out: Path,
+               frictions: Sequence[float] = FRICTIONS) -> list[Path]:
+    """``well_<name>.png`` (path and torque-and-drag chart) and ``well_<name>.json``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out.mkdir(parents=True, exist_ok=True)
+    table = torque_drag_table(trajectory, config, frictions)
+    md = np.linspace(0.0, trajectory.total_md, 400)
+    pos, _, _ = trajectory.at(md)
+    azimuth = float(trajectory.survey.azimuth[-1])
+    section = pos[:, 0] * math.cos(azimuth) + pos[:, 1] * math.sin(azimuth)
+
+    fig = plt.figure(figsize=(15, 9))
+    ax3 = fig.add_subplot(2, 3, 1, projection="3d")
+    ax3.plot(pos[:, 1], pos[:, 0], -pos[:, 2], lw=2)
+    half = 0.5 * max(np.ptp(pos[:, 0]), np.ptp(pos[:, 1]), 100.0)  # one scale both ways
+    for setter, axis in ((ax3.set_xlim, 1), (ax3.set_ylim, 0)):
+        middle = 0.5 * (pos[:, axis].min() + pos[:, axis].max())
+        setter(middle - half, middle + half)
+    ax3.set_xlabel("east (m)")
+    ax3.set_ylabel("north (m)")
+    ax3.set_zlabel("-TVD (m)")
+    ax3.set_title("path")
+    plan = fig.add_subplot(2, 3, 2)
+    plan.plot(pos[:, 1], pos[:, 0], lw=2)
+    plan.set_xlabel("east (m)")
+    plan.set_ylabel("north (m)")
+    plan.set_aspect("equal", adjustable="datalim")
+    plan.set_title("plan view")
+    vertical = fig.add_subplot(2, 3, 3)
+    vertical.plot(section, pos[:, 2], lw=2)
+    for k, s_md in enumerate(trajectory.survey.md):
+        p, _, _ = trajectory.at(s_md)
+        vertical.plot(p[0, 0] * math.cos(azimuth) + p[0, 1] * math.sin(azimuth), p[0, 2],
+                      "k.", ms=5, label="survey stations" if k == 0 else None)
+    vertical.invert_yaxis()
+    vertical.set_aspect("equal", adjustable="datalim")
+    vertical.set_xlabel(f"departure along azimuth {math.degrees(azimuth):.0f} deg (m)")
+    vertical.set_ylabel("TVD (m)")
+    vertical.set_title("vertical section")
+    vertical.legend(fontsize=8)
+
+    depths = np.array(table["bit_md"])
+    hook = fig.add_subplot(2, 3, (4, 5))
+    torque = fig.add_subplot(2, 3, 6)
+    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, len(frictions)))
+    styles = {"pick_up": "-", "rotating": ":", "slack_off": "--"}
+    for mu, colour in zip(frictions, colours, strict=True):
+        entry = table[f"mu={mu:g}"]
+        assert isinstance(entry, dict)
+        for mode in MODES:
+            hook.plot(np.array(entry[mode]) / 1e3, depths, styles[mode], color=colour,
+                      label=f"{mode.replace('_', '-')}, mu {mu:g}")
+        torque.plot(np.array(entry["torque"]) / 1e3, depths, color=colour,
+                    label=f"mu {mu:g}")
+    for ax, xlabel in ((hook, "hook load (kN), off bottom, no blocks weight"),
+                       (torque, "surface torque rotating off bottom (kN m)")):
+        ax.invert_yaxis()
+        ax.set_ylabel("bit depth MD (m)")
+        ax.set_xlabel(xlabel)
+        ax.grid(alpha=0.3)
+    hook.legend(fontsize=7, ncol=len(frictions), loc="lower left")
+    torque.legend(fontsize=8)
+    hook.set_title("soft-string drag: pick-up (-), rotating (:), slack-off (--)")
+    torque.set_title("soft-string torque")
+    fig.suptitle(f"well {name}: {trajectory.total_md:.0f} m MD, string of the scenario "
+                 "(drill pipe added above it to reach the bit)")
+    fig.tight_layout()
+    png = out / f"well_{name}.png"
+    fig.savefig(png, dpi=100)
+    plt.close(fig)
+    stations = {"md": trajectory.survey.md.tolist(),
+                "inclination_deg": np.degrees(trajectory.survey.inclination).tolist(),
+                "azimuth_deg": np.degrees(trajectory.survey.azimuth).tolist()}
+    data = out / f"well_{name}.json"
+    data.write_text(json.dumps({"survey": stations, "torque_drag": table}, indent=1))
+    return [png, data]

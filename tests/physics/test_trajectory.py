@@ -1,0 +1,175 @@
+"""Well paths (minimum curvature, parallel-transport frames) and the soft-string
+torque-and-drag model, against closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drill_env.physics.trajectory import (
+    StringColumn,
+    Survey,
+    Trajectory,
+    soft_string,
+)
+
+R_3DEG = 30.0 / math.radians(3.0)  # radius of a 3 deg / 30 m build: 572.958 m
+
+
+def test_a_quarter_circle_build_has_the_closed_form_tvd_and_departure():
+    """0 -> 90 deg at 3 deg/30 m in one course: a quarter circle of radius 572.958 m;
+    every point on it, not only the end station, lies on the circle."""
+    length = 90.0 / 3.0 * 30.0
+    well = Trajectory(Survey.from_stations([0.0, length], [0.0, 90.0], [0.0, 0.0]))
+    assert R_3DEG == pytest.approx(572.958, abs=1e-3)
+    md = np.linspace(0.0, length, 37)
+    pos, tan, curvature = well.at(md)
+    angle = md / R_3DEG
+    np.testing.assert_allclose(pos[:, 2], R_3DEG * np.sin(angle), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(pos[:, 0], R_3DEG * (1.0 - np.cos(angle)), rtol=1e-9,
+                               atol=1e-9)
+    np.testing.assert_allclose(pos[:, 1], 0.0, atol=1e-9)
+    assert pos[-1, 2] == pytest.approx(R_3DEG, rel=1e-9)  # TVD
+    assert math.hypot(pos[-1, 0], pos[-1, 1]) == pytest.approx(R_3DEG, rel=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(tan, axis=1), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(curvature, 1.0 / R_3DEG, rtol=1e-12)
+    np.testing.assert_allclose(well.inclination(md), angle, atol=1e-9)
+
+
+def test_stations_along_the_arc_give_the_same_hole():
+    """The same arc surveyed every 30 m is the same hole (minimum curvature is exact on
+    a circle)."""
+    md = np.arange(0.0, 901.0, 30.0)
+    fine = Trajectory(Survey.from_stations(md, md / 10.0, np.zeros_like(md)))
+    coarse = Trajectory(Survey.from_stations([0.0, 900.0], [0.0, 90.0], [0.0, 0.0]))
+    probe = np.linspace(0.0, 900.0, 101)
+    np.testing.assert_allclose(fine.at(probe)[0], coarse.at(probe)[0], atol=1e-9)
+
+
+def test_frames_are_orthonormal_and_do_not_twist_on_a_planar_well():
+    survey = Survey.profile(3000.0, kickoff=500.0, build_rate=3.0, hold_inclination=50.0,
+                            azimuth=30.0, drop_start=2000.0, drop_rate=2.0,
+                            final_inclination=20.0)
+    well = Trajectory(survey)
+    md = np.linspace(0.0, 3000.0, 601)
+    t, e1, e2 = well.frames(md)
+    for a, b in ((t, e1), (t, e2), (e1, e2)):
+        np.testing.assert_allclose(np.sum(a * b, axis=1), 0.0, atol=1e-12)
+    for v in (t, e1, e2):
+        np.testing.assert_allclose(np.linalg.norm(v, axis=1), 1.0, rtol=1e-12)
+    # planar (azimuth 30 deg): every bend turns the frame about the plane's normal only,
+    # so the frame's components along that normal never change (a twist would turn them)
+    normal = np.array([-math.sin(math.radians(30.0)), math.cos(math.radians(30.0)), 0.0])
+    for v in (e1, e2):
+        np.testing.assert_allclose(v @ normal, (v @ normal)[0], atol=1e-12)
+    assert abs(e1[0] @ normal) > 0.1  # e1 starts north, out of the plane: not trivial
+
+
+def test_frames_turn_about_no_axis_along_the_hole_on_a_curved_3d_well():
+    """Parallel transport: between two close points e1 changes only along t (no
+    rotation about the tangent), to second order in the step."""
+    md = np.linspace(0.0, 2000.0, 21)
+    survey = Survey.from_stations(md, np.linspace(0.0, 70.0, 21), np.linspace(0.0, 120.0, 21))
+    well = Trajectory(survey)
+    probe = np.linspace(10.0, 1990.0, 4001)
+    t, e1, e2 = well.frames(probe)
+    step = probe[1] - probe[0]
+    twist = np.abs(np.sum((e1[1:] - e1[:-1]) * e2[:-1], axis=1)) / step  # rad/m
+    curvature = np.max(well.at(probe)[2])
+    assert np.max(twist) < 0.05 * curvature  # a twisting frame would reach ~curvature
+
+
+def column(length: float, weight: float = 300.0, radius: float = 0.08, dx: float = 10.0):
+    n = round(length / dx)
+    return StringColumn(np.full(n, length / n), np.full(n, weight), np.full(n, radius))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_off_bottom_hook_load_of_a_uniform_string_is_its_weight_times_tvd(seed):
+    rng = np.random.default_rng(seed)
+    md = np.concatenate([[0.0], np.cumsum(rng.uniform(50.0, 300.0, 12))])
+    inc = np.clip(np.cumsum(rng.uniform(-5.0, 15.0, md.size)), 0.0, 95.0)
+    inc[0] = 0.0
+    azi = np.cumsum(rng.uniform(-20.0, 20.0, md.size))
+    well = Trajectory(Survey.from_stations(md, inc, azi))
+    bit = float(md[-1])
+    tvd = well.at(bit)[0][0, 2]
+    for friction in (0.0, 0.3):  # rotating: the friction is all tangential
+        result = soft_string(well, column(bit, 300.0), bit, friction, "rotating")
+        assert result.hook_load == pytest.approx(300.0 * tvd, rel=1e-12)
+
+
+def test_a_straight_60_degree_hole_has_the_soft_string_normal_forces_and_torque():
+    length = 2000.0
+    well = Trajectory(Survey.from_stations([0.0, length], [60.0, 60.0], [45.0, 45.0]))
+    col = column(length, weight=250.0, radius=0.09, dx=20.0)
+    mu = 0.25
+    result = soft_string(well, col, length, mu, "rotating")
+    np.testing.assert_allclose(result.normal_force,
+                               250.0 * col.length * math.sin(math.radians(60.0)),
+                               rtol=1e-12)
+    assert result.surface_torque == pytest.approx(
+        mu * 0.09 * 250.0 * length * math.sin(math.radians(60.0)), rel=1e-12)
+    # sliding: the drag is mu F_n per element, on top of the weight's axial part
+    axial = 250.0 * length * math.cos(math.radians(60.0))
+    drag = mu * 250.0 * length * math.sin(math.radians(60.0))
+    assert soft_string(well, col, length, mu, "pick_up").hook_load == \
+        pytest.approx(axial + drag, rel=1e-12)
+    assert soft_string(well, col, length, mu, "slack_off").hook_load == \
+        pytest.approx(axial - drag, rel=1e-12)
+
+
+def test_tension_in_a_build_lifts_the_string_off_the_low_side_and_in_a_drop_pushes_it():
+    """Under tension T the contact force per length in a bend of curvature k at
+    inclination i is |T k - w sin i| in a build (the tension pulls toward the high side,
+    the weight toward the low) and T k + w sin i in a drop."""
+    w, tension, inc = 200.0, 300e3, 45.0
+    build = Trajectory(Survey.from_stations([0.0, 100.0], [inc - 0.5, inc + 0.5], [0, 0]))
+    drop = Trajectory(Survey.from_stations([0.0, 100.0], [inc + 0.5, inc - 0.5], [0, 0]))
+    curvature = math.radians(1.0) / 100.0
+    col = column(100.0, w, dx=1.0)
+    for well, sign in ((build, -1.0), (drop, 1.0)):
+        result = soft_string(well, col, 100.0, 0.0, "rotating", weight_on_bit=-tension)
+        middle = 0.5 * (result.md[:-1] + result.md[1:])
+        sin_i = np.sin(well.inclination(middle))
+        expected = np.abs(result.tension[:-1] * curvature + sign * w * sin_i)
+        np.testing.assert_allclose(result.normal_force / col.length, expected, rtol=1e-3)
+    build_force = soft_string(build, col, 100.0, 0.0, weight_on_bit=-tension).normal_force
+    drop_force = soft_string(drop, col, 100.0, 0.0, weight_on_bit=-tension).normal_force
+    assert np.all(drop_force > build_force)
+
+
+def test_pick_up_is_heavier_than_rotating_and_slack_off_lighter_in_a_deviated_well():
+    well = Trajectory(Survey.profile(3000.0, kickoff=300.0, build_rate=4.0,
+                                     hold_inclination=60.0))
+    col = column(3000.0)
+    loads = {m: soft_string(well, col, 3000.0, 0.3, m).hook_load
+             for m in ("pick_up", "rotating", "slack_off")}
+    assert loads["pick_up"] > loads["rotating"] > loads["slack_off"]
+
+
+def test_bad_surveys_name_the_field():
+    with pytest.raises(ValueError, match=r"survey\.md"):
+        Survey.from_stations([0.0, 100.0, 90.0], [0, 1, 2], [0, 0, 0])
+    with pytest.raises(ValueError, match=r"survey\.inclination"):
+        Survey.from_stations([0.0, 100.0], [0.0, float("nan")], [0, 0])
+    with pytest.raises(ValueError, match=r"survey\.inclination"):
+        Survey.from_stations([0.0, 100.0], [0.0, 190.0], [0, 0])
+    with pytest.raises(ValueError, match=r"survey\.total_md"):
+        Survey.profile(600.0, kickoff=500.0, hold_inclination=30.0)
+    with pytest.raises(ValueError, match="friction"):
+        soft_string(Trajectory(Survey.profile(100.0)), column(100.0), 100.0, -0.1)
+    with pytest.raises(ValueError, match="bit_md"):
+        soft_string(Trajectory(Survey.profile(100.0)), column(50.0), 100.0, 0.2)
+
+
+def test_a_survey_reads_from_csv(tmp_path):
+    path = tmp_path / "survey.csv"
+    path.write_text("md,inclination,azimuth\n0,0,0\n300,0,0\n900,60,45\n")
+    survey = Survey.from_csv(path)
+    np.testing.assert_allclose(survey.inclination, np.radians([0, 0, 60]))
+    path.write_text("md,incl\n0,0\n")
+    with pytest.raises(ValueError, match="missing column"):
+        Survey.from_csv(path)

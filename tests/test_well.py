@@ -1,0 +1,54 @@
+"""drill-env well: the torque-and-drag chart of a scenario's string on a well path."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from drill_cli.main import main
+from drill_env.physics.trajectory import Trajectory
+from drill_env.scenarios import make_scenario
+from drill_env.well import WELLS, column_for, torque_drag_table
+
+
+def test_in_a_vertical_hole_there_is_no_drag_or_torque_and_the_hook_carries_the_string():
+    config = make_scenario("default").config
+    well = Trajectory(WELLS["vertical"](2000.0))
+    table = torque_drag_table(well, config, frictions=(0.0, 0.4), step=500.0)
+    column = column_for(config, 2000.0)
+    for key in ("mu=0", "mu=0.4"):
+        entry = table[key]
+        for k, depth in enumerate(table["bit_md"]):
+            lengths = np.cumsum(column.length)
+            n = int(np.searchsorted(lengths, depth - 1e-9)) + 1
+            length = column.length[:n].copy()
+            length[-1] -= lengths[n - 1] - depth
+            weight = float(np.sum(column.buoyed_weight[:n] * length))
+            for mode in ("pick_up", "rotating", "slack_off"):
+                assert entry[mode][k] == pytest.approx(weight, rel=1e-9)
+            assert entry["torque"][k] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_the_column_is_the_scenarios_string_from_the_bit_up_with_pipe_added():
+    config = make_scenario("default").config
+    column = column_for(config, 3000.0)
+    assert np.sum(column.length) == pytest.approx(3000.0)
+    assert column.buoyed_weight[0] > column.buoyed_weight[-1]  # collars below, pipe above
+
+
+def test_the_well_command_writes_the_chart_and_names_bad_input(tmp_path, capsys):
+    assert main(["well", "--well", "lateral_60", "--total-md", "1500", "--out",
+                 str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "well_lateral_60.json").read_text())
+    mu = data["torque_drag"]["mu=0.4"]
+    assert mu["pick_up"][-1] > mu["rotating"][-1] > mu["slack_off"][-1]
+    assert (tmp_path / "well_lateral_60.png").stat().st_size > 10_000
+    survey = tmp_path / "s.csv"
+    survey.write_text("md,inclination,azimuth\n0,0,0\n500,0,0\n1200,45,90\n")
+    assert main(["well", "--survey", str(survey), "--out", str(tmp_path)]) == 0
+    assert "departure" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["well", "--friction", "0.2,-1", "--out", str(tmp_path)])
+    assert "--friction" in capsys.readouterr().err
