@@ -2,6 +2,7 @@
 (:mod:`agents.base`), a registry by name (:mod:`agents.registry`), the benchmark that
 compares them (:mod:`agents.benchmark`)."""
 
+import drill_env  # noqa: F401, I001  (first: sets OMP_WAIT_POLICY before torch loads OpenMP)
 from agents.base import Controller, SetPointController
 from agents.classical import SoftSpeed, SoftTorque, StiffPI, ZTorque
 from agents.driller import Driller, DrillerRules

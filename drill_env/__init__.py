@@ -62,6 +62,23 @@ if "numba" in sys.modules:  # numba read its settings already: change them in pl
 else:
     os.environ["NUMBA_CACHE_DIR"] = _CACHE_DIR
 
+# OpenMP workers (torch's, and numba's for the batched env) wait for the next parallel
+# region while serial Python runs. libgomp's default wait spins, which costs nothing on
+# an idle machine and takes the core from everyone else on a shared one: PPO training
+# fell from 3,322 to 1,011 env steps/s beside one CPU-bound process, against 2,761 and
+# 2,835 with passive waiting (scripts/threading_study.py, docs/performance.md). OpenMP
+# reads the variable when it loads (torch: at import), so it is set here, before; a
+# user's own choice stands.
+if "OMP_WAIT_POLICY" not in os.environ:
+    os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
+    if "torch" in sys.modules:
+        import warnings
+
+        warnings.warn("drill_env was imported after torch, whose OpenMP threads then spin "
+                      "while they wait: on a shared machine training runs ~3x slower. "
+                      "Import drill_env first or export OMP_WAIT_POLICY=PASSIVE "
+                      "(docs/performance.md).", RuntimeWarning, stacklevel=2)
+
 ENTRY_POINT = "drill_env.env:DrillStringEnv"
 VECTOR_ENTRY_POINT = "drill_env.vector:DrillStringVectorEnv"
 

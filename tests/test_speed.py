@@ -88,3 +88,20 @@ def test_finished_sections_are_written_before_an_interrupt(tmp_path, monkeypatch
         run_speed(("core", "scaling"), TINY, tmp_path, progress=False, echo=None)
     result = json.loads((tmp_path / "speed.json").read_text())
     assert result["finished_sections"] == ["core"] and "core" in result
+
+
+def test_importing_drill_env_makes_openmp_workers_wait_passively_unless_told():
+    """Spinning OpenMP workers cost PPO 3x its speed beside one busy process
+    (scripts/threading_study.py); the user's own OMP_WAIT_POLICY is kept."""
+    import os
+    import subprocess
+    import sys
+
+    code = "import os, drill_env; print(os.environ['OMP_WAIT_POLICY'])"
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    default = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                             text=True, check=True).stdout.strip()
+    chosen = subprocess.run([sys.executable, "-c", code],
+                            env={**env, "OMP_WAIT_POLICY": "ACTIVE"}, capture_output=True,
+                            text=True, check=True).stdout.strip()
+    assert (default, chosen) == ("PASSIVE", "ACTIVE")

@@ -1,0 +1,114 @@
+"""Which threading set-up keeps PPO training fast when the machine is shared?
+
+    .venv/bin/python scripts/threading_study.py [--steps 8192] [--rounds 2]
+
+The batched env steps all envs' physics in one numba ``prange`` call; between two calls
+the serial Python (policy, VecNormalize, SB3 bookkeeping) runs. With numba's OpenMP
+layer (GNU libgomp) the idle workers spin-wait before sleeping, which costs nothing on
+an idle machine and steals the core from anyone else on a shared one. This script
+trains PPO (task 1's hyperparameters, 8 batched envs) in a fresh process per set-up:
+
+=================  ========================================================
+``omp``            numba's default layer here (OpenMP), libgomp's default wait
+``omp-passive``    OpenMP with ``OMP_WAIT_POLICY=PASSIVE`` (workers sleep at once),
+                   what ``import drill_env`` sets unless the user set the variable
+``workqueue``      numba's own thread pool (no spinning)
+``omp-1thread``    OpenMP, one numba thread (no parallel physics)
+=================  ========================================================
+
+quiet and with one competing CPU-bound process, in turns (``--rounds``), and prints env
+steps/s (wall) and CPU seconds per 1,000 env steps (min over rounds); writes
+``logs/threading_study.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+SETUPS = {
+    # an empty OMP_WAIT_POLICY is libgomp's default wait, and keeps drill_env from
+    # setting PASSIVE (it only fills in an absent variable)
+    "omp": {"NUMBA_THREADING_LAYER": "omp", "OMP_WAIT_POLICY": ""},
+    "omp-passive": {"NUMBA_THREADING_LAYER": "omp"},  # drill_env's default
+    "workqueue": {"NUMBA_THREADING_LAYER": "workqueue", "OMP_WAIT_POLICY": ""},
+    "omp-1thread": {"NUMBA_THREADING_LAYER": "omp", "NUMBA_NUM_THREADS": "1",
+                    "OMP_WAIT_POLICY": ""},
+}
+
+
+def child(steps: int) -> None:
+    import drill_env  # noqa: F401, I001  (first, as in drill-env train: before torch's OpenMP)
+    import numba
+    import torch
+    from stable_baselines3 import PPO
+
+    from training.config import load_config
+    from training.train import make_train_env
+
+    config = load_config("stick_slip", "ppo")
+    env = make_train_env(config, 0)
+    model = PPO(config.policy, env, seed=0, verbose=0, policy_kwargs=config.policy_kwargs,
+                **config.hyperparams)
+    model.learn(4096)  # compile / load caches, first update
+    wall, cpu = time.perf_counter(), time.process_time()
+    model.learn(steps, reset_num_timesteps=False)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    print(json.dumps({"steps_per_s": steps / wall, "cpu_s_per_1000": 1e3 * cpu / steps,
+                      "layer": numba.threading_layer(), "numba_threads":
+                      numba.get_num_threads(), "torch_threads": torch.get_num_threads()}))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--steps", type=int, default=8192)
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--out", type=Path, default=Path("logs/threading_study.json"))
+    args = parser.parse_args()
+    if args.child:
+        child(args.steps)
+        return
+    results: dict[str, dict[str, list[dict]]] = {s: {"quiet": [], "loaded": []}
+                                                 for s in SETUPS}
+    for _ in range(args.rounds):
+        for load in ("quiet", "loaded"):
+            hog = (subprocess.Popen([sys.executable, "-c", "while True: pass"])
+                   if load == "loaded" else None)
+            try:
+                for name, env in SETUPS.items():
+                    out = subprocess.run(
+                        [sys.executable, __file__, "--child", "--steps", str(args.steps)],
+                        env={**os.environ, **env}, capture_output=True, text=True,
+                        check=True)
+                    row = json.loads(out.stdout.strip().splitlines()[-1])
+                    results[name][load].append(row)
+                    print(f"{name:12s} {load:7s} {row['steps_per_s']:8.0f} steps/s "
+                          f"{row['cpu_s_per_1000']:6.2f} cpu s/1000 ({row['layer']}, "
+                          f"{row['numba_threads']} numba threads)", flush=True)
+            finally:
+                if hog is not None:
+                    hog.kill()
+    print(f"\n{'set-up':12s} {'quiet steps/s':>14s} {'loaded steps/s':>15s} "
+          f"{'loaded/quiet':>13s} {'cpu s/1000 quiet':>17s}")
+    summary = {}
+    for name in SETUPS:
+        quiet = max(r["steps_per_s"] for r in results[name]["quiet"])
+        loaded = max(r["steps_per_s"] for r in results[name]["loaded"])
+        cpu = min(r["cpu_s_per_1000"] for r in results[name]["quiet"])
+        summary[name] = {"quiet_steps_per_s": quiet, "loaded_steps_per_s": loaded,
+                         "loaded_over_quiet": loaded / quiet, "cpu_s_per_1000_quiet": cpu}
+        print(f"{name:12s} {quiet:14.0f} {loaded:15.0f} {loaded / quiet:13.2f} {cpu:17.2f}")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps({"summary": summary, "runs": results}, indent=2))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
