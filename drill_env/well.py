@@ -118,8 +118,8 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
     vertical = fig.add_subplot(2, 3, 3)
     vertical.plot(section, pos[:, 2], lw=2)
     for k, s_md in enumerate(trajectory.survey.md):
-        p, _, _ = trajectory.at(s_md)
-        vertical.plot(p[0, 0] * math.cos(azimuth) + p[0, 1] * math.sin(azimuth), p[0, 2],
+        north, east, down = trajectory.at(s_md)[0][0]
+        vertical.plot(north * math.cos(azimuth) + east * math.sin(azimuth), down,
                       "k.", ms=5, label="survey stations" if k == 0 else None)
     vertical.invert_yaxis()
     vertical.set_aspect("equal", adjustable="datalim")
