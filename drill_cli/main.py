@@ -21,17 +21,7 @@ from drill_env.physics.units import HOUR, KILO, RPM
 
 DESCRIPTION = """\
 drill-env: drill-string dynamics, classical top-drive controllers and RL agents.
-
-commands:
-  demo           the main job on the built-in default case (outputs in logs/)
-  run            one episode with a controller, optionally recorded to rerun
-  benchmark      controllers x scenarios x seeds: table, benchmark.csv, plots
-  stability-map  the paper's torsional stability maps P1-P6 (Fig. 15), resumable
-  train          train PPO / SAC on a control task (logs/runs/<name>)
-  evaluate       a trained run against the classical controllers, held-out seeds
-  modes          natural frequencies, damping and critical-speed chart of a string
-  speed          the performance benchmark (ratios measured in one run, JSON)
-  replay         open a recording in the rerun viewer
+Each command below has its own --help.
 
 SI inside; rpm, kN and m/h only on this command line and in its tables."""
 
@@ -94,7 +84,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     run_benchmark(list(CLASSICAL), ["default", "stick_slip"], [0, 1, 2], out,
                   BenchmarkSettings(), workers=args.workers)
     print(f"benchmark in {time.perf_counter() - t0:.0f} s: {out / 'benchmark.csv'}, "
-          f"{out / 'benchmark.md'}, {out / 'benchmark_bars.png'}")
+          f"{out / 'benchmark.md'}, {out / 'benchmark_bars.png'} and the time series "
+          f"{out / 'benchmark_<scenario>_series.png'}")
     return 0 if reproduced else 1
 
 
@@ -513,7 +504,8 @@ def parser() -> argparse.ArgumentParser:
                    help="env steps (default: the YAML's n_timesteps)")
     p.add_argument("--n-envs", type=integer(1), default=None,
                    help="batched envs (default: the YAML's n_envs)")
-    p.add_argument("--seed", type=integer(0), default=None, help="training seed")
+    p.add_argument("--seed", type=integer(0), default=None,
+                   help="training seed (default: the YAML's, 0)")
     p.add_argument("--seeds", default=None,
                    help="comma-separated seeds: a seed sweep, one run per seed in parallel "
                         "(resumable; summary in --out/train_sweep.md)")
@@ -547,13 +539,13 @@ def parser() -> argparse.ArgumentParser:
                    help="drive-rate top-drive controller (stiff, soft-speed, soft-torque, "
                         "z-torque; default: the scenario's stiff PI)")
     p.add_argument("--rpm-step", type=number("rpm", low_inclusive=False), default=5.0,
-                   help="speed step")
+                   help="speed step (rpm)")
     p.add_argument("--wob-step", type=number("kN", low_inclusive=False), default=5.0,
-                   help="WOB step")
+                   help="WOB step (kN)")
     p.add_argument("--max-rpm", type=number("rpm", low_inclusive=False), default=250.0,
-                   help="highest speed")
+                   help="highest speed (rpm)")
     p.add_argument("--max-wob", type=number("kN", low_inclusive=False), default=200.0,
-                   help="highest WOB")
+                   help="highest WOB (kN)")
     p.add_argument("--seconds", type=number("s", low_inclusive=False), default=30.0,
                    help="simulated seconds per grid point")
     p.add_argument("--workers", type=integer(1), default=None,
