@@ -289,6 +289,35 @@ def stick_slip(surface_speed: SurfaceSpeed = 50.0 * RPM,
                     "homogeneous hard rock at 50 rpm")
 
 
+def _deviated_scenario(name: str, description: str) -> Callable[..., Scenario]:
+    """The default string and rock in a deviated hole of :data:`drill_env.well.WELLS`
+    (reaching 100 m below the bit)."""
+
+    def scenario(surface_speed: SurfaceSpeed = DEFAULT_SURFACE_SPEED,
+                 weight_on_bit: WeightOnBit = DEFAULT_WEIGHT_ON_BIT,
+                 episode_duration: Duration = DEFAULT_EPISODE_DURATION,
+                 string_length: StringLength = None) -> Scenario:
+        from drill_env.well import WELLS
+
+        sc = default(surface_speed, weight_on_bit, episode_duration, string_length)
+        survey = WELLS[name](_bit_depth(sc.config) + 100.0)
+        cfg = replace(sc.config, **{"well.md": tuple(survey.md),
+                                    "well.inclination": tuple(np.degrees(survey.inclination)),
+                                    "well.azimuth": tuple(np.degrees(survey.azimuth))})
+        return Scenario(name, cfg, surface_speed, weight_on_bit, episode_duration,
+                        description)
+
+    scenario.__name__ = scenario.__qualname__ = name
+    scenario.__doc__ = (f"The default string and hard rock in a {description} "
+                        "(drill_env.well.WELLS; docs/model.md section 6).")
+    return validated(scenario)
+
+
+j_shaped = _deviated_scenario("j_shaped", "J-shaped well (kick-off 500 m, 3 deg/30 m to 45 deg)")
+s_shaped = _deviated_scenario("s_shaped", "S-shaped well (to 30 deg, vertical again below 1200 m)")
+lateral_60 = _deviated_scenario("lateral_60", "60-degree well (kick-off 300 m, 4 deg/30 m)")
+
+
 def _torsional_sandwich_case(name: str, bit: BitConfig, middle: RockConfig, position: str,
                              thickness: float, dip: float, surface_speed: float,
                              weight_on_bit: float, episode_duration: float,
@@ -446,6 +475,9 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
     "paper_case3": paper_case3,
     "paper_case4": paper_case4,
     "random": random,
+    "j_shaped": j_shaped,
+    "s_shaped": s_shaped,
+    "lateral_60": lateral_60,
 }
 
 #: Scenarios drawn anew from the env's RNG at every reset.

@@ -5,8 +5,8 @@ drilling engineers use to plan and to read friction from the rig's data: hook lo
 against bit depth while picking up, slacking off and rotating off bottom, and the
 rotating off-bottom surface torque, at several friction factors
 (:func:`drill_env.physics.trajectory.soft_string`). Plus the path: 3-D, plan and
-vertical section. The dynamic FE string does not follow a curved hole yet (vertical
-holes only); this is the static soft-string model.
+vertical section. This is the static soft-string model; the dynamic FE string in the
+same holes: config ``well`` and the deviated scenarios (docs/model.md section 6).
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ WELLS: dict[str, Callable[[float], Survey]] = {
     "vertical": lambda md: Survey.profile(md),
     "j_shaped": lambda md: Survey.profile(md, kickoff=500.0, build_rate=3.0,
                                           hold_inclination=45.0),
-    "s_shaped": lambda md: Survey.profile(md, kickoff=400.0, build_rate=3.0,
-                                          hold_inclination=40.0, drop_start=1400.0,
+    "s_shaped": lambda md: Survey.profile(md, kickoff=300.0, build_rate=3.0,
+                                          hold_inclination=30.0, drop_start=750.0,
                                           drop_rate=2.0, final_inclination=0.0),
     "lateral_60": lambda md: Survey.profile(md, kickoff=300.0, build_rate=4.0,
                                             hold_inclination=60.0),

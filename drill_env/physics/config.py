@@ -37,7 +37,8 @@ from drill_env.physics.validation import (
 __all__ = [
     "BIT_MODELS", "FIDELITY_LEVELS", "GRAVITY", "INCH", "BitConfig", "Component", "ConfigError",
     "ContactConfig", "DampingConfig", "FormationConfig", "Interface", "MudConfig", "RockConfig",
-    "Section", "SimulationConfig", "SolverConfig", "StringConfig", "TopDriveConfig", "flatten",
+    "Section", "SimulationConfig", "SolverConfig", "StringConfig", "TopDriveConfig", "WellConfig",
+    "flatten",
     "from_dict", "load_yaml", "replace", "require_finite", "require_non_negative",
     "require_positive",
 ]
@@ -550,6 +551,43 @@ FAST_CRITICAL_STEP_FRACTION = 0.8
 
 
 @config_dataclass
+class WellConfig:
+    """The hole's path by survey stations (docs/model.md section 6): measured depth (m,
+    from 0), inclination and azimuth (degrees), joined by minimum curvature. No
+    stations: the vertical hole. The string's nodes feel, in the hole's local
+    twist-free frames, the buoyed weight across the hole and the tension turning with
+    it; the axial force follows the true vertical depth. The survey must reach the
+    deepest node (the string's length or ``initial_depth``)."""
+
+    md: tuple[NonNegative, ...] = ()
+    inclination: tuple[Finite, ...] = ()
+    azimuth: tuple[Finite, ...] = ()
+
+    def __post_init__(self) -> None:
+        sizes = {"md": len(self.md), "inclination": len(self.inclination),
+                 "azimuth": len(self.azimuth)}
+        if not any(sizes.values()):
+            return
+        if len(set(sizes.values())) > 1:
+            given = [k for k, v in sizes.items() if v] or list(sizes)
+            raise ValueError(f"{', '.join(given)}: one value per survey station in each of "
+                             f"md, inclination and azimuth, got {sizes}")
+        from drill_env.physics.trajectory import Survey
+
+        try:
+            Survey.from_stations(self.md, self.inclination, self.azimuth)
+        except ValueError as err:
+            # the section's name is added by the config loader: "well.md: ..."
+            raise ValueError(str(err).replace("survey.", "").replace(
+                "survey:", "md:")) from None
+
+    @property
+    def vertical(self) -> bool:
+        """No stations, or every station vertical: the straight vertical hole."""
+        return not any(abs(i) > 0.0 for i in self.inclination)
+
+
+@config_dataclass
 class SolverConfig:
     """Time integration (see docs/model.md, "Integrator")."""
 
@@ -592,6 +630,7 @@ class SimulationConfig:
     bit: BitConfig = field(default_factory=BitConfig)
     formation: FormationConfig = field(default_factory=FormationConfig)
     solver: SolverConfig = field(default_factory=SolverConfig)
+    well: WellConfig = field(default_factory=WellConfig)
     #: "mesoscopic" (paper section 3) or "macroscopic" (eq. 38, torque only).
     bit_model: Literal["mesoscopic", "macroscopic"] = "mesoscopic"
     #: Measured depth of the bit face at t = 0 (m); None: the string length.
@@ -605,6 +644,11 @@ class SimulationConfig:
         _require(self.mud.density < lightest, "mud.density",
                  f"{self.mud.density} kg/m^3 must be below the density of the string "
                  f"({lightest} kg/m^3): the string would float")
+        if not self.well.vertical:
+            deepest = max(self.string.length, self.initial_depth or 0.0)
+            _require(self.well.md[-1] >= deepest, "well.md",
+                     f"the survey ends at {self.well.md[-1]} m, above the string's deepest "
+                     f"node ({deepest} m)")
 
     def resolved(self) -> SimulationConfig:
         """This config with ``solver.fidelity`` expanded into the fields it sets.

@@ -449,6 +449,10 @@ def advance(n_steps, record_every, a):
         if lateral:
             work.rl[0, lb] += fbx
             work.rl[1, lb] += fby
+            if p[P.STATIC_LOAD] > 0.0:
+                for c in range(2):
+                    for i in range(work.rl.shape[1]):
+                        work.rl[c, i] += nodes.static_load[c, i]
             _lateral(p, lateral_system, m, work)
         _correct(p, m, work, lateral, moving)
         rop = _bookkeeping(p, state, torsion, m, t_bit, t_motor)

@@ -52,6 +52,7 @@ P = IntEnum("P", [
     "TD_FEEDBACK_GAIN",  # speed command per string torque (rad/s per N m)
     "TD_FILTER_W",    # filter corner / centre (rad/s)
     "TD_FILTER_ZETA",  # band-pass damping ratio
+    "STATIC_LOAD",    # 1: a curved hole's static lateral loads (Nodes.static_load) apply
 ], start=0)
 N_PARAMS = len(P)
 
@@ -164,6 +165,7 @@ class Nodes(NamedTuple):
     radius: np.ndarray      # outer radius (stabilizer blades where present) (m)
     contact: np.ndarray     # 1.0 where the node may touch the wall
     compliance: np.ndarray  # tangential compliance of the contact point in one step
+    static_load: np.ndarray  # (2, n_lat) curved hole: weight across it, tension turning
 
 
 class Motion(NamedTuple):

@@ -64,6 +64,7 @@ from drill_env.physics.layout import (
 from drill_env.physics.linalg import band_cholesky, cholesky_to_ldl
 from drill_env.physics.readings import advance_and_read, readout
 from drill_env.physics.statics import element_buckling_error, resolved_weight_on_bit
+from drill_env.physics.trajectory import curved_hole_loads
 
 __all__ = ["MAX_FILTER_W_DT", "RECORD_CHANNELS", "STATUS_MESSAGES", "OperatingPoint",
            "Simulator", "Status"]
@@ -115,11 +116,14 @@ class Simulator:
         self.string_weight = float(np.sum(mesh.buoyed_weight * mesh.element_length)
                                    + self.bit_buoyed_weight)
 
-        # ---- lateral (one plane; the other is identical)
-        k_lat, kg_weight, m_lat = assemble_lateral(mesh, axial_force_profile(
-            mesh, 0.0, self.bit_buoyed_weight))
-        _, kg_with_unit_wob, _ = assemble_lateral(mesh, axial_force_profile(
-            mesh, 1.0, self.bit_buoyed_weight))
+        # ---- lateral (one plane; the other is identical); in a curved hole the axial
+        # force follows the TVD and static loads act across the hole (docs/model.md, 6)
+        self.hole = curved_hole_loads(cfg, mesh, self.bit_buoyed_weight)
+        axial = [axial_force_profile(mesh, w, self.bit_buoyed_weight) for w in (0.0, 1.0)] \
+            if self.hole is None else [self.hole.axial_weight, self.hole.axial_weight - 1.0]
+        self.string_weight = self.hole.hanging_weight if self.hole else self.string_weight
+        (k_lat, kg_weight, m_lat), (_, kg_with_unit_wob, _) = (assemble_lateral(mesh, a)
+                                                               for a in axial)
         kg_unit = kg_weight - kg_with_unit_wob  # K_g(WOB) = K_g,weight - WOB K_g,unit
         m_lat[-2] += cfg.bit.mass
         # Lateral DOFs start at node ``lateral_start``: 0, or the BHA's top node when the
@@ -201,6 +205,7 @@ class Simulator:
         self.vt = np.zeros(n)
         self.at = np.zeros(n)
         self.rl = np.zeros((2, nl))  # plane-major residual / acceleration scratch
+        self.static_load = np.zeros((2, nl))  # curved hole, set with the WOB (_hole_wob)
         self.rt = np.zeros(n)
         self.contact_out = np.zeros(4)
         self.node_force = np.zeros(n)
@@ -229,7 +234,7 @@ class Simulator:
                                   self.lat_factor),
             torsion=TorsionSystem(self.tor_k, self.tor_c, self.tor_factor, self.col_bit),
             nodes=Nodes(self.node_clearance, self.node_radius, self.node_contact,
-                        self.compliance),
+                        self.compliance, self.static_load),
             motion=Motion(self.lat_planes[0], self.lat_planes[1], self.lat_planes[2],
                           self.ut, self.vt, self.at),
             work=Work(self.rl, self.rt, self.contact_out, self.node_force),
@@ -319,6 +324,7 @@ class Simulator:
         p[P.LATERAL_START] = self.lateral_start
         friction = cfg.bit.gauge_friction
         p[P.GAUGE_FRICTION] = math.nan if friction is None else friction
+        p[P.STATIC_LOAD] = 0.0 if self.hole is None else 1.0
         self._torque_feedback_parameters(p)
         self.params = p
 
@@ -380,13 +386,17 @@ class Simulator:
         """Hook load (N) that puts ``weight_on_bit`` on the bit (static axial balance)."""
         return self.string_weight - weight_on_bit
 
+    def _hole_wob(self, wob: float) -> None:
+        """The curved hole's static lateral loads at this WOB (displacement DOFs)."""
+        if self.hole is not None:
+            self.static_load[:, 0::2] = (self.hole.load_weight - wob * self.hole.load_unit
+                                         )[:, self.lateral_start:]
+
     def check_mesh_resolves(self, weight_on_bit: float) -> None:
         """Raise if an element is compressed beyond what one Hermite element can bend
         (:func:`~drill_env.physics.statics.element_buckling_error`); below
         ``resolved_weight_on_bit`` at once, without the axial profile."""
-        if not self.config.solver.lateral or weight_on_bit <= 0.0:
-            return
-        if weight_on_bit < self.resolved_weight_on_bit:
+        if not self.config.solver.lateral or weight_on_bit < self.resolved_weight_on_bit:
             return
         message = element_buckling_error(self.config, self.mesh, weight_on_bit,
                                          self.bit_buoyed_weight, self.lateral_start)
@@ -472,6 +482,7 @@ class Simulator:
         self.state[S.SETPOINT] = omega
         self.state[S.SETPOINT_TARGET] = omega
         self.state[S.WOB] = wob
+        self._hole_wob(wob)
         self.state[S.HOOK_LOAD] = self.hook_load_for(wob)
         self.state[S.WOB_FACTORED] = np.nan
         self.state[S.MOTOR_TORQUE] = total
@@ -559,6 +570,7 @@ class Simulator:
                     return False
             self.state[S.HOOK_LOAD] = hook_load
             self.state[S.WOB] = wob
+            self._hole_wob(wob)
         n_rec_max = n_steps // record_every if record_every > 0 else 0
         if self.arrays.record.shape[0] < max(n_rec_max, 1):
             self._bind_arrays(np.zeros((max(n_rec_max, 1), N_RECORD)))

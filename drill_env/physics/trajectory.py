@@ -315,3 +315,78 @@ def soft_string(trajectory: Trajectory, column: StringColumn, bit_md: float,
         torque[e + 1] = torque[e] + (friction * normal[e] * column.radius[e]
                                      if mode == "rotating" else 0.0)
     return TorqueDrag(bounds, tension, torque, normal)
+
+
+@dataclass(frozen=True)
+class HoleLoads:
+    """What a curved hole does to a straight-beam FE string (``Simulator``), per node
+    in the hole's twist-free frames (plane 0 along e1, plane 1 along e2)."""
+
+    axial_weight: np.ndarray  # axial force at element midpoints without WOB (N, tension)
+    hanging_weight: float     # buoyed weight the hook carries off bottom (N): w x TVD
+    load_weight: np.ndarray   # (2, n_nodes) static lateral load at zero WOB (N)
+    load_unit: np.ndarray     # (2, n_nodes) its change per newton of WOB (subtracted)
+
+
+def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.ndarray,
+               bit_weight: float) -> HoleLoads:
+    """Static loads of a string hanging in a curved hole, lumped at its nodes (node
+    measured depths ``node_md``, surface down, increasing; negative above the wellhead,
+    where the string continues the hole's first tangent; buoyed weight per length of
+    each element). The axial force N follows the true vertical depth; each node of
+    lumped length L carries the buoyed weight across the hole, ``w L (d - (d.t) t)``,
+    and the tension turning with the hole, ``N L dt/ds`` (toward the inside of the bend;
+    a compression pushes outward). In the local frames the beam is straight, so these
+    are all the curvature does to it (small lateral motion about the hole axis)."""
+    inside = np.maximum(node_md, 0.0)
+    pos, tan, _ = trajectory.at(inside)
+    above = np.minimum(node_md, 0.0)
+    pos = pos + above[:, None] * tan[0]  # straight on above the wellhead
+    unique, index = np.unique(inside, return_inverse=True)
+    _, e1, e2 = (f[index] for f in trajectory.frames(unique))
+    length = np.diff(node_md)
+    dz = np.diff(pos[:, 2])
+    w_dz = element_weight * dz
+    below = np.concatenate([np.cumsum(w_dz[::-1])[::-1], [0.0]]) + bit_weight  # at nodes
+    axial_weight = below[1:] + 0.5 * w_dz
+    lumped_length = 0.5 * (np.concatenate([[0.0], length]) + np.concatenate([length, [0.0]]))
+    lumped_weight = 0.5 * (np.concatenate([[0.0], element_weight * length])
+                           + np.concatenate([element_weight * length, [0.0]]))
+    lumped_weight[-1] += bit_weight  # the bit hangs on the last node
+    across = DOWN[None, :] - tan[:, 2:3] * tan  # the weight's part across the hole
+    bend = np.where((node_md > 0.0)[:, None], _bend(trajectory, inside), 0.0)  # dt/ds
+    gravity = lumped_weight[:, None] * across
+    turning = (below * lumped_length)[:, None] * bend
+    unit = lumped_length[:, None] * bend
+    frame = np.stack([e1, e2])  # (2, n, 3)
+    return HoleLoads(axial_weight, float(below[0]),
+                     np.einsum("cnk,nk->cn", frame, gravity + turning),
+                     np.einsum("cnk,nk->cn", frame, unit))
+
+
+def _bend(trajectory: Trajectory, md: np.ndarray) -> np.ndarray:
+    """dt/ds (1/m) at ``md``: curvature times the unit normal toward the centre."""
+    k, tau = trajectory._locate(md)
+    out = np.zeros((md.size, 3))
+    course = np.diff(trajectory.survey.md)
+    for i, (j, f) in enumerate(zip(k, tau, strict=True)):
+        beta = trajectory._beta[j]
+        if beta < 1e-12:
+            continue
+        t1, t2 = trajectory._t[j], trajectory._t[j + 1]
+        n = (t2 - math.cos(beta) * t1) / math.sin(beta)
+        out[i] = beta / course[j] * (-math.sin(f * beta) * t1 + math.cos(f * beta) * n)
+    return out
+
+
+def curved_hole_loads(config, mesh, bit_weight: float) -> HoleLoads | None:
+    """:func:`hole_loads` of a simulator's string in ``config.well``'s hole (the bit at
+    ``initial_depth``, default the string's length); None for a vertical hole, which
+    keeps the vertical model's arithmetic exactly."""
+    well = config.well
+    if well.vertical:
+        return None
+    depth = config.initial_depth if config.initial_depth is not None else config.string.length
+    survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
+    node_md = mesh.node_depth + (depth - mesh.node_depth[-1])  # < 0 above the wellhead
+    return hole_loads(Trajectory(survey), node_md, mesh.buoyed_weight, bit_weight)

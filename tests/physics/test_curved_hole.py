@@ -1,0 +1,125 @@
+"""The FE string in a curved hole (config ``well``) against the soft-string model and
+closed forms: the string climbs the wall to the friction angle when it rotates, lies on
+the high side of a build under tension, and a vertical survey changes nothing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drill_env.physics.config import replace
+from drill_env.physics.integrator import wall_friction_coefficient
+from drill_env.physics.layout import R
+from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.trajectory import DOWN, Survey, Trajectory, soft_string
+from drill_env.physics.units import RPM
+from drill_env.scenarios import make_scenario
+from drill_env.well import column_for
+
+SPEED = 60 * RPM
+
+
+def with_survey(config, survey: Survey):
+    return replace(config, **{"well.md": tuple(survey.md),
+                              "well.inclination": tuple(np.degrees(survey.inclination)),
+                              "well.azimuth": tuple(np.degrees(survey.azimuth))})
+
+
+def rotate_off_bottom(config, seconds: float = 10.0):
+    """Rotate at 60 rpm with no WOB; the wall torque averaged over the last 4 s (surface
+    torque less the mud drag) and the simulator."""
+    sim = Simulator(config)
+    sim.reset(OperatingPoint(SPEED, 0.0))
+    rec = sim.run(seconds, record_every=50)
+    late = rec[rec[:, R.TIME] > seconds - 4.0]
+    drag = float(np.sum(sim.tor_c)) * SPEED
+    return float(late[:, R.SURFACE_TORQUE].mean()) - drag, sim
+
+
+def sliding_friction(config) -> float:
+    c = config.contact
+    v = SPEED * config.string.drill_pipe.outer_diameter / 2.0
+    return float(wall_friction_coefficient(v, c.friction_static, c.friction_kinetic,
+                                           c.friction_decay_speed))
+
+
+def test_a_vertical_survey_gives_the_vertical_model_bit_for_bit():
+    config = make_scenario("default").config
+    length = config.string.length
+    vertical = replace(config, **{"well.md": (0.0, 500.0, length + 50.0),
+                                  "well.inclination": (0.0, 0.0, 0.0),
+                                  "well.azimuth": (0.0, 40.0, 80.0)})
+    records = []
+    for c in (config, vertical):
+        sim = Simulator(c)
+        sim.reset(OperatingPoint(100 * RPM, 100e3))
+        sim.vt[-1] *= 0.98
+        records.append(sim.run(3.0, record_every=10))
+    np.testing.assert_array_equal(records[0], records[1])
+
+
+def test_in_a_straight_60_degree_hole_the_rotating_string_climbs_to_the_friction_angle():
+    """Soft string: F_n = w L sin 60 at every node, torque mu r sum F_n. The FE string
+    rotating on the low side climbs the wall until friction balances its weight, so the
+    wall carries sum F_n / sqrt(1 + mu^2); its torque lies between that and the soft
+    string's (the stiff BHA spreads its load onto the stabilizers' larger radius)."""
+    config = make_scenario("default").config
+    length = config.string.length
+    config = with_survey(config, Survey.from_stations([0.0, length + 100.0], [60.0, 60.0],
+                                                      [0.0, 0.0]))
+    mu = sliding_friction(config)
+    torque, sim = rotate_off_bottom(config)
+    column = column_for(config, length)
+    soft = soft_string(Trajectory(Survey.from_stations([0.0, length + 100.0], [60.0, 60.0],
+                                                       [0.0, 0.0])), column, length, mu)
+    np.testing.assert_allclose(soft.normal_force,
+                               column.buoyed_weight * column.length * math.sin(math.pi / 3),
+                               rtol=1e-12)
+    climbed = 1.0 / math.sqrt(1.0 + mu * mu)
+    assert np.sum(sim.node_force) == pytest.approx(np.sum(soft.normal_force) * climbed,
+                                                   rel=0.02)
+    ratio = torque / soft.surface_torque
+    assert climbed - 0.03 < ratio < 1.03, (ratio, climbed)
+
+
+def test_in_a_build_the_fe_and_soft_string_torques_agree_and_tension_lifts_the_string():
+    """A shallow build (3 deg/30 m from 100 m to 30 deg) with ~1 km of string below it:
+    the tension turning with the hole (T k > w sin i) holds the string on the high side
+    of the build; below, in the hold, it lies on the low side. The FE rotating torque
+    equals the soft string's within 5 % after the friction-angle correction, and the
+    hook carries w x TVD."""
+    config = make_scenario("default").config
+    length = config.string.length
+    survey = Survey.profile(length + 100.0, kickoff=100.0, build_rate=3.0,
+                            hold_inclination=30.0)
+    config = with_survey(config, survey)
+    mu = sliding_friction(config)
+    torque, sim = rotate_off_bottom(config)
+    well = Trajectory(survey)
+    soft = soft_string(well, column_for(config, length), length, mu)
+    assert torque * math.sqrt(1.0 + mu * mu) / soft.surface_torque == pytest.approx(1.0,
+                                                                                 abs=0.05)
+    assert sim.string_weight == pytest.approx(soft.hook_load + sim.bit_buoyed_weight,
+                                              rel=1e-9)
+    node_md = sim.mesh.node_depth[1:]  # the top node is pinned
+    t, e1, e2 = well.frames(node_md)
+    across = DOWN[None, :] - t[:, 2:3] * t
+    high = -across / np.maximum(np.linalg.norm(across, axis=1), 1e-12)[:, None]
+    offset = sim.lat_planes[0][:, 2::2]  # lateral displacement of nodes 1.. (plane, node)
+    toward_high = (offset[0] * np.sum(high * e1, axis=1)
+                   + offset[1] * np.sum(high * e2, axis=1)) / sim.node_clearance[1:]
+    in_build = (node_md > 150.0) & (node_md < 380.0)
+    in_hold = (node_md > 600.0) & (node_md < 1100.0)
+    assert in_build.sum() > 10 and np.all(toward_high[in_build] > 0.9)
+    assert np.all(toward_high[in_hold] < -0.9)
+
+
+def test_a_survey_that_ends_above_the_string_is_refused_by_name():
+    from drill_env.physics.config import ConfigError
+
+    config = make_scenario("default").config
+    with pytest.raises(ConfigError, match=r"well\.md"):
+        replace(config, **{"well.md": (0.0, 300.0), "well.inclination": (0.0, 30.0),
+                           "well.azimuth": (0.0, 0.0)})
