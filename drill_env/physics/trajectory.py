@@ -386,6 +386,13 @@ def curved_hole_loads(config, mesh, bit_weight: float) -> HoleLoads | None:
     well = config.well
     if well.vertical:
         return None
+    if not config.solver.pipe_lateral or not config.solver.lateral:
+        import warnings
+
+        warnings.warn("a curved hole at the fast level or torsion-only: the pipe has no "
+                      "lateral DOFs, so no wall friction along it (the BHA keeps its "
+                      "loads); use fidelity='full' for torque and drag", RuntimeWarning,
+                      stacklevel=3)
     depth = config.initial_depth if config.initial_depth is not None else config.string.length
     survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
     node_md = mesh.node_depth + (depth - mesh.node_depth[-1])  # < 0 above the wellhead

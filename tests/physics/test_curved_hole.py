@@ -123,3 +123,9 @@ def test_a_survey_that_ends_above_the_string_is_refused_by_name():
     with pytest.raises(ConfigError, match=r"well\.md"):
         replace(config, **{"well.md": (0.0, 300.0), "well.inclination": (0.0, 30.0),
                            "well.azimuth": (0.0, 0.0)})
+
+
+def test_a_curved_hole_without_pipe_lateral_dofs_warns_that_pipe_friction_is_missing():
+    config = make_scenario("lateral_60").config
+    with pytest.warns(RuntimeWarning, match="no wall friction along"):
+        Simulator(replace(config, **{"solver.fidelity": "fast"}).resolved())
