@@ -191,3 +191,9 @@ def test_nested_dicts_are_converted_and_unknown_keys_named():
         make_scenario("paper_case1", dip=math.nan)
     with pytest.raises(ValueError, match=r"solver\.lateral"):
         SimulationConfig(solver={"lateral": 1})
+
+
+def test_an_overdamped_wall_contact_is_refused_by_its_damping():
+    """Found by the random fuzz: a contact damper so hard that the explicit step falls
+    below the minimum was blamed on contact.stiffness alone."""
+    assert physics_case("contact.damping", 33418268) == "refused"

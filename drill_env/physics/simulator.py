@@ -280,9 +280,9 @@ class Simulator:
         limits = {}
         touching = self.node_contact[self.lateral_start:] > 0.0  # wall-contact nodes
         if cfg.contact.enabled and touching.any():
-            limits["contact.stiffness"] = critical(float(np.min(node_mass[touching])),
-                                                   cfg.contact.stiffness, cfg.contact.damping)
-        limits["formation.rocks[].wall_stiffness"] = min(
+            limits["contact.stiffness, contact.damping"] = critical(
+                float(np.min(node_mass[touching])), cfg.contact.stiffness, cfg.contact.damping)
+        limits["formation.rocks[].wall_stiffness, wall_damping"] = min(
             critical(float(node_mass[-1]), r.wall_stiffness, r.wall_damping)
             for r in cfg.formation.rocks)
         binding = min(limits, key=limits.__getitem__)
@@ -292,7 +292,7 @@ class Simulator:
                 f"{binding}: the explicit contact on the lightest node needs a step of "
                 f"{dt:.2e} s (at solver.critical_step_fraction = "
                 f"{cfg.solver.critical_step_fraction}), below {MIN_TIME_STEP} s: a stiffer "
-                "wall or shorter elements than a drilling simulation needs")
+                "wall, a harder damper or lighter elements than a drilling simulation needs")
         return dt
 
     def _build_parameters(self) -> None:

@@ -129,3 +129,14 @@ def test_a_curved_hole_without_pipe_lateral_dofs_warns_that_pipe_friction_is_mis
     config = make_scenario("lateral_60").config
     with pytest.warns(RuntimeWarning, match="no wall friction along"):
         Simulator(replace(config, **{"solver.fidelity": "fast"}).resolved())
+
+
+def test_the_mesh_check_uses_the_axial_force_along_the_curved_hole():
+    """Less of the string's weight acts along a 60-degree hole, so a smaller WOB brings
+    an element to its limit than in the vertical hole, and the check says so."""
+    vertical = Simulator(make_scenario("default").config)
+    deviated = Simulator(make_scenario("lateral_60").config)
+    assert deviated.resolved_weight_on_bit < 0.9 * vertical.resolved_weight_on_bit
+    with pytest.raises(ValueError, match="buckling load"):
+        deviated.check_mesh_resolves(1.01 * deviated.resolved_weight_on_bit)
+    vertical.check_mesh_resolves(1.01 * deviated.resolved_weight_on_bit)
