@@ -152,7 +152,11 @@ def _latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
 
 def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool = True
           ) -> Path:
-    """Train (or resume) the run in folder ``run``; returns the path of the final model."""
+    """Train (or resume) the run in folder ``run``; returns the path of the final model.
+
+    Resuming loads the last checkpoint's model and VecNormalize statistics; SAC's replay
+    buffer is not checkpointed (it would be ~100x the model), so a resumed SAC run
+    starts from an empty buffer that fills with the restored policy's transitions."""
     from stable_baselines3.common.vec_env import VecNormalize
 
     run.mkdir(parents=True, exist_ok=True)
