@@ -11,7 +11,8 @@ id                         the agent is ...
                            DrillingEnv`)
 =========================  ============================================================
 
-Both subclass :class:`~drill_env.env.DrillStringEnv` and keep its batch contract, so the
+Both subclass :class:`~drill_env.tasks.base.TaskEnv` (over :class:`~drill_env.env.
+DrillStringEnv`) and keep its batch contract, so the
 batched vector envs (``gymnasium.make_vec``, :func:`drill_env.vector.make_sb3_vec_env`)
 run them with the physics of all envs in one compiled call.
 """

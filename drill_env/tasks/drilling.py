@@ -3,19 +3,17 @@
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 from pydantic import Field
 
-from drill_env.env import OBS_BOUND, DrillStringEnv
 from drill_env.metrics import Metric
 from drill_env.physics.layout import READ
 from drill_env.physics.units import HOUR, RPM
 from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass
-from drill_env.tasks.telemetry import Telemetry, TelemetryKind
+from drill_env.tasks.base import TaskEnv
+from drill_env.tasks.telemetry import TelemetryKind
 
 #: What the task sets differently from ``DrillString-v0`` unless the caller says otherwise.
 ENV_DEFAULTS: dict[str, Any] = {
@@ -69,7 +67,6 @@ class DrillingTask:
     telemetry: TelemetryKind = "mud_pulse"
 
 
-TASK_FIELDS = frozenset(DrillingTask.__dataclass_fields__)
 FRAME = ("surface_torque", "rop", "drillability", "speed_setpoint", "weight_on_bit_setpoint")
 #: Depth of cut per revolution and per newton of WOB that reads 1 in the observation
 #: (m/(rev N)): the hard rock preset reads 2, the soft one 4 (measured below the founder
@@ -80,7 +77,7 @@ EXTRAS = ("telemetry_bit_speed", "telemetry_ssi", "telemetry_stuck_fraction",
           "telemetry_radial_ratio", "telemetry_age")
 
 
-class DrillingEnv(DrillStringEnv):
+class DrillingEnv(TaskEnv):
     r"""Drilling optimisation: the agent chooses the rpm and WOB set points.
 
     ## Description
@@ -127,37 +124,20 @@ class DrillingEnv(DrillStringEnv):
     - v0: initial version.
     """
 
+    task_class = DrillingTask
+    task: DrillingTask
+    env_defaults = ENV_DEFAULTS
+    frame = FRAME
+    extras = EXTRAS
+    telemetry_values = 4
+
     def __init__(self, scenario: str = ENV_DEFAULTS["scenario"],
                  task: DrillingTask | dict | None = None, **kwargs: Any) -> None:
-        given = {k: kwargs.pop(k) for k in list(kwargs) if k in TASK_FIELDS}
-        base = task if isinstance(task, DrillingTask) else DrillingTask(**(task or {}))
-        from drill_env.physics.config import replace
-
-        self.task = replace(base, **given) if given else base
-        for key, value in ENV_DEFAULTS.items():
-            if key != "scenario":
-                kwargs.setdefault(key, value)
-        super().__init__(scenario, **kwargs)
-        self.observation_names = tuple(f"{name}[{k}]" for k in range(self.task.history)
-                                       for name in FRAME) + EXTRAS
-        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND,
-                                            shape=(len(self.observation_names),),
-                                            dtype=np.float32)
-        self._init_task_state()
-
-    def _observation_plan(self) -> list[tuple[int, float]]:
-        return []  # the task builds its own observation (_observation)
+        super().__init__(scenario, task, **kwargs)
 
     def _init_task_state(self) -> None:
-        self._history: deque[list[float]] = deque(maxlen=self.task.history)
-        self._telemetry = Telemetry(self.task.telemetry, 4)
-        self._telemetry_started = False
+        super()._init_task_state()
         self._step_rop = 0.0
-
-    def _init_episode_state(self) -> None:
-        super()._init_episode_state()
-        if hasattr(self, "task"):
-            self._init_task_state()
 
     # ------------------------------------------------------------------ reward
 
@@ -170,8 +150,7 @@ class DrillingEnv(DrillStringEnv):
         power = values[Metric.TOP_DRIVE_ENERGY] / self.config.control_interval \
             if values is not None else 0.0
         self._step_rop = rop
-        window = self._window_metrics
-        values = window[0] if window is not None and window[1] else None
+        values = self._window()
         stuck = values[Metric.STUCK_FRACTION] if values is not None else 1.0
         ssi = self._window_ssi()
         rpm, wob = self._speed_target / RPM, self._wob_target
@@ -197,26 +176,12 @@ class DrillingEnv(DrillStringEnv):
         frame = [r[READ.SURFACE_TORQUE] / self.config.torque_scale,
                  self._step_rop / t.rop_reference, drillability / DRILLABILITY_SCALE,
                  self._speed_target / (200.0 * RPM), self._wob_target / 140.0e3]
-        if not self._history:
-            self._history.extend([frame] * t.history)
-        else:
-            self._history.append(frame)
-        window = self._window_metrics
-        values = window[0] if window is not None and window[1] else None
+        self._push_frame(frame)
+        values = self._window()
         floor = max(abs(self._speed_target), 1e-6)
         downhole = [r[READ.BIT_SPEED] / floor,
                     min(self._window_ssi(), t.ssi_cap) / t.ssi_cap if values else 0.0,
                     values[Metric.STUCK_FRACTION] if values else 0.0,
                     values[Metric.RADIAL_RATIO] if values else 0.0]
-        now = r[READ.TIME]
-        if not self._telemetry_started:
-            self._telemetry.reset(now)
-            self._telemetry_started = True
-        held = self._telemetry.update(now, downhole)
-        age = min(self._telemetry.age(now), 100.0) / 10.0
-        raw = [v for f in self._history for v in f] + [*held, age]
-        obs = np.clip(np.nan_to_num(np.array(raw, dtype=np.float64), nan=0.0),
-                      -OBS_BOUND, OBS_BOUND).astype(np.float32)
-        self._last_obs = obs
-        return obs.copy()
+        return self._finish(self._received(downhole))
 

@@ -3,19 +3,18 @@
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import Annotated, Any
 
 import numpy as np
 from gymnasium import spaces
 from pydantic import Field
 
-from drill_env.env import OBS_BOUND, DrillStringEnv
 from drill_env.metrics import Metric
 from drill_env.physics.layout import READ
 from drill_env.physics.units import RPM
 from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass
-from drill_env.tasks.telemetry import Telemetry, TelemetryKind
+from drill_env.tasks.base import TaskEnv
+from drill_env.tasks.telemetry import TelemetryKind
 
 Rpm = Annotated[NonNegative, Field(le=1000.0)]
 Newton = Annotated[NonNegative, Field(le=1.0e7)]
@@ -92,7 +91,6 @@ class StickSlipTask:
                                  f"{(low, high)}")
 
 
-TASK_FIELDS = frozenset(StickSlipTask.__dataclass_fields__)
 
 #: Entries of one history frame.
 FRAME = ("surface_torque_ripple", "surface_speed_error", "action")
@@ -104,7 +102,7 @@ EXTRAS = ("surface_torque_mean", "target_rpm", "target_weight_on_bit", "telemetr
 TORQUE_MEAN_SECONDS = 3.0
 
 
-class StickSlipEnv(DrillStringEnv):
+class StickSlipEnv(TaskEnv):
     r"""Stick-slip control: the agent corrects the top drive's speed command.
 
     ## Description
@@ -165,45 +163,29 @@ class StickSlipEnv(DrillStringEnv):
     - v0: initial version.
     """
 
+    task_class = StickSlipTask
+    task: StickSlipTask
+    env_defaults = ENV_DEFAULTS
+    frame = FRAME
+    extras = EXTRAS
+    telemetry_values = 3
+
     def __init__(self, scenario: str = ENV_DEFAULTS["scenario"],
                  task: StickSlipTask | dict | None = None, **kwargs: Any) -> None:
-        given = {k: kwargs.pop(k) for k in list(kwargs) if k in TASK_FIELDS}
-        base = task if isinstance(task, StickSlipTask) else StickSlipTask(**(task or {}))
-        from drill_env.physics.config import replace
+        super().__init__(scenario, task, **kwargs)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self._max_correction = self.task.max_correction * RPM
 
-        self.task = replace(base, **given) if given else base
+    def _before_env_init(self) -> None:
         self._change_step = -1
         self._change = (0.0, 0.0)
-        for key, value in ENV_DEFAULTS.items():
-            if key != "scenario":
-                kwargs.setdefault(key, value)
-        super().__init__(scenario, **kwargs)
-        t = self.task
-        self.observation_names = tuple(f"{name}[{k}]" for k in range(t.history)
-                                       for name in FRAME) + EXTRAS
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
-        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND,
-                                            shape=(len(self.observation_names),),
-                                            dtype=np.float32)
-        self._max_correction = t.max_correction * RPM
-        self._init_task_state()
-
-    def _observation_plan(self) -> list[tuple[int, float]]:
-        return []  # the task builds its own observation (_observation)
 
     # ------------------------------------------------------------------ episode state
 
     def _init_task_state(self) -> None:
-        self._history: deque[list[float]] = deque(maxlen=self.task.history)
-        self._telemetry = Telemetry(self.task.telemetry, 3)
-        self._telemetry_started = False
+        super()._init_task_state()
         self._torque_mean = 0.0
         self._action = 0.0
-
-    def _init_episode_state(self) -> None:
-        super()._init_episode_state()
-        if hasattr(self, "task"):
-            self._init_task_state()
 
     def _start_targets(self, speed: float, wob: float, given: bool) -> tuple[float, float]:
         # (the episode state is initialised after this: the change lives here)
@@ -258,10 +240,6 @@ class StickSlipEnv(DrillStringEnv):
 
     # ------------------------------------------------------------------ reward
 
-    def _window(self) -> list[float] | None:
-        w = self._window_metrics
-        return w[0] if w is not None and w[1] else None
-
     def _reward_terms(self, step: tuple[list[float], bool] | None, terminated: bool
                       ) -> dict[str, float]:
         t = self.task
@@ -304,25 +282,11 @@ class StickSlipEnv(DrillStringEnv):
         scale = self.config.torque_scale
         frame = [(torque - self._torque_mean) / scale,
                  (r[READ.SURFACE_SPEED] - target) / self._max_correction, self._action]
-        if not self._history:
-            self._history.extend([frame] * t.history)
-        else:
-            self._history.append(frame)
+        self._push_frame(frame)
         window = self._window()
         floor = max(abs(target), 1e-6)
         downhole = [r[READ.BIT_SPEED] / floor,
                     min(self._window_ssi(), t.ssi_cap) / t.ssi_cap if window else 0.0,
                     window[Metric.STUCK_FRACTION] if window else 0.0]
-        now = r[READ.TIME]
-        if not self._telemetry_started:
-            self._telemetry.reset(now)
-            self._telemetry_started = True
-        held = self._telemetry.update(now, downhole)
-        age = min(self._telemetry.age(now), 100.0) / 10.0
-        raw = [v for f in self._history for v in f] + [
-            self._torque_mean / scale, target / (100.0 * RPM), self.targets[1] / 100.0e3,
-            *held, age]
-        obs = np.clip(np.nan_to_num(np.array(raw, dtype=np.float64), nan=0.0),
-                      -OBS_BOUND, OBS_BOUND).astype(np.float32)
-        self._last_obs = obs
-        return obs.copy()
+        return self._finish([self._torque_mean / scale, target / (100.0 * RPM),
+                             self.targets[1] / 100.0e3, *self._received(downhole)])

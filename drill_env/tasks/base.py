@@ -1,0 +1,95 @@
+"""What the control tasks share: their config split from the env's keywords, the env
+defaults they change, and an observation of history frames (oldest first) plus extras,
+with downhole data only through telemetry."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import deque
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from drill_env.env import OBS_BOUND, DrillStringEnv
+from drill_env.physics.config import replace
+from drill_env.physics.layout import READ
+from drill_env.tasks.telemetry import Telemetry
+
+
+class TaskEnv(DrillStringEnv):
+    """A control task over ``DrillString-v0``. The subclass names its task config
+    (``task_class``, which has ``history`` and ``telemetry`` fields), the env defaults it
+    changes, its frame and extra entries and how many values its telemetry carries; it
+    builds each frame and the downhole values in ``_observation`` and hands them to
+    :meth:`_push_frame`, :meth:`_received` and :meth:`_finish`."""
+
+    task_class: type
+    task: Any
+    env_defaults: dict[str, Any]
+    frame: tuple[str, ...]
+    extras: tuple[str, ...]
+    telemetry_values: int
+
+    def __init__(self, scenario: str, task: Any, **kwargs: Any) -> None:
+        fields = {f.name for f in dataclasses.fields(self.task_class)}
+        given = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
+        base = task if isinstance(task, self.task_class) else self.task_class(**(task or {}))
+        self.task = replace(base, **given) if given else base
+        self._before_env_init()
+        for key, value in self.env_defaults.items():
+            if key != "scenario":
+                kwargs.setdefault(key, value)
+        super().__init__(scenario, **kwargs)
+        self.observation_names = tuple(f"{name}[{k}]" for k in range(self.task.history)
+                                       for name in self.frame) + self.extras
+        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND,
+                                            shape=(len(self.observation_names),),
+                                            dtype=np.float32)
+        self._init_task_state()
+
+    def _before_env_init(self) -> None:
+        """State the env's own set-up (a reset) already needs."""
+
+    def _observation_plan(self) -> list[tuple[int, float]]:
+        return []  # the task builds its own observation (_observation)
+
+    def _init_task_state(self) -> None:
+        self._history: deque[list[float]] = deque(maxlen=self.task.history)
+        self._telemetry = Telemetry(self.task.telemetry, self.telemetry_values)
+        self._telemetry_started = False
+
+    def _init_episode_state(self) -> None:
+        super()._init_episode_state()
+        if hasattr(self, "task"):
+            self._init_task_state()
+
+    def _window(self) -> list[float] | None:
+        """The metric window's values, None until it holds finite ones."""
+        w = self._window_metrics
+        return w[0] if w is not None and w[1] else None
+
+    def _push_frame(self, frame: list[float]) -> None:
+        """Append this step's frame; the first one fills the whole history."""
+        if not self._history:
+            self._history.extend([frame] * self.task.history)
+        else:
+            self._history.append(frame)
+
+    def _received(self, downhole: list[float]) -> list[float]:
+        """The downhole values as last received through the telemetry, and the age of
+        that message / 10 s (capped at 100 s)."""
+        now = self._readings[READ.TIME]
+        if not self._telemetry_started:
+            self._telemetry.reset(now)
+            self._telemetry_started = True
+        held = self._telemetry.update(now, downhole)
+        return [*held, min(self._telemetry.age(now), 100.0) / 10.0]
+
+    def _finish(self, extras: list[float]) -> np.ndarray:
+        """The history then ``extras``, NaN as 0, clipped to the observation bound."""
+        raw = [v for f in self._history for v in f] + extras
+        obs = np.clip(np.nan_to_num(np.array(raw, dtype=np.float64), nan=0.0),
+                      -OBS_BOUND, OBS_BOUND).astype(np.float32)
+        self._last_obs = obs
+        return obs.copy()
