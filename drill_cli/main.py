@@ -484,10 +484,7 @@ def parser() -> argparse.ArgumentParser:
                    help="physics level (docs/performance.md)")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
-    p.add_argument("--ray-address", default=None,
-                   help="run the simulations on Ray: 'local' (a one-machine Ray here), "
-                        "'auto' (the cluster of `ray start` on this machine) or an address; "
-                        "needs the distributed extra (README: Scaling out on Ray)")
+    add_ray_address(p, "the simulations")
     p.add_argument("--record", action="store_true",
                    help="write one rerun recording per episode to --out/recordings, named "
                         "<controller>_<scenario>_seed<N>")
@@ -511,9 +508,7 @@ def parser() -> argparse.ArgumentParser:
                         "(resumable; summary in --out/train_sweep.md)")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="with --seeds: local processes (default: one per seed)")
-    p.add_argument("--ray-address", default=None,
-                   help="with --seeds: train the runs on Ray ('local', 'auto' or an "
-                        "address; the distributed extra)")
+    add_ray_address(p, "the training runs of --seeds")
     p.add_argument("--name", default=None,
                    help="run name (default: <task>_<algo>_seed<seed>)")
     p.add_argument("--resume", action="store_true",
@@ -550,10 +545,7 @@ def parser() -> argparse.ArgumentParser:
                    help="simulated seconds per grid point")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
-    p.add_argument("--ray-address", default=None,
-                   help="run the simulations on Ray: 'local' (a one-machine Ray here), "
-                        "'auto' (the cluster of `ray start` on this machine) or an address; "
-                        "needs the distributed extra (README: Scaling out on Ray)")
+    add_ray_address(p, "the simulations")
     p.add_argument("--out", type=Path, default=Path("logs"),
                    help="folder for stability_map.png/.json and the points file")
 
@@ -605,6 +597,13 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("path", type=Path, help="the .rrd file")
     p.add_argument("--web", action="store_true", help="serve the web viewer instead")
     return top
+
+
+def add_ray_address(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--ray-address", default=None,
+                   help=f"run {what} on Ray: 'local' (a one-machine Ray here), 'auto' (the "
+                        "cluster of `ray start` on this machine) or an address; needs the "
+                        "distributed extra (README: Scaling out on Ray)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
