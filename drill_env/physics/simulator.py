@@ -122,6 +122,7 @@ class Simulator:
         axial = [axial_force_profile(mesh, w, self.bit_buoyed_weight) for w in (0.0, 1.0)] \
             if self.hole is None else [self.hole.axial_weight, self.hole.axial_weight - 1.0]
         self.string_weight = self.hole.hanging_weight if self.hole else self.string_weight
+        self.axial_weight = axial[0]  # axial force at element midpoints at zero WOB (N)
         (k_lat, kg_weight, m_lat), (_, kg_with_unit_wob, _) = (assemble_lateral(mesh, a)
                                                                for a in axial)
         kg_unit = kg_weight - kg_with_unit_wob  # K_g(WOB) = K_g,weight - WOB K_g,unit
@@ -216,7 +217,7 @@ class Simulator:
         self._warned_compression = False
         #: WOB (N) below which no element is near its own buckling load
         self.resolved_weight_on_bit = resolved_weight_on_bit(
-            self.config, self.mesh, self.bit_buoyed_weight, self.lateral_start)
+            self.config, self.mesh, self.axial_weight, self.lateral_start)
         self._bind_arrays(np.zeros((1, N_RECORD)))
         self.reset()
 
@@ -399,7 +400,7 @@ class Simulator:
         if not self.config.solver.lateral or weight_on_bit < self.resolved_weight_on_bit:
             return
         message = element_buckling_error(self.config, self.mesh, weight_on_bit,
-                                         self.bit_buoyed_weight, self.lateral_start)
+                                         self.axial_weight, self.lateral_start)
         if message:
             raise ValueError(message)
 

@@ -119,11 +119,12 @@ ELEMENT_BUCKLING_SHARE = 0.8
 
 
 def element_buckling_error(config: SimulationConfig, mesh, weight_on_bit: float,
-                           bit_weight: float, lateral_start: int) -> str:
+                           axial_weight: np.ndarray, lateral_start: int) -> str:
     """Why ``weight_on_bit`` (N) compresses an element with lateral DOFs (from
     ``lateral_start`` on) beyond what it resolves, naming the field to refine; "" if
-    none does."""
-    n = _axial_without_wob(config, mesh, bit_weight) - weight_on_bit
+    none does. ``axial_weight``: the axial force at element midpoints at zero WOB (N;
+    ``Simulator.axial_weight``, along the hole in a curved one)."""
+    n = axial_weight - weight_on_bit
     limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
     ratio = -n / limit
     ratio[:lateral_start] = 0.0  # pipe held straight: no lateral DOFs to buckle
@@ -144,7 +145,7 @@ def element_buckling_error(config: SimulationConfig, mesh, weight_on_bit: float,
             f"string.{field_name}.element_length or reduce WOB")
 
 
-def resolved_weight_on_bit(config: SimulationConfig, mesh, bit_weight: float,
+def resolved_weight_on_bit(config: SimulationConfig, mesh, axial_weight: np.ndarray,
                            lateral_start: int) -> float:
     """A WOB (N) below which :func:`element_buckling_error` finds nothing, so control
     steps skip the axial profile. The force is affine in WOB (N_e = c_e - WOB), so the
@@ -152,24 +153,9 @@ def resolved_weight_on_bit(config: SimulationConfig, mesh, bit_weight: float,
     keeps rounding on the safe side: at and above it the full check decides."""
     if not config.solver.lateral:
         return math.inf
-    tension = _axial_without_wob(config, mesh, bit_weight)
     limit = np.pi**2 * mesh.bending_stiffness / mesh.element_length**2
-    allowed = (tension + ELEMENT_BUCKLING_SHARE * limit)[lateral_start:]
+    allowed = (axial_weight + ELEMENT_BUCKLING_SHARE * limit)[lateral_start:]
     if allowed.size == 0:
         return math.inf
     lowest = float(np.min(allowed))
     return lowest - 1.0e-9 * abs(lowest)
-
-
-def _axial_without_wob(config: SimulationConfig, mesh, bit_weight: float) -> np.ndarray:
-    """Axial force at element midpoints at zero WOB: the hanging weight below, along the
-    hole (the TVD's share in a curved hole, docs/model.md section 6)."""
-    if config.well.vertical:
-        return axial_force_profile(mesh, 0.0, bit_weight)
-    from drill_env.physics.trajectory import Survey, Trajectory, hole_loads
-
-    well = config.well
-    depth = config.initial_depth if config.initial_depth is not None else config.string.length
-    node_md = mesh.node_depth + (depth - mesh.node_depth[-1])
-    survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
-    return hole_loads(Trajectory(survey), node_md, mesh.buoyed_weight, bit_weight).axial_weight

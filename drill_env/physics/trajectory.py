@@ -158,18 +158,22 @@ class Trajectory:
     def total_md(self) -> float:
         return float(self.survey.md[-1])
 
-    def _arc(self, k: int, tau: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-        """Offset from station k and unit tangent at fraction ``tau`` of course k."""
+    def _arc(self, k: int, tau: np.ndarray | float
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Offset from station k, unit tangent t and dt/ds (1/m: curvature times the unit
+        normal toward the centre) at fraction ``tau`` of course k."""
         tau = np.asarray(tau, dtype=float)[..., None]
         t1, t2 = self._t[k], self._t[k + 1]
         length = self.survey.md[k + 1] - self.survey.md[k]
         beta = self._beta[k]
         if beta < 1e-12:
-            return tau * length * t1, np.broadcast_to(t1, tau.shape[:-1] + (3,)).copy()
+            along = np.broadcast_to(t1, tau.shape[:-1] + (3,))
+            return tau * length * t1, along.copy(), np.zeros_like(along)
         n = (t2 - math.cos(beta) * t1) / math.sin(beta)
         offset = length / beta * (np.sin(tau * beta) * t1 + (1.0 - np.cos(tau * beta)) * n)
         direction = np.cos(tau * beta) * t1 + np.sin(tau * beta) * n
-        return offset, direction
+        bend = beta / length * (-np.sin(tau * beta) * t1 + np.cos(tau * beta) * n)
+        return offset, direction, bend
 
     def _locate(self, md: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         md = np.asarray(md, dtype=float)
@@ -188,11 +192,21 @@ class Trajectory:
         tan = np.empty((md.size, 3))
         for j in np.unique(k):
             sel = k == j
-            offset, direction = self._arc(int(j), tau[sel])
+            offset, direction, _ = self._arc(int(j), tau[sel])
             pos[sel] = self._r[j] + offset
             tan[sel] = direction
         curvature = self._beta[k] / np.diff(self.survey.md)[k]
         return pos, tan, curvature
+
+    def bend(self, md) -> np.ndarray:
+        """dt/ds (n, 3) at ``md``: curvature times the unit normal toward the centre."""
+        md = np.atleast_1d(np.asarray(md, dtype=float))
+        k, tau = self._locate(md)
+        out = np.empty((md.size, 3))
+        for j in np.unique(k):
+            sel = k == j
+            out[sel] = self._arc(int(j), tau[sel])[2]
+        return out
 
     def inclination(self, md) -> np.ndarray:
         _, t, _ = self.at(md)
@@ -354,7 +368,7 @@ def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.n
                            + np.concatenate([element_weight * length, [0.0]]))
     lumped_weight[-1] += bit_weight  # the bit hangs on the last node
     across = DOWN[None, :] - tan[:, 2:3] * tan  # the weight's part across the hole
-    bend = np.where((node_md > 0.0)[:, None], _bend(trajectory, inside), 0.0)  # dt/ds
+    bend = np.where((node_md > 0.0)[:, None], trajectory.bend(inside), 0.0)  # dt/ds
     gravity = lumped_weight[:, None] * across
     turning = (below * lumped_length)[:, None] * bend
     unit = lumped_length[:, None] * bend
@@ -363,20 +377,6 @@ def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.n
                      np.einsum("cnk,nk->cn", frame, gravity + turning),
                      np.einsum("cnk,nk->cn", frame, unit))
 
-
-def _bend(trajectory: Trajectory, md: np.ndarray) -> np.ndarray:
-    """dt/ds (1/m) at ``md``: curvature times the unit normal toward the centre."""
-    k, tau = trajectory._locate(md)
-    out = np.zeros((md.size, 3))
-    course = np.diff(trajectory.survey.md)
-    for i, (j, f) in enumerate(zip(k, tau, strict=True)):
-        beta = trajectory._beta[j]
-        if beta < 1e-12:
-            continue
-        t1, t2 = trajectory._t[j], trajectory._t[j + 1]
-        n = (t2 - math.cos(beta) * t1) / math.sin(beta)
-        out[i] = beta / course[j] * (-math.sin(f * beta) * t1 + math.cos(f * beta) * n)
-    return out
 
 
 def curved_hole_loads(config, mesh, bit_weight: float) -> HoleLoads | None:
