@@ -36,7 +36,6 @@ inside the linearly unstable one (:func:`linear_boundary`) and approaches it as
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import time
@@ -55,7 +54,7 @@ from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass, jsonable
 from drill_env.scenarios import POSITIONS, make_scenario
-from drill_env.sweep import ResultStore, make_executor
+from drill_env.sweep import ResultStore, digest, make_executor
 
 #: The paper's grid: 0-250 rpm and 0-200 kN in steps of 5 rpm / 5 kN (0 itself is
 #: steady by definition: no rotation, or no bit load).
@@ -231,9 +230,7 @@ def _point_task(args: tuple) -> dict[str, float]:
 
 def fingerprint(config, settings: MapSettings) -> str:
     """What a point's result depends on: the physics and how it is simulated and judged."""
-    text = json.dumps({"config": jsonable(config), "settings": asdict(settings)},
-                      sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    return digest({"config": jsonable(config), "settings": asdict(settings)})
 
 
 def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float = PAPER_RPM_STEP,

@@ -22,6 +22,7 @@ a sweep run again skips what is already there.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from collections.abc import Callable, Iterator, Sequence
@@ -111,6 +112,12 @@ def make_executor(workers: int | None = None, ray_address: str | None = None) ->
         raise ValueError(f"workers: must be >= 1, got {workers}")
     n = workers or os.cpu_count() or 1
     return SerialExecutor() if n == 1 else ProcessExecutor(n)
+
+
+def digest(obj: Any) -> str:
+    """A short stable key of what results depend on (a JSON-able object): the
+    fingerprint a :class:`ResultStore` keeps its lines under."""
+    return hashlib.sha256(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:16]
 
 
 class ResultStore:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import hashlib
 import json
 import statistics
 from collections.abc import Sequence
@@ -23,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from drill_env.physics.validation import jsonable
-from drill_env.sweep import ResultStore, make_executor
+from drill_env.sweep import ResultStore, digest, make_executor
 from training.config import TrainConfig
 
 RESULTS_FILE = "train_sweep.jsonl"
@@ -67,8 +66,7 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     common = {k: v for k, v in jsonable(config).items() if k != "seed"}
-    fingerprint = hashlib.sha256(json.dumps(common, sort_keys=True).encode()).hexdigest()[:16]
-    store = ResultStore(out / RESULTS_FILE, fingerprint)
+    store = ResultStore(out / RESULTS_FILE, digest(common))
     configs = [dataclasses.replace(config, seed=int(s)) for s in seeds]
     todo = [c for c in configs if str(c.seed) not in store]
     if todo:
