@@ -339,3 +339,36 @@ def _alive(pid: int) -> bool:
     except (FileNotFoundError, ProcessLookupError):
         return False
     return state != "Z"
+
+
+def test_the_string_nodes_on_the_wall_are_recorded_coloured_by_their_force(tmp_path: Path
+                                                                           ) -> None:
+    """In the 60-degree lateral the string falls onto the low side: ``string/contact`` holds
+    the nodes with a wall force at each snapshot, coloured on the fixed log scale
+    (yellow at 100 N, dark red at 50 kN) and sized by force."""
+    from rerun.chunk import RrdReader
+
+    from drill_env.recording.writer import force_colors, force_share
+
+    share = force_share(np.array([0.0, 100.0, 2236.0, 5e4, 1e6]))
+    np.testing.assert_allclose(share, [0.0, 0.0, 0.5, 1.0, 1.0], atol=1e-3)
+    colors = force_colors(np.linspace(0.0, 1.0, 9)).astype(int)
+    assert np.all(np.diff(colors[:, 1]) <= 0)  # green falls: yellow -> red
+
+    env = RecordEpisode(_make_env(1.0, scenario="lateral_60"), tmp_path, string_period=0.25)
+    _run_episode(env, seed=0)
+    n_nodes = env.unwrapped.sim.n_nodes
+    env.close()
+    reader = RrdReader(str(env.last_path))
+    counts = []
+    for chunk in reader.stream(store=reader.recordings()[0]):
+        if chunk.entity_path != "/string/contact":
+            continue
+        batch = chunk.to_record_batch()
+        names = batch.schema.names
+        positions = batch.column(next(n for n in names if n.endswith("positions")))
+        counts += [len(cell) for cell in positions.to_pylist()]
+        assert any(n.endswith("colors") for n in names)
+    assert len(counts) >= 4  # one snapshot every 0.25 s
+    # released straight at reset, the string settles onto the low side
+    assert counts == sorted(counts) and counts[-1] > 0.5 * n_nodes

@@ -86,6 +86,7 @@ class _Chunk:
         self.sparse: dict[str, tuple[list[float], list[float]]] = {}  # name -> (t, values)
         self.string_t: list[float] = []
         self.string_xy: list[np.ndarray] = []
+        self.string_force: list[np.ndarray | None] = []
         self.string_depth: list[float] = []
         self.string_state: list[tuple[float, float, float, float]] = []
 
@@ -321,6 +322,8 @@ class EpisodeRecorder:
             depth = _num(getattr(sim, "depth", None))
             c.string_t.append(t)
             c.string_xy.append(sim.lateral_displacement)
+            forces = getattr(sim, "contact_forces", None)
+            c.string_force.append(None if forces is None else np.array(forces, copy=True))
             c.string_depth.append(depth)
             c.string_state.append((bx, by, depth, phi))
             self._next_string_t = t + self.string_period - 1e-9
@@ -359,7 +362,8 @@ class EpisodeRecorder:
             self._scalars(name, np.asarray(times), np.asarray(vals, dtype=np.float64),
                           name.rsplit("/", 1)[-1])
         self._orbit_history = writer.orbit(t, bx, by, self._orbit_history)
-        writer.string(np.asarray(c.string_t), c.string_xy, np.asarray(c.string_depth))
+        writer.string(np.asarray(c.string_t), c.string_xy, np.asarray(c.string_depth),
+                      c.string_force)
         writer.blades(np.asarray(c.string_t), np.asarray(c.string_state).reshape(-1, 4))
         # events: the streaming detectors carry their state from chunk to chunk
         stick, whirl, layer = self._detectors

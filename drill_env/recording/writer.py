@@ -16,6 +16,7 @@ with ``send_columns``. Entity paths (see ``docs/recording.md``):
 ``orbit_mm/clearance``, ``/bit``    2-D bit orbit (mm) inside the gauge-clearance circle
 ``string/deflection``               3-D lateral deflection of the string, exaggerated
 ``string/wall``                     clearance envelope of the string (exaggerated)
+``string/contact``                  nodes on the wall, coloured and sized by wall force
 ``bit/blades``                      blade pieces in the hole frame, coloured by rock
 ``bit/interfaces``, ``bit/wall``    formation interfaces and borehole wall near the bit
 ``bit/blade_rocks``                 text: which rock(s) each blade cuts (on change)
@@ -239,7 +240,9 @@ class RerunWriter:
             z = -np.asarray(g.node_depth, dtype=np.float64)
             stream.log("string/info", rr.TextDocument(
                 f"Lateral displacement exaggerated x{k:g} (x, y in m x {k:g}); z = minus "
-                "measured depth (m). Grey: clearance envelope of every node."), static=True)
+                "measured depth (m). Grey: clearance envelope of every node. Dots: nodes "
+                "on the wall, yellow (100 N) to dark red (50 kN, log scale), sized by force."),
+                static=True)
             wall = [np.stack([sx * k * clear, sy * k * clear, z], axis=1)
                     for sx, sy in ((1, 0), (-1, 0), (0, 1), (0, -1))]
             stream.log("string/wall", rr.LineStrips3D(wall, colors=(150, 150, 150),
@@ -319,8 +322,11 @@ class RerunWriter:
         return points[-ORBIT_TRAIL:]
 
     def string(self, times: np.ndarray, lateral: Sequence[np.ndarray],
-               depths: np.ndarray) -> None:
-        """Snapshots of the string's lateral displacement ``(n_nodes, 2)`` (m)."""
+               depths: np.ndarray, forces: Sequence[np.ndarray | None] = ()) -> None:
+        """Snapshots of the string's lateral displacement ``(n_nodes, 2)`` (m) and, where
+        given, its wall normal force per node (N): ``string/contact`` marks the nodes
+        that touch the wall (or lie on it, soft-string nodes of a curved hole), coloured
+        and sized by force."""
         g = self.geometry
         if g.node_depth is None or len(times) == 0:
             return
@@ -334,10 +340,27 @@ class RerunWriter:
         ok = np.all(np.isfinite(strips), axis=(1, 2))
         if not ok.any():
             return
+        if len(forces) == len(ok):
+            self._contact(times[ok], strips[ok], [f for f, good in zip(forces, ok, strict=True)
+                                                  if good])
         strips, times = strips[ok], times[ok]
         self._send("string/deflection", times,
                    self.rr.LineStrips3D.columns(strips=list(strips)))
         self._send("string/bit", times, self.rr.Points3D.columns(positions=strips[:, -1, :]))
+
+    def _contact(self, times: np.ndarray, strips: np.ndarray,
+                 forces: Sequence[np.ndarray | None]) -> None:
+        """``string/contact``: the nodes with a wall force at each snapshot, coloured and
+        sized by force on the fixed scale of :func:`force_share`."""
+        if not forces or any(f is None or len(f) != strips.shape[1] for f in forces):
+            return
+        force = np.nan_to_num(np.stack([np.asarray(f) for f in forces]), nan=0.0,
+                              posinf=0.0, neginf=0.0)
+        touching = force > 0.0
+        share = force_share(force[touching])
+        self._send("string/contact", times, self.rr.Points3D.columns(
+            positions=strips[touching], colors=force_colors(share),
+            radii=0.3 + 1.7 * share**2).partition(lengths=touching.sum(axis=1).tolist()))
 
     def blades(self, times: np.ndarray, states: np.ndarray) -> None:
         """The blades at snapshots ``states`` = rows (bit x, bit y, depth, angle): pieces
@@ -402,6 +425,27 @@ class RerunWriter:
         self._send("events", np.array([e[0] for e in ordered]),
                    self.rr.TextLog.columns(text=[e[2] for e in ordered],
                                            level=[e[1] for e in ordered]))
+
+
+#: Wall forces (N) at the two ends of the contact colour scale (logarithmic between):
+#: ~100 N is a light pipe joint grazing the wall, 50 kN a stabilizer in hard whirl.
+FORCE_SCALE = (100.0, 50.0e3)
+
+
+def force_share(force: np.ndarray) -> np.ndarray:
+    """Wall force (N) as a share of the logarithmic scale :data:`FORCE_SCALE`, in [0, 1]."""
+    low, high = FORCE_SCALE
+    return np.clip(np.log(np.maximum(force, low) / low) / math.log(high / low), 0.0, 1.0)
+
+
+def force_colors(share: np.ndarray) -> np.ndarray:
+    """RGB (uint8) of wall-force shares in [0, 1]: light yellow through orange to dark
+    red (a sequential scale that reads on the grey wall and the blue string)."""
+    stops = np.array([[255, 230, 120], [245, 140, 40], [200, 30, 30], [110, 0, 20]], float)
+    x = np.clip(share, 0.0, 1.0) * (len(stops) - 1)
+    k = np.minimum(x.astype(int), len(stops) - 2)
+    w = (x - k)[:, None]
+    return ((1.0 - w) * stops[k] + w * stops[k + 1]).round().astype(np.uint8)
 
 
 def piece_points(blades: np.ndarray, si: np.ndarray, pb: np.ndarray, ps: np.ndarray,
