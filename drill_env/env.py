@@ -628,6 +628,7 @@ class DrillStringEnv(gym.Env):
         info["weight_on_bit_limit"] = self.weight_on_bit_limit
         info["episode_time"] = r[_TIME] - self._start_time
         info["top_drive_energy"] = self._episode_energy
+        info["bit_inclination"] = self.sim.bit_inclination  # rad; the hole at the bit
         window = self._window_metrics
         values = window[0] if window is not None and window[1] else None
         for name, k in _INFO_METRIC:

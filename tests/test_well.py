@@ -52,3 +52,18 @@ def test_the_well_command_writes_the_chart_and_names_bad_input(tmp_path, capsys)
     with pytest.raises(SystemExit):
         main(["well", "--friction", "0.2,-1", "--out", str(tmp_path)])
     assert "--friction" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("scenario", "degrees"), [("lateral_60", 60.0), ("j_shaped", 45.0),
+                                                   ("default", 0.0)])
+def test_info_reports_the_inclination_of_the_hole_at_the_bit(scenario, degrees):
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401  (registers the env)
+
+    env = gym.make("DrillString-v0", scenario=scenario)
+    _, info = env.reset(seed=0)
+    assert info["bit_inclination"] == pytest.approx(np.radians(degrees), abs=1e-9)
+    _, _, _, _, info = env.step(env.action_space.sample())
+    assert info["bit_inclination"] == pytest.approx(np.radians(degrees), abs=1e-9)
+    env.close()

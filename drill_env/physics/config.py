@@ -405,9 +405,12 @@ class RockConfig:
 class Interface:
     """A planar formation boundary.
 
-    ``depth`` is where the plane crosses the borehole axis (m, measured depth of a
-    vertical well), ``dip`` the angle between the plane and the horizontal (deg), and
-    ``azimuth`` the direction of steepest descent in the hole's x-y plane (deg from x).
+    ``depth`` is where the plane crosses the borehole axis (m, measured depth), ``dip``
+    the angle between the plane and the horizontal (deg), and ``azimuth`` the direction
+    of steepest descent (deg from x, which is north). Both are true, relative to the
+    vertical: in a curved hole (``well``) the plane is turned into the bit's frame at the
+    bit (docs/model.md section 6), so a bed dipping 60 deg south is flat to a bit
+    drilling 60 deg north.
     """
 
     depth: Finite = Field(ge=-1.0e5, le=1.0e5)

@@ -26,7 +26,13 @@ import numpy as np
 from numba import njit
 from scipy.optimize import brentq
 
-from drill_env.physics.config import BitConfig, FormationConfig, Interface, RockConfig
+from drill_env.physics.config import (
+    BitConfig,
+    ConfigError,
+    FormationConfig,
+    Interface,
+    RockConfig,
+)
 
 #: Columns of ``FormationArrays.rock_params``: one row per rock (RockConfig fields).
 Rock = IntEnum("Rock", [
@@ -80,16 +86,40 @@ def rock_parameter_table(rocks, bit_diameter: float = math.inf) -> np.ndarray:
     return table
 
 
-def formation_arrays(cfg: FormationConfig, bit_diameter: float = math.inf
-                     ) -> FormationArrays:
+#: Smallest cosine of the angle between an interface's normal and the hole axis at the
+#: bit (relative dip below ~88.9 deg): a plane nearly parallel to the hole would cross
+#: its axis far from ``depth`` and under the bit only sideways.
+MIN_RELATIVE_COSINE = 0.02
+
+
+def formation_arrays(cfg: FormationConfig, bit_diameter: float = math.inf,
+                     bit_frame: np.ndarray | None = None) -> FormationArrays:
     """Convert a :class:`FormationConfig` into the arrays the kernels read (the founder
-    WOB of each rock for a bit of ``bit_diameter``, m)."""
+    WOB of each rock for a bit of ``bit_diameter``, m).
+
+    ``bit_frame``: rows e1, e2, t of a curved hole at the bit (north, east, down). The
+    interfaces' dip and azimuth are then true ones (from the horizontal, from north),
+    turned into the bit's frame; ``depth`` stays where the plane crosses the hole axis
+    (measured depth), the hole taken straight along t near the bit. None: the vertical
+    hole, e1 north, e2 east (the identity).
+    """
     n_if = len(cfg.interfaces)
     normals = np.zeros((n_if, 3))
     offsets = np.zeros(n_if)
     for k, interface in enumerate(cfg.interfaces):
         normals[k], offsets[k] = interface_plane(interface.depth, interface.dip,
                                                  interface.azimuth)
+        if bit_frame is None:
+            continue
+        local = bit_frame @ normals[k]
+        if abs(local[2]) < MIN_RELATIVE_COSINE:
+            raise ConfigError(
+                f"formation.interfaces[{k}]: the plane (dip {interface.dip:g} deg, azimuth "
+                f"{interface.azimuth:g} deg) is nearly parallel to the hole at the bit "
+                f"({math.degrees(math.acos(abs(local[2]))):.1f} deg from its normal)")
+        # "below" an interface is further along the hole
+        normals[k] = local if local[2] > 0.0 else -local
+        offsets[k] = interface.depth * abs(local[2])
     layer_rock = np.asarray(cfg.layers, dtype=np.int64)
     return FormationArrays(normals, offsets, layer_rock,
                            rock_parameter_table(cfg.rocks, bit_diameter))

@@ -36,6 +36,7 @@ from drill_env.physics.linalg import (
     solve_tridiagonal,
     torsion_residual,
 )
+from drill_env.physics.string_friction import soft_string_torsion
 
 #: Above this bit speed (rad/s, ~9500 rpm) or lateral displacement (m) the state is a
 #: numerical runaway, not drilling: the kernel stops with Status.RUNAWAY.
@@ -425,6 +426,7 @@ def advance(n_steps, record_every, a):
         state[S.WOB_FACTORED] = wob
     lateral = p[P.LATERAL] > 0.0
     contact_on = lateral and p[P.CONTACT_ON] > 0.0
+    soft_string = p[P.SOFT_STRING] > 0.0
     # Torsion only: the lateral forces are dropped (a = 0), but a lateral velocity set by
     # the caller still carries the displacement along. A string at rest skips the loops.
     moving = lateral
@@ -441,7 +443,12 @@ def advance(n_steps, record_every, a):
         by = m.ul[1, lb]
         t_slip, t_static, fx_slip, fy_slip, fx_static, fy_static, gauge_x, gauge_y = \
             _bit_loads(p, state, m, work, nodes.compliance[bit], bit_arrays, wob, lb, lateral)
-        t_bit, stuck = _torsion(p, state, torsion, m, work, t_slip, t_static)
+        if soft_string:
+            torsion_residual(torsion.k, p[P.RAYLEIGH_B], torsion.c, m.ut, m.vt, work.rt)
+            t_bit, stuck = soft_string_torsion(p, state, torsion, nodes, m, work, t_slip,
+                                               t_static)
+        else:
+            t_bit, stuck = _torsion(p, state, torsion, m, work, t_slip, t_static)
         fbx, fby = _front_force(t_bit, stuck, t_static, fx_slip, fy_slip, fx_static,
                                 fy_static)
         state[S.BIT_FX] = fbx + gauge_x

@@ -53,6 +53,8 @@ P = IntEnum("P", [
     "TD_FILTER_W",    # filter corner / centre (rad/s)
     "TD_FILTER_ZETA",  # band-pass damping ratio
     "STATIC_LOAD",    # 1: a curved hole's static lateral loads (Nodes.static_load) apply
+    "SOFT_STRING",    # 1: soft-string friction at nodes without lateral DOFs
+                      # (Nodes.soft_normal; physics/string_friction.py)
 ], start=0)
 N_PARAMS = len(P)
 
@@ -86,6 +88,7 @@ S = IntEnum("S", [
     "TD_CORRECTION",      # speed command correction of the torque feedback (rad/s)
     "SPEED_CORRECTION",   # correction added to the speed command after the set-point rate
                           # limit (rad/s): a policy acting as a stick-slip controller
+    "FRICTION_ITERATIONS",  # active-set solves of the last soft-string friction step
 ], start=0)
 N_STATE = len(S)
 
@@ -156,6 +159,7 @@ class TorsionSystem(NamedTuple):
     c: np.ndarray        # mud drag per node (diagonal, N m s/rad)
     factor: np.ndarray   # LDL^T factor of A = J + gamma dt C + beta dt^2 K
     col_bit: np.ndarray  # A^-1 e_bit: the response of every node to a unit bit torque
+    band: np.ndarray     # A itself (band layout), for the soft-string friction solve
 
 
 class Nodes(NamedTuple):
@@ -166,6 +170,7 @@ class Nodes(NamedTuple):
     contact: np.ndarray     # 1.0 where the node may touch the wall
     compliance: np.ndarray  # tangential compliance of the contact point in one step
     static_load: np.ndarray  # (2, n_lat) curved hole: weight across it, tension turning
+    soft_normal: np.ndarray  # (n,) r F_n of the soft-string nodes (N m), 0 elsewhere
 
 
 class Motion(NamedTuple):
@@ -177,6 +182,7 @@ class Motion(NamedTuple):
     ut: np.ndarray
     vt: np.ndarray
     at: np.ndarray
+    stick: np.ndarray  # (n,) soft-string friction: slip direction +-1, or 0 while stuck
 
 
 class Work(NamedTuple):
@@ -186,6 +192,7 @@ class Work(NamedTuple):
     rt: np.ndarray          # torsional residual, then acceleration
     contact: np.ndarray     # one contact's result (:data:`CONTACT`)
     node_force: np.ndarray  # wall normal force of every node (N)
+    soft: np.ndarray        # (4, n) scratch of the soft-string friction solve
 
 
 class BitArrays(NamedTuple):

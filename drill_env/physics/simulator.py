@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drill_env.physics import integrator, top_drive
+from drill_env.physics import integrator, string_friction, top_drive
 from drill_env.physics.bit import (
     SHARES,
     BitKinematics,
@@ -50,7 +50,6 @@ from drill_env.physics.layout import (
     N_STATE,
     RECORD_CHANNELS,
     BitArrays,
-    Feedback,
     KernelArrays,
     LateralSystem,
     Motion,
@@ -64,14 +63,11 @@ from drill_env.physics.layout import (
 from drill_env.physics.linalg import band_cholesky, cholesky_to_ldl
 from drill_env.physics.readings import advance_and_read, readout
 from drill_env.physics.statics import element_buckling_error, resolved_weight_on_bit
+from drill_env.physics.top_drive import MAX_FILTER_W_DT
 from drill_env.physics.trajectory import curved_hole_loads
 
 __all__ = ["MAX_FILTER_W_DT", "RECORD_CHANNELS", "STATUS_MESSAGES", "OperatingPoint",
            "Simulator", "Status"]
-
-#: Largest 2 pi f dt of the top drive's torque filter: its semi-implicit update is stable
-#: below 2; 0.5 keeps its phase error at the filter frequency under ~10 %.
-MAX_FILTER_W_DT = 0.5
 
 STATUS_MESSAGES = {
     Status.OK: "",
@@ -173,6 +169,10 @@ class Simulator:
             if 0 < k < n - 1:
                 radius[k] = cfg.string.stabilizer_diameter / 2
         self.node_clearance = hole_r - radius
+        # nodes without lateral DOFs in a curved hole: soft-string friction (_hole_wob)
+        self.soft_nodes = string_friction.soft_string_nodes(
+            cfg.solver.lateral, n, self.lateral_start) & (self.hole is not None)
+        self.soft_normal = np.zeros(n)
         if cfg.bit_model == "mesoscopic":
             self.node_contact[-1] = 0.0  # the gauge model handles the bit
         else:
@@ -182,7 +182,11 @@ class Simulator:
         # ---- bit and formation
         self.blades = blade_arrays(cfg.bit)
         self.lever_arm = bit_lever_arm(cfg.bit)
-        fa = formation_arrays(cfg.formation, cfg.bit.diameter)
+        fa = formation_arrays(cfg.formation, cfg.bit.diameter,
+                              None if self.hole is None else self.hole.bit_frame)
+        #: inclination of the hole at the bit (rad, 0: vertical)
+        self.bit_inclination = 0.0 if self.hole is None else float(
+            np.arccos(np.clip(self.hole.bit_frame[2, 2], -1.0, 1.0)))
         self.normals, self.offsets = fa.normals, fa.offsets
         self.layer_rock, self.rock_params = fa.layer_rock, fa.rock_params
         self.formation = fa
@@ -208,6 +212,8 @@ class Simulator:
         self.rl = np.zeros((2, nl))  # plane-major residual / acceleration scratch
         self.static_load = np.zeros((2, nl))  # curved hole, set with the WOB (_hole_wob)
         self.rt = np.zeros(n)
+        self.stick = np.zeros(n)  # soft-string slip directions (0: stuck)
+        self.soft_work = np.zeros((4, n))
         self.contact_out = np.zeros(4)
         self.node_force = np.zeros(n)
         self.state = np.zeros(N_STATE)
@@ -233,12 +239,13 @@ class Simulator:
             lateral=LateralSystem(self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m,
                                   self.lat_k_damp, self.lat_k_total, self.lat_work_band,
                                   self.lat_factor),
-            torsion=TorsionSystem(self.tor_k, self.tor_c, self.tor_factor, self.col_bit),
+            torsion=TorsionSystem(self.tor_k, self.tor_c, self.tor_factor, self.col_bit,
+                                  self.tor_band),
             nodes=Nodes(self.node_clearance, self.node_radius, self.node_contact,
-                        self.compliance, self.static_load),
+                        self.compliance, self.static_load, self.soft_normal),
             motion=Motion(self.lat_planes[0], self.lat_planes[1], self.lat_planes[2],
-                          self.ut, self.vt, self.at),
-            work=Work(self.rl, self.rt, self.contact_out, self.node_force),
+                          self.ut, self.vt, self.at, self.stick),
+            work=Work(self.rl, self.rt, self.contact_out, self.node_force, self.soft_work),
             bit=BitArrays(self.blades, self.formation, self.bit_scratch, self.bit_out),
             record=record)
 
@@ -326,26 +333,9 @@ class Simulator:
         friction = cfg.bit.gauge_friction
         p[P.GAUGE_FRICTION] = math.nan if friction is None else friction
         p[P.STATIC_LOAD] = 0.0 if self.hole is None else 1.0
-        self._torque_feedback_parameters(p)
+        p[P.SOFT_STRING] = 1.0 if self.soft_nodes.any() else 0.0
+        top_drive.feedback_parameters(self.top_drive_law, self.dt, p)
         self.params = p
-
-    def _torque_feedback_parameters(self, p: np.ndarray) -> None:
-        """The top drive's torque feedback (``TopDriveConfig.torque_feedback``)."""
-        law = self.top_drive_law
-        mode = {"none": Feedback.NONE, "high_pass": Feedback.HIGH_PASS,
-                "band_pass": Feedback.BAND_PASS}[law.torque_feedback]
-        p[P.TD_FEEDBACK] = mode
-        if mode == Feedback.NONE:
-            return
-        w = 2.0 * math.pi * law.filter_frequency
-        if w * self.dt > MAX_FILTER_W_DT:
-            raise ConfigError(
-                f"top_drive.filter_frequency: {law.filter_frequency:g} Hz is too fast for "
-                f"the time step {self.dt:.2e} s (2 pi f dt must stay below "
-                f"{MAX_FILTER_W_DT})")
-        p[P.TD_FEEDBACK_GAIN] = law.feedback_gain
-        p[P.TD_FILTER_W] = w
-        p[P.TD_FILTER_ZETA] = law.filter_damping
 
     def _torsion_system(self) -> np.ndarray:
         dt, p = self.dt, self.params
@@ -355,7 +345,7 @@ class Simulator:
         return band
 
     def _factor_torsion(self) -> None:
-        band = self._torsion_system()
+        band = self.tor_band = self._torsion_system()
         self.tor_factor = np.zeros_like(band)
         if not band_cholesky(band, self.tor_factor):
             raise ValueError("torsional system matrix is not positive definite")
@@ -388,10 +378,14 @@ class Simulator:
         return self.string_weight - weight_on_bit
 
     def _hole_wob(self, wob: float) -> None:
-        """The curved hole's static lateral loads at this WOB (displacement DOFs)."""
+        """The curved hole's static lateral loads at this WOB (displacement DOFs), and
+        the normal forces of the soft-string nodes (``node_force``) with their r F_n."""
         if self.hole is not None:
-            self.static_load[:, 0::2] = (self.hole.load_weight - wob * self.hole.load_unit
-                                         )[:, self.lateral_start:]
+            load = self.hole.load_weight - wob * self.hole.load_unit
+            self.static_load[:, 0::2] = load[:, self.lateral_start:]
+            soft = self.soft_nodes
+            self.node_force[soft] = np.hypot(load[0], load[1])[soft]
+            self.soft_normal[soft] = self.node_radius[soft] * self.node_force[soft]
 
     def check_mesh_resolves(self, weight_on_bit: float) -> None:
         """Raise if an element is compressed beyond what one Hermite element can bend
@@ -470,9 +464,13 @@ class Simulator:
         omega, wob = op.surface_speed, op.weight_on_bit
         self.check_mesh_resolves(wob)
         self._warn_if_straight_pipe_compressed(wob)
+        self._hole_wob(wob)
+        self.stick[:] = np.sign(omega)
         tob = self.steady_torque_on_bit(omega, wob)
-        drag = self.tor_c * omega
-        load = -drag.copy()
+        load = -self.tor_c * omega
+        if self.soft_nodes.any():
+            load += string_friction.steady_friction(self.params, self.soft_normal,
+                                                    self.node_radius, omega)
         load[-1] -= tob
         total = -load.sum()  # motor torque that balances everything
         k = from_band(self.tor_k)[1:, 1:]
@@ -483,7 +481,6 @@ class Simulator:
         self.state[S.SETPOINT] = omega
         self.state[S.SETPOINT_TARGET] = omega
         self.state[S.WOB] = wob
-        self._hole_wob(wob)
         self.state[S.HOOK_LOAD] = self.hook_load_for(wob)
         self.state[S.WOB_FACTORED] = np.nan
         self.state[S.MOTOR_TORQUE] = total

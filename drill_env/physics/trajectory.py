@@ -340,6 +340,7 @@ class HoleLoads:
     hanging_weight: float     # buoyed weight the hook carries off bottom (N): w x TVD
     load_weight: np.ndarray   # (2, n_nodes) static lateral load at zero WOB (N)
     load_unit: np.ndarray     # (2, n_nodes) its change per newton of WOB (subtracted)
+    bit_frame: np.ndarray     # (3, 3) rows e1, e2, t at the bit (north, east, down)
 
 
 def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.ndarray,
@@ -375,7 +376,8 @@ def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.n
     frame = np.stack([e1, e2])  # (2, n, 3)
     return HoleLoads(axial_weight, float(below[0]),
                      np.einsum("cnk,nk->cn", frame, gravity + turning),
-                     np.einsum("cnk,nk->cn", frame, unit))
+                     np.einsum("cnk,nk->cn", frame, unit),
+                     np.stack([e1[-1], e2[-1], tan[-1]]))
 
 
 
@@ -386,13 +388,6 @@ def curved_hole_loads(config, mesh, bit_weight: float) -> HoleLoads | None:
     well = config.well
     if well.vertical:
         return None
-    if not config.solver.pipe_lateral or not config.solver.lateral:
-        import warnings
-
-        warnings.warn("a curved hole at the fast level or torsion-only: the pipe has no "
-                      "lateral DOFs, so no wall friction along it (the BHA keeps its "
-                      "loads); use fidelity='full' for torque and drag", RuntimeWarning,
-                      stacklevel=3)
     depth = config.initial_depth if config.initial_depth is not None else config.string.length
     survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
     node_md = mesh.node_depth + (depth - mesh.node_depth[-1])  # < 0 above the wellhead

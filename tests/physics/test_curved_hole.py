@@ -11,7 +11,7 @@ import pytest
 
 from drill_env.physics.config import replace
 from drill_env.physics.integrator import wall_friction_coefficient
-from drill_env.physics.layout import R
+from drill_env.physics.layout import P, R
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.trajectory import DOWN, Survey, Trajectory, soft_string
 from drill_env.physics.units import RPM
@@ -125,10 +125,19 @@ def test_a_survey_that_ends_above_the_string_is_refused_by_name():
                            "well.azimuth": (0.0, 0.0)})
 
 
-def test_a_curved_hole_without_pipe_lateral_dofs_warns_that_pipe_friction_is_missing():
+def test_soft_string_friction_acts_exactly_where_the_string_has_no_lateral_dofs():
+    """Full level: every node below the top has lateral DOFs and the FE contacts carry
+    the friction. Fast level: the straight pipe and the pinned BHA top node. Torsion
+    only: every node between the top drive and the bit. Vertical: none."""
     config = make_scenario("lateral_60").config
-    with pytest.warns(RuntimeWarning, match="no wall friction along"):
-        Simulator(replace(config, **{"solver.fidelity": "fast"}).resolved())
+    full = Simulator(config)
+    fast = Simulator(replace(config, **{"solver.fidelity": "fast"}))
+    torsion = Simulator(replace(config, **{"solver.lateral": False}))
+    vertical = Simulator(replace(make_scenario("default").config, **{"solver.lateral": False}))
+    assert not full.soft_nodes.any() and full.params[P.SOFT_STRING] == 0.0
+    assert np.flatnonzero(fast.soft_nodes).tolist() == list(range(1, fast.lateral_start + 1))
+    assert np.flatnonzero(torsion.soft_nodes).tolist() == list(range(1, torsion.n_nodes - 1))
+    assert not vertical.soft_nodes.any() and vertical.params[P.SOFT_STRING] == 0.0
 
 
 def test_the_mesh_check_uses_the_axial_force_along_the_curved_hole():
@@ -140,3 +149,36 @@ def test_the_mesh_check_uses_the_axial_force_along_the_curved_hole():
     with pytest.raises(ValueError, match="buckling load"):
         deviated.check_mesh_resolves(1.01 * deviated.resolved_weight_on_bit)
     vertical.check_mesh_resolves(1.01 * deviated.resolved_weight_on_bit)
+
+
+def test_formation_dip_is_true_and_turned_into_the_bits_frame():
+    """A bed dipping 60 deg toward south is perpendicular to a hole inclined 60 deg
+    toward north, so the bit meets it flat; a horizontal bed meets that bit at 60 deg.
+    The plane still crosses the hole axis at its measured depth. Interfaces along the
+    hole are refused by name. The bit's inclination is reported."""
+    from drill_env.physics.config import ConfigError, FormationConfig, Interface, RockConfig
+
+    config = make_scenario("default").config
+    length = config.string.length
+    config = with_survey(config, Survey.from_stations([0.0, length + 100.0], [60.0, 60.0],
+                                                      [0.0, 0.0]))
+    depth = length + 0.5
+
+    def planes(*interfaces):
+        formation = FormationConfig(rocks=(RockConfig(), RockConfig(name="soft")),
+                                    interfaces=interfaces, layers=(0, 1, 0)[:len(interfaces) + 1])
+        sim = Simulator(replace(config, formation=formation))
+        return sim, sim.formation.normals, sim.formation.offsets
+
+    sim, normals, offsets = planes(Interface(depth, 60.0, 180.0), Interface(depth + 1.0, 0.0))
+    np.testing.assert_allclose(normals[0], [0.0, 0.0, 1.0], atol=1e-12)
+    assert normals[1][2] == pytest.approx(0.5, rel=1e-12)  # cos 60
+    np.testing.assert_allclose(offsets, normals[:, 2] * [depth, depth + 1.0], rtol=1e-12)
+    assert sim.bit_inclination == pytest.approx(math.radians(60.0), rel=1e-12)
+    with pytest.raises(ConfigError, match=r"formation\.interfaces\[0\]"):
+        planes(Interface(depth, 30.0, 0.0))  # dips 30 deg north: along a 60-deg hole
+    vertical = Simulator(replace(make_scenario("default").config, formation=FormationConfig(
+        rocks=(RockConfig(), RockConfig(name="soft")), interfaces=(Interface(depth, 60.0, 180.0),),
+        layers=(0, 1))))
+    assert vertical.formation.normals[0][2] == pytest.approx(0.5, rel=1e-12)
+    assert vertical.bit_inclination == 0.0

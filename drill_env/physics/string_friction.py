@@ -1,0 +1,179 @@
+"""Soft-string wall friction with implicit stick and slip (docs/model.md section 6).
+
+Where a node has no lateral DOFs (torsion-only runs, the drill pipe held straight at the
+fast level) a curved hole still presses it on the wall with the static normal force
+``F_n`` of :func:`~drill_env.physics.trajectory.hole_loads` (weight across the hole,
+tension turning with it). Such a node feels a Coulomb torque ``mu r F_n`` against its
+rotation: ``mu(v)`` of eq. (23) at the predicted contact speed while it slips, and up to
+``mu_s r F_n`` holding it while it sticks, like the bit's static and slip torques.
+
+Stick or slip is decided implicitly for all nodes and the bit together. Torsion is linear
+and tridiagonal: with ``A = J + gamma dt C + beta dt^2 K`` and the Newmark predictor
+``v_p``, the end-of-step speeds solve ``A v = A v_p + gamma dt (r + tau)``, where ``r`` is
+the residual without friction and ``tau`` the friction torques. Each node is stuck
+(``v = 0``, ``|tau| <= T_static``) or slips (``tau = -sign(v) T_slip``). A primal-dual
+active-set iteration guesses the set, solves the tridiagonal system with the stuck rows
+held at zero (Thomas algorithm, O(n)), then releases the stuck nodes whose holding torque
+exceeds their static limit and sticks the slipping nodes whose speed came out reversed.
+It starts from the previous step's set and converges in one or two solves when nothing
+changes. A whole string stuck along a lateral stays exactly at rest: no regularisation,
+so no creep and no chatter.
+
+Without a friction node (the vertical hole) the step keeps the exact bit rule of
+:mod:`~drill_env.physics.integrator` and its arithmetic.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from drill_env.physics.layout import P, S
+
+#: Active-set iterations before the step gives up improving the set and keeps the last
+#: solve; ``state[S.FRICTION_ITERATIONS]`` reports the count (more than this: gave up).
+MAX_ACTIVE_SET_ITERATIONS = 60
+
+#: ``Motion.stick`` entries: the slip direction of a node, or stuck.
+STUCK = 0.0
+
+
+@njit(cache=True, inline="always")
+def _limits(p, nodes, m, k, bit, t_slip, t_static):
+    """(static, slip) torque limits of node ``k``; the bit's come from the bit model.
+    A node with no static limit is free (no friction)."""
+    if k == bit:
+        return t_static, t_slip
+    lever = nodes.soft_normal[k]  # r F_n (N m per unit friction coefficient)
+    if lever <= 0.0:
+        return 0.0, 0.0
+    v = abs(m.vt[k]) * nodes.radius[k]
+    mu = p[P.MU_KINETIC] + (p[P.MU_STATIC] - p[P.MU_KINETIC]) * np.exp(-v / p[P.MU_DECAY])
+    return p[P.MU_STATIC] * lever, mu * lever
+
+
+@njit(cache=True, inline="always")
+def _held(nodes, stick, k, bit, t_static):
+    """Node ``k`` is a friction node and stuck: its speed is held at zero."""
+    if stick[k] != STUCK:
+        return False
+    return t_static > 0.0 if k == bit else nodes.soft_normal[k] > 0.0
+
+
+@njit(cache=True, inline="always")
+def _solve_held(band, rhs, nodes, stick, bit, t_static, cp, v):
+    """Solve the tridiagonal ``band`` system for ``v`` with the stuck friction nodes held
+    at zero (their rows replaced by ``v_k = 0``, their columns dropped): Thomas."""
+    n = v.shape[0]
+    for i in range(n):
+        if _held(nodes, stick, i, bit, t_static):
+            cp[i] = 0.0
+            v[i] = 0.0
+            continue
+        diag = band[0, i]
+        r = rhs[i]
+        if i > 0 and not _held(nodes, stick, i - 1, bit, t_static):
+            off = band[1, i - 1]
+            diag -= off * cp[i - 1]
+            r -= off * v[i - 1]
+        off_next = 0.0
+        if i < n - 1 and not _held(nodes, stick, i + 1, bit, t_static):
+            off_next = band[1, i]
+        cp[i] = off_next / diag
+        v[i] = r / diag
+    for i in range(n - 2, -1, -1):
+        v[i] -= cp[i] * v[i + 1]
+
+
+@njit(cache=True, inline="always")
+def _band_times(band, x, i):
+    """Row ``i`` of the tridiagonal ``band`` times ``x``."""
+    out = band[0, i] * x[i]
+    if i > 0:
+        out += band[1, i - 1] * x[i - 1]
+    if i < x.shape[0] - 1:
+        out += band[1, i] * x[i + 1]
+    return out
+
+
+@njit(cache=True, inline="always")
+def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
+    """The torsion solve with implicit Coulomb friction at the soft-string nodes and the
+    bit (module docstring). ``work.rt`` holds the residual; on return ``m.at`` holds the
+    accelerations. Returns the bit torque on the string and whether the bit is stuck."""
+    n = m.vt.shape[0]
+    bit = n - 1
+    h = p[P.GAMMA] * p[P.DT]
+    band = torsion.band
+    stick = m.stick
+    base = work.soft[0]  # A v_p + h r
+    rhs = work.soft[1]
+    cp = work.soft[2]
+    v = work.soft[3]
+    for i in range(n):
+        base[i] = _band_times(band, m.vt, i) + h * work.rt[i]
+    iterations = 0
+    for _ in range(MAX_ACTIVE_SET_ITERATIONS + 1):
+        iterations += 1
+        for i in range(n):
+            rhs[i] = base[i]
+            if stick[i] != STUCK:
+                _, slip = _limits(p, nodes, m, i, bit, t_slip, t_static)
+                rhs[i] -= h * stick[i] * slip
+        _solve_held(band, rhs, nodes, stick, bit, t_static, cp, v)
+        changed = False
+        for i in range(n):
+            static, _ = _limits(p, nodes, m, i, bit, t_slip, t_static)
+            if static <= 0.0:
+                stick[i] = 1.0 if v[i] >= 0.0 else -1.0  # free: follows its speed
+                continue
+            if stick[i] == STUCK:
+                holding = (_band_times(band, v, i) - base[i]) / h
+                if abs(holding) > static:
+                    stick[i] = -1.0 if holding > 0.0 else 1.0
+                    changed = True
+            elif v[i] * stick[i] < 0.0:
+                stick[i] = STUCK
+                changed = True
+        if not changed:
+            break
+    state[S.FRICTION_ITERATIONS] = iterations
+    if _held(nodes, stick, bit, bit, t_static):
+        t_bit = (_band_times(band, v, bit) - base[bit]) / h
+        stuck = 1.0
+    else:
+        t_bit = -stick[bit] * t_slip
+        stuck = 0.0
+    for i in range(n):
+        m.at[i] = (v[i] - m.vt[i]) / h
+    state[S.STUCK] = stuck
+    state[S.TOB] = -t_bit
+    return t_bit, stuck
+
+
+def initial_stick(omega: float, n: int) -> np.ndarray:
+    """``Motion.stick`` of a string turning steadily at ``omega`` (stuck when at rest)."""
+    return np.full(n, float(np.sign(omega)))
+
+
+def soft_string_nodes(lateral: bool, n_nodes: int, lateral_start: int) -> np.ndarray:
+    """Mask of the nodes that feel soft-string friction: every node between the top
+    drive and the bit in a torsion-only run; the laterally straight drill pipe and the
+    pinned BHA top node (``lateral_start``) when the pipe is held straight; none when
+    every node below the top has lateral DOFs (the FE contacts carry the friction)."""
+    mask = np.zeros(n_nodes, dtype=bool)
+    if not lateral:
+        mask[1:-1] = True
+    elif lateral_start > 0:
+        mask[1:lateral_start + 1] = True
+    return mask
+
+
+def steady_friction(params: np.ndarray, soft_normal: np.ndarray, radius: np.ndarray,
+                    omega: float) -> np.ndarray:
+    """Soft-string torque on each node of a string turning steadily at ``omega`` (N m,
+    against the rotation; zero at rest)."""
+    v = abs(omega) * radius
+    mu = params[P.MU_KINETIC] + (params[P.MU_STATIC] - params[P.MU_KINETIC]) * np.exp(
+        -v / params[P.MU_DECAY])
+    return -float(np.sign(omega)) * mu * soft_normal

@@ -1,0 +1,163 @@
+"""Soft-string friction (physics/string_friction.py): the implicit stick/slip solve
+against an independent convex solver, the rotating torque against the soft-string
+torque-and-drag model and the FE string, and a string stuck along a lateral that
+neither creeps nor chatters."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+from drill_env.physics.config import replace
+from drill_env.physics.layout import (
+    N_PARAMS,
+    N_STATE,
+    Motion,
+    Nodes,
+    P,
+    R,
+    S,
+    TorsionSystem,
+    Work,
+)
+from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.string_friction import MAX_ACTIVE_SET_ITERATIONS, soft_string_torsion
+from drill_env.physics.trajectory import Survey, Trajectory, soft_string
+from drill_env.physics.units import RPM
+from drill_env.scenarios import make_scenario
+from drill_env.well import column_for
+from tests.physics.test_curved_hole import rotate_off_bottom, sliding_friction, with_survey
+
+
+def chain(rng, n):
+    """A random torsional chain: A = J + c K (tridiagonal, SPD), predictor speeds and
+    residual torques of both signs, Coulomb limits on every node (the bit's last)."""
+    k = rng.uniform(0.5, 3.0, n - 1)
+    band = np.zeros((2, n))
+    band[0] = rng.uniform(0.2, 1.0, n)
+    band[0, :-1] += k
+    band[0, 1:] += k
+    band[1, :-1] = -k
+    return band, rng.normal(0.0, 1.0, n), rng.normal(0.0, 2.0, n), rng.uniform(0.0, 1.5, n)
+
+
+def kernel_speeds(band, v_pred, residual, limit, h, stick):
+    """End-of-step speeds and stick state from the kernel, equal static and slip limits
+    (speed-independent Coulomb friction: mu_s = mu_k, unit radius)."""
+    n = v_pred.shape[0]
+    p = np.zeros(N_PARAMS)
+    p[P.DT] = 2.0 * h
+    p[P.GAMMA] = 0.5
+    p[P.MU_STATIC] = p[P.MU_KINETIC] = 1.0
+    p[P.MU_DECAY] = 1.0
+    state = np.zeros(N_STATE)
+    z = np.zeros(n)
+    soft_normal = limit.copy()
+    soft_normal[-1] = 0.0  # the bit's limit comes from the bit model
+    torsion = TorsionSystem(band, z, band, z, band)
+    nodes = Nodes(z, np.ones(n), z, z, np.zeros((2, n)), soft_normal)
+    m = Motion(np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2)), z.copy(), v_pred.copy(),
+               np.zeros(n), stick)
+    work = Work(np.zeros((2, 2)), residual.copy(), np.zeros(4), z.copy(), np.zeros((4, n)))
+    t_bit, stuck = soft_string_torsion(p, state, torsion, nodes, m, work, limit[-1], limit[-1])
+    return v_pred + h * m.at, m.stick, state[S.FRICTION_ITERATIONS], t_bit, stuck
+
+
+def convex_minimiser(band, v_pred, residual, limit, h):
+    """argmin 1/2 v'Av - (A v_p + h r)'v + h sum T_i |v_i| by L-BFGS-B on v = a - b,
+    a, b >= 0: the end-of-step speeds of implicit Coulomb friction, solved without the
+    active set."""
+    n = v_pred.shape[0]
+    a_full = np.diag(band[0]) + np.diag(band[1, :-1], 1) + np.diag(band[1, :-1], -1)
+    base = a_full @ v_pred + h * residual
+
+    def f(x):
+        v = x[:n] - x[n:]
+        g = a_full @ v - base
+        value = 0.5 * v @ a_full @ v - base @ v + h * limit @ (x[:n] + x[n:])
+        return value, np.concatenate([g + h * limit, -g + h * limit])
+
+    x0 = np.concatenate([np.maximum(v_pred, 0.0), np.maximum(-v_pred, 0.0)])
+    res = minimize(f, x0, jac=True, method="L-BFGS-B", bounds=[(0.0, None)] * (2 * n),
+                   options={"ftol": 1e-15, "gtol": 1e-12, "maxiter": 10_000})
+    return res.x[:n] - res.x[n:]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_the_active_set_solve_is_the_minimiser_of_implicit_coulomb_friction(seed):
+    rng = np.random.default_rng(seed)
+    n = 9
+    band, v_pred, residual, limit = chain(rng, n)
+    h = 0.3
+    cold = rng.choice([-1.0, 0.0, 1.0], n)  # any start: the set is found, not assumed
+    v, stick, iterations, t_bit, stuck = kernel_speeds(band, v_pred, residual, limit, h,
+                                                       cold.copy())
+    reference = convex_minimiser(band, v_pred, residual, limit, h)
+    scale = np.max(np.abs(reference)) + 1e-3
+    np.testing.assert_allclose(v, reference, atol=1e-6 * scale)
+    assert iterations <= MAX_ACTIVE_SET_ITERATIONS
+    # stuck: at rest to rounding (v = v_p + h a with a = -v_p / h)
+    assert np.all(np.abs(v[stick == 0.0]) <= 1e-12 * np.max(np.abs(v_pred)))
+    assert np.all(np.sign(v[stick != 0.0]) == stick[stick != 0.0])
+    # the bit torque: the holding torque within its limit while stuck, the limit against
+    # the slip otherwise
+    assert abs(t_bit) <= limit[-1] * (1 + 1e-12)
+    if not stuck:
+        assert t_bit == pytest.approx(-np.sign(v[-1]) * limit[-1])
+
+
+def test_the_soft_string_mode_turns_with_the_soft_string_torque_of_a_60_degree_hole():
+    """Torsion only in a straight 60-degree hole: every node lies on the low side with
+    F_n = w L sin 60 and the rotating wall torque is mu r sum F_n, the soft-string
+    torque-and-drag model's (an independent implementation along the survey)."""
+    config = make_scenario("default").config
+    length = config.string.length
+    survey = Survey.from_stations([0.0, length + 100.0], [60.0, 60.0], [0.0, 0.0])
+    config = replace(with_survey(config, survey), **{"solver.lateral": False})
+    torque, sim = rotate_off_bottom(config)
+    soft = soft_string(Trajectory(survey), column_for(config, length), length,
+                       sliding_friction(config))
+    assert sim.params[P.SOFT_STRING] == 1.0
+    assert torque == pytest.approx(soft.surface_torque, rel=0.01)
+    assert np.sum(sim.node_force) == pytest.approx(np.sum(soft.normal_force), rel=0.01)
+
+
+def test_in_a_build_the_fe_string_and_the_soft_string_mode_agree_on_the_torque():
+    """Acceptance 3: the FE string climbs the wall to the friction angle, so its wall
+    torque times sqrt(1 + mu^2) equals the soft-string mode's within 5 %."""
+    config = make_scenario("default").config
+    length = config.string.length
+    survey = Survey.profile(length + 100.0, kickoff=100.0, build_rate=3.0,
+                            hold_inclination=30.0)
+    config = with_survey(config, survey)
+    mu = sliding_friction(config)
+    fe, _ = rotate_off_bottom(config)
+    soft, _ = rotate_off_bottom(replace(config, **{"solver.lateral": False}))
+    assert fe * math.sqrt(1.0 + mu * mu) / soft == pytest.approx(1.0, abs=0.05)
+    fast, _ = rotate_off_bottom(replace(config, **{"solver.fidelity": "fast"}))
+    assert fast == pytest.approx(soft, rel=0.1)  # FE BHA, soft-string pipe
+
+
+def test_a_string_stuck_along_a_lateral_neither_creeps_nor_chatters_and_breaks_away():
+    """Stop the top drive of the 60-degree lateral (torsion only): the string comes to
+    rest held by wall friction with its torque trapped, then stays at rest to rounding;
+    a set point again breaks it free and it turns at the set point."""
+    config = replace(make_scenario("lateral_60").config, **{"solver.lateral": False})
+    sim = Simulator(config)
+    sim.reset(OperatingPoint(60 * RPM, 0.0))
+    sim.run(40.0, speed_setpoint=0.0)
+    soft = sim.soft_nodes
+    angles = sim.ut.copy()
+    sim.run(10.0, speed_setpoint=0.0)
+    assert np.mean(sim.stick[soft] == 0.0) > 0.7
+    assert np.max(np.abs(sim.ut - angles)) < 1e-8  # rad in 10 s
+    assert np.max(np.abs(sim.vt)) < 1e-9
+    trapped = sim.state[S.SURFACE_TORQUE]
+    assert trapped > 1e3  # the friction holds the wound-up string
+    rec = sim.run(20.0, speed_setpoint=60 * RPM, record_every=50)
+    late = rec[rec[:, R.TIME] > rec[-1, R.TIME] - 5.0]
+    assert np.mean(late[:, R.BIT_SPEED]) == pytest.approx(60 * RPM, rel=0.05)
+    assert np.max(rec[:, R.SURFACE_TORQUE]) > trapped
