@@ -192,7 +192,7 @@ class Work(NamedTuple):
     rt: np.ndarray          # torsional residual, then acceleration
     contact: np.ndarray     # one contact's result (:data:`CONTACT`)
     node_force: np.ndarray  # wall normal force of every node (N)
-    soft: np.ndarray        # (4, n) scratch of the soft-string friction solve
+    soft: np.ndarray        # (6, n) scratch of the soft-string friction solve
 
 
 class BitArrays(NamedTuple):

@@ -213,7 +213,7 @@ class Simulator:
         self.static_load = np.zeros((2, nl))  # curved hole, set with the WOB (_hole_wob)
         self.rt = np.zeros(n)
         self.stick = np.zeros(n)  # soft-string slip directions (0: stuck)
-        self.soft_work = np.zeros((4, n))
+        self.soft_work = np.zeros((6, n))
         self.contact_out = np.zeros(4)
         self.node_force = np.zeros(n)
         self.state = np.zeros(N_STATE)

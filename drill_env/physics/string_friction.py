@@ -53,34 +53,25 @@ def _limits(p, nodes, m, k, bit, t_slip, t_static):
 
 
 @njit(cache=True, inline="always")
-def _held(nodes, stick, k, bit, t_static):
-    """Node ``k`` is a friction node and stuck: its speed is held at zero."""
-    if stick[k] != STUCK:
-        return False
-    return t_static > 0.0 if k == bit else nodes.soft_normal[k] > 0.0
-
-
-@njit(cache=True, inline="always")
-def _solve_held(band, rhs, nodes, stick, bit, t_static, cp, v):
-    """Solve the tridiagonal ``band`` system for ``v`` with the stuck friction nodes held
-    at zero (their rows replaced by ``v_k = 0``, their columns dropped): Thomas."""
+def _solve_held(band, rhs, stick, static_limit, cp, v):
+    """Solve the tridiagonal ``band`` system for ``v`` with the stuck friction nodes
+    (``stick`` 0 and a static limit) held at zero: their rows become ``v_k = 0``. Thomas;
+    a held row leaves ``cp`` and ``v`` zero, so its neighbours need no special case."""
     n = v.shape[0]
     for i in range(n):
-        if _held(nodes, stick, i, bit, t_static):
+        if stick[i] == STUCK and static_limit[i] > 0.0:
             cp[i] = 0.0
             v[i] = 0.0
             continue
         diag = band[0, i]
         r = rhs[i]
-        if i > 0 and not _held(nodes, stick, i - 1, bit, t_static):
+        if i > 0:
             off = band[1, i - 1]
             diag -= off * cp[i - 1]
             r -= off * v[i - 1]
-        off_next = 0.0
-        if i < n - 1 and not _held(nodes, stick, i + 1, bit, t_static):
-            off_next = band[1, i]
-        cp[i] = off_next / diag
-        v[i] = r / diag
+        inv = 1.0 / diag
+        cp[i] = band[1, i] * inv if i < n - 1 else 0.0
+        v[i] = r * inv
     for i in range(n - 2, -1, -1):
         v[i] -= cp[i] * v[i + 1]
 
@@ -110,20 +101,22 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
     rhs = work.soft[1]
     cp = work.soft[2]
     v = work.soft[3]
+    static_limit = work.soft[4]
+    slip_limit = work.soft[5]
     for i in range(n):
         base[i] = _band_times(band, m.vt, i) + h * work.rt[i]
+        static_limit[i], slip_limit[i] = _limits(p, nodes, m, i, bit, t_slip, t_static)
     iterations = 0
     for _ in range(MAX_ACTIVE_SET_ITERATIONS + 1):
         iterations += 1
         for i in range(n):
             rhs[i] = base[i]
             if stick[i] != STUCK:
-                _, slip = _limits(p, nodes, m, i, bit, t_slip, t_static)
-                rhs[i] -= h * stick[i] * slip
-        _solve_held(band, rhs, nodes, stick, bit, t_static, cp, v)
+                rhs[i] -= h * stick[i] * slip_limit[i]
+        _solve_held(band, rhs, stick, static_limit, cp, v)
         changed = False
         for i in range(n):
-            static, _ = _limits(p, nodes, m, i, bit, t_slip, t_static)
+            static = static_limit[i]
             if static <= 0.0:
                 stick[i] = 1.0 if v[i] >= 0.0 else -1.0  # free: follows its speed
                 continue
@@ -138,7 +131,7 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
         if not changed:
             break
     state[S.FRICTION_ITERATIONS] = iterations
-    if _held(nodes, stick, bit, bit, t_static):
+    if stick[bit] == STUCK and t_static > 0.0:
         t_bit = (_band_times(band, v, bit) - base[bit]) / h
         stuck = 1.0
     else:

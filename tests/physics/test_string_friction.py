@@ -61,7 +61,7 @@ def kernel_speeds(band, v_pred, residual, limit, h, stick):
     nodes = Nodes(z, np.ones(n), z, z, np.zeros((2, n)), soft_normal)
     m = Motion(np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2)), z.copy(), v_pred.copy(),
                np.zeros(n), stick)
-    work = Work(np.zeros((2, 2)), residual.copy(), np.zeros(4), z.copy(), np.zeros((4, n)))
+    work = Work(np.zeros((2, 2)), residual.copy(), np.zeros(4), z.copy(), np.zeros((6, n)))
     t_bit, stuck = soft_string_torsion(p, state, torsion, nodes, m, work, limit[-1], limit[-1])
     return v_pred + h * m.at, m.stick, state[S.FRICTION_ITERATIONS], t_bit, stuck
 
