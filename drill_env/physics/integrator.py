@@ -36,7 +36,7 @@ from drill_env.physics.linalg import (
     solve_tridiagonal,
     torsion_residual,
 )
-from drill_env.physics.string_friction import soft_string_torsion
+from drill_env.physics.string_friction import settle_held, soft_string_torsion
 
 #: Above this bit speed (rad/s, ~9500 rpm) or lateral displacement (m) the state is a
 #: numerical runaway, not drilling: the kernel stops with Status.RUNAWAY.
@@ -462,6 +462,8 @@ def advance(n_steps, record_every, a):
                         work.rl[c, i] += nodes.static_load[c, i]
             _lateral(p, lateral_system, m, work)
         _correct(p, m, work, lateral, moving)
+        if soft_string:
+            settle_held(m, work)
         rop = _bookkeeping(p, state, torsion, m, t_bit, t_motor)
 
         omega_bit = m.vt[bit]

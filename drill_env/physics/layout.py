@@ -89,6 +89,7 @@ S = IntEnum("S", [
     "SPEED_CORRECTION",   # correction added to the speed command after the set-point rate
                           # limit (rad/s): a policy acting as a stick-slip controller
     "FRICTION_ITERATIONS",  # active-set solves of the last soft-string friction step
+                            # (negative: gave up after that many, the last one kept)
 ], start=0)
 N_STATE = len(S)
 

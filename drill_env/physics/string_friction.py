@@ -5,7 +5,8 @@ fast level) a curved hole still presses it on the wall with the static normal fo
 ``F_n`` of :func:`~drill_env.physics.trajectory.hole_loads` (weight across the hole,
 tension turning with it). Such a node feels a Coulomb torque ``mu r F_n`` against its
 rotation: ``mu(v)`` of eq. (23) at the predicted contact speed while it slips, and up to
-``mu_s r F_n`` holding it while it sticks, like the bit's static and slip torques.
+``mu_s r F_n`` holding it while it sticks, like the bit's static and slip torques (a
+slip torque is capped at the static one, :func:`_limits`).
 
 Stick or slip is decided implicitly for all nodes and the bit together. Torsion is linear
 and tridiagonal: with ``A = J + gamma dt C + beta dt^2 K`` and the Newmark predictor
@@ -16,8 +17,9 @@ active-set iteration guesses the set, solves the tridiagonal system with the stu
 held at zero (Thomas algorithm, O(n)), then releases the stuck nodes whose holding torque
 exceeds their static limit and sticks the slipping nodes whose speed came out reversed.
 It starts from the previous step's set and converges in one or two solves when nothing
-changes. A whole string stuck along a lateral stays exactly at rest: no regularisation,
-so no creep and no chatter.
+changes. A node the last solve held ends the step at rest with no acceleration
+(:func:`settle_held`): a whole string stuck along a lateral stays exactly at rest, with
+steady holding torques (no regularisation, so no creep; no alternating acceleration).
 
 Without a friction node (the vertical hole) the step keeps the exact bit rule of
 :mod:`~drill_env.physics.integrator` and its arithmetic.
@@ -30,8 +32,10 @@ from numba import njit
 
 from drill_env.physics.layout import P, S
 
-#: Active-set iterations before the step gives up improving the set and keeps the last
-#: solve; ``state[S.FRICTION_ITERATIONS]`` reports the count (more than this: gave up).
+#: Active-set solves before the step gives up improving the set and keeps the last one;
+#: ``state[S.FRICTION_ITERATIONS]`` reports the count (negative: gave up). With the slip
+#: torque capped at the static one, 3,000 random chains from random starts needed at
+#: most 7 (tests/physics/test_string_friction.py draws more).
 MAX_ACTIVE_SET_ITERATIONS = 60
 
 #: ``Motion.stick`` entries: the slip direction of a node, or stuck.
@@ -41,15 +45,20 @@ STUCK = 0.0
 @njit(cache=True, inline="always")
 def _limits(p, nodes, m, k, bit, t_slip, t_static):
     """(static, slip) torque limits of node ``k``; the bit's come from the bit model.
-    A node with no static limit is free (no friction)."""
+    The slip torque is capped at the static one: a node that slips with more torque than
+    would hold it reverses at once and sticks, and held it needs more than its limit, so
+    the set would cycle (possible with ``friction_kinetic > friction_static`` or a rock
+    whose resistance grows with speed beyond ``mu_max``). No static limit: no friction."""
     if k == bit:
-        return t_static, t_slip
+        static = max(t_static, 0.0)
+        return static, min(t_slip, static)
     lever = nodes.soft_normal[k]  # r F_n (N m per unit friction coefficient)
     if lever <= 0.0:
         return 0.0, 0.0
     v = abs(m.vt[k]) * nodes.radius[k]
     mu = p[P.MU_KINETIC] + (p[P.MU_STATIC] - p[P.MU_KINETIC]) * np.exp(-v / p[P.MU_DECAY])
-    return p[P.MU_STATIC] * lever, mu * lever
+    static = max(p[P.MU_STATIC], 0.0) * lever
+    return static, min(mu * lever, static)
 
 
 @njit(cache=True, inline="always")
@@ -106,8 +115,10 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
     for i in range(n):
         base[i] = _band_times(band, m.vt, i) + h * work.rt[i]
         static_limit[i], slip_limit[i] = _limits(p, nodes, m, i, bit, t_slip, t_static)
+    held = cp  # after each solve: 1 where that solve held the node at rest
     iterations = 0
-    for _ in range(MAX_ACTIVE_SET_ITERATIONS + 1):
+    converged = False
+    for _ in range(MAX_ACTIVE_SET_ITERATIONS):
         iterations += 1
         for i in range(n):
             rhs[i] = base[i]
@@ -117,10 +128,12 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
         changed = False
         for i in range(n):
             static = static_limit[i]
+            held[i] = 0.0
             if static <= 0.0:
                 stick[i] = 1.0 if v[i] >= 0.0 else -1.0  # free: follows its speed
                 continue
             if stick[i] == STUCK:
+                held[i] = 1.0
                 holding = (_band_times(band, v, i) - base[i]) / h
                 if abs(holding) > static:
                     stick[i] = -1.0 if holding > 0.0 else 1.0
@@ -129,14 +142,13 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
                 stick[i] = STUCK
                 changed = True
         if not changed:
+            converged = True
             break
-    state[S.FRICTION_ITERATIONS] = iterations
-    if stick[bit] == STUCK and t_static > 0.0:
-        t_bit = (_band_times(band, v, bit) - base[bit]) / h
-        stuck = 1.0
-    else:
-        t_bit = -stick[bit] * t_slip
-        stuck = 0.0
+    # negative: the set kept changing and the last solve is kept (physically valid
+    # torques, possibly not the consistent set)
+    state[S.FRICTION_ITERATIONS] = iterations if converged else -iterations
+    t_bit = (_band_times(band, v, bit) - base[bit]) / h  # the torque the solve applied
+    stuck = held[bit]
     for i in range(n):
         m.at[i] = (v[i] - m.vt[i]) / h
     state[S.STUCK] = stuck
@@ -144,9 +156,17 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
     return t_bit, stuck
 
 
-def initial_stick(omega: float, n: int) -> np.ndarray:
-    """``Motion.stick`` of a string turning steadily at ``omega`` (stuck when at rest)."""
-    return np.full(n, float(np.sign(omega)))
+@njit(cache=True, inline="always")
+def settle_held(m, work):
+    """After the Newmark corrector: the nodes the last solve held are at rest with no
+    acceleration. Without this, the acceleration ``-v_p / h`` that stopped a node feeds
+    the next predictor, and a stuck node's acceleration and holding torque alternate in
+    sign every step (the displacement stays exact either way)."""
+    held = work.soft[2]
+    for i in range(m.vt.shape[0]):
+        if held[i] > 0.0:
+            m.vt[i] = 0.0
+            m.at[i] = 0.0
 
 
 def soft_string_nodes(lateral: bool, n_nodes: int, lateral_start: int) -> np.ndarray:

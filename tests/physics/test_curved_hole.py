@@ -27,11 +27,14 @@ def with_survey(config, survey: Survey):
                               "well.azimuth": tuple(np.degrees(survey.azimuth))})
 
 
-def rotate_off_bottom(config, seconds: float = 10.0):
+def rotate_off_bottom(config, seconds: float = 10.0, wound: bool = True):
     """Rotate at 60 rpm with no WOB; the wall torque averaged over the last 4 s (surface
-    torque less the mud drag) and the simulator."""
+    torque less the mud drag) and the simulator. ``wound=False`` starts from an untwisted
+    string, so the kernel's friction alone must wind it up."""
     sim = Simulator(config)
     sim.reset(OperatingPoint(SPEED, 0.0))
+    if not wound:
+        sim.ut[:] = 0.0
     rec = sim.run(seconds, record_every=50)
     late = rec[rec[:, R.TIME] > seconds - 4.0]
     drag = float(np.sum(sim.tor_c)) * SPEED
@@ -182,3 +185,40 @@ def test_formation_dip_is_true_and_turned_into_the_bits_frame():
         layers=(0, 1))))
     assert vertical.formation.normals[0][2] == pytest.approx(0.5, rel=1e-12)
     assert vertical.bit_inclination == 0.0
+
+
+@pytest.mark.parametrize(("dip", "azimuth"), [(60.0, 180.0), (0.0, 0.0), (75.0, 0.0),
+                                              (40.0, 90.0), (20.0, 250.0)])
+def test_the_layer_a_point_near_the_bit_lies_in_follows_the_true_plane(dip, azimuth):
+    """World geometry against the bit's frame: a point at local (x, y, z) near the bit
+    lies at Q + x e1 + y e2 + (z - depth) t in north-east-down coordinates, with Q where
+    the plane crosses the hole axis. The kernel's layer (``layer_at`` on the transformed
+    plane) must say the hole has crossed the interface exactly where the point lies on
+    the far side of the true plane from the part of the hole before the crossing. For a
+    bed dipping 75 deg north the 60-degree hole drills up-section (the plane's normal
+    points back up the hole): its second layer lies geologically above the plane, as
+    ``layers`` are listed in the order the hole meets them."""
+    from drill_env.physics.config import FormationConfig, Interface, RockConfig
+    from drill_env.physics.formation import interface_plane, layer_at
+
+    config = make_scenario("default").config
+    length = config.string.length
+    config = with_survey(config, Survey.from_stations([0.0, length + 100.0], [60.0, 60.0],
+                                                      [0.0, 0.0]))
+    depth = length + 0.3
+    sim = Simulator(replace(config, formation=FormationConfig(
+        rocks=(RockConfig(), RockConfig(name="soft")), interfaces=(Interface(depth, dip,
+                                                                             azimuth),),
+        layers=(0, 1))))
+    frame = sim.hole.bit_frame  # rows e1, e2, t
+    normal, _ = interface_plane(0.0, dip, azimuth)  # true normal, north-east-down
+    before = np.sign(normal @ (-frame[2]))  # side of the hole before the crossing
+    rng = np.random.default_rng(7)
+    for x, y, dz in rng.uniform([-0.2, -0.2, -0.6], [0.2, 0.2, 0.6], (200, 3)):
+        world = x * frame[0] + y * frame[1] + dz * frame[2]  # relative to Q
+        side = np.sign(normal @ world)
+        expected = 0 if side == before else 1
+        assert layer_at(x, y, depth + dz, sim.formation.normals, sim.formation.offsets) \
+            == expected, (x, y, dz)
+    if dip == 75.0:
+        assert before > 0  # drilling up-section: the layer met second is above the bed
