@@ -14,6 +14,10 @@ trains PPO (task 1's hyperparameters, 8 batched envs) in a fresh process per set
                    what ``import drill_env`` sets unless the user set the variable
 ``workqueue``      numba's own thread pool (no spinning)
 ``omp-1thread``    OpenMP, one numba thread (no parallel physics)
+``passive-torch1`` OpenMP passive, torch held at one thread by the training
+                   callback (``TrainConfig.torch_threads = 1``, the default of
+                   ``drill-env train``); the set-ups above leave torch at its own
+                   count (``torch_threads = 0``)
 =================  ========================================================
 
 quiet and with one competing CPU-bound process, in turns (``--rounds``), and prints env
@@ -39,6 +43,7 @@ SETUPS = {
     "workqueue": {"NUMBA_THREADING_LAYER": "workqueue", "OMP_WAIT_POLICY": ""},
     "omp-1thread": {"NUMBA_THREADING_LAYER": "omp", "NUMBA_NUM_THREADS": "1",
                     "OMP_WAIT_POLICY": ""},
+    "passive-torch1": {"NUMBA_THREADING_LAYER": "omp", "STUDY_TORCH_THREADS": "1"},
 }
 
 
@@ -49,15 +54,17 @@ def child(steps: int) -> None:
     from stable_baselines3 import PPO
 
     from training.config import load_config
-    from training.train import make_train_env
+    from training.train import make_train_env, torch_threads_callback
 
     config = load_config("stick_slip", "ppo")
     env = make_train_env(config, 0)
     model = PPO(config.policy, env, seed=0, verbose=0, policy_kwargs=config.policy_kwargs,
                 **config.hyperparams)
-    model.learn(4096)  # compile / load caches, first update
+    threads = int(os.environ.get("STUDY_TORCH_THREADS", "0"))
+    callback = torch_threads_callback(threads) if threads else None
+    model.learn(4096, callback=callback)  # compile / load caches, first update
     wall, cpu = time.perf_counter(), time.process_time()
-    model.learn(steps, reset_num_timesteps=False)
+    model.learn(steps, reset_num_timesteps=False, callback=callback)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     print(json.dumps({"steps_per_s": steps / wall, "cpu_s_per_1000": 1e3 * cpu / steps,
                       "layer": numba.threading_layer(), "numba_threads":
@@ -69,20 +76,23 @@ def main() -> None:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=8192)
     parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--setups", default=",".join(SETUPS),
+                        help="comma-separated subset of: " + ", ".join(SETUPS))
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, default=Path("logs/threading_study.json"))
     args = parser.parse_args()
     if args.child:
         child(args.steps)
         return
+    setups = {name: SETUPS[name] for name in args.setups.split(",")}
     results: dict[str, dict[str, list[dict]]] = {s: {"quiet": [], "loaded": []}
-                                                 for s in SETUPS}
+                                                 for s in setups}
     for _ in range(args.rounds):
         for load in ("quiet", "loaded"):
             hog = (subprocess.Popen([sys.executable, "-c", "while True: pass"])
                    if load == "loaded" else None)
             try:
-                for name, env in SETUPS.items():
+                for name, env in setups.items():
                     out = subprocess.run(
                         [sys.executable, __file__, "--child", "--steps", str(args.steps)],
                         env={**os.environ, **env}, capture_output=True, text=True,
@@ -98,7 +108,7 @@ def main() -> None:
     print(f"\n{'set-up':12s} {'quiet steps/s':>14s} {'loaded steps/s':>15s} "
           f"{'loaded/quiet':>13s} {'cpu s/1000 quiet':>17s}")
     summary = {}
-    for name in SETUPS:
+    for name in setups:
         quiet = max(r["steps_per_s"] for r in results[name]["quiet"])
         loaded = max(r["steps_per_s"] for r in results[name]["loaded"])
         cpu = min(r["cpu_s_per_1000"] for r in results[name]["quiet"])

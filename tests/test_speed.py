@@ -105,3 +105,30 @@ def test_importing_drill_env_makes_openmp_workers_wait_passively_unless_told():
                             env={**env, "OMP_WAIT_POLICY": "ACTIVE"}, capture_output=True,
                             text=True, check=True).stdout.strip()
     assert (default, chosen) == ("PASSIVE", "ACTIVE")
+
+
+def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_default(tmp_path):
+    """``drill-env speed --sections training``: PPO (task 1) and SAC (task 2) trained for
+    a moment; every row a positive steps/s with its ratio to the env alone, the shares
+    of env, update and the rest summing to 1, and both torch thread counts timed."""
+    tiny = dataclasses.replace(QUICK, train_steps=4096, train_rounds=1)
+    from drill_cli.main import _bench_training, _format_training
+
+    run_speed(("training",), tiny, tmp_path, progress=False, echo=None,
+              runners={"training": (_bench_training, _format_training)})
+    result = json.loads((tmp_path / "speed.json").read_text())["training"]
+    assert set(result["runs"]) == {"stick_slip ppo", "drilling sac"}
+    for run in result["runs"].values():
+        rows = run["rows"]
+        assert {"env only, random actions", "env only, constant action"} <= set(rows)
+        trained = [r for label, r in rows.items() if label.startswith("torch")]
+        assert len(trained) == (1 if result["torch_default_threads"] == 1 else 2)
+        for row in rows.values():
+            assert positive_finite(row["steps_per_s"]) and positive_finite(row["x env only"])
+            assert positive_finite(row["cpu_s_per_1000"])
+        for row in trained:
+            shares = (row["env_share"], row["update_share"], row["rest_share"])
+            assert all(0.0 <= s <= 1.0 for s in shares) and sum(shares) == pytest.approx(1.0)
+            assert row["update_share"] > 0.0
+        assert positive_finite(run["random_over_constant"])
+    assert "Time to a policy" in (tmp_path / "speed.md").read_text()

@@ -159,3 +159,37 @@ def test_a_seed_sweep_trains_one_run_per_seed_and_skips_finished_ones(tmp_path):
     assert len((tmp_path / RESULTS_FILE).read_text().splitlines()) == 3
     with pytest.raises(ValueError, match="seeds"):
         train_seeds(cfg, [1, 1], tmp_path)
+
+
+def test_torch_stays_at_its_configured_threads_through_batched_steps():
+    """In a process that imports drill_env before torch (``drill-env train``), numba's
+    OpenMP layer sets the process's OpenMP thread count at every batched env step, and
+    torch reads that count, so a torch.set_num_threads before learn does not last. The
+    callback sets it again after every step and before every update: every policy call
+    runs on the configured count (TrainConfig.torch_threads, default 1), whatever the
+    count was before."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from training.train import make_train_env, torch_threads_callback
+
+    cfg = load_config("stick_slip", "ppo", n_envs=4, env_kwargs={"episode_duration": 3.0})
+    assert cfg.torch_threads == 1
+    env = make_train_env(cfg, 0)
+    model = PPO("MlpPolicy", env, n_steps=32, batch_size=32, n_epochs=1, seed=0)
+    seen = []
+    inner = model.policy.forward
+
+    def spy(*args, **kwargs):
+        seen.append(torch.get_num_threads())
+        return inner(*args, **kwargs)
+
+    model.policy.forward = spy
+    before = torch.get_num_threads()
+    try:
+        torch.set_num_threads(2)
+        model.learn(128, callback=torch_threads_callback(1))
+        assert len(seen) > 4 and set(seen) == {1}
+    finally:
+        torch.set_num_threads(before)
+        env.close()

@@ -134,7 +134,32 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any) -> list[Any]:
 
     checkpoints = CheckpointCallback(max(1, config.checkpoint_freq // config.n_envs),
                                      str(run / "checkpoints"), name_prefix="model")
-    return [SeededEval(), checkpoints, SaveNormalizer()]
+    callbacks = [SeededEval(), checkpoints, SaveNormalizer()]
+    if config.torch_threads:
+        callbacks.insert(0, torch_threads_callback(config.torch_threads))
+    return callbacks
+
+
+def torch_threads_callback(threads: int) -> Any:
+    """An SB3 callback that holds torch at ``threads`` intra-op threads. torch's OpenMP
+    thread count is the process's OpenMP one, which numba's OpenMP layer sets at every
+    parallel (batched) env step, so a ``torch.set_num_threads`` before ``learn`` lasts
+    one step; this sets it again after each env step and before each update."""
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class TorchThreads(BaseCallback):
+        def _on_training_start(self) -> None:
+            torch.set_num_threads(threads)
+
+        def _on_step(self) -> bool:
+            torch.set_num_threads(threads)
+            return True
+
+        def _on_rollout_end(self) -> None:
+            torch.set_num_threads(threads)
+
+    return TorchThreads()
 
 
 def _latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
@@ -164,8 +189,9 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     if resume and saved.exists():
         old = yaml.safe_load(saved.read_text())
         new = jsonable(config)
-        if {k: v for k, v in old.items() if k != "n_timesteps"} != \
-                {k: v for k, v in new.items() if k != "n_timesteps"}:
+        free = ("n_timesteps", "torch_threads")  # change nothing a resumed run learnt
+        if {k: v for k, v in old.items() if k not in free} != \
+                {k: v for k, v in new.items() if k not in free}:
             raise ValueError(f"resume: {run} was trained with another config (only "
                              "n_timesteps may change); start a new run name or drop --resume")
     saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))

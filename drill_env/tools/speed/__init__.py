@@ -18,6 +18,10 @@ compile   first import to first env step in a fresh process with numba's cache c
 memory    bytes of one simulator's NumPy arrays and the RSS growth per env over 64 envs,
           measured in a fresh process.
 
+``drill-env speed`` adds a sixth, ``training`` (time to a policy: PPO and SAC end to end,
+split into env, update and the rest), from ``training/speed.py`` through ``run_speed``'s
+``runners``: ``drill_env`` does not import the training code.
+
 The machines this runs on are shared and noisy, so every figure comes with a ratio
 against a reference measured in the same run (the NumPy stepper, a single env, the
 default mesh, the warm start, the simulator's own arrays): ratios survive a busy machine
@@ -37,7 +41,7 @@ import dataclasses
 import json
 import os
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -76,20 +80,29 @@ RUNNERS: dict[str, tuple[Callable[..., dict[str, Any]], Callable[[dict[str, Any]
 }
 
 
-def parse_sections(text: str) -> tuple[str, ...]:
-    """``"core,env"`` -> ``("core", "env")``; ``ValueError`` naming an unknown section."""
+Runner = tuple[Callable[..., dict[str, Any]], Callable[[dict[str, Any]], str]]
+
+
+def parse_sections(text: str, extra: Iterable[str] = ()) -> tuple[str, ...]:
+    """``"core,env"`` -> ``("core", "env")``; ``ValueError`` naming an unknown section.
+    ``extra``: sections a caller adds (``drill-env speed`` adds ``training``)."""
+    known = (*SECTIONS, *extra)
     names = tuple(s.strip() for s in text.split(",") if s.strip())
-    unknown = [s for s in names if s not in SECTIONS]
+    unknown = [s for s in names if s not in known]
     if unknown or not names:
         raise ValueError(f"sections: unknown {unknown or text!r}; choose from "
-                         f"{','.join(SECTIONS)}")
+                         f"{','.join(known)}")
     return names
 
 
 def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = FULL,
-                  out: Path | None = Path("logs"), progress: bool = True,
-                  echo: Callable[[str], Any] | None = print) -> dict[str, Any]:
-    """Run ``sections`` in order and print each table as it finishes.
+              out: Path | None = Path("logs"), progress: bool = True,
+              echo: Callable[[str], Any] | None = print,
+              runners: Mapping[str, Runner] | None = None) -> dict[str, Any]:
+    """Run ``sections`` in order and print each table as it finishes. ``runners`` adds
+    sections from outside ``drill_env`` (name -> (bench(settings, progress), format)):
+    the ``training`` section lives with the training code, which ``drill_env`` does not
+    import.
 
     Unless ``out`` is None, writes ``out/speed.json`` (every figure, rewritten after each
     section, so an interrupted run keeps the sections it finished),
@@ -97,7 +110,8 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
     section, ``out/speed_scaling.png``.
     """
     sections = tuple(sections)
-    parse_sections(",".join(sections))
+    table = {**RUNNERS, **(runners or {})}
+    parse_sections(",".join(sections), extra=runners or ())
     levels = fidelity_levels()
     result: dict[str, Any] = {
         "machine": machine_info(),
@@ -114,7 +128,7 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
     for name in sections:
-        bench, fmt = RUNNERS[name]
+        bench, fmt = table[name]
         tic = time.perf_counter()
         result[name] = bench(settings, progress)
         result[name]["section_wall_s"] = time.perf_counter() - tic

@@ -66,6 +66,10 @@ class BenchmarkSettings:
     scaling_weight_on_bit: float = 60e3
     #: Envs built for the memory figure.
     memory_envs: int = 64
+    #: Timed env steps per round of the ``training`` section (``drill-env speed``,
+    #: training/speed.py): PPO's; SAC takes a quarter (a gradient step per env step).
+    train_steps: int = 16384
+    train_rounds: int = 2
 
     def __post_init__(self) -> None:
         for name in ("core_seconds", "scaling_seconds", "scaling_weight_on_bit",
@@ -73,7 +77,7 @@ class BenchmarkSettings:
             physics_config.require_positive(getattr(self, name), name)
         for name in ("repeats", "reference_steps", "env_steps", "env_warmup_steps",
                      "env_batch_steps",
-                     "min_env_calls", "memory_envs"):
+                     "min_env_calls", "memory_envs", "train_steps", "train_rounds"):
             value = getattr(self, name)
             if not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name}: must be a positive integer, got {value!r}")
@@ -91,7 +95,8 @@ QUICK = BenchmarkSettings(
     core_seconds=2.0, repeats=2, warmup_steps=200, reference_steps=10, env_steps=40,
     env_batch_steps=64, min_env_calls=2, env_counts=(1, 4, 16), pipe_lengths=(500.0, 1000.0,
                                                                               2000.0),
-    pipe_element_lengths=(20.0, 10.0, 5.0), scaling_seconds=1.0, memory_envs=8)
+    pipe_element_lengths=(20.0, 10.0, 5.0), scaling_seconds=1.0, memory_envs=8,
+    train_steps=4096, train_rounds=1)
 
 
 # --------------------------------------------------------------------------- helpers

@@ -1,0 +1,136 @@
+"""Time to a trained policy: the ``training`` section of ``drill-env speed``.
+
+What a user waits for is not the simulator but a policy. This section trains the shipped
+configurations for a few thousand env steps (after an untimed warm-up that compiles,
+fills SAC's ``learning_starts`` and runs a first update) and splits the wall time:
+
+env       the batched env's ``step_wait`` (physics, task Python, VecNormalize)
+update    the algorithm's ``train()`` (PPO epochs, SAC gradient steps)
+rest      the remainder: policy inference while collecting, SB3's buffers and callbacks
+
+The references are timed in the same rounds (interleaved): the same batched env stepped
+alone with random actions (``env only``) and with a constant mid-range action. Ratios:
+training steps/s over env-only steps/s (what learning costs on top of the env), and
+random over constant actions (a changing WOB refactors the lateral system). Each
+training run is timed with torch held at one thread (``TrainConfig.torch_threads``, the
+default) and at torch's own count, so the default is checked in every run. CPU seconds
+per 1,000 env steps (all threads of the process) sit beside the wall figures.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from training.config import load_config
+from training.train import _algo_class, make_train_env, torch_threads_callback
+
+#: (task, algorithm) pairs timed: the shipped policies' configurations.
+RUNS = (("stick_slip", "ppo"), ("drilling", "sac"))
+
+
+def _timed(obj: Any, name: str, clock: dict[str, float], key: str) -> None:
+    """Wrap ``obj.name`` so that its wall time adds to ``clock[key]``."""
+    inner = getattr(obj, name)
+
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        start = time.perf_counter()
+        try:
+            return inner(*args, **kwargs)
+        finally:
+            clock[key] += time.perf_counter() - start
+
+    setattr(obj, name, wrapper)
+
+
+def _env_only(venv: Any, actions: np.ndarray) -> dict[str, float]:
+    """Step the (normalised) batched env alone through ``actions`` (calls, n_envs, dim)."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    for action in actions:
+        venv.step(action)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    n = actions.shape[0] * actions.shape[1]
+    return {"steps_per_s": n / wall, "cpu_s_per_1000": 1e3 * cpu / n}
+
+
+def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
+                   ) -> dict[str, Any]:
+    """Time each of :data:`RUNS` for ``steps[algo]`` env steps per round (``rounds``
+    interleaved rounds, best kept)."""
+    import torch
+
+    default_threads = torch.get_num_threads()
+    out: dict[str, Any] = {"torch_default_threads": default_threads, "runs": {}}
+    for task, algo in RUNS:
+        config = load_config(task, algo)
+        venv = make_train_env(config, config.seed)
+        policy_kwargs = dict(config.policy_kwargs)
+        if algo == "sac":
+            policy_kwargs.setdefault("net_arch", [256, 256])
+        model = _algo_class(algo)(config.policy, venv, seed=config.seed, verbose=0,
+                                  policy_kwargs=policy_kwargs, **config.hyperparams)
+        clock = {"env": 0.0, "update": 0.0}
+        _timed(venv, "step_wait", clock, "env")
+        _timed(model, "train", clock, "update")
+        variants = {f"torch {config.torch_threads or default_threads} thread(s) (default)":
+                    config.torch_threads or default_threads,
+                    f"torch {default_threads} threads": default_threads}
+        if len(set(variants.values())) == 1:
+            variants = dict(list(variants.items())[:1])
+        warmup = int(config.hyperparams.get("learning_starts", 0)) + 2 * steps[algo]
+        model.learn(warmup, callback=torch_threads_callback(next(iter(variants.values()))))
+        space = venv.action_space
+        shape = (max(1, steps[algo] // venv.num_envs), venv.num_envs, *space.shape)
+        actions = {"env only, random actions": np.random.default_rng(0).uniform(
+                       space.low, space.high, shape).astype(np.float32),
+                   "env only, constant action": np.zeros(shape, np.float32)}
+        best: dict[str, dict[str, float]] = {}
+        for _ in range(rounds):
+            for label, threads in variants.items():
+                clock["env"] = clock["update"] = 0.0
+                wall, cpu = time.perf_counter(), time.process_time()
+                model.learn(steps[algo], reset_num_timesteps=False,
+                            callback=torch_threads_callback(threads))
+                wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+                n = steps[algo]
+                row = {"steps_per_s": n / wall, "cpu_s_per_1000": 1e3 * cpu / n,
+                       "env_share": clock["env"] / wall,
+                       "update_share": clock["update"] / wall,
+                       "rest_share": 1.0 - (clock["env"] + clock["update"]) / wall}
+                if label not in best or row["steps_per_s"] > best[label]["steps_per_s"]:
+                    best[label] = row
+            for label, sequence in actions.items():
+                row = _env_only(venv, sequence)
+                if label not in best or row["steps_per_s"] > best[label]["steps_per_s"]:
+                    best[label] = row
+            if progress:
+                print(f"  {task} {algo}: round done", flush=True)
+        env_only = best["env only, random actions"]["steps_per_s"]
+        for row in best.values():
+            row["x env only"] = row["steps_per_s"] / env_only
+        out["runs"][f"{task} {algo}"] = {
+            "n_envs": config.n_envs, "steps": steps[algo], "rounds": rounds,
+            "network": policy_kwargs.get("net_arch"), "rows": best,
+            "random_over_constant": env_only / best["env only, constant action"]
+            ["steps_per_s"]}
+        venv.close()
+    return out
+
+
+def format_training(result: dict[str, Any]) -> str:
+    lines = ["Time to a policy (end-to-end training on the batched env, shipped configs; "
+             "best of interleaved rounds)",
+             f"{'run':18s} {'what':34s} {'steps/s':>8s} {'x env only':>10s} "
+             f"{'CPU s/1000':>10s} {'env':>5s} {'update':>6s} {'rest':>5s}"]
+    for name, run in result["runs"].items():
+        for label, row in run["rows"].items():
+            shares = ("" if "env_share" not in row else
+                      f" {row['env_share']:5.0%} {row['update_share']:6.0%} "
+                      f"{row['rest_share']:5.0%}")
+            lines.append(f"{name:18s} {label:34s} {row['steps_per_s']:8.0f} "
+                         f"{row['x env only']:10.2f} {row['cpu_s_per_1000']:10.2f}{shares}")
+        lines.append(f"{name:18s} random / constant actions, env only: "
+                     f"{run['random_over_constant']:.2f}")
+    return "\n".join(lines)
