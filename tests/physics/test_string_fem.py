@@ -445,3 +445,32 @@ def test_mesh_check_raises_exactly_where_an_element_passes_80_percent_of_its_buc
     # a control step asking for more stops the simulator with the reason
     assert not sim.prepare(1, hook_load=sim.hook_load_for(1.01 * threshold))
     assert "buckling load" in sim.status_message
+
+
+def test_the_vectorised_assembly_is_the_element_loop_to_the_last_bit():
+    """A refactor check (same arithmetic, same machine): assemble_lateral adds the
+    element matrices of beam_stiffness / beam_geometric_stiffness and the lumped masses
+    in two passes; element by element in order gives the same bits on every string,
+    with and without an axial force."""
+    from drill_env.scenarios import make_scenario
+
+    rng = np.random.default_rng(3)
+    configs = [make_scenario(name).config for name in ("default", "paper_case1",
+                                                       "lateral_60")]
+    configs += [make_scenario("random", rng=rng).config for _ in range(4)]
+    for config in configs:
+        mesh = build_mesh(config)
+        axial = axial_force_profile(mesh, 1.0e5, 1.0e3)
+        n = mesh.n_nodes
+        k, kg, m = np.zeros((2 * n, 2 * n)), np.zeros((2 * n, 2 * n)), np.zeros(2 * n)
+        for e in range(mesh.n_elements):
+            le = mesh.element_length[e]
+            block = slice(2 * e, 2 * e + 4)
+            k[block, block] += beam_stiffness(mesh.bending_stiffness[e], le)
+            kg[block, block] += beam_geometric_stiffness(axial[e], le)
+            for dof, value in ((0, mesh.lateral_mass[e]), (1, mesh.rotary_inertia[e])):
+                m[2 * e + dof] += 0.5 * value * le
+                m[2 * e + 2 + dof] += 0.5 * value * le
+        for want, got in zip((k, kg, m), assemble_lateral(mesh, axial), strict=True):
+            np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(assemble_lateral(mesh)[1], 0.0)
