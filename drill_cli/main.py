@@ -605,8 +605,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=Path("logs"), help="output folder")
     p.add_argument("--quick", action="store_true", help="short runs (smoke test, ~1 min)")
     p.add_argument("--sections", default=None,
-                   help="comma-separated subset of core,env,scaling,compile,memory "
-                        "(default: all)")
+                   help="comma-separated subset of core,env,scaling,compile,memory,"
+                        "training (default: all; training is the time to a policy)")
 
     p = add("replay", "open a .rrd recording in the rerun viewer", cmd_replay)
     p.add_argument("path", type=Path, help="the .rrd file")

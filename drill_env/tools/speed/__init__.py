@@ -151,6 +151,8 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
         # The same tables as markdown, to paste into docs/performance.md.
         report = out / "speed.md"
         kind = {FULL: "", QUICK: " --quick"}.get(settings, " (custom settings)")
+        if set(sections) != {*SECTIONS, *(runners or {})}:
+            kind += f" --sections {','.join(sections)}"
         head = (f"`drill-env speed{kind}`, "
                 f"{machine['date'][:10]}, commit {machine.get('git_commit', '?')}: "
                 f"{machine['cpu']}, {machine['cpu_count']} cores, {machine['platform']}, "
