@@ -34,8 +34,8 @@ from drill_env.physics.layout import P, S
 
 #: Active-set solves before the step gives up improving the set and keeps the last one;
 #: ``state[S.FRICTION_ITERATIONS]`` reports the count (negative: gave up). With the slip
-#: torque capped at the static one, 3,000 random chains from random starts needed at
-#: most 7 (tests/physics/test_string_friction.py draws more).
+#: torque below the static one, 3,000 random 9-node chains from random starts needed at
+#: most 7 (a review's measurement; tests/physics/test_string_friction.py checks 52).
 MAX_ACTIVE_SET_ITERATIONS = 60
 
 #: ``Motion.stick`` entries: the slip direction of a node, or stuck.
