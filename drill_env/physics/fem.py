@@ -114,15 +114,28 @@ def build_mesh(config: SimulationConfig) -> Mesh:
 # --------------------------------------------------------------------------- elements
 
 
+def _bending_entries(le: Any) -> list[list[Any]]:
+    """The 4 x 4 entries of the Hermite bending stiffness over EI / L^3 (``le``: one
+    length or an array of them)."""
+    l2 = le * le
+    return [[12.0, 6 * le, -12.0, 6 * le],
+            [6 * le, 4 * l2, -6 * le, 2 * l2],
+            [-12.0, -6 * le, 12.0, -6 * le],
+            [6 * le, 2 * l2, -6 * le, 4 * l2]]
+
+
+def _geometric_entries(le: Any) -> list[list[Any]]:
+    """The 4 x 4 entries of the consistent geometric stiffness over N / (30 L)."""
+    l2 = le * le
+    return [[36.0, 3 * le, -36.0, 3 * le],
+            [3 * le, 4 * l2, -3 * le, -l2],
+            [-36.0, -3 * le, 36.0, -3 * le],
+            [3 * le, -l2, -3 * le, 4 * l2]]
+
+
 def beam_stiffness(ei: float, le: float) -> np.ndarray:
     """Hermite Euler-Bernoulli bending stiffness, DOFs (w1, theta1, w2, theta2)."""
-    l2 = le * le
-    return ei / le**3 * np.array([
-        [12.0, 6 * le, -12.0, 6 * le],
-        [6 * le, 4 * l2, -6 * le, 2 * l2],
-        [-12.0, -6 * le, 12.0, -6 * le],
-        [6 * le, 2 * l2, -6 * le, 4 * l2],
-    ])
+    return ei / le**3 * np.array(_bending_entries(le))
 
 
 def beam_geometric_stiffness(axial_force: float, le: float) -> np.ndarray:
@@ -131,13 +144,7 @@ def beam_geometric_stiffness(axial_force: float, le: float) -> np.ndarray:
     Standard result (e.g. Cook et al., Concepts and Applications of FEA, eq. 18.3-6):
     ``N/(30 L) [[36, 3L, -36, 3L], [3L, 4L^2, -3L, -L^2], ...]``; compression softens.
     """
-    l2 = le * le
-    return axial_force / (30.0 * le) * np.array([
-        [36.0, 3 * le, -36.0, 3 * le],
-        [3 * le, 4 * l2, -3 * le, -l2],
-        [-36.0, -3 * le, 36.0, -3 * le],
-        [3 * le, -l2, -3 * le, 4 * l2],
-    ])
+    return axial_force / (30.0 * le) * np.array(_geometric_entries(le))
 
 
 # --------------------------------------------------------------------------- axial force
@@ -164,27 +171,14 @@ def axial_force_profile(mesh: Mesh, weight_on_bit: float,
 # --------------------------------------------------------------------------- dense assembly
 
 
-def _element_matrices(le: np.ndarray, scale: np.ndarray, pattern) -> np.ndarray:
-    """(n_elements, 4, 4): ``scale[e] * pattern(le[e])`` for every element, entry by entry
+def _element_matrices(le: np.ndarray, scale: np.ndarray, entries) -> np.ndarray:
+    """(n_elements, 4, 4): ``scale[e] * entries(le[e])`` for every element, entry by entry
     with the arithmetic of :func:`beam_stiffness` / :func:`beam_geometric_stiffness`."""
     out = np.empty((le.shape[0], 4, 4))
-    for (i, j), entry in pattern(le).items():
-        out[:, i, j] = scale * entry
+    for i, row in enumerate(entries(le)):
+        for j, entry in enumerate(row):
+            out[:, i, j] = scale * entry
     return out
-
-
-def _bending_pattern(le: np.ndarray) -> dict[tuple[int, int], Any]:
-    l2 = le * le
-    rows = [[12.0, 6 * le, -12.0, 6 * le], [6 * le, 4 * l2, -6 * le, 2 * l2],
-            [-12.0, -6 * le, 12.0, -6 * le], [6 * le, 2 * l2, -6 * le, 4 * l2]]
-    return {(i, j): rows[i][j] for i in range(4) for j in range(4)}
-
-
-def _geometric_pattern(le: np.ndarray) -> dict[tuple[int, int], Any]:
-    l2 = le * le
-    rows = [[36.0, 3 * le, -36.0, 3 * le], [3 * le, 4 * l2, -3 * le, -l2],
-            [-36.0, -3 * le, 36.0, -3 * le], [3 * le, -l2, -3 * le, 4 * l2]]
-    return {(i, j): rows[i][j] for i in range(4) for j in range(4)}
 
 
 def assemble_lateral(mesh: Mesh, axial_force: np.ndarray | None = None,
@@ -209,10 +203,10 @@ def assemble_lateral(mesh: Mesh, axial_force: np.ndarray | None = None,
     k = np.zeros((2 * n, 2 * n))
     kg = np.zeros((2 * n, 2 * n))
     passes = (slice(0, ne, 2), slice(1, ne, 2))
-    for target, elements in ((k, _element_matrices(le, bend, _bending_pattern)),
+    for target, elements in ((k, _element_matrices(le, bend, _bending_entries)),
                              (kg, None if axial_force is None else _element_matrices(
                                  le, np.asarray(axial_force, dtype=float)[:ne] / (30.0 * le),
-                                 _geometric_pattern))):
+                                 _geometric_entries))):
         if elements is not None:
             view = target.reshape(-1)  # contiguous: a view
             for part in passes:
