@@ -397,8 +397,9 @@ def cmd_well(args: argparse.Namespace) -> int:
 
 def cmd_speed(args: argparse.Namespace) -> int:
     from drill_env.tools.speed import FULL, QUICK, SECTIONS, parse_sections, run_speed
+    from training.speed import RUNNER
 
-    runners = {"training": (_bench_training, _format_training)}
+    runners = {"training": RUNNER}
     try:
         sections = (parse_sections(args.sections, extra=runners) if args.sections
                     else (*SECTIONS, *runners))
@@ -406,19 +407,6 @@ def cmd_speed(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(f"--{err}") from None
     run_speed(sections, QUICK if args.quick else FULL, args.out, runners=runners)
     return 0
-
-
-def _bench_training(settings: Any, progress: bool) -> dict[str, Any]:
-    from training.speed import bench_training
-
-    return bench_training({"ppo": settings.train_steps, "sac": settings.train_steps // 4},
-                          settings.train_rounds, progress)
-
-
-def _format_training(result: dict[str, Any]) -> str:
-    from training.speed import format_training
-
-    return format_training(result)
 
 
 def cmd_replay(args: argparse.Namespace) -> int:

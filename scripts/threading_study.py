@@ -51,15 +51,12 @@ def child(steps: int) -> None:
     import drill_env  # noqa: F401, I001  (first, as in drill-env train: before torch's OpenMP)
     import numba
     import torch
-    from stable_baselines3 import PPO
 
     from training.config import load_config
-    from training.train import make_train_env, torch_threads_callback
+    from training.train import make_train_env, new_model, torch_threads_callback
 
     config = load_config("stick_slip", "ppo")
-    env = make_train_env(config, 0)
-    model = PPO(config.policy, env, seed=0, verbose=0, policy_kwargs=config.policy_kwargs,
-                **config.hyperparams)
+    model = new_model(config, make_train_env(config, 0))
     threads = int(os.environ.get("STUDY_TORCH_THREADS", "0"))
     callback = torch_threads_callback(threads) if threads else None
     model.learn(4096, callback=callback)  # compile / load caches, first update

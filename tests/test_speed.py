@@ -112,10 +112,10 @@ def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_defau
     a moment; every row a positive steps/s with its ratio to the env alone, the shares
     of env, update and the rest summing to 1, and both torch thread counts timed."""
     tiny = dataclasses.replace(QUICK, train_steps=4096, train_rounds=1)
-    from drill_cli.main import _bench_training, _format_training
+    from training.speed import RUNNER
 
     run_speed(("training",), tiny, tmp_path, progress=False, echo=None,
-              runners={"training": (_bench_training, _format_training)})
+              runners={"training": RUNNER})
     result = json.loads((tmp_path / "speed.json").read_text())["training"]
     assert set(result["runs"]) == {"stick_slip ppo", "drilling sac"}
     for run in result["runs"].values():

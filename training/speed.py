@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from training.config import load_config
-from training.train import _algo_class, make_train_env, torch_threads_callback
+from training.train import make_train_env, new_model, torch_threads_callback
 
 #: (task, algorithm) pairs timed: the shipped policies' configurations.
 RUNS = (("stick_slip", "ppo"), ("drilling", "sac"))
@@ -66,11 +66,7 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
     for task, algo in RUNS:
         config = load_config(task, algo)
         venv = make_train_env(config, config.seed)
-        policy_kwargs = dict(config.policy_kwargs)
-        if algo == "sac":
-            policy_kwargs.setdefault("net_arch", [256, 256])
-        model = _algo_class(algo)(config.policy, venv, seed=config.seed, verbose=0,
-                                  policy_kwargs=policy_kwargs, **config.hyperparams)
+        model = new_model(config, venv)
         clock = {"env": 0.0, "update": 0.0}
         _timed(venv, "step_wait", clock, "env")
         _timed(model, "train", clock, "update")
@@ -112,11 +108,18 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
             row["x env only"] = row["steps_per_s"] / env_only
         out["runs"][f"{task} {algo}"] = {
             "n_envs": config.n_envs, "steps": steps[algo], "rounds": rounds,
-            "network": policy_kwargs.get("net_arch"), "rows": best,
+            "network": model.policy_kwargs.get("net_arch"), "rows": best,
             "random_over_constant": env_only / best["env only, constant action"]
             ["steps_per_s"]}
         venv.close()
     return out
+
+
+def bench(settings: Any, progress: bool = True) -> dict[str, Any]:
+    """The section as ``drill-env speed`` runs it: ``settings.train_steps`` PPO steps
+    (SAC a quarter: a gradient step per env step) in ``settings.train_rounds`` rounds."""
+    return bench_training({"ppo": settings.train_steps, "sac": settings.train_steps // 4},
+                          settings.train_rounds, progress)
 
 
 def format_training(result: dict[str, Any]) -> str:
@@ -134,3 +137,7 @@ def format_training(result: dict[str, Any]) -> str:
         lines.append(f"{name:18s} random / constant actions, env only: "
                      f"{run['random_over_constant']:.2f}")
     return "\n".join(lines)
+
+
+#: ``run_speed``'s ``runners`` entry: ``{"training": RUNNER}``.
+RUNNER = (bench, format_training)

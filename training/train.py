@@ -140,6 +140,17 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any) -> list[Any]:
     return callbacks
 
 
+def new_model(config: TrainConfig, env: Any, **kwargs: Any) -> Any:
+    """An untrained model of ``config`` (algorithm, policy, its kwargs, hyperparameters,
+    seed) on ``env``; ``kwargs`` go to the algorithm (e.g. ``tensorboard_log``)."""
+    policy_kwargs = dict(config.policy_kwargs)
+    if config.algo == "sac":  # SAC's net_arch is per network; a list is shared
+        policy_kwargs.setdefault("net_arch", [256, 256])
+    return _algo_class(config.algo)(config.policy, env, seed=config.seed, verbose=0,
+                                    policy_kwargs=policy_kwargs, **kwargs,
+                                    **config.hyperparams)
+
+
 def torch_threads_callback(threads: int) -> Any:
     """An SB3 callback that holds torch at ``threads`` intra-op threads. torch's OpenMP
     thread count is the process's OpenMP one, which numba's OpenMP layer sets at every
@@ -193,7 +204,8 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
         if {k: v for k, v in old.items() if k not in free} != \
                 {k: v for k, v in new.items() if k not in free}:
             raise ValueError(f"resume: {run} was trained with another config (only "
-                             "n_timesteps may change); start a new run name or drop --resume")
+                             "n_timesteps and torch_threads may change); start a new run name or "
+                             "drop --resume")
     saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
     algo = _algo_class(config.algo)
     latest = _latest_checkpoint(run) if resume else None
@@ -204,12 +216,7 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
         model = algo.load(str(model_path), env=env, tensorboard_log=str(run / "tb"))
         print(f"resuming from {model_path.name} ({model.num_timesteps} steps)")
     else:
-        policy_kwargs = dict(config.policy_kwargs)
-        if config.algo == "sac":  # SAC's net_arch is per network; a list is shared
-            policy_kwargs.setdefault("net_arch", [256, 256])
-        model = algo(config.policy, env, seed=config.seed, verbose=0,
-                     policy_kwargs=policy_kwargs, tensorboard_log=str(run / "tb"),
-                     **config.hyperparams)
+        model = new_model(config, env, tensorboard_log=str(run / "tb"))
     t0 = time.perf_counter()
     remaining = max(0, config.n_timesteps - model.num_timesteps)
     model.learn(remaining, callback=_callbacks(config, run, env), progress_bar=progress,
