@@ -297,13 +297,10 @@ def _deviated_scenario(name: str, description: str) -> Callable[..., Scenario]:
                  weight_on_bit: WeightOnBit = DEFAULT_WEIGHT_ON_BIT,
                  episode_duration: Duration = DEFAULT_EPISODE_DURATION,
                  string_length: StringLength = None) -> Scenario:
-        from drill_env.well import WELLS
+        from drill_env.well import WELLS, with_survey
 
         sc = default(surface_speed, weight_on_bit, episode_duration, string_length)
-        survey = WELLS[name](_bit_depth(sc.config) + 100.0)
-        cfg = replace(sc.config, **{"well.md": tuple(survey.md),
-                                    "well.inclination": tuple(np.degrees(survey.inclination)),
-                                    "well.azimuth": tuple(np.degrees(survey.azimuth))})
+        cfg = with_survey(sc.config, WELLS[name](_bit_depth(sc.config) + 100.0))
         return Scenario(name, cfg, surface_speed, weight_on_bit, episode_duration,
                         description)
 

@@ -15,10 +15,11 @@ import json
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from drill_env.physics.config import SimulationConfig
+from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.fem import build_mesh
 from drill_env.physics.trajectory import MODES, StringColumn, Survey, Trajectory, soft_string
 
@@ -41,6 +42,44 @@ FRICTIONS = (0.1, 0.2, 0.3, 0.4)
 #: Length (m) of the drill-pipe pieces added above the scenario's string to reach a
 #: deeper bit (the pipe's own elements are coarser; the chart needs the hole's shape).
 PIPE_PIECE = 10.0
+
+
+def with_survey(config: SimulationConfig, survey: Survey) -> SimulationConfig:
+    """``config`` in the hole of ``survey`` (its stations as the ``well`` section)."""
+    return replace(config, **{"well.md": tuple(survey.md),
+                              "well.inclination": tuple(np.degrees(survey.inclination)),
+                              "well.azimuth": tuple(np.degrees(survey.azimuth))})
+
+
+def sliding_friction(config: SimulationConfig, speed: float) -> float:
+    """Wall friction coefficient (eq. 23) of the drill pipe's surface turning at
+    ``speed`` (rad/s): what the soft-string model should use to compare with the FE
+    string's contacts."""
+    from drill_env.physics.integrator import wall_friction_coefficient
+
+    c = config.contact
+    v = speed * config.string.drill_pipe.outer_diameter / 2.0
+    return float(wall_friction_coefficient(v, c.friction_static, c.friction_kinetic,
+                                           c.friction_decay_speed))
+
+
+def rotating_wall_torque(config: SimulationConfig, speed: float, seconds: float = 10.0,
+                         average: float = 4.0, wound: bool = True) -> tuple[float, Any]:
+    """Rotate the simulated string off bottom at ``speed`` (rad/s) for ``seconds``: the
+    wall torque (the surface torque averaged over the last ``average`` s, less the mud
+    drag ``sum(tor_c) speed``) and the simulator. ``wound=False`` starts from an
+    untwisted string, so the friction alone must wind it up."""
+    from drill_env.physics.layout import R
+    from drill_env.physics.simulator import OperatingPoint, Simulator
+
+    sim = Simulator(config)
+    sim.reset(OperatingPoint(speed, 0.0))
+    if not wound:
+        sim.ut[:] = 0.0
+    rec = sim.run(seconds, record_every=50)
+    late = rec[rec[:, R.TIME] > seconds - average]
+    drag = float(np.sum(sim.tor_c)) * speed
+    return float(late[:, R.SURFACE_TORQUE].mean()) - drag, sim
 
 
 def column_for(config: SimulationConfig, bit_md: float) -> StringColumn:

@@ -20,13 +20,12 @@ import time
 import numpy as np
 
 from drill_env.physics.config import replace
-from drill_env.physics.integrator import wall_friction_coefficient
 from drill_env.physics.layout import R
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.trajectory import Survey, Trajectory, soft_string
 from drill_env.physics.units import RPM
 from drill_env.scenarios import make_scenario
-from drill_env.well import column_for
+from drill_env.well import column_for, rotating_wall_torque, sliding_friction
 
 LENGTH = 3000.0
 LEVELS = {"full": {}, "fast": {"solver.fidelity": "fast"},
@@ -56,21 +55,15 @@ def cost() -> None:
 
 def torque() -> None:
     cfg = config("lateral_60", "full")
-    c, well = cfg.contact, cfg.well
     speed = 60 * RPM
-    mu = float(wall_friction_coefficient(speed * cfg.string.drill_pipe.outer_diameter / 2,
-                                         c.friction_static, c.friction_kinetic,
-                                         c.friction_decay_speed))
+    mu = sliding_friction(cfg, speed)
+    well = cfg.well
     survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
     soft = soft_string(Trajectory(survey), column_for(cfg, LENGTH), LENGTH, mu)
     print(f"soft-string model: {soft.surface_torque / 1e3:.1f} kN m "
           f"({soft.surface_torque / math.sqrt(1 + mu * mu) / 1e3:.1f} after the friction angle)")
     for level in LEVELS:
-        sim = Simulator(config("lateral_60", level))
-        sim.reset(OperatingPoint(speed, 0.0))
-        rec = sim.run(15.0, record_every=50)
-        late = rec[rec[:, R.TIME] > 11.0]
-        wall = late[:, R.SURFACE_TORQUE].mean() - float(np.sum(sim.tor_c)) * speed
+        wall, _ = rotating_wall_torque(config("lateral_60", level), speed, seconds=15.0)
         print(f"{level}: rotating off bottom {wall / 1e3:.1f} kN m")
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import ray
+from helpers import stop_after
 from ray.cluster_utils import Cluster
 
 from drill_env.stability_map import MapSettings, stability_maps
@@ -122,16 +123,9 @@ def test_an_interrupted_ray_sweep_resumes_computing_only_the_missing_points(
         cluster, local_points, tmp_path):
     maps, expected = local_points
     store = tmp_path / "points.jsonl"
-    calls = []
-
-    def stop_after_three():
-        calls.append(1)
-        if len(calls) == 3:
-            raise KeyboardInterrupt
-
     with pytest.raises(KeyboardInterrupt):
         stability_maps(POSITIONS, settings=SETTINGS, grid_points=GRID, store=store,
-                       ray_address=cluster.address, progress=stop_after_three)
+                       ray_address=cluster.address, progress=stop_after(3))
     assert len(points(store)) == 3
     resumed = []
     again = stability_maps(POSITIONS, settings=SETTINGS, grid_points=GRID, store=store,

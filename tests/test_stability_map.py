@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import stop_after
 
 from drill_env import stability_map as sm
 from drill_env.physics.config import replace
@@ -154,16 +155,9 @@ def test_an_interrupted_map_resumes_computing_only_the_missing_points(tmp_path):
     total = sum(m.runs for m in fresh)
     assert total >= 6
 
-    calls = []
-
-    def stop_after_three():
-        calls.append(1)
-        if len(calls) == 3:
-            raise KeyboardInterrupt
-
     with pytest.raises(KeyboardInterrupt):
         stability_maps(["P1", "P4"], settings=settings, grid_points=grid_points, store=store,
-                       progress=stop_after_three)
+                       progress=stop_after(3))
     assert len(store.read_text().splitlines()) == 3  # written as they arrived
 
     resumed_calls = []

@@ -8,44 +8,15 @@ import math
 
 import numpy as np
 import pytest
+from helpers import build_section, pipe_friction, rotate_off_bottom, straight_hole
 
 from drill_env.physics.config import replace
-from drill_env.physics.integrator import wall_friction_coefficient
-from drill_env.physics.layout import P, R
+from drill_env.physics.layout import P
 from drill_env.physics.simulator import OperatingPoint, Simulator
-from drill_env.physics.trajectory import DOWN, Survey, Trajectory, soft_string
+from drill_env.physics.trajectory import DOWN, Trajectory, soft_string
 from drill_env.physics.units import RPM
 from drill_env.scenarios import make_scenario
 from drill_env.well import column_for
-
-SPEED = 60 * RPM
-
-
-def with_survey(config, survey: Survey):
-    return replace(config, **{"well.md": tuple(survey.md),
-                              "well.inclination": tuple(np.degrees(survey.inclination)),
-                              "well.azimuth": tuple(np.degrees(survey.azimuth))})
-
-
-def rotate_off_bottom(config, seconds: float = 10.0, wound: bool = True):
-    """Rotate at 60 rpm with no WOB; the wall torque averaged over the last 4 s (surface
-    torque less the mud drag) and the simulator. ``wound=False`` starts from an untwisted
-    string, so the kernel's friction alone must wind it up."""
-    sim = Simulator(config)
-    sim.reset(OperatingPoint(SPEED, 0.0))
-    if not wound:
-        sim.ut[:] = 0.0
-    rec = sim.run(seconds, record_every=50)
-    late = rec[rec[:, R.TIME] > seconds - 4.0]
-    drag = float(np.sum(sim.tor_c)) * SPEED
-    return float(late[:, R.SURFACE_TORQUE].mean()) - drag, sim
-
-
-def sliding_friction(config) -> float:
-    c = config.contact
-    v = SPEED * config.string.drill_pipe.outer_diameter / 2.0
-    return float(wall_friction_coefficient(v, c.friction_static, c.friction_kinetic,
-                                           c.friction_decay_speed))
 
 
 def test_a_vertical_survey_gives_the_vertical_model_bit_for_bit():
@@ -68,15 +39,12 @@ def test_in_a_straight_60_degree_hole_the_rotating_string_climbs_to_the_friction
     rotating on the low side climbs the wall until friction balances its weight, so the
     wall carries sum F_n / sqrt(1 + mu^2); its torque lies between that and the soft
     string's (the stiff BHA spreads its load onto the stabilizers' larger radius)."""
-    config = make_scenario("default").config
+    config, survey = straight_hole(60.0)
     length = config.string.length
-    config = with_survey(config, Survey.from_stations([0.0, length + 100.0], [60.0, 60.0],
-                                                      [0.0, 0.0]))
-    mu = sliding_friction(config)
+    mu = pipe_friction(config)
     torque, sim = rotate_off_bottom(config)
     column = column_for(config, length)
-    soft = soft_string(Trajectory(Survey.from_stations([0.0, length + 100.0], [60.0, 60.0],
-                                                       [0.0, 0.0])), column, length, mu)
+    soft = soft_string(Trajectory(survey), column, length, mu)
     np.testing.assert_allclose(soft.normal_force,
                                column.buoyed_weight * column.length * math.sin(math.pi / 3),
                                rtol=1e-12)
@@ -93,12 +61,9 @@ def test_in_a_build_the_fe_and_soft_string_torques_agree_and_tension_lifts_the_s
     of the build; below, in the hold, it lies on the low side. The FE rotating torque
     equals the soft string's within 5 % after the friction-angle correction, and the
     hook carries w x TVD."""
-    config = make_scenario("default").config
+    config, survey = build_section()
     length = config.string.length
-    survey = Survey.profile(length + 100.0, kickoff=100.0, build_rate=3.0,
-                            hold_inclination=30.0)
-    config = with_survey(config, survey)
-    mu = sliding_friction(config)
+    mu = pipe_friction(config)
     torque, sim = rotate_off_bottom(config)
     well = Trajectory(survey)
     soft = soft_string(well, column_for(config, length), length, mu)
@@ -161,11 +126,8 @@ def test_formation_dip_is_true_and_turned_into_the_bits_frame():
     hole are refused by name. The bit's inclination is reported."""
     from drill_env.physics.config import ConfigError, FormationConfig, Interface, RockConfig
 
-    config = make_scenario("default").config
-    length = config.string.length
-    config = with_survey(config, Survey.from_stations([0.0, length + 100.0], [60.0, 60.0],
-                                                      [0.0, 0.0]))
-    depth = length + 0.5
+    config, _ = straight_hole(60.0)
+    depth = config.string.length + 0.5
 
     def planes(*interfaces):
         formation = FormationConfig(rocks=(RockConfig(), RockConfig(name="soft")),
@@ -201,11 +163,8 @@ def test_the_layer_a_point_near_the_bit_lies_in_follows_the_true_plane(dip, azim
     from drill_env.physics.config import FormationConfig, Interface, RockConfig
     from drill_env.physics.formation import interface_plane, layer_at
 
-    config = make_scenario("default").config
-    length = config.string.length
-    config = with_survey(config, Survey.from_stations([0.0, length + 100.0], [60.0, 60.0],
-                                                      [0.0, 0.0]))
-    depth = length + 0.3
+    config, _ = straight_hole(60.0)
+    depth = config.string.length + 0.3
     sim = Simulator(replace(config, formation=FormationConfig(
         rocks=(RockConfig(), RockConfig(name="soft")), interfaces=(Interface(depth, dip,
                                                                              azimuth),),

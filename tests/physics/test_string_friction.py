@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import build_section, pipe_friction, rotate_off_bottom, straight_hole
 from scipy.optimize import minimize
 
 from drill_env.physics.config import replace
@@ -25,11 +26,10 @@ from drill_env.physics.layout import (
 )
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.string_friction import MAX_ACTIVE_SET_ITERATIONS, soft_string_torsion
-from drill_env.physics.trajectory import Survey, Trajectory, soft_string
+from drill_env.physics.trajectory import Trajectory, soft_string
 from drill_env.physics.units import RPM
 from drill_env.scenarios import make_scenario
 from drill_env.well import column_for
-from tests.physics.test_curved_hole import rotate_off_bottom, sliding_friction, with_survey
 
 
 def chain(rng, n):
@@ -116,13 +116,12 @@ def test_the_soft_string_mode_turns_with_the_soft_string_torque_of_a_60_degree_h
     """Torsion only in a straight 60-degree hole: every node lies on the low side with
     F_n = w L sin 60 and the rotating wall torque is mu r sum F_n, the soft-string
     torque-and-drag model's (an independent implementation along the survey)."""
-    config = make_scenario("default").config
+    config, survey = straight_hole(60.0)
     length = config.string.length
-    survey = Survey.from_stations([0.0, length + 100.0], [60.0, 60.0], [0.0, 0.0])
-    config = replace(with_survey(config, survey), **{"solver.lateral": False})
+    config = replace(config, **{"solver.lateral": False})
     torque, sim = rotate_off_bottom(config, wound=False)
     soft = soft_string(Trajectory(survey), column_for(config, length), length,
-                       sliding_friction(config))
+                       pipe_friction(config))
     assert sim.params[P.SOFT_STRING] == 1.0
     assert torque == pytest.approx(soft.surface_torque, rel=0.01)
     assert np.sum(sim.node_force) == pytest.approx(np.sum(soft.normal_force), rel=0.01)
@@ -131,12 +130,8 @@ def test_the_soft_string_mode_turns_with_the_soft_string_torque_of_a_60_degree_h
 def test_in_a_build_the_fe_string_and_the_soft_string_mode_agree_on_the_torque():
     """Acceptance 3: the FE string climbs the wall to the friction angle, so its wall
     torque times sqrt(1 + mu^2) equals the soft-string mode's within 5 %."""
-    config = make_scenario("default").config
-    length = config.string.length
-    survey = Survey.profile(length + 100.0, kickoff=100.0, build_rate=3.0,
-                            hold_inclination=30.0)
-    config = with_survey(config, survey)
-    mu = sliding_friction(config)
+    config, _ = build_section()
+    mu = pipe_friction(config)
     fe, _ = rotate_off_bottom(config)
     soft, _ = rotate_off_bottom(replace(config, **{"solver.lateral": False}))
     assert fe * math.sqrt(1.0 + mu * mu) / soft == pytest.approx(1.0, abs=0.05)

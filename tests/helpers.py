@@ -1,0 +1,59 @@
+"""Helpers shared by several test modules (importable: ``pythonpath = ["tests"]``)."""
+
+from __future__ import annotations
+
+from drill_env.physics.config import SimulationConfig
+from drill_env.physics.trajectory import Survey
+from drill_env.physics.units import RPM
+from drill_env.scenarios import make_scenario
+from drill_env.well import rotating_wall_torque, sliding_friction, with_survey
+
+# --------------------------------------------------------------------------- curved holes
+
+#: Off-bottom rotation speed of the curved-hole torque tests.
+SPEED = 60 * RPM
+
+
+def straight_hole(inclination: float = 60.0) -> tuple[SimulationConfig, Survey]:
+    """The default string in a straight hole at ``inclination`` (deg, toward north),
+    reaching 100 m below the bit."""
+    config = make_scenario("default").config
+    length = config.string.length
+    survey = Survey.from_stations([0.0, length + 100.0], [inclination] * 2, [0.0, 0.0])
+    return with_survey(config, survey), survey
+
+
+def build_section() -> tuple[SimulationConfig, Survey]:
+    """The default string in a shallow build: 3 deg/30 m from 100 m to a 30-degree hold,
+    so ~1 km of string hangs below the build."""
+    config = make_scenario("default").config
+    survey = Survey.profile(config.string.length + 100.0, kickoff=100.0, build_rate=3.0,
+                            hold_inclination=30.0)
+    return with_survey(config, survey), survey
+
+
+def rotate_off_bottom(config: SimulationConfig, seconds: float = 10.0, wound: bool = True):
+    """Wall torque and simulator of ``config`` turning off bottom at :data:`SPEED`
+    (:func:`drill_env.well.rotating_wall_torque`)."""
+    return rotating_wall_torque(config, SPEED, seconds, wound=wound)
+
+
+def pipe_friction(config: SimulationConfig) -> float:
+    """The drill pipe's sliding friction coefficient at :data:`SPEED`."""
+    return sliding_friction(config, SPEED)
+
+
+# --------------------------------------------------------------------------- interrupts
+
+
+def stop_after(n: int):
+    """A progress callback that raises KeyboardInterrupt at its ``n``-th call (a user
+    pressing Ctrl-C in the middle of a sweep)."""
+    calls = []
+
+    def progress() -> None:
+        calls.append(1)
+        if len(calls) == n:
+            raise KeyboardInterrupt
+
+    return progress
