@@ -181,16 +181,17 @@ def _element_matrices(le: np.ndarray, scale: np.ndarray, entries) -> np.ndarray:
     return out
 
 
-def assemble_lateral(mesh: Mesh, axial_force: np.ndarray | None = None,
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Dense (2n x 2n) lateral stiffness, geometric stiffness and lumped mass of one plane.
+def assemble_lateral_band(mesh: Mesh, axial_force: np.ndarray | None = None,
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lateral stiffness and geometric stiffness of one plane in upper band storage
+    (``band[d, i] = A[i, i + d]``, d = 0..:data:`LATERAL_BANDWIDTH`), and the lumped mass.
 
     Element by element as :func:`beam_stiffness` and :func:`beam_geometric_stiffness`
     give them, added in two passes, even elements then odd ones: the elements of a pass
     do not overlap, and an entry shared by two neighbours gets ``0 + a + b``, which
     IEEE addition gives the same in either order. So the result is the element loop's to
-    the last bit, at a fraction of its cost (a randomised scenario builds a new string
-    every episode)."""
+    the last bit, in O(n) memory and time (a randomised scenario builds a new string
+    every episode; dense 2n x 2n matrices cost page faults by the megabyte)."""
     n = mesh.n_nodes
     le = np.asarray(mesh.element_length, dtype=float)
     ne = le.shape[0]
@@ -198,40 +199,66 @@ def assemble_lateral(mesh: Mesh, axial_force: np.ndarray | None = None,
     # functions compute them
     bend = np.array([ei / length**3 for ei, length in zip(mesh.bending_stiffness, le,
                                                            strict=True)])
-    dofs = 2 * np.arange(ne)[:, None] + np.arange(4)[None, :]  # (ne, 4)
-    flat = (dofs[:, :, None] * (2 * n) + dofs[:, None, :]).reshape(ne, 16)  # k.flat index
-    k = np.zeros((2 * n, 2 * n))
-    kg = np.zeros((2 * n, 2 * n))
+    # the upper entries (a <= b) of each 4 x 4 element matrix, and where they go:
+    # global (2e + a, 2e + b) is band[b - a, 2e + a]
+    upper = [(a, b) for a in range(4) for b in range(a, 4)]
+    local = np.array([4 * a + b for a, b in upper])
+    where = np.array([(b - a) * 2 * n + a for a, b in upper])
+    flat = 2 * np.arange(ne)[:, None] + where[None, :]  # (ne, 10) band.flat index
+    k = np.zeros((LATERAL_BANDWIDTH + 1, 2 * n))
+    kg = np.zeros((LATERAL_BANDWIDTH + 1, 2 * n))
     passes = (slice(0, ne, 2), slice(1, ne, 2))
     for target, elements in ((k, _element_matrices(le, bend, _bending_entries)),
                              (kg, None if axial_force is None else _element_matrices(
                                  le, np.asarray(axial_force, dtype=float)[:ne] / (30.0 * le),
                                  _geometric_entries))):
         if elements is not None:
+            values = elements.reshape(ne, 16)[:, local]
             view = target.reshape(-1)  # contiguous: a view
             for part in passes:
-                view[flat[part]] += elements[part].reshape(-1, 16)
+                view[flat[part]] += values[part]
     half_m = 0.5 * np.asarray(mesh.lateral_mass) * le
     half_j = 0.5 * np.asarray(mesh.rotary_inertia) * le
     m = np.zeros(2 * n)
+    dofs = 2 * np.arange(ne)[:, None] + np.arange(4)[None, :]  # (ne, 4)
     lumped = np.stack([half_m, half_j, half_m, half_j], axis=1)
     for part in passes:
         m[dofs[part]] += lumped[part]
     return k, kg, m
 
 
-def assemble_torsion(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
-    """Dense torsional stiffness (n x n) and lumped polar inertia (n,)."""
+def assemble_lateral(mesh: Mesh, axial_force: np.ndarray | None = None,
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Dense (2n x 2n) lateral stiffness, geometric stiffness and lumped mass of one
+    plane: :func:`assemble_lateral_band` unfolded (for modal analysis and tests)."""
+    k, kg, m = assemble_lateral_band(mesh, axial_force)
+    return from_band(k), from_band(kg), m
+
+
+def assemble_torsion_band(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Torsional stiffness in band storage (2, n) and lumped polar inertia (n,): the
+    element loop of :func:`assemble_torsion` to the last bit (each entry is the sum of
+    at most two element terms, ``0 + a + b`` in either order)."""
     n = mesh.n_nodes
-    k = np.zeros((n, n))
+    ke = np.asarray(mesh.torsional_stiffness, dtype=float) / np.asarray(
+        mesh.element_length, dtype=float)
+    half = 0.5 * np.asarray(mesh.polar_inertia, dtype=float) * np.asarray(
+        mesh.element_length, dtype=float)
+    k = np.zeros((2, n))
+    k[0, :-1] += ke
+    k[0, 1:] += ke
+    k[1, :-1] = -ke
     j = np.zeros(n)
-    for e in range(mesh.n_elements):
-        ke = mesh.torsional_stiffness[e] / mesh.element_length[e]
-        k[e:e + 2, e:e + 2] += ke * np.array([[1.0, -1.0], [-1.0, 1.0]])
-        half = 0.5 * mesh.polar_inertia[e] * mesh.element_length[e]
-        j[e] += half
-        j[e + 1] += half
+    j[:-1] += half
+    j[1:] += half
     return k, j
+
+
+def assemble_torsion(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Dense torsional stiffness (n x n) and lumped polar inertia (n,):
+    :func:`assemble_torsion_band` unfolded."""
+    k, j = assemble_torsion_band(mesh)
+    return from_band(k), j
 
 
 def mud_torsional_damping(mesh: Mesh, per_length: float) -> np.ndarray:

@@ -35,6 +35,16 @@ def band_cholesky(band, factor):
     return True
 
 
+def ldl_factor(band: np.ndarray, what: str) -> np.ndarray:
+    """The LDL^T factor (:func:`cholesky_to_ldl`) of the SPD band matrix ``band``;
+    ValueError naming ``what`` if it is not positive definite."""
+    factor = np.zeros_like(band)
+    if not band_cholesky(band, factor):
+        raise ValueError(f"{what} is not positive definite")
+    cholesky_to_ldl(factor)
+    return factor
+
+
 # --------------------------------------------------------------------------- fast paths
 #: No fastmath: reassociation and FMA contraction let LLVM compile the same kernel into
 #: different operation orders depending on where it was inlined and on whether the code
@@ -174,3 +184,30 @@ def solve_tridiagonal(factor, b):
     for i in range(n - 2, -1, -1):
         prev = b[i] - factor[1, i] * prev
         b[i] = prev
+
+
+@njit(cache=True)
+def ldl_inverse_band(factor):
+    """The band of A^-1 (``out[d, i] = Z[i, i + d]``, Z = A^-1) from A's LDL^T factor
+    (:func:`cholesky_to_ldl`), in O(n p^2) without forming Z (Takahashi's recurrence).
+
+    From A = W^T D W: W Z = D^-1 W^-T, whose upper triangle is diag(1 / D). So, for
+    j >= i, ``Z[i, j] = [i == j] / D_i - sum_{e=1..p} W[i, i + e] Z[i + e, j]``, and the
+    rows below i give every Z[i + e, j] the band needs (|i + e - j| < p).
+    """
+    p = factor.shape[0] - 1
+    n = factor.shape[1]
+    out = np.empty_like(factor)
+    for i in range(n - 1, -1, -1):
+        for d in range(p, -1, -1):
+            j = i + d
+            if j >= n:
+                out[d, i] = 0.0
+                continue
+            s = factor[0, i] if d == 0 else 0.0
+            for e in range(1, min(p, n - 1 - i) + 1):
+                k = i + e
+                z = out[j - k, k] if k <= j else out[k - j, j]
+                s -= factor[e, i] * z
+            out[d, i] = s
+    return out

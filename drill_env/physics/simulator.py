@@ -28,13 +28,11 @@ from drill_env.physics.config import GRAVITY, MIN_TIME_STEP, ConfigError, Simula
 from drill_env.physics.fem import (
     LATERAL_BANDWIDTH,
     Mesh,
-    assemble_lateral,
-    assemble_torsion,
+    assemble_lateral_band,
+    assemble_torsion_band,
     axial_force_profile,
     build_mesh,
-    from_band,
     mud_torsional_damping,
-    to_band,
 )
 from drill_env.physics.formation import (
     Rock,
@@ -60,7 +58,7 @@ from drill_env.physics.layout import (
     TorsionSystem,
     Work,
 )
-from drill_env.physics.linalg import band_cholesky, cholesky_to_ldl
+from drill_env.physics.linalg import ldl_factor, ldl_inverse_band, solve_tridiagonal
 from drill_env.physics.readings import advance_and_read, readout
 from drill_env.physics.statics import element_buckling_error, resolved_weight_on_bit
 from drill_env.physics.top_drive import MAX_FILTER_W_DT
@@ -119,8 +117,8 @@ class Simulator:
             if self.hole is None else [self.hole.axial_weight, self.hole.axial_weight - 1.0]
         self.string_weight = self.hole.hanging_weight if self.hole else self.string_weight
         self.axial_weight = axial[0]  # axial force at element midpoints at zero WOB (N)
-        (k_lat, kg_weight, m_lat), (_, kg_with_unit_wob, _) = (assemble_lateral(mesh, a)
-                                                               for a in axial)
+        (k_lat, kg_weight, m_lat), (_, kg_with_unit_wob, _) = (
+            assemble_lateral_band(mesh, a) for a in axial)
         kg_unit = kg_weight - kg_with_unit_wob  # K_g(WOB) = K_g,weight - WOB K_g,unit
         m_lat[-2] += cfg.bit.mass
         # Lateral DOFs start at node ``lateral_start``: 0, or the BHA's top node when the
@@ -128,20 +126,17 @@ class Simulator:
         # keeps the pipe element above as a rotational spring on that node's tilt.
         self.lateral_start = 0 if cfg.solver.pipe_lateral else cfg.string.drill_pipe.n_elements
         first = 2 * self.lateral_start
-        k_lat, kg_weight, kg_unit = (m[first:, first:] for m in (k_lat, kg_weight, kg_unit))
+        # in band storage (band[d, i] = A[i, i + d]): A[first:, first:] is band[:, first:]
+        k_lat, kg_weight, kg_unit = (m[:, first:].copy() for m in (k_lat, kg_weight, kg_unit))
         m_lat = m_lat[first:].copy()
-        for mat in (k_lat, kg_weight, kg_unit):  # top (lateral) node pinned
-            mat[0, :] = 0.0
-            mat[:, 0] = 0.0
+        last = k_lat.shape[1] - 1
+        for mat in (k_lat, kg_weight, kg_unit):
+            mat[:, 0] = 0.0  # top (lateral) node pinned: row and column 0 are band[:, 0]
+            if cfg.bit.axis_aligned:  # bit tilt held at zero: no force in row/col ``last``
+                mat[np.arange(LATERAL_BANDWIDTH + 1), last - np.arange(LATERAL_BANDWIDTH + 1)] = 0.0
         m_lat[0] = 1.0
-        if cfg.bit.axis_aligned:  # bit tilt held at zero: the row carries no force
-            for mat in (k_lat, kg_weight, kg_unit):
-                mat[-1, :] = 0.0
-                mat[:, -1] = 0.0
-            m_lat[-1] = 1.0
-        self.lat_k = to_band(k_lat, LATERAL_BANDWIDTH)
-        self.lat_kg_weight = to_band(kg_weight, LATERAL_BANDWIDTH)
-        self.lat_kg_unit = to_band(kg_unit, LATERAL_BANDWIDTH)
+        m_lat[-1] = 1.0 if cfg.bit.axis_aligned else m_lat[-1]
+        self.lat_k, self.lat_kg_weight, self.lat_kg_unit = k_lat, kg_weight, kg_unit
         self.lat_m = m_lat
         self.lat_factor = np.zeros_like(self.lat_k)
         self.lat_work_band = np.zeros_like(self.lat_k)
@@ -149,10 +144,9 @@ class Simulator:
         self.lat_k_damp = cfg.damping.stiffness_proportional * self.lat_k
 
         # ---- torsion
-        k_tor, j_tor = assemble_torsion(mesh)
+        self.tor_k, j_tor = assemble_torsion_band(mesh)
         j_tor[0] += cfg.top_drive.inertia
         j_tor[-1] += cfg.bit.inertia
-        self.tor_k = to_band(k_tor, 1)
         self.tor_m = j_tor
         self.tor_c = mud_torsional_damping(mesh, cfg.mud.torsional_damping)
 
@@ -346,14 +340,14 @@ class Simulator:
 
     def _factor_torsion(self) -> None:
         band = self.tor_band = self._torsion_system()
-        self.tor_factor = np.zeros_like(band)
-        if not band_cholesky(band, self.tor_factor):
-            raise ValueError("torsional system matrix is not positive definite")
-        cholesky_to_ldl(self.tor_factor)
-        a_inv = np.linalg.inv(from_band(band))
-        self.col_bit = a_inv[:, -1].copy()
-        self.params[P.G_BIT] = self.params[P.GAMMA] * self.dt * a_inv[-1, -1]
-        self._tor_inv_diag = np.diag(a_inv).copy()
+        self.tor_factor = ldl_factor(band, "torsional system matrix")
+        # K with the top node as reference, for the settled twist of reset
+        self._twist_factor = ldl_factor(self.tor_k[:, 1:].copy(), "torsional stiffness")
+        # the bit's column and the diagonal of A^-1, from the factor in O(n)
+        self.col_bit = np.eye(1, band.shape[1], band.shape[1] - 1)[0]  # e_bit, then
+        solve_tridiagonal(self.tor_factor, self.col_bit)               # A^-1 e_bit
+        self.params[P.G_BIT] = self.params[P.GAMMA] * self.dt * self.col_bit[-1]
+        self._tor_inv_diag = ldl_inverse_band(self.tor_factor)[0].copy()
 
     def _compute_compliance(self) -> None:
         """Tangential compliance of each contact point within one step (friction cap)."""
@@ -364,7 +358,7 @@ class Simulator:
         if not integrator.factor_lateral(system, 0.0, self.params):
             raise ValueError("lateral system matrix is not positive definite")
         lat_inv = np.zeros(self.n_nodes)
-        lat_inv[self.lateral_start:] = np.diag(np.linalg.inv(from_band(work)))[0::2]
+        lat_inv[self.lateral_start:] = ldl_inverse_band(factor)[0, 0::2]  # O(n)
         radius = self.node_radius.copy()
         radius[-1] = self.config.bit.gauge_radius
         self.compliance = self.params[P.GAMMA] * self.dt * (
@@ -473,8 +467,8 @@ class Simulator:
                                                     self.node_radius, omega)
         load[-1] -= tob
         total = -load.sum()  # motor torque that balances everything
-        k = from_band(self.tor_k)[1:, 1:]
-        self.ut[1:] = np.linalg.solve(k, load[1:])
+        self.ut[1:] = load[1:]
+        solve_tridiagonal(self._twist_factor, self.ut[1:])  # K[1:, 1:] ut[1:] = load[1:]
         self.vt[:] = omega
         kp, ki = self.top_drive_gains
         self.state[S.PI_INTEGRAL] = total / ki if ki > 0 else 0.0

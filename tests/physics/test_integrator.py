@@ -258,6 +258,57 @@ def test_torsion_kernels_match_numpy(n):
     np.testing.assert_allclose(r, r0 - dense @ (u + 0.2 * v) - c * v, rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.parametrize(("n", "p"), [(1, 0), (2, 1), (17, 1), (3, 3), (4, 3), (41, 3),
+                                    (30, 5)])
+def test_band_of_the_inverse_matches_numpy_inverse(n, p):
+    """Takahashi's recurrence on the LDL^T factor gives the band of A^-1 that
+    numpy.linalg.inv (LAPACK LU, another algorithm) gives: both backward stable, so they
+    agree to ~cond(A) eps of the largest entry (x10 for the length of the sums)."""
+    rng = np.random.default_rng(7 * n + p)
+    dense = random_spd_band(rng, n, p)
+    factor = np.zeros((p + 1, n))
+    assert linalg.band_cholesky(to_band(dense, p), factor)
+    linalg.cholesky_to_ldl(factor)
+    band = linalg.ldl_inverse_band(factor)
+    inverse = np.linalg.inv(dense)
+    tol = 10 * np.linalg.cond(dense) * np.finfo(float).eps * np.abs(inverse).max()
+    rows = np.arange(n)
+    near = np.abs(np.subtract.outer(rows, rows)) <= p  # the band
+    np.testing.assert_allclose(from_band(band)[near], inverse[near], rtol=0, atol=tol)
+
+
+def test_simulator_compliance_and_bit_column_match_the_dense_inverse():
+    """The friction caps (compliance), the bit's column of the torsional A^-1 and
+    G_BIT, now from the band factors in O(n), against numpy's dense inverse of the same
+    system matrices: the inverse's entries are conditioned by cond(A) (asserted), so they
+    agree to cond(A) eps relative to its largest entry."""
+    from drill_env.physics.layout import LateralSystem, P
+    from drill_env.scenarios import make_scenario
+
+    for config in (SimulationConfig(), make_scenario("random", rng=np.random.default_rng(2)
+                                                     ).config.resolved()):
+        sim = Simulator(config)
+        tor = from_band(sim._torsion_system())
+        tor_inv = np.linalg.inv(tor)
+        tol = np.linalg.cond(tor) * np.finfo(float).eps * np.abs(tor_inv).max()
+        np.testing.assert_allclose(sim.col_bit, tor_inv[:, -1], rtol=0, atol=tol)
+        gamma_dt = sim.params[P.GAMMA] * sim.dt
+        assert sim.params[P.G_BIT] == pytest.approx(gamma_dt * tor_inv[-1, -1], rel=1e-12)
+        lateral = LateralSystem(sim.lat_k, sim.lat_kg_weight, sim.lat_kg_unit, sim.lat_m,
+                                sim.lat_k_damp, np.zeros_like(sim.lat_k),
+                                np.zeros_like(sim.lat_k), np.zeros_like(sim.lat_k))
+        assert ig.factor_lateral(lateral, 0.0, sim.params)
+        lat = from_band(lateral.work)
+        lat_inv = np.diag(np.linalg.inv(lat))[0::2]
+        radius = sim.node_radius.copy()
+        radius[-1] = config.bit.gauge_radius
+        start = sim.lateral_start
+        want = gamma_dt * (lat_inv + radius[start:] ** 2 * np.diag(tor_inv)[start:])
+        want[0] = 0.0  # the pinned top node
+        scale = np.linalg.cond(lat) * np.finfo(float).eps * np.abs(want).max()
+        np.testing.assert_allclose(sim.compliance[start:], want, rtol=0, atol=10 * scale)
+
+
 def test_band_cholesky_rejects_indefinite_matrix():
     dense = np.diag([1.0, -1.0, 2.0])
     factor = np.zeros((2, 3))

@@ -21,13 +21,17 @@ from drill_env.physics.config import (
     TopDriveConfig,
 )
 from drill_env.physics.fem import (
+    LATERAL_BANDWIDTH,
     Mesh,
     assemble_lateral,
+    assemble_lateral_band,
     assemble_torsion,
+    assemble_torsion_band,
     axial_force_profile,
     beam_geometric_stiffness,
     beam_stiffness,
     build_mesh,
+    to_band,
 )
 from drill_env.physics.layout import R
 from drill_env.physics.simulator import OperatingPoint, Simulator
@@ -448,10 +452,11 @@ def test_mesh_check_raises_exactly_where_an_element_passes_80_percent_of_its_buc
 
 
 def test_the_vectorised_assembly_is_the_element_loop_to_the_last_bit():
-    """A refactor check (same arithmetic, same machine): assemble_lateral adds the
+    """A refactor check (same arithmetic, same machine): assemble_lateral_band adds the
     element matrices of beam_stiffness / beam_geometric_stiffness and the lumped masses
-    in two passes; element by element in order gives the same bits on every string,
-    with and without an axial force."""
+    in two passes, straight into band storage, and assemble_torsion_band sums the two
+    element terms of each entry; element by element in order, in dense matrices, gives
+    the same bits on every string, with and without an axial force."""
     from drill_env.scenarios import make_scenario
 
     rng = np.random.default_rng(3)
@@ -473,4 +478,17 @@ def test_the_vectorised_assembly_is_the_element_loop_to_the_last_bit():
                 m[2 * e + 2 + dof] += 0.5 * value * le
         for want, got in zip((k, kg, m), assemble_lateral(mesh, axial), strict=True):
             np.testing.assert_array_equal(got, want)
+        band = assemble_lateral_band(mesh, axial)
+        for want, got in zip((k, kg), band, strict=False):
+            np.testing.assert_array_equal(got, to_band(want, LATERAL_BANDWIDTH))
         np.testing.assert_array_equal(assemble_lateral(mesh)[1], 0.0)
+        kt, jt = np.zeros((n, n)), np.zeros(n)
+        for e in range(mesh.n_elements):
+            ke = mesh.torsional_stiffness[e] / mesh.element_length[e]
+            kt[e:e + 2, e:e + 2] += ke * np.array([[1.0, -1.0], [-1.0, 1.0]])
+            half = 0.5 * mesh.polar_inertia[e] * mesh.element_length[e]
+            jt[e] += half
+            jt[e + 1] += half
+        k_band, j_band = assemble_torsion_band(mesh)
+        np.testing.assert_array_equal(k_band, to_band(kt, 1))
+        np.testing.assert_array_equal(j_band, jt)
