@@ -274,7 +274,7 @@ class StickSlipEnv(TaskEnv):
         r = self._readings
         target = self.targets[0]
         torque = r[READ.SURFACE_TORQUE]
-        if not self._history:
+        if not self._frames_seen:
             self._torque_mean = torque
         else:
             a = self.config.control_interval / TORQUE_MEAN_SECONDS

@@ -1,0 +1,133 @@
+"""PPO end to end: the code of the day the speed issue was filed against today's, timed
+in the same run (issue 16, acceptance 1a).
+
+    .venv/bin/python scripts/ppo_then_now.py [--base 9e78440] [--steps 16384] [--rounds 3]
+
+The issue measured ~2,000 env steps/s for PPO on the batched env, on the code of its
+day: ``training/train_ppo.py`` at commit ``9e78440`` (the last commit before the issue
+was filed), that is PPO with SB3's defaults but ``n_steps=256, batch_size=256`` on 8
+batched ``DrillString-v0`` envs, randomised scenario (``--scenario``), 30 s episodes. Figures taken on
+different days on a shared machine cannot be compared, so this script checks that
+commit out in a temporary git worktree and trains the same model on the same envs with
+both trees, in a fresh process each, in alternating turns (``--rounds``), quiet or beside
+one CPU-bound process (``--loaded``). Each tree runs with its own defaults: the old one
+as it was (libgomp's spinning wait, torch's own thread count), today's as ``drill-env
+train`` does (``import drill_env`` sets a passive OpenMP wait, torch held at one thread
+by ``training.train.torch_threads_callback``). The first ``--warmup`` steps of each
+process are not timed (numba cache load or compile, first update).
+
+Prints env steps/s (best and median over rounds), CPU seconds per 1,000 env steps and
+the ratio today / then; writes ``logs/ppo_then_now.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Runs in the tree under test (its cwd): only APIs both trees have.
+CHILD = r"""
+import json, sys, time
+import drill_env
+from drill_env.vector import make_sb3_vec_env
+import torch
+from stable_baselines3 import PPO
+
+steps, warmup, today = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1"
+callback = None
+if today:
+    from training.train import torch_threads_callback
+    callback = torch_threads_callback(1)
+venv = make_sb3_vec_env(8, scenario=sys.argv[4], episode_duration=30.0)
+venv.seed(0)
+model = PPO("MlpPolicy", venv, n_steps=256, batch_size=256, seed=0, verbose=0)
+model.learn(warmup, callback=callback)
+wall, cpu = time.perf_counter(), time.process_time()
+model.learn(steps, reset_num_timesteps=False, callback=callback)
+wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+print(json.dumps({"steps_per_s": steps / wall, "cpu_s_per_1000": 1e3 * cpu / steps,
+                  "module": drill_env.__file__, "torch_threads": torch.get_num_threads()}))
+"""
+
+
+def run_child(tree: Path, steps: int, warmup: int, today: bool, scenario: str) -> dict:
+    out = subprocess.run([sys.executable, "-c", CHILD, str(steps), str(warmup),
+                          "1" if today else "0", scenario], cwd=tree, capture_output=True,
+                         text=True)
+    if out.returncode != 0:
+        raise RuntimeError(f"the run in {tree} failed:\n{out.stderr[-3000:]}")
+    row = json.loads(out.stdout.strip().splitlines()[-1])
+    if not row["module"].startswith(str(tree)):  # an installed copy would shadow the tree
+        raise RuntimeError(f"{tree}: imported drill_env from {row['module']}")
+    return row
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--base", default="9e78440", help="the commit of the issue's day")
+    parser.add_argument("--steps", type=int, default=16384)
+    parser.add_argument("--warmup", type=int, default=4096)
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--scenario", default="random",
+                        help="the issue's was 'random'; that scenario has since become "
+                             "the realistic 900-1600 m string (more nodes), 'default' "
+                             "is the same string in both trees")
+    parser.add_argument("--loaded", action="store_true",
+                        help="run beside one CPU-bound process")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="default: logs/ppo_then_now_<scenario>.json")
+    args = parser.parse_args()
+    args.out = args.out or ROOT / "logs" / f"ppo_then_now_{args.scenario}.json"
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(tmp) / "base"
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(base),
+                        args.base], check=True, capture_output=True)
+        hog = (subprocess.Popen([sys.executable, "-c", "while True: pass"])
+               if args.loaded else None)
+        runs: dict[str, list[dict]] = {"then": [], "today": []}
+        try:
+            for k in range(args.rounds):
+                for name, tree in (("then", base), ("today", ROOT)):
+                    row = run_child(tree, args.steps, args.warmup, name == "today",
+                                    args.scenario)
+                    runs[name].append(row)
+                    print(f"round {k + 1}: {name:5s} {row['steps_per_s']:7.0f} env steps/s, "
+                          f"{row['cpu_s_per_1000']:.2f} CPU s per 1,000", flush=True)
+        finally:
+            if hog is not None:
+                hog.kill()
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
+                            str(base)], capture_output=True)
+    summary = {}
+    for name, rows in runs.items():
+        rates = [r["steps_per_s"] for r in rows]
+        summary[name] = {"best": max(rates), "median": statistics.median(rates),
+                         "cpu_s_per_1000_min": min(r["cpu_s_per_1000"] for r in rows)}
+    ratios = [t["steps_per_s"] / b["steps_per_s"] for t, b in zip(runs["today"], runs["then"])]
+    summary["ratio_per_round"] = ratios
+    print(f"\n{'tree':6s} {'best':>7s} {'median':>7s} {'CPU s/1000':>11s}")
+    for name in ("then", "today"):
+        s = summary[name]
+        print(f"{name:6s} {s['best']:7.0f} {s['median']:7.0f} {s['cpu_s_per_1000_min']:11.2f}")
+    print(f"today / then: best {summary['today']['best'] / summary['then']['best']:.2f}x, "
+          f"per round {min(ratios):.2f}-{max(ratios):.2f}x "
+          f"({'beside one busy process' if args.loaded else 'quiet'}; scenario "
+          f"{args.scenario}; base {args.base})")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps({"base": args.base, "loaded": args.loaded,
+                                    "scenario": args.scenario,
+                                    "steps": args.steps, "summary": summary, "runs": runs},
+                                   indent=2))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
