@@ -129,13 +129,14 @@ class Simulator:
         # in band storage (band[d, i] = A[i, i + d]): A[first:, first:] is band[:, first:]
         k_lat, kg_weight, kg_unit = (m[:, first:].copy() for m in (k_lat, kg_weight, kg_unit))
         m_lat = m_lat[first:].copy()
-        last = k_lat.shape[1] - 1
+        d, last = np.arange(LATERAL_BANDWIDTH + 1), k_lat.shape[1] - 1
         for mat in (k_lat, kg_weight, kg_unit):
             mat[:, 0] = 0.0  # top (lateral) node pinned: row and column 0 are band[:, 0]
-            if cfg.bit.axis_aligned:  # bit tilt held at zero: no force in row/col ``last``
-                mat[np.arange(LATERAL_BANDWIDTH + 1), last - np.arange(LATERAL_BANDWIDTH + 1)] = 0.0
+            if cfg.bit.axis_aligned:  # bit tilt held at zero: row and column ``last``,
+                mat[d, last - d] = 0.0  # which are band[d, last - d], carry no force
         m_lat[0] = 1.0
-        m_lat[-1] = 1.0 if cfg.bit.axis_aligned else m_lat[-1]
+        if cfg.bit.axis_aligned:
+            m_lat[-1] = 1.0
         self.lat_k, self.lat_kg_weight, self.lat_kg_unit = k_lat, kg_weight, kg_unit
         self.lat_m = m_lat
         self.lat_factor = np.zeros_like(self.lat_k)
