@@ -234,17 +234,31 @@ env = RecordEpisode(gym.make("DrillString-v0", scenario="paper_case1", episode_d
                     sys.argv[1], flush_every=20, string_period=1.0)
 try:
     env.reset(seed=0)
-    while True:
+    for step in range(1 << 60):
         env.step(np.zeros(2, dtype=np.float32))
+        if step == 60:  # three flushes written: every kernel of the loop has run
+            print("steady", flush=True)
 finally:
     env.close()
 """
 
 
 def _wait_for_chunks(directory: Path, proc, min_bytes: int = 200_000) -> Path:
+    """Wait until the recorder is in its steady loop (the child says so after three
+    flushes: with a cold numba cache the first steps and flushes compile, and a signal
+    then lands in the compiler) and the file has grown."""
+    import selectors
     import time
 
-    deadline = time.monotonic() + 120.0
+    deadline = time.monotonic() + 300.0
+    with selectors.DefaultSelector() as sel:
+        sel.register(proc.stdout, selectors.EVENT_READ)
+        while time.monotonic() < deadline:
+            if sel.select(timeout=1.0) and proc.stdout.readline().strip() == "steady":
+                break
+            assert proc.poll() is None, proc.stderr.read()
+        else:
+            raise AssertionError("the recorder did not reach its steady loop")
     while time.monotonic() < deadline:
         files = list(directory.glob("*.rrd"))
         if files and files[0].stat().st_size > min_bytes:
@@ -261,10 +275,10 @@ def test_a_recording_interrupted_mid_episode_reads_back(tmp_path: Path, how: str
     import sys
 
     proc = subprocess.Popen([sys.executable, "-c", _RECORD_FOREVER, str(tmp_path)],
-                            stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     path = _wait_for_chunks(tmp_path, proc)
     proc.send_signal(signal.SIGINT if how == "interrupt" else signal.SIGKILL)
-    proc.wait(timeout=60)
+    proc.communicate(timeout=120)  # drains the pipes while it exits
     with pytest.warns() if how == "kill" else _no_warning():
         back = read_recording(path)
     times, values = back.scalars["/timeseries/speed_rpm/bit"]
