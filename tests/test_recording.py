@@ -227,7 +227,10 @@ def test_replay_is_not_started_here(tmp_path: Path) -> None:
 # --------------------------------------------------------------------------- interrupts
 
 _RECORD_FOREVER = """
-import sys, numpy as np, gymnasium as gym
+import signal, sys, numpy as np, gymnasium as gym
+# Ctrl-C raises KeyboardInterrupt even when started from a shell's background job (which
+# starts its children with SIGINT ignored, and Python then keeps it ignored)
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import drill_env
 from drill_env.recording import RecordEpisode
 env = RecordEpisode(gym.make("DrillString-v0", scenario="paper_case1", episode_duration=1e4),
