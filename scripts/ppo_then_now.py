@@ -24,7 +24,8 @@ scenario has since become the realistic 900-1600 m string (178 nodes instead of 
 there ``--scenario default``, the same string in both trees, compares equal work.
 
 Prints env steps/s (best and median over rounds), CPU seconds per 1,000 env steps and
-the ratio today / then; writes ``logs/ppo_then_now_<workload>.json``.
+the ratio today / then; writes ``logs/ppo_then_now_<workload>.json`` after every run
+(``summary`` is filled in at the end).
 """
 
 from __future__ import annotations
@@ -99,7 +100,8 @@ def main() -> None:
     parser.add_argument("--loaded", action="store_true",
                         help="run beside one CPU-bound process")
     parser.add_argument("--out", type=Path, default=None,
-                        help="default: logs/ppo_then_now_<scenario>.json")
+                        help="default: logs/ppo_then_now_<workload>.json (train_ppo: "
+                             "_<scenario> appended)")
     args = parser.parse_args()
     args.base = args.base or BASES[args.workload]
     label = args.workload if args.workload == "task" else f"{args.workload}_{args.scenario}"
@@ -116,6 +118,7 @@ def main() -> None:
                 for name, tree in (("then", base), ("today", ROOT)):
                     row = run_child(tree, args, name == "today")
                     runs[name].append(row)
+                    write(args, label, runs)  # each run as it arrives
                     print(f"round {k + 1}: {name:5s} {row['steps_per_s']:7.0f} env steps/s, "
                           f"{row['cpu_s_per_1000']:.2f} CPU s per 1,000", flush=True)
         finally:
@@ -139,12 +142,16 @@ def main() -> None:
           f"per round {min(ratios):.2f}-{max(ratios):.2f}x "
           f"({'beside one busy process' if args.loaded else 'quiet'}; {label}; "
           f"base {args.base})")
+    write(args, label, runs, summary)
+    print(f"wrote {args.out}")
+
+
+def write(args: argparse.Namespace, label: str, runs: dict, summary: dict | None = None
+          ) -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({"base": args.base, "loaded": args.loaded,
-                                    "workload": label,
-                                    "steps": args.steps, "summary": summary, "runs": runs},
-                                   indent=2))
-    print(f"wrote {args.out}")
+                                    "workload": label, "steps": args.steps,
+                                    "summary": summary, "runs": runs}, indent=2))
 
 
 if __name__ == "__main__":
