@@ -107,18 +107,21 @@ class Simulator:
         # the bit is steel like the component it hangs from
         self.bit_buoyed_weight = cfg.bit.mass * GRAVITY * (
             1.0 - cfg.mud.density / cfg.string.lower[0].density)
-        self.string_weight = float(np.sum(mesh.buoyed_weight * mesh.element_length)
-                                   + self.bit_buoyed_weight)
 
         # ---- lateral (one plane; the other is identical); in a curved hole the axial
         # force follows the TVD and static loads act across the hole (docs/model.md, 6)
         self.hole = curved_hole_loads(cfg, mesh, self.bit_buoyed_weight)
-        axial = [axial_force_profile(mesh, w, self.bit_buoyed_weight) for w in (0.0, 1.0)] \
-            if self.hole is None else [self.hole.axial_weight, self.hole.axial_weight - 1.0]
-        self.string_weight = self.hole.hanging_weight if self.hole else self.string_weight
-        self.axial_weight = axial[0]  # axial force at element midpoints at zero WOB (N)
+        if self.hole is None:
+            self.string_weight = float(np.sum(mesh.buoyed_weight * mesh.element_length)
+                                       + self.bit_buoyed_weight)
+            self.axial_weight = axial_force_profile(mesh, 0.0, self.bit_buoyed_weight)
+        else:
+            self.string_weight = self.hole.hanging_weight
+            self.axial_weight = self.hole.axial_weight
+        # axial_weight: axial force at element midpoints at zero WOB (N); a WOB takes
+        # off the same force everywhere along the string
         (k_lat, kg_weight, m_lat), (_, kg_with_unit_wob, _) = (
-            assemble_lateral_band(mesh, a) for a in axial)
+            assemble_lateral_band(mesh, a) for a in (self.axial_weight, self.axial_weight - 1.0))
         kg_unit = kg_weight - kg_with_unit_wob  # K_g(WOB) = K_g,weight - WOB K_g,unit
         m_lat[-2] += cfg.bit.mass
         # Lateral DOFs start at node ``lateral_start``: 0, or the BHA's top node when the
@@ -402,7 +405,7 @@ class Simulator:
         if (self.lateral_start == 0 or not self.config.solver.lateral
                 or self._warned_compression):
             return
-        force = axial_force_profile(self.mesh, weight_on_bit, self.bit_buoyed_weight)
+        force = self.axial_weight - weight_on_bit  # along the hole, curved or not
         if np.min(force[: self.lateral_start]) < 0.0:
             self._warned_compression = True
             warnings.warn(
@@ -561,9 +564,9 @@ class Simulator:
                     self.state[S.STATUS] = Status.MESH_BUCKLING
                     self._mesh_message = str(err)
                     return False
+                self._hole_wob(wob)  # the curved hole's loads follow the WOB only
             self.state[S.HOOK_LOAD] = hook_load
             self.state[S.WOB] = wob
-            self._hole_wob(wob)
         n_rec_max = n_steps // record_every if record_every > 0 else 0
         if self.arrays.record.shape[0] < max(n_rec_max, 1):
             self._bind_arrays(np.zeros((max(n_rec_max, 1), N_RECORD)))

@@ -119,6 +119,19 @@ def test_the_mesh_check_uses_the_axial_force_along_the_curved_hole():
     vertical.check_mesh_resolves(1.01 * deviated.resolved_weight_on_bit)
 
 
+def test_the_straight_pipe_warning_uses_the_axial_force_along_the_curved_hole():
+    """The fast level holds the pipe straight, valid while it is in tension. In the
+    60-degree hole less weight acts along the string, so 150 kN on the bit compresses
+    pipe the vertical hole would still hold in tension; the warning must say so."""
+    config = replace(make_scenario("lateral_60").config, solver={"fidelity": "fast"})
+    sim = Simulator(config)
+    assert np.min(sim.axial_weight[: sim.lateral_start]) < 150e3  # compressed along the hole
+    vertical = Simulator(replace(make_scenario("default").config, solver={"fidelity": "fast"}))
+    assert np.min(vertical.axial_weight[: vertical.lateral_start]) > 150e3  # not vertically
+    with pytest.warns(RuntimeWarning, match="compression"):
+        sim.reset(OperatingPoint(60 * RPM, 150e3))
+
+
 def test_formation_dip_is_true_and_turned_into_the_bits_frame():
     """A bed dipping 60 deg toward south is perpendicular to a hole inclined 60 deg
     toward north, so the bit meets it flat; a horizontal bed meets that bit at 60 deg.
