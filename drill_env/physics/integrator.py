@@ -284,12 +284,12 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
 
 
 @njit(cache=True, inline="always")
-def _torsion(p, state, torsion, m, work, t_slip, t_static):
-    """Implicit torsion solve without the front bit torque, then the exact stick or slip
-    of the bit (module docstring); returns the bit torque (on the string) and stuck."""
+def _torsion(p, torsion, m, work, t_slip, t_static):
+    """Implicit torsion solve without the front bit torque (``work.rt`` holds the
+    residual), then the exact stick or slip of the bit (module docstring); returns the
+    bit torque (on the string) and stuck."""
     n = m.ut.shape[0]
     bit = n - 1
-    torsion_residual(torsion.k, p[P.RAYLEIGH_B], torsion.c, m.ut, m.vt, work.rt)
     solve_tridiagonal(torsion.factor, work.rt)
     g_bit = p[P.G_BIT]
     v_free = m.vt[bit] + p[P.GAMMA] * p[P.DT] * work.rt[bit]
@@ -301,8 +301,6 @@ def _torsion(p, state, torsion, m, work, t_slip, t_static):
         stuck = 0.0
     for i in range(n):
         m.at[i] = work.rt[i] + t_bit * torsion.col_bit[i]
-    state[S.STUCK] = stuck
-    state[S.TOB] = -t_bit
     return t_bit, stuck
 
 
@@ -443,12 +441,14 @@ def advance(n_steps, record_every, a):
         by = m.ul[1, lb]
         t_slip, t_static, fx_slip, fy_slip, fx_static, fy_static, gauge_x, gauge_y = \
             _bit_loads(p, state, m, work, nodes.compliance[bit], bit_arrays, wob, lb, lateral)
+        torsion_residual(torsion.k, p[P.RAYLEIGH_B], torsion.c, m.ut, m.vt, work.rt)
         if soft_string:
-            torsion_residual(torsion.k, p[P.RAYLEIGH_B], torsion.c, m.ut, m.vt, work.rt)
             t_bit, stuck = soft_string_torsion(p, state, torsion, nodes, m, work, t_slip,
                                                t_static)
         else:
-            t_bit, stuck = _torsion(p, state, torsion, m, work, t_slip, t_static)
+            t_bit, stuck = _torsion(p, torsion, m, work, t_slip, t_static)
+        state[S.STUCK] = stuck
+        state[S.TOB] = -t_bit
         fbx, fby = _front_force(t_bit, stuck, t_static, fx_slip, fy_slip, fx_static,
                                 fy_static)
         state[S.BIT_FX] = fbx + gauge_x

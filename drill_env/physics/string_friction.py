@@ -151,8 +151,6 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
     stuck = held[bit]
     for i in range(n):
         m.at[i] = (v[i] - m.vt[i]) / h
-    state[S.STUCK] = stuck
-    state[S.TOB] = -t_bit
     return t_bit, stuck
 
 
