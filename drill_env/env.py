@@ -565,6 +565,11 @@ class DrillStringEnv(gym.Env):
             "failure": -cfg.failure_weight if terminated else 0.0,
         }
 
+    def _window(self) -> list[float] | None:
+        """The metric window's values, None until it holds finite ones."""
+        w = self._window_metrics
+        return w[0] if w is not None and w[1] else None
+
     def _window_ssi(self) -> float:
         if self._window_metrics is None:
             return 0.0
@@ -629,8 +634,7 @@ class DrillStringEnv(gym.Env):
         info["episode_time"] = r[_TIME] - self._start_time
         info["top_drive_energy"] = self._episode_energy
         info["bit_inclination"] = self.sim.bit_inclination  # rad; the hole at the bit
-        window = self._window_metrics
-        values = window[0] if window is not None and window[1] else None
+        values = self._window()
         for name, k in _INFO_METRIC:
             info[name] = values[k] if values is not None else 0.0
         info["reward_terms"] = {}

@@ -35,7 +35,6 @@ class TaskEnv(DrillStringEnv):
         given = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
         base = task if isinstance(task, self.task_class) else self.task_class(**(task or {}))
         self.task = replace(base, **given) if given else base
-        self._before_env_init()
         for key, value in self.env_defaults.items():
             if key != "scenario":
                 kwargs.setdefault(key, value)
@@ -45,10 +44,6 @@ class TaskEnv(DrillStringEnv):
         self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND,
                                             shape=(len(self.observation_names),),
                                             dtype=np.float32)
-        self._init_task_state()
-
-    def _before_env_init(self) -> None:
-        """State the env's own set-up (a reset) already needs."""
 
     def _observation_plan(self) -> list[tuple[int, float]]:
         return []  # the task builds its own observation (_observation)
@@ -63,14 +58,8 @@ class TaskEnv(DrillStringEnv):
         self._telemetry_started = False
 
     def _init_episode_state(self) -> None:
-        super()._init_episode_state()
-        if hasattr(self, "task"):
-            self._init_task_state()
-
-    def _window(self) -> list[float] | None:
-        """The metric window's values, None until it holds finite ones."""
-        w = self._window_metrics
-        return w[0] if w is not None and w[1] else None
+        super()._init_episode_state()  # (the task is set before the env's own set-up)
+        self._init_task_state()
 
     def _push_frame(self, frame: list[float]) -> None:
         """Append this step's frame; the first one fills the whole history."""
@@ -97,7 +86,6 @@ class TaskEnv(DrillStringEnv):
         """The history then ``extras``, NaN as 0, clipped to the observation bound."""
         obs = self._obs
         obs[obs.shape[0] - len(extras):] = _bounded(extras)
-        self._last_obs = obs.copy()
         return obs.copy()
 
 

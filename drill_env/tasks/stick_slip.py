@@ -175,9 +175,7 @@ class StickSlipEnv(TaskEnv):
         super().__init__(scenario, task, **kwargs)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
         self._max_correction = self.task.max_correction * RPM
-
-    def _before_env_init(self) -> None:
-        self._change_step = -1
+        self._change_step = -1  # no target change (each reset draws one)
         self._change = (0.0, 0.0)
 
     # ------------------------------------------------------------------ episode state
