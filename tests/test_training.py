@@ -165,7 +165,7 @@ def test_torch_stays_at_its_configured_threads_through_batched_steps():
     """In a process that imports drill_env before torch (``drill-env train``), numba's
     OpenMP layer sets the process's OpenMP thread count at every batched env step, and
     torch reads that count, so a torch.set_num_threads before learn does not last. The
-    callback sets it again after every step and before every update: every policy call
+    callback sets it again after every env step: every policy call and every update
     runs on the configured count (TrainConfig.torch_threads, default 1), whatever the
     count was before."""
     import torch
@@ -185,11 +185,20 @@ def test_torch_stays_at_its_configured_threads_through_batched_steps():
         return inner(*args, **kwargs)
 
     model.policy.forward = spy
+    updates = []
+    train = model.train
+
+    def spy_train():
+        updates.append(torch.get_num_threads())
+        return train()
+
+    model.train = spy_train
     before = torch.get_num_threads()
     try:
         torch.set_num_threads(2)
         model.learn(128, callback=torch_threads_callback(1))
         assert len(seen) > 4 and set(seen) == {1}
+        assert updates == [1]  # one rollout of 4 envs x 32 steps, then its update
     finally:
         torch.set_num_threads(before)
         env.close()

@@ -155,7 +155,8 @@ def torch_threads_callback(threads: int) -> Any:
     """An SB3 callback that holds torch at ``threads`` intra-op threads. torch's OpenMP
     thread count is the process's OpenMP one, which numba's OpenMP layer sets at every
     parallel (batched) env step, so a ``torch.set_num_threads`` before ``learn`` lasts
-    one step; this sets it again after each env step and before each update."""
+    one step; this sets it again after each env step (SB3 calls ``on_step`` after every
+    env step, so the update that ends a rollout runs with it too)."""
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -166,9 +167,6 @@ def torch_threads_callback(threads: int) -> Any:
         def _on_step(self) -> bool:
             torch.set_num_threads(threads)
             return True
-
-        def _on_rollout_end(self) -> None:
-            torch.set_num_threads(threads)
 
     return TorchThreads()
 
