@@ -55,6 +55,13 @@ def _env_only(venv: Any, actions: np.ndarray) -> dict[str, float]:
     return {"steps_per_s": n / wall, "cpu_s_per_1000": 1e3 * cpu / n}
 
 
+def _keep_faster(best: dict[str, dict[str, float]], label: str, row: dict[str, float]
+                 ) -> None:
+    """Best of rounds: keep ``row`` under ``label`` unless a faster one is there."""
+    if label not in best or row["steps_per_s"] > best[label]["steps_per_s"]:
+        best[label] = row
+
+
 def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
                    ) -> dict[str, Any]:
     """Time each of :data:`RUNS` for ``steps[algo]`` env steps per round (``rounds``
@@ -70,13 +77,12 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
         clock = {"env": 0.0, "update": 0.0}
         _timed(venv, "step_wait", clock, "env")
         _timed(model, "train", clock, "update")
-        variants = {f"torch {config.torch_threads or default_threads} thread(s) (default)":
-                    config.torch_threads or default_threads,
-                    f"torch {default_threads} threads": default_threads}
-        if len(set(variants.values())) == 1:
-            variants = dict(list(variants.items())[:1])
+        threads = config.torch_threads or default_threads
+        variants = {f"torch {threads} thread(s) (default)": threads}
+        if default_threads != threads:
+            variants[f"torch {default_threads} threads"] = default_threads
         warmup = int(config.hyperparams.get("learning_starts", 0)) + 2 * steps[algo]
-        model.learn(warmup, callback=torch_threads_callback(next(iter(variants.values()))))
+        model.learn(warmup, callback=torch_threads_callback(threads))
         space = venv.action_space
         shape = (max(1, steps[algo] // venv.num_envs), venv.num_envs, *space.shape)
         actions = {"env only, random actions": np.random.default_rng(0).uniform(
@@ -84,23 +90,20 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
                    "env only, constant action": np.zeros(shape, np.float32)}
         best: dict[str, dict[str, float]] = {}
         for _ in range(rounds):
-            for label, threads in variants.items():
+            for label, count in variants.items():
                 clock["env"] = clock["update"] = 0.0
                 wall, cpu = time.perf_counter(), time.process_time()
                 model.learn(steps[algo], reset_num_timesteps=False,
-                            callback=torch_threads_callback(threads))
+                            callback=torch_threads_callback(count))
                 wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
                 n = steps[algo]
                 row = {"steps_per_s": n / wall, "cpu_s_per_1000": 1e3 * cpu / n,
                        "env_share": clock["env"] / wall,
                        "update_share": clock["update"] / wall,
                        "rest_share": 1.0 - (clock["env"] + clock["update"]) / wall}
-                if label not in best or row["steps_per_s"] > best[label]["steps_per_s"]:
-                    best[label] = row
+                _keep_faster(best, label, row)
             for label, sequence in actions.items():
-                row = _env_only(venv, sequence)
-                if label not in best or row["steps_per_s"] > best[label]["steps_per_s"]:
-                    best[label] = row
+                _keep_faster(best, label, _env_only(venv, sequence))
             if progress:
                 print(f"  {task} {algo}: round done", flush=True)
         env_only = best["env only, random actions"]["steps_per_s"]

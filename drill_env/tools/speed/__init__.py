@@ -71,16 +71,16 @@ from drill_env.tools.speed.system import (
 
 # --------------------------------------------------------------------------- driver
 
-RUNNERS: dict[str, tuple[Callable[..., dict[str, Any]], Callable[[dict[str, Any]], str]]] = {
+#: A section: (bench(settings, progress) -> figures, format(figures) -> table).
+Runner = tuple[Callable[..., dict[str, Any]], Callable[[dict[str, Any]], str]]
+
+RUNNERS: dict[str, Runner] = {
     "core": (bench_core, format_core),
     "env": (bench_env, format_env),
     "scaling": (bench_scaling, format_scaling),
     "compile": (bench_compile, format_compile),
     "memory": (bench_memory, format_memory),
 }
-
-
-Runner = tuple[Callable[..., dict[str, Any]], Callable[[dict[str, Any]], str]]
 
 
 def parse_sections(text: str, extra: Iterable[str] = ()) -> tuple[str, ...]:
@@ -110,8 +110,9 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
     section, ``out/speed_scaling.png``.
     """
     sections = tuple(sections)
-    table = {**RUNNERS, **(runners or {})}
-    parse_sections(",".join(sections), extra=runners or ())
+    added = dict(runners or {})
+    table = {**RUNNERS, **added}
+    parse_sections(",".join(sections), extra=added)
     levels = fidelity_levels()
     result: dict[str, Any] = {
         "machine": machine_info(),
@@ -151,7 +152,7 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
         # The same tables as markdown, to paste into docs/performance.md.
         report = out / "speed.md"
         kind = {FULL: "", QUICK: " --quick"}.get(settings, " (custom settings)")
-        if set(sections) != {*SECTIONS, *(runners or {})}:
+        if set(sections) != set(table):
             kind += f" --sections {','.join(sections)}"
         head = (f"`drill-env speed{kind}`, "
                 f"{machine['date'][:10]}, commit {machine.get('git_commit', '?')}: "
