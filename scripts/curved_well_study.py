@@ -19,6 +19,7 @@ import time
 
 import numpy as np
 
+from drill_env.metrics import stick_slip_severity
 from drill_env.physics.config import replace
 from drill_env.physics.layout import R
 from drill_env.physics.simulator import OperatingPoint, Simulator
@@ -77,7 +78,7 @@ def stick_slip() -> None:
                 rec = sim.run(120.0, record_every=5)
                 late = rec[rec[:, R.TIME] > 40.0]
                 w = late[:, R.BIT_SPEED]
-                ssi = (w.max() - w.min()) / (2 * rpm * RPM)
+                ssi = stick_slip_severity(w)
                 dt = late[1, R.TIME] - late[0, R.TIME]
                 power = np.abs(np.fft.rfft(w - w.mean()))
                 freq = np.fft.rfftfreq(len(w), dt)
