@@ -184,29 +184,27 @@ class Trajectory:
         tau = (md - self.survey.md[k]) / np.diff(self.survey.md)[k]
         return k, tau
 
-    def at(self, md) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Positions (n, 3), unit tangents (n, 3) and curvature (1/m, n) at ``md``."""
+    def _evaluate(self, md) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Course index (n,), positions (n, 3), unit tangents (n, 3) and dt/ds (n, 3)."""
         md = np.atleast_1d(np.asarray(md, dtype=float))
         k, tau = self._locate(md)
         pos = np.empty((md.size, 3))
         tan = np.empty((md.size, 3))
+        bend = np.empty((md.size, 3))
         for j in np.unique(k):
             sel = k == j
-            offset, direction, _ = self._arc(int(j), tau[sel])
+            offset, tan[sel], bend[sel] = self._arc(int(j), tau[sel])
             pos[sel] = self._r[j] + offset
-            tan[sel] = direction
-        curvature = self._beta[k] / np.diff(self.survey.md)[k]
-        return pos, tan, curvature
+        return k, pos, tan, bend
+
+    def at(self, md) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions (n, 3), unit tangents (n, 3) and curvature (1/m, n) at ``md``."""
+        k, pos, tan, _ = self._evaluate(md)
+        return pos, tan, self._beta[k] / np.diff(self.survey.md)[k]
 
     def bend(self, md) -> np.ndarray:
         """dt/ds (n, 3) at ``md``: curvature times the unit normal toward the centre."""
-        md = np.atleast_1d(np.asarray(md, dtype=float))
-        k, tau = self._locate(md)
-        out = np.empty((md.size, 3))
-        for j in np.unique(k):
-            sel = k == j
-            out[sel] = self._arc(int(j), tau[sel])[2]
-        return out
+        return self._evaluate(md)[3]
 
     def inclination(self, md) -> np.ndarray:
         _, t, _ = self.at(md)
@@ -354,7 +352,7 @@ def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.n
     a compression pushes outward). In the local frames the beam is straight, so these
     are all the curvature does to it (small lateral motion about the hole axis)."""
     inside = np.maximum(node_md, 0.0)
-    pos, tan, _ = trajectory.at(inside)
+    _, pos, tan, bend = trajectory._evaluate(inside)  # bend = dt/ds
     above = np.minimum(node_md, 0.0)
     pos = pos + above[:, None] * tan[0]  # straight on above the wellhead
     unique, index = np.unique(inside, return_inverse=True)
@@ -369,7 +367,7 @@ def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.n
                            + np.concatenate([element_weight * length, [0.0]]))
     lumped_weight[-1] += bit_weight  # the bit hangs on the last node
     across = DOWN[None, :] - tan[:, 2:3] * tan  # the weight's part across the hole
-    bend = np.where((node_md > 0.0)[:, None], trajectory.bend(inside), 0.0)  # dt/ds
+    bend = np.where((node_md > 0.0)[:, None], bend, 0.0)  # straight above the wellhead
     gravity = lumped_weight[:, None] * across
     turning = (below * lumped_length)[:, None] * bend
     unit = lumped_length[:, None] * bend
