@@ -55,7 +55,7 @@ def sliding_friction(config: SimulationConfig, speed: float) -> float:
     """Wall friction coefficient (eq. 23) of the drill pipe's surface turning at
     ``speed`` (rad/s): what the soft-string model should use to compare with the FE
     string's contacts."""
-    from drill_env.physics.integrator import wall_friction_coefficient
+    from drill_env.physics.string_friction import wall_friction_coefficient
 
     c = config.contact
     v = speed * config.string.drill_pipe.outer_diameter / 2.0

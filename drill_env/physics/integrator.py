@@ -36,7 +36,11 @@ from drill_env.physics.linalg import (
     solve_tridiagonal,
     torsion_residual,
 )
-from drill_env.physics.string_friction import settle_held, soft_string_torsion
+from drill_env.physics.string_friction import (
+    settle_held,
+    soft_string_torsion,
+    wall_friction_coefficient,
+)
 
 #: Above this bit speed (rad/s, ~9500 rpm) or lateral displacement (m) the state is a
 #: numerical runaway, not drilling: the kernel stops with Status.RUNAWAY.
@@ -48,12 +52,6 @@ _NONFINITE = float(Status.NONFINITE)
 _RUNAWAY = float(Status.RUNAWAY)
 _NO_FEEDBACK = float(Feedback.NONE)
 _HIGH_PASS = float(Feedback.HIGH_PASS)
-
-
-@njit(cache=True)
-def wall_friction_coefficient(v, mu_static, mu_kinetic, decay):
-    """mu(|v|) = mu_k + (mu_s - mu_k) exp(-|v|/v_s): velocity-dependent wall friction (eq. 23)."""
-    return mu_kinetic + (mu_static - mu_kinetic) * np.exp(-abs(v) / decay)
 
 
 @njit(cache=True)
@@ -133,8 +131,9 @@ def factor_lateral(lateral, wob, p):
 
 
 @njit(cache=True, inline="always")
-def _predict(p, m, work, moving):
-    """Newmark predictors; clears the residuals."""
+def _predict(p, m, work, nodes, moving):
+    """Newmark predictors; the residuals start from the static lateral loads (a curved
+    hole's weight across it and turning tension; zero in a vertical hole) and zero."""
     dt = p[P.DT]
     h1 = dt * dt * (0.5 - p[P.BETA])
     h2 = dt * (1.0 - p[P.GAMMA])
@@ -143,7 +142,7 @@ def _predict(p, m, work, moving):
             for i in range(m.ul.shape[1]):
                 m.ul[c, i] += dt * m.vl[c, i] + h1 * m.al[c, i]
                 m.vl[c, i] += h2 * m.al[c, i]
-                work.rl[c, i] = 0.0
+                work.rl[c, i] = nodes.static_load[c, i]
     for i in range(m.ut.shape[0]):
         m.ut[i] += dt * m.vt[i] + h1 * m.at[i]
         m.vt[i] += h2 * m.at[i]
@@ -433,7 +432,7 @@ def advance(n_steps, record_every, a):
             if m.vl[c, i] != 0.0 or m.al[c, i] != 0.0:
                 moving = True
     for step in range(n_steps):
-        _predict(p, m, work, moving)
+        _predict(p, m, work, nodes, moving)
         t_motor = _top_drive(p, state, m, work)
         max_wall = _wall_contacts(p, nodes, m, work, l0) if contact_on else 0.0
         state[S.MAX_WALL_FORCE] = max_wall
@@ -456,10 +455,6 @@ def advance(n_steps, record_every, a):
         if lateral:
             work.rl[0, lb] += fbx
             work.rl[1, lb] += fby
-            if p[P.STATIC_LOAD] > 0.0:
-                for c in range(2):
-                    for i in range(work.rl.shape[1]):
-                        work.rl[c, i] += nodes.static_load[c, i]
             _lateral(p, lateral_system, m, work)
         _correct(p, m, work, lateral, moving)
         if soft_string:

@@ -52,7 +52,6 @@ P = IntEnum("P", [
     "TD_FEEDBACK_GAIN",  # speed command per string torque (rad/s per N m)
     "TD_FILTER_W",    # filter corner / centre (rad/s)
     "TD_FILTER_ZETA",  # band-pass damping ratio
-    "STATIC_LOAD",    # 1: a curved hole's static lateral loads (Nodes.static_load) apply
     "SOFT_STRING",    # 1: soft-string friction at nodes without lateral DOFs
                       # (Nodes.soft_normal; physics/string_friction.py)
 ], start=0)

@@ -34,13 +34,7 @@ from drill_env.physics.fem import (
     build_mesh,
     mud_torsional_damping,
 )
-from drill_env.physics.formation import (
-    Rock,
-    effective_wob,
-    formation_arrays,
-    resistance,
-    rock_at,
-)
+from drill_env.physics.formation import Rock, effective_wob, formation_arrays, resistance, rock_at
 from drill_env.physics.layout import (
     N_PARAMS,
     N_READINGS,
@@ -330,7 +324,6 @@ class Simulator:
         p[P.LATERAL_START] = self.lateral_start
         friction = cfg.bit.gauge_friction
         p[P.GAUGE_FRICTION] = math.nan if friction is None else friction
-        p[P.STATIC_LOAD] = 0.0 if self.hole is None else 1.0
         p[P.SOFT_STRING] = 1.0 if self.soft_nodes.any() else 0.0
         top_drive.feedback_parameters(self.top_drive_law, self.dt, p)
         self.params = p

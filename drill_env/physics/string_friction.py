@@ -42,6 +42,14 @@ MAX_ACTIVE_SET_ITERATIONS = 60
 STUCK = 0.0
 
 
+@njit(cache=True)
+def wall_friction_coefficient(v, mu_static, mu_kinetic, decay):
+    """mu(|v|) = mu_k + (mu_s - mu_k) exp(-|v|/v_s): velocity-dependent wall friction
+    (eq. 23), the one definition for the wall contacts, the soft-string nodes and the
+    steady torque of a curved hole."""
+    return mu_kinetic + (mu_static - mu_kinetic) * np.exp(-abs(v) / decay)
+
+
 @njit(cache=True, inline="always")
 def _limits(p, nodes, m, k, bit, t_slip, t_static):
     """(static, slip) torque limits of node ``k``; the bit's come from the bit model.
@@ -55,8 +63,8 @@ def _limits(p, nodes, m, k, bit, t_slip, t_static):
     lever = nodes.soft_normal[k]  # r F_n (N m per unit friction coefficient)
     if lever <= 0.0:
         return 0.0, 0.0
-    v = abs(m.vt[k]) * nodes.radius[k]
-    mu = p[P.MU_KINETIC] + (p[P.MU_STATIC] - p[P.MU_KINETIC]) * np.exp(-v / p[P.MU_DECAY])
+    mu = wall_friction_coefficient(m.vt[k] * nodes.radius[k], p[P.MU_STATIC],
+                                   p[P.MU_KINETIC], p[P.MU_DECAY])
     static = max(p[P.MU_STATIC], 0.0) * lever
     return static, min(mu * lever, static)
 
@@ -180,11 +188,14 @@ def soft_string_nodes(lateral: bool, n_nodes: int, lateral_start: int) -> np.nda
     return mask
 
 
-def steady_friction(params: np.ndarray, soft_normal: np.ndarray, radius: np.ndarray,
-                    omega: float) -> np.ndarray:
+@njit(cache=True)
+def steady_friction(params, soft_normal, radius, omega):
     """Soft-string torque on each node of a string turning steadily at ``omega`` (N m,
     against the rotation; zero at rest)."""
-    v = abs(omega) * radius
-    mu = params[P.MU_KINETIC] + (params[P.MU_STATIC] - params[P.MU_KINETIC]) * np.exp(
-        -v / params[P.MU_DECAY])
-    return -float(np.sign(omega)) * mu * soft_normal
+    out = np.empty_like(soft_normal)
+    sign = float(np.sign(omega))
+    for k in range(out.shape[0]):
+        out[k] = -sign * wall_friction_coefficient(
+            omega * radius[k], params[P.MU_STATIC], params[P.MU_KINETIC],
+            params[P.MU_DECAY]) * soft_normal[k]
+    return out
