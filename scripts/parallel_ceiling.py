@@ -1,5 +1,5 @@
 """How much two numba threads can buy on this machine, whatever the env does
-(docs/performance.md, "The batched env's ceiling"; issue 16, acceptance 3).
+(docs/performance.md, "Where a step's time goes"; issue 16, acceptance 3).
 
     .venv/bin/python scripts/parallel_ceiling.py
 
@@ -15,8 +15,8 @@ simulator   two copies of the default simulator (full level), 0.5 s each, in one
 Batched/loop at N envs cannot beat the ``simulator`` ratio: the env's serial Python
 only lowers it. On this shared 2-vCPU VM the ratio moves between runs (1.47x and
 1.84x median on 2026-11-30, minutes apart) while the latency-bound chain stays at
-~1.99x: throughput-bound work shares the cores' execution units with whatever else the
-host runs, a latency-bound chain leaves them idle.
+~1.99x. Our reading: throughput-bound work shares the cores' execution units with
+whatever else the host runs, while a latency-bound chain leaves them idle.
 """
 
 from __future__ import annotations

@@ -132,8 +132,9 @@ def factor_lateral(lateral, wob, p):
 
 @njit(cache=True, inline="always")
 def _predict(p, m, work, nodes, moving):
-    """Newmark predictors; the residuals start from the static lateral loads (a curved
-    hole's weight across it and turning tension; zero in a vertical hole) and zero."""
+    """Newmark predictors. The lateral residuals start from the static lateral loads (a
+    curved hole's weight across it and turning tension; zero in a vertical hole), the
+    torsional ones from zero."""
     dt = p[P.DT]
     h1 = dt * dt * (0.5 - p[P.BETA])
     h2 = dt * (1.0 - p[P.GAMMA])
