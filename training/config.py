@@ -68,7 +68,7 @@ class TrainConfig:
     #: torch's intra-op threads during the run, re-applied at every env step (numba's
     #: OpenMP layer resets the shared OpenMP thread count at each batched step). 1: the
     #: policy's small per-step batches and the 128x128 updates run faster on one thread
-    #: than on two on a 2-core machine (docs/performance.md, "Training defaults"); 0:
+    #: than on two on a 2-core machine (docs/performance.md, "Training on a shared machine"); 0:
     #: leave torch's own setting. Not part of what a resumed run must match.
     torch_threads: int = Field(default=1, ge=0, le=1024)
 
