@@ -41,6 +41,10 @@ MAX_ACTIVE_SET_ITERATIONS = 60
 #: ``Motion.stick`` entries: the slip direction of a node, or stuck.
 STUCK = 0.0
 
+#: The row of ``Work.soft`` that is the Thomas solve's scratch during a solve and, after
+#: each one, 1 where that solve held the node at rest (read by :func:`settle_held`).
+HELD_ROW = 2
+
 
 @njit(cache=True)
 def wall_friction_coefficient(v, mu_static, mu_kinetic, decay):
@@ -116,7 +120,7 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
     stick = m.stick
     base = work.soft[0]  # A v_p + h r
     rhs = work.soft[1]
-    cp = work.soft[2]
+    cp = work.soft[HELD_ROW]
     v = work.soft[3]
     static_limit = work.soft[4]
     slip_limit = work.soft[5]
@@ -168,7 +172,7 @@ def settle_held(m, work):
     acceleration. Without this, the acceleration ``-v_p / h`` that stopped a node feeds
     the next predictor, and a stuck node's acceleration and holding torque alternate in
     sign every step (the displacement stays exact either way)."""
-    held = work.soft[2]
+    held = work.soft[HELD_ROW]
     for i in range(m.vt.shape[0]):
         if held[i] > 0.0:
             m.vt[i] = 0.0
