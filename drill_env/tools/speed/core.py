@@ -196,11 +196,12 @@ def plot_scaling(result: dict[str, Any], path: Path) -> Path | None:
                      "k--", lw=1, label=f"fit, R$^2$ = {fit['r_squared']:.4f}")
     axes[0].set_ylabel("wall time per step (us)")
     axes[1].set_ylabel("wall time per DOF per step (ns)")
-    axes[1].set_ylim(bottom=0)
-    for ax in axes:
+    # headroom: a marker on the largest value would otherwise be cut by the frame
+    axes[1].set_ylim(0.0, 1.1 * max(p["ns_per_dof_step"] for p in pts))
+    for ax, corner in zip(axes, ("upper left", "lower left"), strict=True):  # empty corners
         ax.set_xlabel("DOFs (5 per node)")
         ax.set_xlim(left=0)
-        ax.legend(loc="best", fontsize=8)
+        ax.legend(loc=corner, fontsize=8)
         ax.grid(alpha=0.3)
     axes[0].set_ylim(bottom=0)
     fig.suptitle(f"Simulator cost scaling, one numba thread, WOB "
