@@ -2,9 +2,12 @@
 
     .venv/bin/python scripts/ship_policy.py logs/runs/stick_slip_ppo_seed0
 
-Copies the best model on the validation seeds (else the final one) with its
-VecNormalize statistics and the run's config, and writes a README with the command that
-reproduces it, its env steps and wall time. Refuses a policy over 2 MB.
+Copies the best model on the validation seeds (else the final one; ``--final``: the
+final one) with its VecNormalize statistics and the run's config, and writes a README
+with the command that reproduces it, its env steps and wall time. Refuses a policy over
+2 MB.
+
+    .venv/bin/python scripts/ship_policy.py logs/runs/drilling_sac_seed0 --final
 """
 
 from __future__ import annotations
@@ -25,10 +28,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run", type=Path)
+    parser.add_argument("--final", action="store_true",
+                        help="ship the final model, not the best on the validation seeds")
     args = parser.parse_args()
     config = yaml.safe_load((args.run / "config.yaml").read_text())
     info = json.loads((args.run / "run.json").read_text())
-    model, norm = _files(args.run)
+    model, norm = ((args.run / "model.zip", args.run / "vecnormalize.pkl") if args.final
+                   else _files(args.run))
     size = model.stat().st_size + norm.stat().st_size
     if size > LIMIT:
         raise SystemExit(f"{model} + {norm}: {size / 1e6:.1f} MB, over the 2 MB limit")
