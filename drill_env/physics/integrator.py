@@ -33,7 +33,7 @@ from drill_env.physics.linalg import (
     cholesky_to_ldl,
     lateral_residual,
     solve3_planes,
-    solve_tridiagonal,
+    solve_twisted,
     torsion_residual,
 )
 from drill_env.physics.string_friction import (
@@ -290,7 +290,7 @@ def _torsion(p, torsion, m, work, t_slip, t_static):
     bit torque (on the string) and stuck."""
     n = m.ut.shape[0]
     bit = n - 1
-    solve_tridiagonal(torsion.factor, work.rt)
+    solve_twisted(torsion.factor, work.rt)
     g_bit = p[P.G_BIT]
     v_free = m.vt[bit] + p[P.GAMMA] * p[P.DT] * work.rt[bit]
     if abs(v_free) <= g_bit * t_static:

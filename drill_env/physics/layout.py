@@ -157,7 +157,8 @@ class TorsionSystem(NamedTuple):
 
     k: np.ndarray        # stiffness (band, bandwidth 1)
     c: np.ndarray        # mud drag per node (diagonal, N m s/rad)
-    factor: np.ndarray   # LDL^T factor of A = J + gamma dt C + beta dt^2 K
+    factor: np.ndarray   # twisted factor of A = J + gamma dt C + beta dt^2 K
+                         # (linalg.twisted_tridiagonal)
     col_bit: np.ndarray  # A^-1 e_bit: the response of every node to a unit bit torque
     band: np.ndarray     # A itself (band layout), for the soft-string friction solve
 

@@ -52,7 +52,12 @@ from drill_env.physics.layout import (
     TorsionSystem,
     Work,
 )
-from drill_env.physics.linalg import ldl_factor, ldl_inverse_band, solve_tridiagonal
+from drill_env.physics.linalg import (
+    ldl_factor,
+    ldl_inverse_band,
+    solve_tridiagonal,
+    twisted_tridiagonal,
+)
 from drill_env.physics.readings import advance_and_read, readout
 from drill_env.physics.statics import element_buckling_error, resolved_weight_on_bit
 from drill_env.physics.top_drive import MAX_FILTER_W_DT
@@ -231,7 +236,7 @@ class Simulator:
             lateral=LateralSystem(self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m,
                                   self.lat_k_damp, self.lat_k_total, self.lat_work_band,
                                   self.lat_factor),
-            torsion=TorsionSystem(self.tor_k, self.tor_c, self.tor_factor, self.col_bit,
+            torsion=TorsionSystem(self.tor_k, self.tor_c, self.tor_twisted, self.col_bit,
                                   self.tor_band),
             nodes=Nodes(self.node_clearance, self.node_radius, self.node_contact,
                         self.compliance, self.static_load, self.soft_normal),
@@ -338,6 +343,8 @@ class Simulator:
     def _factor_torsion(self) -> None:
         band = self.tor_band = self._torsion_system()
         self.tor_factor = ldl_factor(band, "torsional system matrix")
+        # the per-step solve: two half-length chains (linalg.solve_twisted)
+        self.tor_twisted = twisted_tridiagonal(band, "torsional system matrix")
         # K with the top node as reference, for the settled twist of reset
         self._twist_factor = ldl_factor(self.tor_k[:, 1:].copy(), "torsional stiffness")
         # the bit's column and the diagonal of A^-1, from the factor in O(n)

@@ -258,6 +258,25 @@ def test_torsion_kernels_match_numpy(n):
     np.testing.assert_allclose(r, r0 - dense @ (u + 0.2 * v) - c * v, rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 17, 86, 137])
+def test_twisted_solve_matches_numpy(n):
+    """The kernel's torsional solve (two half chains meeting in the middle row) against
+    numpy's dense solve, for odd and even n and the degenerate sizes."""
+    rng = np.random.default_rng(300 + n)
+    dense = random_spd_band(rng, n, 1)
+    factor = linalg.twisted_tridiagonal(to_band(dense, 1), "A")
+    b = rng.normal(size=n)
+    x = b.copy()
+    linalg.solve_twisted(factor, x)
+    np.testing.assert_allclose(x, np.linalg.solve(dense, b), rtol=1e-10, atol=1e-12)
+
+
+def test_twisted_factor_names_an_indefinite_matrix():
+    dense = np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.5], [0.0, 0.5, 3.0]])  # eigenvalue -1
+    with pytest.raises(ValueError, match="torsional system matrix is not positive definite"):
+        linalg.twisted_tridiagonal(to_band(dense, 1), "torsional system matrix")
+
+
 @pytest.mark.parametrize(("n", "p"), [(1, 0), (2, 1), (17, 1), (3, 3), (4, 3), (41, 3),
                                     (30, 5)])
 def test_band_of_the_inverse_matches_numpy_inverse(n, p):
