@@ -44,6 +44,11 @@ def main() -> None:
     shutil.copy(norm, target / "vecnormalize.pkl")
     shutil.copy(args.run / "config.yaml", target / "config.yaml")
     best = "final model"
+    ship = f"scripts/ship_policy.py logs/runs/{args.run.name}"  # where train writes the run
+    if args.final:
+        best = ("final model (chosen over the run's best on its validation episodes by "
+                "`scripts/rank_models.py` on more validation seeds)")
+        ship += " --final"
     if model.name.startswith("best"):
         import csv
 
@@ -59,6 +64,7 @@ of {info['env_steps']:,} env steps ({config['n_envs']} batched envs) that took
 {info['wall_s'] / 60:.0f} min on {info['machine']}. Reproduce with
 
     drill-env train --task {config['task']} --algo {config['algo']} --seed {config['seed']}
+    .venv/bin/python {ship}
 
 (hyperparameters: `training/hyperparams/{config['task']}.yml`, copied here as
 `config.yaml`). Use it as the controller `learned`
