@@ -198,24 +198,30 @@ def twisted_tridiagonal(band: np.ndarray, what: str) -> np.ndarray:
     for j >= m (upwards), with e_j = A[j, j + 1].
     """
     n = band.shape[1]
-    a, e = band[0], band[1]
+    a, e = band[0].tolist(), band[1].tolist()
     mid = n // 2
-    pivot = np.empty(n)
     factor = np.zeros((2, n))
+
+    def checked(pivot: float) -> float:
+        # the factor is congruent to A: all pivots positive iff A is (Sylvester)
+        if not pivot > 0.0:
+            raise ValueError(f"{what} is not positive definite")
+        return pivot
+
     for i in range(mid):
-        pivot[i] = a[i] - (e[i - 1] * factor[1, i - 1] if i > 0 else 0.0)
-        factor[1, i] = e[i] / pivot[i]
+        pivot = checked(a[i] - (e[i - 1] * factor[1, i - 1] if i > 0 else 0.0))
+        factor[0, i] = 1.0 / pivot
+        factor[1, i] = e[i] / pivot
     for i in range(n - 1, mid, -1):
-        pivot[i] = a[i] - (e[i] * factor[1, i] if i < n - 1 else 0.0)
-        factor[1, i - 1] = e[i - 1] / pivot[i]
-    pivot[mid] = a[mid]
+        pivot = checked(a[i] - (e[i] * factor[1, i] if i < n - 1 else 0.0))
+        factor[0, i] = 1.0 / pivot
+        factor[1, i - 1] = e[i - 1] / pivot
+    pivot = a[mid]
     if mid > 0:
-        pivot[mid] -= e[mid - 1] * factor[1, mid - 1]
+        pivot -= e[mid - 1] * factor[1, mid - 1]
     if mid < n - 1:
-        pivot[mid] -= e[mid] * factor[1, mid]
-    if not np.all(pivot > 0.0):
-        raise ValueError(f"{what} is not positive definite")
-    factor[0] = 1.0 / pivot
+        pivot -= e[mid] * factor[1, mid]
+    factor[0, mid] = 1.0 / checked(pivot)
     return factor
 
 

@@ -272,7 +272,8 @@ def test_twisted_solve_matches_numpy(n):
 
 
 def test_twisted_factor_names_an_indefinite_matrix():
-    dense = np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.5], [0.0, 0.5, 3.0]])  # eigenvalue -1
+    # indefinite: its leading 2 x 2 block has the eigenvalue -1
+    dense = np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.5], [0.0, 0.5, 3.0]])
     with pytest.raises(ValueError, match="torsional system matrix is not positive definite"):
         linalg.twisted_tridiagonal(to_band(dense, 1), "torsional system matrix")
 
