@@ -110,7 +110,8 @@ def test_importing_drill_env_makes_openmp_workers_wait_passively_unless_told():
 def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_default(tmp_path):
     """``drill-env speed --sections training``: PPO (task 1) and SAC (task 2) trained for
     a moment; every row a positive steps/s with its ratio to the env alone, the shares
-    of env, update and the rest summing to 1, and both torch thread counts timed."""
+    of env, policy inference, update and the rest summing to 1, and both torch thread
+    counts timed."""
     tiny = dataclasses.replace(QUICK, train_steps=4096, train_rounds=1)
     from training.speed import RUNNER
 
@@ -127,8 +128,9 @@ def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_defau
             assert positive_finite(row["steps_per_s"]) and positive_finite(row["x env only"])
             assert positive_finite(row["cpu_s_per_1000"])
         for row in trained:
-            shares = (row["env_share"], row["update_share"], row["rest_share"])
+            shares = (row["env_share"], row["policy_share"], row["update_share"],
+                      row["rest_share"])
             assert all(0.0 <= s <= 1.0 for s in shares) and sum(shares) == pytest.approx(1.0)
-            assert row["update_share"] > 0.0
+            assert row["update_share"] > 0.0 and row["policy_share"] > 0.0
         assert positive_finite(run["random_over_constant"])
     assert "Time to a policy" in (tmp_path / "speed.md").read_text()

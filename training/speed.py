@@ -5,8 +5,10 @@ configurations for a few thousand env steps (after an untimed warm-up that compi
 fills SAC's ``learning_starts`` and runs a first update) and splits the wall time:
 
 env       the batched env's ``step_wait`` (physics, task Python, VecNormalize)
+policy    policy inference while collecting (the policy's ``forward`` for PPO, its
+          ``predict`` for SAC: observation to action, torch included)
 update    the algorithm's ``train()`` (PPO epochs, SAC gradient steps)
-rest      the remainder: policy inference while collecting, SB3's buffers and callbacks
+rest      the remainder: SB3's rollout and replay buffers, tensor conversions, callbacks
 
 The references are timed in the same rounds (interleaved): the same batched env stepped
 alone with random actions (``env only``) and with a constant mid-range action. Ratios:
@@ -31,16 +33,25 @@ from training.train import make_train_env, new_model, torch_threads_callback
 RUNS = (("stick_slip", "ppo"), ("drilling", "sac"))
 
 
+#: The parts of a training run's wall time that are clocked (the rest is what is left).
+PARTS = ("env", "policy", "update")
+
+
 def _timed(obj: Any, name: str, clock: dict[str, float], key: str) -> None:
-    """Wrap ``obj.name`` so that its wall time adds to ``clock[key]``."""
+    """Wrap ``obj.name`` so that its wall time adds to ``clock[key]``. A clocked call
+    made inside another (a policy call within ``train()``) counts once, for the outer."""
     inner = getattr(obj, name)
 
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        if clock["depth"]:
+            return inner(*args, **kwargs)
+        clock["depth"] = 1
         start = time.perf_counter()
         try:
             return inner(*args, **kwargs)
         finally:
             clock[key] += time.perf_counter() - start
+            clock["depth"] = 0
 
     setattr(obj, name, wrapper)
 
@@ -74,9 +85,11 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
         config = load_config(task, algo)
         venv = make_train_env(config, config.seed)
         model = new_model(config, venv)
-        clock = {"env": 0.0, "update": 0.0}
+        clock = dict.fromkeys((*PARTS, "depth"), 0.0)
         _timed(venv, "step_wait", clock, "env")
         _timed(model, "train", clock, "update")
+        for name in ("forward", "predict"):  # PPO collects with one, SAC with the other
+            _timed(model.policy, name, clock, "policy")
         threads = config.torch_threads or default_threads
         variants = {f"torch {threads} thread(s) (default)": threads}
         if default_threads != threads:
@@ -91,16 +104,15 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
         best: dict[str, dict[str, float]] = {}
         for _ in range(rounds):
             for label, count in variants.items():
-                clock["env"] = clock["update"] = 0.0
+                clock.update(dict.fromkeys(PARTS, 0.0))
                 wall, cpu = time.perf_counter(), time.process_time()
                 model.learn(steps[algo], reset_num_timesteps=False,
                             callback=torch_threads_callback(count))
                 wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
                 n = steps[algo]
                 row = {"steps_per_s": n / wall, "cpu_s_per_1000": 1e3 * cpu / n,
-                       "env_share": clock["env"] / wall,
-                       "update_share": clock["update"] / wall,
-                       "rest_share": 1.0 - (clock["env"] + clock["update"]) / wall}
+                       **{f"{part}_share": clock[part] / wall for part in PARTS},
+                       "rest_share": 1.0 - sum(clock[part] for part in PARTS) / wall}
                 _keep_faster(best, label, row)
             for label, sequence in actions.items():
                 _keep_faster(best, label, _env_only(venv, sequence))
@@ -129,12 +141,12 @@ def format_training(result: dict[str, Any]) -> str:
     lines = ["Time to a policy (end-to-end training on the batched env, shipped configs; "
              "best of interleaved rounds)",
              f"{'run':18s} {'what':34s} {'steps/s':>8s} {'x env only':>10s} "
-             f"{'CPU s/1000':>10s} {'env':>5s} {'update':>6s} {'rest':>5s}"]
+             f"{'CPU s/1000':>10s} {'env':>5s} {'policy':>6s} {'update':>6s} {'rest':>5s}"]
     for name, run in result["runs"].items():
         for label, row in run["rows"].items():
             shares = ("" if "env_share" not in row else
-                      f" {row['env_share']:5.0%} {row['update_share']:6.0%} "
-                      f"{row['rest_share']:5.0%}")
+                      f" {row['env_share']:5.0%} {row['policy_share']:6.0%} "
+                      f"{row['update_share']:6.0%} {row['rest_share']:5.0%}")
             lines.append(f"{name:18s} {label:34s} {row['steps_per_s']:8.0f} "
                          f"{row['x env only']:10.2f} {row['cpu_s_per_1000']:10.2f}{shares}")
         lines.append(f"{name:18s} random / constant actions, env only: "
