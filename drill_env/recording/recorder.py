@@ -17,7 +17,7 @@ import math
 import os
 import re
 import uuid
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -89,6 +89,21 @@ class _Chunk:
         self.string_force: list[np.ndarray | None] = []
         self.string_depth: list[float] = []
         self.string_state: list[tuple[float, float, float, float]] = []
+
+    def drop_partial(self) -> None:
+        """Drop what an interrupted :meth:`EpisodeRecorder.record` left half-appended
+        (Ctrl-C raises KeyboardInterrupt between any two appends): each group of per-step
+        lists back to the length all of its lists have, so the chunk still writes and the
+        episode still gets its end event."""
+        groups: list[Sequence[list[Any]]] = [
+            [self.t, self.bx, self.by, self.phi, self.shares, *self.cols.values()],
+            [self.string_t, self.string_xy, self.string_force, self.string_depth,
+             self.string_state],
+            *self.sparse.values()]
+        for group in groups:
+            n = min(map(len, group))
+            for values in group:
+                del values[n:]
 
     def put(self, name: str, t: float, value: float) -> None:
         entry = self.sparse.get(name)
@@ -173,7 +188,7 @@ class EpisodeRecorder:
         self.last_path: Path | None = None
         self.last_recording_id: str | None = None
         self._chunk = _Chunk()
-        self._n_steps = 0
+        self._flushed = 0  # steps of this episode written to the file
         self._stream: Any = None
         self._writer: RerunWriter | None = None
 
@@ -210,7 +225,7 @@ class EpisodeRecorder:
             and geometry.clearance > 0 else None,
             LayerDetector(geometry.rock_names))
         self._chunk = _Chunk()
-        self._n_steps = 0
+        self._flushed = 0
         self._next_string_t = -math.inf
         self._names: dict[Any, str] = {}
         self._styled: set[str] = set()
@@ -268,7 +283,6 @@ class EpisodeRecorder:
         if math.isnan(self._start_time):
             self._start_time = t
         self._last_time = t
-        self._n_steps += 1
         c.t.append(t)
         for key in SERIES_KEYS:
             c.cols[key].append(_num(info.get(key)))
@@ -333,13 +347,16 @@ class EpisodeRecorder:
     @property
     def n_steps(self) -> int:
         """Samples recorded in the current episode."""
-        return self._n_steps
+        return self._flushed + len(self._chunk.t)
 
     def flush(self) -> None:
         """Write the steps collected since the last flush and wait for them to reach the
         file."""
         c = self._chunk
         self._chunk = _Chunk()
+        c.drop_partial()
+        first = self._flushed == 0
+        self._flushed += len(c.t)
         writer = self._writer
         if writer is None or not c.t:
             return
@@ -373,7 +390,7 @@ class EpisodeRecorder:
             events += whirl.update(t, bx, by, np.asarray(c.cols["whirl_speed"]), w)
         if shares is not None:
             events += layer.update(t, shares)
-        if self._n_steps == len(c.t):  # the first chunk of the episode
+        if first:  # the first chunk of the episode
             events.insert(0, (float(t[0]), "INFO",
                               f"episode start: scenario {self.scenario}, seed {self.seed}, "
                               f"episode {self.episode_index}"))
@@ -407,7 +424,7 @@ class EpisodeRecorder:
         try:
             if writer is None:
                 return None
-            if self._n_steps == 0:
+            if self.n_steps == 0:
                 stream.disconnect()
                 if path is not None:
                     path.unlink(missing_ok=True)
@@ -454,7 +471,7 @@ class EpisodeRecorder:
         return {
             "scenario": self.scenario, "seed": -1 if self.seed is None else self.seed,
             "episode_index": self.episode_index, "recording_id": self.recording_id,
-            "steps": self._n_steps, "start_time_s": self._start_time,
+            "steps": self._flushed, "start_time_s": self._start_time,
             "end_time_s": self._last_time, "state": state,
             "string_exaggeration": self._writer.exaggeration if self._writer else math.nan,
             "string_period_s": self.string_period,
@@ -467,7 +484,7 @@ class EpisodeRecorder:
                 f"- episode index: {self.episode_index}",
                 f"- recording id: `{self.recording_id}`",
                 f"- simulated time: {self._start_time:.3f} - {self._last_time:.3f} s "
-                f"({self._n_steps} samples)", f"- state: {state}",
+                f"({self._flushed} samples)", f"- state: {state}",
                 f"- 3-D string view: lateral displacement exaggerated x{k:g}; "
                 "z = minus measured depth (m)",
                 "- bit view: true scale (m); z = initial bit depth minus depth"]
