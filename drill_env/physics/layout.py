@@ -161,6 +161,8 @@ class TorsionSystem(NamedTuple):
                          # (linalg.twisted_tridiagonal)
     col_bit: np.ndarray  # A^-1 e_bit: the response of every node to a unit bit torque
     band: np.ndarray     # A itself (band layout), for the soft-string friction solve
+    sweep: np.ndarray    # its Thomas cp and 1 / diag with no node held
+                         # (string_friction.thomas_sweep)
 
 
 class Nodes(NamedTuple):

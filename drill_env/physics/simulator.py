@@ -237,7 +237,7 @@ class Simulator:
                                   self.lat_k_damp, self.lat_k_total, self.lat_work_band,
                                   self.lat_factor),
             torsion=TorsionSystem(self.tor_k, self.tor_c, self.tor_twisted, self.col_bit,
-                                  self.tor_band),
+                                  self.tor_band, self.tor_sweep),
             nodes=Nodes(self.node_clearance, self.node_radius, self.node_contact,
                         self.compliance, self.static_load, self.soft_normal),
             motion=Motion(self.lat_planes[0], self.lat_planes[1], self.lat_planes[2],
@@ -345,6 +345,7 @@ class Simulator:
         self.tor_factor = ldl_factor(band, "torsional system matrix")
         # the per-step solve: two half-length chains (linalg.solve_twisted)
         self.tor_twisted = twisted_tridiagonal(band, "torsional system matrix")
+        self.tor_sweep = string_friction.thomas_sweep(band)  # the free soft string's
         # K with the top node as reference, for the settled twist of reset
         self._twist_factor = ldl_factor(self.tor_k[:, 1:].copy(), "torsional stiffness")
         # the bit's column and the diagonal of A^-1, from the factor in O(n)

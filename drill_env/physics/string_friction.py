@@ -73,12 +73,48 @@ def _limits(p, nodes, m, k, bit, t_slip, t_static):
     return static, min(mu * lever, static)
 
 
+@njit(cache=True)
+def thomas_sweep(band):
+    """(2, n): the Thomas algorithm's ``cp`` and ``1 / diag`` for ``band`` with no row
+    held, in :func:`_solve_held`'s arithmetic, so its free-string path can skip the
+    divisions and return the same floats."""
+    n = band.shape[1]
+    out = np.zeros((2, n))
+    for i in range(n):
+        diag = band[0, i]
+        if i > 0:
+            diag -= band[1, i - 1] * out[0, i - 1]
+        inv = 1.0 / diag
+        out[0, i] = band[1, i] * inv if i < n - 1 else 0.0
+        out[1, i] = inv
+    return out
+
+
 @njit(cache=True, inline="always")
-def _solve_held(band, rhs, stick, static_limit, cp, v):
+def _solve_held(band, sweep, rhs, stick, static_limit, cp, v):
     """Solve the tridiagonal ``band`` system for ``v`` with the stuck friction nodes
     (``stick`` 0 and a static limit) held at zero: their rows become ``v_k = 0``. Thomas;
-    a held row leaves ``cp`` and ``v`` zero, so its neighbours need no special case."""
+    a held row leaves ``cp`` and ``v`` zero, so its neighbours need no special case.
+    With no row held the sweep's ``cp`` and ``1 / diag`` are ``sweep``
+    (:func:`thomas_sweep`): the same floats without a division in the chain."""
     n = v.shape[0]
+    held = False
+    for i in range(n):
+        if stick[i] == STUCK and static_limit[i] > 0.0:
+            held = True
+            break
+    if not held:
+        prev = 0.0
+        for i in range(n):
+            r = rhs[i]
+            if i > 0:
+                r -= band[1, i - 1] * prev
+            prev = r * sweep[1, i]
+            v[i] = prev
+        for i in range(n - 2, -1, -1):
+            prev = v[i] - sweep[0, i] * prev
+            v[i] = prev
+        return
     for i in range(n):
         if stick[i] == STUCK and static_limit[i] > 0.0:
             cp[i] = 0.0
@@ -136,7 +172,7 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
             rhs[i] = base[i]
             if stick[i] != STUCK:
                 rhs[i] -= h * stick[i] * slip_limit[i]
-        _solve_held(band, rhs, stick, static_limit, cp, v)
+        _solve_held(band, torsion.sweep, rhs, stick, static_limit, cp, v)
         changed = False
         for i in range(n):
             static = static_limit[i]

@@ -25,7 +25,12 @@ from drill_env.physics.layout import (
     Work,
 )
 from drill_env.physics.simulator import OperatingPoint, Simulator
-from drill_env.physics.string_friction import MAX_ACTIVE_SET_ITERATIONS, soft_string_torsion
+from drill_env.physics.string_friction import (
+    MAX_ACTIVE_SET_ITERATIONS,
+    _solve_held,
+    soft_string_torsion,
+    thomas_sweep,
+)
 from drill_env.physics.trajectory import Trajectory, soft_string
 from drill_env.physics.units import RPM
 from drill_env.scenarios import make_scenario
@@ -59,7 +64,7 @@ def kernel_speeds(band, v_pred, residual, limit, h, stick, mu_kinetic=1.0, bit_s
     z = np.zeros(n)
     soft_normal = limit.copy()
     soft_normal[-1] = 0.0  # the bit's limit comes from the bit model
-    torsion = TorsionSystem(band, z, band, z, band)
+    torsion = TorsionSystem(band, z, band, z, band, thomas_sweep(band))
     nodes = Nodes(z, np.ones(n), z, z, np.zeros((2, n)), soft_normal)
     m = Motion(np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2)), z.copy(), v_pred.copy(),
                np.zeros(n), stick)
@@ -87,6 +92,20 @@ def convex_minimiser(band, v_pred, residual, limit, h):
     res = minimize(f, x0, jac=True, method="L-BFGS-B", bounds=[(0.0, None)] * (2 * n),
                    options={"ftol": 1e-15, "gtol": 1e-12, "maxiter": 10_000})
     return res.x[:n] - res.x[n:]
+
+
+@pytest.mark.parametrize("n", [1, 2, 9, 128])
+def test_the_free_string_solve_with_the_precomputed_sweep_matches_numpy(n):
+    """With no node held, _solve_held takes the Thomas sweep precomputed once
+    (thomas_sweep) instead of dividing in every row; it still solves A v = rhs. A stuck
+    flag on a node without a static limit (a bare pipe node) holds nothing."""
+    rng = np.random.default_rng(40 + n)
+    band, _, rhs, _ = chain(rng, n)
+    stick = rng.choice([-1.0, 0.0, 1.0], n)
+    v = np.zeros(n)
+    _solve_held(band, thomas_sweep(band), rhs, stick, np.zeros(n), np.zeros(n), v)
+    dense = np.diag(band[0]) + np.diag(band[1, :-1], 1) + np.diag(band[1, :-1], -1)
+    np.testing.assert_allclose(v, np.linalg.solve(dense, rhs), rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("seed", range(12))
