@@ -79,15 +79,15 @@ def thomas_sweep(band):
     held, in :func:`_solve_held`'s arithmetic, so its free-string path can skip the
     divisions and return the same floats."""
     n = band.shape[1]
-    out = np.zeros((2, n))
+    sweep = np.zeros((2, n))
     for i in range(n):
         diag = band[0, i]
         if i > 0:
-            diag -= band[1, i - 1] * out[0, i - 1]
+            diag -= band[1, i - 1] * sweep[0, i - 1]
         inv = 1.0 / diag
-        out[0, i] = band[1, i] * inv if i < n - 1 else 0.0
-        out[1, i] = inv
-    return out
+        sweep[0, i] = band[1, i] * inv if i < n - 1 else 0.0
+        sweep[1, i] = inv
+    return sweep
 
 
 @njit(cache=True, inline="always")
