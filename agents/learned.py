@@ -41,10 +41,12 @@ class LearnedController:
         self.source = source
 
     @classmethod
-    def load(cls, path: str | Path | None = None, env_id: str | None = None
-             ) -> LearnedController:
+    def load(cls, path: str | Path | None = None, env_id: str | None = None,
+             files: tuple[Path, Path] | None = None) -> LearnedController:
         """From a run folder or a shipped policy folder; default: the shipped policy of
-        ``env_id``'s task (``DrillStickSlip-v0`` when none is given)."""
+        ``env_id``'s task (``DrillStickSlip-v0`` when none is given). ``files``: the
+        (model, VecNormalize statistics) to load instead of the folder's own, e.g. one of
+        the run's checkpoints."""
         if path is None:
             task = TASK_OF_ENV.get(env_id or "DrillStickSlip-v0")
             if task is None:
@@ -52,7 +54,7 @@ class LearnedController:
                                  f"{sorted(TASK_OF_ENV)}")
             path = TRAINED / task
         folder = Path(path)
-        model_file, norm_file = _files(folder)
+        model_file, norm_file = files if files is not None else _files(folder)
         config = yaml.safe_load((folder / "config.yaml").read_text())
         from training.config import TASKS
 

@@ -17,13 +17,9 @@ candidate's mean return and its one-sided paired t-test p against every trivial 
 from __future__ import annotations
 
 import argparse
-import pickle
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import gymnasium as gym
-import numpy as np
 import yaml
 from scipy.stats import ttest_rel
 
@@ -31,45 +27,11 @@ import drill_env  # noqa: F401  (registers the envs)
 from agents.classical import ConstantSetPoints
 from agents.learned import LearnedController
 from training.config import TASKS
+from training.evaluate import acting, held, random_actions, returns_on
 
 FIRST_SEED = 900_100
 #: The drilling task's best constant set point (docs/tasks.md: 5 x 5 grid, training seeds).
 BEST_CONSTANT = (160.0, 65.0e3)
-
-Act = Callable[[np.ndarray, dict[str, Any]], np.ndarray]
-
-
-def episode_return(env: Any, act: Act, seed: int) -> float:
-    obs, info = env.reset(seed=seed)
-    total = 0.0
-    while True:
-        obs, reward, terminated, truncated, info = env.step(act(obs, info))
-        total += float(reward)
-        if terminated or truncated:
-            return total
-
-
-def returns(env: Any, seeds: list[int], make: Callable[[Any, int], Act]) -> np.ndarray:
-    return np.array([episode_return(env, make(env, seed), seed) for seed in seeds])
-
-
-def held(value: float) -> Callable[[Any, int], Act]:
-    def make(env: Any, seed: int) -> Act:
-        a = np.full(env.action_space.shape, value, dtype=np.float32)
-        return lambda obs, info: a
-    return make
-
-
-def random_actions(env: Any, seed: int) -> Act:
-    rng = np.random.default_rng(seed)
-    return lambda obs, info: rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
-
-
-def controller(c: Any) -> Callable[[Any, int], Act]:
-    def make(env: Any, seed: int) -> Act:
-        c.reset(env.unwrapped)
-        return c.act
-    return make
 
 
 def candidates(run: Path, from_steps: int) -> list[tuple[str, Path, Path]]:
@@ -85,16 +47,6 @@ def candidates(run: Path, from_steps: int) -> list[tuple[str, Path, Path]]:
             out.append((f"{run}/checkpoint {steps}", ck,
                         run / "checkpoints" / f"vecnormalize_{steps}.pkl"))
     return out
-
-
-def load(model: Path, norm: Path, algo: str, env_id: str) -> LearnedController:
-    from stable_baselines3 import PPO, SAC
-
-    policy = {"ppo": PPO, "sac": SAC}[algo].load(str(model), device="cpu")
-    with norm.open("rb") as f:
-        normalizer = pickle.load(f)
-    normalizer.training = False
-    return LearnedController(policy, normalizer, env_id, {}, model.parent)
 
 
 def main() -> None:
@@ -115,13 +67,14 @@ def main() -> None:
     seeds = list(range(FIRST_SEED, FIRST_SEED + args.seeds))
     others = {"+1": held(1.0), "0": held(0.0), "-1": held(-1.0), "random": random_actions}
     if task == "drilling":
-        others["constant"] = controller(ConstantSetPoints(*BEST_CONSTANT))
-    baseline = {name: returns(env, seeds, make) for name, make in others.items()}
+        others["constant"] = acting(ConstantSetPoints(*BEST_CONSTANT))
+    baseline = {name: returns_on(env, seeds, make) for name, make in others.items()}
     print(f"{len(seeds)} validation seeds {seeds[0]}-{seeds[-1]}; mean returns: "
           + ", ".join(f"{name} {r.mean():.1f}" for name, r in baseline.items()))
-    for run, config in zip(args.runs, configs, strict=True):
+    for run in args.runs:
         for name, model, norm in candidates(run, args.from_steps):
-            r = returns(env, seeds, controller(load(model, norm, config["algo"], env_id)))
+            policy = LearnedController.load(run, files=(model, norm))
+            r = returns_on(env, seeds, acting(policy))
             p = {k: ttest_rel(r, v, alternative="greater").pvalue for k, v in baseline.items()}
             print(f"{name:55s} mean {r.mean():7.1f}  p against "
                   + "  ".join(f"{k} {v:.2g}" for k, v in p.items()), flush=True)

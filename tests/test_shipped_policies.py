@@ -16,46 +16,13 @@ import pytest
 import drill_env  # noqa: F401
 from agents.learned import TRAINED, LearnedController
 from drill_env.scenarios import EVALUATION_SEEDS
+from training.evaluate import acting, episode_return, held, random_actions, returns_on
 
 SEEDS = EVALUATION_SEEDS
 
 
-def episode_return(env, act, seed: int) -> float:
-    obs, info = env.reset(seed=seed)
-    total = 0.0
-    while True:
-        obs, reward, terminated, truncated, info = env.step(act(obs, info))
-        total += float(reward)
-        if terminated or truncated:
-            return total
-
-
 def returns_of(env_id: str, make_act, **env_kwargs) -> np.ndarray:
-    env = gym.make(env_id, **env_kwargs)
-    out = []
-    for seed in SEEDS:
-        act = make_act(env, seed)
-        out.append(episode_return(env, act, seed))
-    return np.array(out)
-
-
-def trivial(value):
-    def make(env, seed):
-        a = np.full(env.action_space.shape, value, dtype=np.float32)
-        return lambda obs, info: a
-    return make
-
-
-def random_actions(env, seed):
-    rng = np.random.default_rng(seed)
-    return lambda obs, info: rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
-
-
-def learned(controller):
-    def make(env, seed):
-        controller.reset(env.unwrapped)
-        return controller.act
-    return make
+    return returns_on(gym.make(env_id, **env_kwargs), SEEDS, make_act)
 
 
 def assert_clearly_better(policy: np.ndarray, other: np.ndarray, name: str) -> None:
@@ -73,8 +40,8 @@ def test_shipped_policy_beats_the_trivial_policies(task):
         pytest.fail(f"no shipped policy in {TRAINED / task}")
     controller = LearnedController.load(TRAINED / task)
     kwargs = controller.env_kwargs()
-    policy = returns_of(controller.env_id, learned(controller), **kwargs)
-    for name, make in (("-1", trivial(-1.0)), ("0", trivial(0.0)), ("+1", trivial(1.0)),
+    policy = returns_of(controller.env_id, acting(controller), **kwargs)
+    for name, make in (("-1", held(-1.0)), ("0", held(0.0)), ("+1", held(1.0)),
                        ("random", random_actions)):
         assert_clearly_better(policy, returns_of(controller.env_id, make, **kwargs), name)
 
@@ -101,6 +68,6 @@ def test_shipped_drilling_policy_beats_the_best_constant_set_point():
                 best, best_mean = (rpm, kn), float(np.mean(total))
     assert best is not None
     constant = ConstantSetPoints(best[0], best[1] * 1e3)
-    policy = returns_of(controller.env_id, learned(controller), **controller.env_kwargs())
-    grid = returns_of(controller.env_id, learned(constant), **controller.env_kwargs())
+    policy = returns_of(controller.env_id, acting(controller), **controller.env_kwargs())
+    grid = returns_of(controller.env_id, acting(constant), **controller.env_kwargs())
     assert_clearly_better(policy, grid, f"best constant {best}")

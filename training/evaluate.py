@@ -9,9 +9,11 @@ each from the same targets and start; the benchmark writes its table, csv and pl
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from agents.benchmark import BenchmarkSettings, label, run_benchmark
@@ -31,6 +33,51 @@ GRID_RPM = (40.0, 80.0, 120.0, 160.0, 200.0)
 GRID_KN = (40.0, 65.0, 90.0, 115.0, 140.0)
 #: Training-distribution seeds the grid search picks its point on (not held out).
 GRID_SEEDS = tuple(range(8))
+
+
+#: A policy for one episode: (observation, info) -> action.
+Act = Callable[[np.ndarray, dict[str, Any]], np.ndarray]
+#: Builds the policy of one episode from (env, seed), after the env's reset.
+MakeAct = Callable[[Any, int], Act]
+
+
+def episode_return(env: Any, act: Act, seed: int) -> float:
+    """The return of one episode of ``env`` from ``reset(seed=seed)`` under ``act``."""
+    obs, info = env.reset(seed=seed)
+    total = 0.0
+    while True:
+        obs, reward, terminated, truncated, info = env.step(act(obs, info))
+        total += float(reward)
+        if terminated or truncated:
+            return total
+
+
+def returns_on(env: Any, seeds: list[int] | tuple[int, ...], make: MakeAct) -> np.ndarray:
+    """Episode returns on ``seeds`` (paired across policies: the same string, rock and
+    targets per seed); ``make`` builds each episode's policy."""
+    return np.array([episode_return(env, make(env, seed), seed) for seed in seeds])
+
+
+def held(value: float) -> MakeAct:
+    """The trivial policy that holds every action at ``value``."""
+    def make(env: Any, seed: int) -> Act:
+        a = np.full(env.action_space.shape, value, dtype=np.float32)
+        return lambda obs, info: a
+    return make
+
+
+def random_actions(env: Any, seed: int) -> Act:
+    """Uniform random actions in [-1, 1], drawn from ``seed``."""
+    rng = np.random.default_rng(seed)
+    return lambda obs, info: rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
+
+
+def acting(controller: Any) -> MakeAct:
+    """A controller (``reset(env)``, ``act``) as the policy of each episode."""
+    def make(env: Any, seed: int) -> Act:
+        controller.reset(env.unwrapped)
+        return controller.act
+    return make
 
 
 def settings_of(task: str, fidelity: str = "fast") -> BenchmarkSettings:
