@@ -72,7 +72,7 @@ def test_roundtrip_series_equal_info(tmp_path: Path) -> None:
     path = env.last_path
     assert path is not None and path.exists() and path.parent == tmp_path
     assert path.name.startswith("paper_case2_seed7_ep0000_")
-    assert not list(tmp_path.glob("*.part"))
+    assert list(tmp_path.iterdir()) == [path]  # one episode, one file, nothing beside it
 
     rec = read_recording(path)
     assert rec.application_id == APPLICATION_ID

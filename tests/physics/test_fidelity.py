@@ -61,12 +61,14 @@ def test_fast_level_resolves_into_a_straight_coarse_pipe_and_a_longer_step():
 
 
 @pytest.mark.parametrize("scenario", ["default", "paper_case1", "paper_case2"])
-def test_fast_level_keeps_the_first_torsional_frequency_within_2_percent(scenario):
+def test_fast_level_keeps_the_first_torsional_frequency_within_0_1_percent(scenario):
+    """The first speed issue asked for 2 %; the 20 m elements' h^2 error is ~3e-5
+    (config.FAST_PIPE_ELEMENT_LENGTH claims 0.1 %, held here)."""
     config = make_scenario(scenario).config
     f_full = first_torsional_frequency(Simulator(config))
     f_fast = first_torsional_frequency(Simulator(fast(config)))
     print(f"{scenario}: full {f_full:.4f} Hz, fast {f_fast:.4f} Hz")
-    assert f_fast == pytest.approx(f_full, rel=0.02)
+    assert f_fast == pytest.approx(f_full, rel=1e-3)
 
 
 def test_fast_level_bha_whirls_against_the_wall_like_the_full_model():

@@ -95,7 +95,9 @@ def test_first_torsional_frequency_matches_shaft_with_end_inertia(name):
     exact = fixed_top_torsional_frequency_exact((s.drill_pipe, s.bha), cfg.bit.inertia)
     fe = fixed_top_torsional_frequency_fe(cfg)
     print(f"{name}: FE {fe:.4f} Hz, exact {exact:.4f} Hz")
-    assert fe == pytest.approx(exact, rel=0.02)
+    # Linear elements: the frequency error is O((pi h / 2 L)^2 / 12), ~2e-5 here (1e-6
+    # to 1e-5 measured); 1e-3 fails a 0.5 % error in the string's mass or stiffness.
+    assert fe == pytest.approx(exact, rel=1e-3)
     if name.startswith("default"):
         assert exact == pytest.approx(0.66, abs=0.03)  # SPEC section 3
 
