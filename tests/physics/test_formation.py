@@ -79,6 +79,17 @@ def test_resistance_is_zero_at_rest_odd_and_falls_from_mu_max_to_mu_min():
     assert formation.resistance(-2.0, *args) == -formation.resistance(2.0, *args)
 
 
+def test_resistance_decays_with_time_constant_st1():
+    """eq. (39): at w = st1 the falling part has decayed to 1/e of mu_max - mu_min, and
+    the decay is exponential (the same ratio 1/e over each further st1)."""
+    mu_min, mu_max, st1 = 0.5, 0.9, 3.0
+    excess = [formation.resistance(k * st1, mu_min, mu_max, st1, 0.0) - mu_min
+              for k in (1, 2, 3)]
+    assert excess[0] == pytest.approx((mu_max - mu_min) / math.e, rel=1e-12)
+    assert excess[1] / excess[0] == pytest.approx(1.0 / math.e, rel=1e-12)
+    assert excess[2] / excess[1] == pytest.approx(1.0 / math.e, rel=1e-12)
+
+
 def test_resistance_rising_branch_has_slope_st2():
     args = (0.5, 0.9, 3.0, 0.01)
     slope = formation.resistance(201.0, *args) - formation.resistance(200.0, *args)
