@@ -54,8 +54,10 @@ class EnvConfig:
     action_mode: Literal["absolute", "incremental"] = "absolute"
     rpm_step: Positive = Field(default=10.0, le=1000.0)
     weight_on_bit_step: Positive = Field(default=10.0e3, le=1.0e7)
-    #: Drawworks rate limit of the applied WOB (N/s). The top-drive acceleration limit is
-    #: in the simulator (``TopDriveConfig.max_acceleration``).
+    #: Drawworks rate limit of the applied WOB (N/s): 50 kN/s moves the WOB across a
+    #: typical 100 kN change in 2 s, as fast as a driller or autodriller releases line.
+    #: The top-drive acceleration limit is in the simulator
+    #: (``TopDriveConfig.max_acceleration``).
     drawworks_rate: Positive = Field(default=50.0e3, le=1.0e9)
     #: "downhole" (MWD at the bit + surface) or "surface" (surface measurements only).
     sensors: Literal["downhole", "surface"] = "downhole"
@@ -63,7 +65,9 @@ class EnvConfig:
     telemetry_delay: Count = Field(default=0, ge=0, le=10_000)
     #: Std of Gaussian noise added to the normalised observation (from ``np_random``).
     observation_noise: NonNegative = Field(default=0.0, le=100.0)
-    #: Make-up torque of the drill-pipe connections (N m): exceeding it terminates.
+    #: Make-up torque of the drill-pipe connections (N m): exceeding it terminates. 40 kN m
+    #: is the order of API RP7G's make-up torque for the NC50 connection of 5 in drill
+    #: pipe (about 30-45 kN m by grade); a stick-slip cycle's peak torque reaches it.
     makeup_torque: Positive = Field(default=40.0e3, le=1.0e7)
     #: "settled": start at the scenario's operating point in steady rotation (see
     #: ``Simulator.reset``); "stalled": the same twist, but the string below the top drive
@@ -85,15 +89,25 @@ class EnvConfig:
     #: simulator (terminated, "mesh buckling" status). The cap is ``info[
     #: "weight_on_bit_limit"]``.
     limit_weight_on_bit_to_mesh: StrictBool = True
-    #: Reward weights (see the class docstring).
+    #: Reward weights (the terms are in the class docstring), chosen so that the terms
+    #: are of one order at typical operating points: drilling at ~30 m/h earns ~0.8 per
+    #: step (ROP over ``rop_scale``), full stick-slip (SSI ~1.3) costs ~1.3, so drilling
+    #: fast in stick-slip earns less than drilling smoothly; the bit on the wall all the
+    #: time costs 0.5 (whirl: weaker than stick-slip, as in the paper's priorities); a
+    #: set-point jump across the whole range costs 0.2 per action (effort), a small
+    #: trim almost nothing; a failure (torque over the make-up torque, divergence) costs
+    #: 10, an order above any one step's terms.
     rop_weight: NonNegative = _weight(1.0)
     stick_slip_weight: NonNegative = _weight(1.0)
     whirl_weight: NonNegative = _weight(0.5)
     effort_weight: NonNegative = _weight(0.1)
     failure_weight: NonNegative = _weight(10.0)
-    #: Cap on the SSI entering the reward (a stalled bit has an unbounded SSI).
+    #: Cap on the SSI entering the reward (a stalled bit has an unbounded SSI; full
+    #: stick-slip is 1-1.5).
     ssi_cap: Positive = Field(default=2.0, le=1.0e3)
-    #: Normalisation scales of the observation.
+    #: Normalisation scales of the observation, each near the top of its channel's
+    #: typical range so the entries stay O(1): bit and surface torques of a few kN m,
+    #: lateral forces of kN to tens of kN, ROPs up to 0.01 m/s (36 m/h).
     torque_scale: Positive = _scale(10.0e3)
     force_scale: Positive = _scale(10.0e3)
     rop_scale: Positive = _scale(0.01)

@@ -74,6 +74,15 @@ from drill_env.physics.validation import (
 # scenarios"). They are chosen so that hard rock has a strongly falling curve
 # (stick-slip tendency at low rpm and high WOB), soft rock a flat one, very soft rock a
 # low, rising one. Tune them HERE; every scenario reads these three constants.
+#
+# Gauge contact (eq. 55; no values in the paper): the stiffness follows the rocks'
+# Young's moduli in the paper's order (Table 2: rock 1 stiffer than rock 2), 2e7, 5e6
+# and 1e6 N/m, i.e. 0.5, 2 and 10 mm of gauge penetration under a 10 kN side force (the
+# very soft rock yields like a washed-out wall). The damping keeps every rock's gauge
+# contact at ~2 % of critical on the bit node of the default string (134 kg: c = 2 zeta
+# sqrt(k m) gives 2e3, 1e3 and 5e2 N s/m): lightly damped, so gauge impacts rebound, as in
+# the paper's transitions. The stiffest contact rings at 62 Hz, resolved by 8 steps of
+# 2 ms, and `Simulator.stable_time_step` covers it.
 
 #: Hard rock: falling curve mu 0.9 -> 0.5 over ~3 rad/s (stick-slip tendency).
 #: Linear stability of the default string puts its stick-slip threshold at 71 rpm for

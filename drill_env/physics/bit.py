@@ -177,7 +177,11 @@ def symmetric_bit() -> BitConfig:
 
 #: Asymmetric (anti-whirl-like) preset: three long primary blades reaching near the
 #: centre, bunched on one side, and three short secondary blades opposite, at unequal
-#: angles. See ``asymmetric_bit``.
+#: angles. See ``asymmetric_bit``. MODELLING CHOICE (the paper shows its asymmetric bit
+#: only as a sketch): an anti-whirl bit is built to carry a net imbalance force that
+#: holds one side on the wall (Warren et al. 1990, SPE 19572); these numbers give an
+#: imbalance of 16.5 % of mu WOB, which reproduces the paper's case 4 (a lateral force
+#: all the time and forward whirl, Figs. 17-18; tests/test_paper_results.py).
 ASYMMETRIC_BLADE_ANGLES = (0.0, 55.0, 110.0, 180.0, 240.0, 300.0)
 ASYMMETRIC_FACE_START = (0.010, 0.010, 0.010, 0.045, 0.045, 0.045)
 ASYMMETRIC_FACE_END = (0.080, 0.075, 0.080, 0.065, 0.070, 0.065)

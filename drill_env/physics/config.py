@@ -382,11 +382,18 @@ class RockConfig:
     st1: Positive = Field(default=3.0, le=1.0e3)
     #: Slope of the rising branch (s/rad).
     st2: NonNegative = Field(default=0.0, le=10.0)
-    #: Gauge contact stiffness and damping of eq. (55).
+    #: Gauge contact stiffness and damping of eq. (55) (the paper gives no values). The
+    #: default is the hard-rock preset's (drill_env/scenarios.py, where the choice of all
+    #: three rocks is explained): 0.5 mm of gauge penetration under 10 kN, ~2 % of
+    #: critical damping on the default bit node (134 kg), a 62 Hz contact resolved by 8
+    #: steps of 2 ms.
     wall_stiffness: Positive = Field(default=2.0e7, le=1.0e10)
     wall_damping: NonNegative = Field(default=2.0e3, le=1.0e8)
     #: Depth of cut per bit revolution and per newton of WOB (m/(rev N)); 1e-6 is 100 mm
-    #: per revolution at 100 kN, beyond any PDC bit.
+    #: per revolution at 100 kN, beyond any PDC bit. The default, 2 mm/rev at 100 kN, is
+    #: the first hard-rock preset's; the scenarios' HARD preset later doubled it for a
+    #: field-like ROP (~9 m/h at 50 rpm and 75 kN). The bare ``Simulator()`` keeps the
+    #: original value, for which its documented figures were measured.
     depth_of_cut: NonNegative = Field(default=2.0e-8, le=1.0e-6)
     #: Founder point (Dupriest & Koederitz 2005, SPE 92194): the WOB per unit bit diameter
     #: (N/m) above which the depth of cut stops growing with WOB (bit balling, bottom-hole
@@ -473,6 +480,13 @@ class BitConfig:
     diameter: Positive = Field(default=8.75 * INCH, le=MAX_DIAMETER)
     #: Radial clearance between gauge pads and borehole wall (paper section 4: 0.005 m).
     gauge_clearance: Positive = 0.005
+    #: Blade geometry (the paper gives the parametrisation of its Fig. 6, not numbers;
+    #: these are read off a generic six-bladed 8 3/4 in PDC bit like its Fig. 4): six
+    #: blades at equal angles (a symmetric bit: no net lateral force in homogeneous rock,
+    #: the paper's cases 2-3); the face from 15 mm (the cone at the centre has no cutters)
+    #: to 70 mm, about 2/3 of the 111 mm radius; the shoulder at 60 deg from the bit axis
+    #: up to the gauge (its length follows from the geometry when left empty); gauge pads
+    #: 50 mm long, a typical 2 in pad.
     blade_angles: tuple[Annotated[Finite, Field(ge=-360.0, le=360.0)], ...] = (
         0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
     face_start: tuple[NonNegative, ...] = (0.015,) * 6
