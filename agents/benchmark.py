@@ -79,14 +79,20 @@ class Episode:
     #: The env every controller acts in (a control task's id); None: each controller's
     #: own (``DrillString-v0`` for the classical ones).
     env_id: str | None = None
+    #: The controller's name in the tables (:func:`labels`); default :func:`label`.
+    name: str = ""
+    #: What else a stored row depends on: a learned policy's model files
+    #: (:func:`controller_digest`), so a retrained run is not served its old rows.
+    digest: str = ""
 
     @property
     def label(self) -> str:
-        return label(self.controller)
+        return self.name or label(self.controller)
 
     @property
     def key(self) -> str:
-        return f"{self.label}|{self.scenario}|{self.seed}"
+        at = f"@{self.digest}" if self.digest else ""
+        return f"{self.label}{at}|{self.scenario}|{self.seed}"
 
     @property
     def stem(self) -> str:
@@ -101,6 +107,44 @@ def label(controller: str) -> str:
         rpm, _, kn = rest.partition("/")
         return f"constant-{rpm}rpm-{kn}kN"
     return head
+
+
+def labels(controllers: Sequence[str]) -> list[str]:
+    """The table names of ``controllers``, distinct: :func:`label`, except that a
+    ``learned:PATH`` whose label another controller has too is called
+    ``learned-<folder name>``. A name given twice, or two run folders of the same name, is
+    an error naming the field."""
+    seen: set[str] = set()
+    for name in controllers:
+        if name in seen:
+            raise ValueError(f"controllers: {name!r} is given twice")
+        seen.add(name)
+    plain = [label(c) for c in controllers]
+    out = [f"learned-{Path(c.partition(':')[2]).resolve().name}"
+           if c.startswith("learned:") and plain.count(plain[k]) > 1 else plain[k]
+           for k, c in enumerate(controllers)]
+    for name in out:
+        if out.count(name) > 1:
+            twins = [c for c, n in zip(controllers, out, strict=True) if n == name]
+            raise ValueError(f"controllers: {', '.join(twins)} would share the name "
+                             f"{name!r} in the table; rename a run folder")
+    return out
+
+
+def controller_digest(controller: str, env_id: str | None = None) -> str:
+    """A short hash of a learned controller's model files ("" for the others): rows of
+    a benchmark results file are reused only for the same model."""
+    if not (controller == "learned" or controller.startswith("learned:")):
+        return ""
+    import hashlib
+
+    from agents.learned import policy_files
+
+    path = controller.partition(":")[2] or None
+    digest = hashlib.sha256()
+    for file in policy_files(path, env_id):
+        digest.update(file.read_bytes())
+    return digest.hexdigest()[:12]
 
 
 def run_episode(episode: Episode) -> dict[str, Any]:
@@ -191,7 +235,10 @@ def episodes(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequen
              env_id: str | None = None) -> list[Episode]:
     """Every (controller, scenario, seed); the first seed keeps its time series."""
     plain = dataclasses.asdict(settings)
-    return [Episode(c, s, seed, plain, str(out), record, seed == seeds[0], env_id)
+    names = dict(zip(controllers, labels(controllers), strict=True))
+    digests = {c: controller_digest(c, env_id) for c in controllers}
+    return [Episode(c, s, seed, plain, str(out), record, seed == seeds[0], env_id,
+                    names[c], digests[c])
             for s in scenarios for seed in seeds for c in controllers]
 
 
@@ -232,7 +279,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             bar.close()
             executor.close()
     rows = [store.get(e.key) for e in todo_all]
-    write_outputs(rows, out, [label(c) for c in controllers], scenarios, settings)
+    write_outputs(rows, out, labels(controllers), scenarios, settings)
     return rows
 
 

@@ -47,13 +47,7 @@ class LearnedController:
         ``env_id``'s task (``DrillStickSlip-v0`` when none is given). ``files``: the
         (model, VecNormalize statistics) to load instead of the folder's own, e.g. one of
         the run's checkpoints."""
-        if path is None:
-            task = TASK_OF_ENV.get(env_id or "DrillStickSlip-v0")
-            if task is None:
-                raise ValueError(f"learned: no shipped policy for {env_id}; known: "
-                                 f"{sorted(TASK_OF_ENV)}")
-            path = TRAINED / task
-        folder = Path(path)
+        folder = policy_folder(path, env_id)
         model_file, norm_file = files if files is not None else _files(folder)
         config = yaml.safe_load((folder / "config.yaml").read_text())
         from training.config import TASKS
@@ -82,6 +76,24 @@ class LearnedController:
         obs = self.normalizer.normalize_obs(np.asarray(observation, dtype=np.float32)[None])
         action, _ = self.model.predict(obs, deterministic=True)
         return np.asarray(action[0], dtype=np.float32)
+
+
+def policy_folder(path: str | Path | None = None, env_id: str | None = None) -> Path:
+    """The folder :meth:`LearnedController.load` reads: ``path``, or the shipped policy
+    of ``env_id``'s task (``DrillStickSlip-v0`` when none is given)."""
+    if path is not None:
+        return Path(path)
+    task = TASK_OF_ENV.get(env_id or "DrillStickSlip-v0")
+    if task is None:
+        raise ValueError(f"learned: no shipped policy for {env_id}; known: "
+                         f"{sorted(TASK_OF_ENV)}")
+    return TRAINED / task
+
+
+def policy_files(path: str | Path | None = None, env_id: str | None = None
+                 ) -> tuple[Path, Path]:
+    """(model, normalisation) files that :meth:`LearnedController.load` would load."""
+    return _files(policy_folder(path, env_id))
 
 
 def _files(folder: Path) -> tuple[Path, Path]:

@@ -93,3 +93,30 @@ def test_benchmark_names_bad_input(capsys):
         with pytest.raises(SystemExit):
             main(["benchmark", *args])
         assert message in capsys.readouterr().err
+
+
+def test_every_controller_gets_its_own_table_name():
+    assert bm.labels(["learned", "learned:/runs/a", "stiff"]) == ["learned", "learned-a",
+                                                                   "stiff"]
+    assert bm.labels(["learned:/runs/a"]) == ["learned"]  # alone it is "the" policy
+    with pytest.raises(ValueError, match="'stiff' is given twice"):
+        bm.labels(["stiff", "stiff"])
+    with pytest.raises(ValueError, match="share the name 'learned-run'"):
+        bm.labels(["learned:/x/run", "learned:/y/run", "learned"])
+
+
+def test_a_retrained_policy_is_not_served_its_old_rows(tmp_path):
+    """The stored rows of a learned controller are keyed by its model files' hash."""
+    import shutil
+
+    from agents.learned import TRAINED
+
+    run = tmp_path / "run"
+    shutil.copytree(TRAINED / "stick_slip", run)
+    before = bm.episodes([f"learned:{run}", "stiff"], ["stick_slip"], [0], SHORT, tmp_path)
+    with (run / "model.zip").open("ab") as f:
+        f.write(b"retrained")
+    after = bm.episodes([f"learned:{run}", "stiff"], ["stick_slip"], [0], SHORT, tmp_path)
+    assert before[0].key != after[0].key  # the policy
+    assert before[1].key == after[1].key  # the classical controller
+    assert before[0].label == after[0].label == "learned"
