@@ -222,7 +222,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     print(f"training {config.algo.upper()} on {config.env_id}: {config.n_timesteps} env steps, "
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
     t0 = time.perf_counter()
-    model = train(config, run, resume=args.resume, progress=not args.no_progress)
+    model = train(config, run, resume=args.resume, progress=not args.no_progress,
+                  overwrite=args.overwrite)
     curve = run / "learning_curve.png"
     made = f", {curve}" if curve.exists() else " (no evaluation yet: no learning curve)"
     print(f"trained in {time.perf_counter() - t0:.0f} s: {model}, {run / 'vecnormalize.pkl'}"
@@ -515,7 +516,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--name", default=None,
                    help="run name (default: <task>_<algo>_seed<seed>)")
     p.add_argument("--resume", action="store_true",
-                   help="continue the run from its last checkpoint")
+                   help="continue the run from its last checkpoint (or its final model)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="delete an existing run of that name and start again (without it, "
+                        "an existing run is refused)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--out", type=Path, default=Path("logs/runs"), help="folder of runs")
 

@@ -108,6 +108,44 @@ def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
     assert steps[:2] == [1024, 2048] and steps[-1] == 3072
 
 
+def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_path,
+                                                                       capsys):
+    import shutil
+
+    folder, cfg = run
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    (copy / "evaluation").mkdir()  # what drill-env evaluate leaves beside a run
+    with pytest.raises(FileExistsError, match="--resume continues it, --overwrite"):
+        train(cfg, copy, progress=False)
+    # a finished run without checkpoints resumes from its final model
+    shutil.rmtree(copy / "checkpoints")
+    train(cfg, copy, resume=True, progress=False)
+    assert "nothing to resume" not in capsys.readouterr().out
+    # nothing at all to resume: said, then trained from the start
+    fresh = tmp_path / "fresh"
+    small = tiny_config(n_timesteps=512, eval_freq=10_000, checkpoint_freq=10_000)
+    train(small, fresh, resume=True, progress=False)
+    assert "nothing to resume" in capsys.readouterr().out
+    train(small, copy, overwrite=True, progress=False)  # a new run: the old one is gone
+    assert not (copy / "evaluation").exists() and not (copy / "evaluations.csv").exists()
+    assert (copy / "model.zip").exists()
+
+
+def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsys):
+    cases = (({"hyperparams": {"n_epoch": 3}}, "ppo.hyperparams.n_epoch: not an argument"),
+             ({"hyperparams": {"learning_rate": -3e-4}}, "ppo.hyperparams.learning_rate"),
+             ({"policy_kwargs": {"net_arch": [128, -5]}}, "ppo.policy_kwargs.net_arch"),
+             ({"policy_kwargs": {"net_archs": [64]}}, "ppo.policy_kwargs.net_archs"))
+    for entry, message in cases:
+        path = tmp_path / "h.yml"
+        path.write_text(yaml.safe_dump({"ppo": entry}))
+        assert main(["train", "--task", "stick_slip", "--config", str(path), "--out",
+                     str(tmp_path / "runs")]) != 0
+        assert message in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists()
+
+
 def test_train_command_names_bad_input(capsys):
     with pytest.raises(SystemExit):
         main(["train", "--task", "juggling"])

@@ -72,9 +72,73 @@ class TrainConfig:
     #: leave torch's own setting. Not part of what a resumed run must match.
     torch_threads: int = Field(default=1, ge=0, le=1024)
 
+    def __post_init__(self) -> None:
+        check_algorithm_arguments(self)
+
     @property
     def env_id(self) -> str:
         return TASKS[self.task]
+
+
+#: Constructor arguments that ``training.train.new_model`` sets itself.
+_SET_BY_TRAIN = {"self", "policy", "env", "seed", "verbose", "policy_kwargs",
+                 "tensorboard_log", "device", "_init_setup_model"}
+#: Policy constructor arguments that SB3 sets itself.
+_SET_BY_SB3 = {"self", "observation_space", "action_space", "lr_schedule"}
+#: Numeric hyperparameters and their ranges (SB3 would fail late, or without the name).
+_RANGES: dict[str, tuple[float, float, bool]] = {  # name: (low, high, low included)
+    "learning_rate": (0.0, 10.0, False), "n_steps": (1, 10**9, True),
+    "batch_size": (1, 10**9, True), "n_epochs": (1, 10**6, True),
+    "gamma": (0.0, 1.0, False), "gae_lambda": (0.0, 1.0, True),
+    "clip_range": (0.0, 10.0, False), "vf_coef": (0.0, 1e6, True),
+    "max_grad_norm": (0.0, 1e9, False), "buffer_size": (1, 10**10, True),
+    "learning_starts": (0, 10**10, True), "tau": (0.0, 1.0, False),
+    "gradient_steps": (-1, 10**6, True), "train_freq": (1, 10**9, True),
+}
+
+
+def check_algorithm_arguments(config: TrainConfig) -> None:
+    """``hyperparams`` and ``policy_kwargs`` against the algorithm's and the policy's
+    constructors, so a misspelt or impossible value fails before a run folder exists, with
+    its YAML path (``ppo.hyperparams.n_epochs``) instead of a traceback from SB3 or torch."""
+    import inspect
+    import math
+
+    from stable_baselines3 import PPO, SAC
+
+    algo: Any = {"ppo": PPO, "sac": SAC}[config.algo]
+    where = f"{config.algo}.hyperparams"
+    known = set(inspect.signature(algo.__init__).parameters) - _SET_BY_TRAIN
+    for key, value in config.hyperparams.items():
+        if key not in known:
+            raise ConfigError(f"{where}.{key}: not an argument of {algo.__name__}; known: "
+                              f"{', '.join(sorted(known))}")
+        if key in _RANGES and not isinstance(value, str):
+            low, high, closed = _RANGES[key]
+            number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if not (number and math.isfinite(value) and (value >= low if closed else
+                                                          value > low) and value <= high):
+                bound = f"{'>=' if closed else '>'} {low:g} and <= {high:g}"
+                raise ConfigError(f"{where}.{key}: must be a number {bound}, got {value!r}")
+    policies = getattr(algo, "policy_aliases", {})
+    if config.policy not in policies:
+        raise ConfigError(f"{config.algo}.policy: must be one of {sorted(policies)}, got "
+                          f"{config.policy!r}")
+    where = f"{config.algo}.policy_kwargs"
+    known = set(inspect.signature(policies[config.policy].__init__).parameters) - _SET_BY_SB3
+    for key in config.policy_kwargs:
+        if key not in known:
+            raise ConfigError(f"{where}.{key}: not an argument of {config.policy} "
+                              f"({config.algo}); known: {', '.join(sorted(known))}")
+    arch = config.policy_kwargs.get("net_arch")
+    layers = arch.items() if isinstance(arch, dict) else [("", arch)] if arch is not None \
+        else []
+    for name, sizes in layers:
+        path = f"{where}.net_arch" + (f".{name}" if name else "")
+        if not (isinstance(sizes, list) and all(isinstance(n, int) and not isinstance(n, bool)
+                                                and 1 <= n <= 100_000 for n in sizes)):
+            raise ConfigError(f"{path}: must be a list of layer widths (integers >= 1), got "
+                              f"{sizes!r}")
 
 
 def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,

@@ -184,15 +184,30 @@ def _latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
     return model, norm
 
 
-def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool = True
-          ) -> Path:
+#: What a run folder holds once training started (any of them: the folder is a run).
+RUN_FILES = ("config.yaml", "model.zip", "run.json", "checkpoints")
+
+
+def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool = True,
+          overwrite: bool = False) -> Path:
     """Train (or resume) the run in folder ``run``; returns the path of the final model.
 
-    Resuming loads the last checkpoint's model and VecNormalize statistics; SAC's replay
-    buffer is not checkpointed (it would be ~100x the model), so a resumed SAC run
+    A folder that already holds a run is refused unless ``resume`` (continue it) or
+    ``overwrite`` (delete it and start again). Resuming loads the last checkpoint's model
+    and VecNormalize statistics, or the final model of a finished run without
+    checkpoints; with nothing to resume it says so and starts from the beginning. SAC's
+    replay buffer is not checkpointed (it would be ~100x the model), so a resumed SAC run
     starts from an empty buffer that fills with the restored policy's transitions."""
+    import shutil
+
     from stable_baselines3.common.vec_env import VecNormalize
 
+    if any((run / name).exists() for name in RUN_FILES) and not resume:
+        if not overwrite:
+            raise FileExistsError(f"{run} already holds a training run: --resume continues "
+                                  "it, --overwrite deletes it and starts again, or give "
+                                  "another --name")
+        shutil.rmtree(run)
     run.mkdir(parents=True, exist_ok=True)
     saved = run / "config.yaml"
     if resume and saved.exists():
@@ -207,6 +222,13 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
     algo = _algo_class(config.algo)
     latest = _latest_checkpoint(run) if resume else None
+    if resume and latest is None:
+        final = (run / "model.zip", run / "vecnormalize.pkl")
+        if all(path.exists() for path in final):
+            latest = final
+        else:
+            print(f"resume: nothing to resume in {run} yet (no checkpoint, no final model): "
+                  "training from the start")
     env = make_train_env(config, config.seed)
     if latest is not None:
         model_path, norm_path = latest
