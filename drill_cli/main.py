@@ -246,8 +246,10 @@ def train_sweep(args: argparse.Namespace, config) -> int:
     results = train_seeds(config, seeds, args.out, workers=args.workers,
                           ray_address=args.ray_address, progress=not args.no_progress)
     for r in results:
-        print(f"seed {r['seed']}: best validation return {r['best_return']} at "
-              f"{r['best_at_steps']} steps -> {r['run']}")
+        best = "no validation yet (raise --timesteps past eval_freq)" \
+            if r["best_return"] is None else \
+            f"best validation return {r['best_return']:.1f} at {r['best_at_steps']} steps"
+        print(f"seed {r['seed']}: {best} -> {r['run']}")
     print(f"{len(results)} runs in {time.perf_counter() - t0:.0f} s; summary in "
           f"{args.out / 'train_sweep.md'}")
     return 0

@@ -36,12 +36,14 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     """One seed's run (resumed from its last checkpoint if it has one)."""
     import torch
 
-    from training.train import train
+    from training.train import RUN_FILES, train
 
     config, folder = args
     torch.set_num_threads(1)
     run = Path(folder)
-    train(config, run, resume=True, progress=False)
+    # an interrupted sweep continues its runs; a new one starts them
+    started = any((run / name).exists() for name in RUN_FILES)
+    train(config, run, resume=started, progress=False)
     info = json.loads((run / "run.json").read_text())
     rows = []
     if (run / "evaluations.csv").exists():  # none before the first evaluation
@@ -94,9 +96,9 @@ def write_summary(results: list[dict[str, Any]], path: Path, config: TrainConfig
              "| --- | --- | --- | --- | --- | --- |"]
     for r in results:
         best = "-" if r["best_return"] is None else f"{r['best_return']:.1f}"
-        lines.append(f"| {r['seed']} | {best} | {r['best_at_steps']} | "
-                     f"{r['best_ssi'] if r['best_ssi'] is None else round(r['best_ssi'], 3)}"
-                     f" | {r['wall_s']:.0f} | {r['run']} |")
+        at = "-" if r["best_at_steps"] is None else r["best_at_steps"]
+        ssi = "-" if r["best_ssi"] is None else round(r["best_ssi"], 3)
+        lines.append(f"| {r['seed']} | {best} | {at} | {ssi} | {r['wall_s']:.0f} | {r['run']} |")
     values = [r["best_return"] for r in results if r["best_return"] is not None]
     if len(values) > 1:
         lines += ["", f"Best validation return over seeds: {statistics.mean(values):.1f} +- "
