@@ -96,9 +96,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     from agents.registry import make_controller
 
     controller = make_controller(args.controller)
-    kwargs: dict[str, Any] = {"scenario": args.scenario, "fidelity": args.fidelity,
+    kwargs: dict[str, Any] = {"scenario": args.scenario, "start_kick": args.start_kick,
                               "physics": controller.physics(),
                               **dict(getattr(controller, "env_kwargs", dict)())}
+    if args.fidelity is not None:  # else the env's own (a task's policy: the task's)
+        kwargs["fidelity"] = args.fidelity
     if args.duration is not None:
         kwargs["episode_duration"] = args.duration
     env: Any = gym.make(controller.env_id, **kwargs)
@@ -145,7 +147,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     summary = {
         "scenario": args.scenario, "controller": args.controller, "rpm": rpm,
         "weight_on_bit_kN": wob_kn, "seed": args.seed,
-        "fidelity": args.fidelity, "steps": steps, "simulated_s": info.get("episode_time", 0.0),
+        "fidelity": base.simulation_config.solver.fidelity, "steps": steps,
+        "simulated_s": info.get("episode_time", 0.0),
         "return": reward, "termination_reason": reason,
         **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
         "wall_s": time.perf_counter() - t0,
@@ -192,8 +195,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if args.warmup >= args.duration:
         raise argparse.ArgumentTypeError(f"--warmup: {args.warmup:g} s must be shorter than "
                                          f"--duration ({args.duration:g} s)")
+    # a task benchmark runs at the level the task trains and evaluates on
+    fidelity = args.fidelity or ("fast" if env_id else "full")
     settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
-                                 start_kick=args.start_kick, fidelity=args.fidelity)
+                                 start_kick=args.start_kick, fidelity=fidelity)
     t0 = time.perf_counter()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
     rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,
@@ -458,8 +463,13 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=integer(0), default=0, help="episode seed")
     p.add_argument("--duration", type=number("s", low=0.0, low_inclusive=False), default=None,
                    help="episode length in simulated s (default: the scenario's)")
-    p.add_argument("--fidelity", choices=("full", "fast"), default="full",
-                   help="physics level (docs/performance.md)")
+    p.add_argument("--fidelity", choices=("full", "fast"), default=None,
+                   help="physics level (docs/performance.md; default: the env's own, full "
+                        "for DrillString-v0, fast for a task's learned policy)")
+    p.add_argument("--start-kick", type=number("", high=0.5), default=0.02,
+                   help="relative bit-speed kick at the start, drawn from the seed (as the "
+                        "benchmark's; 0: start exactly settled, stick-slip then takes "
+                        "over a minute to grow)")
     p.add_argument("--record", type=Path, default=None, nargs="?",
                    const=Path("logs/recordings"),
                    help="write a rerun .rrd of the episode into this folder (given without "
@@ -486,8 +496,9 @@ def parser() -> argparse.ArgumentParser:
                    help="seconds at the start left out of the metrics")
     p.add_argument("--start-kick", type=number("", high=0.5), default=0.02,
                    help="relative bit-speed kick at the start, drawn from the seed")
-    p.add_argument("--fidelity", choices=("full", "fast"), default="full",
-                   help="physics level (docs/performance.md)")
+    p.add_argument("--fidelity", choices=("full", "fast"), default=None,
+                   help="physics level (docs/performance.md; default: full, with --task "
+                        "fast, as the task trains and drill-env evaluate runs)")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
     add_ray_address(p, "the simulations")

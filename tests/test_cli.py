@@ -22,6 +22,34 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
     assert "SSI" in capsys.readouterr().out
 
 
+def test_run_and_benchmark_agree_on_the_start(tmp_path):
+    """``run`` kicks the bit as the benchmark does (2 %), so the stiff drive stick-slips
+    within its 60 s at 50 rpm as in the benchmark table, and starts at the env's own
+    fidelity: full for DrillString-v0, the task's fast level for a task's policy."""
+    assert main(["run", "--scenario", "stick_slip", "--out", str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "run_summary.json").read_text())
+    assert summary["fidelity"] == "full" and summary["mean_stuck_fraction"] > 0.05
+    assert main(["run", "--scenario", "stick_slip", "--start-kick", "0", "--out",
+                 str(tmp_path)]) == 0  # exactly settled: nothing grows within 60 s
+    assert json.loads((tmp_path / "run_summary.json").read_text())[
+        "mean_stuck_fraction"] < 0.01
+    assert main(["run", "--controller", "learned", "--scenario", "random", "--duration", "1",
+                 "--out", str(tmp_path)]) == 0
+    assert json.loads((tmp_path / "run_summary.json").read_text())["fidelity"] == "fast"
+
+
+def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path):
+    from agents.benchmark import RESULTS_FILE, BenchmarkSettings, fingerprint
+    from drill_env.sweep import ResultStore
+
+    assert main(["benchmark", "--task", "stick_slip", "--controllers", "stiff", "--seeds",
+                 "1", "--duration", "3", "--warmup", "1", "--workers", "1", "--out",
+                 str(tmp_path)]) == 0
+    fast = BenchmarkSettings(duration=3.0, warmup=1.0, fidelity="fast")
+    assert len(ResultStore(tmp_path / RESULTS_FILE,
+                           fingerprint(fast, "DrillStickSlip-v0"))) == 1
+
+
 def test_run_names_an_unknown_scenario(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--scenario", "nope"])
