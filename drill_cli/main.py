@@ -334,8 +334,15 @@ def cmd_modes(args: argparse.Namespace) -> int:
     scenario = make_scenario(args.scenario)
     config = with_overrides(scenario.config, args.config)
     wob = args.wob * KILO if args.wob is not None else scenario.weight_on_bit
+    try:
+        md.require_vertical(config)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"--scenario: {args.scenario}: {err}") from None
     torsional = md.torsional_modes(config, args.top, args.n)
-    lateral = md.lateral_modes(config, wob, n_modes=args.n)
+    try:
+        lateral = md.lateral_modes(config, wob, n_modes=args.n)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"--wob: {str(err).partition(': ')[2]}") from None
     print(f"{args.scenario}: {scenario.description}; string {config.string.length:.0f} m, "
           f"WOB {wob / KILO:.0f} kN, neutral point "
           f"{md.neutral_point_height(config, wob):.0f} m above the bit")

@@ -120,3 +120,13 @@ def test_modes_command_names_the_bad_field_of_the_yaml(tmp_path, capsys):
                    "inner_diameter: 0.05, element_length: 1}\n")
     assert main(["modes", "--config", str(bad), "--out", str(tmp_path)]) == 2
     assert "string.components[0].length" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--wob", "200"], "--wob: 200 kN buckles the BHA"),
+    (["--scenario", "lateral_60"], "--scenario: lateral_60: well: the modal analysis is for "
+                                   "vertical holes")])
+def test_modes_refuses_what_it_cannot_analyse(tmp_path, capsys, args, message):
+    with pytest.raises(SystemExit):
+        main(["modes", *args, "--out", str(tmp_path)])
+    assert message in capsys.readouterr().err

@@ -52,7 +52,8 @@ from drill_env.physics.top_drive import resolve as resolve_top_drive
 from drill_env.physics.units import RPM
 
 __all__ = ["CriticalSpeed", "Modes", "critical_speed_chart", "critical_speeds", "excitations",
-           "lateral_modes", "neutral_point_height", "torsional_modes", "undamped_frequencies"]
+           "lateral_buckling_weight", "lateral_modes", "neutral_point_height",
+           "require_vertical", "torsional_modes", "undamped_frequencies"]
 
 TopBoundary = Literal["fixed", "top_drive"]
 LateralSupports = Literal["stabilizers", "top_only"]
@@ -170,6 +171,57 @@ def bha_top_node(config: SimulationConfig) -> int:
     return node - config.string.sections[-1].n_elements
 
 
+def require_vertical(config: SimulationConfig) -> None:
+    """The modal analysis loads the string by measured depth, as in a vertical hole; a
+    deviated well's loads (weight across the hole, contact on the low side) are not in
+    it. ValueError naming ``well`` otherwise."""
+    steepest = max((abs(a) for a in config.well.inclination), default=0.0)
+    if steepest > 0.5:  # deg: a vertical hole's survey noise
+        raise ValueError(f"well: the modal analysis is for vertical holes (axial load by "
+                         f"measured depth); this well reaches {steepest:.0f} deg. Its static "
+                         "loads: drill-env well")
+
+
+def _lateral_system(cfg: SimulationConfig, weight_on_bit: float, supports: LateralSupports,
+                    region: Literal["bha", "string"]
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Mesh, int]:
+    """(K, K_g, lumped M, free DOFs, mesh, top node) of :func:`lateral_modes`."""
+    full = build_mesh(cfg)
+    force = axial_force_profile(full, weight_on_bit, bit_buoyed_weight(cfg))
+    top_node = bha_top_node(cfg) if region == "bha" else 0
+    mesh = _below(full, top_node)  # the BHA alone: pinned at its top, free to tilt there
+    k, kg, m = assemble_lateral(mesh, force[top_node:])
+    m[-2] += cfg.bit.mass
+    n = mesh.n_nodes
+    fixed = [2 * (node - top_node) for node in _lateral_supports(cfg, supports, top_node)]
+    if cfg.bit.axis_aligned:
+        fixed.append(2 * n - 1)  # bit tilt held (paper section 3.1.1)
+    free = np.setdiff1d(np.arange(2 * n), fixed)
+    return k, kg, m, free, mesh, top_node
+
+
+def lateral_buckling_weight(config: SimulationConfig, supports: LateralSupports = "stabilizers",
+                            region: Literal["bha", "string"] = "bha") -> float:
+    """The WOB (N) at which K + K_g(WOB) of :func:`lateral_modes` stops being positive
+    definite (the first lateral buckling load of that model), by bisection to 0.1 %."""
+    cfg = config.resolved()
+
+    def stable(wob: float) -> bool:
+        k, kg, _, free, _, _ = _lateral_system(cfg, wob, supports, region)
+        ix = np.ix_(free, free)
+        return bool(np.linalg.eigvalsh((k + kg)[ix])[0] > 0.0)
+
+    low, high = 0.0, 1.0e5
+    while stable(high):
+        low, high = high, 2.0 * high
+        if high > 1.0e9:
+            return math.inf
+    while high - low > 1e-3 * high:
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if stable(mid) else (low, mid)
+    return low
+
+
 def lateral_modes(config: SimulationConfig, weight_on_bit: float = 0.0,
                   supports: LateralSupports = "stabilizers", n_modes: int = 6,
                   region: Literal["bha", "string"] = "bha") -> Modes:
@@ -180,21 +232,19 @@ def lateral_modes(config: SimulationConfig, weight_on_bit: float = 0.0,
     above has its own slow string modes (~0.1 Hz for 1000 m), which ``region="string"``
     includes (the whole string pinned at the surface)."""
     cfg = config.resolved()
-    full = build_mesh(cfg)
-    force = axial_force_profile(full, weight_on_bit, bit_buoyed_weight(cfg))
-    top_node = bha_top_node(cfg) if region == "bha" else 0
-    mesh = _below(full, top_node)  # the BHA alone: pinned at its top, free to tilt there
-    k, kg, m = assemble_lateral(mesh, force[top_node:])
-    m[-2] += cfg.bit.mass
+    require_vertical(cfg)
+    k, kg, m, free, mesh, top_node = _lateral_system(cfg, weight_on_bit, supports, region)
+    n = mesh.n_nodes
     k = k + kg
     c = cfg.damping.mass_proportional * np.diag(m) + cfg.damping.stiffness_proportional * \
         (k - kg)
-    n = mesh.n_nodes
-    fixed = [2 * (node - top_node) for node in _lateral_supports(cfg, supports, top_node)]
-    if cfg.bit.axis_aligned:
-        fixed.append(2 * n - 1)  # bit tilt held (paper section 3.1.1)
-    free = np.setdiff1d(np.arange(2 * n), fixed)
     ix = np.ix_(free, free)
+    if np.linalg.eigvalsh(k[ix])[0] <= 0.0:
+        limit = lateral_buckling_weight(cfg, supports, region)
+        raise ValueError(f"weight_on_bit: {weight_on_bit / 1e3:.0f} kN buckles the "
+                         f"{'BHA' if region == 'bha' else 'string'} (K + K_g is not positive "
+                         f"definite: a static mode has replaced the lowest lateral mode); "
+                         f"its lateral modes exist below {limit / 1e3:.0f} kN")
     freq, zeta, shapes = _damped(k[ix], c[ix], m[free], n_modes)
     dofs = np.zeros((len(freq), 2 * n))
     dofs[:, free] = shapes

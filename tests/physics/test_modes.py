@@ -23,6 +23,7 @@ from drill_env.physics.fem import assemble_lateral, assemble_torsion, build_mesh
 from drill_env.physics.modes import (
     critical_speeds,
     excitations,
+    lateral_buckling_weight,
     lateral_modes,
     torsional_modes,
     torsional_system,
@@ -60,7 +61,7 @@ def test_first_torsional_mode_of_the_paper_string_is_the_shaft_with_end_inertia(
 
 def test_lateral_modes_are_the_eigenvalues_of_the_assembled_matrices():
     config = replace(SimulationConfig(string=cp.realistic_string()), **UNDAMPED)
-    wob = 80e3
+    wob = 40e3  # the string pinned only at the top buckles at ~51 kN
     modes = lateral_modes(config, wob, supports="top_only", n_modes=4, region="string")
     mesh = build_mesh(config)
     from drill_env.physics.fem import axial_force_profile
@@ -93,6 +94,39 @@ def test_lateral_modes_of_a_short_collar_are_the_pinned_pinned_beam():
     expected = [(n * math.pi / collar.length) ** 2 * math.sqrt(ei / rho_a) / (2 * math.pi)
                 for n in (1, 2, 3)]
     np.testing.assert_allclose(modes.frequency, expected, rtol=0.01)
+
+
+def _pinned_collar() -> tuple[cp.Section, SimulationConfig]:
+    collar = cp.collar_6_5(6.0, 0.3)
+    string = StringConfig(drill_pipe=cp.collar_6_5(1.0, 0.5), components=(collar,))
+    return collar, SimulationConfig(string=string, mud=MudConfig(density=0.0),
+                                    bit=BitConfig(axis_aligned=False, mass=1e-6,
+                                                  inertia=1e-6))
+
+
+def test_lateral_buckling_weight_of_a_pinned_collar_is_eulers_load():
+    """Euler: P_cr = pi^2 EI / L^2 for a pinned-pinned column; the collar's own 7 kN of
+    weight relieves its top by up to 7 kN against ~2 MN (< 0.4 %)."""
+    collar, config = _pinned_collar()
+    euler = math.pi ** 2 * collar.youngs_modulus * collar.second_moment / collar.length ** 2
+    assert lateral_buckling_weight(config, region="bha") == pytest.approx(euler, rel=5e-3)
+
+
+def test_lateral_modes_refuse_a_buckled_string_and_a_deviated_hole():
+    """Near the buckling load the first mode softens towards zero (f^2 ~ 1 - P / P_cr);
+    past it the modes of the straight string do not exist, and the analysis says so."""
+    _, config = _pinned_collar()
+    limit = lateral_buckling_weight(config, region="bha")
+    f0 = lateral_modes(config, 0.0, n_modes=1, region="bha").frequency[0]
+    near = lateral_modes(config, 0.99 * limit, n_modes=1, region="bha").frequency[0]
+    assert near < 0.15 * f0
+    with pytest.raises(ValueError, match="weight_on_bit: .* buckles the BHA"):
+        lateral_modes(config, 1.01 * limit, region="bha")
+    deviated = replace(SimulationConfig(), **{"well.md": (0.0, 500.0, 1500.0),
+                                              "well.inclination": (0.0, 0.0, 60.0),
+                                              "well.azimuth": (0.0, 0.0, 0.0)})
+    with pytest.raises(ValueError, match="well: the modal analysis is for vertical holes"):
+        lateral_modes(deviated, 50e3)
 
 
 def test_the_first_torsional_damping_ratio_matches_its_perturbation_estimate():
