@@ -115,6 +115,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         if not low <= value <= high:
             raise argparse.ArgumentTypeError(f"{flag}: {value:g} {unit} is outside the env's "
                                              f"range {low:g}-{high:g} {unit}")
+    from drill_env.physics.statics import pipe_buckling
+
+    for b in pipe_buckling(base.simulation_config, wob_kn * KILO):
+        print(f"note: {wob_kn:g} kN compresses the {b.component} by "
+              f"{b.compression / KILO:.1f} kN, beyond its buckling load "
+              f"{b.buckling_load / KILO:.1f} kN: it buckles into the wall (the scenarios "
+              "refuse such a starting point; docs/model.md, 'Axial load and buckling')",
+              file=sys.stderr)
     if args.record is not None:
         from drill_env.recording import RecordEpisode
 

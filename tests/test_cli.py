@@ -38,6 +38,13 @@ def test_run_and_benchmark_agree_on_the_start(tmp_path):
     assert json.loads((tmp_path / "run_summary.json").read_text())["fidelity"] == "fast"
 
 
+def test_run_notes_a_wob_that_buckles_the_pipe(tmp_path, capsys):
+    assert main(["run", "--wob", "200", "--duration", "0.2", "--out", str(tmp_path)]) == 0
+    assert "note: 200 kN compresses the 5 in HWDP" in capsys.readouterr().err
+    assert main(["run", "--wob", "100", "--duration", "0.2", "--out", str(tmp_path)]) == 0
+    assert "note:" not in capsys.readouterr().err
+
+
 def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path):
     from agents.benchmark import RESULTS_FILE, BenchmarkSettings, fingerprint
     from drill_env.sweep import ResultStore
