@@ -526,7 +526,9 @@ def parser() -> argparse.ArgumentParser:
                      "checkpoints, learning curve, TensorBoard) in --out/<name>", cmd_train)
     p.add_argument("--task", required=True, choices=("stick_slip", "drilling"),
                    help="stick_slip: DrillStickSlip-v0, drilling: DrillOptimise-v0")
-    p.add_argument("--algo", choices=("ppo", "sac"), default="ppo", help="algorithm")
+    p.add_argument("--algo", choices=("ppo", "sac"), default="sac",
+                   help="algorithm (default: sac, what the shipped policies of both tasks "
+                        "were trained with; docs/tasks.md)")
     p.add_argument("--config", type=Path, default=None,
                    help="hyperparameter YAML (default: training/hyperparams/<task>.yml)")
     p.add_argument("--timesteps", type=integer(1), default=None,

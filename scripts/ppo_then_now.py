@@ -4,7 +4,7 @@ in the same run (issue 16, acceptance 1a).
     .venv/bin/python scripts/ppo_then_now.py [--workload task] [--rounds 3] [--loaded]
 
 The issue measured ~2,000 env steps/s for PPO on the batched env with the update at
-52-59 % of the wall time: the shipped task-1 PPO run (``training/hyperparams/
+52-59 % of the wall time: the task-1 PPO run (``training/hyperparams/
 stick_slip.yml``: 8 batched ``DrillStickSlip-v0`` envs in VecNormalize, 512 steps per
 env and update, 10 epochs, 128 x 128). Figures taken on different days on a shared
 machine cannot be compared, so this script checks the code of that day out in a
@@ -56,7 +56,7 @@ callback = None
 if today:
     from training.train import torch_threads_callback
     callback = torch_threads_callback(1)
-if workload == "task":  # the shipped task-1 PPO run, as drill-env train builds it
+if workload == "task":  # the task-1 PPO run, as drill-env train --algo ppo builds it
     from training.config import load_config
     from training.train import make_train_env
     config = load_config("stick_slip", "ppo")

@@ -140,8 +140,8 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
     for entry, message in cases:
         path = tmp_path / "h.yml"
         path.write_text(yaml.safe_dump({"ppo": entry}))
-        assert main(["train", "--task", "stick_slip", "--config", str(path), "--out",
-                     str(tmp_path / "runs")]) != 0
+        assert main(["train", "--task", "stick_slip", "--algo", "ppo", "--config", str(path),
+                     "--out", str(tmp_path / "runs")]) != 0
         assert message in capsys.readouterr().err
     assert not (tmp_path / "runs").exists()
 
