@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -394,11 +395,14 @@ def cmd_well(args: argparse.Namespace) -> int:
     from drill_env.well import WELLS, write_well
 
     if args.survey is not None:
+        if args.well is not None:
+            raise argparse.ArgumentTypeError("--well: give a preset well or --survey, not "
+                                             "both")
         survey = Survey.from_csv(args.survey)
         name = args.survey.stem
     else:
-        survey = WELLS[args.well](args.total_md)
-        name = args.well
+        name = args.well or "j_shaped"
+        survey = WELLS[name](args.total_md)
     try:
         frictions = [float(v) for v in args.friction.split(",") if v.strip()]
     except ValueError:
@@ -437,6 +441,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
     if not args.path.is_file():
         raise argparse.ArgumentTypeError(f"path: no recording at {args.path}")
+    if args.path.suffix != ".rrd":
+        raise argparse.ArgumentTypeError(f"path: {args.path} is not a rerun recording (.rrd)")
+    if not args.web and sys.platform.startswith("linux") and not (
+            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise argparse.ArgumentTypeError("--web: no display here (DISPLAY is not set) for "
+                                         "the native viewer; add --web to serve the web "
+                                         "viewer instead")
     code = replay(args.path, web=args.web)
     return int(code) if isinstance(code, int) else 0
 
@@ -445,10 +456,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def parser() -> argparse.ArgumentParser:
+    from drill_env import __version__
     from drill_env.scenarios import SCENARIOS
 
     top = argparse.ArgumentParser(prog="drill-env", description=DESCRIPTION,
                                   formatter_class=_Formatter)
+    top.add_argument("--version", action="version", version=f"drill-env {__version__}")
     sub = top.add_subparsers(dest="command", required=True, metavar="command")
 
     def add(name: str, help_text: str, func: Callable[[argparse.Namespace], int]
@@ -606,9 +619,9 @@ def parser() -> argparse.ArgumentParser:
     p = add("well", "a well path (preset or survey CSV) and the soft-string torque-and-drag "
                     "chart of a scenario's string: hook load and torque against bit depth",
             cmd_well)
-    p.add_argument("--well", default="j_shaped",
+    p.add_argument("--well", default=None,
                    choices=("vertical", "j_shaped", "s_shaped", "lateral_60"),
-                   help="preset well shape (drill_env/well.py)")
+                   help="preset well shape (drill_env/well.py; default j_shaped)")
     p.add_argument("--survey", type=Path, default=None,
                    help="survey CSV with columns md (m), inclination, azimuth (deg); "
                         "instead of --well")

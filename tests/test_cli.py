@@ -137,3 +137,30 @@ def test_modes_refuses_what_it_cannot_analyse(tmp_path, capsys, args, message):
     with pytest.raises(SystemExit):
         main(["modes", *args, "--out", str(tmp_path)])
     assert message in capsys.readouterr().err
+
+
+def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatch):
+    text = tmp_path / "notes.txt"
+    text.write_text("not a recording")
+    with pytest.raises(SystemExit):
+        main(["replay", str(text)])
+    assert "is not a rerun recording (.rrd)" in capsys.readouterr().err
+    recording = tmp_path / "episode.rrd"
+    recording.write_bytes(b"")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    with pytest.raises(SystemExit):
+        main(["replay", str(recording)])
+    assert "add --web" in capsys.readouterr().err
+
+
+def test_version_and_exclusive_well_inputs(tmp_path, capsys):
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0 and "drill-env 0." in capsys.readouterr().out
+    survey = tmp_path / "s.csv"
+    survey.write_text("md,inclination,azimuth\n0,0,0\n1000,10,0\n")
+    with pytest.raises(SystemExit):
+        main(["well", "--well", "vertical", "--survey", str(survey), "--out", str(tmp_path)])
+    assert "--well: give a preset well or --survey, not both" in capsys.readouterr().err
