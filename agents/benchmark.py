@@ -10,7 +10,7 @@ seed and targets, so all of them see the same string, rock and start.
 
 Results stream into ``benchmark_results.jsonl`` as episodes finish (an interrupted
 benchmark keeps them; rerunning computes only the rest), then ``benchmark.csv`` (one row
-per controller, scenario and seed, the columns of SPEC section 5), ``benchmark.md`` and
+per controller, scenario and seed, the columns of docs/controllers.md), ``benchmark.md`` and
 the plots are written from all finished rows.
 """
 
@@ -31,7 +31,8 @@ from pydantic import Field
 
 from drill_env.physics.validation import NonNegative, Positive, config_dataclass, jsonable
 
-#: benchmark.csv columns, in order (SPEC section 5); units in the names.
+#: benchmark.csv columns, in order (the spec's section 5; meanings in docs/controllers.md);
+#: units in the names.
 COLUMNS = ("controller", "scenario", "seed", "ssi", "stuck_fraction", "mean_bit_rpm",
            "target_rpm", "rpm_tracking_error", "rop_m_per_h", "radial_ratio",
            "backward_whirl_fraction", "max_lateral_force_kN", "mse_MPa",
