@@ -55,7 +55,10 @@ def parse_controllers(text: str) -> list[str]:
         raise ValueError("controllers: give at least one name")
     for n in names:
         if n.startswith("constant:"):
-            ConstantSetPoints.parse(n.partition(":")[2])  # checks the numbers
+            try:
+                ConstantSetPoints.parse(n.partition(":")[2])  # checks the numbers
+            except ValueError as err:
+                raise ValueError(f"controllers: {str(err).partition(': ')[2]}") from None
         elif n not in CONTROLLERS and not n.startswith("learned:"):
             raise ValueError(f"controllers: unknown name {n!r}; known: "
                              f"{', '.join(CONTROLLERS)}")

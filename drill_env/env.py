@@ -21,7 +21,13 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig re-exported: the en
     EnvConfig,
 )
 from drill_env.metrics import Metric
-from drill_env.physics.config import SimulationConfig, flatten, from_dict, replace
+from drill_env.physics.config import (
+    FIDELITY_LEVELS,
+    SimulationConfig,
+    flatten,
+    from_dict,
+    replace,
+)
 from drill_env.physics.layout import N_READINGS, READ, READINGS, RECORD_CHANNELS
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
@@ -258,6 +264,9 @@ class DrillStringEnv(gym.Env):
         if bit_model is not None:
             self.physics_overrides["bit_model"] = bit_model
         if fidelity is not None:
+            if fidelity not in FIDELITY_LEVELS:
+                raise ValueError(f"fidelity: must be one of {FIDELITY_LEVELS}, got "
+                                 f"{fidelity!r}")
             self.physics_overrides["solver.fidelity"] = fidelity
         self.randomised = scenario in RANDOMISED
 

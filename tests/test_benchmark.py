@@ -120,3 +120,9 @@ def test_a_retrained_policy_is_not_served_its_old_rows(tmp_path):
     assert before[0].key != after[0].key  # the policy
     assert before[1].key == after[1].key  # the classical controller
     assert before[0].label == after[0].label == "learned"
+
+
+def test_a_bad_constant_set_point_names_the_flag_typed(capsys):
+    with pytest.raises(SystemExit):
+        main(["benchmark", "--controllers", "constant:abc"])
+    assert "--controllers: constant:<rpm>/<kN> expected" in capsys.readouterr().err
