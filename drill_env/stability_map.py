@@ -270,6 +270,8 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
     if progress is True:
         from tqdm import tqdm
 
+        # boundary tracking needs at most one row plus one column of points per map; how
+        # many it needs shows only at the end, where the bar is closed at its count
         bar = tqdm(total=len(positions) * (len(rpm) + len(wob)), desc="  stability map",
                    unit="point", leave=False)
         tick = bar.update
@@ -300,6 +302,9 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
                         tick()
             for p in wanted:
                 trackers[p].report(found[p]["stuck_fraction"] > 0.0)
+        if bar is not None:
+            bar.total = bar.n  # done: the bar ends full, at the points simulated
+            bar.refresh()
     finally:
         if executor is not None:
             executor.close()

@@ -188,8 +188,8 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
         ax.grid(alpha=0.3)
     hook.legend(fontsize=7, ncol=len(frictions), loc="upper right")  # the empty corner
     torque.legend(fontsize=8)
-    hook.set_title("soft-string drag: pick-up (-), rotating (:, no axial drag: one line "
-                   "for every mu), slack-off (--)", fontsize=9)
+    hook.set_title("soft-string drag: pick-up (solid), slack-off (dashed), rotating (dotted; "
+                   "no axial drag, so the same line for every mu)", fontsize=9)
     torque.set_title("soft-string torque")
     fig.suptitle(f"well {name}: {trajectory.total_md:.0f} m MD, string of the scenario "
                  "(drill pipe added above it to reach the bit)")
