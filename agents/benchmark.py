@@ -363,9 +363,15 @@ def _print_table(header: Sequence[str], table: Sequence[Sequence[str]]) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    t = Table(*header, title="controller benchmark (means over seeds)")
+    t = Table(title="controller benchmark (means over seeds)")
+    widths = [max(len(str(cell)) for cell in column) for column in zip(header, *table,
+                                                                        strict=True)]
+    for k, name in enumerate(header):
+        t.add_column(name, no_wrap=k < 2)  # names whole; numbers may wrap at their "+-"
     for r in table:
         t.add_row(*r)
     console = Console()
-    console.width = max(console.width, 150)  # a narrow terminal wraps; it never truncates
+    # wide enough for every cell on one line: a narrow terminal wraps the lines, but
+    # rich never cuts a name to "soft-spe..."
+    console.width = max(console.width, sum(w + 3 for w in widths) + 1)
     console.print(t)
