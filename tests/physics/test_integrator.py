@@ -367,3 +367,43 @@ def test_founder_point_and_gauge_friction_match_the_numpy_reference(bit_model):
     assert_agree(actual, expected, "records")
     linear = max(r.depth_of_cut for r in rocks) * 150e3
     assert sim.state[S.DEPTH_OF_CUT] < 0.5 * linear  # past the founder points
+
+
+# --------------------------------------------------------------------------- top drive
+
+
+def test_top_drive_set_point_ramps_at_the_acceleration_limit():
+    """docs/model.md, top drive: the speed set point moves towards the target at
+    ``max_acceleration`` (3 rad/s^2): from 60 rpm (2 pi rad/s) towards 120 rpm it is at
+    2 pi + 3 rad/s after 1 s, and on target after 2 pi / 3 s."""
+    sim = Simulator(SimulationConfig(solver=SolverConfig(lateral=False)))
+    sim.reset(OperatingPoint(60 * RPM, 50e3))
+    hook = sim.hook_load_for(50e3)
+    sim.advance(round(1.0 / sim.dt), 120 * RPM, hook)
+    assert sim.state[S.SETPOINT] == pytest.approx(2 * np.pi + 3.0, rel=1e-12)
+    sim.advance(round(1.2 / sim.dt), 120 * RPM, hook)
+    assert sim.state[S.SETPOINT] == 120 * RPM
+
+
+def test_top_drive_torque_clamps_without_winding_up_its_integral():
+    """A bit that cannot break free (static torque above the drive's 50 kN m): the motor
+    sits at exactly the limit and the PI integral stops growing while it does
+    (conditional integration): without it, 10 s of the ~5.6 rad/s error (set point 2 pi,
+    top winding the string up at ~0.6 rad/s) would store ~56 rad, ~280 kN m at the
+    default ki, to unwind before the drive could let go."""
+    rock = {"formation.rocks[0].mu_max": 5.0, "formation.rocks[0].mu_min": 5.0}
+    from drill_env.physics.config import replace
+
+    config = replace(SimulationConfig(bit_model="macroscopic",
+                                      solver=SolverConfig(lateral=False)), **rock)
+    sim = Simulator(config)
+    assert sim.steady_torque_on_bit(60 * RPM, 200e3) > 50e3 * 1.2
+    sim.reset(OperatingPoint(60 * RPM, 200e3))
+    hook = sim.hook_load_for(200e3)
+    sim.vt[:] = 0.0  # stalled
+    sim.advance(round(10.0 / sim.dt), 60 * RPM, hook)
+    assert sim.state[S.MOTOR_TORQUE] == 50e3
+    integral = sim.state[S.PI_INTEGRAL]
+    sim.advance(round(10.0 / sim.dt), 60 * RPM, hook)
+    assert sim.state[S.MOTOR_TORQUE] == 50e3
+    assert sim.state[S.PI_INTEGRAL] == integral  # not one step integrated at the limit

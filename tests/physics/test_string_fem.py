@@ -357,6 +357,23 @@ def test_wall_penalty_force_points_back_to_the_centre(psi):
     assert np.all(out == 0.0)  # leaving fast enough: the damper would pull, no adhesion
 
 
+def test_wall_damper_and_pure_rolling():
+    """eq. (18) with its damper: F_N = k f + c f_dot, by hand. A node rolling on the wall
+    without slip (its centre moving along the wall at -R omega, eq. 24: v_r = r psi_dot +
+    R omega = 0) feels the normal force and no friction at all."""
+    p, contact = contact_params()
+    clearance, depth, radius, omega = 0.02, 0.002, 0.08, 5.0
+    out = np.zeros(4)
+    ig.wall_contact(clearance + depth, 0.0, 0.01, 0.0, 0.0, clearance, radius, p, 0.0, out)
+    fn = contact.stiffness * depth + contact.damping * 0.01
+    assert out[3] == pytest.approx(fn, rel=1e-12)
+    assert out[0] == pytest.approx(-fn, rel=1e-12) and out[1] == 0.0
+    ig.wall_contact(clearance + depth, 0.0, 0.0, -radius * omega, omega, clearance, radius,
+                    p, 0.0, out)
+    assert out[0] == pytest.approx(-contact.stiffness * depth, rel=1e-12)
+    assert abs(out[1]) < 1e-9 * out[3] and abs(out[2]) < 1e-9 * out[3]
+
+
 @pytest.mark.parametrize("omega", [5.0, -5.0])
 @pytest.mark.parametrize("psi", [0.0, 2.0])
 def test_wall_friction_opposes_the_slip_of_the_contact_point(omega, psi):
