@@ -419,3 +419,31 @@ def test_depth_of_cut_peaks_at_the_founder_point():
     no_founder = formation.formation_arrays(FormationConfig(rocks=(HARD,)), cfg.diameter)
     assert loads(cfg, no_founder, wob=3 * w_f)[BitOut.DEPTH_OF_CUT] == pytest.approx(
         HARD.depth_of_cut * 3 * w_f, rel=1e-12)  # no founder point: linear at any WOB
+
+
+def test_gauge_normal_forces_derive_from_the_penetration_energy():
+    """Without motion the gauge pads are springs against the wall: the force and torque
+    on the bit are minus the gradient of U = sum_i k pen_i^2 / 2 over the bit offset and
+    rotation, pen_i = |P_i| - r_hole for the pads' outer points P_i = b + r_C e(theta_i +
+    phi) (eq. 36; eq. 56's normal is this gradient's direction). Central differences of U,
+    written here from the geometry alone, for the asymmetric bit pushed off centre."""
+    cfg = bit.asymmetric_bit()
+    fa = one_interface(DEPTH + 1.0)  # the whole bit in the hard rock above the interface
+    r_c = cfg.gauge_radius
+    theta = np.radians(np.array(cfg.blade_angles))
+    gauge_share = np.array(cfg.gauge_length) > 0.0
+
+    def energy(bx: float, by: float, phi: float) -> float:
+        px = bx + r_c * np.cos(theta + phi)
+        py = by + r_c * np.sin(theta + phi)
+        pen = np.maximum(np.hypot(px, py) - cfg.hole_radius, 0.0) * gauge_share
+        return 0.5 * HARD.wall_stiffness * float(np.sum(pen ** 2))
+
+    bx, by, phi, h = 4.5e-3, 4.2e-3, 0.3, 1e-8
+    out = loads(cfg, fa, bx=bx, by=by, phi_z=phi, omega=0.0)
+    force = [-(energy(bx + h, by, phi) - energy(bx - h, by, phi)) / (2 * h),
+             -(energy(bx, by + h, phi) - energy(bx, by - h, phi)) / (2 * h)]
+    torque = -(energy(bx, by, phi + h) - energy(bx, by, phi - h)) / (2 * h)
+    assert abs(force[0]) > 1e3  # in the wall
+    np.testing.assert_allclose([out[BitOut.GAUGE_X], out[BitOut.GAUGE_Y]], force, rtol=1e-5)
+    assert out[BitOut.GAUGE_TORQUE] == pytest.approx(torque, rel=1e-4)
