@@ -173,3 +173,22 @@ def test_a_survey_reads_from_csv(tmp_path):
     path.write_text("md,incl\n0,0\n")
     with pytest.raises(ValueError, match="missing column"):
         Survey.from_csv(path)
+
+
+def test_a_weightless_string_pulled_round_a_bend_obeys_the_capstan_equation():
+    """Euler-Eytelwein: a rope sliding round an arc of angle theta under friction mu
+    changes its tension by exp(+-mu theta); rotating (no axial friction) the tension stays
+    and the torque is mu r T theta. A 90 deg arc of 1000 m radius, 1000 elements, 100 kN
+    at the bit: the per-element sums converge to the exponential as (theta / n)^2."""
+    radius, mu, tension, r = 1000.0, 0.3, 100e3, 0.08
+    length = radius * math.pi / 2
+    well = Trajectory(Survey.from_stations([0.0, length], [0.0, 90.0], [0.0, 0.0]))
+    col = column(length, weight=0.0, radius=r, dx=length / 1000)
+    theta = math.pi / 2
+    for mode, expected in (("pick_up", math.exp(mu * theta)),
+                           ("slack_off", math.exp(-mu * theta))):
+        result = soft_string(well, col, length, mu, mode, weight_on_bit=-tension)
+        assert result.hook_load / tension == pytest.approx(expected, rel=5e-4), mode
+    rotating = soft_string(well, col, length, mu, "rotating", weight_on_bit=-tension)
+    assert rotating.hook_load == pytest.approx(tension, rel=1e-12)
+    assert rotating.surface_torque == pytest.approx(mu * r * tension * theta, rel=1e-6)
