@@ -447,3 +447,25 @@ def test_gauge_normal_forces_derive_from_the_penetration_energy():
     assert abs(force[0]) > 1e3  # in the wall
     np.testing.assert_allclose([out[BitOut.GAUGE_X], out[BitOut.GAUGE_Y]], force, rtol=1e-5)
     assert out[BitOut.GAUGE_TORQUE] == pytest.approx(torque, rel=1e-4)
+
+
+def test_three_blades_on_one_side_push_the_bit_by_a_third_of_the_cutting_force():
+    """Eqs. (46)-(52) by hand: three equal blades at 0, 90 and 180 deg share the line load
+    W / L equally; each cuts with mu W / 3 against its motion (omega > 0: along
+    (sin theta, -cos theta)), so the 0 and 180 deg blades cancel and the 90 deg blade's
+    (mu W / 3, 0) is left. The torque is mu W times the blades' mean lever arm."""
+    cfg = BitConfig(blade_angles=(0.0, 90.0, 180.0), face_start=(0.02,) * 3,
+                    face_end=(0.07,) * 3, gauge_length=(0.05,) * 3)
+    fa = one_interface(DEPTH + 1.0)
+    omega = 10.0
+    mu = HARD.mu_min + (HARD.mu_max - HARD.mu_min) * math.exp(-omega / HARD.st1)  # eq. 39
+    out = loads(cfg, fa, omega=omega)
+    assert out[BitOut.FORCE_X] == pytest.approx(mu * WOB / 3, rel=1e-12)
+    assert abs(out[BitOut.FORCE_Y]) < 1e-12 * mu * WOB
+    # lever of one blade: length-weighted mean radius of its face and shoulder (eq. 34)
+    blade = bit.blade_arrays(cfg)[0]
+    face = blade[Blade.R_B] - blade[Blade.R_A]
+    shoulder = blade[Blade.L_SH]
+    lever = (face * 0.5 * (blade[Blade.R_A] + blade[Blade.R_B])
+             + shoulder * 0.5 * (blade[Blade.R_B] + blade[Blade.R_C])) / (face + shoulder)
+    assert out[BitOut.TORQUE] == pytest.approx(mu * WOB * lever, rel=1e-12)
