@@ -201,3 +201,33 @@ def test_critical_speeds_are_where_the_excitations_meet_the_modes():
     first_lateral = lateral.frequency[0]
     assert any(c.excitation == "1x" and c.rpm == pytest.approx(60 * first_lateral)
                for c in crit)
+
+
+def test_torsional_modes_with_a_free_top_drive_rotor_are_the_transfer_matrix_roots():
+    """``top="top_drive"`` with the PI gains at 0: the rotor is a free inertia J_td on the
+    top (T(0) = -J_td w^2 phi(0)), the bit one at the bottom (T(L) = J_bit w^2 phi(L)).
+    The exact frequencies solve the transfer-matrix equation of the uniform sections
+    (state (phi, T), each section [[cos kL, sin kL / (GJ k)], [-GJ k sin kL, cos kL]])."""
+    config = replace(SimulationConfig(), **UNDAMPED, **{"top_drive.proportional_gain": 0.0,
+                                                        "top_drive.integral_gain": 0.0})
+    rotor, bit_inertia = config.top_drive.inertia, config.bit.inertia
+    sections = config.string.sections
+
+    def residual(omega: float) -> float:
+        state = np.array([1.0, -rotor * omega ** 2])
+        for s in sections:
+            k = omega / s.torsional_wave_speed
+            gj = s.shear_modulus * s.polar_moment
+            c, sn = math.cos(k * s.length), math.sin(k * s.length)
+            state = np.array([[c, sn / (gj * k)], [-gj * k * sn, c]]) @ state
+        return state[1] - bit_inertia * omega ** 2 * state[0]
+
+    grid = np.linspace(0.05, 15.0, 3000)
+    values = [residual(w) for w in grid]
+    roots = [brentq(residual, a, b, xtol=1e-12) / (2 * math.pi)
+             for a, b, fa, fb in zip(grid[:-1], grid[1:], values[:-1], values[1:],
+                                     strict=True) if fa * fb < 0.0]
+    modes = torsional_modes(config, top="top_drive", n_modes=3)
+    flexible = modes.frequency[modes.frequency > 1e-3]  # not the free string's rotation
+    np.testing.assert_allclose(flexible[:2], roots[:2], rtol=1e-3)
+    assert flexible[0] > torsional_modes(config, top="fixed", n_modes=1).frequency[0]
