@@ -32,17 +32,22 @@ def recording(env):
 
 
 def window_of(env):
-    """The records of the last ``metric_window`` seconds, by the definition."""
-    dt = env.config.record_every * env.sim.dt
+    """The records of the last ``metric_window`` seconds, by the definition; every record
+    stands for the time to the next, which must be the same for all (even spacing)."""
+    records = np.concatenate(env.seen)
+    spacing = np.diff(records[:, COL["time"]])
+    dt = float(spacing[0]) if spacing.size else env.sim.dt * env.config.record_every
+    np.testing.assert_allclose(spacing, dt, rtol=1e-9)
     keep = max(1, round(env.config.metric_window / dt))
-    return np.concatenate(env.seen)[-keep:], dt
+    return records[-keep:], dt
 
 
 @pytest.mark.parametrize("kwargs", [
     {},
     {"metric_window": 0.3},  # the window slides every step
     {"metric_window": 0.05},  # shorter than one control interval
-    {"record_every": 7, "scenario": "paper_case2"},
+    {"record_every": 7, "scenario": "paper_case2"},  # 50 steps: records every 5th
+    {"fidelity": "fast"},  # 25 steps of 4 ms: every 5th, not 10 (40 and 60 ms apart)
 ])
 def test_info_and_reward_are_the_metric_definitions_of_the_records(kwargs):
     env = recording(DrillStringEnv(episode_duration=1.5, **kwargs))

@@ -186,3 +186,43 @@ def test_drilling_observation_tells_the_rock_apart_by_its_drillability():
         readings[rock.name] = float(obs[last_frame + FRAME.index("drillability")])
     assert 1.0 < readings["hard"] < 3.0
     assert readings["soft"] > 1.5 * readings["hard"]
+
+
+def test_reward_terms_follow_their_documented_formulas_from_the_raw_records():
+    """Each term recomputed from the simulator's records of the step (and the last 3 s of
+    them for the window terms) by the formulas of docs/tasks.md, not by the env's code:
+    task 2's ROP / 30 m/h, wear -0.4 (rpm / 100)^1.5 (WOB / 100 kN), energy -0.05 P /
+    100 kW with P = sum |T_motor w_top| dt over the step's seconds; task 1's tracking
+    -0.3 max(0, |mean bit rpm over 3 s - target| - 1)."""
+    from drill_env.physics.layout import R
+
+    env = gym.make("DrillOptimise-v0")
+    obs, info = env.reset(seed=3)
+    base = env.unwrapped
+    for k in range(30):
+        obs, reward, *_, info = env.step(np.array([0.4 - 0.05 * k, -0.3], dtype=np.float32))
+        rec = base.last_records
+        dt = rec[1, R.TIME] - rec[0, R.TIME]
+        terms = info["reward_terms"]
+        assert terms["rop"] == pytest.approx(rec[:, R.ROP].mean() / (30.0 / 3600.0),
+                                             rel=1e-9)
+        rpm, wob = info["speed_setpoint"] / RPM, info["weight_on_bit_setpoint"]
+        assert terms["wear"] == pytest.approx(-0.4 * (rpm / 100.0) ** 1.5 * wob / 100e3,
+                                              rel=1e-12)
+        energy = np.sum(np.abs(rec[:, R.MOTOR_TORQUE] * rec[:, R.SURFACE_SPEED])) * dt
+        power = energy / base.control_interval  # J over the step's seconds
+        assert terms["energy"] == pytest.approx(-0.05 * power / 100e3, rel=1e-9)
+        assert reward == pytest.approx(sum(terms.values()), rel=1e-12)
+
+    env = gym.make("DrillStickSlip-v0")
+    env.reset(seed=5)
+    base = env.unwrapped
+    kept = []
+    for _ in range(60):
+        *_, info = env.step(np.array([0.5], dtype=np.float32))
+        kept.append(base.last_records)
+        rec = np.concatenate(kept)
+        window = rec[rec[:, R.TIME] > rec[-1, R.TIME] - 3.0 + 1e-9]
+        error = abs(window[:, R.BIT_SPEED].mean() - base.targets[0]) / RPM
+        assert info["reward_terms"]["tracking"] == pytest.approx(
+            -0.3 * max(0.0, error - 1.0), rel=1e-6, abs=1e-9)
