@@ -367,7 +367,7 @@ def _print_table(header: Sequence[str], table: Sequence[Sequence[str]]) -> None:
     widths = [max(len(str(cell)) for cell in column) for column in zip(header, *table,
                                                                         strict=True)]
     for k, name in enumerate(header):
-        t.add_column(name, no_wrap=k < 2)  # names whole; numbers may wrap at their "+-"
+        t.add_column(name, no_wrap=k < 2)  # scenario and controller names never wrap
     for r in table:
         t.add_row(*r)
     console = Console()

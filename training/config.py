@@ -113,11 +113,11 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         if key not in known:
             raise ConfigError(f"{where}.{key}: not an argument of {algo.__name__}; known: "
                               f"{', '.join(sorted(known))}")
-        if key in _RANGES and not isinstance(value, str):
-            low, high, closed = _RANGES[key]
-            number = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if not (number and math.isfinite(value) and (value >= low if closed else
-                                                          value > low) and value <= high):
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if key in _RANGES and number:  # schedules ("lin_3e-4"), tuples ([1, "episode"]):
+            low, high, closed = _RANGES[key]  # SB3's own checks
+            if not (math.isfinite(value) and (value >= low if closed else value > low)
+                    and value <= high):
                 bound = f"{'>=' if closed else '>'} {low:g} and <= {high:g}"
                 raise ConfigError(f"{where}.{key}: must be a number {bound}, got {value!r}")
     policies = getattr(algo, "policy_aliases", {})
