@@ -107,37 +107,41 @@ def cmd_run(args: argparse.Namespace) -> int:
     env: Any = gym.make(controller.env_id, **kwargs)
     base: Any = env.unwrapped
     cfg = base.config
-    rpm = args.rpm if args.rpm is not None else base.scenario.surface_speed / RPM
-    wob_kn = args.wob if args.wob is not None else base.scenario.weight_on_bit / KILO
-    for flag, value, (low, high), unit in (("--rpm", rpm, cfg.rpm_range, "rpm"),
-                                           ("--wob", wob_kn, tuple(v / KILO for v in
-                                                                   cfg.weight_on_bit_range),
-                                            "kN")):
+    # set points given on the command line override the episode's; else the seed's own
+    # (a randomised scenario or a task draws them at reset)
+    options: dict[str, float] = {}
+    for flag, value, (low, high), unit, key, scale in (
+            ("--rpm", args.rpm, cfg.rpm_range, "rpm", "surface_speed", RPM),
+            ("--wob", args.wob, tuple(v / KILO for v in cfg.weight_on_bit_range), "kN",
+             "weight_on_bit", KILO)):
+        if value is None:
+            continue
         if not low <= value <= high:
             raise argparse.ArgumentTypeError(f"{flag}: {value:g} {unit} is outside the env's "
                                              f"range {low:g}-{high:g} {unit}")
-    from drill_env.physics.statics import pipe_buckling
-
-    for b in pipe_buckling(base.simulation_config, wob_kn * KILO):
-        print(f"note: {wob_kn:g} kN compresses the {b.component} by "
-              f"{b.compression / KILO:.1f} kN, beyond its buckling load "
-              f"{b.buckling_load / KILO:.1f} kN: it buckles into the wall (the scenarios "
-              "refuse such a starting point; docs/model.md, 'Axial load and buckling')",
-              file=sys.stderr)
+        options[key] = value * scale
     if args.record is not None:
         from drill_env.recording import RecordEpisode
 
         env = RecordEpisode(env, args.record)
     from tqdm import tqdm
 
+    from drill_env.physics.statics import pipe_buckling
+
     t0 = time.perf_counter()
     keys = ("ssi", "stuck_fraction", "whirl_ratio", "radial_ratio", "lateral_force", "rop")
     totals = dict.fromkeys(keys, 0.0)
     steps, reward, reason = 0, 0.0, ""
     info: dict[str, Any] = {}
+    obs, info = env.reset(seed=args.seed, options=options or None)
+    rpm, wob_kn = base.targets[0] / RPM, base.targets[1] / KILO
+    for b in pipe_buckling(base.simulation_config, wob_kn * KILO):
+        print(f"note: {wob_kn:g} kN compresses the {b.component} by "
+              f"{b.compression / KILO:.1f} kN, beyond its buckling load "
+              f"{b.buckling_load / KILO:.1f} kN: it buckles into the wall (the scenarios "
+              "refuse such a starting point; docs/model.md, 'Axial load and buckling')",
+              file=sys.stderr)
     try:
-        obs, info = env.reset(seed=args.seed, options={"surface_speed": rpm * RPM,
-                                                       "weight_on_bit": wob_kn * KILO})
         controller.reset(base)
         for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario} {rpm:.0f} rpm",
                       leave=False, file=sys.stderr):
@@ -233,6 +237,13 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError("--ray-address: a single run trains here; give "
                                          "--seeds to fan several runs out")
     run = args.out / (args.name or f"{args.task}_{args.algo}_seed{config.seed}")
+    from training.train import RUN_FILES
+
+    if any((run / name).exists() for name in RUN_FILES) and not (args.resume or
+                                                                args.overwrite):
+        raise argparse.ArgumentTypeError(f"--name: {run} already holds a training run: "
+                                         "--resume continues it, --overwrite deletes it "
+                                         "and starts again, or give another --name")
     print(f"training {config.algo.upper()} on {config.env_id}: {config.n_timesteps} env steps, "
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
     t0 = time.perf_counter()
@@ -661,6 +672,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = top.parse_args(argv)
     try:
         return int(args.func(args))
+    except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
+        sys.stderr.close()  # nothing more can be said on a closed pipe
+        return 0
     except argparse.ArgumentTypeError as err:  # a bad argument found after parsing
         top.error(f"{args.command}: {err}")
     except (ValueError, OSError) as err:  # a bad value named by the library below

@@ -164,3 +164,15 @@ def test_version_and_exclusive_well_inputs(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["well", "--well", "vertical", "--survey", str(survey), "--out", str(tmp_path)])
     assert "--well: give a preset well or --survey, not both" in capsys.readouterr().err
+
+
+def test_run_keeps_the_seeds_own_set_points_unless_given(tmp_path):
+    """A randomised scenario draws its set points per seed at reset; --rpm/--wob override."""
+    points = []
+    for args in (["--seed", "0"], ["--seed", "1"], ["--seed", "1", "--rpm", "70"]):
+        assert main(["run", "--scenario", "random", "--duration", "0.3", *args, "--out",
+                     str(tmp_path)]) == 0
+        summary = json.loads((tmp_path / "run_summary.json").read_text())
+        points.append((round(summary["rpm"], 6), round(summary["weight_on_bit_kN"], 6)))
+    assert points[0] != points[1]
+    assert points[2] == (70.0, points[1][1])

@@ -112,15 +112,21 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
                                                                        capsys):
     import shutil
 
+    from drill_env.physics.config import replace
+
     folder, cfg = run
     copy = tmp_path / "copy"
     shutil.copytree(folder, copy)
     (copy / "evaluation").mkdir()  # what drill-env evaluate leaves beside a run
     with pytest.raises(FileExistsError, match="--resume continues it, --overwrite"):
         train(cfg, copy, progress=False)
-    # a finished run without checkpoints resumes from its final model
+    # a finished run without checkpoints resumes from its final model, and not below
+    # the steps it has done
     shutil.rmtree(copy / "checkpoints")
-    train(cfg, copy, resume=True, progress=False)
+    with pytest.raises(ValueError, match="--timesteps: .* has done 2048 env steps"):
+        train(cfg, copy, resume=True, progress=False)
+    assert yaml.safe_load((copy / "config.yaml").read_text())["n_timesteps"] == 2048
+    train(replace(cfg, n_timesteps=2560), copy, resume=True, progress=False)
     assert "nothing to resume" not in capsys.readouterr().out
     # nothing at all to resume: said, then trained from the start
     fresh = tmp_path / "fresh"
@@ -130,6 +136,29 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
     train(small, copy, overwrite=True, progress=False)  # a new run: the old one is gone
     assert not (copy / "evaluation").exists() and not (copy / "evaluations.csv").exists()
     assert (copy / "model.zip").exists()
+
+
+def test_a_resumed_run_keeps_its_best_model_until_an_evaluation_beats_it(run, tmp_path):
+    import hashlib
+    import shutil
+
+    from drill_env.physics.config import replace
+
+    folder, cfg = run
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    with (copy / "evaluations.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    rows[-1]["return"] = "1e9"  # an earlier evaluation nothing will beat
+    with (copy / "evaluations.csv").open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    best = hashlib.sha256((copy / "best_model.zip").read_bytes()).hexdigest()
+    train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
+    with (copy / "evaluations.csv").open() as f:
+        assert int(list(csv.DictReader(f))[-1]["timesteps"]) == 3072  # it did evaluate
+    assert hashlib.sha256((copy / "best_model.zip").read_bytes()).hexdigest() == best
 
 
 def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsys):
@@ -240,3 +269,21 @@ def test_torch_stays_at_its_configured_threads_through_batched_steps():
     finally:
         torch.set_num_threads(before)
         env.close()
+
+
+def test_a_resumed_sac_run_warms_its_empty_replay_buffer_up_again(tmp_path):
+    """SAC's buffer is not checkpointed: after a resume it collects ``learning_starts``
+    steps again before its first gradient step."""
+    from stable_baselines3 import SAC
+
+    from drill_env.physics.config import replace
+
+    cfg = load_config("stick_slip", "sac", n_timesteps=256, n_envs=4, eval_freq=10_000,
+                      checkpoint_freq=10_000, env_kwargs={"episode_duration": 3.0})
+    cfg = replace(cfg, hyperparams=dict(cfg.hyperparams, learning_starts=64,
+                                        buffer_size=1000, batch_size=32))
+    train(cfg, tmp_path / "sac", progress=False)
+    train(replace(cfg, n_timesteps=384), tmp_path / "sac", resume=True, progress=False)
+    model = SAC.load(tmp_path / "sac" / "model.zip", device="cpu")
+    assert model.num_timesteps == 384
+    assert model.learning_starts == 256 + 64

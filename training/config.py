@@ -155,4 +155,8 @@ def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
     if "n_timesteps" in entry:
         entry["n_timesteps"] = int(float(entry["n_timesteps"]))
     entry.update({k: v for k, v in overrides.items() if v is not None})
-    return from_dict(TrainConfig, {"task": task, "algo": algo, **entry})
+    try:
+        return from_dict(TrainConfig, {"task": task, "algo": algo, **entry})
+    except ConfigError as err:  # name the YAML path: the entry sits under the algorithm
+        text = str(err)
+        raise ConfigError(text if text.startswith(f"{algo}.") else f"{algo}.{text}") from None

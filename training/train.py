@@ -93,8 +93,13 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any) -> list[Any]:
 
         def __init__(self) -> None:
             super().__init__()
-            self.best = -np.inf
             self.path = run / "evaluations.csv"
+            # a resumed run keeps its best model until an evaluation beats it
+            self.best = -np.inf
+            if self.path.exists() and (run / "best_model.zip").exists():
+                with self.path.open() as f:
+                    self.best = max((float(r["return"]) for r in csv.DictReader(f)),
+                                    default=-np.inf)
 
         def _on_step(self) -> bool:
             if self.n_calls % per_env:
@@ -197,7 +202,9 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     and VecNormalize statistics, or the final model of a finished run without
     checkpoints; with nothing to resume it says so and starts from the beginning. SAC's
     replay buffer is not checkpointed (it would be ~100x the model), so a resumed SAC run
-    starts from an empty buffer that fills with the restored policy's transitions."""
+    starts from an empty buffer, which it fills for ``learning_starts`` steps (random
+    actions, as at the start) before its first gradient step. Resuming with
+    ``n_timesteps`` at or below the steps done is refused."""
     import shutil
 
     from stable_baselines3.common.vec_env import VecNormalize
@@ -219,7 +226,6 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
             raise ValueError(f"resume: {run} was trained with another config (only "
                              "n_timesteps and torch_threads may change); start a new run name or "
                              "drop --resume")
-    saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
     algo = _algo_class(config.algo)
     latest = _latest_checkpoint(run) if resume else None
     if resume and latest is None:
@@ -234,9 +240,20 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
         model_path, norm_path = latest
         env = VecNormalize.load(str(norm_path), env.venv)
         model = algo.load(str(model_path), env=env, tensorboard_log=str(run / "tb"))
+        if model.num_timesteps >= config.n_timesteps:
+            env.close()
+            raise ValueError(f"--timesteps: {run} has done {model.num_timesteps} env steps "
+                             f"already; give more than that to continue it")
+        if hasattr(model, "learning_starts"):  # SAC: the replay buffer is not saved,
+            # so it warms up again as at the start (learning_starts steps) before the
+            # first gradient step: else the first updates sample 256 transitions from the
+            # first few
+            model.learning_starts = model.num_timesteps + int(
+                config.hyperparams.get("learning_starts", 100))  # SB3's default: 100
         print(f"resuming from {model_path.name} ({model.num_timesteps} steps)")
     else:
         model = new_model(config, env, tensorboard_log=str(run / "tb"))
+    saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
     t0 = time.perf_counter()
     remaining = max(0, config.n_timesteps - model.num_timesteps)
     model.learn(remaining, callback=_callbacks(config, run, env), progress_bar=progress,
