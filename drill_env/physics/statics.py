@@ -21,7 +21,13 @@ from drill_env.physics.units import GRAVITY
 
 #: Kinds of component that are pipe (not built to carry compression).
 PIPE_KINDS = frozenset({"drill_pipe", "heavy_weight"})
-#: Lubinski's heavy-column coefficient: F_c = 1.94 (E I w^2)^(1/3).
+#: Lubinski's heavy-column coefficient: F_c = 1.94 (E I w^2)^(1/3), his 1950 value for
+#: pipe pinned at its lower end. The exact load of that idealisation falls slowly with the
+#: pipe's length (the pin's reaction decays only as 1/x up the string): 1.88 at 10 units
+#: of (EI/w)^(1/3), 1.62 at 36 (600 m of 5 in pipe), 1.55 at 60; a free lower end gives
+#: 1.02 at any length (tests/physics/test_modes.py checks the FE string against these).
+#: It screens scenario definitions (``Scenario`` refuses a start beyond it); no preset
+#: scenario compresses its pipe at all, and the FE string models the buckling itself.
 LUBINSKI = 1.94
 
 

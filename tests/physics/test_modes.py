@@ -3,6 +3,7 @@ validation, the damping ratio against its perturbation estimate, the critical sp
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -155,6 +156,56 @@ def test_a_heavy_hanging_pipe_buckles_at_the_airy_load():
                                                 inertia=1e-6))
         found = lateral_buckling_weight(config, supports="top_only", region="string")
         assert found == pytest.approx(a * (ei * w * w) ** (1 / 3), rel=5e-3), tilt_held
+
+
+def _heavy_column_load(bottom: str, length: float) -> float:
+    """The first buckling load of a hanging column of ``length`` (in units of (EI/w)^(1/3))
+    under a WOB at its lower end, in units of (EI w^2)^(1/3): y'''' = ((x - W) y')' in
+    x = s (w / EI)^(1/3) (tension stiffens it), y = y' = 0 at the top; solved by scipy's
+    collocation BVP solver with W as the unknown."""
+    from scipy.integrate import solve_bvp
+
+    x = np.linspace(0.0, length, 2000)
+    bottoms = {"hinged": lambda ya, p: [ya[0], ya[2], ya[1] - 1.0],  # y = y'' = 0, y' = 1
+               "free": lambda ya, p: [ya[2], ya[3] + p[0] * ya[1], ya[0] - 1.0]}
+
+    def fun(s, y, p):
+        return np.vstack([y[1], y[2], y[3], (s - p[0]) * y[2] + y[1]])
+
+    def bc(ya, yb, p):
+        bottom_conditions = bottoms[bottom](ya, p)
+        return np.array([*bottom_conditions[:2], yb[0], yb[1], bottom_conditions[2]])
+
+    guess = np.vstack([np.exp(-x), -np.exp(-x), np.exp(-x), -np.exp(-x)])
+    solution = solve_bvp(fun, bc, x, guess, p=[1.5], tol=1e-8, max_nodes=200_000)
+    assert solution.success
+    return float(solution.p[0])
+
+
+def test_a_heavy_pipe_pinned_at_the_bit_buckles_at_the_heavy_column_load():
+    """The hinged bottom (bit pinned, free to tilt), the case of Lubinski's 1950
+    coefficient that ``statics.pipe_buckling`` uses (1.94). Unlike a free bottom (Ai':
+    1.0188 whatever the length), the pin's reaction decays only as 1/x up the string, so
+    the load falls slowly with the length: 1.88 (EI w^2)^(1/3) at 10 units of (EI/w)^(1/3)
+    (close to Lubinski's), 1.62 at the 36 units of 600 m of 5 in pipe. The FE string,
+    pinned at the bit with no stabilizers, finds the collocation solution's load."""
+    from drill_env.physics.config import Section
+    from drill_env.physics.statics import LUBINSKI
+
+    assert _heavy_column_load("free", 10.0) == pytest.approx(1.01879, rel=1e-4)
+    assert _heavy_column_load("hinged", 10.0) == pytest.approx(LUBINSKI, rel=0.04)
+    pipe = Section(length=600.0, outer_diameter=0.127, inner_diameter=0.1086,
+                   element_length=1.0)
+    string = StringConfig(drill_pipe=pipe, bha=dataclasses.replace(pipe, length=2.0),
+                          stabilizers=())
+    config = SimulationConfig(string=string, mud=MudConfig(density=0.0),
+                              bit=BitConfig(axis_aligned=False, mass=1e-6, inertia=1e-6))
+    ei = pipe.youngs_modulus * pipe.second_moment
+    w = pipe.density * pipe.area * 9.80665
+    unit_length, unit_force = (ei / w) ** (1 / 3), (ei * w * w) ** (1 / 3)
+    hinged = _heavy_column_load("hinged", string.length / unit_length)
+    found = lateral_buckling_weight(config, supports="stabilizers", region="string")
+    assert found == pytest.approx(hinged * unit_force, rel=5e-3)
 
 
 def test_lateral_modes_refuse_a_buckled_string_and_a_deviated_hole():
