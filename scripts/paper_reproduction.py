@@ -5,7 +5,7 @@
     .venv/bin/python scripts/paper_reproduction.py --kicks         # + the initial-kick table
 
 ``--kicks`` also prints the lateral figures of the docs' table at initial kicks of 0.5-3 %
-(about 1 min): the coupled cases are chaotic, so a figure quoted from one kick is noise.
+(about 10 s): the coupled cases are chaotic, so a figure quoted from one kick is noise.
 
 Every run comes from drill_env.tools.studies.simulate, the same code the paper-result tests use;
 the stability maps (Fig. 15) from drill_env.stability_map, as ``drill-env stability-map``.
