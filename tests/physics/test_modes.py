@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 import scipy.linalg
+from reference_solutions import transfer_matrix_frequencies
 from scipy.optimize import brentq
 
 from drill_env.physics import components as cp
@@ -258,26 +259,11 @@ def test_torsional_modes_with_a_free_top_drive_rotor_are_the_transfer_matrix_roo
     """``top="top_drive"`` with the PI gains at 0: the rotor is a free inertia J_td on the
     top (T(0) = -J_td w^2 phi(0)), the bit one at the bottom (T(L) = J_bit w^2 phi(L)).
     The exact frequencies solve the transfer-matrix equation of the uniform sections
-    (state (phi, T), each section [[cos kL, sin kL / (GJ k)], [-GJ k sin kL, cos kL]])."""
+    (``reference_solutions.transfer_matrix_frequencies``)."""
     config = replace(SimulationConfig(), **UNDAMPED, **{"top_drive.proportional_gain": 0.0,
                                                         "top_drive.integral_gain": 0.0})
-    rotor, bit_inertia = config.top_drive.inertia, config.bit.inertia
-    sections = config.string.sections
-
-    def residual(omega: float) -> float:
-        state = np.array([1.0, -rotor * omega ** 2])
-        for s in sections:
-            k = omega / s.torsional_wave_speed
-            gj = s.shear_modulus * s.polar_moment
-            c, sn = math.cos(k * s.length), math.sin(k * s.length)
-            state = np.array([[c, sn / (gj * k)], [-gj * k * sn, c]]) @ state
-        return state[1] - bit_inertia * omega ** 2 * state[0]
-
-    grid = np.linspace(0.05, 15.0, 3000)
-    values = [residual(w) for w in grid]
-    roots = [brentq(residual, a, b, xtol=1e-12) / (2 * math.pi)
-             for a, b, fa, fb in zip(grid[:-1], grid[1:], values[:-1], values[1:],
-                                     strict=True) if fa * fb < 0.0]
+    roots = transfer_matrix_frequencies(config.string.sections, config.bit.inertia, 2.5,
+                                        top_inertia=config.top_drive.inertia, f_min=0.008)
     modes = torsional_modes(config, top="top_drive", n_modes=3)
     flexible = modes.frequency[modes.frequency > 1e-3]  # not the free string's rotation
     np.testing.assert_allclose(flexible[:2], roots[:2], rtol=1e-3)

@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 import scipy.linalg
+from reference_solutions import transfer_matrix_frequency
 from scipy.optimize import brentq
 
 from drill_env.physics import integrator as ig
@@ -50,28 +51,9 @@ def fixed_top_torsional_frequency_fe(cfg: SimulationConfig) -> float:
 
 
 def fixed_top_torsional_frequency_exact(sections, end_inertia: float) -> float:
-    """First root of the shaft-with-end-inertia frequency equation, by transfer matrices.
-
-    State (twist, torque T = GJ dphi/ds) along the string from the fixed top (phi = 0,
-    T = 1); a uniform section of length L and wave number k = omega/c maps it with
-    [[cos kL, sin kL / (GJ k)], [-GJ k sin kL, cos kL]]. The end inertia requires
-    T(L) = J_end omega^2 phi(L).
-    """
-    def residual(omega: float) -> float:
-        state = np.array([0.0, 1.0])
-        for s in sections:
-            k = omega / s.torsional_wave_speed
-            gj = s.shear_modulus * s.polar_moment
-            c, sn = math.cos(k * s.length), math.sin(k * s.length)
-            state = np.array([[c, sn / (gj * k)], [-gj * k * sn, c]]) @ state
-        return state[1] - end_inertia * omega**2 * state[0]
-
-    grid = np.linspace(1e-3, 20.0, 4000)
-    values = [residual(w) for w in grid]
-    for a, b, fa, fb in zip(grid[:-1], grid[1:], values[:-1], values[1:], strict=True):
-        if fa * fb < 0.0:
-            return brentq(residual, a, b, xtol=1e-12) / (2.0 * math.pi)
-    raise AssertionError("no root")
+    """First root of the shaft-with-end-inertia frequency equation, by transfer matrices
+    (``reference_solutions.transfer_matrix_frequency``; fixed top, end inertia at the bit)."""
+    return transfer_matrix_frequency(sections, end_inertia, 3.0)
 
 
 def heavy_bha() -> Section:
