@@ -227,7 +227,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from training.config import load_config
-    from training.train import train
+    from training.train import check_run_folder, train
 
     config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
                          seed=args.seed, n_envs=args.n_envs)
@@ -237,13 +237,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError("--ray-address: a single run trains here; give "
                                          "--seeds to fan several runs out")
     run = args.out / (args.name or f"{args.task}_{args.algo}_seed{config.seed}")
-    from training.train import RUN_FILES
-
-    if any((run / name).exists() for name in RUN_FILES) and not (args.resume or
-                                                                args.overwrite):
-        raise argparse.ArgumentTypeError(f"--name: {run} already holds a training run: "
-                                         "--resume continues it, --overwrite deletes it "
-                                         "and starts again, or give another --name")
+    check_run_folder(run, args.resume, args.overwrite)  # before announcing the training
     print(f"training {config.algo.upper()} on {config.env_id}: {config.n_timesteps} env steps, "
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
     t0 = time.perf_counter()

@@ -36,14 +36,13 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     """One seed's run (resumed from its last checkpoint if it has one)."""
     import torch
 
-    from training.train import RUN_FILES, train
+    from training.train import holds_run, train
 
     config, folder = args
     torch.set_num_threads(1)
     run = Path(folder)
     # an interrupted sweep continues its runs; a new one starts them
-    started = any((run / name).exists() for name in RUN_FILES)
-    train(config, run, resume=started, progress=False)
+    train(config, run, resume=holds_run(run), progress=False)
     info = json.loads((run / "run.json").read_text())
     rows = []
     if (run / "evaluations.csv").exists():  # none before the first evaluation

@@ -193,6 +193,19 @@ def _latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
 RUN_FILES = ("config.yaml", "model.zip", "run.json", "checkpoints")
 
 
+def holds_run(run: Path) -> bool:
+    """Whether the folder ``run`` holds a training run (started or finished)."""
+    return any((run / name).exists() for name in RUN_FILES)
+
+
+def check_run_folder(run: Path, resume: bool, overwrite: bool) -> None:
+    """FileExistsError if ``run`` holds a run and neither ``resume`` nor ``overwrite``."""
+    if holds_run(run) and not (resume or overwrite):
+        raise FileExistsError(f"{run} already holds a training run: --resume continues it, "
+                              "--overwrite deletes it and starts again, or give another "
+                              "--name")
+
+
 def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool = True,
           overwrite: bool = False) -> Path:
     """Train (or resume) the run in folder ``run``; returns the path of the final model.
@@ -209,11 +222,8 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
 
     from stable_baselines3.common.vec_env import VecNormalize
 
-    if any((run / name).exists() for name in RUN_FILES) and not resume:
-        if not overwrite:
-            raise FileExistsError(f"{run} already holds a training run: --resume continues "
-                                  "it, --overwrite deletes it and starts again, or give "
-                                  "another --name")
+    check_run_folder(run, resume, overwrite)
+    if overwrite and not resume and holds_run(run):
         shutil.rmtree(run)
     run.mkdir(parents=True, exist_ok=True)
     saved = run / "config.yaml"
