@@ -440,6 +440,19 @@ def test_the_critical_step_of_the_explicit_contacts_is_the_damped_oscillators(ze
     assert low == pytest.approx(2.0 * (np.sqrt(1.0 + zeta * zeta) - zeta), rel=1e-6)
 
 
+def _exact_from_rest(k: np.ndarray, c: np.ndarray, m: np.ndarray, v0: np.ndarray,
+                     seconds: float) -> tuple[np.ndarray, np.ndarray]:
+    """(displacement, velocity) at ``seconds`` of M x'' + C x' + K x = 0 (M = diag(m)) from
+    zero displacement and velocity ``v0``: scipy's expm of [[0, I], [-M^-1 K, -M^-1 C]]."""
+    n = len(m)
+    a = np.zeros((2 * n, 2 * n))
+    a[:n, n:] = np.eye(n)
+    a[n:, :n] = -k / m[:, None]
+    a[n:, n:] = -c / m[:, None]
+    state = scipy.linalg.expm(a * seconds) @ np.concatenate([np.zeros(n), v0])
+    return state[:n], state[n:]
+
+
 def test_damped_torsional_transient_matches_the_matrix_exponential():
     """The integrator against scipy's exact solution of the same linear ODE: torsion
     only, the bit off bottom (no bit torque), the top drive's rotor free (PI gains 0:
@@ -458,7 +471,6 @@ def test_damped_torsional_transient_matches_the_matrix_exponential():
     sim = Simulator(config)
     sim.reset(OperatingPoint(0.0, 0.0))
     k, c, j, _ = torsional_system(config, top="top_drive")
-    n = len(j)
     values, vectors = scipy.linalg.eigh(k, np.diag(j))
     first = vectors[:, np.argmax(values > 1e-9 * values.max())]  # skip the drive's slow mode
     v0 = 0.5 * first / np.abs(first).max()  # rad/s
@@ -467,12 +479,7 @@ def test_damped_torsional_transient_matches_the_matrix_exponential():
     sim.at[:] = -(c @ v0) / j  # the ODE's acceleration at t = 0
     seconds = 5.0
     sim.advance(round(seconds / sim.dt), 0.0, sim.hook_load_for(0.0))
-    a = np.zeros((2 * n, 2 * n))
-    a[:n, n:] = np.eye(n)
-    a[n:, :n] = -k / j[:, None]
-    a[n:, n:] = -c / j[:, None]
-    exact = scipy.linalg.expm(a * seconds) @ np.concatenate([np.zeros(n), v0])
-    angle, speed = exact[:n], exact[n:]
+    angle, speed = _exact_from_rest(k, c, j, v0, seconds)
     print(f"angle error {np.abs(sim.ut - angle).max() / np.abs(angle).max():.1e}, speed error "
           f"{np.abs(sim.vt - speed).max() / np.abs(speed).max():.1e}")
     assert np.abs(sim.ut - angle).max() < 1e-3 * np.abs(angle).max()
@@ -539,11 +546,7 @@ def _lateral_transient_error(time_step: float) -> tuple[float, float, float]:
     sim.vl[:, 0] = v0
     sim.al[free, 0] = -(c[ix] @ v0[free]) / m[free]
     sim.advance(round(1.0 / sim.dt), 0.0, sim.hook_load_for(0.0))
-    a = np.zeros((2 * len(free), 2 * len(free)))
-    a[:len(free), len(free):] = np.eye(len(free))
-    a[len(free):, :len(free)] = -k[ix] / m[free][:, None]
-    a[len(free):, len(free):] = -c[ix] / m[free][:, None]
-    exact = (scipy.linalg.expm(a) @ np.concatenate([np.zeros(len(free)), v0[free]]))[:len(free)]
+    exact, _ = _exact_from_rest(k[ix], c[ix], m[free], v0[free], 1.0)
     assert np.abs(sim.ul[free, 1]).max() == 0.0  # the other plane stays at rest
     w = float(np.sqrt(values[mode]))
     zeta = config.damping.mass_proportional / (2 * w) + \
