@@ -80,30 +80,29 @@ def test_lateral_modes_are_the_eigenvalues_of_the_assembled_matrices():
     np.testing.assert_allclose(modes.frequency, expected, rtol=1e-5)
 
 
+def _pinned_collar() -> tuple[cp.Section, SimulationConfig]:
+    """A 6 m collar of 0.3 m elements below 1 m of collar, no mud, a massless bit free to
+    tilt: pinned at its top and at the bit by ``supports="stabilizers"``."""
+    collar = cp.collar_6_5(6.0, 0.3)
+    string = StringConfig(drill_pipe=cp.collar_6_5(1.0, 0.5), components=(collar,))
+    return collar, SimulationConfig(string=string, mud=MudConfig(density=0.0),
+                                    bit=BitConfig(axis_aligned=False, mass=1e-6,
+                                                  inertia=1e-6))
+
+
 def test_lateral_modes_of_a_short_collar_are_the_pinned_pinned_beam():
     """A 6 m collar, pinned at the top and at the (tilt-free) bit, no mud: Euler-Bernoulli
     w_n = (n pi / L)^2 sqrt(EI / rho A); its own weight (7 kN of tension against a 2 MN
     buckling load) moves the frequencies by < 0.2 %."""
-    collar = cp.collar_6_5(6.0, 0.3)
-    string = StringConfig(drill_pipe=cp.collar_6_5(1.0, 0.5), components=(collar,))
-    config = SimulationConfig(string=string, mud=MudConfig(density=0.0),
-                              bit=BitConfig(axis_aligned=False, mass=1e-6, inertia=1e-6),
-                              damping=DampingConfig(mass_proportional=0.0,
-                                                    stiffness_proportional=0.0))
+    collar, config = _pinned_collar()
+    config = dataclasses.replace(config, damping=DampingConfig(mass_proportional=0.0,
+                                                               stiffness_proportional=0.0))
     modes = lateral_modes(config, 0.0, supports="stabilizers", n_modes=3, region="bha")
     ei = collar.youngs_modulus * collar.second_moment
     rho_a = collar.density * collar.area
     expected = [(n * math.pi / collar.length) ** 2 * math.sqrt(ei / rho_a) / (2 * math.pi)
                 for n in (1, 2, 3)]
     np.testing.assert_allclose(modes.frequency, expected, rtol=0.01)
-
-
-def _pinned_collar() -> tuple[cp.Section, SimulationConfig]:
-    collar = cp.collar_6_5(6.0, 0.3)
-    string = StringConfig(drill_pipe=cp.collar_6_5(1.0, 0.5), components=(collar,))
-    return collar, SimulationConfig(string=string, mud=MudConfig(density=0.0),
-                                    bit=BitConfig(axis_aligned=False, mass=1e-6,
-                                                  inertia=1e-6))
 
 
 def test_lateral_buckling_weight_of_a_pinned_collar_is_eulers_load():
