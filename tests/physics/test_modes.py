@@ -132,6 +132,24 @@ def test_mud_loads_the_lateral_mass_with_its_inner_column_and_added_mass():
                                                      region="bha").frequency[0]
 
 
+def _hanging_pipe(element_length: float, tilt_held: bool
+                  ) -> tuple[SimulationConfig, float, float]:
+    """600 m of 5 in drill pipe (2 m of it as the "BHA", no stabilizers) hanging in air
+    over a massless bit: the config, and the heavy column's units of length
+    (EI / w)^(1/3) and force (EI w^2)^(1/3), w the steel weight per metre."""
+    from drill_env.physics.config import Section
+
+    pipe = Section(length=600.0, outer_diameter=0.127, inner_diameter=0.1086,
+                   element_length=element_length)
+    string = StringConfig(drill_pipe=pipe, bha=dataclasses.replace(pipe, length=2.0),
+                          stabilizers=())
+    config = SimulationConfig(string=string, mud=MudConfig(density=0.0),
+                              bit=BitConfig(axis_aligned=tilt_held, mass=1e-6, inertia=1e-6))
+    ei = pipe.youngs_modulus * pipe.second_moment
+    w = pipe.density * pipe.area * 9.80665
+    return config, (ei / w) ** (1 / 3), (ei * w * w) ** (1 / 3)
+
+
 def test_a_heavy_hanging_pipe_buckles_at_the_airy_load():
     """A long vertical pipe hanging from the top, WOB at its lower end: the compressed
     bottom buckles where EI y'''' + (N y')' = 0 with N = w s - W (s up from the bit), the
@@ -140,22 +158,11 @@ def test_a_heavy_hanging_pipe_buckles_at_the_airy_load():
     bit's tilt fixed). No mud: w is the steel weight per metre."""
     from scipy.special import ai_zeros
 
-    from drill_env.physics.config import Section
-
-    pipe = Section(length=600.0, outer_diameter=0.127, inner_diameter=0.1086,
-                   element_length=2.0)
-    string = StringConfig(drill_pipe=pipe, bha=Section(length=2.0, outer_diameter=0.127,
-                                                       inner_diameter=0.1086,
-                                                       element_length=2.0))
     zeros, zeros_prime, _, _ = ai_zeros(1)
-    ei = pipe.youngs_modulus * pipe.second_moment
-    w = pipe.density * pipe.area * 9.80665
     for tilt_held, a in ((False, -zeros_prime[0]), (True, -zeros[0])):
-        config = SimulationConfig(string=string, mud=MudConfig(density=0.0),
-                                  bit=BitConfig(axis_aligned=tilt_held, mass=1e-6,
-                                                inertia=1e-6))
+        config, _, unit_force = _hanging_pipe(2.0, tilt_held)
         found = lateral_buckling_weight(config, supports="top_only", region="string")
-        assert found == pytest.approx(a * (ei * w * w) ** (1 / 3), rel=5e-3), tilt_held
+        assert found == pytest.approx(a * unit_force, rel=5e-3), tilt_held
 
 
 def _heavy_column_load(bottom: str, length: float) -> float:
@@ -189,21 +196,12 @@ def test_a_heavy_pipe_pinned_at_the_bit_buckles_at_the_heavy_column_load():
     the load falls slowly with the length: 1.88 (EI w^2)^(1/3) at 10 units of (EI/w)^(1/3)
     (close to Lubinski's), 1.62 at the 36 units of 600 m of 5 in pipe. The FE string,
     pinned at the bit with no stabilizers, finds the collocation solution's load."""
-    from drill_env.physics.config import Section
     from drill_env.physics.statics import LUBINSKI
 
     assert _heavy_column_load("free", 10.0) == pytest.approx(1.01879, rel=1e-4)
     assert _heavy_column_load("hinged", 10.0) == pytest.approx(LUBINSKI, rel=0.04)
-    pipe = Section(length=600.0, outer_diameter=0.127, inner_diameter=0.1086,
-                   element_length=1.0)
-    string = StringConfig(drill_pipe=pipe, bha=dataclasses.replace(pipe, length=2.0),
-                          stabilizers=())
-    config = SimulationConfig(string=string, mud=MudConfig(density=0.0),
-                              bit=BitConfig(axis_aligned=False, mass=1e-6, inertia=1e-6))
-    ei = pipe.youngs_modulus * pipe.second_moment
-    w = pipe.density * pipe.area * 9.80665
-    unit_length, unit_force = (ei / w) ** (1 / 3), (ei * w * w) ** (1 / 3)
-    hinged = _heavy_column_load("hinged", string.length / unit_length)
+    config, unit_length, unit_force = _hanging_pipe(1.0, tilt_held=False)
+    hinged = _heavy_column_load("hinged", config.string.length / unit_length)
     found = lateral_buckling_weight(config, supports="stabilizers", region="string")
     assert found == pytest.approx(hinged * unit_force, rel=5e-3)
 
