@@ -17,25 +17,29 @@ what limits the batch on a few cores (docs/performance.md).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
 from drill_env.env import DrillStringEnv
-from drill_env.metrics import WindowArrays, rolling_add
+from drill_env.env_batch import BatchInfo
+from drill_env.metrics import Metric, WindowArrays, rolling_add
 from drill_env.physics.batch import SimulatorBatch, TupleSlots
 from drill_env.physics.readings import advance_and_read
 
-__all__ = ["EnvBatch", "step_all", "step_many"]
+__all__ = ["BatchArrays", "EnvBatch", "step_all", "step_batch", "step_many"]
 
 @njit(cache=True, parallel=True, nogil=True)
-def step_many(n_steps, record_every, run, n_rec, flags, sims, windows):
+def step_many(n_steps, record_every, run, n_rec, flags, sims, windows, readings_out, step_out,
+              window_out):
     """For each env e with ``run[e]``: advance its simulator (``sims[e]``: its
     ``(KernelArrays, readings)``), then add the records to its metric window
     (``windows[e]``: its :class:`~drill_env.metrics.WindowArrays`). ``n_rec[e]``: records
     written; ``flags[e]``: the flags of :func:`~drill_env.metrics.rolling_add` (0 without
-    records)."""
+    records). Row e of ``readings_out``, ``step_out`` and ``window_out`` receives the
+    env's fresh readings (as many as fit) and, with records, its step and window metrics:
+    the batch's view of every env at once, gathered while each env's data is in cache."""
     for i in prange(len(sims)):
         e = np.int64(i)  # typed lists take signed indices; prange's are unsigned
         n_rec[e] = 0
@@ -45,8 +49,13 @@ def step_many(n_steps, record_every, run, n_rec, flags, sims, windows):
         arrays, readings = sims[e]
         k = advance_and_read(n_steps[e], record_every[e], arrays, readings)
         n_rec[e] = k
+        for j in range(min(readings.shape[0], readings_out.shape[1])):
+            readings_out[e, j] = readings[j]
         if k > 0:
-            flags[e] = rolling_add(arrays.record[:k], windows[e], True)
+            window = windows[e]
+            flags[e] = rolling_add(arrays.record[:k], window, True)
+            step_out[e, :] = window.step_out
+            window_out[e, :] = window.window_out
 
 
 def window_arrays(env: DrillStringEnv) -> WindowArrays:
@@ -57,6 +66,18 @@ def window_key(env: DrillStringEnv) -> int:
     """A new window (every reset) or a grown buffer re-points the slot. Safe against
     reused ids: the slot keeps the old buffer alive, so a new one cannot have its id."""
     return id(env.rolling_metrics.arrays.samples)
+
+
+class BatchArrays(NamedTuple):
+    """One control interval of a batch, as :meth:`EnvBatch.run` leaves it: row e is env e
+    (rows of envs that did not step are stale). The arrays are reused by the next call."""
+
+    run: np.ndarray       # bool: the env's simulator ran (False: inactive or stopped)
+    n_rec: np.ndarray     # int64: records written this interval
+    flags: np.ndarray     # int64: rolling_add's flags (1: step finite, 2: window finite)
+    step: np.ndarray      # (n, len(Metric)): metrics of this interval's records
+    window: np.ndarray    # (n, len(Metric)): metrics of the window
+    readings: np.ndarray  # (n, len(readings)): the fresh readings
 
 
 class EnvBatch:
@@ -72,27 +93,43 @@ class EnvBatch:
         self.sims = SimulatorBatch(self.size)
         self._windows = TupleSlots(self.size, window_arrays, window_key)
         self._flags = np.zeros(self.size, dtype=np.int64)
+        self._step = np.zeros((self.size, len(Metric)))
+        self._window = np.zeros((self.size, len(Metric)))
+        self._readings = np.zeros((self.size, 0))
 
-    def advance(self, envs: Sequence[DrillStringEnv], active: np.ndarray
-                ) -> list[tuple[Any, Any] | None]:
-        """Run every active env's control interval; per env its (step, window) metrics
-        as ``RollingMetrics.update`` returns them (None where not active)."""
+    def run(self, envs: Sequence[DrillStringEnv], active: np.ndarray) -> BatchArrays:
+        """Run every active env's control interval in one parallel call; the batch's
+        arrays (:class:`BatchArrays`). The readings' width is that of env 0's."""
         arguments = [env.advance_request() for env in envs]
         n_steps, speeds, hooks, every = zip(*arguments, strict=True)
         sims = [env.sim for env in envs]
         steps, every_array, run = self.sims.prepare(sims, n_steps, speeds, hooks, every, active)
         for env, n, k in zip(envs, n_steps, every, strict=True):
             env.rolling_metrics.reserve(n // k if k > 0 else 0)
-        n_rec, flags = self.sims.n_rec, self._flags
-        step_many(steps, every_array, run, n_rec, flags, self.sims.slots(sims),
-                  self._windows.of(envs))
+        width = len(sims[0].readings)
+        if self._readings.shape[1] != width:
+            self._readings = np.zeros((self.size, width))
+        step_many(steps, every_array, run, self.sims.n_rec, self._flags, self.sims.slots(sims),
+                  self._windows.of(envs), self._readings, self._step, self._window)
         self.sims.finish(sims, run, active)
+        for e in np.flatnonzero(~run & active).tolist():  # stopped: read after the call
+            fresh = sims[e].readings
+            m = min(len(fresh), width)
+            self._readings[e, :m] = fresh[:m]
+        return BatchArrays(run, self.sims.n_rec, self._flags, self._step, self._window,
+                           self._readings)
+
+    def advance(self, envs: Sequence[DrillStringEnv], active: np.ndarray
+                ) -> list[tuple[Any, Any] | None]:
+        """Run every active env's control interval; per env its (step, window) metrics
+        as ``RollingMetrics.update`` returns them (None where not active)."""
+        n_rec = self.run(envs, active).n_rec
         out: list[tuple[Any, Any] | None] = []
         for e, env in enumerate(envs):
             if not active[e]:
                 out.append(None)
             elif n_rec[e]:
-                out.append(env.rolling_metrics.result(int(flags[e])))
+                out.append(env.rolling_metrics.result(int(self._flags[e])))
             else:
                 out.append((None, env.rolling_metrics.window()))
         return out
@@ -124,6 +161,31 @@ def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray,
         if metrics is not None:
             results[i] = envs[i].finish_metrics(*metrics)
     return results
+
+
+def step_batch(envs: Sequence[DrillStringEnv], actions: np.ndarray, batch: EnvBatch,
+               active: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, BatchInfo]:
+    """:func:`step_all` through ``batch`` for envs that
+    :meth:`DrillStringEnv.finishes_batch` accepts, with the results as arrays
+    (:meth:`DrillStringEnv.finish_batch`): observations, rewards, terminated, truncated
+    and a :class:`~drill_env.env_batch.BatchInfo`, one row per active env in their order.
+    The same values as :func:`step_all`'s, without its per-env Python after the call."""
+    size = int(np.prod(envs[0].action_space.shape or (2,)))
+    a = check_actions(actions, len(envs), size)
+    if active is None:
+        active = np.ones(len(envs), dtype=np.bool_)
+    for env, row, on in zip(envs, a, active, strict=True):
+        if on:
+            env.apply_action(row)
+    arrays = batch.run(envs, active)
+    n_rec, flags, step, window, readings = arrays[1:]
+    if not active.all():
+        index = np.flatnonzero(active)
+        envs = [envs[i] for i in index.tolist()]
+        n_rec, flags, step, window, readings = (n_rec[index], flags[index], step[index],
+                                                window[index], readings[index])
+    return DrillStringEnv.finish_batch(list(envs), n_rec, flags, step, window, readings)
 
 
 def check_actions(actions: np.ndarray, n: int, size: int = 2) -> np.ndarray:

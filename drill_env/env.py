@@ -12,6 +12,13 @@ import numpy as np
 from gymnasium import spaces
 
 from drill_env import metrics
+from drill_env.env_batch import (  # noqa: F401  (OBS_BOUND, INFO_WINDOW_METRICS: the surface)
+    INFO_METRICS,
+    INFO_READINGS,
+    INFO_WINDOW_METRICS,
+    OBS_BOUND,
+    BatchFinish,
+)
 from drill_env.env_config import (  # noqa: F401  (EnvConfig re-exported: the env's surface)
     ENV_FIELDS,
     MAX_EPISODE_DURATION,
@@ -33,6 +40,10 @@ from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 from drill_env.scenarios import RANDOMISED, Scenario, make_scenario, scenario_parameters
 
+_TIME, _BIT_X, _BIT_Y, _STATUS, _SURFACE_TORQUE = (
+    int(READ.TIME), int(READ.BIT_X), int(READ.BIT_Y), int(READ.STATUS),
+    int(READ.SURFACE_TORQUE))
+
 ACTION_MODES = ("absolute", "incremental")
 SENSORS = ("downhole", "surface")
 STARTUPS = ("settled", "stalled", "paper")
@@ -52,26 +63,6 @@ OBSERVATIONS: dict[str, tuple[str, ...]] = {
 
 #: Seconds of history in a rendered frame (``render_mode="rgb_array"``).
 RENDER_SECONDS = 10.0
-
-#: Observations are clipped to +-OBS_BOUND (normalised units).
-OBS_BOUND = 10.0
-
-#: The window metrics in ``info`` (zero while the window is empty or not finite).
-INFO_WINDOW_METRICS = ("ssi", "stuck_fraction", "whirl_ratio", "radial_ratio", "lateral_force",
-                       "mse")
-_INFO_METRIC = tuple((name, int(Metric[name.upper()])) for name in INFO_WINDOW_METRICS)
-#: Readings that ``info`` does not carry as they are: the bit position goes in as the
-#: vector ``bit_lateral``, the bit velocity only feeds the observation, the status is the
-#: simulator's (``termination_reason`` says it in words). Every other reading of
-#: :data:`~drill_env.physics.layout.READINGS` is an info key of the same name.
-INFO_HIDDEN_READINGS = frozenset({"bit_x", "bit_y", "bit_vx", "bit_vy", "status"})
-_INFO_READINGS = tuple((name, k) for k, name in enumerate(READINGS)
-                       if name not in INFO_HIDDEN_READINGS)
-_TIME, _BIT_X, _BIT_Y, _STATUS, _SURFACE_TORQUE = (
-    int(READ.TIME), int(READ.BIT_X), int(READ.BIT_Y), int(READ.STATUS),
-    int(READ.SURFACE_TORQUE))
-
-
 
 
 def even_record_every(steps_per_action: int, record_every: int) -> int:
@@ -113,7 +104,7 @@ def mesh_weight_on_bit_limit(sim: Simulator, upper: float, tol: float = 100.0) -
     return lo
 
 
-class DrillStringEnv(gym.Env):
+class DrillStringEnv(BatchFinish, gym.Env):
     r"""Drill-string stick-slip and whirl control: top-drive rpm and hook load.
 
     ## Description
@@ -646,7 +637,7 @@ class DrillStringEnv(gym.Env):
 
     def _info(self) -> dict[str, Any]:
         r = self._readings  # the simulator's last finite readings
-        info: dict[str, Any] = {name: r[k] for name, k in _INFO_READINGS}
+        info: dict[str, Any] = {name: r[k] for name, k in INFO_READINGS}
         info["bit_lateral"] = np.array(r[_BIT_X:_BIT_Y + 1])
         info["rock_share"] = np.array(r[N_READINGS:])
         info["speed_setpoint"] = self._speed_target
@@ -656,7 +647,7 @@ class DrillStringEnv(gym.Env):
         info["top_drive_energy"] = self._episode_energy
         info["bit_inclination"] = self.sim.bit_inclination  # rad; the hole at the bit
         values = self._window()
-        for name, k in _INFO_METRIC:
+        for name, k in INFO_METRICS:
             info[name] = values[k] if values is not None else 0.0
         info["reward_terms"] = {}
         info["termination_reason"] = ""

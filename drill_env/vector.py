@@ -30,7 +30,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from drill_env.batching import EnvBatch, step_all
+from drill_env.batching import EnvBatch, step_all, step_batch
 from drill_env.env import DrillStringEnv
 
 __all__ = ["DrillStringVectorEnv", "make_sb3_vec_env", "step_all"]
@@ -115,7 +115,12 @@ class DrillStringVectorEnv(VectorEnv):
         resetting = self._autoreset_envs.copy() if mode == AutoresetMode.NEXT_STEP else \
             np.zeros(self.num_envs, dtype=np.bool_)
         stepping = np.flatnonzero(~resetting)
-        results = step_all(self.envs, actions, self._batch, ~resetting)  # checks actions
+        if stepping.size and DrillStringEnv.finishes_batch(self.envs):
+            returned, results = self._step_as_arrays(actions, resetting, stepping)
+            if returned is not None:
+                return returned
+        else:
+            results = step_all(self.envs, actions, self._batch, ~resetting)  # checks actions
         entries: list[tuple[int, dict[str, Any]]] = []
         for i in np.flatnonzero(resetting).tolist():
             self._obs[i], info = self.envs[i].reset()
@@ -137,10 +142,33 @@ class DrillStringVectorEnv(VectorEnv):
                     entries.append((i, {"final_obs": self._obs[i].copy(), "final_info": info}))
                     self._obs[i], info = self.envs[i].reset()
                 entries.append((i, info))
-        infos = self._batch_infos(entries)
+        batched = self._batch_infos(entries)
         self._autoreset_envs = np.logical_or(self._terminations, self._truncations)
         return (self._obs.copy(), self._rewards.copy(), self._terminations.copy(),
-                self._truncations.copy(), infos)
+                self._truncations.copy(), batched)
+
+    def _step_as_arrays(self, actions, resetting: np.ndarray, stepping: np.ndarray
+                        ) -> tuple[tuple | None, list]:
+        """The physics and the envs' finish as arrays (``step_batch``). When every env
+        stepped and none resets in this step (the usual step): :meth:`step`'s return,
+        built from the arrays. Otherwise (None, the per-env results) for its general path.
+        """
+        obs, rewards, terms, truncs, batch_info = step_batch(
+            self.envs, actions, self._batch, ~resetting)  # checks actions
+        ends = terms | truncs
+        if stepping.size == self.num_envs and not (
+                self.autoreset_mode == AutoresetMode.SAME_STEP and ends.any()):
+            self._obs[:] = obs
+            self._rewards[:] = rewards
+            self._terminations[:] = terms
+            self._truncations[:] = truncs
+            self._autoreset_envs = ends
+            return (self._obs.copy(), self._rewards.copy(), self._terminations.copy(),
+                    self._truncations.copy(), batch_info.batched()), []
+        results: list = [None] * self.num_envs
+        for j, (i, info) in enumerate(zip(stepping.tolist(), batch_info.dicts(), strict=True)):
+            results[i] = (obs[j], rewards[j], terms[j], truncs[j], info)
+        return None, results
 
     def _batch_infos(self, entries: list[tuple[int, dict[str, Any]]]) -> dict[str, Any]:
         """Gymnasium's batched ``info`` layout for (env index, info) pairs, built in one go.
@@ -294,6 +322,8 @@ def _sb3_class() -> type:
             return self.env_class(**self.env_kwargs)
 
         def step_wait(self):
+            if DrillStringEnv.finishes_batch(self.envs) and self.keys == [None]:
+                return self._step_wait_arrays()
             results = step_all(self.envs, self.actions, self._batch)
             for i, (obs, rew, term, trunc, info) in enumerate(results):
                 self.buf_rews[i] = rew
@@ -306,6 +336,26 @@ def _sb3_class() -> type:
                 self._save_obs(i, obs)
             return (self._obs_from_buf(), np.copy(self.buf_rews), np.copy(self.buf_dones),
                     [dict(info) for info in self.buf_infos])
+
+        def _step_wait_arrays(self):
+            """:meth:`step_wait` with the batch's results as arrays (``step_batch``): the
+            same values, one dict per env built from them."""
+            obs, rewards, terms, truncs, batch_info = step_batch(self.envs, self.actions,
+                                                                 self._batch)
+            dones = terms | truncs
+            self.buf_rews[:] = rewards
+            self.buf_dones[:] = dones
+            self.buf_obs[None][:] = obs
+            infos = batch_info.dicts()
+            for i, info in enumerate(infos):
+                info["TimeLimit.truncated"] = bool(truncs[i] and not terms[i])
+                if dones[i]:
+                    info["terminal_observation"] = obs[i]
+                    first, self.reset_infos[i] = self.envs[i].reset()
+                    self._save_obs(i, first)
+            self.buf_infos = infos
+            return (self._obs_from_buf(), np.copy(self.buf_rews), np.copy(self.buf_dones),
+                    [dict(info) for info in infos])
 
     DrillStringSB3VecEnv.__module__ = __name__
     DrillStringSB3VecEnv.__qualname__ = "DrillStringSB3VecEnv"

@@ -248,3 +248,103 @@ def test_uniform_infos_take_the_transposed_path_with_add_infos_layout():
     for _ in range(2):  # the second call reuses the cached layout
         _assert_same_infos(vec._batch_infos(entries), expected)
     assert vec._info_plans
+
+
+def _assert_same_values(got, expected, where="info"):
+    """Equal key for key, in the same order, with the same types and the same floats."""
+    if isinstance(expected, dict):
+        assert list(got) == list(expected), where
+        for key in expected:
+            _assert_same_values(got[key], expected[key], f"{where}[{key!r}]")
+    elif isinstance(expected, np.ndarray):
+        assert isinstance(got, np.ndarray) and got.dtype == expected.dtype, where
+        np.testing.assert_array_equal(got, expected, err_msg=where)
+    else:
+        assert type(got) is type(expected) and got == expected, (where, got, expected)
+
+
+def _diverge(env):
+    env.sim.ut[5] = np.nan  # a broken state: the kernel stops on it
+
+
+ARRAY_FINISH_CASES = {
+    "default": dict(KW, episode_duration=0.5),
+    "surface, incremental": dict(KW, episode_duration=0.5, sensors="surface",
+                                 action_mode="incremental"),
+    "random scenario": dict(KW, episode_duration=0.5, scenario="random"),
+    "make-up torque": dict(KW, episode_duration=0.5, makeup_torque=1.0),
+    "diverged env": dict(KW, episode_duration=0.5),
+}
+
+
+@pytest.mark.parametrize("case", list(ARRAY_FINISH_CASES))
+def test_array_finish_gives_every_value_of_each_envs_own_step(case):
+    """The batch computes observation, reward and info for all envs at once
+    (DrillStringEnv.finish_batch): every value, info key and type must be what each env's
+    own step gives, in Gymnasium's batched layout and as SB3's dicts."""
+    kwargs = ARRAY_FINISH_CASES[case]
+    actions = actions_for(5, seed=4)
+    poke = 2 if case == "diverged env" else None  # after this step, env 1 is broken
+    singles = [DrillStringEnv(**kwargs) for _ in range(N)]
+    vec = DrillStringVectorEnv(num_envs=N, **kwargs)
+    sb3 = make_sb3_vec_env(N, **kwargs)
+    assert DrillStringEnv.finishes_batch(vec.envs)
+    for i, env in enumerate(singles):
+        env.reset(seed=30 + i)
+    vec.reset(seed=30)
+    sb3.seed(30)
+    sb3.reset()
+    for k, a in enumerate(actions):
+        steps = [env.step(row) for env, row in zip(singles, a, strict=True)]
+        got = vec.step(a)
+        obs, rewards, dones, infos = sb3.step(a)
+        expected = [np.stack([s[j] for s in steps]) for j in range(4)]
+        for j in range(4):
+            np.testing.assert_array_equal(got[j], expected[j])
+        batched: dict = {}
+        for i, s in enumerate(steps):
+            batched = vec._add_info(batched, s[4], i)
+        _assert_same_values(got[4], batched)
+        np.testing.assert_array_equal(rewards, expected[1].astype(np.float32))
+        for i, s in enumerate(steps):
+            info = dict(infos[i])
+            assert info.pop("TimeLimit.truncated") == (s[3] and not s[2])
+            if dones[i]:
+                np.testing.assert_array_equal(info.pop("terminal_observation"), s[0])
+            else:
+                np.testing.assert_array_equal(obs[i], s[0])
+            _assert_same_values(info, s[4], f"env {i} info")
+        if case == "make-up torque":
+            assert expected[2].all() and "make-up torque" in got[4]["termination_reason"][0]
+            break
+        if k == poke:
+            for env in (singles[1], vec.envs[1], sb3.envs[1]):
+                _diverge(env)
+        if poke is not None and k == poke + 1:
+            assert got[2][1] and "diverged" in got[4]["termination_reason"][1]
+            break
+    else:
+        assert expected[3].all()  # the episodes ran out in the last step
+
+
+def test_envs_that_compute_their_own_step_are_not_finished_as_arrays():
+    """A task (its own observation and reward), delayed or noisy observations: the
+    batch falls back to each env's own finish_metrics."""
+    from drill_env.tasks.stick_slip import StickSlipEnv
+
+    assert not DrillStringEnv.finishes_batch([StickSlipEnv()])
+    assert not DrillStringEnv.finishes_batch([DrillStringEnv(telemetry_delay=2)])
+    assert not DrillStringEnv.finishes_batch([DrillStringEnv(observation_noise=0.1)])
+    noisy = dict(KW, episode_duration=0.5, observation_noise=0.05)
+    actions = actions_for(3, seed=5)
+    singles = single_trajectories(actions, seed=40, **noisy)
+    envs = DrillStringVectorEnv(num_envs=N, **noisy)
+    obs, _ = envs.reset(seed=40)
+    rows = [[obs[i]] for i in range(N)]
+    for a in actions:
+        obs, rewards, _, _, info = envs.step(a)
+        for i in range(N):
+            rows[i].append(np.concatenate([obs[i], [rewards[i], info["time"][i],
+                                                    info["bit_speed"][i]]]))
+    for i in range(N):
+        np.testing.assert_array_equal(np.concatenate(rows[i]), singles[i])
