@@ -25,28 +25,43 @@ from numba import njit, prange
 from drill_env.env import DrillStringEnv
 from drill_env.env_batch import BatchInfo
 from drill_env.metrics import Metric, WindowArrays, rolling_add
-from drill_env.physics.batch import SimulatorBatch, TupleSlots
+from drill_env.physics.batch import (
+    NEEDS_PYTHON,
+    PREPARED,
+    SimulatorBatch,
+    TupleSlots,
+    prepare_in_call,
+)
 from drill_env.physics.readings import advance_and_read
 
 __all__ = ["BatchArrays", "EnvBatch", "step_all", "step_batch", "step_many"]
 
 @njit(cache=True, parallel=True, nogil=True)
 def step_many(n_steps, record_every, run, n_rec, flags, sims, windows, readings_out, step_out,
-              window_out):
-    """For each env e with ``run[e]``: advance its simulator (``sims[e]``: its
-    ``(KernelArrays, readings)``), then add the records to its metric window
-    (``windows[e]``: its :class:`~drill_env.metrics.WindowArrays`). ``n_rec[e]``: records
-    written; ``flags[e]``: the flags of :func:`~drill_env.metrics.rolling_add` (0 without
-    records). Row e of ``readings_out``, ``step_out`` and ``window_out`` receives the
-    env's fresh readings (as many as fit) and, with records, its step and window metrics:
-    the batch's view of every env at once, gathered while each env's data is in cache."""
+              window_out, inputs):
+    """For each env e with ``run[e]``: prepare its simulator (``sims[e]``: its
+    ``(KernelArrays, readings)``) for the interval with row e of ``inputs`` (speed set
+    point, hook load, string weight, checked WOB: :func:`prepare_in_call`), advance it,
+    then add the records to its metric window (``windows[e]``: its
+    :class:`~drill_env.metrics.WindowArrays`). ``n_rec[e]``: records written; ``flags[e]``:
+    the flags of :func:`~drill_env.metrics.rolling_add` (0 without records), or minus
+    what :func:`prepare_in_call` returned when the simulator did not run (-STOPPED,
+    -NEEDS_PYTHON). Row e of ``readings_out``, ``step_out`` and ``window_out`` receives
+    the env's fresh readings (as many as fit) and, with records, its step and window
+    metrics: the batch's view of every env at once, gathered while each env's data is in
+    cache. Rows of envs without ``run`` are left as they are."""
     for i in prange(len(sims)):
         e = np.int64(i)  # typed lists take signed indices; prange's are unsigned
-        n_rec[e] = 0
-        flags[e] = 0
         if not run[e]:
             continue
+        n_rec[e] = 0
+        flags[e] = 0
         arrays, readings = sims[e]
+        prepared = prepare_in_call(arrays, n_steps[e], record_every[e], inputs[e, 0],
+                                   inputs[e, 1], inputs[e, 2], inputs[e, 3])
+        if prepared != PREPARED:
+            flags[e] = -prepared
+            continue
         k = advance_and_read(n_steps[e], record_every[e], arrays, readings)
         n_rec[e] = k
         for j in range(min(readings.shape[0], readings_out.shape[1])):
@@ -99,25 +114,44 @@ class EnvBatch:
 
     def run(self, envs: Sequence[DrillStringEnv], active: np.ndarray) -> BatchArrays:
         """Run every active env's control interval in one parallel call; the batch's
-        arrays (:class:`BatchArrays`). The readings' width is that of env 0's."""
+        arrays (:class:`BatchArrays`). The readings' width is that of env 0's.
+
+        The simulators are prepared inside the call; one that needs Python there (a
+        mesh check, a curved hole's loads, a longer record buffer) is prepared by
+        ``Simulator.prepare`` and run in a second call, a stopped one is read."""
         arguments = [env.advance_request() for env in envs]
         n_steps, speeds, hooks, every = zip(*arguments, strict=True)
         sims = [env.sim for env in envs]
-        steps, every_array, run = self.sims.prepare(sims, n_steps, speeds, hooks, every, active)
+        inputs = np.array([(speed, hook, sim.string_weight, sim.checked_weight_on_bit)
+                           for sim, speed, hook in zip(sims, speeds, hooks, strict=True)])
+        steps = np.asarray(n_steps, dtype=np.int64)
+        every_array = np.asarray(every, dtype=np.int64)
         for env, n, k in zip(envs, n_steps, every, strict=True):
             env.rolling_metrics.reserve(n // k if k > 0 else 0)
         width = len(sims[0].readings)
         if self._readings.shape[1] != width:
             self._readings = np.zeros((self.size, width))
-        step_many(steps, every_array, run, self.sims.n_rec, self._flags, self.sims.slots(sims),
-                  self._windows.of(envs), self._readings, self._step, self._window)
-        self.sims.finish(sims, run, active)
-        for e in np.flatnonzero(~run & active).tolist():  # stopped: read after the call
-            fresh = sims[e].readings
-            m = min(len(fresh), width)
-            self._readings[e, :m] = fresh[:m]
-        return BatchArrays(run, self.sims.n_rec, self._flags, self._step, self._window,
-                           self._readings)
+        windows = self._windows.of(envs)
+        n_rec, flags = self.sims.n_rec, self._flags
+        on = np.asarray(active, dtype=np.bool_)
+        step_many(steps, every_array, on, n_rec, flags, self.sims.slots(sims), windows,
+                  self._readings, self._step, self._window, inputs)
+        ran = on.copy()
+        if (flags[on] < 0).any():  # rare: Python's prepare, then run those; read the stopped
+            retry = np.zeros(self.size, dtype=np.bool_)
+            for e in np.flatnonzero(on & (flags == -NEEDS_PYTHON)).tolist():
+                retry[e] = sims[e].prepare(n_steps[e], speeds[e], hooks[e], every[e])
+            stopped = on & (flags < 0) & ~retry
+            if retry.any():
+                step_many(steps, every_array, retry, n_rec, flags, self.sims.slots(sims),
+                          windows, self._readings, self._step, self._window, inputs)
+            for e in np.flatnonzero(stopped).tolist():
+                fresh = sims[e].read()
+                m = min(len(fresh), width)
+                self._readings[e, :m] = fresh[:m]
+                n_rec[e] = flags[e] = 0
+            ran &= ~stopped
+        return BatchArrays(ran, n_rec, flags, self._step, self._window, self._readings)
 
     def advance(self, envs: Sequence[DrillStringEnv], active: np.ndarray
                 ) -> list[tuple[Any, Any] | None]:

@@ -158,6 +158,11 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
             out.floats[n_info + 6 + j, e] = window[e, _INFO_METRIC_INDEX[j]]
 
 
+#: Gymnasium's batched info names: every key, then its mask ``_key``.
+_INFO_NAMES = tuple(name for key in INFO_KEYS for name in (key, f"_{key}"))
+_TERM_NAMES = tuple(name for key in REWARD_TERMS for name in (key, f"_{key}"))
+
+
 class BatchInfo:
     """The ``info`` of many envs' step as arrays (:meth:`BatchFinish.finish_batch`).
 
@@ -180,20 +185,18 @@ class BatchInfo:
         """Every key an array over the envs with its ``_key`` mask (all True), nested
         for the reward terms: what ``VectorEnv._add_info`` builds from the envs' dicts."""
         n = len(self)
-        terms: dict[str, Any] = {}
-        for name, row, mask in zip(REWARD_TERMS, self.terms,
-                                   np.ones((len(REWARD_TERMS), n), dtype=np.bool_), strict=True):
-            terms[name], terms[f"_{name}"] = row, mask
+        terms: list[Any] = [None] * len(_TERM_NAMES)
+        terms[0::2] = self.terms
+        terms[1::2] = np.ones(self.terms.shape, dtype=np.bool_)
         reasons = np.empty(n, dtype=object)
         reasons[:] = self.reasons
         split = _N_INFO_READINGS
-        values = [*self.floats[:split], self.bit_lateral, self.rock_share,
-                  *self.floats[split:], terms, reasons]
-        out: dict[str, Any] = {}
-        for key, value, mask in zip(INFO_KEYS, values,
-                                    np.ones((len(INFO_KEYS), n), dtype=np.bool_), strict=True):
-            out[key], out[f"_{key}"] = value, mask
-        return out
+        values: list[Any] = [None] * len(_INFO_NAMES)
+        values[0::2] = [*self.floats[:split], self.bit_lateral, self.rock_share,
+                        *self.floats[split:], dict(zip(_TERM_NAMES, terms, strict=True)),
+                        reasons]
+        values[1::2] = np.ones((len(INFO_KEYS), n), dtype=np.bool_)
+        return dict(zip(_INFO_NAMES, values, strict=True))
 
     def dicts(self) -> list[dict[str, Any]]:
         """One info dict per env, as the env's own ``step`` returns it."""
@@ -279,19 +282,15 @@ class BatchFinish:
             for i in np.flatnonzero(~np.isfinite(fresh).all(axis=1)).tolist():
                 fresh[i] = envs[i]._readings
         status = state[:, BatchState.STATUS].tolist()
-        rows = fresh.tolist()
-        window_rows = window.tolist()
-        for i, env in enumerate(envs):  # the state finish_metrics updates before its hooks
-            env._step_count = counts[i]
-            env._status = status[i]
-            env._readings = rows[i]
-            if has[i]:
-                env._window_metrics = (window_rows[i], bool(window_ok[i]))
+        metrics = window.tolist()  # each env's window metrics, as rolling_add left them
         if not window_ok.all():  # no finite window: the envs' own SSI and info metrics
             window = window.copy()
             for i in np.flatnonzero(~window_ok).tolist():
-                window[i, Metric.SSI] = envs[i]._window_ssi()
-                values = envs[i]._window()
+                env = envs[i]
+                if has[i]:  # (finish_metrics takes the window before its hooks)
+                    env._window_metrics = (metrics[i], False)
+                window[i, Metric.SSI] = env._window_ssi()
+                values = env._window()
                 window[i, _INFO_METRIC_INDEX] = [values[k] if values is not None else 0.0
                                                  for _, k in INFO_METRICS]
         source, divisor = cls._batch_observation_plan(envs)
@@ -305,13 +304,21 @@ class BatchFinish:
                        truncated=np.empty(n, dtype=np.bool_), energy=np.empty(n),
                        floats=np.empty((len(_BATCH_FLOAT_INFO), n)))
         finish_rows(state, n_rec, flags, step, window, fresh, source, divisor, weights, out)
-        obs, energy = out.obs, out.energy.tolist()
+        obs = out.obs
         kept = obs.copy()
-        for i, env in enumerate(envs):
-            if has[i]:
-                env._episode_energy = energy[i]
-            if out.usable[i]:
-                env._last_obs = kept[i]
+        # every env's state as finish_metrics leaves it, in one pass
+        for i, (env, count, stat, row, has_records, values, finite, energy, usable,
+                last) in enumerate(zip(envs, counts, status, fresh.tolist(), has.tolist(),
+                                       metrics, window_ok.tolist(), out.energy.tolist(),
+                                       out.usable.tolist(), kept, strict=True)):
+            env._step_count = count
+            env._status = stat
+            env._readings = row
+            if has_records:
+                env._window_metrics = (values, finite)
+                env._episode_energy = energy
+            if usable:
+                env._last_obs = last
             else:  # diverged: repeat the last finite observation
                 obs[i] = env._last_obs
         reasons = [""] * n

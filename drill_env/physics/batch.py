@@ -16,6 +16,7 @@ so that finished slices' env Python overlaps the physics measured slower on 2 co
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -23,7 +24,7 @@ import numpy as np
 from numba import njit, prange
 from numba.typed import List
 
-from drill_env.physics.layout import KernelArrays
+from drill_env.physics.layout import KernelArrays, S
 from drill_env.physics.readings import advance_and_read
 from drill_env.physics.simulator import Simulator
 
@@ -43,6 +44,35 @@ def advance_many(lo, hi, n_steps, record_every, active, n_rec, sims):
             continue
         arrays, readings = sims[e]
         n_rec[e] = advance_and_read(n_steps[e], record_every[e], arrays, readings)
+
+
+#: What :func:`prepare_in_call` found: the simulator runs, is stopped, or needs Python.
+PREPARED, STOPPED, NEEDS_PYTHON = 0, 1, 2
+
+
+@njit(cache=True, nogil=True, inline="always")
+def prepare_in_call(arrays, n_steps, record_every, speed, hook, string_weight, checked):
+    """:meth:`Simulator.prepare` inside a compiled batch call, where it needs no Python:
+    the set point ``speed`` (rad/s), the hook load ``hook`` (N) and the WOB it leaves
+    (``string_weight`` minus it, at least 0, as ``Simulator.weight_on_bit_for``).
+    Returns PREPARED, STOPPED (status set: reset first), or NEEDS_PYTHON with nothing
+    written (a non-finite input, a record buffer too short, or a change of WOB at or
+    above ``checked``, :attr:`Simulator.checked_weight_on_bit`): then the caller runs
+    ``Simulator.prepare``."""
+    state = arrays.state
+    if int(state[S.STATUS]) != 0:
+        return STOPPED
+    wob = string_weight - hook
+    wob = wob if wob > 0.0 else 0.0
+    rows = n_steps // record_every if record_every > 0 else 0
+    if not (math.isfinite(speed) and math.isfinite(hook)) \
+            or arrays.record.shape[0] < max(rows, 1) \
+            or (wob != state[S.WOB] and wob >= checked):
+        return NEEDS_PYTHON
+    state[S.SETPOINT_TARGET] = speed
+    state[S.HOOK_LOAD] = hook
+    state[S.WOB] = wob
+    return PREPARED
 
 
 def simulator_arrays(sim: Simulator) -> tuple[KernelArrays, np.ndarray]:

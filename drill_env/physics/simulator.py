@@ -221,6 +221,10 @@ class Simulator:
         #: WOB (N) below which no element is near its own buckling load
         self.resolved_weight_on_bit = resolved_weight_on_bit(
             self.config, self.mesh, self.axial_weight, self.lateral_start)
+        #: From this WOB on, a change of WOB makes :meth:`prepare` run Python (the mesh
+        #: check; a curved hole's loads at any WOB), which a batch leaves to it.
+        self.checked_weight_on_bit = -math.inf if self.hole is not None else (
+            self.resolved_weight_on_bit if cfg.solver.lateral else math.inf)
         self._bind_arrays(np.zeros((1, N_RECORD)))
         self.reset()
 

@@ -274,6 +274,12 @@ ARRAY_FINISH_CASES = {
     "random scenario": dict(KW, episode_duration=0.5, scenario="random"),
     "make-up torque": dict(KW, episode_duration=0.5, makeup_torque=1.0),
     "diverged env": dict(KW, episode_duration=0.5),
+    # a change of WOB that Simulator.prepare checks in Python: a curved hole's loads at
+    # every WOB; the mesh check above paper_case2's 235 kN
+    "curved hole": dict(KW, episode_duration=0.5, scenario="j_shaped", fidelity="fast"),
+    "mesh check": dict(KW, episode_duration=0.5, scenario="paper_case2",
+                       weight_on_bit_range=(200e3, 400e3), limit_weight_on_bit_to_mesh=False,
+                       drawworks_rate=2e6),
 }
 
 
@@ -314,17 +320,20 @@ def test_array_finish_gives_every_value_of_each_envs_own_step(case):
             else:
                 np.testing.assert_array_equal(obs[i], s[0])
             _assert_same_values(info, s[4], f"env {i} info")
-        if case == "make-up torque":
-            assert expected[2].all() and "make-up torque" in got[4]["termination_reason"][0]
-            break
         if k == poke:
             for env in (singles[1], vec.envs[1], sb3.envs[1]):
                 _diverge(env)
-        if poke is not None and k == poke + 1:
-            assert got[2][1] and "diverged" in got[4]["termination_reason"][1]
+        if expected[2].any():  # the vector envs reset a terminated env: stop comparing
             break
+    reasons = got[4]["termination_reason"]
+    if case == "make-up torque":
+        assert k == 0 and expected[2].all() and "make-up torque" in reasons[0]
+    elif case == "diverged env":
+        assert k == poke + 1 and expected[2][1] and "diverged" in reasons[1]
+    elif case == "mesh check":  # an env pushed beyond its mesh is stopped by the check
+        assert any("mesh resolution" in r for r in reasons)
     else:
-        assert expected[3].all()  # the episodes ran out in the last step
+        assert k == len(actions) - 1 and expected[3].all()  # the episodes ran out
 
 
 def test_envs_that_compute_their_own_step_are_not_finished_as_arrays():
@@ -348,3 +357,30 @@ def test_envs_that_compute_their_own_step_are_not_finished_as_arrays():
                                                     info["bit_speed"][i]]]))
     for i in range(N):
         np.testing.assert_array_equal(np.concatenate(rows[i]), singles[i])
+
+
+def test_a_stopped_simulator_in_a_batch_is_read_not_run():
+    """A diverged env stepped again (step_batch, as a caller without autoreset would):
+    its simulator is stopped, the batch reads it, and the step equals the env's own."""
+    from drill_env.batching import EnvBatch, step_batch
+
+    kwargs = dict(KW, episode_duration=0.5)
+    singles = [DrillStringEnv(**kwargs) for _ in range(2)]
+    batched = [DrillStringEnv(**kwargs) for _ in range(2)]
+    for i in range(2):
+        singles[i].reset(seed=50 + i)
+        batched[i].reset(seed=50 + i)
+    batch = EnvBatch(2)
+    actions = actions_for(3, seed=6)[:, :2]
+    for k, a in enumerate(actions):
+        if k == 1:
+            _diverge(singles[0])
+            _diverge(batched[0])
+        steps = [env.step(row) for env, row in zip(singles, a, strict=True)]
+        obs, rewards, terminated, truncated, info = step_batch(batched, a, batch)
+        np.testing.assert_array_equal(obs, np.stack([s[0] for s in steps]))
+        np.testing.assert_array_equal(rewards, [s[1] for s in steps])
+        np.testing.assert_array_equal(terminated, [s[2] for s in steps])
+        for i, s in enumerate(steps):
+            _assert_same_values(info.dicts()[i], s[4], f"step {k} env {i}")
+    assert terminated[0] and singles[0].sim.status != 0
