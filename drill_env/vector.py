@@ -354,8 +354,10 @@ def _sb3_class() -> type:
                     first, self.reset_infos[i] = self.envs[i].reset()
                     self._save_obs(i, first)
             self.buf_infos = infos
+            # fresh dicts every step: nothing else holds them, so no copy (SB3 copies its
+            # reused buffers)
             return (self._obs_from_buf(), np.copy(self.buf_rews), np.copy(self.buf_dones),
-                    [dict(info) for info in infos])
+                    list(infos))
 
     DrillStringSB3VecEnv.__module__ = __name__
     DrillStringSB3VecEnv.__qualname__ = "DrillStringSB3VecEnv"
