@@ -281,7 +281,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
                                          "train (no config.yaml)")
     out = args.out or args.run / "evaluation"
-    evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out)
+    evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out,
+                 ray_address=args.ray_address)
     print(f"wrote {out / 'benchmark.csv'}, benchmark.md and the plots")
     return 0
 
@@ -577,6 +578,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=integer(1), default=20, help="held-out seeds")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
+    add_ray_address(p, "the episodes")
     p.add_argument("--out", type=Path, default=None,
                    help="output folder (default: RUN/evaluation)")
 

@@ -179,3 +179,21 @@ def test_the_benchmark_on_the_cluster_equals_the_local_benchmark(cluster, tmp_pa
     on_ray = run_benchmark(*args, tmp_path / "ray", settings, ray_address=cluster.address,
                            progress=False)
     assert on_ray == local
+
+
+def test_evaluate_on_the_cluster_equals_evaluate_here(cluster, tmp_path):
+    """``drill-env evaluate RUN --ray-address``: the shipped stick-slip policy against the
+    classical controllers on one held-out seed, the same rows as on local processes."""
+    import csv
+
+    from drill_cli.main import main
+
+    run = Path(__file__).parent.parent / "agents" / "trained" / "stick_slip"
+    tables = []
+    for where, extra in (("ray", ["--ray-address", cluster.address]),
+                         ("local", ["--workers", "1"])):
+        assert main(["evaluate", str(run), "--seeds", "1", "--out", str(tmp_path / where),
+                     *extra]) == 0
+        with (tmp_path / where / "benchmark.csv").open() as f:
+            tables.append(sorted(list(csv.DictReader(f)), key=lambda r: r["controller"]))
+    assert tables[0] == tables[1] and len(tables[0]) == 6

@@ -86,13 +86,15 @@ def settings_of(task: str, fidelity: str = "fast") -> BenchmarkSettings:
                              fidelity=fidelity)
 
 
-def best_constant(out: Path, workers: int | None = None, progress: bool = True
-                  ) -> tuple[str, list[dict[str, Any]]]:
+def best_constant(out: Path, workers: int | None = None, progress: bool = True,
+                  ray_address: str | None = None) -> tuple[str, list[dict[str, Any]]]:
     """The drilling task's best constant set point: the grid point of highest mean return
-    on ``GRID_SEEDS`` (training seeds). Returns its controller name and the grid rows."""
+    on ``GRID_SEEDS`` (training seeds). Returns its controller name and the grid rows.
+    ``ray_address``: run the grid on that Ray cluster (the ``distributed`` extra)."""
     names = [f"constant:{r:g}/{w:g}" for r in GRID_RPM for w in GRID_KN]
     rows = run_benchmark(names, ["random"], list(GRID_SEEDS), out, settings_of("drilling"),
-                         workers=workers, progress=progress, env_id=TASKS["drilling"])
+                         workers=workers, progress=progress, env_id=TASKS["drilling"],
+                         ray_address=ray_address)
     means: dict[str, list[float]] = {}
     for row in rows:
         means.setdefault(row["controller"], []).append(row["episode_return"])
@@ -102,9 +104,11 @@ def best_constant(out: Path, workers: int | None = None, progress: bool = True
 
 def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | None = None,
                  out: Path | None = None, controllers: tuple[str, ...] = CLASSICAL,
-                 progress: bool = True) -> list[dict[str, Any]]:
+                 progress: bool = True, ray_address: str | None = None
+                 ) -> list[dict[str, Any]]:
     """Benchmark ``learned:<run>`` against ``controllers`` on ``seeds`` held-out seeds;
-    for the drilling task also against the best constant set point of a grid search."""
+    for the drilling task also against the best constant set point of a grid search.
+    ``ray_address``: run the episodes on that Ray cluster (the ``distributed`` extra)."""
     config = yaml.safe_load((Path(run) / "config.yaml").read_text())
     task = config["task"]
     if seeds > len(EVALUATION_SEEDS):
@@ -112,9 +116,9 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     out = out or Path(run) / "evaluation"
     names = [f"learned:{run}", *controllers]
     if task == "drilling":
-        constant, _ = best_constant(out / "grid_search", workers, progress)
+        constant, _ = best_constant(out / "grid_search", workers, progress, ray_address)
         names.append(constant)
     fidelity = config.get("env_kwargs", {}).get("fidelity", "fast")
     return run_benchmark(names, ["random"], list(EVALUATION_SEEDS[:seeds]), out,
                          settings_of(task, fidelity), workers=workers, progress=progress,
-                         env_id=TASKS[task])
+                         env_id=TASKS[task], ray_address=ray_address)
