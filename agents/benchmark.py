@@ -175,7 +175,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         from drill_env.recording import RecordEpisode
 
         env = RecordEpisode(env, Path(episode.out) / "recordings",
-                            scenario=f"{episode.label}_{episode.scenario}")
+                            scenario=f"{episode.label}_{episode.scenario}", stem=episode.stem)
     base = env.unwrapped
     kept: list[np.ndarray] = []
     targets: list[tuple[float, float]] = []  # (time, target speed) per step

@@ -37,8 +37,8 @@ def test_benchmark_command_writes_table_summary_plots_and_recordings(tmp_path, c
     for png in ("benchmark_bars.png", "benchmark_stick_slip_series.png"):
         assert (tmp_path / png).stat().st_size > 20_000
     names = sorted(p.name for p in (tmp_path / "recordings").glob("*.rrd"))
-    assert len(names) == 4
-    assert any(n.startswith("driller_stick_slip_seed1_") for n in names)
+    assert names == [f"{c}_stick_slip_seed{s}.rrd" for c in ("driller", "stiff")
+                     for s in (0, 1)]  # a row's recording is found by its name
 
 
 def test_two_seeds_start_different_episodes():

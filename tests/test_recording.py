@@ -192,6 +192,19 @@ def test_two_episodes_two_recordings(tmp_path: Path) -> None:
     assert sorted(tmp_path.glob("*.rrd")) == sorted(env.paths)
 
 
+def test_a_stem_names_the_files(tmp_path: Path) -> None:
+    """The benchmark names a recording by its table row: ``<stem>.rrd``, and a later
+    episode of the same env gets its index, so nothing is overwritten."""
+    env = RecordEpisode(_make_env(0.3), tmp_path, stem="stiff_default_seed7")
+    _run_episode(env, seed=7)
+    _run_episode(env, seed=8)
+    env.close()
+    assert [p.name for p in env.paths] == ["stiff_default_seed7.rrd",
+                                           "stiff_default_seed7_ep0001.rrd"]
+    assert all(len(read_recording(p).scalars["/timeseries/speed_rpm/bit"][0]) == 4
+               for p in env.paths)
+
+
 def test_termination_reason_logged(tmp_path: Path) -> None:
     env = RecordEpisode(gymnasium.make("DrillString-v0", scenario="default",
                                        episode_duration=1.0, makeup_torque=1.0), tmp_path)

@@ -184,6 +184,7 @@ class EpisodeRecorder:
         self.seed: int | None = None
         self.episode_index = 0
         self.recording_id = ""
+        self.stem: str | None = None
         self.path: Path | None = None
         self.last_path: Path | None = None
         self.last_recording_id: str | None = None
@@ -198,14 +199,15 @@ class EpisodeRecorder:
               seed: int | None = None, episode_index: int = 0,
               env_settings: Mapping[str, Any] | None = None,
               info: Mapping[str, Any] | None = None,
-              recording_id: str | None = None) -> str:
+              recording_id: str | None = None, stem: str | None = None) -> str:
         """Start a new episode (an unfinished one is finished first); returns its id.
 
         ``sim`` is the :class:`~drill_env.physics.simulator.Simulator` (geometry, string
         snapshots, blade angle); ``config`` its ``SimulationConfig`` (taken from ``sim``
         when omitted); ``env_settings`` anything JSON-like describing the run (env
-        keywords, env config); ``info`` the reset info, recorded as the first sample.
-        The file is opened now: ``OSError`` (one line) if its folder is not writable.
+        keywords, env config); ``info`` the reset info, recorded as the first sample;
+        ``stem`` the file's name without ``.rrd`` (:meth:`file_name`). The file is opened
+        now: ``OSError`` (one line) if its folder is not writable.
         """
         if self.active:
             self.finish(note="a new episode began")
@@ -218,6 +220,7 @@ class EpisodeRecorder:
         self.seed = seed
         self.episode_index = int(episode_index)
         self.recording_id = recording_id or uuid.uuid4().hex
+        self.stem = stem
         geometry = capture_geometry(sim, config)
         self._detectors = (
             StickSlipDetector(),
@@ -259,6 +262,11 @@ class EpisodeRecorder:
         return self.recording_id
 
     def file_name(self) -> str:
+        """``<stem>.rrd`` when :meth:`begin` was given a stem (a name the caller keeps
+        unique, such as the benchmark's controller, scenario and seed), else
+        ``<scenario>_seed<seed>_ep<index>_<recording id>.rrd``."""
+        if self.stem is not None:
+            return f"{_sanitize(self.stem)}.rrd"
         seed = "noseed" if self.seed is None else _sanitize(str(self.seed))
         return (f"{_sanitize(self.scenario)}_seed{seed}_ep{self.episode_index:04d}_"
                 f"{self.recording_id[:8]}.rrd")

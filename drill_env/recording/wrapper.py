@@ -27,14 +27,16 @@ class RecordEpisode(gymnasium.Wrapper):
     the files written. An unwritable ``directory`` raises ``OSError`` at construction.
 
     ``scenario`` names the files (default: the env's ``scenario_name`` or its ``spec``
-    keyword ``scenario``); ``record`` = False passes everything through untouched.
+    keyword ``scenario``), or ``stem`` does: ``<stem>.rrd``, later episodes
+    ``<stem>_ep<index>.rrd``; ``record`` = False passes everything through untouched.
     ``every`` records one episode in ``every`` (the first, then every ``every``-th).
     An episode cut short by ``reset`` or ``close`` is written if it has at least one
     step (a vector env's final auto-reset leaves none).
     """
 
     def __init__(self, env: gymnasium.Env, directory: str | os.PathLike = DEFAULT_DIRECTORY,
-                 *, scenario: str | None = None, string_period: float = 0.1,
+                 *, scenario: str | None = None, stem: str | None = None,
+                 string_period: float = 0.1,
                  exaggeration: float | None = None, every: int = 1, record: bool = True,
                  flush_every: int = 100, application_id: str = APPLICATION_ID) -> None:
         super().__init__(env)
@@ -46,6 +48,7 @@ class RecordEpisode(gymnasium.Wrapper):
                                         exaggeration=exaggeration, flush_every=flush_every,
                                         application_id=application_id)
         self._scenario = scenario
+        self._stem = stem
         self.every = int(every)
         self.record = bool(record)
         self.episode_index = -1
@@ -110,9 +113,11 @@ class RecordEpisode(gymnasium.Wrapper):
             base = self.env.unwrapped
             sim = getattr(base, "sim", None)
             config = getattr(base, "simulation_config", None) or getattr(sim, "config", None)
+            stem = self._stem if self._stem is None or self.episode_index == 0 else \
+                f"{self._stem}_ep{self.episode_index:04d}"
             self.recorder.begin(sim=sim, config=config, scenario=self._scenario_name(),
                                 seed=seed, episode_index=self.episode_index,
-                                env_settings=self._env_settings(), info=info)
+                                env_settings=self._env_settings(), info=info, stem=stem)
         return obs, info
 
     def step(self, action):
