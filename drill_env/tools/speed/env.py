@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 import time
@@ -20,10 +19,34 @@ from drill_env.tools.speed.common import (
     table,
 )
 
+#: Random actions drawn once (seeded) and cycled through: every set-up of a level steps
+#: with the same sequence, each env of a batch or loop with its own column.
+RANDOM_ACTIONS = 64
 
-def _step_each(envs: list, action: np.ndarray) -> None:
-    for e in envs:
-        e.step(action)
+
+class _RandomSteps:
+    """A step function for :func:`_interleaved_rates`: each call steps with the next of
+    ``actions`` (shape (k, 2) for one env, (k, n, 2) for n), cycling. ``step`` takes one
+    row; ``loop`` steps the envs of a list one by one."""
+
+    def __init__(self, step: Callable[[np.ndarray], Any] | list, actions: np.ndarray
+                 ) -> None:
+        self.step, self.actions, self.k = step, actions, 0
+
+    def __call__(self) -> None:
+        self.k = (self.k + 1) % len(self.actions)
+        if isinstance(self.step, list):
+            for env, action in zip(self.step, self.actions[self.k], strict=True):
+                env.step(action)
+        else:
+            self.step(self.actions[self.k])
+
+
+def random_actions(shape: tuple[int, ...], seed: int = 0) -> np.ndarray:
+    """``RANDOM_ACTIONS`` uniform actions in [-1, 1] of ``shape`` each, as a policy draws
+    them (float32): every WOB change runs as in training, not a constant set point."""
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-1.0, 1.0, (RANDOM_ACTIONS, *shape)).astype(np.float32)
 
 
 def _interleaved_rates(steps: dict[str, tuple[Callable[[], Any], int]], env_steps: int,
@@ -126,10 +149,10 @@ def _bench_env_level(override: dict[str, str], settings: BenchmarkSettings, name
     """One fidelity level of :func:`bench_env`."""
     from drill_env.vector import DrillStringVectorEnv
 
-    action = np.zeros(2, dtype=np.float32)  # mid range: 100 rpm, 100 kN
+    action = np.zeros(2, dtype=np.float32)  # mid range (100 rpm, 100 kN): the Python share
     env = make_env(override)
     env.reset(seed=0)
-    single_step = (functools.partial(env.step, action), 1)
+    single_step = (_RandomSteps(env.step, random_actions((2,))), 1)
     rate = _interleaved_rates({"single": single_step}, settings.env_steps,
                               settings.repeats, settings.env_warmup_steps)
     single = {"steps_per_s": rate["single"],
@@ -142,16 +165,16 @@ def _bench_env_level(override: dict[str, str], settings: BenchmarkSettings, name
         vec = DrillStringVectorEnv(num_envs=n, episode_duration=1e6,
                                    physics=dict(override) if override else None)
         vec.reset(seed=0)
-        actions = np.zeros((n, 2), dtype=np.float32)
+        actions = random_actions((n, 2), seed=n)
         env_steps = max(settings.env_batch_steps, n * settings.min_env_calls)
         steps: dict[str, tuple[Callable[[], Any], int]] = {
             "single": single_step,
-            "loop": (functools.partial(_step_each, envs, action), n),
-            "batched": (functools.partial(vec.step, actions), n)}
+            "loop": (_RandomSteps(envs, actions), n),
+            "batched": (_RandomSteps(vec.step, actions), n)}
         sb3 = _sb3_vec_env(n, override)
         if sb3 is not None:
             sb3.reset()
-            steps["batched_sb3"] = (functools.partial(sb3.step, actions), n)
+            steps["batched_sb3"] = (_RandomSteps(sb3.step, actions), n)
         rates = _interleaved_rates(steps, env_steps, settings.repeats,
                                    settings.env_warmup_steps)
         for e in envs:
@@ -203,8 +226,9 @@ def format_env(result: dict[str, Any]) -> str:
     if "fast_over_full_single" in result:
         notes.append(f"fast / full env steps/s: one env {result['fast_over_full_single']:.2f} x,"
                      f" batched (largest N) {result['fast_over_full_batched']:.2f} x")
-    notes.append(f"10 Hz policy rate; batched: the Gymnasium VectorEnv (SB3 VecEnv: the "
-                 f"Stable-Baselines3 one), one numba prange call over the envs, "
+    notes.append(f"10 Hz policy rate, random actions (one seeded sequence per set-up; the "
+                 f"Python share: a constant one); batched: the Gymnasium VectorEnv (SB3 "
+                 f"VecEnv: the Stable-Baselines3 one), one numba prange call over the envs, "
                  f"{result['cpu_count']} cores; x one env: against one env timed in the same "
                  f"rounds; best of repeats")
     return table("Env throughput", ("configuration", "env steps/s", "x one env", "x loop"),
