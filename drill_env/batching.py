@@ -17,6 +17,7 @@ what limits the batch on a few cores (docs/performance.md).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from enum import IntEnum
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -36,12 +37,19 @@ from drill_env.physics.readings import advance_and_read
 
 __all__ = ["BatchArrays", "EnvBatch", "step_all", "step_batch", "step_many"]
 
+#: The columns of :func:`step_many`'s ``inputs``: each env's speed set point (rad/s) and
+#: hook load (N) of the interval, its string weight (N) and
+#: ``Simulator.checked_weight_on_bit`` (N).
+BatchInput = IntEnum("BatchInput", ["SPEED", "HOOK_LOAD", "STRING_WEIGHT", "CHECKED_WOB"],
+                     start=0)
+
+
 @njit(cache=True, parallel=True, nogil=True)
 def step_many(n_steps, record_every, run, n_rec, flags, sims, windows, readings_out, step_out,
               window_out, inputs):
     """For each env e with ``run[e]``: prepare its simulator (``sims[e]``: its
-    ``(KernelArrays, readings)``) for the interval with row e of ``inputs`` (speed set
-    point, hook load, string weight, checked WOB: :func:`prepare_in_call`), advance it,
+    ``(KernelArrays, readings)``) for the interval with row e of ``inputs``
+    (:data:`BatchInput` columns, for :func:`prepare_in_call`), advance it,
     then add the records to its metric window (``windows[e]``: its
     :class:`~drill_env.metrics.WindowArrays`). ``n_rec[e]``: records written; ``flags[e]``:
     the flags of :func:`~drill_env.metrics.rolling_add` (0 without records), or minus
@@ -57,8 +65,10 @@ def step_many(n_steps, record_every, run, n_rec, flags, sims, windows, readings_
         n_rec[e] = 0
         flags[e] = 0
         arrays, readings = sims[e]
-        prepared = prepare_in_call(arrays, n_steps[e], record_every[e], inputs[e, 0],
-                                   inputs[e, 1], inputs[e, 2], inputs[e, 3])
+        prepared = prepare_in_call(arrays, n_steps[e], record_every[e],
+                                   inputs[e, BatchInput.SPEED], inputs[e, BatchInput.HOOK_LOAD],
+                                   inputs[e, BatchInput.STRING_WEIGHT],
+                                   inputs[e, BatchInput.CHECKED_WOB])
         if prepared != PREPARED:
             flags[e] = -prepared
             continue
@@ -124,6 +134,7 @@ class EnvBatch:
         sims = [env.sim for env in envs]
         inputs = np.array([(speed, hook, sim.string_weight, sim.checked_weight_on_bit)
                            for sim, speed, hook in zip(sims, speeds, hooks, strict=True)])
+        # (the columns of BatchInput, in its order)
         steps = np.asarray(n_steps, dtype=np.int64)
         every_array = np.asarray(every, dtype=np.int64)
         for env, n, k in zip(envs, n_steps, every, strict=True):

@@ -45,15 +45,16 @@ _TIME, _BIT_X, _BIT_Y, _STATUS, _SURFACE_TORQUE = (
     int(READ.TIME), int(READ.BIT_X), int(READ.BIT_Y), int(READ.STATUS),
     int(READ.SURFACE_TORQUE))
 
-#: The ``info`` keys of a step, in order (``DrillStringEnv._info``, then the reward terms
-#: and the termination reason), and the float ones among them that a batch computes as
-#: one array each (:meth:`BatchFinish.finish_batch`).
 _INFO_READING_INDEX = np.array([k for _, k in INFO_READINGS], dtype=np.int64)
 _N_INFO_READINGS = len(INFO_READINGS)
 _INFO_METRIC_INDEX = np.array([k for _, k in INFO_METRICS], dtype=np.int64)
+#: The float ``info`` values, in the order of :data:`INFO_KEYS`: a batch computes each as
+#: one array over its envs (:meth:`BatchFinish.finish_batch`).
 _BATCH_FLOAT_INFO = (*(name for name, _ in INFO_READINGS), "speed_setpoint",
                      "weight_on_bit_setpoint", "weight_on_bit_limit", "episode_time",
                      "top_drive_energy", "bit_inclination", *INFO_WINDOW_METRICS)
+#: The ``info`` keys of a step, in order (``DrillStringEnv._info``, then the reward terms
+#: and the termination reason).
 INFO_KEYS = (*_BATCH_FLOAT_INFO[:_N_INFO_READINGS], "bit_lateral", "rock_share",
              *_BATCH_FLOAT_INFO[_N_INFO_READINGS:], "reward_terms", "termination_reason")
 #: ``info["reward_terms"]``'s keys, in order (``DrillStringEnv._reward_terms``).
@@ -87,8 +88,8 @@ class BatchOut(NamedTuple):
 @njit(**TUPLE_KERNEL)
 def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, weights, out):
     """The termination, reward terms, observation and float info of every env of a
-    batch (row e: env e), each computed as :meth:`~drill_env.env.DrillStringEnv.finish_metrics` does
-    in Python, operation for operation (the same floats).
+    batch (row e: env e), each computed as ``DrillStringEnv.finish_metrics`` does in
+    Python, operation for operation (the same floats).
 
     ``state``: :data:`BatchState` columns (COUNT the step count after this step, STATUS
     the simulator's); ``n_rec``, ``flags``, ``step``, ``window``, ``readings``: as
@@ -260,9 +261,9 @@ class BatchFinish:
         are, row by row, each env's record count, :func:`~drill_env.metrics.rolling_add`
         flags, step and window metrics and fresh readings (the batch gathers them in its
         compiled call, :mod:`drill_env.batching`). Every value is the float
-        :meth:`finish_metrics` computes (the same operations in the same order, one
-        NumPy call per quantity for all envs instead of one Python expression per env),
-        and every env's state is left as :meth:`finish_metrics` leaves it. What is rare
+        :meth:`finish_metrics` computes (the same operations in the same order, for all
+        envs in one compiled call, :func:`finish_rows`), and every env's state is left as
+        :meth:`finish_metrics` leaves it. What is rare
         (an empty or non-finite window, a diverged simulator) goes through the envs' own
         methods.
         """
