@@ -16,6 +16,7 @@ what limits the batch on a few cores (docs/performance.md).
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Sequence
 from enum import IntEnum
 from typing import Any, NamedTuple
@@ -34,8 +35,9 @@ from drill_env.physics.batch import (
     prepare_in_call,
 )
 from drill_env.physics.readings import advance_and_read
+from drill_env.physics.simulator import Simulator
 
-__all__ = ["BatchArrays", "EnvBatch", "step_all", "step_batch", "step_many"]
+__all__ = ["BatchArrays", "EnvBatch", "step_all", "step_arrays", "step_batch", "step_many"]
 
 #: The columns of :func:`step_many`'s ``inputs``: each env's speed set point (rad/s) and
 #: hook load (N) of the interval, its string weight (N) and
@@ -97,7 +99,6 @@ class BatchArrays(NamedTuple):
     """One control interval of a batch, as :meth:`EnvBatch.run` leaves it: row e is env e
     (rows of envs that did not step are stale). The arrays are reused by the next call."""
 
-    run: np.ndarray       # bool: the env's simulator ran (False: inactive or stopped)
     n_rec: np.ndarray     # int64: records written this interval
     flags: np.ndarray     # int64: rolling_add's flags (1: step finite, 2: window finite)
     step: np.ndarray      # (n, len(Metric)): metrics of this interval's records
@@ -121,6 +122,38 @@ class EnvBatch:
         self._step = np.zeros((self.size, len(Metric)))
         self._window = np.zeros((self.size, len(Metric)))
         self._readings = np.zeros((self.size, 0))
+        self._clear_layout()
+
+    def _clear_layout(self) -> None:
+        self._layout: list[Any] = []  # per env: its simulator's and its window's arrays
+        self._lists: tuple[Any, Any] | None = None  # the typed lists of those
+        self._constants = np.zeros((self.size, 2))  # string weight, checked WOB
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()  # typed lists do not pickle; rebuilt on first use
+        state.update(_layout=[], _lists=None)
+        return state
+
+    def _refresh(self, envs: Sequence[DrillStringEnv], sims: list[Simulator],
+                 n_records: list[int]) -> tuple[Any, Any]:
+        """What depends only on each env's simulator and metric window, looked up again
+        when one of them is new since the last call (a reset, a grown buffer): the
+        windows' room for ``n_records``, the typed lists, the simulators' constants.
+        Most steps find them unchanged and skip every per-env lookup. Returns the typed
+        lists of the simulators and of the windows."""
+        layout = [a for env, sim in zip(envs, sims, strict=True)
+                  for a in (sim.kernel_arrays(), env.rolling_metrics.arrays)]
+        if self._lists is not None and len(layout) == len(self._layout) \
+                and all(map(operator.is_, layout, self._layout)):
+            return self._lists
+        for env, n in zip(envs, n_records, strict=True):
+            env.rolling_metrics.reserve(n)  # may give a window new arrays
+        self._lists = (self.sims.slots(sims), self._windows.of(envs))
+        self._constants = np.array([(sim.string_weight, sim.checked_weight_on_bit)
+                                    for sim in sims])
+        self._layout = [a for env, sim in zip(envs, sims, strict=True)
+                        for a in (sim.kernel_arrays(), env.rolling_metrics.arrays)]
+        return self._lists
 
     def run(self, envs: Sequence[DrillStringEnv], active: np.ndarray) -> BatchArrays:
         """Run every active env's control interval in one parallel call; the batch's
@@ -129,40 +162,41 @@ class EnvBatch:
         The simulators are prepared inside the call; one that needs Python there (a
         mesh check, a curved hole's loads, a longer record buffer) is prepared by
         ``Simulator.prepare`` and run in a second call, a stopped one is read."""
+        if len(envs) != self.size:
+            raise ValueError(f"envs: this batch holds {self.size} envs, got {len(envs)}")
         arguments = [env.advance_request() for env in envs]
         n_steps, speeds, hooks, every = zip(*arguments, strict=True)
         sims = [env.sim for env in envs]
-        inputs = np.array([(speed, hook, sim.string_weight, sim.checked_weight_on_bit)
-                           for sim, speed, hook in zip(sims, speeds, hooks, strict=True)])
-        # (the columns of BatchInput, in its order)
+        sim_list, window_list = self._refresh(envs, sims, [
+            n // k if k > 0 else 0 for n, k in zip(n_steps, every, strict=True)])
+        inputs = np.empty((self.size, len(BatchInput)))
+        inputs[:, BatchInput.SPEED] = speeds
+        inputs[:, BatchInput.HOOK_LOAD] = hooks
+        inputs[:, BatchInput.STRING_WEIGHT:] = self._constants  # and CHECKED_WOB
         steps = np.asarray(n_steps, dtype=np.int64)
         every_array = np.asarray(every, dtype=np.int64)
-        for env, n, k in zip(envs, n_steps, every, strict=True):
-            env.rolling_metrics.reserve(n // k if k > 0 else 0)
         width = len(sims[0].readings)
         if self._readings.shape[1] != width:
             self._readings = np.zeros((self.size, width))
-        windows = self._windows.of(envs)
         n_rec, flags = self.sims.n_rec, self._flags
         on = np.asarray(active, dtype=np.bool_)
-        step_many(steps, every_array, on, n_rec, flags, self.sims.slots(sims), windows,
+        step_many(steps, every_array, on, n_rec, flags, sim_list, window_list,
                   self._readings, self._step, self._window, inputs)
-        ran = on.copy()
         if (flags[on] < 0).any():  # rare: Python's prepare, then run those; read the stopped
             retry = np.zeros(self.size, dtype=np.bool_)
             for e in np.flatnonzero(on & (flags == -NEEDS_PYTHON)).tolist():
                 retry[e] = sims[e].prepare(n_steps[e], speeds[e], hooks[e], every[e])
             stopped = on & (flags < 0) & ~retry
-            if retry.any():
+            if retry.any():  # (prepare may have given a simulator a new record buffer)
                 step_many(steps, every_array, retry, n_rec, flags, self.sims.slots(sims),
-                          windows, self._readings, self._step, self._window, inputs)
+                          window_list, self._readings, self._step, self._window, inputs)
+                self._layout = []  # looked up again at the next call
             for e in np.flatnonzero(stopped).tolist():
                 fresh = sims[e].read()
                 m = min(len(fresh), width)
                 self._readings[e, :m] = fresh[:m]
                 n_rec[e] = flags[e] = 0
-            ran &= ~stopped
-        return BatchArrays(ran, n_rec, flags, self._step, self._window, self._readings)
+        return BatchArrays(n_rec, flags, self._step, self._window, self._readings)
 
     def advance(self, envs: Sequence[DrillStringEnv], active: np.ndarray
                 ) -> list[tuple[Any, Any] | None]:
@@ -215,7 +249,20 @@ def step_batch(envs: Sequence[DrillStringEnv], actions: np.ndarray, batch: EnvBa
     :meth:`DrillStringEnv.finishes_batch` accepts, with the results as arrays
     (:meth:`DrillStringEnv.finish_batch`): observations, rewards, terminated, truncated
     and a :class:`~drill_env.env_batch.BatchInfo`, one row per active env in their order.
-    The same values as :func:`step_all`'s, without its per-env Python after the call."""
+    The same values as :func:`step_all`'s, without its per-env Python after the call.
+    ValueError if the envs are not such envs (the vector envs check once, then only
+    :meth:`DrillStringEnv.same_readings`, and call :func:`step_arrays`)."""
+    if not DrillStringEnv.finishes_batch(envs):
+        raise ValueError("envs: step_batch needs plain DrillStringEnv instances of one "
+                         "config without delay, noise or frames, whose readings have one "
+                         "length (DrillStringEnv.finishes_batch); use step_all")
+    return step_arrays(envs, actions, batch, active)
+
+
+def step_arrays(envs: Sequence[DrillStringEnv], actions: np.ndarray, batch: EnvBatch,
+                active: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, BatchInfo]:
+    """:func:`step_batch` without its check, for a caller that made it."""
     size = int(np.prod(envs[0].action_space.shape or (2,)))
     a = check_actions(actions, len(envs), size)
     if active is None:
@@ -224,7 +271,8 @@ def step_batch(envs: Sequence[DrillStringEnv], actions: np.ndarray, batch: EnvBa
         if on:
             env.apply_action(row)
     arrays = batch.run(envs, active)
-    n_rec, flags, step, window, readings = arrays[1:]
+    n_rec, flags, step, window, readings = (arrays.n_rec, arrays.flags, arrays.step,
+                                            arrays.window, arrays.readings)
     if not active.all():
         index = np.flatnonzero(active)
         envs = [envs[i] for i in index.tolist()]

@@ -65,7 +65,7 @@ REWARD_TERMS = tuple(term.name.lower() for term in RewardTerm)
 #: Columns of the per-env state a batch hands to :func:`finish_rows`.
 BatchState = IntEnum("BatchState", [
     "COUNT", "ENERGY", "SPEED", "WOB", "EFFORT", "START", "LIMIT", "MAX_STEPS", "INCLINATION",
-    "STATUS"], start=0)
+    "STATUS", "SSI"], start=0)
 #: The config values :func:`finish_rows` uses (the envs of a batch share one config).
 BatchWeight = IntEnum("BatchWeight", [
     "ROP", "ROP_SCALE", "STICK_SLIP", "SSI_CAP", "WHIRL", "EFFORT", "FAILURE", "MAKEUP_TORQUE"],
@@ -92,10 +92,11 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
     Python, operation for operation (the same floats).
 
     ``state``: :data:`BatchState` columns (COUNT the step count after this step, STATUS
-    the simulator's); ``n_rec``, ``flags``, ``step``, ``window``, ``readings``: as
-    :meth:`BatchFinish.finish_batch` takes them, with the readings of diverged envs
-    already replaced by their last finite ones and the window's SSI and info metrics of
-    envs without a finite window by the envs' own; ``source``, ``divisor``: the
+    the simulator's, SSI the reward's: ``_window_ssi``, the window's or, when its bit
+    speed is not finite, infinite); ``n_rec``, ``flags``, ``step``, ``window``,
+    ``readings``: as :meth:`BatchFinish.finish_batch` takes them, with the readings of
+    diverged envs already replaced by their last finite ones and the info metrics of envs
+    without a finite window by their own (``_window``: 0.0); ``source``, ``divisor``: the
     observation's columns (of the readings then the two set points) and scales;
     ``weights``: :data:`BatchWeight`; ``out``: a :class:`BatchOut`.
     """
@@ -120,7 +121,7 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
         # _reward_terms, summed in their order from 0 as sum() does
         rop = step[e, Metric.ROP] if step_ok else 0.0
         radial = step[e, Metric.RADIAL_RATIO] if step_ok else 1.0
-        ssi = window[e, Metric.SSI]
+        ssi = st[BatchState.SSI]
         cap = weights[BatchWeight.SSI_CAP]
         ssi = cap if cap < ssi else ssi  # min(ssi, cap)
         out.terms[RewardTerm.ROP, e] = weights[BatchWeight.ROP] * rop / \
@@ -242,12 +243,21 @@ class BatchFinish:
     def finishes_batch(cls, envs: Sequence[Any]) -> bool:
         """Whether :meth:`finish_batch` can finish these envs' step: instances of exactly
         this class (a subclass computes its own observation, reward or info in Python)
-        without telemetry delay, observation noise or rendered frames, whose readings have
-        one length (the same rocks)."""
+        with one config (weights, limits, sensors), without telemetry delay, observation
+        noise or rendered frames, and :meth:`same_readings`. All but the last hold for
+        the envs' lifetime: a vector env checks them once and :meth:`same_readings` at
+        every step."""
+        config = envs[0].config
+        return all(type(env) is cls and env._frames is None and env.config == config
+                   for env in envs) and not config.telemetry_delay \
+            and not config.observation_noise and cls.same_readings(envs)
+
+    @staticmethod
+    def same_readings(envs: Sequence[Any]) -> bool:
+        """Whether the envs' simulators have readings of one length (the same rocks;
+        a randomised scenario builds a new simulator at every reset)."""
         width = len(envs[0].sim.readings)
-        return all(type(env) is cls and env._frames is None
-                   and not env.config.telemetry_delay and not env.config.observation_noise
-                   and len(env.sim.readings) == width for env in envs)
+        return all(len(env.sim.readings) == width for env in envs)
 
     @classmethod
     def finish_batch(cls, envs: Sequence[Any], n_rec: np.ndarray, flags: np.ndarray,
@@ -273,9 +283,11 @@ class BatchFinish:
         state = np.fromiter(chain.from_iterable(
             (count, env._episode_energy, env._speed_target, env._wob_target, env._effort,
              env._start_time, env.weight_on_bit_limit, env._max_steps,
-             env.sim.bit_inclination, 0.0) for count, env in zip(counts, envs, strict=True)),
+             env.sim.bit_inclination, 0.0, 0.0) for count, env in zip(counts, envs,
+                                                                 strict=True)),
             np.float64, len(BatchState) * n).reshape(n, len(BatchState))
         state[:, BatchState.STATUS] = readings[:, _STATUS]  # as read, diverged or not
+        state[:, BatchState.SSI] = window[:, Metric.SSI]
         has = n_rec > 0
         window_ok = has & (flags & 2 != 0)
         fresh = readings.copy()
@@ -290,7 +302,7 @@ class BatchFinish:
                 env = envs[i]
                 if has[i]:  # (finish_metrics takes the window before its hooks)
                     env._window_metrics = (metrics[i], False)
-                window[i, Metric.SSI] = env._window_ssi()
+                state[i, BatchState.SSI] = env._window_ssi()
                 values = env._window()
                 window[i, _INFO_METRIC_INDEX] = [values[k] if values is not None else 0.0
                                                  for _, k in INFO_METRICS]

@@ -30,7 +30,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from drill_env.batching import EnvBatch, step_all, step_batch
+from drill_env.batching import EnvBatch, step_all, step_arrays
 from drill_env.env import DrillStringEnv
 
 __all__ = ["DrillStringVectorEnv", "make_sb3_vec_env", "step_all"]
@@ -62,6 +62,8 @@ class DrillStringVectorEnv(VectorEnv):
         self.envs = [cls(**env_kwargs) for _ in range(num_envs)]
         self.num_envs = int(num_envs)
         self._batch = EnvBatch(self.num_envs)
+        # a batch finished as arrays (DrillStringEnv.finish_batch) where the envs allow it
+        self._as_arrays = DrillStringEnv.finishes_batch(self.envs)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.render_mode = None
         self.single_observation_space = self.envs[0].observation_space
@@ -115,7 +117,7 @@ class DrillStringVectorEnv(VectorEnv):
         resetting = self._autoreset_envs.copy() if mode == AutoresetMode.NEXT_STEP else \
             np.zeros(self.num_envs, dtype=np.bool_)
         stepping = np.flatnonzero(~resetting)
-        if stepping.size and DrillStringEnv.finishes_batch(self.envs):
+        if stepping.size and self._as_arrays and DrillStringEnv.same_readings(self.envs):
             returned, results = self._step_as_arrays(actions, resetting, stepping)
             if returned is not None:
                 return returned
@@ -153,7 +155,7 @@ class DrillStringVectorEnv(VectorEnv):
         stepped and none resets in this step (the usual step): :meth:`step`'s return,
         built from the arrays. Otherwise (None, the per-env results) for its general path.
         """
-        obs, rewards, terms, truncs, batch_info = step_batch(
+        obs, rewards, terms, truncs, batch_info = step_arrays(
             self.envs, actions, self._batch, ~resetting)  # checks actions
         ends = terms | truncs
         if stepping.size == self.num_envs and not (
@@ -317,12 +319,14 @@ def _sb3_class() -> type:
             self.env_kwargs = dict(env_kwargs)
             super().__init__([self._make_env for _ in range(int(num_envs))])
             self._batch = EnvBatch(self.num_envs)
+            # a batch finished as arrays (DrillStringEnv.finish_batch) where it can be
+            self._as_arrays = DrillStringEnv.finishes_batch(self.envs) and self.keys == [None]
 
         def _make_env(self) -> DrillStringEnv:
             return self.env_class(**self.env_kwargs)
 
         def step_wait(self):
-            if DrillStringEnv.finishes_batch(self.envs) and self.keys == [None]:
+            if self._as_arrays and DrillStringEnv.same_readings(self.envs):
                 return self._step_wait_arrays()
             results = step_all(self.envs, self.actions, self._batch)
             for i, (obs, rew, term, trunc, info) in enumerate(results):
@@ -340,8 +344,8 @@ def _sb3_class() -> type:
         def _step_wait_arrays(self):
             """:meth:`step_wait` with the batch's results as arrays (``step_batch``): the
             same values, one dict per env built from them."""
-            obs, rewards, terms, truncs, batch_info = step_batch(self.envs, self.actions,
-                                                                 self._batch)
+            obs, rewards, terms, truncs, batch_info = step_arrays(self.envs, self.actions,
+                                                                  self._batch)
             dones = terms | truncs
             self.buf_rews[:] = rewards
             self.buf_dones[:] = dones

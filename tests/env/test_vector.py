@@ -1,5 +1,6 @@
 """Batched env: same trajectories as single envs, Gymnasium autoreset, SB3 VecEnv."""
 
+import copy
 import pickle
 import sys
 
@@ -250,15 +251,30 @@ def test_uniform_infos_take_the_transposed_path_with_add_infos_layout():
     assert vec._info_plans
 
 
+def _same_floats(a, b) -> bool:
+    """The same floats bit for bit (-0.0 is not 0.0), except that any NaN equals any NaN:
+    compiled code may take a NaN's sign or payload from either operand of a sum."""
+    a, b = np.asarray(a), np.asarray(b)
+    nan = np.isnan(a)
+    return a.shape == b.shape and bool(np.array_equal(nan, np.isnan(b))) and \
+        a[~nan].tobytes() == b[~nan].tobytes()
+
+
 def _assert_same_values(got, expected, where="info"):
-    """Equal key for key, in the same order, with the same types and the same floats."""
+    """Equal key for key, in the same order, with the same types and the same floats
+    (:func:`_same_floats`)."""
     if isinstance(expected, dict):
         assert list(got) == list(expected), where
         for key in expected:
             _assert_same_values(got[key], expected[key], f"{where}[{key!r}]")
     elif isinstance(expected, np.ndarray):
         assert isinstance(got, np.ndarray) and got.dtype == expected.dtype, where
-        np.testing.assert_array_equal(got, expected, err_msg=where)
+        if expected.dtype.kind == "f":
+            assert _same_floats(got, expected), (where, got, expected)
+        else:
+            assert got.tolist() == expected.tolist(), where
+    elif isinstance(expected, float):
+        assert type(got) is float and _same_floats(got, expected), (where, got, expected)
     else:
         assert type(got) is type(expected) and got == expected, (where, got, expected)
 
@@ -384,3 +400,89 @@ def test_a_stopped_simulator_in_a_batch_is_read_not_run():
         for i, s in enumerate(steps):
             _assert_same_values(info.dicts()[i], s[4], f"step {k} env {i}")
     assert terminated[0] and singles[0].sim.status != 0
+
+
+def _value(rng, scale):
+    """A float that exercises the finish: NaN, infinities, signed zeros, subnormals,
+    huge values, or an ordinary one."""
+    special = [0.0, -0.0, np.nan, np.inf, -np.inf, 1e308, -1e308, 1e-320, -1e-320, 1.0]
+    if rng.random() < 0.35:
+        return float(rng.choice(special)) * (scale if rng.random() < 0.5 else 1.0)
+    return float(rng.normal() * scale)
+
+
+@pytest.mark.parametrize("sensors", ["downhole", "surface"])
+def test_array_finish_equals_finish_metrics_on_crafted_inputs(sensors):
+    """The compiled finish (finish_batch) against its reference, finish_metrics, on
+    crafted metrics and readings: NaN, infinities, -0.0, subnormals, every flag
+    combination, steps without records, stopped simulators, windows whose bit speed is
+    not finite. Outputs bit for bit and every env's state after it."""
+    from drill_env.metrics import Metric
+    from drill_env.physics.layout import READ, S
+
+    rng = np.random.default_rng(7 if sensors == "downhole" else 8)
+    base = DrillStringEnv(episode_duration=0.5, sensors=sensors, makeup_torque=5e3)
+    base.reset(seed=0)
+    base.step(np.zeros(2, np.float32))
+    n, width = 6, len(base.sim.readings)
+    state = ("_step_count", "_status", "_readings", "_last_obs", "_window_metrics",
+             "_episode_energy")
+    for trial in range(25):
+        ours = [copy.deepcopy(base) for _ in range(n)]
+        reference = [copy.deepcopy(base) for _ in range(n)]
+        n_rec = rng.choice([0, 5], n)
+        flags = np.where(n_rec > 0, rng.integers(0, 4, n), 0)
+        step = np.array([[_value(rng, 1e3) for _ in Metric] for _ in range(n)])
+        window = np.array([[_value(rng, 1.0) for _ in Metric] for _ in range(n)])
+        readings = np.array([[_value(rng, 1e3) for _ in range(width)] for _ in range(n)])
+        for e in range(n):
+            readings[e, READ.STATUS] = rng.choice([0.0, 0.0, 1.0, 2.0])
+            effort, speed, energy = _value(rng, 1.0), abs(_value(rng, 10.0)), _value(rng, 1e6)
+            count = int(rng.choice([0, base._max_steps - 1]))
+            speed_nan = rng.random() < 0.3
+            for env in (ours[e], reference[e]):
+                env.sim.state[S.STATUS] = readings[e, READ.STATUS]
+                env.sim.readings[:] = readings[e]
+                env._effort, env._step_count = effort, count
+                env._speed_target, env._episode_energy = speed, energy
+                if speed_nan:
+                    env.rolling_metrics.bit_speed[-1] = np.nan
+        expected = []
+        for e, env in enumerate(reference):
+            if n_rec[e]:
+                metrics = ((step[e].tolist(), bool(flags[e] & 1)),
+                           (window[e].tolist(), bool(flags[e] & 2)))
+            else:
+                metrics = (None, env.rolling_metrics.window())
+            expected.append(env.finish_metrics(*metrics))
+        obs, rewards, terminated, truncated, info = DrillStringEnv.finish_batch(
+            ours, n_rec, flags, step, window, readings)
+        for e, (o, r, te, tr, inf) in enumerate(expected):
+            where = f"trial {trial} env {e}"
+            assert _same_floats(obs[e], o), where
+            _assert_same_values(float(rewards[e]), r, where)
+            assert (terminated[e], truncated[e]) == (te, tr), where
+            _assert_same_values(info.dicts()[e], inf, where)
+            for name in state:
+                _assert_same_values(_plain(getattr(ours[e], name)),
+                                    _plain(getattr(reference[e], name)), f"{where} {name}")
+
+
+def _plain(value):
+    """Lists and tuples as nested dicts of their items, so _assert_same_values compares
+    them item by item."""
+    if isinstance(value, (list, tuple)):
+        return {str(k): _plain(v) for k, v in enumerate(value)}
+    return value
+
+
+def test_a_batch_refuses_envs_it_cannot_finish_as_arrays():
+    from drill_env.batching import EnvBatch, step_batch
+
+    envs = [DrillStringEnv(**KW), DrillStringEnv(makeup_torque=1.0, **KW)]
+    for env in envs:
+        env.reset(seed=0)
+    with pytest.raises(ValueError, match="finishes_batch"):
+        step_batch(envs, np.zeros((2, 2)), EnvBatch(2))  # two configs
+    with pytest.raises(ValueError, match="holds 3 envs"):
+        step_batch(envs[:1] * 2, np.zeros((2, 2)), EnvBatch(3))
