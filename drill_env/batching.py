@@ -4,10 +4,13 @@
 every env maps its action to set points (Python), then ONE numba call runs, in parallel
 over envs (``prange``, without the GIL), each env's simulator over the control interval,
 its readings, and its rolling metric window (:func:`step_many`); then every env computes
-its termination, reward, observation and info from those (Python). Each env keeps its
-own arrays (meshes may differ, as in the randomised scenario) and runs the same compiled
-functions as when it steps alone (``Simulator.advance(..., read=True)`` and
-``RollingMetrics.update``), so every env follows bit-for-bit its single-env trajectory.
+its termination, reward, observation and info from those (Python). :func:`step_batch`
+(:func:`step_arrays`) does the last phase for all plain ``DrillString-v0`` envs at once,
+in one compiled call (:meth:`~drill_env.env.DrillStringEnv.finish_batch`), with the same
+values. Each env keeps its own arrays (meshes may differ, as in the randomised scenario)
+and runs the same compiled functions as when it steps alone (``Simulator.advance(...,
+read=True)`` and ``RollingMetrics.update``), so every env follows bit-for-bit its
+single-env trajectory.
 
 The vector envs of :mod:`drill_env.vector` (Gymnasium and Stable-Baselines3) step through
 here. Why the metric windows are inside the call: the env's serial Python per step is

@@ -3,7 +3,8 @@
 Both hold N :class:`~drill_env.env.DrillStringEnv` instances and step them in three
 phases (:func:`drill_env.batching.step_all`): every env maps its action to set points,
 all simulators and metric windows run one control interval in ONE numba call, parallel
-over envs (``prange``), then every env computes its observation, reward and info. Each
+over envs (``prange``), then every env computes its observation, reward and info (for
+plain ``DrillString-v0`` envs all at once, in one compiled call: ``step_arrays``). Each
 env keeps its own arrays (meshes may differ, as in the randomised scenario) and runs the
 single-env compiled functions, so every env follows bit-for-bit the trajectory it would
 follow alone.
