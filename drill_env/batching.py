@@ -226,13 +226,7 @@ def step_all(envs: Sequence[DrillStringEnv], actions: np.ndarray,
     one parallel numba call; without one, env after env. The results are bit-identical
     either way. Envs with ``active[i]`` False are left alone (None).
     """
-    size = int(np.prod(envs[0].action_space.shape or (2,))) if envs else 2
-    a = check_actions(actions, len(envs), size)
-    if active is None:
-        active = np.ones(len(envs), dtype=np.bool_)
-    for env, row, on in zip(envs, a, active, strict=True):
-        if on:
-            env.apply_action(row)
+    active = apply_actions(envs, actions, active)
     results: list = [None] * len(envs)
     if batch is None:
         for i, env in enumerate(envs):
@@ -266,13 +260,7 @@ def step_arrays(envs: Sequence[DrillStringEnv], actions: np.ndarray, batch: EnvB
                 active: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, BatchInfo]:
     """:func:`step_batch` without its check, for a caller that made it."""
-    size = int(np.prod(envs[0].action_space.shape or (2,)))
-    a = check_actions(actions, len(envs), size)
-    if active is None:
-        active = np.ones(len(envs), dtype=np.bool_)
-    for env, row, on in zip(envs, a, active, strict=True):
-        if on:
-            env.apply_action(row)
+    active = apply_actions(envs, actions, active)
     arrays = batch.run(envs, active)
     n_rec, flags, step, window, readings = (arrays.n_rec, arrays.flags, arrays.step,
                                             arrays.window, arrays.readings)
@@ -282,6 +270,20 @@ def step_arrays(envs: Sequence[DrillStringEnv], actions: np.ndarray, batch: EnvB
         n_rec, flags, step, window, readings = (n_rec[index], flags[index], step[index],
                                                 window[index], readings[index])
     return DrillStringEnv.finish_batch(list(envs), n_rec, flags, step, window, readings)
+
+
+def apply_actions(envs: Sequence[DrillStringEnv], actions: np.ndarray,
+                  active: np.ndarray | None) -> np.ndarray:
+    """The first phase of a step: every active env maps its row of ``actions`` (checked
+    by :func:`check_actions`) to set points. Returns ``active`` (all envs if None)."""
+    size = int(np.prod(envs[0].action_space.shape or (2,))) if envs else 2
+    a = check_actions(actions, len(envs), size)
+    if active is None:
+        active = np.ones(len(envs), dtype=np.bool_)
+    for env, row, on in zip(envs, a, active, strict=True):
+        if on:
+            env.apply_action(row)
+    return active
 
 
 def check_actions(actions: np.ndarray, n: int, size: int = 2) -> np.ndarray:

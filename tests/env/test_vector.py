@@ -48,13 +48,12 @@ def test_make_vec_uses_the_vector_entry_point():
     assert info["time"].shape == (N,)
 
 
-@pytest.mark.parametrize("scenario", ["default", "random"])
-def test_batched_env_matches_single_envs_bit_for_bit(scenario):
-    kwargs = dict(KW, scenario=scenario, episode_duration=0.5)
-    actions = actions_for(5)
-    singles = single_trajectories(actions, seed=10, **kwargs)
+def assert_batch_follows_single_envs(actions, seed, **kwargs):
+    """The vector env's observations, rewards, times and bit speeds over ``actions``
+    (no episode end) are those of single envs seeded ``seed + i``."""
+    singles = single_trajectories(actions, seed=seed, **kwargs)
     envs = DrillStringVectorEnv(num_envs=N, **kwargs)
-    obs, _ = envs.reset(seed=10)
+    obs, _ = envs.reset(seed=seed)
     rows = [[obs[i]] for i in range(N)]
     for a in actions:
         obs, rewards, _, _, info = envs.step(a)
@@ -63,6 +62,12 @@ def test_batched_env_matches_single_envs_bit_for_bit(scenario):
                                                     info["bit_speed"][i]]]))
     for i in range(N):
         np.testing.assert_array_equal(np.concatenate(rows[i]), singles[i])
+
+
+@pytest.mark.parametrize("scenario", ["default", "random"])
+def test_batched_env_matches_single_envs_bit_for_bit(scenario):
+    assert_batch_follows_single_envs(actions_for(5), 10, **dict(KW, scenario=scenario,
+                                                                episode_duration=0.5))
 
 
 def test_batched_env_matches_single_envs_across_autoresets():
@@ -360,19 +365,8 @@ def test_envs_that_compute_their_own_step_are_not_finished_as_arrays():
     assert not DrillStringEnv.finishes_batch([StickSlipEnv()])
     assert not DrillStringEnv.finishes_batch([DrillStringEnv(telemetry_delay=2)])
     assert not DrillStringEnv.finishes_batch([DrillStringEnv(observation_noise=0.1)])
-    noisy = dict(KW, episode_duration=0.5, observation_noise=0.05)
-    actions = actions_for(3, seed=5)
-    singles = single_trajectories(actions, seed=40, **noisy)
-    envs = DrillStringVectorEnv(num_envs=N, **noisy)
-    obs, _ = envs.reset(seed=40)
-    rows = [[obs[i]] for i in range(N)]
-    for a in actions:
-        obs, rewards, _, _, info = envs.step(a)
-        for i in range(N):
-            rows[i].append(np.concatenate([obs[i], [rewards[i], info["time"][i],
-                                                    info["bit_speed"][i]]]))
-    for i in range(N):
-        np.testing.assert_array_equal(np.concatenate(rows[i]), singles[i])
+    assert_batch_follows_single_envs(actions_for(3, seed=5), 40, **dict(
+        KW, episode_duration=0.5, observation_noise=0.05))
 
 
 def test_a_stopped_simulator_in_a_batch_is_read_not_run():
