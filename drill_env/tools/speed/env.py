@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import time
@@ -24,22 +25,22 @@ from drill_env.tools.speed.common import (
 RANDOM_ACTIONS = 64
 
 
-class _RandomSteps:
-    """A step function for :func:`_interleaved_rates`: each call steps with the next of
-    ``actions`` (shape (k, 2) for one env, (k, n, 2) for n), cycling. ``step`` takes one
-    row; ``loop`` steps the envs of a list one by one."""
+def _step_each(envs: list, actions: np.ndarray) -> None:
+    """Step env i of a loop with row i of ``actions``."""
+    for env, action in zip(envs, actions, strict=True):
+        env.step(action)
 
-    def __init__(self, step: Callable[[np.ndarray], Any] | list, actions: np.ndarray
-                 ) -> None:
+
+class _RandomSteps:
+    """A step function for :func:`_interleaved_rates`: each call hands ``step`` the next
+    of ``actions`` (shape (k, 2) for one env, (k, n, 2) for n), cycling."""
+
+    def __init__(self, step: Callable[[np.ndarray], Any], actions: np.ndarray) -> None:
         self.step, self.actions, self.k = step, actions, 0
 
     def __call__(self) -> None:
         self.k = (self.k + 1) % len(self.actions)
-        if isinstance(self.step, list):
-            for env, action in zip(self.step, self.actions[self.k], strict=True):
-                env.step(action)
-        else:
-            self.step(self.actions[self.k])
+        self.step(self.actions[self.k])
 
 
 def random_actions(shape: tuple[int, ...], seed: int = 0) -> np.ndarray:
@@ -169,7 +170,7 @@ def _bench_env_level(override: dict[str, str], settings: BenchmarkSettings, name
         env_steps = max(settings.env_batch_steps, n * settings.min_env_calls)
         steps: dict[str, tuple[Callable[[], Any], int]] = {
             "single": single_step,
-            "loop": (_RandomSteps(envs, actions), n),
+            "loop": (_RandomSteps(functools.partial(_step_each, envs), actions), n),
             "batched": (_RandomSteps(vec.step, actions), n)}
         sb3 = _sb3_vec_env(n, override)
         if sb3 is not None:
