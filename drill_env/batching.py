@@ -125,9 +125,6 @@ class EnvBatch:
         self._step = np.zeros((self.size, len(Metric)))
         self._window = np.zeros((self.size, len(Metric)))
         self._readings = np.zeros((self.size, 0))
-        self._clear_layout()
-
-    def _clear_layout(self) -> None:
         self._layout: list[Any] = []  # per env: its simulator's and its window's arrays
         self._lists: tuple[Any, Any] | None = None  # the typed lists of those
         self._constants = np.zeros((self.size, 2))  # string weight, checked WOB

@@ -13,6 +13,11 @@ from gymnasium import spaces
 
 from drill_env import metrics
 from drill_env.env_batch import (  # noqa: F401  (OBS_BOUND, INFO_WINDOW_METRICS: the surface)
+    _BIT_X,
+    _BIT_Y,
+    _STATUS,
+    _SURFACE_TORQUE,
+    _TIME,
     INFO_METRICS,
     INFO_READINGS,
     INFO_WINDOW_METRICS,
@@ -35,14 +40,10 @@ from drill_env.physics.config import (
     from_dict,
     replace,
 )
-from drill_env.physics.layout import N_READINGS, READ, READINGS, RECORD_CHANNELS
+from drill_env.physics.layout import N_READINGS, READINGS, RECORD_CHANNELS
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 from drill_env.scenarios import RANDOMISED, Scenario, make_scenario, scenario_parameters
-
-_TIME, _BIT_X, _BIT_Y, _STATUS, _SURFACE_TORQUE = (
-    int(READ.TIME), int(READ.BIT_X), int(READ.BIT_Y), int(READ.STATUS),
-    int(READ.SURFACE_TORQUE))
 
 ACTION_MODES = ("absolute", "incremental")
 SENSORS = ("downhole", "surface")

@@ -41,6 +41,7 @@ INFO_METRICS = tuple((name, int(Metric[name.upper()])) for name in INFO_WINDOW_M
 INFO_HIDDEN_READINGS = frozenset({"bit_x", "bit_y", "bit_vx", "bit_vy", "status"})
 INFO_READINGS = tuple((name, k) for k, name in enumerate(READINGS)
                       if name not in INFO_HIDDEN_READINGS)  # (info key, reading index)
+#: Reading indices as plain ints (env.py indexes its readings list with them too).
 _TIME, _BIT_X, _BIT_Y, _STATUS, _SURFACE_TORQUE = (
     int(READ.TIME), int(READ.BIT_X), int(READ.BIT_Y), int(READ.STATUS),
     int(READ.SURFACE_TORQUE))
