@@ -9,7 +9,8 @@ controller acts in its own env (``Controller.env_id``) built from the same scena
 seed and targets, so all of them see the same string, rock and start.
 
 Results stream into ``benchmark_results.jsonl`` as episodes finish (an interrupted
-benchmark keeps them; rerunning computes only the rest), then ``benchmark.csv`` (one row
+benchmark keeps them; rerunning with the same settings and code computes only the rest,
+and the episodes whose recording is asked for and missing), then ``benchmark.csv`` (one row
 per controller, scenario and seed, the columns of docs/controllers.md), ``benchmark.md`` and
 the plots are written from all finished rows.
 """
@@ -99,6 +100,13 @@ class Episode:
     def stem(self) -> str:
         return f"{self.label}_{self.scenario}_seed{self.seed}"
 
+    @property
+    def recording(self) -> Path:
+        """Where ``record`` writes the episode's rerun recording."""
+        from drill_env.recording import stem_file_name
+
+        return Path(self.out) / "recordings" / stem_file_name(self.stem)
+
 
 def label(controller: str) -> str:
     """The name a controller has in the tables and file names: ``learned:PATH`` ->
@@ -148,6 +156,24 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
     return digest.hexdigest()[:12]
 
 
+def scenario_set_points(scenario: str, seed: int) -> dict[str, float]:
+    """The set points (``surface_speed`` rad/s, ``weight_on_bit`` N) at which
+    ``DrillString-v0`` starts episode ``seed`` of ``scenario``: the driller's, at which the
+    classical controllers act. A control task draws its own targets instead; given these
+    as reset options, a task's policy is compared at the same ones."""
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401  (registers the env ids)
+
+    env: Any = gym.make("DrillString-v0", scenario=scenario)
+    try:
+        env.reset(seed=seed)  # a randomised scenario draws them from the seed
+        speed, wob = env.unwrapped.targets
+    finally:
+        env.close()
+    return {"surface_speed": float(speed), "weight_on_bit": float(wob)}
+
+
 def run_episode(episode: Episode) -> dict[str, Any]:
     """Run one episode; returns its benchmark row (plus ``termination``)."""
     import gymnasium as gym
@@ -181,8 +207,12 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     targets: list[tuple[float, float]] = []  # (time, target speed) per step
     total = 0.0
     reason = ""
+    # a task's policy in its task's env, within a benchmark of the scenario's set points:
+    # at those (else the task would draw its own targets)
+    options = scenario_set_points(episode.scenario, episode.seed) \
+        if episode.env_id is None and env_id != "DrillString-v0" else None
     try:
-        obs, info = env.reset(seed=episode.seed)
+        obs, info = env.reset(seed=episode.seed, options=options)
         controller.reset(base)
         start = float(info["time"])
         while True:
@@ -244,8 +274,12 @@ def episodes(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequen
 
 
 def fingerprint(settings: BenchmarkSettings, env_id: str | None = None) -> str:
-    """What a stored row depends on besides its key: rows of other settings are not reused."""
-    return json.dumps({"settings": jsonable(settings), "env_id": env_id}, sort_keys=True)
+    """What a stored row depends on besides its key: rows of other settings, or computed
+    by other code (the simulator, scenarios, metrics, controllers), are not reused."""
+    from drill_env.sweep import source_digest
+
+    return json.dumps({"settings": jsonable(settings), "env_id": env_id,
+                       "code": source_digest("drill_env", "agents")}, sort_keys=True)
 
 
 def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],
@@ -264,7 +298,12 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     out.mkdir(parents=True, exist_ok=True)
     store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))
     todo_all = episodes(controllers, scenarios, seeds, settings, out, record, env_id)
-    todo = [e for e in todo_all if e.key not in store]
+    # a stored row is rerun only to write a recording asked for and missing
+    todo = [e for e in todo_all if e.key not in store or (record and not e.recording.exists())]
+    reused = len(todo_all) - len(todo)
+    if reused and progress:
+        print(f"benchmark: {reused} of {len(todo_all)} episodes already in "
+              f"{out / RESULTS_FILE} (same settings and code): not rerun", file=sys.stderr)
     if todo:
         import os
 

@@ -107,9 +107,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     env: Any = gym.make(controller.env_id, **kwargs)
     base: Any = env.unwrapped
     cfg = base.config
-    # set points given on the command line override the episode's; else the seed's own
-    # (a randomised scenario or a task draws them at reset)
+    # set points given on the command line override the episode's; else the scenario's
+    # (a randomised scenario draws them from the seed), also for a task's policy, whose
+    # env would draw its own targets
     options: dict[str, float] = {}
+    if controller.env_id != "DrillString-v0":
+        from agents.benchmark import scenario_set_points
+
+        options = scenario_set_points(args.scenario, args.seed)
     for flag, value, (low, high), unit, key, scale in (
             ("--rpm", args.rpm, cfg.rpm_range, "rpm", "surface_speed", RPM),
             ("--wob", args.wob, tuple(v / KILO for v in cfg.weight_on_bit_range), "kN",
@@ -134,20 +139,29 @@ def cmd_run(args: argparse.Namespace) -> int:
     steps, reward, reason = 0, 0.0, ""
     info: dict[str, Any] = {}
     obs, info = env.reset(seed=args.seed, options=options or None)
-    rpm, wob_kn = base.targets[0] / RPM, base.targets[1] / KILO
-    for b in pipe_buckling(base.simulation_config, wob_kn * KILO):
-        print(f"note: {wob_kn:g} kN compresses the {b.component} by "
+    start_wob_kn = base.targets[1] / KILO
+    for b in pipe_buckling(base.simulation_config, start_wob_kn * KILO):
+        print(f"note: {start_wob_kn:g} kN compresses the {b.component} by "
               f"{b.compression / KILO:.1f} kN, beyond its buckling load "
               f"{b.buckling_load / KILO:.1f} kN: it buckles into the wall (the scenarios "
               "refuse such a starting point; docs/model.md, 'Axial load and buckling')",
               file=sys.stderr)
+    # per step: the driller's targets (a task's may change once) and the set points the
+    # controller applied (constant:<rpm>/<kN> and the driller set their own, a stick-slip
+    # policy corrects the speed): their episode means are what it ran at
+    sums = dict.fromkeys(("target_speed", "target_wob", "speed_setpoint",
+                          "weight_on_bit_setpoint"), 0.0)
     try:
         controller.reset(base)
-        for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario} {rpm:.0f} rpm",
+        for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario}",
                       leave=False, file=sys.stderr):
             obs, r, terminated, truncated, info = env.step(controller.act(obs, info))
             steps += 1
             reward += float(r)
+            sums["target_speed"] += base.targets[0]
+            sums["target_wob"] += base.targets[1]
+            sums["speed_setpoint"] += info["speed_setpoint"]
+            sums["weight_on_bit_setpoint"] += info["weight_on_bit_setpoint"]
             for key in keys:
                 totals[key] += info[key]
             if terminated or truncated:
@@ -157,9 +171,16 @@ def cmd_run(args: argparse.Namespace) -> int:
         reason = "interrupted"
     finally:
         env.close()  # finishes a recording, interrupted or not
+    mean = {key: total / steps for key, total in sums.items()} if steps else {
+        "target_speed": base.targets[0], "target_wob": base.targets[1],
+        "speed_setpoint": base.targets[0], "weight_on_bit_setpoint": base.targets[1]}
+    rpm, wob_kn = mean["target_speed"] / RPM, mean["target_wob"] / KILO
+    setpoint_rpm = mean["speed_setpoint"] / RPM
+    setpoint_kn = mean["weight_on_bit_setpoint"] / KILO
     summary = {
         "scenario": args.scenario, "controller": args.controller, "rpm": rpm,
-        "weight_on_bit_kN": wob_kn, "seed": args.seed,
+        "weight_on_bit_kN": wob_kn, "mean_setpoint_rpm": setpoint_rpm,
+        "mean_setpoint_kN": setpoint_kn, "seed": args.seed,
         "fidelity": base.simulation_config.solver.fidelity, "steps": steps,
         "simulated_s": info.get("episode_time", 0.0),
         "return": reward, "termination_reason": reason,
@@ -170,8 +191,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         summary["recording"] = str(env.last_path) if env.last_path else None
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "run_summary.json").write_text(json.dumps(summary, indent=2))
-    print(f"{args.scenario}: {steps} steps ({summary['simulated_s']:.1f} s) at {rpm:.0f} rpm, "
-          f"{wob_kn:.0f} kN in {summary['wall_s']:.1f} s; return {reward:.2f}"
+    ran_at = f"targets {rpm:.0f} rpm, {wob_kn:.0f} kN"
+    if abs(setpoint_rpm - rpm) >= 0.5 or abs(setpoint_kn - wob_kn) >= 0.5:
+        ran_at += f" (set points applied: mean {setpoint_rpm:.0f} rpm, {setpoint_kn:.0f} kN)"
+    print(f"{args.scenario}: {steps} steps ({summary['simulated_s']:.1f} s) at {ran_at} in "
+          f"{summary['wall_s']:.1f} s; return {reward:.2f}"
           + (f"; ended: {reason}" if reason else ""))
     print(f"  mean over the episode: SSI {summary['mean_ssi']:.2f}, stuck "
           f"{summary['mean_stuck_fraction']:.2f}, whirl ratio "
@@ -274,13 +298,23 @@ def train_sweep(args: argparse.Namespace, config) -> int:
     return 0
 
 
+def default_evaluation_folder(run: Path) -> Path:
+    """``RUN/evaluation`` beside a training run; for a policy shipped in the package
+    (``agents/trained/<task>``), ``logs/evaluation/<task>``: not into the source tree."""
+    from agents.learned import TRAINED
+
+    if run.resolve().is_relative_to(TRAINED):
+        return Path("logs") / "evaluation" / run.resolve().name
+    return run / "evaluation"
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from training.evaluate import evaluate_run
 
     if not (args.run / "config.yaml").exists():
         raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
                                          "train (no config.yaml)")
-    out = args.out or args.run / "evaluation"
+    out = args.out or default_evaluation_folder(args.run)
     evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out,
                  ray_address=args.ray_address)
     print(f"wrote {out / 'benchmark.csv'}, benchmark.md and the plots")
@@ -489,7 +523,7 @@ def parser() -> argparse.ArgumentParser:
                    help="the scenario")
     p.add_argument("--controller", default="stiff",
                    help="controller name (stiff, soft-speed, soft-torque, z-torque, driller, "
-                        "learned)")
+                        "learned, learned:<run folder>, constant:<rpm>/<kN>)")
     p.add_argument("--rpm", type=number("rpm"), default=None,
                    help="surface speed set point in rpm (default: the scenario's)")
     p.add_argument("--wob", type=number("kN"), default=None,
@@ -580,7 +614,8 @@ def parser() -> argparse.ArgumentParser:
                    help="local processes (default: all cores)")
     add_ray_address(p, "the episodes")
     p.add_argument("--out", type=Path, default=None,
-                   help="output folder (default: RUN/evaluation)")
+                   help="output folder (default: RUN/evaluation; logs/evaluation/<task> "
+                        "for a shipped policy)")
 
     p = add("stability-map", "torsional stability maps P1-P6 (paper Fig. 15) by boundary "
                              "tracking; finished points are kept in --out and reused",

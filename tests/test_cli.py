@@ -176,3 +176,50 @@ def test_run_keeps_the_seeds_own_set_points_unless_given(tmp_path):
         points.append((round(summary["rpm"], 6), round(summary["weight_on_bit_kN"], 6)))
     assert points[0] != points[1]
     assert points[2] == (70.0, points[1][1])
+
+
+def test_a_task_policy_runs_at_the_scenarios_set_points(tmp_path):
+    """Spec section 4: every controller at the same driller's set points. The shipped
+    stick-slip policy acts in its task's env, which draws its own targets unless given:
+    ``run`` and the benchmark give it the scenario's (a randomised one's drawn per seed)."""
+    def run(*args):
+        assert main(["run", "--duration", "0.3", *args, "--out", str(tmp_path)]) == 0
+        return json.loads((tmp_path / "run_summary.json").read_text())
+
+    fixed = run("--controller", "learned", "--scenario", "stick_slip")
+    assert (fixed["rpm"], fixed["weight_on_bit_kN"]) == pytest.approx((50.0, 100.0))
+    drawn = [run("--controller", c, "--scenario", "random", "--seed", "3")
+             for c in ("learned", "stiff")]
+    assert drawn[0]["rpm"] == pytest.approx(drawn[1]["rpm"], rel=1e-12)
+    assert drawn[0]["weight_on_bit_kN"] == pytest.approx(drawn[1]["weight_on_bit_kN"],
+                                                        rel=1e-12)
+
+    assert main(["benchmark", "--controllers", "learned,stiff", "--scenarios", "stick_slip",
+                 "--seeds", "1", "--duration", "2", "--warmup", "1", "--workers", "1",
+                 "--out", str(tmp_path / "bench")]) == 0
+    rows = (tmp_path / "bench" / "benchmark.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    targets = {r.split(",")[0]: float(r.split(",")[header.index("target_rpm")])
+               for r in rows[1:]}
+    assert targets == pytest.approx({"learned": 50.0, "stiff": 50.0})
+
+
+def test_run_reports_the_set_points_a_controller_applied(tmp_path, capsys):
+    """A constant controller drills at its own set points, not the scenario's targets."""
+    assert main(["run", "--controller", "constant:160/65", "--duration", "0.3", "--out",
+                 str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "run_summary.json").read_text())
+    assert (summary["rpm"], summary["weight_on_bit_kN"]) == pytest.approx((100.0, 100.0))
+    assert summary["mean_setpoint_rpm"] == pytest.approx(160.0)
+    assert summary["mean_setpoint_kN"] == pytest.approx(65.0)
+    assert "set points applied: mean 160 rpm, 65 kN" in capsys.readouterr().out
+
+
+def test_evaluating_a_shipped_policy_writes_to_logs_not_into_the_package(tmp_path):
+    from pathlib import Path
+
+    from agents.learned import TRAINED
+    from drill_cli.main import default_evaluation_folder
+
+    assert default_evaluation_folder(TRAINED / "drilling") == Path("logs/evaluation/drilling")
+    assert default_evaluation_folder(tmp_path / "run") == tmp_path / "run" / "evaluation"
