@@ -28,6 +28,10 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
 CLASSICAL = ("stiff", "soft-speed", "soft-torque", "z-torque", "driller")
 
 
+#: What an unknown name's error lists: the registry's names and the parametrised forms.
+KNOWN = f"{', '.join(CONTROLLERS)}, learned:<run folder>, constant:<rpm>/<kN>"
+
+
 def make_controller(name: str, **kwargs: Any) -> Controller:
     """The controller called ``name`` (``CONTROLLERS``); unknown names are named.
 
@@ -44,7 +48,7 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
         factory = CONTROLLERS[name]
     except KeyError:
         raise ValueError(f"controller: unknown name {name!r}; known: "
-                         f"{', '.join(CONTROLLERS)}") from None
+                         f"{KNOWN}") from None
     return factory(**kwargs)
 
 
@@ -61,5 +65,5 @@ def parse_controllers(text: str) -> list[str]:
                 raise ValueError(f"controllers: {str(err).partition(': ')[2]}") from None
         elif n not in CONTROLLERS and not n.startswith("learned:"):
             raise ValueError(f"controllers: unknown name {n!r}; known: "
-                             f"{', '.join(CONTROLLERS)}")
+                             f"{KNOWN}")
     return names
