@@ -54,7 +54,7 @@ from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass, jsonable
 from drill_env.scenarios import POSITIONS, make_scenario
-from drill_env.sweep import ResultStore, digest, make_executor
+from drill_env.sweep import ResultStore, digest, make_executor, source_digest
 
 #: The paper's grid: 0-250 rpm and 0-200 kN in steps of 5 rpm / 5 kN (0 itself is
 #: steady by definition: no rotation, or no bit load).
@@ -229,8 +229,10 @@ def _point_task(args: tuple) -> dict[str, float]:
 
 
 def fingerprint(config, settings: MapSettings) -> str:
-    """What a point's result depends on: the physics and how it is simulated and judged."""
-    return digest({"config": jsonable(config), "settings": asdict(settings)})
+    """What a point's result depends on: the physics, how it is simulated and judged, and
+    the code that does it (:func:`~drill_env.sweep.source_digest`)."""
+    return digest({"config": jsonable(config), "settings": asdict(settings),
+                   "code": source_digest("drill_env")})
 
 
 def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float = PAPER_RPM_STEP,

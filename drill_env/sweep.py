@@ -22,7 +22,9 @@ a sweep run again skips what is already there.
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import importlib.util
 import json
 import os
 from collections.abc import Callable, Iterator, Sequence
@@ -118,6 +120,24 @@ def digest(obj: Any) -> str:
     """A short stable key of what results depend on (a JSON-able object): the
     fingerprint a :class:`ResultStore` keeps its lines under."""
     return hashlib.sha256(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:16]
+
+
+@functools.cache
+def source_digest(*packages: str) -> str:
+    """A short hash of the Python sources of ``packages`` (importable names): stored
+    results were computed by that code, so a changed model, controller or metric is not
+    served the old code's results. Hashes file names and bytes, ~1 ms per 100 files."""
+    h = hashlib.sha256()
+    for package in packages:
+        spec = importlib.util.find_spec(package)
+        folders = list(spec.submodule_search_locations or []) if spec else []
+        if not folders:
+            raise ValueError(f"source_digest: {package!r} is not an importable package")
+        for folder in folders:
+            for file in sorted(Path(folder).rglob("*.py")):
+                h.update(f"{package}/{file.relative_to(folder).as_posix()}\0".encode())
+                h.update(file.read_bytes())
+    return h.hexdigest()[:16]
 
 
 class ResultStore:

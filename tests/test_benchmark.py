@@ -86,6 +86,56 @@ def test_changed_settings_do_not_reuse_old_rows(tmp_path):
     assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(other))) == 0
 
 
+def test_rows_of_other_code_are_not_reused(tmp_path, monkeypatch):
+    """The fingerprint holds a hash of the package sources: after a change to the
+    simulator or a controller, a benchmark (``make demo`` run again) recomputes."""
+    import drill_env.sweep as sweep
+
+    before = bm.fingerprint(SHORT)
+    monkeypatch.setattr(sweep, "source_digest", lambda *packages: "edited")
+    assert bm.fingerprint(SHORT) != before
+
+
+def test_source_digest_follows_the_files(tmp_path, monkeypatch):
+    from drill_env.sweep import source_digest
+
+    package = tmp_path / "pkg_for_digest"
+    (package / "sub").mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    (package / "sub" / "model.py").write_text("K = 1.0\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    first = source_digest("pkg_for_digest")
+    source_digest.cache_clear()
+    assert source_digest("pkg_for_digest") == first  # same files, same hash
+    (package / "sub" / "model.py").write_text("K = 2.0\n")
+    source_digest.cache_clear()
+    assert source_digest("pkg_for_digest") != first
+    with pytest.raises(ValueError, match="'no_such_package_here'"):
+        source_digest("no_such_package_here")
+
+
+def test_a_rerun_writes_the_recordings_that_are_missing(tmp_path, monkeypatch, capsys):
+    """Stored rows are reused, except where ``--record`` asks for a recording that is not
+    there; the run says how many it reused."""
+    real = bm.run_episode
+    calls: list[str] = []
+    monkeypatch.setattr(bm, "run_episode", lambda e: calls.append(e.key) or real(e))
+    args = (["stiff", "z-torque"], ["stick_slip"], [0], tmp_path, SHORT)
+    bm.run_benchmark(*args, workers=1, progress=False)
+    assert len(calls) == 2 and not (tmp_path / "recordings").exists()
+    calls.clear()
+    bm.run_benchmark(*args, workers=1, record=True)
+    assert len(calls) == 2  # stored rows, but no recordings yet
+    (tmp_path / "recordings" / "z-torque_stick_slip_seed0.rrd").unlink()
+    calls.clear()
+    capsys.readouterr()
+    bm.run_benchmark(*args, workers=1, record=True)
+    assert calls == ["z-torque|stick_slip|0"]
+    assert "1 of 2 episodes already in" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "recordings").glob("*.rrd")) == [
+        "stiff_stick_slip_seed0.rrd", "z-torque_stick_slip_seed0.rrd"]
+
+
 def test_benchmark_names_bad_input(capsys):
     for args, message in ((["--controllers", "pid"], "unknown name 'pid'"),
                           (["--scenarios", "moon"], "--scenarios"),

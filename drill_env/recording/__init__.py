@@ -14,7 +14,12 @@ to the metrics they share. What a recording holds: ``docs/recording.md``.
 """
 
 from drill_env.events import layer_events, stick_slip_events, whirl_events
-from drill_env.recording.recorder import DEFAULT_DIRECTORY, EpisodeRecorder, check_directory
+from drill_env.recording.recorder import (
+    DEFAULT_DIRECTORY,
+    EpisodeRecorder,
+    check_directory,
+    stem_file_name,
+)
 from drill_env.recording.replay import (
     RecordingContents,
     read_recording,
@@ -28,6 +33,6 @@ from drill_env.recording.writer import APPLICATION_ID, SERIES, TIMELINE, Series
 __all__ = [
     "APPLICATION_ID", "DEFAULT_DIRECTORY", "SERIES", "TIMELINE", "EpisodeRecorder",
     "RecordEpisode", "RecordingContents", "Series", "check_directory", "layer_events",
-    "read_recording", "replay", "replay_command", "stick_slip_events", "stop_viewer",
-    "whirl_events",
+    "read_recording", "replay", "replay_command", "stem_file_name", "stick_slip_events",
+    "stop_viewer", "whirl_events",
 ]

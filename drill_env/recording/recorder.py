@@ -57,6 +57,12 @@ def _sanitize(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", str(text)).strip("_") or "x"
 
 
+def stem_file_name(stem: str) -> str:
+    """The file a recording named by ``stem`` is written to: ``<stem>.rrd``, characters
+    other than letters, digits, ``_``, ``.`` and ``-`` replaced by ``_``."""
+    return f"{_sanitize(stem)}.rrd"
+
+
 def _path_part(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_]+", "_", str(text)).strip("_") or "x"
 
@@ -266,7 +272,7 @@ class EpisodeRecorder:
         unique, such as the benchmark's controller, scenario and seed), else
         ``<scenario>_seed<seed>_ep<index>_<recording id>.rrd``."""
         if self.stem is not None:
-            return f"{_sanitize(self.stem)}.rrd"
+            return stem_file_name(self.stem)
         seed = "noseed" if self.seed is None else _sanitize(str(self.seed))
         return (f"{_sanitize(self.scenario)}_seed{seed}_ep{self.episode_index:04d}_"
                 f"{self.recording_id[:8]}.rrd")
