@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 
 import gymnasium as gym
 import numpy as np
@@ -106,6 +107,27 @@ def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
     with (copy / "evaluations.csv").open() as f:
         steps = [int(r["timesteps"]) for r in csv.DictReader(f)]
     assert steps[:2] == [1024, 2048] and steps[-1] == 3072
+
+
+def test_a_resumed_run_redoes_the_evaluations_after_its_checkpoint(run, tmp_path):
+    """Killed after the evaluation at 2048 steps but before its checkpoint, a run resumes
+    from 1024: the evaluation at 2048 is done again and replaces the old row, and the
+    wall time counts on from the checkpoint's instead of starting at zero."""
+    import shutil
+
+    folder, cfg = run
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    for name in ("model_2048_steps.zip", "vecnormalize_2048.pkl", "progress_2048.json"):
+        (copy / "checkpoints" / name).unlink()
+    at_checkpoint = json.loads((copy / "checkpoints" / "progress_1024.json").read_text())
+    train(cfg, copy, resume=True, progress=False)
+    with (copy / "evaluations.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["timesteps"]) for r in rows] == [1024, 2048]
+    assert float(rows[1]["wall_s"]) > at_checkpoint["wall_s"] > 0.0
+    run_info = json.loads((copy / "run.json").read_text())
+    assert run_info["wall_s"] > run_info["wall_s_this_session"] + at_checkpoint["wall_s"] - 1e-9
 
 
 def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_path,

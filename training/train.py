@@ -7,8 +7,10 @@ A run lives in ``logs/runs/<name>/``:
 ``model.zip``               the final model; ``vecnormalize.pkl`` its normalisation
 ``best_model.zip``          the best model on the validation seeds (+ its
                             ``best_vecnormalize.pkl``)
-``checkpoints/``            models every ``checkpoint_freq`` steps (resume from the last)
-``evaluations.csv``         validation return, SSI, stuck share per evaluation
+``checkpoints/``            models every ``checkpoint_freq`` steps (resume from the last),
+                            their normalisation and the training wall time at each
+``evaluations.csv``         validation return, SSI, stuck share, wall time per evaluation
+                            (a resumed run drops the rows after its checkpoint)
 ``learning_curve.png``      the validation curve, redrawn at every evaluation
 ``tb/``                     TensorBoard logs
 ``run.json``                seeds, env steps, wall time, versions
@@ -28,7 +30,7 @@ import json
 import platform
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import yaml
@@ -80,13 +82,55 @@ def evaluate_policy_on_seeds(model: Any, normalizer: Any, env: Any, seeds: list[
             "ssi": float(np.mean(ssi)), "stuck_fraction": float(np.mean(stuck))}
 
 
-def _callbacks(config: TrainConfig, run: Path, train_env: Any) -> list[Any]:
+class Resumed(NamedTuple):
+    """Where a resumed run stands: training wall time so far (s) and the validation
+    return of its best model (-inf: none kept)."""
+
+    wall_s: float
+    best_return: float
+
+
+#: A run that starts from nothing.
+FRESH = Resumed(0.0, -np.inf)
+
+
+def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
+    """Rewind the run's records to ``steps``, the checkpoint (or final model) it resumes
+    from: evaluations after it belong to training that is done again, so their rows
+    leave ``evaluations.csv``. The best model stays (it was evaluated), with its return."""
+    path = run / "evaluations.csv"
+    rows: list[dict[str, str]] = []
+    if path.exists():
+        with path.open() as f:
+            rows = list(csv.DictReader(f))
+    best = max((float(r["return"]) for r in rows), default=-np.inf) \
+        if (run / "best_model.zip").exists() else -np.inf
+    kept = [r for r in rows if int(float(r["timesteps"])) <= steps]
+    if len(kept) < len(rows):
+        with path.open("w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(kept)
+    progress = run / "checkpoints" / f"progress_{steps}.json"
+    if from_checkpoint and progress.exists():
+        wall = float(json.loads(progress.read_text())["wall_s"])
+    elif not from_checkpoint and (run / "run.json").exists():
+        wall = float(json.loads((run / "run.json").read_text()).get("wall_s", 0.0))
+    else:  # a checkpoint of an older version: the last evaluation before it
+        wall = float(kept[-1]["wall_s"]) if kept else 0.0
+    return Resumed(wall, best)
+
+
+def _callbacks(config: TrainConfig, run: Path, train_env: Any,
+               resumed: Resumed = FRESH) -> list[Any]:
     import gymnasium as gym
     from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
     seeds = list(range(VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes))
     eval_env = gym.make(config.env_id, **config.env_kwargs)
     per_env = max(1, config.eval_freq // config.n_envs)
+    # the run's training wall time, counted on from where a resumed run stopped
+    started = time.perf_counter() - resumed.wall_s
 
     class SeededEval(BaseCallback):
         """EvalCallback on fixed validation seeds: the same episodes every time."""
@@ -95,11 +139,7 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any) -> list[Any]:
             super().__init__()
             self.path = run / "evaluations.csv"
             # a resumed run keeps its best model until an evaluation beats it
-            self.best = -np.inf
-            if self.path.exists() and (run / "best_model.zip").exists():
-                with self.path.open() as f:
-                    self.best = max((float(r["return"]) for r in csv.DictReader(f)),
-                                    default=-np.inf)
+            self.best = resumed.best_return
 
         def _on_step(self) -> bool:
             if self.n_calls % per_env:
@@ -110,7 +150,7 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any) -> list[Any]:
         def evaluate(self) -> None:
             result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
             row = {"timesteps": self.num_timesteps, **result,
-                   "wall_s": time.perf_counter() - self._t0}
+                   "wall_s": time.perf_counter() - started}
             new = not self.path.exists()
             with self.path.open("a", newline="") as f:
                 writer = csv.DictWriter(f, fieldnames=list(row))
@@ -125,16 +165,16 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any) -> list[Any]:
                 train_env.save(str(run / "best_vecnormalize.pkl"))
             plot_learning_curve(run)
 
-        def _on_training_start(self) -> None:
-            self._t0 = time.perf_counter()
-
     class SaveNormalizer(BaseCallback):
-        """Keeps vecnormalize.pkl beside every checkpoint (resume needs both)."""
+        """Keeps vecnormalize.pkl beside every checkpoint (resume needs both), and the
+        training wall time so far (a resumed run counts on from it)."""
 
         def _on_step(self) -> bool:
             if self.n_calls % max(1, config.checkpoint_freq // config.n_envs) == 0:
-                train_env.save(str(run / "checkpoints" / f"vecnormalize_{self.num_timesteps}"
-                                                         ".pkl"))
+                folder, steps = run / "checkpoints", self.num_timesteps
+                train_env.save(str(folder / f"vecnormalize_{steps}.pkl"))
+                (folder / f"progress_{steps}.json").write_text(json.dumps(
+                    {"wall_s": time.perf_counter() - started}))
             return True
 
     checkpoints = CheckpointCallback(max(1, config.checkpoint_freq // config.n_envs),
@@ -261,23 +301,23 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
             model.learning_starts = model.num_timesteps + int(
                 config.hyperparams.get("learning_starts", 100))  # SB3's default: 100
         print(f"resuming from {model_path.name} ({model.num_timesteps} steps)")
+        resumed = _rewind(run, model.num_timesteps, model_path.parent.name == "checkpoints")
     else:
         model = new_model(config, env, tensorboard_log=str(run / "tb"))
+        resumed = FRESH
     saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
     t0 = time.perf_counter()
     remaining = max(0, config.n_timesteps - model.num_timesteps)
-    model.learn(remaining, callback=_callbacks(config, run, env), progress_bar=progress,
+    model.learn(remaining, callback=_callbacks(config, run, env, resumed), progress_bar=progress,
                 reset_num_timesteps=latest is None, tb_log_name=config.algo)
     wall = time.perf_counter() - t0
     model.save(run / "model.zip")
     env.save(str(run / "vecnormalize.pkl"))
     info = {"env_id": config.env_id, "algo": config.algo, "seed": config.seed,
             "env_steps": int(model.num_timesteps), "wall_s_this_session": wall,
+            "wall_s": resumed.wall_s + wall,
             "validation_seeds": [VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes],
             "machine": platform.platform(), "python": platform.python_version()}
-    previous = json.loads((run / "run.json").read_text()) if (run / "run.json").exists() \
-        else {}
-    info["wall_s"] = previous.get("wall_s", 0.0) + wall if latest else wall
     (run / "run.json").write_text(json.dumps(info, indent=2))
     plot_learning_curve(run)
     env.close()
