@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -59,7 +58,11 @@ from drill_env.physics.linalg import (
     twisted_tridiagonal,
 )
 from drill_env.physics.readings import advance_and_read, readout
-from drill_env.physics.statics import element_buckling_error, resolved_weight_on_bit
+from drill_env.physics.statics import (
+    OperatingPoint,
+    element_buckling_error,
+    resolved_weight_on_bit,
+)
 from drill_env.physics.top_drive import MAX_FILTER_W_DT
 from drill_env.physics.trajectory import curved_hole_loads
 
@@ -74,14 +77,6 @@ STATUS_MESSAGES = {
                      "the time step can hold (reduce weight on bit)",
     Status.MESH_BUCKLING: "string buckled beyond the mesh resolution",
 }
-
-
-@dataclass
-class OperatingPoint:
-    """A steady state to start from: surface speed (rad/s) and weight on bit (N)."""
-
-    surface_speed: float = 0.0
-    weight_on_bit: float = 0.0
 
 
 class Simulator:
@@ -595,6 +590,10 @@ class Simulator:
 
     def run(self, duration: float, speed_setpoint: float | None = None,
             hook_load: float | None = None, record_every: int = 0) -> np.ndarray:
+        """:meth:`advance` for ``duration`` simulated seconds (> 0; at least one step);
+        ``record_every`` > 0 returns every so many steps' records, 0 none."""
+        if not (math.isfinite(duration) and duration > 0.0):
+            raise ValueError(f"duration: must be finite and > 0 s, got {duration!r}")
         return self.advance(max(1, round(duration / self.dt)), speed_setpoint, hook_load,
                             record_every)
 

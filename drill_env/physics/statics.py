@@ -31,6 +31,26 @@ PIPE_KINDS = frozenset({"drill_pipe", "heavy_weight"})
 LUBINSKI = 1.94
 
 
+@dataclass
+class OperatingPoint:
+    """A steady state to start from: surface speed (rad/s) and weight on bit (N), both
+    finite and >= 0 (the bit drills turning forward, on bottom or just touching)."""
+
+    surface_speed: float = 0.0
+    weight_on_bit: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name, unit in (("surface_speed", "rad/s"), ("weight_on_bit", "N")):
+            value = getattr(self, name)
+            try:
+                valid = math.isfinite(value) and value >= 0.0
+            except TypeError:  # not a number
+                valid = False
+            if not valid:
+                raise ValueError(f"OperatingPoint.{name}: must be finite and >= 0 {unit}, "
+                                 f"got {value!r}")
+
+
 def bit_buoyed_weight(config: SimulationConfig) -> float:
     """The bit's weight in mud (N); steel like the component it hangs from."""
     return config.bit.mass * GRAVITY * (1.0 - config.mud.density /

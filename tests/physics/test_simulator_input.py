@@ -1,0 +1,42 @@
+"""The simulator's entry points refuse bad input, naming it, instead of a silent
+diverged (or empty) run."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.units import RPM
+
+
+@pytest.mark.parametrize(("speed", "wob", "field"), [
+    (math.nan, 100e3, "surface_speed"), (math.inf, 100e3, "surface_speed"),
+    (-5.0, 100e3, "surface_speed"), (5.0, math.nan, "weight_on_bit"),
+    (5.0, -100e3, "weight_on_bit"), (5.0, "100", "weight_on_bit")])
+def test_an_operating_point_must_be_finite_and_not_negative(speed, wob, field):
+    with pytest.raises(ValueError, match=f"OperatingPoint.{field}: must be finite and >= 0"):
+        OperatingPoint(surface_speed=speed, weight_on_bit=wob)
+
+
+def test_numpy_scalars_make_an_operating_point():
+    point = OperatingPoint(np.float32(50 * RPM), np.int64(100_000))
+    assert point.weight_on_bit == 100_000
+
+
+@pytest.mark.parametrize("duration", [-1.0, 0.0, math.nan, math.inf])
+def test_run_needs_a_positive_finite_duration(duration):
+    sim = Simulator()
+    sim.reset(OperatingPoint(50 * RPM, 100e3))
+    with pytest.raises(ValueError, match="duration: must be finite and > 0 s"):
+        sim.run(duration)
+
+
+def test_run_records_every_so_many_steps_or_none():
+    sim = Simulator()
+    sim.reset(OperatingPoint(50 * RPM, 100e3))
+    assert sim.run(0.1).shape[0] == 0
+    steps = round(0.1 / sim.dt)
+    assert sim.run(0.1, record_every=5).shape[0] == steps // 5
