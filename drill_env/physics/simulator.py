@@ -65,6 +65,7 @@ from drill_env.physics.statics import (
 )
 from drill_env.physics.top_drive import MAX_FILTER_W_DT
 from drill_env.physics.trajectory import curved_hole_loads
+from drill_env.physics.validation import require_positive
 
 __all__ = ["MAX_FILTER_W_DT", "RECORD_CHANNELS", "STATUS_MESSAGES", "OperatingPoint",
            "Simulator", "Status"]
@@ -592,8 +593,7 @@ class Simulator:
             hook_load: float | None = None, record_every: int = 0) -> np.ndarray:
         """:meth:`advance` for ``duration`` simulated seconds (> 0; at least one step);
         ``record_every`` > 0 returns every so many steps' records, 0 none."""
-        if not (math.isfinite(duration) and duration > 0.0):
-            raise ValueError(f"duration: must be finite and > 0 s, got {duration!r}")
+        require_positive(duration, "duration")
         return self.advance(max(1, round(duration / self.dt)), speed_setpoint, hook_load,
                             record_every)
 

@@ -18,6 +18,7 @@ import numpy as np
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.fem import axial_force_profile, build_mesh
 from drill_env.physics.units import GRAVITY
+from drill_env.physics.validation import require_non_negative
 
 #: Kinds of component that are pipe (not built to carry compression).
 PIPE_KINDS = frozenset({"drill_pipe", "heavy_weight"})
@@ -40,15 +41,8 @@ class OperatingPoint:
     weight_on_bit: float = 0.0
 
     def __post_init__(self) -> None:
-        for name, unit in (("surface_speed", "rad/s"), ("weight_on_bit", "N")):
-            value = getattr(self, name)
-            try:
-                valid = math.isfinite(value) and value >= 0.0
-            except TypeError:  # not a number
-                valid = False
-            if not valid:
-                raise ValueError(f"OperatingPoint.{name}: must be finite and >= 0 {unit}, "
-                                 f"got {value!r}")
+        for name in ("surface_speed", "weight_on_bit"):
+            require_non_negative(getattr(self, name), f"OperatingPoint.{name}")
 
 
 def bit_buoyed_weight(config: SimulationConfig) -> float:
