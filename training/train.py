@@ -278,6 +278,7 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
                              "drop --resume")
     algo = _algo_class(config.algo)
     latest = _latest_checkpoint(run) if resume else None
+    from_checkpoint = latest is not None  # else from the final model, or from nothing
     if resume and latest is None:
         final = (run / "model.zip", run / "vecnormalize.pkl")
         if all(path.exists() for path in final):
@@ -301,7 +302,7 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
             model.learning_starts = model.num_timesteps + int(
                 config.hyperparams.get("learning_starts", 100))  # SB3's default: 100
         print(f"resuming from {model_path.name} ({model.num_timesteps} steps)")
-        resumed = _rewind(run, model.num_timesteps, model_path.parent.name == "checkpoints")
+        resumed = _rewind(run, model.num_timesteps, from_checkpoint)
     else:
         model = new_model(config, env, tensorboard_log=str(run / "tb"))
         resumed = FRESH
