@@ -98,10 +98,12 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         ax.axvspan(0.0, warmup, color="0.85", zorder=0)
         ax.grid(alpha=0.3)
     axes[2].set_ylim(bottom=0.0)  # a distance
-    axes[0].legend(fontsize=8, ncol=len(controllers), loc="upper right")
+    # above the plots, in rows of at most six: a sweep of constant set points has dozens
+    axes[0].legend(fontsize=8, ncol=min(len(controllers), 6), loc="lower center",
+                   bbox_to_anchor=(0.5, 1.0), frameon=False)
     axes[-1].set_xlabel("time (s)")
-    axes[0].set_title(f"{scenario}: every controller from the same start and targets "
-                      "(first seed; grey: warm-up, not in the metrics)")
+    fig.suptitle(f"{scenario}: every controller from the same start and targets "
+                 "(first seed; grey: warm-up, not in the metrics)", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -90,6 +90,15 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0 if reproduced else 1
 
 
+#: The units of run_summary.json's numbers (the window metrics are the info's, in SI
+#: units; the rest names its unit in its key or is a count or a ratio).
+RUN_SUMMARY_UNITS = {
+    "rpm": "rpm", "weight_on_bit_kN": "kN", "mean_setpoint_rpm": "rpm",
+    "mean_setpoint_kN": "kN", "simulated_s": "s", "wall_s": "s", "mean_ssi": "1",
+    "mean_stuck_fraction": "1", "mean_whirl_ratio": "1", "mean_radial_ratio": "1",
+    "mean_lateral_force": "N", "mean_rop": "m/s", "return": "reward units"}
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
@@ -126,9 +135,12 @@ def cmd_run(args: argparse.Namespace) -> int:
                                              f"range {low:g}-{high:g} {unit}")
         options[key] = value * scale
     if args.record is not None:
+        from agents.benchmark import label
         from drill_env.recording import RecordEpisode
 
-        env = RecordEpisode(env, args.record)
+        # named as the benchmark names its recordings: <controller>_<scenario>_seed<seed>...
+        env = RecordEpisode(env, args.record, scenario=f"{label(args.controller)}_"
+                                                       f"{args.scenario}")
     from tqdm import tqdm
 
     from drill_env.physics.statics import pipe_buckling
@@ -186,6 +198,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         "return": reward, "termination_reason": reason,
         **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
         "wall_s": time.perf_counter() - t0,
+        "units": RUN_SUMMARY_UNITS,
     }
     if args.record is not None:
         summary["recording"] = str(env.last_path) if env.last_path else None

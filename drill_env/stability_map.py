@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
@@ -287,6 +288,8 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
             todo = [p for p in wanted if results is None or keys[p] not in results]
             found = {p: results.get(keys[p]) for p in wanted if p not in todo} \
                 if results is not None else {}
+            if bar is not None and found:
+                bar.update(len(found))  # reused from the store: done as well
             tasks = [(configs[p], float(rpm[wanted[p][0]]), float(wob[wanted[p][1]]),
                       settings) for p in todo]
             if tasks:
@@ -356,6 +359,17 @@ def linear_boundary(position: str, rpm: Sequence[float], max_wob: float = PAPER_
 def plot_maps(maps: Sequence[StabilityMap], path: Path, controller: str = "stiff") -> Path:
     """Fig. 15 style: one panel per position, the stick-slip zone shaded, simulated
     points marked (x steady, o stick-slip)."""
+    import matplotlib.pyplot as plt
+
+    fig = maps_figure(maps, controller)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def maps_figure(maps: Sequence[StabilityMap], controller: str = "stiff") -> Any:
+    """The matplotlib figure of :func:`plot_maps` (Agg backend), laid out."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -383,13 +397,12 @@ def plot_maps(maps: Sequence[StabilityMap], path: Path, controller: str = "stiff
     for ax in list(axes.flat)[len(maps):]:
         ax.set_visible(False)
     axes.flat[0].legend(loc="upper right", fontsize=7)
-    fig.suptitle("Torsional stability maps by boundary tracking (paper Fig. 15), "
-                 f"{controller} top drive")
+    title = ("Torsional stability maps by boundary tracking (paper Fig. 15), "
+             f"{controller} top drive")
+    # ~11 characters of the 12 pt title per inch: one panel's width holds half of it
+    fig.suptitle(textwrap.fill(title, width=int(11 * 4.2 * cols)))
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return fig
 
 
 def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings,

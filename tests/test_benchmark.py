@@ -176,3 +176,26 @@ def test_a_bad_constant_set_point_names_the_flag_typed(capsys):
     with pytest.raises(SystemExit):
         main(["benchmark", "--controllers", "constant:abc"])
     assert "--controllers: constant:<rpm>/<kN> expected" in capsys.readouterr().err
+
+
+def test_the_series_chart_lays_out_a_sweep_of_many_controllers(tmp_path):
+    """`training.evaluate` benchmarks a grid of 25 constant set points: the legend of
+    every controller must not push the plots off the page (matplotlib then warns that
+    tight_layout cannot apply and the figure comes out squashed)."""
+    import warnings
+
+    import numpy as np
+
+    from agents.plots import series_chart
+
+    names = [bm.label(f"constant:{r}/{w}") for r in (40, 80, 120, 160, 200)
+             for w in (40, 65, 90, 115, 140)]
+    t = np.linspace(0.0, 10.0, 101)
+    for k, name in enumerate(names):
+        np.savez(tmp_path / f"{name}_random_seed0.npz", time=t, bit_x=0.001 * np.sin(t),
+                 bit_y=0.001 * np.cos(t), clearance=0.02, bit_speed=(5.0 + k) * (1 + 0 * t),
+                 torque_on_bit=2e3 + 0 * t)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        series_chart(tmp_path, names, "random", tmp_path / "series.png", warmup=2.0)
+    assert (tmp_path / "series.png").stat().st_size > 10_000

@@ -17,7 +17,10 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
     assert summary["rpm"] == 60.0 and summary["weight_on_bit_kN"] == 80.0
     assert summary["simulated_s"] == pytest.approx(0.5)
     assert summary["mean_rop"] > 0.0
-    recordings = list((tmp_path / "rec").glob("paper_case1_seed0_*.rrd"))
+    numbers = {k for k, v in summary.items() if isinstance(v, float) and k != "seed"}
+    assert numbers <= set(summary["units"]), numbers - set(summary["units"])
+    assert summary["units"]["mean_rop"] == "m/s"
+    recordings = list((tmp_path / "rec").glob("stiff_paper_case1_seed0_*.rrd"))
     assert [str(p) for p in recordings] == [summary["recording"]]
     assert "SSI" in capsys.readouterr().out
 

@@ -201,3 +201,18 @@ def test_tuned_controllers_shrink_the_stick_slip_zone_at_every_position():
         assert zones["stiff"][position] > 0, position
         for tuned in ("soft_speed", "z_torque"):
             assert zones[tuned][position] < zones["stiff"][position], (tuned, position)
+
+
+@pytest.mark.parametrize("positions", [["P1"], ["P1", "P2"], list(sm.POSITIONS)])
+def test_map_figure_keeps_its_title_on_the_page(positions):
+    """One panel is 4.2 in wide: the one-line title of six panels would run off it."""
+    rpm, wob = np.array([50.0, 100.0]), np.array([50e3, 100e3])
+    unstable = np.array([[False, False], [True, False]])
+    maps = [sm.StabilityMap(p, 0.0, rpm, wob, unstable, unstable.astype(np.int8),
+                            np.array([100e3, np.nan]), 2, 0.1) for p in positions]
+    fig = sm.maps_figure(maps, controller="soft-torque")
+    renderer = fig.canvas.get_renderer()
+    title = fig._suptitle.get_window_extent(renderer)
+    page = fig.bbox
+    assert page.x0 <= title.x0 and title.x1 <= page.x1, (title, page)
+    assert "soft-torque" in fig._suptitle.get_text()

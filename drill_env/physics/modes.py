@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import scipy.linalg
@@ -315,6 +315,20 @@ def critical_speed_chart(config: SimulationConfig, modes: Sequence[Modes], path,
                          max_rpm: float = 300.0, title: str = "") -> None:
     """The chart BHA design tools show: natural frequencies (horizontal lines) against
     rotary speed, with the excitation lines; the circles are the critical speeds."""
+    import matplotlib.pyplot as plt
+
+    fig = critical_speed_figure(config, modes, max_rpm, title)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def critical_speed_figure(config: SimulationConfig, modes: Sequence[Modes],
+                          max_rpm: float = 300.0, title: str = "") -> Any:
+    """The matplotlib figure of :func:`critical_speed_chart` (Agg backend), laid out.
+
+    Every mode is labelled at the right edge (both kinds spread together, so that close
+    frequencies of the two kinds do not overprint), every excitation line where it
+    leaves the plot, on the side of it that stays inside."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -322,26 +336,33 @@ def critical_speed_chart(config: SimulationConfig, modes: Sequence[Modes], path,
 
     rpm = np.linspace(0.0, max_rpm, 301)
     fig, ax = plt.subplots(figsize=(10, 6.5))
-    styles = {"lateral": ("tab:blue", "-", 1.0), "torsional": ("tab:red", "--", 0.0)}
+    styles = {"lateral": ("tab:blue", "-"), "torsional": ("tab:red", "--")}
     f_top = max((float(np.max(m.frequency)) for m in modes if len(m.frequency)), default=1.0)
     y_max = 1.12 * f_top
+    labels = []  # (frequency, text, colour) of every mode
     for m in modes:
-        color, line, side = styles.get(m.kind, ("k", ":", 1.0))
-        labels = _spread(sorted(m.frequency.tolist()), 0.028 * y_max)
-        for i, (f, y) in enumerate(zip(m.frequency, labels, strict=True)):
+        color, line = styles.get(m.kind, ("k", ":"))
+        for i, f in enumerate(m.frequency.tolist()):
             ax.axhline(f, color=color, ls=line, lw=1.0,
                        label=f"{m.kind} modes: {m.boundary}" if i == 0 else None)
-            x = max_rpm * (0.995 if side else 0.005)
-            ax.text(x, y, f"{m.kind[0].upper()}{i + 1} {f:.2f} Hz", color=color, fontsize=7,
-                    ha="right" if side else "left", va="bottom")
+            labels.append((f, f"{m.kind[0].upper()}{i + 1} {f:.2f} Hz", color))
+    labels.sort()
+    for (_, text, color), y in zip(labels, _spread([f for f, _, _ in labels], 0.028 * y_max),
+                                   strict=True):
+        ax.text(0.995 * max_rpm, y, text, color=color, fontsize=7, ha="right", va="bottom",
+                bbox={"fc": "white", "ec": "none", "pad": 0.3})  # over a close mode's line
     lines: dict[str, float] = {}
     for m in modes:
         lines.update(excitations(config, m.kind))
     for name, per_rev in lines.items():
         ax.plot(rpm, per_rev * rpm / 60.0, color="0.35", lw=0.8)
-        r_end = min(max_rpm, 60.0 * 0.97 * y_max / per_rev)
-        ax.text(r_end, per_rev * r_end / 60.0, f"{name} ", fontsize=7, color="0.25",
-                ha="right", va="top")
+        # labelled where it leaves the top (a steep line, near the left edge: to its
+        # right), or short of the right edge, which the mode labels hold
+        r_end = min(0.85 * max_rpm, 60.0 * 0.97 * y_max / per_rev)
+        left = r_end < 0.5 * max_rpm
+        ax.annotate(name, (r_end, per_rev * r_end / 60.0), xytext=(3, 0) if left else (-3, 0),
+                    textcoords="offset points", fontsize=7, color="0.25",
+                    ha="left" if left else "right", va="top")
     for cs in critical_speeds(config, modes, max_rpm):
         ax.plot(cs.rpm, cs.frequency, "o", ms=4, mfc="none", color="k")
     ax.set_xlim(0, max_rpm)
@@ -349,11 +370,12 @@ def critical_speed_chart(config: SimulationConfig, modes: Sequence[Modes], path,
     ax.set_xlabel("rotary speed (rpm)")
     ax.set_ylabel("frequency (Hz)")
     ax.set_title(title or "Critical-speed chart", fontsize=10)
-    ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
+    # below the axes: inside it would cover the excitations' labels or the modes'
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09), fontsize=7, ncol=2,
+              frameon=False)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return fig
 
 
 def rpm_of(frequency: float, per_rev: float) -> float:

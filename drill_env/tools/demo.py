@@ -1,8 +1,9 @@
 """The physics part of ``drill-env demo``: stick-slip at 50 rpm, none at 100 rpm.
 
-Paper section 4, case 1 at 100 kN (Figs. 13, 14): the default string's torsional model
-in hard rock under the stiff top drive. Prints a table, writes ``demo_stick_slip.png``
-(both set points on one speed scale) and ``demo_summary.json``.
+Paper section 4, case 1 at 100 kN (Figs. 13, 14): the paper's string
+(``SimulationConfig()``'s default; the envs' default scenario drills the realistic one),
+torsional model in hard rock under the stiff top drive. Prints a table, writes
+``demo_stick_slip.png`` (both set points on one speed scale) and ``demo_summary.json``.
 """
 
 from __future__ import annotations
@@ -56,8 +57,8 @@ def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]],
         })
     header = (f"{'rpm':>5} {'SSI':>6} {'stuck':>6} {'bit rpm min-max':>16} "
               f"{'TOB kN m':>9} {'ROP m/h':>8} {'x real time':>11}")
-    echo("Default string (1000 m DP + 35 m BHA), mesoscopic bit, hard rock, WOB 100 kN, "
-         "stiff top drive, torsional dynamics (paper case 1)")
+    echo("Paper string (1000 m DP + 35 m BHA, SimulationConfig()), mesoscopic bit, hard rock, "
+         "WOB 100 kN, stiff top drive, torsional dynamics (paper case 1)")
     echo(header)
     echo("-" * len(header))
     for r in rows:

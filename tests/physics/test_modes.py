@@ -265,3 +265,26 @@ def test_torsional_modes_with_a_free_top_drive_rotor_are_the_transfer_matrix_roo
     flexible = modes.frequency[modes.frequency > 1e-3]  # not the free string's rotation
     np.testing.assert_allclose(flexible[:2], roots[:2], rtol=1e-3)
     assert flexible[0] > torsional_modes(config, top="fixed", n_modes=1).frequency[0]
+
+
+@pytest.mark.parametrize("max_rpm", [250.0, 120.0])
+def test_critical_speed_chart_labels_stay_inside_and_apart(max_rpm):
+    """The mode and excitation labels of the chart `drill-env modes` draws: none runs off
+    the plot (the steep backward-whirl line leaves near the left edge) and none prints
+    over another (close lateral and torsional frequencies)."""
+    from drill_env.physics.modes import critical_speed_figure
+
+    config = SimulationConfig()
+    modes = (torsional_modes(config, "fixed", 5), lateral_modes(config, 100e3, n_modes=5))
+    fig = critical_speed_figure(config, modes, max_rpm)
+    renderer = fig.canvas.get_renderer()
+    ax = fig.axes[0]
+    boxes = [(t.get_text(), t.get_window_extent(renderer)) for t in ax.texts]
+    assert len(boxes) == 10 + len({name for m in modes for name, _ in
+                                    excitations(config, m.kind)})
+    for text, box in boxes:
+        assert ax.bbox.x0 <= box.x0 and box.x1 <= ax.bbox.x1, text
+        assert ax.bbox.y0 <= box.y0 and box.y1 <= ax.bbox.y1, text
+    for k, (text, box) in enumerate(boxes):
+        for other, box2 in boxes[k + 1:]:
+            assert not box.overlaps(box2), (text, other)
