@@ -102,5 +102,6 @@ def _files(folder: Path) -> tuple[Path, Path]:
                         ("model.zip", "vecnormalize.pkl")):
         if (folder / model).exists() and (folder / norm).exists():
             return folder / model, folder / norm
-    raise FileNotFoundError(f"learned: {folder} holds no model.zip + vecnormalize.pkl "
-                            "(a run folder of drill-env train or a shipped policy)")
+    raise FileNotFoundError(f"learned: {folder} holds neither best_model.zip + "
+                            "best_vecnormalize.pkl nor model.zip + vecnormalize.pkl (a run "
+                            "folder of drill-env train or a shipped policy)")

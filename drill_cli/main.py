@@ -327,6 +327,16 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if not (args.run / "config.yaml").exists():
         raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
                                          "train (no config.yaml)")
+    from agents.learned import policy_files
+
+    try:
+        model, _ = policy_files(args.run)
+    except FileNotFoundError as err:  # a run stopped before its first evaluation
+        raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}"
+                                         ) from None
+    print(f"evaluating {model} (" + ("the best model on the validation seeds"
+                                     if model.name.startswith("best_") else
+                                     "the final model: no best model kept") + ")")
     out = args.out or default_evaluation_folder(args.run)
     evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out,
                  ray_address=args.ray_address)

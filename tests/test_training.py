@@ -77,11 +77,13 @@ def test_reloaded_policy_acts_deterministically_with_its_normalisation(run):
     assert controller.normalizer.obs_rms.count > 1000
 
 
-def test_evaluate_runs_the_policy_through_the_benchmark(run, tmp_path):
+def test_evaluate_runs_the_policy_through_the_benchmark(run, tmp_path, capsys):
     folder, _ = run
     code = main(["evaluate", str(folder), "--seeds", "2", "--workers", "1",
                  "--out", str(tmp_path)])
     assert code == 0
+    kept = "best_model.zip" if (folder / "best_model.zip").exists() else "model.zip"
+    assert f"evaluating {folder / kept} (" in capsys.readouterr().out
     with (tmp_path / "benchmark.csv").open() as f:
         rows = list(csv.DictReader(f))
     assert {r["controller"] for r in rows} == {"learned", "stiff", "soft-speed",
@@ -309,3 +311,14 @@ def test_a_resumed_sac_run_warms_its_empty_replay_buffer_up_again(tmp_path):
     model = SAC.load(tmp_path / "sac" / "model.zip", device="cpu")
     assert model.num_timesteps == 384
     assert model.learning_starts == 256 + 64
+
+
+def test_evaluate_names_the_model_files_it_looked_for(tmp_path, capsys):
+    """A run folder stopped before it saved a model: the error lists both pairs of files
+    `evaluate` loads (the best model, else the final one), under the argument's name."""
+    (tmp_path / "config.yaml").write_text("task: stick_slip\n")
+    with pytest.raises(SystemExit) as stop:
+        main(["evaluate", str(tmp_path)])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "RUN:" in err and "best_model.zip" in err and "model.zip + vecnormalize.pkl" in err
