@@ -58,6 +58,10 @@ class BenchmarkSettings:
     start_kick: NonNegative = Field(default=0.02, le=0.5)
     #: Physics level ("full" or "fast", docs/performance.md).
     fidelity: str = "full"
+    #: Config overrides (dotted paths, e.g. ``{"string.drill_pipe.length": 2000.0}``)
+    #: merged into every episode's scenario, under each controller's own top drive:
+    #: what ``drill-env benchmark --config FILE`` reads from YAML.
+    physics: dict[str, Any] = Field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.warmup >= self.duration:
@@ -196,7 +200,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     # benchmark's episode settings, which are the same for every controller
     env_kwargs.update(scenario=episode.scenario, episode_duration=settings.duration,
                       start_kick=settings.start_kick, fidelity=settings.fidelity)
-    env: Any = gym.make(env_id, physics=controller.physics(), **env_kwargs)
+    env: Any = gym.make(env_id, physics={**settings.physics, **controller.physics()},
+                        **env_kwargs)
     if episode.record:
         from drill_env.recording import RecordEpisode
 

@@ -94,7 +94,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 #: units; the rest names its unit in its key or is a count or a ratio).
 RUN_SUMMARY_UNITS = {
     "rpm": "rpm", "weight_on_bit_kN": "kN", "mean_setpoint_rpm": "rpm",
-    "mean_setpoint_kN": "kN", "simulated_s": "s", "wall_s": "s", "mean_ssi": "1",
+    "mean_setpoint_kN": "kN", "string_length_m": "m", "simulated_s": "s", "wall_s": "s",
+    "mean_ssi": "1",
     "mean_stuck_fraction": "1", "mean_whirl_ratio": "1", "mean_radial_ratio": "1",
     "mean_lateral_force": "N", "mean_rop": "m/s", "return": "reward units"}
 
@@ -106,8 +107,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from agents.registry import make_controller
 
     controller = make_controller(args.controller)
+    # the controller's own physics (its top drive) over the file's
+    physics = {**checked_overrides(args.config, [args.scenario]), **controller.physics()}
     kwargs: dict[str, Any] = {"scenario": args.scenario, "start_kick": args.start_kick,
-                              "physics": controller.physics(),
+                              "physics": physics,
                               **dict(getattr(controller, "env_kwargs", dict)())}
     if args.fidelity is not None:  # else the env's own (a task's policy: the task's)
         kwargs["fidelity"] = args.fidelity
@@ -193,7 +196,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         "scenario": args.scenario, "controller": args.controller, "rpm": rpm,
         "weight_on_bit_kN": wob_kn, "mean_setpoint_rpm": setpoint_rpm,
         "mean_setpoint_kN": setpoint_kn, "seed": args.seed,
-        "fidelity": base.simulation_config.solver.fidelity, "steps": steps,
+        "fidelity": base.simulation_config.solver.fidelity,
+        "string_length_m": base.simulation_config.string.length, "steps": steps,
         "simulated_s": info.get("episode_time", 0.0),
         "return": reward, "termination_reason": reason,
         **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
@@ -248,7 +252,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     # a task benchmark runs at the level the task trains and evaluates on
     fidelity = args.fidelity or ("fast" if env_id else "full")
     settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
-                                 start_kick=args.start_kick, fidelity=fidelity)
+                                 start_kick=args.start_kick, fidelity=fidelity,
+                                 physics=checked_overrides(args.config, scenarios))
     t0 = time.perf_counter()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
     rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,
@@ -382,13 +387,14 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     return 0
 
 
-def with_overrides(config, path: Path | None):
-    """``config`` with the nested overrides of a YAML file merged in (dotted-path errors)."""
+def read_overrides(path: Path | None) -> dict[str, Any]:
+    """The config overrides of a YAML file of nested config sections (a string of
+    components, a rock, the solver), as dotted paths; {} without a file."""
     if path is None:
-        return config
+        return {}
     import yaml
 
-    from drill_env.physics.config import flatten, replace
+    from drill_env.physics.config import flatten
 
     try:
         data = yaml.safe_load(path.read_text())
@@ -396,7 +402,28 @@ def with_overrides(config, path: Path | None):
         raise ValueError(f"--config {path}: not valid YAML ({err})") from None
     if not isinstance(data, dict):
         raise ValueError(f"--config {path}: expected a mapping of config sections")
-    return replace(config, **flatten(data))
+    return flatten(data)
+
+
+def with_overrides(config, path: Path | None):
+    """``config`` with the nested overrides of a YAML file merged in (dotted-path errors)."""
+    from drill_env.physics.config import replace
+
+    overrides = read_overrides(path)
+    return replace(config, **overrides) if overrides else config
+
+
+def checked_overrides(path: Path | None, scenarios: Sequence[str]) -> dict[str, Any]:
+    """:func:`read_overrides`, merged once into each scenario's config here, so that a
+    bad field fails now, named by its dotted path, not in the first episode."""
+    from drill_env.scenarios import make_scenario
+
+    for name in scenarios if path is not None else ():
+        try:
+            with_overrides(make_scenario(name).config, path)
+        except ValueError as err:
+            raise ValueError(f"--config {path}: {err}") from None
+    return read_overrides(path)
 
 
 def cmd_modes(args: argparse.Namespace) -> int:
@@ -565,6 +592,9 @@ def parser() -> argparse.ArgumentParser:
                    const=Path("logs/recordings"),
                    help="write a rerun .rrd of the episode into this folder (given without "
                         "a folder: logs/recordings)")
+    p.add_argument("--config", type=Path, default=None,
+                   help="YAML of config overrides merged into the scenario's (e.g. a "
+                        "string of components: examples/field_well_string.yaml)")
     p.add_argument("--out", type=Path, default=Path("logs"), help="folder for run_summary.json")
 
     p = add("benchmark", "controllers x scenarios x seeds at each scenario's set points: "
@@ -596,6 +626,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--record", action="store_true",
                    help="write one rerun recording per episode to --out/recordings, named "
                         "<controller>_<scenario>_seed<N>")
+    p.add_argument("--config", type=Path, default=None,
+                   help="YAML of config overrides merged into every episode's scenario, under "
+                        "each controller's top drive (e.g. a string of components: "
+                        "examples/field_well_string.yaml)")
     p.add_argument("--out", type=Path, default=Path("logs/benchmark"), help="output folder")
 
     p = add("train", "train PPO or SAC on a control task; the run (model, VecNormalize, "

@@ -226,3 +226,31 @@ def test_evaluating_a_shipped_policy_writes_to_logs_not_into_the_package(tmp_pat
 
     assert default_evaluation_folder(TRAINED / "drilling") == Path("logs/evaluation/drilling")
     assert default_evaluation_folder(tmp_path / "run") == tmp_path / "run" / "evaluation"
+
+
+def test_run_and_benchmark_drill_the_string_of_a_config_file(tmp_path, capsys):
+    """``--config`` merges a YAML of config sections into the scenario, as `modes` does:
+    the 2.5 km field string of the example drills in `run` and in every benchmark
+    episode, and a bad field fails at once, named by its dotted path."""
+    from pathlib import Path
+
+    field = Path(__file__).parents[1] / "examples" / "field_well_string.yaml"
+    summary = {}
+    for name, extra in (("default", []), ("field", ["--config", str(field)])):
+        assert main(["run", "--duration", "0.5", "--out", str(tmp_path / name), *extra]) == 0
+        summary[name] = json.loads((tmp_path / name / "run_summary.json").read_text())
+    assert summary["field"]["steps"] == summary["default"]["steps"] == 5
+    # 2214.5 m of drill pipe over 190 m of HWDP and ~100 m of BHA (examples/)
+    assert 2450.0 < summary["field"]["string_length_m"] < 2550.0
+    assert summary["default"]["string_length_m"] < 2000.0
+    assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default", "--seeds",
+                 "1", "--duration", "1", "--warmup", "0.5", "--workers", "1",
+                 "--config", str(field), "--out", str(tmp_path / "bench")]) == 0
+    stored = (tmp_path / "bench" / "benchmark_results.jsonl").read_text()
+    assert "2214.5" in stored  # the drill pipe length of the file, in the fingerprint
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("string:\n  drill_pipe: {length: -5.0}\n")
+    for command in (["run"], ["benchmark", "--controllers", "stiff"]):
+        assert main([*command, "--config", str(bad), "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert "--config" in err and "string.drill_pipe.length" in err, err
