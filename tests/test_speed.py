@@ -134,3 +134,22 @@ def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_defau
             assert row["update_share"] > 0.0 and row["policy_share"] > 0.0
         assert positive_finite(run["random_over_constant"])
     assert "Time to a policy" in (tmp_path / "speed.md").read_text()
+
+
+def test_the_env_section_times_every_set_up_and_the_parallel_ceiling():
+    """Single, looped, batched (both APIs) and the batch's physics call alone on all
+    threads and on one, whose ratio bounds batched / loop on the machine of the run."""
+    from drill_env.tools.speed.env import bench_env, format_env
+
+    settings = dataclasses.replace(TINY, env_counts=(2,), env_steps=20, env_warmup_steps=2,
+                                   env_batch_steps=8, min_env_calls=2)
+    result = bench_env(settings, progress=False)
+    for fig in result["fidelity"].values():
+        assert positive_finite(fig["single"]["steps_per_s"])
+        (row,) = fig["counts"]
+        for key in ("loop_steps_per_s", "batched_steps_per_s", "batched_sb3_steps_per_s",
+                    "physics_steps_per_s", "physics_one_thread_steps_per_s",
+                    "physics_threads_over_one", "batched_over_loop"):
+            assert positive_finite(row[key]), key
+        assert row["physics_threads"] >= 1
+    assert "x loop's ceiling now" in format_env(result)

@@ -72,6 +72,32 @@ def _interleaved_rates(steps: dict[str, tuple[Callable[[], Any], int]], env_step
     return {name: calls[name] * steps[name][1] / best[name] for name in steps}
 
 
+class _PhysicsOnly:
+    """A step function for :func:`_interleaved_rates`: the batch's parallel call alone
+    (prepare, physics, readings, metric windows; ``EnvBatch.run``) for ``envs`` at their
+    current set points, on ``threads`` numba threads; no action, no finish, no Python per
+    env. Its rate on all threads over one is the most a batch can gain over a loop on
+    this machine at this moment (docs/performance.md, "What two threads can buy")."""
+
+    def __init__(self, envs: list, threads: int) -> None:
+        from drill_env.batching import EnvBatch
+
+        self.envs = [env.unwrapped for env in envs]
+        self.batch = EnvBatch(len(envs))
+        self.on = np.ones(len(envs), dtype=np.bool_)
+        self.threads = threads
+
+    def __call__(self) -> None:
+        import numba
+
+        default = numba.get_num_threads()
+        numba.set_num_threads(self.threads)
+        try:
+            self.batch.run(self.envs, self.on)
+        finally:
+            numba.set_num_threads(default)
+
+
 def make_env(override: dict[str, str]):
     import gymnasium as gym
 
@@ -172,13 +198,21 @@ def _bench_env_level(override: dict[str, str], settings: BenchmarkSettings, name
             "single": single_step,
             "loop": (_RandomSteps(functools.partial(_step_each, envs), actions), n),
             "batched": (_RandomSteps(vec.step, actions), n)}
+        import numba
+
+        physics_envs = [make_env(override) for _ in range(n)]
+        for i, e in enumerate(physics_envs):
+            e.reset(seed=i)
+        threads = numba.get_num_threads()
+        steps["physics"] = (_PhysicsOnly(physics_envs, threads), n)
+        steps["physics_one_thread"] = (_PhysicsOnly(physics_envs, 1), n)
         sb3 = _sb3_vec_env(n, override)
         if sb3 is not None:
             sb3.reset()
             steps["batched_sb3"] = (_RandomSteps(sb3.step, actions), n)
         rates = _interleaved_rates(steps, env_steps, settings.repeats,
                                    settings.env_warmup_steps)
-        for e in envs:
+        for e in envs + physics_envs:
             e.close()
         vec.close()
         if sb3 is not None:
@@ -192,6 +226,10 @@ def _bench_env_level(override: dict[str, str], settings: BenchmarkSettings, name
             "loop_over_single": ratio(rates["loop"], rates["single"]),
             "batched_over_loop": ratio(rates["batched"], rates["loop"]),
             "batched_over_single": ratio(rates["batched"], rates["single"]),
+            "physics_threads": threads,
+            "physics_steps_per_s": rates["physics"],
+            "physics_one_thread_steps_per_s": rates["physics_one_thread"],
+            "physics_threads_over_one": ratio(rates["physics"], rates["physics_one_thread"]),
             **({"batched_sb3_steps_per_s": rates["batched_sb3"],
                 "batched_sb3_over_loop": ratio(rates["batched_sb3"], rates["loop"]),
                 "batched_sb3_over_single": ratio(rates["batched_sb3"], rates["single"])}
@@ -219,6 +257,12 @@ def format_env(result: dict[str, Any]) -> str:
                              f"{c['batched_sb3_steps_per_s']:.0f}",
                              f"{c['batched_sb3_over_single']:.2f}",
                              f"{c['batched_sb3_over_loop']:.2f}"))
+        ceiling = ", ".join(f"N={c['num_envs']} {c['physics_threads_over_one']:.2f}"
+                            for c in fig["counts"] if "physics_threads_over_one" in c)
+        if ceiling:
+            threads = fig["counts"][-1]["physics_threads"]
+            notes.append(f"{name}: x loop's ceiling now: the batch's physics call alone "
+                         f"on {threads} threads over one thread, same rounds: {ceiling}")
         notes.append(f"{name}: one env step = {single['simulator_steps_per_env_step']} "
                      f"simulator steps, {single['us_per_env_step']:.0f} us, of which "
                      f"{single['us_in_simulator']:.0f} us in Simulator.advance: Python "
