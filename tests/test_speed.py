@@ -110,7 +110,7 @@ def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_defau
     """``drill-env speed --sections training``: PPO (task 1) and SAC (task 2) trained for
     a moment; every row a positive steps/s with its ratio to the env alone, the shares
     of env, policy inference, update and the rest summing to 1, and both torch thread
-    counts timed."""
+    counts and Adam with and without its fused kernel timed."""
     tiny = dataclasses.replace(QUICK, train_steps=4096, train_rounds=1)
     from training.speed import RUNNER
 
@@ -122,7 +122,8 @@ def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_defau
         rows = run["rows"]
         assert {"env only, random actions", "env only, constant action"} <= set(rows)
         trained = [r for label, r in rows.items() if label.startswith("torch")]
-        assert len(trained) == (1 if result["torch_default_threads"] == 1 else 2)
+        assert len(trained) == (2 if result["torch_default_threads"] == 1 else 3)
+        assert any("Adam not fused" in label for label in rows)
         for row in rows.values():
             assert positive_finite(row["steps_per_s"]) and positive_finite(row["x env only"])
             assert positive_finite(row["cpu_s_per_1000"])

@@ -322,3 +322,30 @@ def test_evaluate_names_the_model_files_it_looked_for(tmp_path, capsys):
     assert stop.value.code == 2
     err = capsys.readouterr().err
     assert "RUN:" in err and "best_model.zip" in err and "model.zip + vecnormalize.pkl" in err
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_the_policy_optimisers_are_fused_adam_unless_the_yaml_says_otherwise(algo):
+    """``fused_adam`` (default) gives every policy optimiser Adam's fused kernel; a
+    ``policy_kwargs`` that names its own optimiser settings keeps them as written."""
+    from training.train import make_train_env, new_model
+
+    def optimisers(model):
+        policy = model.policy
+        return [policy.optimizer] if algo == "ppo" else [policy.actor.optimizer,
+                                                        policy.critic.optimizer]
+
+    cfg = load_config("stick_slip", algo, n_envs=1)
+    venv = make_train_env(cfg, cfg.seed)
+    try:
+        for opt in optimisers(new_model(cfg, venv)):
+            assert type(opt).__name__ == "Adam" and opt.defaults["fused"] is True
+        plain = load_config("stick_slip", algo, n_envs=1, fused_adam=False)
+        for opt in optimisers(new_model(plain, venv)):
+            assert not opt.defaults["fused"]
+        own = load_config("stick_slip", algo, n_envs=1, policy_kwargs={
+            **cfg.policy_kwargs, "optimizer_kwargs": {"eps": 1e-6}})
+        for opt in optimisers(new_model(own, venv)):
+            assert not opt.defaults["fused"] and opt.defaults["eps"] == 1e-6
+    finally:
+        venv.close()

@@ -17,8 +17,10 @@ alone with random actions (``env only``) and with a constant mid-range action. R
 training steps/s over env-only steps/s (what learning costs on top of the env), and
 random over constant actions (a changing WOB refactors the lateral system). Each
 training run is timed with torch held at one thread (``TrainConfig.torch_threads``, the
-default) and at torch's own count, so the default is checked in every run. CPU seconds
-per 1,000 env steps (all threads of the process) sit beside the wall figures.
+default) and at torch's own count, and with Adam's fused kernel (``TrainConfig.fused_adam``,
+the default) and without it (the same model: the optimisers' ``fused`` flag switched
+between rounds), so the defaults are checked in every run. CPU seconds per 1,000 env
+steps (all threads of the process) sit beside the wall figures.
 """
 
 from __future__ import annotations
@@ -94,9 +96,12 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
         for name in ("forward", "predict"):  # PPO collects with one, SAC with the other
             _timed(model.policy, name, clock, "policy")
         threads = config.torch_threads or default_threads
-        variants = {f"torch {threads} thread(s) (default)": threads}
+        fused = config.fused_adam
+        variants = {f"torch {threads} thread(s) (default)": (threads, fused),
+                    f"torch {threads} thread(s), Adam {'not ' if fused else ''}fused":
+                        (threads, not fused)}
         if default_threads != threads:
-            variants[f"torch {default_threads} threads"] = default_threads
+            variants[f"torch {default_threads} threads"] = (default_threads, fused)
         warmup = int(config.hyperparams.get("learning_starts", 0)) + 2 * steps[algo]
         model.learn(warmup, callback=torch_threads_callback(threads))
         space = venv.action_space
@@ -106,7 +111,8 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
                    "env only, constant action": np.zeros(shape, np.float32)}
         best: dict[str, dict[str, float]] = {}
         for _ in range(rounds):
-            for label, count in variants.items():
+            for label, (count, fuse) in variants.items():
+                _set_fused(model, fuse)
                 clock.update(dict.fromkeys(PARTS, 0.0))
                 wall, cpu = time.perf_counter(), time.process_time()
                 model.learn(steps[algo], reset_num_timesteps=False,
@@ -117,6 +123,7 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
                        **{f"{part}_share": clock[part] / wall for part in PARTS},
                        "rest_share": 1.0 - sum(clock[part] for part in PARTS) / wall}
                 _keep_faster(best, label, row)
+            _set_fused(model, fused)
             for label, sequence in actions.items():
                 _keep_faster(best, label, _env_only(venv, sequence))
             if progress:
@@ -133,6 +140,18 @@ def bench_training(steps: dict[str, int], rounds: int, progress: bool = True
     return out
 
 
+def _set_fused(model: Any, fused: bool) -> None:
+    """Switch Adam's fused kernel on or off in every optimiser of the model's policy
+    (torch reads the flag at each step; the optimiser state is the same either way)."""
+    import torch
+
+    for module in model.policy.modules():
+        optimizer = getattr(module, "optimizer", None)
+        if isinstance(optimizer, torch.optim.Adam):
+            for group in optimizer.param_groups:
+                group["fused"] = fused
+
+
 def bench(settings: Any, progress: bool = True) -> dict[str, Any]:
     """The section as ``drill-env speed`` runs it: ``settings.train_steps`` PPO steps
     (SAC a quarter: a gradient step per env step) in ``settings.train_rounds`` rounds."""
@@ -143,14 +162,14 @@ def bench(settings: Any, progress: bool = True) -> dict[str, Any]:
 def format_training(result: dict[str, Any]) -> str:
     lines = ["Time to a policy (end-to-end training on the batched env, task configs; "
              "best of interleaved rounds)",
-             f"{'run':18s} {'what':34s} {'steps/s':>8s} {'x env only':>10s} "
+             f"{'run':18s} {'what':38s} {'steps/s':>8s} {'x env only':>10s} "
              f"{'CPU s/1000':>10s} {'env':>5s} {'policy':>6s} {'update':>6s} {'rest':>5s}"]
     for name, run in result["runs"].items():
         for label, row in run["rows"].items():
             shares = ("" if "env_share" not in row else
                       f" {row['env_share']:5.0%} {row['policy_share']:6.0%} "
                       f"{row['update_share']:6.0%} {row['rest_share']:5.0%}")
-            lines.append(f"{name:18s} {label:34s} {row['steps_per_s']:8.0f} "
+            lines.append(f"{name:18s} {label:38s} {row['steps_per_s']:8.0f} "
                          f"{row['x env only']:10.2f} {row['cpu_s_per_1000']:10.2f}{shares}")
         lines.append(f"{name:18s} random / constant actions, env only: "
                      f"{run['random_over_constant']:.2f}")

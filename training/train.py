@@ -191,6 +191,8 @@ def new_model(config: TrainConfig, env: Any, **kwargs: Any) -> Any:
     policy_kwargs = dict(config.policy_kwargs)
     if config.algo == "sac":  # SAC's net_arch is per network; a list is shared
         policy_kwargs.setdefault("net_arch", [256, 256])
+    if config.fused_adam and not {"optimizer_class", "optimizer_kwargs"} & set(policy_kwargs):
+        policy_kwargs["optimizer_kwargs"] = {"fused": True}  # SB3's default class: Adam
     return _algo_class(config.algo)(config.policy, env, seed=config.seed, verbose=0,
                                     policy_kwargs=policy_kwargs, **kwargs,
                                     **config.hyperparams)
@@ -270,12 +272,13 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     if resume and saved.exists():
         old = yaml.safe_load(saved.read_text())
         new = jsonable(config)
-        free = ("n_timesteps", "torch_threads")  # change nothing a resumed run learnt
+        # change nothing a resumed run learnt (its model keeps its own optimiser)
+        free = ("n_timesteps", "torch_threads", "fused_adam")
         if {k: v for k, v in old.items() if k not in free} != \
                 {k: v for k, v in new.items() if k not in free}:
             raise ValueError(f"resume: {run} was trained with another config (only "
-                             "n_timesteps and torch_threads may change); start a new run name or "
-                             "drop --resume")
+                             "n_timesteps, torch_threads and fused_adam may change); start a "
+                             "new run name or drop --resume")
     algo = _algo_class(config.algo)
     latest = _latest_checkpoint(run) if resume else None
     from_checkpoint = latest is not None  # else from the final model, or from nothing
