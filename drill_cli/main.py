@@ -396,6 +396,8 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
 
     from drill_env.physics.config import flatten
 
+    if not path.is_file():
+        raise ValueError(f"--config {path}: no such file")
     try:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as err:
@@ -416,14 +418,16 @@ def with_overrides(config, path: Path | None):
 def checked_overrides(path: Path | None, scenarios: Sequence[str]) -> dict[str, Any]:
     """:func:`read_overrides`, merged once into each scenario's config here, so that a
     bad field fails now, named by its dotted path, not in the first episode."""
+    from drill_env.physics.config import replace
     from drill_env.scenarios import make_scenario
 
-    for name in scenarios if path is not None else ():
+    overrides = read_overrides(path)  # (its own errors name the file)
+    for name in scenarios if overrides else ():
         try:
-            with_overrides(make_scenario(name).config, path)
+            replace(make_scenario(name).config, **overrides)
         except ValueError as err:
             raise ValueError(f"--config {path}: {err}") from None
-    return read_overrides(path)
+    return overrides
 
 
 def cmd_modes(args: argparse.Namespace) -> int:

@@ -254,3 +254,9 @@ def test_run_and_benchmark_drill_the_string_of_a_config_file(tmp_path, capsys):
         assert main([*command, "--config", str(bad), "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
         assert "--config" in err and "string.drill_pipe.length" in err, err
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("string: [unclosed\n")
+    for path, says in ((broken, "not valid YAML"), (tmp_path / "none.yaml", "no such file")):
+        assert main(["run", "--config", str(path), "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("--config") == 1 and says in err, err
