@@ -200,6 +200,11 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     # benchmark's episode settings, which are the same for every controller
     env_kwargs.update(scenario=episode.scenario, episode_duration=settings.duration,
                       start_kick=settings.start_kick, fidelity=settings.fidelity)
+    # a task's policy within a benchmark of DrillString-v0 scenarios acts in its task's
+    # env (its observation and action), from the same start as every other controller
+    guest = episode.env_id is None and env_id != "DrillString-v0"
+    if guest:
+        env_kwargs["startup"] = "settled"
     env: Any = gym.make(env_id, physics={**settings.physics, **controller.physics()},
                         **env_kwargs)
     if episode.record:
@@ -214,8 +219,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     reason = ""
     # a task's policy in its task's env, within a benchmark of the scenario's set points:
     # at those (else the task would draw its own targets)
-    options = scenario_set_points(episode.scenario, episode.seed) \
-        if episode.env_id is None and env_id != "DrillString-v0" else None
+    options = scenario_set_points(episode.scenario, episode.seed) if guest else None
     try:
         obs, info = env.reset(seed=episode.seed, options=options)
         controller.reset(base)
@@ -254,7 +258,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         "backward_whirl_fraction": m["backward_whirl_fraction"],
         "max_lateral_force_kN": m["lateral_force_max"] / 1e3,
         "mse_MPa": m["mse"] / 1e6, "top_drive_energy_MJ": m["top_drive_energy"] / 1e6,
-        "episode_return": total, "termination": reason,
+        # a guest's return is its task's reward, not DrillString-v0's: not comparable
+        "episode_return": math.nan if guest else total, "termination": reason,
     }
     if episode.series:
         series_dir = Path(episode.out) / "series"
@@ -324,7 +329,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             bar.close()
             executor.close()
     rows = [store.get(e.key) for e in todo_all]
-    write_outputs(rows, out, labels(controllers), scenarios, settings)
+    write_outputs(rows, out, labels(controllers), scenarios, settings, env_id)
     return rows
 
 
@@ -364,6 +369,9 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
             cells = [s, c, str(len(sel))]
             for key, _, fmt in SUMMARY:
                 values = np.array([r[key] for r in sel], dtype=float)
+                if np.isnan(values).all():  # not defined for this controller (a guest's
+                    cells.append("-")       # return), or a zero target's rpm error
+                    continue
                 text = fmt.format(float(np.mean(values)))
                 half = fmt.format(float(np.max(values) - np.min(values)) / 2)
                 if half != fmt.format(0.0):  # seeds differ at the shown precision
@@ -373,18 +381,35 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     return table
 
 
+def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
+    """What every episode of a benchmark shares, in words (benchmark.md's first line)."""
+    window = (f"metrics over the last {settings.duration - settings.warmup:g} s. Means over "
+              "seeds, +- half the range. Rows: benchmark.csv.")
+    if env_id is None:
+        return (f"{settings.duration:g} s episodes of DrillString-v0 from the settled state "
+                f"at each scenario's set points (bit speed kicked by up to "
+                f"{settings.start_kick:.0%} by the seed; a task's policy acts in its "
+                f"task's env from the same start and set points, its return left blank: "
+                f"another reward); {window}")
+    from drill_env.vector import registered
+
+    env_class, kwargs = registered(env_id)
+    startup = kwargs.get("startup") or getattr(env_class, "env_defaults", {}).get(
+        "startup", "settled")
+    return (f"{settings.duration:g} s episodes of {env_id}: its own start ({startup}) and "
+            f"targets, drawn from each seed (and changed during the episode where the task "
+            f"does), the same for every controller of a seed; {window}")
+
+
 def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequence[str],
-                  scenarios: Sequence[str], settings: BenchmarkSettings) -> None:
+                  scenarios: Sequence[str], settings: BenchmarkSettings,
+                  env_id: str | None = None) -> None:
     """benchmark.csv, benchmark.md and the plots; prints the table."""
     write_csv(rows, out / "benchmark.csv")
     header = ["scenario", "controller", "seeds"] + [h for _, h, _ in SUMMARY]
     table = summary_table(rows, controllers, scenarios)
     _print_table(header, table)
-    lines = ["# Controller benchmark", "",
-             f"{settings.duration:g} s episodes from the settled state at each scenario's "
-             f"set points (bit speed kicked by up to {settings.start_kick:.0%} by the seed); "
-             f"metrics over the last {settings.duration - settings.warmup:g} s. Means over "
-             "seeds, +- half the range. Rows: benchmark.csv.", "",
+    lines = ["# Controller benchmark", "", conditions(settings, env_id), "",
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in table]
     failed = [r for r in rows if r.get("termination")]

@@ -114,6 +114,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                               **dict(getattr(controller, "env_kwargs", dict)())}
     if args.fidelity is not None:  # else the env's own (a task's policy: the task's)
         kwargs["fidelity"] = args.fidelity
+    if controller.env_id != "DrillString-v0":
+        # a task's policy acts in its task's env (its observation and action), but drills
+        # the scenario as DrillString-v0 would: its start and length, not the task's
+        kwargs.update(startup="settled", episode_duration=None)
     if args.duration is not None:
         kwargs["episode_duration"] = args.duration
     env: Any = gym.make(controller.env_id, **kwargs)
@@ -193,7 +197,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     setpoint_rpm = mean["speed_setpoint"] / RPM
     setpoint_kn = mean["weight_on_bit_setpoint"] / KILO
     summary = {
-        "scenario": args.scenario, "controller": args.controller, "rpm": rpm,
+        "scenario": args.scenario, "controller": args.controller,
+        "env_id": controller.env_id, "startup": cfg.startup, "rpm": rpm,
         "weight_on_bit_kN": wob_kn, "mean_setpoint_rpm": setpoint_rpm,
         "mean_setpoint_kN": setpoint_kn, "seed": args.seed,
         "fidelity": base.simulation_config.solver.fidelity,
@@ -246,6 +251,15 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if unknown or not scenarios:
         raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or text!r};"
                                          f" known: {','.join(SCENARIOS)}")
+    # a task's episodes and window default to the ones evaluate measures the task on
+    if args.task is not None:
+        from training.evaluate import EVALUATION_WINDOWS
+
+        duration, warmup = EVALUATION_WINDOWS[args.task]
+    else:
+        duration, warmup = 60.0, 30.0
+    args.duration = duration if args.duration is None else args.duration
+    args.warmup = warmup if args.warmup is None else args.warmup
     if args.warmup >= args.duration:
         raise argparse.ArgumentTypeError(f"--warmup: {args.warmup:g} s must be shorter than "
                                          f"--duration ({args.duration:g} s)")
@@ -615,10 +629,12 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=integer(1), default=3, help="seeds per pair")
     p.add_argument("--seed-start", type=integer(0), default=0,
                    help="first seed (the held-out evaluation seeds start at 1000000)")
-    p.add_argument("--duration", type=number("s", low_inclusive=False), default=60.0,
-                   help="simulated seconds per episode")
-    p.add_argument("--warmup", type=number("s"), default=30.0,
-                   help="seconds at the start left out of the metrics")
+    p.add_argument("--duration", type=number("s", low_inclusive=False), default=None,
+                   help="simulated seconds per episode (default: 60; with --task the "
+                        "task's evaluation episode, as drill-env evaluate runs it)")
+    p.add_argument("--warmup", type=number("s"), default=None,
+                   help="seconds at the start left out of the metrics (default: 30; with "
+                        "--task the task's evaluation warm-up)")
     p.add_argument("--start-kick", type=number("", high=0.5), default=0.02,
                    help="relative bit-speed kick at the start, drawn from the seed")
     p.add_argument("--fidelity", choices=("full", "fast"), default=None,

@@ -207,6 +207,43 @@ def test_a_task_policy_runs_at_the_scenarios_set_points(tmp_path):
     assert targets == pytest.approx({"learned": 50.0, "stiff": 50.0})
 
 
+def test_a_task_policy_drills_a_scenario_from_its_start_and_for_its_length(tmp_path):
+    """Outside ``--task`` the policy acts in its task's env but drills the scenario as
+    every other controller does: settled start (not the task's stalled bit), the
+    scenario's episode length (not the task's 30 s), the same first bit speed as the
+    stiff drive's in the benchmark; its return, the task's reward, is left blank."""
+    import csv
+
+    import numpy as np
+
+    summaries = {}
+    for c in ("learned", "stiff"):
+        assert main(["run", "--controller", c, "--scenario", "stick_slip", "--out",
+                     str(tmp_path / c), "--duration", "0.5"]) == 0
+        summaries[c] = json.loads((tmp_path / c / "run_summary.json").read_text())
+    assert summaries["learned"]["startup"] == summaries["stiff"]["startup"] == "settled"
+    assert summaries["learned"]["env_id"] == "DrillStickSlip-v0"
+    assert main(["run", "--controller", "learned", "--scenario", "stick_slip",
+                 "--out", str(tmp_path), "--fidelity", "fast"]) == 0
+    scenario_length = json.loads((tmp_path / "run_summary.json").read_text())["simulated_s"]
+    assert scenario_length == pytest.approx(60.0)  # the stick_slip scenario's, not 30 s
+
+    out = tmp_path / "bench"
+    assert main(["benchmark", "--controllers", "learned,stiff", "--scenarios", "stick_slip",
+                 "--seeds", "1", "--duration", "2", "--warmup", "1", "--workers", "1",
+                 "--out", str(out)]) == 0
+    first = {c: float(np.load(out / "series" / f"{c}_stick_slip_seed0.npz")["bit_speed"][0])
+             for c in ("learned", "stiff")}
+    assert first["learned"] == pytest.approx(first["stiff"], rel=1e-9)
+    assert first["stiff"] > 4.0  # ~50 rpm: turning, not stalled
+    with (out / "benchmark.csv").open() as f:
+        rows = {r["controller"]: r for r in csv.DictReader(f)}
+    assert rows["learned"]["episode_return"] == "nan"
+    assert np.isfinite(float(rows["stiff"]["episode_return"]))
+    summary = (out / "benchmark.md").read_text()
+    assert "return left blank" in summary and "nan" not in summary
+
+
 def test_run_reports_the_set_points_a_controller_applied(tmp_path, capsys):
     """A constant controller drills at its own set points, not the scenario's targets."""
     assert main(["run", "--controller", "constant:160/65", "--duration", "0.3", "--out",
@@ -260,3 +297,18 @@ def test_run_and_benchmark_drill_the_string_of_a_config_file(tmp_path, capsys):
         assert main(["run", "--config", str(path), "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
         assert err.count("--config") == 1 and says in err, err
+
+
+def test_a_task_benchmark_runs_the_tasks_evaluation_episodes_and_says_so(tmp_path):
+    """``benchmark --task`` defaults to the episode and warm-up `evaluate` measures the
+    task on (README's commands give the figures of docs/tasks.md), and benchmark.md
+    describes the task's start and drawn targets, not DrillString-v0's."""
+    from training.evaluate import EVALUATION_WINDOWS
+
+    assert main(["benchmark", "--task", "stick_slip", "--controllers", "stiff", "--seeds", "1",
+                 "--workers", "1", "--out", str(tmp_path)]) == 0
+    duration, warmup = EVALUATION_WINDOWS["stick_slip"]
+    text = (tmp_path / "benchmark.md").read_text()
+    assert f"{duration:g} s episodes of DrillStickSlip-v0: its own start (stalled)" in text
+    assert f"metrics over the last {duration - warmup:g} s" in text
+    assert "settled state" not in text
