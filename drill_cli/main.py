@@ -28,10 +28,12 @@ SI inside; rpm, kN and m/h only on this command line and in its tables."""
 
 
 class _Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """Shows defaults, except where there is none (the help then says what happens)."""
+    """Shows defaults, except where there is none or the help says it already (the help
+    then says what happens)."""
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
-        if action.default is None or isinstance(action.default, bool):
+        if action.default is None or isinstance(action.default, bool) \
+                or "default:" in (action.help or ""):
             return action.help
         return super()._get_help_string(action)
 
@@ -39,28 +41,35 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescription
 def number(unit: str, low: float | None = 0.0, high: float | None = None,
            low_inclusive: bool = True) -> Callable[[str], float]:
     """An argparse type: a finite number in [low, high] of ``unit``; errors in that unit."""
+    in_unit = f" {unit}" if unit else ""
+
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a number ({unit})") from None
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is not a number" + (f" ({unit})" if unit else "")) from None
         if not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"must be a finite number of {unit}, got {text}")
+            raise argparse.ArgumentTypeError(f"must be a finite number{in_unit and ' of'}"
+                                             f"{in_unit}, got {text}")
         if low is not None and (value < low or (value == low and not low_inclusive)):
             bound = ">=" if low_inclusive else ">"
-            raise argparse.ArgumentTypeError(f"must be {bound} {low:g} {unit}, got {text}")
+            raise argparse.ArgumentTypeError(f"must be {bound} {low:g}{in_unit}, got {text}")
         if high is not None and value > high:
-            raise argparse.ArgumentTypeError(f"must be <= {high:g} {unit}, got {text}")
+            raise argparse.ArgumentTypeError(f"must be <= {high:g}{in_unit}, got {text}")
         return value
-    parse.__name__ = unit  # argparse names the type in its messages
+    parse.__name__ = unit or "number"  # argparse names the type in its messages
     return parse
 
 
 def integer(low: int = 0) -> Callable[[str], int]:
     def parse(text: str) -> int:
         try:
-            value = int(text)
-        except ValueError:
+            number = float(text)  # also 1e5 or 4.0e5, as the hyperparameter YAMLs write them
+            if not number.is_integer():
+                raise ValueError(text)
+            value = int(number)
+        except (ValueError, OverflowError):
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
         if value < low:
             raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
@@ -285,6 +294,12 @@ def cmd_train(args: argparse.Namespace) -> int:
     from training.config import load_config
     from training.train import check_run_folder, train
 
+    if args.name is not None and (not args.name.strip() or args.name in (".", "..")
+                                  or any(c in args.name for c in "/\\")):
+        raise argparse.ArgumentTypeError(f"--name: a folder name inside --out, without "
+                                         f"'/', got {args.name!r}")
+    if args.config is not None and not args.config.is_file():
+        raise argparse.ArgumentTypeError(f"--config: no such file {args.config}")
     config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
                          seed=args.seed, n_envs=args.n_envs)
     if args.seeds is not None:
@@ -293,6 +308,11 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError("--ray-address: a single run trains here; give "
                                          "--seeds to fan several runs out")
     run = args.out / (args.name or f"{args.task}_{args.algo}_seed{config.seed}")
+    saved = run / "config.yaml"
+    if args.resume and args.config is None and saved.is_file():
+        # a resumed run continues with the config it was started with (--config or not)
+        config = saved_run_config(saved, args.task, args.algo, n_timesteps=args.timesteps,
+                                  n_envs=args.n_envs, seed=args.seed)
     check_run_folder(run, args.resume, args.overwrite)  # before announcing the training
     print(f"training {config.algo.upper()} on {config.env_id}: {config.n_timesteps} env steps, "
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
@@ -304,6 +324,23 @@ def cmd_train(args: argparse.Namespace) -> int:
     print(f"trained in {time.perf_counter() - t0:.0f} s: {model}, {run / 'vecnormalize.pkl'}"
           f"{made}; drill-env evaluate {run}")
     return 0
+
+
+def saved_run_config(saved: Path, task: str, algo: str, **overrides: Any) -> Any:
+    """The :class:`~training.config.TrainConfig` a run saved (its ``config.yaml``), with
+    the ``overrides`` given (None: keep the run's)."""
+    import yaml
+
+    from drill_env.physics.validation import from_dict
+    from training.config import TrainConfig
+
+    data = yaml.safe_load(saved.read_text()) or {}
+    for flag, value in (("task", task), ("algo", algo)):
+        if data.get(flag, value) != value:
+            raise argparse.ArgumentTypeError(f"--{flag}: {saved.parent} was trained with "
+                                             f"{data[flag]}, not {value}")
+    data.update({k: v for k, v in overrides.items() if v is not None})
+    return from_dict(TrainConfig, data)
 
 
 def train_sweep(args: argparse.Namespace, config) -> int:
@@ -675,11 +712,13 @@ def parser() -> argparse.ArgumentParser:
     add_ray_address(p, "the training runs of --seeds")
     p.add_argument("--name", default=None,
                    help="run name (default: <task>_<algo>_seed<seed>)")
-    p.add_argument("--resume", action="store_true",
-                   help="continue the run from its last checkpoint (or its final model)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="delete an existing run of that name and start again (without it, "
-                        "an existing run is refused)")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument("--resume", action="store_true",
+                       help="continue the run from its last checkpoint (or its final model; "
+                            "a Ctrl-C saves one), with the config it was started with")
+    again.add_argument("--overwrite", action="store_true",
+                       help="delete an existing run of that name and start again (without "
+                            "it, an existing run is refused)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--out", type=Path, default=Path("logs/runs"), help="folder of runs")
 

@@ -349,3 +349,63 @@ def test_the_policy_optimisers_are_fused_adam_unless_the_yaml_says_otherwise(alg
             assert not opt.defaults["fused"] and opt.defaults["eps"] == 1e-6
     finally:
         venv.close()
+
+
+def test_a_ctrl_c_saves_a_checkpoint_that_resume_continues_from(tmp_path, monkeypatch,
+                                                                 capsys):
+    """Interrupted between periodic checkpoints, a run keeps its progress: the model, its
+    normalisation and the wall time at the interrupt, which --resume picks up."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    import training.train as tt
+
+    class CtrlC(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= 600:
+                raise KeyboardInterrupt
+            return True
+
+    made = tt._callbacks
+    monkeypatch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
+    cfg = tiny_config()
+    folder = tmp_path / "cut"
+    with pytest.raises(KeyboardInterrupt):
+        train(cfg, folder, progress=False)
+    (saved,) = (folder / "checkpoints").glob("model_*_steps.zip")
+    steps = int(saved.stem.split("_")[1])
+    assert 600 <= steps < 1024  # before the first periodic checkpoint
+    assert (folder / "checkpoints" / f"vecnormalize_{steps}.pkl").exists()
+    assert json.loads((folder / "checkpoints" / f"progress_{steps}.json").read_text()
+                      )["wall_s"] > 0.0
+    assert f"interrupted at {steps} env steps" in capsys.readouterr().out
+    monkeypatch.setattr(tt, "_callbacks", made)
+    train(cfg, folder, resume=True, progress=False)
+    assert f"resuming from {saved.name} ({steps} steps)" in capsys.readouterr().out
+    assert json.loads((folder / "run.json").read_text())["env_steps"] >= cfg.n_timesteps
+
+
+def test_train_command_resumes_with_the_runs_own_config_and_checks_its_flags(tmp_path,
+                                                                            capsys):
+    """A run started from --config resumes without it (its saved config.yaml is the
+    config); --resume with --overwrite, a --name outside --out and a missing --config
+    are refused by name; --timesteps takes 3e3 as the YAMLs write it."""
+    from drill_env.physics.validation import jsonable
+
+    entry = {k: v for k, v in jsonable(tiny_config()).items() if k not in ("task", "algo")}
+    custom = tmp_path / "mine.yml"
+    custom.write_text(yaml.safe_dump({"ppo": entry}))
+
+    def command(*extra, name="mine"):
+        return ["train", "--task", "stick_slip", "--algo", "ppo", "--name", name, "--out",
+                str(tmp_path / "runs"), "--no-progress", *extra]
+
+    assert main(command("--config", str(custom))) == 0
+    assert main(command("--resume", "--timesteps", "3e3")) == 0
+    assert json.loads((tmp_path / "runs" / "mine" / "run.json").read_text())[
+        "env_steps"] >= 3000
+    for args, says in ((command("--resume", "--overwrite"), "not allowed with"),
+                       (command(name="../escape"), "--name"),
+                       (command("--config", str(tmp_path / "none.yml")), "--config")):
+        with pytest.raises(SystemExit):
+            main(args)
+        assert says in capsys.readouterr().err

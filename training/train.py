@@ -7,8 +7,9 @@ A run lives in ``logs/runs/<name>/``:
 ``model.zip``               the final model; ``vecnormalize.pkl`` its normalisation
 ``best_model.zip``          the best model on the validation seeds (+ its
                             ``best_vecnormalize.pkl``)
-``checkpoints/``            models every ``checkpoint_freq`` steps (resume from the last),
-                            their normalisation and the training wall time at each
+``checkpoints/``            models every ``checkpoint_freq`` steps and at a Ctrl-C
+                            (resume from the last), their normalisation and the
+                            training wall time at each
 ``evaluations.csv``         validation return, SSI, stuck share, wall time per evaluation
                             (a resumed run drops the rows after its checkpoint)
 ``learning_curve.png``      the validation curve, redrawn at every evaluation
@@ -312,8 +313,14 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
     t0 = time.perf_counter()
     remaining = max(0, config.n_timesteps - model.num_timesteps)
-    model.learn(remaining, callback=_callbacks(config, run, env, resumed), progress_bar=progress,
-                reset_num_timesteps=latest is None, tb_log_name=config.algo)
+    try:
+        model.learn(remaining, callback=_callbacks(config, run, env, resumed),
+                    progress_bar=progress, reset_num_timesteps=latest is None,
+                    tb_log_name=config.algo)
+    except KeyboardInterrupt:
+        save_interrupted(run, model, env, resumed.wall_s + time.perf_counter() - t0)
+        env.close()
+        raise
     wall = time.perf_counter() - t0
     model.save(run / "model.zip")
     env.save(str(run / "vecnormalize.pkl"))
@@ -326,6 +333,26 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     plot_learning_curve(run)
     env.close()
     return run / "model.zip"
+
+
+def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | None:
+    """After a Ctrl-C: the model, its VecNormalize statistics and the wall time so far
+    as a checkpoint (the files the checkpoint callbacks write), so that ``--resume``
+    continues from here and not from the last periodic checkpoint. Says what it kept.
+    A PPO rollout cut short is collected again; the evaluations after this point are
+    redone. Returns the model's checkpoint (None before the first env step)."""
+    steps = int(model.num_timesteps)
+    if steps <= 0:
+        print(f"interrupted before the first env step: nothing saved in {run}")
+        return None
+    folder = run / "checkpoints"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"model_{steps}_steps.zip"
+    model.save(path)
+    env.save(str(folder / f"vecnormalize_{steps}.pkl"))
+    (folder / f"progress_{steps}.json").write_text(json.dumps({"wall_s": wall_s}))
+    print(f"interrupted at {steps} env steps: saved {path}; --resume continues from it")
+    return path
 
 
 def plot_learning_curve(run: Path) -> Path | None:
