@@ -86,7 +86,7 @@ class ConstantSetPoints(SetPointController):
         if not (math.isfinite(rpm) and math.isfinite(weight_on_bit) and rpm >= 0.0
                 and weight_on_bit >= 0.0):
             raise ValueError(f"constant: rpm and WOB must be finite and >= 0, got "
-                             f"{rpm}, {weight_on_bit}")
+                             f"{rpm:g} rpm, {weight_on_bit / 1e3:g} kN")
         self.speed = rpm * RPM
         self.weight_on_bit = weight_on_bit
 
@@ -102,6 +102,18 @@ class ConstantSetPoints(SetPointController):
 
     def physics(self) -> dict[str, Any]:
         return {"top_drive.controller": "stiff"}
+
+    def reset(self, env: Any) -> None:
+        """Start an episode; a set point outside the env's action range is refused (the
+        env would clip it, and the row would be named after a point it never drilled)."""
+        super().reset(env)
+        rpm, kn = self.speed / RPM, self.weight_on_bit / 1e3
+        w_low, w_high = (v / 1e3 for v in env.config.weight_on_bit_range)
+        for value, (low, high), unit in ((rpm, env.config.rpm_range, "rpm"),
+                                         (kn, (w_low, w_high), "kN")):
+            if not low <= value <= high:
+                raise ValueError(f"controller: constant:{rpm:g}/{kn:g}: {value:g} {unit} is "
+                                 f"outside the env's range {low:g}-{high:g} {unit}")
 
     def act(self, observation: Any, info: dict[str, Any]) -> Any:
         return self._env.action_for(self.speed, self.weight_on_bit)

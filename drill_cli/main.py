@@ -62,6 +62,18 @@ def number(unit: str, low: float | None = 0.0, high: float | None = None,
     return parse
 
 
+def existing_file(text: str) -> Path:
+    """An argparse type: the path of a file that exists (else a one-line error)."""
+    path = Path(text)
+    if not path.is_file():
+        raise argparse.ArgumentTypeError(f"{text} is a folder, not a file" if path.is_dir()
+                                         else f"no such file: {text}")
+    return path
+
+
+existing_file.__name__ = "file"
+
+
 def integer(low: int = 0) -> Callable[[str], int]:
     def parse(text: str) -> int:
         try:
@@ -298,8 +310,6 @@ def cmd_train(args: argparse.Namespace) -> int:
                                   or any(c in args.name for c in "/\\")):
         raise argparse.ArgumentTypeError(f"--name: a folder name inside --out, without "
                                          f"'/', got {args.name!r}")
-    if args.config is not None and not args.config.is_file():
-        raise argparse.ArgumentTypeError(f"--config: no such file {args.config}")
     config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
                          seed=args.seed, n_envs=args.n_envs)
     if args.seeds is not None:
@@ -443,16 +453,15 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
     components, a rock, the solver), as dotted paths; {} without a file."""
     if path is None:
         return {}
-    import yaml
-
     from drill_env.physics.config import flatten
+    from drill_env.physics.validation import read_yaml
 
     if not path.is_file():
         raise ValueError(f"--config {path}: no such file")
     try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise ValueError(f"--config {path}: not valid YAML ({err})") from None
+        data = read_yaml(path)
+    except ValueError as err:
+        raise ValueError(f"--config {err}") from None
     if not isinstance(data, dict):
         raise ValueError(f"--config {path}: expected a mapping of config sections")
     return flatten(data)
@@ -463,22 +472,20 @@ def with_overrides(config, path: Path | None):
     from drill_env.physics.config import replace
 
     overrides = read_overrides(path)
-    return replace(config, **overrides) if overrides else config
+    try:
+        return replace(config, **overrides) if overrides else config
+    except ValueError as err:
+        raise ValueError(f"--config {path}: {err}") from None
 
 
 def checked_overrides(path: Path | None, scenarios: Sequence[str]) -> dict[str, Any]:
     """:func:`read_overrides`, merged once into each scenario's config here, so that a
     bad field fails now, named by its dotted path, not in the first episode."""
-    from drill_env.physics.config import replace
     from drill_env.scenarios import make_scenario
 
-    overrides = read_overrides(path)  # (its own errors name the file)
-    for name in scenarios if overrides else ():
-        try:
-            replace(make_scenario(name).config, **overrides)
-        except ValueError as err:
-            raise ValueError(f"--config {path}: {err}") from None
-    return overrides
+    for name in scenarios if path is not None else ():
+        with_overrides(make_scenario(name).config, path)
+    return read_overrides(path)
 
 
 def cmd_modes(args: argparse.Namespace) -> int:
@@ -647,7 +654,7 @@ def parser() -> argparse.ArgumentParser:
                    const=Path("logs/recordings"),
                    help="write a rerun .rrd of the episode into this folder (given without "
                         "a folder: logs/recordings)")
-    p.add_argument("--config", type=Path, default=None,
+    p.add_argument("--config", type=existing_file, default=None,
                    help="YAML of config overrides merged into the scenario's (e.g. a "
                         "string of components: examples/field_well_string.yaml)")
     p.add_argument("--out", type=Path, default=Path("logs"), help="folder for run_summary.json")
@@ -683,7 +690,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--record", action="store_true",
                    help="write one rerun recording per episode to --out/recordings, named "
                         "<controller>_<scenario>_seed<N>")
-    p.add_argument("--config", type=Path, default=None,
+    p.add_argument("--config", type=existing_file, default=None,
                    help="YAML of config overrides merged into every episode's scenario, under "
                         "each controller's top drive (e.g. a string of components: "
                         "examples/field_well_string.yaml)")
@@ -696,7 +703,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--algo", choices=("ppo", "sac"), default="sac",
                    help="algorithm (default: sac, what the shipped policies of both tasks "
                         "were trained with; docs/tasks.md)")
-    p.add_argument("--config", type=Path, default=None,
+    p.add_argument("--config", type=existing_file, default=None,
                    help="hyperparameter YAML (default: training/hyperparams/<task>.yml)")
     p.add_argument("--timesteps", type=integer(1), default=None,
                    help="env steps (default: the YAML's n_timesteps)")
@@ -763,7 +770,7 @@ def parser() -> argparse.ArgumentParser:
                    help="the scenario whose string to analyse")
     p.add_argument("--wob", type=number("kN"), default=None,
                    help="weight on bit in kN (default: the scenario's)")
-    p.add_argument("--config", type=Path, default=None,
+    p.add_argument("--config", type=existing_file, default=None,
                    help="YAML of config overrides merged into the scenario's (e.g. a "
                         "string of components: examples/field_well_string.yaml)")
     p.add_argument("--top", choices=("fixed", "top_drive"), default="fixed",
@@ -780,14 +787,14 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--well", default=None,
                    choices=("vertical", "j_shaped", "s_shaped", "lateral_60"),
                    help="preset well shape (drill_env/well.py; default j_shaped)")
-    p.add_argument("--survey", type=Path, default=None,
+    p.add_argument("--survey", type=existing_file, default=None,
                    help="survey CSV with columns md (m), inclination, azimuth (deg); "
                         "instead of --well")
     p.add_argument("--total-md", type=number("m", low_inclusive=False), default=3000.0,
                    help="measured depth of the preset well")
     p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
                    help="whose string (its BHA and pipe; drill pipe added to reach TD)")
-    p.add_argument("--config", type=Path, default=None,
+    p.add_argument("--config", type=existing_file, default=None,
                    help="YAML of config overrides (e.g. examples/field_well_string.yaml)")
     p.add_argument("--friction", default="0.1,0.2,0.3,0.4",
                    help="comma-separated friction factors")

@@ -68,6 +68,9 @@ class RayExecutor:
                 except ConnectionError as error:
                     raise ConnectionError(f"ray_address: no Ray cluster at {ray_address!r} "
                                           f"({error})") from error
+                except ValueError as error:  # not an address at all ("Invalid address ...")
+                    raise ValueError(f"ray_address: {ray_address!r} is not 'local', 'auto' "
+                                     f"or a cluster address host:port ({error})") from None
         self._remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES,
                                   retry_exceptions=False)(_call)
 

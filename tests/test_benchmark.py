@@ -178,6 +178,18 @@ def test_a_bad_constant_set_point_names_the_flag_typed(capsys):
     assert "--controllers: constant:<rpm>/<kN> expected" in capsys.readouterr().err
 
 
+def test_a_constant_set_point_outside_the_envs_range_is_refused_not_clipped(tmp_path,
+                                                                           capsys):
+    """The env would clip 500 rpm to 200 and the row would carry a name it never drilled;
+    a negative one is named in the units typed."""
+    for text, says in (("constant:500/80", "500 rpm is outside the env's range 0-200 rpm"),
+                       ("constant:120/900", "900 kN is outside the env's range"),
+                       ("constant:-10/80", "got -10 rpm, 80 kN")):
+        assert main(["run", "--controller", text, "--duration", "0.2", "--out",
+                     str(tmp_path)]) == 2
+        assert says in capsys.readouterr().err
+
+
 def test_the_series_chart_lays_out_a_sweep_of_many_controllers(tmp_path):
     """`training.evaluate` benchmarks a grid of 25 constant set points: the legend of
     every controller must not push the plots off the page (matplotlib then warns that

@@ -293,10 +293,9 @@ def test_run_and_benchmark_drill_the_string_of_a_config_file(tmp_path, capsys):
         assert "--config" in err and "string.drill_pipe.length" in err, err
     broken = tmp_path / "broken.yaml"
     broken.write_text("string: [unclosed\n")
-    for path, says in ((broken, "not valid YAML"), (tmp_path / "none.yaml", "no such file")):
-        assert main(["run", "--config", str(path), "--out", str(tmp_path / "x")]) == 2
-        err = capsys.readouterr().err
-        assert err.count("--config") == 1 and says in err, err
+    assert main(["run", "--config", str(broken), "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("--config") == 1 and "not valid YAML" in err, err
 
 
 def test_a_task_benchmark_runs_the_tasks_evaluation_episodes_and_says_so(tmp_path):
@@ -312,3 +311,27 @@ def test_a_task_benchmark_runs_the_tasks_evaluation_episodes_and_says_so(tmp_pat
     assert f"{duration:g} s episodes of DrillStickSlip-v0: its own start (stalled)" in text
     assert f"metrics over the last {duration - warmup:g} s" in text
     assert "settled state" not in text
+
+
+def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys):
+    """A missing file or a folder given for a file fails in argparse, naming the flag;
+    a malformed Ray address says what an address looks like."""
+    cases = ((["well", "--survey", str(tmp_path / "none.csv")], "--survey: no such file"),
+             (["run", "--config", str(tmp_path)], "--config: " + f"{tmp_path} is a folder"),
+             (["modes", "--config", str(tmp_path / "none.yaml")], "--config: no such file"))
+    for args, says in cases:
+        with pytest.raises(SystemExit):
+            main(args)
+        assert says in capsys.readouterr().err
+    broken = tmp_path / "broken.yml"
+    broken.write_text("ppo: [unclosed\n")
+    for command in (["train", "--task", "stick_slip"], ["run"]):
+        assert main([*command, "--config", str(broken)]) == 2
+        err = capsys.readouterr().err
+        assert "not valid YAML at line 2, column 1" in err and len(err.splitlines()) == 1
+    pytest.importorskip("ray")
+    assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default", "--seeds",
+                 "1", "--duration", "1", "--warmup", "0.5", "--ray-address", "nope",
+                 "--out", str(tmp_path)]) == 2
+    assert "ray_address: 'nope' is not 'local', 'auto' or a cluster address" in \
+        capsys.readouterr().err

@@ -20,10 +20,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import yaml
 from pydantic import Field
 
-from drill_env.physics.validation import ConfigError, config_dataclass, from_dict
+from drill_env.physics.validation import ConfigError, config_dataclass, from_dict, read_yaml
 
 HYPERPARAMS = Path(__file__).resolve().parent / "hyperparams"
 #: Task name -> env id.
@@ -155,7 +154,7 @@ def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
     if task not in TASKS:
         raise ConfigError(f"task: must be one of {sorted(TASKS)}, got {task!r}")
     file = Path(path) if path is not None else HYPERPARAMS / f"{task}.yml"
-    data = yaml.safe_load(file.read_text()) or {}
+    data = read_yaml(file) or {}
     if algo not in data:
         raise ConfigError(f"algo: {file} has no entry {algo!r}; it has {sorted(data)}")
     entry = dict(data[algo])

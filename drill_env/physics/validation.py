@@ -178,12 +178,23 @@ def from_dict(cls: type[T], data: Mapping[str, Any] | T | None) -> T:
     return cls(**dict(data))
 
 
-def load_yaml(cls: type[T], path: str | Path) -> T:
-    """A config from a YAML file (the same structure as :func:`from_dict`)."""
+def read_yaml(path: str | Path) -> Any:
+    """The content of a YAML file; ConfigError naming the file, line and column of a
+    syntax error in one line (not PyYAML's multi-line excerpt)."""
     import yaml
 
-    data = yaml.safe_load(Path(path).read_text())
-    return from_dict(cls, data or {})
+    try:
+        return yaml.safe_load(Path(path).read_text())
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise ConfigError(f"{path}: not valid YAML{where} "
+                          f"({getattr(err, 'problem', None) or err})") from None
+
+
+def load_yaml(cls: type[T], path: str | Path) -> T:
+    """A config from a YAML file (the same structure as :func:`from_dict`)."""
+    return from_dict(cls, read_yaml(path) or {})
 
 
 _INDEXED = re.compile(r"^(\w+)\[(\d+)\]$")
