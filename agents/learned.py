@@ -98,6 +98,9 @@ def policy_files(path: str | Path | None = None, env_id: str | None = None
 
 def _files(folder: Path) -> tuple[Path, Path]:
     """(model, normalisation) of a run or policy folder: the best model if kept."""
+    if not folder.is_dir():
+        raise FileNotFoundError(f"learned: no such folder {folder} (learned:<run folder of "
+                                "drill-env train>)")
     for model, norm in (("best_model.zip", "best_vecnormalize.pkl"),
                         ("model.zip", "vecnormalize.pkl")):
         if (folder / model).exists() and (folder / norm).exists():

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -99,7 +100,8 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         ax.grid(alpha=0.3)
     axes[2].set_ylim(bottom=0.0)  # a distance
     # above the plots, in rows of at most six: a sweep of constant set points has dozens
-    axes[0].legend(fontsize=8, ncol=min(len(controllers), 6), loc="lower center",
+    rows = math.ceil(len(controllers) / 6)  # rows as even as they come: 7 -> 4 + 3
+    axes[0].legend(fontsize=8, ncol=math.ceil(len(controllers) / rows), loc="lower center",
                    bbox_to_anchor=(0.5, 1.0), frameon=False)
     axes[-1].set_xlabel("time (s)")
     fig.suptitle(f"{scenario}: every controller from the same start and targets "

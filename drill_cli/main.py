@@ -90,6 +90,18 @@ def integer(low: int = 0) -> Callable[[str], int]:
     return parse
 
 
+def fixed(value: float, digits: int = 2) -> str:
+    """``value`` with ``digits`` decimals, without the sign of a value that rounds to
+    zero ("0.00", not "-0.00")."""
+    text = f"{value:.{digits}f}"
+    return text[1:] if text.startswith("-") and not text.strip("-0.") else text
+
+
+def counted(n: int, noun: str) -> str:
+    """"1 seed", "3 seeds"."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 # --------------------------------------------------------------------------- commands
 
 
@@ -217,6 +229,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     rpm, wob_kn = mean["target_speed"] / RPM, mean["target_wob"] / KILO
     setpoint_rpm = mean["speed_setpoint"] / RPM
     setpoint_kn = mean["weight_on_bit_setpoint"] / KILO
+    # targets and times rounded far below what they mean: 50.0, not 49.99999999999955
+    rpm, wob_kn, setpoint_rpm, setpoint_kn = (round(v, 9) for v in (
+        rpm, wob_kn, setpoint_rpm, setpoint_kn))
     summary = {
         "scenario": args.scenario, "controller": args.controller,
         "env_id": controller.env_id, "startup": cfg.startup, "rpm": rpm,
@@ -224,7 +239,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         "mean_setpoint_kN": setpoint_kn, "seed": args.seed,
         "fidelity": base.simulation_config.solver.fidelity,
         "string_length_m": base.simulation_config.string.length, "steps": steps,
-        "simulated_s": info.get("episode_time", 0.0),
+        "simulated_s": round(float(info.get("episode_time", 0.0)), 9),
         "return": reward, "termination_reason": reason,
         **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
         "wall_s": time.perf_counter() - t0,
@@ -238,12 +253,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     if abs(setpoint_rpm - rpm) >= 0.5 or abs(setpoint_kn - wob_kn) >= 0.5:
         ran_at += f" (set points applied: mean {setpoint_rpm:.0f} rpm, {setpoint_kn:.0f} kN)"
     print(f"{args.scenario}: {steps} steps ({summary['simulated_s']:.1f} s) at {ran_at} in "
-          f"{summary['wall_s']:.1f} s; return {reward:.2f}"
+          f"{summary['wall_s']:.1f} s; return {fixed(reward)}"
           + (f"; ended: {reason}" if reason else ""))
-    print(f"  mean over the episode: SSI {summary['mean_ssi']:.2f}, stuck "
-          f"{summary['mean_stuck_fraction']:.2f}, whirl ratio "
-          f"{summary['mean_whirl_ratio']:.2f}, radial ratio "
-          f"{summary['mean_radial_ratio']:.2f}, lateral force "
+    print(f"  mean over the episode: SSI {fixed(summary['mean_ssi'])}, stuck "
+          f"{fixed(summary['mean_stuck_fraction'])}, whirl ratio "
+          f"{fixed(summary['mean_whirl_ratio'])}, radial ratio "
+          f"{fixed(summary['mean_radial_ratio'])}, lateral force "
           f"{summary['mean_lateral_force'] / KILO:.1f} kN, ROP "
           f"{summary['mean_rop'] * HOUR:.1f} m/h")
     if args.record is not None:
@@ -271,7 +286,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     unknown = [n for n in scenarios if n not in SCENARIOS]
     if unknown or not scenarios:
         raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or text!r};"
-                                         f" known: {','.join(SCENARIOS)}")
+                                         f" known: {', '.join(sorted(SCENARIOS))}")
     # a task's episodes and window default to the ones evaluate measures the task on
     if args.task is not None:
         from training.evaluate import EVALUATION_WINDOWS
@@ -294,8 +309,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,
                          workers=args.workers, record=args.record, env_id=env_id,
                          ray_address=args.ray_address)
-    print(f"{len(rows)} episodes ({len(controllers)} controllers x {len(scenarios)} "
-          f"scenario(s) x {args.seeds} seeds) in {time.perf_counter() - t0:.0f} s; finished "
+    print(f"{counted(len(rows), 'episode')} ({counted(len(controllers), 'controller')} x "
+          f"{counted(len(scenarios), 'scenario')} x {counted(args.seeds, 'seed')}) in "
+          f"{time.perf_counter() - t0:.0f} s; finished "
           f"episodes are kept in {args.out / 'benchmark_results.jsonl'} (a rerun reuses "
           "them)")
     print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md and the plots in {args.out}")
@@ -597,7 +613,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(f"path: {args.path} is not a rerun recording (.rrd)")
     if not args.web and sys.platform.startswith("linux") and not (
             os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise argparse.ArgumentTypeError("--web: no display here (DISPLAY is not set) for "
+        raise argparse.ArgumentTypeError("no display here (DISPLAY is not set) for "
                                          "the native viewer; add --web to serve the web "
                                          "viewer instead")
     code = replay(args.path, web=args.web)

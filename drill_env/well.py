@@ -144,9 +144,15 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
     for setter, axis in ((ax3.set_xlim, 1), (ax3.set_ylim, 0)):
         middle = 0.5 * (pos[:, axis].min() + pos[:, axis].max())
         setter(middle - half, middle + half)
-    ax3.set_xlabel("east (m)")
-    ax3.set_ylabel("north (m)")
-    ax3.set_zlabel("-TVD (m)")
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax3.xaxis, ax3.yaxis, ax3.zaxis):  # few ticks: long labels stay apart
+        axis.set_major_locator(MaxNLocator(4))
+    ax3.tick_params(labelsize=8)
+    ax3.set_xlabel("east (m)", labelpad=8)
+    ax3.set_ylabel("north (m)", labelpad=8)
+    ax3.set_zlabel("-TVD (m)", labelpad=10)  # clear of the z tick labels
+    ax3.set_box_aspect(None, zoom=0.85)  # the labels inside the panel, off the next one
     ax3.set_title("path")
     plan = fig.add_subplot(2, 3, 2)
     plan.plot(pos[:, 1], pos[:, 0], lw=2)

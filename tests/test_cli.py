@@ -335,3 +335,12 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
                  "--out", str(tmp_path)]) == 2
     assert "ray_address: 'nope' is not 'local', 'auto' or a cluster address" in \
         capsys.readouterr().err
+
+
+def test_console_numbers_have_no_negative_zero_and_counts_agree_with_their_noun():
+    from drill_cli.main import counted, fixed
+
+    assert [fixed(v) for v in (-0.001, -0.0, 0.004, -0.01, -1.5)] == \
+        ["0.00", "0.00", "0.00", "-0.01", "-1.50"]
+    assert fixed(-0.04, 1) == "0.0" and fixed(-0.06, 1) == "-0.1"
+    assert (counted(1, "seed"), counted(3, "episode")) == ("1 seed", "3 episodes")

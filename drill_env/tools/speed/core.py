@@ -84,7 +84,8 @@ def format_core(result: dict[str, Any]) -> str:
                  f"{ref['time_step_s'] * 1e3:.3g}", f"{ref['us_per_step']:.0f}",
                  f"{ref['ns_per_dof_step']:.0f}",
                  f"{ref['real_time_factor']:.2f}", "1"))
-    note = (f"default string (1000 m DP + 35 m BHA), mesoscopic bit, contact on; "
+    note = (f"paper string, Simulator()'s default (1000 m DP + 35 m BHA), mesoscopic bit, "
+            f"contact on; "
             f"{result['weight_on_bit_N'] / 1e3:.0f} kN, "
             f"{result['surface_speed_rad_s'] / RPM:.0f} rpm; one numba thread; best of "
             f"repeats; x NumPy compares real-time factors (a level may step longer)")
