@@ -69,7 +69,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     colours = _colours(controllers)
     fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
     found = False
-    for c in controllers:
+    for k, c in enumerate(controllers):
         files = sorted(Path(series_dir).glob(f"{c}_{scenario}_seed*.npz"))
         if not files:
             continue
@@ -77,7 +77,9 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         d = np.load(files[0])
         t = d["time"]
         radial = np.hypot(d["bit_x"], d["bit_y"]) / float(d["clearance"])
-        kw = {"color": colours[c], "lw": 0.7, "label": c}
+        # the first controller on top (a policy before its baselines): a wide stick-slip
+        # swing drawn later would hide it
+        kw = {"color": colours[c], "lw": 0.7, "label": c, "zorder": 2 + len(controllers) - k}
         axes[0].plot(t, d["bit_speed"] / RPM, **kw)
         axes[1].plot(t, d["torque_on_bit"] / 1e3, **kw)
         axes[2].plot(t, radial, **kw)
