@@ -18,6 +18,8 @@ trains PPO (task 1's hyperparameters, 8 batched envs) in a fresh process per set
                    callback (``TrainConfig.torch_threads = 1``, the default of
                    ``drill-env train``); the set-ups above leave torch at its own
                    count (``torch_threads = 0``)
+``spin30k-torch1`` as ``passive-torch1``, but libgomp's workers spin ~0.3 ms
+                   (``GOMP_SPINCOUNT=30000``) before they sleep
 =================  ========================================================
 
 quiet and with one competing CPU-bound process, in turns (``--rounds``), and prints env
@@ -44,6 +46,11 @@ SETUPS = {
     "omp-1thread": {"NUMBA_THREADING_LAYER": "omp", "NUMBA_NUM_THREADS": "1",
                     "OMP_WAIT_POLICY": ""},
     "passive-torch1": {"NUMBA_THREADING_LAYER": "omp", "STUDY_TORCH_THREADS": "1"},
+    # libgomp spins GOMP_SPINCOUNT times (~100 per us) before sleeping; the variable
+    # wins over OMP_WAIT_POLICY. 30000: ~0.3 ms, about the serial gap between two
+    # batched steps of 16 plain envs
+    "spin30k-torch1": {"NUMBA_THREADING_LAYER": "omp", "GOMP_SPINCOUNT": "30000",
+                       "STUDY_TORCH_THREADS": "1"},
 }
 
 
