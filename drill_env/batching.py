@@ -24,6 +24,7 @@ from collections.abc import Sequence
 from enum import IntEnum
 from typing import Any, NamedTuple
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -37,6 +38,7 @@ from drill_env.physics.batch import (
     TupleSlots,
     prepare_in_call,
 )
+from drill_env.physics.jit import claim
 from drill_env.physics.readings import advance_and_read
 from drill_env.physics.simulator import Simulator
 
@@ -51,7 +53,7 @@ BatchInput = IntEnum("BatchInput", ["SPEED", "HOOK_LOAD", "STRING_WEIGHT", "CHEC
 
 @njit(cache=True, parallel=True, nogil=True)
 def step_many(n_steps, record_every, run, n_rec, flags, sims, windows, readings_out, step_out,
-              window_out, inputs):
+              window_out, inputs, counter, lanes):
     """For each env e with ``run[e]``: prepare its simulator (``sims[e]``: its
     ``(KernelArrays, readings)``) for the interval with row e of ``inputs``
     (:data:`BatchInput` columns, for :func:`prepare_in_call`), advance it,
@@ -62,30 +64,48 @@ def step_many(n_steps, record_every, run, n_rec, flags, sims, windows, readings_
     -NEEDS_PYTHON). Row e of ``readings_out``, ``step_out`` and ``window_out`` receives
     the env's fresh readings (as many as fit) and, with records, its step and window
     metrics: the batch's view of every env at once, gathered while each env's data is in
-    cache. Rows of envs without ``run`` are left as they are."""
-    for i in prange(len(sims)):
-        e = np.int64(i)  # typed lists take signed indices; prange's are unsigned
-        if not run[e]:
-            continue
-        n_rec[e] = 0
-        flags[e] = 0
-        arrays, readings = sims[e]
-        prepared = prepare_in_call(arrays, n_steps[e], record_every[e],
-                                   inputs[e, BatchInput.SPEED], inputs[e, BatchInput.HOOK_LOAD],
-                                   inputs[e, BatchInput.STRING_WEIGHT],
-                                   inputs[e, BatchInput.CHECKED_WOB])
-        if prepared != PREPARED:
-            flags[e] = -prepared
-            continue
-        k = advance_and_read(n_steps[e], record_every[e], arrays, readings)
-        n_rec[e] = k
-        for j in range(min(readings.shape[0], readings_out.shape[1])):
-            readings_out[e, j] = readings[j]
-        if k > 0:
-            window = windows[e]
-            flags[e] = rolling_add(arrays.record[:k], window, True)
-            step_out[e, :] = window.step_out
-            window_out[e, :] = window.window_out
+    cache. Rows of envs without ``run`` are left as they are.
+
+    The envs go to ``lanes`` threads (numba's thread count: read in Python, a call in
+    here would keep the function from numba's cache) one at a time, each to the next
+    thread free, from the shared ``counter`` (int64, one element; reset here): a worker
+    thread that wakes up late (a sleeping OpenMP worker takes ~80 us on a small VM,
+    docs/performance.md) or envs of unequal size do not hold the call up, as fixed
+    halves would. Each env's arithmetic is the same whichever thread runs it."""
+    n = len(sims)
+    counter[0] = 0
+    for _ in prange(min(lanes, n)):
+        e = claim(counter)
+        while e < n:
+            if run[e]:
+                _step_env(e, n_steps, record_every, n_rec, flags, sims, windows,
+                          readings_out, step_out, window_out, inputs)
+            e = claim(counter)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _step_env(e, n_steps, record_every, n_rec, flags, sims, windows, readings_out, step_out,
+              window_out, inputs):
+    """Env e of :func:`step_many`."""
+    n_rec[e] = 0
+    flags[e] = 0
+    arrays, readings = sims[e]
+    prepared = prepare_in_call(arrays, n_steps[e], record_every[e],
+                               inputs[e, BatchInput.SPEED], inputs[e, BatchInput.HOOK_LOAD],
+                               inputs[e, BatchInput.STRING_WEIGHT],
+                               inputs[e, BatchInput.CHECKED_WOB])
+    if prepared != PREPARED:
+        flags[e] = -prepared
+        return
+    k = advance_and_read(n_steps[e], record_every[e], arrays, readings)
+    n_rec[e] = k
+    for j in range(min(readings.shape[0], readings_out.shape[1])):
+        readings_out[e, j] = readings[j]
+    if k > 0:
+        window = windows[e]
+        flags[e] = rolling_add(arrays.record[:k], window, True)
+        step_out[e, :] = window.step_out
+        window_out[e, :] = window.window_out
 
 
 def window_arrays(env: DrillStringEnv) -> WindowArrays:
@@ -128,6 +148,7 @@ class EnvBatch:
         self._layout: list[Any] = []  # per env: its simulator's and its window's arrays
         self._lists: tuple[Any, Any] | None = None  # the typed lists of those
         self._constants = np.zeros((self.size, 2))  # string weight, checked WOB
+        self._counter = np.zeros(1, dtype=np.int64)  # step_many's next env
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()  # typed lists do not pickle; rebuilt on first use
@@ -181,7 +202,8 @@ class EnvBatch:
         n_rec, flags = self.sims.n_rec, self._flags
         on = np.asarray(active, dtype=np.bool_)
         step_many(steps, every_array, on, n_rec, flags, sim_list, window_list,
-                  self._readings, self._step, self._window, inputs)
+                  self._readings, self._step, self._window, inputs, self._counter,
+                  numba.get_num_threads())
         if (flags[on] < 0).any():  # rare: Python's prepare, then run those; read the stopped
             retry = np.zeros(self.size, dtype=np.bool_)
             for e in np.flatnonzero(on & (flags == -NEEDS_PYTHON)).tolist():
@@ -189,7 +211,8 @@ class EnvBatch:
             stopped = on & (flags < 0) & ~retry
             if retry.any():  # (prepare may have given a simulator a new record buffer)
                 step_many(steps, every_array, retry, n_rec, flags, self.sims.slots(sims),
-                          window_list, self._readings, self._step, self._window, inputs)
+                          window_list, self._readings, self._step, self._window, inputs,
+                          self._counter, numba.get_num_threads())
                 self._layout = []  # looked up again at the next call
             for e in np.flatnonzero(stopped).tolist():
                 fresh = sims[e].read()

@@ -12,4 +12,28 @@ from __future__ import annotations
 
 from typing import Any
 
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
 TUPLE_KERNEL: dict[str, Any] = {"cache": True, "nogil": True, "_nrt": False}
+
+
+@intrinsic
+def claim(typingctx: Any, counter: Any) -> Any:
+    """``counter[0] += 1`` as one atomic operation; returns the value before. For a
+    ``prange`` over worker lanes that take the next item from a shared counter (dynamic
+    scheduling, :func:`drill_env.batching.step_many`); numba exposes no CPU atomics.
+    ``counter``: a C-contiguous int64 array."""
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64):
+        return None
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        array_type = signature.args[0]
+        array = context.make_array(array_type)(context, builder, args[0])
+        first = cgutils.get_item_pointer(context, builder, array_type, array,
+                                         [context.get_constant(types.intp, 0)])
+        return builder.atomic_rmw("add", first, context.get_constant(types.int64, 1),
+                                  "monotonic")
+
+    return types.int64(counter), codegen

@@ -70,3 +70,35 @@ def test_batch_size_is_checked():
         SimulatorBatch(0)
     with pytest.raises(ValueError, match="sims"):
         SimulatorBatch(2).advance([make(1000.0, 60.0)], [1], [1.0], [1.0], [1])
+
+
+def test_claim_hands_out_every_item_once_across_threads():
+    """The atomic counter behind the batch's dynamic scheduling: threads that take items
+    from it concurrently take each exactly once, and the counter ends at items + lanes
+    (each lane's last claim finds nothing left)."""
+    import numba
+    from numba import njit, prange
+
+    from drill_env.physics.jit import claim
+
+    @njit(parallel=True)
+    def take(counter, owner, lanes):
+        n = owner.shape[0]
+        counter[0] = 0
+        for _ in prange(lanes):
+            e = claim(counter)
+            while e < n:
+                owner[e] += 1  # 0 if never taken, 2 if taken twice
+                x = 0.0
+                for k in range(2000):  # some work, so that the lanes overlap
+                    x += np.sqrt(k + e)
+                owner[e] += 0 if x >= 0.0 else 1
+                e = claim(counter)
+
+    lanes = numba.get_num_threads()
+    for n in (1, 7, 500):
+        counter = np.zeros(1, dtype=np.int64)
+        owner = np.zeros(n, dtype=np.int64)
+        take(counter, owner, lanes)
+        assert (owner == 1).all()
+        assert counter[0] == n + lanes
