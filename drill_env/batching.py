@@ -53,7 +53,7 @@ BatchInput = IntEnum("BatchInput", ["SPEED", "HOOK_LOAD", "STRING_WEIGHT", "CHEC
 
 @njit(cache=True, parallel=True, nogil=True)
 def step_many(n_steps, record_every, run, n_rec, flags, sims, windows, readings_out, step_out,
-              window_out, inputs, counter, lanes):
+              window_out, inputs, schedule):
     """For each env e with ``run[e]``: prepare its simulator (``sims[e]``: its
     ``(KernelArrays, readings)``) for the interval with row e of ``inputs``
     (:data:`BatchInput` columns, for :func:`prepare_in_call`), advance it,
@@ -66,21 +66,22 @@ def step_many(n_steps, record_every, run, n_rec, flags, sims, windows, readings_
     metrics: the batch's view of every env at once, gathered while each env's data is in
     cache. Rows of envs without ``run`` are left as they are.
 
-    The envs go to ``lanes`` threads (numba's thread count: read in Python, a call in
-    here would keep the function from numba's cache) one at a time, each to the next
-    thread free, from the shared ``counter`` (int64, one element; reset here): a worker
-    thread that wakes up late (a sleeping OpenMP worker takes ~80 us on a small VM,
+    ``schedule`` (int64, two elements): [0] the next env to hand out (reset here), [1]
+    the number of threads (numba's, read in Python: a call in here would keep the
+    function from numba's cache). The envs go to the threads one at a time, each to the
+    next thread free, from the shared counter ``schedule[0]``: a worker thread that wakes
+    up late (a sleeping OpenMP worker takes ~80 us on a small VM,
     docs/performance.md) or envs of unequal size do not hold the call up, as fixed
     halves would. Each env's arithmetic is the same whichever thread runs it."""
     n = len(sims)
-    counter[0] = 0
-    for _ in prange(min(lanes, n)):
-        e = claim(counter)
+    schedule[0] = 0
+    for _ in prange(min(schedule[1], n)):
+        e = claim(schedule)
         while e < n:
             if run[e]:
                 _step_env(e, n_steps, record_every, n_rec, flags, sims, windows,
                           readings_out, step_out, window_out, inputs)
-            e = claim(counter)
+            e = claim(schedule)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -148,7 +149,7 @@ class EnvBatch:
         self._layout: list[Any] = []  # per env: its simulator's and its window's arrays
         self._lists: tuple[Any, Any] | None = None  # the typed lists of those
         self._constants = np.zeros((self.size, 2))  # string weight, checked WOB
-        self._counter = np.zeros(1, dtype=np.int64)  # step_many's next env
+        self._schedule_array = np.zeros(2, dtype=np.int64)  # step_many's schedule
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()  # typed lists do not pickle; rebuilt on first use
@@ -176,6 +177,11 @@ class EnvBatch:
                         for a in (sim.kernel_arrays(), env.rolling_metrics.arrays)]
         return self._lists
 
+    def _schedule(self) -> np.ndarray:
+        """:func:`step_many`'s ``schedule``, with numba's thread count of this moment."""
+        self._schedule_array[1] = numba.get_num_threads()
+        return self._schedule_array
+
     def run(self, envs: Sequence[DrillStringEnv], active: np.ndarray) -> BatchArrays:
         """Run every active env's control interval in one parallel call; the batch's
         arrays (:class:`BatchArrays`). The readings' width is that of env 0's.
@@ -202,8 +208,7 @@ class EnvBatch:
         n_rec, flags = self.sims.n_rec, self._flags
         on = np.asarray(active, dtype=np.bool_)
         step_many(steps, every_array, on, n_rec, flags, sim_list, window_list,
-                  self._readings, self._step, self._window, inputs, self._counter,
-                  numba.get_num_threads())
+                  self._readings, self._step, self._window, inputs, self._schedule())
         if (flags[on] < 0).any():  # rare: Python's prepare, then run those; read the stopped
             retry = np.zeros(self.size, dtype=np.bool_)
             for e in np.flatnonzero(on & (flags == -NEEDS_PYTHON)).tolist():
@@ -212,7 +217,7 @@ class EnvBatch:
             if retry.any():  # (prepare may have given a simulator a new record buffer)
                 step_many(steps, every_array, retry, n_rec, flags, self.sims.slots(sims),
                           window_list, self._readings, self._step, self._window, inputs,
-                          self._counter, numba.get_num_threads())
+                          self._schedule())
                 self._layout = []  # looked up again at the next call
             for e in np.flatnonzero(stopped).tolist():
                 fresh = sims[e].read()
