@@ -177,10 +177,23 @@ class EnvBatch:
                         for a in (sim.kernel_arrays(), env.rolling_metrics.arrays)]
         return self._lists
 
-    def _schedule(self) -> np.ndarray:
-        """:func:`step_many`'s ``schedule``, with numba's thread count of this moment."""
-        self._schedule_array[1] = numba.get_num_threads()
-        return self._schedule_array
+    def _step_many(self, arguments: tuple[Any, ...]) -> None:
+        """:func:`step_many` with ``arguments`` (all but the schedule) on numba's
+        threads, at most one per env that runs: a single env runs on the calling thread
+        alone, without waking a worker that would have nothing to do (its wake-up, ~80 us,
+        would hold the call up)."""
+        run = arguments[2]
+        threads = numba.get_num_threads()
+        used = max(1, min(threads, int(np.count_nonzero(run))))
+        self._schedule_array[1] = used
+        if used < threads:
+            numba.set_num_threads(used)
+        full: tuple[Any, ...] = (*arguments, self._schedule_array)
+        try:
+            step_many(*full)
+        finally:
+            if used < threads:
+                numba.set_num_threads(threads)
 
     def run(self, envs: Sequence[DrillStringEnv], active: np.ndarray) -> BatchArrays:
         """Run every active env's control interval in one parallel call; the batch's
@@ -207,17 +220,17 @@ class EnvBatch:
             self._readings = np.zeros((self.size, width))
         n_rec, flags = self.sims.n_rec, self._flags
         on = np.asarray(active, dtype=np.bool_)
-        step_many(steps, every_array, on, n_rec, flags, sim_list, window_list,
-                  self._readings, self._step, self._window, inputs, self._schedule())
+        self._step_many((steps, every_array, on, n_rec, flags, sim_list, window_list,
+                         self._readings, self._step, self._window, inputs))
         if (flags[on] < 0).any():  # rare: Python's prepare, then run those; read the stopped
             retry = np.zeros(self.size, dtype=np.bool_)
             for e in np.flatnonzero(on & (flags == -NEEDS_PYTHON)).tolist():
                 retry[e] = sims[e].prepare(n_steps[e], speeds[e], hooks[e], every[e])
             stopped = on & (flags < 0) & ~retry
             if retry.any():  # (prepare may have given a simulator a new record buffer)
-                step_many(steps, every_array, retry, n_rec, flags, self.sims.slots(sims),
-                          window_list, self._readings, self._step, self._window, inputs,
-                          self._schedule())
+                self._step_many((steps, every_array, retry, n_rec, flags,
+                                 self.sims.slots(sims), window_list, self._readings,
+                                 self._step, self._window, inputs))
                 self._layout = []  # looked up again at the next call
             for e in np.flatnonzero(stopped).tolist():
                 fresh = sims[e].read()

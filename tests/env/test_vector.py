@@ -480,3 +480,22 @@ def test_a_batch_refuses_envs_it_cannot_finish_as_arrays():
         step_batch(envs, np.zeros((2, 2)), EnvBatch(2))  # two configs
     with pytest.raises(ValueError, match="holds 3 envs"):
         step_batch(envs[:1] * 2, np.zeros((2, 2)), EnvBatch(3))
+
+
+def test_a_batch_call_uses_no_more_threads_than_envs_that_run():
+    """One env that runs goes on the calling thread alone (no worker woken for nothing),
+    and numba's thread count is the caller's again afterwards."""
+    import numba
+
+    from drill_env.batching import EnvBatch
+
+    envs = [DrillStringEnv(episode_duration=5.0) for _ in range(3)]
+    for k, env in enumerate(envs):
+        env.reset(seed=k)
+    batch = EnvBatch(3)
+    threads = numba.get_num_threads()
+    for active, used in (([True, False, False], 1), ([True, True, True], min(threads, 3))):
+        out = batch.run(envs, np.array(active))
+        assert batch._schedule_array[1] == used
+        assert numba.get_num_threads() == threads
+        assert (out.n_rec[np.array(active)] > 0).all()
