@@ -87,6 +87,7 @@ class ConstantSetPoints(SetPointController):
                 and weight_on_bit >= 0.0):
             raise ValueError(f"constant: rpm and WOB must be finite and >= 0, got "
                              f"{rpm:g} rpm, {weight_on_bit / 1e3:g} kN")
+        self.rpm = rpm  # as typed, for the range check
         self.speed = rpm * RPM
         self.weight_on_bit = weight_on_bit
 
@@ -107,9 +108,14 @@ class ConstantSetPoints(SetPointController):
         """Start an episode; a set point outside the env's action range is refused (the
         env would clip it, and the row would be named after a point it never drilled)."""
         super().reset(env)
-        rpm, kn = self.speed / RPM, self.weight_on_bit / 1e3
-        w_low, w_high = (v / 1e3 for v in env.config.weight_on_bit_range)
-        for value, (low, high), unit in ((rpm, env.config.rpm_range, "rpm"),
+        self.check_range(env.config)
+
+    def check_range(self, config: Any) -> None:
+        """ValueError unless the set points lie in the action ranges of an env's
+        ``config`` (an :class:`~drill_env.env_config.EnvConfig`)."""
+        rpm, kn = self.rpm, self.weight_on_bit / 1e3
+        w_low, w_high = (v / 1e3 for v in config.weight_on_bit_range)
+        for value, (low, high), unit in ((rpm, config.rpm_range, "rpm"),
                                          (kn, (w_low, w_high), "kN")):
             if not low <= value <= high:
                 raise ValueError(f"controller: constant:{rpm:g}/{kn:g}: {value:g} {unit} is "

@@ -77,12 +77,15 @@ existing_file.__name__ = "file"
 def integer(low: int = 0) -> Callable[[str], int]:
     def parse(text: str) -> int:
         try:
-            number = float(text)  # also 1e5 or 4.0e5, as the hyperparameter YAMLs write them
-            if not number.is_integer():
-                raise ValueError(text)
-            value = int(number)
-        except (ValueError, OverflowError):
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+            value = int(text)
+        except ValueError:
+            try:  # 1e5 or 4.0e5, as the hyperparameter YAMLs write them
+                number = float(text)
+                if not number.is_integer():
+                    raise ValueError(text) from None
+                value = int(number)
+            except (ValueError, OverflowError):
+                raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
         if value < low:
             raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
         return value
@@ -130,7 +133,8 @@ RUN_SUMMARY_UNITS = {
     "mean_setpoint_kN": "kN", "string_length_m": "m", "simulated_s": "s", "wall_s": "s",
     "mean_ssi": "1",
     "mean_stuck_fraction": "1", "mean_whirl_ratio": "1", "mean_radial_ratio": "1",
-    "mean_lateral_force": "N", "mean_rop": "m/s", "return": "reward units"}
+    "mean_lateral_force": "N", "mean_rop": "m/s", "return": "reward units",
+    "task_return": "reward units"}
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -229,6 +233,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     rpm, wob_kn = mean["target_speed"] / RPM, mean["target_wob"] / KILO
     setpoint_rpm = mean["speed_setpoint"] / RPM
     setpoint_kn = mean["weight_on_bit_setpoint"] / KILO
+    guest = reward if controller.env_id != "DrillString-v0" else None
     # targets and times rounded far below what they mean: 50.0, not 49.99999999999955
     rpm, wob_kn, setpoint_rpm, setpoint_kn = (round(v, 9) for v in (
         rpm, wob_kn, setpoint_rpm, setpoint_kn))
@@ -240,7 +245,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         "fidelity": base.simulation_config.solver.fidelity,
         "string_length_m": base.simulation_config.string.length, "steps": steps,
         "simulated_s": round(float(info.get("episode_time", 0.0)), 9),
-        "return": reward, "termination_reason": reason,
+        # a task's policy is rewarded by its task, not by DrillString-v0 (as benchmark)
+        "return": reward if guest is None else None, "task_return": guest,
+        "termination_reason": reason,
         **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
         "wall_s": time.perf_counter() - t0,
         "units": RUN_SUMMARY_UNITS,
@@ -252,8 +259,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     ran_at = f"targets {rpm:.0f} rpm, {wob_kn:.0f} kN"
     if abs(setpoint_rpm - rpm) >= 0.5 or abs(setpoint_kn - wob_kn) >= 0.5:
         ran_at += f" (set points applied: mean {setpoint_rpm:.0f} rpm, {setpoint_kn:.0f} kN)"
+    returned = f"return {fixed(reward)}" if guest is None else \
+        f"return of its task's reward {fixed(reward)}"
     print(f"{args.scenario}: {steps} steps ({summary['simulated_s']:.1f} s) at {ran_at} in "
-          f"{summary['wall_s']:.1f} s; return {fixed(reward)}"
+          f"{summary['wall_s']:.1f} s; {returned}"
           + (f"; ended: {reason}" if reason else ""))
     print(f"  mean over the episode: SSI {fixed(summary['mean_ssi'])}, stuck "
           f"{fixed(summary['mean_stuck_fraction'])}, whirl ratio "
@@ -299,6 +308,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if args.warmup >= args.duration:
         raise argparse.ArgumentTypeError(f"--warmup: {args.warmup:g} s must be shorter than "
                                          f"--duration ({args.duration:g} s)")
+    check_constant_set_points(controllers, env_id)
     # a task benchmark runs at the level the task trains and evaluates on
     fidelity = args.fidelity or ("fast" if env_id else "full")
     settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
@@ -320,7 +330,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from training.config import load_config
-    from training.train import check_run_folder, train
+    from training.train import check_run_folder, holds_run, train
 
     if args.name is not None and (not args.name.strip() or args.name in (".", "..")
                                   or any(c in args.name for c in "/\\")):
@@ -335,6 +345,9 @@ def cmd_train(args: argparse.Namespace) -> int:
                                          "--seeds to fan several runs out")
     run = args.out / (args.name or f"{args.task}_{args.algo}_seed{config.seed}")
     saved = run / "config.yaml"
+    if args.resume and not holds_run(run):
+        raise argparse.ArgumentTypeError(f"--resume: no run in {run}; name it by --name, or "
+                                         "by --seed (and --algo) as it was started")
     if args.resume and args.config is None and saved.is_file():
         # a resumed run continues with the config it was started with (--config or not)
         config = saved_run_config(saved, args.task, args.algo, n_timesteps=args.timesteps,
@@ -350,6 +363,22 @@ def cmd_train(args: argparse.Namespace) -> int:
     print(f"trained in {time.perf_counter() - t0:.0f} s: {model}, {run / 'vecnormalize.pkl'}"
           f"{made}; drill-env evaluate {run}")
     return 0
+
+
+def check_constant_set_points(controllers: Sequence[str], env_id: str | None) -> None:
+    """Refuse a ``constant:`` controller outside the action ranges of the benchmark's env
+    before the first episode (its own check would fail in a worker, mid-run)."""
+    constants = [c for c in controllers if c.startswith("constant:")]
+    if not constants:
+        return
+    from agents.classical import ConstantSetPoints
+    from drill_env.env import DrillStringEnv
+    from drill_env.vector import registered
+
+    env_class, kwargs = registered(env_id) if env_id else (DrillStringEnv, {})
+    config = env_class(**kwargs).config
+    for name in constants:
+        ConstantSetPoints.parse(name.partition(":")[2]).check_range(config)
 
 
 def saved_run_config(saved: Path, task: str, algo: str, **overrides: Any) -> Any:

@@ -49,6 +49,10 @@ __all__ = ["BatchArrays", "EnvBatch", "step_all", "step_arrays", "step_batch", "
 #: ``Simulator.checked_weight_on_bit`` (N).
 BatchInput = IntEnum("BatchInput", ["SPEED", "HOOK_LOAD", "STRING_WEIGHT", "CHECKED_WOB"],
                      start=0)
+#: The entries of :func:`step_many`'s ``schedule``: the next env to hand out (the atomic
+#: counter: element 0, where :func:`~drill_env.physics.jit.claim` counts) and the number
+#: of threads to use.
+Schedule = IntEnum("Schedule", ["NEXT", "THREADS"], start=0)
 
 
 @njit(cache=True, parallel=True, nogil=True)
@@ -66,16 +70,16 @@ def step_many(n_steps, record_every, run, n_rec, flags, sims, windows, readings_
     metrics: the batch's view of every env at once, gathered while each env's data is in
     cache. Rows of envs without ``run`` are left as they are.
 
-    ``schedule`` (int64, two elements): [0] the next env to hand out (reset here), [1]
-    the number of threads (numba's, read in Python: a call in here would keep the
-    function from numba's cache). The envs go to the threads one at a time, each to the
-    next thread free, from the shared counter ``schedule[0]``: a worker thread that wakes
-    up late (a sleeping OpenMP worker takes ~80 us on a small VM,
+    ``schedule`` (int64, :data:`Schedule` entries): NEXT the next env to hand out
+    (reset here), THREADS the number of threads (numba's, read in Python: a call in here
+    would keep the function from numba's cache). The envs go to the threads one at a
+    time, each to the next thread free, from the shared counter: a worker thread that
+    wakes up late (a sleeping OpenMP worker takes ~80 us on a small VM,
     docs/performance.md) or envs of unequal size do not hold the call up, as fixed
     halves would. Each env's arithmetic is the same whichever thread runs it."""
     n = len(sims)
-    schedule[0] = 0
-    for _ in prange(min(schedule[1], n)):
+    schedule[Schedule.NEXT] = 0
+    for _ in prange(max(1, min(schedule[Schedule.THREADS], n))):
         e = claim(schedule)
         while e < n:
             if run[e]:
@@ -149,7 +153,7 @@ class EnvBatch:
         self._layout: list[Any] = []  # per env: its simulator's and its window's arrays
         self._lists: tuple[Any, Any] | None = None  # the typed lists of those
         self._constants = np.zeros((self.size, 2))  # string weight, checked WOB
-        self._schedule_array = np.zeros(2, dtype=np.int64)  # step_many's schedule
+        self._schedule = np.zeros(len(Schedule), dtype=np.int64)  # step_many's
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()  # typed lists do not pickle; rebuilt on first use
@@ -177,18 +181,26 @@ class EnvBatch:
                         for a in (sim.kernel_arrays(), env.rolling_metrics.arrays)]
         return self._lists
 
-    def _step_many(self, arguments: tuple[Any, ...]) -> None:
-        """:func:`step_many` with ``arguments`` (all but the schedule) on numba's
-        threads, at most one per env that runs: a single env runs on the calling thread
-        alone, without waking a worker that would have nothing to do (its wake-up, ~80 us,
-        would hold the call up)."""
-        run = arguments[2]
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)  # (a batch pickled before the schedule had none)
+        self.__dict__.setdefault("_schedule", np.zeros(len(Schedule), dtype=np.int64))
+
+    def threads_for(self, run: np.ndarray) -> int:
+        """Numba's threads, at most one per env in ``run`` (at least one)."""
+        return max(1, min(numba.get_num_threads(), int(np.count_nonzero(run))))
+
+    def _step_many(self, run: np.ndarray, arguments: tuple[Any, ...]) -> None:
+        """:func:`step_many` for the envs in ``run``, ``arguments`` its others after
+        ``run`` up to the schedule, on :meth:`threads_for` threads: a single env runs on
+        the calling thread alone, without waking a worker that would have nothing to do
+        (its wake-up, ~80 us, would hold the call up)."""
         threads = numba.get_num_threads()
-        used = max(1, min(threads, int(np.count_nonzero(run))))
-        self._schedule_array[1] = used
+        used = self.threads_for(run)
+        self._schedule[Schedule.THREADS] = used
+        steps, every, *rest = arguments
+        full: tuple[Any, ...] = (steps, every, run, *rest, self._schedule)
         if used < threads:
             numba.set_num_threads(used)
-        full: tuple[Any, ...] = (*arguments, self._schedule_array)
         try:
             step_many(*full)
         finally:
@@ -220,17 +232,17 @@ class EnvBatch:
             self._readings = np.zeros((self.size, width))
         n_rec, flags = self.sims.n_rec, self._flags
         on = np.asarray(active, dtype=np.bool_)
-        self._step_many((steps, every_array, on, n_rec, flags, sim_list, window_list,
-                         self._readings, self._step, self._window, inputs))
+        self._step_many(on, (steps, every_array, n_rec, flags, sim_list, window_list,
+                             self._readings, self._step, self._window, inputs))
         if (flags[on] < 0).any():  # rare: Python's prepare, then run those; read the stopped
             retry = np.zeros(self.size, dtype=np.bool_)
             for e in np.flatnonzero(on & (flags == -NEEDS_PYTHON)).tolist():
                 retry[e] = sims[e].prepare(n_steps[e], speeds[e], hooks[e], every[e])
             stopped = on & (flags < 0) & ~retry
             if retry.any():  # (prepare may have given a simulator a new record buffer)
-                self._step_many((steps, every_array, retry, n_rec, flags,
-                                 self.sims.slots(sims), window_list, self._readings,
-                                 self._step, self._window, inputs))
+                self._step_many(retry, (steps, every_array, n_rec, flags,
+                                        self.sims.slots(sims), window_list, self._readings,
+                                        self._step, self._window, inputs))
                 self._layout = []  # looked up again at the next call
             for e in np.flatnonzero(stopped).tolist():
                 fresh = sims[e].read()

@@ -308,7 +308,7 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
             for p in wanted:
                 trackers[p].report(found[p]["stuck_fraction"] > 0.0)
         if bar is not None:
-            bar.total = bar.n  # done: the bar ends full, at the points simulated
+            bar.total = bar.n  # done: the bar ends full, at the points simulated or reused
             bar.refresh()
     finally:
         if executor is not None:

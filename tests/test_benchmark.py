@@ -188,6 +188,11 @@ def test_a_constant_set_point_outside_the_envs_range_is_refused_not_clipped(tmp_
         assert main(["run", "--controller", text, "--duration", "0.2", "--out",
                      str(tmp_path)]) == 2
         assert says in capsys.readouterr().err
+    # the benchmark refuses it before its first episode, not in a worker mid-run
+    assert main(["benchmark", "--controllers", "stiff,constant:500/80", "--scenarios",
+                 "default", "--seeds", "1", "--out", str(tmp_path / "bench")]) == 2
+    assert "500 rpm is outside" in capsys.readouterr().err
+    assert not (tmp_path / "bench" / "benchmark_results.jsonl").exists()
 
 
 def test_the_series_chart_lays_out_a_sweep_of_many_controllers(tmp_path):

@@ -1,5 +1,6 @@
 """The command line: arguments checked in the units typed, summaries, recordings, maps."""
 
+import argparse
 import json
 
 import pytest
@@ -223,6 +224,10 @@ def test_a_task_policy_drills_a_scenario_from_its_start_and_for_its_length(tmp_p
         summaries[c] = json.loads((tmp_path / c / "run_summary.json").read_text())
     assert summaries["learned"]["startup"] == summaries["stiff"]["startup"] == "settled"
     assert summaries["learned"]["env_id"] == "DrillStickSlip-v0"
+    # its reward is its task's: kept apart from DrillString-v0's return
+    assert summaries["learned"]["return"] is None
+    assert isinstance(summaries["learned"]["task_return"], float)
+    assert summaries["stiff"]["task_return"] is None
     assert main(["run", "--controller", "learned", "--scenario", "stick_slip",
                  "--out", str(tmp_path), "--fidelity", "fast"]) == 0
     scenario_length = json.loads((tmp_path / "run_summary.json").read_text())["simulated_s"]
@@ -344,3 +349,14 @@ def test_console_numbers_have_no_negative_zero_and_counts_agree_with_their_noun(
         ["0.00", "0.00", "0.00", "-0.01", "-1.50"]
     assert fixed(-0.04, 1) == "0.0" and fixed(-0.06, 1) == "-0.1"
     assert (counted(1, "seed"), counted(3, "episode")) == ("1 seed", "3 episodes")
+
+
+def test_integer_arguments_take_exponents_and_keep_large_values_exact():
+    from drill_cli.main import integer
+
+    parse = integer(0)
+    assert parse("3e3") == 3000 and parse("4.0e5") == 400_000
+    assert parse("9007199254740993") == 9007199254740993  # above 2**53: not via float
+    for bad in ("2.5", "nan", "inf", "x"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            parse(bad)

@@ -205,7 +205,8 @@ def test_tuned_controllers_shrink_the_stick_slip_zone_at_every_position():
 
 @pytest.mark.parametrize("positions", [["P1"], ["P1", "P2"], list(sm.POSITIONS)])
 def test_map_figure_keeps_its_title_on_the_page(positions):
-    """One panel is 4.2 in wide: the one-line title of six panels would run off it."""
+    """One panel is 4.2 in wide: the title, one line over six panels, would run off a
+    single panel's figure."""
     rpm, wob = np.array([50.0, 100.0]), np.array([50e3, 100e3])
     unstable = np.array([[False, False], [True, False]])
     maps = [sm.StabilityMap(p, 0.0, rpm, wob, unstable, unstable.astype(np.int8),

@@ -404,6 +404,7 @@ def test_train_command_resumes_with_the_runs_own_config_and_checks_its_flags(tmp
     assert json.loads((tmp_path / "runs" / "mine" / "run.json").read_text())[
         "env_steps"] >= 3000
     for args, says in ((command("--resume", "--overwrite"), "not allowed with"),
+                       (command("--resume", name="other"), "--resume: no run in"),
                        (command(name="../escape"), "--name"),
                        (command("--config", str(tmp_path / "none.yml")), "--config")):
         with pytest.raises(SystemExit):

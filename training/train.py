@@ -339,8 +339,10 @@ def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | N
     """After a Ctrl-C: the model, its VecNormalize statistics and the wall time so far
     as a checkpoint (the files the checkpoint callbacks write), so that ``--resume``
     continues from here and not from the last periodic checkpoint. Says what it kept.
-    A PPO rollout cut short is collected again; the evaluations after this point are
-    redone. Returns the model's checkpoint (None before the first env step)."""
+    What is not kept: the steps of a PPO rollout cut short (counted in the model's steps,
+    never learnt from, so the resumed run learns from that many fewer) and SAC's replay
+    buffer (as at every resume). Returns the model's checkpoint (None before the first
+    env step: nothing saved)."""
     steps = int(model.num_timesteps)
     if steps <= 0:
         print(f"interrupted before the first env step: nothing saved in {run}")

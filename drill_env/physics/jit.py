@@ -1,4 +1,5 @@
-"""Compilation options shared by the numba kernels.
+"""Compilation options shared by the numba kernels, and :func:`claim`, the one atomic
+operation they use (numba has none on the CPU).
 
 :data:`TUPLE_KERNEL` is for kernels that take named tuples of arrays (the layouts of
 :mod:`drill_env.physics.layout`): taking an array out of a tuple costs an atomic
@@ -24,8 +25,9 @@ def claim(typingctx: Any, counter: Any) -> Any:
     """``counter[0] += 1`` as one atomic operation; returns the value before. For a
     ``prange`` over worker lanes that take the next item from a shared counter (dynamic
     scheduling, :func:`drill_env.batching.step_many`); numba exposes no CPU atomics.
-    ``counter``: a C-contiguous int64 array."""
-    if not (isinstance(counter, types.Array) and counter.dtype == types.int64):
+    ``counter``: a writable one-dimensional int64 array; element 0 is the counter."""
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64
+            and counter.ndim == 1 and counter.mutable):
         return None
 
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:

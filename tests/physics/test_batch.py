@@ -96,6 +96,8 @@ def test_claim_hands_out_every_item_once_across_threads():
                 e = claim(counter)
 
     lanes = numba.get_num_threads()
+    if lanes < 2:
+        pytest.skip("one numba thread: no concurrent claims to test")
     for n in (1, 7, 500):
         counter = np.zeros(1, dtype=np.int64)
         owner = np.zeros(n, dtype=np.int64)
