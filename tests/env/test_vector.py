@@ -506,3 +506,17 @@ def test_a_batch_call_uses_no_more_threads_than_envs_that_run(monkeypatch):
         assert calls == expected
         assert numba.get_num_threads() == threads
         assert (out.n_rec[np.array(active)] > 0).all()
+
+
+def test_a_batch_pickled_before_the_schedule_existed_still_runs():
+    from drill_env.batching import EnvBatch, Schedule
+
+    state = EnvBatch(2).__getstate__()
+    del state["_schedule"]
+    old = EnvBatch.__new__(EnvBatch)
+    old.__setstate__(state)
+    envs = [DrillStringEnv(episode_duration=5.0) for _ in range(2)]
+    for k, env in enumerate(envs):
+        env.reset(seed=k)
+    assert old._schedule.shape == (len(Schedule),)
+    assert (old.run(envs, np.ones(2, dtype=np.bool_)).n_rec >= 0).all()
