@@ -27,6 +27,8 @@ import hashlib
 import importlib.util
 import json
 import os
+import sys
+import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from pathlib import Path
@@ -99,8 +101,27 @@ class ProcessExecutor:
             for future in futures:
                 future.cancel()
 
+    #: Seconds an aborted pool's workers get to finish on their own (a training run
+    #: saves its checkpoint at a Ctrl-C) before they are stopped.
+    ABORT_GRACE = 15.0
+
     def close(self) -> None:
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        """Shut the pool down. Called while an exception (a Ctrl-C) propagates, it gives
+        the workers ``ABORT_GRACE`` seconds to end, then stops the rest: a worker
+        interrupted while idle may never answer, and waiting for it could hang the
+        interrupted command with its workers left running."""
+        if sys.exc_info()[0] is None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            return
+        # (ProcessPoolExecutor has no public way to stop its workers before Python 3.14)
+        processes = list(getattr(self._pool, "_processes", {}).values())
+        self._pool.shutdown(wait=False, cancel_futures=True)  # idle workers are told to end
+        deadline = time.monotonic() + self.ABORT_GRACE
+        for process in processes:
+            process.join(max(0.0, deadline - time.monotonic()))
+        for process in processes:
+            if process.is_alive():
+                process.terminate()
 
 
 def make_executor(workers: int | None = None, ray_address: str | None = None) -> Executor:

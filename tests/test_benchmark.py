@@ -216,3 +216,27 @@ def test_the_series_chart_lays_out_a_sweep_of_many_controllers(tmp_path):
         warnings.simplefilter("error")
         series_chart(tmp_path, names, "random", tmp_path / "series.png", warmup=2.0)
     assert (tmp_path / "series.png").stat().st_size > 10_000
+
+
+def test_an_aborted_process_pool_stops_workers_that_do_not_end(monkeypatch):
+    """Closed while an exception (a Ctrl-C) propagates, the pool gives its workers a grace
+    period, then stops them: an interrupted sweep must neither hang nor leave workers."""
+    import time
+
+    from drill_env.sweep import ProcessExecutor
+
+    monkeypatch.setattr(ProcessExecutor, "ABORT_GRACE", 1.0)
+    executor = ProcessExecutor(2)
+    busy = [executor._pool.submit(time.sleep, 60.0) for _ in range(2)]
+    while not all(f.running() for f in busy):
+        time.sleep(0.05)
+    processes = list(executor._pool._processes.values())
+    start = time.monotonic()
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt:
+        executor.close()
+    assert time.monotonic() - start < 10.0
+    for process in processes:
+        process.join(5.0)
+        assert not process.is_alive()
