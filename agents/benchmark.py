@@ -383,8 +383,12 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
 
 def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
     """What every episode of a benchmark shares, in words (benchmark.md's first line)."""
-    window = (f"metrics over the last {settings.duration - settings.warmup:g} s. Means over "
-              "seeds, +- half the range. Rows: benchmark.csv.")
+    window = (f"metrics over the last {settings.duration - settings.warmup:g} s; physics "
+              f"level {settings.fidelity}"
+              + ("; config overrides of " + ", ".join(sorted({key.split(".")[0] for key in
+                                                               settings.physics}))
+                 + " (--config) merged into every scenario" if settings.physics else "")
+              + ". Means over seeds, +- half the range. Rows: benchmark.csv.")
     if env_id is None:
         return (f"{settings.duration:g} s episodes of DrillString-v0 from the settled state "
                 f"at each scenario's set points (bit speed kicked by up to "

@@ -345,7 +345,8 @@ def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | N
     env step: nothing saved)."""
     steps = int(model.num_timesteps)
     if steps <= 0:
-        print(f"interrupted before the first env step: nothing saved in {run}")
+        print(f"interrupted before the first env step: nothing saved in {run} but its "
+              "config (--resume starts it, --overwrite starts afresh)")
         return None
     folder = run / "checkpoints"
     folder.mkdir(parents=True, exist_ok=True)
