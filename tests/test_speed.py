@@ -153,4 +153,4 @@ def test_the_env_section_times_every_set_up_and_the_parallel_ceiling():
                     "physics_threads_over_one", "batched_over_loop"):
             assert positive_finite(row[key]), key
         assert row["physics_threads"] >= 1
-    assert "x loop's ceiling now" in format_env(result)
+    assert "the machine's parallel gain now" in format_env(result)

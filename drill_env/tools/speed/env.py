@@ -261,8 +261,10 @@ def format_env(result: dict[str, Any]) -> str:
                             for c in fig["counts"] if "physics_threads_over_one" in c)
         if ceiling:
             threads = fig["counts"][-1]["physics_threads"]
-            notes.append(f"{name}: x loop's ceiling now: the batch's physics call alone "
-                         f"on {threads} threads over one thread, same rounds: {ceiling}")
+            notes.append(f"{name}: the machine's parallel gain now: the batch's physics call "
+                         f"alone on {threads} threads over one thread, same rounds: {ceiling} "
+                         f"(x loop is near it when the batch's Python is small; short runs "
+                         f"scatter both)")
         notes.append(f"{name}: one env step = {single['simulator_steps_per_env_step']} "
                      f"simulator steps, {single['us_per_env_step']:.0f} us, of which "
                      f"{single['us_in_simulator']:.0f} us in Simulator.advance: Python "
