@@ -122,6 +122,11 @@ class ProcessExecutor:
         for process in processes:
             if process.is_alive():
                 process.terminate()
+        for process in processes:  # one still starting up may outlive SIGTERM: SIGKILL
+            process.join(2.0)
+            if process.is_alive():
+                process.kill()
+                process.join(2.0)
 
 
 def make_executor(workers: int | None = None, ray_address: str | None = None) -> Executor:
