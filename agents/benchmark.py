@@ -118,6 +118,10 @@ def label(controller: str) -> str:
     head, _, rest = controller.partition(":")
     if head == "constant" and rest:
         rpm, _, kn = rest.partition("/")
+        try:  # one name for one pair of set points: 1e2, 100 and 100.0 are 100
+            rpm, kn = f"{float(rpm):g}", f"{float(kn):g}"
+        except ValueError:
+            pass  # named as typed; ConstantSetPoints.parse says what is wrong with it
         return f"constant-{rpm}rpm-{kn}kN"
     return head
 
@@ -139,6 +143,9 @@ def labels(controllers: Sequence[str]) -> list[str]:
     for name in out:
         if out.count(name) > 1:
             twins = [c for c, n in zip(controllers, out, strict=True) if n == name]
+            if name.startswith("constant-"):
+                raise ValueError(f"controllers: {', '.join(twins)} are the same set "
+                                 "points; give them once")
             raise ValueError(f"controllers: {', '.join(twins)} would share the name "
                              f"{name!r} in the table; rename a run folder")
     return out

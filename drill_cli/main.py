@@ -352,7 +352,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         # a resumed run continues with the config it was started with (--config or not)
         config = saved_run_config(saved, args.task, args.algo, n_timesteps=args.timesteps,
                                   n_envs=args.n_envs, seed=args.seed)
-    check_run_folder(run, args.resume, args.overwrite)  # before announcing the training
+    check_run_folder(run, args.resume, args.overwrite, config)  # before announcing
     print(f"training {config.algo.upper()} on {config.env_id}: {config.n_timesteps} env steps, "
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
     t0 = time.perf_counter()

@@ -153,6 +153,11 @@ def test_every_controller_gets_its_own_table_name():
         bm.labels(["stiff", "stiff"])
     with pytest.raises(ValueError, match="share the name 'learned-run'"):
         bm.labels(["learned:/x/run", "learned:/y/run", "learned"])
+    # set points have one name however they are typed
+    assert bm.labels(["constant:1e2/90.0", "constant:120/100"]) == [
+        "constant-100rpm-90kN", "constant-120rpm-100kN"]
+    with pytest.raises(ValueError, match="constant:1e2/100, constant:100/100 are the same"):
+        bm.labels(["constant:1e2/100", "constant:100/100"])
 
 
 def test_a_retrained_policy_is_not_served_its_old_rows(tmp_path):

@@ -149,6 +149,12 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
     shutil.rmtree(copy / "checkpoints")
     with pytest.raises(ValueError, match="--timesteps: .* has done 2048 env steps"):
         train(cfg, copy, resume=True, progress=False)
+    # the command refuses it before it announces a training
+    capsys.readouterr()
+    assert main(["train", "--task", "stick_slip", "--algo", "ppo", "--out", str(tmp_path),
+                 "--name", "copy", "--resume", "--timesteps", "2048"]) != 0
+    said = capsys.readouterr()
+    assert "has done 2048 env steps" in said.err and "training PPO" not in said.out
     assert yaml.safe_load((copy / "config.yaml").read_text())["n_timesteps"] == 2048
     train(replace(cfg, n_timesteps=2560), copy, resume=True, progress=False)
     assert "nothing to resume" not in capsys.readouterr().out

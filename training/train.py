@@ -241,12 +241,48 @@ def holds_run(run: Path) -> bool:
     return any((run / name).exists() for name in RUN_FILES)
 
 
-def check_run_folder(run: Path, resume: bool, overwrite: bool) -> None:
-    """FileExistsError if ``run`` holds a run and neither ``resume`` nor ``overwrite``."""
+def check_run_folder(run: Path, resume: bool, overwrite: bool,
+                     config: TrainConfig | None = None) -> None:
+    """FileExistsError if ``run`` holds a run and neither ``resume`` nor ``overwrite``.
+    With ``resume`` and a ``config``, ValueError if the run was started with another
+    config or has done ``config.n_timesteps`` env steps already (what its checkpoint's
+    or final model's name and run.json say; the loaded model is checked again)."""
     if holds_run(run) and not (resume or overwrite):
         raise FileExistsError(f"{run} already holds a training run: --resume continues it, "
                               "--overwrite deletes it and starts again, or give another "
                               "--name")
+    if not resume or config is None:
+        return
+    saved = run / "config.yaml"
+    if saved.exists():
+        old = yaml.safe_load(saved.read_text())
+        new = jsonable(config)
+        # change nothing a resumed run learnt (its model keeps its own optimiser)
+        free = ("n_timesteps", "torch_threads", "fused_adam")
+        if {k: v for k, v in old.items() if k not in free} != \
+                {k: v for k, v in new.items() if k not in free}:
+            raise ValueError(f"resume: {run} was trained with another config (only "
+                             "n_timesteps, torch_threads and fused_adam may change); start a "
+                             "new run name or drop --resume")
+    done = _steps_done(run)
+    if done is not None and done >= config.n_timesteps:
+        raise ValueError(f"--timesteps: {run} has done {done} env steps already; give more "
+                         "than that to continue it")
+
+
+def _steps_done(run: Path) -> int | None:
+    """The env steps a resume would start from: its last checkpoint's, else the finished
+    run's (run.json); None if neither says."""
+    latest = _latest_checkpoint(run)
+    if latest is not None:
+        return int(latest[0].stem.split("_")[1])
+    record = run / "run.json"
+    if (run / "model.zip").exists() and record.exists():
+        try:
+            return int(json.loads(record.read_text())["env_steps"])
+        except (ValueError, KeyError, TypeError):
+            return None
+    return None
 
 
 def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool = True,
@@ -265,21 +301,11 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
 
     from stable_baselines3.common.vec_env import VecNormalize
 
-    check_run_folder(run, resume, overwrite)
+    check_run_folder(run, resume, overwrite, config)
     if overwrite and not resume and holds_run(run):
         shutil.rmtree(run)
     run.mkdir(parents=True, exist_ok=True)
     saved = run / "config.yaml"
-    if resume and saved.exists():
-        old = yaml.safe_load(saved.read_text())
-        new = jsonable(config)
-        # change nothing a resumed run learnt (its model keeps its own optimiser)
-        free = ("n_timesteps", "torch_threads", "fused_adam")
-        if {k: v for k, v in old.items() if k not in free} != \
-                {k: v for k, v in new.items() if k not in free}:
-            raise ValueError(f"resume: {run} was trained with another config (only "
-                             "n_timesteps, torch_threads and fused_adam may change); start a "
-                             "new run name or drop --resume")
     algo = _algo_class(config.algo)
     latest = _latest_checkpoint(run) if resume else None
     from_checkpoint = latest is not None  # else from the final model, or from nothing
