@@ -141,9 +141,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import drill_env  # noqa: F401  (registers the ids)
-    from agents.registry import make_controller
+    from agents.classical import ConstantSetPoints
 
-    controller = make_controller(args.controller)
+    controller = typed_controller(args.controller)
     # the controller's own physics (its top drive) over the file's
     physics = {**checked_overrides(args.config, [args.scenario]), **controller.physics()}
     kwargs: dict[str, Any] = {"scenario": args.scenario, "start_kick": args.start_kick,
@@ -160,6 +160,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     env: Any = gym.make(controller.env_id, **kwargs)
     base: Any = env.unwrapped
     cfg = base.config
+    if isinstance(controller, ConstantSetPoints):  # its range, as an error of the option
+        try:
+            controller.check_range(cfg)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(
+                f"--controller: {str(err).partition(': ')[2]}") from None
     # set points given on the command line override the episode's; else the scenario's
     # (a randomised scenario draws them from the seed), also for a task's policy, whose
     # env would draw its own targets
@@ -378,7 +384,11 @@ def check_constant_set_points(controllers: Sequence[str], env_id: str | None) ->
     env_class, kwargs = registered(env_id) if env_id else (DrillStringEnv, {})
     config = env_class(**kwargs).config
     for name in constants:
-        ConstantSetPoints.parse(name.partition(":")[2]).check_range(config)
+        try:
+            ConstantSetPoints.parse(name.partition(":")[2]).check_range(config)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(
+                f"--controllers: {str(err).partition(': ')[2]}") from None
 
 
 def saved_run_config(saved: Path, task: str, algo: str, **overrides: Any) -> Any:
@@ -467,9 +477,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                               measure=min(sm.DEFAULT_SETTINGS.measure, args.seconds))
     configs = None
     if args.controller is not None:
-        from agents.registry import make_controller
-
-        controller = make_controller(args.controller)
+        controller = typed_controller(args.controller)
         if controller.rate != "drive":
             raise argparse.ArgumentTypeError(
                 f"--controller: {args.controller} acts on the set points; the map holds "
@@ -665,7 +673,7 @@ def parser() -> argparse.ArgumentParser:
             ) -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help_text, description=help_text,
                            formatter_class=_Formatter)
-        p.set_defaults(func=func)
+        p.set_defaults(func=func, command_parser=p)
         return p
 
     p = add("demo", "the main job: stick-slip at 50 vs 100 rpm, then the controller "
@@ -866,6 +874,17 @@ def add_ray_address(p: argparse.ArgumentParser, what: str) -> None:
                         "distributed extra (README: Scaling out on Ray)")
 
 
+def typed_controller(name: str) -> Any:
+    """The controller ``--controller`` names; a bad name is an error of that option."""
+    from agents.registry import make_controller
+
+    try:
+        return make_controller(name)
+    except ValueError as err:
+        detail = str(err).removeprefix("controller: ").removeprefix("constant: ")
+        raise argparse.ArgumentTypeError(f"--controller: {detail}") from None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     top = parser()
     args = top.parse_args(argv)
@@ -874,8 +893,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
         sys.stderr.close()  # nothing more can be said on a closed pipe
         return 0
-    except argparse.ArgumentTypeError as err:  # a bad argument found after parsing
-        top.error(f"{args.command}: {err}")
+    except argparse.ArgumentTypeError as err:  # a bad argument found after parsing:
+        # said as argparse says its own (the command's usage, then the error)
+        args.command_parser.error(str(err))
     except (ValueError, OSError) as err:  # a bad value named by the library below
         print(f"drill-env {args.command}: error: {err}", file=sys.stderr)
         return 2

@@ -190,13 +190,17 @@ def test_a_constant_set_point_outside_the_envs_range_is_refused_not_clipped(tmp_
     for text, says in (("constant:500/80", "500 rpm is outside the env's range 0-200 rpm"),
                        ("constant:120/900", "900 kN is outside the env's range"),
                        ("constant:-10/80", "got -10 rpm, 80 kN")):
-        assert main(["run", "--controller", text, "--duration", "0.2", "--out",
-                     str(tmp_path)]) == 2
-        assert says in capsys.readouterr().err
+        with pytest.raises(SystemExit) as stopped:
+            main(["run", "--controller", text, "--duration", "0.2", "--out", str(tmp_path)])
+        assert stopped.value.code == 2
+        err = capsys.readouterr().err
+        assert "run: error: --controller: " in err and says in err
     # the benchmark refuses it before its first episode, not in a worker mid-run
-    assert main(["benchmark", "--controllers", "stiff,constant:500/80", "--scenarios",
-                 "default", "--seeds", "1", "--out", str(tmp_path / "bench")]) == 2
-    assert "500 rpm is outside" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stopped:
+        main(["benchmark", "--controllers", "stiff,constant:500/80", "--scenarios",
+              "default", "--seeds", "1", "--out", str(tmp_path / "bench")])
+    assert stopped.value.code == 2
+    assert "--controllers: constant:500/80: 500 rpm is outside" in capsys.readouterr().err
     assert not (tmp_path / "bench" / "benchmark_results.jsonl").exists()
 
 

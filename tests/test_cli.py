@@ -80,6 +80,20 @@ def test_run_names_a_bad_argument_in_the_units_typed(tmp_path, capsys, args, mes
     assert message in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(("command", "message"), [
+    (["run", "--controller", "pid"], "drill-env run: error: --controller: unknown name 'pid'"),
+    (["run", "--controller", "constant:-1/2"], "drill-env run: error: --controller: rpm and "
+                                              "WOB must be finite and >= 0"),
+    (["benchmark", "--controllers", "stiff,pid"], "drill-env benchmark: error: "
+                                                  "--controllers: unknown name 'pid'")])
+def test_a_bad_controller_is_an_error_of_the_option_typed(tmp_path, capsys, command,
+                                                          message):
+    with pytest.raises(SystemExit):
+        main([*command, "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert message in err and f"usage: drill-env {command[0]}" in err  # the command's usage
+
+
 def test_help_shows_defaults_and_scenario_names(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--help"])
