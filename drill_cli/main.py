@@ -557,7 +557,12 @@ def cmd_modes(args: argparse.Namespace) -> int:
         lateral = md.lateral_modes(config, wob, n_modes=args.n)
     except ValueError as err:
         raise argparse.ArgumentTypeError(f"--wob: {str(err).partition(': ')[2]}") from None
-    print(f"{args.scenario}: {scenario.description}; string {config.string.length:.0f} m, "
+    source = args.scenario  # what the title names: the string analysed
+    if args.config is not None:
+        source = (f"{args.config.name} (scenario {args.scenario})"
+                  if config.string != scenario.config.string
+                  else f"{args.scenario} with {args.config.name}")
+    print(f"{source}: {scenario.description}; string {config.string.length:.0f} m, "
           f"WOB {wob / KILO:.0f} kN, neutral point "
           f"{md.neutral_point_height(config, wob):.0f} m above the bit")
     print(f"\n{'component (bit up)':<22} {'length':>7} {'air':>8} {'in mud':>8} "
@@ -580,7 +585,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     png = args.out / "modes_critical_speeds.png"
     md.critical_speed_chart(config, (torsional, lateral), png, args.max_rpm,
-                            f"{args.scenario}: natural frequencies and excitations "
+                            f"{source}: natural frequencies and excitations "
                             f"(WOB {wob / KILO:.0f} kN)")
     data = {"scenario": args.scenario, "weight_on_bit_N": wob,
             "components_N": [vars(load) for load in md.component_loads(config, wob)],

@@ -125,13 +125,34 @@ def torque_drag_table(trajectory: Trajectory, config: SimulationConfig,
 def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out: Path,
                frictions: Sequence[float] = FRICTIONS) -> list[Path]:
     """``well_<name>.png`` (path and torque-and-drag chart) and ``well_<name>.json``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     out.mkdir(parents=True, exist_ok=True)
     table = torque_drag_table(trajectory, config, frictions)
+    fig = well_figure(name, trajectory, table, frictions)
+    png = out / f"well_{name}.png"
+    fig.savefig(png, dpi=100)
+    plt.close(fig)
+    stations = {"md": trajectory.survey.md.tolist(),
+                "inclination_deg": np.degrees(trajectory.survey.inclination).tolist(),
+                "azimuth_deg": np.degrees(trajectory.survey.azimuth).tolist()}
+    data = out / f"well_{name}.json"
+    data.write_text(json.dumps({"survey": stations, "torque_drag": table}, indent=1))
+    return [png, data]
+
+
+def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
+                frictions: Sequence[float] = FRICTIONS) -> Any:
+    """The figure of :func:`write_well` (Agg backend), laid out: the path (3-D, plan,
+    vertical section) and the :func:`torque_drag_table` ``table``. The hook-load legend
+    names each friction factor once (by colour) and each operation once (by line style):
+    rotating off bottom has no axial drag, so its line is one for every friction."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
     md = np.linspace(0.0, trajectory.total_md, 400)
     pos, _, _ = trajectory.at(md)
     azimuth = float(trajectory.survey.azimuth[-1])
@@ -178,34 +199,37 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
     torque = fig.add_subplot(2, 3, 6)
     colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, len(frictions)))
     styles = {"pick_up": "-", "rotating": ":", "slack_off": "--"}
-    for mu, colour in zip(frictions, colours, strict=True):
-        entry = table[f"mu={mu:g}"]
+    entries = [table[f"mu={mu:g}"] for mu in frictions]
+    assert all(isinstance(entry, dict) for entry in entries)
+    rotating = [np.array(entry["rotating"]) for entry in entries]  # type: ignore[index]
+    one_rotating = all(np.allclose(r, rotating[0], rtol=1e-9) for r in rotating)
+    for mu, colour, entry in zip(frictions, colours, entries, strict=True):
         assert isinstance(entry, dict)
         for mode in MODES:
-            hook.plot(np.array(entry[mode]) / 1e3, depths, styles[mode], color=colour,
-                      label=f"{mode.replace('_', '-')}, mu {mu:g}")
+            if mode != "rotating" or not one_rotating:
+                hook.plot(np.array(entry[mode]) / 1e3, depths, styles[mode], color=colour)
         torque.plot(np.array(entry["torque"]) / 1e3, depths, color=colour,
                     label=f"mu {mu:g}")
+    if one_rotating:
+        hook.plot(rotating[0] / 1e3, depths, styles["rotating"], color="k", lw=1.5)
+    handles = [Line2D([], [], color=colour, label=f"mu {mu:g}")
+               for mu, colour in zip(frictions, colours, strict=True)]
+    handles += [Line2D([], [], ls=styles[mode], color="k", label=mode.replace("_", "-")
+                       + (" (every mu)" if mode == "rotating" and one_rotating else ""))
+                for mode in MODES]
     for ax, xlabel in ((hook, "hook load (kN), off bottom, no blocks weight"),
                        (torque, "surface torque rotating off bottom (kN m)")):
         ax.invert_yaxis()
         ax.set_ylabel("bit depth MD (m)")
         ax.set_xlabel(xlabel)
         ax.grid(alpha=0.3)
-    hook.legend(fontsize=7, ncol=len(frictions), loc="upper right")  # the empty corner
+    # colours: the friction factor; line styles: the operation. In the empty corner.
+    hook.legend(handles=handles, fontsize=7, ncol=2, loc="upper right")
     torque.legend(fontsize=8)
-    hook.set_title("soft-string drag: pick-up (solid), slack-off (dashed), rotating (dotted; "
-                   "no axial drag, so the same line for every mu)", fontsize=9)
+    hook.set_title("soft-string drag: hook load picking up, slacking off and rotating off "
+                   "bottom (no axial drag: one line for every mu)", fontsize=9)
     torque.set_title("soft-string torque")
     fig.suptitle(f"well {name}: {trajectory.total_md:.0f} m MD, string of the scenario "
                  "(drill pipe added above it to reach the bit)")
     fig.tight_layout()
-    png = out / f"well_{name}.png"
-    fig.savefig(png, dpi=100)
-    plt.close(fig)
-    stations = {"md": trajectory.survey.md.tolist(),
-                "inclination_deg": np.degrees(trajectory.survey.inclination).tolist(),
-                "azimuth_deg": np.degrees(trajectory.survey.azimuth).tolist()}
-    data = out / f"well_{name}.json"
-    data.write_text(json.dumps({"survey": stations, "torque_drag": table}, indent=1))
-    return [png, data]
+    return fig

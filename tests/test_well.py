@@ -10,7 +10,7 @@ import pytest
 from drill_cli.main import main
 from drill_env.physics.trajectory import Trajectory
 from drill_env.scenarios import make_scenario
-from drill_env.well import WELLS, column_for, torque_drag_table
+from drill_env.well import FRICTIONS, WELLS, column_for, torque_drag_table, well_figure
 
 
 def test_in_a_vertical_hole_there_is_no_drag_or_torque_and_the_hook_carries_the_string():
@@ -52,6 +52,26 @@ def test_the_well_command_writes_the_chart_and_names_bad_input(tmp_path, capsys)
     with pytest.raises(SystemExit):
         main(["well", "--friction", "0.2,-1", "--out", str(tmp_path)])
     assert "--friction" in capsys.readouterr().err
+
+
+def test_the_hook_load_legend_names_each_friction_and_each_operation_once():
+    """Rotating off bottom has no axial drag, so its hook load is the same at every
+    friction factor: one line, one legend entry (not "rotating, mu 0.1" ... "mu 0.4")."""
+    import matplotlib.pyplot as plt
+
+    config = make_scenario("default").config
+    well = Trajectory(WELLS["j_shaped"](1500.0))
+    table = torque_drag_table(well, config, step=500.0)
+    fig = well_figure("j_shaped", well, table)
+    hook = next(ax for ax in fig.axes if ax.get_xlabel().startswith("hook load"))
+    entries = [t.get_text() for t in hook.get_legend().get_texts()]
+    assert len(entries) == len(set(entries)) == len(FRICTIONS) + 3
+    assert [e for e in entries if "rotating" in e] == ["rotating (every mu)"]
+    assert {f"mu {mu:g}" for mu in FRICTIONS} <= set(entries)
+    assert {"pick-up", "slack-off"} <= set(entries)
+    dotted = [line for line in hook.get_lines() if line.get_linestyle() == ":"]
+    assert len(dotted) == 1
+    plt.close(fig)
 
 
 @pytest.mark.parametrize(("scenario", "degrees"), [("lateral_60", 60.0), ("j_shaped", 45.0),

@@ -51,7 +51,8 @@ from drill_env.physics.statics import (  # noqa: F401  (re-exported for the CLI)
 from drill_env.physics.top_drive import resolve as resolve_top_drive
 from drill_env.physics.units import RPM
 
-__all__ = ["CriticalSpeed", "Modes", "critical_speed_chart", "critical_speeds", "excitations",
+__all__ = ["CHART_MODES", "CriticalSpeed", "Modes", "chart_cutoff", "critical_speed_chart",
+           "critical_speed_figure", "critical_speeds", "excitations",
            "lateral_buckling_weight", "lateral_modes", "neutral_point_height",
            "require_vertical", "torsional_modes", "undamped_frequencies"]
 
@@ -303,12 +304,11 @@ def critical_speeds(config: SimulationConfig, modes: Sequence[Modes],
     return sorted(out, key=lambda c: c.rpm)
 
 
-def _spread(values: list[float], gap: float) -> list[float]:
-    """Label positions near ``values`` (sorted ascending) at least ``gap`` apart."""
-    placed: list[float] = []
-    for v in values:
-        placed.append(max(v, placed[-1] + gap) if placed else v)
-    return placed
+#: The most modes the critical-speed chart draws (the lowest, both kinds together): each
+#: is labelled at its own line, which more lines than this leave no room for on the
+#: page; the printed table and modes.json list them all.
+CHART_MODES = 24
+_LABEL: dict[str, Any] = {"fontsize": 7, "bbox": {"fc": "white", "ec": "none", "pad": 0.3}}
 
 
 def critical_speed_chart(config: SimulationConfig, modes: Sequence[Modes], path,
@@ -322,51 +322,63 @@ def critical_speed_chart(config: SimulationConfig, modes: Sequence[Modes], path,
     plt.close(fig)
 
 
+def chart_cutoff(config: SimulationConfig, modes: Sequence[Modes], max_rpm: float) -> float:
+    """The highest frequency (Hz) :func:`critical_speed_figure` draws: that of the
+    ``CHART_MODES``-th lowest mode, and none above the fastest excitation at ``max_rpm``
+    (no higher mode is critical in the chart's range), though always the lowest mode."""
+    freqs = np.sort(np.concatenate([m.frequency for m in modes] + [np.zeros(0)]))
+    if not len(freqs):
+        return 0.0
+    ceiling = max(per_rev for m in modes for _, per_rev in excitations(config, m.kind)) \
+        * max_rpm / 60.0
+    return float(min(freqs[min(len(freqs), CHART_MODES) - 1], max(ceiling, freqs[0])))
+
+
 def critical_speed_figure(config: SimulationConfig, modes: Sequence[Modes],
                           max_rpm: float = 300.0, title: str = "") -> Any:
     """The matplotlib figure of :func:`critical_speed_chart` (Agg backend), laid out.
 
-    Every mode is labelled at the right edge (both kinds spread together, so that close
-    frequencies of the two kinds do not overprint), every excitation line where it
-    leaves the plot, on the side of it that stays inside."""
+    The modes up to :func:`chart_cutoff` (the title says how many more there are, the
+    frequencies above it are shaded), each
+    labelled on its own line (the label breaks it) at the right edge or, where a close
+    mode's label holds that place, in a column further left. Each excitation line runs
+    into its label: in a band above the modes (the steeper a line, the higher its
+    label, so that no line crosses another's label), or, for a line that leaves through
+    the right edge, just above it. No label covers a critical speed (the circles)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rpm = np.linspace(0.0, max_rpm, 301)
+    cutoff = chart_cutoff(config, modes, max_rpm)
     fig, ax = plt.subplots(figsize=(10, 6.5))
     styles = {"lateral": ("tab:blue", "-"), "torsional": ("tab:red", "--")}
-    f_top = max((float(np.max(m.frequency)) for m in modes if len(m.frequency)), default=1.0)
-    y_max = 1.12 * f_top
-    labels = []  # (frequency, text, colour) of every mode
+    mode_labels = []
     for m in modes:
         color, line = styles.get(m.kind, ("k", ":"))
         for i, f in enumerate(m.frequency.tolist()):
-            ax.axhline(f, color=color, ls=line, lw=1.0,
-                       label=f"{m.kind} modes: {m.boundary}" if i == 0 else None)
-            labels.append((f, f"{m.kind[0].upper()}{i + 1} {f:.2f} Hz", color))
-    labels.sort()
-    for (_, text, color), y in zip(labels, _spread([f for f, _, _ in labels], 0.028 * y_max),
-                                   strict=True):
-        ax.text(0.995 * max_rpm, y, text, color=color, fontsize=7, ha="right", va="bottom",
-                bbox={"fc": "white", "ec": "none", "pad": 0.3})  # over a close mode's line
+            if f <= cutoff:
+                ax.axhline(f, color=color, ls=line, lw=1.0,
+                           label=f"{m.kind} modes: {m.boundary}" if i == 0 else None)
+                mode_labels.append(ax.text(max_rpm, f, f"{m.kind[0].upper()}{i + 1} {f:.2f} Hz",
+                                           color=color, ha="right", va="center",
+                                           gid="mode label", **_LABEL))
     lines: dict[str, float] = {}
     for m in modes:
         lines.update(excitations(config, m.kind))
-    for name, per_rev in lines.items():
-        ax.plot(rpm, per_rev * rpm / 60.0, color="0.35", lw=0.8)
-        # labelled where it leaves the top (a steep line, near the left edge: to its
-        # right), or short of the right edge, which the mode labels hold
-        r_end = min(0.85 * max_rpm, 60.0 * 0.97 * y_max / per_rev)
-        left = r_end < 0.5 * max_rpm
-        ax.annotate(name, (r_end, per_rev * r_end / 60.0), xytext=(3, 0) if left else (-3, 0),
-                    textcoords="offset points", fontsize=7, color="0.25",
-                    ha="left" if left else "right", va="top")
-    for cs in critical_speeds(config, modes, max_rpm):
-        ax.plot(cs.rpm, cs.frequency, "o", ms=4, mfc="none", color="k")
+    drawn = {name: ax.plot([0.0, max_rpm], [0.0, per_rev * max_rpm / 60.0], color="0.35",
+                           lw=0.8, gid=f"excitation: {name}")[0]
+            for name, per_rev in lines.items()}
+    crit = [c for c in critical_speeds(config, modes, max_rpm) if c.frequency <= cutoff]
+    for cs in crit:
+        ax.plot(cs.rpm, cs.frequency, "o", ms=4, mfc="none", color="k", gid="critical speed")
+    total = sum(len(m.frequency) for m in modes)
+    if len(mode_labels) < total:
+        title = (title or "Critical-speed chart") + (
+            f"\n(the {len(mode_labels)} lowest of {total} modes; those above {cutoff:.2f} Hz, "
+            "shaded, are in the table)")
     ax.set_xlim(0, max_rpm)
-    ax.set_ylim(0, y_max)
+    ax.set_ylim(0, 1.2 * max(cutoff, 1e-3))
     ax.set_xlabel("rotary speed (rpm)")
     ax.set_ylabel("frequency (Hz)")
     ax.set_title(title or "Critical-speed chart", fontsize=10)
@@ -375,7 +387,115 @@ def critical_speed_figure(config: SimulationConfig, modes: Sequence[Modes],
               frameon=False)
     ax.grid(alpha=0.3)
     fig.tight_layout()
+    _lay_out_labels(fig, ax, mode_labels, drawn, lines, [(c.rpm, c.frequency) for c in crit],
+                    max(cutoff, 1e-3))
+    if len(mode_labels) < total:  # the band above the modes holds labels, not the rest
+        ax.axhspan(cutoff, ax.get_ylim()[1], color="0.92", lw=0, zorder=0,
+                   gid="modes not drawn")
     return fig
+
+
+def _crosses(p0: np.ndarray, p1: np.ndarray, box: Any) -> bool:
+    """Whether the segment ``p0``-``p1`` (pixels) passes through ``box`` (Liang-Barsky
+    clipping)."""
+    t0, t1 = 0.0, 1.0
+    d = p1 - p0
+    for p, q in ((-d[0], p0[0] - box.x0), (d[0], box.x1 - p0[0]),
+                 (-d[1], p0[1] - box.y0), (d[1], box.y1 - p0[1])):
+        if p == 0.0:
+            if q < 0.0:
+                return False
+        elif p < 0.0:
+            t0 = max(t0, q / p)
+        else:
+            t1 = min(t1, q / p)
+    return t0 <= t1
+
+
+def _lay_out_labels(fig: Any, ax: Any, mode_labels: list[Any], drawn: dict[str, Any],
+                    lines: dict[str, float], circles: list[tuple[float, float]],
+                    f_top: float) -> None:
+    """Place the labels of :func:`critical_speed_figure` (its docstring), in pixels of
+    the laid-out figure: first the top of the y axis, which leaves a band above the
+    highest mode with a row for each excitation's label."""
+    from matplotlib.transforms import Bbox
+
+    renderer = fig.canvas.get_renderer()
+    height = (mode_labels[0] if mode_labels else ax.title).get_window_extent(renderer).height
+    row = height + 3.0
+    band = height / 2 + 3.0 + len(lines) * row + 3.0
+    span = ax.bbox.height
+    ax.set_ylim(0.0, f_top * span / max(span - band, 0.5 * span))
+    fig.tight_layout()
+    span = ax.bbox.height
+    ax.set_ylim(0.0, f_top * span / max(span - band, 0.5 * span))
+    to_px = ax.transData.transform
+    to_data = ax.transData.inverted().transform
+    frame = ax.bbox
+    dots = [Bbox.from_bounds(x - 4.0, y - 4.0, 8.0, 8.0) for x, y in to_px(circles)] \
+        if circles else []
+    taken: list[Any] = []  # the label boxes placed so far
+
+    def put(text: Any, xy_px: Any, **align: str) -> Any:
+        text.set_position(to_data(xy_px))
+        text.set(**align)
+        return text.get_window_extent(renderer).padded(1.0)
+
+    def free(box: Any) -> bool:
+        return (frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0
+                and box.y1 <= frame.y1 and not any(box.overlaps(b) for b in taken + dots))
+
+    # modes: at the right edge, else in the first column to the left with room
+    column = max((t.get_window_extent(renderer).width for t in mode_labels), default=0.0) + 8.0
+    for text in sorted(mode_labels, key=lambda t: t.get_position()[1]):
+        y = max(to_px((0.0, text.get_position()[1]))[1], frame.y0 + height / 2 + 2.0)
+        boxes = (put(text, (frame.x1 - 3.0 - c * column, y)) for c in range(12))
+        taken.append(next((b for b in boxes if free(b)), None)
+                     or put(text, (frame.x1 - 3.0, y)))
+
+    origin = to_px((0.0, 0.0))
+    ends = {name: to_px(line.get_xydata()[-1]) for name, line in drawn.items()}
+
+    def clear(box: Any, name: str, end: np.ndarray | None = None) -> bool:
+        """``box`` free and crossed by no other excitation line; its own line, ending
+        at ``end`` (None: where it leaves the plot), crossing no label."""
+        return free(box) and not any(_crosses(origin, e, box) for n, e in ends.items()
+                                     if n != name) \
+            and (end is None or not any(_crosses(origin, end, b) for b in taken))
+
+    texts = {name: ax.text(0.0, 0.0, name, color="0.25", gid="excitation label", **_LABEL)
+             for name in lines}
+    rows = to_px((0.0, f_top))[1] + height / 2 + 3.0 + (np.arange(len(lines)) + 0.5) * row
+
+    def in_band(name: str) -> bool:
+        """Label ``name`` in the lowest row of the band where it is clear: right of where
+        its line reaches the row, else left of it (above the line), the line ending
+        there. False where no row has room."""
+        slope = (to_px((60.0, lines[name]))[1] - origin[1]) / (to_px((60.0, 0.0))[0] - origin[0])
+        for y in rows:
+            end = np.array([origin[0] + (y - origin[1]) / slope, y])
+            low = np.array([origin[0] + (y - height / 2 - origin[1]) / slope, y - height / 2])
+            for spot, corner, align in (((end[0] + 3.0, y), end, ("left", "center")),
+                                        ((low[0] - 3.0, low[1] + 1.0), low, ("right", "bottom"))):
+                box = put(texts[name], spot, ha=align[0], va=align[1])
+                if clear(box, name, corner):
+                    ends[name] = corner
+                    drawn[name].set_data(*np.transpose(to_data([origin, corner])))
+                    taken.append(box)
+                    return True
+        return False
+
+    # the least steep first: a steeper line's label then goes above the others' ends
+    unplaced = [name for name in sorted(lines, key=lines.__getitem__) if not in_band(name)]
+    for name in unplaced:  # above its line, short of where it leaves the plot
+        right = ax.get_xlim()[1]
+        far = to_px((right, lines[name] * right / 60.0))
+        reach = min(1.0, (frame.y1 - origin[1]) / max(far[1] - origin[1], 1e-9))
+        spots = [origin + t * (far - origin) + (-3.0, 3.0)  # the label's lower right
+                 for t in np.linspace(0.97, 0.15, 42) * reach]
+        boxes = (put(texts[name], spot, ha="right", va="bottom") for spot in spots)
+        taken.append(next((b for b in boxes if clear(b, name)), None)
+                     or put(texts[name], spots[0]))
 
 
 def rpm_of(frequency: float, per_rev: float) -> float:

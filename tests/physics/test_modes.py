@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -267,24 +268,171 @@ def test_torsional_modes_with_a_free_top_drive_rotor_are_the_transfer_matrix_roo
     assert flexible[0] > torsional_modes(config, top="fixed", n_modes=1).frequency[0]
 
 
-@pytest.mark.parametrize("max_rpm", [250.0, 120.0])
-def test_critical_speed_chart_labels_stay_inside_and_apart(max_rpm):
-    """The mode and excitation labels of the chart `drill-env modes` draws: none runs off
-    the plot (the steep backward-whirl line leaves near the left edge) and none prints
-    over another (close lateral and torsional frequencies)."""
+ROOT = Path(__file__).parents[2]
+
+
+def _field_config() -> SimulationConfig:
+    """The default scenario with the string of ``examples/field_well_string.yaml``, as
+    ``drill-env modes --config`` reads it."""
+    from drill_env.physics.config import flatten
+    from drill_env.physics.validation import read_yaml
+    from drill_env.scenarios import make_scenario
+
+    overrides = flatten(read_yaml(ROOT / "examples/field_well_string.yaml"))
+    return replace(make_scenario("default").config, **overrides)
+
+
+def _chart(config: SimulationConfig, n_modes: int, max_rpm: float):
+    """(figure, axes, modes) of the critical-speed chart `drill-env modes` draws."""
     from drill_env.physics.modes import critical_speed_figure
 
-    config = SimulationConfig()
-    modes = (torsional_modes(config, "fixed", 5), lateral_modes(config, 100e3, n_modes=5))
+    modes = (torsional_modes(config, "fixed", n_modes),
+             lateral_modes(config, 100e3, n_modes=n_modes))
     fig = critical_speed_figure(config, modes, max_rpm)
+    return fig, fig.axes[0], modes
+
+
+def _mode_labels(ax):
+    """{(kind letter, mode number): text} of the mode labels ("L5 1.73 Hz")."""
+    import re
+
+    found = (re.match(r"([LT])(\d+) ", t.get_text()) for t in ax.texts)
+    return {(m[1], int(m[2])): t for m, t in zip(found, ax.texts, strict=True) if m}
+
+
+CHARTS = [("default", 5, 250.0), ("default", 5, 120.0), ("field", 5, 250.0),
+          ("field", 10, 250.0), ("field", 60, 250.0)]
+
+
+@pytest.mark.parametrize(("string", "n_modes", "max_rpm"), CHARTS)
+def test_critical_speed_chart_labels_stay_inside_and_apart(string, n_modes, max_rpm):
+    """The mode and excitation labels of the chart `drill-env modes` draws: none runs off
+    the plot (the steep backward-whirl line leaves near the left edge; 120 modes reach
+    2000 Hz), none prints over another (close lateral and torsional frequencies; the
+    field string's three steep lines of bit whirl, collar whirl and blades leave the
+    plot close together) or over the title, and none covers a critical speed."""
+    import matplotlib.pyplot as plt
+
+    config = SimulationConfig() if string == "default" else _field_config()
+    fig, ax, modes = _chart(config, n_modes, max_rpm)
     renderer = fig.canvas.get_renderer()
-    ax = fig.axes[0]
     boxes = [(t.get_text(), t.get_window_extent(renderer)) for t in ax.texts]
-    assert len(boxes) == 10 + len({name for m in modes for name, _ in
-                                    excitations(config, m.kind)})
+    names = {name for m in modes for name, _ in excitations(config, m.kind)}
+    assert len(boxes) == len(_mode_labels(ax)) + len(names)
+    assert names <= {text for text, _ in boxes}
+    title = ax.title.get_window_extent(renderer)
     for text, box in boxes:
         assert ax.bbox.x0 <= box.x0 and box.x1 <= ax.bbox.x1, text
         assert ax.bbox.y0 <= box.y0 and box.y1 <= ax.bbox.y1, text
+        assert not box.overlaps(title), text
     for k, (text, box) in enumerate(boxes):
         for other, box2 in boxes[k + 1:]:
             assert not box.overlaps(box2), (text, other)
+    circles = [xy for line in ax.lines if line.get_marker() == "o"
+               for xy in ax.transData.transform(line.get_xydata())]
+    assert circles
+    for text, box in boxes:
+        assert not any(box.contains(x, y) for x, y in circles), text
+    plt.close(fig)
+
+
+@pytest.mark.parametrize(("string", "n_modes", "max_rpm"), CHARTS)
+def test_each_mode_label_sits_on_its_own_line(string, n_modes, max_rpm):
+    """A label pushed off its line to make room (the field string's "L5 1.73 Hz" once
+    sat at 2.0 Hz, by the line of L6) reads as the next line's: each label spans the
+    height of its own mode, and every mode drawn has one."""
+    import matplotlib.pyplot as plt
+
+    config = SimulationConfig() if string == "default" else _field_config()
+    fig, ax, modes = _chart(config, n_modes, max_rpm)
+    renderer = fig.canvas.get_renderer()
+    from drill_env.physics.modes import chart_cutoff
+
+    labels = _mode_labels(ax)
+    top = chart_cutoff(config, modes, max_rpm)
+    drawn = {(m.kind[0].upper(), i + 1): f for m in modes
+             for i, f in enumerate(m.frequency) if f <= top}
+    assert set(labels) == set(drawn)
+    for key, text in labels.items():
+        box = text.get_window_extent(renderer)
+        y = ax.transData.transform((0.0, drawn[key]))[1]
+        assert box.y0 <= y <= box.y1, text.get_text()
+    plt.close(fig)
+
+
+@pytest.mark.parametrize(("string", "n_modes", "max_rpm"), CHARTS)
+def test_each_excitation_line_runs_into_its_label_and_through_no_other(string, n_modes,
+                                                                       max_rpm):
+    """Three steep lines leave the field string's chart close together: each runs into
+    (or passes just under) its own label, and no other line passes through it."""
+    import matplotlib.pyplot as plt
+
+    config = SimulationConfig() if string == "default" else _field_config()
+    fig, ax, modes = _chart(config, n_modes, max_rpm)
+    renderer = fig.canvas.get_renderer()
+    labels = {t.get_text(): t.get_window_extent(renderer) for t in ax.texts
+              if t.get_gid() == "excitation label"}
+    assert set(labels) == {name for m in modes for name, _ in excitations(config, m.kind)}
+    lines = {line.get_gid().partition(": ")[2]: line for line in ax.lines
+             if str(line.get_gid()).startswith("excitation: ")}
+    assert set(lines) == set(labels)
+    for name, box in labels.items():
+        inner = box.padded(-1.0)  # the outline may touch its own line
+        for other, line in lines.items():
+            (x0, y0), (x1, y1) = ax.transData.transform(line.get_xydata()[[0, -1]])
+            t = np.linspace(0.0, 1.0, 4001)
+            xs, ys = x0 + t * (x1 - x0), y0 + t * (y1 - y0)
+            seen = (xs <= ax.bbox.x1) & (ys <= ax.bbox.y1)  # the part inside the plot
+            xs, ys = xs[seen], ys[seen]
+            assert not np.any((inner.x0 < xs) & (xs < inner.x1) & (inner.y0 < ys)
+                              & (ys < inner.y1)), (name, "crossed by", other)
+            if other == name:
+                gap = np.hypot(np.clip(xs, box.x0, box.x1) - xs,
+                               np.clip(ys, box.y0, box.y1) - ys)
+                assert np.min(gap) < 6.0, (name, "away from its line")
+    plt.close(fig)
+
+
+def test_a_chart_of_many_modes_draws_the_lowest_and_says_so():
+    """`drill-env modes -n 500` asks for modes up to 2000 Hz; their labels cannot all be
+    read on one page, nor are modes above the fastest excitation critical in its range.
+    The chart draws the ``CHART_MODES`` lowest, its y axis just above them (room for the
+    labels, shaded: the higher modes there are not drawn), and its title says how many
+    more the table lists."""
+    import matplotlib.pyplot as plt
+
+    from drill_env.physics.modes import CHART_MODES, chart_cutoff
+
+    config = _field_config()
+    fig, ax, modes = _chart(config, 60, 250.0)
+    every = np.sort(np.concatenate([m.frequency for m in modes]))
+    assert len(_mode_labels(ax)) == CHART_MODES
+    cutoff = every[CHART_MODES - 1]
+    assert cutoff < ax.get_ylim()[1] < 1.3 * cutoff
+    assert f"the {CHART_MODES} lowest of {len(every)} modes; those above {cutoff:.2f} Hz, " \
+        "shaded" in ax.get_title()
+    (shade,) = [p for p in ax.patches if p.get_gid() == "modes not drawn"]
+    low, high = shade.get_window_extent().y0, shade.get_window_extent().y1
+    assert low == pytest.approx(ax.transData.transform((0.0, cutoff))[1])
+    assert high == pytest.approx(ax.bbox.y1)
+    plt.close(fig)
+    fastest = max(per_rev for _, per_rev in excitations(config)) * 10.0 / 60.0
+    assert chart_cutoff(config, modes, 10.0) <= fastest
+    assert chart_cutoff(config, modes, 10.0) >= every[0]  # always the lowest mode
+
+
+def test_the_modes_command_titles_the_chart_with_the_string_of_its_config(tmp_path,
+                                                                           monkeypatch):
+    """With ``--config`` replacing the string, the chart is of that string, not of the
+    scenario's ("default: ...")."""
+    from drill_cli.main import main
+    from drill_env.physics import modes as md
+
+    titles = []
+    monkeypatch.setattr(md, "critical_speed_chart",
+                        lambda *args, **kwargs: titles.append(args[-1]))
+    assert main(["modes", "--out", str(tmp_path)]) == 0
+    assert main(["modes", "--config", str(ROOT / "examples/field_well_string.yaml"),
+                 "--out", str(tmp_path)]) == 0
+    assert titles[0].startswith("default: ")
+    assert titles[1].startswith("field_well_string.yaml (scenario default): ")
