@@ -42,6 +42,8 @@ COLUMNS = ("controller", "scenario", "seed", "ssi", "stuck_fraction", "mean_bit_
 SERIES_CHANNELS = ("time", "bit_speed", "surface_speed", "torque_on_bit", "surface_torque",
                    "bit_x", "bit_y", "weight_on_bit")
 RESULTS_FILE = "benchmark_results.jsonl"
+#: The time-series picture of a scenario, beside benchmark.md.
+SERIES_PICTURE = "benchmark_{scenario}_series.png"
 
 
 @config_dataclass
@@ -362,11 +364,41 @@ SUMMARY = (("ssi", "SSI", "{:.2f}"), ("stuck_fraction", "stuck", "{:.0%}"),
            ("backward_whirl_fraction", "bwd whirl", "{:.0%}"),
            ("max_lateral_force_kN", "max lat. kN", "{:.1f}"), ("mse_MPa", "MSE MPa", "{:.0f}"),
            ("top_drive_energy_MJ", "TD MJ", "{:.2f}"), ("episode_return", "return", "{:.1f}"))
+#: The mark on the "rpm error" of a controller that sets its own speed, and its footnote.
+OWN_SPEED_MARK = "\N{DAGGER}"
+OWN_SPEED_NOTE = (f"{OWN_SPEED_MARK} sets its own speed (the driller, constant set "
+                  "points, the drilling task's policy): its rpm error is how far its mean "
+                  "bit rpm departed from the planned rpm (the scenario's or task's target), "
+                  "by its choice, not a failure to track it (docs/controllers.md).")
+
+
+#: The task whose policy chooses the rpm (task 2); task 1's corrects the top drive around
+#: the driller's target, which it tracks.
+CHOOSES_RPM = "DrillOptimise-v0"
+
+
+def sets_own_speed(name: str, env_id: str | None = None) -> bool:
+    """Whether the controller of table name ``name`` (:func:`labels`) chooses its own rpm
+    instead of holding the planned one: the driller, constant set points, and a learned
+    policy in a benchmark of the drilling task (``env_id``)."""
+    if name == "driller" or name.startswith("constant-"):
+        return True
+    return env_id == CHOOSES_RPM and (name == "learned" or name.startswith("learned-"))
+
+
+def _number(fmt: str, value: float) -> str:
+    """``fmt.format(value)``, never a negative zero ("-0.0", "-0%"): a value that rounds
+    to zero is shown as zero."""
+    text = fmt.format(value)
+    if text.startswith("-") and not any(ch in "123456789" for ch in text):
+        text = text[1:]
+    return text
 
 
 def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
-                  scenarios: Sequence[str]) -> list[list[str]]:
-    """Per scenario and controller: the mean over seeds (+- the spread when seeds differ)."""
+                  scenarios: Sequence[str], env_id: str | None = None) -> list[list[str]]:
+    """Per scenario and controller: the mean over seeds (+- the spread when seeds differ);
+    the rpm error of a controller that sets its own speed in ``env_id`` is marked."""
     table = []
     for s in scenarios:
         for c in controllers:
@@ -379,10 +411,12 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                 if np.isnan(values).all():  # not defined for this controller (a guest's
                     cells.append("-")       # return), or a zero target's rpm error
                     continue
-                text = fmt.format(float(np.mean(values)))
-                half = fmt.format(float(np.max(values) - np.min(values)) / 2)
-                if half != fmt.format(0.0):  # seeds differ at the shown precision
+                text = _number(fmt, float(np.mean(values)))
+                half = _number(fmt, float(np.max(values) - np.min(values)) / 2)
+                if half != _number(fmt, 0.0):  # seeds differ at the shown precision
                     text += " +-" + half
+                if key == "rpm_tracking_error" and sets_own_speed(c, env_id):
+                    text += " " + OWN_SPEED_MARK
                 cells.append(text)
             table.append(cells)
     return table
@@ -398,6 +432,7 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
               + ". Means over seeds, +- half the range. Rows: benchmark.csv.")
     if env_id is None:
         return (f"{settings.duration:g} s episodes of DrillString-v0 from the settled state "
+                f"(torsionally; laterally straight on the hole axis: docs/controllers.md) "
                 f"at each scenario's set points (bit speed kicked by up to "
                 f"{settings.start_kick:.0%} by the seed; a task's policy acts in its "
                 f"task's env from the same start and set points, its return left blank: "
@@ -415,35 +450,47 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
 def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequence[str],
                   scenarios: Sequence[str], settings: BenchmarkSettings,
                   env_id: str | None = None) -> None:
-    """benchmark.csv, benchmark.md and the plots; prints the table."""
+    """benchmark.csv, benchmark.md and the plots; prints the table. The series pictures
+    of an earlier benchmark into ``out`` (``benchmark_<scenario>_series.png``) are removed:
+    beside benchmark.md are only this benchmark's pictures."""
     write_csv(rows, out / "benchmark.csv")
     header = ["scenario", "controller", "seeds"] + [h for _, h, _ in SUMMARY]
-    table = summary_table(rows, controllers, scenarios)
-    _print_table(header, table)
+    table = summary_table(rows, controllers, scenarios, env_id)
+    notes = [OWN_SPEED_NOTE] if any(OWN_SPEED_MARK in r[header.index("rpm error")]
+                                    for r in table) else []
+    _print_table(header, table, notes)
+    from agents.plots import bar_chart, series_chart
+
+    for old in out.glob(SERIES_PICTURE.format(scenario="*")):
+        old.unlink()
+    bar_chart(rows, controllers, scenarios, out / "benchmark_bars.png")
+    drawn = [s for s in scenarios
+             if series_chart(out / "series", controllers, s,
+                             out / SERIES_PICTURE.format(scenario=s), settings.warmup)]
     lines = ["# Controller benchmark", "", conditions(settings, env_id), "",
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in table]
+    lines += [line for note in notes for line in ("", note)]
     failed = [r for r in rows if r.get("termination")]
     if failed:
         lines += ["", "Episodes that ended early: " + ", ".join(
             f"{r['controller']}/{r['scenario']}/{r['seed']} ({r['termination']})"
             for r in failed)]
-    lines += ["", "![metrics](benchmark_bars.png)", ""]
-    lines += [f"![{s}](benchmark_{s}_series.png)" for s in scenarios]
+    lines += ["", "## Metrics", "", "![metrics](benchmark_bars.png)"]
+    # one section per scenario: each picture in its own paragraph, none hidden beside another
+    for s in drawn:
+        lines += ["", f"## {s}: time series (first seed)", "",
+                  f"![{s}]({SERIES_PICTURE.format(scenario=s)})"]
     (out / "benchmark.md").write_text("\n".join(lines) + "\n")
-    from agents.plots import bar_chart, series_chart
-
-    bar_chart(rows, controllers, scenarios, out / "benchmark_bars.png")
-    for s in scenarios:
-        series_chart(out / "series", controllers, s, out / f"benchmark_{s}_series.png",
-                     settings.warmup)
 
 
-def _print_table(header: Sequence[str], table: Sequence[Sequence[str]]) -> None:
+def _print_table(header: Sequence[str], table: Sequence[Sequence[str]],
+                 notes: Sequence[str] = ()) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    t = Table(title="controller benchmark (means over seeds)")
+    t = Table(title="controller benchmark (means over seeds)",
+              caption="\n".join(notes) or None, caption_justify="left")
     widths = [max(len(str(cell)) for cell in column) for column in zip(header, *table,
                                                                         strict=True)]
     for k, name in enumerate(header):

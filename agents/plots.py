@@ -15,11 +15,24 @@ import numpy as np  # noqa: E402
 
 from drill_env.physics.units import RPM  # noqa: E402
 
-#: (column, axis label, scale) of the bar chart.
-BARS = (("ssi", "stick-slip severity (SSI)", 1.0),
-        ("stuck_fraction", "share of time stuck", 1.0),
-        ("rop_m_per_h", "ROP (m/h)", 1.0),
-        ("backward_whirl_fraction", "share of time in backward whirl", 1.0))
+#: (column, axis label, scale, what a panel whose values are all zero says) of the bar
+#: chart: an empty panel says so instead of looking like a broken plot.
+BARS = (("ssi", "stick-slip severity (SSI)", 1.0, "no stick-slip in any episode"),
+        ("stuck_fraction", "share of time stuck", 1.0, "the bit never stuck in any episode"),
+        ("rop_m_per_h", "ROP (m/h)", 1.0, "no penetration in any episode"),
+        ("backward_whirl_fraction", "share of time in backward whirl", 1.0,
+         "no backward whirl in any episode"))
+
+
+#: Radial position / clearance below which the series chart says the bit stayed on the
+#: hole axis: a line that close to zero is hidden by the axis line (the panel spans >= 0.2).
+ON_AXIS = 1e-3
+
+
+def _say_empty(ax: Any, text: str) -> None:
+    """Write ``text`` across the middle of a panel that has nothing to show."""
+    ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=10,
+            color="0.3", wrap=True, bbox={"boxstyle": "round", "fc": "white", "ec": "0.7"})
 
 
 def _colours(controllers: Sequence[str]) -> dict[str, Any]:
@@ -34,7 +47,8 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     colours = _colours(controllers)
     fig, axes = plt.subplots(1, len(BARS), figsize=(4.2 * len(BARS), 4.2))
     width = 0.8 / max(len(controllers), 1)
-    for ax, (key, label, scale) in zip(axes, BARS, strict=True):
+    for ax, (key, label, scale, empty) in zip(axes, BARS, strict=True):
+        shown: list[float] = []
         for i, c in enumerate(controllers):
             for j, s in enumerate(scenarios):
                 values = np.array([r[key] for r in rows
@@ -42,6 +56,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                 if values.size == 0:
                     continue
                 mean = float(values.mean()) * scale
+                shown += list(values)
                 x = j + (i - (len(controllers) - 1) / 2) * width
                 ax.bar(x, mean, width * 0.9, color=colours[c],
                        label=c if j == 0 else None)
@@ -53,6 +68,8 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
         ax.grid(axis="y", alpha=0.3)
         top = ax.get_ylim()[1]
         ax.set_ylim(0.0, max(top, 0.05))  # an all-zero metric shows as zero, not noise
+        if not np.any(np.nan_to_num(shown)):  # all zero (or not defined)
+            _say_empty(ax, empty)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(controllers), fontsize=9)
     fig.suptitle("Controller benchmark: means over seeds, whiskers min-max")
@@ -62,13 +79,15 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
 
 
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
-                 warmup: float) -> None:
+                 warmup: float) -> bool:
     """Bit speed, torque on bit and the bit's radial position over the gauge clearance,
     one line per controller (first seed), on one time axis; the grey band is the warm-up
-    the metrics leave out."""
+    the metrics leave out. Returns whether it drew: False (no file written) when
+    ``series_dir`` holds no series of ``scenario``."""
     colours = _colours(controllers)
     fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
     found = False
+    off_axis = 0.0  # the largest radial position drawn
     for k, c in enumerate(controllers):
         files = sorted(Path(series_dir).glob(f"{c}_{scenario}_seed*.npz"))
         if not files:
@@ -77,6 +96,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         d = np.load(files[0])
         t = d["time"]
         radial = np.hypot(d["bit_x"], d["bit_y"]) / float(d["clearance"])
+        off_axis = max(off_axis, float(np.nanmax(radial, initial=0.0)))
         # the first controller on top (a policy before its baselines): a wide stick-slip
         # swing drawn later would hide it
         kw = {"color": colours[c], "lw": 0.7, "label": c, "zorder": 2 + len(controllers) - k}
@@ -85,7 +105,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         axes[2].plot(t, radial, **kw)
     if not found:
         plt.close(fig)
-        return
+        return False
     # the smallest span each axis shows (rpm, kN m, -): a steady run is a flat line,
     # not its last digits magnified into what looks like an oscillation
     spans = (20.0, 1.0, 0.2)
@@ -101,6 +121,9 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         ax.axvspan(0.0, warmup, color="0.85", zorder=0)
         ax.grid(alpha=0.3)
     axes[2].set_ylim(bottom=0.0)  # a distance
+    if off_axis < ON_AXIS:  # the lines lie on the axis line: say so
+        _say_empty(axes[2], f"the bit stays on the hole axis (less than {ON_AXIS:.1%} of "
+                            "the clearance off it) under every controller")
     # above the plots, in rows of at most six: a sweep of constant set points has dozens
     rows = math.ceil(len(controllers) / 6)  # rows as even as they come: 7 -> 4 + 3
     axes[0].legend(fontsize=8, ncol=math.ceil(len(controllers) / rows), loc="lower center",
@@ -111,3 +134,4 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return True

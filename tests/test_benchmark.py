@@ -263,3 +263,159 @@ def test_an_aborted_process_pool_stops_workers_that_do_not_end(monkeypatch):
     while not all(gone(p.pid) for p in processes) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert all(gone(p.pid) for p in processes)
+
+
+# --------------------------------------------------------------------------- outputs
+
+
+def _row(controller: str, scenario: str, seed: int = 0, **values: float) -> dict:
+    """A benchmark row of steady drilling at 50 rpm, ``values`` overriding columns."""
+    row = {c: 0.0 for c in SPEC_COLUMNS}
+    row.update(controller=controller, scenario=scenario, seed=seed, mean_bit_rpm=50.0,
+               target_rpm=50.0, rop_m_per_h=12.0, mse_MPa=146.0, top_drive_energy_MJ=0.66,
+               episode_return=198.0, termination="")
+    row.update(values)
+    return row
+
+
+def _series(out, controllers, scenarios, radial: float = 0.3) -> None:
+    """First-seed time series as ``run_episode`` keeps them, the bit ``radial`` of the
+    clearance off the hole axis."""
+    import numpy as np
+
+    (out / "series").mkdir(parents=True, exist_ok=True)
+    t = np.linspace(0.0, 10.0, 101)
+    for c in controllers:
+        for s in scenarios:
+            np.savez(out / "series" / f"{c}_{s}_seed0.npz", time=t, clearance=0.02,
+                     bit_x=0.02 * radial + 0 * t, bit_y=0 * t, bit_speed=5.2 + 0 * t,
+                     torque_on_bit=3.5e3 + 0 * t)
+
+
+def _drawn_texts(monkeypatch) -> list[str]:
+    """The texts written into the panels of every figure closed from now on."""
+    import matplotlib.pyplot as plt
+
+    texts: list[str] = []
+    close = plt.close
+
+    def keep_texts(fig=None):
+        texts.extend(t.get_text() for ax in fig.axes for t in ax.texts)
+        close(fig)
+
+    monkeypatch.setattr(plt, "close", keep_texts)
+    return texts
+
+
+def test_a_panel_whose_values_are_all_zero_says_so(tmp_path, monkeypatch):
+    """No backward whirl and no stuck bit in any episode (the demo): those panels say so
+    instead of an empty 0-0.05 axis that looks like a broken plot; the others do not."""
+    from agents.plots import bar_chart, series_chart
+
+    texts = _drawn_texts(monkeypatch)
+    rows = [_row("stiff", "stick_slip", ssi=1.3), _row("z-torque", "stick_slip")]
+    bar_chart(rows, ["stiff", "z-torque"], ["stick_slip"], tmp_path / "bars.png")
+    assert "no backward whirl in any episode" in texts
+    assert "the bit never stuck in any episode" in texts
+    assert "no stick-slip in any episode" not in texts  # the stiff one stick-slips
+    assert len(texts) == 2
+
+    texts.clear()  # the bit on the hole axis throughout: the radial panel says so
+    _series(tmp_path, ["stiff"], ["default"], radial=1e-12)
+    assert series_chart(tmp_path / "series", ["stiff"], "default", tmp_path / "s.png", 2.0)
+    assert len(texts) == 1 and "stays on the hole axis" in texts[0]
+    texts.clear()
+    _series(tmp_path, ["stiff"], ["default"], radial=0.3)
+    assert series_chart(tmp_path / "series", ["stiff"], "default", tmp_path / "s.png", 2.0)
+    assert texts == []
+
+
+def test_benchmark_md_shows_the_series_picture_of_every_scenario(tmp_path):
+    """Each scenario's picture under its own heading, in its own paragraph (not two
+    images on consecutive lines, shown as one), and every picture it names is there."""
+    import re
+
+    scenarios = ["default", "stick_slip"]
+    _series(tmp_path, ["stiff"], scenarios)
+    bm.write_outputs([_row("stiff", s) for s in scenarios], tmp_path, ["stiff"], scenarios,
+                     SHORT)
+    lines = (tmp_path / "benchmark.md").read_text().splitlines()
+    for s in scenarios:
+        picture = f"benchmark_{s}_series.png"
+        at = [k for k, line in enumerate(lines) if f"]({picture})" in line]
+        assert len(at) == 1, picture
+        assert lines[at[0] - 1] == "" and lines[at[0] - 2].startswith(f"## {s}")
+        assert (tmp_path / picture).stat().st_size > 10_000
+    for name in re.findall(r"\]\(([^)]+)\)", "\n".join(lines)):
+        assert (tmp_path / name).exists(), name
+
+
+def test_the_rpm_error_of_a_controller_that_sets_its_own_speed_is_marked(tmp_path,
+                                                                          capsys):
+    """The driller's 58 % is its departure from the planned rpm, not a failure: its cell
+    (and a constant set point's, and the drilling task's policy's) carries a mark
+    explained under the table, on screen and in benchmark.md; the tracking controllers'
+    cells do not, nor the stick-slip policy's (it corrects the drive around the target).
+    The csv keeps the plain number."""
+    names = ["stiff", "driller", "learned", "constant-120rpm-100kN"]
+    rows = [_row("stiff", "stick_slip", rpm_tracking_error=0.02),
+            _row("driller", "stick_slip", rpm_tracking_error=0.582, mean_bit_rpm=79.1),
+            _row("learned", "stick_slip", rpm_tracking_error=1.87),
+            _row("constant-120rpm-100kN", "stick_slip", rpm_tracking_error=1.4)]
+    table = bm.summary_table(rows, names, ["stick_slip"])
+    error = [h for _, h, _ in bm.SUMMARY].index("rpm error") + 3
+    cells = {r[1]: r[error] for r in table}
+    assert cells["stiff"] == "2.0%"
+    assert cells["driller"] == f"58.2% {bm.OWN_SPEED_MARK}"
+    assert cells["learned"] == "187.0%"  # the stick-slip task's policy tracks the target
+    assert cells["constant-120rpm-100kN"].endswith(bm.OWN_SPEED_MARK)
+    drilling = {r[1]: r[error] for r in bm.summary_table(rows, names, ["stick_slip"],
+                                                         "DrillOptimise-v0")}
+    assert drilling["learned"] == f"187.0% {bm.OWN_SPEED_MARK}"
+    assert drilling["stiff"] == "2.0%"
+    bm.write_outputs(rows, tmp_path, names, ["stick_slip"], SHORT)
+    text = (tmp_path / "benchmark.md").read_text()
+    assert f"| 58.2% {bm.OWN_SPEED_MARK} |" in text and bm.OWN_SPEED_NOTE in text
+    printed = " ".join(capsys.readouterr().out.split())  # rich wraps the note
+    assert "sets its own speed" in printed and "not a failure to track it" in printed
+    with (tmp_path / "benchmark.csv").open() as f:
+        body = list(csv.reader(f))
+    assert body[0] == SPEC_COLUMNS
+    assert body[2][SPEC_COLUMNS.index("rpm_tracking_error")] == "0.582"
+
+    bm.write_outputs(rows[:1], tmp_path, ["stiff"], ["stick_slip"], SHORT)
+    assert bm.OWN_SPEED_MARK not in (tmp_path / "benchmark.md").read_text()  # no footnote
+
+
+def test_the_tables_show_no_negative_zero(tmp_path, capsys):
+    """A mean that rounds to zero from below is shown as 0.0 (or 0%), never -0.0."""
+    import re
+
+    rows = [_row("stiff", "stick_slip", mean_bit_rpm=-0.03, episode_return=-0.04,
+                 rop_m_per_h=-0.0, stuck_fraction=-0.001, ssi=-0.0),
+            _row("stiff", "stick_slip", seed=1, mean_bit_rpm=-0.01, episode_return=-0.02,
+                 rop_m_per_h=-0.0, stuck_fraction=-0.002, ssi=-0.0)]
+    bm.write_outputs(rows, tmp_path, ["stiff"], ["stick_slip"], SHORT)
+    negative_zero = re.compile(r"(?<![\d.])-0(\.0*)?%?(?![\d.])")
+    text = (tmp_path / "benchmark.md").read_text()
+    assert "| stick_slip | stiff | 2 | 0.00 | 0% | 0.0 |" in text
+    assert not negative_zero.search(text), text
+    assert not negative_zero.search(capsys.readouterr().out)
+
+
+def test_a_benchmark_into_a_used_folder_removes_the_old_series_pictures(tmp_path):
+    """A second benchmark of other scenarios into the same --out leaves beside its
+    benchmark.md only its own series pictures; the results store and other files stay."""
+    _series(tmp_path, ["stiff"], ["default", "stick_slip"])
+    bm.write_outputs([_row("stiff", s) for s in ("default", "stick_slip")], tmp_path,
+                     ["stiff"], ["default", "stick_slip"], SHORT)
+    assert (tmp_path / "benchmark_default_series.png").exists()
+    for name in (bm.RESULTS_FILE, "my_series.png", "benchmark_notes.txt"):
+        (tmp_path / name).write_text("kept")
+    bm.write_outputs([_row("stiff", "stick_slip")], tmp_path, ["stiff"], ["stick_slip"],
+                     SHORT)
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == [
+        "benchmark_bars.png", "benchmark_stick_slip_series.png", "my_series.png"]
+    for name in (bm.RESULTS_FILE, "my_series.png", "benchmark_notes.txt"):
+        assert (tmp_path / name).read_text() == "kept"
+    assert "benchmark_default_series" not in (tmp_path / "benchmark.md").read_text()
