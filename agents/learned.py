@@ -2,10 +2,10 @@
 
 ``LearnedController.load()`` takes a run folder of ``drill-env train``
 (``logs/runs/<name>``: its best model on the validation seeds if there is one, else its
-final model) or a shipped policy (``agents/trained/<task>/``, the default). It acts in
-the env of its task (``env_id``) with the env keywords it was trained with, normalises
-the observation with the training statistics (VecNormalize, frozen) and predicts
-deterministically. Policy rate.
+final model, else its last checkpoint) or a shipped policy (``agents/trained/<task>/``,
+the default). It acts in the env of its task (``env_id``) with the env keywords it was
+trained with, normalises the observation with the training statistics (VecNormalize,
+frozen) and predicts deterministically. Policy rate.
 """
 
 from __future__ import annotations
@@ -105,6 +105,14 @@ def _files(folder: Path) -> tuple[Path, Path]:
                         ("model.zip", "vecnormalize.pkl")):
         if (folder / model).exists() and (folder / norm).exists():
             return folder / model, folder / norm
+    # a run stopped before its first evaluation (a Ctrl-C saves one): its last checkpoint,
+    # named as training's checkpoints are (checkpoints/model_<steps>_steps.zip)
+    kept = folder / "checkpoints"
+    for steps in sorted((int(p.stem.split("_")[1]) for p in kept.glob("model_*_steps.zip")
+                         if p.stem.split("_")[1].isdigit()), reverse=True):
+        if (kept / f"vecnormalize_{steps}.pkl").exists():
+            return kept / f"model_{steps}_steps.zip", kept / f"vecnormalize_{steps}.pkl"
     raise FileNotFoundError(f"learned: {folder} holds neither best_model.zip + "
-                            "best_vecnormalize.pkl nor model.zip + vecnormalize.pkl (a run "
-                            "folder of drill-env train or a shipped policy)")
+                            "best_vecnormalize.pkl nor model.zip + vecnormalize.pkl nor a "
+                            "checkpoint (a run folder of drill-env train or a shipped "
+                            "policy)")

@@ -262,6 +262,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         summary["recording"] = str(env.last_path) if env.last_path else None
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "run_summary.json").write_text(json.dumps(summary, indent=2))
+    with (args.out / "run_history.jsonl").open("a") as history:  # every run's, kept
+        history.write(json.dumps(summary) + "\n")
     ran_at = f"targets {rpm:.0f} rpm, {wob_kn:.0f} kN"
     if abs(setpoint_rpm - rpm) >= 0.5 or abs(setpoint_kn - wob_kn) >= 0.5:
         ran_at += f" (set points applied: mean {setpoint_rpm:.0f} rpm, {setpoint_kn:.0f} kN)"
@@ -278,7 +280,8 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{summary['mean_rop'] * HOUR:.1f} m/h")
     if args.record is not None:
         print(f"  recording: {summary['recording']} (drill-env replay <file>)")
-    print(f"wrote {args.out / 'run_summary.json'}")
+    print(f"wrote {args.out / 'run_summary.json'} (and a line of "
+          f"{args.out / 'run_history.jsonl'}, which keeps every run's)")
     return 130 if reason == "interrupted" else 0
 
 
@@ -342,6 +345,9 @@ def cmd_train(args: argparse.Namespace) -> int:
                                   or any(c in args.name for c in "/\\")):
         raise argparse.ArgumentTypeError(f"--name: a folder name inside --out, without "
                                          f"'/', got {args.name!r}")
+    if args.algo is None:  # a named run resumes with its own algorithm; else the default
+        named = args.out / args.name if args.resume and args.name else None
+        args.algo = (named and saved_algorithm(named)) or "sac"
     config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
                          seed=args.seed, n_envs=args.n_envs)
     if args.seeds is not None:
@@ -391,6 +397,17 @@ def check_constant_set_points(controllers: Sequence[str], env_id: str | None) ->
                 f"--controllers: {str(err).partition(': ')[2]}") from None
 
 
+def saved_algorithm(run: Path) -> str | None:
+    """The algorithm the run in folder ``run`` was trained with (None: no config there)."""
+    import yaml
+
+    saved = run / "config.yaml"
+    if not saved.is_file():
+        return None
+    algo = (yaml.safe_load(saved.read_text()) or {}).get("algo")
+    return algo if algo in ("ppo", "sac") else None
+
+
 def saved_run_config(saved: Path, task: str, algo: str, **overrides: Any) -> Any:
     """The :class:`~training.config.TrainConfig` a run saved (its ``config.yaml``), with
     the ``overrides`` given (None: keep the run's)."""
@@ -419,6 +436,9 @@ def train_sweep(args: argparse.Namespace, config) -> int:
     if args.name is not None or args.resume:
         raise argparse.ArgumentTypeError("--seeds: runs are named <task>_<algo>_seed<k> and "
                                          "always resume; drop --name / --resume")
+    from training.train import check_learns
+
+    check_learns(config, 0)
     t0 = time.perf_counter()
     results = train_seeds(config, seeds, args.out, workers=args.workers,
                           ray_address=args.ray_address, progress=not args.no_progress)
@@ -455,9 +475,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     except FileNotFoundError as err:  # a run stopped before its first evaluation
         raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}"
                                          ) from None
-    print(f"evaluating {model} (" + ("the best model on the validation seeds"
-                                     if model.name.startswith("best_") else
-                                     "the final model: no best model kept") + ")")
+    kept = ("the best model on the validation seeds" if model.name.startswith("best_") else
+            "the final model: no best model kept" if model.parent.name != "checkpoints" else
+            "the last checkpoint: the run stopped before its first evaluation")
+    print(f"evaluating {model} ({kept})")
     out = args.out or default_evaluation_folder(args.run)
     evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out,
                  ray_address=args.ray_address)
@@ -473,6 +494,16 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     if unknown or not names:
         raise argparse.ArgumentTypeError(f"--positions: unknown {unknown or args.positions!r};"
                                          f" choose from {','.join(sm.POSITIONS)}")
+    from drill_env.physics.modes import torsional_modes
+
+    # the stick test reads the last seconds: they must hold a stick-slip cycle, which
+    # lasts longer than the string's first torsional period
+    period = 1.0 / float(torsional_modes(sm.map_config(names[0])).frequency[0])
+    if args.seconds < 2.0 * period:
+        raise argparse.ArgumentTypeError(
+            f"--seconds: {args.seconds:g} s cannot show stick-slip: the string's first "
+            f"torsional period is {period:.1f} s; give at least {2.0 * period:.1f} s "
+            f"(default {sm.DEFAULT_SETTINGS.seconds:g})")
     settings = sm.MapSettings(seconds=args.seconds,
                               measure=min(sm.DEFAULT_SETTINGS.measure, args.seconds))
     configs = None
@@ -715,7 +746,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--config", type=existing_file, default=None,
                    help="YAML of config overrides merged into the scenario's (e.g. a "
                         "string of components: examples/field_well_string.yaml)")
-    p.add_argument("--out", type=Path, default=Path("logs"), help="folder for run_summary.json")
+    p.add_argument("--out", type=Path, default=Path("logs"),
+                   help="folder for run_summary.json (this run's) and run_history.jsonl "
+                        "(every run's summary, one line each)")
 
     p = add("benchmark", "controllers x scenarios x seeds at each scenario's set points: "
                          "table, benchmark.csv, benchmark.md and plots in --out; resumable",
@@ -758,9 +791,9 @@ def parser() -> argparse.ArgumentParser:
                      "checkpoints, learning curve, TensorBoard) in --out/<name>", cmd_train)
     p.add_argument("--task", required=True, choices=("stick_slip", "drilling"),
                    help="stick_slip: DrillStickSlip-v0, drilling: DrillOptimise-v0")
-    p.add_argument("--algo", choices=("ppo", "sac"), default="sac",
+    p.add_argument("--algo", choices=("ppo", "sac"), default=None,
                    help="algorithm (default: sac, what the shipped policies of both tasks "
-                        "were trained with; docs/tasks.md)")
+                        "were trained with, docs/tasks.md; --resume --name: the run's own)")
     p.add_argument("--config", type=existing_file, default=None,
                    help="hyperparameter YAML (default: training/hyperparams/<task>.yml)")
     p.add_argument("--timesteps", type=integer(1), default=None,
@@ -892,6 +925,9 @@ def typed_controller(name: str) -> Any:
 
 def main(argv: Sequence[str] | None = None) -> int:
     top = parser()
+    if not (sys.argv[1:] if argv is None else argv):  # no command: what the commands are
+        top.print_help()
+        return 2
     args = top.parse_args(argv)
     try:
         return int(args.func(args))

@@ -31,8 +31,29 @@ MAX_RETRIES = 3
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
+#: How long the one connection attempt before ``ray.init`` may take (s): Ray itself
+#: retries an address where nothing answers for minutes, printing only its own logs.
+CONNECT_TIMEOUT = 5.0
+
+
 def _call(fn: Callable[[Any], Any], item: Any) -> Any:
     return fn(item)
+
+
+def _check_reachable(ray_address: str) -> None:
+    """ConnectionError naming the address if ``host:port`` (or ``ray://host:port``)
+    does not accept a TCP connection; other forms (``auto``) are left to Ray."""
+    import socket
+
+    host, colon, port = ray_address.removeprefix("ray://").rpartition(":")
+    if not (colon and host and port.isdigit()):
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT
+                                 ).close()
+    except OSError as error:
+        raise ConnectionError(f"ray_address: no Ray cluster at {ray_address!r}: nothing "
+                              f"answers there ({error}); 'local' starts one here") from None
 
 
 class RayExecutor:
@@ -62,6 +83,7 @@ class RayExecutor:
                          runtime_env=runtime_env, log_to_driver=False,
                          configure_logging=False)
             else:
+                _check_reachable(ray_address)
                 try:
                     ray.init(address=ray_address, runtime_env=runtime_env,
                              log_to_driver=False, configure_logging=False)

@@ -171,8 +171,9 @@ class Scenario:
                 f"weight_on_bit: {self.weight_on_bit / 1e3:.0f} kN compresses the "
                 f"{b.component} by {b.compression / 1e3:.1f} kN, beyond its buckling load "
                 f"{b.buckling_load / 1e3:.1f} kN (neutral point "
-                f"{self.neutral_point:.0f} m above the bit): lower the WOB, use a heavier "
-                "BHA, or pass allow_pipe_buckling=True")
+                f"{self.neutral_point:.0f} m above the bit): lower the WOB or use a "
+                "heavier BHA (string.components); to study the buckled string on purpose, "
+                "build the Scenario in Python with allow_pipe_buckling=True")
 
     @property
     def neutral_point(self) -> float:

@@ -40,6 +40,14 @@ def test_run_and_benchmark_agree_on_the_start(tmp_path):
     assert main(["run", "--controller", "learned", "--scenario", "random", "--duration", "1",
                  "--out", str(tmp_path)]) == 0
     assert json.loads((tmp_path / "run_summary.json").read_text())["fidelity"] == "fast"
+    # run_summary.json is the last run's; the history keeps all three, in order
+    history = [json.loads(line) for line in
+               (tmp_path / "run_history.jsonl").read_text().splitlines()]
+    assert [(h["controller"], h["scenario"], h["fidelity"]) for h in history] == [
+        ("stiff", "stick_slip", "full"), ("stiff", "stick_slip", "full"),
+        ("learned", "random", "fast")]
+    assert history[0]["mean_stuck_fraction"] == summary["mean_stuck_fraction"]
+    assert history[1]["mean_stuck_fraction"] < 0.01
 
 
 def test_run_notes_a_wob_that_buckles_the_pipe(tmp_path, capsys):
@@ -94,6 +102,12 @@ def test_a_bad_controller_is_an_error_of_the_option_typed(tmp_path, capsys, comm
     assert message in err and f"usage: drill-env {command[0]}" in err  # the command's usage
 
 
+def test_no_command_prints_the_commands(capsys):
+    assert main([]) == 2
+    out = capsys.readouterr().out
+    assert out.startswith("usage: drill-env") and "benchmark" in out and "train" in out
+
+
 def test_help_shows_defaults_and_scenario_names(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--help"])
@@ -125,6 +139,12 @@ def test_stability_map_command_names_a_bad_position(capsys):
     with pytest.raises(SystemExit):
         main(["stability-map", "--positions", "P7"])
     assert "position" in capsys.readouterr().err
+    # too short to hold a stick-slip cycle: the paper string's first torsional mode is
+    # 0.66 Hz (its period 1.5 s)
+    with pytest.raises(SystemExit):
+        main(["stability-map", "--positions", "P1", "--seconds", "0.01"])
+    assert "--seconds: 0.01 s cannot show stick-slip: the string's first torsional period " \
+           "is 1.5 s; give at least 3.0 s" in capsys.readouterr().err
 
 
 def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
@@ -376,3 +396,15 @@ def test_integer_arguments_take_exponents_and_keep_large_values_exact():
     for bad in ("2.5", "nan", "inf", "x"):
         with pytest.raises(argparse.ArgumentTypeError):
             parse(bad)
+
+
+def test_the_demos_stick_slip_table_reproduces_paper_result_1(tmp_path):
+    """The main job's first part: stick-slip at 50 rpm, none at 100 rpm (paper case 1);
+    the stuck bit, which creeps back by hundredths of an rpm, reads 0.0, not -0.0."""
+    from drill_env.tools.demo import stick_slip_demo
+
+    said: list[str] = []
+    rows, verdict = stick_slip_demo(tmp_path, echo=said.append)
+    assert verdict and rows[0]["stuck_fraction"] > 0.1
+    assert "reproduced" in said[-2] and not any("-0.0 " in line for line in said)
+    assert (tmp_path / "demo_stick_slip.png").stat().st_size > 10_000

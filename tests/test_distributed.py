@@ -142,6 +142,25 @@ def test_a_bad_ray_address_names_the_field():
         RayExecutor("")
 
 
+def test_an_address_where_nothing_answers_fails_at_once():
+    """Ray would retry it for minutes; one TCP attempt says what is wrong."""
+    import socket
+
+    from drill_env.distributed import RayExecutor
+
+    with socket.socket() as probe:  # a port nothing listens on once the probe is closed
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    if ray.is_initialized():  # a sweep's own session only: the executor joins no other
+        ray.shutdown()
+    start = time.perf_counter()
+    for address in (f"127.0.0.1:{port}", f"ray://127.0.0.1:{port}"):
+        with pytest.raises(ConnectionError, match=f"no Ray cluster at '{address}': nothing "
+                                                  "answers"):
+            RayExecutor(address)
+    assert time.perf_counter() - start < 30.0  # refused at once; the limit is the timeout
+
+
 def test_the_stability_map_command_runs_on_the_cluster(cluster, tmp_path):
     from drill_cli.main import main
 

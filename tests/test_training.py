@@ -149,9 +149,10 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
     shutil.rmtree(copy / "checkpoints")
     with pytest.raises(ValueError, match="--timesteps: .* has done 2048 env steps"):
         train(cfg, copy, resume=True, progress=False)
-    # the command refuses it before it announces a training
+    # the command refuses it before it announces a training; a named run resumes with
+    # its own algorithm (PPO here, where the command's default is SAC)
     capsys.readouterr()
-    assert main(["train", "--task", "stick_slip", "--algo", "ppo", "--out", str(tmp_path),
+    assert main(["train", "--task", "stick_slip", "--out", str(tmp_path),
                  "--name", "copy", "--resume", "--timesteps", "2048"]) != 0
     said = capsys.readouterr()
     assert "has done 2048 env steps" in said.err and "training PPO" not in said.out
@@ -319,6 +320,28 @@ def test_a_resumed_sac_run_warms_its_empty_replay_buffer_up_again(tmp_path):
     assert model.learning_starts == 256 + 64
 
 
+def test_a_sac_run_that_would_end_in_its_warm_up_is_refused(tmp_path, capsys):
+    """SAC makes no gradient step before ``learning_starts`` env steps (5000 in task 1's
+    YAML): a run ending there would save its random initial policy as a trained one."""
+    from drill_env.physics.config import replace
+    from training.train import check_learns
+
+    assert main(["train", "--task", "stick_slip", "--timesteps", "3000",
+                 "--out", str(tmp_path)]) == 2
+    said = capsys.readouterr()
+    assert "--timesteps: SAC learns only after its replay buffer's warm-up of 5000" in said.err
+    assert "training SAC" not in said.out and not any(tmp_path.iterdir())
+    cfg = load_config("stick_slip", "sac")
+    check_learns(replace(cfg, n_timesteps=5001), 0)  # one step past the warm-up learns
+    # resumed from an untrained run, the buffer warms up again from where it stopped
+    with pytest.raises(ValueError, match="fills its empty replay buffer again.*more than "
+                                         "8000"):
+        check_learns(replace(cfg, n_timesteps=8000), 3000)
+    check_learns(replace(cfg, n_timesteps=8001), 3000)
+    check_learns(replace(cfg, n_timesteps=300_500), 300_000)  # it learnt before: let through
+    check_learns(replace(load_config("stick_slip", "ppo"), n_timesteps=10), 0)
+
+
 def test_evaluate_names_the_model_files_it_looked_for(tmp_path, capsys):
     """A run folder stopped before it saved a model: the error lists both pairs of files
     `evaluate` loads (the best model, else the final one), under the argument's name."""
@@ -328,6 +351,7 @@ def test_evaluate_names_the_model_files_it_looked_for(tmp_path, capsys):
     assert stop.value.code == 2
     err = capsys.readouterr().err
     assert "RUN:" in err and "best_model.zip" in err and "model.zip + vecnormalize.pkl" in err
+    assert "nor a checkpoint" in err
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
@@ -384,6 +408,11 @@ def test_a_ctrl_c_saves_a_checkpoint_that_resume_continues_from(tmp_path, monkey
     assert json.loads((folder / "checkpoints" / f"progress_{steps}.json").read_text()
                       )["wall_s"] > 0.0
     assert f"interrupted at {steps} env steps" in capsys.readouterr().out
+    # stopped before its first evaluation, the run is evaluated from that checkpoint
+    from agents.learned import policy_files
+
+    assert policy_files(folder) == (saved, folder / "checkpoints" /
+                                    f"vecnormalize_{steps}.pkl")
     monkeypatch.setattr(tt, "_callbacks", made)
     train(cfg, folder, resume=True, progress=False)
     assert f"resuming from {saved.name} ({steps} steps)" in capsys.readouterr().out

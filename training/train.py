@@ -251,7 +251,10 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
         raise FileExistsError(f"{run} already holds a training run: --resume continues it, "
                               "--overwrite deletes it and starts again, or give another "
                               "--name")
-    if not resume or config is None:
+    if config is None:
+        return
+    if not resume:
+        check_learns(config, 0)
         return
     saved = run / "config.yaml"
     if saved.exists():
@@ -268,6 +271,24 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
     if done is not None and done >= config.n_timesteps:
         raise ValueError(f"--timesteps: {run} has done {done} env steps already; give more "
                          "than that to continue it")
+    check_learns(config, done or 0)
+
+
+def check_learns(config: TrainConfig, done: int) -> None:
+    """ValueError if a run from ``done`` env steps to ``config.n_timesteps`` would make no
+    gradient step: SAC first fills its replay buffer for ``learning_starts`` env steps (at
+    the start, and again after a resume, as the buffer is not saved), and a run that ends
+    inside that warm-up would save its initial, random policy as if trained. (A resumed
+    run whose first part learnt is let through: its policy is trained.)"""
+    if config.algo != "sac":
+        return
+    warm_up = int(config.hyperparams.get("learning_starts", 100))  # SB3's default: 100
+    if config.n_timesteps <= done + warm_up and done <= warm_up:
+        again = " (a resumed run fills its empty replay buffer again)" if done else ""
+        raise ValueError(f"--timesteps: SAC learns only after its replay buffer's warm-up of "
+                         f"{warm_up} env steps (learning_starts){again}; "
+                         f"{config.n_timesteps} would save an untrained policy: give more "
+                         f"than {done + warm_up}")
 
 
 def _steps_done(run: Path) -> int | None:
