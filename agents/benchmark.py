@@ -121,7 +121,7 @@ def label(controller: str) -> str:
     if head == "constant" and rest:
         rpm, _, kn = rest.partition("/")
         try:  # one name for one pair of set points: 1e2, 100 and 100.0 are 100
-            rpm, kn = f"{float(rpm):g}", f"{float(kn):g}"
+            rpm, kn = f"{float(rpm):.15g}", f"{float(kn):.15g}"
         except ValueError:
             pass  # named as typed; ConstantSetPoints.parse says what is wrong with it
         return f"constant-{rpm}rpm-{kn}kN"
@@ -390,7 +390,8 @@ def _number(fmt: str, value: float) -> str:
     """``fmt.format(value)``, never a negative zero ("-0.0", "-0%"): a value that rounds
     to zero is shown as zero."""
     text = fmt.format(value)
-    if text.startswith("-") and not any(ch in "123456789" for ch in text):
+    if math.isfinite(value) and text.startswith("-") and not any(ch in "123456789"
+                                                                 for ch in text):
         text = text[1:]
     return text
 
@@ -481,7 +482,7 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     for s in drawn:
         lines += ["", f"## {s}: time series (first seed)", "",
                   f"![{s}]({SERIES_PICTURE.format(scenario=s)})"]
-    (out / "benchmark.md").write_text("\n".join(lines) + "\n")
+    (out / "benchmark.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
 def _print_table(header: Sequence[str], table: Sequence[Sequence[str]],

@@ -96,6 +96,19 @@ def policy_files(path: str | Path | None = None, env_id: str | None = None
     return _files(policy_folder(path, env_id))
 
 
+def latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
+    """(model, normalisation) of the run's last complete checkpoint, as training writes
+    them (``checkpoints/model_<steps>_steps.zip`` beside ``vecnormalize_<steps>.pkl``; a
+    Ctrl-C saves one too); None if it has none. Other files there are ignored."""
+    kept = Path(run) / "checkpoints"
+    steps = [int(p.stem.split("_")[1]) for p in kept.glob("model_*_steps.zip")
+             if p.stem.split("_")[1].isdigit()]
+    for k in sorted(steps, reverse=True):
+        if (kept / f"vecnormalize_{k}.pkl").exists():
+            return kept / f"model_{k}_steps.zip", kept / f"vecnormalize_{k}.pkl"
+    return None
+
+
 def _files(folder: Path) -> tuple[Path, Path]:
     """(model, normalisation) of a run or policy folder: the best model if kept."""
     if not folder.is_dir():
@@ -105,13 +118,9 @@ def _files(folder: Path) -> tuple[Path, Path]:
                         ("model.zip", "vecnormalize.pkl")):
         if (folder / model).exists() and (folder / norm).exists():
             return folder / model, folder / norm
-    # a run stopped before its first evaluation (a Ctrl-C saves one): its last checkpoint,
-    # named as training's checkpoints are (checkpoints/model_<steps>_steps.zip)
-    kept = folder / "checkpoints"
-    for steps in sorted((int(p.stem.split("_")[1]) for p in kept.glob("model_*_steps.zip")
-                         if p.stem.split("_")[1].isdigit()), reverse=True):
-        if (kept / f"vecnormalize_{steps}.pkl").exists():
-            return kept / f"model_{steps}_steps.zip", kept / f"vecnormalize_{steps}.pkl"
+    latest = latest_checkpoint(folder)  # a run stopped before its first evaluation
+    if latest is not None:
+        return latest
     raise FileNotFoundError(f"learned: {folder} holds neither best_model.zip + "
                             "best_vecnormalize.pkl nor model.zip + vecnormalize.pkl nor a "
                             "checkpoint (a run folder of drill-env train or a shipped "

@@ -262,8 +262,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         summary["recording"] = str(env.last_path) if env.last_path else None
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "run_summary.json").write_text(json.dumps(summary, indent=2))
-    with (args.out / "run_history.jsonl").open("a") as history:  # every run's, kept
-        history.write(json.dumps(summary) + "\n")
+    with (args.out / "run_history.jsonl").open("a", encoding="utf-8") as history:
+        finished = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # tells the runs of a history apart
+        history.write(json.dumps({"finished": finished, **summary}) + "\n")
     ran_at = f"targets {rpm:.0f} rpm, {wob_kn:.0f} kN"
     if abs(setpoint_rpm - rpm) >= 0.5 or abs(setpoint_kn - wob_kn) >= 0.5:
         ran_at += f" (set points applied: mean {setpoint_rpm:.0f} rpm, {setpoint_kn:.0f} kN)"
@@ -286,12 +287,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
-    from agents.benchmark import BenchmarkSettings, run_benchmark
+    from agents.benchmark import BenchmarkSettings, labels, run_benchmark
     from agents.registry import parse_controllers
     from drill_env.scenarios import SCENARIOS
 
     try:
         controllers = parse_controllers(args.controllers)
+        labels(controllers)  # names given twice, or two that would share a table name
     except ValueError as err:
         raise argparse.ArgumentTypeError(f"--{err}") from None
     env_id = None
@@ -476,7 +478,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}"
                                          ) from None
     kept = ("the best model on the validation seeds" if model.name.startswith("best_") else
-            "the final model: no best model kept" if model.parent.name != "checkpoints" else
+            "the final model: no best model kept" if model.name == "model.zip" else
             "the last checkpoint: the run stopped before its first evaluation")
     print(f"evaluating {model} ({kept})")
     out = args.out or default_evaluation_folder(args.run)
@@ -501,9 +503,10 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     period = 1.0 / float(torsional_modes(sm.map_config(names[0])).frequency[0])
     if args.seconds < 2.0 * period:
         raise argparse.ArgumentTypeError(
-            f"--seconds: {args.seconds:g} s cannot show stick-slip: the string's first "
-            f"torsional period is {period:.1f} s; give at least {2.0 * period:.1f} s "
-            f"(default {sm.DEFAULT_SETTINGS.seconds:g})")
+            f"--seconds: {args.seconds:g} s is too short to tell stick-slip: the string's "
+            f"first torsional period is {period:.1f} s; give at least {2.0 * period:.1f} s "
+            f"(stick-slip can take ~25 s to grow from the kick: the default "
+            f"{sm.DEFAULT_SETTINGS.seconds:g} s lets it)")
     settings = sm.MapSettings(seconds=args.seconds,
                               measure=min(sm.DEFAULT_SETTINGS.measure, args.seconds))
     configs = None
@@ -918,8 +921,9 @@ def typed_controller(name: str) -> Any:
 
     try:
         return make_controller(name)
-    except ValueError as err:
-        detail = str(err).removeprefix("controller: ").removeprefix("constant: ")
+    except (ValueError, FileNotFoundError) as err:  # a learned:<folder> that is not there
+        detail = str(err).removeprefix("controller: ").removeprefix("constant: ") \
+            .removeprefix("learned: ")
         raise argparse.ArgumentTypeError(f"--controller: {detail}") from None
 
 
@@ -938,7 +942,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         # said as argparse says its own (the command's usage, then the error)
         args.command_parser.error(str(err))
     except (ValueError, OSError) as err:  # a bad value named by the library below
-        print(f"drill-env {args.command}: error: {err}", file=sys.stderr)
+        said = str(err)
+        if said.startswith("ray_address: "):  # the library's field, the command's option
+            said = "--ray-address: " + said.removeprefix("ray_address: ").replace(
+                "'local' starts", "--ray-address local starts")
+        print(f"drill-env {args.command}: error: {said}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"drill-env {args.command}: interrupted", file=sys.stderr)

@@ -41,12 +41,15 @@ def _call(fn: Callable[[Any], Any], item: Any) -> Any:
 
 
 def _check_reachable(ray_address: str) -> None:
-    """ConnectionError naming the address if ``host:port`` (or ``ray://host:port``)
-    does not accept a TCP connection; other forms (``auto``) are left to Ray."""
+    """ConnectionError naming the address if ``host:port`` (or ``ray://host:port``;
+    ``[v6]:port`` for IPv6) does not accept a TCP connection; other forms (``auto``,
+    another scheme, an address without a port) are left to Ray, which names them."""
     import socket
 
-    host, colon, port = ray_address.removeprefix("ray://").rpartition(":")
-    if not (colon and host and port.isdigit()):
+    rest = ray_address.removeprefix("ray://")
+    host, colon, port = rest.rpartition(":")
+    if "://" in rest or not (colon and host and port.isdigit()) or (
+            ":" in host and not (host.startswith("[") and host.endswith("]"))):
         return
     try:
         socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT

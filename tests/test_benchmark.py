@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import math
 
 import pytest
 
@@ -158,6 +159,8 @@ def test_every_controller_gets_its_own_table_name():
         "constant-100rpm-90kN", "constant-120rpm-100kN"]
     with pytest.raises(ValueError, match="constant:1e2/100, constant:100/100 are the same"):
         bm.labels(["constant:1e2/100", "constant:100/100"])
+    assert bm.labels(["constant:123.4567/100", "constant:123.4568/100"]) == [
+        "constant-123.4567rpm-100kN", "constant-123.4568rpm-100kN"]  # apart, as typed
 
 
 def test_a_retrained_policy_is_not_served_its_old_rows(tmp_path):
@@ -401,6 +404,9 @@ def test_the_tables_show_no_negative_zero(tmp_path, capsys):
     assert "| stick_slip | stiff | 2 | 0.00 | 0% | 0.0 |" in text
     assert not negative_zero.search(text), text
     assert not negative_zero.search(capsys.readouterr().out)
+    # a real negative keeps its sign, an infinite one too
+    assert bm._number("{:.1f}", -0.06) == "-0.1"
+    assert bm._number("{:.1f}", -math.inf) == "-inf"
 
 
 def test_a_benchmark_into_a_used_folder_removes_the_old_series_pictures(tmp_path):

@@ -93,7 +93,12 @@ def test_run_names_a_bad_argument_in_the_units_typed(tmp_path, capsys, args, mes
     (["run", "--controller", "constant:-1/2"], "drill-env run: error: --controller: rpm and "
                                               "WOB must be finite and >= 0"),
     (["benchmark", "--controllers", "stiff,pid"], "drill-env benchmark: error: "
-                                                  "--controllers: unknown name 'pid'")])
+                                                  "--controllers: unknown name 'pid'"),
+    (["benchmark", "--controllers", "constant:1e2/90,constant:100/90"],
+     "drill-env benchmark: error: --controllers: constant:1e2/90, constant:100/90 are the "
+     "same set points"),
+    (["run", "--controller", "learned:no/such/run"], "drill-env run: error: --controller: "
+                                                     "no such folder no/such/run")])
 def test_a_bad_controller_is_an_error_of_the_option_typed(tmp_path, capsys, command,
                                                           message):
     with pytest.raises(SystemExit):
@@ -143,8 +148,8 @@ def test_stability_map_command_names_a_bad_position(capsys):
     # 0.66 Hz (its period 1.5 s)
     with pytest.raises(SystemExit):
         main(["stability-map", "--positions", "P1", "--seconds", "0.01"])
-    assert "--seconds: 0.01 s cannot show stick-slip: the string's first torsional period " \
-           "is 1.5 s; give at least 3.0 s" in capsys.readouterr().err
+    assert "--seconds: 0.01 s is too short to tell stick-slip: the string's first " \
+           "torsional period is 1.5 s; give at least 3.0 s" in capsys.readouterr().err
 
 
 def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
@@ -374,8 +379,8 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
     assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default", "--seeds",
                  "1", "--duration", "1", "--warmup", "0.5", "--ray-address", "nope",
                  "--out", str(tmp_path)]) == 2
-    assert "ray_address: 'nope' is not 'local', 'auto' or a cluster address" in \
-        capsys.readouterr().err
+    assert "benchmark: error: --ray-address: 'nope' is not 'local', 'auto' or a cluster " \
+           "address" in capsys.readouterr().err
 
 
 def test_console_numbers_have_no_negative_zero_and_counts_agree_with_their_noun():

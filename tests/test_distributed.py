@@ -159,6 +159,13 @@ def test_an_address_where_nothing_answers_fails_at_once():
                                                   "answers"):
             RayExecutor(address)
     assert time.perf_counter() - start < 30.0  # refused at once; the limit is the timeout
+    # what is not host:port is left to Ray's own check, which names it (no probe here)
+    from drill_env.distributed import _check_reachable
+
+    for other in ("auto", "http://127.0.0.1:1", "::1", "127.0.0.1"):
+        assert _check_reachable(other) is None
+    with pytest.raises(ConnectionError, match="nothing answers"):
+        _check_reachable(f"[::1]:{port}")
 
 
 def test_the_stability_map_command_runs_on_the_cluster(cluster, tmp_path):

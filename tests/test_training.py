@@ -314,6 +314,10 @@ def test_a_resumed_sac_run_warms_its_empty_replay_buffer_up_again(tmp_path):
     cfg = replace(cfg, hyperparams=dict(cfg.hyperparams, learning_starts=64,
                                         buffer_size=1000, batch_size=32))
     train(cfg, tmp_path / "sac", progress=False)
+    from training.train import resume_point
+
+    done, updates = resume_point(tmp_path / "sac")  # as the model file records them
+    assert done == 256 and updates > 0
     train(replace(cfg, n_timesteps=384), tmp_path / "sac", resume=True, progress=False)
     model = SAC.load(tmp_path / "sac" / "model.zip", device="cpu")
     assert model.num_timesteps == 384
@@ -338,7 +342,10 @@ def test_a_sac_run_that_would_end_in_its_warm_up_is_refused(tmp_path, capsys):
                                          "8000"):
         check_learns(replace(cfg, n_timesteps=8000), 3000)
     check_learns(replace(cfg, n_timesteps=8001), 3000)
-    check_learns(replace(cfg, n_timesteps=300_500), 300_000)  # it learnt before: let through
+    # past learning_starts but never learnt (resumed inside a warm-up before): refused
+    with pytest.raises(ValueError, match="more than 12000"):
+        check_learns(replace(cfg, n_timesteps=9000), 7000)
+    check_learns(replace(cfg, n_timesteps=300_500), 300_000, learnt=True)  # let through
     check_learns(replace(load_config("stick_slip", "ppo"), n_timesteps=10), 0)
 
 

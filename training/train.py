@@ -36,6 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import yaml
 
+from agents.learned import latest_checkpoint
 from drill_env.physics.validation import jsonable
 from training.config import VALIDATION_SEED, TrainConfig
 
@@ -219,19 +220,6 @@ def torch_threads_callback(threads: int) -> Any:
     return TorchThreads()
 
 
-def _latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
-    found = []
-    for path in (run / "checkpoints").glob("model_*_steps.zip"):
-        steps = int(path.stem.split("_")[1])
-        norm = run / "checkpoints" / f"vecnormalize_{steps}.pkl"
-        if norm.exists():
-            found.append((steps, path, norm))
-    if not found:
-        return None
-    _, model, norm = max(found)
-    return model, norm
-
-
 #: What a run folder holds once training started (any of them: the folder is a run).
 RUN_FILES = ("config.yaml", "model.zip", "run.json", "checkpoints")
 
@@ -245,8 +233,9 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
                      config: TrainConfig | None = None) -> None:
     """FileExistsError if ``run`` holds a run and neither ``resume`` nor ``overwrite``.
     With ``resume`` and a ``config``, ValueError if the run was started with another
-    config or has done ``config.n_timesteps`` env steps already (what its checkpoint's
-    or final model's name and run.json say; the loaded model is checked again)."""
+    config or has done ``config.n_timesteps`` env steps already (as the model it would load
+    records them: :func:`resume_point`), and (any run) if SAC would save a policy that
+    never learnt (:func:`check_learns`)."""
     if holds_run(run) and not (resume or overwrite):
         raise FileExistsError(f"{run} already holds a training run: --resume continues it, "
                               "--overwrite deletes it and starts again, or give another "
@@ -267,23 +256,25 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
             raise ValueError(f"resume: {run} was trained with another config (only "
                              "n_timesteps, torch_threads and fused_adam may change); start a "
                              "new run name or drop --resume")
-    done = _steps_done(run)
-    if done is not None and done >= config.n_timesteps:
+    point = resume_point(run)
+    if point is None:
+        return check_learns(config, 0)  # nothing to resume: it starts from the beginning
+    done, updates = point
+    if done >= config.n_timesteps:
         raise ValueError(f"--timesteps: {run} has done {done} env steps already; give more "
                          "than that to continue it")
-    check_learns(config, done or 0)
+    check_learns(config, done, learnt=updates > 0)
 
 
-def check_learns(config: TrainConfig, done: int) -> None:
-    """ValueError if a run from ``done`` env steps to ``config.n_timesteps`` would make no
-    gradient step: SAC first fills its replay buffer for ``learning_starts`` env steps (at
-    the start, and again after a resume, as the buffer is not saved), and a run that ends
-    inside that warm-up would save its initial, random policy as if trained. (A resumed
-    run whose first part learnt is let through: its policy is trained.)"""
-    if config.algo != "sac":
+def check_learns(config: TrainConfig, done: int, learnt: bool = False) -> None:
+    """ValueError if a run from ``done`` env steps to ``config.n_timesteps`` would save a
+    policy that never made a gradient step: SAC first fills its replay buffer for
+    ``learning_starts`` env steps (at the start, and again after a resume, as the buffer is
+    not saved). A resumed model that ``learnt`` before is let through."""
+    if config.algo != "sac" or learnt:
         return
     warm_up = int(config.hyperparams.get("learning_starts", 100))  # SB3's default: 100
-    if config.n_timesteps <= done + warm_up and done <= warm_up:
+    if config.n_timesteps <= done + warm_up:
         again = " (a resumed run fills its empty replay buffer again)" if done else ""
         raise ValueError(f"--timesteps: SAC learns only after its replay buffer's warm-up of "
                          f"{warm_up} env steps (learning_starts){again}; "
@@ -291,19 +282,19 @@ def check_learns(config: TrainConfig, done: int) -> None:
                          f"than {done + warm_up}")
 
 
-def _steps_done(run: Path) -> int | None:
-    """The env steps a resume would start from: its last checkpoint's, else the finished
-    run's (run.json); None if neither says."""
-    latest = _latest_checkpoint(run)
-    if latest is not None:
-        return int(latest[0].stem.split("_")[1])
-    record = run / "run.json"
-    if (run / "model.zip").exists() and record.exists():
-        try:
-            return int(json.loads(record.read_text())["env_steps"])
-        except (ValueError, KeyError, TypeError):
-            return None
-    return None
+def resume_point(run: Path) -> tuple[int, int] | None:
+    """(env steps, gradient steps) of the model a resume of ``run`` would load (its last
+    checkpoint, else its final model), as the model file records them; None if it has
+    none. Reads the zip's ``data`` entry only, not the networks."""
+    import zipfile
+
+    latest = latest_checkpoint(run)
+    model = latest[0] if latest is not None else run / "model.zip"
+    if not (model.exists() and (latest is not None or (run / "vecnormalize.pkl").exists())):
+        return None
+    with zipfile.ZipFile(model) as archive:
+        data = json.loads(archive.read("data"))
+    return int(data["num_timesteps"]), int(data.get("_n_updates", 0))
 
 
 def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool = True,
@@ -328,7 +319,7 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     run.mkdir(parents=True, exist_ok=True)
     saved = run / "config.yaml"
     algo = _algo_class(config.algo)
-    latest = _latest_checkpoint(run) if resume else None
+    latest = latest_checkpoint(run) if resume else None
     from_checkpoint = latest is not None  # else from the final model, or from nothing
     if resume and latest is None:
         final = (run / "model.zip", run / "vecnormalize.pkl")
