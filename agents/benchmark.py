@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
+from drill_env.physics.units import RPM, shown
 from drill_env.physics.validation import NonNegative, Positive, config_dataclass, jsonable
 
 #: benchmark.csv columns, in order (the spec's section 5; meanings in docs/controllers.md);
@@ -195,7 +196,6 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     from agents.registry import make_controller
     from drill_env.metrics import window_metrics
     from drill_env.physics.layout import RECORD_CHANNELS
-    from drill_env.physics.units import RPM
 
     settings = BenchmarkSettings(**episode.settings)
     controller = make_controller(episode.controller, env_id=episode.env_id)
@@ -386,16 +386,6 @@ def sets_own_speed(name: str, env_id: str | None = None) -> bool:
     return env_id == CHOOSES_RPM and (name == "learned" or name.startswith("learned-"))
 
 
-def _number(fmt: str, value: float) -> str:
-    """``fmt.format(value)``, never a negative zero ("-0.0", "-0%"): a value that rounds
-    to zero is shown as zero."""
-    text = fmt.format(value)
-    if math.isfinite(value) and text.startswith("-") and not any(ch in "123456789"
-                                                                 for ch in text):
-        text = text[1:]
-    return text
-
-
 def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                   scenarios: Sequence[str], env_id: str | None = None) -> list[list[str]]:
     """Per scenario and controller: the mean over seeds (+- the spread when seeds differ);
@@ -412,9 +402,9 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                 if np.isnan(values).all():  # not defined for this controller (a guest's
                     cells.append("-")       # return), or a zero target's rpm error
                     continue
-                text = _number(fmt, float(np.mean(values)))
-                half = _number(fmt, float(np.max(values) - np.min(values)) / 2)
-                if half != _number(fmt, 0.0):  # seeds differ at the shown precision
+                text = shown(fmt, float(np.mean(values)))
+                half = shown(fmt, float(np.max(values) - np.min(values)) / 2)
+                if half != shown(fmt, 0.0):  # seeds differ at the shown precision
                     text += " +-" + half
                 if key == "rpm_tracking_error" and sets_own_speed(c, env_id):
                     text += " " + OWN_SPEED_MARK

@@ -18,7 +18,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from drill_env.physics.units import HOUR, KILO, RPM
+from drill_env.physics.units import HOUR, KILO, RPM, shown
 
 DESCRIPTION = """\
 drill-env: drill-string dynamics, classical top-drive controllers and RL agents.
@@ -96,8 +96,7 @@ def integer(low: int = 0) -> Callable[[str], int]:
 def fixed(value: float, digits: int = 2) -> str:
     """``value`` with ``digits`` decimals, without the sign of a value that rounds to
     zero ("0.00", not "-0.00")."""
-    text = f"{value:.{digits}f}"
-    return text[1:] if text.startswith("-") and not text.strip("-0.") else text
+    return shown(f"{{:.{digits}f}}", value)
 
 
 def counted(n: int, noun: str) -> str:
@@ -160,12 +159,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     env: Any = gym.make(controller.env_id, **kwargs)
     base: Any = env.unwrapped
     cfg = base.config
-    if isinstance(controller, ConstantSetPoints):  # its range, as an error of the option
-        try:
-            controller.check_range(cfg)
-        except ValueError as err:
-            raise argparse.ArgumentTypeError(
-                f"--controller: {str(err).partition(': ')[2]}") from None
+    if isinstance(controller, ConstantSetPoints):
+        in_range(controller, cfg, "--controller")
     # set points given on the command line override the episode's; else the scenario's
     # (a randomised scenario draws them from the seed), also for a task's policy, whose
     # env would draw its own targets
@@ -392,11 +387,16 @@ def check_constant_set_points(controllers: Sequence[str], env_id: str | None) ->
     env_class, kwargs = registered(env_id) if env_id else (DrillStringEnv, {})
     config = env_class(**kwargs).config
     for name in constants:
-        try:
-            ConstantSetPoints.parse(name.partition(":")[2]).check_range(config)
-        except ValueError as err:
-            raise argparse.ArgumentTypeError(
-                f"--controllers: {str(err).partition(': ')[2]}") from None
+        in_range(ConstantSetPoints.parse(name.partition(":")[2]), config, "--controllers")
+
+
+def in_range(constant: Any, config: Any, option: str) -> None:
+    """A :class:`~agents.classical.ConstantSetPoints` outside the action ranges of an
+    env's ``config`` is an error of ``option``, the one it was typed in."""
+    try:
+        constant.check_range(config)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"{option}: {str(err).partition(': ')[2]}") from None
 
 
 def saved_algorithm(run: Path) -> str | None:
@@ -556,9 +556,13 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
 
 def with_overrides(config, path: Path | None):
     """``config`` with the nested overrides of a YAML file merged in (dotted-path errors)."""
+    return _merged(config, read_overrides(path), path)
+
+
+def _merged(config, overrides: dict[str, Any], path: Path | None):
+    """``config`` with the ``overrides`` read from ``path``; a bad field names the file."""
     from drill_env.physics.config import replace
 
-    overrides = read_overrides(path)
     try:
         return replace(config, **overrides) if overrides else config
     except ValueError as err:
@@ -570,9 +574,10 @@ def checked_overrides(path: Path | None, scenarios: Sequence[str]) -> dict[str, 
     bad field fails now, named by its dotted path, not in the first episode."""
     from drill_env.scenarios import make_scenario
 
-    for name in scenarios if path is not None else ():
-        with_overrides(make_scenario(name).config, path)
-    return read_overrides(path)
+    overrides = read_overrides(path)  # the file read once
+    for name in scenarios if overrides else ():
+        _merged(make_scenario(name).config, overrides, path)
+    return overrides
 
 
 def cmd_modes(args: argparse.Namespace) -> int:
@@ -915,6 +920,10 @@ def add_ray_address(p: argparse.ArgumentParser, what: str) -> None:
                         "distributed extra (README: Scaling out on Ray)")
 
 
+#: Library fields whose errors reach the command line, and the option that sets each.
+OPTION_OF_FIELD = {"ray_address": "--ray-address"}
+
+
 def typed_controller(name: str) -> Any:
     """The controller ``--controller`` names; a bad name is an error of that option."""
     from agents.registry import make_controller
@@ -942,10 +951,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         # said as argparse says its own (the command's usage, then the error)
         args.command_parser.error(str(err))
     except (ValueError, OSError) as err:  # a bad value named by the library below
-        said = str(err)
-        if said.startswith("ray_address: "):  # the library's field, the command's option
-            said = "--ray-address: " + said.removeprefix("ray_address: ").replace(
-                "'local' starts", "--ray-address local starts")
+        field, colon, rest = str(err).partition(": ")  # by the option the user typed
+        said = f"{OPTION_OF_FIELD[field]}: {rest}" if colon and field in OPTION_OF_FIELD \
+            else str(err)
         print(f"drill-env {args.command}: error: {said}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -405,8 +405,11 @@ def test_the_tables_show_no_negative_zero(tmp_path, capsys):
     assert not negative_zero.search(text), text
     assert not negative_zero.search(capsys.readouterr().out)
     # a real negative keeps its sign, an infinite one too
-    assert bm._number("{:.1f}", -0.06) == "-0.1"
-    assert bm._number("{:.1f}", -math.inf) == "-inf"
+    from drill_env.physics.units import shown
+
+    assert shown("{:.1f}", -0.06) == "-0.1"
+    assert shown("{:.1f}", -math.inf) == "-inf"
+    assert shown("{:7.1f}", -0.03) == "    0.0"  # a padded column keeps its width
 
 
 def test_a_benchmark_into_a_used_folder_removes_the_old_series_pictures(tmp_path):

@@ -282,17 +282,23 @@ def check_learns(config: TrainConfig, done: int, learnt: bool = False) -> None:
                          f"than {done + warm_up}")
 
 
+def resume_files(run: Path) -> tuple[Path, Path] | None:
+    """(model, VecNormalize statistics) a resume of ``run`` loads: its last checkpoint,
+    else its final model; None if it has neither."""
+    final = (run / "model.zip", run / "vecnormalize.pkl")
+    return latest_checkpoint(run) or (final if all(p.exists() for p in final) else None)
+
+
 def resume_point(run: Path) -> tuple[int, int] | None:
-    """(env steps, gradient steps) of the model a resume of ``run`` would load (its last
-    checkpoint, else its final model), as the model file records them; None if it has
-    none. Reads the zip's ``data`` entry only, not the networks."""
+    """(env steps, gradient steps) of the model a resume of ``run`` would load
+    (:func:`resume_files`), as the model file records them; None if it has none. Reads
+    the zip's ``data`` entry only, not the networks."""
     import zipfile
 
-    latest = latest_checkpoint(run)
-    model = latest[0] if latest is not None else run / "model.zip"
-    if not (model.exists() and (latest is not None or (run / "vecnormalize.pkl").exists())):
+    files = resume_files(run)
+    if files is None:
         return None
-    with zipfile.ZipFile(model) as archive:
+    with zipfile.ZipFile(files[0]) as archive:
         data = json.loads(archive.read("data"))
     return int(data["num_timesteps"]), int(data.get("_n_updates", 0))
 
@@ -319,24 +325,17 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     run.mkdir(parents=True, exist_ok=True)
     saved = run / "config.yaml"
     algo = _algo_class(config.algo)
-    latest = latest_checkpoint(run) if resume else None
-    from_checkpoint = latest is not None  # else from the final model, or from nothing
+    latest = resume_files(run) if resume else None
+    # else from the final model (or from nothing): which records _rewind keeps
+    from_checkpoint = latest is not None and latest[0].name != "model.zip"
     if resume and latest is None:
-        final = (run / "model.zip", run / "vecnormalize.pkl")
-        if all(path.exists() for path in final):
-            latest = final
-        else:
-            print(f"resume: nothing to resume in {run} yet (no checkpoint, no final model): "
-                  "training from the start")
+        print(f"resume: nothing to resume in {run} yet (no checkpoint, no final model): "
+              "training from the start")
     env = make_train_env(config, config.seed)
-    if latest is not None:
+    if latest is not None:  # its steps are below n_timesteps: check_run_folder said so
         model_path, norm_path = latest
         env = VecNormalize.load(str(norm_path), env.venv)
         model = algo.load(str(model_path), env=env, tensorboard_log=str(run / "tb"))
-        if model.num_timesteps >= config.n_timesteps:
-            env.close()
-            raise ValueError(f"--timesteps: {run} has done {model.num_timesteps} env steps "
-                             f"already; give more than that to continue it")
         if hasattr(model, "learning_starts"):  # SAC: the replay buffer is not saved,
             # so it warms up again as at the start (learning_starts steps) before the
             # first gradient step: else the first updates sample 256 transitions from the

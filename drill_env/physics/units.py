@@ -18,3 +18,15 @@ KILO = 1.0e3
 HOUR = 3600.0
 #: Standard gravity (m/s^2).
 GRAVITY = 9.81
+
+
+def shown(fmt: str, value: float) -> str:
+    """``fmt.format(value)`` for a table or the console, never a negative zero ("-0.0",
+    "-0%"): a finite value that rounds to zero is shown as zero, in the same width if
+    ``fmt`` pads; -inf keeps its sign."""
+    text = fmt.format(value)
+    pad = len(text) - len(text.lstrip())
+    if math.isfinite(value) and text[pad:].startswith("-") and not any(
+            ch in "123456789" for ch in text):
+        text = " " + text[:pad] + text[pad + 1:] if pad else text[1:]
+    return text

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from drill_env.physics.config import FormationConfig, SimulationConfig, SolverConfig
-from drill_env.physics.units import HOUR, KILO, RPM
+from drill_env.physics.units import HOUR, KILO, RPM, shown
 from drill_env.scenarios import HARD
 from drill_env.tools.studies import COL, simulate, stick_slip_summary
 
@@ -49,9 +49,7 @@ def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]],
         bit = window[:, COL["bit_speed"]]
         rows.append({
             "rpm": rpm, "wob_kN": DEMO_WOB / KILO, **stick_slip_summary(run, DEMO_SECONDS / 2),
-            # a stuck bit creeps back by hundredths of an rpm: the table rounds first, then
-            # adds 0.0, so that shows 0.0, not -0.0
-            "bit_rpm_min": float(bit.min() / RPM),
+            "bit_rpm_min": float(bit.min() / RPM),  # a stuck bit may creep back a little
             "bit_rpm_max": float(bit.max() / RPM),
             "mean_tob_kNm": float(window[:, COL["torque_on_bit"]].mean() / KILO),
             "rop_m_per_h": float(window[:, COL["rop"]].mean() * HOUR),
@@ -65,7 +63,7 @@ def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]],
     echo("-" * len(header))
     for r in rows:
         echo(f"{r['rpm']:5.0f} {r['ssi']:6.2f} {r['stuck_fraction']:6.2f} "
-             f"{round(r['bit_rpm_min'], 1) + 0.0:7.1f} - {r['bit_rpm_max']:6.1f} "
+             f"{shown('{:7.1f}', r['bit_rpm_min'])} - {r['bit_rpm_max']:6.1f} "
              f"{r['mean_tob_kNm']:9.2f} "
              f"{r['rop_m_per_h']:8.2f} {r['real_time_factor']:11.0f}")
     verdict = rows[0]["ssi"] > 0.8 and rows[1]["ssi"] < 0.2
