@@ -269,6 +269,9 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         "mse_MPa": m["mse"] / 1e6, "top_drive_energy_MJ": m["top_drive_energy"] / 1e6,
         # a guest's return is its task's reward, not DrillString-v0's: not comparable
         "episode_return": math.nan if guest else total, "termination": reason,
+        # judged in the env it acted in: a drilling-task policy chooses the rpm in a
+        # scenario benchmark too, as a guest (not a benchmark.csv column)
+        "own_speed": sets_own_speed(episode.label, env_id),
     }
     if episode.series:
         series_dir = Path(episode.out) / "series"
@@ -389,7 +392,8 @@ def sets_own_speed(name: str, env_id: str | None = None) -> bool:
 def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                   scenarios: Sequence[str], env_id: str | None = None) -> list[list[str]]:
     """Per scenario and controller: the mean over seeds (+- the spread when seeds differ);
-    the rpm error of a controller that sets its own speed in ``env_id`` is marked."""
+    the rpm error of a controller that sets its own speed is marked (the rows' ``own_speed``,
+    judged in the env each acted in; rows without it: in ``env_id``)."""
     table = []
     for s in scenarios:
         for c in controllers:
@@ -406,7 +410,8 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                 half = shown(fmt, float(np.max(values) - np.min(values)) / 2)
                 if half != shown(fmt, 0.0):  # seeds differ at the shown precision
                     text += " +-" + half
-                if key == "rpm_tracking_error" and sets_own_speed(c, env_id):
+                if key == "rpm_tracking_error" and any(
+                        r.get("own_speed", sets_own_speed(c, env_id)) for r in sel):
                     text += " " + OWN_SPEED_MARK
                 cells.append(text)
             table.append(cells)

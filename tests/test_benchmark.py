@@ -390,6 +390,25 @@ def test_the_rpm_error_of_a_controller_that_sets_its_own_speed_is_marked(tmp_pat
     assert bm.OWN_SPEED_MARK not in (tmp_path / "benchmark.md").read_text()  # no footnote
 
 
+def test_a_drilling_policy_is_marked_as_a_guest_in_a_scenario_benchmark():
+    """Whether a controller chose its own rpm is judged in the env it acted in: the drilling
+    task's policy does so as a guest in a benchmark of DrillString-v0 scenarios too, the
+    stick-slip task's policy and a tracking controller do not."""
+    from agents.learned import TRAINED
+
+    names = [f"learned:{TRAINED / 'drilling'}", "learned", "stiff"]
+    rows = {}
+    for name, table_name in zip(names, bm.labels(names), strict=True):
+        episode = bm.Episode(name, "stick_slip", 0, vars(SHORT), "unused", name=table_name)
+        rows[table_name] = bm.run_episode(episode)
+    assert {n: r["own_speed"] for n, r in rows.items()} == {
+        "learned-drilling": True, "learned": False, "stiff": False}
+    table = bm.summary_table(list(rows.values()), list(rows), ["stick_slip"])
+    error = [h for _, h, _ in bm.SUMMARY].index("rpm error") + 3
+    marked = {r[1]: r[error].endswith(bm.OWN_SPEED_MARK) for r in table}
+    assert marked == {"learned-drilling": True, "learned": False, "stiff": False}
+
+
 def test_the_tables_show_no_negative_zero(tmp_path, capsys):
     """A mean that rounds to zero from below is shown as 0.0 (or 0%), never -0.0."""
     import re
