@@ -362,7 +362,18 @@ def cmd_train(args: argparse.Namespace) -> int:
         config = saved_run_config(saved, args.task, args.algo, n_timesteps=args.timesteps,
                                   n_envs=args.n_envs, seed=args.seed)
     check_run_folder(run, args.resume, args.overwrite, config)  # before announcing
-    print(f"training {config.algo.upper()} on {config.env_id}: {config.n_timesteps} env steps, "
+    steps = f"{config.n_timesteps} env steps"
+    if config.algo == "ppo":
+        import inspect
+
+        from stable_baselines3 import PPO
+
+        n_steps = inspect.signature(PPO).parameters["n_steps"].default  # SB3's default
+        rollout = int(config.hyperparams.get("n_steps", n_steps)) * config.n_envs
+    if config.algo == "ppo" and config.n_timesteps % rollout:
+        whole = -(-config.n_timesteps // rollout) * rollout
+        steps += f" (PPO collects whole rollouts of {rollout}: {whole})"
+    print(f"training {config.algo.upper()} on {config.env_id}: {steps}, "
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
     t0 = time.perf_counter()
     model = train(config, run, resume=args.resume, progress=not args.no_progress,
@@ -502,9 +513,10 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     # lasts longer than the string's first torsional period
     period = 1.0 / float(torsional_modes(sm.map_config(names[0])).frequency[0])
     if args.seconds < 2.0 * period:
+        least = math.ceil(20.0 * period) / 10.0  # two periods, rounded up to what is shown
         raise argparse.ArgumentTypeError(
             f"--seconds: {args.seconds:g} s is too short to tell stick-slip: the string's "
-            f"first torsional period is {period:.1f} s; give at least {2.0 * period:.1f} s "
+            f"first torsional period is {period:.2f} s; give at least {least:.1f} s "
             f"(stick-slip can take ~25 s to grow from the kick: the default "
             f"{sm.DEFAULT_SETTINGS.seconds:g} s lets it)")
     settings = sm.MapSettings(seconds=args.seconds,
@@ -560,11 +572,12 @@ def with_overrides(config, path: Path | None):
 
 
 def _merged(config, overrides: dict[str, Any], path: Path | None):
-    """``config`` with the ``overrides`` read from ``path``; a bad field names the file."""
-    from drill_env.physics.config import replace
+    """``config`` with the ``overrides`` read from ``path`` (the bit kept at the bottom of
+    the string: :func:`~drill_env.scenarios.with_physics`); a bad field names the file."""
+    from drill_env.scenarios import with_physics
 
     try:
-        return replace(config, **overrides) if overrides else config
+        return with_physics(config, overrides)
     except ValueError as err:
         raise ValueError(f"--config {path}: {err}") from None
 

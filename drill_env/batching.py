@@ -41,6 +41,7 @@ from drill_env.physics.batch import (
 from drill_env.physics.jit import claim
 from drill_env.physics.readings import advance_and_read
 from drill_env.physics.simulator import Simulator
+from drill_env.physics.validation import numbers
 
 __all__ = ["BatchArrays", "EnvBatch", "step_all", "step_arrays", "step_batch", "step_many"]
 
@@ -338,7 +339,7 @@ def apply_actions(envs: Sequence[DrillStringEnv], actions: np.ndarray,
 
 def check_actions(actions: np.ndarray, n: int, size: int = 2) -> np.ndarray:
     """``actions`` as a float64 (n, size) array; ValueError naming a non-finite one."""
-    a = np.asarray(actions, dtype=np.float64)
+    a = numbers(actions, "actions")
     if a.shape != (n, size):
         raise ValueError(f"actions: expected shape ({n}, {size}), got {a.shape}")
     if np.isfinite(a.sum()):  # one reduction for the usual case; a sum that overflows

@@ -43,7 +43,15 @@ from drill_env.physics.config import (
 from drill_env.physics.layout import N_READINGS, READINGS, RECORD_CHANNELS
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
-from drill_env.scenarios import RANDOMISED, Scenario, make_scenario, scenario_parameters
+from drill_env.physics.validation import numbers
+from drill_env.scenarios import (
+    RANDOMISED,
+    Scenario,
+    check_draws,
+    make_scenario,
+    scenario_parameters,
+    with_physics,
+)
 
 ACTION_MODES = ("absolute", "incremental")
 SENSORS = ("downhole", "surface")
@@ -223,7 +231,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
       passed as a keyword (``episode_duration=5.0``, ``action_mode="incremental"``,
       ``stick_slip_weight=2.0``, ...);
     - ``physics``: dotted-path overrides of the scenario's ``SimulationConfig``, e.g.
-      ``{"mud.density": 1300.0, "top_drive.proportional_gain": 2e3}``;
+      ``{"mud.density": 1300.0, "top_drive.proportional_gain": 2e3}``; a string of
+      another length keeps the bit at its bottom (``scenarios.with_physics``);
     - ``bit_model``: "mesoscopic" (default) or "macroscopic";
     - ``fidelity``: "full" (default) or "fast" (``solver.fidelity``: drill pipe held
       laterally straight on 20 m elements, 4 ms step, ~5x faster; valid while the pipe is
@@ -284,6 +293,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
         # Build (and validate) the physics now; randomised scenarios redraw at reset.
         self.scenario: Scenario = self._build_scenario(np.random.default_rng(0))
+        check_draws(scenario, self.scenario.config, self.physics_overrides)
         self._set_simulator(Simulator(self.scenario.config))
         self._init_episode_state()
 
@@ -292,14 +302,20 @@ class DrillStringEnv(BatchFinish, gym.Env):
     def _build_scenario(self, rng: np.random.Generator) -> Scenario:
         scenario = make_scenario(self.scenario_name, rng=rng, **self.scenario_params)
         if self.physics_overrides:
-            config = replace(scenario.config, **self.physics_overrides)
+            config = with_physics(scenario.config, self.physics_overrides)
             scenario = dataclasses.replace(scenario, config=config)
         return scenario
 
     def _set_simulator(self, sim: Simulator) -> None:
         self.sim = sim
         cfg = self.config
-        self._steps_per_action = max(1, round(cfg.control_interval / sim.dt))
+        self._steps_per_action = round(cfg.control_interval / sim.dt)
+        if self._steps_per_action < 1:  # not silently one step: the policy's period changes
+            raise ValueError(f"control_interval: {cfg.control_interval:g} s is shorter than "
+                             f"half the simulator's step ({sim.dt:.3g} s)")
+        if round(self.episode_duration / self.control_interval) < 1:
+            raise ValueError(f"episode_duration: {self.episode_duration:g} s is shorter than "
+                             f"half a control interval ({self.control_interval:g} s)")
         self._record_every = even_record_every(self._steps_per_action, cfg.record_every)
         records = self._steps_per_action // self._record_every
         if records > MAX_RECORDS_PER_STEP:
@@ -466,7 +482,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         if type(action) is np.ndarray and action.shape == (2,) and action.dtype.char in "fd":
             a0, a1 = action.tolist()  # the usual float32 policy output, exactly as float64
         else:
-            a = np.asarray(action, dtype=np.float64).reshape(-1)
+            a = numbers(action, "action").reshape(-1)
             if a.shape != (2,):
                 raise ValueError(f"action: expected shape (2,), got {np.shape(action)}")
             a0, a1 = a.tolist()

@@ -36,8 +36,8 @@ from __future__ import annotations
 
 import inspect
 import math
-from collections.abc import Callable
-from typing import Annotated, Literal
+from collections.abc import Callable, Mapping
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -210,6 +210,30 @@ def _bit_depth(config: SimulationConfig) -> float:
     return config.initial_depth if config.initial_depth is not None else config.string.length
 
 
+def with_physics(config: SimulationConfig, overrides: Mapping[str, Any]) -> SimulationConfig:
+    """A scenario's ``config`` with dotted physics ``overrides`` (a user's ``physics=`` or
+    ``--config``), its bit kept at the bottom of its string.
+
+    A scenario puts the bit face at the bottom of its string (``initial_depth``, a lead
+    above it in the crossing cases) and its rock layers where they are relative to the
+    bit. When the overrides change the string's length, the bit depth and the layer
+    interfaces move by the same amount, as ``string_length=`` would have placed them,
+    unless the overrides set ``initial_depth`` or the interfaces themselves.
+    """
+    changed = replace(config, **overrides) if overrides else config
+    shift = changed.string.length - config.string.length
+    if shift == 0.0 or "initial_depth" in overrides:
+        return changed
+    moved: dict[str, Any] = {}
+    if changed.initial_depth is not None:
+        moved["initial_depth"] = changed.initial_depth + shift
+    if not any(key == "formation" or key.startswith("formation.interfaces")
+               for key in overrides):
+        moved["formation.interfaces"] = tuple(
+            replace(i, depth=i.depth + shift) for i in changed.formation.interfaces)
+    return replace(changed, **moved)
+
+
 def sandwich(bit: BitConfig, middle: RockConfig, bit_depth: float, position: str,
              thickness: float = 1.0, dip: float = 45.0, azimuth: float = 0.0,
              hard: RockConfig = HARD) -> FormationConfig:
@@ -310,7 +334,14 @@ def _deviated_scenario(name: str, description: str) -> Callable[..., Scenario]:
         from drill_env.well import WELLS, with_survey
 
         sc = default(surface_speed, weight_on_bit, episode_duration, string_length)
-        cfg = with_survey(sc.config, WELLS[name](_bit_depth(sc.config) + 100.0))
+        depth = _bit_depth(sc.config)
+        try:
+            survey = WELLS[name](depth + 100.0)
+        except ValueError as err:  # the profile's curves do not fit above the bit
+            raise ValueError(f"string_length: the {name} survey is drilled to 100 m below "
+                             f"the bit, here at {depth:g} m, and "
+                             f"{str(err).partition(': ')[2]}: give a longer string") from None
+        cfg = with_survey(sc.config, survey)
         return Scenario(name, cfg, surface_speed, weight_on_bit, episode_duration,
                         description)
 
@@ -420,11 +451,15 @@ def _jitter(rng: np.random.Generator, rock: RockConfig, name: str) -> RockConfig
                       post_founder_slope=rock.post_founder_slope)
 
 
+#: The random scenario's starting WOB is drawn in this range (N) by default.
+RANDOM_WEIGHT_ON_BIT_RANGE = (50.0e3, 130.0e3)
+
+
 @validated
 def random(rng: np.random.Generator | None = None,
            string_length_range: tuple[StringLengthValue, StringLengthValue] = (900.0, 1600.0),
            rpm_range: tuple[Rpm, Rpm] = (40.0, 160.0),
-           weight_on_bit_range: tuple[WeightOnBit, WeightOnBit] = (50.0e3, 130.0e3),
+           weight_on_bit_range: tuple[WeightOnBit, WeightOnBit] = RANDOM_WEIGHT_ON_BIT_RANGE,
            episode_duration: Duration = DEFAULT_EPISODE_DURATION) -> Scenario:
     """Randomised training distribution, drawn from ``rng`` (the env passes ``np_random``).
 
@@ -489,6 +524,26 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
 
 #: Scenarios drawn anew from the env's RNG at every reset.
 RANDOMISED = frozenset({"random"})
+
+
+def check_draws(name: str, config: SimulationConfig, overrides: Mapping[str, Any]) -> None:
+    """Refuse physics ``overrides`` under which a randomised scenario would buckle its pipe
+    at some later reset, not only at the first: its starting WOB is drawn up to the top of
+    :data:`RANDOM_WEIGHT_ON_BIT_RANGE`, and the pipe's compression there is set by what
+    every draw shares (BHA, heavy-weight pipe, bit, mud: ``config`` is one draw with the
+    overrides), not by the drawn pipe length."""
+    if name not in RANDOMISED or not overrides or not config.solver.lateral:
+        return
+    top = RANDOM_WEIGHT_ON_BIT_RANGE[1]
+    buckled = pipe_buckling(config, top)
+    if buckled:
+        b = buckled[0]
+        raise ValueError(
+            f"physics: with {', '.join(sorted(overrides))} the {name} scenario's starting "
+            f"WOB, drawn up to {top / 1e3:.0f} kN at each reset, would compress the "
+            f"{b.component} by {b.compression / 1e3:.1f} kN, beyond its buckling load "
+            f"{b.buckling_load / 1e3:.1f} kN: lighten the mud or make the BHA heavier "
+            "(string.components)")
 
 
 def scenario_parameters(name: str) -> tuple[str, ...]:

@@ -54,7 +54,7 @@ from drill_env.physics.layout import R
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass, jsonable
-from drill_env.scenarios import POSITIONS, make_scenario
+from drill_env.scenarios import POSITIONS, make_scenario, with_physics
 from drill_env.sweep import ResultStore, digest, make_executor, source_digest
 
 #: The paper's grid: 0-250 rpm and 0-200 kN in steps of 5 rpm / 5 kN (0 itself is
@@ -220,8 +220,7 @@ def stability_map(position: str, rpm: Sequence[float], weight_on_bit: Sequence[f
 def map_config(position: str, physics: dict[str, Any] | None = None):
     """``paper_case1`` at ``position``, with dotted physics overrides (a controller's
     top drive: ``{"top_drive.controller": "z_torque"}``)."""
-    config = make_scenario("paper_case1", position=position).config
-    return replace(config, **physics) if physics else config
+    return with_physics(make_scenario("paper_case1", position=position).config, physics or {})
 
 
 def _point_task(args: tuple) -> dict[str, float]:

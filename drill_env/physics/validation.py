@@ -254,6 +254,15 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
     return kwargs
 
 
+def numbers(value: Any, name: str) -> np.ndarray:
+    """``value`` (an action, say) as a float64 array; ValueError naming ``name`` when it
+    is not numbers (strings, None, ragged lists)."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{name}: expected numbers, got {value!r} ({err})") from None
+
+
 def replace(config: T, **changes: Any) -> T:
     """``dataclasses.replace`` with dotted paths: ``replace(c, **{"mud.density": 1.1e3})``.
 

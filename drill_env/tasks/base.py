@@ -33,7 +33,13 @@ class TaskEnv(DrillStringEnv):
     def __init__(self, scenario: str, task: Any, **kwargs: Any) -> None:
         fields = {f.name for f in dataclasses.fields(self.task_class)}
         given = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
-        base = task if isinstance(task, self.task_class) else self.task_class(**(task or {}))
+        if isinstance(task, self.task_class):
+            base = task
+        elif task is None or isinstance(task, dict):
+            base = self.task_class(**(task or {}))
+        else:
+            raise ValueError(f"task: expected a {self.task_class.__name__} or a dict of its "
+                             f"fields, got {type(task).__name__}")
         self.task = replace(base, **given) if given else base
         for key, value in self.env_defaults.items():
             if key != "scenario":

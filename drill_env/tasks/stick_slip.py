@@ -12,7 +12,13 @@ from pydantic import Field
 from drill_env.metrics import Metric
 from drill_env.physics.layout import READ
 from drill_env.physics.units import RPM
-from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass
+from drill_env.physics.validation import (
+    Count,
+    NonNegative,
+    Positive,
+    config_dataclass,
+    numbers,
+)
 from drill_env.tasks.base import TaskEnv
 from drill_env.tasks.telemetry import TelemetryKind
 
@@ -211,7 +217,7 @@ class StickSlipEnv(TaskEnv):
         return np.array([min(max(a, -1.0), 1.0)], dtype=np.float32)
 
     def apply_action(self, action) -> None:
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        a = numbers(action, "action").reshape(-1)
         if a.shape != (1,):
             raise ValueError(f"action: expected shape (1,), got {np.shape(action)}")
         value = float(a[0])

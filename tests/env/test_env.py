@@ -217,6 +217,21 @@ def test_non_finite_action_raises_naming_the_action(bad):
         env.unwrapped.step(np.array([0.0, bad]))
 
 
+@pytest.mark.parametrize("env_id, bad", [
+    ("DrillString-v0", np.array(["a", "b"])), ("DrillString-v0", {"rpm": 1.0}),
+    ("DrillStickSlip-v0", "x"), ("DrillOptimise-v0", [[1.0], [2.0, 3.0]])])
+def test_an_action_that_is_not_numbers_raises_naming_the_action(env_id, bad):
+    env = gym.make(env_id, episode_duration=2.0)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action: expected numbers"):
+        env.unwrapped.step(bad)
+
+
+def test_a_task_config_of_the_wrong_type_is_named():
+    with pytest.raises(ValueError, match="task: expected a StickSlipTask or a dict"):
+        gym.make("DrillStickSlip-v0", task=[1, 2])
+
+
 def test_unknown_scenario_lists_the_known_ones():
     with pytest.raises(ValueError, match="paper_case1"):
         gym.make("DrillString-v0", scenario="moon_rock")
@@ -238,6 +253,10 @@ def test_unknown_keyword_is_named():
     ({"sensors": "psychic"}, "sensors"),
     ({"scenario": "paper_case1", "position": "P9"}, "position"),
     ({"episode_duration": -1.0}, "episode_duration"),
+    # faster than half the solver's step (2 ms): it would act every step, not at 1 us
+    ({"control_interval": 1e-6}, "control_interval: 1e-06 s is shorter than half"),
+    # shorter than half its one step: it would run 60 s, not 1 s
+    ({"control_interval": 60.0, "episode_duration": 1.0}, "episode_duration: 1 s"),
 ])
 def test_inconsistent_configuration_raises_naming_the_field(kwargs, name):
     with pytest.raises(ValueError, match=name):

@@ -56,6 +56,81 @@ def test_string_length_changes_element_length_not_count():
         scenarios.default(string_length=20.0)
 
 
+def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
+    """A longer or shorter string given as physics overrides (a user's ``physics=`` or
+    ``--config``) puts the bit and the scenario's layers where ``string_length=`` would
+    have: the same total length, the same bit depth (a crossing case's lead above the
+    bottom kept) and the same interfaces relative to the bit."""
+    for name in ("default", "paper_case2", "random"):
+        rng = np.random.default_rng(3)
+        base = scenarios.make_scenario(name, rng=rng).config
+        pipe = base.string.drill_pipe.length
+        for extra in (-400.0, 700.0):
+            changed = scenarios.with_physics(
+                base, {"string.drill_pipe.length": pipe + extra})
+            length = base.string.length + extra
+            assert changed.string.length == pytest.approx(length)
+            if name == "random":  # the same draw on a string of the new length
+                expected = scenarios.random(np.random.default_rng(3),
+                                            string_length_range=(length, length)).config
+            else:
+                expected = scenarios.make_scenario(name, string_length=length).config
+            assert changed.initial_depth == pytest.approx(expected.initial_depth)
+            assert [i.depth for i in changed.formation.interfaces] == pytest.approx(
+                [i.depth for i in expected.formation.interfaces])
+            assert [i.depth - changed.initial_depth for i in changed.formation.interfaces] \
+                == pytest.approx([i.depth - base.initial_depth
+                                  for i in base.formation.interfaces])
+    # what the overrides set themselves is kept
+    base = scenarios.make_scenario("paper_case2").config
+    own = scenarios.with_physics(base, {"string.drill_pipe.length": 500.0,
+                                        "initial_depth": 400.0})
+    assert own.initial_depth == 400.0
+    assert own.formation.interfaces == base.formation.interfaces
+    assert scenarios.with_physics(base, {"mud.density": 1100.0}).initial_depth \
+        == base.initial_depth
+
+
+def test_the_env_reports_the_depth_of_a_string_read_from_yaml():
+    import gymnasium as gym
+
+    from drill_env.physics.validation import read_yaml
+
+    root = __import__("pathlib").Path(__file__).parents[2]
+    env = gym.make("DrillString-v0",
+                   physics=read_yaml(root / "examples/field_well_string.yaml"))
+    _, info = env.reset(seed=0)
+    assert info["depth"] == pytest.approx(env.unwrapped.scenario.config.string.length)
+    assert info["depth"] == pytest.approx(2500.0)  # the file's string, bit to top
+
+
+def test_a_deviated_scenario_names_a_string_too_short_for_its_well():
+    with pytest.raises(ValueError, match=r"string_length: the j_shaped survey .* last curve "
+                                         r"\(950.0 m\)"):
+        scenarios.make_scenario("j_shaped", string_length=600.0)
+    assert scenarios.make_scenario("j_shaped", string_length=900.0).config.string.length \
+        == pytest.approx(900.0)
+
+
+def test_overrides_that_would_buckle_a_random_draw_are_refused_at_make():
+    """The random scenario draws its starting WOB up to 130 kN at every reset: a heavy mud
+    that leaves too little buoyed BHA weight to carry it is refused when the env is made,
+    not at the reset of some later seed. Independent check of the limit: Lubinski's
+    buckling load of the 5 in HWDP against its compression at 130 kN."""
+    import gymnasium as gym
+
+    from drill_env.physics.statics import pipe_buckling
+
+    config = scenarios.make_scenario("random", rng=np.random.default_rng(0)).config
+    heavy = scenarios.with_physics(config, {"mud.density": 1800.0})
+    assert pipe_buckling(heavy, 130.0e3) and not pipe_buckling(heavy, 110.0e3)
+    with pytest.raises(ValueError, match=r"physics: with mud.density.* drawn up to 130 kN"):
+        gym.make("DrillStickSlip-v0", physics={"mud.density": 1800.0})
+    env = gym.make("DrillStickSlip-v0", physics={"mud.density": 1500.0})
+    for seed in range(40):
+        env.reset(seed=seed)
+
+
 def test_random_scenario_is_reproducible_and_keeps_array_shapes():
     draws = [scenarios.random(np.random.default_rng(s)) for s in range(6)]
     again = [scenarios.random(np.random.default_rng(s)) for s in range(6)]

@@ -148,6 +148,8 @@ def test_nan_action_in_a_batch_names_the_env():
     actions[2, 1] = np.nan
     with pytest.raises(ValueError, match="env 2"):
         envs.step(actions)
+    with pytest.raises(ValueError, match="actions: expected numbers"):
+        envs.step([["fast", "heavy"]] * N)
 
 
 def test_vector_env_pickles():
