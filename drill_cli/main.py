@@ -336,7 +336,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from training.config import load_config
-    from training.train import check_run_folder, holds_run, train
+    from training.train import check_run_folder, holds_run, planned_steps, train
 
     if args.name is not None and (not args.name.strip() or args.name in (".", "..")
                                   or any(c in args.name for c in "/\\")):
@@ -362,17 +362,10 @@ def cmd_train(args: argparse.Namespace) -> int:
         config = saved_run_config(saved, args.task, args.algo, n_timesteps=args.timesteps,
                                   n_envs=args.n_envs, seed=args.seed)
     check_run_folder(run, args.resume, args.overwrite, config)  # before announcing
-    steps = f"{config.n_timesteps} env steps"
-    if config.algo == "ppo":
-        import inspect
-
-        from stable_baselines3 import PPO
-
-        n_steps = inspect.signature(PPO).parameters["n_steps"].default  # SB3's default
-        rollout = int(config.hyperparams.get("n_steps", n_steps)) * config.n_envs
-    if config.algo == "ppo" and config.n_timesteps % rollout:
-        whole = -(-config.n_timesteps // rollout) * rollout
-        steps += f" (PPO collects whole rollouts of {rollout}: {whole})"
+    planned = planned_steps(config)
+    steps = f"{planned} env steps" + (f" ({config.n_timesteps} asked for, rounded up to a "
+                                      "whole PPO rollout)" if planned != config.n_timesteps
+                                      else "")
     print(f"training {config.algo.upper()} on {config.env_id}: {steps}, "
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
     t0 = time.perf_counter()

@@ -14,7 +14,7 @@ from agents.learned import LearnedController
 from agents.registry import make_controller
 from drill_cli.main import main
 from training.config import load_config
-from training.train import train
+from training.train import planned_steps, train
 
 
 def tiny_config(**overrides):
@@ -157,8 +157,13 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
     said = capsys.readouterr()
     assert "has done 2048 env steps" in said.err and "training PPO" not in said.out
     assert yaml.safe_load((copy / "config.yaml").read_text())["n_timesteps"] == 2048
-    train(replace(cfg, n_timesteps=2560), copy, resume=True, progress=False)
+    # PPO runs whole rollouts (128 x 4 here): 2300 steps end at 2560
+    longer = replace(cfg, n_timesteps=2300)
+    train(longer, copy, resume=True, progress=False)
     assert "nothing to resume" not in capsys.readouterr().out
+    done = json.loads((copy / "run.json").read_text())["env_steps"]
+    assert done == planned_steps(longer) == 2560
+    assert planned_steps(replace(load_config("stick_slip", "sac"), n_timesteps=2300)) == 2300
     # nothing at all to resume: said, then trained from the start
     fresh = tmp_path / "fresh"
     small = tiny_config(n_timesteps=512, eval_freq=10_000, checkpoint_freq=10_000)

@@ -49,6 +49,18 @@ def _algo_class(name: str) -> Any:
     return {"ppo": PPO, "sac": SAC}[name]
 
 
+def planned_steps(config: TrainConfig) -> int:
+    """The env steps a run of ``config`` ends at: ``n_timesteps``, except that SB3's PPO
+    stops only after a whole rollout of ``n_steps`` x ``n_envs``, so it rounds up."""
+    if config.algo != "ppo":
+        return config.n_timesteps
+    import inspect
+
+    default = inspect.signature(_algo_class("ppo")).parameters["n_steps"].default
+    rollout = int(config.hyperparams.get("n_steps", default)) * config.n_envs
+    return -(-config.n_timesteps // rollout) * rollout
+
+
 def make_train_env(config: TrainConfig, seed: int) -> Any:
     """The batched training VecEnv, seeded, wrapped in VecNormalize."""
     from stable_baselines3.common.vec_env import VecNormalize
