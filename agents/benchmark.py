@@ -65,6 +65,10 @@ class BenchmarkSettings:
     #: merged into every episode's scenario, under each controller's own top drive:
     #: what ``drill-env benchmark --config FILE`` reads from YAML.
     physics: dict[str, Any] = Field(default_factory=dict)
+    #: A task benchmark's env keywords, the same for every controller: by default those
+    #: its learned policies were trained with (:func:`task_settings`: reward weights,
+    #: targets, telemetry, physics), so that every return and metric comes from one task.
+    env_kwargs: dict[str, Any] = Field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.warmup >= self.duration:
@@ -170,6 +174,34 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
     return digest.hexdigest()[:12]
 
 
+#: Env keywords every benchmark episode sets itself (from :class:`BenchmarkSettings`).
+SET_BY_BENCHMARK = frozenset({"scenario", "episode_duration", "start_kick", "fidelity",
+                              "startup"})
+
+
+def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
+    """The env keywords of task ``env_id`` that the learned ``controllers`` were trained
+    with, less those the benchmark sets: what every controller of a task benchmark acts
+    under, so that the classical controllers are scored by the policies' reward, on their
+    physics. Policies trained under different ones cannot share a table: ValueError."""
+    from agents.learned import trained_env_kwargs
+    from drill_env.physics.config import flatten
+
+    seen: dict[str, dict[str, Any]] = {}
+    for name in controllers:
+        if name == "learned" or name.startswith("learned:"):
+            kwargs = trained_env_kwargs(name.partition(":")[2] or None, env_id)
+            if "physics" in kwargs:
+                kwargs["physics"] = flatten(kwargs["physics"] or {})
+            seen[name] = {k: v for k, v in kwargs.items() if k not in SET_BY_BENCHMARK}
+    kinds = {json.dumps(jsonable(v), sort_keys=True) for v in seen.values()}
+    if len(kinds) > 1:
+        listed = "; ".join(f"{n}: {v or 'the defaults'}" for n, v in seen.items())
+        raise ValueError(f"controllers: the policies were trained on different {env_id} "
+                         f"settings ({listed}); benchmark them apart")
+    return next(iter(seen.values()), {})
+
+
 def scenario_set_points(scenario: str, seed: int) -> dict[str, float]:
     """The set points (``surface_speed`` rad/s, ``weight_on_bit`` N) at which
     ``DrillString-v0`` starts episode ``seed`` of ``scenario``: the driller's, at which the
@@ -195,18 +227,24 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     import drill_env  # noqa: F401  (registers the env ids)
     from agents.registry import make_controller
     from drill_env.metrics import window_metrics
+    from drill_env.physics.config import flatten
     from drill_env.physics.layout import RECORD_CHANNELS
 
     settings = BenchmarkSettings(**episode.settings)
     controller = make_controller(episode.controller, env_id=episode.env_id)
-    env_kwargs = dict(getattr(controller, "env_kwargs", dict)())
+    if episode.env_id is not None:  # a task benchmark: one task for every controller
+        env_kwargs = dict(settings.env_kwargs)
+    else:  # a guest policy's own keywords (its observation), under the benchmark's physics
+        env_kwargs = dict(getattr(controller, "env_kwargs", dict)())
+        env_kwargs.pop("physics", None)
+    physics = {**flatten(env_kwargs.pop("physics", None) or {}), **settings.physics,
+               **controller.physics()}
     env_id = episode.env_id or controller.env_id
     if controller.rate == "policy" and controller.env_id != env_id \
             and controller.name == "learned":
         raise ValueError(f"{episode.controller}: a policy trained on {controller.env_id} "
                          f"cannot act in {env_id}")
-    # the policy's own env keywords (what shapes its observation), under the
-    # benchmark's episode settings, which are the same for every controller
+    # under the benchmark's episode settings, which are the same for every controller
     env_kwargs.update(scenario=episode.scenario, episode_duration=settings.duration,
                       start_kick=settings.start_kick, fidelity=settings.fidelity)
     # a task's policy within a benchmark of DrillString-v0 scenarios acts in its task's
@@ -214,8 +252,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     guest = episode.env_id is None and env_id != "DrillString-v0"
     if guest:
         env_kwargs["startup"] = "settled"
-    env: Any = gym.make(env_id, physics={**settings.physics, **controller.physics()},
-                        **env_kwargs)
+    env: Any = gym.make(env_id, physics=physics, **env_kwargs)
     if episode.record:
         from drill_env.recording import RecordEpisode
 
@@ -316,6 +353,9 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     from drill_env.sweep import ResultStore, make_executor
 
     settings = settings or BenchmarkSettings()
+    if env_id is not None:  # the policies' task settings, unless the caller gave its own
+        settings = dataclasses.replace(settings, env_kwargs={
+            **task_settings(controllers, env_id), **settings.env_kwargs})
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))
@@ -438,9 +478,12 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
     env_class, kwargs = registered(env_id)
     startup = kwargs.get("startup") or getattr(env_class, "env_defaults", {}).get(
         "startup", "settled")
+    trained = ", ".join(f"{k} {v}" for k, v in sorted(settings.env_kwargs.items()))
     return (f"{settings.duration:g} s episodes of {env_id}: its own start ({startup}) and "
             f"targets, drawn from each seed (and changed during the episode where the task "
-            f"does), the same for every controller of a seed; {window}")
+            f"does), the same for every controller of a seed"
+            + (f"; every controller under the task settings the policies were trained "
+               f"with ({trained})" if trained else "") + f"; {window}")
 
 
 def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequence[str],

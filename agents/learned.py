@@ -90,6 +90,14 @@ def policy_folder(path: str | Path | None = None, env_id: str | None = None) -> 
     return TRAINED / task
 
 
+def trained_env_kwargs(path: str | Path | None = None, env_id: str | None = None
+                       ) -> dict[str, Any]:
+    """The env keywords a policy was trained with (its run's ``config.yaml``), without
+    loading the model."""
+    config = yaml.safe_load((policy_folder(path, env_id) / "config.yaml").read_text())
+    return dict(config.get("env_kwargs") or {})
+
+
 def policy_files(path: str | Path | None = None, env_id: str | None = None
                  ) -> tuple[Path, Path]:
     """(model, normalisation) files that :meth:`LearnedController.load` would load."""

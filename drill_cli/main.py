@@ -145,9 +145,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     controller = typed_controller(args.controller)
     # the controller's own physics (its top drive) over the file's
     physics = {**checked_overrides(args.config, [args.scenario]), **controller.physics()}
-    kwargs: dict[str, Any] = {"scenario": args.scenario, "start_kick": args.start_kick,
-                              "physics": physics,
-                              **dict(getattr(controller, "env_kwargs", dict)())}
+    # a task's policy keeps the env keywords of its observation, not its run's physics or
+    # scenario: it drills this scenario, as in a scenario benchmark
+    own = {k: v for k, v in dict(getattr(controller, "env_kwargs", dict)()).items()
+           if k != "physics"}
+    kwargs: dict[str, Any] = {**own, "scenario": args.scenario, "start_kick": args.start_kick,
+                              "physics": physics}
     if args.fidelity is not None:  # else the env's own (a task's policy: the task's)
         kwargs["fidelity"] = args.fidelity
     if controller.env_id != "DrillString-v0":

@@ -409,6 +409,44 @@ def test_a_drilling_policy_is_marked_as_a_guest_in_a_scenario_benchmark():
     assert marked == {"learned-drilling": True, "learned": False, "stiff": False}
 
 
+def _policy_trained_with(folder, env_kwargs):
+    """The shipped stick-slip policy in ``folder``, as if trained with ``env_kwargs``."""
+    import shutil
+
+    import yaml
+
+    from agents.learned import TRAINED
+
+    shutil.copytree(TRAINED / "stick_slip", folder)
+    config = yaml.safe_load((folder / "config.yaml").read_text())
+    (folder / "config.yaml").write_text(yaml.safe_dump({**config, "env_kwargs": env_kwargs}))
+    return f"learned:{folder}"
+
+
+def test_a_task_benchmark_runs_every_controller_under_the_policys_task_settings(tmp_path):
+    """A policy trained with other reward weights and physics (its run's env_kwargs) is
+    compared with the classical controllers under those, not under the defaults: with
+    every reward weight at zero every return is zero, the stiff controller's too. Policies
+    trained under different settings are refused; a guest policy runs under the scenario
+    benchmark's physics."""
+    zero = {f"{w}_weight": 0.0 for w in ("stick_slip", "stuck", "tracking", "whirl",
+                                         "effort", "failure")}
+    trained = _policy_trained_with(tmp_path / "run", {
+        **zero, "physics": {"mud": {"density": 1250.0}}, "episode_duration": 3.0})
+    assert bm.task_settings([trained, "stiff"], "DrillStickSlip-v0") == {
+        **zero, "physics": {"mud.density": 1250.0}}  # the benchmark sets the duration
+    rows = bm.run_benchmark([trained, "stiff"], ["random"], [0], tmp_path / "out", SHORT,
+                            progress=False, env_id="DrillStickSlip-v0")
+    assert [r["episode_return"] for r in rows] == [0.0, 0.0]
+    assert "under the task settings the policies were trained with" in (
+        tmp_path / "out" / "benchmark.md").read_text()
+    with pytest.raises(ValueError, match="trained on different DrillStickSlip-v0 settings"):
+        bm.run_benchmark([trained, "learned", "stiff"], ["random"], [0], tmp_path / "x",
+                         SHORT, progress=False, env_id="DrillStickSlip-v0")
+    guest = bm.run_episode(bm.Episode(trained, "stick_slip", 0, vars(SHORT), "unused"))
+    assert math.isnan(guest["episode_return"]) and guest["mean_bit_rpm"] > 0.0
+
+
 def test_the_tables_show_no_negative_zero(tmp_path, capsys):
     """A mean that rounds to zero from below is shown as 0.0 (or 0%), never -0.0."""
     import re

@@ -50,6 +50,26 @@ def test_run_and_benchmark_agree_on_the_start(tmp_path):
     assert history[1]["mean_stuck_fraction"] < 0.01
 
 
+def test_run_drives_a_policy_trained_elsewhere_on_the_scenario_asked_for(tmp_path):
+    """A run's env_kwargs (its physics, its scenario) do not replace the scenario and
+    --config of the run command: the policy drills what was asked for."""
+    import shutil
+
+    import yaml
+
+    from agents.learned import TRAINED
+
+    folder = tmp_path / "policy"
+    shutil.copytree(TRAINED / "stick_slip", folder)
+    config = yaml.safe_load((folder / "config.yaml").read_text())
+    config["env_kwargs"] = {"physics": {"mud.density": 1250.0}, "scenario": "paper_case2"}
+    (folder / "config.yaml").write_text(yaml.safe_dump(config))
+    assert main(["run", "--controller", f"learned:{folder}", "--scenario", "stick_slip",
+                 "--duration", "1", "--out", str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "run_summary.json").read_text())
+    assert summary["string_length_m"] == pytest.approx(1250.0)  # stick_slip's, not case 2's
+
+
 def test_run_notes_a_wob_that_buckles_the_pipe(tmp_path, capsys):
     assert main(["run", "--wob", "200", "--duration", "0.2", "--out", str(tmp_path)]) == 0
     assert "note: 200 kN compresses the 5 in HWDP" in capsys.readouterr().err

@@ -9,6 +9,7 @@ each from the same targets and start; the benchmark writes its table, csv and pl
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents.benchmark import BenchmarkSettings, label, run_benchmark
+from agents.benchmark import BenchmarkSettings, label, run_benchmark, task_settings
 from agents.registry import CLASSICAL
 from drill_env.scenarios import EVALUATION_SEEDS
 from training.config import TASKS
@@ -87,12 +88,15 @@ def settings_of(task: str, fidelity: str = "fast") -> BenchmarkSettings:
 
 
 def best_constant(out: Path, workers: int | None = None, progress: bool = True,
-                  ray_address: str | None = None) -> tuple[str, list[dict[str, Any]]]:
+                  ray_address: str | None = None, settings: BenchmarkSettings | None = None
+                  ) -> tuple[str, list[dict[str, Any]]]:
     """The drilling task's best constant set point: the grid point of highest mean return
     on ``GRID_SEEDS`` (training seeds). Returns its controller name and the grid rows.
-    ``ray_address``: run the grid on that Ray cluster (the ``distributed`` extra)."""
+    ``ray_address``: run the grid on that Ray cluster (the ``distributed`` extra);
+    ``settings``: those of the evaluation it is for (default :func:`settings_of`)."""
     names = [f"constant:{r:g}/{w:g}" for r in GRID_RPM for w in GRID_KN]
-    rows = run_benchmark(names, ["random"], list(GRID_SEEDS), out, settings_of("drilling"),
+    rows = run_benchmark(names, ["random"], list(GRID_SEEDS), out,
+                         settings or settings_of("drilling"),
                          workers=workers, progress=progress, env_id=TASKS["drilling"],
                          ray_address=ray_address)
     means: dict[str, list[float]] = {}
@@ -115,10 +119,14 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
         raise ValueError(f"seeds: at most {len(EVALUATION_SEEDS)} held-out seeds")
     out = out or Path(run) / "evaluation"
     names = [f"learned:{run}", *controllers]
-    if task == "drilling":
-        constant, _ = best_constant(out / "grid_search", workers, progress, ray_address)
-        names.append(constant)
     fidelity = config.get("env_kwargs", {}).get("fidelity", "fast")
-    return run_benchmark(names, ["random"], list(EVALUATION_SEEDS[:seeds]), out,
-                         settings_of(task, fidelity), workers=workers, progress=progress,
-                         env_id=TASKS[task], ray_address=ray_address)
+    # every controller, and the grid search, under the task settings the run trained with
+    settings = dataclasses.replace(settings_of(task, fidelity), env_kwargs=task_settings(
+        names[:1], TASKS[task]))
+    if task == "drilling":
+        constant, _ = best_constant(out / "grid_search", workers, progress, ray_address,
+                                    settings)
+        names.append(constant)
+    return run_benchmark(names, ["random"], list(EVALUATION_SEEDS[:seeds]), out, settings,
+                         workers=workers, progress=progress, env_id=TASKS[task],
+                         ray_address=ray_address)
