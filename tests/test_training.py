@@ -174,6 +174,45 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
     assert (copy / "model.zip").exists()
 
 
+def test_training_envs_are_seeded_apart_per_run_and_per_resume(tmp_path, monkeypatch):
+    """Neighbouring run seeds do not share envs (SB3's seed + i would give env i + 1 of
+    seed 0 the episodes of env i of seed 1), a resumed run does not replay the episodes
+    it started with, and no training env meets a validation or held-out seed."""
+    from drill_env.env import DrillStringEnv
+    from drill_env.physics.config import replace
+    from drill_env.scenarios import EVALUATION_SEEDS
+    from training.config import TRAINING_SEEDS, VALIDATION_SEED
+    from training.train import env_seed
+
+    cfg = tiny_config(n_timesteps=256, n_envs=2, eval_freq=10_000, checkpoint_freq=10_000)
+    blocks = [range(env_seed(replace(cfg, seed=s), done), env_seed(replace(cfg, seed=s),
+                                                                   done) + cfg.n_envs)
+              for s in range(4) for done in (0, 256, 512)]
+    assert len({b.start for b in blocks}) == len(blocks)
+    assert all(set(a).isdisjoint(b) for i, a in enumerate(blocks) for b in blocks[i + 1:])
+    assert all(TRAINING_SEEDS <= b.start and b.stop <= 2**32 for b in blocks)
+    assert TRAINING_SEEDS > max(VALIDATION_SEED + 10**5, max(EVALUATION_SEEDS))
+    assert env_seed(cfg, 256) == env_seed(cfg, 256)  # reproducible
+
+    seeds = []
+    reset = DrillStringEnv.reset
+
+    def recording(self, *, seed=None, options=None):
+        if seed is not None and seed >= TRAINING_SEEDS:
+            seeds.append(seed)
+        return reset(self, seed=seed, options=options)
+
+    monkeypatch.setattr(DrillStringEnv, "reset", recording)
+    train(cfg, tmp_path / "run", progress=False)
+    first = sorted(seeds)
+    seeds.clear()
+    train(replace(cfg, n_timesteps=512), tmp_path / "run", resume=True, progress=False)
+    assert first == [env_seed(cfg, 0), env_seed(cfg, 0) + 1]
+    assert sorted(seeds) == [env_seed(cfg, 256), env_seed(cfg, 256) + 1]
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["env_seed"] == \
+        env_seed(cfg, 256)
+
+
 def test_a_resumed_run_keeps_its_best_model_until_an_evaluation_beats_it(run, tmp_path):
     import hashlib
     import shutil

@@ -27,10 +27,12 @@ from drill_env.physics.validation import ConfigError, config_dataclass, from_dic
 HYPERPARAMS = Path(__file__).resolve().parent / "hyperparams"
 #: Task name -> env id.
 TASKS = {"stick_slip": "DrillStickSlip-v0", "drilling": "DrillOptimise-v0"}
-#: Seeds: training envs draw below VALIDATION_SEED; the eval callback uses validation
-#: seeds; the benchmark of ``drill-env evaluate`` the held-out EVALUATION_SEEDS
-#: (drill_env.scenarios), never seen in training or model selection.
+#: Seeds: the eval callback uses validation seeds from VALIDATION_SEED; the benchmark of
+#: ``drill-env evaluate`` the held-out EVALUATION_SEEDS (drill_env.scenarios, from
+#: 1,000,000), never seen in training or model selection; the training envs are seeded
+#: from TRAINING_SEEDS on (``training.train.env_seed``), above both.
 VALIDATION_SEED = 900_000
+TRAINING_SEEDS = 2**31
 
 Algo = Literal["ppo", "sac"]
 

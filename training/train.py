@@ -18,10 +18,10 @@ A run lives in ``logs/runs/<name>/``:
 ==========================  ===========================================================
 
 The training envs are the batched SB3 VecEnv (:func:`drill_env.vector.make_sb3_vec_env`):
-all envs' physics in one compiled call per step. Training seeds lie below
-``VALIDATION_SEED``; the evaluation callback replays fixed validation seeds (deterministic
-policy, the training normalisation frozen), so its curve is comparable across
-evaluations.
+all envs' physics in one compiled call per step, seeded by :func:`env_seed` (above every
+validation and evaluation seed); the evaluation callback replays fixed validation seeds
+(deterministic policy, the training normalisation frozen), so its curve is comparable
+across evaluations.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ import yaml
 
 from agents.learned import latest_checkpoint
 from drill_env.physics.validation import jsonable
-from training.config import VALIDATION_SEED, TrainConfig
+from training.config import TRAINING_SEEDS, VALIDATION_SEED, TrainConfig
 
 ALGOS = ("ppo", "sac")
 
@@ -61,13 +61,26 @@ def planned_steps(config: TrainConfig) -> int:
     return -(-config.n_timesteps // rollout) * rollout
 
 
+def env_seed(config: TrainConfig, done: int = 0) -> int:
+    """The seed of the training envs' reset when a run starts or resumes after ``done``
+    env steps (env i gets it + i, SB3's convention), drawn by NumPy's ``SeedSequence``
+    from (run seed, ``done``) into ``[TRAINING_SEEDS, 2**32 - n_envs)``. Not the run
+    seed + i: runs of neighbouring seeds would then share all but one env's episodes
+    (env i + 1 of seed 0 is env i of seed 1), and a resumed run would replay the
+    episodes it started with. Above every validation and held-out seed."""
+    state = int(np.random.SeedSequence([config.seed, done]).generate_state(1)[0])
+    return TRAINING_SEEDS + state % (2**32 - TRAINING_SEEDS - config.n_envs)
+
+
 def make_train_env(config: TrainConfig, seed: int) -> Any:
-    """The batched training VecEnv, seeded, wrapped in VecNormalize."""
-    from stable_baselines3.common.vec_env import VecNormalize
+    """The batched training VecEnv, seeded, in a VecMonitor (the episode returns and
+    lengths SB3 logs: ``rollout/ep_rew_mean`` in TensorBoard) and VecNormalize."""
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from drill_env.vector import make_sb3_vec_env
 
-    venv = make_sb3_vec_env(config.n_envs, env_id=config.env_id, **config.env_kwargs)
+    venv = VecMonitor(make_sb3_vec_env(config.n_envs, env_id=config.env_id,
+                                       **config.env_kwargs))
     venv.seed(seed)
     n = config.normalize
     return VecNormalize(venv, norm_obs=n.norm_obs, norm_reward=n.norm_reward,
@@ -359,6 +372,9 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     else:
         model = new_model(config, env, tensorboard_log=str(run / "tb"))
         resumed = FRESH
+    # after SB3, which seeds the envs with the run seed (+ i) when it builds or loads
+    seed = env_seed(config, int(model.num_timesteps))
+    env.seed(seed)
     saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
     t0 = time.perf_counter()
     remaining = max(0, config.n_timesteps - model.num_timesteps)
@@ -376,7 +392,8 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     info = {"env_id": config.env_id, "algo": config.algo, "seed": config.seed,
             "env_steps": int(model.num_timesteps), "wall_s_this_session": wall,
             "wall_s": resumed.wall_s + wall,
-            "validation_seeds": [VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes],
+            "env_seed": seed,  # of this session's first reset (env i: + i)
+            "validation_seeds": {"first": VALIDATION_SEED, "count": config.eval_episodes},
             "machine": platform.platform(), "python": platform.python_version()}
     (run / "run.json").write_text(json.dumps(info, indent=2))
     plot_learning_curve(run)
