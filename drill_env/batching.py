@@ -262,6 +262,9 @@ class EnvBatch:
             if not active[e]:
                 out.append(None)
             elif n_rec[e]:
+                if env._frames is not None:  # a rendered env draws its records too
+                    env.last_records = env.sim.records(int(n_rec[e]))
+                    env._frames.add(env.last_records)
                 out.append(env.rolling_metrics.result(int(self._flags[e])))
             else:
                 out.append((None, env.rolling_metrics.window()))

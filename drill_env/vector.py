@@ -50,7 +50,7 @@ class DrillStringVectorEnv(VectorEnv):
     one array per key and a boolean mask ``_key``.
     """
 
-    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+    metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     def __init__(self, num_envs: int = 1,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
@@ -59,6 +59,10 @@ class DrillStringVectorEnv(VectorEnv):
         if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
         self.autoreset_mode = AutoresetMode(autoreset_mode)
+        if "max_episode_steps" in env_kwargs:
+            raise ValueError("max_episode_steps: the batched vector env ends its episodes "
+                             "by episode_duration (s); give that, or "
+                             "vectorization_mode='sync' for Gymnasium's TimeLimit")
         cls = env_class_of(env_class)
         self.envs = [cls(**env_kwargs) for _ in range(num_envs)]
         self.num_envs = int(num_envs)
@@ -66,7 +70,7 @@ class DrillStringVectorEnv(VectorEnv):
         # a batch finished as arrays (DrillStringEnv.finish_batch) where the envs allow it
         self._as_arrays = DrillStringEnv.finishes_batch(self.envs)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
-        self.render_mode = None
+        self.render_mode = env_kwargs.get("render_mode")  # each env renders its own
         self.single_observation_space = self.envs[0].observation_space
         self.single_action_space = self.envs[0].action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -266,6 +270,12 @@ class DrillStringVectorEnv(VectorEnv):
         array[where] = values
         return array
 
+    def render(self) -> tuple[Any, ...] | None:
+        """Each env's frame (``render_mode="rgb_array"``), as Gymnasium's sync vector env."""
+        if self.render_mode is None:
+            return super().render()
+        return tuple(env.render() for env in self.envs)
+
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """The attribute ``name`` of every sub-environment."""
         return tuple(getattr(env, name) for env in self.envs)
@@ -374,7 +384,9 @@ def make_sb3_vec_env(num_envs: int = 1, env_id: str | None = None, **env_kwargs:
     """A Stable-Baselines3 ``VecEnv`` of ``num_envs`` drill-string envs (imports SB3).
 
     ``env_id``: a registered id (``DrillStickSlip-v0``, ...) whose class and default
-    keywords to use; ``env_kwargs`` override its keywords. Default: ``DrillString-v0``."""
+    keywords to use; ``env_kwargs`` override its keywords. Default: ``DrillString-v0``.
+    For episode returns and lengths in ``info["episode"]`` (what SB3 logs as
+    ``ep_rew_mean``), wrap it in SB3's ``VecMonitor``, as ``drill-env train`` does."""
     if env_id is not None:
         cls, defaults = registered(env_id)
         env_kwargs = {**defaults, **env_kwargs}

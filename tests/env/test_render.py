@@ -77,3 +77,23 @@ def test_render_without_a_mode_warns_and_returns_none():
     env.reset(seed=0)
     with pytest.warns(UserWarning, match="render_mode"):
         assert env.render() is None
+
+
+def test_the_batched_vector_env_renders_each_envs_frame():
+    """``gym.make_vec(..., render_mode="rgb_array")`` on the package's vector env: one frame
+    per env, each the frame the same env would draw stepped alone (its traces too)."""
+    envs = gym.make_vec("DrillString-v0", num_envs=2, render_mode="rgb_array",
+                        scenario="paper_case4")
+    alone = gym.make("DrillString-v0", render_mode="rgb_array", scenario="paper_case4")
+    envs.reset(seed=0)
+    alone.reset(seed=1)  # env 1 of a vector env seeded 0
+    action = np.array([-0.5, 0.0], dtype=np.float32)
+    for _ in range(20):
+        envs.step(np.stack([action, action]))
+        alone.step(action)
+    frames = envs.render()
+    assert envs.render_mode == "rgb_array" and len(frames) == 2
+    np.testing.assert_array_equal(frames[1], alone.render())
+    assert has_colour(frames[0], BIT)
+    with pytest.raises(ValueError, match="max_episode_steps: .* episode_duration"):
+        gym.make_vec("DrillString-v0", num_envs=2, max_episode_steps=5)
