@@ -6,7 +6,7 @@ task 2, as issue 16 measured them) for a few thousand env steps (after an untime
 warm-up that compiles, fills SAC's ``learning_starts`` and runs a first update) and splits
 the wall time:
 
-env       the batched env's ``step_wait`` (physics, task Python, VecNormalize)
+env       the batched env's ``step_wait`` (physics, task Python, VecMonitor, VecNormalize)
 policy    policy inference while collecting (the policy's ``forward`` for PPO, its
           ``predict`` for SAC: observation to action, torch included)
 update    the algorithm's ``train()`` (PPO epochs, SAC gradient steps)
