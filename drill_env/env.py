@@ -293,7 +293,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
         # Build (and validate) the physics now; randomised scenarios redraw at reset.
         self.scenario: Scenario = self._build_scenario(np.random.default_rng(0))
-        check_draws(scenario, self.scenario.config, self.physics_overrides)
+        check_draws(scenario, self.scenario.config, flatten(physics or {}))
         self._set_simulator(Simulator(self.scenario.config))
         self._init_episode_state()
 
@@ -455,10 +455,14 @@ class DrillStringEnv(BatchFinish, gym.Env):
     def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         self.apply_action(action)
         records = self.advance()
+        self.keep_records(records)
+        return self.finish_step(records)
+
+    def keep_records(self, records: np.ndarray) -> None:
+        """This step's records as :attr:`last_records`, and in the rendered frames."""
         self.last_records = records
         if self._frames is not None:
             self._frames.add(records)
-        return self.finish_step(records)
 
     # The three phases of a step are separate so a batched env can advance many
     # simulators between them (see drill_env.batching: there the metric windows are

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import inspect
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -215,23 +215,31 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any]) -> Simu
     ``--config``), its bit kept at the bottom of its string.
 
     A scenario puts the bit face at the bottom of its string (``initial_depth``, a lead
-    above it in the crossing cases) and its rock layers where they are relative to the
-    bit. When the overrides change the string's length, the bit depth and the layer
-    interfaces move by the same amount, as ``string_length=`` would have placed them,
-    unless the overrides set ``initial_depth`` or the interfaces themselves.
+    above it in the crossing cases), its rock layers where they are relative to the bit
+    and its well's survey to below the bit. When the overrides change the string's length,
+    the bit depth and the layer interfaces move by the same amount, as ``string_length=``
+    would have placed them, and a longer string's survey is extended by it (its last
+    station: the preset wells end in a hold), unless the overrides set ``initial_depth``,
+    the interfaces or the well.
     """
-    changed = replace(config, **overrides) if overrides else config
-    shift = changed.string.length - config.string.length
-    if shift == 0.0 or "initial_depth" in overrides:
-        return changed
+    if not overrides:
+        return config
+    given = tuple(overrides)
+    sets_well = any(key == "well" or key.startswith("well.") for key in given)
+    # the new string's length, before the survey (which may now be short) is checked
+    probe = config if config.well.vertical or sets_well else replace(config, well={})
+    shift = replace(probe, **overrides).string.length - config.string.length
     moved: dict[str, Any] = {}
-    if changed.initial_depth is not None:
-        moved["initial_depth"] = changed.initial_depth + shift
-    if not any(key == "formation" or key.startswith("formation.interfaces")
-               for key in overrides):
-        moved["formation.interfaces"] = tuple(
-            replace(i, depth=i.depth + shift) for i in changed.formation.interfaces)
-    return replace(changed, **moved)
+    if shift != 0.0 and "initial_depth" not in given:
+        if config.initial_depth is not None:
+            moved["initial_depth"] = config.initial_depth + shift
+        if not any(key == "formation" or key.startswith("formation.interfaces")
+                   for key in given):
+            moved["formation.interfaces"] = tuple(
+                replace(i, depth=i.depth + shift) for i in config.formation.interfaces)
+        if not (config.well.vertical or sets_well):
+            moved["well.md"] = (*config.well.md[:-1], config.well.md[-1] + max(shift, 0.0))
+    return replace(config, **{**moved, **overrides})
 
 
 def sandwich(bit: BitConfig, middle: RockConfig, bit_depth: float, position: str,
@@ -526,20 +534,20 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
 RANDOMISED = frozenset({"random"})
 
 
-def check_draws(name: str, config: SimulationConfig, overrides: Mapping[str, Any]) -> None:
-    """Refuse physics ``overrides`` under which a randomised scenario would buckle its pipe
-    at some later reset, not only at the first: its starting WOB is drawn up to the top of
-    :data:`RANDOM_WEIGHT_ON_BIT_RANGE`, and the pipe's compression there is set by what
-    every draw shares (BHA, heavy-weight pipe, bit, mud: ``config`` is one draw with the
-    overrides), not by the drawn pipe length."""
-    if name not in RANDOMISED or not overrides or not config.solver.lateral:
+def check_draws(name: str, config: SimulationConfig, given: Collection[str]) -> None:
+    """Refuse the physics overrides ``given`` (their dotted keys) under which a randomised
+    scenario would buckle its pipe at some later reset, not only at the first: its
+    starting WOB is drawn up to the top of :data:`RANDOM_WEIGHT_ON_BIT_RANGE`, and the
+    pipe's compression there is set by what every draw shares (BHA, heavy-weight pipe,
+    bit, mud: ``config`` is one draw with the overrides), not by the drawn pipe length."""
+    if name not in RANDOMISED or not given or not config.solver.lateral:
         return
     top = RANDOM_WEIGHT_ON_BIT_RANGE[1]
     buckled = pipe_buckling(config, top)
     if buckled:
         b = buckled[0]
         raise ValueError(
-            f"physics: with {', '.join(sorted(overrides))} the {name} scenario's starting "
+            f"physics: with {', '.join(sorted(given))} the {name} scenario's starting "
             f"WOB, drawn up to {top / 1e3:.0f} kN at each reset, would compress the "
             f"{b.component} by {b.compression / 1e3:.1f} kN, beyond its buckling load "
             f"{b.buckling_load / 1e3:.1f} kN: lighten the mud or make the BHA heavier "

@@ -61,11 +61,11 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
     ``--config``) puts the bit and the scenario's layers where ``string_length=`` would
     have: the same total length, the same bit depth (a crossing case's lead above the
     bottom kept) and the same interfaces relative to the bit."""
-    for name in ("default", "paper_case2", "random"):
+    for name in ("default", "paper_case2", "random", "j_shaped"):
         rng = np.random.default_rng(3)
         base = scenarios.make_scenario(name, rng=rng).config
         pipe = base.string.drill_pipe.length
-        for extra in (-400.0, 700.0):
+        for extra in (-200.0, 700.0):
             changed = scenarios.with_physics(
                 base, {"string.drill_pipe.length": pipe + extra})
             length = base.string.length + extra
@@ -78,6 +78,9 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
             assert changed.initial_depth == pytest.approx(expected.initial_depth)
             assert [i.depth for i in changed.formation.interfaces] == pytest.approx(
                 [i.depth for i in expected.formation.interfaces])
+            if extra > 0.0:  # a longer string's survey reaches as far below the bit
+                assert changed.well.md == pytest.approx(expected.well.md)
+                assert changed.well.inclination == pytest.approx(expected.well.inclination)
             assert [i.depth - changed.initial_depth for i in changed.formation.interfaces] \
                 == pytest.approx([i.depth - base.initial_depth
                                   for i in base.formation.interfaces])
@@ -89,6 +92,13 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
     assert own.formation.interfaces == base.formation.interfaces
     assert scenarios.with_physics(base, {"mud.density": 1100.0}).initial_depth \
         == base.initial_depth
+    # a well given with the string is the user's
+    deviated = scenarios.make_scenario("j_shaped").config
+    own_well = scenarios.with_physics(deviated, {"string.drill_pipe.length": 500.0,
+                                                 "well.md": (0.0, 2000.0),
+                                                 "well.inclination": (0.0, 0.0),
+                                                 "well.azimuth": (0.0, 0.0)})
+    assert own_well.well.md == (0.0, 2000.0)
 
 
 def test_the_env_reports_the_depth_of_a_string_read_from_yaml():
