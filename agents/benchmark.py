@@ -175,31 +175,65 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
 
 
 #: Env keywords every benchmark episode sets itself (from :class:`BenchmarkSettings`).
-SET_BY_BENCHMARK = frozenset({"scenario", "episode_duration", "start_kick", "fidelity",
-                              "startup"})
+SET_BY_BENCHMARK = frozenset({"scenario", "episode_duration", "start_kick", "fidelity"})
 
 
 def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
     """The env keywords of task ``env_id`` that the learned ``controllers`` were trained
-    with, less those the benchmark sets: what every controller of a task benchmark acts
-    under, so that the classical controllers are scored by the policies' reward, on their
-    physics. Policies trained under different ones cannot share a table: ValueError."""
+    with, less those the benchmark sets and those at their defaults: what every
+    controller of a task benchmark acts under, so that the classical controllers are
+    scored by the policies' reward, on their physics. Policies trained under different
+    ones cannot share a table: ValueError."""
     from agents.learned import trained_env_kwargs
     from drill_env.physics.config import flatten
 
+    defaults = _env_defaults(env_id)
     seen: dict[str, dict[str, Any]] = {}
     for name in controllers:
         if name == "learned" or name.startswith("learned:"):
             kwargs = trained_env_kwargs(name.partition(":")[2] or None, env_id)
-            if "physics" in kwargs:
-                kwargs["physics"] = flatten(kwargs["physics"] or {})
-            seen[name] = {k: v for k, v in kwargs.items() if k not in SET_BY_BENCHMARK}
-    kinds = {json.dumps(jsonable(v), sort_keys=True) for v in seen.values()}
+            kwargs["physics"] = flatten(kwargs.get("physics") or {})
+            seen[name] = {k: v for k, v in kwargs.items() if k not in SET_BY_BENCHMARK
+                          and v != {} and _text(v) != _text(defaults.get(k, _NONE))}
+    kinds = {_text(v) for v in seen.values()}
     if len(kinds) > 1:
         listed = "; ".join(f"{n}: {v or 'the defaults'}" for n, v in seen.items())
         raise ValueError(f"controllers: the policies were trained on different {env_id} "
                          f"settings ({listed}); benchmark them apart")
     return next(iter(seen.values()), {})
+
+
+_NONE = object()  # no default: never equal to a given value
+
+
+def _text(value: Any) -> str:
+    """A value as JSON (tuples and lists, 1 and 1.0 alike) for comparing settings."""
+    def plain(v: Any) -> Any:
+        if isinstance(v, dict):
+            return {k: plain(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [plain(x) for x in v]
+        return float(v) if isinstance(v, int) and not isinstance(v, bool) else v
+
+    return json.dumps(plain(jsonable(value)), sort_keys=True) if value is not _NONE else ""
+
+
+def _env_defaults(env_id: str) -> dict[str, Any]:
+    """The keyword values ``gymnasium.make(env_id)`` uses when none is given: the
+    registration's, the task's env defaults, its task config's and EnvConfig's fields."""
+    from drill_env.env_config import EnvConfig
+    from drill_env.vector import registered
+
+    env_class, registration = registered(env_id)
+    config = EnvConfig()
+    values = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
+    task_class = getattr(env_class, "task_class", None)
+    if task_class is not None:
+        task = task_class()
+        values.update({f.name: getattr(task, f.name) for f in dataclasses.fields(task)})
+    values.update(getattr(env_class, "env_defaults", {}))
+    values.update(registration)
+    return values
 
 
 def scenario_set_points(scenario: str, seed: int) -> dict[str, float]:
@@ -476,8 +510,8 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
     from drill_env.vector import registered
 
     env_class, kwargs = registered(env_id)
-    startup = kwargs.get("startup") or getattr(env_class, "env_defaults", {}).get(
-        "startup", "settled")
+    startup = settings.env_kwargs.get("startup") or kwargs.get("startup") or getattr(
+        env_class, "env_defaults", {}).get("startup", "settled")
     trained = ", ".join(f"{k} {v}" for k, v in sorted(settings.env_kwargs.items()))
     return (f"{settings.duration:g} s episodes of {env_id}: its own start ({startup}) and "
             f"targets, drawn from each seed (and changed during the episode where the task "

@@ -93,7 +93,8 @@ def policy_folder(path: str | Path | None = None, env_id: str | None = None) -> 
 def trained_env_kwargs(path: str | Path | None = None, env_id: str | None = None
                        ) -> dict[str, Any]:
     """The env keywords a policy was trained with (its run's ``config.yaml``), without
-    loading the model."""
+    loading the model; a folder without a policy is refused as :func:`policy_files` does."""
+    policy_files(path, env_id)
     config = yaml.safe_load((policy_folder(path, env_id) / "config.yaml").read_text())
     return dict(config.get("env_kwargs") or {})
 
