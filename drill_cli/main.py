@@ -339,7 +339,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from training.config import load_config
-    from training.train import check_run_folder, holds_run, planned_steps, train
+    from training.train import check_run_folder, holds_run, planned_steps, resume_point, train
 
     if args.name is not None and (not args.name.strip() or args.name in (".", "..")
                                   or any(c in args.name for c in "/\\")):
@@ -365,7 +365,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         config = saved_run_config(saved, args.task, args.algo, n_timesteps=args.timesteps,
                                   n_envs=args.n_envs, seed=args.seed)
     check_run_folder(run, args.resume, args.overwrite, config)  # before announcing
-    planned = planned_steps(config)
+    point = resume_point(run) if args.resume else None  # (steps done, gradient steps)
+    planned = planned_steps(config, point[0] if point else 0)
     steps = f"{planned} env steps" + (f" ({config.n_timesteps} asked for, rounded up to a "
                                       "whole PPO rollout)" if planned != config.n_timesteps
                                       else "")

@@ -162,7 +162,7 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
     train(longer, copy, resume=True, progress=False)
     assert "nothing to resume" not in capsys.readouterr().out
     done = json.loads((copy / "run.json").read_text())["env_steps"]
-    assert done == planned_steps(longer) == 2560
+    assert done == planned_steps(longer, 2048) == 2560
     assert planned_steps(replace(load_config("stick_slip", "sac"), n_timesteps=2300)) == 2300
     # nothing at all to resume: said, then trained from the start
     fresh = tmp_path / "fresh"
@@ -211,6 +211,22 @@ def test_training_envs_are_seeded_apart_per_run_and_per_resume(tmp_path, monkeyp
     assert sorted(seeds) == [env_seed(cfg, 256), env_seed(cfg, 256) + 1]
     assert json.loads((tmp_path / "run" / "run.json").read_text())["env_seed"] == \
         env_seed(cfg, 256)
+
+
+def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path):
+    """A checkpoint need not fall on a whole rollout: resumed from one, PPO does whole
+    rollouts from there, and the step count announced (planned_steps) is the one reached."""
+    from drill_env.physics.config import replace
+    from training.train import resume_point
+
+    cfg = tiny_config(n_timesteps=1024, checkpoint_freq=768, eval_freq=10_000)
+    train(cfg, tmp_path / "run", progress=False)  # rollouts of 128 x 4 = 512
+    done = resume_point(tmp_path / "run")[0]
+    assert done % 512  # the checkpoint at 768 lies inside the second rollout
+    longer = replace(cfg, n_timesteps=2048)
+    train(longer, tmp_path / "run", resume=True, progress=False)
+    reached = json.loads((tmp_path / "run" / "run.json").read_text())["env_steps"]
+    assert reached == planned_steps(longer, done) == done + 1536 != planned_steps(longer)
 
 
 def test_a_resumed_run_keeps_its_best_model_until_an_evaluation_beats_it(run, tmp_path):

@@ -32,7 +32,8 @@ EVALUATION_WINDOWS = {"stick_slip": (30.0, 5.0), "drilling": (300.0, 10.0)}
 #: action range in 5 x 5 steps.
 GRID_RPM = (40.0, 80.0, 120.0, 160.0, 200.0)
 GRID_KN = (40.0, 65.0, 90.0, 115.0, 140.0)
-#: Training-distribution seeds the grid search picks its point on (not held out).
+#: Seeds of the training distribution the grid search picks its point on (not held out;
+#: the training envs themselves draw from ``training.train.env_seed``).
 GRID_SEEDS = tuple(range(8))
 
 
@@ -91,7 +92,8 @@ def best_constant(out: Path, workers: int | None = None, progress: bool = True,
                   ray_address: str | None = None, settings: BenchmarkSettings | None = None
                   ) -> tuple[str, list[dict[str, Any]]]:
     """The drilling task's best constant set point: the grid point of highest mean return
-    on ``GRID_SEEDS`` (training seeds). Returns its controller name and the grid rows.
+    on ``GRID_SEEDS`` (of the training distribution, not held out). Returns its controller
+    name and the grid rows.
     ``ray_address``: run the grid on that Ray cluster (the ``distributed`` extra);
     ``settings``: those of the evaluation it is for (default :func:`settings_of`)."""
     names = [f"constant:{r:g}/{w:g}" for r in GRID_RPM for w in GRID_KN]

@@ -49,16 +49,17 @@ def _algo_class(name: str) -> Any:
     return {"ppo": PPO, "sac": SAC}[name]
 
 
-def planned_steps(config: TrainConfig) -> int:
-    """The env steps a run of ``config`` ends at: ``n_timesteps``, except that SB3's PPO
-    stops only after a whole rollout of ``n_steps`` x ``n_envs``, so it rounds up."""
+def planned_steps(config: TrainConfig, done: int = 0) -> int:
+    """The env steps a run of ``config`` ends at, started or resumed after ``done``:
+    ``n_timesteps``, except that SB3's PPO stops only after a whole rollout of
+    ``n_steps`` x ``n_envs``, so it rounds the steps still to do up."""
     if config.algo != "ppo":
         return config.n_timesteps
     import inspect
 
     default = inspect.signature(_algo_class("ppo")).parameters["n_steps"].default
     rollout = int(config.hyperparams.get("n_steps", default)) * config.n_envs
-    return -(-config.n_timesteps // rollout) * rollout
+    return done + -(-(config.n_timesteps - done) // rollout) * rollout
 
 
 def env_seed(config: TrainConfig, done: int = 0) -> int:
