@@ -262,9 +262,8 @@ class EnvBatch:
             if not active[e]:
                 out.append(None)
             elif n_rec[e]:
-                if env._frames is not None:  # a rendered env draws its records too
-                    env.last_records = env.sim.records(int(n_rec[e]))
-                    env._frames.add(env.last_records)
+                if env.render_mode is not None:  # a rendered env draws its records too
+                    env.keep_records(env.sim.records(int(n_rec[e])))
                 out.append(env.rolling_metrics.result(int(self._flags[e])))
             else:
                 out.append((None, env.rolling_metrics.window()))

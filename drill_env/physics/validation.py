@@ -256,11 +256,14 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
 
 def numbers(value: Any, name: str) -> np.ndarray:
     """``value`` (an action, say) as a float64 array; ValueError naming ``name`` when it
-    is not numbers (strings, None, ragged lists)."""
+    is not numbers (strings, even of digits, None, ragged lists)."""
     try:
-        return np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as err:
+        array = np.asarray(value)
+    except ValueError as err:  # ragged
         raise ValueError(f"{name}: expected numbers, got {value!r} ({err})") from None
+    if array.dtype.kind not in "biuf":
+        raise ValueError(f"{name}: expected numbers, got {value!r}")
+    return array.astype(np.float64, copy=False)
 
 
 def replace(config: T, **changes: Any) -> T:

@@ -219,6 +219,7 @@ def test_non_finite_action_raises_naming_the_action(bad):
 
 @pytest.mark.parametrize("env_id, bad", [
     ("DrillString-v0", np.array(["a", "b"])), ("DrillString-v0", {"rpm": 1.0}),
+    ("DrillString-v0", ["0.1", "0.2"]), ("DrillString-v0", None),
     ("DrillStickSlip-v0", "x"), ("DrillOptimise-v0", [[1.0], [2.0, 3.0]])])
 def test_an_action_that_is_not_numbers_raises_naming_the_action(env_id, bad):
     env = gym.make(env_id, episode_duration=2.0)
