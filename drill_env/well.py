@@ -21,6 +21,7 @@ import numpy as np
 
 from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.fem import build_mesh
+from drill_env.physics.statics import bit_buoyed_weight
 from drill_env.physics.trajectory import MODES, StringColumn, Survey, Trajectory, soft_string
 
 #: Well shapes by name: total measured depth (m) -> survey. Build rates and angles are
@@ -85,10 +86,13 @@ def rotating_wall_torque(config: SimulationConfig, speed: float, seconds: float 
 def column_for(config: SimulationConfig, bit_md: float) -> StringColumn:
     """The scenario's string from the bit up (its BHA and pipe elements), drill pipe
     added in ``PIPE_PIECE`` lengths to reach ``bit_md``. Contact at each element's
-    contact radius (stabilizer blades; pipe body: tool joints are not modelled)."""
+    contact radius (stabilizer blades; pipe body: tool joints are not modelled). The
+    bit's buoyed weight is spread over the lowest element, as the dynamic model and
+    ``info["hook_load"]`` carry it."""
     mesh = build_mesh(config)
     length = mesh.element_length[::-1]
-    weight = mesh.buoyed_weight[::-1]
+    weight = mesh.buoyed_weight[::-1].copy()
+    weight[0] += bit_buoyed_weight(config) / length[0]
     radius = mesh.contact_radius[::-1]
     missing = bit_md - float(np.sum(length))
     if missing > 0.0:

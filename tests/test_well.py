@@ -31,6 +31,20 @@ def test_in_a_vertical_hole_there_is_no_drag_or_torque_and_the_hook_carries_the_
             assert entry["torque"][k] == pytest.approx(0.0, abs=1e-6)
 
 
+def test_the_chart_carries_the_whole_string_as_the_simulator_does():
+    """Off bottom in a vertical hole the hook carries the buoyed string and bit: the same
+    hook load as the dynamic model's statics (Simulator.hook_load_for at zero WOB)."""
+    from drill_env.physics.simulator import Simulator
+
+    config = make_scenario("default").config
+    depth = config.string.length
+    well = Trajectory(WELLS["vertical"](depth))
+    table = torque_drag_table(well, config, frictions=(0.3,), step=depth)
+    assert table["bit_md"][-1] == pytest.approx(depth)
+    assert table["mu=0.3"]["rotating"][-1] == pytest.approx(
+        Simulator(config).hook_load_for(0.0), rel=1e-9)
+
+
 def test_the_column_is_the_scenarios_string_from_the_bit_up_with_pipe_added():
     config = make_scenario("default").config
     column = column_for(config, 3000.0)
