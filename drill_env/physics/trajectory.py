@@ -373,7 +373,8 @@ def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.n
     length = np.diff(node_md)
     dz = np.diff(pos[:, 2])
     w_dz = element_weight * dz
-    below = np.concatenate([np.cumsum(w_dz[::-1])[::-1], [0.0]]) + bit_weight  # at nodes
+    # at the nodes; of the bit's weight only its part along the hole at the bit (w cos i)
+    below = np.concatenate([np.cumsum(w_dz[::-1])[::-1], [0.0]]) + bit_weight * tan[-1, 2]
     axial_weight = below[1:] + 0.5 * w_dz
     lumped_length = 0.5 * (np.concatenate([[0.0], length]) + np.concatenate([length, [0.0]]))
     lumped_weight = 0.5 * (np.concatenate([[0.0], element_weight * length])
