@@ -211,7 +211,7 @@ def _text(value: Any) -> str:
     def plain(v: Any) -> Any:
         if isinstance(v, dict):
             return {k: plain(x) for k, x in v.items()}
-        if isinstance(v, list):
+        if isinstance(v, list | tuple):
             return [plain(x) for x in v]
         return float(v) if isinstance(v, int) and not isinstance(v, bool) else v
 

@@ -446,7 +446,8 @@ def test_a_task_benchmark_runs_every_controller_under_the_policys_task_settings(
     # settings at their defaults are the defaults: such a run shares a table with the
     # shipped policy, and so does the order of its keys
     same = _policy_trained_with(tmp_path / "same", {"physics": None, "stick_slip_weight": 1,
-                                                     "telemetry": "mud_pulse"})
+                                                     "telemetry": "mud_pulse",
+                                                     "rpm_targets": [40, 100]})
     assert bm.task_settings([same, "learned"], "DrillStickSlip-v0") == {}
     guest = bm.run_episode(bm.Episode(trained, "stick_slip", 0, vars(SHORT), "unused"))
     assert math.isnan(guest["episode_return"]) and guest["mean_bit_rpm"] > 0.0
