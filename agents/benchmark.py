@@ -350,6 +350,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         arrays: dict[str, Any] = {name: everything[:, col[name]] for name in SERIES_CHANNELS}
         arrays["time"] = arrays["time"] - start
         arrays["clearance"] = base.clearance
+        arrays["target_time"] = np.array([0.0] + [t - start for t, _ in targets[:-1]])
+        arrays["target_rpm"] = np.array([speed / RPM for _, speed in targets])
         np.savez_compressed(series_dir / f"{episode.stem}.npz", **arrays)
     return row
 
@@ -539,7 +541,8 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     bar_chart(rows, controllers, scenarios, out / "benchmark_bars.png")
     drawn = [s for s in scenarios
              if series_chart(out / "series", controllers, s,
-                             out / SERIES_PICTURE.format(scenario=s), settings.warmup)]
+                             out / SERIES_PICTURE.format(scenario=s), settings.warmup,
+                             env_id)]
     lines = ["# Controller benchmark", "", conditions(settings, env_id), "",
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in table]

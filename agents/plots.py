@@ -18,10 +18,19 @@ from drill_env.physics.units import RPM  # noqa: E402
 #: (column, axis label, scale, what a panel whose values are all zero says) of the bar
 #: chart: an empty panel says so instead of looking like a broken plot.
 BARS = (("ssi", "stick-slip severity (SSI)", 1.0, "no stick-slip in any episode"),
-        ("stuck_fraction", "share of time stuck", 1.0, "the bit never stuck in any episode"),
+        ("stuck_fraction", "time stuck (% of the measured window)", 100.0,
+         "the bit never stuck in any episode"),
         ("rop_m_per_h", "ROP (m/h)", 1.0, "no penetration in any episode"),
-        ("backward_whirl_fraction", "share of time in backward whirl", 1.0,
+        ("backward_whirl_fraction", "time in backward whirl (% of the window)", 100.0,
          "no backward whirl in any episode"))
+
+#: One colour per controller name in every picture (tab10's order); other names (set
+#: points, several learned runs) take the remaining colours in their order.
+COLOURS = {"stiff": 0, "soft-speed": 1, "soft-torque": 2, "z-torque": 3, "driller": 4,
+           "learned": 5}
+#: Dash patterns by a controller's place in the list, so that lines which coincide (the
+#: tuned controllers at a speed where none is needed) still all show.
+DASHES = ("-", (0, (6, 3)), (0, (2, 2)), (0, (8, 2, 2, 2)))
 
 
 #: Radial position / clearance below which the series chart says the bit stayed on the
@@ -36,8 +45,17 @@ def _say_empty(ax: Any, text: str) -> None:
 
 
 def _colours(controllers: Sequence[str]) -> dict[str, Any]:
+    """Each controller's colour: its own (:data:`COLOURS`), else the next one free."""
     cmap = plt.get_cmap("tab10")
-    return {c: cmap(k % 10) for k, c in enumerate(controllers)}
+    free = [k for k in range(10) if k not in COLOURS.values()]
+    out, n = {}, 0
+    for c in controllers:
+        if c in COLOURS:
+            out[c] = cmap(COLOURS[c])
+        else:
+            out[c] = cmap(free[n % len(free)])
+            n += 1
+    return out
 
 
 def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
@@ -79,11 +97,12 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
 
 
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
-                 warmup: float) -> bool:
+                 warmup: float, env_id: str | None = None) -> bool:
     """Bit speed, torque on bit and the bit's radial position over the gauge clearance,
     one line per controller (first seed), on one time axis; the grey band is the warm-up
     the metrics leave out. Returns whether it drew: False (no file written) when
-    ``series_dir`` holds no series of ``scenario``."""
+    ``series_dir`` holds no series of ``scenario``. ``env_id``: the task env every
+    controller acted in (its title names it; None: the scenario's ``DrillString-v0``)."""
     colours = _colours(controllers)
     fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
     found = False
@@ -99,7 +118,11 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         off_axis = max(off_axis, float(np.nanmax(radial, initial=0.0)))
         # the first controller on top (a policy before its baselines): a wide stick-slip
         # swing drawn later would hide it
-        kw = {"color": colours[c], "lw": 0.7, "label": c, "zorder": 2 + len(controllers) - k}
+        kw = {"color": colours[c], "lw": 0.8, "label": c, "ls": DASHES[k % len(DASHES)],
+              "zorder": 2 + len(controllers) - k}
+        if "target_time" in d and k == 0:  # the planned rpm (a task's drawn targets)
+            axes[0].step(d["target_time"], d["target_rpm"], where="post", color="k",
+                         lw=1.0, ls=(0, (1, 1)), label="target", zorder=1)
         axes[0].plot(t, d["bit_speed"] / RPM, **kw)
         axes[1].plot(t, d["torque_on_bit"] / 1e3, **kw)
         axes[2].plot(t, radial, **kw)
@@ -125,11 +148,13 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         _say_empty(axes[2], f"the bit stays on the hole axis (less than {ON_AXIS:.1%} of "
                             "the clearance off it) under every controller")
     # above the plots, in rows of at most six: a sweep of constant set points has dozens
-    rows = math.ceil(len(controllers) / 6)  # rows as even as they come: 7 -> 4 + 3
-    axes[0].legend(fontsize=8, ncol=math.ceil(len(controllers) / rows), loc="lower center",
+    entries = len(axes[0].get_legend_handles_labels()[1])
+    rows = math.ceil(entries / 6)  # rows as even as they come: 7 -> 4 + 3
+    axes[0].legend(fontsize=8, ncol=math.ceil(entries / rows), loc="lower center",
                    bbox_to_anchor=(0.5, 1.0), frameon=False)
     axes[-1].set_xlabel("time (s)")
-    fig.suptitle(f"{scenario}: every controller from the same start and targets "
+    where = f"{env_id} on the {scenario} scenario" if env_id else scenario
+    fig.suptitle(f"{where}: every controller from the same start and targets "
                  "(first seed; grey: warm-up, not in the metrics)", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

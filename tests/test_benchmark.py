@@ -491,3 +491,15 @@ def test_a_benchmark_into_a_used_folder_removes_the_old_series_pictures(tmp_path
     for name in (bm.RESULTS_FILE, "my_series.png", "benchmark_notes.txt"):
         assert (tmp_path / name).read_text() == "kept"
     assert "benchmark_default_series" not in (tmp_path / "benchmark.md").read_text()
+
+
+def test_a_controller_keeps_its_colour_in_every_picture():
+    """Colours follow the controller's name, not its place in --controllers: the driller
+    is the same colour in the demo's five-controller benchmark and in a pair."""
+    from agents.plots import _colours
+
+    five = _colours(["stiff", "soft-speed", "soft-torque", "z-torque", "driller"])
+    pair = _colours(["driller", "constant-120rpm-100kN"])
+    assert pair["driller"] == five["driller"]
+    named = set(map(tuple, five.values())) | {tuple(pair["driller"])}
+    assert tuple(pair["constant-120rpm-100kN"]) not in named  # others take a free colour
