@@ -395,12 +395,17 @@ def maps_figure(maps: Sequence[StabilityMap], controller: str = "stiff") -> Any:
         ax.set_ylabel("WOB (kN)")
     for ax in list(axes.flat)[len(maps):]:
         ax.set_visible(False)
-    axes.flat[0].legend(loc="upper right", fontsize=7)
+    from matplotlib.patches import Patch
+
+    handles, _ = axes.flat[0].get_legend_handles_labels()
+    zone = plt.get_cmap("Reds")(1.0 / 2.5)  # the colour pcolormesh gives unstable = 1
+    handles.append(Patch(color=zone, label="stick-slip zone (inferred)"))
+    fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=7, frameon=False)
     title = ("Torsional stability maps by boundary tracking (paper Fig. 15), "
              f"{controller} top drive")
     # ~11 characters of the 12 pt title per inch: one panel's width holds half of it
     fig.suptitle(textwrap.fill(title, width=int(11 * 4.2 * cols)))
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))  # the legend below the maps
     return fig
 
 

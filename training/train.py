@@ -450,11 +450,19 @@ def plot_learning_curve(run: Path) -> Path | None:
     axes[1].plot(steps, [float(r["stuck_fraction"]) for r in rows], "s-", ms=3,
                  label="stuck share")
     axes[1].legend(fontsize=8)
-    axes[1].set_ylabel("episode mean of the 3 s window")
+    axes[1].set_ylabel("SSI, stuck share (of the env's 3 s\nmetric window, mean over the episode)")
+    axes[0].set_title("return", fontsize=10)
+    axes[1].set_title("stick-slip", fontsize=10)
     for ax in axes:
         ax.set_xlabel("env steps (thousands)")
         ax.grid(alpha=0.3)
-    fig.suptitle(f"{run.name}: deterministic policy on the fixed validation seeds")
+    saved = run / "config.yaml"
+    config = (yaml.safe_load(saved.read_text()) if saved.exists() else None) or {}
+    what = (f"{str(config['algo']).upper()} on task {config['task']}, deterministic policy "
+            f"on {config['eval_episodes']} fixed validation seeds"
+            if {"algo", "task", "eval_episodes"} <= set(config)
+            else "deterministic policy on the fixed validation seeds")
+    fig.suptitle(f"{run.name}: {what}")
     fig.tight_layout()
     out = run / "learning_curve.png"
     fig.savefig(out, dpi=110)

@@ -78,7 +78,7 @@ def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]],
         ax.plot(run.time, run.channel("surface_speed") / RPM, lw=0.8, label="surface")
         ax.set_ylabel("speed (rpm)")
         ax.set_title(f"{rpm:.0f} rpm set point, WOB 100 kN, hard rock, stiff top drive")
-        ax.legend(loc="upper right")
+        ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0))  # beside, not on, the peaks
     axes[0].set_ylim(bottom=min(0.0, axes[0].get_ylim()[0]))
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
