@@ -380,10 +380,11 @@ def fingerprint(settings: BenchmarkSettings, env_id: str | None = None) -> str:
 def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],
                   out: Path, settings: BenchmarkSettings | None = None,
                   workers: int | None = None, ray_address: str | None = None,
-                  record: bool = False, progress: bool = True, env_id: str | None = None
-                  ) -> list[dict[str, Any]]:
+                  record: bool = False, progress: bool = True, env_id: str | None = None,
+                  heading: str = "Controller benchmark") -> list[dict[str, Any]]:
     """Run what is not in ``out/benchmark_results.jsonl`` yet, then write the table,
-    summary and plots of every finished row. Returns the rows."""
+    summary and plots of every finished row (``heading``: benchmark.md's title). Returns
+    the rows."""
     from tqdm import tqdm
 
     from drill_env.sweep import ResultStore, make_executor
@@ -417,7 +418,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             bar.close()
             executor.close()
     rows = [store.get(e.key) for e in todo_all]
-    write_outputs(rows, out, labels(controllers), scenarios, settings, env_id)
+    write_outputs(rows, out, labels(controllers), scenarios, settings, env_id, heading)
     return rows
 
 
@@ -524,7 +525,7 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
 
 def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequence[str],
                   scenarios: Sequence[str], settings: BenchmarkSettings,
-                  env_id: str | None = None) -> None:
+                  env_id: str | None = None, heading: str = "Controller benchmark") -> None:
     """benchmark.csv, benchmark.md and the plots; prints the table. The series pictures
     of an earlier benchmark into ``out`` (``benchmark_<scenario>_series.png``) are removed:
     beside benchmark.md are only this benchmark's pictures."""
@@ -543,7 +544,7 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
              if series_chart(out / "series", controllers, s,
                              out / SERIES_PICTURE.format(scenario=s), settings.warmup,
                              env_id)]
-    lines = ["# Controller benchmark", "", conditions(settings, env_id), "",
+    lines = [f"# {heading}", "", conditions(settings, env_id), "",
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in table]
     lines += [line for note in notes for line in ("", note)]

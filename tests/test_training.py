@@ -89,6 +89,10 @@ def test_evaluate_runs_the_policy_through_the_benchmark(run, tmp_path, capsys):
     assert {r["controller"] for r in rows} == {"learned", "stiff", "soft-speed",
                                                "soft-torque", "z-torque", "driller"}
     assert {int(r["seed"]) for r in rows} == {1_000_000, 1_000_001}
+    # the report names what it evaluated
+    assert (tmp_path / "benchmark.md").read_text().startswith(
+        f"# Evaluation of {folder.name} ({kept}, ppo on task stick_slip), held-out seeds "
+        "1000000-1000001")
     # same targets for every controller of a seed
     for seed in ("1000000", "1000001"):
         assert len({r["target_rpm"] for r in rows if r["seed"] == seed}) == 1

@@ -129,6 +129,11 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
         constant, _ = best_constant(out / "grid_search", workers, progress, ray_address,
                                     settings)
         names.append(constant)
-    return run_benchmark(names, ["random"], list(EVALUATION_SEEDS[:seeds]), out, settings,
-                         workers=workers, progress=progress, env_id=TASKS[task],
-                         ray_address=ray_address)
+    from agents.learned import policy_files
+
+    held_out = list(EVALUATION_SEEDS[:seeds])
+    heading = (f"Evaluation of {Path(run).name} ({policy_files(run)[0].name}, {config['algo']} "
+               f"on task {task}), held-out seeds {held_out[0]}-{held_out[-1]}")
+    return run_benchmark(names, ["random"], held_out, out, settings, workers=workers,
+                         progress=progress, env_id=TASKS[task], ray_address=ray_address,
+                         heading=heading)
