@@ -228,7 +228,10 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any]) -> Simu
     sets_well = any(key == "well" or key.startswith("well.") for key in given)
     # the new string's length, before the survey (which may now be short) is checked
     probe = config if config.well.vertical or sets_well else replace(config, well={})
-    shift = replace(probe, **overrides).string.length - config.string.length
+    changed = replace(probe, **overrides)
+    shift = changed.string.length - config.string.length
+    if probe is config and (shift == 0.0 or "initial_depth" in given):
+        return changed  # nothing to move (the usual case, as at every random reset)
     moved: dict[str, Any] = {}
     if shift != 0.0 and "initial_depth" not in given:
         if config.initial_depth is not None:
