@@ -236,6 +236,15 @@ def _env_defaults(env_id: str) -> dict[str, Any]:
     return values
 
 
+def guest_env_kwargs(controller: Any) -> dict[str, Any]:
+    """The env keywords a controller brings to a scenario it is a guest on: a task's
+    policy keeps those of its observation, not its run's physics (it drills the scenario,
+    on the scenario's physics); a classical controller brings none."""
+    own = dict(getattr(controller, "env_kwargs", dict)())
+    own.pop("physics", None)
+    return own
+
+
 def scenario_set_points(scenario: str, seed: int) -> dict[str, float]:
     """The set points (``surface_speed`` rad/s, ``weight_on_bit`` N) at which
     ``DrillString-v0`` starts episode ``seed`` of ``scenario``: the driller's, at which the
@@ -268,9 +277,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     controller = make_controller(episode.controller, env_id=episode.env_id)
     if episode.env_id is not None:  # a task benchmark: one task for every controller
         env_kwargs = dict(settings.env_kwargs)
-    else:  # a guest policy's own keywords (its observation), under the benchmark's physics
-        env_kwargs = dict(getattr(controller, "env_kwargs", dict)())
-        env_kwargs.pop("physics", None)
+    else:
+        env_kwargs = guest_env_kwargs(controller)
     physics = {**flatten(env_kwargs.pop("physics", None) or {}), **settings.physics,
                **controller.physics()}
     env_id = episode.env_id or controller.env_id

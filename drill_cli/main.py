@@ -140,17 +140,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import drill_env  # noqa: F401  (registers the ids)
+    from agents.benchmark import guest_env_kwargs, scenario_set_points
     from agents.classical import ConstantSetPoints
 
     controller = typed_controller(args.controller)
     # the controller's own physics (its top drive) over the file's
     physics = {**checked_overrides(args.config, [args.scenario]), **controller.physics()}
-    # a task's policy keeps the env keywords of its observation, not its run's physics or
-    # scenario: it drills this scenario, as in a scenario benchmark
-    own = {k: v for k, v in dict(getattr(controller, "env_kwargs", dict)()).items()
-           if k != "physics"}
-    kwargs: dict[str, Any] = {**own, "scenario": args.scenario, "start_kick": args.start_kick,
-                              "physics": physics}
+    # a task's policy drills this scenario, as in a scenario benchmark
+    kwargs: dict[str, Any] = {**guest_env_kwargs(controller), "scenario": args.scenario,
+                              "start_kick": args.start_kick, "physics": physics}
     if args.fidelity is not None:  # else the env's own (a task's policy: the task's)
         kwargs["fidelity"] = args.fidelity
     if controller.env_id != "DrillString-v0":
@@ -169,8 +167,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     # env would draw its own targets
     options: dict[str, float] = {}
     if controller.env_id != "DrillString-v0":
-        from agents.benchmark import scenario_set_points
-
         options = scenario_set_points(args.scenario, args.seed)
     for flag, value, (low, high), unit, key, scale in (
             ("--rpm", args.rpm, cfg.rpm_range, "rpm", "surface_speed", RPM),
@@ -339,7 +335,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from training.config import load_config
-    from training.train import check_run_folder, holds_run, planned_steps, resume_point, train
+    from training.train import check_run_folder, holds_run, planned_steps, train
 
     if args.name is not None and (not args.name.strip() or args.name in (".", "..")
                                   or any(c in args.name for c in "/\\")):
@@ -364,9 +360,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         # a resumed run continues with the config it was started with (--config or not)
         config = saved_run_config(saved, args.task, args.algo, n_timesteps=args.timesteps,
                                   n_envs=args.n_envs, seed=args.seed)
-    check_run_folder(run, args.resume, args.overwrite, config)  # before announcing
-    point = resume_point(run) if args.resume else None  # (steps done, gradient steps)
-    planned = planned_steps(config, point[0] if point else 0)
+    done = check_run_folder(run, args.resume, args.overwrite, config)  # before announcing
+    planned = planned_steps(config, done)
     steps = f"{planned} env steps" + (f" ({config.n_timesteps} asked for, rounded up to a "
                                       "whole PPO rollout)" if planned != config.n_timesteps
                                       else "")

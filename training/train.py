@@ -256,21 +256,22 @@ def holds_run(run: Path) -> bool:
 
 
 def check_run_folder(run: Path, resume: bool, overwrite: bool,
-                     config: TrainConfig | None = None) -> None:
+                     config: TrainConfig | None = None) -> int:
     """FileExistsError if ``run`` holds a run and neither ``resume`` nor ``overwrite``.
     With ``resume`` and a ``config``, ValueError if the run was started with another
     config or has done ``config.n_timesteps`` env steps already (as the model it would load
     records them: :func:`resume_point`), and (any run) if SAC would save a policy that
-    never learnt (:func:`check_learns`)."""
+    never learnt (:func:`check_learns`). Returns the env steps the run starts from (0 but
+    for a resume)."""
     if holds_run(run) and not (resume or overwrite):
         raise FileExistsError(f"{run} already holds a training run: --resume continues it, "
                               "--overwrite deletes it and starts again, or give another "
                               "--name")
     if config is None:
-        return
+        return 0
     if not resume:
         check_learns(config, 0)
-        return
+        return 0
     saved = run / "config.yaml"
     if saved.exists():
         old = yaml.safe_load(saved.read_text())
@@ -284,12 +285,14 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
                              "new run name or drop --resume")
     point = resume_point(run)
     if point is None:
-        return check_learns(config, 0)  # nothing to resume: it starts from the beginning
+        check_learns(config, 0)  # nothing to resume: it starts from the beginning
+        return 0
     done, updates = point
     if done >= config.n_timesteps:
         raise ValueError(f"--timesteps: {run} has done {done} env steps already; give more "
                          "than that to continue it")
     check_learns(config, done, learnt=updates > 0)
+    return done
 
 
 def check_learns(config: TrainConfig, done: int, learnt: bool = False) -> None:
