@@ -140,6 +140,13 @@ class BoundaryTracker:
             return self.i, self.j
         return None
 
+    def points_left(self) -> int:
+        """The most points the map can still need: each point moves one speed or one
+        WOB on, and the map ends when either runs out."""
+        if self.next_point() is None:
+            return 0
+        return (self.n_rpm - self.i) + (self.n_wob - self.j) - 1
+
     def report(self, stick_slip: bool) -> None:
         i, j = self.i, self.j
         if stick_slip:
@@ -272,10 +279,10 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
     if progress is True:
         from tqdm import tqdm
 
-        # boundary tracking needs at most one row plus one column of points per map; how
-        # many it needs shows only at the end, where the bar is closed at its count
-        bar = tqdm(total=len(positions) * (len(rpm) + len(wob)), desc="  stability map",
-                   unit="point", leave=False)
+        # the total is the most points the maps can still need (boundary tracking: one
+        # row plus one column at most), lowered as they go; it ends at the points run
+        bar = tqdm(total=sum(t.points_left() for t in trackers.values()),
+                   desc="  stability map", unit="point", leave=False)
         tick = bar.update
     executor = None  # started at the first point to simulate (a finished map needs none)
     try:
@@ -306,9 +313,9 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
                         tick()
             for p in wanted:
                 trackers[p].report(found[p]["stuck_fraction"] > 0.0)
-        if bar is not None:
-            bar.total = bar.n  # done: the bar ends full, at the points simulated or reused
-            bar.refresh()
+            if bar is not None:
+                bar.total = bar.n + sum(t.points_left() for t in trackers.values())
+                bar.refresh()
     finally:
         if executor is not None:
             executor.close()

@@ -7,6 +7,8 @@ import math
 import numpy as np
 import pytest
 from helpers import stop_after
+from hypothesis import given
+from hypothesis import strategies as st
 
 from drill_env import stability_map as sm
 from drill_env.physics.config import replace
@@ -15,6 +17,7 @@ from drill_env.physics.stability import torsional_growth_rate
 from drill_env.scenarios import make_scenario
 from drill_env.stability_map import (
     RPM,
+    BoundaryTracker,
     MapSettings,
     grid,
     stability_maps,
@@ -57,6 +60,27 @@ def test_no_stick_raises_only_the_wob_and_a_stick_moves_to_the_next_speed():
 
     track_boundary(sticks, 3, 5)
     assert visited == [(0, 0), (0, 1), (1, 1), (2, 1), (2, 2), (2, 3)]
+
+
+@given(st.integers(1, 25), st.integers(1, 25), st.lists(st.booleans(), max_size=60))
+def test_points_left_bounds_the_points_a_map_still_runs_and_reaches_zero(n_rpm, n_wob,
+                                                                        verdicts):
+    """The progress bar's total: ``points_left`` never promises fewer points than the
+    map still runs, falls by at least one per point, and is 0 once it is done (the bar
+    ends full, at the points run)."""
+    tracker = BoundaryTracker(n_rpm, n_wob)
+    history = [tracker.points_left()]
+    assert history[0] == n_rpm + n_wob - 1
+    answers = iter(verdicts)
+    while tracker.next_point() is not None:
+        tracker.report(next(answers, True))
+        history.append(tracker.points_left())
+    assert history[-1] == 0
+    runs = len(history) - 1
+    for k, left in enumerate(history):
+        assert left >= runs - k  # never fewer than the points still to run
+        if k:
+            assert left <= history[k - 1] - 1
 
 
 def test_grid_and_settings_name_bad_values():

@@ -52,7 +52,7 @@ from drill_env.physics.top_drive import resolve as resolve_top_drive
 from drill_env.physics.units import RPM
 
 __all__ = ["CHART_MODES", "CriticalSpeed", "Modes", "chart_cutoff", "critical_speed_chart",
-           "critical_speed_figure", "critical_speeds", "excitations",
+           "critical_speed_figure", "critical_speeds", "excitation_label", "excitations",
            "lateral_buckling_weight", "lateral_modes", "neutral_point_height",
            "require_vertical", "torsional_modes", "undamped_frequencies"]
 
@@ -291,6 +291,13 @@ def excitations(config: SimulationConfig, kind: str = "lateral") -> list[tuple[s
     return out
 
 
+def excitation_label(name: str, per_rev: float) -> str:
+    """The chart's label of an :func:`excitations` line: its name, and for a backward
+    whirl (whose name does not say it) how many times per revolution it excites,
+    ``"backward whirl (bit): 21.2x"``."""
+    return f"{name}: {per_rev:.3g}x" if name.startswith("backward whirl") else name
+
+
 def critical_speeds(config: SimulationConfig, modes: Sequence[Modes],
                     max_rpm: float = 300.0) -> list[CriticalSpeed]:
     """Every speed up to ``max_rpm`` where an :func:`excitations` line crosses a mode."""
@@ -309,6 +316,9 @@ def critical_speeds(config: SimulationConfig, modes: Sequence[Modes],
 #: page; the printed table and modes.json list them all.
 CHART_MODES = 24
 _LABEL: dict[str, Any] = {"fontsize": 7, "bbox": {"fc": "white", "ec": "none", "pad": 0.3}}
+#: Pixels between a mode label and the one beside it (close frequencies: the labels
+#: stand in columns, the gap showing the right one's line).
+MODE_LABEL_GAP = 16.0
 
 
 def critical_speed_chart(config: SimulationConfig, modes: Sequence[Modes], path,
@@ -353,13 +363,14 @@ def critical_speed_figure(config: SimulationConfig, modes: Sequence[Modes],
     cutoff = chart_cutoff(config, modes, max_rpm)
     fig, ax = plt.subplots(figsize=(10, 6.5))
     styles = {"lateral": ("tab:blue", "-"), "torsional": ("tab:red", "--")}
-    mode_labels = []
+    mode_labels, mode_lines = [], []
     for m in modes:
         color, line = styles.get(m.kind, ("k", ":"))
         for i, f in enumerate(m.frequency.tolist()):
             if f <= cutoff:
-                ax.axhline(f, color=color, ls=line, lw=1.0,
-                           label=f"{m.kind} modes: {m.boundary}" if i == 0 else None)
+                mode_lines.append(ax.axhline(
+                    f, color=color, ls=line, lw=1.0, gid="mode line",
+                    label=f"{m.kind} modes: {m.boundary}" if i == 0 else None))
                 mode_labels.append(ax.text(max_rpm, f, f"{m.kind[0].upper()}{i + 1} {f:.2f} Hz",
                                            color=color, ha="right", va="center",
                                            gid="mode label", **_LABEL))
@@ -387,8 +398,8 @@ def critical_speed_figure(config: SimulationConfig, modes: Sequence[Modes],
               frameon=False)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    _lay_out_labels(fig, ax, mode_labels, drawn, lines, [(c.rpm, c.frequency) for c in crit],
-                    max(cutoff, 1e-3))
+    _lay_out_labels(fig, ax, list(zip(mode_labels, mode_lines, strict=True)), drawn, lines,
+                    [(c.rpm, c.frequency) for c in crit], max(cutoff, 1e-3))
     if len(mode_labels) < total:  # the band above the modes holds labels, not the rest
         ax.axhspan(cutoff, ax.get_ylim()[1], color="0.92", lw=0, zorder=0,
                    gid="modes not drawn")
@@ -412,14 +423,17 @@ def _crosses(p0: np.ndarray, p1: np.ndarray, box: Any) -> bool:
     return t0 <= t1
 
 
-def _lay_out_labels(fig: Any, ax: Any, mode_labels: list[Any], drawn: dict[str, Any],
+def _lay_out_labels(fig: Any, ax: Any, modes: list[tuple[Any, Any]], drawn: dict[str, Any],
                     lines: dict[str, float], circles: list[tuple[float, float]],
                     f_top: float) -> None:
     """Place the labels of :func:`critical_speed_figure` (its docstring), in pixels of
     the laid-out figure: first the top of the y axis, which leaves a band above the
-    highest mode with a row for each excitation's label."""
+    highest mode with a row for each excitation's label. ``modes``: (label, line) of
+    each mode; a line ends at its label, so that one moved left of a close mode's label
+    does not run on under it."""
     from matplotlib.transforms import Bbox
 
+    mode_labels = [text for text, _ in modes]
     renderer = fig.canvas.get_renderer()
     height = (mode_labels[0] if mode_labels else ax.title).get_window_extent(renderer).height
     row = height + 3.0
@@ -445,13 +459,16 @@ def _lay_out_labels(fig: Any, ax: Any, mode_labels: list[Any], drawn: dict[str, 
         return (frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0
                 and box.y1 <= frame.y1 and not any(box.overlaps(b) for b in taken + dots))
 
-    # modes: at the right edge, else in the first column to the left with room
-    column = max((t.get_window_extent(renderer).width for t in mode_labels), default=0.0) + 8.0
-    for text in sorted(mode_labels, key=lambda t: t.get_position()[1]):
+    # modes: at the right edge, else in the first column to the left with room (a
+    # column apart: the gap shows the other label's line running into it)
+    column = max((t.get_window_extent(renderer).width for t in mode_labels),
+                 default=0.0) + MODE_LABEL_GAP
+    for text, line in sorted(modes, key=lambda m: m[0].get_position()[1]):
         y = max(to_px((0.0, text.get_position()[1]))[1], frame.y0 + height / 2 + 2.0)
         boxes = (put(text, (frame.x1 - 3.0 - c * column, y)) for c in range(12))
-        taken.append(next((b for b in boxes if free(b)), None)
-                     or put(text, (frame.x1 - 3.0, y)))
+        box = next((b for b in boxes if free(b)), None) or put(text, (frame.x1 - 3.0, y))
+        taken.append(box)
+        line.set_xdata([0.0, (box.x1 - 1.0 - frame.x0) / frame.width])  # axes fraction
 
     origin = to_px((0.0, 0.0))
     ends = {name: to_px(line.get_xydata()[-1]) for name, line in drawn.items()}
@@ -463,8 +480,9 @@ def _lay_out_labels(fig: Any, ax: Any, mode_labels: list[Any], drawn: dict[str, 
                                      if n != name) \
             and (end is None or not any(_crosses(origin, end, b) for b in taken))
 
-    texts = {name: ax.text(0.0, 0.0, name, color="0.25", gid="excitation label", **_LABEL)
-             for name in lines}
+    texts = {name: ax.text(0.0, 0.0, excitation_label(name, per_rev), color="0.25",
+                           gid="excitation label", **_LABEL)
+             for name, per_rev in lines.items()}
     rows = to_px((0.0, f_top))[1] + height / 2 + 3.0 + (np.arange(len(lines)) + 0.5) * row
 
     def in_band(name: str) -> bool:

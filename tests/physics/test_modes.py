@@ -25,6 +25,7 @@ from drill_env.physics.config import (
 from drill_env.physics.fem import assemble_lateral, assemble_torsion, build_mesh
 from drill_env.physics.modes import (
     critical_speeds,
+    excitation_label,
     excitations,
     lateral_buckling_weight,
     lateral_modes,
@@ -317,7 +318,8 @@ def test_critical_speed_chart_labels_stay_inside_and_apart(string, n_modes, max_
     fig, ax, modes = _chart(config, n_modes, max_rpm)
     renderer = fig.canvas.get_renderer()
     boxes = [(t.get_text(), t.get_window_extent(renderer)) for t in ax.texts]
-    names = {name for m in modes for name, _ in excitations(config, m.kind)}
+    names = {excitation_label(name, per_rev)
+             for m in modes for name, per_rev in excitations(config, m.kind)}
     assert len(boxes) == len(_mode_labels(ax)) + len(names)
     assert names <= {text for text, _ in boxes}
     title = ax.title.get_window_extent(renderer)
@@ -372,9 +374,11 @@ def test_each_excitation_line_runs_into_its_label_and_through_no_other(string, n
     renderer = fig.canvas.get_renderer()
     labels = {t.get_text(): t.get_window_extent(renderer) for t in ax.texts
               if t.get_gid() == "excitation label"}
-    assert set(labels) == {name for m in modes for name, _ in excitations(config, m.kind)}
-    lines = {line.get_gid().partition(": ")[2]: line for line in ax.lines
-             if str(line.get_gid()).startswith("excitation: ")}
+    per_rev = {name: x for m in modes for name, x in excitations(config, m.kind)}
+    assert set(labels) == {excitation_label(name, x) for name, x in per_rev.items()}
+    lines = {excitation_label(gid[len("excitation: "):], per_rev[gid[len("excitation: "):]]):
+             line for line in ax.lines
+             if (gid := str(line.get_gid())).startswith("excitation: ")}
     assert set(lines) == set(labels)
     for name, box in labels.items():
         inner = box.padded(-1.0)  # the outline may touch its own line
@@ -391,6 +395,52 @@ def test_each_excitation_line_runs_into_its_label_and_through_no_other(string, n
                                np.clip(ys, box.y0, box.y1) - ys)
                 assert np.min(gap) < 6.0, (name, "away from its line")
     plt.close(fig)
+
+
+@pytest.mark.parametrize(("string", "n_modes", "max_rpm"), CHARTS)
+def test_mode_labels_stand_apart_and_each_line_ends_at_its_label(string, n_modes,
+                                                                  max_rpm):
+    """Close frequencies (the default string's L5 1.69 Hz and T2 1.65 Hz) put two mode
+    labels side by side: they keep a gap, and the left one's line ends under its own
+    label rather than running on beneath its neighbour's (it read "Hz-T2")."""
+    import matplotlib.pyplot as plt
+
+    from drill_env.physics.modes import MODE_LABEL_GAP
+
+    config = SimulationConfig() if string == "default" else _field_config()
+    fig, ax, _ = _chart(config, n_modes, max_rpm)
+    renderer = fig.canvas.get_renderer()
+    labels = [t for t in ax.texts if t.get_gid() == "mode label"]
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    moved = 0
+    for k, box in enumerate(boxes):
+        for other in boxes[k + 1:]:
+            if box.y0 < other.y1 and other.y0 < box.y1:  # side by side
+                assert max(box.x0, other.x0) - min(box.x1, other.x1) >= MODE_LABEL_GAP - 4
+    mode_lines = [line for line in ax.lines if line.get_gid() == "mode line"]
+    for text, box, line in zip(labels, boxes, mode_lines, strict=True):  # drawn in turn
+        assert text.get_text().endswith(f"{line.get_ydata()[0]:.2f} Hz")
+        end = ax.bbox.x0 + line.get_xdata()[1] * ax.bbox.width
+        assert box.x0 < end <= box.x1, text.get_text()
+        moved += box.x1 < ax.bbox.x1 - 10.0
+    if string == "default" and max_rpm == 250.0:
+        assert moved >= 1  # L5 beside T2: the case this test is about
+    plt.close(fig)
+
+
+def test_backward_whirl_labels_say_their_multiplier():
+    """A backward whirl line's slope is not in its name: rolling without slip on the
+    wall, a body of radius r in a hole of radius R whirls backward at r / (R - r) times
+    the rotary speed (Jansen 1993; Vandiver et al. 1990): 21.2x for the default 8.36 in
+    bit in a hole 5 mm wider in radius."""
+    config = SimulationConfig()
+    cfg = config.resolved()
+    r = cfg.bit.gauge_radius
+    hole = r + cfg.bit.gauge_clearance
+    label = excitation_label("backward whirl (bit)", dict(excitations(config))[
+        "backward whirl (bit)"])
+    assert label == f"backward whirl (bit): {r / (hole - r):.3g}x"
+    assert excitation_label("1x", 1.0) == "1x"
 
 
 def test_a_chart_of_many_modes_draws_the_lowest_and_says_so():
