@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import zipfile
 
 import gymnasium as gym
 import numpy as np
@@ -115,6 +116,41 @@ def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
     assert steps[:2] == [1024, 2048] and steps[-1] == 3072
 
 
+def test_a_finished_run_resumes_from_its_final_model_not_an_older_checkpoint(run, tmp_path):
+    """A run that ended keeps checkpoints older than its final model: a resume continues
+    from the final model (resumed from the last checkpoint it threw finished steps away
+    and overwrote the final model), and a --timesteps at or below what the final model
+    did is refused. A Ctrl-C after that resume saves a checkpoint past the final model,
+    which the next resume takes."""
+    import shutil
+
+    from drill_env.physics.config import replace
+    from training.train import resume_files, resume_point, saved_steps
+
+    folder, cfg = run
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    done = json.loads((copy / "run.json").read_text())["env_steps"]
+    assert resume_files(copy) == (copy / "model.zip", copy / "vecnormalize.pkl")
+    assert resume_point(copy)[0] == done == cfg.n_timesteps
+    for steps in (done, done - 512):
+        with pytest.raises(ValueError, match=f"has done {done} env steps already"):
+            train(replace(cfg, n_timesteps=steps), copy, resume=True, progress=False)
+    later = copy / "checkpoints" / f"model_{done + 512}_steps.zip"  # as a Ctrl-C saves
+    shutil.copy(copy / "model.zip", later)
+    shutil.copy(copy / "vecnormalize.pkl", copy / "checkpoints" / f"vecnormalize_{done + 512}.pkl")
+    with zipfile.ZipFile(later) as old, zipfile.ZipFile(tmp_path / "m.zip", "w") as new:
+        for item in old.infolist():
+            data = old.read(item.filename)
+            if item.filename == "data":
+                record = json.loads(data)
+                record["num_timesteps"] = done + 512
+                data = json.dumps(record).encode()
+            new.writestr(item, data)
+    shutil.move(tmp_path / "m.zip", later)
+    assert resume_files(copy)[0] == later and saved_steps(later)[0] == done + 512
+
+
 def test_a_resumed_run_redoes_the_evaluations_after_its_checkpoint(run, tmp_path):
     """Killed after the evaluation at 2048 steps but before its checkpoint, a run resumes
     from 1024: the evaluation at 2048 is done again and replaces the old row, and the
@@ -126,6 +162,8 @@ def test_a_resumed_run_redoes_the_evaluations_after_its_checkpoint(run, tmp_path
     shutil.copytree(folder, copy)
     for name in ("model_2048_steps.zip", "vecnormalize_2048.pkl", "progress_2048.json"):
         (copy / "checkpoints" / name).unlink()
+    for name in ("model.zip", "vecnormalize.pkl", "run.json"):  # killed: it never ended
+        (copy / name).unlink()
     at_checkpoint = json.loads((copy / "checkpoints" / "progress_1024.json").read_text())
     train(cfg, copy, resume=True, progress=False)
     with (copy / "evaluations.csv").open() as f:
@@ -225,6 +263,8 @@ def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path):
 
     cfg = tiny_config(n_timesteps=1024, checkpoint_freq=768, eval_freq=10_000)
     train(cfg, tmp_path / "run", progress=False)  # rollouts of 128 x 4 = 512
+    for name in ("model.zip", "vecnormalize.pkl", "run.json"):  # killed after 768 steps
+        (tmp_path / "run" / name).unlink()
     done = resume_point(tmp_path / "run")[0]
     assert done % 512  # the checkpoint at 768 lies inside the second rollout
     longer = replace(cfg, n_timesteps=2048)

@@ -312,24 +312,34 @@ def check_learns(config: TrainConfig, done: int, learnt: bool = False) -> None:
 
 
 def resume_files(run: Path) -> tuple[Path, Path] | None:
-    """(model, VecNormalize statistics) a resume of ``run`` loads: its last checkpoint,
-    else its final model; None if it has neither."""
+    """(model, VecNormalize statistics) a resume of ``run`` loads: of its last checkpoint
+    and its final model the one further on (a finished run's checkpoints are older than
+    its final model; a Ctrl-C after a resume saves a checkpoint past it), the final one on
+    a tie; None if it has neither."""
     final = (run / "model.zip", run / "vecnormalize.pkl")
-    return latest_checkpoint(run) or (final if all(p.exists() for p in final) else None)
+    checkpoint = latest_checkpoint(run)
+    if not all(p.exists() for p in final):
+        return checkpoint
+    if checkpoint is None or saved_steps(final[0])[0] >= saved_steps(checkpoint[0])[0]:
+        return final
+    return checkpoint
+
+
+def saved_steps(model: Path) -> tuple[int, int]:
+    """(env steps, gradient steps) a saved SB3 model records; reads the zip's ``data``
+    entry only, not the networks."""
+    import zipfile
+
+    with zipfile.ZipFile(model) as archive:
+        data = json.loads(archive.read("data"))
+    return int(data["num_timesteps"]), int(data.get("_n_updates", 0))
 
 
 def resume_point(run: Path) -> tuple[int, int] | None:
     """(env steps, gradient steps) of the model a resume of ``run`` would load
-    (:func:`resume_files`), as the model file records them; None if it has none. Reads
-    the zip's ``data`` entry only, not the networks."""
-    import zipfile
-
+    (:func:`resume_files`), as the model file records them; None if it has none."""
     files = resume_files(run)
-    if files is None:
-        return None
-    with zipfile.ZipFile(files[0]) as archive:
-        data = json.loads(archive.read("data"))
-    return int(data["num_timesteps"]), int(data.get("_n_updates", 0))
+    return None if files is None else saved_steps(files[0])
 
 
 def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool = True,
