@@ -285,15 +285,16 @@ class DrillStringEnv(BatchFinish, gym.Env):
         cfg = self.config
         self.observation_names = OBSERVATIONS[cfg.sensors]
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        n_obs = len(self.observation_names)
-        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(n_obs,),
-                                            dtype=np.float32)
+        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, dtype=np.float32,
+                                            shape=(len(self.observation_names),))
         self._speed_range = (cfg.rpm_range[0] * RPM, cfg.rpm_range[1] * RPM)
         self._wob_range = tuple(float(v) for v in cfg.weight_on_bit_range)
 
         # Build (and validate) the physics now; randomised scenarios redraw at reset.
         self.scenario: Scenario = self._build_scenario(np.random.default_rng(0))
         check_draws(scenario, self.scenario.config, flatten(physics or {}))
+        if not self.randomised:
+            self._check_range(self.scenario.surface_speed, self.scenario.weight_on_bit, "")
         self._set_simulator(Simulator(self.scenario.config))
         self._init_episode_state()
 
@@ -305,6 +306,15 @@ class DrillStringEnv(BatchFinish, gym.Env):
             config = with_physics(scenario.config, self.physics_overrides)
             scenario = dataclasses.replace(scenario, config=config)
         return scenario
+
+    def _check_range(self, speed: float, wob: float, where: str) -> None:
+        """ValueError naming a start set point (rad/s, N) outside the action ranges."""
+        for name, value, (low, high), unit, scale, field in (
+                ("surface_speed", speed, self._speed_range, "rpm", RPM, "rpm_range"),
+                ("weight_on_bit", wob, self._wob_range, "kN", 1e3, "weight_on_bit_range")):
+            if not low * (1 - 1e-12) <= value <= high * (1 + 1e-12):
+                raise ValueError(f"{where}{name}: {value / scale:.4g} {unit} lies outside the "
+                                 f"env's {field} {low / scale:g}-{high / scale:g} {unit}")
 
     def _set_simulator(self, sim: Simulator) -> None:
         self.sim = sim
@@ -402,6 +412,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
             if not math.isfinite(value):
                 raise ValueError(f"reset options: {name} must be finite, got {value}")
         speed, wob = self._start_targets(speed, wob, given)
+        if given:  # (a random draw beyond ranges the user narrowed is clamped)
+            self._check_range(speed, wob, "reset options: ")
         speed = min(max(speed, self._speed_range[0]), self._speed_range[1])
         wob = min(max(wob, self._wob_range[0]), self._wob_range[1])
 

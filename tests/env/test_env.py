@@ -238,6 +238,26 @@ def test_unknown_scenario_lists_the_known_ones():
         gym.make("DrillString-v0", scenario="moon_rock")
 
 
+def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
+    """The env used to clamp these silently: ``surface_speed=50`` (rad/s, 477 rpm) drilled
+    at 200 rpm, a reset at 250 kN at 200 kN, a 10 rpm reset of the drilling task (range
+    40-200 rpm) at 40 rpm. The action ranges bound what an episode can hold, so a start
+    outside them is an error naming the key, in the user's units; the range ends pass."""
+    with pytest.raises(ValueError, match=r"^surface_speed: 477.5 rpm lies outside the "
+                                         r"env's rpm_range 0-200 rpm"):
+        gym.make("DrillString-v0", surface_speed=50.0)
+    with pytest.raises(ValueError, match="^weight_on_bit: 100 kN .*weight_on_bit_range 0-80 kN"):
+        gym.make("DrillString-v0", weight_on_bit_range=(0.0, 80e3))  # the scenario's 100 kN
+    env = gym.make("DrillString-v0")
+    with pytest.raises(ValueError, match=r"^reset options: weight_on_bit: 250 kN lies outside"):
+        env.reset(seed=0, options={"weight_on_bit": 250e3})
+    env.reset(seed=0, options={"surface_speed": 200 * RPM, "weight_on_bit": 200e3})
+    assert env.unwrapped.targets == pytest.approx((200 * RPM, 200e3))
+    task = gym.make("DrillOptimise-v0")
+    with pytest.raises(ValueError, match=r"^reset options: surface_speed: 10 rpm .*40-200 rpm"):
+        task.reset(seed=0, options={"surface_speed": 10 * RPM})
+
+
 def test_unknown_keyword_is_named():
     with pytest.raises(ValueError, match="episode_lenght"):
         gym.make("DrillString-v0", episode_lenght=3.0)

@@ -301,7 +301,7 @@ ARRAY_FINISH_CASES = {
     # every WOB; the mesh check above paper_case2's 235 kN
     "curved hole": dict(KW, episode_duration=0.5, scenario="j_shaped", fidelity="fast"),
     "mesh check": dict(KW, episode_duration=0.5, scenario="paper_case2",
-                       weight_on_bit_range=(200e3, 400e3), limit_weight_on_bit_to_mesh=False,
+                       weight_on_bit_range=(0.0, 400e3), limit_weight_on_bit_to_mesh=False,
                        drawworks_rate=2e6),
 }
 
