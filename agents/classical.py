@@ -44,9 +44,10 @@ class StiffPI(_DriveLoop):
 class SoftSpeed(_DriveLoop):
     """SoftSpeed / tuned PI (Kyllingstad & Nessjoen 2009, SPE-119660): ``P = k Z`` so the
     top absorbs the waves coming up the string, ``I = (2 pi f_s)^2 J_td`` so the integral
-    term cancels the top-drive inertia at the stick-slip frequency; k = 1.5
-    (``TopDriveConfig.impedance_factor``: reflection (k-1)/(k+1) = 0.2 at f_s; k = 1 left
-    the default string stick-slipping, docs/controllers.md). Drive rate."""
+    term cancels the top-drive inertia at the stick-slip frequency; k = 4
+    (``TopDriveConfig.impedance_factor``: reflection (k-1)/(k+1) = 0.6 at f_s, but an
+    absorbing band wide enough for the modes the soft top creates; at k = 1-3 stick-slip
+    grew back within 1-4 minutes, docs/controllers.md). Drive rate."""
 
     name = "soft-speed"
     top_drive = "soft_speed"

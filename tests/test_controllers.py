@@ -12,7 +12,14 @@ from reference_solutions import torsional_impedance, transfer_matrix_frequency
 
 from agents import CLASSICAL, Driller, DrillerRules, make_controller, parse_controllers
 from agents.classical import SoftSpeed, SoftTorque, StiffPI, ZTorque
-from drill_env.physics.config import INCH, Section, SimulationConfig, StringConfig, replace
+from drill_env.physics.config import (
+    INCH,
+    Section,
+    SimulationConfig,
+    StringConfig,
+    TopDriveConfig,
+    replace,
+)
 from drill_env.physics.top_drive import measured_reflection, resolve
 from drill_env.physics.units import RPM
 from drill_env.scenarios import make_scenario
@@ -127,32 +134,51 @@ def test_the_pulse_reflection_matches_the_top_drive_impedance(reflections, name)
 
 
 def test_tuned_controllers_absorb_at_their_frequency_and_stiff_reflects(reflections):
+    """Stiff PI reflects nearly everything; the torque-feedback loops absorb at f_s;
+    SoftSpeed's top is the damper k Z there, reflecting (k - 1)/(k + 1) (Kyllingstad &
+    Nessjoen 2009: its integral term cancels the top-drive inertia at f_s), and more away
+    from f_s, where the inertia shows again."""
     f_s_index = 2
     assert abs(reflections["stiff"][0][f_s_index]) > 0.9
-    for name in ("soft-speed", "soft-torque", "z-torque"):
+    for name in ("soft-torque", "z-torque"):
         assert abs(reflections[name][0][f_s_index]) < 0.3, name
+    k = TopDriveConfig().impedance_factor
+    soft = np.abs(reflections["soft-speed"][0])
+    assert soft[f_s_index] == pytest.approx((k - 1.0) / (k + 1.0), abs=0.03)
+    assert soft[f_s_index] < min(soft[1], soft[3]) - 0.1
+    assert soft[f_s_index] < abs(reflections["stiff"][0][f_s_index]) - 0.3
 
 
 @pytest.mark.slow
-def test_tuned_controllers_cure_stick_slip_at_the_same_mean_speed():
-    """50 rpm, 100 kN in hard rock on the default string (coupled): stiff PI stick-slips;
-    SoftSpeed, SoftTorque and ZTorque cut the SSI by at least half with the bit at the
-    same mean speed."""
+def _swing(run, start: float, end: float) -> float:
+    """Half the bit speed's peak-to-peak (rpm) in ``[start, end)`` s."""
+    w = run.channel("bit_speed")[(run.time >= start) & (run.time < end)] / RPM
+    return float(w.max() - w.min()) / 2.0
+
+
+@pytest.mark.parametrize(("rpm", "wob"), [(50.0, 100e3), (60.0, 150e3)])
+def test_tuned_controllers_cure_stick_slip_at_the_same_mean_speed(rpm, wob):
+    """In hard rock on the default string (coupled), where stiff PI stick-slips, SoftSpeed,
+    SoftTorque and ZTorque hold the bit steady at the same mean speed, and keep it so:
+    the oscillation left from the 2 % kick decays over four minutes. (SoftSpeed at k =
+    1.5 passed a 40-80 s window with SSI 0.03, yet its oscillation grew x3 every 15 s to
+    full stick-slip by ~90 s: a cure is judged on whether the oscillation shrinks.)"""
     config = make_scenario("default").config
     results = {}
     for name in ("stiff", "soft-speed", "soft-torque", "z-torque"):
         cfg = replace(config, **make_controller(name).physics())
-        run = simulate(cfg, 50.0, 100e3, 80.0)
-        tail = run.time > 40.0
-        results[name] = (stick_slip_summary(run, 40.0)["ssi"],
-                         float(np.mean(run.channel("bit_speed")[tail])) / RPM)
-    ssi_stiff, rpm_stiff = results["stiff"]
+        run = simulate(cfg, rpm, wob, 240.0)
+        tail = run.time > 200.0
+        results[name] = (stick_slip_summary(run, 200.0)["ssi"],
+                         float(np.mean(run.channel("bit_speed")[tail])) / RPM,
+                         _swing(run, 120.0, 160.0), _swing(run, 200.0, 240.0))
+    ssi_stiff, rpm_stiff, _, _ = results["stiff"]
     assert ssi_stiff > 1.0
     for name in ("soft-speed", "soft-torque", "z-torque"):
-        ssi, rpm = results[name]
-        assert ssi <= 0.5 * ssi_stiff, name
-        assert rpm == pytest.approx(50.0, abs=1.0), name
-        assert rpm == pytest.approx(rpm_stiff, abs=1.5), name
+        ssi, mean, earlier, late = results[name]
+        assert ssi <= 0.02, name
+        assert late <= max(earlier, 0.01), (name, earlier, late)  # not growing back
+        assert mean == pytest.approx(rpm, abs=0.5), name
 
 
 def test_registry_names_every_controller_and_refuses_unknown_ones():

@@ -337,12 +337,16 @@ class TopDriveConfig:
     #: oscillates close to (Kyllingstad & Nessjoen 2009).
     tuning_frequency: Annotated[Positive, Field(le=100.0)] | None = None
     #: SoftSpeed's P = impedance_factor x Z. k = 1 matches the pipe exactly (no
-    #: reflection at the tuning frequency) but leaves the speed loop so soft that on the
-    #: default string at 50 rpm / 100 kN the top-drive speed swings +-25 rpm and the bit
-    #: still stick-slips (SSI 1.13 against 1.21 stiff); k = 1.5-3 cures it (SSI <= 0.03),
-    #: and k = 1.5 keeps the reflection at the tuning frequency at (k - 1)/(k + 1) = 0.2.
-    #: Measured in docs/controllers.md.
-    impedance_factor: Positive = Field(default=1.5, le=100.0)
+    #: reflection at the tuning frequency), but the top absorbs only within ~kZ / (4 pi
+    #: J_td) Hz of it (0.02 Hz at k = 1 on the default string), and with the soft top in
+    #: the loop the first mode splits into two on either side of that band (0.37 and
+    #: 0.53 Hz at k = 1.5), which the bit's falling friction drives: stick-slip grows
+    #: back, slowly (at k = 1.5 from a 2 % kick to full size in ~90 s, at k = 2 in
+    #: ~180 s). Over 240 s on the default string at 50 rpm / 100 kN and 60 rpm / 150 kN
+    #: only k = 4 decays at both (k = 3 still grows at 150 kN, k = 5 and 6 grow back);
+    #: the reflection at the tuning frequency is then (k - 1)/(k + 1) = 0.6.
+    #: Measured in docs/controllers.md ("SoftSpeed's k").
+    impedance_factor: Positive = Field(default=4.0, le=100.0)
     #: Feedback of the string torque at the top T_s (the torque in the top pipe element,
     #: as a torque sub measures it) into the speed command at every time step:
     #: ``w_cmd = w_set - feedback_gain H(T_s)``; "high_pass": H first-order with corner

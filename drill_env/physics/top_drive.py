@@ -14,7 +14,9 @@ string torque at the top.
   k ~ 1, so the top drive absorbs the waves arriving from below, and ``I = w_s^2 J_td``,
   so the integral term cancels the top-drive inertia at ``w_s``: the top's impedance is
   the real ``k Z`` there and its reflection coefficient ``(1 - k) / (1 + k)``, 0 at k = 1.
-  We use k = 1.5 (``TopDriveConfig.impedance_factor``, measured choice: r = 0.2).
+  We use k = 4 (``TopDriveConfig.impedance_factor``, measured choice: r = 0.6 at
+  ``w_s``, but a band wide enough to hold the two modes the soft top splits the first
+  one into; at k = 1.5-3 stick-slip grows back within 1-4 minutes).
 * **soft_torque** (Shell's Soft Torque Rotary System as described by Dwars 2015,
   SPE/IADC-173037): the stiff PI speed loop, its command lowered by the string torque
   through a band-pass centred on ``w_s`` and the gain 1/Z:
