@@ -71,11 +71,25 @@ class BenchmarkSettings:
     env_kwargs: dict[str, Any] = Field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.warmup >= self.duration:
-            from drill_env.physics.validation import ConfigError
+        from drill_env.physics.config import flatten
+        from drill_env.physics.validation import ConfigError
 
+        if self.warmup >= self.duration:
             raise ConfigError(f"warmup: {self.warmup} s must be shorter than the duration "
                               f"({self.duration} s)")
+        for key in flatten(self.physics):
+            if key in CONTROLLER_FIELDS:
+                raise ConfigError(
+                    f"physics.{key}: the benchmark gives each controller its own top drive; "
+                    "set for all of them, it would make them one controller (and leave the "
+                    "driller and learned policies on another): remove it (tuning knobs such "
+                    "as top_drive.impedance_factor or top_drive.filter_frequency may stay)")
+
+
+#: Top-drive fields that say which controller the drive is, or override its rule's gains:
+#: a benchmark's physics (``--config``) may not set them for every controller at once.
+CONTROLLER_FIELDS = frozenset(f"top_drive.{name}" for name in (
+    "controller", "proportional_gain", "integral_gain", "torque_feedback", "feedback_gain"))
 
 
 @dataclass(frozen=True)

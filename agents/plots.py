@@ -29,8 +29,11 @@ BARS = (("ssi", "stick-slip severity (SSI)", 1.0, "no stick-slip in any episode"
 COLOURS = {"stiff": 0, "soft-speed": 1, "soft-torque": 2, "z-torque": 3, "driller": 4,
            "learned": 5}
 #: Dash patterns by a controller's place in the list, so that lines which coincide (the
-#: tuned controllers at a speed where none is needed) still all show.
-DASHES = ("-", (0, (6, 3)), (0, (2, 2)), (0, (8, 2, 2, 2)))
+#: tuned controllers at a speed where none is needed) still all show; six, so that a
+#: policy and its five baselines all differ (with four, the first and fifth, a policy
+#: and ZTorque, were both solid, in brown and red).
+DASHES = ("-", (0, (6, 3)), (0, (2, 2)), (0, (8, 2, 2, 2)), (0, (12, 3)),
+          (0, (4, 2, 1, 2, 1, 2)))
 
 
 #: Radial position / clearance below which the series chart says the bit stayed on the

@@ -144,8 +144,17 @@ def cmd_run(args: argparse.Namespace) -> int:
     from agents.classical import ConstantSetPoints
 
     controller = typed_controller(args.controller)
+    overrides = checked_overrides(args.config, [args.scenario])
+    if "top_drive.controller" in overrides:  # it would be replaced by --controller's
+        names = {"soft_speed": "soft-speed", "soft_torque": "soft-torque",
+                 "z_torque": "z-torque"}
+        wanted = overrides["top_drive.controller"]
+        raise argparse.ArgumentTypeError(
+            f"--config {args.config}: top_drive.controller: drill-env run takes the "
+            f"controller from --controller (default stiff); give --controller "
+            f"{names.get(wanted, wanted)} instead")
     # the controller's own physics (its top drive) over the file's
-    physics = {**checked_overrides(args.config, [args.scenario]), **controller.physics()}
+    physics = {**overrides, **controller.physics()}
     # a task's policy drills this scenario, as in a scenario benchmark
     kwargs: dict[str, Any] = {**guest_env_kwargs(controller), "scenario": args.scenario,
                               "start_kick": args.start_kick, "physics": physics}
@@ -196,7 +205,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     info: dict[str, Any] = {}
     obs, info = env.reset(seed=args.seed, options=options or None)
     start_wob_kn = base.targets[1] / KILO
-    for b in pipe_buckling(base.simulation_config, start_wob_kn * KILO):
+    lateral = base.simulation_config.solver.lateral  # torsion only: nothing to buckle
+    for b in pipe_buckling(base.simulation_config, start_wob_kn * KILO) if lateral else ():
         print(f"note: {start_wob_kn:g} kN compresses the {b.component} by "
               f"{b.compression / KILO:.1f} kN, beyond its buckling load "
               f"{b.buckling_load / KILO:.1f} kN: it buckles into the wall (the scenarios "
@@ -316,9 +326,15 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     check_constant_set_points(controllers, env_id)
     # a task benchmark runs at the level the task trains and evaluates on
     fidelity = args.fidelity or ("fast" if env_id else "full")
-    settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
-                                 start_kick=args.start_kick, fidelity=fidelity,
-                                 physics=checked_overrides(args.config, scenarios))
+    try:
+        settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
+                                     start_kick=args.start_kick, fidelity=fidelity,
+                                     physics=checked_overrides(args.config, scenarios))
+    except ValueError as err:  # a field of the --config file the benchmark cannot take
+        if not str(err).startswith("physics."):
+            raise
+        raise argparse.ArgumentTypeError(
+            f"--config {args.config}: {str(err).removeprefix('physics.')}") from None
     t0 = time.perf_counter()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
     rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,

@@ -9,6 +9,7 @@ import pytest
 
 import agents.benchmark as bm
 from drill_cli.main import main
+from drill_env.physics.config import flatten
 from drill_env.sweep import ResultStore
 
 SPEC_COLUMNS = ["controller", "scenario", "seed", "ssi", "stuck_fraction", "mean_bit_rpm",
@@ -77,6 +78,30 @@ def test_an_interrupted_benchmark_keeps_its_rows_and_reruns_only_the_rest(tmp_pa
                      workers=1, progress=False)
     assert calls == []
     assert len((tmp_path / "benchmark.csv").read_text().splitlines()) == 5
+
+
+def test_physics_that_would_make_every_controller_one_is_refused(tmp_path, capsys):
+    """``--config`` physics reach every controller's episode: a top-drive controller or
+    gain there would override each controller's own rule (and leave the driller and a
+    learned policy on that drive), so it is refused naming the field; tuning knobs that
+    only their own controller reads may stay."""
+    from drill_env.physics.validation import ConfigError
+
+    for physics in ({"top_drive": {"controller": "z_torque"}},
+                    {"top_drive.proportional_gain": 500.0}):
+        key = next(iter(flatten(physics)))
+        with pytest.raises(ConfigError, match=f"physics.{key}: the benchmark gives each"):
+            bm.BenchmarkSettings(duration=6.0, warmup=2.0, physics=physics)
+    bm.BenchmarkSettings(duration=6.0, warmup=2.0,
+                         physics={"top_drive": {"impedance_factor": 3.0}})
+    config = tmp_path / "drive.yaml"
+    config.write_text("top_drive:\n  integral_gain: 10.0\n")
+    with pytest.raises(SystemExit):  # said as argparse says a bad argument
+        main(["benchmark", "--controllers", "stiff", "--scenarios", "default", "--seeds", "1",
+              "--config", str(config), "--out", str(tmp_path / "out")])
+    assert f"--config {config}: top_drive.integral_gain: the benchmark gives each" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
 
 
 def test_changed_settings_do_not_reuse_old_rows(tmp_path):
@@ -491,6 +516,32 @@ def test_a_benchmark_into_a_used_folder_removes_the_old_series_pictures(tmp_path
     for name in (bm.RESULTS_FILE, "my_series.png", "benchmark_notes.txt"):
         assert (tmp_path / name).read_text() == "kept"
     assert "benchmark_default_series" not in (tmp_path / "benchmark.md").read_text()
+
+
+def test_a_policy_and_its_five_baselines_each_draw_their_own_line_style(tmp_path,
+                                                                       monkeypatch):
+    """The evaluation's series: with four dash patterns the policy (first) and ZTorque
+    (fifth) were both solid, in brown and red, which read as one colour; each line now
+    differs from every other in its dashes."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from agents.plots import series_chart
+
+    names = ["learned", "stiff", "soft-speed", "soft-torque", "z-torque", "driller"]
+    t = np.linspace(0.0, 10.0, 101)
+    for k, name in enumerate(names):
+        np.savez(tmp_path / f"{name}_random_seed0.npz", time=t, bit_x=0 * t, bit_y=0 * t,
+                 clearance=0.02, bit_speed=(5.0 + k) + 0 * t, torque_on_bit=2e3 + 0 * t)
+    saved = []
+    original = plt.Figure.savefig
+    monkeypatch.setattr(plt.Figure, "savefig",
+                        lambda fig, *a, **kw: (saved.append(fig), original(fig, *a, **kw)))
+    series_chart(tmp_path, names, "random", tmp_path / "series.png", warmup=2.0)
+    lines = [line for line in saved[0].axes[0].get_lines() if line.get_label() in names]
+    assert sorted(line.get_label() for line in lines) == sorted(names)
+    dashes = {str(line._dash_pattern) for line in lines}
+    assert len(dashes) == len(names)
 
 
 def test_a_controller_keeps_its_colour_in_every_picture():

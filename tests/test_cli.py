@@ -75,6 +75,26 @@ def test_run_notes_a_wob_that_buckles_the_pipe(tmp_path, capsys):
     assert "note: 200 kN compresses the 5 in HWDP" in capsys.readouterr().err
     assert main(["run", "--wob", "100", "--duration", "0.2", "--out", str(tmp_path)]) == 0
     assert "note:" not in capsys.readouterr().err
+    # a torsion-only model has no lateral motion to buckle (paper case 1 at its 100 kN)
+    assert main(["run", "--scenario", "paper_case1", "--duration", "0.2", "--out",
+                 str(tmp_path)]) == 0
+    assert "note:" not in capsys.readouterr().err
+
+
+def test_run_refuses_a_top_drive_controller_in_its_config_file(tmp_path, capsys):
+    """`drill-env run --config` with a top_drive.controller ran stiff PI silently: the
+    --controller (default stiff) set its own top drive over the file's."""
+    config = tmp_path / "drive.yaml"
+    config.write_text("top_drive:\n  controller: z_torque\n")
+    with pytest.raises(SystemExit):  # said as argparse says a bad argument
+        main(["run", "--config", str(config), "--duration", "0.2", "--out",
+              str(tmp_path / "out")])
+    assert (f"--config {config}: top_drive.controller: drill-env run takes the controller "
+            "from --controller (default stiff); give --controller z-torque instead") in \
+        capsys.readouterr().err
+    config.write_text("top_drive:\n  proportional_gain: 2000.0\n")  # one drive's own gain
+    assert main(["run", "--config", str(config), "--duration", "0.2", "--out",
+                 str(tmp_path / "out")]) == 0
 
 
 def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path):

@@ -30,9 +30,26 @@ class TaskEnv(DrillStringEnv):
     extras: tuple[str, ...]
     telemetry_values: int
 
+    #: ``DrillString-v0`` settings a task does not read: it builds its own observation
+    #: (no ``sensors``, delay or noise of the plain env) and reward (the plain env's reward
+    #: fields that its task config does not also have); a subclass adds its action's.
+    unused_env_fields: frozenset[str] = frozenset({
+        "sensors", "telemetry_delay", "observation_noise", "force_scale", "rop_scale",
+        "rop_weight", "stick_slip_weight", "whirl_weight", "effort_weight",
+        "failure_weight", "ssi_cap"})
+
     def __init__(self, scenario: str, task: Any, **kwargs: Any) -> None:
         fields = {f.name for f in dataclasses.fields(self.task_class)}
         given = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
+        config = kwargs.get("config")
+        typed = set(kwargs) | (set(config) if isinstance(config, dict) else set())
+        unused = sorted(typed & (self.unused_env_fields - fields))
+        if unused:
+            raise ValueError(
+                f"{unused[0]}: {type(self).__name__} does not use "
+                f"{', '.join(unused)} (a setting of DrillString-v0: the task builds its own "
+                f"observation, reward and action); its own settings: "
+                f"{', '.join(sorted(fields))}")
         if isinstance(task, self.task_class):
             base = task
         elif task is None or isinstance(task, dict):
@@ -44,7 +61,13 @@ class TaskEnv(DrillStringEnv):
         for key, value in self.env_defaults.items():
             if key != "scenario":
                 kwargs.setdefault(key, value)
-        super().__init__(scenario, **kwargs)
+        try:
+            super().__init__(scenario, **kwargs)
+        except ValueError as err:  # a typo: name the task and its own settings too
+            if not str(err).startswith("DrillStringEnv: unknown argument"):
+                raise
+            raise ValueError(f"{type(self).__name__}: {str(err).partition(': ')[2]}; task "
+                             f"settings: {sorted(fields)}") from None
         self.observation_names = tuple(f"{name}[{k}]" for k in range(self.task.history)
                                        for name in self.frame) + self.extras
         self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND,

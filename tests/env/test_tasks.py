@@ -97,6 +97,29 @@ def test_stick_slip_reward_has_no_rop_term_and_punishes_the_shortcut():
     assert sum(totals[1.0].values()) < sum(totals[0.0].values())  # ... but worse overall
 
 
+@pytest.mark.parametrize(("env_id", "kwargs", "name"), [
+    ("DrillStickSlip-v0", {"sensors": "surface"}, "sensors"),
+    ("DrillStickSlip-v0", {"action_mode": "incremental"}, "action_mode"),
+    ("DrillStickSlip-v0", {"rop_weight": 2.0}, "rop_weight"),
+    ("DrillOptimise-v0", {"config": {"observation_noise": 0.1}}, "observation_noise"),
+    ("DrillOptimise-v0", {"effort_weight": 1.0}, "effort_weight"),
+])
+def test_a_plain_env_setting_a_task_does_not_use_is_refused(env_id, kwargs, name):
+    """The tasks build their own observation, reward and (task 1) action: a
+    DrillString-v0 setting for those was accepted and had no effect (the observation of
+    ``sensors="surface"`` stayed 67 values)."""
+    with pytest.raises(ValueError, match=f"^{name}: .* does not use {name} .*own settings"):
+        gym.make(env_id, **kwargs)
+
+
+def test_a_task_settings_typo_lists_the_tasks_own_settings():
+    with pytest.raises(ValueError, match=r"^StickSlipEnv: unknown argument\(s\) "
+                                         r"\['max_corection'\].*task settings: .*"
+                                         r"'max_correction'"):
+        gym.make("DrillStickSlip-v0", max_corection=20.0)
+    gym.make("DrillOptimise-v0", action_mode="incremental", rop_weight=2.0)  # it uses both
+
+
 def test_mud_pulse_telemetry_is_sampled_delayed_and_held():
     tele = Telemetry("mud_pulse", 1)
     got = [tele.update(t, [t])[0] for t in np.arange(0.0, 10.01, 0.1)]
