@@ -99,6 +99,14 @@ def trained_env_kwargs(path: str | Path | None = None, env_id: str | None = None
     return dict(config.get("env_kwargs") or {})
 
 
+def trained_env_id(path: str | Path | None = None, env_id: str | None = None) -> str:
+    """The env id of the task a policy was trained on (its run's ``config.yaml``)."""
+    from training.config import TASKS
+
+    config = yaml.safe_load((policy_folder(path, env_id) / "config.yaml").read_text())
+    return TASKS[config["task"]]
+
+
 def policy_files(path: str | Path | None = None, env_id: str | None = None
                  ) -> tuple[Path, Path]:
     """(model, normalisation) files that :meth:`LearnedController.load` would load."""

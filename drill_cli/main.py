@@ -192,8 +192,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         from drill_env.recording import RecordEpisode
 
         # named as the benchmark names its recordings: <controller>_<scenario>_seed<seed>...
-        env = RecordEpisode(env, args.record, scenario=f"{label(args.controller)}_"
-                                                       f"{args.scenario}")
+        env = RecordEpisode(env, args.record, scenario=args.scenario,
+                            controller=label(args.controller))
     from tqdm import tqdm
 
     from drill_env.physics.statics import pipe_buckling
@@ -486,6 +486,9 @@ def default_evaluation_folder(run: Path) -> Path:
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from training.evaluate import evaluate_run
 
+    if not args.run.is_dir():
+        raise argparse.ArgumentTypeError(f"RUN: no such folder {args.run} (a run folder of "
+                                         "drill-env train, e.g. logs/runs/<name>)")
     if not (args.run / "config.yaml").exists():
         raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
                                          "train (no config.yaml)")
@@ -963,6 +966,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         top.print_help()
         return 2
     args = top.parse_args(argv)
+    out = getattr(args, "out", None)
+    if out is not None and out.exists() and not out.is_dir():  # before the work, not after
+        args.command_parser.error(f"--out {out}: is a file; give a folder (it is created "
+                                  "if missing)")
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly

@@ -12,6 +12,7 @@ from drill_env.physics.validation import (
     NonNegative,
     Positive,
     StrictBool,
+    check_newtons,
     config_dataclass,
 )
 
@@ -120,6 +121,7 @@ class EnvConfig:
             if not high > low:
                 raise ValueError(f"{name}: the high end must exceed the low end, got "
                                  f"{(low, high)}")
+        check_newtons("weight_on_bit_range", self.weight_on_bit_range)
 
 
 ENV_FIELDS = frozenset(f.name for f in dataclasses.fields(EnvConfig))

@@ -65,6 +65,7 @@ from drill_env.physics.validation import (
     NonNegative,
     Positive,
     StrictBool,
+    check_newtons,
     config_dataclass,
     validated,
 )
@@ -162,6 +163,7 @@ class Scenario:
     allow_pipe_buckling: StrictBool = False
 
     def __post_init__(self) -> None:
+        check_newtons("weight_on_bit", (self.weight_on_bit,))
         if self.allow_pipe_buckling or not self.config.solver.lateral:
             return
         buckled = pipe_buckling(self.config, self.weight_on_bit)
@@ -491,6 +493,7 @@ def random(rng: np.random.Generator | None = None,
         if not low <= high:
             raise ValueError(f"{name}: the low end must not exceed the high end, got "
                              f"{(low, high)}")
+    check_newtons("weight_on_bit_range", weight_on_bit_range)
     lower = realistic_string().bha_length
     if not string_length_range[0] > lower + 10.0:
         raise ValueError(f"string_length_range: the strings need more than {lower + 10.0:.0f} m "

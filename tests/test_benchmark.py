@@ -8,6 +8,7 @@ import math
 import pytest
 
 import agents.benchmark as bm
+from agents.learned import TRAINED
 from drill_cli.main import main
 from drill_env.physics.config import flatten
 from drill_env.sweep import ResultStore
@@ -102,6 +103,14 @@ def test_physics_that_would_make_every_controller_one_is_refused(tmp_path, capsy
     assert f"--config {config}: top_drive.integral_gain: the benchmark gives each" in \
         capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_policy_of_another_task_is_refused_before_any_episode(tmp_path):
+    """It was refused in its first episode, after the other controllers had run."""
+    with pytest.raises(ValueError, match="learned:.*drilling is a policy of "
+                                         "DrillOptimise-v0; it cannot act in DrillStickSlip-v0"):
+        bm.task_settings(["soft-speed", f"learned:{TRAINED / 'drilling'}"],
+                         "DrillStickSlip-v0")
 
 
 def test_changed_settings_do_not_reuse_old_rows(tmp_path):

@@ -81,6 +81,33 @@ def test_run_notes_a_wob_that_buckles_the_pipe(tmp_path, capsys):
     assert "note:" not in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("command", [["run", "--duration", "0.2"], ["modes"],
+                                     ["speed", "--quick", "--sections", "memory"]])
+def test_an_out_that_is_a_file_is_refused_before_the_work(tmp_path, capsys, command):
+    """It failed with "[Errno 17] File exists", naming no option, and only after the whole
+    computation."""
+    taken = tmp_path / "taken"
+    taken.write_text("")
+    with pytest.raises(SystemExit):
+        main([*command, "--out", str(taken)])
+    err = capsys.readouterr().err
+    assert f"--out {taken}: is a file; give a folder" in err
+    assert "wrote" not in err
+
+
+def test_run_records_its_scenario_and_controller_apart(tmp_path):
+    """The recording's scenario was "stiff_stick_slip", which is no scenario: the
+    controller now has its own field (and still leads the file's name)."""
+    from drill_env.recording.replay import read_recording
+
+    assert main(["run", "--scenario", "stick_slip", "--duration", "0.3", "--record",
+                 str(tmp_path), "--out", str(tmp_path)]) == 0
+    (path,) = tmp_path.glob("*.rrd")
+    assert path.name.startswith("stiff_stick_slip_seed0_ep0000_")
+    events = [text for _, _, text in read_recording(path).text_logs["/events"]]
+    assert events[0].startswith("episode start: stiff, scenario stick_slip, seed 0")
+
+
 def test_run_refuses_a_top_drive_controller_in_its_config_file(tmp_path, capsys):
     """`drill-env run --config` with a top_drive.controller ran stiff PI silently: the
     --controller (default stiff) set its own top drive over the file's."""

@@ -273,6 +273,26 @@ def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path):
     assert reached == planned_steps(longer, done) == done + 1536 != planned_steps(longer)
 
 
+def test_ppo_learns_to_the_end_of_its_last_rollout_which_its_progress_bar_counts_to(
+        tmp_path, monkeypatch):
+    """600 steps asked of rollouts of 512 run 1024; SB3's progress bar counts to the
+    total given to ``learn``, which was 600 (it read 1,024/600 at the end)."""
+    from stable_baselines3 import PPO
+
+    totals = []
+    original = PPO.learn
+
+    def learn(self, total_timesteps, *args, **kwargs):
+        totals.append(total_timesteps)
+        return original(self, total_timesteps, *args, **kwargs)
+
+    monkeypatch.setattr(PPO, "learn", learn)
+    cfg = tiny_config(n_timesteps=600, eval_freq=10_000, checkpoint_freq=10_000)
+    train(cfg, tmp_path / "run", progress=False)
+    reached = json.loads((tmp_path / "run" / "run.json").read_text())["env_steps"]
+    assert totals == [reached] == [planned_steps(cfg)] == [1024]
+
+
 def test_a_resumed_run_keeps_its_best_model_until_an_evaluation_beats_it(run, tmp_path):
     import hashlib
     import shutil
@@ -300,7 +320,11 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
     cases = (({"hyperparams": {"n_epoch": 3}}, "ppo.hyperparams.n_epoch: not an argument"),
              ({"hyperparams": {"learning_rate": -3e-4}}, "ppo.hyperparams.learning_rate"),
              ({"policy_kwargs": {"net_arch": [128, -5]}}, "ppo.policy_kwargs.net_arch"),
-             ({"policy_kwargs": {"net_archs": [64]}}, "ppo.policy_kwargs.net_archs"))
+             ({"policy_kwargs": {"net_archs": [64]}}, "ppo.policy_kwargs.net_archs"),
+             # the env's settings, found when training started (an empty run folder left)
+             ({"env_kwargs": {"max_corection": 20.0}},
+              "ppo.env_kwargs: StickSlipEnv: unknown argument(s) ['max_corection']"),
+             ({"env_kwargs": {"max_correction": -5.0}}, "ppo.env_kwargs: max_correction"))
     for entry, message in cases:
         path = tmp_path / "h.yml"
         path.write_text(yaml.safe_dump({"ppo": entry}))
@@ -451,6 +475,14 @@ def test_a_sac_run_that_would_end_in_its_warm_up_is_refused(tmp_path, capsys):
         check_learns(replace(cfg, n_timesteps=9000), 7000)
     check_learns(replace(cfg, n_timesteps=300_500), 300_000, learnt=True)  # let through
     check_learns(replace(load_config("stick_slip", "ppo"), n_timesteps=10), 0)
+
+
+def test_evaluate_tells_a_missing_folder_from_a_folder_that_is_no_run(tmp_path, capsys):
+    for folder, said in ((tmp_path / "none", "RUN: no such folder"),
+                         (tmp_path, "is not a run folder of drill-env train (no config.yaml)")):
+        with pytest.raises(SystemExit):
+            main(["evaluate", str(folder)])
+        assert said in capsys.readouterr().err
 
 
 def test_evaluate_names_the_model_files_it_looked_for(tmp_path, capsys):

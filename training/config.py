@@ -82,6 +82,7 @@ class TrainConfig:
 
     def __post_init__(self) -> None:
         check_algorithm_arguments(self)
+        check_env_kwargs(self)
 
     @property
     def env_id(self) -> str:
@@ -147,6 +148,21 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
                                                 and 1 <= n <= 100_000 for n in sizes)):
             raise ConfigError(f"{path}: must be a list of layer widths (integers >= 1), got "
                               f"{sizes!r}")
+
+
+def check_env_kwargs(config: TrainConfig) -> None:
+    """Build the task's env once with ``env_kwargs``, so that a misspelt or impossible
+    setting fails with its YAML path (``ppo.env_kwargs: ...``) before a run folder exists,
+    not when training starts."""
+    if not config.env_kwargs:
+        return
+    from drill_env.vector import registered
+
+    env_class, defaults = registered(config.env_id)
+    try:
+        env_class(**{**defaults, **config.env_kwargs}).close()
+    except (ValueError, TypeError) as err:
+        raise ConfigError(f"env_kwargs: {err}") from None
 
 
 def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,

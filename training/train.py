@@ -391,7 +391,9 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     env.seed(seed)
     saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
     t0 = time.perf_counter()
-    remaining = max(0, config.n_timesteps - model.num_timesteps)
+    # to where the run ends (PPO: whole rollouts), so that the progress bar's total is
+    # what it counts to (4,096 of 1,024 once read)
+    remaining = max(0, planned_steps(config, model.num_timesteps) - model.num_timesteps)
     try:
         model.learn(remaining, callback=_callbacks(config, run, env, resumed),
                     progress_bar=progress, reset_num_timesteps=latest is None,

@@ -162,6 +162,18 @@ def validated(func: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
+def check_newtons(name: str, values: tuple[float, ...]) -> None:
+    """ValueError if a WOB (or a WOB range) in newtons is positive but below 1 kN: no
+    string drills on that, and it is what a value typed in kN gives (``(70, 130)``)."""
+    if 0.0 < max(values) < 1.0e3:
+        shown = ", ".join(f"{v:g}" for v in values)
+        meant = ", ".join(f"{v:g}e3" if v else "0" for v in values)
+        if len(values) > 1:
+            shown, meant = f"({shown})", f"({meant})"
+        raise ValueError(f"{name}: {shown} N reaches only {max(values):g} N; WOB is in "
+                         f"newtons: did you mean {meant}?")
+
+
 # --------------------------------------------------------------------------- loading
 
 

@@ -187,6 +187,7 @@ class EpisodeRecorder:
         self.active = False
         self.sim: Any = None
         self.scenario = "episode"
+        self.controller: str | None = None
         self.seed: int | None = None
         self.episode_index = 0
         self.recording_id = ""
@@ -205,15 +206,18 @@ class EpisodeRecorder:
               seed: int | None = None, episode_index: int = 0,
               env_settings: Mapping[str, Any] | None = None,
               info: Mapping[str, Any] | None = None,
-              recording_id: str | None = None, stem: str | None = None) -> str:
+              recording_id: str | None = None, stem: str | None = None,
+              controller: str | None = None) -> str:
         """Start a new episode (an unfinished one is finished first); returns its id.
 
         ``sim`` is the :class:`~drill_env.physics.simulator.Simulator` (geometry, string
         snapshots, blade angle); ``config`` its ``SimulationConfig`` (taken from ``sim``
         when omitted); ``env_settings`` anything JSON-like describing the run (env
         keywords, env config); ``info`` the reset info, recorded as the first sample;
-        ``stem`` the file's name without ``.rrd`` (:meth:`file_name`). The file is opened
-        now: ``OSError`` (one line) if its folder is not writable.
+        ``stem`` the file's name without ``.rrd`` (:meth:`file_name`); ``controller`` the
+        name of what drove the episode (kept with the scenario and leading the file's
+        name). The file is opened now: ``OSError`` (one line) if its folder is not
+        writable.
         """
         if self.active:
             self.finish(note="a new episode began")
@@ -223,6 +227,7 @@ class EpisodeRecorder:
         self.sim = sim
         config = config if config is not None else getattr(sim, "config", None)
         self.scenario = str(scenario) if scenario is not None else "episode"
+        self.controller = controller
         self.seed = seed
         self.episode_index = int(episode_index)
         self.recording_id = recording_id or uuid.uuid4().hex
@@ -252,7 +257,7 @@ class EpisodeRecorder:
         stream.save(self.path, default_blueprint=blueprint(
             geometry, geometry.exaggeration(self.exaggeration)))
         stream.send_recording_name(
-            f"{self.scenario} seed {self.seed} episode {self.episode_index}")
+            f"{self._driven}{self.scenario} seed {self.seed} episode {self.episode_index}")
         k = geometry.exaggeration(self.exaggeration)
         writer = RerunWriter(stream, geometry, k)
         self._writer = writer
@@ -270,11 +275,12 @@ class EpisodeRecorder:
     def file_name(self) -> str:
         """``<stem>.rrd`` when :meth:`begin` was given a stem (a name the caller keeps
         unique, such as the benchmark's controller, scenario and seed), else
-        ``<scenario>_seed<seed>_ep<index>_<recording id>.rrd``."""
+        ``[<controller>_]<scenario>_seed<seed>_ep<index>_<recording id>.rrd``."""
         if self.stem is not None:
             return stem_file_name(self.stem)
         seed = "noseed" if self.seed is None else _sanitize(str(self.seed))
-        return (f"{_sanitize(self.scenario)}_seed{seed}_ep{self.episode_index:04d}_"
+        lead = f"{_sanitize(self.controller)}_" if self.controller else ""
+        return (f"{lead}{_sanitize(self.scenario)}_seed{seed}_ep{self.episode_index:04d}_"
                 f"{self.recording_id[:8]}.rrd")
 
     # ------------------------------------------------------------------ steps
@@ -406,7 +412,8 @@ class EpisodeRecorder:
             events += layer.update(t, shares)
         if first:  # the first chunk of the episode
             events.insert(0, (float(t[0]), "INFO",
-                              f"episode start: scenario {self.scenario}, seed {self.seed}, "
+                              f"episode start: {self._driven}scenario {self.scenario}, "
+                              f"seed {self.seed}, "
                               f"episode {self.episode_index}"))
         writer.events(events)
         self._stream.flush()
@@ -480,10 +487,16 @@ class EpisodeRecorder:
 
     # ------------------------------------------------------------------ text
 
+    @property
+    def _driven(self) -> str:
+        """``"<controller>, "`` where the episode names its controller, else ""."""
+        return f"{self.controller}, " if self.controller else ""
+
     def _episode_fields(self, state: str) -> dict[str, Any]:
         g = self._geometry
         return {
-            "scenario": self.scenario, "seed": -1 if self.seed is None else self.seed,
+            "scenario": self.scenario, "controller": self.controller or "",
+            "seed": -1 if self.seed is None else self.seed,
             "episode_index": self.episode_index, "recording_id": self.recording_id,
             "steps": self._flushed, "start_time_s": self._start_time,
             "end_time_s": self._last_time, "state": state,
@@ -494,7 +507,9 @@ class EpisodeRecorder:
 
     def _summary(self, state: str) -> list[str]:
         k = self._writer.exaggeration if self._writer else math.nan
-        return [f"- scenario: `{self.scenario}`", f"- seed: {self.seed}",
+        return [f"- scenario: `{self.scenario}`",
+                *([f"- controller: `{self.controller}`"] if self.controller else []),
+                f"- seed: {self.seed}",
                 f"- episode index: {self.episode_index}",
                 f"- recording id: `{self.recording_id}`",
                 f"- simulated time: {self._start_time:.3f} - {self._last_time:.3f} s "

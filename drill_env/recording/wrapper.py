@@ -27,7 +27,8 @@ class RecordEpisode(gymnasium.Wrapper):
     the files written. An unwritable ``directory`` raises ``OSError`` at construction.
 
     ``scenario`` names the files (default: the env's ``scenario_name`` or its ``spec``
-    keyword ``scenario``), or ``stem`` does: ``<stem>.rrd``, later episodes
+    keyword ``scenario``), after ``controller`` where given (what drove the episode, also
+    kept in its metadata and events), or ``stem`` does: ``<stem>.rrd``, later episodes
     ``<stem>_ep<index>.rrd``; ``record`` = False passes everything through untouched.
     ``every`` records one episode in ``every`` (the first, then every ``every``-th).
     An episode cut short by ``reset`` or ``close`` is written if it has at least one
@@ -36,6 +37,7 @@ class RecordEpisode(gymnasium.Wrapper):
 
     def __init__(self, env: gymnasium.Env, directory: str | os.PathLike = DEFAULT_DIRECTORY,
                  *, scenario: str | None = None, stem: str | None = None,
+                 controller: str | None = None,
                  string_period: float = 0.1,
                  exaggeration: float | None = None, every: int = 1, record: bool = True,
                  flush_every: int = 100, application_id: str = APPLICATION_ID) -> None:
@@ -49,6 +51,7 @@ class RecordEpisode(gymnasium.Wrapper):
                                         application_id=application_id)
         self._scenario = scenario
         self._stem = stem
+        self._controller = controller
         self.every = int(every)
         self.record = bool(record)
         self.episode_index = -1
@@ -117,7 +120,8 @@ class RecordEpisode(gymnasium.Wrapper):
                 f"{self._stem}_ep{self.episode_index:04d}"
             self.recorder.begin(sim=sim, config=config, scenario=self._scenario_name(),
                                 seed=seed, episode_index=self.episode_index,
-                                env_settings=self._env_settings(), info=info, stem=stem)
+                                env_settings=self._env_settings(), info=info, stem=stem,
+                                controller=self._controller)
         return obs, info
 
     def step(self, action):

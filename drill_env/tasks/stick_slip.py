@@ -16,6 +16,7 @@ from drill_env.physics.validation import (
     Count,
     NonNegative,
     Positive,
+    check_newtons,
     config_dataclass,
     numbers,
 )
@@ -95,6 +96,8 @@ class StickSlipTask:
             if not low <= high:
                 raise ValueError(f"{name}: the low end must not exceed the high end, got "
                                  f"{(low, high)}")
+        for name in ("weight_on_bit_targets", "weight_on_bit_change"):
+            check_newtons(name, getattr(self, name))
 
 
 

@@ -75,8 +75,11 @@ def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]],
     fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True, sharey=True)
     for ax, rpm in zip(axes, DEMO_RPM, strict=True):
         run = runs[rpm]
-        ax.plot(run.time, run.channel("bit_speed") / RPM, lw=0.8, label="bit")
-        ax.plot(run.time, run.channel("surface_speed") / RPM, lw=0.8, label="surface")
+        # the bit over a wider surface line: where both turn steadily (100 rpm) the bit
+        # still shows
+        ax.plot(run.time, run.channel("bit_speed") / RPM, lw=0.8, label="bit", zorder=3)
+        ax.plot(run.time, run.channel("surface_speed") / RPM, lw=2.4, label="surface",
+                alpha=0.6, zorder=2)
         ax.set_ylabel("speed (rpm)")
         ax.set_title(f"{rpm:.0f} rpm set point, WOB 100 kN, hard rock, stiff top drive "
                      f"(grey: not in the table)", fontsize=10)

@@ -258,6 +258,22 @@ def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
         task.reset(seed=0, options={"surface_speed": 10 * RPM})
 
 
+@pytest.mark.parametrize(("env_id", "kwargs", "message"), [
+    ("DrillString-v0", {"weight_on_bit_range": (0.0, 200.0)},
+     r"weight_on_bit_range: \(0, 200\) N reaches only 200 N; WOB is in newtons: did you "
+     r"mean \(0, 200e3\)\?"),
+    ("DrillString-v0", {"weight_on_bit": 100.0}, r"weight_on_bit: 100 N .*did you mean 100e3"),
+    ("DrillString-v0", {"scenario": "random", "weight_on_bit_range": (50.0, 130.0)},
+     "weight_on_bit_range: .*130e3"),
+    ("DrillStickSlip-v0", {"task": {"weight_on_bit_targets": (70.0, 130.0)}},
+     r"weight_on_bit_targets: \(70, 130\) N .*\(70e3, 130e3\)"),
+])
+def test_a_weight_on_bit_typed_in_kn_is_refused(env_id, kwargs, message):
+    """WOB is in newtons everywhere; (0, 200) meant as kN drilled on at most 200 N."""
+    with pytest.raises(ValueError, match=message):
+        gym.make(env_id, **kwargs)
+
+
 def test_unknown_keyword_is_named():
     with pytest.raises(ValueError, match="episode_lenght"):
         gym.make("DrillString-v0", episode_lenght=3.0)
