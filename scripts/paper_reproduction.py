@@ -87,6 +87,7 @@ def figure_16_17_18(runs, out: Path) -> None:
             ax2 = ax.twinx()  # shaded: share of the middle rock under the blades
             ax2.fill_between(run.share_time, run.shares[:, 1], color="tab:orange", alpha=0.25)
             ax2.set_ylim(0, 1.05)
+            ax2.set_ylabel("share of the layer's rock\nunder the blades (shaded)", fontsize=8)
         axes[-1].set_xlabel("time (s)")
         fig.tight_layout()
         fig.savefig(out / filename, dpi=110)

@@ -460,6 +460,11 @@ def advance(n_steps, record_every, a):
         _correct(p, m, work, lateral, moving)
         if soft_string:
             settle_held(m, work)
+        elif stuck > 0.0:  # the held bit at rest with no acceleration, as settle_held
+            # leaves a held node: else the acceleration that stopped it feeds the next
+            # predictor and the holding torque alternates in sign every step
+            m.vt[bit] = 0.0
+            m.at[bit] = 0.0
         rop = _bookkeeping(p, state, torsion, m, t_bit, t_motor)
 
         omega_bit = m.vt[bit]

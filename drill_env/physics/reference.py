@@ -332,6 +332,9 @@ class ReferenceStepper:
         vl += GAMMA * dt * al
         ut += BETA * dt * dt * at
         vt += GAMMA * dt * at
+        if stuck > 0.0:  # the held bit at rest with no acceleration (the kernel's reason)
+            vt[bit] = 0.0
+            at[bit] = 0.0
 
         # --- penetration, bookkeeping
         omega_bit = vt[bit]
