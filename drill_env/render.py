@@ -100,11 +100,13 @@ def draw_frame(history: FrameHistory, clearance: float, speed_max: float,
         bit = history.column("bit_speed") / RPM
         surface = history.column("surface_speed") / RPM
         top = _nice_ceiling(max(float(np.max(bit)), float(np.max(surface)), speed_max / RPM * 0.5))
-        bottom = min(0.0, -_nice_ceiling(-float(np.min(bit)))) if np.min(bit) < 0 else 0.0
+        # a backward turn of the bit widens the axis; round-off below zero does not (it
+        # printed "-0")
+        bottom = min(0.0, -_nice_ceiling(-float(np.min(bit)))) if np.min(bit) < -0.5 else 0.0
         draw.line(_polyline(t, surface, speed_box, t_range, (bottom, top)), fill=SURFACE, width=1)
         draw.line(_polyline(t, bit, speed_box, t_range, (bottom, top)), fill=BIT, width=2)
         draw.text((4, speed_box[1]), f"{top:.0f}", fill=INK)
-        draw.text((4, speed_box[3] - 10), f"{bottom + 0.0:.0f}", fill=INK)
+        draw.text((4, speed_box[3] - 10), f"{bottom:.0f}", fill=INK)
         draw.text((speed_box[0] + 4, speed_box[1] + 2), "rpm: bit (blue), surface (orange)",
                   fill=INK)
         torque = history.column("torque_on_bit") / 1e3

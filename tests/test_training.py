@@ -477,6 +477,25 @@ def test_a_sac_run_that_would_end_in_its_warm_up_is_refused(tmp_path, capsys):
     check_learns(replace(load_config("stick_slip", "ppo"), n_timesteps=10), 0)
 
 
+def test_the_learning_curve_draws_the_stuck_share_in_percent(tmp_path, monkeypatch):
+    """As every other picture does (it drew 0.12 beside the SSI on one axis)."""
+    import matplotlib.pyplot as plt
+
+    from training.train import plot_learning_curve
+
+    (tmp_path / "evaluations.csv").write_text(
+        "timesteps,return,return_std,ssi,stuck_fraction,wall_s\n"
+        "1000,-900,200,0.9,0.12,60\n2000,-400,100,0.3,0.01,120\n")
+    saved = []
+    original = plt.Figure.savefig
+    monkeypatch.setattr(plt.Figure, "savefig",
+                        lambda fig, *a, **kw: (saved.append(fig), original(fig, *a, **kw)))
+    plot_learning_curve(tmp_path)
+    stuck_axis = next(ax for ax in saved[0].axes if "stuck" in ax.get_ylabel())
+    assert "%" in stuck_axis.get_ylabel()
+    assert list(stuck_axis.get_lines()[0].get_ydata()) == pytest.approx([12.0, 1.0])
+
+
 def test_evaluate_tells_a_missing_folder_from_a_folder_that_is_no_run(tmp_path, capsys):
     for folder, said in ((tmp_path / "none", "RUN: no such folder"),
                          (tmp_path, "is not a run folder of drill-env train (no config.yaml)")):

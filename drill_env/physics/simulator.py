@@ -271,9 +271,9 @@ class Simulator:
         The implicit string imposes no limit. The explicit wall and gauge penalties act
         on a node mass m with stiffness k and damping c: the critical step of an explicit
         damped oscillator is (2 / w) (sqrt(1 + z^2) - z) with w = sqrt(k/m) and
-        z = c / (2 sqrt(k m)) (2 sqrt(m/k) without damping). The limit uses the lumped
-        mass alone, which is conservative because the implicit neighbours add effective
-        mass.
+        z = c / (2 sqrt(k m)) (2 sqrt(m/k) without damping), for one penalty on the
+        lumped mass. Two gauge pads on the wall at once stiffen the bit 1.5x, which
+        ``critical_step_fraction`` (at most 0.8) leaves room for.
         """
         cfg = self.config
         node_mass = self.lat_m[0::2]  # lumped masses of the lateral nodes, the bit's included

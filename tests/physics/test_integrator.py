@@ -15,6 +15,7 @@ from drill_env.physics.config import (
     RockConfig,
     SimulationConfig,
     SolverConfig,
+    replace,
 )
 from drill_env.physics.fem import from_band, to_band
 from drill_env.physics.layout import N_RECORD, N_STATE, R, S
@@ -565,3 +566,39 @@ def test_damped_lateral_transient_converges_to_the_matrix_exponential_at_second_
     lag = (w * 0.001) ** 2 / 12 * w * 1.0
     assert fine == pytest.approx(lag * abs(np.cos(w)) * np.exp(-zeta * w), rel=0.1)
     assert 3.5 < coarse / fine < 4.5
+
+
+def _bit_thrown_at_the_wall(fraction: float, time_step: float, degrees: float) -> float:
+    """Largest bit offset / clearance over 0.3 s after the bit, at rest and 1 % short of
+    the wall, is thrown at it at 1 m/s, ``degrees`` from a blade (off bottom, at rest);
+    inf if the kernel stopped on a runaway."""
+    import math
+
+    cfg = replace(SimulationConfig(), **{"solver.time_step": time_step,
+                                         "solver.critical_step_fraction": fraction})
+    sim = Simulator(cfg)
+    sim.reset(OperatingPoint(0.0, 0.0))
+    c, angle = cfg.bit.gauge_clearance, math.radians(degrees)
+    sim.ul[-2] = 0.99 * c * math.cos(angle), 0.99 * c * math.sin(angle)
+    sim.vl[-2] = math.cos(angle), math.sin(angle)
+    largest = 0.0
+    for _ in range(round(0.3 / sim.dt)):
+        sim.advance(1, 0.0, sim.string_weight)
+        if sim.status:
+            return math.inf
+        largest = max(largest, math.hypot(*sim.ul[-2]) / c)
+    return largest
+
+
+def test_two_gauge_pads_on_the_wall_fit_under_the_largest_allowed_step_fraction():
+    """Thrown between two of its six blades, the bit presses both gauge pads on the wall:
+    2 k cos^2 30 = 1.5 k, so the explicit limit is 1/sqrt(1.5) = 0.82 of the one-pad
+    critical step the simulator computes (at 0.9 of it the bit ran away in 7 steps, when
+    the config still allowed it). At 0.8, the most the config now allows, it bounces off
+    the wall between two blades and at a blade alike."""
+    from drill_env.physics.validation import ConfigError
+
+    with pytest.raises(ConfigError, match="critical_step_fraction"):
+        replace(SimulationConfig(), **{"solver.critical_step_fraction": 0.9})
+    for degrees in (30.0, 0.0):
+        assert _bit_thrown_at_the_wall(0.8, 4.0e-3, degrees) < 1.5
