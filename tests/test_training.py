@@ -293,6 +293,26 @@ def test_ppo_learns_to_the_end_of_its_last_rollout_which_its_progress_bar_counts
     assert totals == [reached] == [planned_steps(cfg)] == [1024]
 
 
+def test_evaluations_and_checkpoints_stay_on_their_grid_across_a_resume(tmp_path):
+    """Resumed from a checkpoint off the evaluation grid (768 steps, evaluations every
+    1024), the run evaluates at 1024, 2048, 3072 like an uninterrupted one: counted in
+    callback calls from the resume, it evaluated at 1792 and 2816 and skipped its last."""
+    from drill_env.physics.config import replace
+
+    cfg = tiny_config(n_timesteps=1536, checkpoint_freq=768, eval_freq=1024)
+    folder = tmp_path / "run"
+    train(cfg, folder, progress=False)
+    for name in ("model.zip", "vecnormalize.pkl", "run.json",  # killed after 1536 steps,
+                 "checkpoints/model_1536_steps.zip"):          # its last checkpoint lost
+        (folder / name).unlink()
+    train(replace(cfg, n_timesteps=3072), folder, resume=True, progress=False)
+    with (folder / "evaluations.csv").open() as f:
+        assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [1024, 2048, 3072]
+    saved = sorted(int(p.stem.split("_")[1]) for p in (folder / "checkpoints").glob(
+        "model_*_steps.zip"))
+    assert saved == [768, 1536, 2304, 3072]
+
+
 def test_a_resumed_run_keeps_its_best_model_until_an_evaluation_beats_it(run, tmp_path):
     import hashlib
     import shutil
@@ -494,6 +514,21 @@ def test_the_learning_curve_draws_the_stuck_share_in_percent(tmp_path, monkeypat
     stuck_axis = next(ax for ax in saved[0].axes if "stuck" in ax.get_ylabel())
     assert "%" in stuck_axis.get_ylabel()
     assert list(stuck_axis.get_lines()[0].get_ydata()) == pytest.approx([12.0, 1.0])
+
+
+def test_evaluate_says_which_training_settings_its_standard_episodes_replace():
+    """A run trained on 10 s episodes is scored, as every run of its task, on the task's
+    30 s held-out episodes: said, not done silently (an outside test found it)."""
+    from training.evaluate import settings_of, standard_episode_notes
+
+    settings = settings_of("stick_slip", "fast")
+    notes = standard_episode_notes({"episode_duration": 10.0, "tracking_weight": 3.0},
+                                   settings)
+    assert notes == ["note: the run trained with episode_duration=10.0; evaluate scores it "
+                     "on the task's standard held-out episodes (episode_duration=30.0), as "
+                     "every run of the task"]
+    assert standard_episode_notes({"episode_duration": 30.0, "scenario": "random"},
+                                  settings) == []
 
 
 def test_evaluate_tells_a_missing_folder_from_a_folder_that_is_no_run(tmp_path, capsys):

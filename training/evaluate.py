@@ -108,6 +108,19 @@ def best_constant(out: Path, workers: int | None = None, progress: bool = True,
     return names[[label(n) for n in names].index(best)], rows
 
 
+def standard_episode_notes(trained: dict[str, Any], settings: BenchmarkSettings
+                           ) -> list[str]:
+    """What of the run's ``env_kwargs`` an evaluation replaces by the task's standard
+    episode (scenario, length, start kick: the held-out episodes every run of the task is
+    scored on), one note each, so that it is said, not done silently."""
+    standard = {"scenario": "random", "episode_duration": settings.duration,
+                "start_kick": settings.start_kick}
+    return [f"note: the run trained with {key}={trained[key]!r}; evaluate scores it on the "
+            f"task's standard held-out episodes ({key}={value!r}), as every run of the task"
+            for key, value in standard.items()
+            if key in trained and trained[key] != value]
+
+
 def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | None = None,
                  out: Path | None = None, controllers: tuple[str, ...] = CLASSICAL,
                  progress: bool = True, ray_address: str | None = None
@@ -121,10 +134,13 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
         raise ValueError(f"seeds: at most {len(EVALUATION_SEEDS)} held-out seeds")
     out = out or Path(run) / "evaluation"
     names = [f"learned:{run}", *controllers]
-    fidelity = config.get("env_kwargs", {}).get("fidelity", "fast")
+    trained = config.get("env_kwargs") or {}
+    fidelity = trained.get("fidelity", "fast")
     # every controller, and the grid search, under the task settings the run trained with
     settings = dataclasses.replace(settings_of(task, fidelity), env_kwargs=task_settings(
         names[:1], TASKS[task]))
+    for note in standard_episode_notes(trained, settings):
+        print(note)
     if task == "drilling":
         constant, _ = best_constant(out / "grid_search", workers, progress, ray_address,
                                     settings)

@@ -149,30 +149,42 @@ def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
     return Resumed(wall, best)
 
 
+def crossed(before: int, now: int, every: int) -> bool:
+    """Whether the env steps went past a multiple of ``every`` from ``before`` to ``now``:
+    evaluations and checkpoints fall on the same grid of env steps however the run was
+    interrupted and resumed (counted in calls from a resume, a run resumed from a Ctrl-C
+    checkpoint at 2,092 steps evaluated at 3,092 and 4,092 instead of 3,000 and 4,000)."""
+    return now // every > before // every
+
+
 def _callbacks(config: TrainConfig, run: Path, train_env: Any,
                resumed: Resumed = FRESH) -> list[Any]:
     import gymnasium as gym
-    from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+    from stable_baselines3.common.callbacks import BaseCallback
 
     seeds = list(range(VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes))
     eval_env = gym.make(config.env_id, **config.env_kwargs)
-    per_env = max(1, config.eval_freq // config.n_envs)
     # the run's training wall time, counted on from where a resumed run stopped
     started = time.perf_counter() - resumed.wall_s
 
     class SeededEval(BaseCallback):
-        """EvalCallback on fixed validation seeds: the same episodes every time."""
+        """EvalCallback on fixed validation seeds: the same episodes every time, every
+        ``eval_freq`` env steps on the grid of :func:`crossed`."""
 
         def __init__(self) -> None:
             super().__init__()
             self.path = run / "evaluations.csv"
             # a resumed run keeps its best model until an evaluation beats it
             self.best = resumed.best_return
+            self.last = 0
+
+        def _on_training_start(self) -> None:
+            self.last = int(self.model.num_timesteps)
 
         def _on_step(self) -> bool:
-            if self.n_calls % per_env:
-                return True
-            self.evaluate()
+            before, self.last = self.last, self.num_timesteps
+            if crossed(before, self.last, config.eval_freq):
+                self.evaluate()
             return True
 
         def evaluate(self) -> None:
@@ -193,21 +205,31 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
                 train_env.save(str(run / "best_vecnormalize.pkl"))
             plot_learning_curve(run)
 
-    class SaveNormalizer(BaseCallback):
-        """Keeps vecnormalize.pkl beside every checkpoint (resume needs both), and the
-        training wall time so far (a resumed run counts on from it)."""
+    class Checkpoints(BaseCallback):
+        """Every ``checkpoint_freq`` env steps on the grid of :func:`crossed`: the model,
+        its VecNormalize statistics (resume needs both) and the training wall time so far
+        (a resumed run counts on from it), as ``checkpoints/model_<steps>_steps.zip``,
+        ``vecnormalize_<steps>.pkl`` and ``progress_<steps>.json``."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.last = 0
+
+        def _on_training_start(self) -> None:
+            self.last = int(self.model.num_timesteps)
+            (run / "checkpoints").mkdir(parents=True, exist_ok=True)
 
         def _on_step(self) -> bool:
-            if self.n_calls % max(1, config.checkpoint_freq // config.n_envs) == 0:
+            before, self.last = self.last, self.num_timesteps
+            if crossed(before, self.last, config.checkpoint_freq):
                 folder, steps = run / "checkpoints", self.num_timesteps
+                self.model.save(folder / f"model_{steps}_steps.zip")
                 train_env.save(str(folder / f"vecnormalize_{steps}.pkl"))
                 (folder / f"progress_{steps}.json").write_text(json.dumps(
                     {"wall_s": time.perf_counter() - started}))
             return True
 
-    checkpoints = CheckpointCallback(max(1, config.checkpoint_freq // config.n_envs),
-                                     str(run / "checkpoints"), name_prefix="model")
-    callbacks = [SeededEval(), checkpoints, SaveNormalizer()]
+    callbacks = [SeededEval(), Checkpoints()]
     if config.torch_threads:
         callbacks.insert(0, torch_threads_callback(config.torch_threads))
     return callbacks
