@@ -198,19 +198,17 @@ def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
     controller of a task benchmark acts under, so that the classical controllers are
     scored by the policies' reward, on their physics. Policies trained under different
     ones cannot share a table: ValueError."""
-    from agents.learned import trained_env_id, trained_env_kwargs
+    from agents.learned import trained_env
     from drill_env.physics.config import flatten
 
     defaults = _env_defaults(env_id)
     seen: dict[str, dict[str, Any]] = {}
     for name in controllers:
         if name == "learned" or name.startswith("learned:"):
-            folder = name.partition(":")[2] or None
-            trained_on = trained_env_id(folder, env_id)
+            trained_on, kwargs = trained_env(name.partition(":")[2] or None, env_id)
             if trained_on != env_id:  # found now, not in its first episode
                 raise ValueError(f"controllers: {name} is a policy of {trained_on}; it "
                                  f"cannot act in {env_id}")
-            kwargs = trained_env_kwargs(folder, env_id)
             kwargs["physics"] = flatten(kwargs.get("physics") or {})
             seen[name] = {k: v for k, v in kwargs.items() if k not in SET_BY_BENCHMARK
                           and v != {} and _text(v) != _text(defaults.get(k, _NONE))}

@@ -32,6 +32,13 @@ class _DriveLoop(SetPointController):
         return resolve(replace(config, **self.physics()))
 
 
+def drive_loop_name(top_drive: str) -> str:
+    """The registry name (``soft-speed``) of the drive-rate controller whose
+    ``TopDriveConfig.controller`` is ``top_drive`` (``soft_speed``)."""
+    return next((c.name for c in _DriveLoop.__subclasses__() if c.top_drive == top_drive),
+                top_drive)
+
+
 class StiffPI(_DriveLoop):
     """Stiff PI speed loop, the usual factory tuning (Kyllingstad & Nessjoen 2009,
     SPE-119660): ``P = 50 Z``, ``I = 5 J_td`` (1/s^2). The top reflects ~96 % of the

@@ -94,17 +94,18 @@ def trained_env_kwargs(path: str | Path | None = None, env_id: str | None = None
                        ) -> dict[str, Any]:
     """The env keywords a policy was trained with (its run's ``config.yaml``), without
     loading the model; a folder without a policy is refused as :func:`policy_files` does."""
-    policy_files(path, env_id)
-    config = yaml.safe_load((policy_folder(path, env_id) / "config.yaml").read_text())
-    return dict(config.get("env_kwargs") or {})
+    return trained_env(path, env_id)[1]
 
 
-def trained_env_id(path: str | Path | None = None, env_id: str | None = None) -> str:
-    """The env id of the task a policy was trained on (its run's ``config.yaml``)."""
+def trained_env(path: str | Path | None = None, env_id: str | None = None
+                ) -> tuple[str, dict[str, Any]]:
+    """(env id of its task, env keywords) a policy was trained with, from its run's
+    ``config.yaml`` read once; refused as :func:`trained_env_kwargs` is."""
     from training.config import TASKS
 
+    policy_files(path, env_id)
     config = yaml.safe_load((policy_folder(path, env_id) / "config.yaml").read_text())
-    return TASKS[config["task"]]
+    return TASKS[config["task"]], dict(config.get("env_kwargs") or {})
 
 
 def policy_files(path: str | Path | None = None, env_id: str | None = None

@@ -141,18 +141,15 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     import drill_env  # noqa: F401  (registers the ids)
     from agents.benchmark import guest_env_kwargs, scenario_set_points
-    from agents.classical import ConstantSetPoints
+    from agents.classical import ConstantSetPoints, drive_loop_name
 
     controller = typed_controller(args.controller)
     overrides = checked_overrides(args.config, [args.scenario])
     if "top_drive.controller" in overrides:  # it would be replaced by --controller's
-        names = {"soft_speed": "soft-speed", "soft_torque": "soft-torque",
-                 "z_torque": "z-torque"}
-        wanted = overrides["top_drive.controller"]
         raise argparse.ArgumentTypeError(
             f"--config {args.config}: top_drive.controller: drill-env run takes the "
             f"controller from --controller (default stiff); give --controller "
-            f"{names.get(wanted, wanted)} instead")
+            f"{drive_loop_name(overrides['top_drive.controller'])} instead")
     # the controller's own physics (its top drive) over the file's
     physics = {**overrides, **controller.physics()}
     # a task's policy drills this scenario, as in a scenario benchmark

@@ -57,3 +57,15 @@ def stop_after(n: int):
             raise KeyboardInterrupt
 
     return progress
+
+
+def keep_saved_figures(monkeypatch) -> list:
+    """The matplotlib figures saved from now on (the code under test closes them after
+    saving), appended to the returned list as they are saved."""
+    import matplotlib.pyplot as plt
+
+    saved: list = []
+    original = plt.Figure.savefig
+    monkeypatch.setattr(plt.Figure, "savefig",
+                        lambda fig, *a, **kw: (saved.append(fig), original(fig, *a, **kw)))
+    return saved

@@ -532,8 +532,8 @@ def test_a_policy_and_its_five_baselines_each_draw_their_own_line_style(tmp_path
     """The evaluation's series: with four dash patterns the policy (first) and ZTorque
     (fifth) were both solid, in brown and red, which read as one colour; each line now
     differs from every other in its dashes."""
-    import matplotlib.pyplot as plt
     import numpy as np
+    from helpers import keep_saved_figures
 
     from agents.plots import series_chart
 
@@ -542,10 +542,7 @@ def test_a_policy_and_its_five_baselines_each_draw_their_own_line_style(tmp_path
     for k, name in enumerate(names):
         np.savez(tmp_path / f"{name}_random_seed0.npz", time=t, bit_x=0 * t, bit_y=0 * t,
                  clearance=0.02, bit_speed=(5.0 + k) + 0 * t, torque_on_bit=2e3 + 0 * t)
-    saved = []
-    original = plt.Figure.savefig
-    monkeypatch.setattr(plt.Figure, "savefig",
-                        lambda fig, *a, **kw: (saved.append(fig), original(fig, *a, **kw)))
+    saved = keep_saved_figures(monkeypatch)
     series_chart(tmp_path, names, "random", tmp_path / "series.png", warmup=2.0)
     lines = [line for line in saved[0].axes[0].get_lines() if line.get_label() in names]
     assert sorted(line.get_label() for line in lines) == sorted(names)

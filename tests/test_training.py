@@ -499,17 +499,14 @@ def test_a_sac_run_that_would_end_in_its_warm_up_is_refused(tmp_path, capsys):
 
 def test_the_learning_curve_draws_the_stuck_share_in_percent(tmp_path, monkeypatch):
     """As every other picture does (it drew 0.12 beside the SSI on one axis)."""
-    import matplotlib.pyplot as plt
+    from helpers import keep_saved_figures
 
     from training.train import plot_learning_curve
 
     (tmp_path / "evaluations.csv").write_text(
         "timesteps,return,return_std,ssi,stuck_fraction,wall_s\n"
         "1000,-900,200,0.9,0.12,60\n2000,-400,100,0.3,0.01,120\n")
-    saved = []
-    original = plt.Figure.savefig
-    monkeypatch.setattr(plt.Figure, "savefig",
-                        lambda fig, *a, **kw: (saved.append(fig), original(fig, *a, **kw)))
+    saved = keep_saved_figures(monkeypatch)
     plot_learning_curve(tmp_path)
     stuck_axis = next(ax for ax in saved[0].axes if "stuck" in ax.get_ylabel())
     assert "%" in stuck_axis.get_ylabel()

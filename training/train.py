@@ -167,15 +167,13 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
     # the run's training wall time, counted on from where a resumed run stopped
     started = time.perf_counter() - resumed.wall_s
 
-    class SeededEval(BaseCallback):
-        """EvalCallback on fixed validation seeds: the same episodes every time, every
-        ``eval_freq`` env steps on the grid of :func:`crossed`."""
+    class OnGrid(BaseCallback):
+        """Calls :meth:`act` when the env steps pass a multiple of ``every``
+        (:func:`crossed`)."""
 
-        def __init__(self) -> None:
+        def __init__(self, every: int) -> None:
             super().__init__()
-            self.path = run / "evaluations.csv"
-            # a resumed run keeps its best model until an evaluation beats it
-            self.best = resumed.best_return
+            self.every = every
             self.last = 0
 
         def _on_training_start(self) -> None:
@@ -183,11 +181,24 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
 
         def _on_step(self) -> bool:
             before, self.last = self.last, self.num_timesteps
-            if crossed(before, self.last, config.eval_freq):
-                self.evaluate()
+            if crossed(before, self.last, self.every):
+                self.act()
             return True
 
-        def evaluate(self) -> None:
+        def act(self) -> None:
+            raise NotImplementedError
+
+    class SeededEval(OnGrid):
+        """EvalCallback on fixed validation seeds: the same episodes every time, every
+        ``eval_freq`` env steps."""
+
+        def __init__(self) -> None:
+            super().__init__(config.eval_freq)
+            self.path = run / "evaluations.csv"
+            # a resumed run keeps its best model until an evaluation beats it
+            self.best = resumed.best_return
+
+        def act(self) -> None:
             result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
             row = {"timesteps": self.num_timesteps, **result,
                    "wall_s": time.perf_counter() - started}
@@ -205,29 +216,14 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
                 train_env.save(str(run / "best_vecnormalize.pkl"))
             plot_learning_curve(run)
 
-    class Checkpoints(BaseCallback):
-        """Every ``checkpoint_freq`` env steps on the grid of :func:`crossed`: the model,
-        its VecNormalize statistics (resume needs both) and the training wall time so far
-        (a resumed run counts on from it), as ``checkpoints/model_<steps>_steps.zip``,
-        ``vecnormalize_<steps>.pkl`` and ``progress_<steps>.json``."""
+    class Checkpoints(OnGrid):
+        """Every ``checkpoint_freq`` env steps: :func:`write_checkpoint`."""
 
         def __init__(self) -> None:
-            super().__init__()
-            self.last = 0
+            super().__init__(config.checkpoint_freq)
 
-        def _on_training_start(self) -> None:
-            self.last = int(self.model.num_timesteps)
-            (run / "checkpoints").mkdir(parents=True, exist_ok=True)
-
-        def _on_step(self) -> bool:
-            before, self.last = self.last, self.num_timesteps
-            if crossed(before, self.last, config.checkpoint_freq):
-                folder, steps = run / "checkpoints", self.num_timesteps
-                self.model.save(folder / f"model_{steps}_steps.zip")
-                train_env.save(str(folder / f"vecnormalize_{steps}.pkl"))
-                (folder / f"progress_{steps}.json").write_text(json.dumps(
-                    {"wall_s": time.perf_counter() - started}))
-            return True
+        def act(self) -> None:
+            write_checkpoint(run, self.model, train_env, time.perf_counter() - started)
 
     callbacks = [SeededEval(), Checkpoints()]
     if config.torch_threads:
@@ -441,7 +437,7 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
 
 def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | None:
     """After a Ctrl-C: the model, its VecNormalize statistics and the wall time so far
-    as a checkpoint (the files the checkpoint callbacks write), so that ``--resume``
+    as a checkpoint (:func:`write_checkpoint`, as the periodic ones), so that ``--resume``
     continues from here and not from the last periodic checkpoint. Says what it kept.
     What is not kept: the steps of a PPO rollout cut short (counted in the model's steps,
     never learnt from, so the resumed run learns from that many fewer) and SAC's replay
@@ -452,13 +448,22 @@ def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | N
         print(f"interrupted before the first env step: nothing saved in {run} but its "
               "config (--resume starts it, --overwrite starts afresh)")
         return None
+    path = write_checkpoint(run, model, env, wall_s)
+    print(f"interrupted at {steps} env steps: saved {path}; --resume continues from it")
+    return path
+
+
+def write_checkpoint(run: Path, model: Any, env: Any, wall_s: float) -> Path:
+    """The model, its VecNormalize statistics (a resume needs both) and the training wall
+    time so far (a resumed run counts on from it), as ``checkpoints/model_<steps>_steps.zip``,
+    ``vecnormalize_<steps>.pkl`` and ``progress_<steps>.json``; returns the model's file."""
+    steps = int(model.num_timesteps)
     folder = run / "checkpoints"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"model_{steps}_steps.zip"
     model.save(path)
     env.save(str(folder / f"vecnormalize_{steps}.pkl"))
     (folder / f"progress_{steps}.json").write_text(json.dumps({"wall_s": wall_s}))
-    print(f"interrupted at {steps} env steps: saved {path}; --resume continues from it")
     return path
 
 
