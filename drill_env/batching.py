@@ -129,7 +129,7 @@ class BatchArrays(NamedTuple):
     (rows of envs that did not step are stale). The arrays are reused by the next call."""
 
     n_rec: np.ndarray     # int64: records written this interval
-    flags: np.ndarray     # int64: rolling_add's flags (1: step finite, 2: window finite)
+    flags: np.ndarray     # int64: rolling_add's flags (STEP_FINITE, WINDOW_FINITE bits)
     step: np.ndarray      # (n, len(Metric)): metrics of this interval's records
     window: np.ndarray    # (n, len(Metric)): metrics of the window
     readings: np.ndarray  # (n, len(readings)): the fresh readings

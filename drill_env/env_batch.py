@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from drill_env.metrics import Metric
+from drill_env.metrics import STEP_FINITE, WINDOW_FINITE, Metric
 from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import N_READINGS, READ, READINGS
 
@@ -106,7 +106,7 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
     for e in range(readings.shape[0]):
         st = state[e]
         has = n_rec[e] > 0
-        step_ok = has and (flags[e] & 1) != 0
+        step_ok = has and (flags[e] & STEP_FINITE) != 0
         energy = st[BatchState.ENERGY]
         if has:
             energy += step[e, Metric.TOP_DRIVE_ENERGY]
@@ -290,7 +290,7 @@ class BatchFinish:
         state[:, BatchState.STATUS] = readings[:, _STATUS]  # as read, diverged or not
         state[:, BatchState.SSI] = window[:, Metric.SSI]
         has = n_rec > 0
-        window_ok = has & (flags & 2 != 0)
+        window_ok = has & (flags & WINDOW_FINITE != 0)
         fresh = readings.copy()
         if not np.isfinite(fresh).all():  # diverged envs: their last finite readings
             for i in np.flatnonzero(~np.isfinite(fresh).all(axis=1)).tolist():

@@ -473,6 +473,11 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
     return True
 
 
+#: Bits of :func:`rolling_add`'s result: the step's metrics are finite, the window's are.
+STEP_FINITE = 1
+WINDOW_FINITE = 2
+
+
 @njit(**TUPLE_KERNEL)
 def rolling_add(records, window, with_window):
     """Append the samples of ``records`` (at least one) to a rolling window; metrics.
@@ -482,7 +487,8 @@ def rolling_add(records, window, with_window):
     updated. When the records do not fit after ``end`` the kept samples move to the
     front first. Writes the metrics of ``records`` into ``step_out`` and, if
     ``with_window``, those of the last ``size`` samples into ``window_out``. Returns
-    1 if the step's records were all finite, plus 2 if the window's were.
+    :data:`STEP_FINITE` if the step's records were all finite, plus
+    :data:`WINDOW_FINITE` if the window's were.
     """
     samples = window.samples
     bounds = window.bounds
@@ -503,12 +509,12 @@ def rolling_add(records, window, with_window):
     end += n
     start = max(start, end - size)
     bounds[0], bounds[1] = start, end
-    flags = 1 if reduce_metric_samples(new, dt, area, window.step_out, window.tasks,
-                                       window.partial) else 0
+    flags = STEP_FINITE if reduce_metric_samples(new, dt, area, window.step_out,
+                                                 window.tasks, window.partial) else 0
     if with_window and reduce_metric_samples(samples[:, start:end], dt, area,
                                              window.window_out, window.tasks,
                                              window.partial):
-        flags += 2
+        flags += WINDOW_FINITE
     return flags
 
 
@@ -579,8 +585,8 @@ class RollingMetrics:
     def result(self, flags: int) -> tuple[tuple[list[float], bool], tuple[list[float], bool]]:
         """The (step, window) metrics a :func:`rolling_add` call with ``with_window`` left
         in this window's outputs, given the flags it returned."""
-        return ((self.arrays.step_out.tolist(), bool(flags & 1)),
-                (self.arrays.window_out.tolist(), bool(flags & 2)))
+        return ((self.arrays.step_out.tolist(), bool(flags & STEP_FINITE)),
+                (self.arrays.window_out.tolist(), bool(flags & WINDOW_FINITE)))
 
     def _add(self, records: np.ndarray, with_window: bool) -> int:
         self.reserve(len(records))
@@ -594,7 +600,7 @@ class RollingMetrics:
         if len(records) == 0:
             return None
         flags = self._add(records, False)
-        return self.arrays.step_out.tolist(), bool(flags & 1)
+        return self.arrays.step_out.tolist(), bool(flags & STEP_FINITE)
 
     def update(self, records: np.ndarray) -> tuple[tuple[list[float], bool] | None,
                                                    tuple[list[float], bool] | None]:

@@ -46,6 +46,13 @@ from drill_env.physics.string_friction import (
 #: numerical runaway, not drilling: the kernel stops with Status.RUNAWAY.
 RUNAWAY_SPEED = 1.0e3
 RUNAWAY_DISPLACEMENT = 1.0
+RUNAWAY_DISPLACEMENT_SQ = RUNAWAY_DISPLACEMENT * RUNAWAY_DISPLACEMENT
+#: Radius^2 (m^2) below which the bit counts as centred and its whirl speed is 0.
+WHIRL_MIN_RADIUS_SQ = 1e-12
+#: The bit speed (rad/s) at which a resting bit's resistance is evaluated: mu(0) = 0 by
+#: eq. (39)'s sign, so a bit breaking away from exact rest is evaluated just off zero,
+#: where it meets its static resistance.
+BREAKAWAY_SPEED = 1e-9
 #: Status codes as the floats the state vector holds.
 _SINGULAR = float(Status.SINGULAR)
 _NONFINITE = float(Status.NONFINITE)
@@ -249,7 +256,7 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
     formation = bit.formation
     rock_params = formation.rock_params
     if p[P.MACRO_BIT] > 0.0:
-        w_eval = max(abs(omega_p), 1e-9)
+        w_eval = max(abs(omega_p), BREAKAWAY_SPEED)
         rock = rock_at(bx, by, depth, formation.normals, formation.offsets,
                        formation.layer_rock)
         mu_slip = abs(resistance(w_eval, rock_params[rock, Rock.MU_MIN],
@@ -261,9 +268,7 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
             wob, rock_params[rock, Rock.FOUNDER_WOB], rock_params[rock, Rock.POST_FOUNDER_SLOPE])
         state[S.GAUGE_FORCE] = 0.0
         return t_slip, t_static, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    # mu(0) = 0 by eq. (39)'s sign: a bit breaking away from exact rest is evaluated just
-    # off zero so it meets its static resistance.
-    omega_eval = omega_p if omega_p != 0.0 else 1e-9
+    omega_eval = omega_p if omega_p != 0.0 else BREAKAWAY_SPEED
     out = bit.out
     mesoscopic_bit_loads(bit.blades, formation, bit.pieces,
                          BitKinematics(bx, by, m.vl[0, lb], m.vl[1, lb], depth, m.ut[n - 1],
@@ -365,15 +370,19 @@ def _bookkeeping(p, state, torsion, m, t_bit, t_motor):
     return rop
 
 
+@njit(cache=True, nogil=True)
+def whirl_speed(x, y, vx, vy):
+    """Angular speed of the bit centre about the hole axis, (x vy - vx y) / r^2 (rad/s)."""
+    r2 = x * x + y * y
+    return (x * vy - vx * y) / r2 if r2 > WHIRL_MIN_RADIUS_SQ else 0.0
+
+
 @njit(cache=True, inline="always")
 def _record(row, state, m, lb, wob, rop, t_motor, max_wall, stuck):
     """One row of the record (:data:`~drill_env.physics.layout.R`)."""
     x = m.ul[0, lb]
     y = m.ul[1, lb]
-    r2 = x * x + y * y
-    whirl = 0.0
-    if r2 > 1e-12:
-        whirl = (x * m.vl[1, lb] - m.vl[0, lb] * y) / r2
+    whirl = whirl_speed(x, y, m.vl[0, lb], m.vl[1, lb])
     row[R.TIME] = state[S.TIME]
     row[R.BIT_SPEED] = m.vt[m.vt.shape[0] - 1]
     row[R.SURFACE_SPEED] = m.vt[0]
@@ -472,7 +481,7 @@ def advance(n_steps, record_every, a):
                 and np.isfinite(m.ul[1, lb]) and np.isfinite(m.vt[0])):
             state[S.STATUS] = _NONFINITE
             return n_rec
-        if abs(omega_bit) > RUNAWAY_SPEED or bx * bx + by * by > RUNAWAY_DISPLACEMENT:
+        if abs(omega_bit) > RUNAWAY_SPEED or bx * bx + by * by > RUNAWAY_DISPLACEMENT_SQ:
             state[S.STATUS] = _RUNAWAY
             return n_rec
 

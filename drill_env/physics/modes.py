@@ -49,7 +49,6 @@ from drill_env.physics.statics import (  # noqa: F401  (re-exported for the CLI)
     neutral_point_height,
 )
 from drill_env.physics.top_drive import resolve as resolve_top_drive
-from drill_env.physics.units import RPM
 
 __all__ = ["CHART_MODES", "CriticalSpeed", "Modes", "chart_cutoff", "critical_speed_chart",
            "critical_speed_figure", "critical_speeds", "excitation_label", "excitations",
@@ -515,8 +514,3 @@ def _lay_out_labels(fig: Any, ax: Any, modes: list[tuple[Any, Any]], drawn: dict
         taken.append(next((b for b in boxes if clear(b, name)), None)
                      or put(texts[name], spots[0]))
 
-
-def rpm_of(frequency: float, per_rev: float) -> float:
-    """Rotary speed (rpm) at which an excitation of ``per_rev`` per revolution has
-    ``frequency`` (Hz)."""
-    return frequency / per_rev / (RPM / (2 * math.pi))

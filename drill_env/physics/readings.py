@@ -20,24 +20,16 @@ from numba import njit
 
 from drill_env.physics import integrator
 from drill_env.physics.bit import SHARES, BitKinematics, GaugeContact, mesoscopic_bit_loads
+from drill_env.physics.integrator import whirl_speed
 from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import N_READINGS, READ, READINGS, P, S
 
 __all__ = ["N_READINGS", "READ", "READINGS", "advance_and_read", "readout", "whirl_speed"]
 
-#: Radius^2 (m^2) below which the bit counts as centred and its whirl speed is 0.
-WHIRL_MIN_RADIUS_SQ = 1e-12
 #: Floors of the bit speed (rad/s) and WOB (N) at which the rock share is evaluated:
 #: the share is geometric, but the bit model needs a turning, loaded bit.
 SHARE_MIN_SPEED = 1e-9
 SHARE_MIN_WOB = 1.0
-
-
-@njit(cache=True, nogil=True)
-def whirl_speed(x, y, vx, vy):
-    """Angular speed of the bit centre about the hole axis, (x vy - vx y) / r^2 (rad/s)."""
-    r2 = x * x + y * y
-    return (x * vy - vx * y) / r2 if r2 > WHIRL_MIN_RADIUS_SQ else 0.0
 
 
 @njit(**TUPLE_KERNEL)

@@ -1,5 +1,5 @@
-"""Plain NumPy version of the integrator's time step: the test oracle and the baseline
-of ``drill-env benchmark`` (drill_env/benchmark.py).
+"""Plain NumPy version of the integrator's time step: the test oracle and the NumPy row
+of ``drill-env speed`` (drill_env/tools/speed/core.py).
 
 It integrates exactly the scheme of :func:`drill_env.physics.integrator.advance`
 (Newmark average acceleration, implicit linear string, explicit wall contact, top drive
@@ -44,6 +44,7 @@ from drill_env.physics.fem import (
     mud_torsional_damping,
 )
 from drill_env.physics.formation import Rock
+from drill_env.physics.integrator import RUNAWAY_DISPLACEMENT_SQ, RUNAWAY_SPEED
 from drill_env.physics.layout import N_RECORD, R, S, Status
 from drill_env.physics.units import GRAVITY
 
@@ -350,7 +351,7 @@ class ReferenceStepper:
         if not np.all(np.isfinite([omega_bit, ul[2 * bit, 0], ul[2 * bit, 1], vt[0]])):
             st[S.STATUS] = Status.NONFINITE
             return None
-        if abs(omega_bit) > 1.0e3 or bx * bx + by * by > 1.0:
+        if abs(omega_bit) > RUNAWAY_SPEED or bx * bx + by * by > RUNAWAY_DISPLACEMENT_SQ:
             st[S.STATUS] = Status.RUNAWAY
             return None
 

@@ -48,8 +48,6 @@ from drill_env.physics.layout import Feedback, P
 #: Stiff PI (the usual factory tuning, Kyllingstad & Nessjoen 2009): P = 50 Z, I = 5 J_td.
 STIFF_IMPEDANCE_FACTOR = 50.0
 STIFF_INTEGRAL_FACTOR = 5.0  # 1/s^2
-#: SoftTorque's band-pass damping ratio when the config gives none other than the default.
-SOFT_TORQUE_DAMPING = 0.5
 #: ZTorque's high-pass corner as a fraction of the stick-slip frequency.
 Z_TORQUE_CORNER_RATIO = 0.25
 

@@ -33,8 +33,6 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-#: Degrees per 30 m, the oilfield unit of build rate and dogleg severity.
-DEG_PER_30M = math.radians(1.0) / 30.0
 DOWN = np.array([0.0, 0.0, 1.0])
 
 

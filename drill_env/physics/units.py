@@ -14,6 +14,8 @@ RPM = 2.0 * math.pi / 60.0
 INCH = 0.0254
 #: One kilonewton in newtons (also kN m in N m).
 KILO = 1.0e3
+#: One megapascal in pascals (also MJ in J).
+MEGA = 1.0e6
 #: Seconds per hour (m/s -> m/h: multiply by HOUR).
 HOUR = 3600.0
 #: Standard gravity (m/s^2).
