@@ -53,10 +53,6 @@ from drill_env.scenarios import (
     with_physics,
 )
 
-ACTION_MODES = ("absolute", "incremental")
-SENSORS = ("downhole", "surface")
-STARTUPS = ("settled", "stalled", "paper")
-
 #: Observation layout per ``sensors`` mode (names of the vector entries, in order).
 OBSERVATIONS: dict[str, tuple[str, ...]] = {
     "downhole": (
@@ -118,11 +114,12 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     ## Description
 
-    A finite-element drill string (1000 m of 5 in pipe over a 35 m BHA by default; lateral
-    and torsional dynamics, borehole-wall contact) drives a mesoscopic PDC bit through a
-    layered formation (``drill_env.physics``). The agent sets the top drive's speed set
-    point and the hook load (i.e. the weight on bit) ten times a second; the simulator
-    integrates the string in between (``round(control_interval / dt)`` steps of ~1 ms)
+    A finite-element drill string (the ``default`` scenario's realistic 1250 m string:
+    5 in pipe over 140 m of heavy-weight pipe and a packed BHA; lateral and torsional dynamics,
+    borehole-wall contact) drives a mesoscopic PDC bit through a layered formation
+    (``drill_env.physics``). The agent sets the top drive's speed set point and the hook
+    load (i.e. the weight on bit) ten times a second; the simulator integrates the string
+    in between (``round(control_interval / dt)`` steps of 2 ms at the full level)
     and records the bit's motion, from which the stick-slip and whirl metrics of
     :mod:`drill_env.metrics` are computed. The task: drill fast without stick-slip and
     whirl while the bit crosses formation changes.
@@ -144,7 +141,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
     The WOB command is applied as the hook load ``sim.hook_load_for(WOB)`` and moves by at
     most ``drawworks_rate * control_interval`` per step (drawworks rate limit) and never
     above ``weight_on_bit_limit``, the largest WOB the FE mesh resolves (see
-    ``limit_weight_on_bit_to_mesh``; ~138 kN for the default string); the speed
+    ``limit_weight_on_bit_to_mesh``: the top of the default 0-200 kN range in the
+    built-in scenarios, 195 kN in ``lateral_60``, less on a string with a light BHA); the
+    speed
     set point is rate limited inside the simulator (top-drive ``max_acceleration``). The
     WOB is held constant within a control interval.
 
@@ -498,7 +497,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         if type(action) is np.ndarray and action.shape == (2,) and action.dtype.char in "fd":
             a0, a1 = action.tolist()  # the usual float32 policy output, exactly as float64
         else:
-            a = numbers(action, "action").reshape(-1)
+            a = numbers(action, "action")
             if a.shape != (2,):
                 raise ValueError(f"action: expected shape (2,), got {np.shape(action)}")
             a0, a1 = a.tolist()

@@ -280,6 +280,17 @@ class DrillStringVectorEnv(VectorEnv):
         """The attribute ``name`` of every sub-environment."""
         return tuple(getattr(env, name) for env in self.envs)
 
+    def set_attr(self, name: str, values: list[Any] | tuple[Any, ...] | Any) -> None:
+        """Set ``name`` on every sub-environment: one value each (a list or tuple of
+        ``num_envs``), or the same value for all (as Gymnasium's ``SyncVectorEnv``)."""
+        if not isinstance(values, (list, tuple)):
+            values = [values] * self.num_envs
+        if len(values) != self.num_envs:
+            raise ValueError(f"values: expected one per env ({self.num_envs}), got "
+                             f"{len(values)}")
+        for env, value in zip(self.envs, values, strict=True):
+            setattr(env, name, value)
+
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Call ``name`` (or read it, if not callable) on every sub-environment."""
         out = []

@@ -19,6 +19,7 @@ import dataclasses
 import functools
 import math
 import re
+import typing
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Annotated, Any, TypeVar, dataclass_transform
@@ -96,12 +97,44 @@ def _format_location(parts: list[Any]) -> str:
     return out
 
 
-def _error_text(err: ValidationError, prefix: str = "") -> str:
-    """One line per error: ``path: message, got value``."""
+def _section_at(root: Any, loc: list[Any]) -> Any:
+    """The config dataclass at ``loc`` (field names and list indices) under ``root``, or
+    None."""
+    cls = root
+    for part in loc:
+        if isinstance(part, int):
+            continue  # an element of a tuple of sections: its type was found already
+        try:
+            hint = typing.get_type_hints(cls).get(part)
+        except (NameError, TypeError):
+            return None
+        cls = _dataclass_in(hint)
+        if cls is None:
+            return None
+    return cls
+
+
+def _dataclass_in(hint: Any) -> Any:
+    if dataclasses.is_dataclass(hint):
+        return hint
+    return next((found for arg in typing.get_args(hint)
+                 if (found := _dataclass_in(arg)) is not None), None)
+
+
+def _error_text(err: ValidationError, prefix: str = "", root: Any = None) -> str:
+    """One line per error: ``path: message, got value``; an unknown field of a section
+    (``root``: the config class) lists the section's fields."""
     lines = []
     for e in err.errors(include_url=False):
         loc = [p for p in e["loc"] if p not in ("__post_init__",)]
         msg = str(e["msg"])
+        section = _section_at(root, loc[:-1]) if (
+            root is not None and e["type"] == "unexpected_keyword_argument") else None
+        if section is not None:
+            names = ", ".join(f.name for f in dataclasses.fields(section))
+            path = ".".join(p for p in (prefix, _format_location(loc)) if p)
+            lines.append(f"{path}: unknown field of {section.__name__}; known: {names}")
+            continue
         value_error = e["type"] in ("value_error", "assertion_error")
         if value_error:
             msg = msg.removeprefix("Value error, ").removeprefix("Assertion failed, ")
@@ -119,8 +152,8 @@ def _error_text(err: ValidationError, prefix: str = "") -> str:
     return "; ".join(lines)
 
 
-def config_error(err: ValidationError, prefix: str = "") -> ConfigError:
-    return ConfigError(_error_text(err, prefix))
+def config_error(err: ValidationError, prefix: str = "", root: Any = None) -> ConfigError:
+    return ConfigError(_error_text(err, prefix, root))
 
 
 # --------------------------------------------------------------------------- decorators
@@ -137,7 +170,7 @@ def config_dataclass(cls: type[T]) -> type[T]:
         try:
             init(self, *args, **kwargs)
         except ValidationError as err:
-            raise config_error(err) from None
+            raise config_error(err, root=built) from None
 
     built.__init__ = __init__
     return built
@@ -190,13 +223,42 @@ def from_dict(cls: type[T], data: Mapping[str, Any] | T | None) -> T:
     return cls(**dict(data))
 
 
+def _config_loader() -> type:
+    """PyYAML's safe loader with two changes for hand-written configs: numbers such as
+    ``3e-4`` and ``2.1e11`` are floats (YAML 1.1 wants ``3.0e-4``, and PyYAML read them as
+    strings: "not a number" errors and SB3 tracebacks), and a key written twice in one
+    mapping is refused (the last one silently won)."""
+    import yaml
+
+    class ConfigLoader(yaml.SafeLoader):
+        def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+            first: dict[Any, int] = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                if isinstance(key, (str, int, float, bool)) and key in first:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"duplicate key {key!r} (first at line {first[key]})",
+                        key_node.start_mark)
+                first[key] = key_node.start_mark.line + 1
+            return super().construct_mapping(node, deep=deep)
+
+    ConfigLoader.add_implicit_resolver(
+        "tag:yaml.org,2002:float",
+        re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+        list("-+.0123456789"))
+    return ConfigLoader
+
+
 def read_yaml(path: str | Path) -> Any:
-    """The content of a YAML file; ConfigError naming the file, line and column of a
-    syntax error in one line (not PyYAML's multi-line excerpt)."""
+    """The content of a YAML file (:func:`_config_loader`'s rules); ConfigError naming the
+    file, line and column of a syntax error or a repeated key in one line (not PyYAML's
+    multi-line excerpt)."""
     import yaml
 
     try:
-        return yaml.safe_load(Path(path).read_text())
+        return yaml.load(Path(path).read_text(), Loader=_config_loader())  # noqa: S506
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
@@ -268,12 +330,12 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
 
 def numbers(value: Any, name: str) -> np.ndarray:
     """``value`` (an action, say) as a float64 array; ValueError naming ``name`` when it
-    is not numbers (strings, even of digits, None, ragged lists)."""
+    is not numbers (strings, even of digits, None, ragged lists, booleans)."""
     try:
         array = np.asarray(value)
     except ValueError as err:  # ragged
         raise ValueError(f"{name}: expected numbers, got {value!r} ({err})") from None
-    if array.dtype.kind not in "biuf":
+    if array.dtype.kind not in "iuf":
         raise ValueError(f"{name}: expected numbers, got {value!r}")
     return array.astype(np.float64, copy=False)
 

@@ -5,6 +5,7 @@ with downhole data only through telemetry."""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -13,6 +14,7 @@ from gymnasium import spaces
 from drill_env.env import OBS_BOUND, DrillStringEnv
 from drill_env.physics.config import replace
 from drill_env.physics.layout import READ
+from drill_env.physics.validation import flatten
 from drill_env.tasks.telemetry import Telemetry
 
 
@@ -42,7 +44,14 @@ class TaskEnv(DrillStringEnv):
         fields = {f.name for f in dataclasses.fields(self.task_class)}
         given = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
         config = kwargs.get("config")
-        typed = set(kwargs) | (set(config) if isinstance(config, dict) else set())
+        if config is not None and not isinstance(config, Mapping):
+            raise ValueError(
+                f"config: {type(self).__name__} takes its DrillString-v0 settings as "
+                f"keywords or a dict, not a {type(config).__name__}: an EnvConfig holds a "
+                f"value for every field, and the task's own defaults "
+                f"({', '.join(k for k in self.env_defaults if k != 'scenario')}) could not "
+                f"tell the ones you set from EnvConfig's defaults")
+        typed = set(kwargs) | set(config or {})
         unused = sorted(typed & (self.unused_env_fields - fields))
         if unused:
             raise ValueError(
@@ -58,9 +67,14 @@ class TaskEnv(DrillStringEnv):
             raise ValueError(f"task: expected a {self.task_class.__name__} or a dict of its "
                              f"fields, got {type(task).__name__}")
         self.task = replace(base, **given) if given else base
+        # a task default gives way to the caller's value, as a keyword, in ``config`` or,
+        # for the fidelity, in ``physics``
+        physics = kwargs.get("physics")
+        chosen = typed | ({"fidelity"} if isinstance(physics, dict)
+                          and "solver.fidelity" in flatten(physics) else set())
         for key, value in self.env_defaults.items():
-            if key != "scenario":
-                kwargs.setdefault(key, value)
+            if key != "scenario" and key not in chosen:
+                kwargs[key] = value
         try:
             super().__init__(scenario, **kwargs)
         except ValueError as err:  # a typo: name the task and its own settings too

@@ -117,7 +117,9 @@ class DrillingEnv(TaskEnv):
 
     As ``DrillString-v0``: settled at the scenario's start point, kicked 2 %; 300 s
     episodes. Every field of :class:`DrillingTask` and every ``DrillString-v0`` keyword
-    is an argument of ``gymnasium.make("DrillOptimise-v0", ...)``.
+    is an argument of ``gymnasium.make("DrillOptimise-v0", ...)`` (EnvConfig fields one by
+    one or as a ``config`` dict); what you give wins over the task's
+    :data:`ENV_DEFAULTS`.
 
     ## Version History
 

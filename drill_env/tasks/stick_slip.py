@@ -138,7 +138,7 @@ class StickSlipEnv(TaskEnv):
 
     ## Observation Space
 
-    ``Box(-10, 10, (3 history + 7,), float32)``, oldest frame first. Each frame: the
+    ``Box(-10, 10, (3 x history + 7,), float32)``, oldest frame first. Each frame: the
     surface torque's ripple (torque - its 3 s running mean) / ``torque_scale``,
     (surface speed - target) / ``max_correction``, the action taken. Then: the running
     mean / ``torque_scale``, target rpm / 100, target WOB / 100 kN, and the telemetry:
@@ -165,7 +165,8 @@ class StickSlipEnv(TaskEnv):
     ``gymnasium.make("DrillStickSlip-v0", **kwargs)``: every field of
     :class:`StickSlipTask` (``max_correction=20``, ``telemetry="wired_pipe"``, reward
     weights, ...) and every keyword of ``DrillString-v0`` (``scenario``, ``physics``,
-    EnvConfig fields such as ``control_interval``).
+    EnvConfig fields such as ``control_interval``, one by one or as a ``config`` dict);
+    what you give wins over the task's :data:`ENV_DEFAULTS`.
 
     ## Version History
 
@@ -185,6 +186,16 @@ class StickSlipEnv(TaskEnv):
     def __init__(self, scenario: str = ENV_DEFAULTS["scenario"],
                  task: StickSlipTask | dict | None = None, **kwargs: Any) -> None:
         super().__init__(scenario, task, **kwargs)
+        # targets outside the env's set-point ranges were clipped to them without a word
+        for name, (low, high), (r_low, r_high), unit, scale, field in (
+                ("rpm_targets", self.task.rpm_targets, self.config.rpm_range, "rpm", 1.0,
+                 "rpm_range"),
+                ("weight_on_bit_targets", self.task.weight_on_bit_targets,
+                 self.config.weight_on_bit_range, "kN", 1e3, "weight_on_bit_range")):
+            if low < r_low or high > r_high:
+                raise ValueError(f"{name}: {low / scale:g}-{high / scale:g} {unit} reaches "
+                                 f"outside the env's {field} {r_low / scale:g}-"
+                                 f"{r_high / scale:g} {unit}")
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
         self._max_correction = self.task.max_correction * RPM
         self._change_step = -1  # no target change (each reset draws one)
@@ -223,7 +234,7 @@ class StickSlipEnv(TaskEnv):
         return np.array([min(max(a, -1.0), 1.0)], dtype=np.float32)
 
     def apply_action(self, action) -> None:
-        a = numbers(action, "action").reshape(-1)
+        a = numbers(action, "action")
         if a.shape != (1,):
             raise ValueError(f"action: expected shape (1,), got {np.shape(action)}")
         value = float(a[0])

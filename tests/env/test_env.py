@@ -228,6 +228,25 @@ def test_an_action_that_is_not_numbers_raises_naming_the_action(env_id, bad):
         env.unwrapped.step(bad)
 
 
+@pytest.mark.parametrize("env_id, bad", [
+    ("DrillString-v0", np.zeros((1, 2))), ("DrillString-v0", np.zeros((2, 1))),
+    ("DrillString-v0", [0.1, 0.2, 0.3]), ("DrillStickSlip-v0", 0.5),
+    ("DrillStickSlip-v0", np.zeros((1, 1))), ("DrillOptimise-v0", np.zeros(4))])
+def test_an_action_of_the_wrong_shape_raises_naming_its_shape(env_id, bad):
+    # a batch of one, (1, 2), was flattened and taken: it hides a batching mistake
+    env = gym.make(env_id, episode_duration=2.0)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"^action: expected shape \((2|1),\), got"):
+        env.unwrapped.step(bad)
+
+
+def test_a_boolean_action_is_refused():
+    env = gym.make("DrillString-v0", episode_duration=2.0)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action: expected numbers"):
+        env.unwrapped.step(np.array([True, False]))
+
+
 def test_a_task_config_of_the_wrong_type_is_named():
     with pytest.raises(ValueError, match="task: expected a StickSlipTask or a dict"):
         gym.make("DrillStickSlip-v0", task=[1, 2])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -110,6 +112,49 @@ def test_a_plain_env_setting_a_task_does_not_use_is_refused(env_id, kwargs, name
     ``sensors="surface"`` stayed 67 values)."""
     with pytest.raises(ValueError, match=f"^{name}: .* does not use {name} .*own settings"):
         gym.make(env_id, **kwargs)
+
+
+@pytest.mark.parametrize(("env_id", "kwargs", "field", "value"), [
+    ("DrillOptimise-v0", {"config": {"control_interval": 0.5, "episode_duration": 10.0}},
+     "control_interval", 0.5),
+    ("DrillOptimise-v0", {"config": {"start_kick": 0.0}}, "start_kick", 0.0),
+    ("DrillOptimise-v0", {"config": MappingProxyType({"start_kick": 0.0})}, "start_kick",
+     0.0),
+    ("DrillStickSlip-v0", {"config": {"startup": "settled"}}, "startup", "settled"),
+    ("DrillStickSlip-v0", {"episode_duration": 5.0}, "episode_duration", 5.0),
+])
+def test_the_callers_setting_wins_over_the_tasks_default(env_id, kwargs, field, value):
+    """A task's own defaults (ENV_DEFAULTS) fill in what the caller left out; a value
+    given in ``config`` was overwritten by them without a word."""
+    env = gym.make(env_id, **kwargs).unwrapped
+    assert getattr(env.config, field) == value
+
+
+@pytest.mark.parametrize("physics", [{"solver.fidelity": "full"},
+                                     {"solver": {"fidelity": "full"}}])
+def test_a_fidelity_in_physics_wins_over_the_tasks_fast_default(physics):
+    env = gym.make("DrillStickSlip-v0", physics=physics).unwrapped
+    assert env.sim.config.solver.fidelity == "full"
+    assert gym.make("DrillStickSlip-v0").unwrapped.sim.config.solver.fidelity == "fast"
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"rpm_targets": (400.0, 900.0)}, "rpm_targets: 400-900 rpm reaches outside the env's "
+                                      "rpm_range 0-200 rpm"),
+    ({"weight_on_bit_targets": (70e3, 150e3), "weight_on_bit_range": (0.0, 120e3)},
+     "weight_on_bit_targets: 70-150 kN reaches outside the env's weight_on_bit_range")])
+def test_targets_outside_the_set_point_ranges_are_refused(kwargs, message):
+    # they were clipped to the range without a word: a 400-900 rpm task drilled at 200
+    with pytest.raises(ValueError, match=f"^{message}"):
+        gym.make("DrillStickSlip-v0", **kwargs)
+
+
+def test_a_task_refuses_an_env_config_instance_by_name():
+    from drill_env.env_config import EnvConfig
+
+    with pytest.raises(ValueError, match="^config: DrillingEnv takes its DrillString-v0 "
+                                         "settings as keywords or a dict"):
+        gym.make("DrillOptimise-v0", config=EnvConfig(control_interval=0.5))
 
 
 def test_a_task_settings_typo_lists_the_tasks_own_settings():

@@ -141,6 +141,19 @@ def test_reset_mask_resets_only_the_masked_envs():
     assert [s.time for s in times] == pytest.approx([0.0, 0.1, 0.0, 0.1])
 
 
+def test_set_attr_sets_one_value_per_env_or_one_for_all_as_gymnasium_does():
+    envs = DrillStringVectorEnv(num_envs=N, **KW)
+    envs.set_attr("tag", list(range(N)))
+    assert envs.get_attr("tag") == tuple(range(N))
+    envs.set_attr("tag", "same")
+    assert envs.get_attr("tag") == ("same",) * N
+    reference = gym.vector.SyncVectorEnv([lambda: gym.make("DrillString-v0", **KW)] * 2)
+    reference.set_attr("tag", "same")
+    assert reference.get_attr("tag") == ("same", "same")
+    with pytest.raises(ValueError, match="values: expected one per env"):
+        envs.set_attr("tag", [1, 2])
+
+
 def test_nan_action_in_a_batch_names_the_env():
     envs = DrillStringVectorEnv(num_envs=N, **KW)
     envs.reset(seed=0)
