@@ -18,12 +18,13 @@ import numpy as np
 import yaml
 
 from agents.base import Rate
+from drill_env.tasks import TASK_ENVS
 
 #: Shipped policies, one folder per task: model.zip, vecnormalize.pkl, config.yaml,
 #: README.md (how it was trained, the command that reproduces it).
 TRAINED = Path(__file__).resolve().parent / "trained"
 #: Env id -> task name of the shipped policies.
-TASK_OF_ENV = {"DrillStickSlip-v0": "stick_slip", "DrillOptimise-v0": "drilling"}
+TASK_OF_ENV = {env_id: task for task, env_id in TASK_ENVS.items()}
 
 
 class LearnedController:
@@ -50,17 +51,13 @@ class LearnedController:
         folder = policy_folder(path, env_id)
         model_file, norm_file = files if files is not None else _files(folder)
         config = yaml.safe_load((folder / "config.yaml").read_text())
-        from training.config import TASKS
+        from training.config import algo_class
 
-        algo = config.get("algo", "ppo")
-        from stable_baselines3 import PPO, SAC
-
-        algo_class: Any = {"ppo": PPO, "sac": SAC}[algo]
-        model = algo_class.load(str(model_file), device="cpu")
+        model = algo_class(config.get("algo", "ppo")).load(str(model_file), device="cpu")
         with norm_file.open("rb") as f:
             normalizer = pickle.load(f)  # a VecNormalize without its venv: statistics only
         normalizer.training = False
-        return cls(model, normalizer, TASKS[config["task"]], config.get("env_kwargs", {}),
+        return cls(model, normalizer, TASK_ENVS[config["task"]], config.get("env_kwargs", {}),
                    folder)
 
     def env_kwargs(self) -> dict[str, Any]:
@@ -101,11 +98,9 @@ def trained_env(path: str | Path | None = None, env_id: str | None = None
                 ) -> tuple[str, dict[str, Any]]:
     """(env id of its task, env keywords) a policy was trained with, from its run's
     ``config.yaml`` read once; refused as :func:`trained_env_kwargs` is."""
-    from training.config import TASKS
-
     policy_files(path, env_id)
     config = yaml.safe_load((policy_folder(path, env_id) / "config.yaml").read_text())
-    return TASKS[config["task"]], dict(config.get("env_kwargs") or {})
+    return TASK_ENVS[config["task"]], dict(config.get("env_kwargs") or {})
 
 
 def policy_files(path: str | Path | None = None, env_id: str | None = None

@@ -354,6 +354,20 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
     assert not (tmp_path / "runs").exists()
 
 
+def test_integer_hyperparameters_written_as_floats_become_integers():
+    # YAML's 1e5 is a float: SB3 failed on it deep inside (a float buffer size)
+    from training.config import TrainConfig
+
+    config = TrainConfig(task="drilling", algo="sac", hyperparams={
+        "buffer_size": 1e5, "learning_starts": 1.0e3, "learning_rate": 3e-4})
+    assert config.hyperparams["buffer_size"] == 100_000
+    assert type(config.hyperparams["buffer_size"]) is int
+    assert type(config.hyperparams["learning_rate"]) is float
+    with pytest.raises(ValueError, match=r"^sac.hyperparams.batch_size: must be an integer, "
+                                         r"got 64.5"):
+        TrainConfig(task="drilling", algo="sac", hyperparams={"batch_size": 64.5})
+
+
 def test_train_command_names_bad_input(capsys):
     with pytest.raises(SystemExit):
         main(["train", "--task", "juggling"])

@@ -23,10 +23,11 @@ from typing import Annotated, Any, Literal
 from pydantic import Field
 
 from drill_env.physics.validation import ConfigError, config_dataclass, from_dict, read_yaml
+from drill_env.tasks import TASK_ENVS
 
 HYPERPARAMS = Path(__file__).resolve().parent / "hyperparams"
 #: Task name -> env id.
-TASKS = {"stick_slip": "DrillStickSlip-v0", "drilling": "DrillOptimise-v0"}
+TASKS = TASK_ENVS
 #: Seeds: the eval callback uses validation seeds from VALIDATION_SEED; the benchmark of
 #: ``drill-env evaluate`` the held-out EVALUATION_SEEDS (drill_env.scenarios, from
 #: 1,000,000), never seen in training or model selection; the training envs are seeded
@@ -35,6 +36,13 @@ VALIDATION_SEED = 900_000
 TRAINING_SEEDS = 2**31
 
 Algo = Literal["ppo", "sac"]
+
+
+def algo_class(name: str) -> Any:
+    """The Stable-Baselines3 class of an ``algo`` name (imported on first use)."""
+    from stable_baselines3 import PPO, SAC
+
+    return {"ppo": PPO, "sac": SAC}[name]
 
 
 @config_dataclass
@@ -104,6 +112,9 @@ _RANGES: dict[str, tuple[float, float, bool]] = {  # name: (low, high, low inclu
     "learning_starts": (0, 10**10, True), "tau": (0.0, 1.0, False),
     "gradient_steps": (-1, 10**6, True), "train_freq": (1, 10**9, True),
 }
+#: Hyperparameters SB3 needs as integers: a YAML ``1e5`` arrives as a float.
+_INTEGERS = {"n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",
+             "gradient_steps", "train_freq"}
 
 
 def check_algorithm_arguments(config: TrainConfig) -> None:
@@ -113,16 +124,18 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
     import inspect
     import math
 
-    from stable_baselines3 import PPO, SAC
-
-    algo: Any = {"ppo": PPO, "sac": SAC}[config.algo]
+    algo = algo_class(config.algo)
     where = f"{config.algo}.hyperparams"
     known = set(inspect.signature(algo.__init__).parameters) - _SET_BY_TRAIN
-    for key, value in config.hyperparams.items():
+    for key, value in list(config.hyperparams.items()):
         if key not in known:
             raise ConfigError(f"{where}.{key}: not an argument of {algo.__name__}; known: "
                               f"{', '.join(sorted(known))}")
         number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if key in _INTEGERS and isinstance(value, float):
+            if not value.is_integer():
+                raise ConfigError(f"{where}.{key}: must be an integer, got {value!r}")
+            value = config.hyperparams[key] = int(value)
         if key in _RANGES and number:  # schedules ("lin_3e-4"), tuples ([1, "episode"]):
             low, high, closed = _RANGES[key]  # SB3's own checks
             if not (math.isfinite(value) and (value >= low if closed else value > low)

@@ -38,15 +38,7 @@ import yaml
 
 from agents.learned import latest_checkpoint
 from drill_env.physics.validation import jsonable
-from training.config import TRAINING_SEEDS, VALIDATION_SEED, TrainConfig
-
-ALGOS = ("ppo", "sac")
-
-
-def _algo_class(name: str) -> Any:
-    from stable_baselines3 import PPO, SAC
-
-    return {"ppo": PPO, "sac": SAC}[name]
+from training.config import TRAINING_SEEDS, VALIDATION_SEED, TrainConfig, algo_class
 
 
 def planned_steps(config: TrainConfig, done: int = 0) -> int:
@@ -57,7 +49,7 @@ def planned_steps(config: TrainConfig, done: int = 0) -> int:
         return config.n_timesteps
     import inspect
 
-    default = inspect.signature(_algo_class("ppo")).parameters["n_steps"].default
+    default = inspect.signature(algo_class("ppo")).parameters["n_steps"].default
     rollout = int(config.hyperparams.get("n_steps", default)) * config.n_envs
     return done + -(-(config.n_timesteps - done) // rollout) * rollout
 
@@ -239,7 +231,7 @@ def new_model(config: TrainConfig, env: Any, **kwargs: Any) -> Any:
         policy_kwargs.setdefault("net_arch", [256, 256])
     if config.fused_adam and not {"optimizer_class", "optimizer_kwargs"} & set(policy_kwargs):
         policy_kwargs["optimizer_kwargs"] = {"fused": True}  # SB3's default class: Adam
-    return _algo_class(config.algo)(config.policy, env, seed=config.seed, verbose=0,
+    return algo_class(config.algo)(config.policy, env, seed=config.seed, verbose=0,
                                     policy_kwargs=policy_kwargs, **kwargs,
                                     **config.hyperparams)
 
@@ -381,7 +373,7 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
         shutil.rmtree(run)
     run.mkdir(parents=True, exist_ok=True)
     saved = run / "config.yaml"
-    algo = _algo_class(config.algo)
+    algo = algo_class(config.algo)
     latest = resume_files(run) if resume else None
     # else from the final model (or from nothing): which records _rewind keeps
     from_checkpoint = latest is not None and latest[0].name != "model.zip"

@@ -2,8 +2,11 @@
 
     .venv/bin/python -m training.train_ppo --scenario random --total-timesteps 200000
 
-Checkpoints and the final model go to ``logs/ppo_<scenario>/``. Evaluation uses the
-held-out seeds of ``drill_env.scenarios.EVALUATION_SEEDS``.
+Checkpoints and the final model go to ``logs/ppo_<scenario>/``. The smallest training
+script, for reading and for ``scripts/ppo_then_now.py``'s ``train_ppo`` workload: the
+plain env, not a control task, with SB3's default PPO and settings of its own. It does
+not evaluate; the task runs (``drill-env train``, hyperparameters in
+``training/hyperparams/*.yml``, validation and held-out evaluation) are ``training.train``.
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import field
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 from pydantic import Field
 
@@ -122,11 +122,6 @@ class Section:
             self.outer_diameter
 
     @property
-    def buoyed_weight_per_length(self) -> float:
-        """Weight in a fluid of ``mud_density`` is this times (1 - mud / steel density)."""
-        return self.density * self.area * GRAVITY
-
-    @property
     def area(self) -> float:
         return math.pi / 4 * (self.outer_diameter**2 - self.inner_diameter**2)
 
@@ -190,7 +185,8 @@ class StringConfig:
     drill_pipe: Section = field(default_factory=_default_pipe)
     bha: Section = field(default_factory=_default_bha)
     #: The BHA (and any pipe below the top drill pipe) from the bit up; replaces ``bha``.
-    components: tuple[Section, ...] = ()
+    #: None: the single ``bha`` section (an empty list is refused: it would mean that).
+    components: tuple[Section, ...] | None = None
     #: Borehole diameter; an 8 3/4 in PDC bit drills an 8 3/4 in hole.
     hole_diameter: Positive = Field(default=8.75 * INCH, le=MAX_DIAMETER)
     #: Extra stabilizer positions, metres above the bit, each on the nearest node with
@@ -203,6 +199,8 @@ class StringConfig:
     stabilizer_diameter: Positive = Field(default=8.625 * INCH, le=MAX_DIAMETER)
 
     def __post_init__(self) -> None:
+        _require(self.components != (), "components", "an empty list; give at least one "
+                 "component from the bit up, or leave it out for the single bha section")
         if self.components:
             _require(self.bha == _default_bha(), "components",
                      "give the BHA either as one section (bha) or as components, not both")
@@ -560,7 +558,8 @@ class BitConfig:
 # --------------------------------------------------------------------------- simulation
 
 
-FIDELITY_LEVELS = ("full", "fast")
+Fidelity = Literal["full", "fast"]
+FIDELITY_LEVELS: tuple[str, ...] = get_args(Fidelity)
 #: Fast level: 20 m drill-pipe elements keep the first torsional frequency of the
 #: default string within 0.1 % (tests/physics/test_fidelity.py) and the torsional wave
 #: resolved to ~10 Hz.
@@ -633,7 +632,7 @@ class SolverConfig:
     #: (``pipe_lateral=False``), drill-pipe elements of at least
     #: ``FAST_PIPE_ELEMENT_LENGTH``, a time step of ``FAST_TIME_STEP`` and
     #: ``FAST_CRITICAL_STEP_FRACTION`` of the critical step.
-    fidelity: Literal["full", "fast"] = "full"
+    fidelity: Fidelity = "full"
     #: The step is shortened to this fraction of the critical step 2 sqrt(m/k) of the
     #: explicit wall and gauge penalties, computed for one penalty on the lumped node mass.
     #: The implicit neighbours do not raise that limit, and a bit pushed between two of
@@ -644,7 +643,8 @@ class SolverConfig:
     critical_step_fraction: Positive = Field(default=0.5, ge=0.01, le=0.8)
 
 
-BIT_MODELS = ("mesoscopic", "macroscopic")
+BitModel = Literal["mesoscopic", "macroscopic"]
+BIT_MODELS: tuple[str, ...] = get_args(BitModel)
 
 
 @config_dataclass
@@ -659,7 +659,7 @@ class SimulationConfig:
     solver: SolverConfig = field(default_factory=SolverConfig)
     well: WellConfig = field(default_factory=WellConfig)
     #: "mesoscopic" (paper section 3) or "macroscopic" (eq. 38, torque only).
-    bit_model: Literal["mesoscopic", "macroscopic"] = "mesoscopic"
+    bit_model: BitModel = "mesoscopic"
     #: Measured depth of the bit face at t = 0 (m); None: the string length.
     initial_depth: Annotated[Finite, Field(ge=-1.0e5, le=1.0e5)] | None = None
 

@@ -21,9 +21,10 @@ from drill_env.physics.bit import (
     bit_lever_arm,
     blade_arrays,
     make_bit_scratch,
+    make_loads_out,
     mesoscopic_bit_loads,
 )
-from drill_env.physics.config import GRAVITY, MIN_TIME_STEP, ConfigError, SimulationConfig
+from drill_env.physics.config import MIN_TIME_STEP, ConfigError, SimulationConfig
 from drill_env.physics.fem import (
     LATERAL_BANDWIDTH,
     Mesh,
@@ -31,6 +32,7 @@ from drill_env.physics.fem import (
     assemble_torsion_band,
     axial_force_profile,
     build_mesh,
+    buoyed_string_weight,
     mud_torsional_damping,
 )
 from drill_env.physics.formation import Rock, effective_wob, formation_arrays, resistance, rock_at
@@ -57,15 +59,16 @@ from drill_env.physics.linalg import (
     solve_tridiagonal,
     twisted_tridiagonal,
 )
-from drill_env.physics.readings import advance_and_read, readout
+from drill_env.physics.readings import SHARE_MIN_SPEED, SHARE_MIN_WOB, advance_and_read, readout
 from drill_env.physics.statics import (
     OperatingPoint,
+    bit_buoyed_weight,
     element_buckling_error,
     resolved_weight_on_bit,
 )
 from drill_env.physics.top_drive import MAX_FILTER_W_DT
 from drill_env.physics.trajectory import curved_hole_loads
-from drill_env.physics.validation import require_positive
+from drill_env.physics.validation import require_finite, require_positive
 
 __all__ = ["MAX_FILTER_W_DT", "RECORD_CHANNELS", "STATUS_MESSAGES", "OperatingPoint",
            "Simulator", "Status"]
@@ -99,16 +102,13 @@ class Simulator:
         mesh = self.mesh
         n = mesh.n_nodes
         self.n_nodes = n
-        # the bit is steel like the component it hangs from
-        self.bit_buoyed_weight = cfg.bit.mass * GRAVITY * (
-            1.0 - cfg.mud.density / cfg.string.lower[0].density)
+        self.bit_buoyed_weight = bit_buoyed_weight(cfg)
 
         # ---- lateral (one plane; the other is identical); in a curved hole the axial
         # force follows the TVD and static loads act across the hole (docs/model.md, 6)
         self.hole = curved_hole_loads(cfg, mesh, self.bit_buoyed_weight)
         if self.hole is None:
-            self.string_weight = float(np.sum(mesh.buoyed_weight * mesh.element_length)
-                                       + self.bit_buoyed_weight)
+            self.string_weight = buoyed_string_weight(mesh, self.bit_buoyed_weight)
             self.axial_weight = axial_force_profile(mesh, 0.0, self.bit_buoyed_weight)
         else:
             self.string_weight = self.hole.hanging_weight
@@ -184,7 +184,7 @@ class Simulator:
         self.layer_rock, self.rock_params = fa.layer_rock, fa.rock_params
         self.formation = fa
         self.bit_scratch = make_bit_scratch(cfg.bit.n_blades, fa.offsets.shape[0])
-        self.bit_out = np.zeros(SHARES + self.rock_params.shape[0])
+        self.bit_out = make_loads_out(self.rock_params.shape[0])
 
         # ---- time step and the implicit matrices
         self.dt = self.stable_time_step()
@@ -199,9 +199,7 @@ class Simulator:
         nl = 2 * (n - self.lateral_start)
         self.lat_planes = np.zeros((3, 2, nl))  # displacement, velocity, acceleration
         self._bind_lateral_views()
-        self.ut = np.zeros(n)
-        self.vt = np.zeros(n)
-        self.at = np.zeros(n)
+        self.ut, self.vt, self.at = np.zeros(n), np.zeros(n), np.zeros(n)  # torsional motion
         self.rl = np.zeros((2, nl))  # plane-major residual / acceleration scratch
         self.static_load = np.zeros((2, nl))  # curved hole, set with the WOB (_hole_wob)
         self.rt = np.zeros(n)
@@ -424,13 +422,17 @@ class Simulator:
         if weight_on_bit <= 0.0 or surface_speed == 0.0:
             return 0.0
         if self.config.bit_model == "macroscopic":
-            rock = rock_at(0.0, 0.0, self.depth, self.normals, self.offsets, self.layer_rock)
-            rp = self.rock_params[rock]
+            rp = self._rock_at_bit()
             return self.lever_arm * abs(resistance(surface_speed, rp[Rock.MU_MIN],
                                                    rp[Rock.MU_MAX], rp[Rock.ST1],
                                                    rp[Rock.ST2])) * weight_on_bit
         self._bit_loads(surface_speed, weight_on_bit)
         return float(self.bit_out[BitOut.TORQUE]) * math.copysign(1.0, surface_speed)
+
+    def _rock_at_bit(self) -> np.ndarray:
+        """Parameters (:class:`Rock` columns) of the rock at the centred bit's face."""
+        return self.rock_params[rock_at(0.0, 0.0, self.depth, self.normals, self.offsets,
+                                        self.layer_rock)]
 
     def _bit_loads(self, omega: float, wob: float) -> np.ndarray:
         """The mesoscopic bit's loads at the current position, centred velocity 0."""
@@ -451,6 +453,8 @@ class Simulator:
         the matching motor torque, so the run starts without a start-up transient. The
         string is laterally straight and at rest.
         """
+        if depth is not None:
+            require_finite(depth, "depth")
         op = operating_point or OperatingPoint()
         cfg = self.config
         for arr in (self.ul, self.vl, self.al, self.ut, self.vt, self.at, self.node_force):
@@ -493,8 +497,7 @@ class Simulator:
         self.state[S.TD_BAND_1] = self.state[S.SURFACE_TORQUE] / (w * w) if w > 0 else 0.0
         if wob > 0.0 and omega != 0.0:
             if cfg.bit_model == "macroscopic":
-                rock = rock_at(0.0, 0.0, depth, self.normals, self.offsets, self.layer_rock)
-                rp = self.rock_params[rock]
+                rp = self._rock_at_bit()
                 doc = rp[Rock.DEPTH_OF_CUT] * effective_wob(wob, rp[Rock.FOUNDER_WOB],
                                                             rp[Rock.POST_FOUNDER_SLOPE])
             else:
@@ -585,8 +588,7 @@ class Simulator:
     def set_depth(self, depth: float) -> None:
         """Move the bit face to ``depth`` (m) without moving the string: a study that holds
         the bit at a position in the formation (the stability map) sets it back."""
-        if not math.isfinite(depth):
-            raise ValueError(f"depth: must be finite, got {depth!r}")
+        require_finite(depth, "depth")
         self.state[S.DEPTH] = depth
 
     def run(self, duration: float, speed_setpoint: float | None = None,
@@ -659,10 +661,7 @@ class Simulator:
 
     @property
     def whirl_speed(self) -> float:
-        x, y = self.ul[-2]
-        vx, vy = self.vl[-2]
-        r2 = x * x + y * y
-        return float((x * vy - vx * y) / r2) if r2 > 1e-12 else 0.0
+        return float(integrator.whirl_speed(*self.ul[-2], *self.vl[-2]))
 
     @property
     def bit_lateral_force(self) -> np.ndarray:
@@ -686,7 +685,8 @@ class Simulator:
     @property
     def rock_share(self) -> np.ndarray:
         """Share of front blade length in each rock (sums to 1)."""
-        self._bit_loads(max(abs(self.bit_speed), 1e-9), max(self.weight_on_bit, 1.0))
+        self._bit_loads(max(abs(self.bit_speed), SHARE_MIN_SPEED),
+                        max(self.weight_on_bit, SHARE_MIN_WOB))
         return self.bit_out[SHARES:].copy()
 
     @property

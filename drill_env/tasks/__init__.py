@@ -16,3 +16,7 @@ DrillStringEnv`) and keep its batch contract, so the
 batched vector envs (``gymnasium.make_vec``, :func:`drill_env.vector.make_sb3_vec_env`)
 run them with the physics of all envs in one compiled call.
 """
+
+#: Task name (``drill-env train --task``, a run's ``config.yaml``) -> env id: the one map
+#: that training, the shipped policies and the CLI read.
+TASK_ENVS: dict[str, str] = {"stick_slip": "DrillStickSlip-v0", "drilling": "DrillOptimise-v0"}

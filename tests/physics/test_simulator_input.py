@@ -39,6 +39,18 @@ def test_run_needs_a_positive_finite_duration(duration, message):
         sim.run(duration)
 
 
+@pytest.mark.parametrize("depth", [math.nan, math.inf, "1000"])
+def test_a_bit_depth_must_be_a_finite_number(depth):
+    # a NaN depth would fail every layer test and drill layer 0 with a NaN depth reading
+    sim = Simulator()
+    with pytest.raises(ValueError, match=f"^depth: {NOT_FINITE}, got"):
+        sim.reset(OperatingPoint(50 * RPM, 100e3), depth=depth)
+    sim.reset(OperatingPoint(50 * RPM, 100e3), depth=1000.0)
+    with pytest.raises(ValueError, match=f"^depth: {NOT_FINITE}, got"):
+        sim.set_depth(depth)
+    assert sim.depth == 1000.0
+
+
 def test_run_records_every_so_many_steps_or_none():
     sim = Simulator()
     sim.reset(OperatingPoint(50 * RPM, 100e3))

@@ -29,6 +29,7 @@ from drill_env.physics.string_friction import (
     MAX_ACTIVE_SET_ITERATIONS,
     _solve_held,
     soft_string_torsion,
+    steady_friction,
     thomas_sweep,
 )
 from drill_env.physics.trajectory import Trajectory, soft_string
@@ -144,6 +145,36 @@ def test_the_soft_string_mode_turns_with_the_soft_string_torque_of_a_60_degree_h
     assert sim.params[P.SOFT_STRING] == 1.0
     assert torque == pytest.approx(soft.surface_torque, rel=0.01)
     assert np.sum(sim.node_force) == pytest.approx(np.sum(soft.normal_force), rel=0.01)
+
+
+@pytest.mark.parametrize("omega", [3.0, -2.0, 0.0])
+def test_the_steady_friction_is_eq_23_against_the_rotation(omega):
+    """The settled start's soft-string torques, against eq. (23) written out: mu(|v|) =
+    mu_k + (mu_s - mu_k) exp(-|v| / v_s) at each node's wall speed omega r, times its
+    normal force, opposing the rotation; nothing at rest."""
+    rng = np.random.default_rng(3)
+    params = np.zeros(N_PARAMS)
+    params[P.MU_STATIC], params[P.MU_KINETIC], params[P.MU_DECAY] = 0.3, 0.2, 0.05
+    normal = rng.uniform(0.0, 2e3, 12)
+    radius = rng.uniform(0.05, 0.1, 12)
+    v = np.abs(omega * radius)
+    mu = 0.2 + (0.3 - 0.2) * np.exp(-v / 0.05)
+    expected = -np.sign(omega) * mu * normal
+    assert steady_friction(params, normal, radius, omega) == pytest.approx(
+        expected, rel=1e-13, abs=0.0)
+
+
+def test_a_settled_start_in_an_inclined_hole_is_steady():
+    """Torsion only in a straight 60-degree hole, every node on the wall: the settled
+    start balances the steady wall friction, so the string keeps turning at the set
+    point from the first step instead of winding up."""
+    config, _ = straight_hole(60.0)
+    config = replace(config, **{"solver.lateral": False})
+    sim = Simulator(config)
+    sim.reset(OperatingPoint(60 * RPM, 0.0))
+    records = sim.run(2.0, record_every=10)
+    speeds = records[:, [R.BIT_SPEED, R.SURFACE_SPEED]]
+    assert np.max(np.abs(speeds / (60 * RPM) - 1.0)) < 1e-3
 
 
 def test_in_a_build_the_fe_string_and_the_soft_string_mode_agree_on_the_torque():
