@@ -22,6 +22,7 @@ import dataclasses
 import json
 import math
 import sys
+import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +31,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from drill_env.physics.units import RPM, shown
+from drill_env.physics.units import HOUR, KILO, MEGA, RPM, shown
 from drill_env.physics.validation import NonNegative, Positive, config_dataclass, jsonable
 
 #: benchmark.csv columns, in order (the spec's section 5; meanings in docs/controllers.md);
@@ -111,6 +112,10 @@ class Episode:
     #: What else a stored row depends on: a learned policy's model files
     #: (:func:`controller_digest`), so a retrained run is not served its old rows.
     digest: str = ""
+    #: The settings and code its row is stored under (:func:`stamp`): written into its
+    #: series file and beside its recording, so a row is not reused with the picture or
+    #: recording of another run in the same folder.
+    stamp: str = ""
 
     @property
     def label(self) -> str:
@@ -131,6 +136,27 @@ class Episode:
         from drill_env.recording import stem_file_name
 
         return Path(self.out) / "recordings" / stem_file_name(self.stem)
+
+    @property
+    def series_file(self) -> Path:
+        return Path(self.out) / "series" / f"{self.stem}.npz"
+
+    def outputs_current(self) -> bool:
+        """Whether the series and recording this episode should leave are there and were
+        made under its :attr:`stamp`."""
+        if self.series:
+            try:
+                with np.load(self.series_file) as data:
+                    if str(data["stamp"]) != self.stamp:
+                        return False
+            except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
+                return False  # missing, damaged (a run killed while writing it), old
+        if self.record:
+            sidecar = self.recording.with_name(self.recording.name + ".stamp")
+            if not (self.recording.exists() and sidecar.exists()
+                    and sidecar.read_text() == self.stamp):
+                return False
+        return True
 
 
 def label(controller: str) -> str:
@@ -288,7 +314,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     from agents.registry import make_controller
     from drill_env.metrics import window_metrics
     from drill_env.physics.config import flatten
-    from drill_env.physics.layout import RECORD_CHANNELS
+    from drill_env.physics.layout import RECORD_CHANNELS, R
 
     settings = BenchmarkSettings(**episode.settings)
     controller = make_controller(episode.controller, env_id=episode.env_id)
@@ -339,16 +365,18 @@ def run_episode(episode: Episode) -> dict[str, Any]:
                 break
     finally:
         env.close()
+    if episode.record and getattr(env, "last_path", None) == episode.recording:
+        # (only a file this run wrote: RERUN=off writes none, and an older one stays old)
+        episode.recording.with_name(episode.recording.name + ".stamp").write_text(episode.stamp)
     everything = np.concatenate(kept) if kept else np.zeros((0, len(RECORD_CHANNELS)))
-    records = everything[everything[:, 0] >= start + settings.warmup]
+    records = everything[everything[:, R.TIME] >= start + settings.warmup]
     if len(records) < 2:
         raise RuntimeError(f"{episode.key}: the episode ended before the warm-up was over "
                            f"({reason or 'no samples'})")
-    dt = float(records[1, 0] - records[0, 0])
+    dt = float(records[1, R.TIME] - records[0, R.TIME])
     m = window_metrics(records, RECORD_CHANNELS, dt, base.clearance,
                        base.sim.config.bit.diameter)
-    col = {name: k for k, name in enumerate(RECORD_CHANNELS)}
-    mean_speed = float(np.mean(records[:, col["bit_speed"]]))
+    mean_speed = float(np.mean(records[:, R.BIT_SPEED]))
     # the target may change during an episode (the tasks' driller): its mean over the
     # measured part, step by step
     in_window = [speed for t, speed in targets if t >= start + settings.warmup]
@@ -359,10 +387,10 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         "mean_bit_rpm": mean_speed / RPM, "target_rpm": target_rpm,
         "rpm_tracking_error": abs(mean_speed / RPM - target_rpm) / target_rpm
         if target_rpm > 0 else math.nan,
-        "rop_m_per_h": m["rop"] * 3600.0, "radial_ratio": m["radial_ratio"],
+        "rop_m_per_h": m["rop"] * HOUR, "radial_ratio": m["radial_ratio"],
         "backward_whirl_fraction": m["backward_whirl_fraction"],
-        "max_lateral_force_kN": m["lateral_force_max"] / 1e3,
-        "mse_MPa": m["mse"] / 1e6, "top_drive_energy_MJ": m["top_drive_energy"] / 1e6,
+        "max_lateral_force_kN": m["lateral_force_max"] / KILO,
+        "mse_MPa": m["mse"] / MEGA, "top_drive_energy_MJ": m["top_drive_energy"] / MEGA,
         # a guest's return is its task's reward, not DrillString-v0's: not comparable
         "episode_return": math.nan if guest else total, "termination": reason,
         # judged in the env it acted in: a drilling-task policy chooses the rpm in a
@@ -372,12 +400,14 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     if episode.series:
         series_dir = Path(episode.out) / "series"
         series_dir.mkdir(parents=True, exist_ok=True)
-        arrays: dict[str, Any] = {name: everything[:, col[name]] for name in SERIES_CHANNELS}
+        arrays: dict[str, Any] = {name: everything[:, RECORD_CHANNELS.index(name)]
+                                  for name in SERIES_CHANNELS}
         arrays["time"] = arrays["time"] - start
         arrays["clearance"] = base.clearance
         arrays["target_time"] = np.array([0.0] + [t - start for t, _ in targets[:-1]])
         arrays["target_rpm"] = np.array([speed / RPM for _, speed in targets])
-        np.savez_compressed(series_dir / f"{episode.stem}.npz", **arrays)
+        arrays["stamp"] = np.array(episode.stamp)
+        np.savez_compressed(episode.series_file, **arrays)
     return row
 
 
@@ -391,6 +421,13 @@ def episodes(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequen
     return [Episode(c, s, seed, plain, str(out), record, seed == seeds[0], env_id,
                     names[c], digests[c])
             for s in scenarios for seed in seeds for c in controllers]
+
+
+def stamp(fingerprint: str, key: str) -> str:
+    """A short digest of a row's fingerprint and key, for the files it leaves."""
+    import hashlib
+
+    return hashlib.sha256(f"{fingerprint}|{key}".encode()).hexdigest()[:16]
 
 
 def fingerprint(settings: BenchmarkSettings, env_id: str | None = None) -> str:
@@ -421,9 +458,12 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))
-    todo_all = episodes(controllers, scenarios, seeds, settings, out, record, env_id)
-    # a stored row is rerun only to write a recording asked for and missing
-    todo = [e for e in todo_all if e.key not in store or (record and not e.recording.exists())]
+    todo_all = [dataclasses.replace(e, stamp=stamp(store.fingerprint, e.key))
+                for e in episodes(controllers, scenarios, seeds, settings, out, record,
+                                  env_id)]
+    # a stored row is rerun only to write its series or a recording asked for, missing
+    # or made by another run
+    todo = [e for e in todo_all if e.key not in store or not e.outputs_current()]
     reused = len(todo_all) - len(todo)
     if reused and progress:
         print(f"benchmark: {reused} of {len(todo_all)} episodes already in "
@@ -443,7 +483,8 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             bar.close()
             executor.close()
     rows = [store.get(e.key) for e in todo_all]
-    write_outputs(rows, out, labels(controllers), scenarios, settings, env_id, heading)
+    write_outputs(rows, out, labels(controllers), scenarios, settings, env_id, heading,
+                  first_seed=seeds[0] if len(seeds) else 0)
     return rows
 
 
@@ -538,8 +579,9 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
     from drill_env.vector import registered
 
     env_class, kwargs = registered(env_id)
-    startup = settings.env_kwargs.get("startup") or kwargs.get("startup") or getattr(
-        env_class, "env_defaults", {}).get("startup", "settled")
+    config = settings.env_kwargs.get("config") or {}
+    startup = settings.env_kwargs.get("startup") or config.get("startup") or kwargs.get(
+        "startup") or getattr(env_class, "env_defaults", {}).get("startup", "settled")
     trained = ", ".join(f"{k} {v}" for k, v in sorted(settings.env_kwargs.items()))
     return (f"{settings.duration:g} s episodes of {env_id}: its own start ({startup}) and "
             f"targets, drawn from each seed (and changed during the episode where the task "
@@ -550,8 +592,10 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
 
 def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequence[str],
                   scenarios: Sequence[str], settings: BenchmarkSettings,
-                  env_id: str | None = None, heading: str = "Controller benchmark") -> None:
-    """benchmark.csv, benchmark.md and the plots; prints the table. The series pictures
+                  env_id: str | None = None, heading: str = "Controller benchmark",
+                  first_seed: int = 0) -> None:
+    """benchmark.csv, benchmark.md and the plots (the series of ``first_seed``); prints
+    the table. The series pictures
     of an earlier benchmark into ``out`` (``benchmark_<scenario>_series.png``) are removed:
     beside benchmark.md are only this benchmark's pictures."""
     write_csv(rows, out / "benchmark.csv")
@@ -568,7 +612,7 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     drawn = [s for s in scenarios
              if series_chart(out / "series", controllers, s,
                              out / SERIES_PICTURE.format(scenario=s), settings.warmup,
-                             env_id)]
+                             env_id, seed=first_seed)]
     lines = [f"# {heading}", "", conditions(settings, env_id), "",
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in table]

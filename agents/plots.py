@@ -100,10 +100,10 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
 
 
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
-                 warmup: float, env_id: str | None = None) -> bool:
+                 warmup: float, env_id: str | None = None, seed: int = 0) -> bool:
     """Bit speed, torque on bit and the bit's radial position over the gauge clearance,
-    one line per controller (first seed), on one time axis; the grey band is the warm-up
-    the metrics leave out. Returns whether it drew: False (no file written) when
+    one line per controller (``seed``: the benchmark's first), on one time axis; the grey
+    band is the warm-up the metrics leave out. Returns whether it drew: False (no file written) when
     ``series_dir`` holds no series of ``scenario``. ``env_id``: the task env every
     controller acted in (its title names it; None: the scenario's ``DrillString-v0``)."""
     colours = _colours(controllers)
@@ -111,11 +111,11 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     found = False
     off_axis = 0.0  # the largest radial position drawn
     for k, c in enumerate(controllers):
-        files = sorted(Path(series_dir).glob(f"{c}_{scenario}_seed*.npz"))
-        if not files:
+        file = Path(series_dir) / f"{c}_{scenario}_seed{seed}.npz"
+        if not file.exists():
             continue
         found = True
-        d = np.load(files[0])
+        d = np.load(file)
         t = d["time"]
         radial = np.hypot(d["bit_x"], d["bit_y"]) / float(d["clearance"])
         off_axis = max(off_axis, float(np.nanmax(radial, initial=0.0)))

@@ -25,7 +25,8 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     Driller.name: Driller,
     "learned": _learned,
 }
-CLASSICAL = ("stiff", "soft-speed", "soft-torque", "z-torque", "driller")
+#: The controllers that need no trained policy.
+CLASSICAL = tuple(name for name in CONTROLLERS if name != "learned")
 
 
 #: What an unknown name's error lists: the registry's names and the parametrised forms.
@@ -63,7 +64,14 @@ def parse_controllers(text: str) -> list[str]:
                 ConstantSetPoints.parse(n.partition(":")[2])  # checks the numbers
             except ValueError as err:
                 raise ValueError(f"controllers: {str(err).partition(': ')[2]}") from None
-        elif n not in CONTROLLERS and not n.startswith("learned:"):
+        elif n.startswith("learned:"):
+            from agents.learned import policy_files
+
+            try:  # a missing folder or model, said before any episode runs
+                policy_files(n.partition(":")[2])
+            except (FileNotFoundError, ValueError) as err:
+                raise ValueError(f"controllers: {err}") from None
+        elif n not in CONTROLLERS:
             raise ValueError(f"controllers: unknown name {n!r}; known: "
                              f"{KNOWN}")
     return names

@@ -62,6 +62,24 @@ def number(unit: str, low: float | None = 0.0, high: float | None = None,
     return parse
 
 
+def unwritable(folder: Path) -> str:
+    """Why ``folder`` could not be written (created if missing), or "" if it can; creates
+    nothing, so a command refused later leaves no folder behind."""
+    here = folder.absolute()
+    while not here.exists():
+        here = here.parent
+    if here != folder.absolute() and not here.is_dir():
+        return f"{here} is a file, not a folder"
+    import tempfile
+
+    try:  # a probe, as root passes os.access everywhere (/proc too)
+        os.rmdir(tempfile.mkdtemp(prefix=".drill-env-probe-", dir=here))
+    except OSError as err:
+        where = "" if here == folder.absolute() else f"{here}: "
+        return f"{where}cannot write there ({err.strerror})"
+    return ""
+
+
 def existing_file(text: str) -> Path:
     """An argparse type: the path of a file that exists (else a one-line error)."""
     path = Path(text)
@@ -184,6 +202,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise argparse.ArgumentTypeError(f"{flag}: {value:g} {unit} is outside the env's "
                                              f"range {low:g}-{high:g} {unit}")
         options[key] = value * scale
+    if args.record is RECORD_UNDER_OUT:
+        args.record = args.out / "recordings"
     if args.record is not None:
         from agents.benchmark import label
         from drill_env.recording import RecordEpisode
@@ -274,7 +294,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"{args.scenario}: {steps} steps ({summary['simulated_s']:.1f} s) at {ran_at} in "
           f"{summary['wall_s']:.1f} s; {returned}"
           + (f"; ended: {reason}" if reason else ""))
-    print(f"  mean over the episode: SSI {fixed(summary['mean_ssi'])}, stuck "
+    print(f"  episode mean of the {base.config.metric_window:g} s window metrics: SSI "
+          f"{fixed(summary['mean_ssi'])}, stuck "
           f"{fixed(summary['mean_stuck_fraction'])}, whirl ratio "
           f"{fixed(summary['mean_whirl_ratio'])}, radial ratio "
           f"{fixed(summary['mean_radial_ratio'])}, lateral force "
@@ -672,6 +693,11 @@ def cmd_well(args: argparse.Namespace) -> int:
         name = args.survey.stem
     else:
         name = args.well or "j_shaped"
+        from drill_env.physics.config import MAX_STRING_LENGTH
+
+        if args.total_md > MAX_STRING_LENGTH:  # the longest string a config takes
+            raise argparse.ArgumentTypeError(f"--total-md: must be <= {MAX_STRING_LENGTH:g} m, "
+                                             f"got {args.total_md:g}")
         survey = WELLS[name](args.total_md)
     try:
         frictions = [float(v) for v in args.friction.split(",") if v.strip()]
@@ -698,8 +724,8 @@ def cmd_speed(args: argparse.Namespace) -> int:
 
     runners = {"training": RUNNER}
     try:
-        sections = (parse_sections(args.sections, extra=runners) if args.sections
-                    else (*SECTIONS, *runners))
+        sections = (parse_sections(args.sections, extra=runners)
+                    if args.sections is not None else (*SECTIONS, *runners))
     except ValueError as err:
         raise argparse.ArgumentTypeError(f"--{err}") from None
     run_speed(sections, QUICK if args.quick else FULL, args.out, runners=runners)
@@ -718,6 +744,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError("no display here (DISPLAY is not set) for "
                                          "the native viewer; add --web to serve the web "
                                          "viewer instead")
+    with args.path.open("rb") as f:  # rerun's files start "RRF" and a format version
+        if f.read(3) != b"RRF":
+            raise argparse.ArgumentTypeError(f"path: {args.path} is not a rerun recording "
+                                             "(no RRF header)")
     code = replay(args.path, web=args.web)
     return int(code) if isinstance(code, int) else 0
 
@@ -769,9 +799,9 @@ def parser() -> argparse.ArgumentParser:
                         "benchmark's; 0: start exactly settled, stick-slip then takes "
                         "over a minute to grow)")
     p.add_argument("--record", type=Path, default=None, nargs="?",
-                   const=Path("logs/recordings"),
+                   const=RECORD_UNDER_OUT,
                    help="write a rerun .rrd of the episode into this folder (given without "
-                        "a folder: logs/recordings)")
+                        "a folder: --out/recordings)")
     p.add_argument("--config", type=existing_file, default=None,
                    help="YAML of config overrides merged into the scenario's (e.g. a "
                         "string of components: examples/field_well_string.yaml)")
@@ -942,7 +972,23 @@ def add_ray_address(p: argparse.ArgumentParser, what: str) -> None:
 
 
 #: Library fields whose errors reach the command line, and the option that sets each.
-OPTION_OF_FIELD = {"ray_address": "--ray-address"}
+#: ``run --record`` without a folder: the run's ``--out``/recordings, as ``benchmark``.
+RECORD_UNDER_OUT = Path("<out>/recordings")
+
+OPTION_OF_FIELD = {"ray_address": "--ray-address", "episode_duration": "--duration"}
+
+
+def option_of(field: str, command_parser: argparse.ArgumentParser) -> str | None:
+    """The option of this command that set a library field named in an error
+    (``max_wob`` -> ``--max-wob``, ``rpm_step/wob_step`` -> ``--rpm-step/--wob-step``), or
+    None: a dotted path (``sac.n_envs``, ``string.components[2].length``) is a config
+    file's, and is said as it is."""
+    options = {s for action in command_parser._actions for s in action.option_strings}
+    flags = [OPTION_OF_FIELD.get(name, "--" + name.replace("_", "-"))
+             for name in field.split("/")]
+    if not all(name.isidentifier() for name in field.split("/")):
+        return None
+    return "/".join(flags) if all(flag in options for flag in flags) else None
 
 
 def typed_controller(name: str) -> Any:
@@ -967,6 +1013,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if out is not None and out.exists() and not out.is_dir():  # before the work, not after
         args.command_parser.error(f"--out {out}: is a file; give a folder (it is created "
                                   "if missing)")
+    if out is not None and (reason := unwritable(out)):  # found after an hour's work, the
+        args.command_parser.error(f"--out {out}: {reason}")  # hour's results were lost
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
@@ -977,8 +1025,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.command_parser.error(str(err))
     except (ValueError, OSError) as err:  # a bad value named by the library below
         field, colon, rest = str(err).partition(": ")  # by the option the user typed
-        said = f"{OPTION_OF_FIELD[field]}: {rest}" if colon and field in OPTION_OF_FIELD \
-            else str(err)
+        option = option_of(field, args.command_parser) if colon else None
+        said = f"{option}: {rest}" if option else str(err)
         print(f"drill-env {args.command}: error: {said}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

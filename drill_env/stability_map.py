@@ -63,6 +63,13 @@ PAPER_RPM_STEP = 5.0
 PAPER_WOB_STEP = 5.0e3
 PAPER_MAX_RPM = 250.0
 PAPER_MAX_WOB = 200.0e3
+#: Bounds of a map: the scenarios' highest speed (1000 rpm) and ten times the paper's
+#: WOB; a point beyond what the string carries is refused before the map starts
+#: (:func:`check_map_corner`). 1000 lines of each: the boundary tracker simulates about
+#: one row and one column, already ~2000 points of 30 s.
+MAX_MAP_RPM = 1000.0
+MAX_MAP_WOB = 2.0e6
+MAX_GRID_LINES = 1000
 
 
 @config_dataclass
@@ -168,6 +175,20 @@ def track_boundary(stick_slip: Callable[[int, int], bool], n_rpm: int, n_wob: in
     return tracker.unstable, tracker.tested
 
 
+def check_map_corner(config, max_rpm: float, max_wob: float) -> None:
+    """ValueError naming ``max_wob`` when one step at the map's highest speed and WOB
+    already fails (a string buckled beyond what the mesh carries), before any point runs."""
+    sim = Simulator(config)
+    try:
+        sim.reset(OperatingPoint(max_rpm * RPM, max_wob))
+        sim.advance(1, max_rpm * RPM, sim.hook_load_for(max_wob), 0)
+    except ValueError as err:
+        raise ValueError(f"max_wob: {max_wob / 1e3:g} kN: {err}") from None
+    if sim.status:
+        raise ValueError(f"max_wob: {max_wob / 1e3:g} kN at {max_rpm:g} rpm: "
+                         f"{sim.status_message}")
+
+
 def point_sticks(config, rpm: float, weight_on_bit: float, settings: MapSettings
                  ) -> dict[str, float]:
     """Simulate one grid point, bit held at its position; its stick-slip metrics."""
@@ -199,12 +220,21 @@ def point_sticks(config, rpm: float, weight_on_bit: float, settings: MapSettings
 def grid(rpm_step: float = PAPER_RPM_STEP, wob_step: float = PAPER_WOB_STEP,
          max_rpm: float = PAPER_MAX_RPM, max_wob: float = PAPER_MAX_WOB
          ) -> tuple[np.ndarray, np.ndarray]:
-    """Speeds (rpm) and WOBs (N) of the map, from one step up to the maximum."""
+    """Speeds (rpm) and WOBs (N) of the map, from one step up to the maximum; at most
+    :data:`MAX_GRID_LINES` of each, up to :data:`MAX_MAP_RPM` and :data:`MAX_MAP_WOB`."""
     for name, value in (("rpm_step", rpm_step), ("wob_step", wob_step), ("max_rpm", max_rpm),
                         ("max_wob", max_wob)):
         require_positive(value, name)
     if rpm_step > max_rpm or wob_step > max_wob:
         raise ValueError("rpm_step/wob_step: a step must not exceed the map's maximum")
+    for name, value, cap, unit, scale in (("max_rpm", max_rpm, MAX_MAP_RPM, "rpm", 1.0),
+                                          ("max_wob", max_wob, MAX_MAP_WOB, "kN", 1e3)):
+        if value > cap:
+            raise ValueError(f"{name}: at most {cap / scale:g} {unit}, got {value / scale:g}")
+    for name, lines in (("rpm_step", max_rpm / rpm_step), ("wob_step", max_wob / wob_step)):
+        if lines > MAX_GRID_LINES + 1e-9:
+            raise ValueError(f"{name}: the map would have {lines:.3g} lines of points; at "
+                             f"most {MAX_GRID_LINES} (a larger step)")
     rpm = np.arange(1, math.floor(max_rpm / rpm_step + 1e-9) + 1) * rpm_step
     wob = np.arange(1, math.floor(max_wob / wob_step + 1e-9) + 1) * wob_step
     return rpm, wob
@@ -264,11 +294,18 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
         rpm, wob = grid(rpm_step, wob_step, max_rpm, max_wob)
     else:
         rpm, wob = (np.asarray(g, dtype=float) for g in grid_points)
+    if len(set(positions)) < len(positions):
+        twice = next(p for p in positions if list(positions).count(p) > 1)
+        raise ValueError(f"positions: {twice} given twice")
     for position in positions:
         if position not in POSITIONS:
             raise ValueError(f"position: must be one of {sorted(POSITIONS)}, got "
                              f"{position!r}")
     configs = {p: (configs or {}).get(p) or map_config(p) for p in positions}
+    if not (len(rpm) and len(wob)):
+        raise ValueError("grid_points: the map needs at least one speed and one WOB")
+    for config in configs.values():
+        check_map_corner(config, float(np.max(rpm)), float(np.max(wob)))
     prints = {p: fingerprint(configs[p], settings) for p in positions}
     results = ResultStore(store, "stability-map") if store is not None else None
     trackers = {p: BoundaryTracker(len(rpm), len(wob)) for p in positions}

@@ -179,8 +179,12 @@ class ResultStore:
         self.path = Path(path)
         self.fingerprint = fingerprint
         self._results: dict[str, Any] = {}
+        #: a killed writer's half line: the next result starts on a line of its own
+        self._broken_end = False
         if self.path.exists():
-            for line in self.path.read_text().splitlines():
+            text = self.path.read_text()
+            self._broken_end = bool(text) and not text.endswith("\n")
+            for line in text.splitlines():
                 try:
                     entry = json.loads(line)
                 except json.JSONDecodeError:
@@ -201,6 +205,9 @@ class ResultStore:
         self._results[key] = result
         self.path.parent.mkdir(parents=True, exist_ok=True)
         with self.path.open("a") as f:
+            if self._broken_end:
+                f.write("\n")
+                self._broken_end = False
             f.write(json.dumps({"fingerprint": self.fingerprint, "key": key,
                                 "result": result}) + "\n")
             f.flush()

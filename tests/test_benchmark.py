@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import csv
 import math
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 import agents.benchmark as bm
@@ -171,10 +173,61 @@ def test_a_rerun_writes_the_recordings_that_are_missing(tmp_path, monkeypatch, c
         "stiff_stick_slip_seed0.rrd", "z-torque_stick_slip_seed0.rrd"]
 
 
+def test_a_row_is_reused_only_with_the_series_and_recording_of_its_own_run(tmp_path,
+                                                                           monkeypatch):
+    """A benchmark into a folder that a run of other settings used: a stored row came
+    back with that run's recording (and series, drawn in the picture) beside it; a row
+    whose series file was deleted came back without its picture."""
+    real = bm.run_episode
+    calls: list[str] = []
+    monkeypatch.setattr(bm, "run_episode", lambda e: calls.append(e.key) or real(e))
+    other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
+    args = (["stiff"], ["stick_slip"], [0])
+    bm.run_benchmark(*args, tmp_path, SHORT, workers=1, record=True, progress=False)
+    bm.run_benchmark(*args, tmp_path, other, workers=1, record=True, progress=False)
+    calls.clear()  # SHORT's row is stored, but the recording and series are other's
+    bm.run_benchmark(*args, tmp_path, SHORT, workers=1, record=True, progress=False)
+    assert calls == ["stiff|stick_slip|0"]
+    series = np.load(tmp_path / "series" / "stiff_stick_slip_seed0.npz")
+    assert series["time"][-1] == pytest.approx(SHORT.duration, abs=0.2)
+    calls.clear()
+    bm.run_benchmark(*args, tmp_path, SHORT, workers=1, record=True, progress=False)
+    assert calls == []  # all its own: nothing runs
+    (tmp_path / "series" / "stiff_stick_slip_seed0.npz").unlink()
+    bm.run_benchmark(*args, tmp_path, SHORT, workers=1, progress=False)
+    assert calls == ["stiff|stick_slip|0"]
+    assert (tmp_path / "benchmark_stick_slip_series.png").exists()
+    calls.clear()  # half a file (a run killed while writing it): run again, no traceback
+    series = tmp_path / "series" / "stiff_stick_slip_seed0.npz"
+    series.write_bytes(series.read_bytes()[:100])
+    bm.run_benchmark(*args, tmp_path, SHORT, workers=1, progress=False)
+    assert calls == ["stiff|stick_slip|0"]
+
+
+def test_the_series_picture_draws_the_first_seed_of_this_benchmark(tmp_path, monkeypatch):
+    """``seed10`` sorts before ``seed2``: the picture of a benchmark of seed 2 drew an
+    older benchmark's seed 10."""
+    from agents import plots
+
+    drawn: list[str] = []
+    real_load = plots.np.load
+    monkeypatch.setattr(plots.np, "load", lambda f, *a, **k: drawn.append(Path(f).name)
+                        or real_load(f, *a, **k))
+    _series(tmp_path, ["stiff"], ["stick_slip"])
+    for seed in (10, 2):
+        (tmp_path / "series" / f"stiff_stick_slip_seed{seed}.npz").write_bytes(
+            (tmp_path / "series" / "stiff_stick_slip_seed0.npz").read_bytes())
+    bm.write_outputs([_row("stiff", "stick_slip")], tmp_path, ["stiff"], ["stick_slip"],
+                     SHORT, first_seed=2)
+    assert drawn == ["stiff_stick_slip_seed2.npz"]
+
+
 def test_benchmark_names_bad_input(capsys):
     for args, message in ((["--controllers", "pid"], "unknown name 'pid'"),
                           (["--scenarios", "moon"], "--scenarios"),
-                          (["--duration", "10", "--warmup", "20"], "--warmup")):
+                          (["--duration", "10", "--warmup", "20"], "--warmup"),
+                          (["--controllers", "stiff,learned:/no/such/run"],
+                           "--controllers: learned: no such folder /no/such/run")):
         with pytest.raises(SystemExit):
             main(["benchmark", *args])
         assert message in capsys.readouterr().err

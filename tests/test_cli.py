@@ -187,6 +187,23 @@ def test_help_shows_defaults_and_scenario_names(capsys):
     assert "(default: logs)" in out and "paper_case1" in out and "random" in out
 
 
+def test_controller_help_names_every_registered_controller():
+    # the parser stays light (no agents import), so its help spells the names out: they
+    # must follow the registry
+    from agents.registry import CLASSICAL, CONTROLLERS
+    from drill_cli.main import parser
+
+    sub = next(a for a in parser()._actions if isinstance(a, argparse._SubParsersAction))
+
+    def option(command: str, flag: str) -> argparse.Action:
+        return next(a for a in sub.choices[command]._actions if flag in a.option_strings)
+
+    assert all(name in option("run", "--controller").help for name in CONTROLLERS)
+    drive_rate = [name for name in CLASSICAL if name != "driller"]
+    assert all(name in option("stability-map", "--controller").help for name in drive_rate)
+    assert option("benchmark", "--controllers").default == ",".join(CLASSICAL)
+
+
 def test_replay_of_a_missing_file_is_one_line(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["replay", str(tmp_path / "missing.rrd")])
@@ -238,6 +255,56 @@ def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
     assert (tmp_path / "modes_critical_speeds.png").stat().st_size > 10_000
 
 
+def test_yaml_numbers_in_short_scientific_form_are_numbers(tmp_path):
+    # PyYAML reads 2.1e11 (no dot) as a string: "not a valid number", SB3 tracebacks
+    from drill_env.physics.validation import read_yaml
+
+    path = tmp_path / "n.yaml"
+    path.write_text("a: 2.1e11\nb: 3e-4\nc: -1E+3\nd: 3.0e-4\ne: 12\nf: '3e-4'\ng: 1e\n"
+                    "h: .5e3\n")
+    assert read_yaml(path) == {"a": 2.1e11, "b": 3e-4, "c": -1e3, "d": 3e-4, "e": 12,
+                               "f": "3e-4", "g": "1e", "h": 500.0}
+
+
+def test_a_yaml_key_written_twice_is_refused_with_its_lines(tmp_path, capsys):
+    path = tmp_path / "twice.yaml"
+    path.write_text("string:\n  hole_diameter: 0.3\nmud:\n  density: 1200\n"
+                    "string:\n  hole_diameter: 0.25\n")
+    assert main(["modes", "--config", str(path), "--out", str(tmp_path)]) == 2
+    assert "at line 5, column 1 (duplicate key 'string' (first at line 1))" in \
+        capsys.readouterr().err
+
+
+def test_an_unwritable_out_is_refused_before_the_work(tmp_path, capsys):
+    (tmp_path / "file").write_text("")
+    for out, message in ((tmp_path / "file" / "sub", "file is a file, not a folder"),
+                         ("/proc/drill-env-out", "cannot write there")):
+        with pytest.raises(SystemExit):
+            main(["modes", "--out", str(out)])
+        assert message in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]  # and nothing created
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--max-rpm", "1e9"], "--max-rpm: at most 1000 rpm, got 1e+09"),
+    (["--rpm-step", "1e-6"], "--rpm-step: the map would have 2.5e+08 lines of points"),
+    (["--max-wob", "1e9"], "--max-wob: at most 2000 kN"),
+    (["--positions", "P1,P1"], "--positions: P1 given twice"),
+    (["--max-wob", "600"], "--max-wob: 600 kN at 250 rpm: lateral stiffness not positive "
+                           "definite")])
+def test_a_stability_map_beyond_its_bounds_is_refused_naming_the_option(tmp_path, capsys,
+                                                                       args, message):
+    # it ran out of memory, or simulated for a minute and then raised a traceback
+    assert main(["stability-map", "--positions", "P1", *args, "--out", str(tmp_path)]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_well_refuses_a_length_no_string_can_have(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        main(["well", "--total-md", "1e5", "--out", str(tmp_path)])
+    assert "--total-md: must be <= 15000 m, got 100000" in capsys.readouterr().err
+
+
 def test_modes_command_names_the_bad_field_of_the_yaml(tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
     bad.write_text("string:\n  components:\n    - {length: -1, outer_diameter: 0.1, "
@@ -270,6 +337,9 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
     with pytest.raises(SystemExit):
         main(["replay", str(recording)])
     assert "add --web" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # served to the web viewer, which showed nothing
+        main(["replay", str(recording), "--web"])
+    assert "is not a rerun recording (no RRF header)" in capsys.readouterr().err
 
 
 def test_version_and_exclusive_well_inputs(tmp_path, capsys):

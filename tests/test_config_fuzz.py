@@ -193,6 +193,20 @@ def test_nested_dicts_are_converted_and_unknown_keys_named():
         SimulationConfig(solver={"lateral": 1})
 
 
+def test_a_typo_in_a_section_of_a_list_lists_that_sections_fields():
+    # it said "Unexpected keyword argument" without the fields (a dotted path did)
+    from drill_env.physics.config import from_dict
+
+    collar = {"lenght": 9.0, "outer_diameter": 0.2, "inner_diameter": 0.07,
+              "element_length": 1.0}
+    with pytest.raises(ValueError, match=r"string\.components\[0\]\.lenght: unknown field "
+                                         r"of Section; known: length, outer_diameter"):
+        from_dict(SimulationConfig, {"string": {"components": [collar]}})
+    with pytest.raises(ValueError, match=r"^bogus: unknown field of SimulationConfig; known: "
+                                         r"string, mud"):
+        from_dict(SimulationConfig, {"bogus": 1})
+
+
 def test_an_overdamped_wall_contact_is_refused_by_its_damping():
     """Found by the random fuzz: a contact damper so hard that the explicit step falls
     below the minimum was blamed on contact.stiffness alone."""

@@ -69,6 +69,8 @@ def test_unknown_section_is_named():
         parse_sections("core,bogus")
     with pytest.raises(SystemExit):
         main(["speed", "--sections", "bogus"])
+    with pytest.raises(SystemExit):  # it ran every section
+        main(["speed", "--sections", ""])
 
 
 def test_settings_reject_non_positive_sizes_by_name():

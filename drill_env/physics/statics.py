@@ -1,11 +1,17 @@
 """Static axial loads of a hanging string: neutral point and pipe buckling.
 
 The axial force is the buoyed weight below a point minus the WOB
-(:func:`drill_env.physics.fem.axial_force_profile`). Below the neutral point the string
-is in compression; a BHA of collars is built to carry that, drill pipe is not: in a
-vertical hole a pipe column under its own weight buckles once its compression exceeds
-the heavy-column limit ``1.94 (E I w^2)^(1/3)`` (Lubinski 1950, "first-order buckling";
-w the buoyed weight per length), ~8 kN for 5 in drill pipe.
+(:func:`drill_env.physics.fem.axial_force_profile`; in a curved hole the weight below
+counts by true vertical depth, as the simulator's, :func:`drill_env.physics.trajectory.
+hole_loads`). Below the neutral point the string is in compression; a BHA of collars is
+built to carry that, drill pipe is not: in a vertical hole a pipe column under its own
+weight buckles once its compression exceeds the heavy-column limit
+``1.94 (E I w^2)^(1/3)`` (Lubinski 1950, "first-order buckling"; w the buoyed weight per
+length), ~8 kN for 5 in drill pipe. Lying on the low side of an inclined hole, the
+weight holds the pipe down, and it buckles (sinusoidally) only at
+``2 sqrt(E I w sin(i) / r)`` (Dawson & Paslay 1984; i the inclination, r the radial
+clearance between pipe body and hole), ~140 kN for 5 in pipe in an 8 3/4 in hole at 60
+degrees: each element is judged by the larger of the two limits.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ import numpy as np
 
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.fem import axial_force_profile, build_mesh
+from drill_env.physics.trajectory import Survey, Trajectory, curved_hole_loads
 from drill_env.physics.units import GRAVITY
 from drill_env.physics.validation import require_non_negative
 
@@ -58,7 +65,7 @@ def neutral_point_height(config: SimulationConfig, weight_on_bit: float) -> floa
     if weight_on_bit <= 0.0:
         return 0.0
     mesh = build_mesh(config)
-    force = axial_force_profile(mesh, weight_on_bit, bit_buoyed_weight(config))
+    force = axial_force(config, mesh, weight_on_bit)
     bottom = mesh.node_depth[-1]
     height = bottom - 0.5 * (mesh.node_depth[:-1] + mesh.node_depth[1:])  # midpoints
     compressed = force < 0.0
@@ -111,24 +118,56 @@ class PipeBuckling:
     """A pipe component compressed beyond its buckling load."""
 
     component: str
-    compression: float  # largest compression in it (N)
-    buckling_load: float  # heavy-column limit (N)
+    compression: float  # compression where it comes nearest to buckling (N)
+    buckling_load: float  # the buckling load there (N)
+
+
+def axial_force(config: SimulationConfig, mesh, weight_on_bit: float) -> np.ndarray:
+    """Static axial force at the element midpoints (N, tension > 0) at this WOB: the
+    buoyed weight below, by true vertical depth in a curved hole (as the simulator's)."""
+    bit_weight = bit_buoyed_weight(config)
+    hole = curved_hole_loads(config, mesh, bit_weight)
+    if hole is None:
+        return axial_force_profile(mesh, weight_on_bit, bit_weight)
+    return hole.axial_weight - weight_on_bit
+
+
+def element_inclination(config: SimulationConfig, mesh) -> np.ndarray:
+    """Inclination of the hole at each element's midpoint (rad; 0 in a vertical hole)."""
+    well = config.well
+    if well.vertical:
+        return np.zeros(mesh.node_depth.shape[0] - 1)
+    depth = config.initial_depth if config.initial_depth is not None else config.string.length
+    node_md = mesh.node_depth + (depth - mesh.node_depth[-1])
+    middle = np.maximum(0.5 * (node_md[:-1] + node_md[1:]), 0.0)
+    survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
+    return Trajectory(survey).inclination(middle)
 
 
 def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBuckling]:
     """The pipe components (drill pipe, heavy-weight pipe) whose compression at this WOB
-    exceeds their vertical-hole buckling load; empty when the pipe is safe."""
+    exceeds their buckling load somewhere: the larger of Lubinski's vertical-hole limit
+    and Dawson-Paslay's at the hole's inclination (module docstring), element by element;
+    empty when the pipe is safe. Each names the compression and the limit of the element
+    that comes nearest to buckling (in a vertical hole: the most compressed)."""
     mesh = build_mesh(config)
-    force = axial_force_profile(mesh, weight_on_bit, bit_buoyed_weight(config))
+    force = axial_force(config, mesh, weight_on_bit)
+    sin_i = np.sin(element_inclination(config, mesh))
     out = []
     for index, section in enumerate(config.string.sections):
         if section.kind not in PIPE_KINDS and index != 0:
             continue  # the top section is pipe whatever its label
-        compression = -float(np.min(force[mesh.component == index]))
+        mine = mesh.component == index
         w = (section.density - config.mud.density) * section.area * GRAVITY
-        limit = LUBINSKI * (section.youngs_modulus * section.second_moment * w * w) ** (1 / 3)
-        if compression > limit:
-            out.append(PipeBuckling(section.label, compression, limit))
+        ei = section.youngs_modulus * section.second_moment
+        clearance = 0.5 * (config.string.hole_diameter - section.outer_diameter)
+        limit = np.maximum(LUBINSKI * (ei * w * w) ** (1 / 3),
+                           2.0 * np.sqrt(ei * w * sin_i[mine] / clearance))
+        ratio = -force[mine] / limit
+        worst = int(np.argmax(ratio))
+        if ratio[worst] > 1.0:
+            out.append(PipeBuckling(section.label, -float(force[mine][worst]),
+                                    float(limit[worst])))
     return out
 
 

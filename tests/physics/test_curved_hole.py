@@ -120,6 +120,49 @@ def test_the_mesh_check_uses_the_axial_force_along_the_curved_hole():
     vertical.check_mesh_resolves(1.01 * deviated.resolved_weight_on_bit)
 
 
+def test_the_neutral_point_of_a_deviated_well_is_where_the_simulators_force_turns():
+    """The statics summed the weight along the measured depth, as in a vertical hole:
+    in the 60-degree well it put the neutral point 87 m above the bit, where the
+    simulator's own axial force (w x TVD) is compressive up to ~250 m."""
+    scenario = make_scenario("lateral_60")
+    sim = Simulator(scenario.config)
+    force = sim.axial_weight - scenario.weight_on_bit
+    height = sim.mesh.node_depth[-1] - 0.5 * (sim.mesh.node_depth[:-1]
+                                              + sim.mesh.node_depth[1:])
+    top = int(np.flatnonzero(force < 0.0)[0])  # the highest compressed midpoint
+    assert height[top] <= scenario.neutral_point <= height[top - 1]
+    vertical = make_scenario("default")
+    assert scenario.neutral_point > 2.5 * vertical.neutral_point
+
+
+def test_pipe_on_the_low_side_of_an_inclined_hole_buckles_at_the_dawson_paslay_load():
+    """In a straight 60-degree hole the weight holds the pipe on the low side: it
+    buckles at 2 sqrt(E I w sin i / r) (Dawson & Paslay 1984), ~18x the vertical-hole
+    load the check used, so a WOB a vertical hole refuses is a safe start here."""
+    from drill_env.physics.statics import pipe_buckling
+
+    config, _ = straight_hole(60.0)
+    wob = 600e3  # enough to compress the drill pipe in the inclined hole
+    found = pipe_buckling(config, wob)
+    pipe = config.string.drill_pipe
+    w = (pipe.density - config.mud.density) * pipe.area * 9.81
+    clearance = 0.5 * (config.string.hole_diameter - pipe.outer_diameter)
+    expected = 2.0 * math.sqrt(pipe.youngs_modulus * pipe.second_moment * w
+                               * math.sin(math.radians(60.0)) / clearance)
+    buckled = {b.component: b for b in found}
+    assert buckled[pipe.label].buckling_load == pytest.approx(expected, rel=1e-9)
+    assert 120e3 < expected < 160e3  # 5 in pipe, 8 3/4 in hole
+    assert pipe_buckling(make_scenario("lateral_60", weight_on_bit=0.0).config, 150e3) == []
+    with pytest.raises(ValueError, match="buckling load 16.7 kN"):
+        make_scenario("default", weight_on_bit=150e3)
+    make_scenario("lateral_60", weight_on_bit=150e3)  # refused before, as if vertical
+    # at 250 kN the pipe buckles in the vertical top hole: the compression named is that
+    # element's (~40 kN against 7.6 kN), not the 151 kN at 60 degrees, which it carries
+    (top,) = pipe_buckling(make_scenario("lateral_60", weight_on_bit=0.0).config, 250e3)
+    assert top.buckling_load == pytest.approx(7.6e3, rel=0.01)
+    assert 30e3 < top.compression < 50e3
+
+
 def test_the_straight_pipe_warning_uses_the_axial_force_along_the_curved_hole():
     """The fast level holds the pipe straight, valid while it is in tension. In the
     60-degree hole less weight acts along the string, so 150 kN on the bit compresses
