@@ -468,13 +468,17 @@ def train_sweep(args: argparse.Namespace, config) -> int:
     from training.sweep import train_seeds
 
     try:
-        seeds = [int(k) for k in args.seeds.split(",") if k.strip()]
+        seeds = [int(k) for k in args.seeds.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(f"--seeds: comma-separated integers, got "
                                          f"{args.seeds!r}") from None
-    if args.name is not None or args.resume:
+    if any(k < 0 for k in seeds) or len(set(seeds)) < len(seeds):
+        raise argparse.ArgumentTypeError(f"--seeds: distinct integers >= 0, got "
+                                         f"{args.seeds!r}")
+    if args.name is not None or args.resume or args.overwrite or args.seed is not None:
         raise argparse.ArgumentTypeError("--seeds: runs are named <task>_<algo>_seed<k> and "
-                                         "always resume; drop --name / --resume")
+                                         "always resume; drop --name / --resume / "
+                                         "--overwrite / --seed")
     from training.train import check_learns
 
     check_learns(config, 0)
@@ -518,7 +522,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}"
                                          ) from None
     kept = ("the best model on the validation seeds" if model.name.startswith("best_") else
-            "the final model: no best model kept" if model.name == "model.zip" else
+            "its model.zip: a final model, or a shipped policy's chosen one"
+            if model.name == "model.zip" else
             "the last checkpoint: the run stopped before its first evaluation")
     print(f"evaluating {model} ({kept})")
     out = args.out or default_evaluation_folder(args.run)

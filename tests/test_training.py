@@ -108,7 +108,7 @@ def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
     folder, cfg = run
     copy = tmp_path / "copy"
     shutil.copytree(folder, copy)
-    with pytest.raises(ValueError, match="another config"):
+    with pytest.raises(ValueError, match=r"another config \(seed differ;"):
         train(replace(cfg, seed=5), copy, resume=True, progress=False)
     train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
     with (copy / "evaluations.csv").open() as f:
@@ -293,6 +293,49 @@ def test_ppo_learns_to_the_end_of_its_last_rollout_which_its_progress_bar_counts
     assert totals == [reached] == [planned_steps(cfg)] == [1024]
 
 
+def test_a_ctrl_c_during_an_evaluation_is_evaluated_again_on_resume(tmp_path,
+                                                                      monkeypatch):
+    """The Ctrl-C checkpoint lands on the grid step of the evaluation it cut short;
+    counted from there, the resumed run never evaluated that step (evaluations.csv kept
+    1024's row out for good, and the best model of it)."""
+    import training.train as tt
+
+    real = tt.evaluate_policy_on_seeds
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    cfg = tiny_config()
+    folder = tmp_path / "run"
+    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        train(cfg, folder, progress=False)
+    assert (folder / "checkpoints" / "model_1024_steps.zip").exists()
+    assert not (folder / "evaluations.csv").exists()
+    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", real)
+    train(cfg, folder, resume=True, progress=False)
+    with (folder / "evaluations.csv").open() as f:
+        assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [1024, 2048]
+
+
+def test_a_run_killed_before_its_first_checkpoint_starts_its_records_afresh(tmp_path,
+                                                                            capsys):
+    """Nothing to resume from: it trains from the start, and the evaluations of the
+    killed session leave evaluations.csv (it held 1024 twice)."""
+    import shutil
+
+    cfg = tiny_config(checkpoint_freq=4096)
+    folder = tmp_path / "run"
+    train(cfg, folder, progress=False)
+    shutil.rmtree(folder / "checkpoints", ignore_errors=True)  # none at 4096 either
+    for name in ("model.zip", "vecnormalize.pkl", "run.json"):
+        (folder / name).unlink()
+    train(cfg, folder, resume=True, progress=False)
+    assert "nothing to resume" in capsys.readouterr().out
+    with (folder / "evaluations.csv").open() as f:
+        assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [1024, 2048]
+
+
 def test_evaluations_and_checkpoints_stay_on_their_grid_across_a_resume(tmp_path):
     """Resumed from a checkpoint off the evaluation grid (768 steps, evaluations every
     1024), the run evaluates at 1024, 2048, 3072 like an uninterrupted one: counted in
@@ -344,7 +387,14 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
              # the env's settings, found when training started (an empty run folder left)
              ({"env_kwargs": {"max_corection": 20.0}},
               "ppo.env_kwargs: StickSlipEnv: unknown argument(s) ['max_corection']"),
-             ({"env_kwargs": {"max_correction": -5.0}}, "ppo.env_kwargs: max_correction"))
+             ({"env_kwargs": {"max_correction": -5.0}}, "ppo.env_kwargs: max_correction"),
+             # a quoted number reached SB3 (a TypeError there); a batch larger than the
+             # rollout only made SB3 warn and truncate
+             ({"hyperparams": {"n_steps": "64"}}, "ppo.hyperparams.n_steps: must be an "
+                                                  "integer, got '64'"),
+             ({"n_envs": 2, "hyperparams": {"n_steps": 64, "batch_size": 512}},
+              "ppo.hyperparams.batch_size: 512 is more than a rollout holds (n_steps x "
+              "n_envs = 128)"))
     for entry, message in cases:
         path = tmp_path / "h.yml"
         path.write_text(yaml.safe_dump({"ppo": entry}))
@@ -372,6 +422,16 @@ def test_train_command_names_bad_input(capsys):
     with pytest.raises(SystemExit):
         main(["train", "--task", "juggling"])
     assert "--task" in capsys.readouterr().err
+    # a seed sweep took '0,,1' and quietly dropped --seed and --overwrite
+    for args, message in ((["--seeds", "0,,1"], "--seeds: comma-separated integers"),
+                          (["--seeds=-1,2"], "--seeds: distinct integers >= 0"),
+                          (["--seeds", "0,0"], "--seeds: distinct integers >= 0"),
+                          (["--seeds", "0,1", "--seed", "3"], "drop --name / --resume / "
+                                                              "--overwrite / --seed"),
+                          (["--seeds", "0,1", "--overwrite"], "--overwrite / --seed")):
+        with pytest.raises(SystemExit):
+            main(["train", "--task", "stick_slip", *args])
+        assert message in capsys.readouterr().err
 
 
 def test_the_standard_rl_zoo3_client_trains_a_task(tmp_path):

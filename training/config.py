@@ -132,16 +132,23 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
             raise ConfigError(f"{where}.{key}: not an argument of {algo.__name__}; known: "
                               f"{', '.join(sorted(known))}")
         number = isinstance(value, (int, float)) and not isinstance(value, bool)
-        if key in _INTEGERS and isinstance(value, float):
-            if not value.is_integer():
-                raise ConfigError(f"{where}.{key}: must be an integer, got {value!r}")
+        if key in _INTEGERS and isinstance(value, float) and value.is_integer():
             value = config.hyperparams[key] = int(value)
+        if key in _INTEGERS and key != "train_freq" and not (
+                isinstance(value, int) and not isinstance(value, bool)):
+            raise ConfigError(f"{where}.{key}: must be an integer, got {value!r}")
         if key in _RANGES and number:  # schedules ("lin_3e-4"), tuples ([1, "episode"]):
             low, high, closed = _RANGES[key]  # SB3's own checks
             if not (math.isfinite(value) and (value >= low if closed else value > low)
                     and value <= high):
                 bound = f"{'>=' if closed else '>'} {low:g} and <= {high:g}"
                 raise ConfigError(f"{where}.{key}: must be a number {bound}, got {value!r}")
+    if config.algo == "ppo":  # SB3 only warns, then trains on truncated mini-batches
+        batch = config.hyperparams.get("batch_size", 64)
+        rollout = config.hyperparams.get("n_steps", 2048) * config.n_envs
+        if isinstance(batch, int) and isinstance(rollout, int) and batch > rollout:
+            raise ConfigError(f"{where}.batch_size: {batch} is more than a rollout holds "
+                              f"(n_steps x n_envs = {rollout})")
     policies = getattr(algo, "policy_aliases", {})
     if config.policy not in policies:
         raise ConfigError(f"{config.algo}.policy: must be one of {sorted(policies)}, got "

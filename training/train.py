@@ -190,6 +190,21 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
             # a resumed run keeps its best model until an evaluation beats it
             self.best = resumed.best_return
 
+        def _on_training_start(self) -> None:
+            super()._on_training_start()
+            # a Ctrl-C during an evaluation saves its checkpoint on the grid step without
+            # that evaluation's row: the resumed run evaluates there first
+            if self.last > 0 and self.last % self.every == 0 and not self._evaluated(
+                    self.last):
+                self.num_timesteps = self.last
+                self.act()
+
+        def _evaluated(self, steps: int) -> bool:
+            if not self.path.exists():
+                return False
+            with self.path.open() as f:
+                return any(int(float(r["timesteps"])) == steps for r in csv.DictReader(f))
+
         def act(self) -> None:
             result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
             row = {"timesteps": self.num_timesteps, **result,
@@ -288,11 +303,12 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
         new = jsonable(config)
         # change nothing a resumed run learnt (its model keeps its own optimiser)
         free = ("n_timesteps", "torch_threads", "fused_adam")
-        if {k: v for k, v in old.items() if k not in free} != \
-                {k: v for k, v in new.items() if k not in free}:
-            raise ValueError(f"resume: {run} was trained with another config (only "
-                             "n_timesteps, torch_threads and fused_adam may change); start a "
-                             "new run name or drop --resume")
+        changed = sorted(k for k in {*old, *new} if k not in free
+                         and old.get(k) != new.get(k))
+        if changed:
+            raise ValueError(f"resume: {run} was trained with another config ({', '.join(changed)} "
+                             "differ; only n_timesteps, torch_threads and fused_adam may "
+                             "change); start a new run name or drop --resume")
     point = resume_point(run)
     if point is None:
         check_learns(config, 0)  # nothing to resume: it starts from the beginning
@@ -395,7 +411,8 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
         resumed = _rewind(run, model.num_timesteps, from_checkpoint)
     else:
         model = new_model(config, env, tensorboard_log=str(run / "tb"))
-        resumed = FRESH
+        # a run killed before its first checkpoint: its evaluations go, as after one
+        resumed = _rewind(run, 0, from_checkpoint=False) if resume else FRESH
     # after SB3, which seeds the envs with the run seed (+ i) when it builds or loads
     seed = env_seed(config, int(model.num_timesteps))
     env.seed(seed)
