@@ -587,6 +587,29 @@ def test_the_learning_curve_draws_the_stuck_share_in_percent(tmp_path, monkeypat
     assert list(stuck_axis.get_lines()[0].get_ydata()) == pytest.approx([12.0, 1.0])
 
 
+def test_flat_learning_curves_keep_off_the_frame_and_apart(tmp_path, monkeypatch):
+    """A run whose SSI and stuck share barely move: both lines sat on the top of the
+    frame, over each other."""
+    from helpers import keep_saved_figures
+
+    from training.train import plot_learning_curve
+
+    (tmp_path / "evaluations.csv").write_text(
+        "timesteps,return,return_std,ssi,stuck_fraction,wall_s\n"
+        "1000,-270,20,1.02,0.23,60\n2000,-268,20,1.01,0.23,120\n")
+    saved = keep_saved_figures(monkeypatch)
+    plot_learning_curve(tmp_path)
+    stuck_axis = next(ax for ax in saved[0].axes if "stuck" in ax.get_ylabel())
+    ssi_axis = next(ax for ax in saved[0].axes if "SSI" in ax.get_ylabel())
+    heights = []
+    for ax in (ssi_axis, stuck_axis):
+        low, high = ax.get_ylim()
+        top = max(ax.get_lines()[0].get_ydata())
+        assert low == 0.0 and top < 0.9 * high
+        heights.append(top / high)
+    assert abs(heights[0] - heights[1]) > 0.1
+
+
 def test_evaluate_says_which_training_settings_its_standard_episodes_replace():
     """A run trained on 10 s episodes is scored, as every run of its task, on the task's
     30 s held-out episodes: said, not done silently (an outside test found it)."""

@@ -497,15 +497,19 @@ def plot_learning_curve(run: Path) -> Path | None:
     axes[0].plot(steps, ret, "o-", ms=3)
     axes[0].fill_between(steps, ret - std, ret + std, alpha=0.2)
     axes[0].set_ylabel("validation return (mean +- std)")
-    ssi = axes[1].plot(steps, [float(r["ssi"]) for r in rows], "o-", ms=3, label="SSI")
+    ssi_values = np.array([float(r["ssi"]) for r in rows])
+    stuck_values = np.array([100.0 * float(r["stuck_fraction"]) for r in rows])
+    ssi = axes[1].plot(steps, ssi_values, "o-", ms=3, label="SSI")
     stuck_axis = axes[1].twinx()  # in % like every other picture's stuck share
-    stuck = stuck_axis.plot(steps, [100.0 * float(r["stuck_fraction"]) for r in rows], "s--",
-                            ms=3, color="tab:orange", label="time stuck (%)")
+    stuck = stuck_axis.plot(steps, stuck_values, "s--", ms=3, color="tab:orange",
+                            label="time stuck (%)")
     axes[1].legend(handles=ssi + stuck, fontsize=8)
     axes[1].set_ylabel("SSI (of the env's 3 s metric\nwindow, mean over the episode)")
     stuck_axis.set_ylabel("time stuck (% of the episode)")
-    stuck_axis.set_ylim(bottom=0.0)
-    axes[1].set_ylim(bottom=0.0)
+    # from 0, with room above the highest point (a flat curve sat on the frame's top);
+    # the stuck share's highest point lower than the SSI's, so two flat lines part
+    stuck_axis.set_ylim(0.0, max(1.6 * float(np.nanmax(stuck_values)), 1.0))
+    axes[1].set_ylim(0.0, max(1.15 * float(np.nanmax(ssi_values)), 0.05))
     axes[0].set_title("return", fontsize=10)
     axes[1].set_title("stick-slip", fontsize=10)
     for ax in axes:
