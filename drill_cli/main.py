@@ -62,6 +62,25 @@ def number(unit: str, low: float | None = 0.0, high: float | None = None,
     return parse
 
 
+def replaced_episode_notes(controllers: Sequence[str], env_id: str,
+                           scenarios: Sequence[str], settings: Any) -> list[str]:
+    """One note per episode setting (scenario, length, start kick) a policy trained
+    under and a task benchmark replaces by its own, as ``evaluate`` says them."""
+    from agents.learned import trained_env
+
+    ours = {"scenario": ",".join(scenarios), "episode_duration": settings.duration,
+            "start_kick": settings.start_kick}
+    notes = []
+    for name in controllers:
+        if name == "learned" or name.startswith("learned:"):
+            trained = trained_env(name.partition(":")[2] or None, env_id)[1]
+            notes += [f"note: {name} trained with {key}={trained[key]!r}; the benchmark "
+                      f"runs every controller on its own episodes ({key}={value!r})"
+                      for key, value in ours.items()
+                      if key in trained and trained[key] != value]
+    return notes
+
+
 def unwritable(folder: Path) -> str:
     """Why ``folder`` could not be written (created if missing), or "" if it can; creates
     nothing, so a command refused later leaves no folder behind."""
@@ -353,6 +372,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             raise
         raise argparse.ArgumentTypeError(
             f"--config {args.config}: {str(err).removeprefix('physics.')}") from None
+    if env_id is not None:
+        for note in replaced_episode_notes(controllers, env_id, scenarios, settings):
+            print(note, file=sys.stderr)
     t0 = time.perf_counter()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
     rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,

@@ -222,6 +222,31 @@ def test_the_series_picture_draws_the_first_seed_of_this_benchmark(tmp_path, mon
     assert drawn == ["stiff_stick_slip_seed2.npz"]
 
 
+def test_a_task_benchmark_says_which_training_episodes_it_replaces(tmp_path):
+    """A policy trained on 5 s episodes ran on the benchmark's 30 s ones without a
+    word, where evaluate says so."""
+    import shutil
+    from types import SimpleNamespace
+
+    import yaml
+
+    from drill_cli.main import replaced_episode_notes
+
+    run = tmp_path / "short"
+    shutil.copytree(TRAINED / "stick_slip", run)
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    config["env_kwargs"] = {"episode_duration": 5.0, "max_correction": 20.0}
+    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    settings = SimpleNamespace(duration=30.0, start_kick=0.02)
+    notes = replaced_episode_notes([f"learned:{run}", "stiff"], "DrillStickSlip-v0",
+                                   ["random"], settings)
+    assert notes == [f"note: learned:{run} trained with episode_duration=5.0; the "
+                     "benchmark runs every controller on its own episodes "
+                     "(episode_duration=30.0)"]
+    assert replaced_episode_notes(["learned"], "DrillStickSlip-v0", ["random"],
+                                  settings) == []  # the shipped policy: the task's own
+
+
 def test_benchmark_names_bad_input(capsys):
     for args, message in ((["--controllers", "pid"], "unknown name 'pid'"),
                           (["--scenarios", "moon"], "--scenarios"),
