@@ -494,9 +494,12 @@ def train_sweep(args: argparse.Namespace, config) -> int:
     except ValueError:
         raise argparse.ArgumentTypeError(f"--seeds: comma-separated integers, got "
                                          f"{args.seeds!r}") from None
-    if any(k < 0 for k in seeds) or len(set(seeds)) < len(seeds):
-        raise argparse.ArgumentTypeError(f"--seeds: distinct integers >= 0, got "
-                                         f"{args.seeds!r}")
+    from training.config import VALIDATION_SEED
+
+    if any(not 0 <= k < VALIDATION_SEED for k in seeds) or len(set(seeds)) < len(seeds):
+        raise argparse.ArgumentTypeError(f"--seeds: distinct integers in 0-"
+                                         f"{VALIDATION_SEED - 1} (the validation seeds "
+                                         f"start at {VALIDATION_SEED}), got {args.seeds!r}")
     if args.name is not None or args.resume or args.overwrite or args.seed is not None:
         raise argparse.ArgumentTypeError("--seeds: runs are named <task>_<algo>_seed<k> and "
                                          "always resume; drop --name / --resume / "

@@ -477,4 +477,7 @@ def format_maps(maps: Sequence[StabilityMap]) -> str:
                                                     else f"{value / 1e3:.0f}"))
         lines.append(f"{m.position:<9} {m.rock2_share:>5.0%}  {m.unstable_fraction:>7.0%}  "
                      f"{m.runs:>4}  {m.unstable.size:>5}   {' / '.join(samples)}")
+    lines += ["boundary: the lowest WOB that stick-slips at that speed; none: no WOB of "
+              "the grid does;", "-: that speed is not on the grid; runs: simulated now "
+              "(points stored by an earlier run are reused)"]
     return "\n".join(lines)

@@ -293,11 +293,12 @@ def test_ppo_learns_to_the_end_of_its_last_rollout_which_its_progress_bar_counts
     assert totals == [reached] == [planned_steps(cfg)] == [1024]
 
 
-def test_a_ctrl_c_during_an_evaluation_is_evaluated_again_on_resume(tmp_path,
-                                                                      monkeypatch):
-    """The Ctrl-C checkpoint lands on the grid step of the evaluation it cut short;
-    counted from there, the resumed run never evaluated that step (evaluations.csv kept
-    1024's row out for good, and the best model of it)."""
+@pytest.mark.parametrize(("n_envs", "first"), [(4, 1024), (3, 1026)])
+def test_a_ctrl_c_during_an_evaluation_is_evaluated_again_on_resume(tmp_path, monkeypatch,
+                                                                    n_envs, first):
+    """The Ctrl-C checkpoint lands on the step that crossed the grid line of the
+    evaluation it cut short (1026 with 3 envs); counted from there, the resumed run never
+    evaluated that line (evaluations.csv kept its row out for good)."""
     import training.train as tt
 
     real = tt.evaluate_policy_on_seeds
@@ -305,17 +306,18 @@ def test_a_ctrl_c_during_an_evaluation_is_evaluated_again_on_resume(tmp_path,
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    cfg = tiny_config()
+    cfg = tiny_config(n_envs=n_envs)
     folder = tmp_path / "run"
     monkeypatch.setattr(tt, "evaluate_policy_on_seeds", interrupted)
     with pytest.raises(KeyboardInterrupt):
         train(cfg, folder, progress=False)
-    assert (folder / "checkpoints" / "model_1024_steps.zip").exists()
+    assert (folder / "checkpoints" / f"model_{first}_steps.zip").exists()
     assert not (folder / "evaluations.csv").exists()
     monkeypatch.setattr(tt, "evaluate_policy_on_seeds", real)
     train(cfg, folder, resume=True, progress=False)
     with (folder / "evaluations.csv").open() as f:
-        assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [1024, 2048]
+        steps = [int(r["timesteps"]) for r in csv.DictReader(f)]
+    assert steps[0] == first and [s // 1024 for s in steps] == [1, 2]
 
 
 def test_a_run_killed_before_its_first_checkpoint_starts_its_records_afresh(tmp_path,
@@ -330,10 +332,12 @@ def test_a_run_killed_before_its_first_checkpoint_starts_its_records_afresh(tmp_
     shutil.rmtree(folder / "checkpoints", ignore_errors=True)  # none at 4096 either
     for name in ("model.zip", "vecnormalize.pkl", "run.json"):
         (folder / name).unlink()
+    (folder / "best_model.zip").write_bytes(b"half")  # the killed session's, unrecorded
     train(cfg, folder, resume=True, progress=False)
     assert "nothing to resume" in capsys.readouterr().out
     with (folder / "evaluations.csv").open() as f:
         assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [1024, 2048]
+    assert zipfile.is_zipfile(folder / "best_model.zip")  # this session's best
 
 
 def test_evaluations_and_checkpoints_stay_on_their_grid_across_a_resume(tmp_path):
@@ -424,8 +428,9 @@ def test_train_command_names_bad_input(capsys):
     assert "--task" in capsys.readouterr().err
     # a seed sweep took '0,,1' and quietly dropped --seed and --overwrite
     for args, message in ((["--seeds", "0,,1"], "--seeds: comma-separated integers"),
-                          (["--seeds=-1,2"], "--seeds: distinct integers >= 0"),
-                          (["--seeds", "0,0"], "--seeds: distinct integers >= 0"),
+                          (["--seeds=-1,2"], "--seeds: distinct integers in 0-"),
+                          (["--seeds", "0,0"], "--seeds: distinct integers in 0-899999"),
+                          (["--seeds", "900000"], "the validation seeds start at 900000"),
                           (["--seeds", "0,1", "--seed", "3"], "drop --name / --resume / "
                                                               "--overwrite / --seed"),
                           (["--seeds", "0,1", "--overwrite"], "--overwrite / --seed")):

@@ -192,18 +192,21 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
 
         def _on_training_start(self) -> None:
             super()._on_training_start()
-            # a Ctrl-C during an evaluation saves its checkpoint on the grid step without
-            # that evaluation's row: the resumed run evaluates there first
-            if self.last > 0 and self.last % self.every == 0 and not self._evaluated(
-                    self.last):
+            # a Ctrl-C during an evaluation saves its checkpoint at the step that crossed
+            # the grid line (on it when n_envs divides eval_freq) without that evaluation's
+            # row: the resumed run evaluates there first
+            line = self.last // self.every
+            if line > 0 and not self._evaluated(line):
                 self.num_timesteps = self.last
                 self.act()
 
-        def _evaluated(self, steps: int) -> bool:
+        def _evaluated(self, line: int) -> bool:
+            """Whether an evaluation after crossing grid line ``line`` has its row."""
             if not self.path.exists():
                 return False
             with self.path.open() as f:
-                return any(int(float(r["timesteps"])) == steps for r in csv.DictReader(f))
+                return any(int(float(r["timesteps"])) // self.every == line
+                           for r in csv.DictReader(f))
 
         def act(self) -> None:
             result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
@@ -411,8 +414,10 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
         resumed = _rewind(run, model.num_timesteps, from_checkpoint)
     else:
         model = new_model(config, env, tensorboard_log=str(run / "tb"))
-        # a run killed before its first checkpoint: its evaluations go, as after one
-        resumed = _rewind(run, 0, from_checkpoint=False) if resume else FRESH
+        if resume:  # killed before its first checkpoint: its records go with it
+            for name in ("evaluations.csv", "best_model.zip", "best_vecnormalize.pkl"):
+                (run / name).unlink(missing_ok=True)
+        resumed = FRESH
     # after SB3, which seeds the envs with the run seed (+ i) when it builds or loads
     seed = env_seed(config, int(model.num_timesteps))
     env.seed(seed)

@@ -11,7 +11,8 @@ length), ~8 kN for 5 in drill pipe. Lying on the low side of an inclined hole, t
 weight holds the pipe down, and it buckles (sinusoidally) only at
 ``2 sqrt(E I w sin(i) / r)`` (Dawson & Paslay 1984; i the inclination, r the radial
 clearance between pipe body and hole), ~140 kN for 5 in pipe in an 8 3/4 in hole at 60
-degrees: each element is judged by the larger of the two limits.
+degrees: each element is judged by the larger of the two limits, the second from 10
+degrees on (:data:`DAWSON_PASLAY_MIN_INCLINATION`).
 """
 
 from __future__ import annotations
@@ -37,6 +38,12 @@ PIPE_KINDS = frozenset({"drill_pipe", "heavy_weight"})
 #: It screens scenario definitions (``Scenario`` refuses a start beyond it); no preset
 #: scenario compresses its pipe at all, and the FE string models the buckling itself.
 LUBINSKI = 1.94
+#: Below this inclination (rad, 10 degrees) the vertical-hole load stands alone: the weight
+#: across the hole that holds the pipe on the low side in Dawson & Paslay's load is then
+#: under a sixth of its weight, and their load, which grows as sqrt(sin i), would jump past
+#: Lubinski's from a fraction of a degree. A conservative choice of ours, not a published
+#: threshold.
+DAWSON_PASLAY_MIN_INCLINATION = math.radians(10.0)
 
 
 @dataclass
@@ -152,7 +159,8 @@ def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBu
     that comes nearest to buckling (in a vertical hole: the most compressed)."""
     mesh = build_mesh(config)
     force = axial_force(config, mesh, weight_on_bit)
-    sin_i = np.sin(element_inclination(config, mesh))
+    inclination = element_inclination(config, mesh)
+    sin_i = np.where(inclination >= DAWSON_PASLAY_MIN_INCLINATION, np.sin(inclination), 0.0)
     out = []
     for index, section in enumerate(config.string.sections):
         if section.kind not in PIPE_KINDS and index != 0:
