@@ -35,12 +35,14 @@ PIPE_KINDS = frozenset({"drill_pipe", "heavy_weight"})
 #: pipe's length (the pin's reaction decays only as 1/x up the string): 1.88 at 10 units
 #: of (EI/w)^(1/3), 1.62 at 36 (600 m of 5 in pipe), 1.55 at 60; a free lower end gives
 #: 1.02 at any length (tests/physics/test_modes.py checks the FE string against these).
-#: It screens scenario definitions (``Scenario`` refuses a start beyond it); no preset
-#: scenario compresses its pipe at all, and the FE string models the buckling itself.
+#: It screens scenario definitions (``Scenario`` refuses a start beyond it); no vertical
+#: preset scenario compresses its pipe at all (``lateral_60`` compresses its drill pipe on
+#: the low side, far below Dawson-Paslay's load), and the FE string models the buckling
+#: itself.
 LUBINSKI = 1.94
 #: Below this inclination (rad, 10 degrees) the vertical-hole load stands alone: the weight
 #: across the hole that holds the pipe on the low side in Dawson & Paslay's load is then
-#: under a sixth of its weight, and their load, which grows as sqrt(sin i), would jump past
+#: under 17 % of its weight, and their load, which grows as sqrt(sin i), would jump past
 #: Lubinski's from a fraction of a degree. A conservative choice of ours, not a published
 #: threshold.
 DAWSON_PASLAY_MIN_INCLINATION = math.radians(10.0)
