@@ -1001,10 +1001,11 @@ def add_ray_address(p: argparse.ArgumentParser, what: str) -> None:
                         "distributed extra (README: Scaling out on Ray)")
 
 
-#: Library fields whose errors reach the command line, and the option that sets each.
 #: ``run --record`` without a folder: the run's ``--out``/recordings, as ``benchmark``.
 RECORD_UNDER_OUT = Path("<out>/recordings")
 
+#: Library fields whose errors reach the command line under another option's name (the
+#: rest: ``max_wob`` -> ``--max-wob``, :func:`option_of`).
 OPTION_OF_FIELD = {"ray_address": "--ray-address", "episode_duration": "--duration"}
 
 

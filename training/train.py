@@ -513,8 +513,12 @@ def plot_learning_curve(run: Path) -> Path | None:
     stuck_axis.set_ylabel("time stuck (% of the episode)")
     # from 0, with room above the highest point (a flat curve sat on the frame's top);
     # the stuck share's highest point lower than the SSI's, so two flat lines part
-    stuck_axis.set_ylim(0.0, max(1.6 * float(np.nanmax(stuck_values)), 1.0))
-    axes[1].set_ylim(0.0, max(1.15 * float(np.nanmax(ssi_values)), 0.05))
+    def highest(values: np.ndarray) -> float:
+        finite = values[np.isfinite(values)]
+        return float(finite.max()) if finite.size else 0.0
+
+    stuck_axis.set_ylim(0.0, max(1.6 * highest(stuck_values), 1.0))
+    axes[1].set_ylim(0.0, max(1.15 * highest(ssi_values), 0.05))
     axes[0].set_title("return", fontsize=10)
     axes[1].set_title("stick-slip", fontsize=10)
     for ax in axes:
