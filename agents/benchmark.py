@@ -141,6 +141,11 @@ class Episode:
     def series_file(self) -> Path:
         return Path(self.out) / "series" / f"{self.stem}.npz"
 
+    @property
+    def recording_stamp(self) -> Path:
+        """Beside :attr:`recording`: the :attr:`stamp` it was made under."""
+        return self.recording.with_name(self.recording.name + ".stamp")
+
     def outputs_current(self) -> bool:
         """Whether the series and recording this episode should leave are there and were
         made under its :attr:`stamp`."""
@@ -152,7 +157,7 @@ class Episode:
             except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
                 return False  # missing, damaged (a run killed while writing it), old
         if self.record:
-            sidecar = self.recording.with_name(self.recording.name + ".stamp")
+            sidecar = self.recording_stamp
             if not (self.recording.exists() and sidecar.exists()
                     and sidecar.read_text() == self.stamp):
                 return False
@@ -367,7 +372,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         env.close()
     if episode.record and getattr(env, "last_path", None) == episode.recording:
         # (only a file this run wrote: RERUN=off writes none, and an older one stays old)
-        episode.recording.with_name(episode.recording.name + ".stamp").write_text(episode.stamp)
+        episode.recording_stamp.write_text(episode.stamp)
     everything = np.concatenate(kept) if kept else np.zeros((0, len(RECORD_CHANNELS)))
     records = everything[everything[:, R.TIME] >= start + settings.warmup]
     if len(records) < 2:
@@ -421,6 +426,17 @@ def episodes(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequen
     return [Episode(c, s, seed, plain, str(out), record, seed == seeds[0], env_id,
                     names[c], digests[c])
             for s in scenarios for seed in seeds for c in controllers]
+
+
+def replaced_episode_settings(trained: dict[str, Any], settings: BenchmarkSettings,
+                              scenario: str) -> list[tuple[str, Any, Any]]:
+    """(key, trained value, benchmark value) of each episode setting (scenario, length,
+    start kick) a policy trained under and the benchmark's own episodes replace: what
+    ``evaluate`` and a task benchmark say, so that it is not done silently."""
+    ours = {"scenario": scenario, "episode_duration": settings.duration,
+            "start_kick": settings.start_kick}
+    return [(key, trained[key], value) for key, value in ours.items()
+            if key in trained and trained[key] != value]
 
 
 def stamp(fingerprint: str, key: str) -> str:

@@ -87,17 +87,11 @@ def policy_folder(path: str | Path | None = None, env_id: str | None = None) -> 
     return TRAINED / task
 
 
-def trained_env_kwargs(path: str | Path | None = None, env_id: str | None = None
-                       ) -> dict[str, Any]:
-    """The env keywords a policy was trained with (its run's ``config.yaml``), without
-    loading the model; a folder without a policy is refused as :func:`policy_files` does."""
-    return trained_env(path, env_id)[1]
-
-
 def trained_env(path: str | Path | None = None, env_id: str | None = None
                 ) -> tuple[str, dict[str, Any]]:
     """(env id of its task, env keywords) a policy was trained with, from its run's
-    ``config.yaml`` read once; refused as :func:`trained_env_kwargs` is."""
+    ``config.yaml`` read once, without loading the model; a folder without a policy is
+    refused as :func:`policy_files` does."""
     policy_files(path, env_id)
     config = yaml.safe_load((policy_folder(path, env_id) / "config.yaml").read_text())
     return TASK_ENVS[config["task"]], dict(config.get("env_kwargs") or {})

@@ -66,18 +66,17 @@ def replaced_episode_notes(controllers: Sequence[str], env_id: str,
                            scenarios: Sequence[str], settings: Any) -> list[str]:
     """One note per episode setting (scenario, length, start kick) a policy trained
     under and a task benchmark replaces by its own, as ``evaluate`` says them."""
+    from agents.benchmark import replaced_episode_settings
     from agents.learned import trained_env
 
-    ours = {"scenario": ",".join(scenarios), "episode_duration": settings.duration,
-            "start_kick": settings.start_kick}
     notes = []
     for name in controllers:
         if name == "learned" or name.startswith("learned:"):
             trained = trained_env(name.partition(":")[2] or None, env_id)[1]
-            notes += [f"note: {name} trained with {key}={trained[key]!r}; the benchmark "
-                      f"runs every controller on its own episodes ({key}={value!r})"
-                      for key, value in ours.items()
-                      if key in trained and trained[key] != value]
+            notes += [f"note: {name} trained with {key}={was!r}; the benchmark runs every "
+                      f"controller on its own episodes ({key}={value!r})"
+                      for key, was, value in replaced_episode_settings(
+                          trained, settings, ",".join(scenarios))]
     return notes
 
 
@@ -85,9 +84,11 @@ def unwritable(folder: Path) -> str:
     """Why ``folder`` could not be written (created if missing), or "" if it can; creates
     nothing, so a command refused later leaves no folder behind."""
     here = folder.absolute()
+    if here.exists() and not here.is_dir():
+        return "is a file; give a folder (it is created if missing)"
     while not here.exists():
         here = here.parent
-    if here != folder.absolute() and not here.is_dir():
+    if not here.is_dir():
         return f"{here} is a file, not a folder"
     import tempfile
 
@@ -1041,11 +1042,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     args = top.parse_args(argv)
     out = getattr(args, "out", None)
-    if out is not None and out.exists() and not out.is_dir():  # before the work, not after
-        args.command_parser.error(f"--out {out}: is a file; give a folder (it is created "
-                                  "if missing)")
-    if out is not None and (reason := unwritable(out)):  # found after an hour's work, the
-        args.command_parser.error(f"--out {out}: {reason}")  # hour's results were lost
+    if out is not None and (reason := unwritable(out)):  # before the work: found after an
+        args.command_parser.error(f"--out {out}: {reason}")  # hour's work, it lost the hour
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly

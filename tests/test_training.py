@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import zipfile
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -576,18 +577,25 @@ def test_a_sac_run_that_would_end_in_its_warm_up_is_refused(tmp_path, capsys):
     check_learns(replace(load_config("stick_slip", "ppo"), n_timesteps=10), 0)
 
 
-def test_the_learning_curve_draws_the_stuck_share_in_percent(tmp_path, monkeypatch):
-    """As every other picture does (it drew 0.12 beside the SSI on one axis)."""
+def _learning_curve_axes(run, monkeypatch, rows: str) -> dict[str, Any]:
+    """The SSI and stuck-share axes of ``learning_curve.png`` drawn from these
+    ``evaluations.csv`` rows."""
     from helpers import keep_saved_figures
 
     from training.train import plot_learning_curve
 
-    (tmp_path / "evaluations.csv").write_text(
-        "timesteps,return,return_std,ssi,stuck_fraction,wall_s\n"
-        "1000,-900,200,0.9,0.12,60\n2000,-400,100,0.3,0.01,120\n")
+    (run / "evaluations.csv").write_text(
+        "timesteps,return,return_std,ssi,stuck_fraction,wall_s\n" + rows)
     saved = keep_saved_figures(monkeypatch)
-    plot_learning_curve(tmp_path)
-    stuck_axis = next(ax for ax in saved[0].axes if "stuck" in ax.get_ylabel())
+    plot_learning_curve(run)
+    return {name: next(ax for ax in saved[0].axes if name in ax.get_ylabel())
+            for name in ("SSI", "stuck")}
+
+
+def test_the_learning_curve_draws_the_stuck_share_in_percent(tmp_path, monkeypatch):
+    """As every other picture does (it drew 0.12 beside the SSI on one axis)."""
+    stuck_axis = _learning_curve_axes(tmp_path, monkeypatch, "1000,-900,200,0.9,0.12,60\n"
+                                      "2000,-400,100,0.3,0.01,120\n")["stuck"]
     assert "%" in stuck_axis.get_ylabel()
     assert list(stuck_axis.get_lines()[0].get_ydata()) == pytest.approx([12.0, 1.0])
 
@@ -595,19 +603,10 @@ def test_the_learning_curve_draws_the_stuck_share_in_percent(tmp_path, monkeypat
 def test_flat_learning_curves_keep_off_the_frame_and_apart(tmp_path, monkeypatch):
     """A run whose SSI and stuck share barely move: both lines sat on the top of the
     frame, over each other."""
-    from helpers import keep_saved_figures
-
-    from training.train import plot_learning_curve
-
-    (tmp_path / "evaluations.csv").write_text(
-        "timesteps,return,return_std,ssi,stuck_fraction,wall_s\n"
-        "1000,-270,20,1.02,0.23,60\n2000,-268,20,1.01,0.23,120\n")
-    saved = keep_saved_figures(monkeypatch)
-    plot_learning_curve(tmp_path)
-    stuck_axis = next(ax for ax in saved[0].axes if "stuck" in ax.get_ylabel())
-    ssi_axis = next(ax for ax in saved[0].axes if "SSI" in ax.get_ylabel())
+    axes = _learning_curve_axes(tmp_path, monkeypatch, "1000,-270,20,1.02,0.23,60\n"
+                                "2000,-268,20,1.01,0.23,120\n")
     heights = []
-    for ax in (ssi_axis, stuck_axis):
+    for ax in (axes["SSI"], axes["stuck"]):
         low, high = ax.get_ylim()
         top = max(ax.get_lines()[0].get_ydata())
         assert low == 0.0 and top < 0.9 * high

@@ -17,7 +17,13 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents.benchmark import BenchmarkSettings, label, run_benchmark, task_settings
+from agents.benchmark import (
+    BenchmarkSettings,
+    label,
+    replaced_episode_settings,
+    run_benchmark,
+    task_settings,
+)
 from agents.registry import CLASSICAL
 from drill_env.scenarios import EVALUATION_SEEDS
 from training.config import TASKS
@@ -113,12 +119,9 @@ def standard_episode_notes(trained: dict[str, Any], settings: BenchmarkSettings
     """What of the run's ``env_kwargs`` an evaluation replaces by the task's standard
     episode (scenario, length, start kick: the held-out episodes every run of the task is
     scored on), one note each, so that it is said, not done silently."""
-    standard = {"scenario": "random", "episode_duration": settings.duration,
-                "start_kick": settings.start_kick}
-    return [f"note: the run trained with {key}={trained[key]!r}; evaluate scores it on the "
+    return [f"note: the run trained with {key}={was!r}; evaluate scores it on the "
             f"task's standard held-out episodes ({key}={value!r}), as every run of the task"
-            for key, value in standard.items()
-            if key in trained and trained[key] != value]
+            for key, was, value in replaced_episode_settings(trained, settings, "random")]
 
 
 def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | None = None,

@@ -24,7 +24,7 @@ import numpy as np
 
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.fem import axial_force_profile, build_mesh
-from drill_env.physics.trajectory import Survey, Trajectory, curved_hole_loads
+from drill_env.physics.trajectory import hole_loads, string_in_hole
 from drill_env.physics.units import GRAVITY
 from drill_env.physics.validation import require_non_negative
 
@@ -74,7 +74,7 @@ def neutral_point_height(config: SimulationConfig, weight_on_bit: float) -> floa
     if weight_on_bit <= 0.0:
         return 0.0
     mesh = build_mesh(config)
-    force = axial_force(config, mesh, weight_on_bit)
+    force, _ = axial_force_and_inclination(config, mesh, weight_on_bit)
     bottom = mesh.node_depth[-1]
     height = bottom - 0.5 * (mesh.node_depth[:-1] + mesh.node_depth[1:])  # midpoints
     compressed = force < 0.0
@@ -131,26 +131,20 @@ class PipeBuckling:
     buckling_load: float  # the buckling load there (N)
 
 
-def axial_force(config: SimulationConfig, mesh, weight_on_bit: float) -> np.ndarray:
-    """Static axial force at the element midpoints (N, tension > 0) at this WOB: the
-    buoyed weight below, by true vertical depth in a curved hole (as the simulator's)."""
+def axial_force_and_inclination(config: SimulationConfig, mesh, weight_on_bit: float
+                                ) -> tuple[np.ndarray, np.ndarray]:
+    """Static axial force at the element midpoints (N, tension > 0) at this WOB, the
+    buoyed weight below by true vertical depth in a curved hole (as the simulator's),
+    and the hole's inclination there (rad; 0 in a vertical hole)."""
     bit_weight = bit_buoyed_weight(config)
-    hole = curved_hole_loads(config, mesh, bit_weight)
-    if hole is None:
-        return axial_force_profile(mesh, weight_on_bit, bit_weight)
-    return hole.axial_weight - weight_on_bit
-
-
-def element_inclination(config: SimulationConfig, mesh) -> np.ndarray:
-    """Inclination of the hole at each element's midpoint (rad; 0 in a vertical hole)."""
-    well = config.well
-    if well.vertical:
-        return np.zeros(mesh.node_depth.shape[0] - 1)
-    depth = config.initial_depth if config.initial_depth is not None else config.string.length
-    node_md = mesh.node_depth + (depth - mesh.node_depth[-1])
+    placed = string_in_hole(config, mesh)
+    if placed is None:
+        return (axial_force_profile(mesh, weight_on_bit, bit_weight),
+                np.zeros(mesh.node_depth.shape[0] - 1))
+    trajectory, node_md = placed
+    hole = hole_loads(trajectory, node_md, mesh.buoyed_weight, bit_weight)
     middle = np.maximum(0.5 * (node_md[:-1] + node_md[1:]), 0.0)
-    survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
-    return Trajectory(survey).inclination(middle)
+    return hole.axial_weight - weight_on_bit, trajectory.inclination(middle)
 
 
 def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBuckling]:
@@ -160,8 +154,7 @@ def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBu
     empty when the pipe is safe. Each names the compression and the limit of the element
     that comes nearest to buckling (in a vertical hole: the most compressed)."""
     mesh = build_mesh(config)
-    force = axial_force(config, mesh, weight_on_bit)
-    inclination = element_inclination(config, mesh)
+    force, inclination = axial_force_and_inclination(config, mesh, weight_on_bit)
     sin_i = np.where(inclination >= DAWSON_PASLAY_MIN_INCLINATION, np.sin(inclination), 0.0)
     out = []
     for index, section in enumerate(config.string.sections):

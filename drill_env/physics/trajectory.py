@@ -391,14 +391,24 @@ def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.n
 
 
 
-def curved_hole_loads(config, mesh, bit_weight: float) -> HoleLoads | None:
-    """:func:`hole_loads` of a simulator's string in ``config.well``'s hole (the bit at
-    ``initial_depth``, default the string's length); None for a vertical hole, which
-    keeps the vertical model's arithmetic exactly."""
+def string_in_hole(config, mesh) -> tuple[Trajectory, np.ndarray] | None:
+    """``config.well``'s hole and the measured depths of ``mesh``'s nodes in it (the bit
+    at ``initial_depth``, default the string's length; < 0 above the wellhead); None for
+    a vertical hole."""
     well = config.well
     if well.vertical:
         return None
     depth = config.initial_depth if config.initial_depth is not None else config.string.length
     survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
-    node_md = mesh.node_depth + (depth - mesh.node_depth[-1])  # < 0 above the wellhead
-    return hole_loads(Trajectory(survey), node_md, mesh.buoyed_weight, bit_weight)
+    return Trajectory(survey), mesh.node_depth + (depth - mesh.node_depth[-1])
+
+
+def curved_hole_loads(config, mesh, bit_weight: float) -> HoleLoads | None:
+    """:func:`hole_loads` of a simulator's string in ``config.well``'s hole
+    (:func:`string_in_hole`); None for a vertical hole, which keeps the vertical model's
+    arithmetic exactly."""
+    placed = string_in_hole(config, mesh)
+    if placed is None:
+        return None
+    trajectory, node_md = placed
+    return hole_loads(trajectory, node_md, mesh.buoyed_weight, bit_weight)
