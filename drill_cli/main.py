@@ -690,6 +690,9 @@ def cmd_modes(args: argparse.Namespace) -> int:
         for i, (f, z) in enumerate(zip(m.frequency, m.damping_ratio, strict=True)):
             print(f"{m.kind + ' ' + str(i + 1):<12} {f:8.3f} {z:8.1%}   "
                   + (m.boundary if i == 0 else ""))
+        if len(m.frequency) < args.n:  # the mesh has no more oscillating modes
+            print(f"({m.kind}: -n {args.n} asked, the model has {len(m.frequency)} "
+                  "oscillating modes; overdamped ones are not listed)")
     crit = md.critical_speeds(config, (torsional, lateral), args.max_rpm)
     print(f"\ncritical speeds up to {args.max_rpm:.0f} rpm:")
     for c in crit:

@@ -255,6 +255,16 @@ def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
     assert (tmp_path / "modes_critical_speeds.png").stat().st_size > 10_000
 
 
+def test_modes_command_says_when_the_model_has_fewer_modes_than_asked(tmp_path, capsys):
+    assert main(["modes", "-n", "100000", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    data = json.loads((tmp_path / "modes.json").read_text())
+    for m in data["modes"]:
+        assert 0 < len(m["frequency_Hz"]) < 100000
+        assert (f"({m['kind']}: -n 100000 asked, the model has {len(m['frequency_Hz'])} "
+                "oscillating modes") in out
+
+
 def test_yaml_numbers_in_short_scientific_form_are_numbers(tmp_path):
     # PyYAML reads 2.1e11 (no dot) as a string: "not a valid number", SB3 tracebacks
     from drill_env.physics.validation import read_yaml
