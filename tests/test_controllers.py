@@ -149,13 +149,13 @@ def test_tuned_controllers_absorb_at_their_frequency_and_stiff_reflects(reflecti
     assert soft[f_s_index] < abs(reflections["stiff"][0][f_s_index]) - 0.3
 
 
-@pytest.mark.slow
 def _swing(run, start: float, end: float) -> float:
     """Half the bit speed's peak-to-peak (rpm) in ``[start, end)`` s."""
     w = run.channel("bit_speed")[(run.time >= start) & (run.time < end)] / RPM
     return float(w.max() - w.min()) / 2.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("rpm", "wob"), [(50.0, 100e3), (60.0, 150e3)])
 def test_tuned_controllers_cure_stick_slip_at_the_same_mean_speed(rpm, wob):
     """In hard rock on the default string (coupled), where stiff PI stick-slips, SoftSpeed,

@@ -153,12 +153,11 @@ def test_an_address_where_nothing_answers_fails_at_once():
         port = probe.getsockname()[1]
     if ray.is_initialized():  # a sweep's own session only: the executor joins no other
         ray.shutdown()
-    start = time.perf_counter()
     for address in (f"127.0.0.1:{port}", f"ray://127.0.0.1:{port}"):
+        # our probe's message (Ray's own retries would end in another one, minutes later)
         with pytest.raises(ConnectionError, match=f"no Ray cluster at '{address}': nothing "
                                                   "answers"):
             RayExecutor(address)
-    assert time.perf_counter() - start < 30.0  # refused at once; the limit is the timeout
     # what is not host:port is left to Ray's own check, which names it (no probe here)
     from drill_env.distributed import _check_reachable
 

@@ -134,11 +134,30 @@ def fast_metrics(records):
     return rolling.add(records), rolling.window()
 
 
-def assert_same_metrics(values, records):
+def _reference(records) -> np.ndarray:
     reference = metrics.window_metrics(records, CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
     assert list(reference) == list(metrics.WINDOW_METRICS)
-    np.testing.assert_allclose(values, [reference[k] for k in metrics.WINDOW_METRICS],
-                               rtol=1e-12, atol=0.0)
+    return np.array([reference[k] for k in metrics.WINDOW_METRICS])
+
+
+def assert_same_metrics(values, records):
+    """The fast path against the NumPy definitions, to a tolerance set by each metric's
+    conditioning on these records: the spread of the definitions' values when every
+    record is perturbed by a few eps (means of signed samples, ptp over a mean, ratios of
+    sums lose digits to cancellation), times the log2(n) growth of a summation's error in
+    another order, plus the round-off of the value itself."""
+    reference = _reference(records)
+    rng = np.random.default_rng(0)
+    eps = np.finfo(float).eps
+    spread = np.zeros_like(reference)
+    for _ in range(4):
+        noisy = records * (1.0 + 4.0 * eps * rng.standard_normal(records.shape))
+        spread = np.maximum(spread, np.abs(_reference(noisy) - reference))
+    values = np.asarray(values)
+    finite = np.isfinite(reference)  # non-finite samples: the same NaN or inf
+    np.testing.assert_array_equal(values[~finite], reference[~finite])
+    tol = 10.0 * max(1.0, np.log2(len(records))) * (spread + 4.0 * eps * np.abs(reference))
+    assert np.all(np.abs(values - reference)[finite] <= tol[finite]), (values, reference, tol)
 
 
 @pytest.mark.parametrize("n", [1, 2, 7, 8, 9, 127, 128, 129, 150, 255, 256, 300, 1000, 4099])

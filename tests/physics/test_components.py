@@ -182,8 +182,10 @@ def test_a_scenario_refuses_a_wob_that_buckles_its_pipe_unless_allowed():
     with pytest.raises(ValueError, match=r"weight_on_bit: 100 kN compresses the 5 in|"
                                          r"weight_on_bit: 100 kN compresses the drill pipe"):
         Scenario("x", legacy, 50 * RPM, 100e3)
-    assert Scenario("x", legacy, 50 * RPM, 100e3, allow_pipe_buckling=True)
-    assert Scenario("x", legacy, 50 * RPM, 40e3)  # neutral point in the collars
+    # built without an error (a Scenario is always truthy: check what it holds)
+    assert Scenario("x", legacy, 50 * RPM, 100e3, allow_pipe_buckling=True
+                    ).weight_on_bit == 100e3
+    assert Scenario("x", legacy, 50 * RPM, 40e3).weight_on_bit == 40e3  # in the collars
 
 
 def test_every_named_scenario_states_its_neutral_point():

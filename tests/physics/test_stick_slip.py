@@ -57,6 +57,64 @@ def test_threshold_lies_in_the_operating_range(sim_and_threshold):
     assert 20 * RPM < threshold < 200 * RPM
 
 
+def test_resistance_slope_is_the_derivative_of_the_resistance_curve():
+    # central differences of eq. (39) as the bit oracle writes it; the curve is smooth
+    # for omega > 0, so h = 1e-5 rad/s leaves an error ~ h^2 (third derivative) + eps / h
+    from drill_env.physics.bit_reference import mu_curve
+    from drill_env.physics.stability import resistance_slope
+
+    h = 1e-5
+    for args in ((0.5, 0.9, 3.0, 0.0), (0.3, 0.45, 5.0, 0.005), (0.4, 1.2, 0.7, 0.02)):
+        for omega in (0.1, 1.0, 3.0, 10.0, 40.0):
+            fd = (mu_curve(omega + h, *args) - mu_curve(omega - h, *args)) / (2.0 * h)
+            assert resistance_slope(omega, *args) == pytest.approx(fd, abs=1e-9)
+
+
+def _two_inertias(j_top: float, j_bit: float, k: float, b: float, c: tuple[float, float],
+                  kp: float, ki: float, rock: tuple[float, float, float, float]):
+    """The attributes :func:`torsional_growth_rate` reads, for a top-drive inertia and a
+    bit inertia joined by one spring ``k`` (stiffness-proportional damping ``b k``)."""
+    from types import SimpleNamespace
+
+    from drill_env.physics.formation import N_ROCK_PARAMS, Rock
+
+    params = np.zeros((1, N_ROCK_PARAMS))
+    for col, value in zip((Rock.MU_MIN, Rock.MU_MAX, Rock.ST1, Rock.ST2), rock, strict=True):
+        params[0, col] = value
+    return SimpleNamespace(
+        tor_k=np.array([[k, k], [-k, 0.0]]),  # band storage: diagonal, then off-diagonal
+        tor_c=np.array(c), tor_m=np.array([j_top, j_bit]), top_drive_gains=(kp, ki),
+        config=SimpleNamespace(damping=SimpleNamespace(stiffness_proportional=b)),
+        rock_params=params, lever_arm=0.05)
+
+
+def test_growth_rate_is_the_largest_root_of_the_two_inertia_characteristic_polynomial():
+    """det(M s^2 + C s + K) of two inertias on a spring, the PI top drive on the first
+    (kp damping, ki stiffness) and the bit's c_bit = a W mu'(omega) on the second, expanded
+    by hand: its roots, by numpy.roots, against the eigenvalues of the assembled system."""
+    from drill_env.physics.bit_reference import mu_curve
+
+    j_top, j_bit, k, b, c = 2500.0, 30.0, 700.0, 0.002, (1.0, 4.0)
+    kp, ki, rock = 900.0, 100.0, (0.5, 0.9, 3.0, 0.0)
+    sim = _two_inertias(j_top, j_bit, k, b, c, kp, ki, rock)
+    signs = set()
+    for omega, wob in ((0.5, 80e3), (2.0, 80e3), (6.0, 40e3), (20.0, 150e3)):
+        h = 1e-6
+        c_bit = sim.lever_arm * wob * (mu_curve(omega + h, *rock)
+                                       - mu_curve(omega - h, *rock)) / (2.0 * h)
+        p_top = np.array([j_top, b * k + c[0] + kp, k + ki])  # s^2, s, 1
+        p_bit = np.array([j_bit, b * k + c[1] + c_bit, k])
+        coupling = np.array([b * k, k])  # -(b k s + k) off the diagonal
+        det = np.polysub(np.polymul(p_top, p_bit), np.polymul(coupling, coupling))
+        expected = max(np.roots(det).real)
+        # simple roots: both eigen-solvers are accurate to ~eps |s| (the finite-difference
+        # c_bit to ~1e-9 relative)
+        got = torsional_growth_rate(sim, omega, wob)
+        assert got == pytest.approx(expected, rel=1e-6, abs=1e-9)
+        signs.add(got > 0.0)
+    assert signs == {True, False}  # both sides of the threshold are exercised
+
+
 def test_growth_rate_changes_sign_at_the_threshold(sim_and_threshold):
     sim, threshold = sim_and_threshold
     assert torsional_growth_rate(sim, 0.8 * threshold, WOB) > 0
