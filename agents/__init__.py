@@ -4,11 +4,10 @@ compares them (:mod:`agents.benchmark`)."""
 
 import drill_env  # noqa: F401, I001  (first: sets OMP_WAIT_POLICY before torch loads OpenMP)
 from agents.base import Controller, SetPointController
-from agents.classical import SoftSpeed, SoftTorque, StiffPI, ZTorque
+from agents.classical import ConstantSetPoints, SoftSpeed, SoftTorque, StiffPI, ZTorque
 from agents.driller import Driller, DrillerRules
-from agents.policies import ConstantSetpoint, Policy, SB3Policy
 from agents.registry import CLASSICAL, CONTROLLERS, make_controller, parse_controllers
 
-__all__ = ["CLASSICAL", "CONTROLLERS", "ConstantSetpoint", "Controller", "Driller",
-           "DrillerRules", "Policy", "SB3Policy", "SetPointController", "SoftSpeed",
-           "SoftTorque", "StiffPI", "ZTorque", "make_controller", "parse_controllers"]
+__all__ = ["CLASSICAL", "CONTROLLERS", "ConstantSetPoints", "Controller", "Driller",
+           "DrillerRules", "SetPointController", "SoftSpeed", "SoftTorque", "StiffPI",
+           "ZTorque", "make_controller", "parse_controllers"]

@@ -4,7 +4,7 @@ Every episode starts from the scenario's settled operating point at the driller'
 points (the scenario's rpm and WOB), with the bit speed kicked by up to
 ``start_kick`` from the seed, and runs ``duration`` simulated seconds; the metrics
 (:func:`drill_env.metrics.window_metrics`, the code of the env's reward) are taken over
-the part after ``warmup`` (stick-slip takes 5-20 s to grow from a settled start). Each
+the part after ``warmup`` (stick-slip takes ~25 s to grow from a settled start). Each
 controller acts in its own env (``Controller.env_id``) built from the same scenario,
 seed and targets, so all of them see the same string, rock and start.
 

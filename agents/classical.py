@@ -53,8 +53,9 @@ class SoftSpeed(_DriveLoop):
     top absorbs the waves coming up the string, ``I = (2 pi f_s)^2 J_td`` so the integral
     term cancels the top-drive inertia at the stick-slip frequency; k = 4
     (``TopDriveConfig.impedance_factor``: reflection (k-1)/(k+1) = 0.6 at f_s, but an
-    absorbing band wide enough for the modes the soft top creates; at k = 1-3 stick-slip
-    grew back within 1-4 minutes, docs/controllers.md). Drive rate."""
+    absorbing band wide enough for the modes the soft top creates; at k = 1.5-2.5 stick-slip
+    grew back within 1-3 minutes, at k = 3 at 150 kN, at k = 5-6 as the loop stiffens;
+    docs/controllers.md, "SoftSpeed's k"). Drive rate."""
 
     name = "soft-speed"
     top_drive = "soft_speed"

@@ -2,8 +2,9 @@
 
 The top layer: it parses arguments in the units people type (rpm, kN, seconds), checks
 them in those units, and calls the libraries below (``drill_env``, ``agents``,
-``training``), which work in SI. Every command prints a table and writes its outputs
-under ``--out`` (default ``logs/``).
+``training``), which work in SI. Every command but ``replay`` prints a table and writes
+its outputs under ``--out`` (default ``logs/``; ``benchmark`` ``logs/benchmark``,
+``train`` ``logs/runs``, ``evaluate`` the run's ``evaluation/``).
 """
 
 from __future__ import annotations

@@ -92,7 +92,7 @@ class EnvConfig:
     #: simulator (terminated, "mesh buckling" status). The cap is ``info[
     #: "weight_on_bit_limit"]``.
     limit_weight_on_bit_to_mesh: StrictBool = True
-    #: Reward weights (the terms are in the class docstring), chosen so that the terms
+    #: Reward weights (the terms are in DrillStringEnv's docstring), chosen so that the terms
     #: are of one order at typical operating points: drilling at ~30 m/h earns ~0.8 per
     #: step (ROP over ``rop_scale``), full stick-slip (SSI ~1.3) costs ~1.3, so drilling
     #: fast in stick-slip earns less than drilling smoothly; the bit on the wall all the

@@ -1,4 +1,5 @@
-"""Drilling-performance metrics: the ONE source of truth (docs/model.md, "Metrics").
+"""Drilling-performance metrics: the ONE source of truth (definitions below; docs/controllers.md
+lists them as the columns of benchmark.csv).
 
 The env's reward and ``info``, the benchmark tables and the rerun plots all use these
 definitions. They are pure NumPy, take signals in SI units (rad/s, N, N m, m, m/s)

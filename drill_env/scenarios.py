@@ -21,13 +21,23 @@ name                      what it is (parameters)
 ``paper_case4``           hard-soft-hard sandwich, asymmetric bit (continuous whirl)
 ``random``                randomised training distribution drawn from an RNG (rock
                           curves, layer depth/thickness/dip/azimuth, bit symmetric or
-                          asymmetric, string length, start operating point)
+                          asymmetric, string length, start operating point); takes
+                          ``string_length_range``, ``rpm_range``,
+                          ``weight_on_bit_range`` and ``episode_duration`` instead of
+                          the parameters below
+``j_shaped``              the default string and hard rock in a J-shaped well (kick-off
+                          500 m, 3 deg/30 m to 45 deg; :data:`drill_env.well.WELLS`)
+``s_shaped``              the same in an S-shaped well (to 30 deg, vertical again below
+                          1200 m)
+``lateral_60``            the same in a 60-degree well (kick-off 300 m, 4 deg/30 m)
 ========================  ==============================================================
 
-Every named scenario also takes ``surface_speed`` (rad/s) and ``weight_on_bit`` (N), the
-operating point the episode starts from, ``episode_duration`` (s) and ``string_length``
-(m, total measured length of pipe + BHA; the element COUNT is kept, so changing it changes
-the element length only and all envs keep equal array shapes).
+Every named scenario but ``random`` takes ``surface_speed`` (rad/s) and ``weight_on_bit``
+(N), the operating point the episode starts from, ``episode_duration`` (s) and
+``string_length`` (m, total measured length of pipe + BHA; the element COUNT is kept, so
+changing it changes the element length only and all envs keep equal array shapes); the
+paper cases take their own as well (``position``, ...): :func:`scenario_parameters`
+lists a scenario's.
 
 The rock presets :data:`HARD`, :data:`SOFT` and :data:`VERY_SOFT` live here and only here.
 """

@@ -7,16 +7,18 @@ import numpy as np
 import pytest
 
 import drill_env  # noqa: F401
-from agents import ConstantSetpoint
+from agents import ConstantSetPoints
 
 
-def test_constant_setpoint_drives_the_env_to_its_rpm():
+def test_constant_set_points_drive_the_env_to_its_rpm():
     env = gym.make("DrillString-v0", episode_duration=3.0)
-    policy = ConstantSetpoint(rpm=120.0, weight_on_bit=60e3)
+    policy = ConstantSetPoints(rpm=120.0, weight_on_bit=60e3)
     obs, info = env.reset(seed=0)
+    policy.reset(env.unwrapped)
     for _ in range(30):
         obs, _, terminated, truncated, info = env.step(policy.act(obs, info))
         assert not terminated
     assert info["surface_speed"] == pytest.approx(120 * 2 * np.pi / 60, rel=0.02)
-    with pytest.raises(ValueError, match="rpm"):
-        ConstantSetpoint(rpm=500.0, weight_on_bit=0.0)
+    assert info["weight_on_bit_setpoint"] == pytest.approx(60e3, rel=1e-6)
+    with pytest.raises(ValueError, match="500 rpm is outside the env's range"):
+        ConstantSetPoints(rpm=500.0, weight_on_bit=0.0).reset(env.unwrapped)

@@ -34,3 +34,21 @@ def test_every_page_with_python_examples_is_checked():
              if "```python" in p.read_text()}
     assert pages <= set(PAGES)
     assert len(_snippets()) >= 4
+
+
+def test_the_rock_table_of_the_model_page_is_the_scenarios_rocks():
+    """docs/model.md section 7 quotes the rock presets; a tuned preset must not leave the
+    page behind."""
+    from drill_env import scenarios
+
+    text = (ROOT / "docs/model.md").read_text().split("## 7. Rocks and scenarios")[1]
+    rows = {}
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if cells[0] in ("hard", "soft", "very_soft"):
+            rows[cells[0]] = [float(c) for c in cells[1:]]
+    fields = ("mu_min", "mu_max", "st1", "st2", "wall_stiffness", "wall_damping",
+              "depth_of_cut", "founder_wob_per_diameter")
+    for rock in (scenarios.HARD, scenarios.SOFT, scenarios.VERY_SOFT):
+        assert rows[rock.name] == pytest.approx([getattr(rock, f) for f in fields],
+                                                rel=1e-12), rock.name

@@ -294,8 +294,9 @@ class ContactConfig:
     #: 1e7 N/m is common in FE drill-string codes; the explicit contact step needs
     #: dt < 2 sqrt(m/k), which holds at dt = 1 ms for every node of the default mesh.
     stiffness: Positive = Field(default=1.0e7, le=1.0e10)
-    #: Penalty damping c of eq. (18). 3e4 N s/m is ~40 % of critical for a 1 m collar node
-    #: (m ~ 140 kg with mud, k = 1e7 N/m): a coefficient of restitution of ~0.25 for steel
+    #: Penalty damping c of eq. (18). 3e4 N s/m is ~35 % of critical for the lightest
+    #: contact node (1 m of collar with mud and added mass, 167 kg on the paper string,
+    #: k = 1e7 N/m: 37 %; docs/model.md): a restitution coefficient of ~0.3 for steel
     #: striking rock through a mud film (squeeze-film damping makes such impacts nearly
     #: plastic). With the earlier 5e3 (6 %, restitution 0.8) a symmetric bit thrown to the
     #: wall by a layer kept whirling backward in homogeneous rock forever; with this value

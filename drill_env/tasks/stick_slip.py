@@ -39,7 +39,8 @@ ENV_DEFAULTS: dict[str, Any] = {
     # target change, short enough for many episodes per training minute
     "episode_duration": 30.0,
     # the bit starts stuck: where stick-slip can live, the first cycle is full size, so
-    # the task is curing stick-slip, not only preventing its slow onset (design note)
+    # the task is curing stick-slip, not only preventing its slow onset (the design note,
+    # shared/design/stick-slip-task-prototype.md beside the repository)
     "startup": "stalled",
 }
 

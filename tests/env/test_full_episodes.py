@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import drill_env  # noqa: F401  (registers the ids)
-from agents.policies import ConstantSetpoint
+from agents import ConstantSetPoints
 
 N_EPISODES = 10
 SCALARS = ("bit_speed", "surface_speed", "torque_on_bit", "surface_torque", "weight_on_bit",
@@ -25,9 +25,10 @@ SCALARS = ("bit_speed", "surface_speed", "torque_on_bit", "surface_torque", "wei
 def run_episodes(policy_name: str) -> list[int]:
     env = gym.make("DrillString-v0")
     lengths = []
-    constant = ConstantSetpoint(60.0, 80e3)
+    constant = ConstantSetPoints(60.0, 80e3)
     for episode in range(N_EPISODES):
         obs, info = env.reset(seed=1000 + episode)
+        constant.reset(env.unwrapped)
         env.action_space.seed(1000 + episode)
         steps, done = 0, False
         while not done:

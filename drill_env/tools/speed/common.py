@@ -26,7 +26,7 @@ from drill_env.physics.units import RPM
 
 SECTIONS = ("core", "env", "scaling", "compile", "memory")
 
-#: Operating point of the core and env figures: the default case of the demo.
+#: Operating point of the core and env figures (docs/performance.md, "Core").
 SURFACE_SPEED = 60 * RPM
 WEIGHT_ON_BIT = 100e3
 #: Fidelity levels the simulator may offer, in the order they are reported.
