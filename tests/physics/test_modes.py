@@ -280,6 +280,23 @@ def test_torsional_damping_ratios_match_an_independent_damped_eigenproblem():
     np.testing.assert_allclose(modes.frequency, np.abs(poles) / (2.0 * math.pi), rtol=1e-3)
 
 
+def test_backward_whirl_excitations_are_rolling_without_slip():
+    """A body of radius r rolling without slip on the wall of a hole of radius R whirls
+    backward at r / (R - r) times its rotation (Jansen 1993): the realistic string's
+    largest BHA body is its 6 3/4 in MWD in the 8 3/4 in hole (3.375 / 1), the bit
+    rolls on its gauge clearance (0.106125 m / 0.005 m)."""
+    config = SimulationConfig(string=cp.realistic_string())
+    per_rev = dict(excitations(config))
+    assert per_rev["1x"] == 1.0
+    assert per_rev["6x (blades)"] == 6.0
+    assert per_rev["backward whirl (bit)"] == pytest.approx(0.106125 / 0.005, rel=1e-12)
+    body = [name for name in per_rev if name.startswith("backward whirl (")
+            and name != "backward whirl (bit)"]
+    assert body == ["backward whirl (MWD)"]
+    assert per_rev["backward whirl (MWD)"] == pytest.approx(3.375 / 1.0, rel=1e-12)
+    assert dict(excitations(config, "torsional")) == {"6x (blades)": 6.0}
+
+
 def test_critical_speeds_are_where_the_excitations_meet_the_modes():
     config = SimulationConfig(string=cp.realistic_string())
     lateral = lateral_modes(config, 100e3, n_modes=3)

@@ -165,6 +165,19 @@ def test_element_matrices_are_the_textbook_ones():
     kg = beam_geometric_stiffness(5.0, 3.0)
     assert np.allclose(kg, kg.T)
     assert np.allclose(kg @ [1, 0, 1, 0], 0.0)
+    # every entry against the printed matrices (Cook et al., Concepts and Applications
+    # of FEA, 4th ed., eqs. 2.3-5 and 18.3-6), dofs (w1, theta1, w2, theta2)
+    ei, le, n = 2.0, 3.0, 5.0
+    cook_k = ei / le**3 * np.array([[12, 6 * le, -12, 6 * le],
+                                    [6 * le, 4 * le**2, -6 * le, 2 * le**2],
+                                    [-12, -6 * le, 12, -6 * le],
+                                    [6 * le, 2 * le**2, -6 * le, 4 * le**2]])
+    cook_kg = n / (30 * le) * np.array([[36, 3 * le, -36, 3 * le],
+                                        [3 * le, 4 * le**2, -3 * le, -le**2],
+                                        [-36, -3 * le, 36, -3 * le],
+                                        [3 * le, -le**2, -3 * le, 4 * le**2]])
+    np.testing.assert_allclose(ke, cook_k, rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(kg, cook_kg, rtol=1e-14, atol=1e-15)
 
 
 def test_pinned_pinned_beam_frequencies_converge_to_euler_bernoulli():
