@@ -108,7 +108,10 @@ SOFT = RockConfig(name="soft", mu_min=0.3, mu_max=0.45, st1=5.0, st2=0.005,
                   wall_stiffness=5.0e6, wall_damping=1.0e3, depth_of_cut=8.0e-8,
                   founder_wob_per_diameter=5.0e5, post_founder_slope=0.5)
 #: Very soft rock: low, rising curve, very soft wall, fast drilling.
-#: Rising at every speed above 0.5 rpm: never unstable.
+#: It falls by 0.002 up to 17 rpm (1.8 rad/s: slope st2 - (mu_max - mu_min) / st1 e^(-w /
+#: st1)), then rises; the falling part's negative damping is below the string's, so
+#: steady rotation is stable at every speed (linear stability of the default string at
+#: 100 and 200 kN).
 #:
 #: Founder points (Dupriest & Koederitz 2005: the WOB beyond which the depth of cut stops
 #: responding, from bit balling or vibrations; field founder points of PDC bits lie at

@@ -57,13 +57,14 @@ def wall_friction_coefficient(v, mu_static, mu_kinetic, decay):
 @njit(cache=True, inline="always")
 def _limits(p, nodes, m, k, bit, t_slip, t_static):
     """(static, slip) torque limits of node ``k``; the bit's come from the bit model.
-    The slip torque is capped at the static one: a node that slips with more torque than
-    would hold it reverses at once and sticks, and held it needs more than its limit, so
-    the set would cycle (possible with ``friction_kinetic > friction_static`` or a rock
-    whose resistance grows with speed beyond ``mu_max``). No static limit: no friction."""
+    A wall node's slip torque is capped at its static one (``friction_kinetic >
+    friction_static`` would exceed it): see :func:`soft_string_torsion` for why a node
+    released from holding must not slip harder than it held. The bit keeps the rock's
+    slip torque, as in the straight hole's solve (eq. 39's rising branch past ``mu_max``
+    at speed); the solve caps it only if the bit is released from holding. No static
+    limit: no friction."""
     if k == bit:
-        static = max(t_static, 0.0)
-        return static, min(t_slip, static)
+        return max(t_static, 0.0), t_slip
     lever = nodes.soft_normal[k]  # r F_n (N m per unit friction coefficient)
     if lever <= 0.0:
         return 0.0, 0.0
@@ -185,6 +186,10 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
                 holding = (_band_times(band, v, i) - base[i]) / h
                 if abs(holding) > static:
                     stick[i] = -1.0 if holding > 0.0 else 1.0
+                    # released at rest, it slips with at most the torque that held it:
+                    # slipping harder, it would reverse at once and be held again, and
+                    # the set would cycle (a rock whose resistance rises past mu_max)
+                    slip_limit[i] = min(slip_limit[i], static)
                     changed = True
             elif v[i] * stick[i] < 0.0:
                 stick[i] = STUCK
