@@ -99,9 +99,11 @@ class Driller(SetPointController):
         plan_speed, plan_wob = self._plan
         if swing > r.torque_swing:
             self._calm = 0
-            if self._speed < plan_speed + r.max_rpm_raise * RPM - 1e-9:
-                self._speed = min(self._speed + r.rpm_step * RPM,
-                                  plan_speed + r.max_rpm_raise * RPM)
+            # no higher than the env drills: past its range the raise would be clipped,
+            # and decisions spent "raising" it would not take weight off
+            top = min(plan_speed + r.max_rpm_raise * RPM, self._env.config.rpm_range[1] * RPM)
+            if self._speed < top - 1e-9:
+                self._speed = min(self._speed + r.rpm_step * RPM, top)
             elif self._wob > r.min_weight_fraction * plan_wob + 1e-9:
                 self._wob = max(self._wob - r.weight_on_bit_step,
                                 r.min_weight_fraction * plan_wob)

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from drill_env.metrics import STUCK_SPEED, whirling
+from drill_env.metrics import STUCK_SPEED, whirl_sign, whirling
 from drill_env.physics.units import RPM
 
 Event = tuple[float, str, str]
@@ -90,7 +90,7 @@ class WhirlDetector:
         ws = np.asarray(whirl_speed, dtype=np.float64)
         w = np.asarray(bit_speed, dtype=np.float64)
         cond = whirling(radial, ws, w)
-        sign = np.sign(ws * np.where(np.isfinite(w), w, 1.0))
+        sign = whirl_sign(ws, w)  # the metrics' rule: a stuck bit counts as turning forward
         for i in range(len(t)):
             if bool(cond[i]) == self._on:
                 self._since = None

@@ -115,13 +115,19 @@ def whirling(radial, whirl_speed, bit_speed) -> np.ndarray:
     return (radial > WHIRL_RADIAL_RATIO) & (np.abs(ws) > WHIRL_SPEED_RATIO * floor)
 
 
-def backward_whirling(radial, whirl_speed, bit_speed) -> np.ndarray:
-    """Samples that whirl (:func:`whirling`) against the rotation: the whirl speed has the
-    opposite sign of the bit speed (a stuck bit, speed 0, counts its whirl as backward
-    if it orbits against the positive drilling direction)."""
+def whirl_sign(whirl_speed, bit_speed) -> np.ndarray:
+    """Per sample: +1 where the whirl goes with the rotation, -1 against it, 0 without
+    whirl speed. A stuck bit (speed 0; NaN reads as 0) counts as turning the positive,
+    drilling way: its whirl against that is backward."""
     w = np.nan_to_num(np.asarray(bit_speed, dtype=float))
     ws = np.nan_to_num(np.asarray(whirl_speed, dtype=float))
-    return whirling(radial, whirl_speed, bit_speed) & (ws * np.where(w != 0.0, w, 1.0) < 0.0)
+    return np.sign(ws * np.where(w != 0.0, np.sign(w), 1.0))
+
+
+def backward_whirling(radial, whirl_speed, bit_speed) -> np.ndarray:
+    """Samples that whirl (:func:`whirling`) against the rotation (:func:`whirl_sign`)."""
+    return whirling(radial, whirl_speed, bit_speed) & (whirl_sign(whirl_speed, bit_speed)
+                                                         < 0.0)
 
 
 def whirl_direction(whirl_speed, bit_speed, radial) -> str:

@@ -198,9 +198,13 @@ def point_sticks(config, rpm: float, weight_on_bit: float, settings: MapSettings
     sim.vt[-1] *= 1.0 - settings.kick  # steady rotation is an equilibrium; the kick tests it
     depth = sim.depth
     hook = sim.hook_load_for(weight_on_bit)
-    chunk = max(settings.record_every,
-                round(settings.hold / sim.dt) // settings.record_every * settings.record_every)
-    steps = round(settings.seconds / sim.dt)
+    every = settings.record_every
+    if settings.measure < every * sim.dt:
+        raise ValueError(f"measure: {settings.measure:g} s holds no sample: one is recorded "
+                         f"every record_every x dt = {every} x {sim.dt:g} s")
+    chunk = max(every, round(settings.hold / sim.dt) // every * every)
+    # whole records only: a last partial chunk would run steps that no sample judges
+    steps = -(-round(settings.seconds / sim.dt) // every) * every
     records = []
     done = 0
     while done < steps and not sim.status:
@@ -304,6 +308,12 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
     configs = {p: (configs or {}).get(p) or map_config(p) for p in positions}
     if not (len(rpm) and len(wob)):
         raise ValueError("grid_points: the map needs at least one speed and one WOB")
+    for axis, values in (("speeds (rpm)", rpm), ("WOBs (N)", wob)):
+        # the boundary tracking walks each axis upward from the lowest line
+        if values.ndim != 1 or not (np.all(np.isfinite(values)) and np.all(values > 0.0)
+                                    and np.all(np.diff(values) > 0.0)):
+            raise ValueError(f"grid_points: the {axis} must be finite, above 0 and strictly "
+                             f"increasing, got {values.tolist()}")
     for config in configs.values():
         check_map_corner(config, float(np.max(rpm)), float(np.max(wob)))
     prints = {p: fingerprint(configs[p], settings) for p in positions}

@@ -196,6 +196,7 @@ class FakeEnv:
 
     class config:  # noqa: N801 - mimics EnvConfig's attribute
         control_interval = 0.1
+        rpm_range = (0.0, 200.0)
 
     def __init__(self, rpm: float, wob: float) -> None:
         self.targets = (rpm * RPM, wob)
@@ -230,6 +231,22 @@ def test_driller_raises_rpm_then_lowers_wob_on_stick_slip_and_steps_back_when_ca
     assert actions[-1, 1] == pytest.approx(
         max(100e3 - lowered * rules.weight_on_bit_step, 50e3) + rules.weight_on_bit_step)
     assert actions[-1, 0] == pytest.approx((50.0 + rules.max_rpm_raise) * RPM)
+
+
+def test_driller_raises_the_speed_no_higher_than_the_env_drills():
+    """A plan of 170 rpm in a 0-200 rpm env: three raises reach the top of the range,
+    and the next decisions take weight off instead of asking for clipped speeds."""
+    rules = DrillerRules()
+    driller = Driller(rules)
+    driller.reset(FakeEnv(170.0, 100e3))
+    t = np.arange(0, 30.0, 0.1)  # six decisions
+    swinging = 10e3 * (1.0 + 0.5 * np.sin(2 * np.pi * 0.5 * t))
+    actions = run_driller(driller, swinging)
+    raises = math.ceil((200.0 - 170.0) / rules.rpm_step)
+    assert raises < round(rules.max_rpm_raise / rules.rpm_step)  # the range binds first
+    assert actions[:, 0].max() == pytest.approx(200.0 * RPM)
+    assert actions[-1, 1] == pytest.approx(
+        100e3 - (len(t) // 50 - raises) * rules.weight_on_bit_step)
 
 
 def test_driller_keeps_the_plan_while_drilling_is_smooth():

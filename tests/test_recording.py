@@ -246,6 +246,17 @@ def test_event_detection() -> None:
     ev = whirl_events(t, x, y, np.full_like(t, -40.0), np.full_like(t, 5.0), clearance)
     assert [e[2].split(":")[0] for e in ev] == ["whirl onset (backward)", "whirl ended"]
     assert abs(ev[0][0] - 5.1) < 1e-9
+    # a stuck bit's whirl has the direction the metrics give it (it counts as turning
+    # forward), whichever way it orbits
+    from drill_env.metrics import backward_whirling, whirl_direction
+
+    stuck = np.zeros_like(t)
+    for whirl, name in ((40.0, "forward"), (-40.0, "backward")):
+        ws = np.full_like(t, whirl)
+        ev = whirl_events(t, x, y, ws, stuck, clearance)
+        assert ev[0][2].startswith(f"whirl onset ({name})")
+        assert whirl_direction(ws, stuck, r / clearance) == name
+        assert backward_whirling(r / clearance, ws, stuck).any() == (name == "backward")
 
     shares = np.zeros((len(t), 2))
     shares[:, 0] = np.clip(1.0 - (t - 8.0) / 4.0, 0.0, 1.0)
@@ -351,6 +362,62 @@ def test_an_unwritable_directory_fails_at_once_in_one_line(tmp_path: Path) -> No
         RecordEpisode(_make_env(0.2), blocker / "sub")
 
 
+def test_a_write_that_fails_mid_episode_warns_and_the_run_goes_on(tmp_path: Path,
+                                                                   monkeypatch) -> None:
+    """docs/recording.md: a failed write warns, drops that episode's recording (no
+    half file, no open stream) and the run goes on; the next episode records again."""
+    from drill_env.recording.writer import RerunWriter
+
+    env = RecordEpisode(_make_env(0.5), tmp_path, flush_every=2)
+    real = RerunWriter.orbit
+
+    def broken(self, *args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(RerunWriter, "orbit", broken)
+    with pytest.warns(RuntimeWarning, match="episode 0 not recorded: RuntimeError"):
+        infos, _, _ = _run_episode(env, seed=1)
+    assert len(infos) == 6  # all five steps ran
+    assert not env.recorder.active and env.recorder._stream is None
+    assert env.paths == [] and list(tmp_path.glob("*.rrd")) == []
+    monkeypatch.setattr(RerunWriter, "orbit", real)
+    _run_episode(env, seed=2)
+    env.close()
+    assert [p.name.split("_ep")[1][:4] for p in env.paths] == ["0001"]
+    assert len(read_recording(env.paths[0]).scalars["/timeseries/speed_rpm/bit"][0]) == 6
+
+
+def test_the_rock_under_the_blades_is_written_when_it_changes_not_every_chunk(
+        tmp_path: Path) -> None:
+    """Homogeneous rock: one text for the episode, however many chunks it is flushed in
+    (each chunk once repeated it)."""
+    from rerun.chunk import RrdReader
+
+    env = RecordEpisode(_make_env(1.0, scenario="default"), tmp_path, flush_every=2)
+    _run_episode(env, seed=0)
+    env.close()
+    reader = RrdReader(str(env.last_path))
+    texts = [cell for chunk in reader.stream(store=reader.recordings()[0])
+             if chunk.entity_path == "/bit/blade_rocks"
+             for cell in chunk.to_record_batch().column("TextDocument:text").to_pylist()]
+    assert len(texts) == 1 and "hard 100%" in texts[0][0]
+
+
+def test_a_file_that_cannot_be_created_leaves_no_episode_open(tmp_path: Path) -> None:
+    """The recording's own path taken by a folder: begin says which file, in one line,
+    and nothing stays active; through the wrapper the run goes on unrecorded."""
+    (tmp_path / "taken.rrd").mkdir()
+    recorder = EpisodeRecorder(tmp_path)
+    with pytest.raises(OSError, match=r"taken\.rrd: cannot write the recording"):
+        recorder.begin(scenario="x", stem="taken")
+    assert not recorder.active and recorder._stream is None
+    env = RecordEpisode(_make_env(0.3), tmp_path, stem="taken")
+    with pytest.warns(RuntimeWarning, match="episode 0 not recorded: OSError"):
+        _run_episode(env, seed=0)
+    env.close()
+    assert env.paths == [] and (tmp_path / "taken.rrd").is_dir()
+
+
 _FAKE_VIEWER = """#!/bin/sh
 sleep 600 &
 echo $! > "$VIEWER_CHILD"
@@ -386,6 +453,32 @@ def test_stopping_replay_stops_the_viewer_and_its_children(tmp_path: Path) -> No
     while _alive(pid) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not _alive(pid)
+
+
+def test_replay_runs_from_a_thread_that_is_not_the_main_one(tmp_path: Path,
+                                                             monkeypatch) -> None:
+    """A notebook's or a GUI's worker thread cannot set signal handlers: replay waits
+    for the viewer there too (it once started the viewer, then raised and left it)."""
+    import threading
+
+    viewer = tmp_path / "viewer.sh"
+    viewer.write_text("#!/bin/sh\nexit 3\n")
+    viewer.chmod(0o755)
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"")
+    monkeypatch.setenv("DRILL_ENV_RERUN", str(viewer))
+    out: list = []
+
+    def worker() -> None:
+        try:
+            out.append(replay(recording))
+        except Exception as exc:  # noqa: BLE001 - reported below
+            out.append(exc)
+
+    thread = threading.Thread(target=worker)
+    thread.start()
+    thread.join(60)
+    assert out == [3]
 
 
 def _alive(pid: int) -> bool:

@@ -95,6 +95,17 @@ def test_grid_and_settings_name_bad_values():
         MapSettings(kick=1.5)
     with pytest.raises(ValueError, match="grid"):
         track_boundary(lambda i, j: True, 0, 3)
+    # the boundary tracking walks each axis upward: anything else would map wrongly
+    for rpm_axis, wob_axis in (([80.0, 40.0], [50e3]), ([40.0, 40.0], [50e3]),
+                               ([0.0, 40.0], [50e3]), ([40.0], [50e3, float("nan")])):
+        with pytest.raises(ValueError, match="grid_points: the .* strictly increasing"):
+            stability_maps(["P1"], grid_points=(rpm_axis, wob_axis), workers=1)
+    # a window shorter than one record holds no sample: named, not an empty-signal error
+    from drill_env.stability_map import point_sticks
+
+    with pytest.raises(ValueError, match="measure: 0.001 s holds no sample"):
+        point_sticks(sm.map_config("P1"), 60.0, 50e3,
+                     MapSettings(seconds=0.1, measure=0.001, record_every=50))
 
 
 # ----------------------------------------------------------------- the physics

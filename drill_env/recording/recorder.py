@@ -13,6 +13,7 @@ process, in subprocess workers and with several envs side by side.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
@@ -217,7 +218,7 @@ class EpisodeRecorder:
         ``stem`` the file's name without ``.rrd`` (:meth:`file_name`); ``controller`` the
         name of what drove the episode (kept with the scenario and leading the file's
         name). The file is opened now: ``OSError`` (one line) if its folder is not
-        writable.
+        writable or the file cannot be created; then no episode is active.
         """
         if self.active:
             self.finish(note="a new episode began")
@@ -249,13 +250,27 @@ class EpisodeRecorder:
         self.path = self.directory / self.file_name()
         stream = rr.RecordingStream(self.application_id, recording_id=self.recording_id)
         self._stream = stream
+        self._writer = None
         self.active = True
         if not rr.is_enabled(stream):  # RERUN=off: record nothing
-            self._writer = None
             return self.recording_id
+        try:
+            self._open(stream, geometry, config, env_settings, info)
+        except BaseException:
+            self.discard()  # the stream closed, a started file removed, nothing active
+            raise
+        return self.recording_id
+
+    def _open(self, stream: Any, geometry: Any, config: Any,
+              env_settings: Mapping[str, Any] | None,
+              info: Mapping[str, Any] | None) -> None:
+        """:meth:`begin`'s writing: the file, the episode's header and first sample."""
         stream.set_log_time_enabled(False)
-        stream.save(self.path, default_blueprint=blueprint(
-            geometry, geometry.exaggeration(self.exaggeration)))
+        try:
+            stream.save(self.path, default_blueprint=blueprint(
+                geometry, geometry.exaggeration(self.exaggeration)))
+        except RuntimeError as err:  # rerun's "Failed to create file: ..."
+            raise OSError(f"{self.path}: cannot write the recording: {err}") from None
         stream.send_recording_name(
             f"{self._driven}{self.scenario} seed {self.seed} episode {self.episode_index}")
         k = geometry.exaggeration(self.exaggeration)
@@ -270,7 +285,6 @@ class EpisodeRecorder:
         if info is not None:
             self.record(info)
         stream.flush()
-        return self.recording_id
 
     def file_name(self) -> str:
         """``<stem>.rrd`` when :meth:`begin` was given a stem (a name the caller keeps
@@ -466,6 +480,10 @@ class EpisodeRecorder:
             writer.configuration(self._config_tree, self._settings, self._summary(state))
             stream.flush()
             stream.disconnect()
+        except BaseException:
+            with contextlib.suppress(Exception):  # the stream closed even so
+                stream.disconnect()
+            raise
         finally:
             self._stream = self._writer = None
             self._chunk = _Chunk()
@@ -479,7 +497,8 @@ class EpisodeRecorder:
             return
         self.active = False
         if self._stream is not None:
-            self._stream.disconnect()
+            with contextlib.suppress(Exception):  # a failed stream: its file goes below
+                self._stream.disconnect()
         if self.path is not None and self._writer is not None:
             self.path.unlink(missing_ok=True)
         self._stream = self._writer = None
@@ -498,7 +517,7 @@ class EpisodeRecorder:
             "scenario": self.scenario, "controller": self.controller or "",
             "seed": -1 if self.seed is None else self.seed,
             "episode_index": self.episode_index, "recording_id": self.recording_id,
-            "steps": self._flushed, "start_time_s": self._start_time,
+            "samples": self._flushed, "start_time_s": self._start_time,
             "end_time_s": self._last_time, "state": state,
             "string_exaggeration": self._writer.exaggeration if self._writer else math.nan,
             "string_period_s": self.string_period,

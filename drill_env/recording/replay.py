@@ -7,6 +7,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -68,13 +69,17 @@ def replay(path: str | os.PathLike, web: bool = False, *, web_viewer_port: int |
     def terminate(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, terminate)
+    # only the main thread may set a handler: elsewhere SIGTERM is the main thread's,
+    # and the viewer is stopped below whatever ends the wait
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, terminate) if main else None
     try:
         return proc.wait()
     except KeyboardInterrupt:
         return stop_viewer(proc)
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        if main:
+            signal.signal(signal.SIGTERM, previous)
         if proc.poll() is None:
             stop_viewer(proc)
 

@@ -101,11 +101,17 @@ class RecordEpisode(gymnasium.Wrapper):
             try:
                 path = self.recorder.finish(reason, truncated=truncated, note=note)
             except Exception as exc:  # noqa: BLE001 - recording must not stop a run
-                warnings.warn(f"RecordEpisode: episode {self.episode_index} not recorded: "
-                              f"{exc!r}", RuntimeWarning, stacklevel=3)
+                self._not_recorded(exc)
                 return
             if path is not None:
                 self.paths.append(path)
+
+    def _not_recorded(self, exc: Exception) -> None:
+        """A write failed (opening the file, a chunk, the end): warn, drop this
+        episode's recording, let the run go on."""
+        warnings.warn(f"RecordEpisode: episode {self.episode_index} not recorded: {exc!r}",
+                      RuntimeWarning, stacklevel=4)
+        self.recorder.discard()
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         self._flush(None, truncated=False, note="reset before the episode ended")
@@ -118,17 +124,24 @@ class RecordEpisode(gymnasium.Wrapper):
             config = getattr(base, "simulation_config", None) or getattr(sim, "config", None)
             stem = self._stem if self._stem is None or self.episode_index == 0 else \
                 f"{self._stem}_ep{self.episode_index:04d}"
-            self.recorder.begin(sim=sim, config=config, scenario=self._scenario_name(),
-                                seed=seed, episode_index=self.episode_index,
-                                env_settings=self._env_settings(), info=info, stem=stem,
-                                controller=self._controller)
+            try:
+                self.recorder.begin(sim=sim, config=config, scenario=self._scenario_name(),
+                                    seed=seed, episode_index=self.episode_index,
+                                    env_settings=self._env_settings(), info=info,
+                                    stem=stem, controller=self._controller)
+            except Exception as exc:  # noqa: BLE001 - recording must not stop a run
+                self._not_recorded(exc)
         return obs, info
 
     def step(self, action):
         obs, reward, terminated, truncated, info = self.env.step(action)
         self._steps += 1
         if self.recorder.active:
-            self.recorder.record(info, action=action, reward=reward)
+            try:
+                self.recorder.record(info, action=action, reward=reward)
+            except Exception as exc:  # noqa: BLE001 - recording must not stop a run
+                self._not_recorded(exc)
+                return obs, reward, terminated, truncated, info
             if terminated or truncated:
                 reason = info.get("termination_reason") if terminated else None
                 self._flush(str(reason) if reason else ("terminated" if terminated else None),

@@ -178,6 +178,7 @@ class RerunWriter:
         self.stream = stream
         self.geometry = geometry
         self.exaggeration = exaggeration
+        self._blade_rocks: np.ndarray | None = None  # the last text's shares (its chunk)
 
     def _send(self, entity: str, times: np.ndarray, columns: Any) -> None:
         self.stream.send_columns(entity, indexes=[self.rr.TimeColumn(TIMELINE, duration=times)],
@@ -409,6 +410,11 @@ class RerunWriter:
         pct = np.round(10.0 * per / np.where(total > 0, total, 1.0)).astype(int) * 10
         change = np.ones(len(t), dtype=bool)
         change[1:] = np.any(pct[1:] != pct[:-1], axis=(1, 2))
+        if self._blade_rocks is not None:  # the last chunk's text still holds
+            change[0] = bool(np.any(pct[0] != self._blade_rocks))
+        self._blade_rocks = pct[-1].copy()
+        if not change.any():
+            return
         texts = []
         for j in np.flatnonzero(change).tolist():
             lines = [f"- blade {b}: " + ", ".join(
