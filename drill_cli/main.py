@@ -655,16 +655,24 @@ def checked_overrides(path: Path | None, scenarios: Sequence[str]) -> dict[str, 
 
 
 def cmd_modes(args: argparse.Namespace) -> int:
-    from drill_env.physics import modes as md
-    from drill_env.scenarios import make_scenario
+    import numpy as np
 
-    scenario = make_scenario(args.scenario)
+    from drill_env.physics import modes as md
+    from drill_env.scenarios import RANDOMISED, make_scenario
+
+    if args.seed is not None and args.scenario not in RANDOMISED:
+        raise argparse.ArgumentTypeError(f"--seed: draws a randomised scenario "
+                                         f"({', '.join(sorted(RANDOMISED))}); "
+                                         f"{args.scenario} is fixed")
+    # a randomised scenario's string is drawn as an env's reset with this seed draws it
+    scenario = make_scenario(args.scenario, rng=np.random.default_rng(args.seed or 0)) \
+        if args.scenario in RANDOMISED else make_scenario(args.scenario)
     config = with_overrides(scenario.config, args.config)
     wob = args.wob * KILO if args.wob is not None else scenario.weight_on_bit
     try:
         md.require_vertical(config)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(f"--scenario: {args.scenario}: {err}") from None
+    except ValueError as err:  # the scenarios offered are vertical: the file set the well
+        raise argparse.ArgumentTypeError(f"--config {args.config}: {err}") from None
     torsional = md.torsional_modes(config, args.top, args.n)
     try:
         lateral = md.lateral_modes(config, wob, n_modes=args.n)
@@ -678,6 +686,13 @@ def cmd_modes(args: argparse.Namespace) -> int:
     print(f"{source}: {scenario.description}; string {config.string.length:.0f} m, "
           f"WOB {wob / KILO:.0f} kN, neutral point "
           f"{md.neutral_point_height(config, wob):.0f} m above the bit")
+    from drill_env.physics.statics import pipe_buckling
+
+    for b in pipe_buckling(config, wob):  # what drill-env run refuses to drill
+        print(f"note: at {wob / KILO:.0f} kN the {b.component} is compressed by "
+              f"{b.compression / KILO:.1f} kN, beyond its buckling load "
+              f"{b.buckling_load / KILO:.1f} kN: it would buckle, and drill-env run refuses "
+              "this WOB; the modes below are of the straight string")
     print(f"\n{'component (bit up)':<22} {'length':>7} {'air':>8} {'in mud':>8} "
           f"{'N bottom':>9} {'N top':>9}   (m, kN; tension > 0)")
     for load in md.component_loads(config, wob):
@@ -716,24 +731,42 @@ def cmd_modes(args: argparse.Namespace) -> int:
 
 
 def cmd_well(args: argparse.Namespace) -> int:
+    from drill_env.physics.config import MAX_STRING_LENGTH
     from drill_env.physics.trajectory import Survey, Trajectory
     from drill_env.scenarios import make_scenario
-    from drill_env.well import WELLS, write_well
+    from drill_env.well import CHART_STEP, WELLS, write_well
 
+    config = with_overrides(make_scenario(args.scenario).config, args.config)
+    if args.survey is not None and args.well is not None:
+        raise argparse.ArgumentTypeError("--well: give a preset well or --survey, not both")
+    if args.total_md is not None and args.well is None:
+        raise argparse.ArgumentTypeError("--total-md: sets the length of a preset --well; "
+                                         "a --survey's, the scenario's or --config's well "
+                                         "has its own")
     if args.survey is not None:
-        if args.well is not None:
-            raise argparse.ArgumentTypeError("--well: give a preset well or --survey, not "
-                                             "both")
-        survey = Survey.from_csv(args.survey)
-        name = args.survey.stem
-    else:
+        survey, name, source = Survey.from_csv(args.survey), args.survey.stem, "--survey"
+    elif args.well is not None or config.well.vertical:
         name = args.well or "j_shaped"
-        from drill_env.physics.config import MAX_STRING_LENGTH
-
-        if args.total_md > MAX_STRING_LENGTH:  # the longest string a config takes
+        total_md = args.total_md if args.total_md is not None else DEFAULT_WELL_MD
+        if total_md > MAX_STRING_LENGTH:  # the longest string a config takes
             raise argparse.ArgumentTypeError(f"--total-md: must be <= {MAX_STRING_LENGTH:g} m, "
-                                             f"got {args.total_md:g}")
-        survey = WELLS[name](args.total_md)
+                                             f"got {total_md:g}")
+        survey, source = WELLS[name](total_md), "--total-md"
+    else:  # the scenario's hole, or the one --config gives (its well section)
+        well = config.well
+        survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
+        given = args.config is not None and any(
+            key == "well" or key.startswith("well.") for key in read_overrides(args.config))
+        name, source = ((args.config.stem, f"--config {args.config}") if given
+                        else (args.scenario, f"--scenario {args.scenario}"))
+    trajectory = Trajectory(survey)
+    bha = sum(section.length for section in config.string.lower)
+    shortest = max(bha, CHART_STEP)
+    if trajectory.total_md <= shortest:
+        raise argparse.ArgumentTypeError(
+            f"{source}: the well is {trajectory.total_md:g} m long; the chart needs more than "
+            f"{shortest:g} m (the string's BHA is {bha:g} m, the chart's depth step "
+            f"{CHART_STEP:g} m)")
     try:
         frictions = [float(v) for v in args.friction.split(",") if v.strip()]
     except ValueError:
@@ -792,7 +825,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 def parser() -> argparse.ArgumentParser:
     from drill_env import __version__
-    from drill_env.scenarios import SCENARIOS
+    from drill_env.scenarios import DEVIATED, SCENARIOS
 
     top = argparse.ArgumentParser(prog="drill-env", description=DESCRIPTION,
                                   formatter_class=_Formatter)
@@ -951,8 +984,13 @@ def parser() -> argparse.ArgumentParser:
 
     p = add("modes", "natural frequencies, damping and the critical-speed chart of a "
                      "scenario's string", cmd_modes)
-    p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
-                   help="the scenario whose string to analyse")
+    p.add_argument("--scenario", default="default",
+                   choices=sorted(set(SCENARIOS) - set(DEVIATED)),
+                   help="the scenario whose string to analyse (vertical holes: a deviated "
+                        "well's static loads are drill-env well's)")
+    p.add_argument("--seed", type=integer(0), default=None,
+                   help="the random scenario's draw (default 0; the string an env's "
+                        "reset(seed=SEED) drills)")
     p.add_argument("--wob", type=number("kN"), default=None,
                    help="weight on bit in kN (default: the scenario's)")
     p.add_argument("--config", type=existing_file, default=None,
@@ -971,12 +1009,13 @@ def parser() -> argparse.ArgumentParser:
             cmd_well)
     p.add_argument("--well", default=None,
                    choices=("vertical", "j_shaped", "s_shaped", "lateral_60"),
-                   help="preset well shape (drill_env/well.py; default j_shaped)")
+                   help="preset well shape (drill_env/well.py); default: the scenario's or "
+                        "--config's well, else j_shaped")
     p.add_argument("--survey", type=existing_file, default=None,
                    help="survey CSV with columns md (m), inclination, azimuth (deg); "
                         "instead of --well")
-    p.add_argument("--total-md", type=number("m", low_inclusive=False), default=3000.0,
-                   help="measured depth of the preset well")
+    p.add_argument("--total-md", type=number("m", low_inclusive=False), default=None,
+                   help=f"measured depth of the preset well (default {DEFAULT_WELL_MD:g} m)")
     p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
                    help="whose string (its BHA and pipe; drill pipe added to reach TD)")
     p.add_argument("--config", type=existing_file, default=None,
@@ -1008,6 +1047,9 @@ def add_ray_address(p: argparse.ArgumentParser, what: str) -> None:
 
 #: ``run --record`` without a folder: the run's ``--out``/recordings, as ``benchmark``.
 RECORD_UNDER_OUT = Path("<out>/recordings")
+
+#: ``well --well <preset>`` without ``--total-md`` (m).
+DEFAULT_WELL_MD = 3000.0
 
 #: Library fields whose errors reach the command line under another option's name (the
 #: rest: ``max_wob`` -> ``--max-wob``, :func:`option_of`).

@@ -82,7 +82,9 @@ class RayExecutor:
             os.environ.setdefault("RAY_BACKEND_LOG_LEVEL", "error")
             runtime_env = {"env_vars": dict(WORKER_ENV)}
             if ray_address == "local":
-                ray.init(num_cpus=os.cpu_count() or 1, include_dashboard=False,
+                # address="local": a new private instance even where a cluster runs (without
+                # it Ray joins that cluster and refuses num_cpus)
+                ray.init(address="local", num_cpus=os.cpu_count() or 1, include_dashboard=False,
                          runtime_env=runtime_env, log_to_driver=False,
                          configure_logging=False)
             else:

@@ -239,10 +239,17 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any]) -> Simu
     the bit depth and the layer interfaces move by the same amount, as ``string_length=``
     would have placed them, and a longer string's survey is extended by it (its last
     station: the preset wells end in a hold), unless the overrides set ``initial_depth``,
-    the interfaces or the well.
+    the interfaces or the well. Components (``string.components``) replace the scenario's
+    one-section BHA and its stabilizers unless the overrides set those as well.
     """
     if not overrides:
         return config
+    if overrides.get("string.components"):
+        # components replace the scenario's one-section BHA and the stabilizers placed on
+        # it (the crossing cases' 120 m of collars): they would clash with the components
+        blank = StringConfig()
+        overrides = {"string.bha": blank.bha, "string.stabilizers": blank.stabilizers,
+                     **overrides}
     given = tuple(overrides)
     sets_well = any(key == "well" or key.startswith("well.") for key in given)
     # the new string's length, before the survey (which may now be short) is checked
@@ -385,6 +392,8 @@ def _deviated_scenario(name: str, description: str) -> Callable[..., Scenario]:
 j_shaped = _deviated_scenario("j_shaped", "J-shaped well (kick-off 500 m, 3 deg/30 m to 45 deg)")
 s_shaped = _deviated_scenario("s_shaped", "S-shaped well (to 30 deg, vertical again below 1200 m)")
 lateral_60 = _deviated_scenario("lateral_60", "60-degree well (kick-off 300 m, 4 deg/30 m)")
+#: The scenarios drilled in a deviated hole (the rest are vertical).
+DEVIATED = ("j_shaped", "s_shaped", "lateral_60")
 
 
 def _torsional_sandwich_case(name: str, bit: BitConfig, middle: RockConfig, position: str,

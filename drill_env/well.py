@@ -103,8 +103,12 @@ def column_for(config: SimulationConfig, bit_md: float) -> StringColumn:
     return StringColumn(length.copy(), weight.copy(), radius.copy())
 
 
+#: Bit-depth step of the torque-and-drag chart (m).
+CHART_STEP = 100.0
+
+
 def torque_drag_table(trajectory: Trajectory, config: SimulationConfig,
-                      frictions: Sequence[float] = FRICTIONS, step: float = 100.0
+                      frictions: Sequence[float] = FRICTIONS, step: float = CHART_STEP
                       ) -> dict[str, object]:
     """Hook load (N) per mode and rotating off-bottom surface torque (N m) against bit
     depth, per friction factor."""

@@ -255,6 +255,54 @@ def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
     assert (tmp_path / "modes_critical_speeds.png").stat().st_size > 10_000
 
 
+def test_the_example_component_string_fits_every_scenario():
+    """The README's example file over any scenario: its components replace the
+    scenario's BHA, also the crossing cases' 120 m of collars and their stabilizers
+    (refused as 'bha and components, not both' before)."""
+    from pathlib import Path
+
+    from drill_cli.main import read_overrides
+    from drill_env.physics.config import StringConfig
+    from drill_env.scenarios import SCENARIOS, make_scenario, with_physics
+
+    path = Path(__file__).parents[1] / "examples/field_well_string.yaml"
+    overrides = read_overrides(path)
+    for name in SCENARIOS:
+        config = with_physics(make_scenario(name).config, overrides)
+        assert [c.name for c in config.string.components] == [
+            c["name"] for c in overrides["string.components"]], name
+        assert config.string.bha == StringConfig().bha, name
+        assert config.string.stabilizer_positions == (), name
+        assert config.string.length == pytest.approx(2500.0), name
+
+
+def test_modes_command_draws_random_by_seed_and_names_what_it_cannot_analyse(tmp_path,
+                                                                              capsys):
+    import numpy as np
+
+    from drill_env.scenarios import make_scenario
+
+    drawn = make_scenario("random", rng=np.random.default_rng(7)).config.string.length
+    for _ in range(2):  # the same string every time (it drew a new one per call)
+        assert main(["modes", "--scenario", "random", "--seed", "7", "--out",
+                     str(tmp_path)]) == 0
+        assert f"string {drawn:.0f} m" in capsys.readouterr().out
+    well = tmp_path / "well.yaml"
+    well.write_text("well: {md: [0, 300, 1250], inclination: [0, 0, 40], "
+                    "azimuth: [0, 0, 90]}\n")
+    for args, message in ((["--config", str(well)], f"--config {well}: well: the modal "
+                                                     "analysis is for vertical holes"),
+                          (["--scenario", "default", "--seed", "3"], "--seed: draws a "
+                                                                     "randomised scenario"),
+                          (["--scenario", "lateral_60"], "invalid choice: 'lateral_60'")):
+        with pytest.raises(SystemExit):
+            main(["modes", *args, "--out", str(tmp_path)])
+        assert message in capsys.readouterr().err
+    # a WOB that buckles the pipe: analysed (the straight string) with a note
+    assert main(["modes", "--wob", "150", "--out", str(tmp_path)]) == 0
+    assert "note: at 150 kN the 5 in HWDP is compressed" in capsys.readouterr().out
+
+
 def test_modes_command_says_when_the_model_has_fewer_modes_than_asked(tmp_path, capsys):
     assert main(["modes", "-n", "100000", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
@@ -311,7 +359,7 @@ def test_a_stability_map_beyond_its_bounds_is_refused_naming_the_option(tmp_path
 
 def test_well_refuses_a_length_no_string_can_have(tmp_path, capsys):
     with pytest.raises(SystemExit):
-        main(["well", "--total-md", "1e5", "--out", str(tmp_path)])
+        main(["well", "--well", "j_shaped", "--total-md", "1e5", "--out", str(tmp_path)])
     assert "--total-md: must be <= 15000 m, got 100000" in capsys.readouterr().err
 
 
@@ -323,14 +371,10 @@ def test_modes_command_names_the_bad_field_of_the_yaml(tmp_path, capsys):
     assert "string.components[0].length" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["--wob", "200"], "--wob: 200 kN buckles the BHA"),
-    (["--scenario", "lateral_60"], "--scenario: lateral_60: well: the modal analysis is for "
-                                   "vertical holes")])
-def test_modes_refuses_what_it_cannot_analyse(tmp_path, capsys, args, message):
+def test_modes_refuses_what_it_cannot_analyse(tmp_path, capsys):
     with pytest.raises(SystemExit):
-        main(["modes", *args, "--out", str(tmp_path)])
-    assert message in capsys.readouterr().err
+        main(["modes", "--wob", "200", "--out", str(tmp_path)])
+    assert "--wob: 200 kN buckles the BHA" in capsys.readouterr().err
 
 
 def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatch):

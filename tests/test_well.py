@@ -68,6 +68,32 @@ def test_the_well_command_writes_the_chart_and_names_bad_input(tmp_path, capsys)
     assert "--friction" in capsys.readouterr().err
 
 
+def test_the_well_command_draws_the_scenarios_or_the_configs_own_well(tmp_path, capsys):
+    """Without --well or --survey the chart is of the hole the scenario or --config
+    drills (it once drew the j_shaped preset whatever they held); a well no longer than
+    the string's BHA is refused by the option that set it (it drew an empty chart)."""
+    assert main(["well", "--scenario", "lateral_60", "--out", str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "well_lateral_60.json").read_text())
+    own = make_scenario("lateral_60").config.well
+    assert data["survey"]["md"] == pytest.approx(list(own.md))
+    assert data["survey"]["inclination_deg"] == pytest.approx(list(own.inclination))
+    yaml = tmp_path / "mine.yaml"
+    yaml.write_text("well: {md: [0, 300, 1250], inclination: [0, 0, 40], "
+                    "azimuth: [0, 0, 90]}\n")
+    assert main(["well", "--config", str(yaml), "--out", str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "well_mine.json").read_text())
+    assert data["survey"]["md"] == [0.0, 300.0, 1250.0]
+    assert "well mine: 1250 m MD" in capsys.readouterr().out
+    for args, message in ((["--well", "vertical", "--total-md", "200"],
+                           "--total-md: the well is 200 m long; the chart needs more than "
+                           "247.5 m"),
+                          (["--scenario", "lateral_60", "--total-md", "500"],
+                           "--total-md: sets the length of a preset --well")):
+        with pytest.raises(SystemExit):
+            main(["well", *args, "--out", str(tmp_path)])
+        assert message in capsys.readouterr().err
+
+
 def test_the_hook_load_legend_names_each_friction_and_each_operation_once():
     """Rotating off bottom has no axial drag, so its hook load is the same at every
     friction factor: one line, one legend entry (not "rotating, mu 0.1" ... "mu 0.4")."""
