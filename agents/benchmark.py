@@ -23,7 +23,7 @@ import json
 import math
 import sys
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -499,8 +499,11 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             bar.close()
             executor.close()
     rows = [store.get(e.key) for e in todo_all]
-    write_outputs(rows, out, labels(controllers), scenarios, settings, env_id, heading,
-                  first_seed=seeds[0] if len(seeds) else 0)
+    names = labels(controllers)
+    runs = {name: c.partition(":")[2] for c, name in zip(controllers, names, strict=True)
+            if c.startswith("learned:")}
+    write_outputs(rows, out, names, scenarios, settings, env_id, heading,
+                  first_seed=seeds[0] if len(seeds) else 0, runs=runs)
     return rows
 
 
@@ -609,17 +612,21 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
 def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequence[str],
                   scenarios: Sequence[str], settings: BenchmarkSettings,
                   env_id: str | None = None, heading: str = "Controller benchmark",
-                  first_seed: int = 0) -> None:
+                  first_seed: int = 0, runs: Mapping[str, str] | None = None) -> None:
     """benchmark.csv, benchmark.md and the plots (the series of ``first_seed``); prints
-    the table. The series pictures
-    of an earlier benchmark into ``out`` (``benchmark_<scenario>_series.png``) are removed:
-    beside benchmark.md are only this benchmark's pictures."""
+    the table; ``runs``: the run folder of each ``learned:PATH`` row, by its label. The
+    series pictures of an earlier benchmark into ``out``
+    (``benchmark_<scenario>_series.png``) are removed: beside benchmark.md are only this
+    benchmark's pictures."""
     write_csv(rows, out / "benchmark.csv")
     header = ["scenario", "controller", "seeds"] + [h for _, h, _ in SUMMARY]
     table = summary_table(rows, controllers, scenarios, env_id)
     notes = [OWN_SPEED_NOTE] if any(OWN_SPEED_MARK in r[header.index("rpm error")]
                                     for r in table) else []
-    _print_table(header, table, notes)
+    if runs:  # which model a row is (a plain label does not say it)
+        notes.append("Trained runs: " + "; ".join(f"{name}: the policy of {path}"
+                                                  for name, path in runs.items()) + ".")
+    _print_table(header, table, [*notes, "Means over seeds, +- half the range."])
     from agents.plots import bar_chart, series_chart
 
     for old in out.glob(SERIES_PICTURE.format(scenario="*")):

@@ -81,6 +81,16 @@ def replaced_episode_notes(controllers: Sequence[str], env_id: str,
     return notes
 
 
+def same_physics(scenarios: Sequence[str]) -> list[str]:
+    """The fixed scenarios among ``scenarios`` whose physics equals another's (they differ
+    only in their set points, e.g. default and stick_slip)."""
+    from drill_env.scenarios import RANDOMISED, make_scenario
+
+    configs = {s: make_scenario(s).config for s in scenarios if s not in RANDOMISED}
+    return [s for s, c in configs.items()
+            if any(c == other for t, other in configs.items() if t != s)]
+
+
 def unwritable(folder: Path) -> str:
     """Why ``folder`` could not be written (created if missing), or "" if it can; creates
     nothing, so a command refused later leaves no folder behind."""
@@ -225,6 +235,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         options[key] = value * scale
     if args.record is RECORD_UNDER_OUT:
         args.record = args.out / "recordings"
+    if args.record is not None and (reason := unwritable(args.record)):
+        raise argparse.ArgumentTypeError(f"--record {args.record}: {reason}")
     if args.record is not None:
         from agents.benchmark import label
         from drill_env.recording import RecordEpisode
@@ -377,6 +389,11 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if env_id is not None:
         for note in replaced_episode_notes(controllers, env_id, scenarios, settings):
             print(note, file=sys.stderr)
+        same = same_physics(scenarios)
+        if same:
+            print(f"note: a task benchmark drills each scenario at the task's targets drawn "
+                  f"from the seed, not at the scenario's set points: {', '.join(same)} are "
+                  "then the same episodes", file=sys.stderr)
     t0 = time.perf_counter()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
     rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,
@@ -584,12 +601,18 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                               measure=min(sm.DEFAULT_SETTINGS.measure, args.seconds))
     configs = None
     if args.controller is not None:
-        controller = typed_controller(args.controller)
-        if controller.rate != "drive":
+        from agents.registry import CLASSICAL, CONTROLLERS, make_controller
+
+        # the map holds the set points fixed: only the top drive's own loops apply
+        drive = [n for n in CLASSICAL if make_controller(n).rate == "drive"]
+        if args.controller not in drive:
+            why = ("acts on the set points, which the map holds fixed"
+                   if args.controller in CONTROLLERS or ":" in args.controller
+                   else "is not a controller")
             raise argparse.ArgumentTypeError(
-                f"--controller: {args.controller} acts on the set points; the map holds "
-                "them fixed, so choose a drive-rate controller (stiff, soft-speed, "
-                "soft-torque, z-torque)")
+                f"--controller: {args.controller} {why}; choose a drive-rate controller: "
+                f"{', '.join(drive)}")
+        controller = typed_controller(args.controller)
         configs = {p: sm.map_config(p, controller.physics()) for p in names}
     store = args.out / "stability_map.points.jsonl"
     t0 = time.perf_counter()
@@ -622,6 +645,8 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
         data = read_yaml(path)
     except ValueError as err:
         raise ValueError(f"--config {err}") from None
+    if data is None:  # an empty file (or only comments): nothing to override
+        return {}
     if not isinstance(data, dict):
         raise ValueError(f"--config {path}: expected a mapping of config sections")
     return flatten(data)
@@ -744,14 +769,23 @@ def cmd_well(args: argparse.Namespace) -> int:
                                          "a --survey's, the scenario's or --config's well "
                                          "has its own")
     if args.survey is not None:
-        survey, name, source = Survey.from_csv(args.survey), args.survey.stem, "--survey"
+        try:
+            survey = Survey.from_csv(args.survey)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(f"--survey {args.survey}: {err}") from None
+        name, source = args.survey.stem, "--survey"
     elif args.well is not None or config.well.vertical:
         name = args.well or "j_shaped"
         total_md = args.total_md if args.total_md is not None else DEFAULT_WELL_MD
         if total_md > MAX_STRING_LENGTH:  # the longest string a config takes
             raise argparse.ArgumentTypeError(f"--total-md: must be <= {MAX_STRING_LENGTH:g} m, "
                                              f"got {total_md:g}")
-        survey, source = WELLS[name](total_md), "--total-md"
+        try:
+            survey = WELLS[name](total_md)
+        except ValueError as err:  # the profile's curves do not fit in it
+            raise argparse.ArgumentTypeError(
+                f"--total-md: {str(err).removeprefix('survey.total_md: ')}") from None
+        source = "--total-md"
     else:  # the scenario's hole, or the one --config gives (its well section)
         well = config.well
         survey = Survey.from_stations(well.md, well.inclination, well.azimuth)

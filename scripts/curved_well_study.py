@@ -88,6 +88,11 @@ def stick_slip() -> None:
 
 
 if __name__ == "__main__":
+    import argparse
+
+    # no options: --help says what the study measures and how long it takes
+    argparse.ArgumentParser(description=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     cost()
     torque()
     stick_slip()

@@ -2,6 +2,7 @@
 
 import argparse
 import json
+from pathlib import Path
 
 import pytest
 
@@ -124,13 +125,19 @@ def test_run_refuses_a_top_drive_controller_in_its_config_file(tmp_path, capsys)
                  str(tmp_path / "out")]) == 0
 
 
-def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path):
+def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path, capsys):
     from agents.benchmark import RESULTS_FILE, BenchmarkSettings, fingerprint
+    from drill_cli.main import same_physics
     from drill_env.sweep import ResultStore
 
     assert main(["benchmark", "--task", "stick_slip", "--controllers", "stiff", "--seeds",
                  "1", "--duration", "3", "--warmup", "1", "--workers", "1", "--out",
                  str(tmp_path)]) == 0
+    assert "Means over seeds, +- half the range." in capsys.readouterr().out
+    # scenarios that differ only in set points are the same task episodes: said
+    assert same_physics(["default", "stick_slip", "random", "paper_case2"]) == [
+        "default", "stick_slip"]
+    assert same_physics(["default", "paper_case2"]) == []
     fast = BenchmarkSettings(duration=3.0, warmup=1.0, fidelity="fast")
     assert len(ResultStore(tmp_path / RESULTS_FILE,
                            fingerprint(fast, "DrillStickSlip-v0"))) == 1
@@ -253,6 +260,18 @@ def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
     data = json.loads((tmp_path / "modes.json").read_text())
     assert data["modes"][0]["frequency_Hz"][0] > 0.0
     assert (tmp_path / "modes_critical_speeds.png").stat().st_size > 10_000
+
+
+def test_an_empty_config_file_overrides_nothing_and_a_list_is_refused(tmp_path):
+    from drill_cli.main import read_overrides
+
+    empty = tmp_path / "empty.yaml"
+    empty.write_text("# nothing yet\n")
+    assert read_overrides(empty) == {}
+    listed = tmp_path / "list.yaml"
+    listed.write_text("- string\n")
+    with pytest.raises(ValueError, match="expected a mapping of config sections"):
+        read_overrides(listed)
 
 
 def test_the_example_component_string_fits_every_scenario():
@@ -445,7 +464,8 @@ def test_a_task_policy_runs_at_the_scenarios_set_points(tmp_path):
     assert targets == pytest.approx({"learned": 50.0, "stiff": 50.0})
 
 
-def test_a_task_policy_drills_a_scenario_from_its_start_and_for_its_length(tmp_path):
+def test_a_task_policy_drills_a_scenario_from_its_start_and_for_its_length(tmp_path,
+                                                                             capsys):
     """Outside ``--task`` the policy acts in its task's env but drills the scenario as
     every other controller does: settled start (not the task's stalled bit), the
     scenario's episode length (not the task's 30 s), the same first bit speed as the
@@ -471,9 +491,14 @@ def test_a_task_policy_drills_a_scenario_from_its_start_and_for_its_length(tmp_p
     assert scenario_length == pytest.approx(60.0)  # the stick_slip scenario's, not 30 s
 
     out = tmp_path / "bench"
-    assert main(["benchmark", "--controllers", "learned,stiff", "--scenarios", "stick_slip",
-                 "--seeds", "1", "--duration", "2", "--warmup", "1", "--workers", "1",
-                 "--out", str(out)]) == 0
+    shipped = Path(__file__).parents[1] / "agents/trained/stick_slip"
+    assert main(["benchmark", "--controllers", f"learned:{shipped},stiff", "--scenarios",
+                 "stick_slip", "--seeds", "1", "--duration", "2", "--warmup", "1",
+                 "--workers", "1", "--out", str(out)]) == 0
+    # the row is "learned"; the table (printed and benchmark.md) says which model that is
+    assert "Trained runs" in capsys.readouterr().out
+    assert (f"Trained runs: learned: the policy of {shipped}."
+            in (out / "benchmark.md").read_text())
     first = {c: float(np.load(out / "series" / f"{c}_stick_slip_seed0.npz")["bit_speed"][0])
              for c in ("learned", "stiff")}
     assert first["learned"] == pytest.approx(first["stiff"], rel=1e-9)
@@ -567,6 +592,25 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
         with pytest.raises(SystemExit):
             main(args)
         assert says in capsys.readouterr().err
+    # errors of the library's fields, named by the option that set them
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    bad = tmp_path / "bad.csv"
+    bad.write_text("md,inclination,azimuth\n0,0,0\n500,0,0\n400,45,90\n")
+    for args, says in ((["run", "--record", str(blocker), "--duration", "0.2"],
+                        f"--record {blocker}: is a file"),
+                       (["well", "--well", "j_shaped", "--total-md", "400"],
+                        "--total-md: 400.0 m ends before the profile's last curve"),
+                       (["well", "--survey", str(bad)], f"--survey {bad}: survey.md: must "
+                                                        "start at 0 and increase"),
+                       (["stability-map", "--controller", "ztorque"],
+                        "--controller: ztorque is not a controller; choose a drive-rate "
+                        "controller: stiff, soft-speed, soft-torque, z-torque"),
+                       (["stability-map", "--controller", "driller"],
+                        "--controller: driller acts on the set points")):
+        with pytest.raises(SystemExit):
+            main([*args, "--out", str(tmp_path / "out")])
+        assert says in capsys.readouterr().err, args
     broken = tmp_path / "broken.yml"
     broken.write_text("ppo: [unclosed\n")
     for command in (["train", "--task", "stick_slip"], ["run"]):

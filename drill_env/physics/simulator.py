@@ -68,7 +68,7 @@ from drill_env.physics.statics import (
 )
 from drill_env.physics.top_drive import MAX_FILTER_W_DT
 from drill_env.physics.trajectory import curved_hole_loads
-from drill_env.physics.validation import require_finite, require_positive
+from drill_env.physics.validation import require_finite, require_non_negative, require_positive
 
 __all__ = ["MAX_FILTER_W_DT", "RECORD_CHANNELS", "STATUS_MESSAGES", "OperatingPoint",
            "Simulator", "Status"]
@@ -596,6 +596,7 @@ class Simulator:
         """:meth:`advance` for ``duration`` simulated seconds (> 0; at least one step);
         ``record_every`` > 0 returns every so many steps' records, 0 none."""
         require_positive(duration, "duration")
+        require_non_negative(record_every, "record_every")
         return self.advance(max(1, round(duration / self.dt)), speed_setpoint, hook_load,
                             record_every)
 

@@ -57,3 +57,5 @@ def test_run_records_every_so_many_steps_or_none():
     assert sim.run(0.1).shape[0] == 0
     steps = round(0.1 / sim.dt)
     assert sim.run(0.1, record_every=5).shape[0] == steps // 5
+    with pytest.raises(ValueError, match="record_every: must be >= 0, got -1"):
+        sim.run(0.1, record_every=-1)  # it returned no records, as 0 asks, without a word
