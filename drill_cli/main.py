@@ -607,7 +607,8 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
         drive = [n for n in CLASSICAL if make_controller(n).rate == "drive"]
         if args.controller not in drive:
             why = ("acts on the set points, which the map holds fixed"
-                   if args.controller in CONTROLLERS or ":" in args.controller
+                   if args.controller in CONTROLLERS
+                   or args.controller.startswith(("learned:", "constant:"))
                    else "is not a controller")
             raise argparse.ArgumentTypeError(
                 f"--controller: {args.controller} {why}; choose a drive-rate controller: "
@@ -774,7 +775,7 @@ def cmd_well(args: argparse.Namespace) -> int:
         except ValueError as err:
             raise argparse.ArgumentTypeError(f"--survey {args.survey}: {err}") from None
         name, source = args.survey.stem, "--survey"
-    elif args.well is not None or config.well.vertical:
+    elif args.well is not None or not config.well.md:  # no survey of its own
         name = args.well or "j_shaped"
         total_md = args.total_md if args.total_md is not None else DEFAULT_WELL_MD
         if total_md > MAX_STRING_LENGTH:  # the longest string a config takes
@@ -809,8 +810,6 @@ def cmd_well(args: argparse.Namespace) -> int:
     bad = [f for f in frictions if not (math.isfinite(f) and 0.0 <= f <= 2.0)]
     if bad or not frictions:
         raise argparse.ArgumentTypeError(f"--friction: factors in [0, 2], got {args.friction!r}")
-    trajectory = Trajectory(survey)
-    config = with_overrides(make_scenario(args.scenario).config, args.config)
     paths = write_well(name, trajectory, config, args.out, frictions)
     end, _, _ = trajectory.at(trajectory.total_md)
     print(f"well {name}: {trajectory.total_md:.0f} m MD, TVD {end[0, 2]:.0f} m, departure "

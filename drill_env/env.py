@@ -202,10 +202,10 @@ class DrillStringEnv(BatchFinish, gym.Env):
     Terminated when the surface torque exceeds ``makeup_torque`` (``info[
     "termination_reason"] = "surface torque above make-up torque"``) or the simulator
     diverges (``sim.status != 0``: the reason is ``sim.status_message``). After a
-    divergence the observation repeats the last finite one and every physical value in
-    ``info`` is that of the last finite state; the window metrics read 0 while their
-    window holds non-finite samples, and the reward terms stay finite (the stick-slip
-    term at ``-stick_slip_weight * ssi_cap``). ``info`` never holds NaN or inf.
+    divergence the observation's measured entries repeat the last finite ones (the set
+    points are the ones commanded) and every physical value in ``info`` is that of the
+    last finite state; the window metrics read 0 while their window holds non-finite
+    samples, and the reward terms stay finite. ``info`` never holds NaN or inf.
     Truncated after ``episode_duration`` seconds.
 
     ## Info
@@ -326,6 +326,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
             raise ValueError(f"episode_duration: {self.episode_duration:g} s is shorter than "
                              f"half a control interval ({self.control_interval:g} s)")
         self._record_every = even_record_every(self._steps_per_action, cfg.record_every)
+        self.metadata = {**type(self).metadata, "render_fps": 1.0 / self.control_interval}
         records = self._steps_per_action // self._record_every
         if records > MAX_RECORDS_PER_STEP:
             raise ValueError(

@@ -104,7 +104,8 @@ class WhirlDetector:
                 continue
             self._on = not self._on
             if self._on:
-                direction = "forward" if np.nanmean(self._signs) > 0 else "backward"
+                # the rule of metrics.whirl_direction over the samples since the onset
+                direction = "forward" if np.sum(self._signs) > 0 else "backward"
                 events.append((start, "WARN",
                                f"whirl onset ({direction}): radial ratio {r0:.2f}, whirl "
                                f"{ws0 / RPM:.0f} rpm, bit {w0 / RPM:.0f} rpm"))

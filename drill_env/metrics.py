@@ -131,21 +131,16 @@ def backward_whirling(radial, whirl_speed, bit_speed) -> np.ndarray:
 
 
 def whirl_direction(whirl_speed, bit_speed, radial) -> str:
-    """"forward", "backward" or "none" (no sample whirls by :func:`whirling`).
+    """"forward", "backward" or "none" (no sample whirls by :func:`whirling`, or as many
+    whirl each way).
 
-    Among the whirling samples, the sign of the mean whirl speed relative to the mean
-    rotation decides the direction.
+    The direction most whirling samples take (:func:`whirl_sign`): the share of time,
+    as the backward-whirl fraction counts it and the recordings' whirl events name it
+    (not the mean whirl speed, which a fast backward whirl would outweigh).
     """
     mask = whirling(_signal(radial, "radial"), whirl_speed, bit_speed)
-    if not mask.any():
-        return "none"
-    r = whirl_ratio(np.asarray(whirl_speed, dtype=float)[mask],
-                    np.asarray(bit_speed, dtype=float)[mask])
-    if r > 0:
-        return "forward"
-    if r < 0:
-        return "backward"
-    return "none"
+    votes = float(np.sum(whirl_sign(whirl_speed, bit_speed)[mask]))
+    return "forward" if votes > 0 else "backward" if votes < 0 else "none"
 
 
 def lateral_force(force_x, force_y) -> np.ndarray:

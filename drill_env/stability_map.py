@@ -306,14 +306,14 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
             raise ValueError(f"position: must be one of {sorted(POSITIONS)}, got "
                              f"{position!r}")
     configs = {p: (configs or {}).get(p) or map_config(p) for p in positions}
-    if not (len(rpm) and len(wob)):
-        raise ValueError("grid_points: the map needs at least one speed and one WOB")
     for axis, values in (("speeds (rpm)", rpm), ("WOBs (N)", wob)):
         # the boundary tracking walks each axis upward from the lowest line
         if values.ndim != 1 or not (np.all(np.isfinite(values)) and np.all(values > 0.0)
                                     and np.all(np.diff(values) > 0.0)):
-            raise ValueError(f"grid_points: the {axis} must be finite, above 0 and strictly "
-                             f"increasing, got {values.tolist()}")
+            raise ValueError(f"grid_points: the {axis} must be a list, finite, above 0 and "
+                             f"strictly increasing, got {values.tolist()}")
+    if not (len(rpm) and len(wob)):
+        raise ValueError("grid_points: the map needs at least one speed and one WOB")
     for config in configs.values():
         check_map_corner(config, float(np.max(rpm)), float(np.max(wob)))
     prints = {p: fingerprint(configs[p], settings) for p in positions}

@@ -13,7 +13,9 @@ follow alone.
   Gymnasium 1.x semantics; ``autoreset_mode`` NEXT_STEP (default: the step after an
   episode end returns the reset observation with reward 0), SAME_STEP (the reset
   happens in the same step; the last observation and info are in ``info["final_obs"]``
-  and ``info["final_info"]``) or DISABLED.
+  and ``info["final_info"]``) or DISABLED; pass it as a keyword of the env,
+  ``gymnasium.make_vec(id, num_envs=N, autoreset_mode="SameStep")`` (Gymnasium refuses
+  ``vector_kwargs`` for an env with its own vector entry point).
 - ``DrillStringSB3VecEnv`` (:func:`make_sb3_vec_env`): a Stable-Baselines3 ``VecEnv``
   (SB3 cannot take Gymnasium vector envs) with SB3's auto-reset: ``infos[i]
   ["terminal_observation"]`` and ``infos[i]["TimeLimit.truncated"]``. SB3 is imported

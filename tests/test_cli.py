@@ -606,6 +606,8 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
                        (["stability-map", "--controller", "ztorque"],
                         "--controller: ztorque is not a controller; choose a drive-rate "
                         "controller: stiff, soft-speed, soft-torque, z-torque"),
+                       (["stability-map", "--controller", "soft-speed:3"],
+                        "--controller: soft-speed:3 is not a controller"),
                        (["stability-map", "--controller", "driller"],
                         "--controller: driller acts on the set points")):
         with pytest.raises(SystemExit):

@@ -50,6 +50,11 @@ def test_whirl_sign_tells_forward_from_backward():
     assert metrics.whirl_direction(forward, omega, radial) == "forward"
     assert metrics.whirl_direction(-forward, omega, radial) == "backward"
     assert metrics.whirl_direction(forward, omega, 0.01 * radial) == "none"
+    # by the share of time, as the backward-whirl fraction and the whirl events count it:
+    # one fast backward sample does not outvote two forward ones
+    three = np.array([1.0, 1.0, 1.0])
+    assert metrics.whirl_direction([5.0, 5.0, -100.0], 5.0 * three, three) == "forward"
+    assert metrics.whirl_direction([5.0, -5.0], [5.0, 5.0], [1.0, 1.0]) == "none"
 
 
 def test_radial_ratio_of_an_orbit_on_the_wall_is_one():

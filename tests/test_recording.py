@@ -375,8 +375,9 @@ def test_a_write_that_fails_mid_episode_warns_and_the_run_goes_on(tmp_path: Path
         raise RuntimeError("disk full")
 
     monkeypatch.setattr(RerunWriter, "orbit", broken)
-    with pytest.warns(RuntimeWarning, match="episode 0 not recorded: RuntimeError"):
+    with pytest.warns(RuntimeWarning, match="episode 0 not recorded: RuntimeError") as caught:
         infos, _, _ = _run_episode(env, seed=1)
+    assert caught[0].filename == __file__  # where the user stepped the env
     assert len(infos) == 6  # all five steps ran
     assert not env.recorder.active and env.recorder._stream is None
     assert env.paths == [] and list(tmp_path.glob("*.rrd")) == []
@@ -403,6 +404,28 @@ def test_the_rock_under_the_blades_is_written_when_it_changes_not_every_chunk(
     assert len(texts) == 1 and "hard 100%" in texts[0][0]
 
 
+def test_a_write_that_fails_at_the_episode_end_leaves_no_file(tmp_path: Path,
+                                                                monkeypatch) -> None:
+    """The end of an episode (its last events, fields, summary) cannot be written: the
+    wrapper warns and no half file is left as if it were a recording."""
+    from drill_env.recording.writer import RerunWriter
+
+    real = RerunWriter.configuration
+
+    def broken_at_the_end(self, tree, settings, summary):
+        if "- state: running" in summary:
+            return real(self, tree, settings, summary)
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(RerunWriter, "configuration", broken_at_the_end)
+    env = RecordEpisode(_make_env(0.3), tmp_path)
+    with pytest.warns(RuntimeWarning, match="episode 0 not recorded: RuntimeError"):
+        _run_episode(env, seed=0)
+    env.close()
+    assert env.paths == [] and list(tmp_path.glob("*.rrd")) == []
+    assert not env.recorder.active and env.recorder._stream is None
+
+
 def test_a_file_that_cannot_be_created_leaves_no_episode_open(tmp_path: Path) -> None:
     """The recording's own path taken by a folder: begin says which file, in one line,
     and nothing stays active; through the wrapper the run goes on unrecorded."""
@@ -412,8 +435,9 @@ def test_a_file_that_cannot_be_created_leaves_no_episode_open(tmp_path: Path) ->
         recorder.begin(scenario="x", stem="taken")
     assert not recorder.active and recorder._stream is None
     env = RecordEpisode(_make_env(0.3), tmp_path, stem="taken")
-    with pytest.warns(RuntimeWarning, match="episode 0 not recorded: OSError"):
+    with pytest.warns(RuntimeWarning, match="episode 0 not recorded: OSError") as caught:
         _run_episode(env, seed=0)
+    assert caught[0].filename == __file__  # where the user reset the env
     env.close()
     assert env.paths == [] and (tmp_path / "taken.rrd").is_dir()
 

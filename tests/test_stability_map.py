@@ -97,7 +97,8 @@ def test_grid_and_settings_name_bad_values():
         track_boundary(lambda i, j: True, 0, 3)
     # the boundary tracking walks each axis upward: anything else would map wrongly
     for rpm_axis, wob_axis in (([80.0, 40.0], [50e3]), ([40.0, 40.0], [50e3]),
-                               ([0.0, 40.0], [50e3]), ([40.0], [50e3, float("nan")])):
+                               ([0.0, 40.0], [50e3]), ([40.0], [50e3, float("nan")]),
+                               (60.0, [50e3])):
         with pytest.raises(ValueError, match="grid_points: the .* strictly increasing"):
             stability_maps(["P1"], grid_points=(rpm_axis, wob_axis), workers=1)
     # a window shorter than one record holds no sample: named, not an empty-signal error

@@ -84,6 +84,9 @@ def test_the_well_command_draws_the_scenarios_or_the_configs_own_well(tmp_path, 
     data = json.loads((tmp_path / "well_mine.json").read_text())
     assert data["survey"]["md"] == [0.0, 300.0, 1250.0]
     assert "well mine: 1250 m MD" in capsys.readouterr().out
+    yaml.write_text("well: {md: [0, 2000], inclination: [0, 0], azimuth: [0, 0]}\n")
+    assert main(["well", "--config", str(yaml), "--out", str(tmp_path)]) == 0
+    assert "well mine: 2000 m MD" in capsys.readouterr().out  # vertical, but its own
     for args, message in ((["--well", "vertical", "--total-md", "200"],
                            "--total-md: the well is 200 m long; the chart needs more than "
                            "247.5 m"),

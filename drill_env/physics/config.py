@@ -616,7 +616,8 @@ class SolverConfig:
     """Time integration (see docs/model.md, "Integrator")."""
 
     #: Requested step (s); the simulator may shorten it to the stable step of the
-    #: explicit force terms and to divide the control interval evenly. Bounded below by
+    #: explicit force terms (an env then takes round(control_interval / step) steps per
+    #: control interval: its period is within half a step of it). Bounded below by
     #: MIN_TIME_STEP (time per simulated second) and above by 50 ms (the top drive's PI
     #: loop and the bit's stick test are explicit in the step).
     time_step: Positive = Field(default=2.0e-3, ge=MIN_TIME_STEP, le=0.05)

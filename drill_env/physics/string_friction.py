@@ -58,11 +58,11 @@ def wall_friction_coefficient(v, mu_static, mu_kinetic, decay):
 def _limits(p, nodes, m, k, bit, t_slip, t_static):
     """(static, slip) torque limits of node ``k``; the bit's come from the bit model.
     A wall node's slip torque is capped at its static one (``friction_kinetic >
-    friction_static`` would exceed it): see :func:`soft_string_torsion` for why a node
-    released from holding must not slip harder than it held. The bit keeps the rock's
-    slip torque, as in the straight hole's solve (eq. 39's rising branch past ``mu_max``
-    at speed); the solve caps it only if the bit is released from holding. No static
-    limit: no friction."""
+    friction_static`` would exceed it): a node that slips with more torque than would hold
+    it reverses at once and sticks, and held it needs more than its limit, so the set
+    would cycle. The bit keeps the rock's slip torque, as in the straight hole's solve
+    (eq. 39's rising branch past ``mu_max`` at speed); :func:`soft_string_torsion` caps
+    it only where that cycle begins. No static limit: no friction."""
     if k == bit:
         return max(t_static, 0.0), t_slip
     lever = nodes.soft_normal[k]  # r F_n (N m per unit friction coefficient)
@@ -97,7 +97,9 @@ def _solve_held(band, sweep, rhs, stick, static_limit, cp, v):
     (``stick`` 0 and a static limit) held at zero: their rows become ``v_k = 0``. Thomas;
     a held row leaves ``cp`` and ``v`` zero, so its neighbours need no special case.
     With no row held the sweep's ``cp`` and ``1 / diag`` are ``sweep``
-    (:func:`thomas_sweep`): the same floats without a division in the chain."""
+    (:func:`thomas_sweep`): the same floats without a division in the chain. Returns the
+    last row's ``1 / pivot``, the last diagonal entry of the held system's inverse (0 if
+    that row is held): how the last node's speed answers a torque on it."""
     n = v.shape[0]
     held = False
     for i in range(n):
@@ -115,7 +117,8 @@ def _solve_held(band, sweep, rhs, stick, static_limit, cp, v):
         for i in range(n - 2, -1, -1):
             prev = v[i] - sweep[0, i] * prev
             v[i] = prev
-        return
+        return sweep[1, n - 1]
+    last = 0.0
     for i in range(n):
         if stick[i] == STUCK and static_limit[i] > 0.0:
             cp[i] = 0.0
@@ -128,10 +131,12 @@ def _solve_held(band, sweep, rhs, stick, static_limit, cp, v):
             diag -= off * cp[i - 1]
             r -= off * v[i - 1]
         inv = 1.0 / diag
+        last = inv
         cp[i] = band[1, i] * inv if i < n - 1 else 0.0
         v[i] = r * inv
     for i in range(n - 2, -1, -1):
         v[i] -= cp[i] * v[i + 1]
+    return 0.0 if stick[n - 1] == STUCK and static_limit[n - 1] > 0.0 else last
 
 
 @njit(cache=True, inline="always")
@@ -165,6 +170,8 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
         base[i] = _band_times(band, m.vt, i) + h * work.rt[i]
         static_limit[i], slip_limit[i] = _limits(p, nodes, m, i, bit, t_slip, t_static)
     held = cp  # after each solve: 1 where that solve held the node at rest
+    bit_released = bit_capped = False
+    bit_checks = 0
     iterations = 0
     converged = False
     for _ in range(MAX_ACTIVE_SET_ITERATIONS):
@@ -173,7 +180,7 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
             rhs[i] = base[i]
             if stick[i] != STUCK:
                 rhs[i] -= h * stick[i] * slip_limit[i]
-        _solve_held(band, torsion.sweep, rhs, stick, static_limit, cp, v)
+        g_bit = _solve_held(band, torsion.sweep, rhs, stick, static_limit, cp, v)
         changed = False
         for i in range(n):
             static = static_limit[i]
@@ -186,13 +193,28 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
                 holding = (_band_times(band, v, i) - base[i]) / h
                 if abs(holding) > static:
                     stick[i] = -1.0 if holding > 0.0 else 1.0
-                    # released at rest, it slips with at most the torque that held it:
-                    # slipping harder, it would reverse at once and be held again, and
-                    # the set would cycle (a rock whose resistance rises past mu_max)
-                    slip_limit[i] = min(slip_limit[i], static)
+                    if i == bit:
+                        # released with the rock's slip torque, the bit may reverse at once
+                        # and be held again: that torque is more than held it (a rock whose
+                        # resistance rises past mu_max) and no set is consistent. Released
+                        # again, it slips with at most the torque that held it: no cycle.
+                        if bit_released and slip_limit[i] > static:
+                            slip_limit[i] = static
+                            bit_capped = True
+                        bit_released = True
                     changed = True
             elif v[i] * stick[i] < 0.0:
                 stick[i] = STUCK
+                changed = True
+        if not changed and bit_capped and bit_checks < 4 and stick[bit] != STUCK:
+            # the cap is right only where the rock's torque would reverse the bit in the
+            # final set; if the set has moved on since, it slips with the rock's torque
+            # (checked once a step: the solve then ends however the set turns out)
+            bit_checks += 1
+            bit_capped = False
+            extra = h * stick[bit] * (t_slip - slip_limit[bit]) * g_bit
+            if (v[bit] - extra) * stick[bit] > 0.0:
+                slip_limit[bit] = t_slip
                 changed = True
         if not changed:
             converged = True

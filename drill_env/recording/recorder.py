@@ -200,6 +200,7 @@ class EpisodeRecorder:
         self._flushed = 0  # steps of this episode written to the file
         self._stream: Any = None
         self._writer: RerunWriter | None = None
+        self._saved = False
 
     # ------------------------------------------------------------------ begin
 
@@ -251,6 +252,7 @@ class EpisodeRecorder:
         stream = rr.RecordingStream(self.application_id, recording_id=self.recording_id)
         self._stream = stream
         self._writer = None
+        self._saved = False  # whether the file was started (to remove if it fails)
         self.active = True
         if not rr.is_enabled(stream):  # RERUN=off: record nothing
             return self.recording_id
@@ -271,6 +273,7 @@ class EpisodeRecorder:
                 geometry, geometry.exaggeration(self.exaggeration)))
         except RuntimeError as err:  # rerun's "Failed to create file: ..."
             raise OSError(f"{self.path}: cannot write the recording: {err}") from None
+        self._saved = True
         stream.send_recording_name(
             f"{self._driven}{self.scenario} seed {self.seed} episode {self.episode_index}")
         k = geometry.exaggeration(self.exaggeration)
@@ -483,6 +486,8 @@ class EpisodeRecorder:
         except BaseException:
             with contextlib.suppress(Exception):  # the stream closed even so
                 stream.disconnect()
+            if path is not None:  # an episode without its end: not left as if recorded
+                path.unlink(missing_ok=True)
             raise
         finally:
             self._stream = self._writer = None
@@ -499,7 +504,7 @@ class EpisodeRecorder:
         if self._stream is not None:
             with contextlib.suppress(Exception):  # a failed stream: its file goes below
                 self._stream.disconnect()
-        if self.path is not None and self._writer is not None:
+        if self.path is not None and self._saved:
             self.path.unlink(missing_ok=True)
         self._stream = self._writer = None
         self._chunk = _Chunk()

@@ -101,16 +101,16 @@ class RecordEpisode(gymnasium.Wrapper):
             try:
                 path = self.recorder.finish(reason, truncated=truncated, note=note)
             except Exception as exc:  # noqa: BLE001 - recording must not stop a run
-                self._not_recorded(exc)
+                self._not_recorded(exc, stacklevel=4)  # _flush, then reset/step/close
                 return
             if path is not None:
                 self.paths.append(path)
 
-    def _not_recorded(self, exc: Exception) -> None:
-        """A write failed (opening the file, a chunk, the end): warn, drop this
-        episode's recording, let the run go on."""
+    def _not_recorded(self, exc: Exception, stacklevel: int = 3) -> None:
+        """A write failed (opening the file, a chunk, the end): warn (at the caller of
+        ``reset`` or ``step``), drop this episode's recording, let the run go on."""
         warnings.warn(f"RecordEpisode: episode {self.episode_index} not recorded: {exc!r}",
-                      RuntimeWarning, stacklevel=4)
+                      RuntimeWarning, stacklevel=stacklevel)
         self.recorder.discard()
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
