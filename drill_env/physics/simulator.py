@@ -187,6 +187,7 @@ class Simulator:
         self.bit_out = make_loads_out(self.rock_params.shape[0])
 
         # ---- time step and the implicit matrices
+        self.top_drive_law = top_drive.resolve(cfg)  # its speed loop limits the step too
         self.dt = self.stable_time_step()
         self._build_parameters()
         self._factor_torsion()
@@ -264,15 +265,13 @@ class Simulator:
 
     def stable_time_step(self) -> float:
         """Requested step, shortened to ``solver.critical_step_fraction`` (default 0.5) of
-        the critical step of the explicit terms.
-
-        The implicit string imposes no limit. The explicit wall and gauge penalties act
-        on a node mass m with stiffness k and damping c: the critical step of an explicit
-        damped oscillator is (2 / w) (sqrt(1 + z^2) - z) with w = sqrt(k/m) and
-        z = c / (2 sqrt(k m)) (2 sqrt(m/k) without damping), for one penalty on the
-        lumped mass. Two gauge pads on the wall at once stiffen the bit 1.5x, which
-        ``critical_step_fraction`` (at most 0.8) leaves room for.
-        """
+        the critical step of the explicit terms; the implicit string imposes no limit.
+        The wall and gauge penalties and the top drive's speed loop (damping kp, spring
+        ki on the top node's inertia) act on a mass m with stiffness k and damping c: an
+        explicit damped oscillator's critical step is (2 / w) (sqrt(1 + z^2) - z), w =
+        sqrt(k/m), z = c / (2 sqrt(k m)), i.e. 4 m / (sqrt(4 k m + c^2) + c) (2 m / c
+        without a spring). Two gauge pads on the wall at once stiffen the bit 1.5x,
+        which ``critical_step_fraction`` (at most 0.8) leaves room for."""
         cfg = self.config
         node_mass = self.lat_m[0::2]  # lumped masses of the lateral nodes, the bit's included
 
@@ -288,11 +287,13 @@ class Simulator:
         limits["formation.rocks[].wall_stiffness, wall_damping"] = min(
             critical(float(node_mass[-1]), r.wall_stiffness, r.wall_damping)
             for r in cfg.formation.rocks)
+        (kp, ki), m = self.top_drive_gains, float(self.tor_m[0])  # a tiny inertia: unstable
+        limits["top_drive.inertia"] = 4.0 * m / (math.sqrt(4.0 * ki * m + kp * kp) + kp)
         binding = min(limits, key=limits.__getitem__)
         dt = min(cfg.solver.time_step, cfg.solver.critical_step_fraction * limits[binding])
         if dt < MIN_TIME_STEP:
             raise ConfigError(
-                f"{binding}: the explicit contact on the lightest node needs a step of "
+                f"{binding}: the explicit term (a contact, the speed loop) needs a step of "
                 f"{dt:.2e} s (at solver.critical_step_fraction = "
                 f"{cfg.solver.critical_step_fraction}), below {MIN_TIME_STEP} s: a stiffer "
                 "wall, a harder damper or lighter elements than a drilling simulation needs")
@@ -314,7 +315,6 @@ class Simulator:
         p[P.MU_DECAY] = c.friction_decay_speed
         p[P.V_REG] = c.regularisation_speed
         p[P.CONTACT_ON] = 1.0 if c.enabled else 0.0
-        self.top_drive_law = top_drive.resolve(cfg)
         kp, ki = self.top_drive_gains
         p[P.KP] = kp
         p[P.KI] = ki

@@ -14,8 +14,8 @@ wellhead; TVD is the down coordinate, the departure the horizontal distance.
 
 The local frame along the hole (t, e1, e2) is carried by parallel transport: from one
 point to the next, e1 and e2 are turned by the smallest rotation that takes one tangent
-into the next, so the frame does not twist about the hole axis. On a planar well e2 is
-the normal of the plane throughout. At a vertical top e1 points north.
+into the next, so the frame does not twist about the hole axis: on a planar well it
+turns about the plane's normal only. At a vertical top e1 points north.
 
 :func:`soft_string` is the soft-string torque-and-drag model in its vector form
 (Johancsik, Friesen & Dawson, SPE 11380, 1984; Aadnoy et al. 2010): the string lies on
@@ -360,8 +360,10 @@ def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.n
     each element). The axial force N follows the true vertical depth; each node of
     lumped length L carries the buoyed weight across the hole, ``w L (d - (d.t) t)``,
     and the tension turning with the hole, ``N L dt/ds`` (toward the inside of the bend;
-    a compression pushes outward). In the local frames the beam is straight, so these
-    are all the curvature does to it (small lateral motion about the hole axis)."""
+    a compression pushes outward). In the local frames the beam is straight: in effect
+    pre-curved to the hole, so the bending moment ``EI k`` of the hole's curvature, and
+    the side-load couples where the curvature changes (kick-off, end of a build), are
+    not loaded (docs/model.md section 6)."""
     inside = np.maximum(node_md, 0.0)
     _, pos, tan, bend = trajectory._evaluate(inside)  # bend = dt/ds
     above = np.minimum(node_md, 0.0)

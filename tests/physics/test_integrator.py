@@ -442,6 +442,27 @@ def test_the_critical_step_of_the_explicit_contacts_is_the_damped_oscillators(ze
     assert low == pytest.approx(2.0 * (np.sqrt(1.0 + zeta * zeta) - zeta), rel=1e-6)
 
 
+@pytest.mark.parametrize("inertia", [20.0, 5.0, 0.5])
+def test_the_top_drives_speed_loop_limits_the_step_on_a_light_rotor(inertia):
+    """The PI loop acts on the top node explicitly: a damper kp and a spring ki on its
+    inertia, stable below 4 m / (sqrt(4 ki m + kp^2) + kp) (the damped oscillator's
+    critical step; 2 m / kp for the stiff loop's gains). A rotor of 5 kg m^2 at the
+    default 2 ms step chattered between the motor's torque limits every step, the
+    surface at 0.5 rad/s instead of 60 rpm; now the step shortens and it turns steadily."""
+    from drill_env.physics.config import replace
+
+    config = replace(SimulationConfig(bit_model="macroscopic"),
+                     **{"top_drive.inertia": inertia, "solver.lateral": False})
+    sim = Simulator(config)
+    (kp, ki), m = sim.top_drive_gains, sim.tor_m[0]
+    limit = 4.0 * m / (np.sqrt(4.0 * ki * m + kp * kp) + kp)
+    assert sim.dt == pytest.approx(min(2e-3, 0.5 * limit), rel=1e-12)
+    assert sim.dt < 2e-3  # the default rotor (1000 kg m^2) leaves the step at 2 ms
+    sim.reset(OperatingPoint(60 * RPM, 0.0))
+    records = sim.run(3.0, 60 * RPM, sim.string_weight, record_every=10)
+    np.testing.assert_allclose(records[-50:, R.SURFACE_SPEED], 60 * RPM, rtol=1e-6)
+
+
 def _exact_from_rest(k: np.ndarray, c: np.ndarray, m: np.ndarray, v0: np.ndarray,
                      seconds: float) -> tuple[np.ndarray, np.ndarray]:
     """(displacement, velocity) at ``seconds`` of M x'' + C x' + K x = 0 (M = diag(m)) from
