@@ -288,7 +288,7 @@ class Simulator:
             critical(float(node_mass[-1]), r.wall_stiffness, r.wall_damping)
             for r in cfg.formation.rocks)
         (kp, ki), m = self.top_drive_gains, float(self.tor_m[0])  # a tiny inertia: unstable
-        limits["top_drive.inertia"] = 4.0 * m / (math.sqrt(4.0 * ki * m + kp * kp) + kp)
+        limits["top_drive.inertia"] = 4.0 * m / max(math.sqrt(4 * ki * m + kp * kp) + kp, 1e-300)
         binding = min(limits, key=limits.__getitem__)
         dt = min(cfg.solver.time_step, cfg.solver.critical_step_fraction * limits[binding])
         if dt < MIN_TIME_STEP:
