@@ -672,6 +672,13 @@ def test_the_policy_optimisers_are_fused_adam_unless_the_yaml_says_otherwise(alg
             **cfg.policy_kwargs, "optimizer_kwargs": {"eps": 1e-6}})
         for opt in optimisers(new_model(own, venv)):
             assert not opt.defaults["fused"] and opt.defaults["eps"] == 1e-6
+        # torch 2.3 (the oldest the project takes) has no fused CPU Adam: the plain one
+        import torch
+
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(torch, "__version__", "2.3.1+cpu")
+            for opt in optimisers(new_model(cfg, venv)):
+                assert not opt.defaults["fused"]
     finally:
         venv.close()
 

@@ -85,7 +85,8 @@ class TrainConfig:
     #: ``optimizer_kwargs``: the same update rule in one kernel per step instead of
     #: ~10 tensor ops per parameter; a gradient step 11-14 % shorter for SAC's 64 x 64
     #: networks, 8 % for PPO's 128 x 128 (docs/performance.md, "Time to a policy"). A
-    #: model keeps what it was created with (a resumed run too).
+    #: model keeps what it was created with (a resumed run too). Needs torch 2.4 or later
+    #: (on 2.3 the plain update runs).
     fused_adam: bool = True
 
     def __post_init__(self) -> None:

@@ -247,11 +247,21 @@ def new_model(config: TrainConfig, env: Any, **kwargs: Any) -> Any:
     policy_kwargs = dict(config.policy_kwargs)
     if config.algo == "sac":  # SAC's net_arch is per network; a list is shared
         policy_kwargs.setdefault("net_arch", [256, 256])
-    if config.fused_adam and not {"optimizer_class", "optimizer_kwargs"} & set(policy_kwargs):
+    if config.fused_adam and fused_adam_on_cpu() and not (
+            {"optimizer_class", "optimizer_kwargs"} & set(policy_kwargs)):
         policy_kwargs["optimizer_kwargs"] = {"fused": True}  # SB3's default class: Adam
     return algo_class(config.algo)(config.policy, env, seed=config.seed, verbose=0,
                                     policy_kwargs=policy_kwargs, **kwargs,
                                     **config.hyperparams)
+
+
+def fused_adam_on_cpu() -> bool:
+    """Whether this torch has Adam's fused CPU kernel (torch 2.4 on; the project takes
+    torch 2.3 too, where ``fused_adam`` then falls back to the plain update)."""
+    import torch
+
+    major, minor = (int(part) for part in torch.__version__.split(".")[:2])
+    return (major, minor) >= (2, 4)
 
 
 def torch_threads_callback(threads: int) -> Any:
