@@ -649,6 +649,57 @@ def test_evaluate_names_the_model_files_it_looked_for(tmp_path, capsys):
     assert "nor a checkpoint" in err
 
 
+def test_the_reward_normalisation_discounts_as_the_algorithm_does_unless_told():
+    """A YAML without ``normalize.gamma`` normalised rewards with 0.98 whatever the
+    algorithm's gamma; now with the algorithm's (its hyperparameter, else SB3's default)."""
+    from training.train import make_train_env
+
+    for algo, hyperparams, want in (("sac", {"gamma": 0.95}, 0.95), ("ppo", {}, 0.99)):
+        cfg = load_config("stick_slip", algo, n_envs=1, normalize={"norm_reward": True},
+                          hyperparams=hyperparams)
+        assert cfg.reward_gamma == want
+        venv = make_train_env(cfg, cfg.seed)
+        try:
+            assert venv.gamma == want
+        finally:
+            venv.close()
+    given = load_config("stick_slip", "sac", n_envs=1)
+    assert given.normalize.gamma == given.reward_gamma == 0.98  # the YAML's own
+
+
+def test_a_log_std_init_sac_would_ignore_is_refused():
+    """SB3's SAC actor learns its log std as a layer; only gSDE takes log_std_init. The
+    shipped SAC configs once carried it, believing it set a small exploration noise."""
+    import torch
+
+    cfg = load_config("stick_slip", "sac", n_envs=1)
+    assert "log_std_init" not in cfg.policy_kwargs
+    with pytest.raises(ValueError, match="sac.policy_kwargs.log_std_init: has no effect "
+                                         "on SAC without gSDE"):
+        load_config("stick_slip", "sac", n_envs=1,
+                    policy_kwargs={**cfg.policy_kwargs, "log_std_init": -1.0})
+    with_sde = load_config("stick_slip", "sac", n_envs=1,
+                           policy_kwargs={**cfg.policy_kwargs, "log_std_init": -1.0},
+                           hyperparams={**cfg.hyperparams, "use_sde": True})
+    # the reason, measured on SB3: without gSDE the value changes nothing
+    from stable_baselines3 import SAC
+
+    from training.train import make_train_env, new_model
+
+    venv = make_train_env(cfg, cfg.seed)
+    try:
+        obs = torch.zeros((1, *venv.observation_space.shape))
+        stds = []
+        for value in (-3.0, 2.0):
+            model = SAC("MlpPolicy", venv, seed=0, policy_kwargs={
+                "net_arch": [64, 64], "log_std_init": value})
+            stds.append(float(model.policy.actor.get_action_dist_params(obs)[1].mean()))
+        assert stds[0] == pytest.approx(stds[1], abs=1e-12)
+        assert new_model(with_sde, venv).policy.actor.use_sde
+    finally:
+        venv.close()
+
+
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_the_policy_optimisers_are_fused_adam_unless_the_yaml_says_otherwise(algo):
     """``fused_adam`` (default) gives every policy optimiser Adam's fused kernel; a

@@ -52,7 +52,10 @@ class Normalize:
     norm_obs: bool = True
     norm_reward: bool = True
     clip_obs: Annotated[float, Field(gt=0.0, le=1e6)] = 10.0
-    gamma: Annotated[float, Field(gt=0.0, le=1.0)] = 0.98
+    #: Discount of the reward normalisation; None: the algorithm's own ``gamma`` (a
+    #: normalisation that discounts otherwise scales the returns the critic learns
+    #: unlike its targets). The shipped configs give it.
+    gamma: Annotated[float, Field(gt=0.0, le=1.0)] | None = None
 
 
 @config_dataclass
@@ -88,6 +91,17 @@ class TrainConfig:
     #: model keeps what it was created with (a resumed run too). Needs torch 2.4 or later
     #: (on 2.3 the plain update runs).
     fused_adam: bool = True
+
+    @property
+    def reward_gamma(self) -> float:
+        """The discount of the reward normalisation: ``normalize.gamma``, else the
+        algorithm's ``gamma`` (its hyperparameter, else its default)."""
+        if self.normalize.gamma is not None:
+            return self.normalize.gamma
+        import inspect
+
+        default = inspect.signature(algo_class(self.algo).__init__).parameters["gamma"].default
+        return float(self.hyperparams.get("gamma", default))
 
     def __post_init__(self) -> None:
         check_algorithm_arguments(self)
@@ -160,6 +174,12 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         if key not in known:
             raise ConfigError(f"{where}.{key}: not an argument of {config.policy} "
                               f"({config.algo}); known: {', '.join(sorted(known))}")
+    if (config.algo == "sac" and "log_std_init" in config.policy_kwargs
+            and not config.hyperparams.get("use_sde", False)):
+        # SB3's SAC actor learns its log std from the state; only gSDE takes the value
+        raise ConfigError(f"{where}.log_std_init: has no effect on SAC without "
+                          "gSDE (the actor's log std is a learned layer, std ~1 at first); "
+                          "leave it out or set sac.hyperparams.use_sde: true")
     arch = config.policy_kwargs.get("net_arch")
     layers = arch.items() if isinstance(arch, dict) else [("", arch)] if arch is not None \
         else []

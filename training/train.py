@@ -77,7 +77,7 @@ def make_train_env(config: TrainConfig, seed: int) -> Any:
     venv.seed(seed)
     n = config.normalize
     return VecNormalize(venv, norm_obs=n.norm_obs, norm_reward=n.norm_reward,
-                        clip_obs=n.clip_obs, gamma=n.gamma)
+                        clip_obs=n.clip_obs, gamma=config.reward_gamma)
 
 
 def evaluate_policy_on_seeds(model: Any, normalizer: Any, env: Any, seeds: list[int]
