@@ -494,9 +494,9 @@ def saved_run_config(saved: Path, task: str, algo: str, **overrides: Any) -> Any
     import yaml
 
     from drill_env.physics.validation import from_dict
-    from training.config import TrainConfig
+    from training.config import TrainConfig, without_inert_keys
 
-    data = yaml.safe_load(saved.read_text()) or {}
+    data = without_inert_keys(yaml.safe_load(saved.read_text()) or {})
     for flag, value in (("task", task), ("algo", algo)):
         if data.get(flag, value) != value:
             raise argparse.ArgumentTypeError(f"--{flag}: {saved.parent} was trained with "

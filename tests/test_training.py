@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.learned import LearnedController
+from agents.learned import TRAINED, LearnedController
 from agents.registry import make_controller
 from drill_cli.main import main
 from training.config import load_config
@@ -667,7 +667,7 @@ def test_the_reward_normalisation_discounts_as_the_algorithm_does_unless_told():
     assert given.normalize.gamma == given.reward_gamma == 0.98  # the YAML's own
 
 
-def test_a_log_std_init_sac_would_ignore_is_refused():
+def test_a_log_std_init_sac_would_ignore_is_refused(tmp_path):
     """SB3's SAC actor learns its log std as a layer; only gSDE takes log_std_init. The
     shipped SAC configs once carried it, believing it set a small exploration noise."""
     import torch
@@ -678,6 +678,20 @@ def test_a_log_std_init_sac_would_ignore_is_refused():
                                          "on SAC without gSDE"):
         load_config("stick_slip", "sac", n_envs=1,
                     policy_kwargs={**cfg.policy_kwargs, "log_std_init": -1.0})
+    # a run saved before the check (its config.yaml carries the value) still loads for a
+    # resume, as the same config
+    import yaml
+
+    from drill_cli.main import saved_run_config
+    from training.config import without_inert_keys
+
+    saved = tmp_path / "config.yaml"
+    old = yaml.safe_load((TRAINED / "stick_slip" / "config.yaml").read_text())
+    old["policy_kwargs"]["log_std_init"] = -1.0
+    saved.write_text(yaml.safe_dump(old))
+    loaded = saved_run_config(saved, "stick_slip", "sac")
+    assert "log_std_init" not in loaded.policy_kwargs
+    assert without_inert_keys(old)["policy_kwargs"] == {"net_arch": [64, 64]}
     with_sde = load_config("stick_slip", "sac", n_envs=1,
                            policy_kwargs={**cfg.policy_kwargs, "log_std_init": -1.0},
                            hyperparams={**cfg.hyperparams, "use_sde": True})

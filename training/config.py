@@ -89,7 +89,8 @@ class TrainConfig:
     #: ~10 tensor ops per parameter; a gradient step 11-14 % shorter for SAC's 64 x 64
     #: networks, 8 % for PPO's 128 x 128 (docs/performance.md, "Time to a policy"). A
     #: model keeps what it was created with (a resumed run too). Needs torch 2.4 or later
-    #: (on 2.3 the plain update runs).
+    #: (on 2.3 the plain update runs; a model trained with the fused kernel then needs 2.4
+    #: to load: its saved optimiser settings name it).
     fused_adam: bool = True
 
     @property
@@ -130,6 +131,18 @@ _RANGES: dict[str, tuple[float, float, bool]] = {  # name: (low, high, low inclu
 #: Hyperparameters SB3 needs as integers: a YAML ``1e5`` arrives as a float.
 _INTEGERS = {"n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",
              "gradient_steps", "train_freq"}
+
+
+def without_inert_keys(saved: dict[str, Any]) -> dict[str, Any]:
+    """A run's saved ``config.yaml`` without the settings that never acted, which the
+    checks now refuse: a SAC ``policy_kwargs.log_std_init`` without gSDE (runs from
+    before the check carried it). Resuming or evaluating such a run changes nothing."""
+    kwargs = saved.get("policy_kwargs") or {}
+    if saved.get("algo") == "sac" and "log_std_init" in kwargs and not (
+            saved.get("hyperparams") or {}).get("use_sde", False):
+        saved = {**saved, "policy_kwargs": {k: v for k, v in kwargs.items()
+                                             if k != "log_std_init"}}
+    return saved
 
 
 def check_algorithm_arguments(config: TrainConfig) -> None:

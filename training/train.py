@@ -38,7 +38,13 @@ import yaml
 
 from agents.learned import latest_checkpoint
 from drill_env.physics.validation import jsonable
-from training.config import TRAINING_SEEDS, VALIDATION_SEED, TrainConfig, algo_class
+from training.config import (
+    TRAINING_SEEDS,
+    VALIDATION_SEED,
+    TrainConfig,
+    algo_class,
+    without_inert_keys,
+)
 
 
 def planned_steps(config: TrainConfig, done: int = 0) -> int:
@@ -312,7 +318,7 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
         return 0
     saved = run / "config.yaml"
     if saved.exists():
-        old = yaml.safe_load(saved.read_text())
+        old = without_inert_keys(yaml.safe_load(saved.read_text()))
         new = jsonable(config)
         # change nothing a resumed run learnt (its model keeps its own optimiser)
         free = ("n_timesteps", "torch_threads", "fused_adam")

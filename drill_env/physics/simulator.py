@@ -265,13 +265,12 @@ class Simulator:
 
     def stable_time_step(self) -> float:
         """Requested step, shortened to ``solver.critical_step_fraction`` (default 0.5) of
-        the critical step of the explicit terms; the implicit string imposes no limit.
-        The wall and gauge penalties and the top drive's speed loop (damping kp, spring
-        ki on the top node's inertia) act on a mass m with stiffness k and damping c: an
-        explicit damped oscillator's critical step is (2 / w) (sqrt(1 + z^2) - z), w =
-        sqrt(k/m), z = c / (2 sqrt(k m)), i.e. 4 m / (sqrt(4 k m + c^2) + c) (2 m / c
-        without a spring). Two gauge pads on the wall at once stiffen the bit 1.5x,
-        which ``critical_step_fraction`` (at most 0.8) leaves room for."""
+        the critical step of the explicit terms (the implicit string sets none): the wall
+        and gauge penalties (stiffness k, damping c on a node mass m) that of an explicit
+        damped oscillator, (2 / w) (sqrt(1 + z^2) - z), w = sqrt(k/m), z = c / (2 sqrt(k
+        m)), where two gauge pads on the wall at once stiffen the bit 1.5x (a fraction of at
+        most 0.8 leaves room); the top drive's speed loop on the top node's inertia,
+        :func:`~drill_env.physics.top_drive.speed_loop_critical_step`."""
         cfg = self.config
         node_mass = self.lat_m[0::2]  # lumped masses of the lateral nodes, the bit's included
 
@@ -287,16 +286,17 @@ class Simulator:
         limits["formation.rocks[].wall_stiffness, wall_damping"] = min(
             critical(float(node_mass[-1]), r.wall_stiffness, r.wall_damping)
             for r in cfg.formation.rocks)
-        (kp, ki), m = self.top_drive_gains, float(self.tor_m[0])  # a tiny inertia: unstable
-        limits["top_drive.inertia"] = 4.0 * m / max(math.sqrt(4 * ki * m + kp * kp) + kp, 1e-300)
+        limits["top_drive.inertia, proportional_gain, integral_gain"] = \
+            top_drive.speed_loop_critical_step(*self.top_drive_gains, float(self.tor_m[0]))
         binding = min(limits, key=limits.__getitem__)
         dt = min(cfg.solver.time_step, cfg.solver.critical_step_fraction * limits[binding])
         if dt < MIN_TIME_STEP:
-            raise ConfigError(
-                f"{binding}: the explicit term (a contact, the speed loop) needs a step of "
-                f"{dt:.2e} s (at solver.critical_step_fraction = "
-                f"{cfg.solver.critical_step_fraction}), below {MIN_TIME_STEP} s: a stiffer "
-                "wall, a harder damper or lighter elements than a drilling simulation needs")
+            what = ("the speed loop on a lighter rotor or with stronger gains than a top drive"
+                    " has" if binding.startswith("top_drive") else "a stiffer wall, a harder "
+                    "damper or lighter elements than a drilling simulation needs")
+            raise ConfigError(f"{binding}: needs a step of {dt:.2e} s (at solver.critical_"
+                              f"step_fraction = {cfg.solver.critical_step_fraction}), below "
+                              f"{MIN_TIME_STEP} s: {what}")
         return dt
 
     def _build_parameters(self) -> None:

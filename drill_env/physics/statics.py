@@ -42,7 +42,7 @@ PIPE_KINDS = frozenset({"drill_pipe", "heavy_weight"})
 LUBINSKI = 1.94
 #: Below this inclination (rad, 10 degrees) the vertical-hole load stands alone: the weight
 #: across the hole that holds the pipe on the low side in Dawson & Paslay's load is then
-#: at most 17 % of its weight, and their load, which grows as sqrt(sin i), would jump past
+#: about 17 % of its weight, and their load, which grows as sqrt(sin i), would jump past
 #: Lubinski's from a fraction of a degree. A conservative choice of ours, not a published
 #: threshold.
 DAWSON_PASLAY_MIN_INCLINATION = math.radians(10.0)

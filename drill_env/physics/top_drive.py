@@ -67,6 +67,24 @@ def soft_speed_gains(impedance: float, top_drive_inertia: float, frequency: floa
 
 
 @functools.lru_cache(maxsize=64)
+def speed_loop_critical_step(kp: float, ki: float, inertia: float) -> float:
+    """The longest step (s) at which the PI loop alone keeps the top node's inertia
+    stable (inf: no limit). The kernel's loop is explicit: its torque ``kp (w_set - v_p)
+    + ki I`` takes the Newmark predictor speed v_p and the integral I of the step before,
+    which it then advances by forward Euler. One rotor under it moves by
+    ``m z^2 + (dt kp - 2 m) z + (m - dt kp + dt^2 ki)``, whose roots (Jury's test) lie in
+    the unit circle for ``dt < kp / ki`` and, where ``kp^2 >= 4 ki m``, ``dt < 4 m / (kp +
+    sqrt(kp^2 - 4 ki m))`` (``2 m / kp`` without an integral term). Without a
+    proportional gain the isolated rotor has no stable step, but the string's damping
+    holds it: no limit is set then."""
+    if kp <= 0.0:
+        return math.inf
+    bound = kp / ki if ki > 0.0 else math.inf
+    if kp * kp >= 4.0 * ki * inertia:
+        bound = min(bound, 4.0 * inertia / (kp + math.sqrt(kp * kp - 4.0 * ki * inertia)))
+    return bound
+
+
 def stick_slip_frequency(config: SimulationConfig) -> float:
     """First torsional natural frequency (Hz) of the string with a fixed top and a free
     bit (undamped): the frequency stick-slip oscillates close to, and the soft

@@ -442,20 +442,56 @@ def test_the_critical_step_of_the_explicit_contacts_is_the_damped_oscillators(ze
     assert low == pytest.approx(2.0 * (np.sqrt(1.0 + zeta * zeta) - zeta), rel=1e-6)
 
 
+def _speed_loop_amplification(m: float, kp: float, ki: float, dt: float) -> np.ndarray:
+    """One step of a rotor of inertia m under the kernel's PI loop, written from the
+    scheme (not from the bound): Newmark average acceleration, the torque kp (0 - v_p)
+    + ki I at the predictor speed with the integral of the step before, which forward
+    Euler then advances. State (v, a, I)."""
+    columns = []
+    for v, a, integral in np.eye(3):
+        v_pred = v + 0.5 * dt * a
+        err = -v_pred
+        a_new = (kp * err + ki * integral) / m
+        columns.append([v_pred + 0.5 * dt * a_new, a_new, integral + err * dt])
+    return np.array(columns).T
+
+
+@pytest.mark.parametrize(("m", "kp", "ki"), [
+    (1000.0, 14837.0, 5000.0), (5.0, 14837.0, 5000.0), (1000.0, 1187.0, 7762.0),
+    (1.0, 1.0, 100.0), (1000.0, 100.0, 1e5), (1.0, 1.0, 0.0)])
+def test_the_speed_loops_critical_step_is_the_schemes(m, kp, ki):
+    """``top_drive.speed_loop_critical_step`` against the spectral radius of the scheme's
+    own amplification matrix, the first unstable step found by a scan and bisection:
+    damper-dominated (the stiff loop's gains), integral-dominated (the bound kp / ki)
+    and without an integral (2 m / kp)."""
+    from drill_env.physics.top_drive import speed_loop_critical_step
+
+    def stable(dt: float) -> bool:
+        return max(abs(np.linalg.eigvals(_speed_loop_amplification(m, kp, ki, dt)))) \
+            <= 1.0 + 1e-12
+
+    steps = np.geomspace(1e-7, 100.0, 2000)
+    first = [stable(s) for s in steps].index(False)  # every case has a finite limit
+    low, high = steps[first - 1], steps[first]
+    for _ in range(80):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if stable(mid) else (low, mid)
+    assert speed_loop_critical_step(kp, ki, m) == pytest.approx(low, rel=1e-6)
+
+
 @pytest.mark.parametrize("inertia", [20.0, 5.0, 0.5])
 def test_the_top_drives_speed_loop_limits_the_step_on_a_light_rotor(inertia):
-    """The PI loop acts on the top node explicitly: a damper kp and a spring ki on its
-    inertia, stable below 4 m / (sqrt(4 ki m + kp^2) + kp) (the damped oscillator's
-    critical step; 2 m / kp for the stiff loop's gains). A rotor of 5 kg m^2 at the
-    default 2 ms step chattered between the motor's torque limits every step, the
-    surface at 0.5 rad/s instead of 60 rpm; now the step shortens and it turns steadily."""
+    """The PI loop acts on the top node explicitly (the test above): a rotor of
+    5 kg m^2 at the default 2 ms step chattered between the motor's torque limits every
+    step, the surface at 0.5 rad/s instead of 60 rpm; now the step shortens to half its
+    critical step and it turns steadily."""
     from drill_env.physics.config import replace
+    from drill_env.physics.top_drive import speed_loop_critical_step
 
     config = replace(SimulationConfig(bit_model="macroscopic"),
                      **{"top_drive.inertia": inertia, "solver.lateral": False})
     sim = Simulator(config)
-    (kp, ki), m = sim.top_drive_gains, sim.tor_m[0]
-    limit = 4.0 * m / (np.sqrt(4.0 * ki * m + kp * kp) + kp)
+    limit = speed_loop_critical_step(*sim.top_drive_gains, sim.tor_m[0])
     assert sim.dt == pytest.approx(min(2e-3, 0.5 * limit), rel=1e-12)
     assert sim.dt < 2e-3  # the default rotor (1000 kg m^2) leaves the step at 2 ms
     sim.reset(OperatingPoint(60 * RPM, 0.0))
