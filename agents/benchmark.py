@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
+from drill_env.physics.config import Fidelity
 from drill_env.physics.units import HOUR, KILO, MEGA, RPM, shown
 from drill_env.physics.validation import NonNegative, Positive, config_dataclass, jsonable
 
@@ -61,7 +62,7 @@ class BenchmarkSettings:
     #: Relative kick of the bit speed at the start, drawn from the seed.
     start_kick: NonNegative = Field(default=0.02, le=0.5)
     #: Physics level ("full" or "fast", docs/performance.md).
-    fidelity: str = "full"
+    fidelity: Fidelity = "full"
     #: Config overrides (dotted paths, e.g. ``{"string.drill_pipe.length": 2000.0}``)
     #: merged into every episode's scenario, under each controller's own top drive:
     #: what ``drill-env benchmark --config FILE`` reads from YAML.
@@ -85,6 +86,14 @@ class BenchmarkSettings:
                     "set for all of them, it would make them one controller (and leave the "
                     "driller and learned policies on another): remove it (tuning knobs such "
                     "as top_drive.impedance_factor or top_drive.filter_frequency may stay)")
+        if self.physics:  # a misspelt field fails here, by name, not in a worker process
+            from drill_env.physics.config import SimulationConfig, replace
+
+            try:
+                replace(SimulationConfig(), **flatten(self.physics))
+            except ValueError as err:  # values are judged against each scenario's config
+                if "unknown field" in str(err):
+                    raise ConfigError(f"physics.{err}") from None
 
 
 #: Top-drive fields that say which controller the drive is, or override its rule's gains:

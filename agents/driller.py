@@ -25,8 +25,9 @@ from drill_env.physics.validation import Positive, config_dataclass
 class DrillerRules:
     """The driller's thresholds and steps (modelling choices, each with its reason)."""
 
-    #: Seconds of surface torque each decision looks at: two to three stick-slip periods
-    #: (1.5-2.5 s on the default string) so one oscillation is always in view.
+    #: Seconds of surface torque each decision looks at: about two stick-slip periods
+    #: (2.26 s on the default string, 1.5 s on the paper's) so one oscillation is
+    #: always in view.
     decision_period: Positive = Field(default=5.0, le=600.0)
     #: Stick-slip when the surface torque swings by more than this fraction of its mean,
     #: (max - min) / (2 mean): steady drilling stays below 0.05, stick-slip on the

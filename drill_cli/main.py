@@ -376,7 +376,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                                          f"--duration ({args.duration:g} s)")
     check_constant_set_points(controllers, env_id)
     # a task benchmark runs at the level the task trains and evaluates on
-    fidelity = args.fidelity or ("fast" if env_id else "full")
+    fidelity: Any = args.fidelity or ("fast" if env_id else "full")  # argparse checked it
     try:
         settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
                                      start_kick=args.start_kick, fidelity=fidelity,

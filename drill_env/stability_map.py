@@ -88,9 +88,10 @@ class MapSettings:
     record_every: Count = Field(default=5, ge=1, le=100_000)
 
     def __post_init__(self) -> None:
-        if self.measure > self.seconds:
-            raise ValueError(f"measure: must be <= seconds ({self.seconds}), got "
-                             f"{self.measure}")
+        for name in ("measure", "hold"):
+            if getattr(self, name) > self.seconds:
+                raise ValueError(f"{name}: must be <= seconds ({self.seconds}), got "
+                                 f"{getattr(self, name)}")
 
 
 #: The settings of ``drill-env stability-map``.

@@ -97,6 +97,11 @@ def test_physics_that_would_make_every_controller_one_is_refused(tmp_path, capsy
             bm.BenchmarkSettings(duration=6.0, warmup=2.0, physics=physics)
     bm.BenchmarkSettings(duration=6.0, warmup=2.0,
                          physics={"top_drive": {"impedance_factor": 3.0}})
+    # a misspelt field or level fails when the settings are made, not in the workers
+    with pytest.raises(ConfigError, match="physics.mud.densty: unknown field of MudConfig"):
+        bm.BenchmarkSettings(duration=6.0, warmup=2.0, physics={"mud.densty": 1300.0})
+    with pytest.raises(ConfigError, match="fidelity: Input should be 'full' or 'fast'"):
+        bm.BenchmarkSettings(duration=6.0, warmup=2.0, fidelity="fsat")
     config = tmp_path / "drive.yaml"
     config.write_text("top_drive:\n  integral_gain: 10.0\n")
     with pytest.raises(SystemExit):  # said as argparse says a bad argument

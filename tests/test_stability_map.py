@@ -93,6 +93,8 @@ def test_grid_and_settings_name_bad_values():
         MapSettings(seconds=5.0, measure=10.0)
     with pytest.raises(ValueError, match="kick"):
         MapSettings(kick=1.5)
+    with pytest.raises(ValueError, match=r"hold: must be <= seconds \(30.0\), got 1000.0"):
+        MapSettings(hold=1000.0)
     with pytest.raises(ValueError, match="grid"):
         track_boundary(lambda i, j: True, 0, 3)
     # the boundary tracking walks each axis upward: anything else would map wrongly
@@ -106,7 +108,7 @@ def test_grid_and_settings_name_bad_values():
 
     with pytest.raises(ValueError, match="measure: 0.001 s holds no sample"):
         point_sticks(sm.map_config("P1"), 60.0, 50e3,
-                     MapSettings(seconds=0.1, measure=0.001, record_every=50))
+                     MapSettings(seconds=0.1, measure=0.001, hold=0.05, record_every=50))
 
 
 # ----------------------------------------------------------------- the physics

@@ -399,7 +399,14 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
                                                   "integer, got '64'"),
              ({"n_envs": 2, "hyperparams": {"n_steps": 64, "batch_size": 512}},
               "ppo.hyperparams.batch_size: 512 is more than a rollout holds (n_steps x "
-              "n_envs = 128)"))
+              "n_envs = 128)"),
+             # a bool or a quoted count read as 1 or parsed; "no" read as False
+             ({"n_envs": True}, "ppo.n_envs: must be a whole number, got True"),
+             ({"eval_episodes": "10"}, "ppo.eval_episodes: must be a whole number, got '10'"),
+             ({"fused_adam": "no"}, "ppo.fused_adam: Input should be a valid boolean"),
+             # a NaN entropy coefficient trained on without a word
+             ({"hyperparams": {"ent_coef": -0.1}}, "ppo.hyperparams.ent_coef: must be a "
+                                                   "number >= 0"))
     for entry, message in cases:
         path = tmp_path / "h.yml"
         path.write_text(yaml.safe_dump({"ppo": entry}))

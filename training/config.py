@@ -20,9 +20,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field
+from pydantic import BeforeValidator, Field
 
-from drill_env.physics.validation import ConfigError, config_dataclass, from_dict, read_yaml
+from drill_env.physics.validation import (
+    ConfigError,
+    StrictBool,
+    config_dataclass,
+    from_dict,
+    read_yaml,
+)
 from drill_env.tasks import TASK_ENVS
 
 HYPERPARAMS = Path(__file__).resolve().parent / "hyperparams"
@@ -38,6 +44,22 @@ TRAINING_SEEDS = 2**31
 Algo = Literal["ppo", "sac"]
 
 
+def _whole(value: Any) -> Any:
+    """A count as YAML writes it: ``1.5e6`` (a float) is 1500000; a bool or a quoted
+    number is refused, not read as 1 or parsed."""
+    if isinstance(value, (bool, str)):
+        raise ValueError(f"must be a whole number, got {value!r}")
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    if not isinstance(value, int) and hasattr(value, "__index__"):  # NumPy integers
+        return int(value)
+    return value
+
+
+#: A whole number of steps, envs, episodes or threads (see :func:`_whole`).
+Whole = Annotated[int, BeforeValidator(_whole)]
+
+
 def algo_class(name: str) -> Any:
     """The Stable-Baselines3 class of an ``algo`` name (imported on first use)."""
     from stable_baselines3 import PPO, SAC
@@ -49,8 +71,8 @@ def algo_class(name: str) -> Any:
 class Normalize:
     """VecNormalize settings (saved beside the model, loaded with it)."""
 
-    norm_obs: bool = True
-    norm_reward: bool = True
+    norm_obs: StrictBool = True
+    norm_reward: StrictBool = True
     clip_obs: Annotated[float, Field(gt=0.0, le=1e6)] = 10.0
     #: Discount of the reward normalisation; None: the algorithm's own ``gamma`` (a
     #: normalisation that discounts otherwise scales the returns the critic learns
@@ -64,9 +86,9 @@ class TrainConfig:
 
     task: Literal["stick_slip", "drilling"]
     algo: Algo = "ppo"
-    n_envs: int = Field(default=8, ge=1, le=1024)
-    n_timesteps: int = Field(default=1_000_000, ge=1, le=10**10)
-    seed: int = Field(default=0, ge=0, lt=VALIDATION_SEED)
+    n_envs: Whole = Field(default=8, ge=1, le=1024)
+    n_timesteps: Whole = Field(default=1_000_000, ge=1, le=10**10)
+    seed: Whole = Field(default=0, ge=0, lt=VALIDATION_SEED)
     policy: str = "MlpPolicy"
     normalize: Normalize = Normalize()
     policy_kwargs: dict[str, Any] = Field(default_factory=dict)
@@ -74,15 +96,15 @@ class TrainConfig:
     env_kwargs: dict[str, Any] = Field(default_factory=dict)
     #: Evaluate every this many env steps (all envs together) on ``eval_episodes``
     #: validation seeds; the best model is kept as ``best_model.zip``.
-    eval_freq: int = Field(default=50_000, ge=1, le=10**9)
-    eval_episodes: int = Field(default=10, ge=1, le=10_000)
-    checkpoint_freq: int = Field(default=200_000, ge=1, le=10**10)
+    eval_freq: Whole = Field(default=50_000, ge=1, le=10**9)
+    eval_episodes: Whole = Field(default=10, ge=1, le=10_000)
+    checkpoint_freq: Whole = Field(default=200_000, ge=1, le=10**10)
     #: torch's intra-op threads during the run, re-applied at every env step (numba's
     #: OpenMP layer resets the shared OpenMP thread count at each batched step). 1: the
     #: policy's small per-step batches and the 128x128 updates run faster on one thread
     #: than on two on a 2-core machine (docs/performance.md, "Training on a shared machine"); 0:
     #: leave torch's own setting. Not part of what a resumed run must match.
-    torch_threads: int = Field(default=1, ge=0, le=1024)
+    torch_threads: Whole = Field(default=1, ge=0, le=1024)
     #: Adam's fused CPU kernel (``torch.optim.Adam(fused=True)``) for the policy's
     #: optimisers, unless ``policy_kwargs`` names another optimiser or its own
     #: ``optimizer_kwargs``: the same update rule in one kernel per step instead of
@@ -91,7 +113,7 @@ class TrainConfig:
     #: model keeps what it was created with (a resumed run too). Needs torch 2.4 or later
     #: (on 2.3 the plain update runs; a model trained with the fused kernel then needs 2.4
     #: to load: its saved optimiser settings name it).
-    fused_adam: bool = True
+    fused_adam: StrictBool = True
 
     @property
     def reward_gamma(self) -> float:
@@ -127,6 +149,7 @@ _RANGES: dict[str, tuple[float, float, bool]] = {  # name: (low, high, low inclu
     "max_grad_norm": (0.0, 1e9, False), "buffer_size": (1, 10**10, True),
     "learning_starts": (0, 10**10, True), "tau": (0.0, 1.0, False),
     "gradient_steps": (-1, 10**6, True), "train_freq": (1, 10**9, True),
+    "ent_coef": (0.0, 1e6, True),  # a number (SAC's "auto" forms are strings: SB3's check)
 }
 #: Hyperparameters SB3 needs as integers: a YAML ``1e5`` arrives as a float.
 _INTEGERS = {"n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",

@@ -25,6 +25,7 @@ from agents.benchmark import (
     task_settings,
 )
 from agents.registry import CLASSICAL
+from drill_env.physics.config import Fidelity
 from drill_env.scenarios import EVALUATION_SEEDS
 from training.config import TASKS
 
@@ -88,7 +89,7 @@ def acting(controller: Any) -> MakeAct:
     return make
 
 
-def settings_of(task: str, fidelity: str = "fast") -> BenchmarkSettings:
+def settings_of(task: str, fidelity: Fidelity = "fast") -> BenchmarkSettings:
     duration, warmup = EVALUATION_WINDOWS[task]
     return BenchmarkSettings(duration=duration, warmup=warmup, start_kick=0.02,
                              fidelity=fidelity)

@@ -13,7 +13,9 @@ lengths in metres. Strings list their components from the bit up.
 
 from __future__ import annotations
 
+import bisect
 import functools
+import itertools
 
 from drill_env.physics.config import Component, StringConfig
 from drill_env.physics.units import GRAVITY, INCH
@@ -80,9 +82,9 @@ def bit_sub(length: float = 1.0, element_length: float = 1.0) -> Component:
 
 
 #: The packed vertical-hole BHA of the realistic strings, from the bit up: stabilizers at
-#: 1-2.5, 12-13.5, 31.5-33, 51-52.5 and 70.5-72 m keep every span that carries more than
+#: 1-2.5, 11.5-13, 31-32.5, 50.5-52 and 70-71.5 m keep every span that carries more than
 #: ~40 kN of compression below a third of its Euler load (the compressed collars stay
-#: straight), 108 m in all (~123 kN in 1.2 g/cc mud): 100 kN of WOB puts the neutral point
+#: straight), 107.5 m in all (~123 kN in 1.2 g/cc mud): 100 kN of WOB puts the neutral point
 #: in the collars ~90 m above the bit, with ~20 % of the BHA weight to spare (API RP 7G
 #: asks for 15-25 %).
 def packed_bha() -> tuple[Component, ...]:
@@ -126,3 +128,19 @@ def realistic_string(total_length: float = 1250.0, pipe_element_length: float = 
 def buoyed_weight(components: tuple[Component, ...], mud_density: float) -> float:
     """Weight in mud of some components (N), tube bodies only."""
     return sum(c.area * c.length * (c.density - mud_density) * GRAVITY for c in components)
+
+
+def check_stabilizers(string: StringConfig) -> None:
+    """ValueError naming the field unless every extra stabilizer of ``string`` lies on it
+    and its blades are no narrower than the body they sit on (narrower, the node's
+    clearance would grow: a recess, not a stabilizer)."""
+    tops = list(itertools.accumulate(s.length for s in (*string.lower, string.drill_pipe)))
+    for k, pos in enumerate(string.stabilizer_positions):
+        if pos >= string.length:
+            raise ValueError(f"stabilizers[{k}]: {pos} m above the bit is outside the "
+                             f"{string.length} m string")
+        body = (*string.lower, string.drill_pipe)[bisect.bisect_right(tops, pos)]
+        if string.stabilizer_diameter < body.outer_diameter:
+            raise ValueError(f"stabilizer_diameter: {string.stabilizer_diameter} m is narrower "
+                             f"than the {body.label} it sits on at stabilizers[{k}] ({pos} m "
+                             f"above the bit, outer diameter {body.outer_diameter} m)")

@@ -203,3 +203,17 @@ def test_every_named_scenario_states_its_neutral_point():
             # lateral_60 lies 262 m up, in the drill pipe, which lies on the low side and
             # carries that compression far below its (Dawson-Paslay) buckling load
             assert pipe_buckling(sc.config, sc.weight_on_bit) == [], name
+
+
+def test_a_stabilizer_narrower_than_its_body_is_refused_by_name():
+    """A stabilizer's blades narrower than the collar under them would widen the node's
+    clearance (a recess): refused, naming the field and where; one beyond the string
+    too."""
+    with pytest.raises(ValueError, match=r"stabilizer_diameter: 0.1 m is narrower than the "
+                                         r"collar it sits on at stabilizers\[0\]"):
+        StringConfig(stabilizer_diameter=0.1)
+    with pytest.raises(ValueError, match=r"stabilizers\[0\]: 5000.0 m above the bit is "
+                                         "outside the 1035.0 m string"):
+        StringConfig(stabilizers=(5000.0,))
+    # on the pipe above a 35 m BHA a 6 in stabilizer is wider than the 5 in body: accepted
+    assert StringConfig(stabilizers=(100.0,), stabilizer_diameter=6 * INCH).stabilizers
