@@ -508,9 +508,11 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             bar.close()
             executor.close()
     rows = [store.get(e.key) for e in todo_all]
+    from agents.learned import policy_files
+
     names = labels(controllers)
-    runs = {name: c.partition(":")[2] for c, name in zip(controllers, names, strict=True)
-            if c.startswith("learned:")}
+    runs = {name: f"{c.partition(':')[2]} ({policy_files(c.partition(':')[2])[0].name})"
+            for c, name in zip(controllers, names, strict=True) if c.startswith("learned:")}
     write_outputs(rows, out, names, scenarios, settings, env_id, heading,
                   first_seed=seeds[0] if len(seeds) else 0, runs=runs)
     return rows

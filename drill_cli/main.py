@@ -416,6 +416,12 @@ def cmd_train(args: argparse.Namespace) -> int:
                                   or any(c in args.name for c in "/\\")):
         raise argparse.ArgumentTypeError(f"--name: a folder name inside --out, without "
                                          f"'/', got {args.name!r}")
+    from training.config import VALIDATION_SEED
+
+    if args.seed is not None and args.seed >= VALIDATION_SEED:
+        raise argparse.ArgumentTypeError(
+            f"--seed: must be below {VALIDATION_SEED}, got {args.seed} (the seeds from "
+            f"{VALIDATION_SEED} on are the validation and held-out episodes)")
     if args.algo is None:  # a named run resumes with its own algorithm; else the default
         named = args.out / args.name if args.resume and args.name else None
         args.algo = (named and saved_algorithm(named)) or "sac"

@@ -75,7 +75,7 @@ if "OMP_WAIT_POLICY" not in os.environ:
         import warnings
 
         warnings.warn("drill_env was imported after torch, whose OpenMP threads then spin "
-                      "while they wait: on a shared machine training runs ~3x slower. "
+                      "while they wait: beside another job training runs 2-3x slower. "
                       "Import drill_env first or export OMP_WAIT_POLICY=PASSIVE "
                       "(docs/performance.md).", RuntimeWarning, stacklevel=2)
 

@@ -497,7 +497,7 @@ def test_a_task_policy_drills_a_scenario_from_its_start_and_for_its_length(tmp_p
                  "--workers", "1", "--out", str(out)]) == 0
     # the row is "learned"; the table (printed and benchmark.md) says which model that is
     assert "Trained runs" in capsys.readouterr().out
-    assert (f"Trained runs: learned: the policy of {shipped}."
+    assert (f"Trained runs: learned: the policy of {shipped} (model.zip)."
             in (out / "benchmark.md").read_text())
     first = {c: float(np.load(out / "series" / f"{c}_stick_slip_seed0.npz")["bit_speed"][0])
              for c in ("learned", "stiff")}

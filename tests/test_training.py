@@ -109,7 +109,9 @@ def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
     folder, cfg = run
     copy = tmp_path / "copy"
     shutil.copytree(folder, copy)
-    with pytest.raises(ValueError, match=r"another config \(seed differ;"):
+    # advice a seed sweep (which takes no --name or --resume) can follow too
+    with pytest.raises(ValueError, match=r"another config \(seed differ;.*under another "
+                                         r"--name \(a --seeds sweep: another --out\)"):
         train(replace(cfg, seed=5), copy, resume=True, progress=False)
     train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
     with (copy / "evaluations.csv").open() as f:
@@ -404,6 +406,9 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
              ({"n_envs": True}, "ppo.n_envs: must be a whole number, got True"),
              ({"eval_episodes": "10"}, "ppo.eval_episodes: must be a whole number, got '10'"),
              ({"fused_adam": "no"}, "ppo.fused_adam: Input should be a valid boolean"),
+             # a class name in YAML reached SB3 as a string (TypeError, a run folder left)
+             ({"policy_kwargs": {"activation_fn": "softplusish"}},
+              "ppo.policy_kwargs.activation_fn: must name an activation (tanh, relu"),
              # a NaN entropy coefficient trained on without a word
              ({"hyperparams": {"ent_coef": -0.1}}, "ppo.hyperparams.ent_coef: must be a "
                                                    "number >= 0"))
@@ -434,6 +439,10 @@ def test_train_command_names_bad_input(capsys):
     with pytest.raises(SystemExit):
         main(["train", "--task", "juggling"])
     assert "--task" in capsys.readouterr().err
+    # named by the flag typed, not the YAML field it sets (ppo.seed)
+    with pytest.raises(SystemExit):
+        main(["train", "--task", "stick_slip", "--seed", "900000"])
+    assert "--seed: must be below 900000, got 900000" in capsys.readouterr().err
     # a seed sweep took '0,,1' and quietly dropped --seed and --overwrite
     for args, message in ((["--seeds", "0,,1"], "--seeds: comma-separated integers"),
                           (["--seeds=-1,2"], "--seeds: distinct integers in 0-"),
@@ -674,6 +683,28 @@ def test_the_reward_normalisation_discounts_as_the_algorithm_does_unless_told():
     assert given.normalize.gamma == given.reward_gamma == 0.98  # the YAML's own
 
 
+def test_a_policy_saved_before_its_first_gradient_step_is_said_untrained(tmp_path):
+    """A Ctrl-C in SAC's warm-up leaves a checkpoint of random actions: evaluate and
+    learned:<run> load it, with a warning (it was used without one)."""
+    import pickle
+
+    from drill_env.physics.validation import jsonable
+    from training.train import make_train_env, new_model
+
+    cfg = load_config("stick_slip", "sac", n_envs=1)
+    venv = make_train_env(cfg, cfg.seed)
+    try:
+        new_model(cfg, venv).save(tmp_path / "model.zip")
+        with (tmp_path / "vecnormalize.pkl").open("wb") as f:
+            pickle.dump(venv, f)
+    finally:
+        venv.close()
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(jsonable(cfg)))
+    with pytest.warns(RuntimeWarning, match="saved at 0 env steps, before the first "
+                                            "gradient step .*an untrained policy"):
+        LearnedController.load(tmp_path)
+
+
 def test_a_log_std_init_sac_would_ignore_is_refused(tmp_path):
     """SB3's SAC actor learns its log std as a layer; only gSDE takes log_std_init. The
     shipped SAC configs once carried it, believing it set a small exploration noise."""
@@ -741,6 +772,9 @@ def test_the_policy_optimisers_are_fused_adam_unless_the_yaml_says_otherwise(alg
         plain = load_config("stick_slip", algo, n_envs=1, fused_adam=False)
         for opt in optimisers(new_model(plain, venv)):
             assert not opt.defaults["fused"]
+        relu = load_config("stick_slip", algo, n_envs=1, policy_kwargs={
+            **cfg.policy_kwargs, "activation_fn": "nn.ReLU"})
+        assert any(type(m).__name__ == "ReLU" for m in new_model(relu, venv).policy.modules())
         own = load_config("stick_slip", algo, n_envs=1, policy_kwargs={
             **cfg.policy_kwargs, "optimizer_kwargs": {"eps": 1e-6}})
         for opt in optimisers(new_model(own, venv)):

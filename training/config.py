@@ -156,6 +156,24 @@ _INTEGERS = {"n_steps", "batch_size", "n_epochs", "buffer_size", "learning_start
              "gradient_steps", "train_freq"}
 
 
+#: ``policy_kwargs.activation_fn`` by name (YAML holds no classes): torch.nn's module.
+ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU",
+               "gelu": "GELU", "silu": "SiLU", "selu": "SELU"}
+
+
+def activation_class(name: Any) -> Any:
+    """The torch.nn class a YAML names (``relu``, ``ReLU``, ``nn.ReLU``, ``torch.nn.ReLU``);
+    ValueError listing the names otherwise."""
+    import torch
+
+    key = str(name).removeprefix("torch.").removeprefix("nn.")
+    known = ACTIVATIONS | {v.lower(): v for v in ACTIVATIONS.values()}
+    if not isinstance(name, str) or key.lower() not in known:
+        raise ValueError(f"must name an activation ({', '.join(ACTIVATIONS)}; or nn.ReLU "
+                         f"and the like), got {name!r}")
+    return getattr(torch.nn, known[key.lower()])
+
+
 def without_inert_keys(saved: dict[str, Any]) -> dict[str, Any]:
     """A run's saved ``config.yaml`` without the settings that never acted, which the
     checks now refuse: a SAC ``policy_kwargs.log_std_init`` without gSDE (runs from
@@ -216,6 +234,11 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         raise ConfigError(f"{where}.log_std_init: has no effect on SAC without "
                           "gSDE (the actor's log std is a learned layer, std ~1 at first); "
                           "leave it out or set sac.hyperparams.use_sde: true")
+    if "activation_fn" in config.policy_kwargs:
+        try:
+            activation_class(config.policy_kwargs["activation_fn"])
+        except ValueError as err:
+            raise ConfigError(f"{where}.activation_fn: {err}") from None
     arch = config.policy_kwargs.get("net_arch")
     layers = arch.items() if isinstance(arch, dict) else [("", arch)] if arch is not None \
         else []

@@ -42,6 +42,7 @@ from training.config import (
     TRAINING_SEEDS,
     VALIDATION_SEED,
     TrainConfig,
+    activation_class,
     algo_class,
     without_inert_keys,
 )
@@ -251,6 +252,8 @@ def new_model(config: TrainConfig, env: Any, **kwargs: Any) -> Any:
     """An untrained model of ``config`` (algorithm, policy, its kwargs, hyperparameters,
     seed) on ``env``; ``kwargs`` go to the algorithm (e.g. ``tensorboard_log``)."""
     policy_kwargs = dict(config.policy_kwargs)
+    if "activation_fn" in policy_kwargs:  # a name in the YAML, the class for SB3
+        policy_kwargs["activation_fn"] = activation_class(policy_kwargs["activation_fn"])
     if config.algo == "sac":  # SAC's net_arch is per network; a list is shared
         policy_kwargs.setdefault("net_arch", [256, 256])
     if config.fused_adam and fused_adam_on_cpu() and not (
@@ -327,7 +330,8 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
         if changed:
             raise ValueError(f"resume: {run} was trained with another config ({', '.join(changed)} "
                              "differ; only n_timesteps, torch_threads and fused_adam may "
-                             "change); start a new run name or drop --resume")
+                             "change); train it under another --name (a --seeds sweep: "
+                             "another --out), or delete the folder")
     point = resume_point(run)
     if point is None:
         check_learns(config, 0)  # nothing to resume: it starts from the beginning
@@ -479,7 +483,9 @@ def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | N
               "config (--resume starts it, --overwrite starts afresh)")
         return None
     path = write_checkpoint(run, model, env, wall_s)
-    print(f"interrupted at {steps} env steps: saved {path}; --resume continues from it")
+    # one write, so that the lines of a sweep's workers do not run into each other
+    print(f"interrupted at {steps} env steps: saved {path}; the same command with --resume "
+          "continues from it (a --seeds sweep: the same command)\n", end="", flush=True)
     return path
 
 
