@@ -91,8 +91,8 @@ class BenchmarkSettings:
 
             try:
                 replace(SimulationConfig(), **flatten(self.physics))
-            except ValueError as err:  # values are judged against each scenario's config
-                if "unknown field" in str(err):
+            except (ValueError, TypeError, IndexError) as err:  # values and list entries
+                if "unknown field" in str(err):  # are judged against each scenario's config
                     raise ConfigError(f"physics.{err}") from None
 
 

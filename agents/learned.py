@@ -54,13 +54,12 @@ class LearnedController:
         from training.config import algo_class
 
         model = algo_class(config.get("algo", "ppo")).load(str(model_file), device="cpu")
-        starts = getattr(model, "learning_starts", 0)  # SAC: random actions until then
-        if model.num_timesteps <= starts:  # a Ctrl-C in the warm-up saves such a model
+        if getattr(model, "_n_updates", 1) == 0:  # a Ctrl-C in SAC's warm-up saves one
             import warnings
 
             warnings.warn(f"{model_file}: saved at {model.num_timesteps} env steps, before "
-                          f"the first gradient step (learning_starts {starts}): an "
-                          "untrained policy", RuntimeWarning, stacklevel=2)
+                          "the first gradient step (SAC's learning_starts): an untrained "
+                          "policy", RuntimeWarning, stacklevel=2)
         with norm_file.open("rb") as f:
             normalizer = pickle.load(f)  # a VecNormalize without its venv: statistics only
         normalizer.training = False

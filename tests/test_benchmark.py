@@ -102,6 +102,9 @@ def test_physics_that_would_make_every_controller_one_is_refused(tmp_path, capsy
         bm.BenchmarkSettings(duration=6.0, warmup=2.0, physics={"mud.densty": 1300.0})
     with pytest.raises(ConfigError, match="fidelity: Input should be 'full' or 'fast'"):
         bm.BenchmarkSettings(duration=6.0, warmup=2.0, fidelity="fsat")
+    # values for a scenario's own string (components the default config lacks) pass
+    bm.BenchmarkSettings(duration=6.0, warmup=2.0,
+                         physics={"string.components[2].length": 20.0})
     config = tmp_path / "drive.yaml"
     config.write_text("top_drive:\n  integral_gain: 10.0\n")
     with pytest.raises(SystemExit):  # said as argparse says a bad argument

@@ -409,6 +409,7 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
              # a class name in YAML reached SB3 as a string (TypeError, a run folder left)
              ({"policy_kwargs": {"activation_fn": "softplusish"}},
               "ppo.policy_kwargs.activation_fn: must name an activation (tanh, relu"),
+             ({"n_timesteps": True}, "ppo.n_timesteps: must be a whole number, got True"),
              # a NaN entropy coefficient trained on without a word
              ({"hyperparams": {"ent_coef": -0.1}}, "ppo.hyperparams.ent_coef: must be a "
                                                    "number >= 0"))
@@ -479,6 +480,10 @@ def test_zoo_hyperparameters_are_the_yaml_ones():
     cfg = load_config("stick_slip", "ppo")
     assert zoo["n_timesteps"] == cfg.n_timesteps and zoo["gamma"] == cfg.hyperparams["gamma"]
     assert zoo["policy_kwargs"] == cfg.policy_kwargs
+    # the reward normalisation's discount too (rl-zoo3's default was 0.99 for SAC's 0.98)
+    sac = zoo_hyperparams("sac")["DrillStickSlip-v0"]
+    assert "gamma=0.98)" in sac["normalize"]
+    assert load_config("stick_slip", "sac").reward_gamma == 0.98
 
 
 def test_a_seed_sweep_trains_one_run_per_seed_and_skips_finished_ones(tmp_path):
@@ -703,6 +708,17 @@ def test_a_policy_saved_before_its_first_gradient_step_is_said_untrained(tmp_pat
     with pytest.warns(RuntimeWarning, match="saved at 0 env steps, before the first "
                                             "gradient step .*an untrained policy"):
         LearnedController.load(tmp_path)
+    import warnings
+
+    with warnings.catch_warnings():  # trained ones load without it
+        warnings.simplefilter("error")
+        for task in ("stick_slip", "drilling"):
+            LearnedController.load(TRAINED / task)
+    # a NumPy bool is not a count either
+    import numpy as np
+
+    with pytest.raises(ValueError, match="n_envs: must be a whole number"):
+        load_config("stick_slip", "sac", n_envs=np.True_)
 
 
 def test_a_log_std_init_sac_would_ignore_is_refused(tmp_path):
@@ -772,9 +788,12 @@ def test_the_policy_optimisers_are_fused_adam_unless_the_yaml_says_otherwise(alg
         plain = load_config("stick_slip", algo, n_envs=1, fused_adam=False)
         for opt in optimisers(new_model(plain, venv)):
             assert not opt.defaults["fused"]
-        relu = load_config("stick_slip", algo, n_envs=1, policy_kwargs={
-            **cfg.policy_kwargs, "activation_fn": "nn.ReLU"})
-        assert any(type(m).__name__ == "ReLU" for m in new_model(relu, venv).policy.modules())
+        import torch
+
+        for name in ("elu", "nn.ELU", torch.nn.ELU):  # neither algorithm's default
+            elu = load_config("stick_slip", algo, n_envs=1, policy_kwargs={
+                **cfg.policy_kwargs, "activation_fn": name})
+            assert any(type(m).__name__ == "ELU" for m in new_model(elu, venv).policy.modules())
         own = load_config("stick_slip", algo, n_envs=1, policy_kwargs={
             **cfg.policy_kwargs, "optimizer_kwargs": {"eps": 1e-6}})
         for opt in optimisers(new_model(own, venv)):

@@ -20,6 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import BeforeValidator, Field
 
 from drill_env.physics.validation import (
@@ -47,7 +48,7 @@ Algo = Literal["ppo", "sac"]
 def _whole(value: Any) -> Any:
     """A count as YAML writes it: ``1.5e6`` (a float) is 1500000; a bool or a quoted
     number is refused, not read as 1 or parsed."""
-    if isinstance(value, (bool, str)):
+    if isinstance(value, (bool, np.bool_, str)):
         raise ValueError(f"must be a whole number, got {value!r}")
     if isinstance(value, float) and value.is_integer():
         return int(value)
@@ -166,6 +167,8 @@ def activation_class(name: Any) -> Any:
     ValueError listing the names otherwise."""
     import torch
 
+    if isinstance(name, type) and issubclass(name, torch.nn.Module):  # given from Python
+        return name
     key = str(name).removeprefix("torch.").removeprefix("nn.")
     known = ACTIVATIONS | {v.lower(): v for v in ACTIVATIONS.values()}
     if not isinstance(name, str) or key.lower() not in known:
@@ -276,8 +279,6 @@ def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
     if algo not in data:
         raise ConfigError(f"algo: {file} has no entry {algo!r}; it has {sorted(data)}")
     entry = dict(data[algo])
-    if "n_timesteps" in entry:
-        entry["n_timesteps"] = int(float(entry["n_timesteps"]))
     entry.update({k: v for k, v in overrides.items() if v is not None})
     try:
         return from_dict(TrainConfig, {"task": task, "algo": algo, **entry})

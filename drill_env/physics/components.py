@@ -133,13 +133,19 @@ def buoyed_weight(components: tuple[Component, ...], mud_density: float) -> floa
 def check_stabilizers(string: StringConfig) -> None:
     """ValueError naming the field unless every extra stabilizer of ``string`` lies on it
     and its blades are no narrower than the body they sit on (narrower, the node's
-    clearance would grow: a recess, not a stabilizer)."""
-    tops = list(itertools.accumulate(s.length for s in (*string.lower, string.drill_pipe)))
+    clearance would grow: a recess, not a stabilizer). The simulator puts a stabilizer on
+    the nearest node, which may belong to the next component: it is refused only if it is
+    narrower than every body within an element of its position."""
+    bodies = (*string.lower, string.drill_pipe)
+    tops = list(itertools.accumulate(s.length for s in bodies))
     for k, pos in enumerate(string.stabilizer_positions):
         if pos >= string.length:
             raise ValueError(f"stabilizers[{k}]: {pos} m above the bit is outside the "
                              f"{string.length} m string")
-        body = (*string.lower, string.drill_pipe)[bisect.bisect_right(tops, pos)]
+        reach = bodies[bisect.bisect_right(tops, pos)].element_length
+        near = bodies[bisect.bisect_right(tops, max(pos - reach, 0.0)):
+                      bisect.bisect_right(tops, pos + reach) + 1]
+        body = min(near, key=lambda s: s.outer_diameter)
         if string.stabilizer_diameter < body.outer_diameter:
             raise ValueError(f"stabilizer_diameter: {string.stabilizer_diameter} m is narrower "
                              f"than the {body.label} it sits on at stabilizers[{k}] ({pos} m "

@@ -215,5 +215,7 @@ def test_a_stabilizer_narrower_than_its_body_is_refused_by_name():
     with pytest.raises(ValueError, match=r"stabilizers\[0\]: 5000.0 m above the bit is "
                                          "outside the 1035.0 m string"):
         StringConfig(stabilizers=(5000.0,))
-    # on the pipe above a 35 m BHA a 6 in stabilizer is wider than the 5 in body: accepted
+    # on the pipe above a 35 m BHA a 6 in stabilizer is wider than the 5 in body: accepted,
+    # also at 34.6 m, whose nearest node (35 m) carries the pipe
     assert StringConfig(stabilizers=(100.0,), stabilizer_diameter=6 * INCH).stabilizers
+    assert StringConfig(stabilizers=(34.6,), stabilizer_diameter=6 * INCH).stabilizers
