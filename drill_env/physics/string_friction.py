@@ -38,6 +38,11 @@ from drill_env.physics.layout import P, S
 #: most 7 (a review's measurement; tests/physics/test_string_friction.py checks 52).
 MAX_ACTIVE_SET_ITERATIONS = 60
 
+#: How often a step's solve may take back the cap of the bit's slip torque (see
+#: :func:`soft_string_torsion`); then it ends however the set turns out. A bound that
+#: keeps a release-cap-uncap sequence from using up the active set's iterations.
+MAX_BIT_CAP_CHECKS = 4
+
 #: ``Motion.stick`` entries: the slip direction of a node, or stuck.
 STUCK = 0.0
 
@@ -206,10 +211,10 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
             elif v[i] * stick[i] < 0.0:
                 stick[i] = STUCK
                 changed = True
-        if not changed and bit_capped and bit_checks < 4 and stick[bit] != STUCK:
+        if not changed and bit_capped and bit_checks < MAX_BIT_CAP_CHECKS \
+                and stick[bit] != STUCK:
             # the cap is right only where the rock's torque would reverse the bit in the
             # final set; if the set has moved on since, it slips with the rock's torque
-            # (checked once a step: the solve then ends however the set turns out)
             bit_checks += 1
             bit_capped = False
             extra = h * stick[bit] * (t_slip - slip_limit[bit]) * g_bit
