@@ -768,7 +768,8 @@ def cmd_well(args: argparse.Namespace) -> int:
     from drill_env.scenarios import make_scenario
     from drill_env.well import CHART_STEP, WELLS, write_well
 
-    config = with_overrides(make_scenario(args.scenario).config, args.config)
+    overrides = read_overrides(args.config)  # the file read once
+    config = _merged(make_scenario(args.scenario).config, overrides, args.config)
     if args.survey is not None and args.well is not None:
         raise argparse.ArgumentTypeError("--well: give a preset well or --survey, not both")
     if args.total_md is not None and args.well is None:
@@ -796,8 +797,7 @@ def cmd_well(args: argparse.Namespace) -> int:
     else:  # the scenario's hole, or the one --config gives (its well section)
         well = config.well
         survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
-        given = args.config is not None and any(
-            key == "well" or key.startswith("well.") for key in read_overrides(args.config))
+        given = any(key == "well" or key.startswith("well.") for key in overrides)
         name, source = ((args.config.stem, f"--config {args.config}") if given
                         else (args.scenario, f"--scenario {args.scenario}"))
     trajectory = Trajectory(survey)

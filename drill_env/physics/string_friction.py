@@ -175,7 +175,7 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
         base[i] = _band_times(band, m.vt, i) + h * work.rt[i]
         static_limit[i], slip_limit[i] = _limits(p, nodes, m, i, bit, t_slip, t_static)
     held = cp  # after each solve: 1 where that solve held the node at rest
-    bit_released = bit_capped = False
+    bit_released = False
     bit_checks = 0
     iterations = 0
     converged = False
@@ -205,18 +205,17 @@ def soft_string_torsion(p, state, torsion, nodes, m, work, t_slip, t_static):
                         # again, it slips with at most the torque that held it: no cycle.
                         if bit_released and slip_limit[i] > static:
                             slip_limit[i] = static
-                            bit_capped = True
                         bit_released = True
                     changed = True
             elif v[i] * stick[i] < 0.0:
                 stick[i] = STUCK
                 changed = True
-        if not changed and bit_capped and bit_checks < MAX_BIT_CAP_CHECKS \
+        capped = slip_limit[bit] < t_slip  # only the release above lowers it
+        if not changed and capped and bit_checks < MAX_BIT_CAP_CHECKS \
                 and stick[bit] != STUCK:
             # the cap is right only where the rock's torque would reverse the bit in the
             # final set; if the set has moved on since, it slips with the rock's torque
             bit_checks += 1
-            bit_capped = False
             extra = h * stick[bit] * (t_slip - slip_limit[bit]) * g_bit
             if (v[bit] - extra) * stick[bit] > 0.0:
                 slip_limit[bit] = t_slip
