@@ -397,8 +397,10 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
              ({"env_kwargs": {"max_correction": -5.0}}, "ppo.env_kwargs: max_correction"),
              # a quoted number reached SB3 (a TypeError there); a batch larger than the
              # rollout only made SB3 warn and truncate
-             ({"hyperparams": {"n_steps": "64"}}, "ppo.hyperparams.n_steps: must be an "
-                                                  "integer, got '64'"),
+             ({"hyperparams": {"n_steps": "64"}}, "ppo.hyperparams.n_steps: must be a "
+                                                  "whole number, got '64'"),
+             ({"hyperparams": {"n_epochs": True}}, "ppo.hyperparams.n_epochs: must be a "
+                                                   "whole number, got True"),
              ({"n_envs": 2, "hyperparams": {"n_steps": 64, "batch_size": 512}},
               "ppo.hyperparams.batch_size: 512 is more than a rollout holds (n_steps x "
               "n_envs = 128)"),
@@ -431,8 +433,8 @@ def test_integer_hyperparameters_written_as_floats_become_integers():
     assert config.hyperparams["buffer_size"] == 100_000
     assert type(config.hyperparams["buffer_size"]) is int
     assert type(config.hyperparams["learning_rate"]) is float
-    with pytest.raises(ValueError, match=r"^sac.hyperparams.batch_size: must be an integer, "
-                                         r"got 64.5"):
+    with pytest.raises(ValueError, match=r"^sac.hyperparams.batch_size: must be a whole "
+                                         r"number, got 64.5"):
         TrainConfig(task="drilling", algo="sac", hyperparams={"batch_size": 64.5})
 
 

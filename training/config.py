@@ -177,6 +177,15 @@ def activation_class(name: Any) -> Any:
     return getattr(torch.nn, known[key.lower()])
 
 
+def sb3_policy_kwargs(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``policy_kwargs`` as Stable-Baselines3 takes them: ``activation_fn`` as the torch
+    class the YAML names (ValueError if it names none); a copy."""
+    out = dict(policy_kwargs)
+    if "activation_fn" in out:
+        out["activation_fn"] = activation_class(out["activation_fn"])
+    return out
+
+
 def without_inert_keys(saved: dict[str, Any]) -> dict[str, Any]:
     """A run's saved ``config.yaml`` without the settings that never acted, which the
     checks now refuse: a SAC ``policy_kwargs.log_std_init`` without gSDE (runs from
@@ -204,11 +213,13 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
             raise ConfigError(f"{where}.{key}: not an argument of {algo.__name__}; known: "
                               f"{', '.join(sorted(known))}")
         number = isinstance(value, (int, float)) and not isinstance(value, bool)
-        if key in _INTEGERS and isinstance(value, float) and value.is_integer():
-            value = config.hyperparams[key] = int(value)
-        if key in _INTEGERS and key != "train_freq" and not (
-                isinstance(value, int) and not isinstance(value, bool)):
-            raise ConfigError(f"{where}.{key}: must be an integer, got {value!r}")
+        if key in _INTEGERS:  # the rule of the config's own counts (``Whole``)
+            try:
+                value = config.hyperparams[key] = _whole(value)
+            except ValueError as err:
+                raise ConfigError(f"{where}.{key}: {err}") from None
+            if key != "train_freq" and not isinstance(value, int):
+                raise ConfigError(f"{where}.{key}: must be a whole number, got {value!r}")
         if key in _RANGES and number:  # schedules ("lin_3e-4"), tuples ([1, "episode"]):
             low, high, closed = _RANGES[key]  # SB3's own checks
             if not (math.isfinite(value) and (value >= low if closed else value > low)
@@ -237,11 +248,10 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         raise ConfigError(f"{where}.log_std_init: has no effect on SAC without "
                           "gSDE (the actor's log std is a learned layer, std ~1 at first); "
                           "leave it out or set sac.hyperparams.use_sde: true")
-    if "activation_fn" in config.policy_kwargs:
-        try:
-            activation_class(config.policy_kwargs["activation_fn"])
-        except ValueError as err:
-            raise ConfigError(f"{where}.activation_fn: {err}") from None
+    try:
+        sb3_policy_kwargs(config.policy_kwargs)
+    except ValueError as err:
+        raise ConfigError(f"{where}.activation_fn: {err}") from None
     arch = config.policy_kwargs.get("net_arch")
     layers = arch.items() if isinstance(arch, dict) else [("", arch)] if arch is not None \
         else []

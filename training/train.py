@@ -42,8 +42,8 @@ from training.config import (
     TRAINING_SEEDS,
     VALIDATION_SEED,
     TrainConfig,
-    activation_class,
     algo_class,
+    sb3_policy_kwargs,
     without_inert_keys,
 )
 
@@ -251,9 +251,7 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
 def new_model(config: TrainConfig, env: Any, **kwargs: Any) -> Any:
     """An untrained model of ``config`` (algorithm, policy, its kwargs, hyperparameters,
     seed) on ``env``; ``kwargs`` go to the algorithm (e.g. ``tensorboard_log``)."""
-    policy_kwargs = dict(config.policy_kwargs)
-    if "activation_fn" in policy_kwargs:  # a name in the YAML, the class for SB3
-        policy_kwargs["activation_fn"] = activation_class(policy_kwargs["activation_fn"])
+    policy_kwargs = sb3_policy_kwargs(config.policy_kwargs)
     if config.algo == "sac":  # SAC's net_arch is per network; a list is shared
         policy_kwargs.setdefault("net_arch", [256, 256])
     if config.fused_adam and fused_adam_on_cpu() and not (

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from training.config import TASKS, activation_class, load_config
+from training.config import TASKS, load_config, sb3_policy_kwargs
 
 
 def zoo_hyperparams(algo: str) -> dict[str, dict[str, Any]]:
@@ -27,12 +27,9 @@ def zoo_hyperparams(algo: str) -> dict[str, dict[str, Any]]:
             "n_envs": cfg.n_envs, "n_timesteps": cfg.n_timesteps, "policy": cfg.policy,
             "normalize": f"dict(norm_obs={n.norm_obs}, norm_reward={n.norm_reward}, "
                          f"clip_obs={n.clip_obs}, gamma={cfg.reward_gamma})",
-            "policy_kwargs": dict(cfg.policy_kwargs),
+            "policy_kwargs": sb3_policy_kwargs(cfg.policy_kwargs),
             **cfg.hyperparams,
         }
-        if "activation_fn" in cfg.policy_kwargs:  # a name in the YAML, the class for SB3
-            entry["policy_kwargs"]["activation_fn"] = activation_class(
-                cfg.policy_kwargs["activation_fn"])
         if cfg.env_kwargs:
             entry["env_kwargs"] = dict(cfg.env_kwargs)
         out[env_id] = entry
