@@ -367,6 +367,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     options = scenario_set_points(episode.scenario, episode.seed) if guest else None
     try:
         obs, info = env.reset(seed=episode.seed, options=options)
+        if guest:  # scored as DrillString-v0 scores the other controllers
+            base.plain_return = 0.0
         controller.reset(base)
         start = float(info["time"])
         while True:
@@ -405,8 +407,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         "backward_whirl_fraction": m["backward_whirl_fraction"],
         "max_lateral_force_kN": m["lateral_force_max"] / KILO,
         "mse_MPa": m["mse"] / MEGA, "top_drive_energy_MJ": m["top_drive_energy"] / MEGA,
-        # a guest's return is its task's reward, not DrillString-v0's: not comparable
-        "episode_return": math.nan if guest else total, "termination": reason,
+        # a guest's own return is its task's reward: DrillString-v0's is comparable
+        "episode_return": base.plain_return if guest else total, "termination": reason,
         # judged in the env it acted in: a drilling-task policy chooses the rpm in a
         # scenario benchmark too, as a guest (not a benchmark.csv column)
         "own_speed": sets_own_speed(episode.label, env_id),
@@ -604,8 +606,8 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
                 f"(torsionally; laterally straight on the hole axis: docs/controllers.md) "
                 f"at each scenario's set points (bit speed kicked by up to "
                 f"{settings.start_kick:.0%} by the seed; a task's policy acts in its "
-                f"task's env from the same start and set points, its return left blank: "
-                f"another reward); {window}")
+                f"task's env from the same start and set points, its return DrillString-v0's "
+                f"reward of its episode); {window}")
     from drill_env.vector import registered
 
     env_class, kwargs = registered(env_id)

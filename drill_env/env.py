@@ -30,7 +30,10 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig re-exported: the en
     MAX_RECORDS_PER_STEP,
     MAX_WEIGHT,
     MIN_SCALE,
+    PLAIN_CONTROL_INTERVAL,
     EnvConfig,
+    even_record_every,
+    mesh_weight_on_bit_limit,
 )
 from drill_env.metrics import Metric
 from drill_env.physics.config import (
@@ -68,45 +71,6 @@ OBSERVATIONS: dict[str, tuple[str, ...]] = {
 
 #: Seconds of history in a rendered frame (``render_mode="rgb_array"``).
 RENDER_SECONDS = 10.0
-
-
-def even_record_every(steps_per_action: int, record_every: int) -> int:
-    """The record interval (simulator steps) the env uses: the largest divisor of the
-    control interval's ``steps_per_action`` that is at most ``record_every``, so that the
-    records are evenly spaced in time and every one stands for the same ``dt``. (The fast
-    level's 0.1 s are 25 steps of 4 ms: recording every 10th step kept two records 40
-    and 60 ms apart, and the metrics, which weigh every record by 40 ms, read 80 ms of
-    each 100 ms: a 20 % low top-drive energy and a 3.75 s "3 s" window.)"""
-    return max(k for k in range(1, min(record_every, steps_per_action) + 1)
-               if steps_per_action % k == 0)
-
-
-def mesh_weight_on_bit_limit(sim: Simulator, upper: float, tol: float = 100.0) -> float:
-    """Largest WOB in [0, ``upper``] (N) that ``sim``'s mesh resolves (bisection, ``tol`` N).
-
-    The simulator refuses a WOB that compresses an element beyond 80 % of its own
-    buckling load (``Simulator.check_mesh_resolves``); with the default 35 m BHA the
-    drill pipe goes into compression above ~41 kN and its 10 m elements limit the WOB to
-    ~138 kN. Returns ``upper`` when the simulator has no such check.
-    """
-    check = getattr(sim, "check_mesh_resolves", None)
-    if check is None:
-        return upper
-
-    def ok(wob: float) -> bool:
-        try:
-            check(wob)
-        except ValueError:
-            return False
-        return True
-
-    if ok(upper):
-        return upper
-    lo, hi = 0.0, upper
-    while hi - lo > tol:
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
-    return lo
 
 
 class DrillStringEnv(BatchFinish, gym.Env):
@@ -350,6 +314,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._wob_target = 0.0
         self._wob_applied = 0.0
         self._effort = 0.0
+        #: Set to 0.0 after ``reset``, it sums :meth:`_plain_reward` over the episode
+        #: (a task's env scored as DrillString-v0 would score it); ``None``: not summed.
+        self.plain_return: float | None = None
         self.last_records = np.zeros((0, len(RECORD_CHANNELS)))
         #: The driller's set points of the episode (rad/s, N): the scenario's or the
         #: reset options'; actions move the set points, not these.
@@ -572,6 +539,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         terminated = bool(reason)
         truncated = (not terminated) and self._step_count >= self._max_steps
         terms = self._reward_terms(step, terminated)
+        if self.plain_return is not None:  # a task's env as a guest (agents.benchmark)
+            self.plain_return += self._plain_reward(step, terminated)
         info = self._info()
         obs = self._observation(info)
         info["reward_terms"] = terms
@@ -609,6 +578,18 @@ class DrillStringEnv(BatchFinish, gym.Env):
             "effort": -cfg.effort_weight * self._effort,
             "failure": -cfg.failure_weight if terminated else 0.0,
         }
+
+    def _plain_reward(self, step: tuple[list[float], bool] | None, terminated: bool
+                      ) -> float:
+        """What ``DrillString-v0`` pays for this step with its default weights, also in a
+        task's env (a task's policy scored beside the classical controllers): the rate
+        terms (ROP, stick-slip, whirl) weighted by this env's control interval over the
+        plain env's default 0.1 s, so a 1 s step counts as ten; effort and failure as they
+        are (a set-point change, an end)."""
+        terms = DrillStringEnv._reward_terms(self, step, terminated)
+        k = self.control_interval / PLAIN_CONTROL_INTERVAL
+        return (k * (terms["rop"] + terms["stick_slip"] + terms["whirl"]) + terms["effort"]
+                + terms["failure"])
 
     def _window(self) -> list[float] | None:
         """The metric window's values, None until it holds finite ones."""

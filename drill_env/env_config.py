@@ -22,6 +22,9 @@ from drill_env.physics.validation import (
 MAX_WEIGHT = 1.0e6
 MIN_SCALE = 1.0e-6
 MAX_EPISODE_DURATION = 3.2e7
+#: ``EnvConfig.control_interval``'s default (s): the step a ``DrillString-v0`` reward is
+#: paid for (a task's env scored as the plain env scales its rate terms to it).
+PLAIN_CONTROL_INTERVAL = 0.1
 #: Records one control step may hold (memory of the record buffer: 16 floats each).
 MAX_RECORDS_PER_STEP = 100_000
 
@@ -40,7 +43,7 @@ class EnvConfig:
 
     #: Policy period (s); the simulator takes ``round(control_interval / dt)`` steps per
     #: action (10 Hz by default).
-    control_interval: Positive = Field(default=0.1, le=60.0)
+    control_interval: Positive = Field(default=PLAIN_CONTROL_INTERVAL, le=60.0)
     #: Episode length in simulated seconds; ``None`` takes the scenario's default.
     episode_duration: Annotated[Positive, Field(le=MAX_EPISODE_DURATION)] | None = None
     #: Surface speed set-point range (rpm) mapped from action[0] in [-1, 1].
@@ -125,3 +128,42 @@ class EnvConfig:
 
 
 ENV_FIELDS = frozenset(f.name for f in dataclasses.fields(EnvConfig))
+
+
+def even_record_every(steps_per_action: int, record_every: int) -> int:
+    """The record interval (simulator steps) the env uses: the largest divisor of the
+    control interval's ``steps_per_action`` that is at most ``record_every``, so that the
+    records are evenly spaced in time and every one stands for the same ``dt``. (The fast
+    level's 0.1 s are 25 steps of 4 ms: recording every 10th step kept two records 40
+    and 60 ms apart, and the metrics, which weigh every record by 40 ms, read 80 ms of
+    each 100 ms: a 20 % low top-drive energy and a 3.75 s "3 s" window.)"""
+    return max(k for k in range(1, min(record_every, steps_per_action) + 1)
+               if steps_per_action % k == 0)
+
+
+def mesh_weight_on_bit_limit(sim: Any, upper: float, tol: float = 100.0) -> float:
+    """Largest WOB in [0, ``upper``] (N) that ``sim``'s mesh resolves (bisection, ``tol`` N).
+
+    The simulator refuses a WOB that compresses an element beyond 80 % of its own
+    buckling load (``Simulator.check_mesh_resolves``); with the default 35 m BHA the
+    drill pipe goes into compression above ~41 kN and its 10 m elements limit the WOB to
+    ~138 kN. Returns ``upper`` when the simulator has no such check.
+    """
+    check = getattr(sim, "check_mesh_resolves", None)
+    if check is None:
+        return upper
+
+    def ok(wob: float) -> bool:
+        try:
+            check(wob)
+        except ValueError:
+            return False
+        return True
+
+    if ok(upper):
+        return upper
+    lo, hi = 0.0, upper
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo

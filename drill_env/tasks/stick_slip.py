@@ -208,6 +208,7 @@ class StickSlipEnv(TaskEnv):
         super()._init_task_state()
         self._torque_mean = 0.0
         self._action = 0.0
+        self._action_change = 0.0
 
     def _start_targets(self, speed: float, wob: float, given: bool) -> tuple[float, float]:
         # (the episode state is initialised after this: the change lives here)
@@ -249,7 +250,8 @@ class StickSlipEnv(TaskEnv):
         # the controller's correction goes in after the set-point ramp, as the torque
         # feedback of SoftTorque / ZTorque does (Simulator.speed_correction)
         self.sim.speed_correction = value * self._max_correction
-        self._effort = (value - self._action) ** 2
+        # (not ``_effort``: the plain env's set-point change, which _command just set)
+        self._action_change = (value - self._action) ** 2
         self._action = value
 
     def _change_targets(self) -> None:
@@ -276,7 +278,7 @@ class StickSlipEnv(TaskEnv):
             "stuck": -t.stuck_weight * stuck,
             "tracking": -t.tracking_weight * max(0.0, error - t.tracking_deadband),
             "whirl": -t.whirl_weight * radial,
-            "effort": -t.effort_weight * self._effort,
+            "effort": -t.effort_weight * self._action_change,
             "failure": -t.failure_weight if terminated else 0.0,
         }
 

@@ -294,3 +294,55 @@ def test_reward_terms_follow_their_documented_formulas_from_the_raw_records():
         error = abs(window[:, R.BIT_SPEED].mean() - base.targets[0]) / RPM
         assert info["reward_terms"]["tracking"] == pytest.approx(
             -0.3 * max(0.0, error - 1.0), rel=1e-6, abs=1e-9)
+
+
+def test_a_task_env_scored_as_the_plain_env_pays_what_the_plain_env_pays():
+    """``plain_return`` (a task's policy scored beside the classical controllers in a
+    scenario benchmark): in DrillString-v0 it is the return; in the stick-slip task with no
+    correction, which drills exactly as DrillString-v0 holding its set points does, it is
+    DrillString-v0's return of that episode; the task's own reward differs."""
+    kwargs = {"scenario": "stick_slip", "startup": "settled", "episode_duration": 3.0,
+              "fidelity": "fast"}
+    options = {"surface_speed": 50 * RPM, "weight_on_bit": 100e3}
+    plain = gym.make("DrillString-v0", **kwargs)
+    task = gym.make("DrillStickSlip-v0", target_change_probability=0.0, **kwargs)
+    returns = {}
+    for name, env, action in (("plain", plain, plain.unwrapped.action_for(*options.values())),
+                              ("task", task, np.zeros(1, dtype=np.float32))):
+        env.reset(seed=3, options=options)
+        assert env.unwrapped.plain_return is None  # not summed unless asked
+        env.unwrapped.plain_return = 0.0
+        total, done = 0.0, False
+        while not done:
+            _, reward, terminated, truncated, info = env.step(action)
+            total += reward
+            done = terminated or truncated
+        returns[name] = (total, env.unwrapped.plain_return, info["bit_speed"])
+    assert returns["task"][2] == returns["plain"][2]  # the same trajectory
+    assert returns["plain"][1] == pytest.approx(returns["plain"][0], rel=1e-12)
+    assert returns["task"][1] == pytest.approx(returns["plain"][0], rel=1e-12)
+    assert abs(returns["task"][0] - returns["plain"][0]) > 1.0  # another reward
+
+
+def test_a_one_second_task_step_is_scored_as_ten_plain_steps():
+    """The drilling task acts once a second: DrillString-v0's rate terms (ROP,
+    stick-slip, whirl) of a 1 s step count ten times, so a held WOB and rpm earn the plain
+    env's return over the same seconds (smooth drilling here: the ROP term's means over
+    ten 0.1 s steps and over one 1 s step are of the same records, equal to rounding)."""
+    kwargs = {"scenario": "default", "startup": "settled", "episode_duration": 5.0,
+              "fidelity": "fast", "start_kick": 0.0}
+    options = {"surface_speed": 120 * RPM, "weight_on_bit": 90e3}
+    returns = []
+    for env_id in ("DrillString-v0", "DrillOptimise-v0"):
+        extra = {"rpm_range": (40.0, 200.0), "weight_on_bit_range": (40e3, 140e3)}
+        env = gym.make(env_id, **kwargs, **(extra if env_id == "DrillString-v0" else {}))
+        env.reset(seed=0, options=options)
+        env.unwrapped.plain_return = 0.0
+        action = np.array([0.0, 0.0], dtype=np.float32)  # mid-range: 120 rpm, 90 kN
+        done = False
+        while not done:
+            _, _, terminated, truncated, _ = env.step(action)
+            done = terminated or truncated
+        returns.append(env.unwrapped.plain_return)
+    assert returns[0] > 10.0  # ROP earned, nothing sticks
+    assert returns[1] == pytest.approx(returns[0], rel=1e-6)
