@@ -5,6 +5,8 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections import deque
+from collections.abc import Mapping
+from numbers import Real
 from typing import Any
 
 import gymnasium as gym
@@ -365,19 +367,23 @@ class DrillStringEnv(BatchFinish, gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
+        if not isinstance(options, (Mapping, type(None))):
+            raise ValueError(f"reset options: must be a dict, got {options!r}")
         options = dict(options or {})
-        given = "surface_speed" in options or "weight_on_bit" in options
+        if set(options) - {"surface_speed", "weight_on_bit"}:
+            raise ValueError(f"reset options: unknown key(s) {sorted(map(str, options))}; "
+                             "known: ['surface_speed', 'weight_on_bit']")
+        for name, value in options.items():  # a bool or a string is no speed or WOB
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real) \
+                    or not math.isfinite(value):
+                raise ValueError(f"reset options: {name}: must be a finite number, got "
+                                 f"{value!r}")
+        given = bool(options)
         if self.randomised:
             self.scenario = self._build_scenario(self.np_random)
             self._set_simulator(Simulator(self.scenario.config))
-        speed = float(options.pop("surface_speed", self.scenario.surface_speed))
-        wob = float(options.pop("weight_on_bit", self.scenario.weight_on_bit))
-        if options:
-            raise ValueError(f"reset options: unknown key(s) {sorted(options)}; known: "
-                             "['surface_speed', 'weight_on_bit']")
-        for name, value in (("surface_speed", speed), ("weight_on_bit", wob)):
-            if not math.isfinite(value):
-                raise ValueError(f"reset options: {name} must be finite, got {value}")
+        speed = float(options.get("surface_speed", self.scenario.surface_speed))
+        wob = float(options.get("weight_on_bit", self.scenario.weight_on_bit))
         speed, wob = self._start_targets(speed, wob, given)
         if given:  # (a random draw beyond ranges the user narrowed is clamped)
             self._check_range(speed, wob, "reset options: ")

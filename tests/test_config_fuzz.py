@@ -207,6 +207,25 @@ def test_a_typo_in_a_section_of_a_list_lists_that_sections_fields():
         from_dict(SimulationConfig, {"bogus": 1})
 
 
+@pytest.mark.parametrize(("scenario", "physics", "message"), [
+    # a TypeError ('NoneType' object is not iterable) from deep inside
+    ("paper_case2", {"string.components[2].length": 9.0}, r"^string\.components: is None "
+     r"here, not a list, so it takes no index"),
+    ("default", {"mud[0].density": 1000.0}, r"^mud: is a MudConfig here, not a list"),
+    # the last of the two silently won
+    ("default", {"mud": {"density": 1200.0}, "mud.density": 1300.0},
+     r"^mud\.density: given twice"),
+    # it named string.drill_pipe.length, which the user had not touched
+    ("default", {"string.components[12].length": 14000.0},
+     r"^string\.components\[12\]\.length: the string is 15110\.0 m long"),
+])
+def test_a_dotted_path_error_names_what_the_user_typed(scenario, physics, message):
+    from drill_env.env import DrillStringEnv
+
+    with pytest.raises(ValueError, match=message):
+        DrillStringEnv(scenario, physics=physics)
+
+
 def test_an_overdamped_wall_contact_is_refused_by_its_damping():
     """Found by the random fuzz: a contact damper so hard that the explicit step falls
     below the minimum was blamed on contact.stiffness alone."""

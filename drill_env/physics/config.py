@@ -38,8 +38,7 @@ __all__ = [
     "BIT_MODELS", "FIDELITY_LEVELS", "GRAVITY", "INCH", "BitConfig", "Component", "ConfigError",
     "ContactConfig", "DampingConfig", "FormationConfig", "Interface", "MudConfig", "RockConfig",
     "Section", "SimulationConfig", "SolverConfig", "StringConfig", "TopDriveConfig", "WellConfig",
-    "flatten",
-    "from_dict", "load_yaml", "replace", "require_finite", "require_non_negative",
+    "flatten", "from_dict", "load_yaml", "replace", "require_finite", "require_non_negative",
     "require_positive",
 ]
 
@@ -220,8 +219,9 @@ class StringConfig:
             _require(diameter < self.hole_diameter, f"{name}.{field_name}",
                      f"{diameter} m must be smaller than hole_diameter {self.hole_diameter} m "
                      "(clearance <= 0)")
-        _require(self.length <= MAX_STRING_LENGTH, "drill_pipe.length",
-                 f"the string is {self.length} m long, more than {MAX_STRING_LENGTH} m")
+        longest = max(named, key=lambda item: item[1].length)[0]  # what the user lengthened
+        _require(self.length <= MAX_STRING_LENGTH, f"{longest}.length", f"the string is "
+                 f"{self.length} m long, more than {MAX_STRING_LENGTH} m")
         n = sum(s.n_elements for s in self.sections)
         _require(n <= MAX_ELEMENTS, "drill_pipe.element_length",
                  f"the string has {n} elements, more than {MAX_ELEMENTS}")

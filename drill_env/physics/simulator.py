@@ -274,18 +274,18 @@ class Simulator:
         cfg = self.config
         node_mass = self.lat_m[0::2]  # lumped masses of the lateral nodes, the bit's included
 
-        def critical(m: float, k: float, c: float) -> float:
-            zeta = c / (2.0 * math.sqrt(k * m))
-            return 2.0 * math.sqrt(m / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
+        def critical(m: float, k: float, c: float) -> float:  # sqrt(1 + z^2) - z, without
+            zeta = c / (2.0 * math.sqrt(k * m))  # its cancellation at large z (-> 2 m / c)
+            return 2.0 * math.sqrt(m / k) / (math.sqrt(1.0 + zeta * zeta) + zeta)
 
         limits = {}
         touching = self.node_contact[self.lateral_start:] > 0.0  # wall-contact nodes
         if cfg.contact.enabled and touching.any():
             limits["contact.stiffness, contact.damping"] = critical(
                 float(np.min(node_mass[touching])), cfg.contact.stiffness, cfg.contact.damping)
-        limits["formation.rocks[].wall_stiffness, wall_damping"] = min(
-            critical(float(node_mass[-1]), r.wall_stiffness, r.wall_damping)
-            for r in cfg.formation.rocks)
+        for i, r in enumerate(cfg.formation.rocks):
+            limits[f"formation.rocks[{i}].wall_stiffness, wall_damping"] = critical(
+                float(node_mass[-1]), r.wall_stiffness, r.wall_damping)
         limits["top_drive.inertia, proportional_gain, integral_gain"] = \
             top_drive.speed_loop_critical_step(*self.top_drive_gains, float(self.tor_m[0]))
         binding = min(limits, key=limits.__getitem__)

@@ -274,6 +274,17 @@ def load_yaml(cls: type[T], path: str | Path) -> T:
 _INDEXED = re.compile(r"^(\w+)\[(\d+)\]$")
 
 
+def _sections(value: Any, where: str) -> list[Any]:
+    """The list an indexed key (``components[2]``) indexes; ConfigError naming ``where``
+    when the field holds none (``string.components`` is None where the string is built
+    from its named sections)."""
+    if not isinstance(value, (list, tuple)):
+        what = "None" if value is None else f"a {type(value).__name__}"
+        raise ConfigError(f"{where}: is {what} here, not a list, so it takes no index; "
+                          "set it as a whole list")
+    return list(value)
+
+
 def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[str, Any]:
     """The fields of ``config`` as keyword arguments with dotted ``changes`` applied;
     changed sub-sections come back as dicts, so one construction validates them all and
@@ -299,7 +310,7 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
         indexed = _INDEXED.match(head)
         if indexed:
             name, index = indexed.group(1), int(indexed.group(2))
-            items = list(flat.pop(name, kwargs[name]))
+            items = _sections(flat.pop(name, kwargs[name]), f"{path}.{name}" if path else name)
             if not 0 <= index < len(items) or not dataclasses.is_dataclass(items[index]):
                 raise ConfigError(f"{where}: no section at index {index} of {name} "
                                   f"({len(items)} items)")
@@ -317,7 +328,7 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
         indexed = _INDEXED.match(head)
         if indexed:
             name, index = indexed.group(1), int(indexed.group(2))
-            items = list(kwargs[name])
+            items = _sections(kwargs[name], f"{path}.{name}" if path else name)
             if not 0 <= index < len(items):
                 raise ConfigError(f"{path + '.' if path else ''}{head}: index out of range "
                                   f"({len(items)} items)")
@@ -360,10 +371,12 @@ def flatten(changes: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
         if not isinstance(key, str):
             raise ConfigError(f"{prefix or 'overrides'}: keys must be strings, got {key!r}")
         path = f"{prefix}.{key}" if prefix else key
-        if isinstance(value, Mapping) and value:
-            out.update(flatten(value, path))
-        else:
-            out[path] = value
+        nested = isinstance(value, Mapping) and value
+        for leaf, leaf_value in (flatten(value, path).items() if nested else ((path, value),)):
+            if leaf in out:  # {"mud": {"density": ..}, "mud.density": ..}: the last one won
+                raise ConfigError(f"{leaf}: given twice (in a section and as a dotted key, "
+                                  "or twice in one); keep one")
+            out[leaf] = leaf_value
     return out
 
 

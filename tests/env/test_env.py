@@ -277,6 +277,20 @@ def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
         task.reset(seed=0, options={"surface_speed": 10 * RPM})
 
 
+@pytest.mark.parametrize(("options", "message"), [
+    ({"surface_speed": "fast"}, r"^reset options: surface_speed: must be a finite number, "
+                                r"got 'fast'"),  # it was float()'s ValueError
+    ({"weight_on_bit": None}, r"^reset options: weight_on_bit: must be a finite number"),
+    ({"surface_speed": True}, r"^reset options: surface_speed: .* got True"),  # 1 rad/s
+    ({"surface_speed": math.nan}, r"^reset options: surface_speed: .* got nan"),
+    ("fast", r"^reset options: must be a dict, got 'fast'"),
+    ({"speed": 5.0}, r"^reset options: unknown key\(s\) \['speed'\]")])
+def test_reset_options_must_be_finite_numbers_by_name(options, message):
+    for env_id in ("DrillString-v0", "DrillStickSlip-v0"):
+        with pytest.raises(ValueError, match=message):
+            gym.make(env_id).reset(seed=0, options=options)
+
+
 @pytest.mark.parametrize(("env_id", "kwargs", "message"), [
     ("DrillString-v0", {"weight_on_bit_range": (0.0, 200.0)},
      r"weight_on_bit_range: \(0, 200\) N reaches only 200 N; WOB is in newtons: did you "

@@ -442,6 +442,23 @@ def test_the_critical_step_of_the_explicit_contacts_is_the_damped_oscillators(ze
     assert low == pytest.approx(2.0 * (np.sqrt(1.0 + zeta * zeta) - zeta), rel=1e-6)
 
 
+def test_a_soft_wall_with_strong_damping_limits_the_step_to_2m_over_c_and_names_its_rock():
+    """Heavily damped (z >> 1), the critical step tends to 2 m / c; the form sqrt(1 + z^2)
+    - z cancelled to 0 there and refused a 1e-12 N/m wall as needing a zero step. The
+    refusal names the rock the user typed, not ``rocks[]``."""
+    from drill_env.physics.config import replace
+    from drill_env.physics.validation import ConfigError
+    from drill_env.scenarios import make_scenario
+
+    sim = Simulator(replace(SimulationConfig(), **{"contact.stiffness": 1e-12}))
+    assert sim.dt == 2e-3
+    config = make_scenario("paper_case2").config  # two rocks
+    with pytest.raises(ConfigError, match=r"^formation\.rocks\[1\]\.wall_stiffness, "
+                                          r"wall_damping: needs a step of 2\.1"):
+        Simulator(replace(config, **{"formation.rocks[1].wall_stiffness": 1e10,
+                                     "formation.rocks[1].wall_damping": 1e8}))
+
+
 def _speed_loop_amplification(m: float, kp: float, ki: float, dt: float) -> np.ndarray:
     """One step of a rotor of inertia m under the kernel's PI loop, written from the
     scheme (not from the bound): Newmark average acceleration, the torque kp (0 - v_p)
