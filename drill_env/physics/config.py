@@ -117,8 +117,7 @@ class Section:
     @property
     def wall_diameter(self) -> float:
         """The diameter that touches the wall (m)."""
-        return self.contact_diameter if self.contact_diameter is not None else \
-            self.outer_diameter
+        return self.outer_diameter if self.contact_diameter is None else self.contact_diameter
 
     @property
     def area(self) -> float:
@@ -481,8 +480,9 @@ class BitConfig:
 
     #: 8 3/4 in PDC bit, six blades.
     diameter: Positive = Field(default=8.75 * INCH, le=MAX_DIAMETER)
-    #: Radial clearance between gauge pads and borehole wall (paper section 4: 0.005 m).
-    gauge_clearance: Positive = 0.005
+    #: Radial clearance between gauge pads and borehole wall (paper section 4: 0.005 m);
+    #: at least 0.1 mm (a bit's is millimetres; radial ratios divide by it).
+    gauge_clearance: Positive = Field(default=0.005, ge=1.0e-4)
     #: Blade geometry (the paper gives the parametrisation of its Fig. 6, not numbers;
     #: these are read off a generic six-bladed 8 3/4 in PDC bit like its Fig. 4): six
     #: blades at equal angles (a symmetric bit: no net lateral force in homogeneous rock,

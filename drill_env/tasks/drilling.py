@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
+from drill_env.env_config import MIN_SCALE
 from drill_env.metrics import Metric
 from drill_env.physics.layout import READ
 from drill_env.physics.units import HOUR, RPM
@@ -40,7 +41,7 @@ class DrillingTask:
     #: Depth per time: ``rop_weight * ROP / rop_reference`` (30 m/h: a good PDC run in
     #: hard rock); the value of progress.
     rop_weight: NonNegative = Field(default=1.0, le=1.0e6)
-    rop_reference: Positive = Field(default=30.0 / HOUR, le=1.0)
+    rop_reference: Positive = Field(default=30.0 / HOUR, ge=MIN_SCALE, le=1.0)
     #: Vibration damage: SSI (capped) and stuck share of the 3 s window, and the share of
     #: the step the bit whirls (``metrics.whirling``: off centre and orbiting; a bit
     #: resting off centre in its clearance is not damage).

@@ -63,7 +63,7 @@ class StickSlipTask:
     weight_on_bit_change: tuple[Newton, Newton] = (0.0, 20.0e3)
     #: The action [-1, 1] moves the speed command by up to this around the target (rpm):
     #: the prototype's +-30 rpm was enough to cure stick-slip at 35-65 rpm.
-    max_correction: Positive = Field(default=30.0, le=500.0)
+    max_correction: Positive = Field(default=30.0, ge=0.01, le=500.0)
     #: Frames of surface history in the observation (control steps): 20 frames = 2 s at
     #: 10 Hz, most of a stick-slip period (2-3 s on the 900-1600 m strings), from which the
     #: phase of the surface torque can be read. One frame did not learn in the

@@ -346,3 +346,14 @@ def test_a_one_second_task_step_is_scored_as_ten_plain_steps():
         returns.append(env.unwrapped.plain_return)
     assert returns[0] > 10.0  # ROP earned, nothing sticks
     assert returns[1] == pytest.approx(returns[0], rel=1e-6)
+
+
+@pytest.mark.parametrize(("env_id", "kwargs", "field"), [
+    # a denormal clearance made the radial ratio and the whirl term inf; a denormal ROP
+    # reference the drilling reward inf; a denormal correction the observation
+    ("DrillStickSlip-v0", {"physics": {"bit.gauge_clearance": 5e-324}}, "bit.gauge_clearance"),
+    ("DrillOptimise-v0", {"rop_reference": 5e-324}, "rop_reference"),
+    ("DrillStickSlip-v0", {"max_correction": 1e-300}, "max_correction")])
+def test_a_divisor_of_the_reward_or_observation_has_a_floor(env_id, kwargs, field):
+    with pytest.raises(ValueError, match=rf"^{field}: Input should be greater than or equal"):
+        gym.make(env_id, **kwargs)
