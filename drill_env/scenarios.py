@@ -610,7 +610,7 @@ def scenario_parameters(name: str) -> tuple[str, ...]:
 
 
 def _check_name(name: str) -> None:
-    if name not in SCENARIOS:
+    if not isinstance(name, str) or name not in SCENARIOS:
         raise ValueError(f"scenario: unknown name {name!r}; known scenarios: "
                          f"{', '.join(sorted(SCENARIOS))}")
 

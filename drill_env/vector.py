@@ -30,6 +30,7 @@ from operator import itemgetter
 from typing import Any
 
 import numpy as np
+from gymnasium.error import ResetNeeded
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
@@ -37,6 +38,19 @@ from drill_env.batching import EnvBatch, step_all, step_arrays
 from drill_env.env import DrillStringEnv
 
 __all__ = ["DrillStringVectorEnv", "make_sb3_vec_env", "step_all"]
+
+
+def autoreset_mode_of(mode: Any) -> AutoresetMode:
+    """An :class:`AutoresetMode` from itself, its value (``"SameStep"``) or its name in any
+    case (``"same_step"``); ValueError listing them otherwise."""
+    if isinstance(mode, AutoresetMode):
+        return mode
+    for member in AutoresetMode:
+        if isinstance(mode, str) and mode.replace("_", "").lower() in (
+                member.value.lower(), member.name.replace("_", "").lower()):
+            return member
+    raise ValueError(f"autoreset_mode: must be one of "
+                     f"{', '.join(repr(m.value) for m in AutoresetMode)}, got {mode!r}")
 
 
 class DrillStringVectorEnv(VectorEnv):
@@ -58,9 +72,10 @@ class DrillStringVectorEnv(VectorEnv):
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
                  env_class: type[DrillStringEnv] | str | None = None,
                  **env_kwargs: Any) -> None:
-        if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+        if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) \
+                or num_envs < 1:
             raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
-        self.autoreset_mode = AutoresetMode(autoreset_mode)
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode)
         if "max_episode_steps" in env_kwargs:
             raise ValueError("max_episode_steps: the batched vector env ends its episodes "
                              "by episode_duration (s); give that, or "
@@ -84,13 +99,18 @@ class DrillStringVectorEnv(VectorEnv):
         self._truncations = np.zeros(self.num_envs, dtype=np.bool_)
         self._autoreset_envs = np.zeros(self.num_envs, dtype=np.bool_)
         self._info_plans: dict[tuple, tuple] = {}  # see _batch_uniform_infos
+        self._reset_once = False  # a step before the first reset is refused, as a single
+        # env's (Gymnasium's OrderEnforcing); it stepped an env that had no episode
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         if seed is None:
             seeds: list[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)):
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
             seeds = [int(seed) + i for i in range(self.num_envs)]
+        elif not isinstance(seed, (list, tuple, np.ndarray)):
+            raise ValueError(f"seed: an integer or a list of num_envs={self.num_envs} seeds, "
+                             f"got {seed!r}")
         else:
             seeds = list(seed)
             if len(seeds) != self.num_envs:
@@ -110,6 +130,7 @@ class DrillStringVectorEnv(VectorEnv):
             self._obs[i], info = self.envs[i].reset(seed=seeds[i], options=options or None)
             entries.append((int(i), info))
         infos = self._batch_infos(entries)
+        self._reset_once = self._reset_once or bool(mask.all())
         self._terminations[mask] = False
         self._truncations[mask] = False
         self._autoreset_envs[mask] = False
@@ -117,6 +138,8 @@ class DrillStringVectorEnv(VectorEnv):
 
     def step(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                      dict[str, Any]]:
+        if not self._reset_once:
+            raise ResetNeeded("step: call reset() before the first step")
         mode = self.autoreset_mode
         if mode == AutoresetMode.DISABLED and np.any(self._autoreset_envs):
             raise ValueError("autoreset is disabled: reset the finished envs (reset_mask) "

@@ -111,6 +111,17 @@ class Status(IntEnum):
     MESH_BUCKLING = 4    # a hook load compressed the string beyond what the mesh resolves
 
 
+#: What each :class:`Status` tells a user (``Simulator.status_message``).
+STATUS_MESSAGES = {
+    Status.OK: "",
+    Status.NONFINITE: "simulation diverged: non-finite state",
+    Status.RUNAWAY: "simulation diverged: bit speed or lateral displacement out of range",
+    Status.SINGULAR: "lateral stiffness not positive definite: string buckled beyond what "
+                     "the time step can hold (reduce weight on bit)",
+    Status.MESH_BUCKLING: "string buckled beyond the mesh resolution",
+}
+
+
 #: Record channels (columns of ``KernelArrays.record``), one row every ``record_every``
 #: steps. Names are the public channel names (``RECORD_CHANNELS``).
 R = IntEnum("R", [

@@ -42,6 +42,7 @@ from drill_env.physics.layout import (
     N_RECORD,
     N_STATE,
     RECORD_CHANNELS,
+    STATUS_MESSAGES,
     BitArrays,
     KernelArrays,
     LateralSystem,
@@ -68,19 +69,10 @@ from drill_env.physics.statics import (
 )
 from drill_env.physics.top_drive import MAX_FILTER_W_DT
 from drill_env.physics.trajectory import curved_hole_loads
-from drill_env.physics.validation import require_finite, require_non_negative, require_positive
+from drill_env.physics.validation import duration_steps, require_finite, require_steps
 
 __all__ = ["MAX_FILTER_W_DT", "RECORD_CHANNELS", "STATUS_MESSAGES", "OperatingPoint",
            "Simulator", "Status"]
-
-STATUS_MESSAGES = {
-    Status.OK: "",
-    Status.NONFINITE: "simulation diverged: non-finite state",
-    Status.RUNAWAY: "simulation diverged: bit speed or lateral displacement out of range",
-    Status.SINGULAR: "lateral stiffness not positive definite: string buckled beyond what "
-                     "the time step can hold (reduce weight on bit)",
-    Status.MESH_BUCKLING: "string buckled beyond the mesh resolution",
-}
 
 
 class Simulator:
@@ -372,6 +364,7 @@ class Simulator:
 
     def hook_load_for(self, weight_on_bit: float) -> float:
         """Hook load (N) that puts ``weight_on_bit`` on the bit (static axial balance)."""
+        require_finite(weight_on_bit, "weight_on_bit")
         return self.string_weight - weight_on_bit
 
     def _hole_wob(self, wob: float) -> None:
@@ -551,6 +544,8 @@ class Simulator:
         :meth:`advance` is ``prepare`` + one kernel call; a batch of simulators
         (:mod:`drill_env.physics.batch`) prepares each, then runs all kernels in one call.
         """
+        require_steps(n_steps, "n_steps")
+        require_steps(record_every, "record_every")
         if self.status:
             return False  # stopped: reset() first
         if speed_setpoint is not None:
@@ -595,9 +590,8 @@ class Simulator:
             hook_load: float | None = None, record_every: int = 0) -> np.ndarray:
         """:meth:`advance` for ``duration`` simulated seconds (> 0; at least one step);
         ``record_every`` > 0 returns every so many steps' records, 0 none."""
-        require_positive(duration, "duration")
-        require_non_negative(record_every, "record_every")
-        return self.advance(max(1, round(duration / self.dt)), speed_setpoint, hook_load,
+        require_steps(record_every, "record_every")
+        return self.advance(duration_steps(duration, self.dt), speed_setpoint, hook_load,
                             record_every)
 
     # ------------------------------------------------------------------ observables

@@ -413,6 +413,32 @@ def require_finite(value: Any, name: str) -> None:
              f"must be a finite number, got {value!r}")
 
 
+#: The most simulator steps one call may take (the kernels count in int64; 10^9 steps
+#: are 23 days of simulated time at 2 ms).
+MAX_STEPS_PER_CALL = 10**9
+
+
+def require_steps(value: Any, name: str) -> None:
+    """Raise ValueError naming ``name`` unless ``value`` is a whole number of steps, 0 to
+    :data:`MAX_STEPS_PER_CALL` (Python or NumPy integers; no floats, bools or strings,
+    which reached the compiled kernel as a typing error)."""
+    if not (isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+            and 0 <= value <= MAX_STEPS_PER_CALL):
+        raise ValueError(f"{name}: must be a whole number of steps from 0 to "
+                         f"{MAX_STEPS_PER_CALL}, got {value!r}")
+
+
+def duration_steps(duration: Any, dt: float) -> int:
+    """The steps of ``dt`` that make ``duration`` (s; > 0, at least one step); ValueError
+    naming ``duration`` beyond :data:`MAX_STEPS_PER_CALL`."""
+    require_positive(duration, "duration")
+    n_steps = max(1, round(duration / dt))
+    if n_steps > MAX_STEPS_PER_CALL:
+        raise ValueError(f"duration: {duration:g} s is {float(n_steps):.3g} steps, more "
+                         f"than one call takes ({MAX_STEPS_PER_CALL}); run it in parts")
+    return n_steps
+
+
 def require_positive(value: Any, name: str) -> None:
     require_finite(value, name)
     _require(value > 0, name, f"must be > 0, got {value!r}")

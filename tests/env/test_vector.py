@@ -165,6 +165,36 @@ def test_nan_action_in_a_batch_names_the_env():
         envs.step([["fast", "heavy"]] * N)
 
 
+def test_the_vector_envs_arguments_are_refused_by_name():
+    """From a fuzz of the API: a float seed was a TypeError, a snake-case autoreset mode
+    was refused without the valid ones, ``num_envs=True`` made one env, a step before
+    the first reset ran on envs with no episode, finite actions of 1e308 overflowed the
+    finiteness check's sum (a RuntimeWarning)."""
+    import warnings
+
+    from gymnasium.error import ResetNeeded
+
+    envs = DrillStringVectorEnv(num_envs=2, **KW)
+    with pytest.raises(ResetNeeded, match="reset"):
+        envs.step(np.zeros((2, 2)))
+    with pytest.raises(ValueError, match=r"^seed: an integer or a list of num_envs=2 seeds, "
+                                         r"got 1\.5"):
+        envs.reset(seed=1.5)
+    envs.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        envs.step(np.full((2, 2), 1e308))  # clipped to the action range
+    assert DrillStringVectorEnv(num_envs=1, autoreset_mode="same_step", **KW) \
+        .autoreset_mode == AutoresetMode.SAME_STEP
+    with pytest.raises(ValueError, match=r"^autoreset_mode: must be one of 'NextStep', "
+                                         r"'SameStep', 'Disabled', got 'later'"):
+        DrillStringVectorEnv(num_envs=1, autoreset_mode="later", **KW)
+    with pytest.raises(ValueError, match=r"^num_envs: must be a positive integer, got True"):
+        DrillStringVectorEnv(num_envs=True, **KW)
+    with pytest.raises(ValueError, match=r"^scenario: unknown name \['default'\]"):
+        DrillStringVectorEnv(num_envs=1, scenario=["default"])
+
+
 def test_vector_env_pickles():
     envs = DrillStringVectorEnv(num_envs=2, **KW)
     envs.reset(seed=0)

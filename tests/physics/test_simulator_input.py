@@ -57,5 +57,23 @@ def test_run_records_every_so_many_steps_or_none():
     assert sim.run(0.1).shape[0] == 0
     steps = round(0.1 / sim.dt)
     assert sim.run(0.1, record_every=5).shape[0] == steps // 5
-    with pytest.raises(ValueError, match="record_every: must be >= 0, got -1"):
+    with pytest.raises(ValueError, match="record_every: must be a whole number of steps "
+                                         "from 0 to 1000000000, got -1"):
         sim.run(0.1, record_every=-1)  # it returned no records, as 0 asks, without a word
+
+
+@pytest.mark.parametrize(("call", "message"), [
+    # each reached the compiled kernel (a numba TypingError or OverflowError) or ran
+    (lambda sim: sim.advance("5"), r"^n_steps: must be a whole number of steps .* got '5'"),
+    (lambda sim: sim.advance(1.5), r"^n_steps: .* got 1\.5"),
+    (lambda sim: sim.advance(-5), r"^n_steps: .* got -5"),
+    (lambda sim: sim.advance(True), r"^n_steps: .* got True"),
+    (lambda sim: sim.run(0.1, record_every=2.5), r"^record_every: .* got 2\.5"),
+    (lambda sim: sim.run(1e300), r"^duration: 1e\+300 s is 5e\+302 steps, more than one"),
+    (lambda sim: sim.hook_load_for(math.nan), r"^weight_on_bit: must be a finite number")])
+def test_the_simulators_inputs_are_refused_by_name(call, message):
+    sim = Simulator()
+    sim.reset(OperatingPoint(50 * RPM, 100e3))
+    with pytest.raises(ValueError, match=message):
+        call(sim)
+    assert sim.advance(np.int64(5), record_every=np.int32(1)).shape[0] == 5  # NumPy counts
