@@ -13,6 +13,7 @@ import argparse
 import json
 import math
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -1132,6 +1133,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     out = getattr(args, "out", None)
     if out is not None and (reason := unwritable(out)):  # before the work: found after an
         args.command_parser.error(f"--out {out}: {reason}")  # hour's work, it lost the hour
+    stop = _stop_as_interrupt()
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
@@ -1149,4 +1151,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"drill-env {args.command}: interrupted", file=sys.stderr)
         return 130
+    finally:
+        if stop is not _NOT_INSTALLED:
+            signal.signal(signal.SIGTERM, stop if stop is not None else signal.SIG_DFL)
     return 2
+
+
+_NOT_INSTALLED = object()
+
+
+def _stop_as_interrupt() -> Any:
+    """SIGTERM (``kill``, a scheduler's stop) handled as Ctrl-C for the command's duration:
+    what is done is kept and a sweep's workers are stopped (it ended this process at once,
+    its workers left running); returns the previous handler (``_NOT_INSTALLED`` off the
+    main thread, where none can be set)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return _NOT_INSTALLED
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    return signal.signal(signal.SIGTERM, interrupt)

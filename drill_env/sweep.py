@@ -22,11 +22,13 @@ a sweep run again skips what is already there.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.util
 import json
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -61,9 +63,27 @@ class SerialExecutor:
 
 
 def _single_threaded_worker() -> None:
-    """Process-pool workers run one numba thread each: the pool is the parallelism."""
+    """A pool worker's set-up: one numba thread (the pool is the parallelism); the first
+    Ctrl-C interrupts its task (a training run saves its checkpoint), a second one, the
+    pool's forwarded copy of a Ctrl-C the whole terminal group got, does not cut that
+    short; on Linux the worker ends with its parent (a killed command left its workers
+    training into the folder a rerun uses)."""
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    signal.signal(signal.SIGINT, _interrupt_once)
+    parent = os.getppid()
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGTERM), 0, 0, 0)  # PR_SET_PDEATHSIG
+    if os.getppid() != parent:  # the parent died before the call above
+        os._exit(1)
+
+
+def _interrupt_once(signum: int, frame: Any) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    raise KeyboardInterrupt
 
 
 class ProcessExecutor:
@@ -116,6 +136,10 @@ class ProcessExecutor:
         # (ProcessPoolExecutor has no public way to stop its workers before Python 3.14)
         processes = list(getattr(self._pool, "_processes", {}).values())
         self._pool.shutdown(wait=False, cancel_futures=True)  # idle workers are told to end
+        for process in processes:  # the interrupt reaches the workers also where it was
+            if process.is_alive() and process.pid:  # this process's alone (kill -INT)
+                with contextlib.suppress(OSError):
+                    os.kill(process.pid, signal.SIGINT)
         deadline = time.monotonic() + self.ABORT_GRACE
         for process in processes:
             process.join(max(0.0, deadline - time.monotonic()))

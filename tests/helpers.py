@@ -69,3 +69,35 @@ def keep_saved_figures(monkeypatch) -> list:
     monkeypatch.setattr(plt.Figure, "savefig",
                         lambda fig, *a, **kw: (saved.append(fig), original(fig, *a, **kw)))
     return saved
+
+
+# --------------------------------------------------------------------------- sweeps
+
+
+def save_on_interrupt(marker: str) -> str:
+    """A sweep task that waits for a Ctrl-C, as a training run does, and then "saves"
+    (writes ``marker``) while a second Ctrl-C arrives, which must not cut the save short."""
+    import os
+    import signal
+    import time
+    from pathlib import Path
+
+    try:
+        time.sleep(60.0)
+    except KeyboardInterrupt:
+        Path(marker).write_text("interrupted")
+        os.kill(os.getpid(), signal.SIGINT)  # the group's Ctrl-C and the pool's copy
+        time.sleep(0.3)
+        Path(marker).write_text("saved")
+        raise
+    return "not interrupted"
+
+
+def write_pid_and_wait(path: str) -> None:
+    """A sweep task that writes its process id to ``path`` and waits a minute."""
+    import os
+    import time
+    from pathlib import Path
+
+    Path(path).write_text(str(os.getpid()))
+    time.sleep(60.0)

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -386,6 +389,66 @@ def test_an_aborted_process_pool_stops_workers_that_do_not_end(monkeypatch):
     while not all(gone(p.pid) for p in processes) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert all(gone(p.pid) for p in processes)
+
+
+def test_an_interrupt_of_the_command_alone_reaches_the_workers_once(tmp_path):
+    """``kill -INT`` of the command (not of its process group) left the workers training
+    for the grace period, then stopped them unsaved; now the pool forwards the interrupt,
+    and a worker that already had one (a terminal's Ctrl-C reaches the whole group) does
+    not have its save cut short by the copy."""
+    from helpers import save_on_interrupt
+
+    from drill_env.sweep import ProcessExecutor
+
+    executor = ProcessExecutor(2)
+    markers = [str(tmp_path / f"task{k}") for k in range(2)]
+    busy = [executor._pool.submit(save_on_interrupt, m) for m in markers]
+    deadline = time.monotonic() + 60.0
+    while not all(f.running() for f in busy):
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(2.0)  # inside the tasks' sleep
+    try:
+        raise KeyboardInterrupt  # what the command's own Ctrl-C raises here
+    except KeyboardInterrupt:
+        executor.close()
+    assert [Path(m).read_text() for m in markers] == ["saved", "saved"]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG")
+def test_the_workers_end_with_a_killed_command(tmp_path):
+    """A command killed outright (SIGKILL, the OOM killer) left its pool's workers
+    running, training into the folder a rerun then used too."""
+    import os
+    import signal
+    import subprocess
+
+    pid_file = tmp_path / "worker.pid"
+    code = ("import sys, time; sys.path.insert(0, 'tests'); "
+            "from drill_env.sweep import ProcessExecutor; from helpers import "
+            "write_pid_and_wait; e = ProcessExecutor(1); "
+            f"e._pool.submit(write_pid_and_wait, {str(pid_file)!r}); time.sleep(120)")
+    command = subprocess.Popen([sys.executable, "-c", code],
+                               cwd=Path(__file__).parents[1])
+    try:
+        deadline = time.monotonic() + 60.0
+        while not pid_file.exists() or not pid_file.read_text():
+            assert time.monotonic() < deadline and command.poll() is None
+            time.sleep(0.1)
+        worker = int(pid_file.read_text())
+        command.send_signal(signal.SIGKILL)
+        command.wait()
+        deadline = time.monotonic() + 10.0
+        while Path(f"/proc/{worker}").exists() and "\nState:\tZ" not in Path(
+                f"/proc/{worker}/status").read_text() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not Path(f"/proc/{worker}").exists() or "\nState:\tZ" in Path(
+            f"/proc/{worker}/status").read_text()
+    finally:
+        command.kill()
+        if pid_file.exists() and pid_file.read_text():
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(int(pid_file.read_text()), signal.SIGKILL)
 
 
 # --------------------------------------------------------------------------- outputs

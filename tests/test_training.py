@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import zipfile
 from typing import Any
 
@@ -12,7 +13,7 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.learned import TRAINED, LearnedController
+from agents.learned import TRAINED, LearnedController, latest_checkpoint
 from agents.registry import make_controller
 from drill_cli.main import main
 from training.config import load_config
@@ -117,6 +118,30 @@ def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
     with (copy / "evaluations.csv").open() as f:
         steps = [int(r["timesteps"]) for r in csv.DictReader(f)]
     assert steps[:2] == [1024, 2048] and steps[-1] == 3072
+
+
+def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path):
+    """A checkpoint cut short (a full disk, a copy killed) made --resume crash with an
+    UnpicklingError or BadZipFile traceback; now the error names the file and the way on.
+    Saved files go through a hidden partial name, so a killed writer leaves none cut
+    short under the names a resume reads (and no partial file after a clean save)."""
+    import shutil
+
+    from drill_env.physics.config import replace
+
+    folder, cfg = run
+    assert not list(folder.rglob(".*.partial*"))
+    for damaged in ("vecnormalize", "model"):
+        copy = tmp_path / damaged
+        shutil.copytree(folder, copy)
+        for name in ("model.zip", "vecnormalize.pkl"):  # resume from the checkpoint
+            (copy / name).unlink()
+        model, norm = latest_checkpoint(copy)
+        path = norm if damaged == "vecnormalize" else model
+        path.write_bytes(path.read_bytes()[:200])
+        with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: damaged, cannot be "
+                                             r"loaded .*delete it"):
+            train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
 
 
 def test_a_finished_run_resumes_from_its_final_model_not_an_older_checkpoint(run, tmp_path):

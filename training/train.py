@@ -229,8 +229,8 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
                 self.logger.record(f"validation/{key}", result[key])
             if result["return"] > self.best:
                 self.best = result["return"]
-                self.model.save(run / "best_model.zip")
-                train_env.save(str(run / "best_vecnormalize.pkl"))
+                save_whole(run / "best_model.zip", self.model.save)
+                save_whole(run / "best_vecnormalize.pkl", train_env.save)
             plot_learning_curve(run)
 
     class Checkpoints(OnGrid):
@@ -377,8 +377,11 @@ def saved_steps(model: Path) -> tuple[int, int]:
     entry only, not the networks."""
     import zipfile
 
-    with zipfile.ZipFile(model) as archive:
-        data = json.loads(archive.read("data"))
+    def read(path: str) -> dict[str, Any]:
+        with zipfile.ZipFile(path) as archive:
+            return json.loads(archive.read("data"))
+
+    data = load_saved(model, read)
     return int(data["num_timesteps"]), int(data.get("_n_updates", 0))
 
 
@@ -420,8 +423,9 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     env = make_train_env(config, config.seed)
     if latest is not None:  # its steps are below n_timesteps: check_run_folder said so
         model_path, norm_path = latest
-        env = VecNormalize.load(str(norm_path), env.venv)
-        model = algo.load(str(model_path), env=env, tensorboard_log=str(run / "tb"))
+        env = load_saved(norm_path, lambda p: VecNormalize.load(p, env.venv))
+        model = load_saved(model_path, lambda p: algo.load(p, env=env,
+                                                           tensorboard_log=str(run / "tb")))
         if hasattr(model, "learning_starts"):  # SAC: the replay buffer is not saved,
             # so it warms up again as at the start (learning_starts steps) before the
             # first gradient step: else the first updates sample 256 transitions from the
@@ -453,8 +457,8 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
         env.close()
         raise
     wall = time.perf_counter() - t0
-    model.save(run / "model.zip")
-    env.save(str(run / "vecnormalize.pkl"))
+    save_whole(run / "model.zip", model.save)
+    save_whole(run / "vecnormalize.pkl", env.save)
     info = {"env_id": config.env_id, "algo": config.algo, "seed": config.seed,
             "env_steps": int(model.num_timesteps), "wall_s_this_session": wall,
             "wall_s": resumed.wall_s + wall,
@@ -495,10 +499,34 @@ def write_checkpoint(run: Path, model: Any, env: Any, wall_s: float) -> Path:
     folder = run / "checkpoints"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"model_{steps}_steps.zip"
-    model.save(path)
-    env.save(str(folder / f"vecnormalize_{steps}.pkl"))
+    save_whole(path, model.save)
+    save_whole(folder / f"vecnormalize_{steps}.pkl", env.save)
     (folder / f"progress_{steps}.json").write_text(json.dumps({"wall_s": wall_s}))
     return path
+
+
+def save_whole(path: Path, save: Any) -> None:
+    """``save(file)`` into a hidden file beside ``path``, then renamed to it: a process
+    killed mid-write leaves no truncated model or statistics where a resume or an
+    evaluation reads them (a resume of one crashed on an UnpicklingError)."""
+    partial = path.with_name(f".{path.stem}.partial{path.suffix}")
+    save(str(partial))
+    partial.replace(path)
+
+
+def load_saved(path: Path, load: Any) -> Any:
+    """``load(path)``; a damaged file (a full disk, a copy cut short) is a ValueError
+    naming it and what to do, not a traceback from pickle or zipfile."""
+    import pickle
+    import zipfile
+
+    try:
+        return load(str(path))
+    except (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
+            json.JSONDecodeError) as err:
+        raise ValueError(f"{path}: damaged, cannot be loaded ({type(err).__name__}: {err}); "
+                         "delete it (and its checkpoint's other files) to resume from the "
+                         "one before, or start afresh with --overwrite") from None
 
 
 def plot_learning_curve(run: Path) -> Path | None:
