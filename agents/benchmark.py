@@ -515,8 +515,12 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     names = labels(controllers)
     runs = {name: f"{c.partition(':')[2]} ({policy_files(c.partition(':')[2])[0].name})"
             for c, name in zip(controllers, names, strict=True) if c.startswith("learned:")}
+    first_seed = seeds[0] if len(seeds) else 0
+    # the series this run's episodes wrote (another benchmark into the same folder at the
+    # same time overwrote them: a picture of its episodes beside this run's table)
+    stamps = {(e.label, e.scenario): e.stamp for e in todo_all if e.seed == first_seed}
     write_outputs(rows, out, names, scenarios, settings, env_id, heading,
-                  first_seed=seeds[0] if len(seeds) else 0, runs=runs)
+                  first_seed=first_seed, runs=runs, stamps=stamps)
     return rows
 
 
@@ -625,9 +629,11 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
 def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequence[str],
                   scenarios: Sequence[str], settings: BenchmarkSettings,
                   env_id: str | None = None, heading: str = "Controller benchmark",
-                  first_seed: int = 0, runs: Mapping[str, str] | None = None) -> None:
+                  first_seed: int = 0, runs: Mapping[str, str] | None = None,
+                  stamps: Mapping[tuple[str, str], str] | None = None) -> None:
     """benchmark.csv, benchmark.md and the plots (the series of ``first_seed``); prints
-    the table; ``runs``: the run folder of each ``learned:PATH`` row, by its label. The
+    the table; ``runs``: the run folder of each ``learned:PATH`` row, by its label;
+    ``stamps``: the stamp each (label, scenario) series must carry to be drawn. The
     series pictures of an earlier benchmark into ``out``
     (``benchmark_<scenario>_series.png``) are removed: beside benchmark.md are only this
     benchmark's pictures."""
@@ -648,7 +654,9 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     drawn = [s for s in scenarios
              if series_chart(out / "series", controllers, s,
                              out / SERIES_PICTURE.format(scenario=s), settings.warmup,
-                             env_id, seed=first_seed)]
+                             env_id, seed=first_seed,
+                             stamps=None if stamps is None else {
+                                 c: stamps.get((c, s), "") for c in controllers})]
     lines = [f"# {heading}", "", conditions(settings, env_id), "",
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in table]

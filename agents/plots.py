@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -100,12 +100,14 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
 
 
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
-                 warmup: float, env_id: str | None = None, seed: int = 0) -> bool:
+                 warmup: float, env_id: str | None = None, seed: int = 0,
+                 stamps: Mapping[str, str] | None = None) -> bool:
     """Bit speed, torque on bit and the bit's radial position over the gauge clearance,
     one line per controller (``seed``: the benchmark's first), on one time axis; the grey
     band is the warm-up the metrics leave out. Returns whether it drew: False (no file written) when
     ``series_dir`` holds no series of ``scenario``. ``env_id``: the task env every
-    controller acted in (its title names it; None: the scenario's ``DrillString-v0``)."""
+    controller acted in (its title names it; None: the scenario's ``DrillString-v0``);
+    ``stamps``: the stamp each controller's file must carry (another run's is left out)."""
     colours = _colours(controllers)
     fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
     found = False
@@ -114,8 +116,11 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         file = Path(series_dir) / f"{c}_{scenario}_seed{seed}.npz"
         if not file.exists():
             continue
-        found = True
         d = np.load(file)
+        if stamps is not None and ("stamp" not in d.files
+                                   or str(d["stamp"]) != stamps.get(c)):
+            continue
+        found = True
         t = d["time"]
         radial = np.hypot(d["bit_x"], d["bit_y"]) / float(d["clearance"])
         off_axis = max(off_axis, float(np.nanmax(radial, initial=0.0)))

@@ -206,7 +206,8 @@ class ResultStore:
         #: a killed writer's half line: the next result starts on a line of its own
         self._broken_end = False
         if self.path.exists():
-            text = self.path.read_text()
+            # bytes that are not UTF-8 (a damaged file) spoil their line only: skipped
+            text = self.path.read_bytes().decode("utf-8", errors="replace")
             self._broken_end = bool(text) and not text.endswith("\n")
             for line in text.splitlines():
                 try:

@@ -134,6 +134,16 @@ def test_changed_settings_do_not_reuse_old_rows(tmp_path):
     assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(other))) == 0
 
 
+def test_a_damaged_line_of_the_results_file_costs_that_line_only(tmp_path):
+    """Bytes that are not UTF-8 made the whole store unreadable (an error naming no
+    file); now their line is skipped as a half-written one is."""
+    bm.run_benchmark(["stiff"], ["stick_slip"], [0], tmp_path, SHORT, workers=1,
+                     progress=False)
+    with (tmp_path / bm.RESULTS_FILE).open("ab") as f:
+        f.write(b"\xff\xfe\x00garbage\n")
+    assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(SHORT))) == 1
+
+
 def test_rows_of_other_code_are_not_reused(tmp_path, monkeypatch):
     """The fingerprint holds a hash of the package sources: after a change to the
     simulator or a controller, a benchmark (``make demo`` run again) recomputes."""
@@ -351,6 +361,25 @@ def test_the_series_chart_lays_out_a_sweep_of_many_controllers(tmp_path):
         warnings.simplefilter("error")
         series_chart(tmp_path, names, "random", tmp_path / "series.png", warmup=2.0)
     assert (tmp_path / "series.png").stat().st_size > 10_000
+
+
+def test_the_series_picture_draws_only_this_runs_episodes(tmp_path):
+    """Two benchmarks into one folder at once: the picture beside one's table showed the
+    other's episodes (the series files are shared); a file of another stamp is left out."""
+    import numpy as np
+
+    from agents.plots import series_chart
+
+    t = np.linspace(0.0, 10.0, 101)
+    np.savez(tmp_path / "stiff_stick_slip_seed0.npz", time=t, bit_x=0 * t, bit_y=0 * t,
+             clearance=0.02, bit_speed=5.0 + 0 * t, torque_on_bit=2e3 + 0 * t,
+             stamp=np.array("other run"))
+    picture = tmp_path / "series.png"
+    assert not series_chart(tmp_path, ["stiff"], "stick_slip", picture, warmup=2.0,
+                            stamps={"stiff": "this run"})
+    assert not picture.exists()
+    assert series_chart(tmp_path, ["stiff"], "stick_slip", picture, warmup=2.0,
+                        stamps={"stiff": "other run"})
 
 
 def test_an_aborted_process_pool_stops_workers_that_do_not_end(monkeypatch):
