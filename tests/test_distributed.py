@@ -192,7 +192,7 @@ def test_a_training_seed_sweep_runs_its_trials_on_the_cluster(cluster, tmp_path)
     for r in results:
         assert (Path(r["run"]) / "model.zip").exists() and r["env_steps"] >= 2048
         assert r["best_return"] is None
-    assert "| 7 | - |" in (tmp_path / "train_sweep.md").read_text()
+    assert f"| 7 | {results[0]['env_steps']} | - |" in (tmp_path / "train_sweep.md").read_text()
 
 
 def test_the_benchmark_on_the_cluster_equals_the_local_benchmark(cluster, tmp_path):

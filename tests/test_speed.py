@@ -87,8 +87,15 @@ def test_finished_sections_are_written_before_an_interrupt(tmp_path, monkeypatch
     monkeypatch.setitem(speed.RUNNERS, "scaling", (interrupted, speed.RUNNERS["scaling"][1]))
     with pytest.raises(KeyboardInterrupt):
         run_speed(("core", "scaling"), TINY, tmp_path, progress=False, echo=None)
+    (tmp_path / "speed_scaling.png").write_bytes(b"an earlier run's picture")
+    with pytest.raises(KeyboardInterrupt):
+        run_speed(("core", "scaling"), TINY, tmp_path, progress=False, echo=None)
     result = json.loads((tmp_path / "speed.json").read_text())
     assert result["finished_sections"] == ["core"] and "core" in result
+    # the tables agree with speed.json (they were an earlier run's) and say so
+    report = (tmp_path / "speed.md").read_text()
+    assert "UNFINISHED: sections done so far core." in report and "Core" in report
+    assert not (tmp_path / "speed_scaling.png").exists()
 
 
 def test_importing_drill_env_makes_openmp_workers_wait_passively_unless_told():

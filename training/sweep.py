@@ -90,14 +90,19 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
 
 def write_summary(results: list[dict[str, Any]], path: Path, config: TrainConfig) -> Path:
     lines = [f"# Seed sweep: {config.algo.upper()} on {config.env_id}, "
-             f"{config.n_timesteps} env steps per seed", "",
-             "| seed | best validation return | at env steps | SSI there | wall s | run |",
-             "| --- | --- | --- | --- | --- | --- |"]
+             f"{config.n_timesteps} env steps per seed asked for", "",
+             "A run ends after the asked-for steps once its last rollout is whole (PPO), and "
+             "a resumed one also counts the steps of the rollout an interrupt cut short: "
+             "'trained' is what each run did.", "",
+             "| seed | env steps trained | best validation return | at env steps | SSI there "
+             "| wall s | run |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
     for r in results:
         best = "-" if r["best_return"] is None else f"{r['best_return']:.1f}"
         at = "-" if r["best_at_steps"] is None else r["best_at_steps"]
         ssi = "-" if r["best_ssi"] is None else round(r["best_ssi"], 3)
-        lines.append(f"| {r['seed']} | {best} | {at} | {ssi} | {r['wall_s']:.0f} | {r['run']} |")
+        lines.append(f"| {r['seed']} | {r['env_steps']} | {best} | {at} | {ssi} | "
+                     f"{r['wall_s']:.0f} | {r['run']} |")
     values = [r["best_return"] for r in results if r["best_return"] is not None]
     if len(values) > 1:
         lines += ["", f"Best validation return over seeds: {statistics.mean(values):.1f} +- "

@@ -104,10 +104,11 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
     the ``training`` section lives with the training code, which ``drill_env`` does not
     import.
 
-    Unless ``out`` is None, writes ``out/speed.json`` (every figure, rewritten after each
-    section, so an interrupted run keeps the sections it finished),
-    ``out/speed.md`` (the tables, for docs/performance.md) and, with the scaling
-    section, ``out/speed_scaling.png``.
+    Unless ``out`` is None, writes ``out/speed.json`` (every figure) and ``out/speed.md``
+    (the tables, for docs/performance.md), both rewritten after each section, so an
+    interrupted run keeps the sections it finished (speed.md says it is unfinished), and,
+    with the scaling section, ``out/speed_scaling.png``. A run replaces an earlier run's
+    files in ``out`` (a run is not resumed: figures from two runs do not compare).
     """
     sections = tuple(sections)
     added = dict(runners or {})
@@ -121,13 +122,42 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
     }
     say = echo or (lambda _text: None)
     machine = result["machine"]
-    tables = []
+    tables: list[str] = []
     say(f"drill-env speed {machine['date']}: {','.join(sections)}; "
         f"{machine['cpu_count']} cores; fidelity levels: {', '.join(levels)}")
     stamp = source_stamp()
     t0 = time.perf_counter()
+
+    def write(finished: bool) -> list[Path]:
+        """speed.json and speed.md of this run so far, always the two together (a run
+        is not resumed: figures of two runs are not measured in the same rounds)."""
+        assert out is not None
+        path = out / "speed.json"
+        result["finished_sections"] = [s for s in sections if s in result]
+        path.write_text(json.dumps(result, indent=2) + "\n")
+        # The same tables as markdown, to paste into docs/performance.md.
+        report = out / "speed.md"
+        kind = {FULL: "", QUICK: " --quick"}.get(settings, " (custom settings)")
+        if set(sections) != set(table):
+            kind += f" --sections {','.join(sections)}"
+        changed = machine.get("sources_changed_during_run")
+        head = (f"`drill-env speed{kind}`, "
+                f"{machine['date'][:10]}, commit {machine.get('git_commit', '?')}: "
+                f"{machine['cpu']}, {machine['cpu_count']} cores, {machine['platform']}, "
+                f"Python {machine['python']}, NumPy {machine['numpy']}, numba "
+                f"{machine['numba']}; load average {machine.get('load_average_1min', 0):.1f} "
+                + (f"at the start, {machine.get('load_average_1min_end', 0):.1f} at the end"
+                   + ("; SOURCES CHANGED DURING THE RUN." if changed
+                      else "; sources unchanged during the run.") if finished else
+                   f"at the start; UNFINISHED: sections done so far "
+                   f"{', '.join(result['finished_sections'])}."))
+        report.write_text(head + "\n\n```text\n" + "\n\n".join(tables) + "\n```\n")
+        return [path, report]
+
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
+        # an earlier run's picture would sit beside this run's figures
+        (out / "speed_scaling.png").unlink(missing_ok=True)
     for name in sections:
         bench, fmt = table[name]
         tic = time.perf_counter()
@@ -136,8 +166,7 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
         tables.append(fmt(result[name]))
         say("\n" + tables[-1])
         if out is not None:  # each section as it finishes: an interrupt keeps them
-            result["finished_sections"] = [s for s in sections if s in result]
-            (out / "speed.json").write_text(json.dumps(result, indent=2) + "\n")
+            write(finished=False)
     result["total_wall_s"] = time.perf_counter() - t0
     machine["sources_changed_during_run"] = source_stamp() != stamp
     if machine["sources_changed_during_run"]:
@@ -146,24 +175,7 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
     if hasattr(os, "getloadavg"):
         machine["load_average_1min_end"] = os.getloadavg()[0]
     if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        path = out / "speed.json"
-        path.write_text(json.dumps(result, indent=2) + "\n")
-        # The same tables as markdown, to paste into docs/performance.md.
-        report = out / "speed.md"
-        kind = {FULL: "", QUICK: " --quick"}.get(settings, " (custom settings)")
-        if set(sections) != set(table):
-            kind += f" --sections {','.join(sections)}"
-        head = (f"`drill-env speed{kind}`, "
-                f"{machine['date'][:10]}, commit {machine.get('git_commit', '?')}: "
-                f"{machine['cpu']}, {machine['cpu_count']} cores, {machine['platform']}, "
-                f"Python {machine['python']}, NumPy {machine['numpy']}, numba "
-                f"{machine['numba']}; load average {machine.get('load_average_1min', 0):.1f} "
-                f"at the start, {machine.get('load_average_1min_end', 0):.1f} at the end"
-                + ("; SOURCES CHANGED DURING THE RUN." if machine["sources_changed_during_run"]
-                   else "; sources unchanged during the run."))
-        report.write_text(head + "\n\n```text\n" + "\n\n".join(tables) + "\n```\n")
-        written = [path, report]
+        written = write(finished=True)
         if "scaling" in result:
             png = plot_scaling(result["scaling"], out / "speed_scaling.png")
             if png is not None:
