@@ -70,6 +70,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     width = 0.8 / max(len(controllers), 1)
     for ax, (key, label, scale, empty) in zip(axes, BARS, strict=True):
         shown: list[float] = []
+        bars: list[tuple[float, float, str]] = []  # (x, mean, colour)
         for i, c in enumerate(controllers):
             for j, s in enumerate(scenarios):
                 values = np.array([r[key] for r in rows
@@ -81,6 +82,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                 x = j + (i - (len(controllers) - 1) / 2) * width
                 ax.bar(x, mean, width * 0.9, color=colours[c],
                        label=c if j == 0 else None)
+                bars.append((x, mean, colours[c]))
                 if values.size > 1:
                     ax.plot([x, x], [values.min() * scale, values.max() * scale], color="k",
                             lw=1)
@@ -91,9 +93,16 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
         ax.set_ylim(0.0, max(top, 0.05))  # an all-zero metric shows as zero, not noise
         if not np.any(np.nan_to_num(shown)):  # all zero (or not defined)
             _say_empty(ax, empty)
+        else:  # a bar too low to see is drawn as a coloured base line: zero, not missing
+            low = 0.01 * ax.get_ylim()[1]
+            for x, mean, colour in bars:
+                if abs(mean) < low:
+                    ax.hlines(0.0, x - 0.45 * width, x + 0.45 * width, colors=colour, lw=4,
+                              clip_on=False, zorder=3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(controllers), fontsize=9)
-    fig.suptitle("Controller benchmark: means over seeds, whiskers min-max")
+    fig.suptitle("Controller benchmark: means over seeds, whiskers min-max; a coloured "
+                 "base line alone: about zero")
     fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -111,6 +120,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     colours = _colours(controllers)
     fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
     found = False
+    drawn: list[tuple[int, float, list[Any]]] = []  # (order given, bit-speed IQR, lines)
     off_axis = 0.0  # the largest radial position drawn
     for k, c in enumerate(controllers):
         file = Path(series_dir) / f"{c}_{scenario}_seed{seed}.npz"
@@ -124,19 +134,26 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         t = d["time"]
         radial = np.hypot(d["bit_x"], d["bit_y"]) / float(d["clearance"])
         off_axis = max(off_axis, float(np.nanmax(radial, initial=0.0)))
-        # the first controller on top (a policy before its baselines): a wide stick-slip
-        # swing drawn later would hide it
-        kw = {"color": colours[c], "lw": 0.8, "label": c, "ls": DASHES[k % len(DASHES)],
-              "zorder": 2 + len(controllers) - k}
+        kw = {"color": colours[c], "lw": 0.8, "label": c, "ls": DASHES[k % len(DASHES)]}
         if "target_time" in d and k == 0:  # the planned rpm (a task's drawn targets)
             axes[0].step(d["target_time"], d["target_rpm"], where="post", color="k",
                          lw=1.0, ls=(0, (1, 1)), label="target", zorder=1)
-        axes[0].plot(t, d["bit_speed"] / RPM, **kw)
-        axes[1].plot(t, d["torque_on_bit"] / 1e3, **kw)
-        axes[2].plot(t, radial, **kw)
+        measured = d["bit_speed"][t >= warmup]  # how widely it swings most of the time
+        swing = float(np.subtract(*np.percentile(measured, [75, 25]))) if measured.size \
+            else 0.0
+        drawn.append((k, swing, [axes[0].plot(t, d["bit_speed"] / RPM, **kw)[0],
+                                 axes[1].plot(t, d["torque_on_bit"] / 1e3, **kw)[0],
+                                 axes[2].plot(t, radial, **kw)[0]]))
     if not found:
         plt.close(fig)
         return False
+    # the first controller on top (a policy before its baselines), the others the steadier
+    # above the wider swinging: a stick-slip band drawn over a steady line hid it (the
+    # driller's 140 rpm inside stiff PI's 0-190 rpm swing)
+    bottom_up = sorted(drawn, key=lambda item: (item[0] == 0, -item[1]))
+    for z, (_, _, lines) in enumerate(bottom_up):
+        for line in lines:
+            line.set_zorder(2 + z)
     # the smallest span each axis shows (rpm, kN m, -): a steady run is a flat line,
     # not its last digits magnified into what looks like an oscillation
     spans = (20.0, 1.0, 0.2)

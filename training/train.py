@@ -552,13 +552,18 @@ def plot_learning_curve(run: Path) -> Path | None:
     axes[0].set_ylabel("validation return (mean +- std)")
     ssi_values = np.array([float(r["ssi"]) for r in rows])
     stuck_values = np.array([100.0 * float(r["stuck_fraction"]) for r in rows])
-    ssi = axes[1].plot(steps, ssi_values, "o-", ms=3, label="SSI")
+    ssi = axes[1].plot(steps, ssi_values, "o-", ms=3, color="tab:blue", label="SSI")
     stuck_axis = axes[1].twinx()  # in % like every other picture's stuck share
     stuck = stuck_axis.plot(steps, stuck_values, "s--", ms=3, color="tab:orange",
                             label="time stuck (%)")
     axes[1].legend(handles=ssi + stuck, fontsize=8)
-    axes[1].set_ylabel("SSI (of the env's 3 s metric\nwindow, mean over the episode)")
-    stuck_axis.set_ylabel("time stuck (% of the episode)")
+    # each axis in its line's colour: two scales share the panel
+    axes[1].set_ylabel("SSI (of the env's 3 s metric\nwindow, mean over the episode)",
+                       color="tab:blue")
+    axes[1].tick_params(axis="y", colors="tab:blue")
+    stuck_axis.set_ylabel("time stuck (% of the 3 s metric\nwindow, mean over the episode)",
+                          color="tab:orange")
+    stuck_axis.tick_params(axis="y", colors="tab:orange")
     # from 0, with room above the highest point (a flat curve sat on the frame's top);
     # the stuck share's highest point lower than the SSI's, so two flat lines part
     def highest(values: np.ndarray) -> float:
