@@ -724,11 +724,15 @@ def cmd_modes(args: argparse.Namespace) -> int:
           f"{md.neutral_point_height(config, wob):.0f} m above the bit")
     from drill_env.physics.statics import pipe_buckling
 
-    for b in pipe_buckling(config, wob):  # what drill-env run refuses to drill
+    # what a scenario refuses to start at; a torsion-only one drills it straight
+    then = ("a scenario refuses to start there" if config.solver.lateral else "this "
+            "scenario is torsion only (solver.lateral false): drill-env run drills it with "
+            "the string straight")
+    for b in pipe_buckling(config, wob):
         print(f"note: at {wob / KILO:.0f} kN the {b.component} is compressed by "
               f"{b.compression / KILO:.1f} kN, beyond its buckling load "
-              f"{b.buckling_load / KILO:.1f} kN: it would buckle, and drill-env run refuses "
-              "this WOB; the modes below are of the straight string")
+              f"{b.buckling_load / KILO:.1f} kN: it would buckle, and {then}; the modes "
+              "below are of the straight string")
     print(f"\n{'component (bit up)':<22} {'length':>7} {'air':>8} {'in mud':>8} "
           f"{'N bottom':>9} {'N top':>9}   (m, kN; tension > 0)")
     for load in md.component_loads(config, wob):

@@ -104,7 +104,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
     Absolute mode maps [-1, 1] linearly onto the range; incremental mode changes the set
     point by ``action * step`` per control step (clipped to the range).
 
-    The WOB command is applied as the hook load ``sim.hook_load_for(WOB)`` and moves by at
+    The second action is the drawworks' hook load, commanded as the WOB it leaves on the
+    bit (the same quantity in units a driller sets): applied as ``sim.hook_load_for(WOB)``
+    (buoyed string weight minus WOB, ``info["hook_load"]``), it moves by at
     most ``drawworks_rate * control_interval`` per step (drawworks rate limit) and never
     above ``weight_on_bit_limit``, the largest WOB the FE mesh resolves (see
     ``limit_weight_on_bit_to_mesh``: the top of the default 0-200 kN range in the
@@ -172,7 +174,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
     points are the ones commanded) and every physical value in ``info`` is that of the
     last finite state; the window metrics read 0 while their window holds non-finite
     samples, and the reward terms stay finite. ``info`` never holds NaN or inf.
-    Truncated after ``episode_duration`` seconds.
+    Truncated after ``episode_duration`` seconds, by the env itself: the registered ids
+    set no ``max_episode_steps`` (``env.spec.max_episode_steps`` is None, no TimeLimit);
+    ``env.unwrapped.max_episode_steps`` is the count of the episode at hand.
 
     ## Info
 

@@ -319,7 +319,12 @@ def test_modes_command_draws_random_by_seed_and_names_what_it_cannot_analyse(tmp
         assert message in capsys.readouterr().err
     # a WOB that buckles the pipe: analysed (the straight string) with a note
     assert main(["modes", "--wob", "150", "--out", str(tmp_path)]) == 0
-    assert "note: at 150 kN the 5 in HWDP is compressed" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "note: at 150 kN the 5 in HWDP is compressed" in out
+    assert "a scenario refuses to start there" in out
+    # a torsion-only scenario drills it straight (it said drill-env run refused it)
+    assert main(["modes", "--scenario", "paper_case1", "--out", str(tmp_path)]) == 0
+    assert "this scenario is torsion only (solver.lateral false)" in capsys.readouterr().out
 
 
 def test_modes_command_says_when_the_model_has_fewer_modes_than_asked(tmp_path, capsys):
