@@ -44,6 +44,8 @@ def reflection_figure(out: Path) -> None:
         measured = np.abs(measured_reflection(cfg, points))
         ax.plot(points, measured, "o", color=colour, mfc="none")
         print(f"{name:<12} " + " ".join(f"{m:8.3f}" for m in measured))
+    ax.plot([], [], "o", color="0.3", mfc="none",
+            label="simulated pulse (circles, in each line's colour)")
     ax.axvline(f_s, color="0.5", ls="--", lw=0.8)
     ax.text(f_s, 1.17, " f_s", color="0.4", va="top")
     ax.set_xlabel("frequency (Hz)")
