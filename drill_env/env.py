@@ -6,7 +6,6 @@ import dataclasses
 import math
 from collections import deque
 from collections.abc import Mapping
-from numbers import Real
 from typing import Any
 
 import gymnasium as gym
@@ -33,6 +32,7 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig re-exported: the en
     MAX_WEIGHT,
     MIN_SCALE,
     PLAIN_CONTROL_INTERVAL,
+    PLAIN_SPANS,
     EnvConfig,
     even_record_every,
     mesh_weight_on_bit_limit,
@@ -320,6 +320,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._wob_target = 0.0
         self._wob_applied = 0.0
         self._effort = 0.0
+        self._change = (0.0, 0.0)  # of the set points (rad/s, N) at the last command
         #: Set to 0.0 after ``reset``, it sums :meth:`_plain_reward` over the episode
         #: (a task's env scored as DrillString-v0 would score it); ``None``: not summed.
         self.plain_return: float | None = None
@@ -374,12 +375,16 @@ class DrillStringEnv(BatchFinish, gym.Env):
         if not isinstance(options, (Mapping, type(None))):
             raise ValueError(f"reset options: must be a dict, got {options!r}")
         options = dict(options or {})
-        if set(options) - {"surface_speed", "weight_on_bit"}:
-            raise ValueError(f"reset options: unknown key(s) {sorted(map(str, options))}; "
+        if unknown := set(options) - {"surface_speed", "weight_on_bit"}:
+            raise ValueError(f"reset options: unknown key(s) {sorted(map(str, unknown))}; "
                              "known: ['surface_speed', 'weight_on_bit']")
-        for name, value in options.items():  # a bool or a string is no speed or WOB
-            if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real) \
-                    or not math.isfinite(value):
+        for name, value in options.items():  # a number (a 0-d array too), not a bool or text
+            try:
+                number = None if isinstance(value, (bool, np.bool_, str, bytes)) \
+                    else float(value)
+            except (TypeError, ValueError):
+                number = None
+            if number is None or not math.isfinite(number):
                 raise ValueError(f"reset options: {name}: must be a finite number, got "
                                  f"{value!r}")
         given = bool(options)
@@ -501,8 +506,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
         w_lo, w_hi = self._wob_range
         speed = s_hi if speed > s_hi else s_lo if speed < s_lo else speed
         wob = w_hi if wob > w_hi else w_lo if wob < w_lo else wob
-        self._effort = ((speed - self._speed_target) / (s_hi - s_lo)) ** 2 + (
-            (wob - self._wob_target) / (w_hi - w_lo)) ** 2
+        self._change = (speed - self._speed_target, wob - self._wob_target)
+        self._effort = (self._change[0] / (s_hi - s_lo)) ** 2 + (
+            self._change[1] / (w_hi - w_lo)) ** 2
         self._speed_target, self._wob_target = speed, wob
         change = wob - self._wob_applied
         max_change = self._max_wob_change
@@ -594,12 +600,13 @@ class DrillStringEnv(BatchFinish, gym.Env):
         """What ``DrillString-v0`` pays for this step with its default weights, also in a
         task's env (a task's policy scored beside the classical controllers): the rate
         terms (ROP, stick-slip, whirl) weighted by this env's control interval over the
-        plain env's default 0.1 s, so a 1 s step counts as ten; effort and failure as they
-        are (a set-point change, an end)."""
+        plain env's default 0.1 s, so a 1 s step counts as ten; the effort over the plain
+        env's default set-point ranges and the failure as they are (a change, an end)."""
         terms = DrillStringEnv._reward_terms(self, step, terminated)
         k = self.control_interval / PLAIN_CONTROL_INTERVAL
-        return (k * (terms["rop"] + terms["stick_slip"] + terms["whirl"]) + terms["effort"]
-                + terms["failure"])
+        effort = (self._change[0] / PLAIN_SPANS[0]) ** 2 + (self._change[1] / PLAIN_SPANS[1]) ** 2
+        return (k * (terms["rop"] + terms["stick_slip"] + terms["whirl"])
+                - self.config.effort_weight * effort + terms["failure"])
 
     def _window(self) -> list[float] | None:
         """The metric window's values, None until it holds finite ones."""

@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field
 
+from drill_env.physics.units import RPM
 from drill_env.physics.validation import (
     Count,
     NonNegative,
@@ -25,6 +26,9 @@ MAX_EPISODE_DURATION = 3.2e7
 #: ``EnvConfig.control_interval``'s default (s): the step a ``DrillString-v0`` reward is
 #: paid for (a task's env scored as the plain env scales its rate terms to it).
 PLAIN_CONTROL_INTERVAL = 0.1
+#: The spans of ``EnvConfig``'s default ``rpm_range`` (rad/s) and ``weight_on_bit_range``
+#: (N): DrillString-v0's effort term divides set-point changes by them (set below).
+PLAIN_SPANS: tuple[float, float]
 #: Records one control step may hold (memory of the record buffer: 16 floats each).
 MAX_RECORDS_PER_STEP = 100_000
 
@@ -167,3 +171,12 @@ def mesh_weight_on_bit_limit(sim: Any, upper: float, tol: float = 100.0) -> floa
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ok(mid) else (lo, mid)
     return lo
+
+
+def _default_spans() -> tuple[float, float]:
+    default = EnvConfig()
+    (s_lo, s_hi), (w_lo, w_hi) = default.rpm_range, default.weight_on_bit_range
+    return s_hi * RPM - s_lo * RPM, w_hi - w_lo  # as the env's own ranges
+
+
+PLAIN_SPANS = _default_spans()

@@ -62,27 +62,30 @@ class SerialExecutor:
         pass
 
 
-def _single_threaded_worker() -> None:
+def _single_threaded_worker(parent: int) -> None:
     """A pool worker's set-up: one numba thread (the pool is the parallelism); the first
-    Ctrl-C interrupts its task (a training run saves its checkpoint), a second one, the
-    pool's forwarded copy of a Ctrl-C the whole terminal group got, does not cut that
-    short; on Linux the worker ends with its parent (a killed command left its workers
-    training into the folder a rerun uses)."""
+    Ctrl-C or SIGTERM interrupts its task (a training run saves its checkpoint) and later
+    ones, such as the pool's forwarded copy of a Ctrl-C the whole terminal group got, do
+    not cut that short; on Linux the worker is killed with its parent ``parent`` (a
+    killed command left its workers training into the folder a rerun uses)."""
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     signal.signal(signal.SIGINT, _interrupt_once)
-    parent = os.getppid()
+    signal.signal(signal.SIGTERM, _interrupt_once)
     if sys.platform.startswith("linux"):
         import ctypes
 
         libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGTERM), 0, 0, 0)  # PR_SET_PDEATHSIG
+        # SIGKILL, not an interrupt: a worker that saved would then wait forever to hand
+        # its result to the dead parent
+        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
     if os.getppid() != parent:  # the parent died before the call above
         os._exit(1)
 
 
 def _interrupt_once(signum: int, frame: Any) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise KeyboardInterrupt
 
 
@@ -96,7 +99,8 @@ class ProcessExecutor:
 
         self.workers = max(1, workers or os.cpu_count() or 1)
         self._pool = ProcessPoolExecutor(self.workers, mp_context=mp.get_context("spawn"),
-                                         initializer=_single_threaded_worker)
+                                         initializer=_single_threaded_worker,
+                                         initargs=(os.getpid(),))
 
     def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any]
                       ) -> Iterator[tuple[int, Any]]:
@@ -206,7 +210,8 @@ class ResultStore:
         #: a killed writer's half line: the next result starts on a line of its own
         self._broken_end = False
         if self.path.exists():
-            # bytes that are not UTF-8 (a damaged file) spoil their line only: skipped
+            # bytes that are not UTF-8 (a damaged file) spoil their line only: it is
+            # skipped, or kept with U+FFFD in a string where it still parses as JSON
             text = self.path.read_bytes().decode("utf-8", errors="replace")
             self._broken_end = bool(text) and not text.endswith("\n")
             for line in text.splitlines():

@@ -99,8 +99,9 @@ class DrillStringVectorEnv(VectorEnv):
         self._truncations = np.zeros(self.num_envs, dtype=np.bool_)
         self._autoreset_envs = np.zeros(self.num_envs, dtype=np.bool_)
         self._info_plans: dict[tuple, tuple] = {}  # see _batch_uniform_infos
-        self._reset_once = False  # a step before the first reset is refused, as a single
-        # env's (Gymnasium's OrderEnforcing); it stepped an env that had no episode
+        # a step before every env was reset is refused, as a single env's (Gymnasium's
+        # OrderEnforcing); it stepped envs that had no episode
+        self._has_episode = np.zeros(self.num_envs, dtype=np.bool_)
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -130,7 +131,7 @@ class DrillStringVectorEnv(VectorEnv):
             self._obs[i], info = self.envs[i].reset(seed=seeds[i], options=options or None)
             entries.append((int(i), info))
         infos = self._batch_infos(entries)
-        self._reset_once = self._reset_once or bool(mask.all())
+        self._has_episode[mask] = True
         self._terminations[mask] = False
         self._truncations[mask] = False
         self._autoreset_envs[mask] = False
@@ -138,8 +139,9 @@ class DrillStringVectorEnv(VectorEnv):
 
     def step(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                      dict[str, Any]]:
-        if not self._reset_once:
-            raise ResetNeeded("step: call reset() before the first step")
+        if not self._has_episode.all():
+            raise ResetNeeded("step: call reset() before the first step (envs "
+                              f"{np.flatnonzero(~self._has_episode).tolist()} have none)")
         mode = self.autoreset_mode
         if mode == AutoresetMode.DISABLED and np.any(self._autoreset_envs):
             raise ValueError("autoreset is disabled: reset the finished envs (reset_mask) "
@@ -360,7 +362,8 @@ def _sb3_class() -> type:
         def __init__(self, num_envs: int = 1,
                      env_class: type[DrillStringEnv] | str | None = None,
                      **env_kwargs: Any) -> None:
-            if not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) \
+                    or num_envs < 1:
                 raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
             self.env_class = env_class_of(env_class)
             self.env_kwargs = dict(env_kwargs)

@@ -83,6 +83,7 @@ def save_on_interrupt(marker: str) -> str:
     from pathlib import Path
 
     try:
+        Path(marker).write_text("started")
         time.sleep(60.0)
     except KeyboardInterrupt:
         Path(marker).write_text("interrupted")
@@ -100,4 +101,17 @@ def write_pid_and_wait(path: str) -> None:
     from pathlib import Path
 
     Path(path).write_text(str(os.getpid()))
+    time.sleep(60.0)
+
+
+def sleep_through_interrupts(marker: str) -> None:
+    """A sweep task that does not end on a Ctrl-C or SIGTERM (as a worker busy in
+    compiled code); writes ``marker`` once it ignores them, then waits a minute."""
+    import signal
+    import time
+    from pathlib import Path
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    Path(marker).write_text("started")
     time.sleep(60.0)

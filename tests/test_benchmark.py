@@ -382,19 +382,25 @@ def test_the_series_picture_draws_only_this_runs_episodes(tmp_path):
                         stamps={"stiff": "other run"})
 
 
-def test_an_aborted_process_pool_stops_workers_that_do_not_end(monkeypatch):
+def test_an_aborted_process_pool_stops_workers_that_do_not_end(monkeypatch, tmp_path):
     """Closed while an exception (a Ctrl-C) propagates, the pool gives its workers a grace
     period, then stops them: an interrupted sweep must neither hang nor leave workers."""
     import os
     import time
     from pathlib import Path
 
+    from helpers import sleep_through_interrupts
+
     from drill_env.sweep import ProcessExecutor
 
     monkeypatch.setattr(ProcessExecutor, "ABORT_GRACE", 1.0)
     executor = ProcessExecutor(2)
-    busy = [executor._pool.submit(time.sleep, 60.0) for _ in range(2)]
-    while not all(f.running() for f in busy):
+    markers = [tmp_path / f"task{k}" for k in range(2)]
+    for m in markers:
+        executor._pool.submit(sleep_through_interrupts, str(m))
+    deadline = time.monotonic() + 120.0  # spawned workers import numba first
+    while not all(m.exists() for m in markers):
+        assert time.monotonic() < deadline
         time.sleep(0.05)
     processes = list(executor._pool._processes.values())
     start = time.monotonic()
@@ -431,12 +437,12 @@ def test_an_interrupt_of_the_command_alone_reaches_the_workers_once(tmp_path):
 
     executor = ProcessExecutor(2)
     markers = [str(tmp_path / f"task{k}") for k in range(2)]
-    busy = [executor._pool.submit(save_on_interrupt, m) for m in markers]
-    deadline = time.monotonic() + 60.0
-    while not all(f.running() for f in busy):
+    for m in markers:
+        executor._pool.submit(save_on_interrupt, m)
+    deadline = time.monotonic() + 120.0  # spawned workers import numba first
+    while not all(Path(m).exists() for m in markers):
         assert time.monotonic() < deadline
         time.sleep(0.05)
-    time.sleep(2.0)  # inside the tasks' sleep
     try:
         raise KeyboardInterrupt  # what the command's own Ctrl-C raises here
     except KeyboardInterrupt:

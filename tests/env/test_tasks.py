@@ -357,3 +357,28 @@ def test_a_one_second_task_step_is_scored_as_ten_plain_steps():
 def test_a_divisor_of_the_reward_or_observation_has_a_floor(env_id, kwargs, field):
     with pytest.raises(ValueError, match=rf"^{field}: Input should be greater than or equal"):
         gym.make(env_id, **kwargs)
+
+
+def test_a_set_point_change_in_a_task_is_charged_as_the_plain_env_charges_it():
+    """The effort term of ``plain_return`` divides a change by DrillString-v0's default
+    ranges (0-200 rpm, 0-200 kN), not the task's narrower ones (40-200, 40-140), which
+    charged the same change 1.6x (rpm) and 4x (WOB) more: at the same step the drilling
+    task's scored return is DrillString-v0's return for the same change."""
+    kwargs = {"scenario": "default", "startup": "settled", "fidelity": "fast",
+              "start_kick": 0.0, "episode_duration": 2.0}
+    options = {"surface_speed": 120 * RPM, "weight_on_bit": 90e3}
+    plain = gym.make("DrillString-v0", **kwargs)
+    task = gym.make("DrillOptimise-v0", control_interval=0.1, **kwargs)
+    returns = []
+    for env, action in ((plain, plain.unwrapped.action_for(200 * RPM, 140e3)),
+                        (task, np.ones(2, dtype=np.float32))):  # the task's 200 rpm, 140 kN
+        env.reset(seed=0, options=options)
+        env.unwrapped.plain_return = 0.0
+        _, reward, _, _, info = env.step(action)
+        returns.append((reward, env.unwrapped.plain_return, info["reward_terms"]))
+    (plain_reward, _, terms), (_, task_scored, _) = returns
+    assert plain.unwrapped.targets == task.unwrapped.targets
+    # the change is charged: 0.1 x ((80 / 200)^2 + (50 / 200)^2); the plain env's action
+    # is float32, so its set points are the asked-for ones to ~1e-7
+    assert terms["effort"] == pytest.approx(-0.1 * (0.4**2 + 0.25**2), rel=1e-6)
+    assert task_scored == pytest.approx(plain_reward, rel=1e-6)

@@ -180,6 +180,11 @@ def test_the_vector_envs_arguments_are_refused_by_name():
     with pytest.raises(ValueError, match=r"^seed: an integer or a list of num_envs=2 seeds, "
                                          r"got 1\.5"):
         envs.reset(seed=1.5)
+    envs.reset(options={"reset_mask": np.array([True, False])})
+    with pytest.raises(ResetNeeded, match=r"envs \[1\] have none"):
+        envs.step(np.zeros((2, 2)))
+    envs.reset(options={"reset_mask": np.array([False, True])})  # every env in parts
+    envs.step(np.zeros((2, 2)))
     envs.reset(seed=0)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
