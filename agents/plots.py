@@ -108,6 +108,11 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     plt.close(fig)
 
 
+#: Bit-speed interquartile range (rad/s) above which a series line is drawn translucent:
+#: 10 rpm, well above a steady run's ripple, well below a stick-slip cycle's.
+SWINGING = 10 * RPM
+
+
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
                  warmup: float, env_id: str | None = None, seed: int = 0,
                  stamps: Mapping[str, str] | None = None) -> bool:
@@ -151,9 +156,11 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     # above the wider swinging: a stick-slip band drawn over a steady line hid it (the
     # driller's 140 rpm inside stiff PI's 0-190 rpm swing)
     bottom_up = sorted(drawn, key=lambda item: (item[0] == 0, -item[1]))
-    for z, (_, _, lines) in enumerate(bottom_up):
+    for z, (_, swing, lines) in enumerate(bottom_up):
         for line in lines:
             line.set_zorder(2 + z)
+            if swing > SWINGING:  # a band of stick-slip: the lines behind it show through
+                line.set_alpha(0.55)
     # the smallest span each axis shows (rpm, kN m, -): a steady run is a flat line,
     # not its last digits magnified into what looks like an oscillation
     spans = (20.0, 1.0, 0.2)

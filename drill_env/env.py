@@ -320,7 +320,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._wob_target = 0.0
         self._wob_applied = 0.0
         self._effort = 0.0
-        self._change = (0.0, 0.0)  # of the set points (rad/s, N) at the last command
+        self._setpoint_change = (0.0, 0.0)  # of the set points (rad/s, N) at the last command
         #: Set to 0.0 after ``reset``, it sums :meth:`_plain_reward` over the episode
         #: (a task's env scored as DrillString-v0 would score it); ``None``: not summed.
         self.plain_return: float | None = None
@@ -506,9 +506,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
         w_lo, w_hi = self._wob_range
         speed = s_hi if speed > s_hi else s_lo if speed < s_lo else speed
         wob = w_hi if wob > w_hi else w_lo if wob < w_lo else wob
-        self._change = (speed - self._speed_target, wob - self._wob_target)
-        self._effort = (self._change[0] / (s_hi - s_lo)) ** 2 + (
-            self._change[1] / (w_hi - w_lo)) ** 2
+        self._setpoint_change = (speed - self._speed_target, wob - self._wob_target)
+        self._effort = (self._setpoint_change[0] / (s_hi - s_lo)) ** 2 + (
+            self._setpoint_change[1] / (w_hi - w_lo)) ** 2
         self._speed_target, self._wob_target = speed, wob
         change = wob - self._wob_applied
         max_change = self._max_wob_change
@@ -604,7 +604,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         env's default set-point ranges and the failure as they are (a change, an end)."""
         terms = DrillStringEnv._reward_terms(self, step, terminated)
         k = self.control_interval / PLAIN_CONTROL_INTERVAL
-        effort = (self._change[0] / PLAIN_SPANS[0]) ** 2 + (self._change[1] / PLAIN_SPANS[1]) ** 2
+        change = self._setpoint_change
+        effort = (change[0] / PLAIN_SPANS[0]) ** 2 + (change[1] / PLAIN_SPANS[1]) ** 2
         return (k * (terms["rop"] + terms["stick_slip"] + terms["whirl"])
                 - self.config.effort_weight * effort + terms["failure"])
 

@@ -266,8 +266,11 @@ class Simulator:
         cfg = self.config
         node_mass = self.lat_m[0::2]  # lumped masses of the lateral nodes, the bit's included
 
-        def critical(m: float, k: float, c: float) -> float:  # sqrt(1 + z^2) - z, without
-            zeta = c / (2.0 * math.sqrt(k * m))  # its cancellation at large z (-> 2 m / c)
+        def critical(m: float, k: float, c: float) -> float:
+            zeta = c / (2.0 * math.sqrt(k * m))
+            if zeta <= 1.0:  # no cancellation to speak of (and the floats of every run)
+                return 2.0 * math.sqrt(m / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
+            # beyond, the same as 1 / (sqrt(1 + z^2) + z): sqrt(1 + z^2) - z cancelled to 0
             return 2.0 * math.sqrt(m / k) / (math.sqrt(1.0 + zeta * zeta) + zeta)
 
         limits = {}
