@@ -108,9 +108,20 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     plt.close(fig)
 
 
-#: Bit-speed interquartile range (rad/s) above which a series line is drawn translucent:
-#: 10 rpm, well above a steady run's ripple, well below a stick-slip cycle's.
+#: Bit-speed swing (:func:`_swing`, rad/s) above which a series line is drawn
+#: translucent: 10 rpm, well above a steady run's ripple, well below a stick-slip cycle's.
 SWINGING = 10 * RPM
+
+
+def _swing(t: np.ndarray, speed: np.ndarray, warmup: float) -> float:
+    """How widely ``speed`` swings most of the time after ``warmup``: the interquartile
+    range of its difference from its 1 s running mean (a change of target is no swing)."""
+    measured = speed[t >= warmup]
+    if measured.size < 2:
+        return 0.0
+    n = max(1, min(measured.size, round(1.0 / float(t[1] - t[0]))))
+    trend = np.convolve(measured, np.ones(n) / n, mode="same")
+    return float(np.subtract(*np.percentile(measured - trend, [75, 25])))
 
 
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
@@ -143,9 +154,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         if "target_time" in d and k == 0:  # the planned rpm (a task's drawn targets)
             axes[0].step(d["target_time"], d["target_rpm"], where="post", color="k",
                          lw=1.0, ls=(0, (1, 1)), label="target", zorder=1)
-        measured = d["bit_speed"][t >= warmup]  # how widely it swings most of the time
-        swing = float(np.subtract(*np.percentile(measured, [75, 25]))) if measured.size \
-            else 0.0
+        swing = _swing(t, d["bit_speed"], warmup)
         drawn.append((k, swing, [axes[0].plot(t, d["bit_speed"] / RPM, **kw)[0],
                                  axes[1].plot(t, d["torque_on_bit"] / 1e3, **kw)[0],
                                  axes[2].plot(t, radial, **kw)[0]]))
