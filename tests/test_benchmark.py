@@ -745,3 +745,19 @@ def test_a_controller_keeps_its_colour_in_every_picture():
     assert pair["driller"] == five["driller"]
     named = set(map(tuple, five.values())) | {tuple(pair["driller"])}
     assert tuple(pair["constant-120rpm-100kN"]) not in named  # others take a free colour
+
+
+def test_a_lines_swing_is_its_oscillation_not_a_change_of_target():
+    """The series picture draws a line translucent and low when it swings by more than
+    ``SWINGING``: stick-slip does, a steady line with a change of target does not (every
+    task-1 line went translucent at its target change)."""
+    import numpy as np
+
+    from agents.plots import SWINGING, _swing
+    from drill_env.physics.units import RPM
+
+    t = np.arange(0.0, 60.0, 0.02)
+    step = np.where(t < 30.0, 91.0, 72.0) * RPM
+    stick_slip = (80.0 + 80.0 * np.sin(2 * np.pi * t / 4.0)) * RPM
+    assert _swing(t, step, 5.0) < 0.1 * SWINGING
+    assert _swing(t, stick_slip, 5.0) > 5 * SWINGING
