@@ -109,19 +109,23 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
 
 
 #: Bit-speed swing (:func:`_swing`, rad/s) above which a series line is drawn
-#: translucent: 10 rpm, well above a steady run's ripple, well below a stick-slip cycle's.
-SWINGING = 10 * RPM
+#: translucent: 50 rpm, above a controller's transient after a change of target (up to
+#: ~30 rpm in task 1's picture), below a stick-slip band (the bit stopping, then running
+#: at up to twice its speed).
+SWINGING = 50 * RPM
 
 
 def _swing(t: np.ndarray, speed: np.ndarray, warmup: float) -> float:
-    """How widely ``speed`` swings most of the time after ``warmup``: the interquartile
-    range of its difference from its 1 s running mean (a change of target is no swing)."""
+    """How widely ``speed`` swings most of the time after ``warmup``: the median over 5 s
+    blocks of each block's range (a stick-slip cycle of up to 5 s fills a block; a change
+    of target moves one block only)."""
     measured = speed[t >= warmup]
     if measured.size < 2:
         return 0.0
-    n = max(1, min(measured.size, round(1.0 / float(t[1] - t[0]))))
-    trend = np.convolve(measured, np.ones(n) / n, mode="same")
-    return float(np.subtract(*np.percentile(measured - trend, [75, 25])))
+    n = max(1, round(5.0 / float(t[1] - t[0])))
+    blocks = measured[:measured.size // n * n].reshape(-1, n) if measured.size >= n \
+        else measured[None, :]
+    return float(np.median(np.ptp(blocks, axis=1)))
 
 
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,

@@ -760,4 +760,4 @@ def test_a_lines_swing_is_its_oscillation_not_a_change_of_target():
     step = np.where(t < 30.0, 91.0, 72.0) * RPM
     stick_slip = (80.0 + 80.0 * np.sin(2 * np.pi * t / 4.0)) * RPM
     assert _swing(t, step, 5.0) < 0.1 * SWINGING
-    assert _swing(t, stick_slip, 5.0) > 5 * SWINGING
+    assert _swing(t, stick_slip, 5.0) > 2 * SWINGING  # 160 rpm from stop to top
