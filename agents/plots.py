@@ -122,10 +122,15 @@ def _swing(t: np.ndarray, speed: np.ndarray, warmup: float) -> float:
     measured = speed[t >= warmup]
     if measured.size < 2:
         return 0.0
-    n = max(1, round(5.0 / float(t[1] - t[0])))
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    n = max(1, round(5.0 / dt)) if dt > 0 else measured.size
     blocks = measured[:measured.size // n * n].reshape(-1, n) if measured.size >= n \
         else measured[None, :]
-    return float(np.median(np.ptp(blocks, axis=1)))
+    finite = np.isfinite(blocks).any(axis=1)  # a diverged episode's last samples are NaN
+    if not finite.any():
+        return 0.0
+    blocks = blocks[finite]
+    return float(np.median(np.nanmax(blocks, axis=1) - np.nanmin(blocks, axis=1)))
 
 
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,

@@ -83,10 +83,25 @@ def _single_threaded_worker(parent: int) -> None:
         os._exit(1)
 
 
+#: Whether this pool worker was interrupted (:func:`_interrupt_once`).
+_interrupted = False
+
+
 def _interrupt_once(signum: int, frame: Any) -> None:
+    global _interrupted
+    _interrupted = True
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise KeyboardInterrupt
+
+
+def _unless_interrupted(fn: Callable[[Any], Any], item: Any) -> Any:
+    """``fn(item)`` in a pool worker, refused once the worker was interrupted: the tasks
+    queued behind the interrupted one (the pool cannot cancel them) would run with the
+    interrupts ignored until the pool killed them unsaved."""
+    if _interrupted:
+        raise KeyboardInterrupt
+    return fn(item)
 
 
 class ProcessExecutor:
@@ -110,7 +125,7 @@ class ProcessExecutor:
             # Keep a few tasks per worker in flight: results stream back in order of
             # completion and an interrupt leaves little work half done.
             for k, item in pending:
-                futures[self._pool.submit(fn, item)] = k
+                futures[self._pool.submit(_unless_interrupted, fn, item)] = k
                 if len(futures) >= 2 * self.workers:
                     break
             while futures:
@@ -119,7 +134,7 @@ class ProcessExecutor:
                     k = futures.pop(future)
                     yield k, future.result()
                     for k_next, item in pending:
-                        futures[self._pool.submit(fn, item)] = k_next
+                        futures[self._pool.submit(_unless_interrupted, fn, item)] = k_next
                         break
         finally:
             for future in futures:
@@ -147,11 +162,7 @@ class ProcessExecutor:
         deadline = time.monotonic() + self.ABORT_GRACE
         for process in processes:
             process.join(max(0.0, deadline - time.monotonic()))
-        for process in processes:
-            if process.is_alive():
-                process.terminate()
-        for process in processes:  # one still starting up may outlive SIGTERM: SIGKILL
-            process.join(2.0)
+        for process in processes:  # (an interrupted worker ignores SIGTERM: SIGKILL)
             if process.is_alive():
                 process.kill()
                 process.join(2.0)

@@ -430,24 +430,29 @@ def test_an_interrupt_of_the_command_alone_reaches_the_workers_once(tmp_path):
     """``kill -INT`` of the command (not of its process group) left the workers training
     for the grace period, then stopped them unsaved; now the pool forwards the interrupt,
     and a worker that already had one (a terminal's Ctrl-C reaches the whole group) does
-    not have its save cut short by the copy."""
+    not have its save cut short by the copy. The tasks queued behind (the pool cannot
+    cancel them) do not start: they ran with the interrupts ignored until the pool killed
+    them unsaved, and kept the command waiting the whole grace period."""
     from helpers import save_on_interrupt
 
-    from drill_env.sweep import ProcessExecutor
+    from drill_env.sweep import ProcessExecutor, _unless_interrupted
 
     executor = ProcessExecutor(2)
-    markers = [str(tmp_path / f"task{k}") for k in range(2)]
-    for m in markers:
-        executor._pool.submit(save_on_interrupt, m)
+    markers = [str(tmp_path / f"task{k}") for k in range(4)]
+    for m in markers:  # as map_unordered submits them
+        executor._pool.submit(_unless_interrupted, save_on_interrupt, m)
     deadline = time.monotonic() + 120.0  # spawned workers import numba first
-    while not all(Path(m).exists() for m in markers):
+    while not all(Path(m).exists() for m in markers[:2]):
         assert time.monotonic() < deadline
         time.sleep(0.05)
+    start = time.monotonic()
     try:
         raise KeyboardInterrupt  # what the command's own Ctrl-C raises here
     except KeyboardInterrupt:
         executor.close()
-    assert [Path(m).read_text() for m in markers] == ["saved", "saved"]
+    assert time.monotonic() - start < 0.5 * ProcessExecutor.ABORT_GRACE
+    assert [Path(m).read_text() for m in markers[:2]] == ["saved", "saved"]
+    assert not any(Path(m).exists() for m in markers[2:])
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG")
@@ -761,3 +766,7 @@ def test_a_lines_swing_is_its_oscillation_not_a_change_of_target():
     stick_slip = (80.0 + 80.0 * np.sin(2 * np.pi * t / 4.0)) * RPM
     assert _swing(t, step, 5.0) < 0.1 * SWINGING
     assert _swing(t, stick_slip, 5.0) > 2 * SWINGING  # 160 rpm from stop to top
+    diverged = stick_slip.copy()
+    diverged[-300:] = np.nan  # a diverged episode's end
+    assert _swing(t, diverged, 5.0) == pytest.approx(_swing(t, stick_slip, 5.0), rel=0.02)
+    assert _swing(np.zeros(3), np.ones(3), 0.0) == 0.0  # one time stamp, no crash
