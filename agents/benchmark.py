@@ -582,8 +582,8 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
             cells = [s, c, str(len(sel))]
             for key, _, fmt in SUMMARY:
                 values = np.array([r[key] for r in sel], dtype=float)
-                if np.isnan(values).all():  # not defined for this controller (a guest's
-                    cells.append("-")       # return), or a zero target's rpm error
+                if np.isnan(values).all():  # not defined (a zero target's rpm error)
+                    cells.append("-")
                     continue
                 text = shown(fmt, float(np.mean(values)))
                 half = shown(fmt, float(np.max(values) - np.min(values)) / 2)

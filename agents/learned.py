@@ -10,6 +10,7 @@ frozen) and predicts deterministically. Policy rate.
 
 from __future__ import annotations
 
+import json
 import pickle
 from pathlib import Path
 from typing import Any, ClassVar
@@ -53,15 +54,19 @@ class LearnedController:
         config = yaml.safe_load((folder / "config.yaml").read_text())
         from training.config import algo_class
 
-        model = algo_class(config.get("algo", "ppo")).load(str(model_file), device="cpu")
+        model = load_saved(model_file, lambda p: algo_class(config.get("algo", "ppo")).load(
+            p, device="cpu"))
         if getattr(model, "_n_updates", 1) == 0:  # a Ctrl-C in SAC's warm-up saves one
             import warnings
 
             warnings.warn(f"{model_file}: saved at {model.num_timesteps} env steps, before "
                           "the first gradient step (SAC's learning_starts): an untrained "
                           "policy", RuntimeWarning, stacklevel=2)
-        with norm_file.open("rb") as f:
-            normalizer = pickle.load(f)  # a VecNormalize without its venv: statistics only
+        def unpickle(p: str) -> Any:
+            with open(p, "rb") as f:
+                return pickle.load(f)  # a VecNormalize without its venv: statistics only
+
+        normalizer = load_saved(norm_file, unpickle)
         normalizer.training = False
         return cls(model, normalizer, TASK_ENVS[config["task"]], config.get("env_kwargs", {}),
                    folder)
@@ -107,6 +112,21 @@ def policy_files(path: str | Path | None = None, env_id: str | None = None
                  ) -> tuple[Path, Path]:
     """(model, normalisation) files that :meth:`LearnedController.load` would load."""
     return _files(policy_folder(path, env_id))
+
+
+def load_saved(path: Path, load: Any) -> Any:
+    """``load(path)``; a damaged file (a full disk, a copy cut short) is a ValueError
+    naming it and what to do, not a traceback from pickle or zipfile."""
+    import zipfile
+
+    try:
+        return load(str(path))
+    except (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
+            json.JSONDecodeError) as err:
+        raise ValueError(f"{path}: damaged, cannot be loaded ({type(err).__name__}: {err}); "
+                         "delete it (and its checkpoint's other files) to fall back on the "
+                         "one before (train --resume does), or retrain with --overwrite"
+                         ) from None
 
 
 def latest_checkpoint(run: Path) -> tuple[Path, Path] | None:

@@ -987,7 +987,7 @@ def parser() -> argparse.ArgumentParser:
     again = p.add_mutually_exclusive_group()
     again.add_argument("--resume", action="store_true",
                        help="continue the run from its last checkpoint (or its final model; "
-                            "a Ctrl-C saves one), with the config it was started with")
+                            "a Ctrl-C or SIGTERM saves one), with the config it was started with")
     again.add_argument("--overwrite", action="store_true",
                        help="delete an existing run of that name and start again (without "
                             "it, an existing run is refused)")

@@ -84,11 +84,11 @@ class DrillStringEnv(BatchFinish, gym.Env):
     5 in pipe over 140 m of heavy-weight pipe and a packed BHA; lateral and torsional dynamics,
     borehole-wall contact) drives a mesoscopic PDC bit through a layered formation
     (``drill_env.physics``). The agent sets the top drive's speed set point and the hook
-    load (i.e. the weight on bit) ten times a second; the simulator integrates the string
-    in between (``round(control_interval / dt)`` steps of 2 ms at the full level)
-    and records the bit's motion, from which the stick-slip and whirl metrics of
-    :mod:`drill_env.metrics` are computed. The task: drill fast without stick-slip and
-    whirl while the bit crosses formation changes.
+    load (commanded as the weight on bit it leaves) ten times a second; the simulator
+    integrates the string in between (``round(control_interval / dt)`` steps of 2 ms at
+    the full level) and records the bit's motion, from which the stick-slip and whirl
+    metrics of :mod:`drill_env.metrics` are computed. The task: drill fast without
+    stick-slip and whirl while the bit crosses formation changes.
 
     ## Action Space
 
@@ -98,7 +98,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
     | Num | Action                  | absolute mode             | incremental mode            |
     |-----|-------------------------|---------------------------|-----------------------------|
     | 0   | surface speed set point | ``rpm_range`` (0-200 rpm) | +- ``rpm_step`` (10 rpm)    |
-    | 1   | weight on bit (WOB)     | ``weight_on_bit_range``   | +- ``weight_on_bit_step``   |
+    | 1   | hook load, as its WOB   | ``weight_on_bit_range``   | +- ``weight_on_bit_step``   |
     |     |                         | (0-200 kN)                | (10 kN)                     |
 
     Absolute mode maps [-1, 1] linearly onto the range; incremental mode changes the set
@@ -321,8 +321,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._wob_applied = 0.0
         self._effort = 0.0
         self._setpoint_change = (0.0, 0.0)  # of the set points (rad/s, N) at the last command
-        #: Set to 0.0 after ``reset``, it sums :meth:`_plain_reward` over the episode
-        #: (a task's env scored as DrillString-v0 would score it); ``None``: not summed.
+        #: None after every reset (not summed); set to 0.0 after ``reset``, it sums
+        #: :meth:`_plain_reward` over that episode (a task's env scored as DrillString-v0).
         self.plain_return: float | None = None
         self.last_records = np.zeros((0, len(RECORD_CHANNELS)))
         #: The driller's set points of the episode (rad/s, N): the scenario's or the

@@ -58,7 +58,8 @@ class DrillStringVectorEnv(VectorEnv):
 
     Args:
         num_envs: number of sub-environments.
-        autoreset_mode: an :class:`gymnasium.vector.AutoresetMode` (or its value string).
+        autoreset_mode: an :class:`gymnasium.vector.AutoresetMode`, or its value or name
+            in any case (``"same_step"``).
         **env_kwargs: keywords of :class:`~drill_env.env.DrillStringEnv`, the same for all.
 
     ``reset(seed=s)`` seeds env i with ``s + i`` (as ``SyncVectorEnv``), so env i follows

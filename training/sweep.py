@@ -7,8 +7,10 @@ the workers are the parallelism). Each finished run's summary is appended to
 ``<out>/train_sweep.jsonl`` as it arrives; the sweep run again skips finished seeds, and
 a run whose worker died (or that was interrupted) resumes from its last checkpoint
 (SAC restarts its replay buffer there, see :func:`training.train.train`). The summary
-table is ``<out>/train_sweep.md``: validation return of the best model per seed, and
-mean +- std over seeds.
+table is ``<out>/train_sweep.md``: the env steps each run trained, the validation return
+of the best model per seed, and mean +- std over seeds. A Ctrl-C or SIGTERM (``kill``)
+of the command reaches the workers, which save a checkpoint and stop; on Linux a worker
+dies with its parent.
 """
 
 from __future__ import annotations

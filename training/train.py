@@ -36,7 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import yaml
 
-from agents.learned import latest_checkpoint
+from agents.learned import latest_checkpoint, load_saved
 from drill_env.physics.validation import jsonable
 from training.config import (
     TRAINING_SEEDS,
@@ -512,21 +512,6 @@ def save_whole(path: Path, save: Any) -> None:
     partial = path.with_name(f".{path.stem}.partial{path.suffix}")
     save(str(partial))
     partial.replace(path)
-
-
-def load_saved(path: Path, load: Any) -> Any:
-    """``load(path)``; a damaged file (a full disk, a copy cut short) is a ValueError
-    naming it and what to do, not a traceback from pickle or zipfile."""
-    import pickle
-    import zipfile
-
-    try:
-        return load(str(path))
-    except (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
-            json.JSONDecodeError) as err:
-        raise ValueError(f"{path}: damaged, cannot be loaded ({type(err).__name__}: {err}); "
-                         "delete it (and its checkpoint's other files) to resume from the "
-                         "one before, or start afresh with --overwrite") from None
 
 
 def plot_learning_curve(run: Path) -> Path | None:

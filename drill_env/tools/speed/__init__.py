@@ -12,7 +12,7 @@ env       env steps/s at the default 10 Hz policy rate: one env, N single envs l
           ``Simulator.advance``).
 scaling   us per step against string length and against element count at fixed length,
           with a least-squares line of cost against DOFs (R^2) and the spread of the cost
-          per DOF; a PNG of it next to the JSON.
+          per DOF; a PNG of it next to the JSON (drawn when the run finishes).
 compile   first import to first env step in a fresh process with numba's cache cold and
           then warm (``NUMBA_CACHE_DIR`` pointing at a new temporary folder).
 memory    bytes of one simulator's NumPy arrays and the RSS growth per env over 64 envs,
