@@ -90,9 +90,15 @@ _interrupted = False
 def _interrupt_once(signum: int, frame: Any) -> None:
     global _interrupted
     _interrupted = True
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    # later ones run a handler that does nothing (SIG_IGN set here made Python print
+    # "Signal 15 ignored due to race condition" for one already on its way)
+    signal.signal(signal.SIGINT, _ignore)
+    signal.signal(signal.SIGTERM, _ignore)
     raise KeyboardInterrupt
+
+
+def _ignore(signum: int, frame: Any) -> None:
+    pass
 
 
 def _unless_interrupted(fn: Callable[[Any], Any], item: Any) -> Any:
