@@ -607,7 +607,9 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
               + ". Means over seeds, +- half the range. Rows: benchmark.csv.")
     if env_id is None:
         return (f"{settings.duration:g} s episodes of DrillString-v0 from the settled state "
-                f"(torsionally; laterally straight on the hole axis: docs/controllers.md) "
+                f"(torsionally; laterally straight on the hole axis, from where a compressed "
+                f"BHA settles into a bent equilibrium within its stabilizers, no whirl: the "
+                f"slow drift of the bit's radial position in the series; docs/controllers.md) "
                 f"at each scenario's set points (bit speed kicked by up to "
                 f"{settings.start_kick:.0%} by the seed; a task's policy acts in its "
                 f"task's env from the same start and set points, its return DrillString-v0's "

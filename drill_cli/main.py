@@ -3,7 +3,8 @@
 The top layer: it parses arguments in the units people type (rpm, kN, seconds), checks
 them in those units, and calls the libraries below (``drill_env``, ``agents``,
 ``training``), which work in SI. Every command but ``replay`` prints a table and writes
-its outputs under ``--out`` (default ``logs/``; ``benchmark`` ``logs/benchmark``,
+its outputs under ``--out`` (default ``logs/``; ``benchmark`` ``logs/benchmark``, with
+``--task`` ``logs/benchmark/<task>``,
 ``train`` ``logs/runs``, ``evaluate`` the run's ``evaluation/``).
 """
 
@@ -360,6 +361,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         from training.config import TASKS
 
         env_id = TASKS[args.task]
+    if args.out is None:  # a task's benchmark replaced the scenario benchmark's outputs
+        args.out = Path("logs/benchmark") / (args.task or "")
+        if reason := unwritable(args.out):
+            raise argparse.ArgumentTypeError(f"--out {args.out}: {reason}")
     text = args.scenarios or ("random" if env_id else "default,stick_slip")
     scenarios = [n.strip() for n in text.split(",") if n.strip()]
     unknown = [n for n in scenarios if n not in SCENARIOS]
@@ -959,7 +964,9 @@ def parser() -> argparse.ArgumentParser:
                    help="YAML of config overrides merged into every episode's scenario, under "
                         "each controller's top drive (e.g. a string of components: "
                         "examples/field_well_string.yaml)")
-    p.add_argument("--out", type=Path, default=Path("logs/benchmark"), help="output folder")
+    p.add_argument("--out", type=Path, default=None,
+                   help="output folder (default: logs/benchmark; with --task "
+                        "logs/benchmark/<task>, beside the scenario benchmark's outputs)")
 
     p = add("train", "train PPO or SAC on a control task; the run (model, VecNormalize, "
                      "checkpoints, learning curve, TensorBoard) in --out/<name>", cmd_train)

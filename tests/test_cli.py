@@ -125,15 +125,20 @@ def test_run_refuses_a_top_drive_controller_in_its_config_file(tmp_path, capsys)
                  str(tmp_path / "out")]) == 0
 
 
-def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path, capsys):
+def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path, capsys, monkeypatch):
     from agents.benchmark import RESULTS_FILE, BenchmarkSettings, fingerprint
     from drill_cli.main import same_physics
     from drill_env.sweep import ResultStore
 
+    monkeypatch.chdir(tmp_path)
     assert main(["benchmark", "--task", "stick_slip", "--controllers", "stiff", "--seeds",
-                 "1", "--duration", "3", "--warmup", "1", "--workers", "1", "--out",
-                 str(tmp_path)]) == 0
+                 "1", "--duration", "3", "--warmup", "1", "--workers", "1"]) == 0
     assert "Means over seeds, +- half the range." in capsys.readouterr().out
+    # by default beside the scenario benchmark's outputs, not over them (it replaced
+    # make demo's table and pictures in logs/benchmark)
+    tmp_path = tmp_path / "logs" / "benchmark" / "stick_slip"
+    assert (tmp_path / "benchmark.csv").exists()
+    assert not (tmp_path.parent / "benchmark.csv").exists()
     # scenarios that differ only in set points are the same task episodes: said
     assert same_physics(["default", "stick_slip", "random", "paper_case2"]) == [
         "default", "stick_slip"]
