@@ -145,7 +145,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     colours = _colours(controllers)
     fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
     found = False
-    drawn: list[tuple[int, float, list[Any]]] = []  # (order given, bit-speed IQR, lines)
+    drawn: list[tuple[int, float, list[Any]]] = []  # (order given, bit-speed swing, lines)
     off_axis = 0.0  # the largest radial position drawn
     for k, c in enumerate(controllers):
         file = Path(series_dir) / f"{c}_{scenario}_seed{seed}.npz"
