@@ -66,7 +66,6 @@ def soft_speed_gains(impedance: float, top_drive_inertia: float, frequency: floa
     return impedance_factor * impedance, w * w * top_drive_inertia
 
 
-@functools.lru_cache(maxsize=64)
 def speed_loop_critical_step(kp: float, ki: float, inertia: float) -> float:
     """The longest step (s) at which the PI loop alone keeps the top node's inertia
     stable (inf: no limit). The kernel's loop is explicit: its torque ``kp (w_set - v_p)
@@ -85,6 +84,7 @@ def speed_loop_critical_step(kp: float, ki: float, inertia: float) -> float:
     return bound
 
 
+@functools.lru_cache(maxsize=64)
 def stick_slip_frequency(config: SimulationConfig) -> float:
     """First torsional natural frequency (Hz) of the string with a fixed top and a free
     bit (undamped): the frequency stick-slip oscillates close to, and the soft
