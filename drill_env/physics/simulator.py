@@ -593,7 +593,6 @@ class Simulator:
             hook_load: float | None = None, record_every: int = 0) -> np.ndarray:
         """:meth:`advance` for ``duration`` simulated seconds (> 0; at least one step);
         ``record_every`` > 0 returns every so many steps' records, 0 none."""
-        require_steps(record_every, "record_every")
         return self.advance(duration_steps(duration, self.dt), speed_setpoint, hook_load,
                             record_every)
 

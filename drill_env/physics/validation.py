@@ -422,6 +422,8 @@ def require_steps(value: Any, name: str) -> None:
     """Raise ValueError naming ``name`` unless ``value`` is a whole number of steps, 0 to
     :data:`MAX_STEPS_PER_CALL` (Python or NumPy integers; no floats, bools or strings,
     which reached the compiled kernel as a typing error)."""
+    if type(value) is int and 0 <= value <= MAX_STEPS_PER_CALL:  # the usual case, at once
+        return  # (it runs at every env step)
     if not (isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
             and 0 <= value <= MAX_STEPS_PER_CALL):
         raise ValueError(f"{name}: must be a whole number of steps from 0 to "
