@@ -62,6 +62,7 @@ class LearnedController:
             warnings.warn(f"{model_file}: saved at {model.num_timesteps} env steps, before "
                           "the first gradient step (SAC's learning_starts): an untrained "
                           "policy", RuntimeWarning, stacklevel=2)
+
         def unpickle(p: str) -> Any:
             with open(p, "rb") as f:
                 return pickle.load(f)  # a VecNormalize without its venv: statistics only
