@@ -1034,7 +1034,8 @@ def parser() -> argparse.ArgumentParser:
                    help="local processes (default: all cores)")
     add_ray_address(p, "the simulations")
     p.add_argument("--out", type=Path, default=Path("logs"),
-                   help="folder for stability_map.png/.json and the points file")
+                   help="folder for stability_map.png/.json (stability_map_<controller>.* "
+                        "under another controller than stiff) and the points file")
 
     p = add("modes", "natural frequencies, damping and the critical-speed chart of a "
                      "scenario's string", cmd_modes)

@@ -464,15 +464,22 @@ def maps_figure(maps: Sequence[StabilityMap], controller: str = "stiff") -> Any:
     return fig
 
 
+def map_stem(controller: str = "stiff") -> str:
+    """The file name of a controller's maps, without suffix: ``stability_map`` for the
+    stiff PI (the paper's), ``stability_map_<controller>`` for the others, so maps of
+    several controllers written to one folder do not overwrite each other."""
+    return "stability_map" if controller == "stiff" else f"stability_map_{controller}"
+
+
 def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings,
                controller: str = "stiff") -> list[Path]:
-    """``stability_map.json`` and ``stability_map.png`` in ``out``."""
+    """``<stem>.json`` and ``<stem>.png`` in ``out`` (stem: ``map_stem``)."""
     out.mkdir(parents=True, exist_ok=True)
     data = {"settings": asdict(settings), "controller": controller,
             "maps": [m.to_json() for m in maps]}
-    json_path = out / "stability_map.json"
+    json_path = out / f"{map_stem(controller)}.json"
     json_path.write_text(json.dumps(data, indent=1))
-    return [json_path, plot_maps(maps, out / "stability_map.png", controller)]
+    return [json_path, plot_maps(maps, out / f"{map_stem(controller)}.png", controller)]
 
 
 def format_maps(maps: Sequence[StabilityMap]) -> str:
