@@ -14,6 +14,7 @@ from agents import CLASSICAL, Driller, DrillerRules, make_controller, parse_cont
 from agents.classical import SoftSpeed, SoftTorque, StiffPI, ZTorque
 from drill_env.physics.config import (
     INCH,
+    BitConfig,
     Section,
     SimulationConfig,
     StringConfig,
@@ -80,6 +81,19 @@ def test_gains_follow_their_formulas_on_the_string(name, config, z, f_s):
     assert zt.torque_feedback == "high_pass"
     assert zt.filter_frequency == pytest.approx(f_s / 4.0, **tol)
     assert zt.feedback_gain == pytest.approx(1.0 / z, rel=1e-9)
+
+
+def test_the_tuning_frequency_carries_the_bits_inertia():
+    """The soft controllers tune to the string's first torsional mode with the bit on it:
+    a heavy end inertia (50 kg m^2, a mud motor's rotor and bit, say) lowers the mode
+    0.66 -> 0.48 Hz on the default string (exact continuous shafts, transfer matrices);
+    the tuning frequency follows to the mesh error (~1e-5)."""
+    for inertia in (0.3, 50.0):
+        config = SimulationConfig(bit=BitConfig(inertia=inertia))
+        exact = transfer_matrix_frequency(config.string.sections, inertia, 2.0)
+        assert SoftSpeed().tuning(config).tuning_frequency == pytest.approx(exact, rel=1e-4)
+    light = transfer_matrix_frequency(config.string.sections, 0.3, 2.0)
+    assert exact < 0.8 * light
 
 
 def test_soft_speed_cancels_the_top_drive_inertia_at_its_tuning_frequency():
