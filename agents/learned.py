@@ -56,12 +56,15 @@ class LearnedController:
 
         model = load_saved(model_file, lambda p: algo_class(config.get("algo", "ppo")).load(
             p, device="cpu"))
-        if getattr(model, "_n_updates", 1) == 0:  # a Ctrl-C in SAC's warm-up saves one
+        if getattr(model, "_n_updates", 1) == 0:  # saved before any gradient step
             import warnings
 
-            warnings.warn(f"{model_file}: saved at {model.num_timesteps} env steps, before "
-                          "the first gradient step (SAC's learning_starts): an untrained "
-                          "policy", RuntimeWarning, stacklevel=2)
+            why = ("SAC's learning_starts" if config.get("algo") == "sac"
+                   else "the first evaluation came before PPO's first update")
+            # on a line of its own: a progress bar may hold the cursor's line
+            warnings.warn(f"\n{model_file}: saved at {model.num_timesteps} env steps, before "
+                          f"the first gradient step ({why}): an untrained policy",
+                          RuntimeWarning, stacklevel=2)
 
         def unpickle(p: str) -> Any:
             with open(p, "rb") as f:

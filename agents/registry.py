@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -33,12 +34,32 @@ CLASSICAL = tuple(name for name in CONTROLLERS if name != "learned")
 KNOWN = f"{', '.join(CONTROLLERS)}, learned:<run folder>, constant:<rpm>/<kN>"
 
 
+def canonical(name: str) -> str:
+    """``name`` as the registry takes it: a table's name of constant set points
+    (``constant-120rpm-100kN``, :func:`agents.benchmark.label`) is ``constant:120/100``,
+    so a row of ``benchmark.csv`` can be run again by its name; other names as given.
+    A trained run's table name (``learned-<folder>``) cannot say where its folder is: it
+    is refused with the form to give."""
+    match = _CONSTANT_LABEL.fullmatch(name)
+    if match:
+        return f"constant:{match[1]}/{match[2]}"
+    if name.startswith("learned-"):
+        raise ValueError(f"controller: {name!r} is a trained run's name in a benchmark "
+                         "table; give it as learned:<run folder>")
+    return name
+
+
+_CONSTANT_LABEL = re.compile(r"constant-(.+)rpm-(.+)kN")
+
+
 def make_controller(name: str, **kwargs: Any) -> Controller:
     """The controller called ``name`` (``CONTROLLERS``); unknown names are named.
 
     ``learned:PATH`` loads the policy of a training run folder (``logs/runs/<name>``);
     plain ``learned`` the shipped policy (of ``env_id``'s task if given);
-    ``constant:<rpm>/<kN>`` holds those set points."""
+    ``constant:<rpm>/<kN>`` (or its table name, :func:`canonical`) holds those set
+    points."""
+    name = canonical(name)
     if name.startswith("learned:"):
         return _learned(path=name.partition(":")[2], **kwargs)
     if name.startswith("constant:"):
@@ -54,8 +75,12 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
 
 
 def parse_controllers(text: str) -> list[str]:
-    """``"stiff,z-torque"`` -> the names, each checked."""
-    names = [n.strip() for n in text.split(",") if n.strip()]
+    """``"stiff,z-torque"`` -> the names, each checked (table names of constant set
+    points as :func:`canonical` gives them)."""
+    try:
+        names = [canonical(n.strip()) for n in text.split(",") if n.strip()]
+    except ValueError as err:
+        raise ValueError(f"controllers: {str(err).partition(': ')[2]}") from None
     if not names:
         raise ValueError("controllers: give at least one name")
     for n in names:

@@ -378,11 +378,14 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         duration, warmup = EVALUATION_WINDOWS[args.task]
     else:
         duration, warmup = 60.0, 30.0
+    whose = ("" if args.warmup is not None else
+             f" (the default{' of --task ' + args.task if args.task else ''})")
     args.duration = duration if args.duration is None else args.duration
     args.warmup = warmup if args.warmup is None else args.warmup
     if args.warmup >= args.duration:
-        raise argparse.ArgumentTypeError(f"--warmup: {args.warmup:g} s must be shorter than "
-                                         f"--duration ({args.duration:g} s)")
+        raise argparse.ArgumentTypeError(
+            f"--warmup: {args.warmup:g} s{whose} must be shorter than --duration "
+            f"({args.duration:g} s)" + ("; give a shorter --warmup" if whose else ""))
     check_constant_set_points(controllers, env_id)
     # a task benchmark runs at the level the task trains and evaluates on
     fidelity: Any = args.fidelity or ("fast" if env_id else "full")  # argparse checked it
@@ -621,7 +624,9 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
         # the map holds the set points fixed: only the top drive's own loops apply
         drive = [n for n in CLASSICAL if make_controller(n).rate == "drive"]
         if args.controller not in drive:
-            why = ("acts on the set points, which the map holds fixed"
+            why = ("acts at the policy rate (on the set points, or a task-1 policy on the "
+                   "speed command), which the map does not run: it holds the set points "
+                   "fixed under the top drive's own loop"
                    if args.controller in CONTROLLERS
                    or args.controller.startswith(("learned:", "constant:"))
                    else "is not a controller")

@@ -272,6 +272,9 @@ def test_benchmark_names_bad_input(capsys):
     for args, message in ((["--controllers", "pid"], "unknown name 'pid'"),
                           (["--scenarios", "moon"], "--scenarios"),
                           (["--duration", "10", "--warmup", "20"], "--warmup"),
+                          (["--task", "stick_slip", "--duration", "3"],
+                           "--warmup: 5 s (the default of --task stick_slip) must be "
+                           "shorter than --duration (3 s); give a shorter --warmup"),
                           (["--controllers", "stiff,learned:/no/such/run"],
                            "--controllers: learned: no such folder /no/such/run")):
         with pytest.raises(SystemExit):
@@ -294,6 +297,23 @@ def test_every_controller_gets_its_own_table_name():
         bm.labels(["constant:1e2/100", "constant:100/100"])
     assert bm.labels(["constant:123.4567/100", "constant:123.4568/100"]) == [
         "constant-123.4567rpm-100kN", "constant-123.4568rpm-100kN"]  # apart, as typed
+
+
+def test_a_table_name_of_set_points_runs_them_again():
+    """benchmark.csv names constant set points constant-<rpm>rpm-<kN>kN: that name given
+    back to --controllers is the same controller (the same label, the same set points);
+    a trained run's table name is refused with the form to give."""
+    from agents.registry import make_controller, parse_controllers
+
+    for typed in ("constant:160/65", "constant:1e2/90.5"):
+        table = bm.label(typed)
+        (again,) = parse_controllers(table)
+        assert bm.label(again) == table
+        assert make_controller(table).physics() == make_controller(typed).physics()
+        assert (make_controller(table).speed, make_controller(table).weight_on_bit) == (
+            make_controller(typed).speed, make_controller(typed).weight_on_bit)
+    with pytest.raises(ValueError, match="give it as learned:<run folder>"):
+        parse_controllers("stiff,learned-a")
 
 
 def test_a_retrained_policy_is_not_served_its_old_rows(tmp_path):

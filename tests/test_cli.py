@@ -630,7 +630,7 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
                        (["stability-map", "--controller", "soft-speed:3"],
                         "--controller: soft-speed:3 is not a controller"),
                        (["stability-map", "--controller", "driller"],
-                        "--controller: driller acts on the set points")):
+                        "--controller: driller acts at the policy rate")):
         with pytest.raises(SystemExit):
             main([*args, "--out", str(tmp_path / "out")])
         assert says in capsys.readouterr().err, args

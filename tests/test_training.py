@@ -729,18 +729,19 @@ def test_a_policy_saved_before_its_first_gradient_step_is_said_untrained(tmp_pat
     from drill_env.physics.validation import jsonable
     from training.train import make_train_env, new_model
 
-    cfg = load_config("stick_slip", "sac", n_envs=1)
-    venv = make_train_env(cfg, cfg.seed)
-    try:
-        new_model(cfg, venv).save(tmp_path / "model.zip")
-        with (tmp_path / "vecnormalize.pkl").open("wb") as f:
-            pickle.dump(venv, f)
-    finally:
-        venv.close()
-    (tmp_path / "config.yaml").write_text(yaml.safe_dump(jsonable(cfg)))
-    with pytest.warns(RuntimeWarning, match="saved at 0 env steps, before the first "
-                                            "gradient step .*an untrained policy"):
-        LearnedController.load(tmp_path)
+    for algo, why in (("sac", "SAC's learning_starts"), ("ppo", "before PPO's first update")):
+        cfg = load_config("stick_slip", algo, n_envs=1)
+        venv = make_train_env(cfg, cfg.seed)
+        try:
+            new_model(cfg, venv).save(tmp_path / "model.zip")
+            with (tmp_path / "vecnormalize.pkl").open("wb") as f:
+                pickle.dump(venv, f)
+        finally:
+            venv.close()
+        (tmp_path / "config.yaml").write_text(yaml.safe_dump(jsonable(cfg)))
+        with pytest.warns(RuntimeWarning, match=f"saved at 0 env steps, before the first "
+                                                f"gradient step .*{why}.*an untrained policy"):
+            LearnedController.load(tmp_path)
     import warnings
 
     with warnings.catch_warnings():  # trained ones load without it
