@@ -87,7 +87,8 @@ class DrillStringVectorEnv(VectorEnv):
         self._batch = EnvBatch(self.num_envs)
         # a batch finished as arrays (DrillStringEnv.finish_batch) where the envs allow it
         self._as_arrays = DrillStringEnv.finishes_batch(self.envs)
-        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
+        # the envs' own (render modes and fps), as Gymnasium's SyncVectorEnv copies them
+        self.metadata = {**self.envs[0].metadata, "autoreset_mode": self.autoreset_mode}
         self.render_mode = env_kwargs.get("render_mode")  # each env renders its own
         self.single_observation_space = self.envs[0].observation_space
         self.single_action_space = self.envs[0].action_space
@@ -114,7 +115,7 @@ class DrillStringVectorEnv(VectorEnv):
             raise ValueError(f"seed: an integer or a list of num_envs={self.num_envs} seeds, "
                              f"got {seed!r}")
         else:
-            seeds = list(seed)
+            seeds = [int(s) if isinstance(s, np.integer) else s for s in list(seed)]
             if len(seeds) != self.num_envs:
                 raise ValueError(f"seed: a list needs num_envs={self.num_envs} entries, "
                                  f"got {len(seeds)}")
@@ -297,6 +298,17 @@ class DrillStringVectorEnv(VectorEnv):
             if isinstance(first, np.ndarray) else np.zeros(n, dtype=type(first))
         array[where] = values
         return array
+
+    # a tuple, as SyncVectorEnv's (which overrides VectorEnv's single values likewise)
+    @property
+    def np_random_seed(self) -> tuple[int, ...]:  # type: ignore[override]
+        """The envs' seeds (as Gymnasium's ``SyncVectorEnv``: each env seeds itself)."""
+        return self.get_attr("np_random_seed")
+
+    @property  # type: ignore[misc]
+    def np_random(self) -> tuple[np.random.Generator, ...]:  # type: ignore[override]
+        """The envs' random generators (as Gymnasium's ``SyncVectorEnv``)."""
+        return self.get_attr("np_random")
 
     def render(self) -> tuple[Any, ...] | None:
         """Each env's frame (``render_mode="rgb_array"``), as Gymnasium's sync vector env."""

@@ -116,6 +116,42 @@ def test_next_step_autoreset_returns_the_reset_observation_with_zero_reward():
     assert info["time"] == pytest.approx(np.full(N, 0.1))
 
 
+def test_next_step_autoreset_ignores_the_action_of_a_resetting_env():
+    """As Gymnasium's SyncVectorEnv: the step that resets a finished env does not read its
+    action (a NaN placeholder there is fine); the other envs' actions are still checked."""
+    envs = DrillStringVectorEnv(num_envs=N, **KW)
+    envs.reset(seed=0)
+    zero = np.zeros((N, 2))
+    for _ in range(3):
+        _, _, _, truncated, _ = envs.step(zero)
+    assert truncated.all()
+    placeholder = np.full((N, 2), np.nan)
+    obs, rewards, _, _, info = envs.step(placeholder)
+    assert np.all(rewards == 0.0) and np.isfinite(obs).all()
+    assert info["time"] == pytest.approx(np.zeros(N))
+    stepping = zero.copy()
+    stepping[1] = np.nan  # env 1 runs in this step: its NaN is refused
+    with pytest.raises(ValueError, match="env 1"):
+        envs.step(stepping)
+
+
+def test_vector_env_seeds_and_metadata_are_sync_vector_envs():
+    """np_random_seed, np_random and metadata as Gymnasium's SyncVectorEnv gives them."""
+    kw = {"episode_duration": 0.3, "scenario": "random"}
+    ours = DrillStringVectorEnv(num_envs=2, **kw)
+    sync = gym.make_vec("DrillString-v0", num_envs=2, vectorization_mode="sync", **kw)
+    for envs in (ours, sync):
+        envs.reset(seed=3)
+    assert ours.np_random_seed == sync.np_random_seed == (3, 4)
+    assert len(ours.np_random) == 2
+    assert ours.metadata["render_fps"] == sync.metadata["render_fps"] == 10.0
+    assert ours.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    a, _ = ours.reset(seed=np.array([5, 6]))  # an array of seeds, as a list
+    b, _ = ours.reset(seed=[5, 6])
+    np.testing.assert_array_equal(a, b)
+    assert ours.np_random_seed == (5, 6)
+
+
 def test_same_step_autoreset_reports_final_obs_and_info():
     envs = DrillStringVectorEnv(num_envs=N, autoreset_mode=AutoresetMode.SAME_STEP, **KW)
     envs.reset(seed=0)
