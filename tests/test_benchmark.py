@@ -55,6 +55,42 @@ def test_two_seeds_start_different_episodes():
     assert rows[0]["mean_bit_rpm"] != rows[1]["mean_bit_rpm"]
 
 
+def test_a_rows_values_are_its_episodes_measured_window_and_summed_reward(tmp_path):
+    """A row recomputed from outside the harness: constant set points of 100 rpm in the
+    stick_slip scenario (plan 50 rpm), so the bit runs far from the target. The mean bit
+    speed is the saved series' over t >= warm-up, rpm_tracking_error is SPEC section 5's
+    |mean - target| / target, and episode_return the sum of the rewards of the same
+    episode stepped by hand."""
+    import gymnasium as gym
+
+    from agents.registry import make_controller
+    from drill_env.physics.units import RPM
+
+    name = "constant:100/100"
+    row = bm.run_episode(bm.Episode(name, "stick_slip", 0, vars(SHORT), str(tmp_path),
+                                    series=True))
+    assert row["target_rpm"] == pytest.approx(50.0)
+    assert row["rpm_tracking_error"] == pytest.approx(
+        abs(row["mean_bit_rpm"] - 50.0) / 50.0, rel=1e-12)
+    assert row["rpm_tracking_error"] > 0.9  # the bit turns at ~100 rpm
+    series = np.load(tmp_path / "series" / f"{bm.label(name)}_stick_slip_seed0.npz")
+    after = series["time"] >= SHORT.warmup - 1e-9  # the episode starts at t = 0
+    assert 0 < after.sum() < len(after)
+    assert row["mean_bit_rpm"] == pytest.approx(
+        series["bit_speed"][after].mean() / RPM, rel=1e-9)
+    env = gym.make("DrillString-v0", scenario="stick_slip", episode_duration=SHORT.duration,
+                   start_kick=SHORT.start_kick, fidelity=SHORT.fidelity,
+                   physics=make_controller(name).physics())
+    env.reset(seed=0)
+    action = env.unwrapped.action_for(100 * RPM, 100e3)
+    total, done = 0.0, False
+    while not done:
+        _, reward, terminated, truncated, _ = env.step(action)
+        total += reward
+        done = terminated or truncated
+    assert row["episode_return"] == pytest.approx(total, rel=1e-12)
+
+
 def test_an_interrupted_benchmark_keeps_its_rows_and_reruns_only_the_rest(tmp_path,
                                                                           monkeypatch):
     real = bm.run_episode

@@ -247,6 +247,23 @@ def test_driller_raises_rpm_then_lowers_wob_on_stick_slip_and_steps_back_when_ca
     assert actions[-1, 0] == pytest.approx((50.0 + rules.max_rpm_raise) * RPM)
 
 
+def test_driller_acts_at_its_torque_swing_threshold():
+    """The swing is (max - min) / (2 mean) of the surface torque over a decision: for
+    T = m (1 + a sin) it is a. Just above the threshold (0.15) the first decision raises
+    the speed one step; just below it nothing moves."""
+    rules = DrillerRules()
+    t = np.arange(0, 5.0, 0.1)  # one decision of 50 control steps
+    for amplitude, raised in ((rules.torque_swing + 0.03, True),
+                              (rules.torque_swing - 0.03, False)):
+        driller = Driller(rules)
+        driller.reset(FakeEnv(50.0, 100e3))
+        # the peaks fall on samples: a quarter period is 5 steps of 0.1 s at 0.5 Hz
+        actions = run_driller(driller, 10e3 * (1.0 + amplitude * np.sin(np.pi * t)))
+        want = 50.0 + (rules.rpm_step if raised else 0.0)
+        assert actions[-1, 0] == pytest.approx(want * RPM)
+        assert actions[-1, 1] == pytest.approx(100e3)
+
+
 def test_driller_raises_the_speed_no_higher_than_the_env_drills():
     """A plan of 170 rpm in a 0-200 rpm env: three raises reach the top of the range,
     and the next decisions take weight off instead of asking for clipped speeds."""

@@ -150,6 +150,37 @@ def test_make_up_torque_terminates_with_a_reason():
     assert info["reward_terms"]["failure"] < 0
 
 
+def test_make_up_torque_is_felt_at_its_peak_inside_a_control_step():
+    """The make-up torque rule (a joint would unscrew) holds at every simulator step, not
+    only at the end of the control step: with the limit between the highest surface
+    torque seen at control-step ends and the highest inside the steps' records, a
+    stalled start terminates, at the first step whose records pass the limit."""
+    from drill_env.physics.layout import R
+
+    def run(limit):
+        env = gym.make("DrillString-v0", scenario="stick_slip", episode_duration=8.0,
+                       start_kick=0.02, startup="stalled", makeup_torque=limit)
+        env.reset(seed=0)
+        base = env.unwrapped
+        action = base.action_for(*base.targets)
+        peaks, ends = [], []
+        for _ in range(80):
+            _, _, terminated, truncated, info = env.step(action)
+            peaks.append(float(np.abs(base.last_records[:, R.SURFACE_TORQUE]).max()))
+            ends.append(abs(info["surface_torque"]))
+            if terminated or truncated:
+                break
+        return terminated, peaks, ends
+
+    terminated, peaks, ends = run(1e7)
+    assert not terminated
+    limit = 0.5 * (max(peaks) + max(ends))
+    assert max(ends) < limit < max(peaks)  # a peak the step ends do not show
+    terminated, peaks_again, _ = run(limit)
+    first = next(k for k, peak in enumerate(peaks) if peak > limit)
+    assert terminated and len(peaks_again) == first + 1
+
+
 def test_paper_startup_hands_over_at_twenty_seconds_with_weight_on_bit():
     env = DrillStringEnv(startup="paper", **SHORT)
     obs, info = env.reset(seed=0, options={"surface_speed": 60 * RPM, "weight_on_bit": 80e3})

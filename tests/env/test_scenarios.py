@@ -164,3 +164,17 @@ def test_rock_presets_have_falling_to_flat_curves():
     h, s, v = scenarios.HARD, scenarios.SOFT, scenarios.VERY_SOFT
     assert h.mu_max - h.mu_min > s.mu_max - s.mu_min
     assert h.depth_of_cut < s.depth_of_cut < v.depth_of_cut
+
+
+def test_rock_founder_points_lie_in_the_field_range_harder_rock_later():
+    """Founder WOB per inch of bit diameter: field PDC founder points lie at roughly
+    2-5 klbf/in (Dupriest & Koederitz 2005, SPE 92194), 0.35-0.88 MN/m; softer rock
+    balls the bit earlier, so its founder point comes at a lower WOB; every preset's
+    post-founder fall is a fraction of the excess WOB."""
+    klbf_per_inch = 4448.2216 / 0.0254  # N/m
+    presets = (scenarios.VERY_SOFT, scenarios.SOFT, scenarios.HARD)
+    founders = [rock.founder_wob_per_diameter for rock in presets]
+    for rock, founder in zip(presets, founders, strict=True):
+        assert 2.0 * klbf_per_inch <= founder <= 5.0 * klbf_per_inch, rock.name
+        assert 0.0 < rock.post_founder_slope < 1.0, rock.name
+    assert founders == sorted(founders) and len(set(founders)) == 3

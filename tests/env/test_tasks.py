@@ -62,6 +62,13 @@ def test_stick_slip_target_changes_once_during_some_episodes():
     assert second != first
     assert 5.0 <= abs(second[0] - first[0]) / RPM <= 20.0 + 1e-9
     assert info["target_speed"] == second[0]
+    # it changes at 1.0 s into the episode: the 10 control steps of 0.1 s before hold it
+    env.reset(seed=3)
+    seen = []
+    for _ in range(15):
+        *_, info = env.step(np.zeros(1, dtype=np.float32))
+        seen.append((round(info["episode_time"], 6), info["target_speed"]))
+    assert [t for t, speed in seen if speed != first[0]][0] == pytest.approx(1.1)
 
 
 def test_stick_slip_correction_reaches_the_top_drive_at_once():
@@ -173,6 +180,13 @@ def test_mud_pulse_telemetry_is_sampled_delayed_and_held():
     for v, t in zip(got, times, strict=True):
         if t >= 3.0 - 1e-9:  # the message sampled at the last multiple of 2 s, 3 s ago
             assert v == pytest.approx(2.0 * np.floor((t - 3.0 + 1e-9) / 2.0), abs=1e-6)
+    # the age of what is held: since its sampling, not since it arrived
+    tele = Telemetry("mud_pulse", 1)
+    for t in times:
+        tele.update(t, [t])
+        if t >= 3.0 - 1e-9:
+            sampled = 2.0 * np.floor((t - 3.0 + 1e-9) / 2.0)
+            assert tele.age(t) == pytest.approx(t - sampled, abs=1e-6)
     with pytest.raises(ValueError, match="telemetry"):
         Telemetry("smoke", 1)
 
@@ -226,6 +240,28 @@ def test_drilling_task_founder_point_makes_more_weight_worse_in_soft_rock():
     assert rewards[140e3]["wear"] < rewards[100e3]["wear"]
 
 
+def test_drilling_task_founder_point_holds_in_hard_rock_too():
+    """The hard rock's founder WOB (its own curve, ~150 kN on this bit) lies above the
+    task's 140 kN: there the depth of cut still grows with WOB, so 140 kN drills faster
+    than 100 kN, where the soft rock (founder 111 kN) drills slower."""
+    from drill_env.scenarios import HARD
+
+    physics = {"formation.rocks": [vars_of(HARD)], "formation.interfaces": [],
+               "formation.layers": [0]}
+    rop = {}
+    for wob in (100e3, 140e3):
+        env = gym.make("DrillOptimise-v0", scenario="default", physics=physics,
+                       episode_duration=30.0)
+        base = env.unwrapped
+        env.reset(seed=0, options={"surface_speed": 120 * RPM, "weight_on_bit": wob})
+        total = 0.0
+        for _ in range(30):
+            *_, info = env.step(base.action_for(120 * RPM, wob))
+            total += info["reward_terms"]["rop"]
+        rop[wob] = total
+    assert rop[140e3] > rop[100e3]
+
+
 def vars_of(rock):
     import dataclasses
 
@@ -262,6 +298,7 @@ def test_reward_terms_follow_their_documented_formulas_from_the_raw_records():
     task 2's ROP / 30 m/h, wear -0.4 (rpm / 100)^1.5 (WOB / 100 kN), energy -0.05 P /
     100 kW with P = sum |T_motor w_top| dt over the step's seconds; task 1's tracking
     -0.3 max(0, |mean bit rpm over 3 s - target| - 1)."""
+    from drill_env import metrics
     from drill_env.physics.layout import R
 
     env = gym.make("DrillOptimise-v0")
@@ -280,6 +317,13 @@ def test_reward_terms_follow_their_documented_formulas_from_the_raw_records():
         energy = np.sum(np.abs(rec[:, R.MOTOR_TORQUE] * rec[:, R.SURFACE_SPEED])) * dt
         power = energy / base.control_interval  # J over the step's seconds
         assert terms["energy"] == pytest.approx(-0.05 * power / 100e3, rel=1e-9)
+        # whirl: the share of the step's records that whirl (metrics.whirling: off
+        # centre AND turning about the hole axis; a bit resting off centre is not whirl)
+        off_centre = np.hypot(rec[:, R.BIT_X], rec[:, R.BIT_Y]) / base.clearance
+        share = np.mean(metrics.whirling(off_centre, rec[:, R.WHIRL_SPEED],
+                                         rec[:, R.BIT_SPEED]))
+        assert terms["whirl"] == pytest.approx(-base.task.whirl_weight * share,
+                                               abs=1e-12)
         assert reward == pytest.approx(sum(terms.values()), rel=1e-12)
 
     env = gym.make("DrillStickSlip-v0")
