@@ -96,14 +96,16 @@ from drill_env.physics.validation import (
 # 2 ms, and `Simulator.stable_time_step` covers it.
 
 #: Hard rock: falling curve mu 0.9 -> 0.5 over ~3 rad/s (stick-slip tendency).
-#: Linear stability of the default string puts its stick-slip threshold at 71 rpm for
-#: 75 kN and 79 rpm for 100 kN (stiff top drive): stick-slip at 50 rpm, none at 100 rpm
-#: (paper Fig. 13, 14). Depth of cut 3 mm/rev at 75 kN (~9 m/h at 50 rpm).
+#: Linear stability of the paper string (``SimulationConfig()``: 1000 m of pipe, 35 m BHA)
+#: puts its stick-slip threshold at 71 rpm for 75 kN and 79 rpm for 100 kN (stiff top
+#: drive; the ``default`` scenario's 1250 m string: 64 and 72 rpm): stick-slip at 50 rpm,
+#: none at 100 rpm (paper Fig. 13, 14). Depth of cut 3 mm/rev at 75 kN (~9 m/h at 50 rpm).
 HARD = RockConfig(name="hard", mu_min=0.5, mu_max=0.9, st1=3.0, st2=0.0,
                   wall_stiffness=2.0e7, wall_damping=2.0e3, depth_of_cut=4.0e-8,
                   founder_wob_per_diameter=6.8e5, post_founder_slope=0.5)
 #: Soft rock: nearly flat curve, softer wall, twice the depth of cut of hard rock.
-#: Threshold 29 rpm at 75 kN, 38 rpm at 100 kN: steady at 50 rpm.
+#: Threshold 29 rpm at 75 kN, 38 rpm at 100 kN on the paper string (21 and 31 rpm on the
+#: ``default`` scenario's): steady at 50 rpm.
 SOFT = RockConfig(name="soft", mu_min=0.3, mu_max=0.45, st1=5.0, st2=0.005,
                   wall_stiffness=5.0e6, wall_damping=1.0e3, depth_of_cut=8.0e-8,
                   founder_wob_per_diameter=5.0e5, post_founder_slope=0.5)
@@ -353,7 +355,7 @@ def stick_slip(surface_speed: SurfaceSpeed = 50.0 * RPM,
                episode_duration: Duration = 60.0,
                string_length: StringLength = None) -> Scenario:
     """The default string and rock at 50 rpm: below the stick-slip threshold of a stiff
-    top drive (~80 rpm at 100 kN), where the anti-stick-slip controllers earn their keep
+    top drive (~72 rpm at 100 kN), where the anti-stick-slip controllers earn their keep
     (the paper's Fig. 13 operating point on a realistic string)."""
     sc = default(surface_speed, weight_on_bit, episode_duration, string_length)
     return Scenario("stick_slip", sc.config, surface_speed, weight_on_bit, episode_duration,

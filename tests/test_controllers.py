@@ -174,7 +174,7 @@ def _swing(run, start: float, end: float) -> float:
 def test_tuned_controllers_cure_stick_slip_at_the_same_mean_speed(rpm, wob):
     """In hard rock on the default string (coupled), where stiff PI stick-slips, SoftSpeed,
     SoftTorque and ZTorque hold the bit steady at the same mean speed, and keep it so:
-    the oscillation left from the 2 % kick decays over four minutes. (SoftSpeed at k =
+    the oscillation left from the 1 % kick decays over four minutes. (SoftSpeed at k =
     1.5 passed a 40-80 s window with SSI 0.03, yet its oscillation grew x3 every 15 s to
     full stick-slip by ~90 s: a cure is judged on whether the oscillation shrinks.)"""
     config = make_scenario("default").config
