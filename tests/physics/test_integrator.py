@@ -411,6 +411,24 @@ def test_top_drive_torque_clamps_without_winding_up_its_integral():
     assert sim.state[S.PI_INTEGRAL] == integral  # not one step integrated at the limit
 
 
+def test_top_drive_brakes_with_at_most_its_torque_limit():
+    """The torque limit holds both ways: the set point dropped from 120 rpm to 0 (the
+    acceleration limit out of the way) and the PI loop asks for far more braking torque
+    than the drive has; the motor sits at -max_torque while the string's inertia runs
+    down, never below."""
+    from drill_env.physics.config import replace
+
+    config = replace(SimulationConfig(bit_model="macroscopic",
+                                      solver=SolverConfig(lateral=False)),
+                     **{"top_drive.max_acceleration": 1e6})
+    sim = Simulator(config)
+    sim.reset(OperatingPoint(120 * RPM, 0.0))
+    limit = config.top_drive.max_torque
+    rec = sim.advance(round(3.0 / sim.dt), 0.0, sim.hook_load_for(0.0), record_every=1)
+    torque = rec[:, R.MOTOR_TORQUE]
+    assert torque.min() == -limit and torque.max() <= limit
+
+
 def _explicit_penalty_amplification(omega_dt: float, zeta: float) -> np.ndarray:
     """One step of the scheme on one DOF of unit mass whose spring and damper are
     explicit (docs/model.md section 5): forces at the Newmark predictors, the mass

@@ -43,6 +43,33 @@ def test_readings_are_the_simulator_properties(bit_model):
     assert shares.sum() == pytest.approx(1.0)
 
 
+def test_the_rock_share_reading_follows_the_bit_not_the_top_drive():
+    """Two rocks, an interface dipping 30 degrees that crosses the axis 2 cm below the bit
+    face (off the bit's centre: a symmetric bit's share through the centre is 1/2 at
+    every angle), the string wound up 1.7 rad at the top: the readout's shares are the
+    blades' at the bit's angle (the property), not at the top drive's."""
+    from drill_env.physics.config import FormationConfig, Interface, RockConfig
+
+    base = SimulationConfig()
+    depth = base.initial_depth if base.initial_depth is not None else base.string.length
+    formation = FormationConfig(rocks=(RockConfig(), RockConfig(mu_max=1.0)),
+                                interfaces=(Interface(depth + 0.02, 30.0, 0.0),),
+                                layers=(0, 1))
+    sim = Simulator(replace(base, formation=formation, bit_model="mesoscopic"))
+    sim.reset(OperatingPoint(60 * RPM, 80e3))
+    hook = sim.hook_load_for(80e3)
+    sim.advance(10, 60 * RPM, hook)
+    sim.ut[0] += 1.7  # the top turned ahead of the bit
+    sim.advance(1, 60 * RPM, hook)
+    shares = sim.read()[N_READINGS:].copy()
+    np.testing.assert_array_equal(shares, sim.rock_share)
+    assert 0.05 < shares[1] < 0.95  # both rocks under the blades
+    bit_angle = sim.ut[-1]
+    sim.ut[-1] = sim.ut[0]  # the blades where the top drive points: other shares
+    assert abs(sim.rock_share[1] - shares[1]) > 0.02
+    sim.ut[-1] = bit_angle
+
+
 def test_advance_with_read_is_advance_then_read():
     a, b = whirling("mesoscopic"), whirling("mesoscopic")
     ra = a.advance(100, 70 * RPM, a.hook_load_for(90e3), 10, read=True)
