@@ -60,9 +60,8 @@ class LearnedController:
             import warnings
 
             why = ("SAC's learning_starts" if config.get("algo") == "sac"
-                   else "the first evaluation came before PPO's first update")
-            # on a line of its own: a progress bar may hold the cursor's line
-            warnings.warn(f"\n{model_file}: saved at {model.num_timesteps} env steps, before "
+                   else "PPO updates only after its first rollout")
+            warnings.warn(f"{model_file}: saved at {model.num_timesteps} env steps, before "
                           f"the first gradient step ({why}): an untrained policy",
                           RuntimeWarning, stacklevel=2)
 

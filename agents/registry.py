@@ -34,6 +34,9 @@ CLASSICAL = tuple(name for name in CONTROLLERS if name != "learned")
 KNOWN = f"{', '.join(CONTROLLERS)}, learned:<run folder>, constant:<rpm>/<kN>"
 
 
+_CONSTANT_LABEL = re.compile(r"constant-(.+)rpm-(.+)kN")
+
+
 def canonical(name: str) -> str:
     """``name`` as the registry takes it: a table's name of constant set points
     (``constant-120rpm-100kN``, :func:`agents.benchmark.label`) is ``constant:120/100``,
@@ -47,9 +50,6 @@ def canonical(name: str) -> str:
         raise ValueError(f"controller: {name!r} is a trained run's name in a benchmark "
                          "table; give it as learned:<run folder>")
     return name
-
-
-_CONSTANT_LABEL = re.compile(r"constant-(.+)rpm-(.+)kN")
 
 
 def make_controller(name: str, **kwargs: Any) -> Controller:

@@ -194,6 +194,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from agents.benchmark import guest_env_kwargs, scenario_set_points
     from agents.classical import ConstantSetPoints, drive_loop_name
 
+    args.controller = canonical_controller(args.controller)
     controller = typed_controller(args.controller)
     overrides = checked_overrides(args.config, [args.scenario])
     if "top_drive.controller" in overrides:  # it would be replaced by --controller's
@@ -621,6 +622,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     if args.controller is not None:
         from agents.registry import CLASSICAL, CONTROLLERS, make_controller
 
+        args.controller = canonical_controller(args.controller)
         # the map holds the set points fixed: only the top drive's own loops apply
         drive = [n for n in CLASSICAL if make_controller(n).rate == "drive"]
         if args.controller not in drive:
@@ -1127,6 +1129,19 @@ def option_of(field: str, command_parser: argparse.ArgumentParser) -> str | None
     if not all(name.isidentifier() for name in field.split("/")):
         return None
     return "/".join(flags) if all(flag in options for flag in flags) else None
+
+
+def canonical_controller(name: str) -> str:
+    """``--controller``'s name as the registry takes it (``agents.registry.canonical``:
+    a table's name of set points is theirs); a trained run's table name is an error of
+    the option."""
+    from agents.registry import canonical
+
+    try:
+        return canonical(name)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(
+            f"--controller: {str(err).removeprefix('controller: ')}") from None
 
 
 def typed_controller(name: str) -> Any:

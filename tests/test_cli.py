@@ -630,7 +630,14 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
                        (["stability-map", "--controller", "soft-speed:3"],
                         "--controller: soft-speed:3 is not a controller"),
                        (["stability-map", "--controller", "driller"],
-                        "--controller: driller acts at the policy rate")):
+                        "--controller: driller acts at the policy rate"),
+                       (["stability-map", "--controller", "constant-120rpm-100kN"],
+                        "--controller: constant:120/100 acts at the policy rate"),
+                       (["stability-map", "--controller", "learned-mine"],
+                        "--controller: 'learned-mine' is a trained run's name in a "
+                        "benchmark table; give it as learned:<run folder>"),
+                       (["run", "--controller", "learned-mine"],
+                        "give it as learned:<run folder>")):
         with pytest.raises(SystemExit):
             main([*args, "--out", str(tmp_path / "out")])
         assert says in capsys.readouterr().err, args

@@ -86,8 +86,8 @@ def test_gains_follow_their_formulas_on_the_string(name, config, z, f_s):
 def test_the_tuning_frequency_carries_the_bits_inertia():
     """The soft controllers tune to the string's first torsional mode with the bit on it:
     a heavy end inertia (50 kg m^2, a mud motor's rotor and bit, say) lowers the mode
-    0.66 -> 0.48 Hz on the default string (exact continuous shafts, transfer matrices);
-    the tuning frequency follows to the mesh error (~1e-5)."""
+    0.66 -> 0.48 Hz on the paper string (``SimulationConfig()``; exact continuous
+    shafts, transfer matrices); the tuning frequency follows to the mesh error (~1e-5)."""
     for inertia in (0.3, 50.0):
         config = SimulationConfig(bit=BitConfig(inertia=inertia))
         exact = transfer_matrix_frequency(config.string.sections, inertia, 2.0)

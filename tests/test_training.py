@@ -729,7 +729,8 @@ def test_a_policy_saved_before_its_first_gradient_step_is_said_untrained(tmp_pat
     from drill_env.physics.validation import jsonable
     from training.train import make_train_env, new_model
 
-    for algo, why in (("sac", "SAC's learning_starts"), ("ppo", "before PPO's first update")):
+    for algo, why in (("sac", "SAC's learning_starts"),
+                      ("ppo", "PPO updates only after its first rollout")):
         cfg = load_config("stick_slip", algo, n_envs=1)
         venv = make_train_env(cfg, cfg.seed)
         try:

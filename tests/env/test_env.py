@@ -151,10 +151,11 @@ def test_make_up_torque_terminates_with_a_reason():
 
 
 def test_make_up_torque_is_felt_at_its_peak_inside_a_control_step():
-    """The make-up torque rule (a joint would unscrew) holds at every simulator step, not
-    only at the end of the control step: with the limit between the highest surface
-    torque seen at control-step ends and the highest inside the steps' records, a
-    stalled start terminates, at the first step whose records pass the limit."""
+    """The make-up torque rule (a joint would unscrew) holds at every record inside the
+    control step (every ``record_every`` simulator steps), not only at its end: with the
+    limit between the highest surface torque seen at control-step ends and the highest
+    in the steps' records, a stalled start terminates, at the first step whose records
+    pass the limit."""
     from drill_env.physics.layout import R
 
     def run(limit):

@@ -167,8 +167,9 @@ def test_rock_presets_have_falling_to_flat_curves():
 
 
 def test_rock_founder_points_lie_in_the_field_range_harder_rock_later():
-    """Founder WOB per inch of bit diameter: field PDC founder points lie at roughly
-    2-5 klbf/in (Dupriest & Koederitz 2005, SPE 92194), 0.35-0.88 MN/m; softer rock
+    """Founder WOB per inch of bit diameter inside the field range the presets cite
+    (scenarios.py, after Dupriest & Koederitz 2005: roughly 2-5 klbf/in, 0.35-0.88
+    MN/m); softer rock
     balls the bit earlier, so its founder point comes at a lower WOB; every preset's
     post-founder fall is a fraction of the excess WOB."""
     klbf_per_inch = 4448.2216 / 0.0254  # N/m

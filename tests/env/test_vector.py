@@ -143,7 +143,7 @@ def test_vector_env_seeds_and_metadata_are_sync_vector_envs():
     for envs in (ours, sync):
         envs.reset(seed=3)
     assert ours.np_random_seed == sync.np_random_seed == (3, 4)
-    assert len(ours.np_random) == 2
+    assert all(g is env.np_random for g, env in zip(ours.np_random, ours.envs, strict=True))
     assert ours.metadata["render_fps"] == sync.metadata["render_fps"] == 10.0
     assert ours.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     a, _ = ours.reset(seed=np.array([5, 6]))  # an array of seeds, as a list
