@@ -217,25 +217,29 @@ def test_make_vec_builds_the_batched_task():
     assert np.all(np.isfinite(obs))
 
 
+def drilled_terms(rock, wob: float) -> dict[str, float]:
+    """The drilling task's reward terms summed over 30 control steps at 120 rpm and a
+    held ``wob``, in homogeneous ``rock`` on the default string."""
+    physics = {"formation.rocks": [vars_of(rock)], "formation.interfaces": [],
+               "formation.layers": [0]}
+    env = gym.make("DrillOptimise-v0", scenario="default", physics=physics,
+                   episode_duration=30.0)
+    base = env.unwrapped
+    env.reset(seed=0, options={"surface_speed": 120 * RPM, "weight_on_bit": wob})
+    terms: dict[str, float] = {}
+    for _ in range(30):
+        *_, info = env.step(base.action_for(120 * RPM, wob))
+        for k, v in info["reward_terms"].items():
+            terms[k] = terms.get(k, 0.0) + v
+    return terms
+
+
 def test_drilling_task_founder_point_makes_more_weight_worse_in_soft_rock():
     """Above the founder WOB the depth of cut falls: holding 140 kN in homogeneous soft
     rock drills slower than 100 kN (founder 111 kN) and wears the bit more."""
     from drill_env.scenarios import SOFT
 
-    physics = {"formation.rocks": [vars_of(SOFT)], "formation.interfaces": [],
-               "formation.layers": [0]}
-    rewards = {}
-    for wob in (100e3, 140e3):
-        env = gym.make("DrillOptimise-v0", scenario="default", physics=physics,
-                       episode_duration=30.0)
-        base = env.unwrapped
-        env.reset(seed=0, options={"surface_speed": 120 * RPM, "weight_on_bit": wob})
-        terms: dict[str, float] = {}
-        for _ in range(30):
-            _, _, _, _, info = env.step(base.action_for(120 * RPM, wob))
-            for k, v in info["reward_terms"].items():
-                terms[k] = terms.get(k, 0.0) + v
-        rewards[wob] = terms
+    rewards = {wob: drilled_terms(SOFT, wob) for wob in (100e3, 140e3)}
     assert rewards[140e3]["rop"] < rewards[100e3]["rop"]
     assert rewards[140e3]["wear"] < rewards[100e3]["wear"]
 
@@ -246,20 +250,7 @@ def test_drilling_task_founder_point_holds_in_hard_rock_too():
     than 100 kN, where the soft rock (founder 111 kN) drills slower."""
     from drill_env.scenarios import HARD
 
-    physics = {"formation.rocks": [vars_of(HARD)], "formation.interfaces": [],
-               "formation.layers": [0]}
-    rop = {}
-    for wob in (100e3, 140e3):
-        env = gym.make("DrillOptimise-v0", scenario="default", physics=physics,
-                       episode_duration=30.0)
-        base = env.unwrapped
-        env.reset(seed=0, options={"surface_speed": 120 * RPM, "weight_on_bit": wob})
-        total = 0.0
-        for _ in range(30):
-            *_, info = env.step(base.action_for(120 * RPM, wob))
-            total += info["reward_terms"]["rop"]
-        rop[wob] = total
-    assert rop[140e3] > rop[100e3]
+    assert drilled_terms(HARD, 140e3)["rop"] > drilled_terms(HARD, 100e3)["rop"]
 
 
 def vars_of(rock):
