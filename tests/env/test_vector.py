@@ -133,6 +133,21 @@ def test_next_step_autoreset_ignores_the_action_of_a_resetting_env():
     stepping[1] = np.nan  # env 1 runs in this step: its NaN is refused
     with pytest.raises(ValueError, match="env 1"):
         envs.step(stepping)
+    # envs out of step: 0 and 2 end their episode a step before 1 and 3 do
+    envs.reset(seed=0)
+    envs.step(zero)
+    envs.reset(options={"reset_mask": np.array([False, True, False, True])})
+    envs.step(zero)
+    _, _, _, truncated, _ = envs.step(zero)
+    assert truncated.tolist() == [True, False, True, False]
+    mixed = zero.copy()
+    mixed[0] = np.nan  # env 0 resets in the next step: not read
+    envs.step(mixed)  # the step that resets 0 and 2 and ends 1 and 3
+    mixed[0] = 0.0
+    mixed[1] = np.nan  # env 1 resets now, but env 2 runs
+    mixed[2] = np.nan
+    with pytest.raises(ValueError, match="env 2"):
+        envs.step(mixed)
 
 
 def test_vector_env_seeds_and_metadata_are_sync_vector_envs():
