@@ -340,18 +340,16 @@ def apply_actions(envs: Sequence[DrillStringEnv], actions: np.ndarray,
     return active
 
 
-def check_actions(actions: np.ndarray, n: int, size: int = 2,
-                  active: np.ndarray | None = None) -> np.ndarray:
+def check_actions(actions: np.ndarray, n: int, size: int, active: np.ndarray) -> np.ndarray:
     """``actions`` as a float64 (n, size) array; ValueError naming a non-finite one of
-    an ``active`` env (all if None): the row of an env that resets in this step is not
-    read (Gymnasium's next-step autoreset ignores it), so a placeholder there is fine."""
+    an ``active`` env: the row of an env that resets in this step is not read
+    (Gymnasium's next-step autoreset ignores it), so a placeholder there is fine."""
     a = numbers(actions, "actions")
     if a.shape != (n, size):
         raise ValueError(f"actions: expected shape ({n}, {size}), got {a.shape}")
     if math.isfinite(a.max()) and math.isfinite(a.min()):  # NaN and inf show in them, and
         return a  # they do not overflow as a sum of finite 1e308s did (a RuntimeWarning)
-    bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1)
-                         & (True if active is None else active))
+    bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1) & active)
     if bad.size:
         raise ValueError(f"actions: must be finite, env {int(bad[0])} got "
                          f"{a[bad[0]].tolist()} (NaN/inf)")

@@ -132,8 +132,6 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
         """speed.json and speed.md of this run so far, always the two together (a run
         is not resumed: figures of two runs are not measured in the same rounds)."""
         assert out is not None
-        # an earlier run's picture would sit beside this run's figures
-        (out / "speed_scaling.png").unlink(missing_ok=True)
         path = out / "speed.json"
         result["finished_sections"] = [s for s in sections if s in result]
         path.write_text(json.dumps(result, indent=2) + "\n")
@@ -158,6 +156,8 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
 
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
+        # an earlier run's picture would sit beside this run's figures
+        (out / "speed_scaling.png").unlink(missing_ok=True)
     for name in sections:
         bench, fmt = table[name]
         tic = time.perf_counter()
