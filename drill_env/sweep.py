@@ -83,18 +83,25 @@ def _single_threaded_worker(parent: int) -> None:
         os._exit(1)
 
 
-#: Whether this pool worker was interrupted (:func:`_interrupt_once`).
+#: Whether this pool worker was interrupted (:func:`_interrupt_once`), and whether it is
+#: running a task (:func:`_unless_interrupted`).
 _interrupted = False
+_busy = False
 
 
 def _interrupt_once(signum: int, frame: Any) -> None:
+    """Interrupt the task this worker runs; an idle worker (waiting for a task, or ending)
+    only notes it: the pool's shutdown ends it, and a KeyboardInterrupt raised inside the
+    pool's own queue or exit code printed two tracebacks under the error that stopped the
+    command."""
     global _interrupted
     _interrupted = True
     # later ones run a handler that does nothing (SIG_IGN set here made Python print
     # "Signal 15 ignored due to race condition" for one already on its way)
     signal.signal(signal.SIGINT, _ignore)
     signal.signal(signal.SIGTERM, _ignore)
-    raise KeyboardInterrupt
+    if _busy:
+        raise KeyboardInterrupt
 
 
 def _ignore(signum: int, frame: Any) -> None:
@@ -105,9 +112,14 @@ def _unless_interrupted(fn: Callable[[Any], Any], item: Any) -> Any:
     """``fn(item)`` in a pool worker, refused once the worker was interrupted: the tasks
     queued behind the interrupted one (the pool cannot cancel them) would run with the
     interrupts ignored until the pool killed them unsaved."""
+    global _busy
     if _interrupted:
         raise KeyboardInterrupt
-    return fn(item)
+    _busy = True
+    try:
+        return fn(item)
+    finally:
+        _busy = False
 
 
 class ProcessExecutor:

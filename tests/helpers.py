@@ -115,3 +115,14 @@ def sleep_through_interrupts(marker: str) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     Path(marker).write_text("started")
     time.sleep(60.0)
+
+
+def fail_last(k: int) -> int:
+    """A sweep task that returns ``k`` at once, except for ``k`` = 3, which fails after
+    the others are done (their workers idle when the pool is aborted)."""
+    import time
+
+    if k == 3:
+        time.sleep(0.5)
+        raise ValueError("task 3 failed")
+    return k

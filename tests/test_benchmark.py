@@ -511,6 +511,30 @@ def test_an_interrupt_of_the_command_alone_reaches_the_workers_once(tmp_path):
     assert not any(Path(m).exists() for m in markers[2:])
 
 
+def test_a_failed_task_stops_the_pool_without_the_idle_workers_tracebacks():
+    """A task's error (a damaged policy file) aborts the pool; its idle workers, told to
+    stop while waiting for a task or ending, printed two KeyboardInterrupt tracebacks
+    from the pool's own code above the error the command then reported."""
+    import subprocess
+
+    code = ("import sys; sys.path.insert(0, 'tests'); from helpers import fail_last\n"
+            "from drill_env.sweep import ProcessExecutor\n"
+            "if __name__ == '__main__':\n"
+            "    e = ProcessExecutor(2)\n"
+            "    try:\n"
+            "        try:\n"
+            "            print(sorted(k for k, _ in e.map_unordered(fail_last, range(4))))\n"
+            "        finally:\n"
+            "            e.close()\n"
+            "    except ValueError as err:\n"
+            "        print('error:', err)\n")
+    done = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parents[1],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "error: task 3 failed" in done.stdout
+    assert "Traceback" not in done.stderr, done.stderr
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG")
 def test_the_workers_end_with_a_killed_command(tmp_path):
     """A command killed outright (SIGKILL, the OOM killer) left its pool's workers
