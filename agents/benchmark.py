@@ -498,6 +498,13 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     if todo:
         import os
 
+        from agents.registry import make_controller
+
+        # each policy loaded once here first: a damaged file is the command's error before
+        # any episode runs, not after the classical controllers' episodes
+        for name, episode_env in {(e.controller, e.env_id) for e in todo
+                                  if e.controller.startswith("learned")}:
+            make_controller(name, env_id=episode_env)
         local = min(workers or os.cpu_count() or 1, len(todo))
         executor = make_executor(local if ray_address is None else None, ray_address)
         bar = tqdm(total=len(todo_all), initial=len(todo_all) - len(todo), unit="episode",

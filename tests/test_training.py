@@ -147,6 +147,27 @@ def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path
             LearnedController.load(copy, files=(model, norm))
 
 
+def test_a_benchmark_refuses_a_damaged_policy_before_any_episode(run, tmp_path):
+    """A damaged policy file stopped `evaluate` and `benchmark` only after the classical
+    controllers' episodes had run (the policy is first loaded in its own episode's
+    worker); it is loaded once up front now, so nothing runs and nothing is stored."""
+    import shutil
+
+    from agents.benchmark import RESULTS_FILE, BenchmarkSettings, run_benchmark
+
+    folder, _ = run
+    copy = tmp_path / "damaged"
+    shutil.copytree(folder, copy)
+    norm = copy / "best_vecnormalize.pkl"
+    norm.write_bytes(b"junk")
+    out = tmp_path / "bench"
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(norm))}: damaged"):
+        run_benchmark(["stiff", f"learned:{copy}"], ["random"], [0], out,
+                      BenchmarkSettings(duration=2.0, warmup=1.0, fidelity="fast"),
+                      workers=1, progress=False, env_id="DrillStickSlip-v0")
+    assert not (out / RESULTS_FILE).exists() or not (out / RESULTS_FILE).read_text().strip()
+
+
 def test_a_finished_run_resumes_from_its_final_model_not_an_older_checkpoint(run, tmp_path):
     """A run that ended keeps checkpoints older than its final model: a resume continues
     from the final model (resumed from the last checkpoint it threw finished steps away
