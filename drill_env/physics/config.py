@@ -29,6 +29,7 @@ from drill_env.physics.validation import (
     from_dict,
     load_yaml,
     replace,
+    require_distinct_angles,
     require_finite,
     require_non_negative,
     require_positive,
@@ -76,9 +77,7 @@ class Section:
 
     A component touches the wall at ``contact_diameter`` (stabilizer blades, wear pads)
     when given, else at its outer diameter; its mass and stiffness come from the outer
-    and inner diameters of its body. Presets of common sizes: :mod:`drill_env.physics.
-    components`.
-    """
+    and inner diameters of its body. Presets: :mod:`drill_env.physics.components`."""
 
     length: Positive = Field(le=MAX_STRING_LENGTH)
     outer_diameter: Positive = Field(lt=MAX_DIAMETER)
@@ -176,9 +175,8 @@ class StringConfig:
     The BHA is either one section (``bha``: the paper's Table 1, 35 m of collars under
     1000 m of pipe, the default) or an ordered list of ``components`` from the bit up
     (bit sub, stabilizers, MWD, collars, jar, heavy-weight pipe, lower drill pipe, ...);
-    giving ``components`` replaces ``bha``. Presets of common sizes and the realistic
-    strings of the scenarios: :mod:`drill_env.physics.components`.
-    """
+    giving ``components`` replaces ``bha``. Presets of common sizes and the scenarios'
+    realistic strings: :mod:`drill_env.physics.components`."""
 
     drill_pipe: Section = field(default_factory=_default_pipe)
     bha: Section = field(default_factory=_default_bha)
@@ -514,6 +512,7 @@ class BitConfig:
         n = len(self.blade_angles)
         _require(1 <= n <= MAX_BLADES, "blade_angles",
                  f"needs 1 to {MAX_BLADES} blades, got {n}")
+        require_distinct_angles(self.blade_angles, "blade_angles")  # two blades in one place
         _require(self.gauge_clearance < self.diameter / 2, "gauge_clearance",
                  f"{self.gauge_clearance} m must be smaller than the bit radius "
                  f"(diameter / 2 = {self.diameter / 2} m)")
@@ -663,7 +662,7 @@ class SimulationConfig:
     #: "mesoscopic" (paper section 3) or "macroscopic" (eq. 38, torque only).
     bit_model: BitModel = "mesoscopic"
     #: Measured depth of the bit face at t = 0 (m); None: the string length.
-    initial_depth: Annotated[Finite, Field(ge=-1.0e5, le=1.0e5)] | None = None
+    initial_depth: Annotated[Finite, Field(ge=0.0, le=1.0e5)] | None = None
 
     def __post_init__(self) -> None:
         _require(self.bit.diameter <= self.string.hole_diameter + 1e-12, "bit.diameter",

@@ -449,3 +449,17 @@ def require_positive(value: Any, name: str) -> None:
 def require_non_negative(value: Any, name: str) -> None:
     require_finite(value, name)
     _require(value >= 0, name, f"must be >= 0, got {value!r}")
+
+
+#: Angles closer than this (deg, modulo 360) are one angle given twice.
+ANGLE_TOLERANCE = 1.0e-6
+
+
+def require_distinct_angles(angles: tuple[float, ...], name: str) -> None:
+    """Raise :class:`ConfigError` naming ``name[i]`` where an angle (deg) repeats an
+    earlier one modulo 360 (a bit's blades: a blade is ~10 deg wide at the gauge, so any
+    real spacing passes)."""
+    for i, b in enumerate(angles):
+        for j, a in enumerate(angles[:i]):
+            _require(abs((b - a + 180.0) % 360.0 - 180.0) > ANGLE_TOLERANCE, f"{name}[{i}]",
+                     f"{b:g} deg repeats entry [{j}] ({a:g} deg, modulo 360)")

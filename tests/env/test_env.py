@@ -349,6 +349,11 @@ def test_unknown_keyword_is_named():
     ({"physics": {"bit.gauge_clearance": 0.0}}, "gauge_clearance"),
     ({"physics": {"string.hole_diameter": 0.15}}, "clearance <= 0"),
     ({"physics": {"string.stabilizer_diameter": 0.3}}, "stabilizer_diameter"),
+    # six blades on one angle (modulo 360): the bit ran 37 mm off a 5 mm clearance
+    ({"physics": {"bit.blade_angles": [0.0] * 6}}, r"bit.blade_angles\[1\]: 0 deg repeats"),
+    ({"physics": {"bit.blade_angles": [0, 60, 120, 180, 240, 360]}},
+     r"bit.blade_angles\[5\]: 360 deg repeats entry \[0\]"),
+    ({"physics": {"initial_depth": -100.0}}, "initial_depth"),  # a bit above the wellhead
     ({"weight_on_bit_range": (-10e3, 100e3)}, "weight_on_bit_range"),
     ({"rpm_range": (100.0, 50.0)}, "rpm_range"),
     ({"action_mode": "relative"}, "action_mode"),
