@@ -792,10 +792,11 @@ def cmd_well(args: argparse.Namespace) -> int:
     config = _merged(make_scenario(args.scenario).config, overrides, args.config)
     if args.survey is not None and args.well is not None:
         raise argparse.ArgumentTypeError("--well: give a preset well or --survey, not both")
-    if args.total_md is not None and args.well is None:
-        raise argparse.ArgumentTypeError("--total-md: sets the length of a preset --well; "
-                                         "a --survey's, the scenario's or --config's well "
-                                         "has its own")
+    if args.total_md is not None and args.well is None and (args.survey or config.well.md):
+        raise argparse.ArgumentTypeError("--total-md: sets the length of a preset --well (or "
+                                         "of j_shaped, drawn when nothing gives a well); a "
+                                         "--survey's, the scenario's or --config's well has "
+                                         "its own")
     if args.survey is not None:
         try:
             survey = Survey.from_csv(args.survey)

@@ -95,6 +95,10 @@ def test_the_well_command_draws_the_scenarios_or_the_configs_own_well(tmp_path, 
         with pytest.raises(SystemExit):
             main(["well", *args, "--out", str(tmp_path)])
         assert message in capsys.readouterr().err
+    # where nothing gives a well, the j_shaped drawn by default takes --total-md (it was
+    # refused as if the default scenario had a well of its own)
+    assert main(["well", "--total-md", "2000", "--out", str(tmp_path)]) == 0
+    assert "well j_shaped: 2000 m MD" in capsys.readouterr().out
 
 
 def test_the_hook_load_legend_names_each_friction_and_each_operation_once():
