@@ -517,6 +517,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             bar.close()
             executor.close()
     rows = [store.get(e.key) for e in todo_all]
+    set_aside_stale_recordings(todo_all, out, progress)
     from agents.learned import policy_files
 
     names = labels(controllers)
@@ -529,6 +530,27 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     write_outputs(rows, out, names, scenarios, settings, env_id, heading,
                   first_seed=first_seed, runs=runs, stamps=stamps)
     return rows
+
+
+def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool) -> None:
+    """Move the recordings under these rows' names that another run made (other
+    settings or code: the stamp beside them differs) to ``recordings/other_runs``: a
+    rerun without ``--record`` into the folder left them beside a table they do not
+    replay. Says how many it moved."""
+    aside = out / "recordings" / "other_runs"
+    moved = 0
+    for e in episodes:
+        sidecar = e.recording_stamp
+        if e.recording.exists() and not (sidecar.exists() and sidecar.read_text() == e.stamp):
+            aside.mkdir(parents=True, exist_ok=True)
+            for file in (e.recording, sidecar):
+                if file.exists():
+                    file.replace(aside / file.name)
+            moved += 1
+    if moved and say:
+        print(f"benchmark: {moved} recording(s) of another run (other settings or code) "
+              f"under this table's names moved to {aside} (--record makes this run's)",
+              file=sys.stderr)
 
 
 # --------------------------------------------------------------------------- outputs
