@@ -181,6 +181,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 RUN_SUMMARY_UNITS = {
     "rpm": "rpm", "weight_on_bit_kN": "kN", "mean_setpoint_rpm": "rpm",
     "mean_setpoint_kN": "kN", "string_length_m": "m", "simulated_s": "s", "wall_s": "s",
+    "start_kick": "1 (relative bit-speed kick)", "duration_given_s": "s",
     "mean_ssi": "1",
     "mean_stuck_fraction": "1", "mean_whirl_ratio": "1", "mean_radial_ratio": "1",
     "mean_lateral_force": "N", "mean_rop": "m/s", "return": "reward units",
@@ -307,6 +308,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         "env_id": controller.env_id, "startup": cfg.startup, "rpm": rpm,
         "weight_on_bit_kN": wob_kn, "mean_setpoint_rpm": setpoint_rpm,
         "mean_setpoint_kN": setpoint_kn, "seed": args.seed,
+        # what else set the episode: a history's runs of another string or start apart
+        "config": None if args.config is None else str(args.config),
+        "start_kick": args.start_kick, "duration_given_s": args.duration,
         "fidelity": base.simulation_config.solver.fidelity,
         "string_length_m": base.simulation_config.string.length, "steps": steps,
         "simulated_s": round(float(info.get("episode_time", 0.0)), 9),

@@ -25,6 +25,10 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
     recordings = list((tmp_path / "rec").glob("stiff_paper_case1_seed0_*.rrd"))
     assert [str(p) for p in recordings] == [summary["recording"]]
     assert "SSI" in capsys.readouterr().out
+    # what set the episode besides scenario and set points (a history told runs of the
+    # field-well config and of the default string apart only by their length)
+    assert (summary["config"], summary["start_kick"], summary["duration_given_s"]) == (
+        None, 0.02, 0.5)
 
 
 def test_run_and_benchmark_agree_on_the_start(tmp_path):
