@@ -289,8 +289,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             if terminated or truncated:
                 reason = info["termination_reason"]
                 break
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as stopped:
         reason = "interrupted"
+        status = exit_status(stopped)
+    else:
+        status = 0
     finally:
         env.close()  # finishes a recording, interrupted or not
     mean = {key: total / steps for key, total in sums.items()} if steps else {
@@ -348,7 +351,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"  recording: {summary['recording']} (drill-env replay <file>)")
     print(f"wrote {args.out / 'run_summary.json'} (and a line of "
           f"{args.out / 'run_history.jsonl'}, which keeps every run's)")
-    return 130 if reason == "interrupted" else 0
+    return status
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
@@ -1185,9 +1188,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         said = f"{option}: {rest}" if option else str(err)
         print(f"drill-env {args.command}: error: {said}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"drill-env {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as stopped:
+        said = "terminated" if isinstance(stopped, Terminated) else "interrupted"
+        print(f"drill-env {args.command}: {said}", file=sys.stderr)
+        return exit_status(stopped)
     finally:
         if stop is not _NOT_INSTALLED:
             signal.signal(signal.SIGTERM, stop if stop is not None else signal.SIG_DFL)
@@ -1195,6 +1199,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 _NOT_INSTALLED = object()
+
+
+class Terminated(KeyboardInterrupt):
+    """A SIGTERM, handled as a Ctrl-C (:func:`_stop_as_interrupt`)."""
+
+
+def exit_status(stopped: KeyboardInterrupt) -> int:
+    """The shell's status of a command stopped by a signal, 128 + its number: 143 after
+    SIGTERM, 130 after Ctrl-C (SIGINT)."""
+    return 128 + (signal.SIGTERM if isinstance(stopped, Terminated) else signal.SIGINT)
 
 
 def _stop_as_interrupt() -> Any:
@@ -1208,6 +1222,6 @@ def _stop_as_interrupt() -> Any:
         return _NOT_INSTALLED
 
     def interrupt(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
+        raise Terminated
 
     return signal.signal(signal.SIGTERM, interrupt)

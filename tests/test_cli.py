@@ -689,3 +689,27 @@ def test_the_demos_stick_slip_table_reproduces_paper_result_1(tmp_path):
     assert verdict and rows[0]["stuck_fraction"] > 0.1
     assert "reproduced" in said[-2] and not any("-0.0 " in line for line in said)
     assert (tmp_path / "demo_stick_slip.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("signum, status, said", [("SIGTERM", 143, "terminated"),
+                                                  ("SIGINT", 130, "interrupted")])
+def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, signum,
+                                                         status, said):
+    """A command stopped by a signal exits as the shell reports one, 128 + its number: a
+    SIGTERM (a scheduler's stop) exited 130 as if Ctrl-C had stopped it."""
+    import os
+    import signal
+    import time
+
+    import drill_cli.main as cli
+
+    def stopped(args):
+        os.kill(os.getpid(), getattr(signal, signum))
+        time.sleep(5.0)  # the handler raises here
+        return 0
+
+    monkeypatch.setattr(cli, "cmd_modes", stopped)
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["modes"]) == status
+    assert f"drill-env modes: {said}" in capsys.readouterr().err
+    assert signal.getsignal(signal.SIGTERM) == before  # the command's handler is gone
