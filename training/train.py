@@ -532,7 +532,8 @@ def plot_learning_curve(run: Path) -> Path | None:
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
     ret = np.array([float(r["return"]) for r in rows])
     std = np.array([float(r["return_std"]) for r in rows])
-    axes[0].plot(steps, ret, "o-", ms=3)
+    # whiskers as well as the band: a band of one evaluation is not drawn
+    axes[0].errorbar(steps, ret, yerr=std, fmt="o-", ms=3, capsize=3, elinewidth=0.8)
     axes[0].fill_between(steps, ret - std, ret + std, alpha=0.2)
     axes[0].set_ylabel("validation return (mean +- std)")
     ssi_values = np.array([float(r["ssi"]) for r in rows])
