@@ -626,3 +626,45 @@ def test_a_batch_pickled_before_the_schedule_existed_still_runs():
     want = EnvBatch(2).run(fresh, np.ones(2, dtype=np.bool_)).n_rec
     assert (want > 0).all()
     np.testing.assert_array_equal(old.run(envs, np.ones(2, dtype=np.bool_)).n_rec, want)
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP,
+                                  AutoresetMode.DISABLED])
+def test_staggered_episodes_follow_gymnasiums_sync_vector_env(mode):
+    """Gymnasium's own SyncVectorEnv of the same envs is the oracle, with episodes out of
+    step (a masked reset after the first step, randomised strings, a different action per
+    env): observations, rewards, ends and every info entry, step for step, in each
+    autoreset mode. Where only some envs step, each must get its own readings; SAME_STEP
+    resets only the envs that ended; a masked reset cancels a pending autoreset; DISABLED
+    refuses a step while an env is finished (SyncVectorEnv asserts)."""
+    kwargs = {"episode_duration": 0.3, "scenario": "random"}  # 3 steps per episode
+    ours = DrillStringVectorEnv(num_envs=N, autoreset_mode=mode, **kwargs)
+    sync = gym.make_vec("DrillString-v0", num_envs=N, vectorization_mode="sync",
+                        vector_kwargs={"autoreset_mode": mode}, **kwargs)
+    actions = actions_for(10, seed=5)
+    stagger = np.array([False, True, False, True])
+    for envs in (ours, sync):
+        envs.reset(seed=7)
+        envs.step(actions[0])
+    got = [ours.reset(options={"reset_mask": stagger.copy()}),
+           sync.reset(options={"reset_mask": stagger.copy()})]
+    _assert_same_values(got[0][0], got[1][0], "obs")
+    _assert_same_infos(got[0][1], got[1][1])
+    refused = 0
+    for k, a in enumerate(actions[1:], start=1):
+        if mode == AutoresetMode.DISABLED and ours._autoreset_envs.any():
+            finished = ours._autoreset_envs.copy()
+            with pytest.raises(ValueError, match="autoreset is disabled"):
+                ours.step(a)  # (SyncVectorEnv asserts, after stepping the envs before
+            refused += 1  # the first finished one: it is not asked here)
+            got = [ours.reset(options={"reset_mask": finished.copy()}),
+                   sync.reset(options={"reset_mask": finished.copy()})]
+            _assert_same_values(got[0][0], got[1][0], f"obs after the reset before {k}")
+            _assert_same_infos(got[0][1], got[1][1])
+        ours_step, sync_step = ours.step(a), sync.step(a)
+        for name, x, y in zip(("obs", "reward", "terminated", "truncated"), ours_step[:4],
+                              sync_step[:4], strict=True):
+            _assert_same_values(x, y, f"{name} at step {k}")
+        _assert_same_infos(ours_step[4], sync_step[4])
+    if mode == AutoresetMode.DISABLED:
+        assert refused >= 3  # both halves of the stagger ended, more than once
