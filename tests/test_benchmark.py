@@ -180,6 +180,37 @@ def test_a_damaged_line_of_the_results_file_costs_that_line_only(tmp_path):
     assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(SHORT))) == 1
 
 
+def test_a_result_put_after_a_killed_writers_half_line_is_kept(tmp_path):
+    """The next result goes on a line of its own: glued to the half line, it was lost
+    too, and a resumed sweep redid it."""
+    path = tmp_path / "results.jsonl"
+    store = ResultStore(path, "f")
+    store.put("k1", 1)
+    with path.open("a") as f:
+        f.write('{"fingerprint": "f", "ke')  # a writer killed mid-line
+    store = ResultStore(path, "f")
+    store.put("k2", 2)
+    again = ResultStore(path, "f")
+    assert ("k1" in again, "k2" in again, len(again)) == (True, True, 2)
+    assert again.get("k2") == 2
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_every_item_of_a_long_sweep_comes_back_under_its_own_index(workers):
+    """More items than the pool keeps in flight (2 per worker): each result must come
+    back with the index of the item it was computed from, once."""
+    from drill_env.sweep import make_executor
+
+    items = [-k for k in range(11)]
+    executor = make_executor(workers)
+    try:
+        got = list(executor.map_unordered(abs, items))
+    finally:
+        executor.close()
+    assert sorted(k for k, _ in got) == list(range(11))
+    assert all(result == abs(items[k]) for k, result in got)
+
+
 def test_rows_of_other_code_are_not_reused(tmp_path, monkeypatch):
     """The fingerprint holds a hash of the package sources: after a change to the
     simulator or a controller, a benchmark (``make demo`` run again) recomputes."""
