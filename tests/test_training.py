@@ -120,6 +120,84 @@ def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
     assert steps[:2] == [1024, 2048] and steps[-1] == 3072
 
 
+def test_a_resumed_run_keeps_counting_its_observation_statistics(run, tmp_path):
+    """A resume loads the saved VecNormalize statistics and trains on with them: a fresh
+    normaliser would show the policy differently scaled inputs mid-training and save
+    statistics of the resumed steps alone."""
+    import pickle
+    import shutil
+
+    from drill_env.physics.config import replace
+
+    def counted(path):
+        with open(path, "rb") as f:
+            return pickle.load(f).obs_rms.count
+
+    folder, cfg = run
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    before = counted(copy / "vecnormalize.pkl")
+    assert before > cfg.n_timesteps - 1  # one observation per env step
+    train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
+    # on from the saved count: 1024 env steps and the resumed run's first reset (n_envs)
+    assert counted(copy / "vecnormalize.pkl") == pytest.approx(before + 1024 + cfg.n_envs,
+                                                               abs=0.5)
+
+
+def test_validation_episodes_show_the_policy_normalised_observations():
+    """The validation score (evaluations.csv, the choice of best_model.zip) runs the
+    policy on the observations as it trained on them, through the frozen statistics."""
+    from training.train import evaluate_policy_on_seeds
+
+    class Env:
+        def reset(self, seed):
+            self.t = 0
+            return np.full(3, float(seed)), {}
+
+        def step(self, action):
+            self.t += 1
+            info = {"ssi": 0.5 * self.t, "stuck_fraction": 0.25}
+            return np.full(3, 10.0 + self.t), float(action[0]), False, self.t == 2, info
+
+    class Normalizer:
+        def normalize_obs(self, obs):
+            return (obs - 4.0) / 2.0
+
+    class Model:
+        seen: list = []
+
+        def predict(self, obs, deterministic):
+            assert deterministic
+            self.seen.append(obs.copy())
+            return np.array([[1.0 + obs[0, 0]]]), None
+
+    model = Model()
+    scores = evaluate_policy_on_seeds(model, Normalizer(), Env(), [6, 8])
+    np.testing.assert_array_equal(np.concatenate(model.seen)[:, 0], [1.0, 3.5, 2.0, 3.5])
+    # returns: 2 + 4.5 and 3 + 4.5; SSI the mean of 0.5 and 1.0 per episode
+    assert scores == pytest.approx({"return": 7.0, "return_std": 0.5, "ssi": 0.75,
+                                    "stuck_fraction": 0.25})
+
+
+def test_evaluate_scores_a_run_at_the_fidelity_it_trained_at(run, tmp_path, monkeypatch):
+    """A run trained at the full level is evaluated at the full level (its benchmark and
+    the classical controllers beside it), not at the task's default fast level."""
+    import shutil
+
+    import training.evaluate as ev
+
+    folder, _ = run
+    copy = tmp_path / "full"
+    shutil.copytree(folder, copy)
+    config = yaml.safe_load((copy / "config.yaml").read_text())
+    config["env_kwargs"] = {**config.get("env_kwargs", {}), "fidelity": "full"}
+    (copy / "config.yaml").write_text(yaml.safe_dump(config))
+    seen = []
+    monkeypatch.setattr(ev, "run_benchmark", lambda *args, **kw: seen.append(args) or [])
+    ev.evaluate_run(copy, seeds=1, out=tmp_path / "out", progress=False)
+    assert [args[4].fidelity for args in seen] == ["full"]
+
+
 def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path):
     """A checkpoint cut short (a full disk, a copy killed) made --resume crash with an
     UnpicklingError or BadZipFile traceback; now the error names the file and the way on.
