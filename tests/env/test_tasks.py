@@ -172,21 +172,29 @@ def test_a_task_settings_typo_lists_the_tasks_own_settings():
     gym.make("DrillOptimise-v0", action_mode="incremental", rop_weight=2.0)  # it uses both
 
 
-def test_mud_pulse_telemetry_is_sampled_delayed_and_held():
-    tele = Telemetry("mud_pulse", 1)
-    got = [tele.update(t, [t])[0] for t in np.arange(0.0, 10.01, 0.1)]
-    times = np.arange(0.0, 10.01, 0.1)
-    assert all(v == 0.0 for v, t in zip(got, times, strict=True) if t < 3.0 - 1e-9)
+@pytest.mark.parametrize("kind, period, delay, dt", [
+    ("mud_pulse", 2.0, 3.0, 0.1),  # the module's docstring: every 2 s, 3 s late
+    ("wired_pipe", 0.1, 0.05, 0.01),  # 10 samples a second, 50 ms late
+])
+def test_telemetry_is_sampled_delayed_and_held(kind, period, delay, dt):
+    times = np.arange(0.0, 50 * period + 1e-9, dt)
+    tele = Telemetry(kind, 1)
+    got = [tele.update(t, [t])[0] for t in times]
+    assert all(v == 0.0 for v, t in zip(got, times, strict=True) if t < delay - 1e-9)
     for v, t in zip(got, times, strict=True):
-        if t >= 3.0 - 1e-9:  # the message sampled at the last multiple of 2 s, 3 s ago
-            assert v == pytest.approx(2.0 * np.floor((t - 3.0 + 1e-9) / 2.0), abs=1e-6)
-    # the age of what is held: since its sampling, not since it arrived
-    tele = Telemetry("mud_pulse", 1)
+        if t >= delay - 1e-9:  # the message sampled at the last multiple of the period
+            assert v == pytest.approx(period * np.floor((t - delay + 1e-9) / period),
+                                      abs=1e-6)
+    # the age of what is held: since its sampling, not since it arrived; before the first
+    # message it is stale beyond any cap (the task observation clips it), not fresh
+    tele = Telemetry(kind, 1)
     for t in times:
         tele.update(t, [t])
-        if t >= 3.0 - 1e-9:
-            sampled = 2.0 * np.floor((t - 3.0 + 1e-9) / 2.0)
+        if t >= delay - 1e-9:
+            sampled = period * np.floor((t - delay + 1e-9) / period)
             assert tele.age(t) == pytest.approx(t - sampled, abs=1e-6)
+        else:
+            assert tele.age(t) > 1e6
     with pytest.raises(ValueError, match="telemetry"):
         Telemetry("smoke", 1)
 
