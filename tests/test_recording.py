@@ -266,6 +266,51 @@ def test_event_detection() -> None:
     assert 9.9 < ev[1][0] < 10.2
 
 
+@pytest.mark.parametrize("chunk", [1, 7, 64])
+def test_events_fed_chunk_by_chunk_are_the_events_of_the_whole_signal(chunk) -> None:
+    """A recording feeds the detectors in chunks: an event must not depend on where a
+    chunk ends (a stick on a chunk's first sample after a moving last one, a whirl or
+    layer change across a boundary)."""
+    from drill_env.events import LayerDetector, StickSlipDetector, WhirlDetector
+
+    t = np.arange(0.0, 30.0, 0.05)
+    rng = np.random.default_rng(4)
+    w = np.where(np.sin(2.0 * np.pi * t / 3.0) + 0.3 * rng.standard_normal(t.size) > 0.6,
+                 0.0, 5.0)  # sticks of irregular length, quiet spells and new onsets
+    w[(t > 14.0) & (t < 21.0)] = 5.0
+    clearance = 0.005
+    r = clearance * np.where(np.sin(2.0 * np.pi * t / 7.0) > 0.2, 0.9, 0.1)
+    x, y = r * np.cos(3.0 * t), r * np.sin(3.0 * t)
+    ws = np.where(t < 15.0, -40.0, 40.0)
+    shares = np.zeros((t.size, 2))
+    shares[:, 0] = 0.5 + 0.5 * np.cos(2.0 * np.pi * t / 9.0)
+    shares[:, 1] = 1.0 - shares[:, 0]
+    whole = (stick_slip_events(t, w), whirl_events(t, x, y, ws, w, clearance),
+             layer_events(t, shares, ["hard", "soft"]))
+    assert [len(e) > 2 for e in whole] == [True, True, True]
+    stick, whirl, layer = (StickSlipDetector(), WhirlDetector(clearance),
+                           LayerDetector(["hard", "soft"]))
+    streamed: tuple[list, list, list] = ([], [], [])
+    for k in range(0, t.size, chunk):
+        part = slice(k, k + chunk)
+        streamed[0].extend(stick.update(t[part], w[part]))
+        streamed[1].extend(whirl.update(t[part], x[part], y[part], ws[part], w[part]))
+        streamed[2].extend(layer.update(t[part], shares[part]))
+    assert streamed == whole
+
+
+def test_whirl_flickers_apart_do_not_add_up_to_whirl() -> None:
+    """Whirl counts as on once the rule has held WHIRL_MIN_DURATION without a break: two
+    single samples 0.5 s apart are not whirl, nor the end of one."""
+    t = np.arange(0.0, 4.0, 0.1)
+    clearance = 0.005
+    r = np.full_like(t, 0.1 * clearance)
+    r[[10, 15]] = 0.9 * clearance  # one sample each at 1.0 s and 1.5 s
+    x, y = r * np.cos(3.0 * t), r * np.sin(3.0 * t)
+    assert whirl_events(t, x, y, np.full_like(t, -40.0), np.full_like(t, 5.0),
+                        clearance) == []
+
+
 def test_replay_is_not_started_here(tmp_path: Path) -> None:
     cmd = replay_command(tmp_path / "x.rrd", web=True, web_viewer_port=9191)
     assert cmd[-1].endswith("x.rrd") and "--web-viewer" in cmd and "9191" in cmd
