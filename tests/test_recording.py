@@ -192,6 +192,31 @@ def test_two_episodes_two_recordings(tmp_path: Path) -> None:
     assert sorted(tmp_path.glob("*.rrd")) == sorted(env.paths)
 
 
+def test_every_records_the_first_episode_then_every_nth(tmp_path: Path) -> None:
+    env = RecordEpisode(_make_env(0.1), tmp_path, every=3)
+    for seed in range(7):
+        _run_episode(env, seed=seed)
+    env.close()
+    assert [p.name.split("_ep")[1][:4] for p in env.paths] == ["0000", "0003", "0006"]
+    assert [p.name.split("_seed")[1].split("_")[0] for p in env.paths] == ["0", "3", "6"]
+
+
+def test_string_snapshots_are_taken_every_string_period(tmp_path: Path) -> None:
+    """``string_period`` 0.2 s at the env's 0.1 s steps: a snapshot at 0, 0.2, ... 1.0 s,
+    every second step, not every third."""
+    from rerun.chunk import RrdReader
+
+    env = RecordEpisode(_make_env(1.0), tmp_path, string_period=0.2)
+    _run_episode(env, seed=0)
+    env.close()
+    reader = RrdReader(str(env.last_path))
+    times = [t.total_seconds() for chunk in reader.stream(store=reader.recordings()[0])
+             if chunk.entity_path == "/string/deflection"
+             for name in chunk.to_record_batch().schema.names if name == "sim_time"
+             for t in chunk.to_record_batch().column(name).to_pylist()]
+    np.testing.assert_allclose(sorted(times), [0.0, 0.2, 0.4, 0.6, 0.8, 1.0], atol=1e-6)
+
+
 def test_a_stem_names_the_files(tmp_path: Path) -> None:
     """The benchmark names a recording by its table row: ``<stem>.rrd``, and a later
     episode of the same env gets its index, so nothing is overwritten."""
