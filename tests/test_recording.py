@@ -204,17 +204,46 @@ def test_every_records_the_first_episode_then_every_nth(tmp_path: Path) -> None:
 def test_string_snapshots_are_taken_every_string_period(tmp_path: Path) -> None:
     """``string_period`` 0.2 s at the env's 0.1 s steps: a snapshot at 0, 0.2, ... 1.0 s,
     every second step, not every third."""
+    import pyarrow as pa
     from rerun.chunk import RrdReader
 
     env = RecordEpisode(_make_env(1.0), tmp_path, string_period=0.2)
     _run_episode(env, seed=0)
     env.close()
     reader = RrdReader(str(env.last_path))
-    times = [t.total_seconds() for chunk in reader.stream(store=reader.recordings()[0])
+    times = [t * 1e-9 for chunk in reader.stream(store=reader.recordings()[0])
              if chunk.entity_path == "/string/deflection"
              for name in chunk.to_record_batch().schema.names if name == "sim_time"
-             for t in chunk.to_record_batch().column(name).to_pylist()]
+             for t in chunk.to_record_batch().column(name).cast(pa.int64()).to_pylist()]
     np.testing.assert_allclose(sorted(times), [0.0, 0.2, 0.4, 0.6, 0.8, 1.0], atol=1e-6)
+
+
+def test_the_orbit_trail_runs_on_across_chunks(tmp_path: Path) -> None:
+    """The bit's trail at each sample holds the last ORBIT_TRAIL positions, also where
+    the recording was written in chunks of two steps (it restarted at every chunk)."""
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    from drill_env.recording.writer import ORBIT_TRAIL
+
+    env = RecordEpisode(_make_env(2.5), tmp_path, flush_every=2)
+    infos, _, _ = _run_episode(env, seed=0)
+    env.close()
+    reader = RrdReader(str(env.last_path))
+    rows = []
+    for chunk in reader.stream(store=reader.recordings()[0]):
+        batch = chunk.to_record_batch()
+        if chunk.entity_path == "/orbit_mm/trail" and "sim_time" in batch.schema.names:
+            strips = batch.column(next(n for n in batch.schema.names if "strips" in n))
+            times = batch.column("sim_time").cast(pa.int64()).to_pylist()  # ns
+            rows += zip(times, strips.to_pylist(), strict=True)
+    rows.sort(key=lambda row: row[0])
+    xy = np.array([i["bit_lateral"] for i in infos]) * 1e3
+    assert len(rows) == len(infos) > ORBIT_TRAIL
+    for k, (_, cell) in enumerate(rows):
+        trail = np.array(cell[0])  # one strip per sample: the positions up to it
+        np.testing.assert_allclose(trail, xy[max(0, k + 1 - ORBIT_TRAIL):k + 1], rtol=1e-6,
+                                   atol=1e-9)
 
 
 def test_a_stem_names_the_files(tmp_path: Path) -> None:
