@@ -155,6 +155,47 @@ def test_random_scenario_is_reproducible_and_keeps_array_shapes():
     assert len(bits) == 2  # symmetric and asymmetric both drawn
 
 
+def test_random_draws_cover_the_documented_distribution():
+    """300 draws against ``scenarios.random``'s docstring (the training and held-out
+    distribution): the middle layer soft or very soft, at even odds; its top 0.3 m
+    above to 0.5 m below the bit, 0.1-1 m thick, dipping 0-60 deg at any azimuth; each
+    rock's curve parameters within +-30 % of its preset; the string length, rpm and WOB
+    in their ranges. Counts at even odds: 150 +- 4.5 sigma (sigma = 8.7)."""
+    from drill_env.physics.units import RPM
+
+    presets = {"hard": scenarios.HARD, "soft": scenarios.SOFT,
+               "very_soft": scenarios.VERY_SOFT}
+    middles, azimuths, dips, tops, thicknesses = [], [], [], [], []
+    for seed in range(300):
+        draw = scenarios.random(np.random.default_rng(seed))
+        f = draw.config.formation
+        upper, lower = f.interfaces
+        middles.append(f.rocks[f.layers[1]].name)
+        assert f.layers[0] == f.layers[2] == 0 and f.rocks[0].name == "hard"
+        azimuths.append(upper.azimuth)
+        dips.append(upper.dip)
+        assert (lower.dip, lower.azimuth) == (upper.dip, upper.azimuth)  # parallel
+        tops.append(upper.depth - draw.config.initial_depth
+                    if draw.config.initial_depth is not None
+                    else upper.depth - draw.config.string.length)
+        thicknesses.append(lower.depth - upper.depth)
+        for rock in f.rocks:
+            preset = presets[rock.name]
+            for name in ("mu_min", "st1", "st2", "wall_stiffness", "depth_of_cut"):
+                drawn, given = getattr(rock, name), getattr(preset, name)
+                assert drawn == given == 0.0 or 0.7 - 1e-12 <= drawn / given <= 1.3 + 1e-12, (
+                    rock.name, name)
+        assert 900.0 <= draw.config.string.length <= 1600.0
+        assert 40.0 <= draw.surface_speed / RPM <= 160.0
+        assert 50e3 <= draw.weight_on_bit <= 130e3
+    assert set(middles) == {"soft", "very_soft"}
+    assert abs(middles.count("soft") - 150) < 40
+    assert 0.0 <= min(dips) < 5.0 and 55.0 < max(dips) <= 60.0
+    assert min(azimuths) < 10.0 and max(azimuths) > 350.0
+    assert -0.3 <= min(tops) < -0.25 and 0.45 < max(tops) <= 0.5
+    assert 0.1 <= min(thicknesses) < 0.15 and 0.95 < max(thicknesses) <= 1.0
+
+
 def test_evaluation_seeds_are_held_out_and_fixed():
     assert len(scenarios.EVALUATION_SEEDS) == len(set(scenarios.EVALUATION_SEEDS)) >= 10
     assert min(scenarios.EVALUATION_SEEDS) >= 1_000_000
