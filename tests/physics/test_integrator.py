@@ -695,3 +695,26 @@ def test_two_gauge_pads_on_the_wall_fit_under_the_largest_allowed_step_fraction(
         replace(SimulationConfig(), **{"solver.critical_step_fraction": 0.9})
     for degrees in (30.0, 0.0):
         assert _bit_thrown_at_the_wall(0.8, 4.0e-3, degrees) < 1.5
+
+
+@pytest.mark.parametrize("disturb, runaway", [
+    (lambda sim: sim.ul.__setitem__((-2, 0), 1.2), True),  # the bit 1.2 m off centre
+    (lambda sim: sim.vt.__setitem__(slice(None), 1.5e3), True),  # ~14,000 rpm
+    (lambda sim: sim.vt.__setitem__(slice(None), 900.0), False),  # ~8,600 rpm: not yet
+])
+def test_a_runaway_state_stops_the_kernel_with_its_status(disturb, runaway):
+    """The kernel's runaway guard (docs: above 1e3 rad/s, ~9,500 rpm, or 1 m off the
+    hole's centre the state is a numerical runaway, not drilling): it stops at the step
+    with Status.RUNAWAY and its message, where an episode ends with a reason."""
+    from drill_env.physics.layout import Status
+
+    sim = Simulator(SimulationConfig())
+    sim.reset(OperatingPoint(60 * RPM, 100e3))
+    disturb(sim)
+    sim.advance(1)
+    assert sim.status == (Status.RUNAWAY if runaway else 0), sim.status_message
+    if runaway:
+        assert sim.status_message.startswith("simulation diverged")
+        time = sim.time
+        sim.advance(5)  # a stopped simulator does not run on
+        assert sim.time == time
