@@ -198,6 +198,23 @@ def random_spd_band(rng: np.random.Generator, n: int, p: int) -> np.ndarray:
     return a
 
 
+@pytest.mark.parametrize("dense", [
+    [[1.0, 1.0], [1.0, 1.0]],  # singular: the second pivot is exactly 0
+    [[1.0, 2.0], [2.0, 1.0]],  # indefinite
+    [[1.0, 0.5], [0.5, np.nan]],  # a NaN stiffness (a NaN load reached the matrix)
+])
+def test_band_cholesky_refuses_what_scipy_refuses(dense):
+    """Not positive definite (scipy raises LinAlgError), or NaN: False, so that the
+    simulator stops with Status.SINGULAR instead of stepping on a factor of NaNs or
+    dividing by a zero pivot."""
+    dense = np.array(dense)
+    if np.isfinite(dense).all():
+        with pytest.raises(np.linalg.LinAlgError):
+            scipy.linalg.cholesky(dense)
+    band = to_band(dense, 1)
+    assert not linalg.band_cholesky(band, np.zeros_like(band))
+
+
 @pytest.mark.parametrize(("n", "p"), [(1, 0), (5, 1), (40, 1), (50, 3), (7, 6), (30, 5)])
 def test_band_cholesky_matches_scipy(n, p):
     rng = np.random.default_rng(n * 10 + p)
