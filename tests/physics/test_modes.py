@@ -107,6 +107,60 @@ def test_lateral_modes_of_a_short_collar_are_the_pinned_pinned_beam():
     np.testing.assert_allclose(modes.frequency, expected, rtol=0.01)
 
 
+def test_lateral_rayleigh_damping_acts_on_the_elastic_stiffness_under_load():
+    """The pinned collar at half its Euler load, Rayleigh damping a M + b K_e: the sine
+    modes diagonalise M, K_e and K_g alike, so w_n^2 = w_e,n^2 (1 - P / P_n) with
+    P_n = n^2 P_Euler and zeta_n = (a + b w_e,n^2) / (2 w_n): the compression softens
+    the mode, not the material damping (Rayleigh on K + K_g would under-damp it)."""
+    collar, config = _pinned_collar()
+    a, b = 0.5, 2.0e-4
+    config = dataclasses.replace(config, damping=DampingConfig(mass_proportional=a,
+                                                               stiffness_proportional=b))
+    euler = math.pi ** 2 * collar.youngs_modulus * collar.second_moment / collar.length ** 2
+    load = 0.5 * euler
+    modes = lateral_modes(config, load, supports="stabilizers", n_modes=2, region="bha")
+    ei = collar.youngs_modulus * collar.second_moment
+    rho_a = collar.density * collar.area
+    for n in (1, 2):
+        w_e = (n * math.pi / collar.length) ** 2 * math.sqrt(ei / rho_a)
+        w_d_squared = w_e ** 2 * (1.0 - load / (n * n * euler))  # undamped, loaded
+        zeta = (a + b * w_e ** 2) / (2.0 * math.sqrt(w_d_squared))
+        # |lambda| of the damped pair is the undamped w_n; the collar's own weight and
+        # the mesh move it by < 1 %
+        assert modes.frequency[n - 1] == pytest.approx(math.sqrt(w_d_squared) / (2 * math.pi),
+                                                       rel=0.01)
+        assert modes.damping_ratio[n - 1] == pytest.approx(zeta, rel=0.01)
+
+
+def test_the_modal_analysis_takes_vertical_holes_only():
+    """Survey noise (0.4 deg) passes; 1 deg is a deviated hole, refused naming ``well``."""
+    config = SimulationConfig()
+    for steepest, refused in ((0.4, False), (1.0, True)):
+        well = {"md": (0.0, 500.0, 1200.0), "inclination": (0.0, steepest, steepest),
+                "azimuth": (0.0, 0.0, 0.0)}
+        deviated = replace(config, well=well)
+        if refused:
+            with pytest.raises(ValueError, match="^well: the modal analysis is for vertical"):
+                lateral_modes(deviated, 0.0, n_modes=1)
+        else:
+            assert len(lateral_modes(deviated, 0.0, n_modes=1).frequency) == 1
+
+
+def test_overdamped_motions_are_not_modes():
+    """``_damped`` keeps the oscillating roots only: a 1-DOF system at zeta = 1.5 has none;
+    a 2-DOF chain with one overdamped and one oscillating root gives that one, as scipy's
+    eigenvalues of the same first-order system do."""
+    from drill_env.physics.modes import _damped
+
+    freq, zeta, _ = _damped(np.array([[1.0]]), np.array([[3.0]]), np.array([1.0]), 3)
+    assert len(freq) == 0
+    k = np.array([[100.0, 0.0], [0.0, 1.0]])
+    c = np.array([[1.0, 0.0], [0.0, 5.0]])  # zeta 0.05 and 2.5
+    freq, zeta, _ = _damped(k, c, np.array([1.0, 1.0]), 3)
+    np.testing.assert_allclose(freq, [10.0 / (2 * math.pi)], rtol=1e-12)
+    np.testing.assert_allclose(zeta, [0.05], rtol=1e-12)
+
+
 def test_lateral_buckling_weight_of_a_pinned_collar_is_eulers_load():
     """Euler: P_cr = pi^2 EI / L^2 for a pinned-pinned column; the collar's own 7 kN of
     weight relieves its top by up to 7 kN against ~2 MN (< 0.4 %)."""
@@ -240,22 +294,22 @@ def test_the_first_torsional_damping_ratio_matches_its_perturbation_estimate():
     assert 0.05 < modes.damping_ratio[0] < 0.15
 
 
-def test_torsional_damping_ratios_match_an_independent_damped_eigenproblem():
-    """The documented 9.4 % of the paper string's first torsional mode, against the
-    complex eigenvalues of a chain built here with numpy from the sections' data alone
-    (2 m pipe and 1 m collar elements, lumped inertias, mud drag per metre lumped to the nodes,
-    Rayleigh b K, bit inertia at the free end, fixed top), solved as a first-order system
-    by numpy: no matrix of the project's. The meshes differ (10 m pipe elements there), so
-    they agree to the discretisation error."""
-    config = SimulationConfig()
+def _numpy_torsion_poles(config: SimulationConfig, top_drive: tuple[float, float, float]
+                         | None = None, n: int = 2) -> np.ndarray:
+    """The ``n`` lowest oscillating poles of a torsional chain built here with numpy from
+    the sections' data alone (2 m pipe and 1 m collar elements, lumped inertias, mud drag
+    per metre lumped to the nodes, Rayleigh b K, bit inertia at the free end), solved as a
+    first-order system by numpy: no matrix of the project's. Top fixed, or with
+    ``top_drive`` = (rotor inertia, kp, ki): the rotor on the top node, the PI speed loop
+    a damper kp and a spring ki to the ground."""
     string = config.string
     lengths, stiff, inertia = [], [], []
     for section, step in ((string.drill_pipe, 2.0), (string.bha, 1.0)):
         polar = math.pi / 32.0 * (section.outer_diameter**4 - section.inner_diameter**4)
-        n = round(section.length / step)
-        lengths += [section.length / n] * n
-        stiff += [section.shear_modulus * polar / (section.length / n)] * n
-        inertia += [section.density * polar * section.length / n] * n
+        count = round(section.length / step)
+        lengths += [section.length / count] * count
+        stiff += [section.shear_modulus * polar / (section.length / count)] * count
+        inertia += [section.density * polar * section.length / count] * count
     nodes = len(lengths) + 1
     k = np.zeros((nodes, nodes))
     j = np.zeros(nodes)
@@ -265,19 +319,48 @@ def test_torsional_damping_ratios_match_an_independent_damped_eigenproblem():
         j[e:e + 2] += je / 2.0
         c[e:e + 2] += config.mud.torsional_damping * length / 2.0
     j[-1] += config.bit.inertia
-    k, j = k[1:, 1:], j[1:]  # fixed top
-    damping = np.diag(c[1:]) + config.damping.stiffness_proportional * k
+    damping = np.diag(c) + config.damping.stiffness_proportional * k
+    if top_drive is None:  # fixed top
+        k, j, damping = k[1:, 1:], j[1:], damping[1:, 1:]
+    else:
+        rotor, kp, ki = top_drive
+        j[0] += rotor
+        damping[0, 0] += kp
+        k[0, 0] += ki
     size = len(j)
     system = np.block([[np.zeros((size, size)), np.eye(size)],
                        [-k / j[:, None], -damping / j[:, None]]])
     poles = np.linalg.eigvals(system)
     poles = poles[poles.imag > 1e-9]
-    poles = poles[np.argsort(np.abs(poles))][:2]
+    return poles[np.argsort(np.abs(poles))][:n]
+
+
+def test_torsional_damping_ratios_match_an_independent_damped_eigenproblem():
+    """The documented 9.4 % of the paper string's first torsional mode, against the
+    chain of :func:`_numpy_torsion_poles`. The meshes differ (10 m pipe elements
+    there), so they agree to the discretisation error."""
+    config = SimulationConfig()
+    poles = _numpy_torsion_poles(config)
     zeta = -poles.real / np.abs(poles)
     modes = torsional_modes(config, "fixed", 2)
     assert modes.damping_ratio[0] == pytest.approx(0.094, abs=0.0005)  # docs/model.md
     np.testing.assert_allclose(modes.damping_ratio, zeta, rtol=2e-3)
     np.testing.assert_allclose(modes.frequency, np.abs(poles) / (2.0 * math.pi), rtol=1e-3)
+
+
+@pytest.mark.parametrize("kp, ki", [(2.0e4, 4.0e3), (3.0e3, 2.0e4)])
+def test_torsional_modes_with_the_pi_top_drive_match_an_independent_chain(kp, ki):
+    """``top="top_drive"``: the rotor inertia on the top, the speed loop's kp as a damper
+    and ki as a spring to the ground (the PI's integral of the speed error is the
+    angle's), against the numpy chain with the same three numbers: frequencies and
+    damping ratios of the three lowest oscillating modes, the PI's own among them."""
+    config = replace(SimulationConfig(), **{"top_drive.proportional_gain": kp,
+                                            "top_drive.integral_gain": ki})
+    poles = _numpy_torsion_poles(config, (config.top_drive.inertia, kp, ki), n=3)
+    modes = torsional_modes(config, "top_drive", 3)
+    np.testing.assert_allclose(modes.frequency, np.abs(poles) / (2.0 * math.pi), rtol=2e-3)
+    np.testing.assert_allclose(modes.damping_ratio, -poles.real / np.abs(poles), rtol=5e-3,
+                               atol=1e-4)
 
 
 def test_backward_whirl_excitations_are_rolling_without_slip():
