@@ -115,6 +115,27 @@ def test_growth_rate_is_the_largest_root_of_the_two_inertia_characteristic_polyn
     assert signs == {True, False}  # both sides of the threshold are exercised
 
 
+@pytest.mark.parametrize("rock, expected", [
+    ((0.6, 0.6, 3.0, 0.0), "stable"),  # a flat curve: the bit adds no negative damping
+    ((0.6, 0.6, 3.0, 0.01), "stable"),  # rising: positive damping
+    ((0.1, 2.0, 100.0, 0.0), "unstable"),  # falling over the whole range
+])
+def test_the_threshold_at_the_ends_of_its_range(rock, expected):
+    """Two inertias on a damped spring with a PI drive and a bit whose curve does not fall
+    (mu' >= 0) form a passive, positively damped chain: asymptotically stable at every
+    speed, so the threshold is the range's low end ("stable everywhere"); a curve that
+    falls steeply everywhere: its high end."""
+    sim = _two_inertias(2500.0, 30.0, 700.0, 0.002, (1.0, 4.0), 900.0, 100.0, rock)
+    low, high = 0.05, 60.0
+    growth = [torsional_growth_rate(sim, w, 80e3) for w in (low, 1.0, 10.0, high)]
+    if expected == "stable":
+        assert max(growth) < 0.0
+        assert stick_slip_threshold(sim, 80e3, omega_range=(low, high)) == low
+    else:
+        assert min(growth) > 0.0
+        assert stick_slip_threshold(sim, 80e3, omega_range=(low, high)) == high
+
+
 def test_growth_rate_changes_sign_at_the_threshold(sim_and_threshold):
     sim, threshold = sim_and_threshold
     assert torsional_growth_rate(sim, 0.8 * threshold, WOB) > 0
