@@ -45,6 +45,41 @@ def test_the_chart_carries_the_whole_string_as_the_simulator_does():
         Simulator(config).hook_load_for(0.0), rel=1e-9)
 
 
+def test_pipe_added_to_reach_a_deeper_bit_weighs_what_drill_pipe_weighs():
+    """A bit 3,000 m deep hangs the scenario's string plus (3000 - L) m of its drill
+    pipe: steel rho g A less the mud it displaces (Archimedes), from the pipe's
+    diameters; in a vertical hole the hook carries exactly that much more."""
+    import math
+
+    from drill_env.physics.simulator import Simulator
+    from drill_env.physics.units import GRAVITY
+
+    config = make_scenario("default").config
+    pipe, mud = config.string.drill_pipe, config.mud.density
+    area = math.pi / 4 * (pipe.outer_diameter ** 2 - pipe.inner_diameter ** 2)
+    per_metre = pipe.density * GRAVITY * area * (1.0 - mud / pipe.density)
+    table = torque_drag_table(Trajectory(WELLS["vertical"](3000.0)), config,
+                              frictions=(0.3,), step=3000.0)
+    assert table["bit_md"][-1] == pytest.approx(3000.0)
+    added = (3000.0 - config.string.length) * per_metre
+    assert table["mu=0.3"]["rotating"][-1] == pytest.approx(
+        Simulator(config).hook_load_for(0.0) + added, rel=1e-9)
+
+
+def test_the_soft_string_friction_is_the_pipe_surfaces_eq_23():
+    """The wall friction of eq. 23 at the speed of the pipe's surface, omega D / 2."""
+    import math
+
+    from drill_env.well import sliding_friction
+
+    config = make_scenario("default").config
+    c, radius = config.contact, config.string.drill_pipe.outer_diameter / 2.0
+    for omega in (0.3, 1.0, 5.0):
+        expected = c.friction_kinetic + (c.friction_static - c.friction_kinetic) * math.exp(
+            -omega * radius / c.friction_decay_speed)
+        assert sliding_friction(config, omega) == pytest.approx(expected, rel=1e-12)
+
+
 def test_the_column_is_the_scenarios_string_from_the_bit_up_with_pipe_added():
     config = make_scenario("default").config
     column = column_for(config, 3000.0)
