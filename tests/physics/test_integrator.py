@@ -735,3 +735,24 @@ def test_a_runaway_state_stops_the_kernel_with_its_status(disturb, runaway):
         time = sim.time
         sim.advance(5)  # a stopped simulator does not run on
         assert sim.time == time
+
+
+def test_a_speed_correction_shifts_the_pi_set_point():
+    """A policy's speed correction (task 1) adds to the top drive's set point inside the
+    kernel: at the first step the motor torque moves by exactly kp x the correction (the
+    PI's proportional part; its integral starts from the same state), and the loop, whose
+    integral leaves no steady error, then holds the surface speed that much higher."""
+    config = replace(SimulationConfig(), **{"solver.lateral": False,
+                                            "bit_model": "macroscopic"})
+    torques, speeds = [], []
+    for correction in (0.0, 1.0):
+        sim = Simulator(config)
+        sim.reset(OperatingPoint(120 * RPM, 60e3))
+        sim.speed_correction = correction
+        sim.advance(1)
+        torques.append(sim.state[S.MOTOR_TORQUE])
+        rec = sim.run(40.0, record_every=10)
+        speeds.append(rec[rec[:, R.TIME] > 30.0, R.SURFACE_SPEED].mean())
+    kp, _ = Simulator(config).top_drive_gains
+    assert torques[1] - torques[0] == pytest.approx(kp * 1.0, rel=1e-9)
+    assert speeds[1] - speeds[0] == pytest.approx(1.0, rel=0.01)
