@@ -77,3 +77,27 @@ def test_the_simulators_inputs_are_refused_by_name(call, message):
     with pytest.raises(ValueError, match=message):
         call(sim)
     assert sim.advance(np.int64(5), record_every=np.int32(1)).shape[0] == 5  # NumPy counts
+
+
+def test_a_run_shorter_than_a_step_takes_one_step():
+    """``run(duration)`` takes the steps that make ``duration``, at least one: a request
+    below half a step advanced nothing and returned an empty record."""
+    from drill_env.physics.config import SimulationConfig, replace
+    from drill_env.physics.validation import duration_steps
+
+    assert duration_steps(1e-4, 2e-3) == 1
+    assert duration_steps(5e-3, 2e-3) == 2  # rounded: 2.5 steps to the even 2
+    sim = Simulator(replace(SimulationConfig(), **{"solver.lateral": False}))
+    sim.reset(OperatingPoint(60 * RPM, 50e3))
+    rec = sim.run(1e-4, record_every=1)
+    assert sim.time == pytest.approx(sim.dt, rel=1e-12) and len(rec) == 1
+
+
+@pytest.mark.parametrize("value", [True, np.True_, np.False_])
+def test_a_bool_is_not_a_number_in_a_config(value):
+    """pydantic's float takes NumPy bools as 1.0 / 0.0; a config field refuses them by
+    name (a mask or flag typed where a density belongs)."""
+    from drill_env.physics.config import ConfigError, SimulationConfig, replace
+
+    with pytest.raises(ConfigError, match=r"^mud\.density: .*bool"):
+        replace(SimulationConfig(), **{"mud.density": value})
