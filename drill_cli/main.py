@@ -1222,6 +1222,9 @@ def _stop_as_interrupt() -> Any:
         return _NOT_INSTALLED
 
     def interrupt(signum: int, frame: Any) -> None:
+        from drill_env.sweep import note_interrupt
+
+        note_interrupt()  # kept also where the raise is lost (training checks it)
         raise Terminated
 
     return signal.signal(signal.SIGTERM, interrupt)

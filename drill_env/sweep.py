@@ -108,6 +108,51 @@ def _ignore(signum: int, frame: Any) -> None:
     pass
 
 
+#: An interrupt this process was sent (:func:`note_interrupt`), kept beside the
+#: KeyboardInterrupt raised for it: one raised inside a ctypes callback (numba's cache
+#: writes while it compiles) is printed as "Exception ignored" and lost.
+_noted = False
+
+
+def note_interrupt() -> None:
+    """Keep that this process was interrupted (its signal handlers call it)."""
+    global _noted
+    _noted = True
+
+
+def interrupt_requested() -> bool:
+    """Whether an interrupt reached this process (a pool worker's, or one noted by
+    :func:`note_interrupt` since :func:`watch_interrupts` began): long work checks it
+    between steps, so a KeyboardInterrupt lost where Python could not raise it still
+    stops it."""
+    return _interrupted or _noted
+
+
+@contextlib.contextmanager
+def watch_interrupts() -> Iterator[None]:
+    """Within: a Ctrl-C is noted (:func:`interrupt_requested`) as well as raised. Only
+    where Python's own handler is installed, in the main thread; a pool worker's
+    (:func:`_interrupt_once`) notes its own."""
+    import threading
+
+    global _noted
+    _noted = False
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield
+        return
+
+    def interrupt(signum: int, frame: Any) -> None:
+        note_interrupt()
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def _unless_interrupted(fn: Callable[[Any], Any], item: Any) -> Any:
     """``fn(item)`` in a pool worker, refused once the worker was interrupted: the tasks
     queued behind the interrupted one (the pool cannot cancel them) would run with the

@@ -198,6 +198,38 @@ def test_evaluate_scores_a_run_at_the_fidelity_it_trained_at(run, tmp_path, monk
     assert [args[4].fidelity for args in seen] == ["full"]
 
 
+def test_a_ctrl_c_whose_keyboardinterrupt_is_lost_still_stops_training(tmp_path,
+                                                                       monkeypatch):
+    """A Ctrl-C that lands in numba's compile callbacks (ctypes) has its KeyboardInterrupt
+    printed as "Exception ignored" and dropped: the run trained on. Emulated here by a
+    Ctrl-C raised and swallowed inside the step's callbacks: the run stops at that env
+    step and saves its checkpoint, as after any Ctrl-C."""
+    import signal
+
+    import training.train as tt
+
+    real, calls = tt.crossed, []
+
+    def crossed(before, now, every):
+        calls.append(now)
+        if len(calls) == 300:
+            try:
+                signal.raise_signal(signal.SIGINT)
+            except KeyboardInterrupt:
+                pass  # lost, as inside a ctypes callback
+        return real(before, now, every)
+
+    monkeypatch.setattr(tt, "crossed", crossed)
+    folder = tmp_path / "lost"
+    with pytest.raises(KeyboardInterrupt):
+        train(tiny_config(), folder, progress=False)
+    saved = latest_checkpoint(folder)
+    assert saved is not None
+    steps = int(saved[0].stem.split("_")[1])
+    assert steps < 2048 and steps == calls[299]  # the step the interrupt arrived in
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path):
     """A checkpoint cut short (a full disk, a copy killed) made --resume crash with an
     UnpicklingError or BadZipFile traceback; now the error names the file and the way on.

@@ -38,6 +38,7 @@ import yaml
 
 from agents.learned import latest_checkpoint, load_saved
 from drill_env.physics.validation import jsonable
+from drill_env.sweep import interrupt_requested, watch_interrupts
 from training.config import (
     TRAINING_SEEDS,
     VALIDATION_SEED,
@@ -271,6 +272,21 @@ def fused_adam_on_cpu() -> bool:
     return (major, minor) >= (2, 4)
 
 
+def stop_when_interrupted() -> Any:
+    """An SB3 callback that raises KeyboardInterrupt at the env step after an interrupt
+    whose own KeyboardInterrupt was lost (raised inside numba's compile callbacks, a
+    Ctrl-C in the first minute of a run on an empty cache left it training)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class StopWhenInterrupted(BaseCallback):
+        def _on_step(self) -> bool:
+            if interrupt_requested():
+                raise KeyboardInterrupt
+            return True
+
+    return StopWhenInterrupted()
+
+
 def torch_threads_callback(threads: int) -> Any:
     """An SB3 callback that holds torch at ``threads`` intra-op threads. torch's OpenMP
     thread count is the process's OpenMP one, which numba's OpenMP layer sets at every
@@ -449,9 +465,11 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     # what it counts to (4,096 of 1,024 once read)
     remaining = max(0, planned_steps(config, model.num_timesteps) - model.num_timesteps)
     try:
-        model.learn(remaining, callback=_callbacks(config, run, env, resumed),
-                    progress_bar=progress, reset_num_timesteps=latest is None,
-                    tb_log_name=config.algo)
+        with watch_interrupts():
+            model.learn(remaining, callback=[*_callbacks(config, run, env, resumed),
+                                             stop_when_interrupted()],
+                        progress_bar=progress, reset_num_timesteps=latest is None,
+                        tb_log_name=config.algo)
     except KeyboardInterrupt:
         save_interrupted(run, model, env, resumed.wall_s + time.perf_counter() - t0)
         env.close()
