@@ -697,15 +697,14 @@ def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, s
                                                          status, said):
     """A command stopped by a signal exits as the shell reports one, 128 + its number: a
     SIGTERM (a scheduler's stop) exited 130 as if Ctrl-C had stopped it."""
-    import os
     import signal
-    import time
 
     import drill_cli.main as cli
 
     def stopped(args):
-        os.kill(os.getpid(), getattr(signal, signum))
-        time.sleep(5.0)  # the handler raises here
+        # to this thread, its handler run before raise_signal returns (os.kill may hand
+        # the signal to another thread, the handler then running after main returned)
+        signal.raise_signal(getattr(signal, signum))
         return 0
 
     monkeypatch.setattr(cli, "cmd_modes", stopped)
