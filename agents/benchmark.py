@@ -165,12 +165,13 @@ class Episode:
                         return False
             except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
                 return False  # missing, damaged (a run killed while writing it), old
-        if self.record:
-            sidecar = self.recording_stamp
-            if not (self.recording.exists() and sidecar.exists()
-                    and sidecar.read_text() == self.stamp):
-                return False
-        return True
+        return not self.record or self.recording_current()
+
+    def recording_current(self) -> bool:
+        """Whether :attr:`recording` is there and was made under this episode's stamp."""
+        sidecar = self.recording_stamp
+        return (self.recording.exists() and sidecar.exists()
+                and sidecar.read_text() == self.stamp)
 
 
 def label(controller: str) -> str:
@@ -534,22 +535,27 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
 
 def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool) -> None:
     """Move the recordings under these rows' names that another run made (other
-    settings or code: the stamp beside them differs) to ``recordings/other_runs``: a
-    rerun without ``--record`` into the folder left them beside a table they do not
-    replay. Says how many it moved."""
-    aside = out / "recordings" / "other_runs"
+    settings or code: the stamp beside them differs, or is missing) to
+    ``recordings/other_runs/<their stamp>/``: a rerun without ``--record`` into the folder
+    left them beside a table they do not replay. Says how many it moved."""
     moved = 0
     for e in episodes:
+        if not e.recording.exists() or e.recording_current():
+            continue
         sidecar = e.recording_stamp
-        if e.recording.exists() and not (sidecar.exists() and sidecar.read_text() == e.stamp):
-            aside.mkdir(parents=True, exist_ok=True)
-            for file in (e.recording, sidecar):
-                if file.exists():
-                    file.replace(aside / file.name)
-            moved += 1
+        stamp = sidecar.read_text().strip() if sidecar.exists() else ""
+        # one folder per run, so a second set-aside keeps the first; a damaged stamp
+        # is not a path
+        folder = stamp if stamp.isalnum() and stamp.isascii() else "unstamped"
+        aside = out / "recordings" / "other_runs" / folder
+        aside.mkdir(parents=True, exist_ok=True)
+        for file in (e.recording, sidecar):
+            if file.exists():
+                file.replace(aside / file.name)
+        moved += 1
     if moved and say:
         print(f"benchmark: {moved} recording(s) of another run (other settings or code) "
-              f"under this table's names moved to {aside} (--record makes this run's)",
+              f"under this table's names moved to {out / 'recordings' / 'other_runs'}",
               file=sys.stderr)
 
 

@@ -127,9 +127,10 @@ def load_saved(path: Path, load: Any) -> Any:
     except (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
             json.JSONDecodeError) as err:
         raise ValueError(f"{path}: damaged, cannot be loaded ({type(err).__name__}: {err}); "
-                         "delete it and the files saved with it: train --resume and "
-                         "learned:<run> then take the newest complete set left (nothing "
-                         "falls back by itself); or retrain with --overwrite") from None
+                         "delete it and the files saved with it, and the run's other files "
+                         "are used (train --resume: the newest complete checkpoint left; "
+                         "nothing falls back by itself); or retrain with --overwrite"
+                         ) from None
 
 
 def latest_checkpoint(run: Path) -> tuple[Path, Path] | None:

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from drill_env.physics.units import HOUR, KILO, RPM, shown
+from drill_env.sweep import Terminated, note_interrupt
 
 DESCRIPTION = """\
 drill-env: drill-string dynamics, classical top-drive controllers and RL agents.
@@ -1201,10 +1202,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 _NOT_INSTALLED = object()
 
 
-class Terminated(KeyboardInterrupt):
-    """A SIGTERM, handled as a Ctrl-C (:func:`_stop_as_interrupt`)."""
-
-
 def exit_status(stopped: KeyboardInterrupt) -> int:
     """The shell's status of a command stopped by a signal, 128 + its number: 143 after
     SIGTERM, 130 after Ctrl-C (SIGINT)."""
@@ -1222,9 +1219,7 @@ def _stop_as_interrupt() -> Any:
         return _NOT_INSTALLED
 
     def interrupt(signum: int, frame: Any) -> None:
-        from drill_env.sweep import note_interrupt
-
-        note_interrupt()  # kept also where the raise is lost (training checks it)
+        note_interrupt(Terminated)  # kept also where the raise is lost (training checks it)
         raise Terminated
 
     return signal.signal(signal.SIGTERM, interrupt)

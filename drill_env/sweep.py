@@ -108,60 +108,66 @@ def _ignore(signum: int, frame: Any) -> None:
     pass
 
 
-#: An interrupt this process was sent (:func:`note_interrupt`), kept beside the
-#: KeyboardInterrupt raised for it: one raised inside a ctypes callback (numba's cache
-#: writes while it compiles) is printed as "Exception ignored" and lost.
-_noted = False
+class Terminated(KeyboardInterrupt):
+    """A SIGTERM, handled as a Ctrl-C (the command line's handler raises it)."""
 
 
-def note_interrupt() -> None:
-    """Keep that this process was interrupted (its signal handlers call it)."""
+#: The interrupt this process was sent (:func:`note_interrupt`): KeyboardInterrupt or
+#: :class:`Terminated`, kept beside the exception raised for it, which is lost where it is
+#: raised inside a ctypes callback (numba's cache writes while it compiles: printed as
+#: "Exception ignored").
+_noted: type[KeyboardInterrupt] | None = None
+
+
+def note_interrupt(kind: type[KeyboardInterrupt] = KeyboardInterrupt) -> None:
+    """Keep that this process was interrupted, and how (its signal handlers call it)."""
     global _noted
-    _noted = True
+    _noted = kind
 
 
-def interrupt_requested() -> bool:
-    """Whether an interrupt reached this process (a pool worker's, or one noted by
-    :func:`note_interrupt` since :func:`watch_interrupts` began): long work checks it
-    between steps, so a KeyboardInterrupt lost where Python could not raise it still
-    stops it."""
-    return _interrupted or _noted
+def noted_interrupt() -> type[KeyboardInterrupt] | None:
+    """The interrupt that reached this process and was not yet handled (a pool worker's,
+    or one noted by :func:`note_interrupt`), None if none: long work checks it between
+    steps and raises it, so an interrupt whose exception was lost still stops it."""
+    return KeyboardInterrupt if _interrupted else _noted
 
 
 @contextlib.contextmanager
 def watch_interrupts() -> Iterator[None]:
-    """Within: a Ctrl-C is noted (:func:`interrupt_requested`) as well as raised. Only
-    where Python's own handler is installed, in the main thread; a pool worker's
-    (:func:`_interrupt_once`) notes its own."""
+    """Within: a Ctrl-C is noted (:func:`noted_interrupt`) as well as raised (only where
+    Python's own handler is installed, in the main thread; a pool worker's notes its own).
+    The note outlives a lost exception until the block ends: the work inside handled it,
+    or ended without it."""
     import threading
 
     global _noted
-    _noted = False
-    if (threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
-        yield
-        return
+    install = (threading.current_thread() is threading.main_thread()
+               and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
 
     def interrupt(signum: int, frame: Any) -> None:
         note_interrupt()
         raise KeyboardInterrupt
 
-    signal.signal(signal.SIGINT, interrupt)
+    if install:
+        signal.signal(signal.SIGINT, interrupt)
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+        if install:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+        _noted = None
 
 
 def _unless_interrupted(fn: Callable[[Any], Any], item: Any) -> Any:
     """``fn(item)`` in a pool worker, refused once the worker was interrupted: the tasks
     queued behind the interrupted one (the pool cannot cancel them) would run with the
-    interrupts ignored until the pool killed them unsaved."""
+    interrupts ignored until the pool killed them unsaved. Busy before the check, so an
+    interrupt between the two raises here instead of being noted as an idle worker's."""
     global _busy
-    if _interrupted:
-        raise KeyboardInterrupt
     _busy = True
     try:
+        if _interrupted:
+            raise KeyboardInterrupt
         return fn(item)
     finally:
         _busy = False

@@ -266,21 +266,28 @@ def test_a_rerun_without_record_sets_aside_the_recordings_of_other_settings(tmp_
     """A benchmark with --record, then one of other settings without it into the same
     folder: the table held the new rows and recordings/ the old episodes under the same
     names, which replayed episodes the table does not show. Now they are moved to
-    recordings/other_runs; a recording of the table's own rows stays."""
+    recordings/other_runs/<their stamp>/, one folder per run, so a second set-aside keeps
+    the first; a recording of the table's own rows stays."""
     other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
+    third = bm.BenchmarkSettings(duration=4.0, warmup=2.0)
     args = (["stiff"], ["stick_slip"], [0], tmp_path)
-    bm.run_benchmark(*args, SHORT, workers=1, record=True, progress=False)
     recording = tmp_path / "recordings" / "stiff_stick_slip_seed0.rrd"
-    made = recording.read_bytes()
-    bm.run_benchmark(*args, SHORT, workers=1, progress=True)  # its own: kept
-    assert recording.read_bytes() == made
-    capsys.readouterr()
-    bm.run_benchmark(*args, other, workers=1, progress=True)
-    assert not recording.exists()
+    sidecar = recording.with_name(recording.name + ".stamp")
     aside = tmp_path / "recordings" / "other_runs"
-    assert (aside / recording.name).read_bytes() == made
-    assert (aside / (recording.name + ".stamp")).exists()
-    assert "1 recording(s) of another run" in capsys.readouterr().err
+    made = {}
+    for settings in (SHORT, third):
+        bm.run_benchmark(*args, settings, workers=1, record=True, progress=False)
+        made[sidecar.read_text()] = recording.read_bytes()
+        bm.run_benchmark(*args, settings, workers=1, progress=True)  # its own: kept
+        assert recording.read_bytes() == made[sidecar.read_text()]
+        capsys.readouterr()
+        bm.run_benchmark(*args, other, workers=1, progress=True)
+        assert not recording.exists() and not sidecar.exists()
+        assert "1 recording(s) of another run" in capsys.readouterr().err
+    assert len(made) == 2
+    for stamp, data in made.items():
+        assert (aside / stamp / recording.name).read_bytes() == data
+        assert (aside / stamp / sidecar.name).read_text() == stamp
 
 
 def test_a_row_is_reused_only_with_the_series_and_recording_of_its_own_run(tmp_path,

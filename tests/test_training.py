@@ -198,35 +198,58 @@ def test_evaluate_scores_a_run_at_the_fidelity_it_trained_at(run, tmp_path, monk
     assert [args[4].fidelity for args in seen] == ["full"]
 
 
-def test_a_ctrl_c_whose_keyboardinterrupt_is_lost_still_stops_training(tmp_path,
-                                                                       monkeypatch):
-    """A Ctrl-C that lands in numba's compile callbacks (ctypes) has its KeyboardInterrupt
-    printed as "Exception ignored" and dropped: the run trained on. Emulated here by a
-    Ctrl-C raised and swallowed inside the step's callbacks: the run stops at that env
-    step and saves its checkpoint, as after any Ctrl-C."""
+@pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
+def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, monkeypatch,
+                                                                   signum):
+    """A Ctrl-C (or the command line's SIGTERM) that lands in numba's compile callbacks
+    (ctypes) has its exception printed as "Exception ignored" and dropped: the run
+    trained on. Emulated by the signal raised and its exception swallowed, once while the
+    envs are built and once inside a step's callbacks: the run stops before its first
+    step (nothing to save) or at that step (its checkpoint saved), with the signal's own
+    exception (a SIGTERM exits 143, not 130)."""
     import signal
 
     import training.train as tt
+    from drill_cli.main import _stop_as_interrupt
+    from drill_env.sweep import Terminated
 
-    real, calls = tt.crossed, []
+    def lose_one() -> None:
+        try:
+            signal.raise_signal(getattr(signal, signum))
+        except KeyboardInterrupt:
+            pass  # lost, as inside a ctypes callback
 
-    def crossed(before, now, every):
-        calls.append(now)
-        if len(calls) == 300:
-            try:
-                signal.raise_signal(signal.SIGINT)
-            except KeyboardInterrupt:
-                pass  # lost, as inside a ctypes callback
-        return real(before, now, every)
+    expected = Terminated if signum == "SIGTERM" else KeyboardInterrupt
+    previous = _stop_as_interrupt()  # the command line's SIGTERM handler
+    try:
+        real_make, real_crossed, calls = tt.make_train_env, tt.crossed, []
 
-    monkeypatch.setattr(tt, "crossed", crossed)
-    folder = tmp_path / "lost"
-    with pytest.raises(KeyboardInterrupt):
-        train(tiny_config(), folder, progress=False)
-    saved = latest_checkpoint(folder)
-    assert saved is not None
-    steps = int(saved[0].stem.split("_")[1])
-    assert steps < 2048 and steps == calls[299]  # the step the interrupt arrived in
+        def make_train_env(config, seed):
+            lose_one()
+            return real_make(config, seed)
+
+        monkeypatch.setattr(tt, "make_train_env", make_train_env)
+        with pytest.raises(expected):
+            train(tiny_config(), tmp_path / "while_built", progress=False)
+        assert latest_checkpoint(tmp_path / "while_built") is None
+        monkeypatch.setattr(tt, "make_train_env", real_make)
+
+        def crossed(before, now, every):
+            calls.append(now)
+            if len(calls) == 300:
+                lose_one()
+            return real_crossed(before, now, every)
+
+        monkeypatch.setattr(tt, "crossed", crossed)
+        folder = tmp_path / "while_stepping"
+        with pytest.raises(expected):
+            train(tiny_config(), folder, progress=False)
+        saved = latest_checkpoint(folder)
+        assert saved is not None
+        steps = int(saved[0].stem.split("_")[1])
+        assert steps < 2048 and steps == calls[299]  # the step the interrupt arrived in
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 

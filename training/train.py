@@ -38,7 +38,7 @@ import yaml
 
 from agents.learned import latest_checkpoint, load_saved
 from drill_env.physics.validation import jsonable
-from drill_env.sweep import interrupt_requested, watch_interrupts
+from drill_env.sweep import noted_interrupt, watch_interrupts
 from training.config import (
     TRAINING_SEEDS,
     VALIDATION_SEED,
@@ -280,8 +280,8 @@ def stop_when_interrupted() -> Any:
 
     class StopWhenInterrupted(BaseCallback):
         def _on_step(self) -> bool:
-            if interrupt_requested():
-                raise KeyboardInterrupt
+            if (lost := noted_interrupt()) is not None:
+                raise lost  # KeyboardInterrupt, or Terminated after a SIGTERM
             return True
 
     return StopWhenInterrupted()
@@ -422,11 +422,19 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     ``n_timesteps`` at or below the steps done is refused."""
     import shutil
 
-    from stable_baselines3.common.vec_env import VecNormalize
-
     check_run_folder(run, resume, overwrite, config)
     if overwrite and not resume and holds_run(run):
         shutil.rmtree(run)
+    # from here a Ctrl-C is noted as well as raised: one lost while the envs compile
+    # (numba's first minute on an empty cache) stops the run at its first step
+    with watch_interrupts():
+        return _train(config, run, resume, progress)
+
+
+def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path:
+    """:func:`train` once the folder is checked."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
     run.mkdir(parents=True, exist_ok=True)
     saved = run / "config.yaml"
     algo = algo_class(config.algo)
@@ -465,11 +473,12 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     # what it counts to (4,096 of 1,024 once read)
     remaining = max(0, planned_steps(config, model.num_timesteps) - model.num_timesteps)
     try:
-        with watch_interrupts():
-            model.learn(remaining, callback=[*_callbacks(config, run, env, resumed),
-                                             stop_when_interrupted()],
-                        progress_bar=progress, reset_num_timesteps=latest is None,
-                        tb_log_name=config.algo)
+        if (lost := noted_interrupt()) is not None:  # while the envs were built
+            raise lost
+        model.learn(remaining, callback=[*_callbacks(config, run, env, resumed),
+                                         stop_when_interrupted()],
+                    progress_bar=progress, reset_num_timesteps=latest is None,
+                    tb_log_name=config.algo)
     except KeyboardInterrupt:
         save_interrupted(run, model, env, resumed.wall_s + time.perf_counter() - t0)
         env.close()

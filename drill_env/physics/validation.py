@@ -457,8 +457,8 @@ ANGLE_TOLERANCE = 1.0e-6
 
 def require_distinct_angles(angles: tuple[float, ...], name: str) -> None:
     """Raise :class:`ConfigError` naming ``name[i]`` where an angle (deg) repeats an
-    earlier one modulo 360 (a bit's blades: a blade is ~10 deg wide at the gauge, so any
-    real spacing passes)."""
+    earlier one modulo 360 (a bit's blades: two in one place). Only a repeat: how close
+    blades may sit, and how unbalanced a bit may be, is the user's design."""
     for i, b in enumerate(angles):
         for j, a in enumerate(angles[:i]):
             _require(abs((b - a + 180.0) % 360.0 - 180.0) > ANGLE_TOLERANCE, f"{name}[{i}]",

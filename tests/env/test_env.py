@@ -349,7 +349,7 @@ def test_unknown_keyword_is_named():
     ({"physics": {"bit.gauge_clearance": 0.0}}, "gauge_clearance"),
     ({"physics": {"string.hole_diameter": 0.15}}, "clearance <= 0"),
     ({"physics": {"string.stabilizer_diameter": 0.3}}, "stabilizer_diameter"),
-    # six blades on one angle (modulo 360): the bit ran 37 mm off a 5 mm clearance
+    # blades on one angle (modulo 360): two blades in one place
     ({"physics": {"bit.blade_angles": [0.0] * 6}}, r"bit.blade_angles\[1\]: 0 deg repeats"),
     ({"physics": {"bit.blade_angles": [0, 60, 120, 180, 240, 360]}},
      r"bit.blade_angles\[5\]: 360 deg repeats entry \[0\]"),

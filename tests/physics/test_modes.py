@@ -148,8 +148,8 @@ def test_the_modal_analysis_takes_vertical_holes_only():
 
 def test_overdamped_motions_are_not_modes():
     """``_damped`` keeps the oscillating roots only: a 1-DOF system at zeta = 1.5 has none;
-    a 2-DOF chain with one overdamped and one oscillating root gives that one, as scipy's
-    eigenvalues of the same first-order system do."""
+    two uncoupled DOFs, one at zeta = 0.05 (w = 10 rad/s) and one at zeta = 2.5, give the
+    first alone, at |lambda| = w and -Re(lambda) / |lambda| = zeta (closed form)."""
     from drill_env.physics.modes import _damped
 
     freq, zeta, _ = _damped(np.array([[1.0]]), np.array([[3.0]]), np.array([1.0]), 3)

@@ -86,7 +86,7 @@ def test_a_run_shorter_than_a_step_takes_one_step():
     from drill_env.physics.validation import duration_steps
 
     assert duration_steps(1e-4, 2e-3) == 1
-    assert duration_steps(5e-3, 2e-3) == 2  # rounded: 2.5 steps to the even 2
+    assert duration_steps(5.2e-3, 2e-3) == 3  # rounded to the nearest step
     sim = Simulator(replace(SimulationConfig(), **{"solver.lateral": False}))
     sim.reset(OperatingPoint(60 * RPM, 50e3))
     rec = sim.run(1e-4, record_every=1)
