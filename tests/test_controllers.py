@@ -83,6 +83,30 @@ def test_gains_follow_their_formulas_on_the_string(name, config, z, f_s):
     assert zt.feedback_gain == pytest.approx(1.0 / z, rel=1e-9)
 
 
+@pytest.mark.parametrize("name", ["stiff", "soft_speed", "soft_torque", "z_torque"])
+def test_explicitly_configured_values_win_over_the_rule(name):
+    """``resolve``'s docstring: gains, feedback gain and filter corner given in the config
+    are the ones the drive uses, whatever its rule would tune."""
+    given = {"top_drive.controller": name, "top_drive.proportional_gain": 1234.0,
+             "top_drive.integral_gain": 56.0, "top_drive.feedback_gain": 7.5e-4,
+             "top_drive.filter_frequency": 0.33, "top_drive.torque_feedback": "band_pass"}
+    law = resolve(replace(make_scenario("default").config, **given))
+    assert (law.proportional_gain, law.integral_gain, law.feedback_gain,
+            law.filter_frequency, law.torque_feedback) == (1234.0, 56.0, 7.5e-4, 0.33,
+                                                            "band_pass")
+
+
+def test_a_stiff_drive_with_torque_feedback_tunes_its_filter_to_the_string():
+    """A stiff PI given a high-pass torque feedback and no corner: the corner follows the
+    ZTorque rule on the string's stick-slip frequency, as for ZTorque itself (it was
+    left at NaN when only non-stiff controllers looked the frequency up)."""
+    config = make_scenario("default").config
+    stiff = resolve(replace(config, **{"top_drive.torque_feedback": "high_pass"}))
+    z_torque = resolve(replace(config, **{"top_drive.controller": "z_torque"}))
+    assert math.isfinite(stiff.filter_frequency) and stiff.filter_frequency > 0.0
+    assert stiff.filter_frequency == pytest.approx(z_torque.filter_frequency, rel=1e-12)
+
+
 def test_the_tuning_frequency_carries_the_bits_inertia():
     """The soft controllers tune to the string's first torsional mode with the bit on it:
     a heavy end inertia (50 kg m^2, a mud motor's rotor and bit, say) lowers the mode
