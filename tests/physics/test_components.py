@@ -219,3 +219,24 @@ def test_a_stabilizer_narrower_than_its_body_is_refused_by_name():
     # also at 34.6 m, whose nearest node (35 m) carries the pipe
     assert StringConfig(stabilizers=(100.0,), stabilizer_diameter=6 * INCH).stabilizers
     assert StringConfig(stabilizers=(34.6,), stabilizer_diameter=6 * INCH).stabilizers
+
+
+@pytest.mark.parametrize("make, lb_per_ft", [(cp.collar_6_5, 91.0), (cp.collar_8, 150.0)])
+def test_collar_presets_weigh_what_api_rp_7g_lists(make, lb_per_ft):
+    """Plain collars are steel tubes: their weight per foot in API RP 7G's table (6 1/2 x
+    2 13/16 in: 91 lb/ft; 8 x 2 13/16 in: 150 lb/ft), which rounds to the pound, from the
+    preset's diameters and steel density."""
+    collar = make(9.0)
+    kg_per_m = collar.density * collar.area
+    assert kg_per_m / 1.48816 == pytest.approx(lb_per_ft, abs=1.0)  # 1 lb/ft = 1.48816 kg/m
+
+
+def test_buoyed_weight_takes_the_mud_s_buoyancy_factor():
+    """Weight in mud = weight in air x (1 - mud weight / 65.5 ppg), the driller's
+    buoyancy factor (65.5 ppg: steel; Bourgoyne et al., Applied Drilling Engineering):
+    10 ppg mud (1198 kg/m^3) on the default BHA."""
+    components = cp.packed_bha()
+    air = sum(c.density * c.area * c.length for c in components) * GRAVITY
+    mud = 10.0 * 119.826  # 10 ppg in kg/m^3
+    assert cp.buoyed_weight(components, mud) == pytest.approx(air * (1 - 10.0 / 65.5),
+                                                              rel=1e-3)
