@@ -269,6 +269,13 @@ def test_driller_raises_rpm_then_lowers_wob_on_stick_slip_and_steps_back_when_ca
     assert actions[-1, 1] == pytest.approx(
         max(100e3 - lowered * rules.weight_on_bit_step, 50e3) + rules.weight_on_bit_step)
     assert actions[-1, 0] == pytest.approx((50.0 + rules.max_rpm_raise) * RPM)
+    # and the next step back waits as many calm decisions again, not one
+    before = actions[-1].copy()
+    assert before[1] + rules.weight_on_bit_step < 100e3  # still below the plan
+    actions = run_driller(driller, np.full(50 * (rules.calm_decisions - 1), 10e3))
+    np.testing.assert_array_equal(actions[-1], before)
+    actions = run_driller(driller, np.full(50, 10e3))
+    assert actions[-1, 1] == pytest.approx(before[1] + rules.weight_on_bit_step)
 
 
 def test_driller_acts_at_its_torque_swing_threshold():
