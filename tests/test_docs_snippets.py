@@ -52,3 +52,32 @@ def test_the_rock_table_of_the_model_page_is_the_scenarios_rocks():
     for rock in (scenarios.HARD, scenarios.SOFT, scenarios.VERY_SOFT):
         assert rows[rock.name] == pytest.approx([getattr(rock, f) for f in fields],
                                                 rel=1e-12), rock.name
+
+
+def _line(page: str, start: str) -> str:
+    """The line of ``page`` that starts with ``start`` (a table row)."""
+    lines = [line for line in (ROOT / page).read_text().splitlines() if line.startswith(start)]
+    assert len(lines) == 1, (page, start, len(lines))
+    return lines[0]
+
+
+def test_the_controllers_page_states_the_defaults_the_code_has():
+    """docs/controllers.md's numbers for the driller's rules and the stability map's
+    points are the defaults of ``DrillerRules`` and ``MapSettings``: a default changed in
+    the code (or the page) without the other fails here."""
+    from agents.driller import DrillerRules
+    from drill_env.physics.units import KILO
+    from drill_env.stability_map import MapSettings
+
+    r = DrillerRules()
+    row = _line("docs/controllers.md", "| `driller` |")
+    assert (f"raises rpm (+{r.rpm_step:g} per {r.decision_period:g} s, up to "
+            f"+{r.max_rpm_raise:g}), then lowers WOB (-{r.weight_on_bit_step / KILO:g} kN, "
+            f"down to half) while the surface torque swings > {100 * r.torque_swing:g} % of "
+            f"its mean; steps back after {r.calm_decisions * r.decision_period:g} s calm"
+            ) in row
+    assert r.min_weight_fraction == 0.5  # "down to half"
+    m = MapSettings()
+    text = " ".join((ROOT / "docs/controllers.md").read_text().split())
+    assert f"A map point is {m.seconds:g} s from a {100 * m.kick:g} % kick (`MapSettings`)" \
+        in text
