@@ -712,3 +712,20 @@ def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, s
     assert main(["modes"]) == status
     assert f"drill-env modes: {said}" in capsys.readouterr().err
     assert signal.getsignal(signal.SIGTERM) == before  # the command's handler is gone
+
+
+def test_benchmark_windows_default_to_what_help_and_docs_say(monkeypatch, tmp_path):
+    """Without --duration and --warmup a scenario benchmark runs 60 s episodes measured
+    after 30 s (docs/controllers.md, the options' help); with --task, the task's
+    evaluation episode (training.evaluate.EVALUATION_WINDOWS)."""
+    import agents.benchmark as bm
+    from training.evaluate import EVALUATION_WINDOWS
+
+    seen = []
+    monkeypatch.setattr(bm, "run_benchmark", lambda *args, **kw: seen.append(args[4]) or [])
+    assert main(["benchmark", "--controllers", "stiff", "--seeds", "1", "--out",
+                 str(tmp_path / "a")]) == 0
+    assert main(["benchmark", "--task", "stick_slip", "--controllers", "stiff", "--seeds",
+                 "1", "--out", str(tmp_path / "b")]) == 0
+    assert [(s.duration, s.warmup) for s in seen] == [(60.0, 30.0),
+                                                      EVALUATION_WINDOWS["stick_slip"]]
