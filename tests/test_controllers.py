@@ -107,6 +107,25 @@ def test_a_stiff_drive_with_torque_feedback_tunes_its_filter_to_the_string():
     assert stiff.filter_frequency == pytest.approx(z_torque.filter_frequency, rel=1e-12)
 
 
+def test_a_torque_filter_too_fast_for_the_step_is_refused_by_name():
+    """The filter's semi-implicit update keeps its phase error under ~10 % while
+    2 pi f dt <= 0.5 (top_drive.MAX_FILTER_W_DT's reason): 0.4 runs, 0.6 is refused
+    naming the field."""
+    from drill_env.physics.simulator import Simulator
+    from drill_env.physics.validation import ConfigError
+
+    config = make_scenario("default").config
+    dt = config.solver.time_step
+    for w_dt, refused in ((0.4, False), (0.6, True)):
+        cfg = replace(config, **{"top_drive.controller": "z_torque",
+                                 "top_drive.filter_frequency": w_dt / (2 * math.pi * dt)})
+        if refused:
+            with pytest.raises(ConfigError, match="^top_drive.filter_frequency: .*too fast"):
+                Simulator(cfg)
+        else:
+            assert Simulator(cfg).dt == dt
+
+
 def test_the_tuning_frequency_carries_the_bits_inertia():
     """The soft controllers tune to the string's first torsional mode with the bit on it:
     a heavy end inertia (50 kg m^2, a mud motor's rotor and bit, say) lowers the mode

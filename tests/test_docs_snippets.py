@@ -62,9 +62,10 @@ def _line(page: str, start: str) -> str:
 
 
 def test_the_controllers_page_states_the_defaults_the_code_has():
-    """docs/controllers.md's numbers for the driller's rules and the stability map's
-    points are the defaults of ``DrillerRules`` and ``MapSettings``: a default changed in
-    the code (or the page) without the other fails here."""
+    """docs/controllers.md's numbers for the driller's rules, SoftTorque's band-pass and
+    the stability map's points are the defaults of ``DrillerRules``, ``TopDriveConfig``
+    and ``MapSettings``: a default changed in the code (or the page) without the other
+    fails here."""
     from agents.driller import DrillerRules
     from drill_env.physics.units import KILO
     from drill_env.stability_map import MapSettings
@@ -77,6 +78,10 @@ def test_the_controllers_page_states_the_defaults_the_code_has():
             f"its mean; steps back after {r.calm_decisions * r.decision_period:g} s calm"
             ) in row
     assert r.min_weight_fraction == 0.5  # "down to half"
+    from drill_env.physics.config import TopDriveConfig
+
+    row = _line("docs/controllers.md", "| `soft-torque` |")
+    assert f"damping {TopDriveConfig().filter_damping:g} (our choice)" in row
     m = MapSettings()
     text = " ".join((ROOT / "docs/controllers.md").read_text().split())
     assert f"A map point is {m.seconds:g} s from a {100 * m.kick:g} % kick (`MapSettings`)" \

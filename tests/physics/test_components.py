@@ -221,13 +221,15 @@ def test_a_stabilizer_narrower_than_its_body_is_refused_by_name():
     assert StringConfig(stabilizers=(34.6,), stabilizer_diameter=6 * INCH).stabilizers
 
 
-@pytest.mark.parametrize("make, lb_per_ft", [(cp.collar_6_5, 91.0), (cp.collar_8, 150.0)])
-def test_collar_presets_weigh_what_api_rp_7g_lists(make, lb_per_ft):
+@pytest.mark.parametrize("make, lb_per_ft", [(cp.collar_6_5, 91.0), (cp.collar_8, 150.0),
+                                             (cp.drill_pipe_5, 17.93)])
+def test_tube_presets_weigh_what_the_api_tables_list(make, lb_per_ft):
     """Plain collars are steel tubes: their weight per foot in API RP 7G's table (6 1/2 x
-    2 13/16 in: 91 lb/ft; 8 x 2 13/16 in: 150 lb/ft), which rounds to the pound, from the
-    preset's diameters and steel density."""
-    collar = make(9.0)
-    kg_per_m = collar.density * collar.area
+    2 13/16 in: 91 lb/ft; 8 x 2 13/16 in: 150 lb/ft), which rounds to the pound; the 5 in
+    19.5 lb/ft drill pipe's body is 17.93 lb/ft plain-end (API 5DP; tool joints make the
+    nominal weight). From the preset's diameters and steel density."""
+    tube = make(30.0)
+    kg_per_m = tube.density * tube.area
     assert kg_per_m / 1.48816 == pytest.approx(lb_per_ft, abs=1.0)  # 1 lb/ft = 1.48816 kg/m
 
 
