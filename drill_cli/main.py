@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from drill_env.physics.units import HOUR, KILO, RPM, shown
-from drill_env.sweep import Terminated, note_interrupt
+from drill_env.sweep import Terminated, clear_interrupt, note_interrupt
 
 DESCRIPTION = """\
 drill-env: drill-string dynamics, classical top-drive controllers and RL agents.
@@ -1175,6 +1175,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if out is not None and (reason := unwritable(out)):  # before the work: found after an
         args.command_parser.error(f"--out {out}: {reason}")  # hour's work, it lost the hour
     stop = _stop_as_interrupt()
+    clear_interrupt()  # one noted before this command is not this command's
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
@@ -1194,6 +1195,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"drill-env {args.command}: {said}", file=sys.stderr)
         return exit_status(stopped)
     finally:
+        clear_interrupt()  # handled here: not a later command's (or caller's) to act on
         if stop is not _NOT_INSTALLED:
             signal.signal(signal.SIGTERM, stop if stop is not None else signal.SIG_DFL)
     return 2

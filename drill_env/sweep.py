@@ -125,6 +125,12 @@ def note_interrupt(kind: type[KeyboardInterrupt] = KeyboardInterrupt) -> None:
     _noted = kind
 
 
+def clear_interrupt() -> None:
+    """Forget a noted interrupt: whoever handled its exception calls it."""
+    global _noted
+    _noted = None
+
+
 def noted_interrupt() -> type[KeyboardInterrupt] | None:
     """The interrupt that reached this process and was not yet handled (a pool worker's,
     or one noted by :func:`note_interrupt`), None if none: long work checks it between
@@ -140,7 +146,6 @@ def watch_interrupts() -> Iterator[None]:
     or ended without it."""
     import threading
 
-    global _noted
     install = (threading.current_thread() is threading.main_thread()
                and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
 
@@ -155,7 +160,7 @@ def watch_interrupts() -> Iterator[None]:
     finally:
         if install:
             signal.signal(signal.SIGINT, signal.default_int_handler)
-        _noted = None
+        clear_interrupt()
 
 
 def _unless_interrupted(fn: Callable[[Any], Any], item: Any) -> Any:
