@@ -712,7 +712,12 @@ def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, s
 
     monkeypatch.setattr(cli, "cmd_modes", stopped)
     before = signal.getsignal(signal.SIGTERM)
-    assert main(["modes"]) == status
+    # Ctrl-C as in a terminal: a job started in the background inherits SIGINT ignored
+    ignored = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        assert main(["modes"]) == status
+    finally:
+        signal.signal(signal.SIGINT, ignored)
     assert f"drill-env modes: {said}" in capsys.readouterr().err
     assert signal.getsignal(signal.SIGTERM) == before  # the command's handler is gone
     from drill_env.sweep import noted_interrupt

@@ -222,6 +222,8 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
 
     expected = Terminated if signum == "SIGTERM" else KeyboardInterrupt
     previous = _stop_as_interrupt()  # the command line's SIGTERM handler
+    # Ctrl-C as in a terminal: a job started in the background inherits SIGINT ignored
+    ignored = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         real_make, real_crossed, calls = tt.make_train_env, tt.crossed, []
 
@@ -249,9 +251,10 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
         assert saved is not None
         steps = int(saved[0].stem.split("_")[1])
         assert steps < 2048 and steps == calls[299]  # the step the interrupt arrived in
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
     finally:
         signal.signal(signal.SIGTERM, previous)
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        signal.signal(signal.SIGINT, ignored)
 
 
 def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path):
