@@ -629,6 +629,37 @@ def test_soft_torque_band_pass_has_unit_gain_at_its_centre_and_half_power_at_its
     assert np.arctan2(b, a) == pytest.approx(expected_phase, abs=0.01)
 
 
+def test_z_torque_high_pass_is_the_backward_euler_filter_of_scipy():
+    """The ZTorque filter H = s / (s + w_c) (docs/model.md, top drive) in the kernel,
+    driven by a random string torque, against scipy's backward-Euler discretisation of the
+    same transfer function (``cont2discrete(..., method="backward_diff")``, run by
+    ``dlsim``): the same difference equation, reached from the other side (an input-output
+    recurrence rather than the kernel's low-pass state), so equal to rounding. Its DC gain
+    is 0: a held torque is not fed back."""
+    import scipy.signal
+
+    from drill_env.physics.layout import P
+
+    sim = Simulator(SimulationConfig(top_drive=dataclasses.replace(
+        SimulationConfig().top_drive, controller="z_torque")))
+    p, state = sim.params.copy(), np.zeros(N_STATE)
+    w, gain, dt = p[P.TD_FILTER_W], p[P.TD_FEEDBACK_GAIN], p[P.DT]
+    assert w * dt > 1e-4  # a corner the step resolves, so the discretisation shows
+    torque = np.random.default_rng(7).normal(0.0, 1e4, 4000)  # N m
+    out = np.empty(torque.size)
+    for k, value in enumerate(torque):
+        state[S.SURFACE_TORQUE] = value
+        out[k] = ig._torque_feedback(p, state, p[P.TD_FEEDBACK]) / gain
+    num, den, _ = scipy.signal.cont2discrete(([1.0, 0.0], [1.0, w]), dt, method="backward_diff")
+    _, expected = scipy.signal.dlsim((num.ravel(), den, dt), torque)
+    np.testing.assert_allclose(out, expected.ravel(), rtol=0.0, atol=1e-9 * np.abs(torque).max())
+    state[:] = 0.0
+    for _ in range(round(10.0 / (w * dt))):  # ten time constants of a held torque
+        state[S.SURFACE_TORQUE] = 5e3
+        held = ig._torque_feedback(p, state, p[P.TD_FEEDBACK]) / gain
+    assert abs(held) < 1e-3 * 5e3
+
+
 def _lateral_transient_error(time_step: float) -> tuple[float, float, float]:
     """Max error of the lateral displacements after 1 s against scipy's expm of the same
     damped ODE (M u'' + (a M + b K) u' + (K + K_g) u = 0, top node pinned, bit tilt held),
