@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import signal
+from collections.abc import Iterator
+
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.trajectory import Survey
 from drill_env.physics.units import RPM
@@ -126,3 +130,15 @@ def fail_last(k: int) -> int:
         time.sleep(0.5)
         raise ValueError("task 3 failed")
     return k
+
+
+@contextlib.contextmanager
+def ctrl_c_as_in_a_terminal() -> Iterator[None]:
+    """Python's own SIGINT handler (KeyboardInterrupt) for the block, the previous one
+    after it: a test run started in the background (``nohup ... &``) inherits SIGINT
+    ignored (POSIX), and there Python never installs its handler."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)

@@ -5,6 +5,7 @@ import json
 from pathlib import Path
 
 import pytest
+from helpers import ctrl_c_as_in_a_terminal
 
 from drill_cli.main import main
 
@@ -712,12 +713,8 @@ def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, s
 
     monkeypatch.setattr(cli, "cmd_modes", stopped)
     before = signal.getsignal(signal.SIGTERM)
-    # Ctrl-C as in a terminal: a job started in the background inherits SIGINT ignored
-    ignored = signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
+    with ctrl_c_as_in_a_terminal():
         assert main(["modes"]) == status
-    finally:
-        signal.signal(signal.SIGINT, ignored)
     assert f"drill-env modes: {said}" in capsys.readouterr().err
     assert signal.getsignal(signal.SIGTERM) == before  # the command's handler is gone
     from drill_env.sweep import noted_interrupt

@@ -12,6 +12,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import yaml
+from helpers import ctrl_c_as_in_a_terminal
 
 from agents.learned import TRAINED, LearnedController, latest_checkpoint
 from agents.registry import make_controller
@@ -222,39 +223,37 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
 
     expected = Terminated if signum == "SIGTERM" else KeyboardInterrupt
     previous = _stop_as_interrupt()  # the command line's SIGTERM handler
-    # Ctrl-C as in a terminal: a job started in the background inherits SIGINT ignored
-    ignored = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
-        real_make, real_crossed, calls = tt.make_train_env, tt.crossed, []
+        with ctrl_c_as_in_a_terminal():
+            real_make, real_crossed, calls = tt.make_train_env, tt.crossed, []
 
-        def make_train_env(config, seed):
-            lose_one()
-            return real_make(config, seed)
-
-        monkeypatch.setattr(tt, "make_train_env", make_train_env)
-        with pytest.raises(expected):
-            train(tiny_config(), tmp_path / "while_built", progress=False)
-        assert latest_checkpoint(tmp_path / "while_built") is None
-        monkeypatch.setattr(tt, "make_train_env", real_make)
-
-        def crossed(before, now, every):
-            calls.append(now)
-            if len(calls) == 300:
+            def make_train_env(config, seed):
                 lose_one()
-            return real_crossed(before, now, every)
+                return real_make(config, seed)
 
-        monkeypatch.setattr(tt, "crossed", crossed)
-        folder = tmp_path / "while_stepping"
-        with pytest.raises(expected):
-            train(tiny_config(), folder, progress=False)
-        saved = latest_checkpoint(folder)
-        assert saved is not None
-        steps = int(saved[0].stem.split("_")[1])
-        assert steps < 2048 and steps == calls[299]  # the step the interrupt arrived in
-        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+            monkeypatch.setattr(tt, "make_train_env", make_train_env)
+            with pytest.raises(expected):
+                train(tiny_config(), tmp_path / "while_built", progress=False)
+            assert latest_checkpoint(tmp_path / "while_built") is None
+            monkeypatch.setattr(tt, "make_train_env", real_make)
+
+            def crossed(before, now, every):
+                calls.append(now)
+                if len(calls) == 300:
+                    lose_one()
+                return real_crossed(before, now, every)
+
+            monkeypatch.setattr(tt, "crossed", crossed)
+            folder = tmp_path / "while_stepping"
+            with pytest.raises(expected):
+                train(tiny_config(), folder, progress=False)
+            saved = latest_checkpoint(folder)
+            assert saved is not None
+            steps = int(saved[0].stem.split("_")[1])
+            assert steps < 2048 and steps == calls[299]  # the step the interrupt arrived in
+            assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
     finally:
         signal.signal(signal.SIGTERM, previous)
-        signal.signal(signal.SIGINT, ignored)
 
 
 def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path):
