@@ -132,7 +132,7 @@ def test_missing_info_keys_and_fake_env(tmp_path: Path) -> None:
         rec.record({"time": 0.1 * k, "bit_speed": w, "odd": "text", "reward_x": 1.5},
                    action=[k, -k])
     path = rec.finish("stopped for the test")
-    assert path is not None and path.name.startswith("bare_seednoseed_ep0000_")
+    assert path is not None and path.name.startswith("bare_noseed_ep0000_")
     back = read_recording(path)
     times, values = back.scalars["/timeseries/speed_rpm/bit"]
     np.testing.assert_allclose(values, [(5.0 if k % 7 else 0.0) / RPM for k in range(20)])

@@ -292,12 +292,13 @@ class EpisodeRecorder:
     def file_name(self) -> str:
         """``<stem>.rrd`` when :meth:`begin` was given a stem (a name the caller keeps
         unique, such as the benchmark's controller, scenario and seed), else
-        ``[<controller>_]<scenario>_seed<seed>_ep<index>_<recording id>.rrd``."""
+        ``[<controller>_]<scenario>_seed<seed>_ep<index>_<recording id>.rrd``, with
+        ``noseed`` for ``seed<seed>`` when the episode's reset got no seed."""
         if self.stem is not None:
             return stem_file_name(self.stem)
-        seed = "noseed" if self.seed is None else _sanitize(str(self.seed))
+        seed = "noseed" if self.seed is None else f"seed{_sanitize(str(self.seed))}"
         lead = f"{_sanitize(self.controller)}_" if self.controller else ""
-        return (f"{lead}{_sanitize(self.scenario)}_seed{seed}_ep{self.episode_index:04d}_"
+        return (f"{lead}{_sanitize(self.scenario)}_{seed}_ep{self.episode_index:04d}_"
                 f"{self.recording_id[:8]}.rrd")
 
     # ------------------------------------------------------------------ steps
