@@ -176,7 +176,12 @@ class Episode:
 
 def label(controller: str) -> str:
     """The name a controller has in the tables and file names: ``learned:PATH`` ->
-    ``learned``, ``constant:120/100`` -> ``constant-120rpm-100kN``."""
+    ``learned``, ``constant:120/100`` -> ``constant-120rpm-100kN``, one of your own
+    (``file.py:Class``) its class's ``name`` (:func:`agents.registry.table_name`)."""
+    from agents.registry import is_imported, table_name
+
+    if is_imported(controller):
+        return table_name(controller)
     head, _, rest = controller.partition(":")
     if head == "constant" and rest:
         rpm, _, kn = rest.partition("/")
@@ -214,18 +219,26 @@ def labels(controllers: Sequence[str]) -> list[str]:
 
 
 def controller_digest(controller: str, env_id: str | None = None) -> str:
-    """A short hash of a learned controller's model files ("" for the others): rows of
-    a benchmark results file are reused only for the same model."""
-    if not (controller == "learned" or controller.startswith("learned:")):
-        return ""
+    """A short hash of a learned controller's model files, or of the source file of a
+    controller of your own ("" for this project's, whose code the fingerprint follows):
+    rows of a benchmark results file are reused only for the same model or code."""
     import hashlib
 
-    from agents.learned import policy_files
+    from agents.registry import CONTROLLERS, imported_factory, is_imported, source_file
 
-    path = controller.partition(":")[2] or None
     digest = hashlib.sha256()
-    for file in policy_files(path, env_id):
-        digest.update(file.read_bytes())
+    if controller == "learned" or controller.startswith("learned:"):
+        from agents.learned import policy_files
+
+        for file in policy_files(controller.partition(":")[2] or None, env_id):
+            digest.update(file.read_bytes())
+        return digest.hexdigest()[:12]
+    factory = imported_factory(controller) if is_imported(controller) \
+        else CONTROLLERS.get(controller)
+    own = source_file(factory) if factory is not None else None
+    if own is None:
+        return ""
+    digest.update(own.read_bytes())
     return digest.hexdigest()[:12]
 
 

@@ -1,9 +1,20 @@
-"""Controllers by name: what ``drill-env run --controller`` and ``benchmark`` accept."""
+"""Controllers by name: what ``drill-env run --controller`` and ``benchmark`` accept.
+
+Besides the registry's names, a controller of your own is named by where it is:
+``path/to/file.py:ClassName`` or ``package.module:ClassName`` (docs/controllers.md, "Your
+own controller"). The benchmark's workers import it again by that name."""
 
 from __future__ import annotations
 
+import hashlib
+import importlib
+import importlib.util
+import os
 import re
+import sys
 from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 from agents.base import Controller
@@ -31,7 +42,117 @@ CLASSICAL = tuple(name for name in CONTROLLERS if name != "learned")
 
 
 #: What an unknown name's error lists: the registry's names and the parametrised forms.
-KNOWN = f"{', '.join(CONTROLLERS)}, learned:<run folder>, constant:<rpm>/<kN>"
+KNOWN = (f"{', '.join(CONTROLLERS)}, learned:<run folder>, constant:<rpm>/<kN>, "
+         "<file.py or module>:<class> (your own)")
+
+#: The prefixes of the registry's parametrised names (not a module to import).
+_PARAMETRISED = ("learned", "constant")
+
+
+def is_imported(name: str) -> bool:
+    """Whether ``name`` is the import form ``<file.py or module>:<attribute>`` of a
+    controller of your own."""
+    source, colon, attribute = name.rpartition(":")
+    return bool(colon and source and source not in _PARAMETRISED
+                and not source.startswith(tuple(p + ":" for p in _PARAMETRISED))
+                and attribute.isidentifier())
+
+
+def _module(source: str) -> ModuleType:
+    """The module ``source`` names: a ``.py`` file or an importable module, looked for in
+    the working folder too (as ``python -m`` does; the ``drill-env`` script alone would
+    not). Loaded again when its file changed since (the benchmark's stored rows follow
+    the file, :func:`source_file`, so the code that runs must too)."""
+    if source.endswith(".py"):
+        path = Path(source).expanduser().resolve()
+        if not path.is_file():
+            raise ValueError(f"controller: no file {source!r} (from {os.getcwd()})")
+        key = "_drill_env_controller_" + hashlib.sha256(str(path).encode()).hexdigest()[:12]
+        module = sys.modules.get(key)
+        if module is None or _LOADED.get(key) != path.read_bytes():
+            spec = importlib.util.spec_from_file_location(key, path)
+            assert spec is not None and spec.loader is not None  # a .py file
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[key] = module
+            try:
+                _load(module, spec.loader.exec_module)
+            except BaseException:
+                del sys.modules[key]
+                raise
+        return module
+    try:
+        module = _import(source)
+    except ModuleNotFoundError as err:
+        here = os.getcwd()
+        if err.name != source.partition(".")[0] or here in sys.path:
+            raise ValueError(f"controller: cannot import {source!r}: {err}") from None
+        sys.path.append(here)
+        try:
+            module = _import(source)
+        except ModuleNotFoundError as err:
+            raise ValueError(f"controller: cannot import {source!r} (looked in the Python "
+                             f"path and {here}): {err}") from None
+        finally:
+            sys.path.remove(here)
+    return module
+
+
+#: module name -> the bytes of its file when it was loaded (controllers of your own).
+_LOADED: dict[str, bytes] = {}
+
+
+def _load(module: ModuleType, run: Callable[[ModuleType], Any]) -> None:
+    """Run (or rerun) ``module``'s code, noting its file's bytes first."""
+    file = getattr(module, "__file__", None)
+    code = Path(file).read_bytes() if file else b""
+    run(module)
+    _LOADED[module.__name__] = code
+
+
+def _import(source: str) -> ModuleType:
+    """``importlib.import_module``, reloaded when its file changed since it was loaded."""
+    module = importlib.import_module(source)
+    file = getattr(module, "__file__", None)
+    if module.__name__ not in _LOADED:
+        _LOADED[module.__name__] = Path(file).read_bytes() if file else b""
+    elif file and _LOADED[module.__name__] != Path(file).read_bytes():
+        _load(module, importlib.reload)
+    return module
+
+
+def imported_factory(name: str) -> Callable[..., Controller]:
+    """The class (or factory) ``<file.py or module>:<attribute>`` names."""
+    source, _, attribute = name.rpartition(":")
+    module = _module(source)
+    try:
+        return getattr(module, attribute)
+    except AttributeError:
+        raise ValueError(f"controller: {source} has no {attribute!r}") from None
+
+
+def source_file(factory: Any) -> Path | None:
+    """The file ``factory`` is defined in, when that is outside this project's packages
+    (a controller of your own, whose code the benchmark's stored rows must follow)."""
+    import inspect
+
+    try:
+        file = inspect.getsourcefile(factory)
+    except TypeError:
+        return None
+    if file is None:
+        return None
+    path = Path(file).resolve()
+    ours = Path(__file__).resolve().parent.parent
+    inside = any(path.is_relative_to(ours / package) for package in ("agents", "drill_env"))
+    return None if inside else path
+
+
+def table_name(name: str) -> str:
+    """The name a controller of your own has in tables and file names: its class's own
+    ``name`` attribute if it sets one, else the attribute after the colon."""
+    factory = imported_factory(name)
+    own = vars(factory).get("name") if isinstance(factory, type) else None
+    return own if isinstance(own, str) and own else name.rpartition(":")[2]
 
 
 _CONSTANT_LABEL = re.compile(r"constant-(.+)rpm-(.+)kN")
@@ -66,6 +187,18 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
         return ConstantSetPoints.parse(name.partition(":")[2])
     if name != "learned":
         kwargs.pop("env_id", None)  # only the learned controller depends on the task
+    if is_imported(name):
+        controller = imported_factory(name)(**kwargs)
+        missing = [a for a in ("name", "rate", "env_id", "physics", "reset", "act")
+                   if not hasattr(controller, a)]
+        if missing:
+            raise ValueError(f"controller: {name} is not a controller: it has no "
+                             f"{', '.join(missing)} (agents.base.Controller; subclass "
+                             "agents.SetPointController)")
+        if controller.rate not in ("drive", "policy"):
+            raise ValueError(f"controller: {name}: rate is {controller.rate!r}, not "
+                             "'drive' or 'policy'")
+        return controller
     try:
         factory = CONTROLLERS[name]
     except KeyError:
@@ -96,6 +229,11 @@ def parse_controllers(text: str) -> list[str]:
                 policy_files(n.partition(":")[2])
             except (FileNotFoundError, ValueError) as err:
                 raise ValueError(f"controllers: {err}") from None
+        elif is_imported(n):
+            try:  # importable and a controller, said before any episode runs
+                make_controller(n)
+            except ValueError as err:
+                raise ValueError(f"controllers: {str(err).partition(': ')[2]}") from None
         elif n not in CONTROLLERS:
             raise ValueError(f"controllers: unknown name {n!r}; known: "
                              f"{KNOWN}")

@@ -919,7 +919,8 @@ def parser() -> argparse.ArgumentParser:
                    help="the scenario")
     p.add_argument("--controller", default="stiff",
                    help="controller name (stiff, soft-speed, soft-torque, z-torque, driller, "
-                        "learned, learned:<run folder>, constant:<rpm>/<kN>)")
+                        "learned, learned:<run folder>, constant:<rpm>/<kN>, or your own "
+                        "as <file.py or module>:<class>: docs/controllers.md)")
     p.add_argument("--rpm", type=number("rpm"), default=None,
                    help="surface speed set point in rpm (default: the scenario's)")
     p.add_argument("--wob", type=number("kN"), default=None,
@@ -949,7 +950,8 @@ def parser() -> argparse.ArgumentParser:
                          "table, benchmark.csv, benchmark.md and plots in --out; resumable",
             cmd_benchmark)
     p.add_argument("--controllers", default="stiff,soft-speed,soft-torque,z-torque,driller",
-                   help="comma-separated controller names")
+                   help="comma-separated controller names (as run's --controller, your "
+                        "own as <file.py or module>:<class>)")
     p.add_argument("--scenarios", default=None,
                    help="comma-separated scenario names (default: default,stick_slip; with "
                         "--task: random)")

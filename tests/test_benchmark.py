@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -910,3 +911,59 @@ def test_a_lines_swing_is_its_oscillation_not_a_change_of_target():
     diverged[-300:] = np.nan  # a diverged episode's end
     assert _swing(t, diverged, 5.0) == pytest.approx(_swing(t, stick_slip, 5.0), rel=0.02)
     assert _swing(np.zeros(3), np.ones(3), 0.0) == 0.0  # one time stamp, no crash
+
+
+OWN_CONTROLLER = '''
+from agents import SetPointController
+
+
+class Gentle(SetPointController):
+    """The stiff PI loop with gains of its own."""
+
+    name = "gentle"
+
+    def physics(self):
+        return {"top_drive.controller": "stiff", "top_drive.proportional_gain": GAIN,
+                "top_drive.integral_gain": 800.0}
+'''
+
+
+def test_a_controller_of_your_own_is_named_by_its_file_and_its_edits_rerun(tmp_path):
+    """docs/controllers.md, "Your own controller": ``file.py:Class`` runs in the pool's
+    fresh worker processes and in this one, is named by its class's ``name``, and an edit
+    of the file reruns its rows (the source digest covers only this project's packages):
+    a rerun in this process after the edit gives what fresh processes give, not the rows
+    (or the module) of the file as it was."""
+    file = tmp_path / "mine.py"
+    file.write_text(OWN_CONTROLLER.replace("GAIN", "1500.0"))
+    name = f"{file}:Gentle"
+    args = ([name, "stiff"], ["stick_slip"], [0])
+    first = bm.run_benchmark(*args, tmp_path / "a", SHORT, workers=2, progress=False)
+    assert [r["controller"] for r in first] == ["gentle", "stiff"]
+    file.write_text(OWN_CONTROLLER.replace("GAIN", "6000.0"))
+    edited = bm.run_benchmark(*args, tmp_path / "a", SHORT, workers=1, progress=False)
+    fresh = bm.run_benchmark(*args, tmp_path / "b", SHORT, workers=2, progress=False)
+    assert edited[1] == first[1]  # stiff: reused
+    assert edited[0] != first[0]  # the gains changed what the drive does
+    assert edited[0] == fresh[0]
+
+
+def test_a_controller_of_your_own_that_is_not_one_is_refused_by_name(tmp_path, monkeypatch):
+    from agents.registry import make_controller, parse_controllers
+
+    (tmp_path / "odd.py").write_text("class Half:\n    name = 'half'\n    rate = 'drive'\n")
+    (tmp_path / "mine.py").write_text(OWN_CONTROLLER.replace("GAIN", "1500.0"))
+    monkeypatch.chdir(tmp_path)
+    for typed, said in [("odd.py:Half", "odd.py:Half is not a controller: it has no "
+                                        "env_id, physics, reset, act"),
+                        ("mine.py:Nope", "mine.py has no 'Nope'"),
+                        ("gone.py:Gentle", "no file 'gone.py'"),
+                        ("gone_module:Gentle", "cannot import 'gone_module'")]:
+        with pytest.raises(ValueError, match=f"^controllers: {re.escape(said)}"):
+            parse_controllers(f"stiff,{typed}")
+    # a module in the working folder imports as with python -m
+    assert make_controller("mine:Gentle").physics()["top_drive.proportional_gain"] == 1500.0
+    assert bm.labels(["mine:Gentle", "stiff"]) == ["gentle", "stiff"]
+    with pytest.raises(ValueError, match="share the name 'gentle'"):
+        bm.labels(["mine:Gentle", "mine.py:Gentle"])
+    sys.modules.pop("mine", None)  # imported from this test's folder
