@@ -966,4 +966,12 @@ def test_a_controller_of_your_own_that_is_not_one_is_refused_by_name(tmp_path, m
     assert bm.labels(["mine:Gentle", "stiff"]) == ["gentle", "stiff"]
     with pytest.raises(ValueError, match="share the name 'gentle'"):
         bm.labels(["mine:Gentle", "mine.py:Gentle"])
+    # one put in the registry by hand is followed by its file too; ours by the fingerprint
+    from agents.registry import CONTROLLERS, imported_factory
+
+    monkeypatch.setitem(CONTROLLERS, "gentle", imported_factory("mine.py:Gentle"))
+    before = bm.controller_digest("gentle")
+    assert before and bm.controller_digest("stiff") == ""
+    (tmp_path / "mine.py").write_text(OWN_CONTROLLER.replace("GAIN", "2000.0"))
+    assert bm.controller_digest("gentle") not in ("", before)
     sys.modules.pop("mine", None)  # imported from this test's folder
