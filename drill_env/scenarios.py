@@ -254,11 +254,13 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any]) -> Simu
                      **overrides}
     given = tuple(overrides)
     sets_well = any(key == "well" or key.startswith("well.") for key in given)
-    # the new string's length, before the survey (which may now be short) is checked
-    probe = config if config.well.vertical or sets_well else replace(config, well={})
-    changed = replace(probe, **overrides)
+    # the new string's length, before a survey (the scenario's, which may now be short,
+    # or the overrides', which may end above the scenario's bit) is checked
+    probe = config if config.well.vertical else replace(config, well={})
+    changed = replace(probe, **{key: value for key, value in overrides.items()
+                                if not (key == "well" or key.startswith("well."))})
     shift = changed.string.length - config.string.length
-    if probe is config and (shift == 0.0 or "initial_depth" in given):
+    if probe is config and not sets_well and (shift == 0.0 or "initial_depth" in given):
         return changed  # nothing to move (the usual case, as at every random reset)
     moved: dict[str, Any] = {}
     if shift != 0.0 and "initial_depth" not in given:

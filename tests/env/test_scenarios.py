@@ -99,6 +99,15 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
                                                  "well.inclination": (0.0, 0.0),
                                                  "well.azimuth": (0.0, 0.0)})
     assert own_well.well.md == (0.0, 2000.0)
+    # ... and reaches the bit where the shorter string puts it, not where the scenario's
+    # string had it: it was checked against the old bit depth and refused
+    default = scenarios.make_scenario("default").config
+    short = default.string.drill_pipe.length - 200.0
+    survey = {"well.md": (0.0, 500.0, default.string.length - 150.0),
+              "well.inclination": (0.0, 0.0, 10.0), "well.azimuth": (0.0, 0.0, 0.0)}
+    shorter = scenarios.with_physics(default, {"string.drill_pipe.length": short, **survey})
+    assert shorter.initial_depth == pytest.approx(default.initial_depth - 200.0)
+    assert shorter.well.md == survey["well.md"]
 
 
 def test_the_env_reports_the_depth_of_a_string_read_from_yaml():
