@@ -11,6 +11,7 @@ its outputs under ``--out`` (default ``logs/``; ``benchmark`` ``logs/benchmark``
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import os
@@ -735,11 +736,18 @@ def cmd_modes(args: argparse.Namespace) -> int:
     except ValueError as err:
         raise argparse.ArgumentTypeError(f"--wob: {str(err).partition(': ')[2]}") from None
     source = args.scenario  # what the title names: the string analysed
+    described = scenario.description
     if args.config is not None:
         source = (f"{args.config.name} (scenario {args.scenario})"
                   if config.string != scenario.config.string
                   else f"{args.scenario} with {args.config.name}")
-    print(f"{source}: {scenario.description}; string {config.string.length:.0f} m, "
+        # the scenario's description (its rock, bit, string) holds no more for what the
+        # file changed: name those sections instead
+        changed = [f.name for f in dataclasses.fields(config)
+                   if getattr(config, f.name) != getattr(scenario.config, f.name)]
+        if changed:
+            described = f"the file sets its {', '.join(changed)}"
+    print(f"{source}: {described}; string {config.string.length:.0f} m, "
           f"WOB {wob / KILO:.0f} kN, neutral point "
           f"{md.neutral_point_height(config, wob):.0f} m above the bit")
     from drill_env.physics.statics import pipe_buckling
