@@ -244,7 +244,10 @@ def lateral_modes(config: SimulationConfig, weight_on_bit: float = 0.0,
         raise ValueError(f"weight_on_bit: {weight_on_bit / 1e3:.0f} kN buckles the "
                          f"{'BHA' if region == 'bha' else 'string'} (K + K_g is not positive "
                          f"definite: a static mode has replaced the lowest lateral mode); "
-                         f"its lateral modes exist below {limit / 1e3:.0f} kN")
+                         f"its lateral modes exist below {limit / 1e3:.0f} kN"
+                         + (" (a buckled BHA drills on: the simulation bends it against "
+                            "the wall, where modes of the straight string do not hold)"
+                            if region == "bha" else ""))
     freq, zeta, shapes = _damped(k[ix], c[ix], m[free], n_modes)
     dofs = np.zeros((len(freq), 2 * n))
     dofs[:, free] = shapes
