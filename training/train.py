@@ -14,7 +14,7 @@ A run lives in ``logs/runs/<name>/``:
                             (a resumed run drops the rows after its checkpoint)
 ``learning_curve.png``      the validation curve, redrawn at every evaluation
 ``tb/``                     TensorBoard logs
-``run.json``                seeds, env steps, wall time, versions
+``run.json``                seeds, env steps, wall time, versions (once the run finishes)
 ==========================  ===========================================================
 
 The training envs are the batched SB3 VecEnv (:func:`drill_env.vector.make_sb3_vec_env`):
