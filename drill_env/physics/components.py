@@ -84,8 +84,8 @@ def bit_sub(length: float = 1.0, element_length: float = 1.0) -> Component:
 #: The packed vertical-hole BHA of the realistic strings, from the bit up: stabilizers at
 #: 1-2.5, 11.5-13, 31-32.5, 50.5-52 and 70-71.5 m keep every span that carries more than
 #: ~40 kN of compression below a third of its Euler load (the compressed collars stay
-#: straight), 107.5 m in all (~123 kN in 1.2 g/cc mud): 100 kN of WOB puts the neutral point
-#: in the collars ~90 m above the bit, with ~20 % of the BHA weight to spare (API RP 7G
+#: straight), 107.5 m in all (~122 kN in 1.2 g/cc mud): 100 kN of WOB puts the neutral point
+#: in the collars ~88 m above the bit, with ~18 % of the BHA weight to spare (API RP 7G
 #: asks for 15-25 %).
 def packed_bha() -> tuple[Component, ...]:
     return (
