@@ -629,6 +629,44 @@ def test_soft_torque_band_pass_has_unit_gain_at_its_centre_and_half_power_at_its
     assert np.arctan2(b, a) == pytest.approx(expected_phase, abs=0.01)
 
 
+def test_the_cutting_force_follows_the_bit_torque_stuck_slipping_and_backward():
+    """Eqs. (46)-(53) through the step: blades at 0, 90 and 180 deg in one rock cut with
+    the torque mu W lever and the 90 deg blade's force mu W / 3 (the 0 and 180 deg
+    blades cancel), so the force is TOB / (3 lever) along (cos phi, sin phi), phi the
+    bit angle, whatever the bit does: slipping forward (mu(omega)), stuck (the static
+    force scaled by the torque that holds the bit) and slipping backward (the force
+    turns with the torque). Torsion only (the bit stays centred: no gauge contact);
+    stick-slip at 40 rpm, and a start with the bit turning backward."""
+    from drill_env.physics.bit import Blade, blade_arrays
+
+    bit_cfg = BitConfig(blade_angles=(0.0, 90.0, 180.0), face_start=(0.02,) * 3,
+                        face_end=(0.07,) * 3, gauge_length=(0.05,) * 3,
+                        shoulder_length=(0.0,) * 3)
+    blade = blade_arrays(bit_cfg)[0]
+    face, shoulder = blade[Blade.R_B] - blade[Blade.R_A], blade[Blade.L_SH]
+    lever = (face * 0.5 * (blade[Blade.R_A] + blade[Blade.R_B])  # eq. (34), midpoint rule
+             + shoulder * 0.5 * (blade[Blade.R_B] + blade[Blade.R_C])) / (face + shoulder)
+    sim = Simulator(SimulationConfig(bit=bit_cfg, solver=SolverConfig(lateral=False),
+                                     formation=FormationConfig(rocks=(HARD,))))
+    sim.reset(OperatingPoint(40 * RPM, 100e3))
+    sim.vt[:] = -20.0  # the string turning backward (rad/s): the bit slips backward
+    seen = {"forward": 0, "stuck": 0, "backward": 0}
+    for _ in range(6000):
+        speed = sim.bit_speed
+        sim.advance(1)
+        # the loads act at the Newmark predictor: the angle less beta dt^2 a_(n+1) (to
+        # ~2e-5 rad: a bit that sticks is held at rest without that acceleration)
+        phi = sim.bit_angle - 0.25 * sim.dt**2 * sim.at[-1]
+        tob, force = sim.torque_on_bit, sim.bit_lateral_force
+        along = force @ np.array([np.cos(phi), np.sin(phi)])
+        scale = 1e5 * HARD.mu_max / 3  # the largest force, static
+        assert along == pytest.approx(tob / (3 * lever), abs=1e-4 * scale)
+        assert abs(force @ np.array([-np.sin(phi), np.cos(phi)])) < 1e-4 * scale
+        kind = "stuck" if sim.state[S.STUCK] > 0 else ("backward" if speed < 0 else "forward")
+        seen[kind] += 1
+    assert seen["backward"] > 10 and seen["stuck"] > 100 and seen["forward"] > 100, seen
+
+
 def test_z_torque_high_pass_is_the_backward_euler_filter_of_scipy():
     """The ZTorque filter H = s / (s + w_c) (docs/model.md, top drive) in the kernel,
     driven by a random string torque, against scipy's backward-Euler discretisation of the
