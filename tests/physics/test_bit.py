@@ -255,6 +255,41 @@ def test_three_rocks_can_cut_one_bit_at_once():
     assert out[BitOut.TORQUE] == pytest.approx(torque, rel=1e-12)
 
 
+@pytest.mark.parametrize("omega", [10.0, 0.5])
+def test_a_bit_across_two_rocks_is_pushed_by_each_rocks_resistance_on_its_pieces(omega):
+    """Eqs. (46)-(53) by hand on a symmetric bit across a dipping interface: each front
+    piece of length l in rock j cuts with mu_j(omega) l W / L against the motion of its
+    blade, along (sin theta, -cos theta), theta = phi_i + phi_z (eq. 35); the static
+    force and torque take mu_j's value at rest, mu_max (eq. 39). One rock would cancel
+    the force of a symmetric bit; two leave the difference of their resistances on the
+    pieces in each. The pieces (where the interface cuts the blades) come from the
+    split, tested against the geometry above."""
+    cfg = bit.symmetric_bit()
+    fa = one_interface(DEPTH - 0.04)
+    phi_z = 0.3
+    out = loads(cfg, fa, omega=omega, phi_z=phi_z)
+    rocks = (HARD, SOFT)
+    mu = [r.mu_min + (r.mu_max - r.mu_min) * math.exp(-omega / r.st1) + r.st2 * omega
+          for r in rocks]  # eq. (39), omega > 0
+    load = WOB / bit.front_length(cfg)  # eq. (40)
+    force, static, torque_static = np.zeros(2), np.zeros(2), 0.0
+    front = [p for p in pieces(cfg, fa, phi_z=phi_z) if p[1] != Segment.GAUGE]
+    assert {p[2] for p in front} == {0, 1}  # the bit is in both rocks
+    for blade_index, _, rock, length, lever in front:
+        theta = math.radians(cfg.blade_angles[blade_index]) + phi_z
+        against = np.array([math.sin(theta), -math.cos(theta)])
+        force += mu[rock] * length * load * against
+        static += rocks[rock].mu_max * length * load * against
+        torque_static += rocks[rock].mu_max * length * load * lever
+    scale = WOB * HARD.mu_max
+    assert np.hypot(*force) > 0.01 * WOB  # not the one-rock zero
+    np.testing.assert_allclose(out[[BitOut.FORCE_X, BitOut.FORCE_Y]], force, rtol=0,
+                               atol=1e-12 * scale)
+    np.testing.assert_allclose(out[[BitOut.FORCE_STATIC_X, BitOut.FORCE_STATIC_Y]], static,
+                               rtol=0, atol=1e-12 * scale)
+    assert out[BitOut.TORQUE_STATIC] == pytest.approx(torque_static, rel=1e-12)
+
+
 def test_loads_are_continuous_as_an_interface_sweeps_across_the_bit():
     # No blade face is near the strike of the plane (|cos(theta - azimuth)| >= 0.34): a
     # face lying along the strike line would be crossed all at once, a genuine jump.
