@@ -629,6 +629,41 @@ def test_soft_torque_band_pass_has_unit_gain_at_its_centre_and_half_power_at_its
     assert np.arctan2(b, a) == pytest.approx(expected_phase, abs=0.01)
 
 
+def test_the_macroscopic_bit_turns_against_a_bit_mu_wob_and_drills_nothing_backward():
+    """Eq. (38) in the step: the macroscopic bit's torque is a_bit mu(omega) WOB (a_bit
+    the midpoint lever arm, tested by hand in test_bit.py; mu of eq. 39 at the bit's
+    speed), here in steady rotation at 120 rpm in hard rock (above the stick-slip
+    threshold); and a bit turning backward drills nothing (ROP = delta max(omega, 0) /
+    2 pi: the depth does not move while it slips backward)."""
+    from drill_env.physics.bit import bit_lever_arm
+
+    config = SimulationConfig(bit_model="macroscopic", solver=SolverConfig(lateral=False),
+                              formation=FormationConfig(rocks=(HARD,)))
+    sim = Simulator(config)
+    sim.reset(OperatingPoint(120 * RPM, 100e3))
+    sim.run(10.0)
+    speeds, torques, wobs = [], [], []
+    for _ in range(500):
+        sim.advance(1)
+        speeds.append(sim.bit_speed)
+        torques.append(sim.torque_on_bit)
+        wobs.append(sim.weight_on_bit)
+    omega = np.array(speeds)
+    assert np.ptp(omega) < 1e-3 * omega.mean()  # steady
+    mu = HARD.mu_min + (HARD.mu_max - HARD.mu_min) * np.exp(-omega / HARD.st1)
+    expected = bit_lever_arm(config.bit) * mu * np.array(wobs)
+    np.testing.assert_allclose(torques, expected, rtol=1e-4)
+    assert np.mean(wobs) == pytest.approx(100e3, rel=1e-6)
+    # backward: the whole string turning at -20 rad/s, the bit slipping back
+    sim.vt[:] = -20.0
+    depth = sim.state[S.DEPTH]
+    for _ in range(20):
+        sim.advance(1)
+        assert sim.bit_speed < 0.0 and sim.state[S.STUCK] == 0.0
+        assert sim.torque_on_bit < 0.0  # the rock resists the backward turn
+    assert sim.state[S.DEPTH] == depth
+
+
 def test_the_cutting_force_follows_the_bit_torque_stuck_slipping_and_backward():
     """Eqs. (46)-(53) through the step: blades at 0, 90 and 180 deg in one rock cut with
     the torque mu W lever and the 90 deg blade's force mu W / 3 (the 0 and 180 deg
