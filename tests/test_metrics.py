@@ -117,6 +117,46 @@ def test_window_metrics_reads_simulator_records():
     assert set(m) >= {"whirl_ratio", "lateral_force", "mse", "top_drive_energy"}
 
 
+def test_each_window_metric_reads_its_own_channels():
+    """Every channel a different value, so a metric wired to another channel (surface or
+    motor torque for the bit's, bit speed for the surface's) reads a wrong number: each
+    metric against its definition (the module table, SPEC section 5) by hand. Half the
+    window the bit whirls backward at 0.9 of the clearance, half forward (whirl speed
+    -+40 rad/s at 5 rad/s rotation): backward whirl fraction 0.5."""
+    n, dt, clearance, diameter = 400, 0.01, 0.005, 0.2
+    rec = np.zeros((n, len(RECORD_CHANNELS)))
+    col = {name: k for k, name in enumerate(RECORD_CHANNELS)}
+    values = {"bit_speed": 5.0, "surface_speed": 7.0, "torque_on_bit": 3000.0,
+              "surface_torque": -5000.0, "motor_torque": 6000.0, "weight_on_bit": 8e4,
+              "rop": 0.004, "bit_x": 0.0, "bit_y": 0.9 * clearance, "bit_force_x": 300.0,
+              "bit_force_y": -400.0, "depth": 1234.0, "max_wall_force": 9e3}
+    for name, value in values.items():
+        rec[:, col[name]] = value
+    rec[:, col["whirl_speed"]] = np.where(np.arange(n) < n // 2, -40.0, 40.0)
+    m = metrics.window_metrics(rec, RECORD_CHANNELS, dt, clearance, diameter)
+    area = math.pi * diameter**2 / 4
+    assert m["mse"] == pytest.approx(8e4 / area + 5.0 * 3000.0 / (area * 0.004), rel=1e-12)
+    assert m["top_drive_energy"] == pytest.approx(6000.0 * 7.0 * n * dt, rel=1e-12)
+    assert m["surface_torque_max"] == 5000.0
+    assert m["lateral_force"] == pytest.approx(500.0)
+    assert m["lateral_force_max"] == pytest.approx(500.0)
+    assert m["radial_ratio"] == pytest.approx(0.9)
+    assert m["radial_ratio_max"] == pytest.approx(0.9)
+    assert m["rop"] == pytest.approx(0.004)
+    assert m["mean_bit_speed"] == 5.0
+    assert m["whirl_ratio"] == pytest.approx(0.0, abs=1e-12)  # -40 and +40 in equal parts
+    assert m["whirl_fraction"] == 1.0
+    assert m["backward_whirl_fraction"] == 0.5
+    assert m["ssi"] == 0.0 and m["stuck_fraction"] == 0.0
+    assert set(m) == set(metrics.WINDOW_METRICS)
+    # the rotation reversed: the other half whirls against it
+    rec[:, col["bit_speed"]] = -5.0
+    rec[: n // 4, col["whirl_speed"]] = 40.0
+    m = metrics.window_metrics(rec, RECORD_CHANNELS, dt, clearance, diameter)
+    assert m["backward_whirl_fraction"] == 0.75
+    assert m["whirl_ratio"] == pytest.approx((0.25 * 40.0 + 0.25 * -40.0 + 0.5 * 40.0) / -5.0)
+
+
 # --------------------------------------------------------------------------- fast path
 # RollingMetrics (numba) must give the floats of the NumPy definitions above.
 
