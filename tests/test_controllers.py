@@ -197,6 +197,14 @@ def test_tuned_controllers_absorb_at_their_frequency_and_stiff_reflects(reflecti
     from f_s, where the inertia shows again."""
     f_s_index = 2
     assert abs(reflections["stiff"][0][f_s_index]) > 0.9
+    # the stiff drive's top by hand: Z_td = P + I / (j w) + j w J_td, P = 50 Z, I = 5 J_td
+    # (Kyllingstad & Nessjoen's factory tuning), Z of the pipe's tube: |r| = 0.96 at f_s
+    (_, config, z, f_s), _ = STRINGS
+    j, w = config.top_drive.inertia, 2.0 * math.pi * f_s
+    z_td = 50.0 * z + 5.0 * j / (1j * w) + 1j * w * j
+    by_hand = abs((z - z_td) / (z + z_td))
+    assert by_hand == pytest.approx(0.96, abs=0.005)  # docs/controllers.md's table
+    assert abs(reflections["stiff"][0][f_s_index]) == pytest.approx(by_hand, abs=0.03)
     for name in ("soft-torque", "z-torque"):
         assert abs(reflections[name][0][f_s_index]) < 0.3, name
     k = TopDriveConfig().impedance_factor
