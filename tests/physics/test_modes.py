@@ -107,6 +107,27 @@ def test_lateral_modes_of_a_short_collar_are_the_pinned_pinned_beam():
     np.testing.assert_allclose(modes.frequency, expected, rtol=0.01)
 
 
+def test_a_stabilizer_halfway_makes_two_spans_of_the_continuous_beam():
+    """A 12 m collar pinned at its top, at a stabilizer 6 m above the bit and at the bit:
+    the continuous beam over three pins. Its modes (Euler-Bernoulli, w = (beta L)^2
+    sqrt(EI / rho A) / L^2 per span) alternate: antisymmetric about the middle pin, each
+    span pinned-pinned (beta L = pi, 2 pi), and symmetric, the middle pin acting as a
+    clamp on each span (pinned-clamped: tan(beta L) = tanh(beta L), beta L = 3.9266)."""
+    collar = cp.collar_6_5(12.0, 0.3)
+    string = StringConfig(drill_pipe=cp.collar_6_5(1.0, 0.5), bha=collar, stabilizers=(6.0,))
+    config = SimulationConfig(string=string, mud=MudConfig(density=0.0),
+                              bit=BitConfig(axis_aligned=False, mass=1e-6, inertia=1e-6),
+                              damping=DampingConfig(mass_proportional=0.0,
+                                                    stiffness_proportional=0.0))
+    modes = lateral_modes(config, 0.0, supports="stabilizers", n_modes=3, region="bha")
+    root = float(brentq(lambda x: math.tan(x) - math.tanh(x), 3.5, 4.5))
+    ei = collar.youngs_modulus * collar.second_moment
+    rho_a = collar.density * collar.area
+    expected = [(bl / 6.0) ** 2 * math.sqrt(ei / rho_a) / (2 * math.pi)
+                for bl in (math.pi, root, 2 * math.pi)]
+    np.testing.assert_allclose(modes.frequency, expected, rtol=0.005)
+
+
 def test_lateral_rayleigh_damping_acts_on_the_elastic_stiffness_under_load():
     """The pinned collar at half its Euler load, Rayleigh damping a M + b K_e: the sine
     modes diagonalise M, K_e and K_g alike, so w_n^2 = w_e,n^2 (1 - P / P_n) with
