@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import re
 import zipfile
@@ -696,6 +697,24 @@ def test_a_seed_sweep_trains_one_run_per_seed_and_skips_finished_ones(tmp_path):
     assert len((tmp_path / RESULTS_FILE).read_text().splitlines()) == 3
     with pytest.raises(ValueError, match="seeds"):
         train_seeds(cfg, [1, 1], tmp_path)
+    # a sweep's run is the single run of its seed, weight for weight: its worker held
+    # torch at one thread where this process may have more (the initial weights depend
+    # on the count: they differed)
+    import torch
+
+    torch.set_num_threads(2)
+    single = tmp_path / "single"
+    train(dataclasses.replace(cfg, seed=3), single, progress=False)
+    swept = tmp_path / "stick_slip_ppo_seed3"
+    assert _params(single / "model.zip") == _params(swept / "model.zip")
+
+
+def _params(path) -> dict[str, Any]:
+    """A saved SB3 model's parameters as bytes, by name."""
+    from stable_baselines3 import PPO
+
+    model = PPO.load(path, device="cpu")
+    return {k: v.numpy().tobytes() for k, v in model.policy.state_dict().items()}
 
 
 def test_torch_stays_at_its_configured_threads_through_batched_steps():

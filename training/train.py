@@ -445,6 +445,14 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
         print(f"resume: nothing to resume in {run} yet (no checkpoint, no final model): "
               "training from the start")
     env = make_train_env(config, config.seed)
+    if config.torch_threads:
+        import torch
+
+        # the model's initial weights depend on torch's thread count (the orthogonal
+        # init's QR): built at the count the run trains with, a run of a seed sweep (its
+        # workers hold torch at one thread) is the single run of that seed, weight for
+        # weight. After the env: its first parallel reset sets the OpenMP thread count
+        torch.set_num_threads(config.torch_threads)
     if latest is not None:  # its steps are below n_timesteps: check_run_folder said so
         model_path, norm_path = latest
         env = load_saved(norm_path, lambda p: VecNormalize.load(p, env.venv))
