@@ -425,7 +425,9 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         "episode_return": base.plain_return if guest else total, "termination": reason,
         # judged in the env it acted in: a drilling-task policy chooses the rpm in a
         # scenario benchmark too, as a guest (not a benchmark.csv column)
-        "own_speed": sets_own_speed(episode.label, env_id),
+        "own_speed": (controller.sets_own_speed  # a controller of your own may say
+                      if isinstance(getattr(controller, "sets_own_speed", None), bool)
+                      else sets_own_speed(episode.label, env_id)),
     }
     if episode.series:
         series_dir = Path(episode.out) / "series"

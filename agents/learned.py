@@ -54,8 +54,11 @@ class LearnedController:
         config = yaml.safe_load((folder / "config.yaml").read_text())
         from training.config import algo_class
 
-        model = load_saved(model_file, lambda p: algo_class(config.get("algo", "ppo")).load(
-            p, device="cpu"))
+        try:
+            algo = algo_class(config.get("algo", "ppo"))
+        except ValueError as err:
+            raise ValueError(f"{folder / 'config.yaml'}: {err}") from None
+        model = load_saved(model_file, lambda p: algo.load(p, device="cpu"))
         if getattr(model, "_n_updates", 1) == 0:  # saved before any gradient step
             import warnings
 

@@ -975,3 +975,23 @@ def test_a_controller_of_your_own_that_is_not_one_is_refused_by_name(tmp_path, m
     (tmp_path / "mine.py").write_text(OWN_CONTROLLER.replace("GAIN", "2000.0"))
     assert bm.controller_digest("gentle") not in ("", before)
     sys.modules.pop("mine", None)  # imported from this test's folder
+
+
+def test_a_policy_of_your_own_that_chooses_its_rpm_is_marked_as_the_driller(tmp_path):
+    """``sets_own_speed = True`` on a policy-rate controller of your own: its rpm error is
+    its choice, marked as the driller's (docs/controllers.md, "Your own controller")."""
+    file = tmp_path / "faster.py"
+    file.write_text(
+        "from agents import SetPointController\n\n\n"
+        "class Faster(SetPointController):\n"
+        "    name = 'faster'\n    rate = 'policy'\n    sets_own_speed = True\n\n"
+        "    def act(self, observation, info):\n"
+        "        speed, wob = self._env.targets\n"
+        "        return self._env.action_for(1.2 * speed, wob)\n")
+    rows = bm.run_benchmark([f"{file}:Faster", "stiff"], ["stick_slip"], [0],
+                            tmp_path / "out", SHORT, workers=1, progress=False)
+    assert [r["own_speed"] for r in rows] == [True, False]
+    assert rows[0]["mean_bit_rpm"] > 1.1 * rows[0]["target_rpm"]  # it did choose
+    table = (tmp_path / "out" / "benchmark.md").read_text()
+    marked = [line for line in table.splitlines() if "faster" in line and "†" in line]
+    assert marked and not any("stiff" in line and "†" in line for line in table.splitlines())

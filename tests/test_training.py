@@ -1084,3 +1084,28 @@ def test_train_command_resumes_with_the_runs_own_config_and_checks_its_flags(tmp
         with pytest.raises(SystemExit):
             main(args)
         assert says in capsys.readouterr().err
+
+
+def test_a_run_of_an_algorithm_drill_env_does_not_train_is_named_before_any_episode(
+        tmp_path, monkeypatch):
+    """A run folder whose config names another algorithm (a model of TD3 beside a copied
+    config) was evaluated after the drilling task's grid search and then called damaged,
+    with the advice to delete a sound model; now the algo field is named first."""
+    import shutil
+
+    import training.evaluate as ev
+    from agents.learned import TRAINED
+
+    run = tmp_path / "td3run"
+    shutil.copytree(TRAINED / "drilling", run)
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    (run / "config.yaml").write_text(yaml.safe_dump({**config, "algo": "td3"}))
+
+    def no_grid(*args, **kwargs):
+        raise AssertionError("the grid search ran before the policy was loaded")
+
+    monkeypatch.setattr(ev, "best_constant", no_grid)
+    with pytest.raises(ValueError, match=r"config.yaml: algo: 'td3' is not one drill-env "
+                                         r"trains \(ppo, sac\)"):
+        ev.evaluate_run(run, seeds=1, out=tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()

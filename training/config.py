@@ -65,7 +65,12 @@ def algo_class(name: str) -> Any:
     """The Stable-Baselines3 class of an ``algo`` name (imported on first use)."""
     from stable_baselines3 import PPO, SAC
 
-    return {"ppo": PPO, "sac": SAC}[name]
+    classes = {"ppo": PPO, "sac": SAC}
+    if name not in classes:
+        raise ValueError(f"algo: {name!r} is not one drill-env trains ({', '.join(classes)}); "
+                         "a policy of another algorithm acts as a controller of your own "
+                         "(docs/controllers.md)")
+    return classes[name]
 
 
 @config_dataclass

@@ -145,6 +145,9 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
         names[:1], TASKS[task]))
     for note in standard_episode_notes(trained, settings):
         print(note)
+    from agents.registry import make_controller
+
+    make_controller(names[0], env_id=TASKS[task])  # a policy it cannot load: said first
     if task == "drilling":
         constant, _ = best_constant(out / "grid_search", workers, progress, ray_address,
                                     settings)
