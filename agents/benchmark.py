@@ -411,6 +411,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     # measured part, step by step
     in_window = [speed for t, speed in targets if t >= start + settings.warmup]
     target_rpm = float(np.mean(in_window or [targets[-1][1]])) / RPM
+    own = getattr(controller, "sets_own_speed", None)  # a controller of your own may say
     row = {
         "controller": episode.label, "scenario": episode.scenario, "seed": episode.seed,
         "ssi": m["ssi"], "stuck_fraction": m["stuck_fraction"],
@@ -425,9 +426,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         "episode_return": base.plain_return if guest else total, "termination": reason,
         # judged in the env it acted in: a drilling-task policy chooses the rpm in a
         # scenario benchmark too, as a guest (not a benchmark.csv column)
-        "own_speed": (controller.sets_own_speed  # a controller of your own may say
-                      if isinstance(getattr(controller, "sets_own_speed", None), bool)
-                      else sets_own_speed(episode.label, env_id)),
+        "own_speed": own if isinstance(own, bool) else sets_own_speed(episode.label, env_id),
     }
     if episode.series:
         series_dir = Path(episode.out) / "series"
