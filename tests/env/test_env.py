@@ -448,3 +448,92 @@ def test_info_after_a_divergence_holds_the_last_finite_state():
     assert np.all(np.isfinite(obs))
     assert info["bit_speed"] == before["bit_speed"] and info["time"] == before["time"]
     assert info["reward_terms"]["failure"] < 0.0
+
+
+# ------------------------------------------------------- the action mapping's rules (docstring)
+
+
+def test_incremental_actions_step_from_the_set_point_clipped_to_one_step():
+    """Incremental mode moves the set point by ``action * step`` from the set point (not
+    from the WOB the slow drawworks has reached), an action beyond +-1 by one step."""
+    env = DrillStringEnv(action_mode="incremental", drawworks_rate=10e3, **SHORT)
+    env.reset(seed=0, options={"surface_speed": 100 * RPM, "weight_on_bit": 100e3})
+    for _ in range(2):
+        _, _, _, _, info = env.step(np.array([0.0, 1.0]))
+    assert info["weight_on_bit_setpoint"] == pytest.approx(120e3)
+    assert info["weight_on_bit"] == pytest.approx(102e3)  # 10 kN/s x 0.2 s behind
+    _, _, _, _, info = env.step(np.array([5.0, -7.0]))
+    assert info["speed_setpoint"] == pytest.approx(110 * RPM)
+    assert info["weight_on_bit_setpoint"] == pytest.approx(110e3)
+
+
+def test_the_drawworks_unloads_at_its_rate_and_never_past_the_mesh_limit():
+    """The applied WOB follows the set point at ``drawworks_rate`` both ways, and never
+    exceeds ``weight_on_bit_limit`` (the largest WOB the mesh resolves: below the action
+    range's 200 kN on the 60-degree well), at reset either."""
+    env = DrillStringEnv(drawworks_rate=50e3, **SHORT)
+    env.reset(seed=0, options={"weight_on_bit": 100e3})
+    _, _, _, _, info = env.step(np.array([0.0, -1.0]))  # ask for 0 kN
+    assert info["weight_on_bit"] == pytest.approx(95e3)  # 50 kN/s x 0.1 s
+    env = DrillStringEnv(scenario="lateral_60", episode_duration=5.0)
+    _, info = env.reset(seed=0, options={"weight_on_bit": 200e3})
+    limit = info["weight_on_bit_limit"]
+    assert limit < 199e3 and info["weight_on_bit"] <= limit
+    for _ in range(45):  # 100 kN/s x 4.5 s: the set point's 200 kN is long reached
+        _, _, _, _, info = env.step(np.array([0.0, 1.0]))
+        assert info["weight_on_bit"] <= limit
+    assert info["weight_on_bit"] == pytest.approx(limit)
+
+
+def test_the_start_kick_is_drawn_both_ways_within_its_size():
+    """``start_kick`` kicks the bit speed by a fraction drawn in [-kick, +kick]."""
+    settled = DrillStringEnv(**SHORT).reset(seed=0)[1]["bit_speed"]
+    env = DrillStringEnv(start_kick=0.1, **SHORT)
+    ratios = np.array([env.reset(seed=s)[1]["bit_speed"] / settled for s in range(20)])
+    assert ratios.min() < 0.97 and ratios.max() > 1.03
+    assert np.all(np.abs(ratios - 1.0) <= 0.1 + 1e-12)
+
+
+def test_paper_startup_counts_episode_time_from_the_hand_over():
+    env = DrillStringEnv(startup="paper", **SHORT)
+    _, info = env.reset(seed=0)
+    assert info["episode_time"] == 0.0 and info["time"] == pytest.approx(20.0)
+    _, _, _, _, info = env.step(np.zeros(2))
+    assert info["episode_time"] == pytest.approx(0.1)
+    assert info["time"] == pytest.approx(20.1)
+
+
+def test_each_reward_weight_scales_its_own_term():
+    """The same episode with other reward weights: the physics does not change, so each
+    term scales by its weight's ratio (defaults 1 were all the tests used)."""
+    weights = {"rop_weight": 2.5, "stick_slip_weight": 3.0, "whirl_weight": 4.0,
+               "effort_weight": 0.5}
+    terms = {"rop": "rop_weight", "stick_slip": "stick_slip_weight", "whirl": "whirl_weight",
+             "effort": "effort_weight"}
+    actions = np.random.default_rng(1).uniform(-1, 1, (8, 2))
+    runs = []
+    for kwargs in ({}, weights):
+        env = DrillStringEnv(scenario="stick_slip", **kwargs, **SHORT)
+        env.reset(seed=0)
+        runs.append([env.step(a)[4]["reward_terms"] for a in actions[:5]])
+    default = DrillStringEnv(**SHORT).config
+    for plain, weighted in zip(*runs, strict=True):
+        for term, weight in terms.items():
+            ratio = weights[weight] / getattr(default, weight)
+            assert weighted[term] == pytest.approx(ratio * plain[term], rel=1e-12, abs=1e-300)
+    assert all(abs(step[t]) > 0 for step in runs[0][1:] for t in ("rop", "effort"))
+
+
+def test_a_failure_is_terminated_not_truncated_and_a_truncation_pays_no_failure():
+    """Gymnasium: ``terminated`` on the failure (the make-up torque), ``truncated`` only at
+    the time limit, not both on one step; the failure weight is paid on a termination
+    only."""
+    env = DrillStringEnv(makeup_torque=1.0, episode_duration=0.1)
+    env.reset(seed=0)
+    _, _, terminated, truncated, info = env.step(np.zeros(2))
+    assert terminated and not truncated
+    assert info["reward_terms"]["failure"] == -env.config.failure_weight
+    env = DrillStringEnv(episode_duration=0.1)
+    env.reset(seed=0)
+    _, _, terminated, truncated, info = env.step(np.zeros(2))
+    assert truncated and not terminated and info["reward_terms"]["failure"] == 0.0
