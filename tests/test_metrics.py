@@ -304,3 +304,41 @@ def test_rolling_metrics_need_the_metric_channels():
                                BIT_DIAMETER)
     with pytest.raises(ValueError, match="size"):
         metrics.RollingMetrics(0, CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
+
+
+def _both_paths(n: int = 50, **channels) -> list[dict[str, float]]:
+    """The window metrics of records whose channels are ``channels`` (a value or an
+    array each, the rest 0), by the NumPy definitions and by the fast path."""
+    rec = np.zeros((n, len(CHANNELS)))
+    for name, value in channels.items():
+        rec[:, COL[name]] = value
+    fast = dict(zip(metrics.WINDOW_METRICS, fast_metrics(rec)[1][0], strict=True))
+    return [metrics.window_metrics(rec, CHANNELS, DT, CLEARANCE, BIT_DIAMETER), fast]
+
+
+def test_the_metric_rules_of_the_module_table_on_both_paths():
+    """The definitions' own words on crafted windows, for the NumPy definitions and the
+    fast path alike (the two are compared with each other elsewhere, so a slip made in
+    both passed): |bit speed| below 1 rpm is stuck, a backward turn is not; the whirl
+    rule at its thresholds (half the clearance, a quarter of the bit speed); the whirl
+    ratio's sign against a backward rotation; a stuck bit counts as turning forward,
+    so its whirl against that is backward; the peak surface torque of either sign."""
+    for m in _both_paths(bit_speed=-5.0):
+        assert m["stuck_fraction"] == 0.0
+    for m in _both_paths(bit_speed=np.r_[np.zeros(10), np.full(40, 5.0)]):
+        assert m["stuck_fraction"] == pytest.approx(0.2)
+    w = 10.0
+    for radial, whirl, whirls in ((0.6, 0.3 * w, True), (0.6, 0.2 * w, False),
+                                  (0.4, 2.0 * w, False), (0.6, -0.3 * w, True)):
+        for m in _both_paths(bit_speed=w, bit_x=radial * CLEARANCE, whirl_speed=whirl):
+            assert m["whirl_fraction"] == float(whirls), (radial, whirl)
+    for m in _both_paths(bit_speed=-10.0, whirl_speed=-10.0):
+        assert m["whirl_ratio"] == pytest.approx(1.0)  # forward, with the rotation
+    for m in _both_paths(bit_speed=-10.0, whirl_speed=200.0):
+        assert m["whirl_ratio"] == pytest.approx(-20.0)  # backward
+    for whirl, backward in ((-1.0, 1.0), (1.0, 0.0)):
+        for m in _both_paths(bit_speed=0.0, bit_x=0.9 * CLEARANCE, whirl_speed=whirl):
+            assert m["whirl_fraction"] == 1.0
+            assert m["backward_whirl_fraction"] == backward
+    for m in _both_paths(surface_torque=np.r_[np.full(25, -5e4), np.full(25, 1e3)]):
+        assert m["surface_torque_max"] == 5e4
