@@ -425,3 +425,52 @@ def test_a_set_point_change_in_a_task_is_charged_as_the_plain_env_charges_it():
     # is float32, so its set points are the asked-for ones to ~1e-7
     assert terms["effort"] == pytest.approx(-0.1 * (0.4**2 + 0.25**2), rel=1e-6)
     assert task_scored == pytest.approx(plain_reward, rel=1e-6)
+
+
+@pytest.mark.parametrize("env_id", TASKS)
+def test_the_first_frame_fills_the_history_and_the_telemetry_age_starts_at_its_cap(env_id):
+    """After a reset every frame of the observation's history is the first one (the
+    docstring: it fills the whole history; zeros would read as a stalled string), and no
+    telemetry message has arrived yet: its age reads the cap, 100 s / 10."""
+    env = gym.make(env_id)
+    obs, _ = env.reset(seed=0)
+    base = env.unwrapped
+    history = base.task.history
+    names = base.observation_names
+    width = len([n for n in names if n.endswith("[0]")])
+    block = obs[: width * history].reshape(history, width)
+    assert np.all(block == block[-1])
+    if env_id == "DrillOptimise-v0":  # (task 1's first frame is zeros: a settled start)
+        assert np.all(block[-1][[0, 3, 4]] > 0.1)  # torque and set points
+    assert names[-1] == "telemetry_age" and obs[-1] == pytest.approx(10.0)
+
+
+def test_a_target_change_stays_in_the_target_range_and_is_forgotten_at_a_reset():
+    """The driller's change is kept inside the target ranges (an rpm change of 15-20 up
+    from 90-100 rpm ends at 100), and an episode started at given targets (reset options)
+    has no change, even right after an episode that drew one."""
+    env = gym.make("DrillStickSlip-v0", rpm_targets=(90.0, 100.0), rpm_change=(15.0, 20.0),
+                   target_change_probability=1.0, target_change_time=(0.2, 0.3))
+    base = env.unwrapped
+    highest = []
+    for seed in range(6):
+        env.reset(seed=seed)
+        for _ in range(5):
+            *_, info = env.step(np.zeros(1, dtype=np.float32))
+        highest.append(base.targets[0] / RPM)
+    assert max(highest) == pytest.approx(100.0) and min(highest) >= 70.0 - 1e-9
+    env.reset(seed=3)
+    env.reset(seed=3, options={"surface_speed": 60 * RPM, "weight_on_bit": 100e3})
+    for _ in range(10):
+        env.step(np.zeros(1, dtype=np.float32))
+        assert base.targets == pytest.approx((60 * RPM, 100e3))
+
+
+def test_the_stick_slip_effort_is_the_squared_change_of_the_action():
+    """docs/tasks.md, task 1: effort -0.1 (a_k - a_(k-1))^2: a held correction costs
+    nothing after its first step."""
+    env = gym.make("DrillStickSlip-v0")
+    env.reset(seed=0)
+    efforts = [env.step(np.array([0.5], dtype=np.float32))[4]["reward_terms"]["effort"]
+               for _ in range(3)]
+    assert efforts == pytest.approx([-0.1 * 0.25, 0.0, 0.0])
