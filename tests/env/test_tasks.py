@@ -474,3 +474,22 @@ def test_the_stick_slip_effort_is_the_squared_change_of_the_action():
     efforts = [env.step(np.array([0.5], dtype=np.float32))[4]["reward_terms"]["effort"]
                for _ in range(3)]
     assert efforts == pytest.approx([-0.1 * 0.25, 0.0, 0.0])
+
+
+def test_the_drilling_energy_term_is_a_power_at_any_control_interval():
+    """Task 2's energy term is -0.05 P / 100 kW with P the motor's work over the step
+    divided by the step's seconds: at a 0.5 s interval as at the default 1 s (where work
+    and power have the same number)."""
+    from drill_env.physics.layout import R
+
+    env = gym.make("DrillOptimise-v0", control_interval=0.5)
+    env.reset(seed=3)
+    base = env.unwrapped
+    assert base.control_interval == 0.5
+    for _ in range(4):
+        *_, info = env.step(np.array([0.2, -0.3], dtype=np.float32))
+        rec = base.last_records
+        dt = rec[1, R.TIME] - rec[0, R.TIME]
+        work = np.sum(np.abs(rec[:, R.MOTOR_TORQUE] * rec[:, R.SURFACE_SPEED])) * dt
+        assert info["reward_terms"]["energy"] == pytest.approx(-0.05 * work / 0.5 / 100e3,
+                                                               rel=1e-9)
