@@ -493,3 +493,23 @@ def test_the_drilling_energy_term_is_a_power_at_any_control_interval():
         work = np.sum(np.abs(rec[:, R.MOTOR_TORQUE] * rec[:, R.SURFACE_SPEED])) * dt
         assert info["reward_terms"]["energy"] == pytest.approx(-0.05 * work / 0.5 / 100e3,
                                                                rel=1e-9)
+
+
+def test_the_telemetry_bit_speed_is_a_past_bit_speed_over_the_target():
+    """Task 1's downhole entry is the bit speed (over the target) as some earlier step
+    read it, delivered by the telemetry: from a stalled start, while the surface turns at
+    its target, every value it shows is one of the bit speeds seen before (0 before the
+    first message), not the surface speed."""
+    env = gym.make("DrillStickSlip-v0", telemetry="wired_pipe")
+    _, info = env.reset(seed=0)
+    base = env.unwrapped
+    k = base.observation_names.index("telemetry_bit_speed")
+    target = base.targets[0]
+    seen, shown = [0.0, info["bit_speed"] / target], []
+    for _ in range(40):
+        obs, *_, info = env.step(np.zeros(1, dtype=np.float32))
+        shown.append(float(obs[k]))
+        seen.append(info["bit_speed"] / target)
+    assert any(abs(v - 1.0) < 0.2 for v in shown)  # the bit got going, and it showed
+    for value in shown:
+        assert min(abs(value - s) for s in seen) <= 1e-6 * max(1.0, abs(value)), value
