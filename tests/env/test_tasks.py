@@ -513,3 +513,41 @@ def test_the_telemetry_bit_speed_is_a_past_bit_speed_over_the_target():
     assert any(abs(v - 1.0) < 0.2 for v in shown)  # the bit got going, and it showed
     for value in shown:
         assert min(abs(value - s) for s in seen) <= 1e-6 * max(1.0, abs(value)), value
+
+
+def test_the_drilling_reward_counts_whirl_both_ways_and_a_missing_window_as_stuck():
+    """Task 2's whirl term is the share of the step that whirls in either direction (the
+    metrics' whirl fraction, not its backward part), and a window without finite values
+    reads as stuck all the time (as the plain env reads it as whirl), on crafted window
+    values."""
+    from drill_env.metrics import Metric
+
+    env = gym.make("DrillOptimise-v0")
+    env.reset(seed=0)
+    base = env.unwrapped
+    values = [0.0] * len(Metric)
+    values[Metric.WHIRL_FRACTION], values[Metric.BACKWARD_WHIRL_FRACTION] = 0.3, 0.1
+    values[Metric.STUCK_FRACTION] = 0.2
+    base._window_metrics = (values, True)
+    terms = base._reward_terms((values, True), False)
+    assert terms["whirl"] == pytest.approx(-base.task.whirl_weight * 0.3)
+    assert terms["stuck"] == pytest.approx(-base.task.stuck_weight * 0.2)
+    base._window_metrics = (values, False)
+    assert base._reward_terms((values, True), False)["stuck"] == -base.task.stuck_weight
+
+
+def test_the_drilling_telemetry_radial_entry_is_a_past_window_mean():
+    """Task 2's downhole radial entry is the metric window's mean radial ratio
+    (``info["radial_ratio"]``) as some earlier step read it, through the telemetry."""
+    # the bit crossing into a dipping layer is pushed off centre (paper case 2)
+    env = gym.make("DrillOptimise-v0", telemetry="wired_pipe", scenario="paper_case2")
+    _, info = env.reset(seed=0)
+    k = env.unwrapped.observation_names.index("telemetry_radial_ratio")
+    seen, shown = [0.0, info["radial_ratio"]], []
+    for _ in range(15):
+        obs, *_, info = env.step(np.array([0.6, 0.8], dtype=np.float32))
+        shown.append(float(obs[k]))
+        seen.append(info["radial_ratio"])
+    assert max(shown) > 0.1
+    for value in shown:
+        assert min(abs(value - s) for s in seen) <= 1e-6 * max(1.0, abs(value)), value
