@@ -152,3 +152,23 @@ def test_fast_level_stick_slip_of_the_lateral_paper_cases_within_10_percent(case
     quick = stick_slip_summary(simulate(fast(sc.config), 50.0, sc.weight_on_bit, 90.0), 30.0)
     assert full["ssi"] > 0.8
     assert_within_10_percent(full, quick, case)
+
+
+def test_the_fast_level_keeps_the_pipe_element_above_the_bha_as_a_rotational_spring():
+    """Held straight, the drill pipe leaves its lowest element on the BHA's top node as a
+    rotational spring: the node pinned laterally, its tilt held by the Hermite element's
+    tilt-tilt terms with the far end clamped, 4 EI / L elastic and 2 N L / 15 geometric
+    (Przemieniecki), added to those of the BHA element below it."""
+    config = SimulationConfig(solver=SolverConfig(fidelity="fast"))
+    sim = Simulator(config)
+    top = sim.lateral_start  # the BHA's top node: element top - 1 above it, top below
+    assert top == config.resolved().string.drill_pipe.n_elements > 0
+    mesh = sim.mesh
+    tilt_elastic = sum(4.0 * mesh.bending_stiffness[e] / mesh.element_length[e]
+                       for e in (top - 1, top))
+    tilt_geometric = sum(2.0 * sim.axial_weight[e] * mesh.element_length[e] / 15.0
+                         for e in (top - 1, top))
+    assert mesh.element_length[top - 1] >= FAST_PIPE_ELEMENT_LENGTH - 1e-9  # coarse pipe
+    assert sim.lat_k[0, 1] == pytest.approx(tilt_elastic, rel=1e-12)  # band[0, i] = A[i, i]
+    assert sim.lat_kg_weight[0, 1] == pytest.approx(tilt_geometric, rel=1e-12)
+    assert sim.lat_k[0, 0] == 0.0 and sim.lat_m[0] == 1.0  # the node pinned laterally
