@@ -995,3 +995,22 @@ def test_a_policy_of_your_own_that_chooses_its_rpm_is_marked_as_the_driller(tmp_
     table = (tmp_path / "out" / "benchmark.md").read_text()
     marked = [line for line in table.splitlines() if "faster" in line and "†" in line]
     assert marked and not any("stiff" in line and "†" in line for line in table.splitlines())
+
+
+def test_the_docs_recipe_for_a_policy_trained_elsewhere_scores_as_the_shipped_one(tmp_path):
+    """docs/controllers.md's class for a Stable-Baselines3 model trained elsewhere, with
+    the shipped task-2 policy's files, acts as ``learned`` does: the same rows."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "controllers.md").read_text()
+    code = next(block for block in text.split("```python\n")[1:]
+                if "class MyPolicy" in block).split("```")[0]
+    assert 'RUN = "agents/trained/drilling"' in code
+    file = tmp_path / "mine.py"
+    file.write_text(code.replace('RUN = "agents/trained/drilling"',
+                                 f'RUN = "{TRAINED / "drilling"}"'))
+    settings = bm.BenchmarkSettings(duration=20.0, warmup=10.0)
+    rows = bm.run_benchmark([f"{file}:MyPolicy", "learned"], ["random"], [1000000],
+                            tmp_path / "out", settings, workers=1, progress=False,
+                            env_id="DrillOptimise-v0")
+    assert [r["controller"] for r in rows] == ["my-sac", "learned"]
+    mine, shipped = ({k: v for k, v in r.items() if k != "controller"} for r in rows)
+    assert mine == shipped and mine["own_speed"] is True
