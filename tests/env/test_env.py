@@ -505,7 +505,7 @@ def test_paper_startup_counts_episode_time_from_the_hand_over():
 
 def test_each_reward_weight_scales_its_own_term():
     """The same episode with other reward weights: the physics does not change, so each
-    term scales by its weight's ratio (defaults 1 were all the tests used)."""
+    term scales by its weight's ratio (the tests used the default weights only)."""
     weights = {"rop_weight": 2.5, "stick_slip_weight": 3.0, "whirl_weight": 4.0,
                "effort_weight": 0.5}
     terms = {"rop": "rop_weight", "stick_slip": "stick_slip_weight", "whirl": "whirl_weight",

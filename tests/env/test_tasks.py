@@ -440,25 +440,26 @@ def test_the_first_frame_fills_the_history_and_the_telemetry_age_starts_at_its_c
     width = len([n for n in names if n.endswith("[0]")])
     block = obs[: width * history].reshape(history, width)
     assert np.all(block == block[-1])
-    if env_id == "DrillOptimise-v0":  # (task 1's first frame is zeros: a settled start)
+    if env_id == "DrillOptimise-v0":  # (task 1's first frame is zeros by its definition:
+        # the torque less its own mean, the surface at its target, no action yet)
         assert np.all(block[-1][[0, 3, 4]] > 0.1)  # torque and set points
     assert names[-1] == "telemetry_age" and obs[-1] == pytest.approx(10.0)
 
 
 def test_a_target_change_stays_in_the_target_range_and_is_forgotten_at_a_reset():
-    """The driller's change is kept inside the target ranges (an rpm change of 15-20 up
-    from 90-100 rpm ends at 100), and an episode started at given targets (reset options)
-    has no change, even right after an episode that drew one."""
+    """The driller's change is kept inside the target ranges (an rpm change of 15-20 either
+    way from 90-100 rpm ends at 90 or 100), and an episode started at given targets (reset
+    options) has no change, even right after an episode that drew one."""
     env = gym.make("DrillStickSlip-v0", rpm_targets=(90.0, 100.0), rpm_change=(15.0, 20.0),
                    target_change_probability=1.0, target_change_time=(0.2, 0.3))
     base = env.unwrapped
-    highest = []
+    changed = []
     for seed in range(6):
         env.reset(seed=seed)
         for _ in range(5):
-            *_, info = env.step(np.zeros(1, dtype=np.float32))
-        highest.append(base.targets[0] / RPM)
-    assert max(highest) == pytest.approx(100.0) and min(highest) >= 70.0 - 1e-9
+            env.step(np.zeros(1, dtype=np.float32))
+        changed.append(base.targets[0] / RPM)
+    assert sorted({round(rpm, 9) for rpm in changed}) == [90.0, 100.0]  # both ends reached
     env.reset(seed=3)
     env.reset(seed=3, options={"surface_speed": 60 * RPM, "weight_on_bit": 100e3})
     for _ in range(10):
