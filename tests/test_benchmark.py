@@ -235,7 +235,11 @@ def test_source_digest_follows_the_files(tmp_path, monkeypatch):
     assert source_digest("pkg_for_digest") == first  # same files, same hash
     (package / "sub" / "model.py").write_text("K = 2.0\n")
     source_digest.cache_clear()
-    assert source_digest("pkg_for_digest") != first
+    second = source_digest("pkg_for_digest")
+    assert second != first
+    (package / "sub" / "model.py").rename(package / "sub" / "other.py")  # same bytes
+    source_digest.cache_clear()
+    assert source_digest("pkg_for_digest") != second  # a moved module is other code
     with pytest.raises(ValueError, match="'no_such_package_here'"):
         source_digest("no_such_package_here")
 
@@ -377,6 +381,11 @@ def test_benchmark_names_bad_input(capsys):
         with pytest.raises(SystemExit):
             main(["benchmark", *args])
         assert message in capsys.readouterr().err
+    # from Python: no workers is no way to run, not "all cores"
+    from drill_env.sweep import make_executor
+
+    with pytest.raises(ValueError, match="workers: must be >= 1, got 0"):
+        make_executor(0)
 
 
 def test_every_controller_gets_its_own_table_name():

@@ -369,8 +369,57 @@ def test_replay_is_not_started_here(tmp_path: Path) -> None:
     cmd = replay_command(tmp_path / "x.rrd", web=True, web_viewer_port=9191)
     assert cmd[-1].endswith("x.rrd") and "--web-viewer" in cmd and "9191" in cmd
     assert "--web-viewer" not in replay_command(tmp_path / "x.rrd")
+    # the port is the web viewer's: the native viewer takes none
+    assert "--web-viewer-port" not in replay_command(tmp_path / "x.rrd", web_viewer_port=9191)
     with pytest.raises(FileNotFoundError, match="path"):
         replay(tmp_path / "missing.rrd")
+
+
+def test_replay_gives_sigterm_back_and_kills_a_viewer_that_ignores_it(tmp_path: Path,
+                                                                     monkeypatch) -> None:
+    """``replay`` holds SIGTERM while the viewer runs and gives the caller's handler back
+    after (a notebook or daemon would otherwise turn every later SIGTERM into a
+    KeyboardInterrupt); ``stop_viewer`` kills a viewer that ignores SIGTERM after its
+    timeout instead of waiting for it forever."""
+    import os
+    import signal
+    import threading
+    import time
+
+    from drill_env.recording.replay import stop_viewer
+
+    done = tmp_path / "viewer.sh"
+    done.write_text("#!/bin/sh\nexit 0\n")
+    done.chmod(0o755)
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"")
+    monkeypatch.setenv("DRILL_ENV_RERUN", str(done))
+
+    def mine(signum, frame):  # the caller's own handler
+        pass
+
+    before = signal.signal(signal.SIGTERM, mine)
+    try:
+        assert replay(recording) == 0
+        assert signal.getsignal(signal.SIGTERM) is mine
+    finally:
+        signal.signal(signal.SIGTERM, before)
+    stubborn = tmp_path / "stubborn.sh"
+    stubborn.write_text("#!/bin/sh\ntrap '' TERM\nsleep 600\n")
+    stubborn.chmod(0o755)
+    monkeypatch.setenv("DRILL_ENV_RERUN", str(stubborn))
+    proc = replay(recording, wait=False)
+    time.sleep(0.3)  # the trap is set
+    codes: list[int] = []
+    stopper = threading.Thread(target=lambda: codes.append(stop_viewer(proc, timeout=0.5)),
+                               daemon=True)
+    stopper.start()
+    stopper.join(10.0)
+    stopped = list(codes)  # what stop_viewer returned within 10 s
+    if proc.poll() is None:  # still waiting on it: end it here, then fail
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    assert stopped == [-signal.SIGKILL]
 
 
 # --------------------------------------------------------------------------- interrupts
