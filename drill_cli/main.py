@@ -746,7 +746,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
         changed = [f.name for f in dataclasses.fields(config)
                    if getattr(config, f.name) != getattr(scenario.config, f.name)]
         if changed:
-            described = f"the file sets its {', '.join(changed)}"
+            described = f"the file changes its {', '.join(changed)}"
     print(f"{source}: {described}; string {config.string.length:.0f} m, "
           f"WOB {wob / KILO:.0f} kN, neutral point "
           f"{md.neutral_point_height(config, wob):.0f} m above the bit")

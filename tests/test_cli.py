@@ -278,13 +278,13 @@ def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "string 2500 m" in out and "8 in DC" in out and "5 1/2 in DP" in out
     # the scenario's description (its string, rock) is not the file's
-    assert "field_well_string.yaml (scenario default): the file sets its string" in out
+    assert "field_well_string.yaml (scenario default): the file changes its string" in out
     assert "1250 m" not in out.splitlines()[0]
     rock = tmp_path / "rock.yaml"
     rock.write_text("formation:\n  rocks:\n    - {mu_min: 0.4, mu_max: 0.8}\n")
     assert main(["modes", "--config", str(rock), "--out", str(tmp_path)]) == 0
     head = capsys.readouterr().out.splitlines()[0]
-    assert head.startswith("default with rock.yaml: the file sets its formation;")
+    assert head.startswith("default with rock.yaml: the file changes its formation;")
     assert "hard rock" not in head
     data = json.loads((tmp_path / "modes.json").read_text())
     assert data["modes"][0]["frequency_Hz"][0] > 0.0
