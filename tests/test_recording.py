@@ -379,6 +379,18 @@ def test_replay_is_not_started_here(tmp_path: Path) -> None:
         replay(tmp_path / "missing.rrd")
 
 
+def _fake_viewer(tmp_path: Path, monkeypatch, script: str) -> Path:
+    """``DRILL_ENV_RERUN`` set to a shell script running ``script`` in place of the rerun
+    viewer; returns an (empty) recording for it to open."""
+    viewer = tmp_path / "viewer.sh"
+    viewer.write_text(f"#!/bin/sh\n{script}\n")
+    viewer.chmod(0o755)
+    monkeypatch.setenv("DRILL_ENV_RERUN", str(viewer))
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"")
+    return recording
+
+
 def test_replay_gives_sigterm_back_and_kills_a_viewer_that_ignores_it(tmp_path: Path,
                                                                      monkeypatch) -> None:
     """``replay`` holds SIGTERM while the viewer runs and gives the caller's handler back
@@ -392,12 +404,7 @@ def test_replay_gives_sigterm_back_and_kills_a_viewer_that_ignores_it(tmp_path: 
 
     from drill_env.recording.replay import stop_viewer
 
-    done = tmp_path / "viewer.sh"
-    done.write_text("#!/bin/sh\nexit 0\n")
-    done.chmod(0o755)
-    recording = tmp_path / "x.rrd"
-    recording.write_bytes(b"")
-    monkeypatch.setenv("DRILL_ENV_RERUN", str(done))
+    recording = _fake_viewer(tmp_path, monkeypatch, "exit 0")
 
     def mine(signum, frame):  # the caller's own handler
         pass
@@ -408,10 +415,7 @@ def test_replay_gives_sigterm_back_and_kills_a_viewer_that_ignores_it(tmp_path: 
         assert signal.getsignal(signal.SIGTERM) is mine
     finally:
         signal.signal(signal.SIGTERM, before)
-    stubborn = tmp_path / "stubborn.sh"
-    stubborn.write_text("#!/bin/sh\ntrap '' TERM\nsleep 600\n")
-    stubborn.chmod(0o755)
-    monkeypatch.setenv("DRILL_ENV_RERUN", str(stubborn))
+    _fake_viewer(tmp_path, monkeypatch, "trap '' TERM\nsleep 600")
     proc = replay(recording, wait=False)
     time.sleep(0.3)  # the trap is set
     codes: list[int] = []
@@ -637,12 +641,7 @@ def test_replay_runs_from_a_thread_that_is_not_the_main_one(tmp_path: Path,
     for the viewer there too (it once started the viewer, then raised and left it)."""
     import threading
 
-    viewer = tmp_path / "viewer.sh"
-    viewer.write_text("#!/bin/sh\nexit 3\n")
-    viewer.chmod(0o755)
-    recording = tmp_path / "x.rrd"
-    recording.write_bytes(b"")
-    monkeypatch.setenv("DRILL_ENV_RERUN", str(viewer))
+    recording = _fake_viewer(tmp_path, monkeypatch, "exit 3")
     out: list = []
 
     def worker() -> None:
