@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import sys
 import threading
 import time
 from pathlib import Path
@@ -222,3 +223,68 @@ def test_evaluate_on_the_cluster_equals_evaluate_here(cluster, tmp_path):
         with (tmp_path / where / "benchmark.csv").open() as f:
             tables.append(sorted(list(csv.DictReader(f)), key=lambda r: r["controller"]))
     assert tables[0] == tables[1] and len(tables[0]) == 6
+
+
+def _fail_and_count(path: str) -> None:
+    """A task that raises every time it runs, leaving one line per run in ``path``."""
+    with open(path, "a") as f:
+        f.write("ran\n")
+    raise ValueError("this point cannot be computed")
+
+
+def test_a_task_that_raises_is_not_run_again_and_stops_the_sweep_with_its_error(
+        cluster, tmp_path):
+    """Retries are for lost workers only: a task is a pure function of its item, so
+    running one that raised again would raise again (and take the time three times)."""
+    import ray.cloudpickle
+
+    from drill_env.distributed import RayExecutor
+
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers can't
+    executor = RayExecutor(cluster.address)                        # import this file
+    log = tmp_path / "runs.txt"
+    try:
+        with pytest.raises(ValueError, match="this point cannot be computed"):
+            list(executor.map_unordered(_fail_and_count, [str(log)]))
+    finally:
+        executor.close()
+        ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+    assert log.read_text().splitlines() == ["ran"]
+
+
+def test_tasks_in_flight_when_a_sweep_stops_are_cancelled(cluster):
+    """An interrupted sweep (its generator closed, as Ctrl-C does) leaves no task running
+    on the cluster: the slow items' workers are stopped, not left to finish."""
+    from drill_env.distributed import RayExecutor
+
+    executor = RayExecutor(cluster.address)
+    try:
+        results = executor.map_unordered(time.sleep, [0.0, 120.0, 120.0])
+        assert next(results) == (0, None)
+        deadline = time.monotonic() + 60.0
+        while len(ray_task_processes()) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert len(ray_task_processes()) == 2, "the two slow tasks did not start"
+        results.close()
+        deadline = time.monotonic() + 30.0
+        while ray_task_processes() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not ray_task_processes()
+    finally:
+        executor.close()
+
+
+def test_a_ray_session_the_user_started_is_theirs_to_stop(cluster):
+    from drill_env.distributed import RayExecutor
+
+    if ray.is_initialized():
+        ray.shutdown()
+    ray.init(address=cluster.address, log_to_driver=False)
+    try:
+        executor = RayExecutor(cluster.address)  # joins the user's session
+        assert sorted(executor.map_unordered(abs, [-1, -2])) == [(0, 1), (1, 2)]
+        executor.close()
+        assert ray.is_initialized()  # still the user's
+        assert ray.get(ray.put(3)) == 3
+    finally:
+        ray.shutdown()
