@@ -344,3 +344,26 @@ def test_driller_keeps_the_plan_while_drilling_is_smooth():
     actions = run_driller(driller, np.full(3000, 12e3) + 100.0 * np.sin(np.arange(3000)))
     assert np.all(actions[:, 0] == pytest.approx(80.0 * RPM))
     assert np.all(actions[:, 1] == 120e3)
+
+
+def test_a_constant_set_point_at_the_ends_of_the_env_ranges_is_accepted() -> None:
+    """The action ranges are closed: their ends are set points the env drills at."""
+    import gymnasium as gym
+
+    from agents import ConstantSetPoints
+
+    env = gym.make("DrillString-v0")
+    config = env.unwrapped.config
+    (rpm_low, rpm_high), (wob_low, wob_high) = config.rpm_range, config.weight_on_bit_range
+    for rpm, wob in ((rpm_low, wob_low), (rpm_high, wob_high)):
+        ConstantSetPoints(rpm, wob).check_range(config)
+    with pytest.raises(ValueError, match="outside the env's range"):
+        ConstantSetPoints(rpm_high + 1.0, wob_high).check_range(config)
+    env.close()
+
+
+def test_a_constant_set_point_drives_the_stiff_top_drive() -> None:
+    """"a driller who never adjusts": the factory speed loop, not a tuned one."""
+    from agents import ConstantSetPoints
+
+    assert ConstantSetPoints(100.0, 50e3).physics() == {"top_drive.controller": "stiff"}

@@ -255,3 +255,84 @@ def test_map_figure_keeps_its_title_on_the_page(positions):
     page = fig.bbox
     assert page.x0 <= title.x0 and title.x1 <= page.x1, (title, page)
     assert "soft-torque" in fig._suptitle.get_text()
+
+
+# ----------------------------------------------------------------- bookkeeping rules
+
+
+def test_a_speed_that_sticks_at_the_lowest_wob_has_that_wob_as_its_boundary(monkeypatch
+                                                                             ) -> None:
+    monkeypatch.setattr(sm, "_point_task", lambda args: {"stuck_fraction": 1.0, "ssi": 1.0})
+    (m,) = stability_maps(["P1"], grid_points=([40.0, 80.0], [50e3, 100e3]))
+    np.testing.assert_array_equal(m.boundary, [50e3, 50e3])
+
+
+def test_only_the_measured_window_judges_a_point(monkeypatch) -> None:
+    """A bit stuck for the first second of a 4 s point, moving after it: with a 1 s
+    measurement window the point does not stick."""
+    from drill_env.physics.layout import R
+
+    class StuckFirst:
+        dt, status, status_message, depth = 0.01, 0, "", 0.0
+
+        def __init__(self, config) -> None:
+            self.time = 0.0
+            self.vt = np.ones(3)  # node speeds: the point kicks the bit's
+
+        def reset(self, operating_point) -> None:
+            pass
+
+        def hook_load_for(self, weight_on_bit) -> float:
+            return 0.0
+
+        def set_depth(self, depth) -> None:
+            pass
+
+        def advance(self, n, omega, hook, every):
+            k = n // every
+            rec = np.zeros((k, max(R.TIME, R.BIT_SPEED) + 1))
+            rec[:, R.TIME] = self.time + self.dt * every * np.arange(1, k + 1)
+            rec[:, R.BIT_SPEED] = np.where(rec[:, R.TIME] < 1.0, 0.0, omega)
+            self.time = rec[-1, R.TIME]
+            return rec
+
+    monkeypatch.setattr(sm, "Simulator", StuckFirst)
+    late = sm.point_sticks(None, 100.0, 50e3, MapSettings(seconds=4.0, measure=1.0))
+    assert late["stuck_fraction"] == 0.0
+    whole = sm.point_sticks(None, 100.0, 50e3, MapSettings(seconds=4.0, measure=4.0))
+    assert whole["stuck_fraction"] > 0.2
+
+
+def test_a_step_that_divides_the_maximum_in_floating_point_keeps_its_last_line() -> None:
+    rpm, wob = grid(rpm_step=0.1, max_rpm=0.3, wob_step=5e3, max_wob=10e3)
+    assert len(rpm) == 3 and len(wob) == 2  # 0.3 / 0.1 = 2.9999999999999996
+
+
+def test_a_map_without_stick_slip_writes_valid_json() -> None:
+    import json
+
+    m = sm.StabilityMap("P1", 0.0, np.array([10.0]), np.array([1e3]),
+                        np.zeros((1, 1), bool), np.zeros((1, 1), np.int8),
+                        np.array([np.nan]), 1, 0.0)
+    text = json.dumps(m.to_json(), allow_nan=False)  # NaN is not JSON
+    assert json.loads(text)["boundary"] == [None]
+
+
+def test_results_are_stored_under_a_key_that_does_not_depend_on_dict_order() -> None:
+    from drill_env.sweep import digest
+
+    assert digest({"a": 1, "b": {"c": 2, "d": 3}}) == digest({"b": {"d": 3, "c": 2}, "a": 1})
+    assert digest({"a": 1}) != digest({"a": 2})
+
+
+def test_a_sweep_uses_the_workers_asked_for_not_every_core(monkeypatch) -> None:
+    import os
+
+    from drill_env.sweep import make_executor
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 64)
+    executor = make_executor(2)
+    try:
+        assert executor.workers == 2 and executor._pool._max_workers == 2
+    finally:
+        executor.close()

@@ -1109,3 +1109,42 @@ def test_a_run_of_an_algorithm_drill_env_does_not_train_is_named_before_any_epis
                                          r"trains \(ppo, sac\)"):
         ev.evaluate_run(run, seeds=1, out=tmp_path / "out", progress=False)
     assert not (tmp_path / "out").exists()
+
+
+def test_the_best_constant_is_the_grid_point_of_highest_mean_return(tmp_path, monkeypatch):
+    """The grid search's rows stubbed: each point's return set by hand, two seeds each;
+    the best constant is the one with the highest mean, not the first or the lowest."""
+    import training.evaluate as ev
+    from agents.benchmark import label
+
+    returns: dict[str, float] = {}
+
+    def grid(names, scenarios, seeds, *args, **kwargs):
+        rows = []
+        order = np.random.default_rng(0).permutation(len(names))  # not monotone
+        for i, name in enumerate(names):
+            returns[name] = float(order[i])
+            rows += [{"controller": label(name), "episode_return": returns[name] + s}
+                     for s in (-1.0, 1.0)]
+        return rows
+
+    monkeypatch.setattr(ev, "run_benchmark", grid)
+    name, rows = ev.best_constant(tmp_path, progress=False)
+    assert name == max(returns, key=returns.__getitem__)
+    assert returns[name] == len(returns) - 1 and len(rows) == 2 * len(returns)
+
+
+def test_every_held_out_seed_can_be_asked_for(tmp_path, monkeypatch):
+    import training.evaluate as ev
+    from agents.learned import TRAINED
+    from drill_env.scenarios import EVALUATION_SEEDS
+
+    asked: list[list[int]] = []
+    monkeypatch.setattr(ev, "run_benchmark",
+                        lambda names, scenarios, seeds, *a, **k: asked.append(seeds) or [])
+    ev.evaluate_run(TRAINED / "stick_slip", seeds=len(EVALUATION_SEEDS), out=tmp_path,
+                    progress=False)
+    assert asked == [list(EVALUATION_SEEDS)]
+    with pytest.raises(ValueError, match="seeds: at most"):
+        ev.evaluate_run(TRAINED / "stick_slip", seeds=len(EVALUATION_SEEDS) + 1,
+                        out=tmp_path, progress=False)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -169,3 +170,36 @@ def test_info_reports_the_inclination_of_the_hole_at_the_bit(scenario, degrees):
     _, _, _, _, info = env.step(env.action_space.sample())
     assert info["bit_inclination"] == pytest.approx(np.radians(degrees), abs=1e-9)
     env.close()
+
+
+def test_the_chart_torque_is_the_rotating_torque_of_a_straight_slant() -> None:
+    """A straight 60 deg hole, mu 0.3, no WOB: each element presses w L sin 60 deg on the
+    wall, and the rotating string's surface torque is mu sum(r_e w_e L_e) sin 60 deg."""
+    from drill_env.physics.trajectory import Survey
+
+    config = make_scenario("default").config
+    well = Trajectory(Survey.from_stations([0.0, 2000.0], [60.0, 60.0], [0.0, 0.0]))
+    table = torque_drag_table(well, config, frictions=(0.3,), step=1000.0)
+    column = column_for(config, 2000.0)
+    above_bit = np.cumsum(column.length) - column.length  # each element's lower end,
+    inside = np.clip(2000.0 - above_bit, 0.0, column.length)  # from the bit up; in hole
+    expected = 0.3 * math.sin(math.radians(60.0)) * np.sum(
+        column.radius * column.buoyed_weight * inside)
+    assert table["bit_md"][-1] == pytest.approx(2000.0)
+    assert table["mu=0.3"]["torque"][-1] == pytest.approx(expected, rel=1e-6)
+
+
+def test_pipe_added_to_reach_a_deeper_bit_has_the_drill_pipe_radius() -> None:
+    config = make_scenario("default").config
+    column = column_for(config, 3000.0)
+    assert column.length.sum() == pytest.approx(3000.0)
+    # the column runs from the bit up: the added pipe is at the top
+    assert column.radius[-1] == pytest.approx(config.string.drill_pipe.outer_diameter / 2)
+
+
+def test_the_chart_ends_at_total_depth_between_steps() -> None:
+    config = make_scenario("default").config
+    table = torque_drag_table(Trajectory(WELLS["vertical"](2050.0)), config,
+                              frictions=(0.3,), step=100.0)
+    assert table["bit_md"][-1] == pytest.approx(2050.0)
+    assert np.all(np.diff(table["bit_md"]) > 0)

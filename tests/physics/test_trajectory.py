@@ -192,3 +192,86 @@ def test_a_weightless_string_pulled_round_a_bend_obeys_the_capstan_equation():
     rotating = soft_string(well, col, length, mu, "rotating", weight_on_bit=-tension)
     assert rotating.hook_load == pytest.approx(tension, rel=1e-12)
     assert rotating.surface_torque == pytest.approx(mu * r * tension * theta, rel=1e-6)
+
+
+# --------------------------------------------------------------------------- by hand
+
+
+def _slant(md: float = 1000.0, inclination: float = 60.0) -> Trajectory:
+    """A straight hole at ``inclination`` (deg) from the surface."""
+    return Trajectory(Survey.from_stations([0.0, md], [inclination] * 2, [0.0, 0.0]))
+
+
+def test_the_first_frame_points_to_the_high_side_of_an_inclined_hole() -> None:
+    """A 30 deg slant from the surface: the high-side vector e1 has the upward component
+    -sin 30 deg (z down), whatever the azimuth."""
+    _, e1, _ = Trajectory(Survey.from_stations([0, 100], [30, 30], [45, 45])).frames(
+        [0.0, 50.0])
+    np.testing.assert_allclose(e1[:, 2], -math.sin(math.radians(30.0)), rtol=1e-12)
+
+
+def test_a_profile_places_its_stations_where_the_rates_put_them() -> None:
+    """Build 3 deg/30 m from 300 m to 30 deg: 300 m of build; hold to 750 m; drop at
+    2 deg/30 m to vertical: 450 m; then vertical to 2000 m."""
+    survey = Survey.profile(2000.0, kickoff=300.0, build_rate=3.0, hold_inclination=30.0,
+                            drop_start=750.0, drop_rate=2.0, final_inclination=0.0)
+    np.testing.assert_allclose(survey.md, [0, 300, 600, 750, 1200, 2000])
+
+
+def test_the_curvature_of_a_later_course_is_its_dogleg_over_its_own_length() -> None:
+    well = Trajectory(Survey.profile(3000.0, kickoff=300.0, build_rate=3.0,
+                                     hold_inclination=60.0))
+    assert well.at(500.0)[2][0] == pytest.approx(math.radians(3.0) / 30.0, rel=1e-9)
+
+
+def test_a_survey_that_turns_back_on_itself_is_refused() -> None:
+    with pytest.raises(ValueError, match="back on"):
+        Survey.from_stations([0, 100], [0, 180], [0, 0])
+
+
+def test_the_bit_weight_pushes_the_last_node_against_the_low_side() -> None:
+    """A weightless string with a 1 kN bit in a 60 deg hole: the bit node's lateral load
+    is the bit weight's component across the hole, 1 kN sin 60 deg."""
+    from drill_env.physics.trajectory import hole_loads
+
+    loads = hole_loads(_slant(), np.array([0.0, 10.0, 20.0]), np.zeros(2), 1000.0)
+    assert math.hypot(*loads.load_weight[:, -1]) == pytest.approx(
+        1000.0 * math.sin(math.radians(60.0)), rel=1e-12)
+
+
+def test_string_above_the_wellhead_hangs_from_the_hook_too() -> None:
+    """Nodes at -100, 0, 100, 200 m in a vertical hole, 50 N/m: the hook carries all
+    300 m (the 100 m above the surface continue the hole straight up)."""
+    from drill_env.physics.trajectory import hole_loads
+
+    well = Trajectory(Survey.from_stations([0, 1000], [0, 0], [0, 0]))
+    loads = hole_loads(well, np.array([-100.0, 0.0, 100.0, 200.0]), np.full(3, 50.0), 0.0)
+    assert loads.hanging_weight == pytest.approx(50.0 * 300.0, rel=1e-12)
+
+
+def test_an_element_on_a_bend_is_pressed_by_its_weight_across_the_mean_tangent() -> None:
+    """One 100 m element on a 0 -> 90 deg arc, no WOB, no friction: its normal force is
+    w L sin 45 deg, the weight across the tangent at the element's middle."""
+    length, w = 100.0, 10.0
+    well = Trajectory(Survey.from_stations([0, length], [0, 90], [0, 0]))
+    result = soft_string(well, StringColumn(np.array([length]), np.array([w]),
+                                            np.array([0.1])), length, 0.0)
+    assert result.normal_force[0] == pytest.approx(w * length * math.sin(math.radians(45.0)),
+                                                   rel=1e-9)
+
+
+def test_only_the_string_below_the_surface_lies_on_the_wall() -> None:
+    """A 200 m column with the bit at 95 m in a straight 60 deg hole: 95 m of string is in
+    the hole, and its summed normal force is w 95 m sin 60 deg."""
+    n, w = 20, 200.0
+    column = StringColumn(np.full(n, 10.0), np.full(n, w), np.full(n, 0.06))
+    result = soft_string(_slant(), column, 95.0, 0.0)
+    assert result.normal_force.sum() == pytest.approx(w * 95.0 * math.sin(math.radians(60.0)),
+                                                      rel=1e-9)
+
+
+def test_a_string_that_slides_without_turning_has_no_surface_torque() -> None:
+    column = StringColumn(np.full(20, 10.0), np.full(20, 200.0), np.full(20, 0.06))
+    for mode in ("pick_up", "slack_off"):
+        assert soft_string(_slant(), column, 150.0, 0.3, mode).surface_torque == 0.0
+    assert soft_string(_slant(), column, 150.0, 0.3, "rotating").surface_torque > 0.0

@@ -1,0 +1,71 @@
+"""Event rules of drill_env.events against hand-made signals: what starts a stick-slip
+episode, what a NaN sample is, how long whirl must hold and which way it turns, which
+rock a layer event names."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drill_env.events import (
+    STICK_SLIP_QUIET,
+    WHIRL_MIN_DURATION,
+    layer_events,
+    stick_slip_events,
+    whirl_events,
+)
+from drill_env.metrics import whirl_direction
+
+CLEARANCE = 0.005  # m
+
+
+def test_sticking_every_two_seconds_is_one_stick_slip_episode() -> None:
+    """Sticks closer together than the quiet time continue one episode: one onset
+    (WARN), the other sticks are its cycles (DEBUG)."""
+    assert STICK_SLIP_QUIET > 2.0
+    t = np.arange(0.0, 20.0, 0.1)
+    w = np.where((t % 2.0) < 0.3, 0.0, 5.0)
+    w[0] = 5.0
+    levels = [e[1] for e in stick_slip_events(t, w)]
+    assert levels.count("WARN") == 1 and levels.count("DEBUG") == 9
+
+
+def test_a_nan_sample_is_neither_stuck_nor_moving() -> None:
+    """Moving, stuck, NaN, stuck, moving, stuck: sticks at t = 1 and 5 only (the stuck
+    sample after the NaN did not follow a moving one)."""
+    t = np.arange(6.0)
+    events = stick_slip_events(t, np.array([5.0, 0.0, np.nan, 0.0, 5.0, 0.0]))
+    assert [e[0] for e in events] == [1.0, 5.0]
+
+
+def test_a_layer_event_ignores_a_nan_share() -> None:
+    events = layer_events(np.array([0.0]), np.array([[np.nan, 1.0]]), ["hard", "soft"])
+    assert events[0][2].startswith("bit in soft")
+
+
+def _orbit(t: np.ndarray, radial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r = radial * CLEARANCE
+    return r * np.cos(3.0 * t), r * np.sin(3.0 * t)
+
+
+def test_whirl_shorter_than_the_hold_time_is_no_whirl() -> None:
+    t = np.arange(0.0, 4.0, 0.1)
+    radial = np.full_like(t, 0.1)
+    radial[10:13] = 0.9  # 0.2 s on the wall, under WHIRL_MIN_DURATION
+    assert WHIRL_MIN_DURATION > 0.25
+    x, y = _orbit(t, radial)
+    assert whirl_events(t, x, y, np.full_like(t, -40.0), np.full_like(t, 5.0),
+                        CLEARANCE) == []
+
+
+def test_the_whirl_direction_is_that_of_most_samples_since_the_onset() -> None:
+    """Backward whirl held 0.3 s, with the sample that completes the hold turning
+    forward: the onset says backward, as :func:`drill_env.metrics.whirl_direction`."""
+    t = np.arange(0.0, 2.0, 0.1)
+    radial = np.full_like(t, 0.9)
+    x, y = _orbit(t, radial)
+    whirl_speed = np.full_like(t, -40.0)
+    whirl_speed[3] = 40.0
+    bit_speed = np.full_like(t, 5.0)
+    events = whirl_events(t, x, y, whirl_speed, bit_speed, CLEARANCE)
+    assert events[0][2].startswith("whirl onset (backward)")
+    assert whirl_direction(whirl_speed[:4], bit_speed[:4], radial[:4]) == "backward"
