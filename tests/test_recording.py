@@ -605,7 +605,19 @@ wait
 """
 
 
-def test_stopping_replay_stops_the_viewer_and_its_children(tmp_path: Path) -> None:
+_REPLAY_COMMAND = """
+import signal, sys
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal (see above)
+from drill_cli.main import main
+sys.exit(main(["replay", sys.argv[1], "--web"]))
+"""
+
+
+@pytest.mark.parametrize("sig, status", [("SIGTERM", 143), ("SIGINT", 130)])
+def test_stopping_replay_stops_the_viewer_and_its_children(tmp_path: Path, sig: str,
+                                                           status: int) -> None:
+    """``drill-env replay`` stopped by Ctrl-C or SIGTERM stops the viewer's whole process
+    group and exits as a stopped command does (130, 143), not with the viewer's code."""
     import os
     import signal
     import subprocess
@@ -616,19 +628,22 @@ def test_stopping_replay_stops_the_viewer_and_its_children(tmp_path: Path) -> No
     viewer.write_text(_FAKE_VIEWER)
     viewer.chmod(0o755)
     recording = tmp_path / "x.rrd"
-    recording.write_bytes(b"")
+    recording.write_bytes(b"RRF2")  # what the command checks before starting the viewer
     child = tmp_path / "child.pid"
     env = {**os.environ, "DRILL_ENV_RERUN": str(viewer), "VIEWER_CHILD": str(child)}
-    proc = subprocess.Popen([sys.executable, "-c", "import sys; from drill_env.recording "
-                             "import replay; sys.exit(replay(sys.argv[1]))", str(recording)],
-                            env=env)
+    proc = subprocess.Popen([sys.executable, "-c", _REPLAY_COMMAND, str(recording)], env=env,
+                            stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 30
     while not (child.exists() and child.read_text().strip()) and time.monotonic() < deadline:
         time.sleep(0.1)
     pid = int(child.read_text())
     assert _alive(pid)  # the viewer's own child runs
-    proc.send_signal(signal.SIGTERM)
-    proc.wait(timeout=30)
+    proc.send_signal(getattr(signal, sig))
+    assert proc.wait(timeout=30) == status
+    assert proc.stderr is not None
+    said = proc.stderr.read()
+    assert ("terminated" if sig == "SIGTERM" else "interrupted") in said
+    assert "Traceback" not in said
     deadline = time.monotonic() + 10
     while _alive(pid) and time.monotonic() < deadline:
         time.sleep(0.1)

@@ -57,7 +57,9 @@ def replay(path: str | os.PathLike, web: bool = False, *, web_viewer_port: int |
     9090 unless ``web_viewer_port``) and opens a browser if there is one. Blocks until
     the viewer exits and returns its exit code; ``wait=False`` returns the process. The
     viewer runs in its own process group: Ctrl-C or SIGTERM stops it and its servers
-    (nothing is left holding the ports). Needs a display (native) or a browser (web).
+    (nothing is left holding the ports), then raises on in the caller as
+    ``KeyboardInterrupt`` (SIGTERM: :class:`drill_env.sweep.Terminated`, a subclass), so a
+    command line exits 130 or 143. Needs a display (native) or a browser (web).
     """
     p = Path(path)
     if not p.is_file():
@@ -66,8 +68,10 @@ def replay(path: str | os.PathLike, web: bool = False, *, web_viewer_port: int |
     if not wait:
         return proc
 
+    from drill_env.sweep import Terminated
+
     def terminate(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
+        raise Terminated
 
     # only the main thread may set a handler: elsewhere SIGTERM is the main thread's,
     # and the viewer is stopped below whatever ends the wait
@@ -76,7 +80,8 @@ def replay(path: str | os.PathLike, web: bool = False, *, web_viewer_port: int |
     try:
         return proc.wait()
     except KeyboardInterrupt:
-        return stop_viewer(proc)
+        stop_viewer(proc)
+        raise
     finally:
         if main:
             signal.signal(signal.SIGTERM, previous)
