@@ -213,8 +213,12 @@ def labels(controllers: Sequence[str]) -> list[str]:
             if name.startswith("constant-"):
                 raise ValueError(f"controllers: {', '.join(twins)} are the same set "
                                  "points; give them once")
+            from agents.registry import is_imported
+
+            fix = ("set another name attribute on one of the classes"
+                   if any(is_imported(c) for c in twins) else "rename a run folder")
             raise ValueError(f"controllers: {', '.join(twins)} would share the name "
-                             f"{name!r} in the table; rename a run folder")
+                             f"{name!r} in the table; {fix}")
     return out
 
 
@@ -386,7 +390,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         controller.reset(base)
         start = float(info["time"])
         while True:
-            obs, reward, terminated, truncated, info = env.step(controller.act(obs, info))
+            obs, reward, terminated, truncated, info = env.step(
+                act(controller, episode, env.action_space, obs, info))
             total += float(reward)
             kept.append(base.last_records)
             targets.append((float(info["time"]), base.targets[0]))
@@ -440,6 +445,28 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         arrays["stamp"] = np.array(episode.stamp)
         np.savez_compressed(episode.series_file, **arrays)
     return row
+
+
+def act(controller: Any, episode: Episode, space: Any, obs: Any, info: dict[str, Any]
+        ) -> Any:
+    """``controller.act``; for a controller of your own, an error in its code or an action
+    the env cannot take is said in one line naming it and the line of its file (a
+    worker's traceback is dozens of lines of the pool's)."""
+    from agents.registry import in_user_code, is_imported
+
+    if not is_imported(episode.controller):
+        return controller.act(obs, info)
+    try:
+        action = controller.act(obs, info)
+    except Exception as err:  # noqa: BLE001 - the user's code: said in one line
+        raise ValueError(f"controller: {episode.controller}: act() raised "
+                         f"{in_user_code(err)} ({episode.scenario} seed {episode.seed})"
+                         ) from None
+    if np.shape(action) != space.shape:
+        raise ValueError(f"controller: {episode.controller}: act() returned an action of "
+                         f"shape {np.shape(action)}; the env takes {space.shape} "
+                         f"({episode.scenario} seed {episode.seed})")
+    return action
 
 
 def episodes(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],

@@ -12,7 +12,7 @@ import importlib.util
 import os
 import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -74,11 +74,19 @@ def _module(source: str) -> ModuleType:
             assert spec is not None and spec.loader is not None  # a .py file
             module = importlib.util.module_from_spec(spec)
             sys.modules[key] = module
+            # the modules it imports from its own folder, found first as `python file.py`
+            # finds them; for its import only (a later import elsewhere is not redirected)
+            sys.path.insert(0, str(path.parent))
             try:
                 _load(module, spec.loader.exec_module)
-            except BaseException:
+            except BaseException as err:
                 del sys.modules[key]
+                if isinstance(err, Exception):
+                    raise ValueError(f"controller: cannot load {source}: "
+                                     f"{in_user_code(err)}") from None
                 raise
+            finally:
+                sys.path.remove(str(path.parent))
         return module
     try:
         module = _import(source)
@@ -92,9 +100,32 @@ def _module(source: str) -> ModuleType:
         except ModuleNotFoundError as err:
             raise ValueError(f"controller: cannot import {source!r} (looked in the Python "
                              f"path and {here}): {err}") from None
+        except Exception as err:  # noqa: BLE001 - the user's module: said in one line
+            raise ValueError(f"controller: cannot load {source}: {in_user_code(err)}"
+                             ) from None
         finally:
             sys.path.remove(here)
+    except Exception as err:  # noqa: BLE001 - the user's module: said in one line
+        raise ValueError(f"controller: cannot load {source}: {in_user_code(err)}") from None
     return module
+
+
+def in_user_code(err: BaseException) -> str:
+    """``err`` in one line, with the file and line of the deepest frame outside this
+    project's packages and Python's own import machinery (the user's code)."""
+    import traceback
+
+    if isinstance(err, SyntaxError):
+        return f"SyntaxError: {err.msg} ({Path(err.filename or '?').name}, line {err.lineno})"
+    ours = Path(__file__).resolve().parent.parent
+    where = ""
+    for frame in traceback.extract_tb(err.__traceback__):
+        path = Path(frame.filename)
+        if frame.filename.startswith("<") or path.resolve().is_relative_to(ours / "agents") \
+                or path.resolve().is_relative_to(ours / "drill_env"):
+            continue
+        where = f" ({path.name}, line {frame.lineno})"
+    return f"{type(err).__name__}: {err}{where}"
 
 
 #: module name -> the bytes of its file when it was loaded (controllers of your own).
@@ -125,9 +156,14 @@ def imported_factory(name: str) -> Callable[..., Controller]:
     source, _, attribute = name.rpartition(":")
     module = _module(source)
     try:
-        return getattr(module, attribute)
+        factory = getattr(module, attribute)
     except AttributeError:
         raise ValueError(f"controller: {source} has no {attribute!r}") from None
+    if not callable(factory):
+        raise ValueError(f"controller: {name} is {type(factory).__name__} "
+                         f"{factory!r:.40}, not a controller class (subclass "
+                         "agents.SetPointController)")
+    return factory
 
 
 def source_file(factory: Any) -> Path | None:
@@ -188,16 +224,13 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
     if name != "learned":
         kwargs.pop("env_id", None)  # only the learned controller depends on the task
     if is_imported(name):
-        controller = imported_factory(name)(**kwargs)
-        missing = [a for a in ("name", "rate", "env_id", "physics", "reset", "act")
-                   if not hasattr(controller, a)]
-        if missing:
-            raise ValueError(f"controller: {name} is not a controller: it has no "
-                             f"{', '.join(missing)} (agents.base.Controller; subclass "
-                             "agents.SetPointController)")
-        if controller.rate not in ("drive", "policy"):
-            raise ValueError(f"controller: {name}: rate is {controller.rate!r}, not "
-                             "'drive' or 'policy'")
+        factory = imported_factory(name)
+        try:
+            controller = factory(**kwargs)
+        except Exception as err:  # noqa: BLE001 - the user's code: said in one line
+            raise ValueError(f"controller: {name} cannot be made with no arguments: "
+                             f"{in_user_code(err)}") from None
+        check_interface(name, controller)
         return controller
     try:
         factory = CONTROLLERS[name]
@@ -205,6 +238,50 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
         raise ValueError(f"controller: unknown name {name!r}; known: "
                          f"{KNOWN}") from None
     return factory(**kwargs)
+
+
+#: The characters a controller's table name may hold: it names files (series,
+#: recordings) and CSV rows.
+_TABLE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
+
+
+def check_interface(name: str, controller: Any) -> None:
+    """ValueError naming what a controller of your own lacks or gets wrong: the methods
+    and attributes of :class:`agents.base.Controller`, a ``rate``, an ``env_id`` that is
+    registered, ``physics()`` a dict, a table name (:func:`table_name`) that can name
+    files and is not a built-in controller's."""
+    missing = [a for a in ("name", "rate", "env_id", "physics", "reset", "act")
+               if not hasattr(controller, a)]
+    if missing:
+        raise ValueError(f"controller: {name} is not a controller: it has no "
+                         f"{', '.join(missing)} (agents.base.Controller; subclass "
+                         "agents.SetPointController)")
+    if controller.rate not in ("drive", "policy"):
+        raise ValueError(f"controller: {name}: rate is {controller.rate!r}, not "
+                         "'drive' or 'policy'")
+    import gymnasium
+
+    if controller.env_id not in gymnasium.registry:
+        drill = ", ".join(k for k in gymnasium.registry if k.startswith("Drill"))
+        raise ValueError(f"controller: {name}: env_id {controller.env_id!r} is not a "
+                         f"registered env; the drill-env ones: {drill}")
+    try:
+        physics = controller.physics()
+    except Exception as err:  # noqa: BLE001 - the user's code: said in one line
+        raise ValueError(f"controller: {name}: physics() raised {in_user_code(err)}"
+                         ) from None
+    if not isinstance(physics, Mapping):
+        raise ValueError(f"controller: {name}: physics() returned "
+                         f"{type(physics).__name__}, not a dict of config overrides "
+                         "({} for none)")
+    own = table_name(name)  # the class's own name, else the attribute after the colon
+    if not _TABLE_NAME.fullmatch(own):
+        raise ValueError(f"controller: {name}: name {own!r} cannot name its rows and "
+                         "files: letters, digits and _ . + - (set the class's name "
+                         "attribute)")
+    if own in CONTROLLERS or own.startswith(("constant-", "learned-")):
+        raise ValueError(f"controller: {name}: name {own!r} is a built-in controller's "
+                         "(set the class's name attribute to your own)")
 
 
 def parse_controllers(text: str) -> list[str]:

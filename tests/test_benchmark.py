@@ -986,6 +986,94 @@ def test_a_controller_of_your_own_that_is_not_one_is_refused_by_name(tmp_path, m
     sys.modules.pop("mine", None)  # imported from this test's folder
 
 
+BROKEN = {  # file -> (code, what the one-line error says)
+    "syntax.py": ("from agents import SetPointController\nclass Bad(SetPointController)\n"
+                  "    name = 'bad'\n", "SyntaxError: expected ':' (syntax.py, line 2)"),
+    "missing.py": ("import not_installed_anywhere\n",
+                   "ModuleNotFoundError: No module named 'not_installed_anywhere' "
+                   "(missing.py, line 1)"),
+    "raises.py": ("raise RuntimeError('no licence server')\n",
+                  "RuntimeError: no licence server (raises.py, line 1)"),
+    "needs.py": ("from agents import SetPointController\n\n\n"
+                 "class Bad(SetPointController):\n    name = 'needs'\n\n"
+                 "    def __init__(self, gain):\n        super().__init__()\n",
+                 "cannot be made with no arguments: TypeError"),
+    "number.py": ("Bad = 3\n", "number.py:Bad is int 3, not a controller class"),
+    "nophysics.py": ("from agents import SetPointController\n\n\n"
+                     "class Bad(SetPointController):\n    name = 'nophysics'\n\n"
+                     "    def physics(self):\n        pass\n",
+                     "physics() returned NoneType, not a dict"),
+    "typo.py": ("from agents import SetPointController\n\n\n"
+                "class Bad(SetPointController):\n    name = 'typo'\n"
+                "    env_id = 'DrillStrin-v0'\n",
+                "env_id 'DrillStrin-v0' is not a registered env; the drill-env ones: "
+                "DrillString-v0"),
+    "slash.py": ("from agents import SetPointController\n\n\n"
+                 "class Bad(SetPointController):\n    name = 'my/ctl'\n",
+                 "name 'my/ctl' cannot name its rows and files"),
+    "stiff.py": ("from agents import SetPointController\n\n\n"
+                 "class Bad(SetPointController):\n    name = 'stiff'\n",
+                 "name 'stiff' is a built-in controller's"),
+}
+
+
+@pytest.mark.parametrize("file", sorted(BROKEN))
+def test_a_broken_controller_file_is_one_line_naming_it_and_exit_2(tmp_path, capsys, file):
+    code, said = BROKEN[file]
+    (tmp_path / file).write_text(code)
+    typed = f"{tmp_path / file}:Bad"
+    with pytest.raises(SystemExit) as stopped:  # a bad argument: usage, then one line
+        main(["benchmark", "--controllers", f"stiff,{typed}", "--out", str(tmp_path / "o")])
+    assert stopped.value.code == 2
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]
+    assert "Traceback" not in err and last.startswith("drill-env benchmark: error: "
+                                                      "--controllers: "), err
+    assert said in last and file in last
+
+
+@pytest.mark.parametrize("body, said", [
+    ("        raise KeyError('gain')\n", "act() raised KeyError: 'gain' (acts.py, line 10)"),
+    ("        return np.zeros(1)\n", "act() returned an action of shape (1,); the env "
+                                     "takes (2,)")])
+def test_a_controller_of_your_own_that_acts_wrongly_is_named_in_one_line(tmp_path, capsys,
+                                                                          body, said):
+    """In a pool's worker too: its error comes back as one line naming the controller,
+    its file's line and the episode, not the pool's traceback."""
+    file = tmp_path / "acts.py"
+    file.write_text("import numpy as np\nfrom agents import SetPointController\n\n\n"
+                    "class Bad(SetPointController):\n    name = 'acts'\n    rate = 'policy'"
+                    "\n\n    def act(self, observation, info):\n" + body)
+    assert main(["benchmark", "--controllers", f"stiff,{file}:Bad", "--scenarios",
+                 "stick_slip", "--seeds", "1", "--duration", "4", "--warmup", "2",
+                 "--workers", "2", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]  # after the progress bar
+    assert "Traceback" not in err and last.startswith("drill-env benchmark: error: "), err
+    assert said in last and f"{file}:Bad" in last and "(stick_slip seed 0)" in last
+
+
+def test_a_controller_file_imports_the_helper_module_beside_it(tmp_path):
+    """As ``python file.py`` does: the file's folder is on the import path."""
+    from agents.registry import make_controller
+
+    (tmp_path / "gains_of_mine.py").write_text("GAIN = 1234.0\n")
+    (tmp_path / "tuned.py").write_text(
+        OWN_CONTROLLER.replace("GAIN,", "gains_of_mine.GAIN,").replace(
+            "from agents import", "import gains_of_mine\nfrom agents import"))
+    controller = make_controller(f"{tmp_path / 'tuned.py'}:Gentle")
+    assert controller.physics()["top_drive.proportional_gain"] == 1234.0
+    sys.modules.pop("gains_of_mine", None)
+
+
+def test_two_classes_of_the_same_name_are_told_to_rename_a_class(tmp_path):
+    for stem in ("one", "two"):
+        (tmp_path / f"{stem}.py").write_text(OWN_CONTROLLER.replace("GAIN", "1500.0"))
+    with pytest.raises(ValueError, match="share the name 'gentle' in the table; set another "
+                                         "name attribute"):
+        bm.labels([f"{tmp_path / 'one.py'}:Gentle", f"{tmp_path / 'two.py'}:Gentle"])
+
+
 def test_a_policy_of_your_own_that_chooses_its_rpm_is_marked_as_the_driller(tmp_path):
     """``sets_own_speed = True`` on a policy-rate controller of your own: its rpm error is
     its choice, marked as the driller's (docs/controllers.md, "Your own controller")."""
