@@ -629,22 +629,23 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                               measure=min(sm.DEFAULT_SETTINGS.measure, args.seconds))
     configs = None
     if args.controller is not None:
-        from agents.registry import CLASSICAL, CONTROLLERS, make_controller
+        from agents.registry import CLASSICAL, CONTROLLERS, is_imported, make_controller
 
         args.controller = canonical_controller(args.controller)
         # the map holds the set points fixed: only the top drive's own loops apply
         drive = [n for n in CLASSICAL if make_controller(n).rate == "drive"]
-        if args.controller not in drive:
+        own = typed_controller(args.controller) if is_imported(args.controller) else None
+        if args.controller not in drive and (own is None or own.rate != "drive"):
             why = ("acts at the policy rate (on the set points, or a task-1 policy on the "
                    "speed command), which the map does not run: it holds the set points "
                    "fixed under the top drive's own loop"
-                   if args.controller in CONTROLLERS
+                   if own is not None or args.controller in CONTROLLERS
                    or args.controller.startswith(("learned:", "constant:"))
                    else "is not a controller")
             raise argparse.ArgumentTypeError(
                 f"--controller: {args.controller} {why}; choose a drive-rate controller: "
-                f"{', '.join(drive)}")
-        controller = typed_controller(args.controller)
+                f"{', '.join(drive)} or one of your own (rate = 'drive')")
+        controller = own or typed_controller(args.controller)
         configs = {p: sm.map_config(p, controller.physics()) for p in names}
     store = args.out / "stability_map.points.jsonl"
     t0 = time.perf_counter()
@@ -658,7 +659,9 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     print(f"{runs} simulations of {args.seconds:.0f} s for {cells} grid points (boundary "
           f"tracking; finished points are kept in {store} and reused by a rerun) in "
           f"{time.perf_counter() - t0:.1f} s")
-    paths = sm.write_maps(maps, args.out, settings, args.controller or "stiff")
+    from agents.benchmark import label  # your own controller by its table name
+
+    paths = sm.write_maps(maps, args.out, settings, label(args.controller or "stiff"))
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 

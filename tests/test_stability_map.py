@@ -336,3 +336,28 @@ def test_a_sweep_uses_the_workers_asked_for_not_every_core(monkeypatch) -> None:
         assert executor.workers == 2 and executor._pool._max_workers == 2
     finally:
         executor.close()
+
+
+def test_the_map_command_runs_under_a_drive_rate_controller_of_your_own(tmp_path, capsys):
+    """docs/controllers.md: the map under any drive-rate controller, yours too, written
+    under its table name; a policy-rate one of yours is refused, saying why."""
+    import json
+
+    from drill_cli.main import main
+
+    gains = ('"top_drive.controller": "stiff", "top_drive.proportional_gain": 3000.0, '
+             '"top_drive.integral_gain": 800.0')
+    (tmp_path / "mine.py").write_text(
+        "from agents import SetPointController\n\n\n"
+        f"class GentlePI(SetPointController):\n    name = 'gentle-pi'\n\n"
+        f"    def physics(self):\n        return {{{gains}}}\n\n\n"
+        "class Chooser(GentlePI):\n    name = 'chooser'\n    rate = 'policy'\n")
+    args = ["stability-map", "--positions", "P1", "--rpm-step", "100", "--wob-step", "100",
+            "--max-rpm", "200", "--max-wob", "200", "--seconds", "4", "--workers", "1",
+            "--out", str(tmp_path / "maps")]
+    assert main([*args, "--controller", f"{tmp_path / 'mine.py'}:GentlePI"]) == 0
+    data = json.loads((tmp_path / "maps" / "stability_map_gentle-pi.json").read_text())
+    assert data["controller"] == "gentle-pi" and len(data["maps"]) == 1
+    with pytest.raises(SystemExit):
+        main([*args, "--controller", f"{tmp_path / 'mine.py'}:Chooser"])
+    assert "acts at the policy rate" in capsys.readouterr().err
