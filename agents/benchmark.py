@@ -125,6 +125,9 @@ class Episode:
     #: series file and beside its recording, so a row is not reused with the picture or
     #: recording of another run in the same folder.
     stamp: str = ""
+    #: The run's settings and code alone (:func:`run_stamp`): the second line beside its
+    #: recording, the folder a later run sets the recording aside in.
+    run: str = ""
 
     @property
     def label(self) -> str:
@@ -171,7 +174,7 @@ class Episode:
         """Whether :attr:`recording` is there and was made under this episode's stamp."""
         sidecar = self.recording_stamp
         return (self.recording.exists() and sidecar.exists()
-                and sidecar.read_text() == self.stamp)
+                and sidecar.read_text().partition("\n")[0] == self.stamp)
 
 
 def label(controller: str) -> str:
@@ -402,7 +405,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         env.close()
     if episode.record and getattr(env, "last_path", None) == episode.recording:
         # (only a file this run wrote: RERUN=off writes none, and an older one stays old)
-        episode.recording_stamp.write_text(episode.stamp)
+        episode.recording_stamp.write_text(f"{episode.stamp}\n{episode.run}\n")
     everything = np.concatenate(kept) if kept else np.zeros((0, len(RECORD_CHANNELS)))
     records = everything[everything[:, R.TIME] >= start + settings.warmup]
     if len(records) < 2:
@@ -499,6 +502,13 @@ def stamp(fingerprint: str, key: str) -> str:
     return hashlib.sha256(f"{fingerprint}|{key}".encode()).hexdigest()[:16]
 
 
+def run_stamp(fingerprint: str) -> str:
+    """A short digest of a run's fingerprint: the same for all its rows."""
+    import hashlib
+
+    return hashlib.sha256(fingerprint.encode()).hexdigest()[:16]
+
+
 def fingerprint(settings: BenchmarkSettings, env_id: str | None = None) -> str:
     """What a stored row depends on besides its key: rows of other settings, or computed
     by other code (the simulator, scenarios, metrics, controllers), are not reused."""
@@ -527,7 +537,8 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))
-    todo_all = [dataclasses.replace(e, stamp=stamp(store.fingerprint, e.key))
+    todo_all = [dataclasses.replace(e, stamp=stamp(store.fingerprint, e.key),
+                                    run=run_stamp(store.fingerprint))
                 for e in episodes(controllers, scenarios, seeds, settings, out, record,
                                   env_id)]
     # a stored row is rerun only to write its series or a recording asked for, missing
@@ -584,9 +595,10 @@ def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool
         if not e.recording.exists() or e.recording_current():
             continue
         sidecar = e.recording_stamp
-        stamp = sidecar.read_text().strip() if sidecar.exists() else ""
-        # one folder per run, so a second set-aside keeps the first; a damaged stamp
-        # is not a path
+        lines = sidecar.read_text().split() if sidecar.exists() else []
+        # one folder per run (its run stamp; a recording of before it had only its row's),
+        # so a second set-aside keeps the first; a damaged stamp is not a path
+        stamp = lines[-1] if lines else ""
         folder = stamp if stamp.isalnum() and stamp.isascii() else "unstamped"
         aside = out / "recordings" / "other_runs" / folder
         aside.mkdir(parents=True, exist_ok=True)

@@ -271,28 +271,37 @@ def test_a_rerun_without_record_sets_aside_the_recordings_of_other_settings(tmp_
     """A benchmark with --record, then one of other settings without it into the same
     folder: the table held the new rows and recordings/ the old episodes under the same
     names, which replayed episodes the table does not show. Now they are moved to
-    recordings/other_runs/<their stamp>/, one folder per run, so a second set-aside keeps
-    the first; a recording of the table's own rows stays."""
+    recordings/other_runs/<their run's stamp>/, one folder per run (both seeds of a run
+    together; they went to one folder per episode), so a second set-aside keeps the
+    first; a recording of the table's own rows stays."""
     other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
     third = bm.BenchmarkSettings(duration=4.0, warmup=2.0)
-    args = (["stiff"], ["stick_slip"], [0], tmp_path)
-    recording = tmp_path / "recordings" / "stiff_stick_slip_seed0.rrd"
-    sidecar = recording.with_name(recording.name + ".stamp")
+    args = (["stiff"], ["stick_slip"], [0, 1], tmp_path)
+    recordings = [tmp_path / "recordings" / f"stiff_stick_slip_seed{k}.rrd" for k in (0, 1)]
+    sidecars = [r.with_name(r.name + ".stamp") for r in recordings]
     aside = tmp_path / "recordings" / "other_runs"
     made = {}
     for settings in (SHORT, third):
         bm.run_benchmark(*args, settings, workers=1, record=True, progress=False)
-        made[sidecar.read_text()] = recording.read_bytes()
+        run = {s.read_text().split()[1] for s in sidecars}
+        assert len(run) == 1 and {s.read_text().split()[0] for s in sidecars} != run
+        made[run.pop()] = [(r.read_bytes(), s.read_text())
+                           for r, s in zip(recordings, sidecars, strict=True)]
         bm.run_benchmark(*args, settings, workers=1, progress=True)  # its own: kept
-        assert recording.read_bytes() == made[sidecar.read_text()]
+        assert [r.read_bytes() for r in recordings] == [data for data, _ in
+                                                         list(made.values())[-1]]
         capsys.readouterr()
         bm.run_benchmark(*args, other, workers=1, progress=True)
-        assert not recording.exists() and not sidecar.exists()
-        assert "1 recording(s) of another run" in capsys.readouterr().err
+        assert not any(r.exists() or s.exists() for r, s in zip(recordings, sidecars,
+                                                                strict=True))
+        assert "2 recording(s) of another run" in capsys.readouterr().err
     assert len(made) == 2
-    for stamp, data in made.items():
-        assert (aside / stamp / recording.name).read_bytes() == data
-        assert (aside / stamp / sidecar.name).read_text() == stamp
+    assert sorted(p.name for p in aside.iterdir()) == sorted(made)
+    for run, files in made.items():
+        for recording, sidecar, (data, stamp) in zip(recordings, sidecars, files,
+                                                     strict=True):
+            assert (aside / run / recording.name).read_bytes() == data
+            assert (aside / run / sidecar.name).read_text() == stamp
 
 
 def test_a_row_is_reused_only_with_the_series_and_recording_of_its_own_run(tmp_path,
