@@ -318,7 +318,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         "start_kick": args.start_kick, "duration_given_s": args.duration,
         "fidelity": base.simulation_config.solver.fidelity,
         "string_length_m": base.simulation_config.string.length, "steps": steps,
-        "simulated_s": round(float(info.get("episode_time", 0.0)), 9),
+        "simulated_s": round(float(info.get("episode_time", 0.0)), 6),  # steps of ms
         # a task's policy: DrillString-v0's reward of its episode (as benchmark), and
         # its own task's apart
         "return": reward if guest is None else base.plain_return, "task_return": guest,
