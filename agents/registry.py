@@ -118,13 +118,14 @@ def in_user_code(err: BaseException) -> str:
     if isinstance(err, SyntaxError):
         return f"SyntaxError: {err.msg} ({Path(err.filename or '?').name}, line {err.lineno})"
     ours = Path(__file__).resolve().parent.parent
+    skip = [ours / "agents", ours / "drill_env",  # ours, Python's and installed packages
+            *{Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix)}]
     where = ""
     for frame in traceback.extract_tb(err.__traceback__):
-        path = Path(frame.filename)
-        if frame.filename.startswith("<") or path.resolve().is_relative_to(ours / "agents") \
-                or path.resolve().is_relative_to(ours / "drill_env"):
-            continue
-        where = f" ({path.name}, line {frame.lineno})"
+        path = Path(frame.filename).resolve()
+        if not frame.filename.startswith("<") and not any(path.is_relative_to(s)
+                                                          for s in skip):
+            where = f" ({path.name}, line {frame.lineno})"
     return f"{type(err).__name__}: {err}{where}"
 
 

@@ -1043,6 +1043,8 @@ def test_a_broken_controller_file_is_one_line_naming_it_and_exit_2(tmp_path, cap
 
 @pytest.mark.parametrize("body, said", [
     ("        raise KeyError('gain')\n", "act() raised KeyError: 'gain' (acts.py, line 10)"),
+    ("        return np.linalg.inv(np.zeros((2, 2)))\n",  # raised inside numpy: your line
+     "act() raised LinAlgError: Singular matrix (acts.py, line 10)"),
     ("        return np.zeros(1)\n", "act() returned an action of shape (1,); the env "
                                      "takes (2,)")])
 def test_a_controller_of_your_own_that_acts_wrongly_is_named_in_one_line(tmp_path, capsys,
