@@ -1150,6 +1150,8 @@ def option_of(field: str, command_parser: argparse.ArgumentParser) -> str | None
              for name in field.split("/")]
     if not all(name.isidentifier() for name in field.split("/")):
         return None
+    # a field of one item set by an option of a list (controller -> --controllers)
+    flags = [f + "s" if f not in options and f + "s" in options else f for f in flags]
     return "/".join(flags) if all(flag in options for flag in flags) else None
 
 

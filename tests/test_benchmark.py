@@ -1060,7 +1060,8 @@ def test_a_controller_of_your_own_that_acts_wrongly_is_named_in_one_line(tmp_pat
                  "--workers", "2", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     last = err.strip().splitlines()[-1]  # after the progress bar
-    assert "Traceback" not in err and last.startswith("drill-env benchmark: error: "), err
+    assert "Traceback" not in err and last.startswith(
+        "drill-env benchmark: error: --controllers: "), err
     assert said in last and f"{file}:Bad" in last and "(stick_slip seed 0)" in last
 
 
