@@ -394,7 +394,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         start = float(info["time"])
         while True:
             obs, reward, terminated, truncated, info = env.step(
-                act(controller, episode, env.action_space, obs, info))
+                act(controller, episode.controller, f"{episode.scenario} seed {episode.seed}",
+                    env.action_space, obs, info))
             total += float(reward)
             kept.append(base.last_records)
             targets.append((float(info["time"]), base.targets[0]))
@@ -450,25 +451,24 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     return row
 
 
-def act(controller: Any, episode: Episode, space: Any, obs: Any, info: dict[str, Any]
-        ) -> Any:
-    """``controller.act``; for a controller of your own, an error in its code or an action
-    the env cannot take is said in one line naming it and the line of its file (a
-    worker's traceback is dozens of lines of the pool's)."""
+def act(controller: Any, typed: str, where: str, space: Any, obs: Any,
+        info: dict[str, Any]) -> Any:
+    """``controller.act``; for a controller of your own (``typed``: its name as given), an
+    error in its code or an action the env cannot take is said in one line naming it,
+    the line of its file and ``where`` (the episode), not a worker's traceback of dozens
+    of lines of the pool's."""
     from agents.registry import in_user_code, is_imported
 
-    if not is_imported(episode.controller):
+    if not is_imported(typed):
         return controller.act(obs, info)
     try:
         action = controller.act(obs, info)
     except Exception as err:  # noqa: BLE001 - the user's code: said in one line
-        raise ValueError(f"controller: {episode.controller}: act() raised "
-                         f"{in_user_code(err)} ({episode.scenario} seed {episode.seed})"
-                         ) from None
+        raise ValueError(f"controller: {typed}: act() raised {in_user_code(err)} "
+                         f"({where})") from None
     if np.shape(action) != space.shape:
-        raise ValueError(f"controller: {episode.controller}: act() returned an action of "
-                         f"shape {np.shape(action)}; the env takes {space.shape} "
-                         f"({episode.scenario} seed {episode.seed})")
+        raise ValueError(f"controller: {typed}: act() returned an action of shape "
+                         f"{np.shape(action)}; the env takes {space.shape} ({where})")
     return action
 
 

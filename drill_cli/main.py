@@ -252,6 +252,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                             controller=label(args.controller))
     from tqdm import tqdm
 
+    from agents.benchmark import act
     from drill_env.physics.statics import pipe_buckling
 
     t0 = time.perf_counter()
@@ -279,7 +280,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         controller.reset(base)
         for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario}",
                       leave=False, file=sys.stderr):
-            obs, r, terminated, truncated, info = env.step(controller.act(obs, info))
+            obs, r, terminated, truncated, info = env.step(act(
+                controller, args.controller, f"{args.scenario} seed {args.seed}",
+                env.action_space, obs, info))
             steps += 1
             reward += float(r)
             sums["target_speed"] += base.targets[0]

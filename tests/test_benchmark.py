@@ -1065,6 +1065,19 @@ def test_a_controller_of_your_own_that_acts_wrongly_is_named_in_one_line(tmp_pat
     assert said in last and f"{file}:Bad" in last and "(stick_slip seed 0)" in last
 
 
+def test_run_says_an_act_error_of_your_own_in_one_line_too(tmp_path, capsys):
+    file = tmp_path / "acts.py"
+    file.write_text("from agents import SetPointController\n\n\n"
+                    "class Bad(SetPointController):\n    name = 'acts'\n    rate = 'policy'"
+                    "\n\n    def act(self, observation, info):\n        return 1 / 0\n")
+    assert main(["run", "--controller", f"{file}:Bad", "--scenario", "stick_slip",
+                 "--duration", "2", "--seed", "3", "--out", str(tmp_path / "out")]) == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last == (f"drill-env run: error: --controller: {file}:Bad: act() raised "
+                    "ZeroDivisionError: division by zero (acts.py, line 9) (stick_slip "
+                    "seed 3)")
+
+
 def test_a_controller_file_imports_the_helper_module_beside_it(tmp_path):
     """As ``python file.py`` does: the file's folder is on the import path."""
     from agents.registry import make_controller
