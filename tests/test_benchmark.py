@@ -1136,3 +1136,21 @@ def test_the_docs_recipe_for_a_policy_trained_elsewhere_scores_as_the_shipped_on
     assert [r["controller"] for r in rows] == ["my-sac", "learned"]
     mine, shipped = ({k: v for k, v in r.items() if k != "controller"} for r in rows)
     assert mine == shipped and mine["own_speed"] is True
+
+
+def test_plot_swing_ignores_the_warmup():
+    # _swing docstring: how widely speed swings after ``warmup``
+    from agents.plots import _swing
+
+    t = np.arange(0.0, 20.0, 0.1)
+    speed = np.where(t < 15.0, 10.0 * np.sin(3.0 * t), 5.0)
+    assert _swing(t, speed, warmup=15.0) == 0.0
+
+
+def test_plot_swing_is_the_median_block_range_not_a_one_off_step():
+    # _swing docstring: a change of target moves one block only (median over 5 s blocks)
+    from agents.plots import _swing
+
+    t = np.arange(0.0, 25.0, 0.1)
+    speed = np.where(t < 12.0, 5.0, 8.0)  # one step, inside the third 5 s block
+    assert _swing(t, speed, warmup=0.0) == 0.0

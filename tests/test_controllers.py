@@ -367,3 +367,58 @@ def test_a_constant_set_point_drives_the_stiff_top_drive() -> None:
     from agents import ConstantSetPoints
 
     assert ConstantSetPoints(100.0, 50e3).physics() == {"top_drive.controller": "stiff"}
+
+
+class _DrillerEnv:
+    class config:  # noqa: N801
+        control_interval = 0.1
+        rpm_range = (0.0, 200.0)
+
+    def __init__(self, rpm, wob, top_rpm=200.0):
+        self.targets = (rpm * RPM, wob)
+        self.config = type("cfg", (), {"control_interval": 0.1, "rpm_range": (0.0, top_rpm)})
+
+    def action_for(self, speed, wob):
+        return np.array([speed, wob])
+
+
+def _drive(driller, torque):
+    return np.array([driller.act(np.zeros(1), {"surface_torque": v}) for v in torque])
+
+
+def test_driller_does_not_act_at_exactly_its_swing_threshold():
+    # DrillerRules: stick-slip when the swing is MORE than torque_swing (0.15)
+    from agents.driller import Driller
+
+    d = Driller()
+    d.reset(_DrillerEnv(50.0, 100e3))
+    torque = np.tile([8.5e3, 11.5e3], 25)  # (11.5-8.5)/(2*10) = 0.15 exactly
+    out = _drive(d, torque)
+    assert out[-1, 0] == pytest.approx(50.0 * RPM)
+
+
+def test_driller_steps_the_speed_back_once_the_weight_is_back():
+    # module docstring: once calm for a while, step back toward the plan (WOB first,
+    # then the rpm)
+    from agents.driller import Driller, DrillerRules
+
+    r = DrillerRules()
+    d = Driller(r)
+    d.reset(_DrillerEnv(50.0, 100e3))
+    t = np.arange(0, 5.0, 0.1)
+    out = _drive(d, 10e3 * (1.0 + 0.5 * np.sin(np.pi * t)))  # one decision: +10 rpm
+    assert out[-1, 0] == pytest.approx(60.0 * RPM)
+    out = _drive(d, np.full(50 * r.calm_decisions, 10e3))
+    assert out[-1, 0] == pytest.approx(50.0 * RPM)
+    assert out[-1, 1] == pytest.approx(100e3)
+
+
+def test_driller_keeps_at_least_its_minimum_weight_fraction():
+    # DrillerRules.min_weight_fraction: the least WOB it keeps (0.5 of the plan)
+    from agents.driller import Driller
+
+    d = Driller()
+    d.reset(_DrillerEnv(50.0, 95e3, top_rpm=50.0))  # no room to raise: WOB goes first
+    t = np.arange(0, 60.0, 0.1)
+    out = _drive(d, 10e3 * (1.0 + 0.5 * np.sin(np.pi * t)))
+    assert out[:, 1].min() == pytest.approx(0.5 * 95e3)

@@ -7,6 +7,7 @@ import pytest
 
 from drill_env import metrics
 from drill_env.physics.simulator import RECORD_CHANNELS
+from drill_env.physics.units import RPM
 
 T = np.linspace(0.0, 10.0, 10001)  # ten whole periods of a 1 Hz sinusoid
 
@@ -342,3 +343,18 @@ def test_the_metric_rules_of_the_module_table_on_both_paths():
             assert m["backward_whirl_fraction"] == backward
     for m in _both_paths(surface_torque=np.r_[np.full(25, -5e4), np.full(25, 1e3)]):
         assert m["surface_torque_max"] == 5e4
+
+
+def test_stuck_fraction_boundary_is_strict():
+    # docstring: stuck means |bit speed| < 1 rpm; exactly 1 rpm is turning
+    assert metrics.stuck_fraction([1.0 * RPM, -1.0 * RPM, 2.0 * RPM, 0.0]) == 0.25
+
+
+def test_mse_is_the_ceiling_when_not_drilling_but_spending_rotary_power():
+    # docstring: mean ROP below min_rop (1e-9 m/s) with rotary power spent -> MSE_CEILING
+    wob = [1.0e4] * 4
+    torque = [1.0e-3] * 4
+    speed = [1.0e-3] * 4   # power 1e-6 W: tiny, but spent
+    rop = [5.0e-10] * 4    # below MSE_MIN_ROP but > 0
+    assert metrics.mechanical_specific_energy(wob, torque, speed, rop, 0.2) \
+        == metrics.MSE_CEILING

@@ -1148,3 +1148,68 @@ def test_every_held_out_seed_can_be_asked_for(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match="seeds: at most"):
         ev.evaluate_run(TRAINED / "stick_slip", seeds=len(EVALUATION_SEEDS) + 1,
                         out=tmp_path, progress=False)
+
+
+def test_reward_normalisation_uses_normalize_gamma_when_given():
+    # Normalize.gamma: the discount of the reward normalisation; None -> algorithm's gamma
+    from training.config import load_config
+
+    cfg = load_config("stick_slip", "sac", n_envs=1,
+                      normalize={"norm_reward": True, "gamma": 0.9},
+                      hyperparams={"gamma": 0.95})
+    assert cfg.reward_gamma == 0.9
+
+
+def test_a_learning_rate_of_zero_is_refused():
+    # _RANGES: learning_rate must be > 0 (low end excluded)
+    from training.config import load_config
+
+    with pytest.raises(ValueError, match="learning_rate: must be a number > 0"):
+        load_config("stick_slip", "ppo", hyperparams={"learning_rate": 0.0})
+
+
+def test_a_ppo_batch_just_larger_than_the_rollout_is_refused():
+    # check_algorithm_arguments: a batch larger than n_steps x n_envs is refused
+    from training.config import load_config
+
+    with pytest.raises(ValueError, match="batch_size: 200 is more than a rollout holds"):
+        load_config("stick_slip", "ppo", n_envs=2,
+                    hyperparams={"n_steps": 64, "batch_size": 200})
+
+
+def test_a_zero_width_layer_is_refused():
+    # check_algorithm_arguments: net_arch is a list of layer widths (integers >= 1)
+    from training.config import load_config
+
+    with pytest.raises(ValueError, match="net_arch: must be a list of layer widths"):
+        load_config("stick_slip", "ppo", policy_kwargs={"net_arch": [64, 0]})
+
+
+def test_a_seed_summary_reports_the_best_evaluation_not_the_last(tmp_path, monkeypatch):
+    # training/sweep.py docstring: the validation return of the best model per seed
+    import json
+
+    import training.train as tt
+    from training.config import load_config
+    from training.sweep import _train_task
+
+    monkeypatch.setattr(tt, "train", lambda *a, **k: None)
+    monkeypatch.setattr(tt, "holds_run", lambda run: False)
+    run = tmp_path / "r"
+    run.mkdir()
+    (run / "run.json").write_text(json.dumps({"env_steps": 100, "wall_s": 1.0}))
+    (run / "evaluations.csv").write_text(
+        "timesteps,return,ssi\n10,-5.0,0.5\n20,-1.0,0.2\n30,-3.0,0.4\n")
+    s = _train_task((load_config("stick_slip", "ppo"), str(run)))
+    assert (s["best_return"], s["best_at_steps"], s["best_ssi"]) == (-1.0, 20, 0.2)
+
+
+def test_a_run_folder_loads_its_best_model_before_its_final_one(tmp_path):
+    # agents/learned.py docstring: its best model on the validation seeds if there is
+    # one, else its final model, else its last checkpoint
+    from agents.learned import policy_files
+
+    for name in ("best_model.zip", "best_vecnormalize.pkl", "model.zip", "vecnormalize.pkl"):
+        (tmp_path / name).write_bytes(b"")
+    assert policy_files(tmp_path) == (tmp_path / "best_model.zip",
+                                      tmp_path / "best_vecnormalize.pkl")

@@ -229,3 +229,50 @@ def test_rock_founder_points_lie_in_the_field_range_harder_rock_later():
         assert 2.0 * klbf_per_inch <= founder <= 5.0 * klbf_per_inch, rock.name
         assert 0.0 < rock.post_founder_slope < 1.0, rock.name
     assert founders == sorted(founders) and len(set(founders)) == 3
+
+
+def test_env_config_refuses_an_empty_set_point_range():
+    # EnvConfig: the high end must exceed the low end
+    from drill_env.env_config import EnvConfig
+
+    with pytest.raises(ValueError, match="high end must exceed"):
+        EnvConfig(rpm_range=(100.0, 100.0))
+
+
+def test_random_scenario_needs_a_pipe_joint_beyond_the_bha():
+    # scenarios.random: the strings need more than BHA + heavy-weight pipe + 10 m
+    from drill_env import scenarios
+    from drill_env.physics.components import realistic_string
+
+    lower = realistic_string().bha_length
+    with pytest.raises(ValueError, match="string_length_range"):
+        scenarios.random(np.random.default_rng(0),
+                         string_length_range=(lower + 5.0, lower + 5.0))
+
+
+def _random_draws(n):
+    from drill_env import scenarios
+
+    return [scenarios.random(np.random.default_rng(s)) for s in range(n)]
+
+
+def test_random_scenario_draws_the_bits_at_even_odds_and_spreads_the_rpm():
+    # scenarios.random docstring: symmetric or asymmetric bit (even odds); the start rpm
+    # uniformly in rpm_range (40-160)
+    from drill_env.physics.bit import symmetric_bit
+    from drill_env.physics.units import RPM
+
+    draws = _random_draws(200)
+    sym = symmetric_bit().blade_angles
+    n_sym = sum(d.config.bit.blade_angles == sym for d in draws)
+    assert abs(n_sym - 100) < 30  # 100 +- 4.2 sigma
+    rpm = np.array([d.surface_speed / RPM for d in draws])
+    assert rpm.min() < 50.0 and rpm.max() > 150.0
+
+
+def test_sandwich_refuses_a_zero_thickness():
+    from drill_env import scenarios
+    from drill_env.physics.bit import symmetric_bit
+
+    with pytest.raises(ValueError, match="thickness"):
+        scenarios.sandwich(symmetric_bit(), scenarios.SOFT, 1000.0, "P1", thickness=0.0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from types import MappingProxyType
 
 import gymnasium as gym
@@ -552,3 +553,82 @@ def test_the_drilling_telemetry_radial_entry_is_a_past_window_mean():
     assert max(shown) > 0.1
     for value in shown:
         assert min(abs(value - s) for s in seen) <= 1e-6 * max(1.0, abs(value)), value
+
+
+def test_stick_slip_whirl_term_reads_a_non_finite_step_as_full_radial():
+    # the plain env (drill_env/env.py, non-finite step -> radial 1.0) and task 2 (whirl
+    # share 1.0) both charge a step without finite values the full whirl penalty
+    import gymnasium as gym
+
+    from drill_env.metrics import Metric
+
+    env = gym.make("DrillStickSlip-v0")
+    env.reset(seed=0)
+    base = env.unwrapped
+    values = [0.0] * len(Metric)
+    values[Metric.RADIAL_RATIO] = 0.3
+    base._window_metrics = (values, True)
+    assert base._reward_terms((values, True), False)["whirl"] == pytest.approx(
+        -base.task.whirl_weight * 0.3)
+    assert base._reward_terms((values, False), False)["whirl"] == pytest.approx(
+        -base.task.whirl_weight * 1.0)
+    assert base._reward_terms(None, False)["whirl"] == pytest.approx(-base.task.whirl_weight)
+
+
+@pytest.mark.parametrize("a", [-5.0, 5.0])
+def test_stick_slip_out_of_range_actions_are_clipped_both_ways(a):
+    # StickSlipEnv docstring: speed command = target + action x max_correction (30 rpm);
+    # out-of-range finite actions are clipped to [-1, 1]
+    import gymnasium as gym
+
+
+    env = gym.make("DrillStickSlip-v0", target_change_probability=0.0)
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([a], dtype=np.float32))
+    assert info["correction"] == pytest.approx(math.copysign(30.0 * RPM, a))
+
+
+def test_stick_slip_penalty_is_capped_at_ssi_cap():
+    # StickSlipEnv docstring: -stick_slip_weight min(SSI, cap) (cap 2)
+    import gymnasium as gym
+
+    from drill_env.metrics import Metric
+
+    env = gym.make("DrillStickSlip-v0")
+    env.reset(seed=0)
+    base = env.unwrapped
+    values = [0.0] * len(Metric)
+    values[Metric.SSI] = 7.0
+    base._window_metrics = (values, True)
+    terms = base._reward_terms((values, True), False)
+    assert terms["stick_slip"] == pytest.approx(-base.task.stick_slip_weight * 2.0)
+
+
+def test_stick_slip_action_for_maps_a_speed_above_the_target_to_a_positive_action():
+    # StickSlipEnv: speed command = target + action x max_correction (30 rpm)
+    import gymnasium as gym
+
+
+    env = gym.make("DrillStickSlip-v0", target_change_probability=0.0)
+    env.reset(seed=0, options={"surface_speed": 60 * RPM, "weight_on_bit": 100e3})
+    base = env.unwrapped
+    assert base.action_for(75 * RPM, 100e3)[0] == pytest.approx(0.5)
+    assert base.action_for(30 * RPM, 100e3)[0] == pytest.approx(-1.0)
+
+
+def test_drilling_whirl_term_reads_a_non_finite_step_as_whirling_all_the_time():
+    # as the plain env (env.py: non-finite step -> radial 1.0): no finite values this
+    # step means the worst whirl share, 1
+    import gymnasium as gym
+
+    from drill_env.metrics import Metric
+
+    env = gym.make("DrillOptimise-v0")
+    env.reset(seed=0)
+    base = env.unwrapped
+    values = [0.0] * len(Metric)
+    values[Metric.WHIRL_FRACTION] = 0.3
+    base._window_metrics = (values, True)
+    assert base._reward_terms((values, False), False)["whirl"] == pytest.approx(
+        -base.task.whirl_weight * 1.0)
+    assert base._reward_terms(None, False)["whirl"] == pytest.approx(-base.task.whirl_weight)
