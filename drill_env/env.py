@@ -387,7 +387,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
             if number is None or not math.isfinite(number):
                 raise ValueError(f"reset options: {name}: must be a finite number, got "
                                  f"{value!r}")
-        given = bool(options)
+        given = frozenset(options)  # the targets the caller fixed
         if self.randomised:
             self.scenario = self._build_scenario(self.np_random)
             self._set_simulator(Simulator(self.scenario.config))
@@ -425,9 +425,10 @@ class DrillStringEnv(BatchFinish, gym.Env):
         info = self._info()
         return self._observation(info), info
 
-    def _start_targets(self, speed: float, wob: float, given: bool) -> tuple[float, float]:
+    def _start_targets(self, speed: float, wob: float, given: frozenset[str]
+                       ) -> tuple[float, float]:
         """The episode's set points (rad/s, N) from the scenario's or the reset options'
-        (``given``); a task draws its own here from ``np_random``."""
+        (``given``: their names); a task draws the others here from ``np_random``."""
         return speed, wob
 
     def _paper_startup(self, speed: float, wob: float) -> None:

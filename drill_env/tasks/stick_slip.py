@@ -159,7 +159,8 @@ class StickSlipEnv(TaskEnv):
     As ``DrillString-v0`` with ``startup="stalled"`` and 30 s episodes; ``info`` adds
     ``target_speed`` (rad/s), ``target_weight_on_bit`` (N), ``correction`` (rad/s) and
     ``mean_bit_speed`` (rad/s, over the window). Reset options ``surface_speed`` and
-    ``weight_on_bit`` fix the targets instead of drawing them (no target change then).
+    ``weight_on_bit`` fix the targets instead of drawing them (no target change then); one
+    alone fixes its target, and the other is drawn from the task's range.
 
     ## Arguments
 
@@ -210,13 +211,18 @@ class StickSlipEnv(TaskEnv):
         self._action = 0.0
         self._action_change = 0.0
 
-    def _start_targets(self, speed: float, wob: float, given: bool) -> tuple[float, float]:
+    def _start_targets(self, speed: float, wob: float, given: frozenset[str]
+                       ) -> tuple[float, float]:
         # (the episode state is initialised after this: the change lives here)
         self._change_step = -1
         self._change = (0.0, 0.0)
-        if given:
-            return speed, wob
         t, rng = self.task, self.np_random
+        if given:  # the target not given is drawn from the task's range, not the scenario's
+            if "surface_speed" not in given:
+                speed = float(rng.uniform(*t.rpm_targets)) * RPM
+            if "weight_on_bit" not in given:
+                wob = float(rng.uniform(*t.weight_on_bit_targets))
+            return speed, wob
         speed = float(rng.uniform(*t.rpm_targets)) * RPM
         wob = float(rng.uniform(*t.weight_on_bit_targets))
         if rng.random() < t.target_change_probability:

@@ -632,3 +632,21 @@ def test_drilling_whirl_term_reads_a_non_finite_step_as_whirling_all_the_time():
     assert base._reward_terms((values, False), False)["whirl"] == pytest.approx(
         -base.task.whirl_weight * 1.0)
     assert base._reward_terms(None, False)["whirl"] == pytest.approx(-base.task.whirl_weight)
+
+
+def test_a_stick_slip_reset_fixing_one_target_draws_the_other_from_the_task_range():
+    """Only ``weight_on_bit`` (or only ``surface_speed``) in the reset options: the other
+    target is the task's draw, not the random scenario's own set point (40-159 rpm and
+    51-128 kN were seen, outside the task's 40-100 rpm and 70-130 kN)."""
+    env = gym.make("DrillStickSlip-v0")
+    task = env.unwrapped.task
+    low, high = task.rpm_targets
+    w_low, w_high = task.weight_on_bit_targets
+    for seed in range(20):
+        _, info = env.reset(seed=seed, options={"weight_on_bit": 90e3})
+        assert info["target_weight_on_bit"] == 90e3
+        assert low * RPM <= info["target_speed"] <= high * RPM
+        _, info = env.reset(seed=seed, options={"surface_speed": 60 * RPM})
+        assert info["target_speed"] == pytest.approx(60 * RPM)
+        assert w_low <= info["target_weight_on_bit"] <= w_high
+    env.close()
