@@ -86,7 +86,8 @@ class EnvConfig:
     #: Relative kick of the bit speed after a settled start, drawn uniformly in
     #: +-start_kick from the episode's ``np_random``: steady rotation is an equilibrium,
     #: and the kick lets seeds start different episodes (the benchmark and the control
-    #: tasks use 0.02). 0: every seed starts in the same settled state.
+    #: tasks use 0.02). 0: every seed starts in the same settled state. No effect with
+    #: ``startup="stalled"`` (the bit is at rest) or ``"paper"`` (its own ramp).
     start_kick: NonNegative = Field(default=0.0, le=0.5)
     #: Record every k simulator steps inside a control interval (for the metrics); the
     #: env takes the largest divisor of the interval's steps up to k, so the records are
