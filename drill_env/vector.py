@@ -388,6 +388,17 @@ def _sb3_class() -> type:
         def _make_env(self) -> DrillStringEnv:
             return self.env_class(**self.env_kwargs)
 
+        def reset(self):
+            obs = super().reset()
+            self._reset_done = True
+            return obs
+
+        def step_async(self, actions) -> None:
+            # as the Gymnasium batch and SB3's own make_vec_env: no episode, no step
+            if not getattr(self, "_reset_done", False):
+                raise ResetNeeded("step: call reset() before the first step")
+            super().step_async(actions)
+
         def step_wait(self):
             if self._as_arrays and DrillStringEnv.same_readings(self.envs):
                 return self._step_wait_arrays()

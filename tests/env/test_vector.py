@@ -668,3 +668,16 @@ def test_staggered_episodes_follow_gymnasiums_sync_vector_env(mode):
         _assert_same_infos(ours_step[4], sync_step[4])
     if mode == AutoresetMode.DISABLED:
         assert refused >= 3  # both halves of the stagger ended, more than once
+
+
+def test_the_sb3_vec_env_refuses_a_step_before_its_first_reset():
+    """As the Gymnasium batch and SB3's own ``make_vec_env``: a step with no episode ran
+    a meaningless one (targets 0, reward -1) without a word."""
+    from gymnasium.error import ResetNeeded
+
+    venv = make_sb3_vec_env(1, env_id="DrillStickSlip-v0")
+    with pytest.raises(ResetNeeded, match="reset"):
+        venv.step(np.zeros((1, 1), np.float32))
+    venv.reset()
+    venv.step(np.zeros((1, 1), np.float32))
+    venv.close()
