@@ -84,7 +84,17 @@ class LearnedController:
         return {}  # the task's top drive (stiff PI) with the policy's correction
 
     def reset(self, env: Any) -> None:
-        pass
+        """Check that ``env`` (unwrapped) takes what the policy was trained on: the same
+        observation and action shapes (a policy of one task in another's env)."""
+        shapes = [(getattr(getattr(env, space, None), "shape", None),
+                   getattr(self.model, space).shape)
+                  for space in ("observation_space", "action_space")]
+        if any(have is not None and have != want for have, want in shapes):
+            spec = getattr(env, "spec", None)
+            raise ValueError(f"controller: this policy was trained on {self.env_id} "
+                             f"(observation {shapes[0][1]}, action {shapes[1][1]}); "
+                             f"{getattr(spec, 'id', type(env).__name__)} has observation "
+                             f"{shapes[0][0]}, action {shapes[1][0]}")
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         obs = self.normalizer.normalize_obs(np.asarray(observation, dtype=np.float32)[None])

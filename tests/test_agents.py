@@ -22,3 +22,20 @@ def test_constant_set_points_drive_the_env_to_its_rpm():
     assert info["weight_on_bit_setpoint"] == pytest.approx(60e3, rel=1e-6)
     with pytest.raises(ValueError, match="500 rpm is outside the env's range"):
         ConstantSetPoints(rpm=500.0, weight_on_bit=0.0).reset(env.unwrapped)
+
+
+def test_a_policy_reset_in_another_tasks_env_says_which_env_it_was_trained_on():
+    """Task 1's policy in task 2's env failed at its first act with numpy's broadcast
+    error; reset now names the env it was trained on."""
+    import gymnasium as gym
+
+    from agents.learned import LearnedController
+
+    policy = LearnedController.load()  # task 1's
+    env = gym.make("DrillOptimise-v0")
+    with pytest.raises(ValueError, match="trained on DrillStickSlip-v0"):
+        policy.reset(env.unwrapped)
+    own = gym.make("DrillStickSlip-v0")
+    policy.reset(own.unwrapped)
+    env.close()
+    own.close()
