@@ -422,3 +422,27 @@ def test_driller_keeps_at_least_its_minimum_weight_fraction():
     t = np.arange(0, 60.0, 0.1)
     out = _drive(d, 10e3 * (1.0 + 0.5 * np.sin(np.pi * t)))
     assert out[:, 1].min() == pytest.approx(0.5 * 95e3)
+
+
+def test_set_point_controller_asks_for_speed_then_wob():
+    from agents.base import SetPointController
+
+    class Env:
+        targets = (5.0, 1.0e5)
+
+        def action_for(self, surface_speed, weight_on_bit):
+            return (surface_speed, weight_on_bit)
+
+    c = SetPointController()
+    c.reset(Env())
+    assert c.act(np.zeros(3), {}) == (5.0, 1.0e5)
+
+
+def test_soft_speed_refuses_a_zero_tuning_frequency():
+    from drill_env.physics.top_drive import soft_speed_gains
+
+    # docstring/error text: "must be > 0 Hz"
+    with pytest.raises(ValueError):
+        soft_speed_gains(1.0, 1.0, 0.0)
+    kp, ki = soft_speed_gains(2.0, 3.0, 1.0, 4.0)  # P = kZ = 8, I = (2 pi)^2 * 3
+    assert kp == pytest.approx(8.0) and ki == pytest.approx(4 * np.pi**2 * 3.0)

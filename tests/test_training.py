@@ -1213,3 +1213,62 @@ def test_a_run_folder_loads_its_best_model_before_its_final_one(tmp_path):
         (tmp_path / name).write_bytes(b"")
     assert policy_files(tmp_path) == (tmp_path / "best_model.zip",
                                       tmp_path / "best_vecnormalize.pkl")
+
+
+def _evaluations(run, steps_and_returns):
+    import csv
+
+    run.mkdir(parents=True, exist_ok=True)
+    with (run / "evaluations.csv").open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["timesteps", "return", "return_std", "ssi",
+                                          "stuck_fraction", "wall_s"])
+        w.writeheader()
+        for k, (s, r) in enumerate(steps_and_returns):
+            w.writerow({"timesteps": s, "return": r, "return_std": 0, "ssi": 0,
+                        "stuck_fraction": 0, "wall_s": 10.0 * (k + 1)})
+
+
+def test_rewind_keeps_the_evaluation_at_the_checkpoint_step(tmp_path):
+    import csv
+
+    from training.train import _rewind
+
+    run = tmp_path / "run"
+    _evaluations(run, [(1024, -5.0), (2048, -3.0), (3072, -1.0)])
+    resumed = _rewind(run, 2048, from_checkpoint=True)
+    with (run / "evaluations.csv").open() as f:
+        kept = [int(r["timesteps"]) for r in csv.DictReader(f)]
+    assert kept == [1024, 2048]  # "evaluations after it" leave; the one at it stays
+    assert resumed.wall_s == pytest.approx(20.0)  # no progress file: its last evaluation
+
+
+def test_rewind_without_a_best_model_has_no_best_return(tmp_path):
+    from training.train import _rewind
+
+    run = tmp_path / "run"
+    _evaluations(run, [(1024, -5.0), (2048, -3.0)])
+    assert _rewind(run, 2048, from_checkpoint=True).best_return == -np.inf
+    (run / "best_model.zip").write_bytes(b"")
+    assert _rewind(run, 2048, from_checkpoint=True).best_return == pytest.approx(-3.0)
+
+
+def test_crossed_only_when_a_grid_line_is_passed():
+    from training.train import crossed
+
+    assert not crossed(0, 4, 1024)
+    assert not crossed(1024, 2047, 1024)
+    assert crossed(1020, 1024, 1024) and crossed(2092, 3092, 1000)
+
+
+def test_sac_warm_up_defaults_to_sb3s_100_steps():
+    # check_learns docstring: SB3's default learning_starts is 100
+    from drill_env.physics.config import replace
+    from training.config import load_config
+    from training.train import check_learns
+
+    cfg = load_config("stick_slip", "sac")
+    hyper = {k: v for k, v in cfg.hyperparams.items() if k != "learning_starts"}
+    cfg = replace(cfg, hyperparams=hyper)
+    with pytest.raises(ValueError):
+        check_learns(replace(cfg, n_timesteps=100), 0)
+    check_learns(replace(cfg, n_timesteps=101), 0)

@@ -1,0 +1,173 @@
+"""Benchmark rows and tables by rules stated outside the code: SPEC section 5's units and
+|mean - target| / target, the summary's "+- half the range", the measured window after
+the warm-up from the episode's start, a guest policy scored by DrillString-v0's reward,
+the seed's own set points of a random scenario (an outside mutation round, 2026-12-03)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import agents.benchmark as bm
+from drill_env.physics.units import RPM
+
+SHORT = bm.BenchmarkSettings(duration=6.0, warmup=2.0)
+
+
+def _row(c, s, seed, **v):
+    base = {k: 1.0 for k, _, _ in bm.SUMMARY}
+    return {"controller": c, "scenario": s, "seed": seed, **base, **v}
+
+
+def test_summary_spread_is_half_the_range():
+    # docstring / benchmark.md: "Means over seeds, +- half the range": 0.2, 0.4 -> 0.30 +-0.10
+    rows = [_row("stiff", "x", 0, ssi=0.2), _row("stiff", "x", 1, ssi=0.4)]
+    table = bm.summary_table(rows, ["stiff"], ["x"])
+    assert table[0][3] == "0.30 +-0.10"
+
+
+def test_conditions_state_the_metric_window_length():
+    # metrics are taken after the warm-up: a 60 s episode with 30 s warm-up measures 30 s
+    text = bm.conditions(bm.BenchmarkSettings(duration=60.0, warmup=20.0))
+    assert "metrics over the last 40 s" in text
+
+
+def test_conditions_name_the_config_sections_overridden():
+    s = bm.BenchmarkSettings(physics={"string.drill_pipe.length": 2000.0})
+    text = bm.conditions(s)
+    assert "config overrides of string (--config)" in text
+
+
+def test_benchmark_md_lists_episodes_that_ended_early(tmp_path):
+    rows = [_row("stiff", "x", 0, termination="stalled"),
+            _row("stiff", "x", 1, termination="")]
+    for r in rows:
+        r.update(target_rpm=50.0, radial_ratio=0.1)
+    bm.write_outputs(rows, tmp_path, ["stiff"], ["x"], bm.BenchmarkSettings())
+    md = (tmp_path / "benchmark.md").read_text()
+    assert "Episodes that ended early: stiff/x/0 (stalled)" in md
+
+
+def test_guest_keeps_its_observation_keywords_not_its_physics():
+    class Guest:
+        def env_kwargs(self):
+            return {"physics": {"string.drill_pipe.length": 1.0}, "telemetry": "x"}
+
+    assert bm.guest_env_kwargs(Guest()) == {"telemetry": "x"}
+    assert bm.guest_env_kwargs(object()) == {}
+
+
+def test_rpm_error_is_absolute_below_the_target(tmp_path):
+    # SPEC section 5: |mean - target| / target; 20 rpm against the 50 rpm plan -> ~0.6 > 0
+    row = bm.run_episode(bm.Episode("constant:20/100", "stick_slip", 0, vars(SHORT),
+                                    str(tmp_path)))
+    assert row["mean_bit_rpm"] < 50.0
+    assert row["rpm_tracking_error"] == pytest.approx(
+        (50.0 - row["mean_bit_rpm"]) / 50.0, rel=1e-12)
+    assert row["rpm_tracking_error"] > 0
+
+
+def test_metrics_window_counts_from_the_episode_start_not_t0(tmp_path):
+    # a paper start-up takes ~20 s of simulated time before the episode starts; the
+    # metric window is the part after warm-up *from the episode start* (module docstring)
+    settings = bm.BenchmarkSettings(duration=6.0, warmup=3.0, env_kwargs={"startup": "paper"})
+    row = bm.run_episode(bm.Episode("stiff", "stick_slip", 0, vars(settings), str(tmp_path),
+                                    series=True, env_id="DrillString-v0"))
+    series = np.load(tmp_path / "series" / "stiff_stick_slip_seed0.npz")
+    after = series["time"] >= settings.warmup - 1e-9
+    assert 0 < after.sum() < len(after)
+    # the sample on the warm-up boundary may fall either side (float time stamps)
+    strictly = series["time"] > settings.warmup + 1e-9
+    means = [series["bit_speed"][w].mean() / RPM for w in (after, strictly)]
+    assert min(abs(row["mean_bit_rpm"] - m) for m in means) < 1e-9 * abs(means[0])
+
+
+def test_row_units_kN_MPa_MJ_m_per_h(tmp_path, monkeypatch):
+    # SPEC section 5 column names carry the units: N -> kN, Pa -> MPa, J -> MJ, m/s -> m/h
+    import drill_env.metrics as metrics
+
+    real = metrics.window_metrics
+
+    def fake(*a, **k):
+        m = dict(real(*a, **k))
+        m.update(lateral_force_max=2500.0, mse=3.0e7, top_drive_energy=4.0e6, rop=1.0e-3)
+        return m
+
+    monkeypatch.setattr(metrics, "window_metrics", fake)
+    row = bm.run_episode(bm.Episode("stiff", "stick_slip", 0, vars(SHORT), str(tmp_path)))
+    assert row["max_lateral_force_kN"] == pytest.approx(2.5)
+    assert row["mse_MPa"] == pytest.approx(30.0)
+    assert row["top_drive_energy_MJ"] == pytest.approx(4.0)
+    assert row["rop_m_per_h"] == pytest.approx(3.6)
+
+
+def test_target_rpm_is_the_mean_over_the_measured_window_only(tmp_path):
+    # module/run_episode comment: the target's mean over the measured part (after the
+    # warm-up), step by step; the task's driller changes the target once at t = 3 s
+    s = bm.BenchmarkSettings(duration=6.0, warmup=2.0, env_kwargs={
+        "target_change_probability": 1.0, "target_change_time": (3.0, 3.0)})
+    row = bm.run_episode(bm.Episode("stiff", "stick_slip", 0, vars(s), str(tmp_path),
+                                    series=True, env_id="DrillStickSlip-v0"))
+    z = np.load(tmp_path / "series" / "stiff_stick_slip_seed0.npz")
+    tt, tr = z["target_time"], z["target_rpm"]
+    assert len(np.unique(tr)) == 2  # the target did change
+    step = tt[1] - tt[0]
+    end = tt + step  # each control step's end time
+    means = [tr[end >= s.warmup - 1e-9].mean(), tr[end > s.warmup + 1e-9].mean()]
+    assert min(abs(row["target_rpm"] - m) for m in means) < 1e-9 * means[0]
+    assert abs(row["target_rpm"] - tr.mean()) > 0.1  # not the whole episode's mean
+
+
+GUEST = '''
+import numpy as np
+
+
+class ZeroCorrection:
+    name = "zero-correction"
+    rate = "policy"
+    env_id = "DrillStickSlip-v0"
+
+    def physics(self):
+        return {}
+
+    def reset(self, env):
+        pass
+
+    def act(self, observation, info):
+        return np.zeros(1, dtype=np.float32)
+'''
+
+
+def test_a_guest_is_scored_by_drillstring_reward(tmp_path):
+    # conditions(): a task's policy acts in its task's env "from the same start and set
+    # points, its return DrillString-v0's reward of its episode". A stick-slip-task policy
+    # that never corrects is the stiff drive at the set points: the same episode, return.
+    f = tmp_path / "zero_policy.py"
+    f.write_text(GUEST)
+    g = bm.run_episode(bm.Episode(f"{f}:ZeroCorrection", "stick_slip", 0, vars(SHORT),
+                                  str(tmp_path)))
+    st = bm.run_episode(bm.Episode("stiff", "stick_slip", 0, vars(SHORT), str(tmp_path)))
+    assert g["mean_bit_rpm"] == pytest.approx(st["mean_bit_rpm"], rel=1e-9)
+    assert g["episode_return"] == pytest.approx(st["episode_return"], rel=1e-9)
+
+
+def test_scenario_set_points_follow_the_seed_of_a_random_scenario():
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401
+
+    points = [bm.scenario_set_points("random", seed) for seed in (0, 1)]
+    assert points[0] != points[1]
+    env = gym.make("DrillString-v0", scenario="random")
+    env.reset(seed=1)
+    speed, wob = env.unwrapped.targets
+    env.close()
+    assert points[1] == {"surface_speed": float(speed), "weight_on_bit": float(wob)}
+
+
+def test_an_undefined_metric_is_a_dash():
+    rows = [_row("stiff", "x", 0, rpm_tracking_error=float("nan")),
+            _row("stiff", "x", 1, rpm_tracking_error=float("nan"))]
+    table = bm.summary_table(rows, ["stiff"], ["x"])
+    header = [h for _, h, _ in bm.SUMMARY]
+    assert table[0][3 + header.index("rpm error")] == "-"
