@@ -1,0 +1,291 @@
+"""Rules the env, its vector envs, the recorder, the render and the speed benchmark state
+in their docstrings and docs, each found unchecked by an outside mutation round
+(2026-12-03): action clipping both ways, the effort term's spans, the mesh limit on the
+applied hook load, the SSI cap, the observation bound at -10, Gymnasium's reset_mask
+semantics, termination logging, one start event, no file for an empty episode, the
+render's time order, axis and wall, and the speed figures' arithmetic."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+import drill_env  # noqa: F401
+from drill_env.env import DrillStringEnv
+from drill_env.physics.units import RPM
+
+SHORT = {"episode_duration": 0.5}
+
+
+def test_incremental_action_below_minus_one_is_clipped_to_one_step_down():
+    """Class docstring: finite actions outside [-1, 1] are CLIPPED; incremental mode moves
+    the set point by action * rpm_step: -5 acts as -1, i.e. 100 rpm -> 90 rpm."""
+    env = DrillStringEnv(action_mode="incremental", rpm_step=10.0, **SHORT)
+    env.reset(seed=0, options={"surface_speed": 100 * RPM, "weight_on_bit": 100e3})
+    _, _, _, _, info = env.step(np.array([-5.0, 0.0]))
+    assert info["speed_setpoint"] == pytest.approx(90 * RPM)
+
+
+def test_applied_hook_load_never_asks_for_more_than_the_mesh_limit():
+    """Docstring: the hook load is sim.hook_load_for(WOB) with the WOB 'never above
+    weight_on_bit_limit'; on lateral_60 the limit is below the 200 kN range top."""
+    env = DrillStringEnv(scenario="lateral_60", episode_duration=5.0)
+    _, info = env.reset(seed=0, options={"weight_on_bit": 200e3})
+    limit = info["weight_on_bit_limit"]
+    assert limit < 199e3
+    for _ in range(5):
+        env.step(np.array([0.0, 1.0]))
+        hook = env.advance_request()[2]
+        assert hook >= env.sim.hook_load_for(limit) - 1e-6
+
+
+def test_stick_slip_term_is_capped_at_ssi_cap():
+    """Docstring: stick_slip = -stick_slip_weight * min(SSI, ssi_cap)."""
+    env = DrillStringEnv(scenario="stick_slip", ssi_cap=0.05, episode_duration=3.0)
+    env.reset(seed=0)
+    seen = []
+    for _ in range(20):
+        _, _, term, trunc, info = env.step(np.array([-0.7, 0.0]))
+        seen.append(info["ssi"])
+        w = env.config.stick_slip_weight
+        assert info["reward_terms"]["stick_slip"] == pytest.approx(
+            -w * min(info["ssi"], 0.05), abs=1e-12)
+        if term or trunc:
+            break
+    assert max(seen) > 0.05  # the cap was reached: the check above meant something
+
+
+def test_observation_is_clipped_at_minus_ten_too():
+    """Docstring: Box(-10, 10), each entry clipped to +-10. Large seeded observation
+    noise (surface sensors) pushes entries beyond -10 on steps where none passes +10."""
+    env = DrillStringEnv(sensors="surface", observation_noise=12.0, episode_duration=3.0)
+    obs, _ = env.reset(seed=0)
+    lows = []
+    for _ in range(30):
+        obs, *_ = env.step(np.array([0.0, 0.0]))
+        assert env.observation_space.contains(obs)
+        assert obs.min() >= -10.0 and obs.max() <= 10.0
+        lows.append(obs.min())
+    assert min(lows) == -10.0
+
+
+# ----------------------------------------------------------------- render.py
+
+from drill_env.physics.layout import RECORD_CHANNELS  # noqa: E402
+from drill_env.render import ORBIT, FrameHistory, _nice_ceiling, draw_frame  # noqa: E402
+
+
+def _rows(n, **cols):
+    rows = np.zeros((n, len(RECORD_CHANNELS)))
+    for name, values in cols.items():
+        rows[:, RECORD_CHANNELS.index(name)] = values
+    return rows
+
+
+def test_frame_history_keeps_the_last_rows_in_time_order_after_wrapping():
+    """FrameHistory: a ring buffer of the last ``capacity`` rows; column() in time order."""
+    h = FrameHistory(RECORD_CHANNELS, 3)
+    h.add(_rows(5, time=np.arange(5.0)))
+    np.testing.assert_array_equal(h.column("time"), [2.0, 3.0, 4.0])
+    h.add(_rows(1, time=[5.0]))
+    np.testing.assert_array_equal(h.column("time"), [3.0, 4.0, 5.0])
+
+
+def test_nice_ceiling_is_the_smallest_1_2_5_decade_at_or_above():
+    """Docstring: the smallest 1, 2 or 5 x 10^k at or above value."""
+    assert _nice_ceiling(1.5) == 2.0
+    assert _nice_ceiling(120.0) == 200.0
+    assert _nice_ceiling(3.0) == 5.0
+    assert _nice_ceiling(0.7) == 1.0
+
+
+def test_round_off_below_zero_does_not_widen_the_speed_axis():
+    """render.py: a backward turn widens the axis, round-off below zero does not: a bit
+    speed of -0.3 rpm draws the same frame as 0 rpm (the trace is clipped to the axis)."""
+    n = 50
+    t = np.linspace(0.0, 5.0, n)
+    bit = np.full(n, 60.0 * RPM)
+    bit[10:20] = -0.3 * RPM
+    clipped = bit.copy()
+    clipped[10:20] = 0.0
+    frames = []
+    for b in (bit, clipped):
+        h = FrameHistory(RECORD_CHANNELS, 100)
+        h.add(_rows(n, time=t, bit_speed=b, surface_speed=60.0 * RPM, torque_on_bit=1e3))
+        frames.append(draw_frame(h, 0.01, 200 * RPM))
+    np.testing.assert_array_equal(frames[0], frames[1])
+
+
+def test_an_orbit_beyond_the_wall_is_drawn_on_the_wall():
+    """draw_frame: the bit centre beyond the clearance circle is drawn on it: no orbit
+    pixel lies outside the circle (plus the 3 px end marker)."""
+    width, height = 640, 360
+    n = 40
+    ang = np.linspace(0.0, 2 * np.pi, n)
+    h = FrameHistory(RECORD_CHANNELS, 100)
+    h.add(_rows(n, time=np.linspace(0, 4, n), bit_speed=1.0, surface_speed=1.0,
+                torque_on_bit=1.0, bit_x=0.02 * np.cos(ang), bit_y=0.02 * np.sin(ang)))
+    frame = draw_frame(h, 0.01, 200 * RPM, width=width, height=height)  # 2x the clearance
+    split = int(width * 0.62)
+    cx, cy = split + (width - split) // 2, height // 2
+    r_px = min(width - split - 20, height - 60) / 2
+    ys, xs = np.nonzero(np.all(frame == np.array(ORBIT, np.uint8), axis=-1))
+    assert xs.size > 0
+    assert np.max(np.hypot(xs - cx, ys - cy)) <= r_px + 5
+
+
+# ----------------------------------------------------------------- tools/speed/common.py
+
+from drill_env.tools.speed import common as speed_common  # noqa: E402
+
+
+def test_ratio_over_zero_is_nan_not_an_error():
+    assert math.isnan(speed_common.ratio(1.0, 0.0))
+    assert math.isnan(speed_common.ratio(1.0, -2.0))
+    assert speed_common.ratio(3.0, 2.0) == 1.5
+
+
+def test_best_time_is_the_shortest_call():
+    """Docstring: shortest wall time of ``repeats`` calls."""
+    delays = iter([0.2, 0.0, 0.0])
+    best = speed_common.best_time(lambda: time.sleep(next(delays)), 3)
+    assert best < 0.1
+
+
+class _FakeSim:
+    dt = 0.002
+    n_nodes = 10
+    status = 0
+    status_message = ""
+
+    def hook_load_for(self, wob):
+        return 1e6 - wob
+
+    def advance(self, n, *args, **kwargs):
+        time.sleep(0.01)
+
+
+def test_real_time_factor_is_simulated_over_wall_time():
+    figures = speed_common.time_simulators({"a": _FakeSim()}, 1e5, 1.0, 1, "x", False)["a"]
+    assert figures["simulated_s"] == pytest.approx(1.0)
+    assert figures["real_time_factor"] == pytest.approx(
+        figures["simulated_s"] / figures["wall_s"])
+    assert figures["real_time_factor"] > 1.0  # 1 s simulated in ~10 ms
+
+
+# ----------------------------------------------------------------- vector.py
+
+import gymnasium as gym  # noqa: E402
+
+from drill_env.vector import DrillStringVectorEnv  # noqa: E402
+
+
+def test_a_masked_reset_keeps_the_pending_autoreset_of_the_other_envs():
+    """Gymnasium's SyncVectorEnv (the documented NEXT_STEP semantics): a reset with a
+    reset_mask clears the pending autoreset of the masked envs only; an unmasked env whose
+    episode ended is still reset on the next step (reward 0, not done)."""
+    kwargs = {"episode_duration": 0.1}  # one step per episode
+    ours = DrillStringVectorEnv(num_envs=2, **kwargs)
+    sync = gym.make_vec("DrillString-v0", num_envs=2, vectorization_mode="sync", **kwargs)
+    a = np.zeros((2, 2), dtype=np.float32)
+    mask = np.array([True, False])
+    out = []
+    for envs in (ours, sync):
+        envs.reset(seed=0)
+        _, _, _, trunc, _ = envs.step(a)
+        assert trunc.tolist() == [True, True]
+        envs.reset(options={"reset_mask": mask.copy()})
+        out.append(envs.step(a))
+    assert out[1][1][1] == 0.0 and not out[1][3][1]  # the oracle reset env 1
+    np.testing.assert_array_equal(out[0][1], out[1][1])
+    np.testing.assert_array_equal(out[0][2], out[1][2])
+    np.testing.assert_array_equal(out[0][3], out[1][3])
+
+
+def test_a_reset_mask_of_integers_is_refused():
+    """Gymnasium: reset_mask is a boolean array (SyncVectorEnv asserts its dtype); an int
+    array [1, 0] would otherwise index envs 1 and 0 as positions."""
+    envs = DrillStringVectorEnv(num_envs=2, episode_duration=0.5)
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match="reset_mask"):
+        envs.reset(options={"reset_mask": np.array([1, 0])})
+
+
+# ----------------------------------------------------------------- recording
+
+import gymnasium  # noqa: E402
+
+from drill_env.recording import EpisodeRecorder, RecordEpisode, read_recording  # noqa: E402
+
+
+class _EndsAtOnce(gymnasium.Env):
+    """An env that terminates on its first step and gives no termination_reason."""
+
+    observation_space = gymnasium.spaces.Box(-1.0, 1.0, (1,))
+    action_space = gymnasium.spaces.Box(-1.0, 1.0, (1,))
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        return np.zeros(1, np.float32), {"time": 0.0, "bit_speed": 1.0}
+
+    def step(self, action):
+        return np.zeros(1, np.float32), 0.0, True, False, {"time": 0.1, "bit_speed": 1.0}
+
+
+def test_a_termination_without_a_reason_is_still_logged_as_terminated(tmp_path):
+    """RecordEpisode: the file is finished when the episode terminates; EpisodeRecorder.
+    finish: a termination is an ERROR event. Without info['termination_reason'] the end
+    must still read as a termination, not as a plain 'episode end'."""
+    env = RecordEpisode(_EndsAtOnce(), tmp_path, scenario="fake")
+    env.reset(seed=0)
+    env.step(np.zeros(1, np.float32))
+    assert env.last_path is not None
+    level, text = read_recording(env.last_path).text_logs["/events"][-1][1:]
+    assert level == "ERROR" and text.startswith("terminated")
+
+
+def test_steps_without_a_time_get_distinct_increasing_times(tmp_path):
+    """EpisodeRecorder.record: one sample per step; without info['time'] (and no sim)
+    the steps must still be distinct points of the timeline, in order."""
+    rec = EpisodeRecorder(tmp_path)
+    rec.begin(scenario="bare", seed=1)
+    for k in range(5):
+        rec.record({"bit_speed": float(k + 1)})
+    path = rec.finish("done")
+    times, values = read_recording(path).scalars["/timeseries/speed_rpm/bit"]
+    assert len(values) == 5
+    assert np.all(np.diff(np.asarray(times, dtype=float)) > 0)
+
+
+def test_an_episode_without_a_sample_leaves_no_file(tmp_path):
+    """EpisodeRecorder.finish docstring: None if the episode has no sample, 'in which case
+    no file is left'."""
+    rec = EpisodeRecorder(tmp_path)
+    rec.begin(scenario="empty", seed=0)
+    assert rec.finish() is None
+    assert list(tmp_path.glob("*.rrd")) == []
+
+
+def test_the_episode_start_event_is_logged_once_across_chunks(tmp_path):
+    """One episode, one 'episode start' event, also when written in chunks of two steps."""
+    rec = EpisodeRecorder(tmp_path, flush_every=2)
+    rec.begin(scenario="chunks", seed=0)
+    for k in range(7):
+        rec.record({"time": 0.1 * k, "bit_speed": 5.0})
+    path = rec.finish("done")
+    texts = [text for _, _, text in read_recording(path).text_logs["/events"]]
+    assert sum(text.startswith("episode start") for text in texts) == 1
+
+
+def test_effort_term_uses_each_set_points_own_span():
+    """Docstring: effort = -effort_weight * ((d rpm / rpm span)^2 + (d WOB / WOB span)^2).
+    From 100 rpm / 100 kN, action (0, 1) keeps 100 rpm and asks 200 kN: (100/200)^2."""
+    env = DrillStringEnv(**SHORT)
+    env.reset(seed=0, options={"surface_speed": 100 * RPM, "weight_on_bit": 100e3})
+    _, _, _, _, info = env.step(np.array([0.0, 1.0]))
+    assert info["speed_setpoint"] == pytest.approx(100 * RPM)
+    assert info["reward_terms"]["effort"] == pytest.approx(
+        -env.config.effort_weight * 0.25, rel=1e-9)
