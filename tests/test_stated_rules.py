@@ -10,12 +10,18 @@ from __future__ import annotations
 import math
 import time
 
+import gymnasium
 import numpy as np
 import pytest
 
 import drill_env  # noqa: F401
 from drill_env.env import DrillStringEnv
+from drill_env.physics.layout import RECORD_CHANNELS
 from drill_env.physics.units import RPM
+from drill_env.recording import EpisodeRecorder, RecordEpisode, read_recording
+from drill_env.render import ORBIT, FrameHistory, _nice_ceiling, draw_frame
+from drill_env.tools.speed import common as speed_common
+from drill_env.vector import DrillStringVectorEnv
 
 SHORT = {"episode_duration": 0.5}
 
@@ -73,9 +79,6 @@ def test_observation_is_clipped_at_minus_ten_too():
 
 
 # ----------------------------------------------------------------- render.py
-
-from drill_env.physics.layout import RECORD_CHANNELS  # noqa: E402
-from drill_env.render import ORBIT, FrameHistory, _nice_ceiling, draw_frame  # noqa: E402
 
 
 def _rows(n, **cols):
@@ -139,8 +142,6 @@ def test_an_orbit_beyond_the_wall_is_drawn_on_the_wall():
 
 # ----------------------------------------------------------------- tools/speed/common.py
 
-from drill_env.tools.speed import common as speed_common  # noqa: E402
-
 
 def test_ratio_over_zero_is_nan_not_an_error():
     assert math.isnan(speed_common.ratio(1.0, 0.0))
@@ -178,10 +179,6 @@ def test_real_time_factor_is_simulated_over_wall_time():
 
 # ----------------------------------------------------------------- vector.py
 
-import gymnasium as gym  # noqa: E402
-
-from drill_env.vector import DrillStringVectorEnv  # noqa: E402
-
 
 def test_a_masked_reset_keeps_the_pending_autoreset_of_the_other_envs():
     """Gymnasium's SyncVectorEnv (the documented NEXT_STEP semantics): a reset with a
@@ -189,7 +186,7 @@ def test_a_masked_reset_keeps_the_pending_autoreset_of_the_other_envs():
     episode ended is still reset on the next step (reward 0, not done)."""
     kwargs = {"episode_duration": 0.1}  # one step per episode
     ours = DrillStringVectorEnv(num_envs=2, **kwargs)
-    sync = gym.make_vec("DrillString-v0", num_envs=2, vectorization_mode="sync", **kwargs)
+    sync = gymnasium.make_vec("DrillString-v0", num_envs=2, vectorization_mode="sync", **kwargs)
     a = np.zeros((2, 2), dtype=np.float32)
     mask = np.array([True, False])
     out = []
@@ -215,10 +212,6 @@ def test_a_reset_mask_of_integers_is_refused():
 
 
 # ----------------------------------------------------------------- recording
-
-import gymnasium  # noqa: E402
-
-from drill_env.recording import EpisodeRecorder, RecordEpisode, read_recording  # noqa: E402
 
 
 class _EndsAtOnce(gymnasium.Env):
