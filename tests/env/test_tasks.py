@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from types import MappingProxyType
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -555,19 +556,22 @@ def test_the_drilling_telemetry_radial_entry_is_a_past_window_mean():
         assert min(abs(value - s) for s in seen) <= 1e-6 * max(1.0, abs(value)), value
 
 
+def _with_window_metric(env_id: str, name: str, value: float) -> tuple[Any, list[float]]:
+    """A task env after a reset, and window-metric values that are 0 but ``name``."""
+    from drill_env.metrics import Metric
+
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    values = [0.0] * len(Metric)
+    values[Metric[name]] = value
+    env.unwrapped._window_metrics = (values, True)
+    return env.unwrapped, values
+
+
 def test_stick_slip_whirl_term_reads_a_non_finite_step_as_full_radial():
     # the plain env (drill_env/env.py, non-finite step -> radial 1.0) and task 2 (whirl
     # share 1.0) both charge a step without finite values the full whirl penalty
-    import gymnasium as gym
-
-    from drill_env.metrics import Metric
-
-    env = gym.make("DrillStickSlip-v0")
-    env.reset(seed=0)
-    base = env.unwrapped
-    values = [0.0] * len(Metric)
-    values[Metric.RADIAL_RATIO] = 0.3
-    base._window_metrics = (values, True)
+    base, values = _with_window_metric("DrillStickSlip-v0", "RADIAL_RATIO", 0.3)
     assert base._reward_terms((values, True), False)["whirl"] == pytest.approx(
         -base.task.whirl_weight * 0.3)
     assert base._reward_terms((values, False), False)["whirl"] == pytest.approx(
@@ -579,9 +583,6 @@ def test_stick_slip_whirl_term_reads_a_non_finite_step_as_full_radial():
 def test_stick_slip_out_of_range_actions_are_clipped_both_ways(a):
     # StickSlipEnv docstring: speed command = target + action x max_correction (30 rpm);
     # out-of-range finite actions are clipped to [-1, 1]
-    import gymnasium as gym
-
-
     env = gym.make("DrillStickSlip-v0", target_change_probability=0.0)
     env.reset(seed=0)
     _, _, _, _, info = env.step(np.array([a], dtype=np.float32))
@@ -590,25 +591,13 @@ def test_stick_slip_out_of_range_actions_are_clipped_both_ways(a):
 
 def test_stick_slip_penalty_is_capped_at_ssi_cap():
     # StickSlipEnv docstring: -stick_slip_weight min(SSI, cap) (cap 2)
-    import gymnasium as gym
-
-    from drill_env.metrics import Metric
-
-    env = gym.make("DrillStickSlip-v0")
-    env.reset(seed=0)
-    base = env.unwrapped
-    values = [0.0] * len(Metric)
-    values[Metric.SSI] = 7.0
-    base._window_metrics = (values, True)
+    base, values = _with_window_metric("DrillStickSlip-v0", "SSI", 7.0)
     terms = base._reward_terms((values, True), False)
     assert terms["stick_slip"] == pytest.approx(-base.task.stick_slip_weight * 2.0)
 
 
 def test_stick_slip_action_for_maps_a_speed_above_the_target_to_a_positive_action():
     # StickSlipEnv: speed command = target + action x max_correction (30 rpm)
-    import gymnasium as gym
-
-
     env = gym.make("DrillStickSlip-v0", target_change_probability=0.0)
     env.reset(seed=0, options={"surface_speed": 60 * RPM, "weight_on_bit": 100e3})
     base = env.unwrapped
@@ -619,16 +608,7 @@ def test_stick_slip_action_for_maps_a_speed_above_the_target_to_a_positive_actio
 def test_drilling_whirl_term_reads_a_non_finite_step_as_whirling_all_the_time():
     # as the plain env (env.py: non-finite step -> radial 1.0): no finite values this
     # step means the worst whirl share, 1
-    import gymnasium as gym
-
-    from drill_env.metrics import Metric
-
-    env = gym.make("DrillOptimise-v0")
-    env.reset(seed=0)
-    base = env.unwrapped
-    values = [0.0] * len(Metric)
-    values[Metric.WHIRL_FRACTION] = 0.3
-    base._window_metrics = (values, True)
+    base, values = _with_window_metric("DrillOptimise-v0", "WHIRL_FRACTION", 0.3)
     assert base._reward_terms((values, False), False)["whirl"] == pytest.approx(
         -base.task.whirl_weight * 1.0)
     assert base._reward_terms(None, False)["whirl"] == pytest.approx(-base.task.whirl_weight)
