@@ -23,6 +23,8 @@ names of :data:`BitOut`):
 ``GAUGE_X``, ``GAUGE_Y``   gauge force on the bit, normal + cutting/friction (eqs. 55-60)
 ``GAUGE_TORQUE``           torque of the gauge forces about the bit axis (signed)
 ``DEPTH_OF_CUT``           depth of cut per revolution (m/rev): wob sum_j share_j doc_j
+``GAUGE_KXX`` .. ``_CYY``  the pads' normal stiffness and damping as 2 x 2 matrices
+                           ``sum k e e^T``, ``sum c e e^T`` (N/m, N s/m; implicit contacts)
 ``N_BIT_OUT + j``          share of FRONT blade length in rock j (sums to 1)
 =========================  ==========================================================
 """
@@ -63,6 +65,7 @@ N_SEGMENTS = len(Segment)
 BitOut = IntEnum("BitOut", [
     "TORQUE", "TORQUE_STATIC", "FORCE_X", "FORCE_Y", "FORCE_STATIC_X", "FORCE_STATIC_Y",
     "GAUGE_X", "GAUGE_Y", "GAUGE_TORQUE", "DEPTH_OF_CUT",
+    "GAUGE_KXX", "GAUGE_KXY", "GAUGE_KYY", "GAUGE_CXX", "GAUGE_CXY", "GAUGE_CYY",
 ], start=0)
 N_BIT_OUT = len(BitOut)
 SHARES = N_BIT_OUT
@@ -393,6 +396,8 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
         w = abs(slip) / r_c
         normal = 0.0
         friction = 0.0
+        stiffness = 0.0  # of the pieces that push: d normal / d penetration
+        damping = 0.0
         for p in range(n):
             if pieces.blade[p] != i or pieces.segment[p] != Segment.GAUGE:
                 continue
@@ -405,6 +410,8 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
             if f_n <= 0.0:
                 continue
             normal += f_n
+            stiffness += pieces.length[p] / l_g * rock_params[j, Rock.WALL_STIFFNESS]
+            damping += pieces.length[p] / l_g * rock_params[j, Rock.WALL_DAMPING]
             if gauge.friction >= 0.0:  # the pads' own coefficient (BitConfig.gauge_friction)
                 friction += gauge.friction * f_n
             else:  # eq. (57): the rock's resistance curve
@@ -430,6 +437,12 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
         out[BitOut.GAUGE_X] += fx
         out[BitOut.GAUGE_Y] += fy
         out[BitOut.GAUGE_TORQUE] += r_c * c * fy - r_c * s * fx  # exact lever from the axis
+        out[BitOut.GAUGE_KXX] += stiffness * ex * ex
+        out[BitOut.GAUGE_KXY] += stiffness * ex * ey
+        out[BitOut.GAUGE_KYY] += stiffness * ey * ey
+        out[BitOut.GAUGE_CXX] += damping * ex * ex
+        out[BitOut.GAUGE_CXY] += damping * ex * ey
+        out[BitOut.GAUGE_CYY] += damping * ey * ey
 
 
 @njit(**TUPLE_KERNEL)

@@ -635,13 +635,14 @@ class SolverConfig:
     #: ``FAST_CRITICAL_STEP_FRACTION`` of the critical step.
     fidelity: Fidelity = "full"
     #: The step is shortened to this fraction of the critical step 2 sqrt(m/k) of the
-    #: explicit wall and gauge penalties, computed for one penalty on the lumped node mass.
-    #: The implicit neighbours do not raise that limit, and a bit pushed between two of
-    #: its six blades presses both gauge pads on the wall (2 k cos^2 30 = 1.5 k), which
-    #: lowers it to 1/sqrt(1.5) = 0.82 of the computed one: above 0.8 a bit thrown at the
-    #: wall that way runs away (0.9: in 7 steps), so 0.8 is the most allowed. 0.5 is the
+    #: explicit wall and gauge penalties on the lumped node mass. Two gauge pads on the
+    #: wall at once (2 k cos^2 30 = 1.5 k) lower it to 0.82 of the computed one: above 0.8
+    #: a bit thrown at the wall that way runs away (docs/model.md section 5). 0.5 is the
     #: full model's choice, the fast level uses FAST_CRITICAL_STEP_FRACTION (0.8).
     critical_step_fraction: Positive = Field(default=0.5, ge=0.01, le=0.8)
+    #: True: the normal wall and gauge penalties are implicit (physics/implicit_contact.py)
+    #: and no longer limit the step; docs/performance.md says what they cost and keep.
+    implicit_contacts: StrictBool = False
 
 
 BitModel = Literal["mesoscopic", "macroscopic"]

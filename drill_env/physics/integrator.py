@@ -26,8 +26,9 @@ from numba import njit
 
 from drill_env.physics.bit import BitKinematics, BitOut, GaugeContact, mesoscopic_bit_loads
 from drill_env.physics.formation import Rock, effective_wob, resistance, rock_at
+from drill_env.physics.implicit_contact import add_term, gauge_terms, resolve
 from drill_env.physics.jit import TUPLE_KERNEL
-from drill_env.physics.layout import CONTACT, Feedback, P, R, S, Status
+from drill_env.physics.layout import CONTACT, TERM, Feedback, P, R, S, Status
 from drill_env.physics.linalg import (
     band_cholesky,
     cholesky_to_ldl,
@@ -217,10 +218,13 @@ def _top_drive(p, state, m, work):
 
 
 @njit(cache=True, inline="always")
-def _wall_contacts(p, nodes, m, work, l0):
+def _wall_contacts(p, nodes, m, work, l0, implicit_on, terms):
     """Wall contact at every node below ``l0`` (the bit node uses the gauge model
-    instead); returns the largest normal force."""
+    instead); returns the largest normal force and the number of implicit terms written
+    to ``terms`` (with ``implicit_on``)."""
     max_wall = 0.0
+    count = 0
+    kappa = p[P.BETA] * p[P.DT] * p[P.DT] * p[P.WALL_K] + p[P.GAMMA] * p[P.DT] * p[P.WALL_C]
     out = work.contact
     for k in range(l0 + 1, m.ut.shape[0]):
         work.node_force[k] = 0.0
@@ -240,6 +244,42 @@ def _wall_contacts(p, nodes, m, work, l0):
             work.node_force[k] = out[CONTACT.NORMAL]
             if out[CONTACT.NORMAL] > max_wall:
                 max_wall = out[CONTACT.NORMAL]
+            if implicit_on:
+                r = np.sqrt(xk * xk + yk * yk)
+                count = add_term(terms, count, k, j, xk / r, yk / r, kappa,
+                                 out[CONTACT.NORMAL])
+    return max_wall, count
+
+
+@njit(cache=True, inline="always")
+def _implicit_contacts(p, implicit, factor, count, work, state, gauge, m, nodes, l0):
+    """The implicit normal forces (:func:`~drill_env.physics.implicit_contact.resolve`)
+    into the accelerations; the reported forces become the end-of-step ones. Returns
+    the largest wall normal force."""
+    gauge_x, gauge_y = gauge
+    terms = implicit.terms
+    for t in range(count):  # a term may leave: its predictor force goes
+        if terms[t, TERM.NODE] >= 0.0:
+            work.node_force[int(terms[t, TERM.NODE])] = 0.0
+    count = resolve(p, implicit, factor, count, work.rl, m, nodes, l0)
+    gram = implicit.gram
+    max_wall = 0.0
+    dx = 0.0
+    dy = 0.0
+    for t in range(count):
+        y = gram[t, count]
+        node = int(terms[t, TERM.NODE])
+        if node < 0:  # a gauge direction
+            dx -= y * terms[t, TERM.NX]
+            dy -= y * terms[t, TERM.NY]
+            continue
+        force = max(terms[t, TERM.FORCE] + y, 0.0)
+        work.node_force[node] = force
+        max_wall = max(max_wall, force)
+    if dx != 0.0 or dy != 0.0:
+        state[S.BIT_FX] += dx
+        state[S.BIT_FY] += dy
+        state[S.GAUGE_FORCE] = np.sqrt((gauge_x + dx) ** 2 + (gauge_y + dy) ** 2)
     return max_wall
 
 
@@ -431,6 +471,7 @@ def advance(n_steps, record_every, a):
             state[S.STATUS] = _SINGULAR
             return 0
         state[S.WOB_FACTORED] = wob
+        a.implicit.ready[:] = 0.0  # the columns of A^-1 are the old matrix's
     lateral = p[P.LATERAL] > 0.0
     contact_on = lateral and p[P.CONTACT_ON] > 0.0
     soft_string = p[P.SOFT_STRING] > 0.0
@@ -441,15 +482,28 @@ def advance(n_steps, record_every, a):
         for i in range(m.ul.shape[1]):
             if m.vl[c, i] != 0.0 or m.al[c, i] != 0.0:
                 moving = True
+    implicit = a.implicit
+    terms = implicit.terms
+    implicit_on = lateral and p[P.IMPLICIT_CONTACT] > 0.0
+    gauge_implicit = implicit_on and p[P.MACRO_BIT] == 0.0
     for step in range(n_steps):
         _predict(p, m, work, nodes, moving)
         t_motor = _top_drive(p, state, m, work)
-        max_wall = _wall_contacts(p, nodes, m, work, l0) if contact_on else 0.0
+        max_wall = 0.0
+        count = 0
+        if contact_on:
+            max_wall, count = _wall_contacts(p, nodes, m, work, l0, implicit_on,
+                                             terms)
         state[S.MAX_WALL_FORCE] = max_wall
         bx = m.ul[0, lb]
         by = m.ul[1, lb]
         t_slip, t_static, fx_slip, fy_slip, fx_static, fy_static, gauge_x, gauge_y = \
             _bit_loads(p, state, m, work, nodes.compliance[bit], bit_arrays, wob, lb, lateral)
+        if gauge_implicit:
+            o = bit_arrays.out
+            count = gauge_terms(p, o[BitOut.GAUGE_KXX], o[BitOut.GAUGE_KXY], o[BitOut.GAUGE_KYY],
+                                o[BitOut.GAUGE_CXX], o[BitOut.GAUGE_CXY], o[BitOut.GAUGE_CYY],
+                                terms, count, lb)
         torsion_residual(torsion.k, p[P.RAYLEIGH_B], torsion.c, m.ut, m.vt, work.rt)
         if soft_string:
             t_bit, stuck = soft_string_torsion(p, state, torsion, nodes, m, work, t_slip,
@@ -466,6 +520,10 @@ def advance(n_steps, record_every, a):
             work.rl[0, lb] += fbx
             work.rl[1, lb] += fby
             _lateral(p, lateral_system, m, work)
+            if implicit_on:
+                max_wall = _implicit_contacts(p, implicit, lateral_system.factor, count, work,
+                                              state, (gauge_x, gauge_y), m, nodes, l0)
+                state[S.MAX_WALL_FORCE] = max_wall
         _correct(p, m, work, lateral, moving)
         if soft_string:
             settle_held(m, work)

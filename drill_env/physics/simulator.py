@@ -36,6 +36,7 @@ from drill_env.physics.fem import (
     mud_torsional_damping,
 )
 from drill_env.physics.formation import Rock, effective_wob, formation_arrays, resistance, rock_at
+from drill_env.physics.implicit_contact import make_implicit
 from drill_env.physics.layout import (
     N_PARAMS,
     N_READINGS,
@@ -99,6 +100,9 @@ class Simulator:
         # ---- lateral (one plane; the other is identical); in a curved hole the axial
         # force follows the TVD and static loads act across the hole (docs/model.md, 6)
         self.hole = curved_hole_loads(cfg, mesh, self.bit_buoyed_weight)
+        if self.hole is not None and cfg.solver.implicit_contacts:
+            warnings.warn("solver.implicit_contacts in a curved hole: slower than explicit "
+                          "(docs/performance.md)", RuntimeWarning, stacklevel=2)
         if self.hole is None:
             self.string_weight = buoyed_string_weight(mesh, self.bit_buoyed_weight)
             self.axial_weight = axial_force_profile(mesh, 0.0, self.bit_buoyed_weight)
@@ -195,12 +199,10 @@ class Simulator:
         self.ut, self.vt, self.at = np.zeros(n), np.zeros(n), np.zeros(n)  # torsional motion
         self.rl = np.zeros((2, nl))  # plane-major residual / acceleration scratch
         self.static_load = np.zeros((2, nl))  # curved hole, set with the WOB (_hole_wob)
-        self.rt = np.zeros(n)
+        self.rt, self.node_force, self.state = np.zeros(n), np.zeros(n), np.zeros(N_STATE)
         self.stick = np.zeros(n)  # soft-string slip directions (0: stuck)
-        self.soft_work = np.zeros((6, n))
-        self.contact_out = np.zeros(4)
-        self.node_force = np.zeros(n)
-        self.state = np.zeros(N_STATE)
+        self.soft_work, self.contact_out = np.zeros((6, n)), np.zeros(4)
+        self.implicit = make_implicit(nl)
         #: :data:`~drill_env.physics.layout.READINGS` + rock shares, refreshed by
         #: :meth:`read` (and by ``advance(..., read=True)`` and batched advances).
         self.readings = np.zeros(N_READINGS + self.rock_params.shape[0])
@@ -235,7 +237,7 @@ class Simulator:
                           self.ut, self.vt, self.at, self.stick),
             work=Work(self.rl, self.rt, self.contact_out, self.node_force, self.soft_work),
             bit=BitArrays(self.blades, self.formation, self.bit_scratch, self.bit_out),
-            record=record)
+            record=record, implicit=self.implicit)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
@@ -257,11 +259,11 @@ class Simulator:
 
     def stable_time_step(self) -> float:
         """Requested step, shortened to ``solver.critical_step_fraction`` (default 0.5) of
-        the critical step of the explicit terms (the implicit string sets none): the wall
-        and gauge penalties (stiffness k, damping c on a node mass m) that of an explicit
-        damped oscillator, (2 / w) (sqrt(1 + z^2) - z), w = sqrt(k/m), z = c / (2 sqrt(k
-        m)), where two gauge pads on the wall at once stiffen the bit 1.5x (a fraction of at
-        most 0.8 leaves room); the top drive's speed loop on the top node's inertia,
+        the critical step of the explicit terms: the wall and gauge penalties (stiffness k,
+        damping c on a node mass m; none with ``solver.implicit_contacts``) that of an
+        explicit damped oscillator, (2 / w) (sqrt(1 + z^2) - z), w = sqrt(k/m), z = c / (2
+        sqrt(k m)), two gauge pads on the wall at once stiffening the bit 1.5x (a fraction
+        of at most 0.8 leaves room); the top drive's speed loop on the top node's inertia,
         :func:`~drill_env.physics.top_drive.speed_loop_critical_step`."""
         cfg = self.config
         node_mass = self.lat_m[0::2]  # lumped masses of the lateral nodes, the bit's included
@@ -275,10 +277,10 @@ class Simulator:
 
         limits = {}
         touching = self.node_contact[self.lateral_start:] > 0.0  # wall-contact nodes
-        if cfg.contact.enabled and touching.any():
+        if cfg.contact.enabled and touching.any() and not cfg.solver.implicit_contacts:
             limits["contact.stiffness, contact.damping"] = critical(
                 float(np.min(node_mass[touching])), cfg.contact.stiffness, cfg.contact.damping)
-        for i, r in enumerate(cfg.formation.rocks):
+        for i, r in enumerate(() if cfg.solver.implicit_contacts else cfg.formation.rocks):
             limits[f"formation.rocks[{i}].wall_stiffness, wall_damping"] = critical(
                 float(node_mass[-1]), r.wall_stiffness, r.wall_damping)
         limits["top_drive.inertia, proportional_gain, integral_gain"] = \
@@ -323,6 +325,7 @@ class Simulator:
         friction = cfg.bit.gauge_friction
         p[P.GAUGE_FRICTION] = math.nan if friction is None else friction
         p[P.SOFT_STRING] = 1.0 if self.soft_nodes.any() else 0.0
+        p[P.IMPLICIT_CONTACT] = 1.0 if cfg.solver.implicit_contacts else 0.0
         top_drive.feedback_parameters(self.top_drive_law, self.dt, p)
         self.params = p
 

@@ -1,0 +1,188 @@
+"""Implicit wall and gauge contacts (``solver.implicit_contacts``).
+
+The Woodbury correction against a dense solve of the coupled planes (scipy), the gauge
+pads' split into principal directions against the matrix it came from, what the longer
+step keeps (the stick-slip metrics of the default scenario, a curved hole's wall forces)
+and that the wall still holds a string thrown at it at steps the explicit contacts could
+not take.
+"""
+
+from __future__ import annotations
+
+import math
+from contextlib import nullcontext
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from drill_env.physics.batch import SimulatorBatch
+from drill_env.physics.config import SimulationConfig, replace
+from drill_env.physics.fem import from_band
+from drill_env.physics.implicit_contact import couple, gauge_terms, make_implicit
+from drill_env.physics.layout import TERM, P
+from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.units import RPM
+from drill_env.scenarios import make_scenario
+from drill_env.tools.studies import simulate, stick_slip_summary
+
+IMPLICIT = {"solver.implicit_contacts": True}
+
+
+def implicit(config: SimulationConfig, step: float | None = None) -> SimulationConfig:
+    extra = {} if step is None else {"solver.time_step": step}
+    return replace(config, **IMPLICIT, **extra)
+
+
+def test_the_coupled_solve_matches_a_dense_solve_of_both_planes():
+    sim = Simulator(implicit(SimulationConfig()))
+    sim.reset(OperatingPoint(60 * RPM, 60e3))
+    sim.advance(1)  # factorises the lateral matrix at this WOB
+    a = from_band(sim.lat_work_band)  # one plane's A (both planes share it)
+    n = a.shape[0]
+    rng = np.random.default_rng(7)
+    store = make_implicit(n)
+    dofs = [2 * 20, 2 * 21, 2 * 60, n - 2, n - 2]  # neighbours, a far node, the bit twice
+    kappas = 10.0 ** rng.uniform(1.0, 3.0, len(dofs))  # N s^2/m: 0.1-10x a node mass
+    angles = rng.uniform(0.0, 2.0 * math.pi, len(dofs))
+    for t, (dof, kappa, angle) in enumerate(zip(dofs, kappas, angles, strict=True)):
+        store.terms[t, TERM.DOF] = dof
+        store.terms[t, TERM.NX], store.terms[t, TERM.NY] = math.cos(angle), math.sin(angle)
+        store.terms[t, TERM.KAPPA] = kappa
+    acc0 = rng.normal(size=(2, n))
+    acc0[:, 0] = 0.0  # the pinned top DOF
+    acc = acc0.copy()
+    couple(store, sim.lat_factor, len(dofs), acc)
+
+    coupled = scipy.linalg.block_diag(a, a)
+    for dof, kappa, angle in zip(dofs, kappas, angles, strict=True):
+        w = np.zeros(2 * n)
+        w[dof], w[n + dof] = math.cos(angle), math.sin(angle)
+        coupled += kappa * np.outer(w, w)
+    rhs = np.concatenate([a @ acc0[0], a @ acc0[1]])  # acc0 = A^-1 r in each plane
+    expected = scipy.linalg.solve(coupled, rhs, assume_a="pos")
+    scale = np.max(np.abs(expected))
+    np.testing.assert_allclose(acc.ravel(), expected, rtol=0, atol=1e-9 * scale)
+    # y: each term's implicit force, kappa (n . a) at its DOF
+    for t, (dof, kappa, angle) in enumerate(zip(dofs, kappas, angles, strict=True)):
+        along = math.cos(angle) * acc[0, dof] + math.sin(angle) * acc[1, dof]
+        assert store.gram[t, len(dofs)] == pytest.approx(kappa * along, rel=1e-9,
+                                                         abs=1e-9 * kappa * scale)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_gauge_pads_split_into_principal_terms_that_rebuild_their_matrix(seed):
+    rng = np.random.default_rng(seed)
+    p = np.zeros(len(P))
+    p[P.DT], p[P.BETA], p[P.GAMMA] = 0.004, 0.25, 0.5
+    pads = [rng.uniform(0, 2 * math.pi) for _ in range(seed % 3 + 1)]  # 1-3 pads
+    k = sum(rng.uniform(1e7, 1e9) * np.outer((math.cos(t), math.sin(t)),
+                                             (math.cos(t), math.sin(t))) for t in pads)
+    c = sum(rng.uniform(1e3, 1e5) * np.outer((math.cos(t), math.sin(t)),
+                                             (math.cos(t), math.sin(t))) for t in pads)
+    terms = np.zeros((4, len(TERM)))
+    count = gauge_terms(p, k[0, 0], k[0, 1], k[1, 1], c[0, 0], c[0, 1], c[1, 1], terms, 1, 9)
+    target = 0.25 * 0.004**2 * k + 0.5 * 0.004 * c
+    rebuilt = sum(row[TERM.KAPPA] * np.outer(row[[TERM.NX, TERM.NY]], row[[TERM.NX, TERM.NY]])
+                  for row in terms[1:count])
+    np.testing.assert_allclose(rebuilt, target, rtol=1e-10, atol=1e-10 * np.abs(target).max())
+    assert count == 1 + min(len(pads), 2)  # one pad: rank one
+    assert (terms[1:count, TERM.DOF] == 9).all() and (terms[1:count, TERM.NODE] == -1).all()
+    assert gauge_terms(p, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, terms, 1, 9) == 1  # off the wall
+
+
+def test_implicit_contacts_lift_the_step_limit_of_the_penalties():
+    explicit = Simulator(replace(SimulationConfig(), **{"solver.time_step": 0.008}))
+    assert explicit.dt < 0.004  # 0.5 of the ~5 ms penalty limit
+    assert Simulator(implicit(SimulationConfig(), 0.008)).dt == 0.008
+
+
+def thrown_span(config: SimulationConfig, seconds: float = 0.2) -> tuple[float, float]:
+    """The throw of test_fidelity.py (2 m/s over a 9 m span of the BHA, 30 kN): the
+    deepest a contact node ends a step inside the wall (m) and the largest normal force."""
+    sim = Simulator(config)
+    sim.reset(OperatingPoint(60 * RPM, 30e3))
+    height = sim.node_depth[-1] - sim.node_depth
+    span = (height > 10.0 + 1e-9) & (height < 19.0 - 1e-9)
+    sim.vl[0::2, 0][span] = 2.0 * np.sin(math.pi * (height[span] - 10.0) / 9.0)
+    deepest = 0.0
+    peak = 0.0
+    for _ in range(int(round(seconds / sim.dt))):
+        sim.advance(1)
+        assert sim.status == 0
+        radius = np.hypot(sim.ul[0::2, 0], sim.ul[0::2, 1])
+        inside = (radius - sim.node_clearance)[sim.node_contact > 0]
+        deepest = max(deepest, float(inside.max()))
+        peak = max(peak, float(np.max(sim.contact_forces[:-1])))
+    return deepest, peak
+
+
+@pytest.mark.parametrize("step", [0.004, 0.006, 0.008])
+def test_the_wall_holds_a_span_thrown_at_it_as_stiffly_at_long_steps(step):
+    """The deepest penetration and the largest force are the wall's stiffness and damping
+    meeting the span's momentum: the converged explicit run (0.5 ms) sets them (~5 mm and
+    ~57 kN at 10 MN/m), which an explicit penalty could not step past 4 ms for."""
+    converged, converged_peak = thrown_span(
+        replace(SimulationConfig(), **{"solver.time_step": 5e-4}))
+    deepest, peak = thrown_span(implicit(SimulationConfig(), step))
+    assert converged_peak > 10e3  # it did hit the wall
+    assert deepest == pytest.approx(converged, rel=0.15)
+    assert peak == pytest.approx(converged_peak, rel=0.15)
+
+
+def test_the_default_scenario_keeps_its_stick_slip_at_a_5_ms_implicit_step():
+    """docs/performance.md: SSI and stuck share at 50 rpm against the 2 ms explicit run."""
+    sc = make_scenario("default")
+    full = stick_slip_summary(simulate(sc.config, 50.0, sc.weight_on_bit, 60.0), 20.0)
+    long = stick_slip_summary(simulate(implicit(sc.config, 0.005), 50.0, sc.weight_on_bit,
+                                       60.0), 20.0)
+    assert full["ssi"] > 0.8
+    assert long["ssi"] == pytest.approx(full["ssi"], rel=0.05)
+    assert long["stuck_fraction"] == pytest.approx(full["stuck_fraction"], rel=0.10, abs=0.02)
+
+
+def test_a_curved_hole_rests_on_the_wall_with_the_same_forces_at_a_long_step():
+    """Equilibrium does not depend on the step: the total wall force of the J-shaped
+    well's string, averaged over 2 s while it turns, explicit at 2 ms against implicit at
+    2 and 8 ms."""
+    sc = make_scenario("j_shaped")
+    totals = []
+    for config in (sc.config, implicit(sc.config), implicit(sc.config, 0.008)):
+        expect = config.solver.implicit_contacts
+        with pytest.warns(RuntimeWarning, match="curved hole") if expect else nullcontext():
+            sim = Simulator(config)
+        sim.reset(OperatingPoint(60 * RPM, sc.weight_on_bit))
+        sim.advance(int(round(6.0 / sim.dt)))
+        samples = []
+        for _ in range(20):
+            sim.advance(int(round(0.1 / sim.dt)))
+            samples.append(float(np.sum(sim.contact_forces[:-1])))
+        totals.append(np.mean(samples))
+    assert totals[0] > 50e3
+    assert totals[1] == pytest.approx(totals[0], rel=0.01)
+    assert totals[2] == pytest.approx(totals[0], rel=0.05)
+
+
+def test_a_batch_of_implicit_simulators_gives_the_floats_of_each_alone():
+    def make() -> list[Simulator]:
+        sims = []
+        for rpm, step in ((60.0, 0.004), (90.0, 0.008)):
+            sim = Simulator(implicit(SimulationConfig(), step))
+            sim.reset(OperatingPoint(rpm * RPM, 60e3))
+            sim.vl[0::2, 0][-20:] = 0.5  # a push towards the wall
+            sims.append(sim)
+        return sims
+
+    alone, together = make(), make()
+    batch = SimulatorBatch(2)
+    for k in range(3):
+        hooks = [sim.hook_load_for(60e3 + 5e3 * k) for sim in alone]  # refactors
+        expected = [sim.advance(50, 60 * RPM, h, 10) for sim, h in zip(alone, hooks,
+                                                                       strict=True)]
+        actual = batch.advance(together, [50, 50], [60 * RPM] * 2, hooks, [10, 10])
+        for a, e in zip(actual, expected, strict=True):
+            np.testing.assert_array_equal(a, e)
+    for a, e in zip(together, alone, strict=True):
+        np.testing.assert_array_equal(a.ul, e.ul)
+        np.testing.assert_array_equal(a.contact_forces, e.contact_forces)
+        assert np.max(e.contact_forces[:-1]) > 0.0  # the push reached the wall
