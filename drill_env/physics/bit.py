@@ -23,8 +23,6 @@ names of :data:`BitOut`):
 ``GAUGE_X``, ``GAUGE_Y``   gauge force on the bit, normal + cutting/friction (eqs. 55-60)
 ``GAUGE_TORQUE``           torque of the gauge forces about the bit axis (signed)
 ``DEPTH_OF_CUT``           depth of cut per revolution (m/rev): wob sum_j share_j doc_j
-``GAUGE_KXX`` .. ``_CYY``  the pads' normal stiffness and damping as 2 x 2 matrices
-                           ``sum k e e^T``, ``sum c e e^T`` (N/m, N s/m; implicit contacts)
 ``N_BIT_OUT + j``          share of FRONT blade length in rock j (sums to 1)
 =========================  ==========================================================
 """
@@ -65,7 +63,6 @@ N_SEGMENTS = len(Segment)
 BitOut = IntEnum("BitOut", [
     "TORQUE", "TORQUE_STATIC", "FORCE_X", "FORCE_Y", "FORCE_STATIC_X", "FORCE_STATIC_Y",
     "GAUGE_X", "GAUGE_Y", "GAUGE_TORQUE", "DEPTH_OF_CUT",
-    "GAUGE_KXX", "GAUGE_KXY", "GAUGE_KYY", "GAUGE_CXX", "GAUGE_CXY", "GAUGE_CYY",
 ], start=0)
 N_BIT_OUT = len(BitOut)
 SHARES = N_BIT_OUT
@@ -207,14 +204,29 @@ def asymmetric_bit() -> BitConfig:
 # --------------------------------------------------------------------------- scratch
 
 
+#: One gauge pad at the last call (``BitScratch.pads`` row), for implicit contacts.
+PAD = IntEnum("PAD", [
+    "ON",           # 1.0 where the blade has a gauge pad
+    "EX", "EY",     # unit vector from the hole axis to the pad's point D
+    "OX", "OY",     # D relative to the bit centre (m)
+    "PENETRATION",  # |D| - hole radius (m; < 0 off the wall)
+    "RATE",         # its rate (m/s)
+    "STIFFNESS",    # sum of k over the pad's pieces that push (N/m; 0 off the wall)
+    "DAMPING",      # and of c (N s/m)
+    "FORCE",        # the pad's normal force (N)
+], start=0)
+
+
 class BitScratch(NamedTuple):
-    """Preallocated piece arrays for :func:`split_blades` (blade-major, segment order)."""
+    """Preallocated piece arrays for :func:`split_blades` (blade-major, segment order)
+    and the gauge pads of the last call."""
 
     blade: np.ndarray    # int64
     segment: np.ndarray  # int64: Segment
     rock: np.ndarray     # int64
     length: np.ndarray   # float64 (m)
     lever: np.ndarray    # float64: radius of the piece midpoint from the bit axis (m)
+    pads: np.ndarray     # (n_blades, PAD)
 
 
 def max_pieces(n_blades: int, n_interfaces: int) -> int:
@@ -225,7 +237,7 @@ def max_pieces(n_blades: int, n_interfaces: int) -> int:
 def make_bit_scratch(n_blades: int, n_interfaces: int) -> BitScratch:
     n = max_pieces(n_blades, n_interfaces)
     return BitScratch(np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64),
-                      np.zeros(n), np.zeros(n))
+                      np.zeros(n), np.zeros(n), np.zeros((n_blades, len(PAD))))
 
 
 def make_loads_out(n_rocks: int) -> np.ndarray:
@@ -371,24 +383,37 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
     bx = kin.x
     by = kin.y
     omega = kin.omega
+    pads = pieces.pads
     for i in range(blades.shape[0]):
+        pad = pads[i]
         l_g = blades[i, Blade.L_G]
-        if l_g <= 0.0:
-            continue
         r_c = blades[i, Blade.R_C]
         c, s = _blade_direction(blades, i, cos_z, sin_z)
         px = bx + r_c * c
         py = by + r_c * s
         radius = math.sqrt(px * px + py * py)
-        penetration = radius - gauge.hole_radius  # eq. (36) as max(0, r - r_limit)
-        if penetration <= 0.0:
+        if l_g <= 0.0 or radius == 0.0:
+            pad[PAD.ON] = 0.0
             continue
+        penetration = radius - gauge.hole_radius  # eq. (36) as max(0, r - r_limit)
         # Velocity of the contact point: bit translation + rotation about the bit axis.
         wx = kin.vx - omega * r_c * s
         wy = kin.vy + omega * r_c * c
         ex = px / radius
         ey = py / radius
         penetration_rate = ex * wx + ey * wy
+        pad[PAD.ON] = 1.0
+        pad[PAD.EX] = ex
+        pad[PAD.EY] = ey
+        pad[PAD.OX] = r_c * c
+        pad[PAD.OY] = r_c * s
+        pad[PAD.PENETRATION] = penetration
+        pad[PAD.RATE] = penetration_rate
+        pad[PAD.STIFFNESS] = 0.0
+        pad[PAD.DAMPING] = 0.0
+        pad[PAD.FORCE] = 0.0
+        if penetration <= 0.0:
+            continue
         tx = -ey
         ty = ex
         slip = tx * wx + ty * wy  # exact form of eq. (37)
@@ -420,6 +445,9 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
                                        rock_params[j, Rock.ST2]) * f_n
         if normal <= 0.0:
             continue
+        pad[PAD.STIFFNESS] = stiffness
+        pad[PAD.DAMPING] = damping
+        pad[PAD.FORCE] = normal
         speed = abs(slip)
         if speed < gauge.regularisation_speed:
             friction *= speed / gauge.regularisation_speed
@@ -437,12 +465,6 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
         out[BitOut.GAUGE_X] += fx
         out[BitOut.GAUGE_Y] += fy
         out[BitOut.GAUGE_TORQUE] += r_c * c * fy - r_c * s * fx  # exact lever from the axis
-        out[BitOut.GAUGE_KXX] += stiffness * ex * ex
-        out[BitOut.GAUGE_KXY] += stiffness * ex * ey
-        out[BitOut.GAUGE_KYY] += stiffness * ey * ey
-        out[BitOut.GAUGE_CXX] += damping * ex * ex
-        out[BitOut.GAUGE_CXY] += damping * ex * ey
-        out[BitOut.GAUGE_CYY] += damping * ey * ey
 
 
 @njit(**TUPLE_KERNEL)

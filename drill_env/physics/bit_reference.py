@@ -147,18 +147,9 @@ def bit_loads(blades, normals, offsets, layer_rock, rock_params, bx, by, vx, vy,
             l_by_rock[p.rock] += p.length
         f_n = l_by_rock / l_g * (rock_params[:, Rock.WALL_STIFFNESS] * f
                                  + rock_params[:, Rock.WALL_DAMPING] * f_dot)
-        pushing = f_n > 0.0
         f_n = np.maximum(f_n, 0.0)
         if f_n.sum() == 0.0:
             continue
-        # d F_n / d(bit position) = (sum of the pushing rocks' k) e_n, the pad's radius
-        # growing along e_n; the damping's the same with c (implicit contacts)
-        along = np.outer(e_n, e_n)[[0, 0, 1], [0, 1, 1]]
-        share = l_by_rock / l_g * pushing
-        out[BitOut.GAUGE_KXX:BitOut.GAUGE_KYY + 1] += share @ rock_params[:, Rock.WALL_STIFFNESS] \
-            * along
-        out[BitOut.GAUGE_CXX:BitOut.GAUGE_CYY + 1] += share @ rock_params[:, Rock.WALL_DAMPING] \
-            * along
         # eq. (57), the curves in rad/s: slip speed / r_C
         w = abs(v_r) / float(np.linalg.norm(arm))
         if gauge_friction >= 0.0:  # the pads' own coefficient

@@ -26,16 +26,18 @@ import math
 import numpy as np
 from numba import njit
 
+from drill_env.physics.bit import PAD, Blade, Segment
+from drill_env.physics.formation import Rock
 from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import TERM, Implicit, P
 from drill_env.physics.linalg import solve3_planes
 
 
-def make_implicit(n_lat: int) -> Implicit:
+def make_implicit(n_lat: int, n_pads: int) -> Implicit:
     """The arrays of a string with ``n_lat`` lateral DOFs (two per lateral node): a wall
-    term per lateral node and two for the gauge pads at most."""
+    term per lateral node and one per gauge pad at most."""
     nodes = n_lat // 2
-    terms = nodes + 2
+    terms = nodes + n_pads
     return Implicit(np.zeros((nodes, n_lat)), np.zeros(nodes), np.zeros((terms, len(TERM))),
                     np.zeros((terms, terms + 1)), np.zeros((2, n_lat)), np.zeros((2, n_lat)),
                     np.zeros(nodes))
@@ -55,25 +57,34 @@ def add_term(terms, count, node, dof, nx, ny, kappa, force):
 
 
 @njit(cache=True, inline="always")
-def gauge_terms(p, kxx, kxy, kyy, cxx, cxy, cyy, terms, count, dof):
-    """The gauge pads' ``beta dt^2 K + gamma dt C`` (2 x 2, symmetric, >= 0) as up to two
-    terms along its eigenvectors; returns the count."""
+def pad_terms(p, pads, terms, count, dof):
+    """A term for every gauge pad that pushes at the predictors (``pads``: the bit's
+    :data:`~drill_env.physics.bit.PAD` rows); returns the count."""
     h_k = p[P.BETA] * p[P.DT] * p[P.DT]
     h_c = p[P.GAMMA] * p[P.DT]
-    a = h_k * kxx + h_c * cxx
-    b = h_k * kxy + h_c * cxy
-    d = h_k * kyy + h_c * cyy
-    if a + d <= 0.0:
-        return count
-    mean = 0.5 * (a + d)
-    half = math.sqrt(0.25 * (a - d) * (a - d) + b * b)
-    angle = 0.5 * math.atan2(2.0 * b, a - d)  # of the larger eigenvalue's vector
-    c = math.cos(angle)
-    s = math.sin(angle)
-    count = add_term(terms, count, -1.0, dof, c, s, mean + half, 0.0)
-    if mean - half > 1e-12 * (mean + half):
-        count = add_term(terms, count, -1.0, dof, -s, c, mean - half, 0.0)
+    for i in range(pads.shape[0]):
+        pad = pads[i]
+        if pad[PAD.ON] > 0.0 and pad[PAD.FORCE] > 0.0:
+            count = add_term(terms, count, -1.0 - i, dof, pad[PAD.EX], pad[PAD.EY],
+                             h_k * pad[PAD.STIFFNESS] + h_c * pad[PAD.DAMPING],
+                             pad[PAD.FORCE])
     return count
+
+
+@njit(cache=True, inline="always")
+def _pad_penalty(bit, n_pieces, blade):
+    """Stiffness and damping of a whole gauge pad (all its pieces, eq. 55)."""
+    pieces = bit.pieces
+    rock_params = bit.formation.rock_params
+    l_g = bit.blades[blade, Blade.L_G]
+    k = 0.0
+    c = 0.0
+    for q in range(n_pieces):
+        if pieces.blade[q] == blade and pieces.segment[q] == Segment.GAUGE:
+            j = pieces.rock[q]
+            k += pieces.length[q] / l_g * rock_params[j, Rock.WALL_STIFFNESS]
+            c += pieces.length[q] / l_g * rock_params[j, Rock.WALL_DAMPING]
+    return k, c
 
 
 @njit(cache=True, inline="always")
@@ -144,47 +155,67 @@ def couple(implicit, factor, count, acc):
             acc[1, i] -= fy * z[i]
 
 
-#: Active-set passes per step: a node the coupled solve moves into the wall with a
-#: pushing end-of-step force joins, a term whose end-of-step force would pull leaves, and
-#: the solve is repeated; the last pass is kept as it is.
+#: Active-set passes per step: a node or gauge pad the coupled solve moves into the wall
+#: with a pushing end-of-step force joins, a term whose end-of-step force would pull
+#: leaves, and the solve is repeated; the last pass is kept as it is.
 MAX_PASSES = 8
 
 
+@njit(cache=True, inline="always")
+def _shift(implicit, factor, a0, dof, nx, ny, force):
+    """Add to ``a0`` the accelerations of an outward force ``force n`` at ``dof``: a term
+    that leaves takes back the force it applied (``-F n``), one that joins applies its
+    linearised force at the predictors."""
+    z = _column(implicit, factor, dof)
+    fx = force * nx
+    fy = force * ny
+    for i in range(z.shape[0]):
+        a0[0, i] += fx * z[i]
+        a0[1, i] += fy * z[i]
+
+
 @njit(**TUPLE_KERNEL)
-def resolve(p, implicit, factor, count, acc, m, nodes, l0):
+def resolve(p, implicit, factor, count, acc, m, nodes, l0, bit, n_pieces, lb):
     """The coupled solve with its active set (:data:`MAX_PASSES`): ``acc`` (2, n_lat)
     holds the uncoupled accelerations on entry and the coupled ones on return; ``m`` the
-    predictors (:class:`~drill_env.physics.layout.Motion`). Returns the final number of
-    terms; ``y`` of each is in ``implicit.gram[:count, count]``."""
+    predictors (:class:`~drill_env.physics.layout.Motion`); ``bit`` the
+    :class:`~drill_env.physics.layout.BitArrays` (its pads and the ``n_pieces`` pieces of
+    the last call; no pads with the macroscopic bit), ``lb`` the bit's DOF. Each term's
+    ``TERM.FORCE`` is the force it applies at the predictors, so it ends the step with
+    ``FORCE + y``; returns the final count, ``y`` in ``implicit.gram[:count, count]``."""
     terms = implicit.terms
     member = implicit.member
     a0 = implicit.uncoupled
-    saved = False  # a0 holds acc's entry values
+    for c in range(2):
+        for i in range(acc.shape[1]):
+            a0[c, i] = acc[c, i]
     for t in range(count):  # member is all 0 between steps
         if terms[t, TERM.NODE] >= 0.0:
             member[int(terms[t, TERM.DOF]) // 2] = t + 1.0
     h3 = p[P.BETA] * p[P.DT] * p[P.DT]
-    kappa = h3 * p[P.WALL_K] + p[P.GAMMA] * p[P.DT] * p[P.WALL_C]
+    h4 = p[P.GAMMA] * p[P.DT]
+    kappa = h3 * p[P.WALL_K] + h4 * p[P.WALL_C]
     contact_on = p[P.CONTACT_ON] > 0.0
+    pads = bit.pieces.pads
+    pads_on = p[P.MACRO_BIT] == 0.0
     for sweep in range(MAX_PASSES):
-        if saved or count > 0:
+        if sweep > 0:
             for c in range(2):
                 for i in range(acc.shape[1]):
-                    if saved:
-                        acc[c, i] = a0[c, i]
-                    else:
-                        a0[c, i] = acc[c, i]
-            saved = True
+                    acc[c, i] = a0[c, i]
         if count > 0:
             couple(implicit, factor, count, acc)
         if sweep == MAX_PASSES - 1:
             break
         changed = False
         kept = 0
-        for t in range(count):  # leave: a wall term that would pull at the end
+        for t in range(count):  # leave: a term that would pull at the end
             node = terms[t, TERM.NODE]
-            if node >= 0.0 and terms[t, TERM.FORCE] + implicit.gram[t, count] < 0.0:
-                member[int(terms[t, TERM.DOF]) // 2] = 0.0
+            if terms[t, TERM.FORCE] + implicit.gram[t, count] < 0.0:
+                _shift(implicit, factor, a0, int(terms[t, TERM.DOF]), terms[t, TERM.NX],
+                       terms[t, TERM.NY], terms[t, TERM.FORCE])
+                if node >= 0.0:
+                    member[int(terms[t, TERM.DOF]) // 2] = 0.0
                 changed = True
                 continue
             if kept != t:
@@ -199,10 +230,6 @@ def resolve(p, implicit, factor, count, acc, m, nodes, l0):
             if not contact_on or nodes.contact[k] == 0.0 or member[j // 2] != 0.0:
                 continue
             clearance = nodes.clearance[k]
-            xe = m.ul[0, j] + h3 * acc[0, j]
-            ye = m.ul[1, j] + h3 * acc[1, j]
-            if xe * xe + ye * ye <= clearance * clearance:
-                continue  # ends the step off the wall
             xp = m.ul[0, j]
             yp = m.ul[1, j]
             r = math.sqrt(xp * xp + yp * yp)
@@ -210,12 +237,39 @@ def resolve(p, implicit, factor, count, acc, m, nodes, l0):
                 continue
             nx = xp / r
             ny = yp / r
+            along = nx * acc[0, j] + ny * acc[1, j]
+            if r - clearance + h3 * along <= 0.0:
+                continue  # ends the step off the wall
             force = p[P.WALL_K] * (r - clearance) + p[P.WALL_C] * (
                 nx * m.vl[0, j] + ny * m.vl[1, j])  # eq. (18) linearised at the predictor
-            if force + kappa * (nx * acc[0, j] + ny * acc[1, j]) <= 0.0:
+            if force + kappa * along <= 0.0:
                 continue  # inside, but leaving faster than the damper lets it push
+            _shift(implicit, factor, a0, j, nx, ny, -force)
             count = add_term(terms, count, k, j, nx, ny, kappa, force)
             member[j // 2] = count
+            changed = True
+        for i in range(pads.shape[0] if pads_on else 0):  # join: a gauge pad
+            pad = pads[i]
+            if pad[PAD.ON] == 0.0:
+                continue
+            present = False
+            for t in range(count):
+                if terms[t, TERM.NODE] == -1.0 - i:
+                    present = True
+            if present:
+                continue
+            nx = pad[PAD.EX]
+            ny = pad[PAD.EY]
+            along = nx * acc[0, lb] + ny * acc[1, lb]
+            if pad[PAD.PENETRATION] + h3 * along <= 0.0:
+                continue
+            k_pad, c_pad = _pad_penalty(bit, n_pieces, i)
+            force = k_pad * pad[PAD.PENETRATION] + c_pad * pad[PAD.RATE]
+            kappa_pad = h3 * k_pad + h4 * c_pad
+            if force + kappa_pad * along <= 0.0:
+                continue
+            _shift(implicit, factor, a0, lb, nx, ny, -force)
+            count = add_term(terms, count, -1.0 - i, lb, nx, ny, kappa_pad, force)
             changed = True
         if not changed:
             break

@@ -24,9 +24,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from drill_env.physics.bit import BitKinematics, BitOut, GaugeContact, mesoscopic_bit_loads
+from drill_env.physics.bit import PAD, BitKinematics, BitOut, GaugeContact, mesoscopic_bit_loads
 from drill_env.physics.formation import Rock, effective_wob, resistance, rock_at
-from drill_env.physics.implicit_contact import add_term, gauge_terms, resolve
+from drill_env.physics.implicit_contact import add_term, pad_terms, resolve
 from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import CONTACT, TERM, Feedback, P, R, S, Status
 from drill_env.physics.linalg import (
@@ -252,28 +252,33 @@ def _wall_contacts(p, nodes, m, work, l0, implicit_on, terms):
 
 
 @njit(cache=True, inline="always")
-def _implicit_contacts(p, implicit, factor, count, work, state, gauge, m, nodes, l0):
+def _implicit_contacts(p, implicit, factor, count, work, state, gauge, m, nodes, l0, bit):
     """The implicit normal forces (:func:`~drill_env.physics.implicit_contact.resolve`)
-    into the accelerations; the reported forces become the end-of-step ones. Returns
-    the largest wall normal force."""
-    gauge_x, gauge_y = gauge
+    into the accelerations; the reported wall and gauge forces become the end-of-step
+    ones. ``gauge``: the bit's gauge force at the predictors (x, y), its piece count and
+    lateral DOF. Returns the largest wall normal force."""
+    gauge_x, gauge_y, n_pieces, lb = gauge
     terms = implicit.terms
     for t in range(count):  # a term may leave: its predictor force goes
         if terms[t, TERM.NODE] >= 0.0:
             work.node_force[int(terms[t, TERM.NODE])] = 0.0
-    count = resolve(p, implicit, factor, count, work.rl, m, nodes, l0)
+    count = resolve(p, implicit, factor, count, work.rl, m, nodes, l0, bit, n_pieces, lb)
     gram = implicit.gram
     max_wall = 0.0
-    dx = 0.0
+    dx = 0.0  # the gauge pads' normal force: at the end of the step less at the predictors
     dy = 0.0
+    pads = bit.pieces.pads
+    for i in range(pads.shape[0] if p[P.MACRO_BIT] == 0.0 else 0):
+        if pads[i, PAD.ON] > 0.0 and pads[i, PAD.FORCE] > 0.0:
+            dx += pads[i, PAD.FORCE] * pads[i, PAD.EX]
+            dy += pads[i, PAD.FORCE] * pads[i, PAD.EY]
     for t in range(count):
-        y = gram[t, count]
+        force = max(terms[t, TERM.FORCE] + gram[t, count], 0.0)
         node = int(terms[t, TERM.NODE])
-        if node < 0:  # a gauge direction
-            dx -= y * terms[t, TERM.NX]
-            dy -= y * terms[t, TERM.NY]
+        if node < 0:  # a gauge pad, pushing along -n
+            dx -= force * terms[t, TERM.NX]
+            dy -= force * terms[t, TERM.NY]
             continue
-        force = max(terms[t, TERM.FORCE] + y, 0.0)
         work.node_force[node] = force
         max_wall = max(max_wall, force)
     if dx != 0.0 or dy != 0.0:
@@ -287,7 +292,8 @@ def _implicit_contacts(p, implicit, factor, count, work, state, gauge, m, nodes,
 def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
     """The bit at the predicted state: the rock under it, its slip and static torques and
     front forces; the gauge forces go into the residuals. Returns
-    ``(t_slip, t_static, fx_slip, fy_slip, fx_static, fy_static, gauge_x, gauge_y)``."""
+    ``(t_slip, t_static, fx_slip, fy_slip, fx_static, fy_static, gauge_x, gauge_y,
+    n_pieces)``."""
     n = m.ut.shape[0]
     bx = m.ul[0, lb]
     by = m.ul[1, lb]
@@ -307,14 +313,14 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
         state[S.DEPTH_OF_CUT] = rock_params[rock, Rock.DEPTH_OF_CUT] * effective_wob(
             wob, rock_params[rock, Rock.FOUNDER_WOB], rock_params[rock, Rock.POST_FOUNDER_SLOPE])
         state[S.GAUGE_FORCE] = 0.0
-        return t_slip, t_static, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return t_slip, t_static, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0
     omega_eval = omega_p if omega_p != 0.0 else BREAKAWAY_SPEED
     out = bit.out
-    mesoscopic_bit_loads(bit.blades, formation, bit.pieces,
+    n_pieces = mesoscopic_bit_loads(bit.blades, formation, bit.pieces,
                          BitKinematics(bx, by, m.vl[0, lb], m.vl[1, lb], depth, m.ut[n - 1],
                                        omega_eval),
                          wob, GaugeContact(p[P.HOLE_RADIUS], compliance, p[P.V_REG],
-                                           p[P.GAUGE_FRICTION]), out)
+                                               p[P.GAUGE_FRICTION]), out)
     gauge_x = out[BitOut.GAUGE_X]
     gauge_y = out[BitOut.GAUGE_Y]
     if lateral:
@@ -325,7 +331,7 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
     state[S.DEPTH_OF_CUT] = out[BitOut.DEPTH_OF_CUT]
     return (out[BitOut.TORQUE], out[BitOut.TORQUE_STATIC], out[BitOut.FORCE_X],
             out[BitOut.FORCE_Y], out[BitOut.FORCE_STATIC_X], out[BitOut.FORCE_STATIC_Y],
-            gauge_x, gauge_y)
+            gauge_x, gauge_y, n_pieces)
 
 
 @njit(cache=True, inline="always")
@@ -497,13 +503,11 @@ def advance(n_steps, record_every, a):
         state[S.MAX_WALL_FORCE] = max_wall
         bx = m.ul[0, lb]
         by = m.ul[1, lb]
-        t_slip, t_static, fx_slip, fy_slip, fx_static, fy_static, gauge_x, gauge_y = \
-            _bit_loads(p, state, m, work, nodes.compliance[bit], bit_arrays, wob, lb, lateral)
+        (t_slip, t_static, fx_slip, fy_slip, fx_static, fy_static, gauge_x, gauge_y,
+         n_pieces) = _bit_loads(p, state, m, work, nodes.compliance[bit], bit_arrays, wob, lb,
+                                lateral)
         if gauge_implicit:
-            o = bit_arrays.out
-            count = gauge_terms(p, o[BitOut.GAUGE_KXX], o[BitOut.GAUGE_KXY], o[BitOut.GAUGE_KYY],
-                                o[BitOut.GAUGE_CXX], o[BitOut.GAUGE_CXY], o[BitOut.GAUGE_CYY],
-                                terms, count, lb)
+            count = pad_terms(p, bit_arrays.pieces.pads, terms, count, lb)
         torsion_residual(torsion.k, p[P.RAYLEIGH_B], torsion.c, m.ut, m.vt, work.rt)
         if soft_string:
             t_bit, stuck = soft_string_torsion(p, state, torsion, nodes, m, work, t_slip,
@@ -522,7 +526,8 @@ def advance(n_steps, record_every, a):
             _lateral(p, lateral_system, m, work)
             if implicit_on:
                 max_wall = _implicit_contacts(p, implicit, lateral_system.factor, count, work,
-                                              state, (gauge_x, gauge_y), m, nodes, l0)
+                                              state, (gauge_x, gauge_y, n_pieces, lb), m,
+                                              nodes, l0, bit_arrays)
                 state[S.MAX_WALL_FORCE] = max_wall
         _correct(p, m, work, lateral, moving)
         if soft_string:

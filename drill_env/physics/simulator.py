@@ -202,7 +202,7 @@ class Simulator:
         self.rt, self.node_force, self.state = np.zeros(n), np.zeros(n), np.zeros(N_STATE)
         self.stick = np.zeros(n)  # soft-string slip directions (0: stuck)
         self.soft_work, self.contact_out = np.zeros((6, n)), np.zeros(4)
-        self.implicit = make_implicit(nl)
+        self.implicit = make_implicit(nl, cfg.bit.n_blades)
         #: :data:`~drill_env.physics.layout.READINGS` + rock shares, refreshed by
         #: :meth:`read` (and by ``advance(..., read=True)`` and batched advances).
         self.readings = np.zeros(N_READINGS + self.rock_params.shape[0])

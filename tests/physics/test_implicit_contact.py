@@ -1,7 +1,7 @@
 """Implicit wall and gauge contacts (``solver.implicit_contacts``).
 
 The Woodbury correction against a dense solve of the coupled planes (scipy), the gauge
-pads' split into principal directions against the matrix it came from, what the longer
+pads' forces and stiffness against the Python oracle of the bit, what the longer
 step keeps (the stick-slip metrics of the default scenario, a curved hole's wall forces)
 and that the wall still holds a string thrown at it at steps the explicit contacts could
 not take.
@@ -16,14 +16,16 @@ import numpy as np
 import pytest
 import scipy.linalg
 
+from drill_env.physics import bit, bit_reference, formation
 from drill_env.physics.batch import SimulatorBatch
-from drill_env.physics.config import SimulationConfig, replace
+from drill_env.physics.bit import PAD, BitOut
+from drill_env.physics.config import FormationConfig, Interface, SimulationConfig, replace
 from drill_env.physics.fem import from_band
-from drill_env.physics.implicit_contact import couple, gauge_terms, make_implicit
-from drill_env.physics.layout import TERM, P
+from drill_env.physics.implicit_contact import couple, make_implicit
+from drill_env.physics.layout import TERM
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
-from drill_env.scenarios import make_scenario
+from drill_env.scenarios import HARD, SOFT, make_scenario
 from drill_env.tools.studies import simulate, stick_slip_summary
 
 IMPLICIT = {"solver.implicit_contacts": True}
@@ -41,7 +43,7 @@ def test_the_coupled_solve_matches_a_dense_solve_of_both_planes():
     a = from_band(sim.lat_work_band)  # one plane's A (both planes share it)
     n = a.shape[0]
     rng = np.random.default_rng(7)
-    store = make_implicit(n)
+    store = make_implicit(n, 6)
     dofs = [2 * 20, 2 * 21, 2 * 60, n - 2, n - 2]  # neighbours, a far node, the bit twice
     kappas = 10.0 ** rng.uniform(1.0, 3.0, len(dofs))  # N s^2/m: 0.1-10x a node mass
     angles = rng.uniform(0.0, 2.0 * math.pi, len(dofs))
@@ -70,25 +72,50 @@ def test_the_coupled_solve_matches_a_dense_solve_of_both_planes():
                                                          abs=1e-9 * kappa * scale)
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_the_gauge_pads_split_into_principal_terms_that_rebuild_their_matrix(seed):
-    rng = np.random.default_rng(seed)
-    p = np.zeros(len(P))
-    p[P.DT], p[P.BETA], p[P.GAMMA] = 0.004, 0.25, 0.5
-    pads = [rng.uniform(0, 2 * math.pi) for _ in range(seed % 3 + 1)]  # 1-3 pads
-    k = sum(rng.uniform(1e7, 1e9) * np.outer((math.cos(t), math.sin(t)),
-                                             (math.cos(t), math.sin(t))) for t in pads)
-    c = sum(rng.uniform(1e3, 1e5) * np.outer((math.cos(t), math.sin(t)),
-                                             (math.cos(t), math.sin(t))) for t in pads)
-    terms = np.zeros((4, len(TERM)))
-    count = gauge_terms(p, k[0, 0], k[0, 1], k[1, 1], c[0, 0], c[0, 1], c[1, 1], terms, 1, 9)
-    target = 0.25 * 0.004**2 * k + 0.5 * 0.004 * c
-    rebuilt = sum(row[TERM.KAPPA] * np.outer(row[[TERM.NX, TERM.NY]], row[[TERM.NX, TERM.NY]])
-                  for row in terms[1:count])
-    np.testing.assert_allclose(rebuilt, target, rtol=1e-10, atol=1e-10 * np.abs(target).max())
-    assert count == 1 + min(len(pads), 2)  # one pad: rank one
-    assert (terms[1:count, TERM.DOF] == 9).all() and (terms[1:count, TERM.NODE] == -1).all()
-    assert gauge_terms(p, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, terms, 1, 9) == 1  # off the wall
+def pads_at(bit_cfg, fa, bx, by, vx=0.0, vy=0.0):
+    """The kernel's gauge pads (``BitScratch.pads``) and loads at a bit position, no
+    rotation and no gauge friction."""
+    blades = bit.blade_arrays(bit_cfg)
+    scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
+    out = bit.make_loads_out(fa.n_rocks)
+    bit.mesoscopic_bit_loads(blades, fa, scratch, bit.BitKinematics(bx, by, vx, vy, 100.0, 0.3,
+                                                                    0.0),
+                             60e3, bit.GaugeContact(bit_cfg.hole_radius, 0.0, 1e-3, 0.0), out)
+    return scratch.pads.copy(), out
+
+
+@pytest.mark.parametrize("angle", [0.1, 0.9, 2.0, 4.0])
+def test_the_pads_carry_the_gauge_force_and_its_stiffness(angle):
+    """The pads' normal forces sum to the Python oracle's gauge force (no friction), and
+    each pushing pad's stiffness is the derivative of its force along its normal (a
+    centred difference, 1 um either side). The interface is flat and crosses the pads:
+    two rocks per pad, split the same wherever the bit moves across the hole."""
+    bit_cfg = bit.asymmetric_bit()
+    fa = formation.formation_arrays(FormationConfig(rocks=(HARD, SOFT), interfaces=(
+        Interface(100.0 - 0.06, 0.0, 0.0),), layers=(0, 1)))
+    offset = 6.0e-3  # 1 mm past the 5 mm gauge clearance
+    bx, by = offset * math.cos(angle), offset * math.sin(angle)
+    pads, _ = pads_at(bit_cfg, fa, bx, by, vx=0.01, vy=-0.02)
+    pushing = pads[:, PAD.FORCE] > 0.0
+    assert pushing.any()
+
+    def oracle(x, y, vx=0.01, vy=-0.02):
+        return bit_reference.bit_loads(bit.blade_arrays(bit_cfg), *fa, x, y, vx, vy, 100.0,
+                                       0.3, 0.0, 60e3, bit_cfg.hole_radius, 0.0, 1e-3, 0.0)
+
+    expected = oracle(bx, by)
+    normal = -np.sum(pads[:, PAD.FORCE, None] * pads[:, [PAD.EX, PAD.EY]], axis=0)
+    np.testing.assert_allclose(normal, expected[[BitOut.GAUGE_X, BitOut.GAUGE_Y]],
+                               rtol=1e-9, atol=1e-6)
+    h = 1e-6  # at rest: the damping's part moves with the normal's turn otherwise
+    for i in np.flatnonzero(pushing):
+        e = pads[i, [PAD.EX, PAD.EY]]
+        pads_plus, _ = pads_at(bit_cfg, fa, bx + h * e[0], by + h * e[1])
+        pads_minus, _ = pads_at(bit_cfg, fa, bx - h * e[0], by - h * e[1])
+        slope = (pads_plus[i, PAD.FORCE] - pads_minus[i, PAD.FORCE]) / (2 * h)
+        assert slope == pytest.approx(pads[i, PAD.STIFFNESS], rel=1e-3)
+    off = ~pushing & (pads[:, PAD.ON] > 0)
+    assert (pads[off, PAD.PENETRATION] <= 0.0).all() or (pads[off, PAD.FORCE] == 0.0).all()
 
 
 def test_implicit_contacts_lift_the_step_limit_of_the_penalties():
