@@ -87,6 +87,8 @@ class GaugeContact(NamedTuple):
     tangential_compliance: float   # m/(N s); > 0 caps friction at |v_r| / compliance
     regularisation_speed: float    # m/s: friction linear below it
     friction: float                # gauge-pad friction; NaN: each rock's resistance curve
+    shared: bool = False           # the cap split among the pads on the wall (implicit
+                                   # contacts: several pads press deep into the rock at once)
 
 
 # --------------------------------------------------------------------------- geometry
@@ -384,6 +386,16 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
     by = kin.y
     omega = kin.omega
     pads = pieces.pads
+    cap_compliance = gauge.tangential_compliance
+    if gauge.shared:  # each pad's cap, summed over the pads, stops the bit's slip
+        touching = 0
+        for i in range(blades.shape[0]):
+            c, s = _blade_direction(blades, i, cos_z, sin_z)
+            px = bx + blades[i, Blade.R_C] * c
+            py = by + blades[i, Blade.R_C] * s
+            if blades[i, Blade.L_G] > 0.0 and px * px + py * py > gauge.hole_radius ** 2:
+                touching += 1
+        cap_compliance *= max(touching, 1)
     for i in range(blades.shape[0]):
         pad = pads[i]
         l_g = blades[i, Blade.L_G]
@@ -451,7 +463,7 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
         speed = abs(slip)
         if speed < gauge.regularisation_speed:
             friction *= speed / gauge.regularisation_speed
-        compliance = gauge.tangential_compliance
+        compliance = cap_compliance
         if compliance > 0.0 and friction > speed / compliance:
             friction = speed / compliance
         if slip < 0.0:

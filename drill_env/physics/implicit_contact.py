@@ -15,8 +15,21 @@ uncoupled one::
 the first time node j touches after a refactor and kept until the next one. ``y = K W^T
 a`` are the implicit parts of the normal forces: a term ends the step with ``F_p + y``.
 Who touches is settled per step by an active set (:func:`resolve`); the friction and the
-contact torque stay explicit at the predictors, as in Hughes & Liu's partition. The
-gauge pads enter as the bit node's 2 x 2 stiffness, split into its principal directions.
+contact torque stay explicit at the predictors, as in Hughes & Liu's partition; each
+gauge pad is a term of its own.
+
+The friction cap. Explicit friction is capped at the force that would stop a contact's
+slip within the step, ``|v_r| / compliance`` (docs/model.md). Two things make that cap
+too large once the contacts are implicit and the step long. The predictor carries the
+step's acceleration into the next one (``v_p' = v_p + dt F / m`` at gamma = 1/2), so a
+friction force at the cap stops the slip at the end of the step but reverses it at the
+next predictor: a neutral period-two oscillation that the falling friction curves grow;
+at half the cap the next predictor's slip is zero. And a long step presses several gauge
+pads into the rock at once, each capped as if it alone turned the bit: their sum
+reversed the bit's rotation every step (an 8 ms fast-level run diverged within 0.1 s,
+the bit speed alternating in sign and tripling). So with implicit contacts the
+compliances are doubled (``Simulator``) and the bit's cap is split among its pads on the
+wall (``GaugeContact.shared``).
 """
 
 from __future__ import annotations
@@ -162,6 +175,13 @@ MAX_PASSES = 8
 
 
 @njit(cache=True, inline="always")
+def _copy(source, target):
+    for c in range(2):
+        for i in range(source.shape[1]):
+            target[c, i] = source[c, i]
+
+
+@njit(cache=True, inline="always")
 def _shift(implicit, factor, a0, dof, nx, ny, force):
     """Add to ``a0`` the accelerations of an outward force ``force n`` at ``dof``: a term
     that leaves takes back the force it applied (``-F n``), one that joins applies its
@@ -186,9 +206,7 @@ def resolve(p, implicit, factor, count, acc, m, nodes, l0, bit, n_pieces, lb):
     terms = implicit.terms
     member = implicit.member
     a0 = implicit.uncoupled
-    for c in range(2):
-        for i in range(acc.shape[1]):
-            a0[c, i] = acc[c, i]
+    saved = False  # a0 holds the uncoupled accelerations (and the shifts since)
     for t in range(count):  # member is all 0 between steps
         if terms[t, TERM.NODE] >= 0.0:
             member[int(terms[t, TERM.DOF]) // 2] = t + 1.0
@@ -199,10 +217,11 @@ def resolve(p, implicit, factor, count, acc, m, nodes, l0, bit, n_pieces, lb):
     pads = bit.pieces.pads
     pads_on = p[P.MACRO_BIT] == 0.0
     for sweep in range(MAX_PASSES):
-        if sweep > 0:
-            for c in range(2):
-                for i in range(acc.shape[1]):
-                    acc[c, i] = a0[c, i]
+        if saved:
+            _copy(a0, acc)
+        elif count > 0:
+            _copy(acc, a0)
+            saved = True
         if count > 0:
             couple(implicit, factor, count, acc)
         if sweep == MAX_PASSES - 1:
@@ -244,6 +263,9 @@ def resolve(p, implicit, factor, count, acc, m, nodes, l0, bit, n_pieces, lb):
                 nx * m.vl[0, j] + ny * m.vl[1, j])  # eq. (18) linearised at the predictor
             if force + kappa * along <= 0.0:
                 continue  # inside, but leaving faster than the damper lets it push
+            if not saved:
+                _copy(acc, a0)
+                saved = True
             _shift(implicit, factor, a0, j, nx, ny, -force)
             count = add_term(terms, count, k, j, nx, ny, kappa, force)
             member[j // 2] = count
@@ -268,6 +290,9 @@ def resolve(p, implicit, factor, count, acc, m, nodes, l0, bit, n_pieces, lb):
             kappa_pad = h3 * k_pad + h4 * c_pad
             if force + kappa_pad * along <= 0.0:
                 continue
+            if not saved:
+                _copy(acc, a0)
+                saved = True
             _shift(implicit, factor, a0, lb, nx, ny, -force)
             count = add_term(terms, count, -1.0 - i, lb, nx, ny, kappa_pad, force)
             changed = True

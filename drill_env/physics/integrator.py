@@ -320,7 +320,8 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
                          BitKinematics(bx, by, m.vl[0, lb], m.vl[1, lb], depth, m.ut[n - 1],
                                        omega_eval),
                          wob, GaugeContact(p[P.HOLE_RADIUS], compliance, p[P.V_REG],
-                                               p[P.GAUGE_FRICTION]), out)
+                                               p[P.GAUGE_FRICTION],
+                                               p[P.IMPLICIT_CONTACT] > 0.0), out)
     gauge_x = out[BitOut.GAUGE_X]
     gauge_y = out[BitOut.GAUGE_Y]
     if lateral:

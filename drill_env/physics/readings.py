@@ -90,7 +90,8 @@ def readout(a, out):
                          BitKinematics(x, y, 0.0, 0.0, state[S.DEPTH], m.ut[m.ut.shape[0] - 1],
                                        max(abs(omega), SHARE_MIN_SPEED)),
                          max(wob, SHARE_MIN_WOB),
-                         GaugeContact(p[P.HOLE_RADIUS], 0.0, p[P.V_REG], p[P.GAUGE_FRICTION]),
+                         GaugeContact(p[P.HOLE_RADIUS], 0.0, p[P.V_REG], p[P.GAUGE_FRICTION],
+                                      p[P.IMPLICIT_CONTACT] > 0.0),
                          bit.out)
     for k in range(n_rocks):
         out[N_READINGS + k] = bit.out[SHARES + k]

@@ -352,19 +352,19 @@ class Simulator:
 
     def _compute_compliance(self) -> None:
         """Tangential compliance of each contact point within one step (friction cap)."""
-        work = np.zeros_like(self.lat_k)
-        factor = np.zeros_like(self.lat_k)
+        work, factor = np.zeros_like(self.lat_k), np.zeros_like(self.lat_k)
         system = LateralSystem(self.lat_k, self.lat_kg_weight, self.lat_kg_unit, self.lat_m,
                                self.lat_k_damp, np.zeros_like(self.lat_k), work, factor)
         if not integrator.factor_lateral(system, 0.0, self.params):
             raise ValueError("lateral system matrix is not positive definite")
         lat_inv = np.zeros(self.n_nodes)
         lat_inv[self.lateral_start:] = ldl_inverse_band(factor)[0, 0::2]  # O(n)
-        radius = self.node_radius.copy()
-        radius[-1] = self.config.bit.gauge_radius
+        radius = np.append(self.node_radius[:-1], self.config.bit.gauge_radius)
         self.compliance = self.params[P.GAMMA] * self.dt * (
             lat_inv + radius**2 * self._tor_inv_diag)
         self.compliance[: self.lateral_start + 1] = 0.0
+        if self.config.solver.implicit_contacts:  # half the cap: physics/implicit_contact.py
+            self.compliance *= 2.0
 
     # ------------------------------------------------------------------ operation
 
@@ -438,7 +438,7 @@ class Simulator:
         kin = BitKinematics(self.ul[-2, 0], self.ul[-2, 1], 0.0, 0.0, self.depth, self.ut[-1],
                             omega)
         gauge = GaugeContact(self.params[P.HOLE_RADIUS], 0.0, self.params[P.V_REG],
-                             self.params[P.GAUGE_FRICTION])
+                             self.params[P.GAUGE_FRICTION], False)
         mesoscopic_bit_loads(self.blades, self.formation, self.bit_scratch, kin, wob, gauge,
                              self.bit_out)
         return self.bit_out
