@@ -216,6 +216,7 @@ PAD = IntEnum("PAD", [
     "STIFFNESS",    # sum of k over the pad's pieces that push (N/m; 0 off the wall)
     "DAMPING",      # and of c (N s/m)
     "FORCE",        # the pad's normal force (N)
+    "END_FORCE",    # its normal force at the end of the last step (implicit contacts)
 ], start=0)
 
 
@@ -460,6 +461,8 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
         pad[PAD.STIFFNESS] = stiffness
         pad[PAD.DAMPING] = damping
         pad[PAD.FORCE] = normal
+        if gauge.shared and pad[PAD.END_FORCE] < normal:  # physics/implicit_contact.py
+            friction *= pad[PAD.END_FORCE] / normal
         speed = abs(slip)
         if speed < gauge.regularisation_speed:
             friction *= speed / gauge.regularisation_speed

@@ -18,18 +18,25 @@ Who touches is settled per step by an active set (:func:`resolve`); the friction
 contact torque stay explicit at the predictors, as in Hughes & Liu's partition; each
 gauge pad is a term of its own.
 
-The friction cap. Explicit friction is capped at the force that would stop a contact's
-slip within the step, ``|v_r| / compliance`` (docs/model.md). Two things make that cap
-too large once the contacts are implicit and the step long. The predictor carries the
-step's acceleration into the next one (``v_p' = v_p + dt F / m`` at gamma = 1/2), so a
-friction force at the cap stops the slip at the end of the step but reverses it at the
-next predictor: a neutral period-two oscillation that the falling friction curves grow;
-at half the cap the next predictor's slip is zero. And a long step presses several gauge
-pads into the rock at once, each capped as if it alone turned the bit: their sum
-reversed the bit's rotation every step (an 8 ms fast-level run diverged within 0.1 s,
-the bit speed alternating in sign and tripling). So with implicit contacts the
-compliances are doubled (``Simulator``) and the bit's cap is split among its pads on the
-wall (``GaugeContact.shared``).
+The friction. It stays explicit, and the predictors it is evaluated at are poor once the
+contacts are implicit and the step long: the predictor ``u + dt v + dt^2 a / 4`` carries
+the step's acceleration, which for a stiff contact (``w dt`` ~ 1.5-3) throws the
+predicted position across the hole, so gauge pads on the far side "touch" with hundreds
+of kN at the predictors while the end of the step has them off the rock. Friction on
+those forces turned the bit back and forth (an 8 ms fast-level run diverged within 11 s).
+So a contact rubs with the smaller of its normal forces at the predictors and at the end
+of the last step (``PAD.END_FORCE`` for the pads, ``node_force`` for the walls): what
+the implicit solve settled, not what the predictor guessed. And its cap, the force that
+would stop its slip within the step (``|v_r| / compliance``, docs/model.md), is too
+large for two reasons. The predictor carries the step's acceleration into the next one
+(``v_p' = v_p + dt F / m`` at gamma = 1/2), so a friction force at the cap stops the
+slip at the end of the step but reverses it at the next predictor: a neutral period-two
+oscillation that the falling friction curves grow; at half the cap the next predictor's
+slip is zero. And a long step presses several gauge
+pads into the rock at once, each capped as if it alone turned the bit, and their sum
+reversed the bit's rotation. So with implicit contacts the compliances are doubled
+(``Simulator``) and the bit's cap is split among its pads on the wall
+(``GaugeContact.shared``).
 """
 
 from __future__ import annotations

@@ -227,6 +227,7 @@ def _wall_contacts(p, nodes, m, work, l0, implicit_on, terms):
     kappa = p[P.BETA] * p[P.DT] * p[P.DT] * p[P.WALL_K] + p[P.GAMMA] * p[P.DT] * p[P.WALL_C]
     out = work.contact
     for k in range(l0 + 1, m.ut.shape[0]):
+        last = work.node_force[k]  # at the end of the last step
         work.node_force[k] = 0.0
         if nodes.contact[k] == 0.0:
             continue
@@ -237,6 +238,8 @@ def _wall_contacts(p, nodes, m, work, l0, implicit_on, terms):
             continue
         wall_contact(xk, yk, m.vl[0, j], m.vl[1, j], m.vt[k], nodes.clearance[k],
                      nodes.radius[k], p, nodes.compliance[k], out)
+        if implicit_on and out[CONTACT.NORMAL] > last:
+            _friction_on(out, last / out[CONTACT.NORMAL], xk, yk, nodes.radius[k])
         if out[CONTACT.NORMAL] > 0.0:
             work.rl[0, j] += out[CONTACT.FX]
             work.rl[1, j] += out[CONTACT.FY]
@@ -249,6 +252,19 @@ def _wall_contacts(p, nodes, m, work, l0, implicit_on, terms):
                 count = add_term(terms, count, k, j, xk / r, yk / r, kappa,
                                  out[CONTACT.NORMAL])
     return max_wall, count
+
+
+@njit(cache=True, inline="always")
+def _friction_on(out, scale, x, y, radius):
+    """Scale the friction part of one wall contact's result (implicit contacts: the
+    friction follows the smaller of the normal forces at the predictors and at the end
+    of the last step, physics/implicit_contact.py)."""
+    fr = out[CONTACT.MZ] / radius
+    r = np.sqrt(x * x + y * y)
+    change = (scale - 1.0) * fr
+    out[CONTACT.FX] -= change * y / r
+    out[CONTACT.FY] += change * x / r
+    out[CONTACT.MZ] *= scale
 
 
 @njit(cache=True, inline="always")
@@ -272,12 +288,15 @@ def _implicit_contacts(p, implicit, factor, count, work, state, gauge, m, nodes,
         if pads[i, PAD.ON] > 0.0 and pads[i, PAD.FORCE] > 0.0:
             dx += pads[i, PAD.FORCE] * pads[i, PAD.EX]
             dy += pads[i, PAD.FORCE] * pads[i, PAD.EY]
+    for i in range(pads.shape[0]):
+        pads[i, PAD.END_FORCE] = 0.0
     for t in range(count):
         force = max(terms[t, TERM.FORCE] + gram[t, count], 0.0)
         node = int(terms[t, TERM.NODE])
         if node < 0:  # a gauge pad, pushing along -n
             dx -= force * terms[t, TERM.NX]
             dy -= force * terms[t, TERM.NY]
+            pads[-1 - node, PAD.END_FORCE] = force
             continue
         work.node_force[node] = force
         max_wall = max(max_wall, force)

@@ -18,7 +18,7 @@ import pytest
 import scipy.linalg
 
 import drill_env  # noqa: F401  (registers the envs)
-from drill_env.physics import bit, bit_reference, formation
+from drill_env.physics import bit, bit_reference, formation, integrator
 from drill_env.physics.batch import SimulatorBatch
 from drill_env.physics.bit import PAD, BitOut
 from drill_env.physics.config import FormationConfig, Interface, SimulationConfig, replace
@@ -146,17 +146,21 @@ def thrown_span(config: SimulationConfig, seconds: float = 0.2) -> tuple[float, 
     return deepest, peak
 
 
-@pytest.mark.parametrize("step", [0.004, 0.006, 0.008])
-def test_the_wall_holds_a_span_thrown_at_it_as_stiffly_at_long_steps(step):
+@pytest.mark.parametrize(("step", "peak_tolerance"), [(0.004, 0.15), (0.006, 0.15),
+                                                      (0.008, 0.25)])
+def test_the_wall_holds_a_span_thrown_at_it_as_stiffly_at_long_steps(step, peak_tolerance):
     """The deepest penetration and the largest force are the wall's stiffness and damping
     meeting the span's momentum: the converged explicit run (0.5 ms) sets them (~5 mm and
-    ~57 kN at 10 MN/m), which an explicit penalty could not step past 4 ms for."""
+    ~57 kN at 10 MN/m), which an explicit penalty could not step past 4 ms for. The peak
+    is a largest end-of-step sample: at 8 ms one step is about the impact's duration (half
+    a period of the 10 MN/m wall on the lightest collar node, ~9 ms: its explicit critical
+    step 2 / w is 5.7 ms), so it may fall well off the crest."""
     converged, converged_peak = thrown_span(
         replace(SimulationConfig(), **{"solver.time_step": 5e-4}))
     deepest, peak = thrown_span(implicit(SimulationConfig(), step))
     assert converged_peak > 10e3  # it did hit the wall
     assert deepest == pytest.approx(converged, rel=0.15)
-    assert peak == pytest.approx(converged_peak, rel=0.15)
+    assert peak == pytest.approx(converged_peak, rel=peak_tolerance)
 
 
 def test_the_default_scenario_keeps_its_stick_slip_at_a_5_ms_implicit_step():
@@ -228,6 +232,7 @@ def test_the_bits_friction_cap_is_split_among_the_pads_on_the_wall():
 
     def gauge_torque(friction: float, shared: bool) -> tuple[float, int]:
         scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
+        scratch.pads[:, PAD.END_FORCE] = 1e12  # rubbing as hard at the last step's end
         out = bit.make_loads_out(fa.n_rocks)
         bit.mesoscopic_bit_loads(blades, fa, scratch,
                                  bit.BitKinematics(0.009, 0.0, 0.0, 0.0, 100.0, 0.0, 20.0),
@@ -242,14 +247,16 @@ def test_the_bits_friction_cap_is_split_among_the_pads_on_the_wall():
     assert shared == pytest.approx(alone / touching, rel=1e-9)
 
 
-@pytest.mark.parametrize("seed", [117, 119, 124, 135])
-def test_task_episodes_that_diverged_at_6_ms_hold_with_the_friction_cap_split(seed):
-    """DrillOptimise-v0 at the fast level, implicit contacts at 6 ms, uniformly random
-    actions: these episodes diverged (a bit pressed into the rock by several pads, its
-    speed alternating in sign) before the cap was halved and split among the pads; 22 of
-    300 did then, 2 of 300 now (docs/performance.md)."""
+@pytest.mark.parametrize(("seed", "step"), [(117, 0.006), (119, 0.006), (101, 0.008),
+                                            (102, 0.008)])
+def test_task_episodes_that_diverged_at_long_steps_hold(seed, step):
+    """DrillOptimise-v0 at the fast level, implicit contacts, uniformly random actions:
+    these episodes diverged (several gauge pads pressed into the rock, the bit's speed
+    alternating in sign) while the friction followed the predictors' normal forces at the
+    full cap; 22 of 300 did at 6 ms and 82 of 300 at 8 ms, none now
+    (docs/performance.md)."""
     env = gymnasium.make("DrillOptimise-v0", physics={"solver.fidelity": "fast", **IMPLICIT,
-                                                "solver.time_step": 0.006})
+                                                      "solver.time_step": step})
     env.reset(seed=seed)
     rng = np.random.default_rng(seed)
     for _ in range(300):
@@ -258,3 +265,52 @@ def test_task_episodes_that_diverged_at_6_ms_hold_with_the_friction_cap_split(se
         assert not terminated, info["termination_reason"]
         if truncated:
             break
+
+
+def test_a_hard_whirl_that_diverged_at_8_ms_holds():
+    """The random scenario's seed 4 at 80 rpm and 140 kN, fast level at 8 ms: with the
+    friction on the predictors' normal forces the bit's speed alternated in sign, tripling
+    every step, and the run diverged after 10.7 s (docs/performance.md)."""
+    sc = make_scenario("random", np.random.default_rng(4))
+    config = replace(replace(sc.config, **{"solver.fidelity": "fast"}).resolved(),
+                     **IMPLICIT, **{"solver.time_step": 0.008})
+    sim = Simulator(config)
+    sim.reset(OperatingPoint(80 * RPM, 140e3))
+    sim.advance(int(round(20.0 / sim.dt)), 80 * RPM, sim.hook_load_for(140e3))
+    assert sim.status == 0
+    assert np.max(sim.contact_forces) > 0.0  # it whirls against the wall
+
+
+@pytest.mark.parametrize("last", [0.0, 0.5, 2.0])
+def test_wall_friction_follows_the_smaller_normal_force(last):
+    """Implicit contacts: a wall contact's friction is the explicit one scaled by the
+    smaller of its normal forces at the predictors and at the end of the last step (as a
+    fraction ``last`` of the predictors'); its normal part stays as it is."""
+    sim = Simulator(implicit(SimulationConfig()))
+    sim.reset(OperatingPoint(60 * RPM, 60e3))
+    a = sim.arrays
+    k = sim.n_nodes - 20
+    j = 2 * (k - sim.lateral_start)
+    clearance = sim.node_clearance[k]
+    a.motion.ul[:, j] = (0.6 * (clearance + 2e-3), 0.8 * (clearance + 2e-3))  # 2 mm in
+    a.motion.vl[:, j] = (0.0, 0.0)
+
+    def contact(implicit_on: bool, last_force: float) -> tuple[np.ndarray, np.ndarray]:
+        a.work.rl[:] = 0.0
+        a.work.rt[:] = 0.0
+        a.work.node_force[:] = 0.0
+        a.work.node_force[k] = last_force
+        integrator._wall_contacts(a.params, a.nodes, a.motion, a.work, sim.lateral_start,
+                                  implicit_on, a.implicit.terms)
+        return a.work.rl[:, j].copy(), np.array([a.work.rt[k]])
+
+    explicit_f, explicit_t = contact(False, 0.0)
+    normal = a.work.node_force[k]
+    assert normal > 0.0 and abs(explicit_t[0]) > 0.0  # it pushes and rubs
+    got_f, got_t = contact(True, last * normal)
+    scale = min(last, 1.0)
+    n = np.array((0.6, 0.8))
+    np.testing.assert_allclose(got_t, scale * explicit_t, rtol=1e-12)
+    assert got_f @ n == pytest.approx(explicit_f @ n, rel=1e-12)  # the normal part
+    t = np.array((-0.8, 0.6))
+    assert got_f @ t == pytest.approx(scale * (explicit_f @ t), rel=1e-9, abs=1e-9)
