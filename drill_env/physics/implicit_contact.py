@@ -64,6 +64,13 @@ def make_implicit(n_lat: int, n_pads: int) -> Implicit:
 
 
 @njit(cache=True, inline="always")
+def implicit_contacts_on(p):
+    """Implicit contacts in force: asked for, with the lateral DOFs moving (torsion only
+    has no contacts)."""
+    return p[P.IMPLICIT_CONTACT] > 0.0 and p[P.LATERAL] > 0.0
+
+
+@njit(cache=True, inline="always")
 def add_term(terms, count, node, dof, nx, ny, kappa, force):
     """Append one term (layout :data:`~drill_env.physics.layout.TERM`); returns the count."""
     row = terms[count]

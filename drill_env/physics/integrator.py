@@ -26,7 +26,12 @@ from numba import njit
 
 from drill_env.physics.bit import PAD, BitKinematics, BitOut, GaugeContact, mesoscopic_bit_loads
 from drill_env.physics.formation import Rock, effective_wob, resistance, rock_at
-from drill_env.physics.implicit_contact import add_term, pad_terms, resolve
+from drill_env.physics.implicit_contact import (
+    add_term,
+    implicit_contacts_on,
+    pad_terms,
+    resolve,
+)
 from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import CONTACT, TERM, Feedback, P, R, S, Status
 from drill_env.physics.linalg import (
@@ -340,7 +345,7 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
                                        omega_eval),
                          wob, GaugeContact(p[P.HOLE_RADIUS], compliance, p[P.V_REG],
                                                p[P.GAUGE_FRICTION],
-                                               p[P.IMPLICIT_CONTACT] > 0.0), out)
+                                               implicit_contacts_on(p)), out)
     gauge_x = out[BitOut.GAUGE_X]
     gauge_y = out[BitOut.GAUGE_Y]
     if lateral:
@@ -510,7 +515,7 @@ def advance(n_steps, record_every, a):
                 moving = True
     implicit = a.implicit
     terms = implicit.terms
-    implicit_on = lateral and p[P.IMPLICIT_CONTACT] > 0.0
+    implicit_on = implicit_contacts_on(p)
     gauge_implicit = implicit_on and p[P.MACRO_BIT] == 0.0
     for step in range(n_steps):
         _predict(p, m, work, nodes, moving)

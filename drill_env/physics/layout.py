@@ -54,8 +54,8 @@ P = IntEnum("P", [
     "TD_FILTER_ZETA",  # band-pass damping ratio
     "SOFT_STRING",    # 1: soft-string friction at nodes without lateral DOFs
                       # (Nodes.soft_normal; physics/string_friction.py)
-    "IMPLICIT_CONTACT",  # 1: wall and gauge normal penalties implicit
-                         # (physics/implicit_contact.py)
+    "IMPLICIT_CONTACT",  # 1: wall and gauge normal penalties implicit (with lateral
+                         # DOFs only; physics/implicit_contact.py)
 ], start=0)
 N_PARAMS = len(P)
 
@@ -214,12 +214,13 @@ class Work(NamedTuple):
 #: One implicit contact term (``Implicit.terms`` row): the normal stiffness
 #: ``kappa n n^T`` of one contact on one lateral node (docs/model.md section 5).
 TERM = IntEnum("TERM", [
-    "NODE",    # the string node (the bit's gauge pads: -1)
+    "NODE",    # the string node; gauge pad i of the bit: -1 - i
     "DOF",     # its lateral displacement DOF
     "NX",      # unit normal of the contact, x
     "NY",      # and y
     "KAPPA",   # beta dt^2 k + gamma dt c: acceleration-to-force factor (N s^2/m)
-    "FORCE",   # normal force at the predictors (N), then at the end of the step
+    "FORCE",   # normal force it applies at the predictors (N); at the end of the
+               # step it is FORCE + y, y in Implicit.gram[t, count]
 ], start=0)
 
 
@@ -229,8 +230,8 @@ class Implicit(NamedTuple):
 
     columns: np.ndarray   # (n_lat_nodes, n_lat) A^-1 e_j of each lateral node's w DOF
     ready: np.ndarray     # (n_lat_nodes,) 1.0 where that column is current
-    terms: np.ndarray     # (n_lat_nodes + 2, TERM) this step's terms
-    gram: np.ndarray      # (n_lat_nodes + 2, n_lat_nodes + 2) the small system
+    terms: np.ndarray     # (n_lat_nodes + n_blades, TERM) this step's terms
+    gram: np.ndarray      # (terms, terms + 1) the small system and its right-hand side
     scratch: np.ndarray   # (2, n_lat) a right-hand side of the band solve
     uncoupled: np.ndarray  # (2, n_lat) the accelerations before the terms
     member: np.ndarray    # (n_lat_nodes,) 1 + the term of each node this step, 0: none

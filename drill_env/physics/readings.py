@@ -91,7 +91,7 @@ def readout(a, out):
                                        max(abs(omega), SHARE_MIN_SPEED)),
                          max(wob, SHARE_MIN_WOB),
                          GaugeContact(p[P.HOLE_RADIUS], 0.0, p[P.V_REG], p[P.GAUGE_FRICTION],
-                                      p[P.IMPLICIT_CONTACT] > 0.0),
+                                      False),
                          bit.out)
     for k in range(n_rocks):
         out[N_READINGS + k] = bit.out[SHARES + k]

@@ -325,7 +325,8 @@ class Simulator:
         friction = cfg.bit.gauge_friction
         p[P.GAUGE_FRICTION] = math.nan if friction is None else friction
         p[P.SOFT_STRING] = 1.0 if self.soft_nodes.any() else 0.0
-        p[P.IMPLICIT_CONTACT] = 1.0 if cfg.solver.implicit_contacts else 0.0
+        p[P.IMPLICIT_CONTACT] = 1.0 if cfg.solver.implicit_contacts and cfg.solver.lateral \
+            else 0.0
         top_drive.feedback_parameters(self.top_drive_law, self.dt, p)
         self.params = p
 
@@ -363,7 +364,7 @@ class Simulator:
         self.compliance = self.params[P.GAMMA] * self.dt * (
             lat_inv + radius**2 * self._tor_inv_diag)
         self.compliance[: self.lateral_start + 1] = 0.0
-        if self.config.solver.implicit_contacts:  # half the cap: physics/implicit_contact.py
+        if self.params[P.IMPLICIT_CONTACT] > 0.0:  # half the cap: physics/implicit_contact.py
             self.compliance *= 2.0
 
     # ------------------------------------------------------------------ operation
