@@ -16,7 +16,9 @@ import pytest
 import scipy.linalg
 
 from drill_env.physics.config import (
+    FAST_EXPLICIT_TIME_STEP,
     FAST_PIPE_ELEMENT_LENGTH,
+    FAST_TIME_STEP,
     FormationConfig,
     SimulationConfig,
     SolverConfig,
@@ -58,6 +60,24 @@ def test_fast_level_resolves_into_a_straight_coarse_pipe_and_a_longer_step():
     bha_nodes = SimulationConfig().string.bha.n_elements + 1
     assert quick.ul.shape == (2 * bha_nodes, 2)  # lateral DOFs in the BHA only
     assert quick.lateral_displacement.shape == (quick.n_nodes, 2)
+
+
+def test_the_fast_level_steps_long_with_implicit_contacts_in_a_vertical_hole_only():
+    """Vertical: implicit contacts at FAST_TIME_STEP, which the simulator takes whole (a
+    whole number of steps per 0.1 s). Curved: explicit ones at FAST_EXPLICIT_TIME_STEP,
+    which the simulator shortens to 0.8 of their critical step (docs/performance.md)."""
+    vertical = fast(SimulationConfig()).resolved()
+    assert vertical.solver.implicit_contacts is True
+    assert vertical.solver.time_step == FAST_TIME_STEP
+    assert Simulator(fast(SimulationConfig())).dt == FAST_TIME_STEP
+    assert round(0.1 / FAST_TIME_STEP, 9) == round(0.1 / FAST_TIME_STEP)
+    curved = make_scenario("j_shaped").config
+    resolved = fast(curved).resolved()
+    assert resolved.solver.implicit_contacts is False
+    assert resolved.solver.time_step == FAST_EXPLICIT_TIME_STEP
+    assert Simulator(fast(curved)).dt <= FAST_EXPLICIT_TIME_STEP
+    asked = replace(curved, **{"solver.implicit_contacts": True})  # a user's choice stays
+    assert fast(asked).resolved().solver.implicit_contacts is True
 
 
 @pytest.mark.parametrize("scenario", ["default", "paper_case1", "paper_case2"])
