@@ -340,12 +340,11 @@ def _bit_loads(p, state, m, work, compliance, bit, wob, lb, lateral):
         return t_slip, t_static, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0
     omega_eval = omega_p if omega_p != 0.0 else BREAKAWAY_SPEED
     out = bit.out
-    n_pieces = mesoscopic_bit_loads(bit.blades, formation, bit.pieces,
-                         BitKinematics(bx, by, m.vl[0, lb], m.vl[1, lb], depth, m.ut[n - 1],
-                                       omega_eval),
-                         wob, GaugeContact(p[P.HOLE_RADIUS], compliance, p[P.V_REG],
-                                               p[P.GAUGE_FRICTION],
-                                               implicit_contacts_on(p)), out)
+    n_pieces = mesoscopic_bit_loads(
+        bit.blades, formation, bit.pieces,
+        BitKinematics(bx, by, m.vl[0, lb], m.vl[1, lb], depth, m.ut[n - 1], omega_eval), wob,
+        GaugeContact(p[P.HOLE_RADIUS], compliance, p[P.V_REG], p[P.GAUGE_FRICTION],
+                     implicit_contacts_on(p)), out)
     gauge_x = out[BitOut.GAUGE_X]
     gauge_y = out[BitOut.GAUGE_Y]
     if lateral:

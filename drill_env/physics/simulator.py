@@ -457,9 +457,9 @@ class Simulator:
             require_finite(depth, "depth")
         op = operating_point or OperatingPoint()
         cfg = self.config
-        for arr in (self.ul, self.vl, self.al, self.ut, self.vt, self.at, self.node_force):
+        for arr in (self.ul, self.vl, self.al, self.ut, self.vt, self.at, self.node_force,
+                    self.state, self.bit_scratch.pads):  # pads: the gauge's last forces
             arr[...] = 0.0
-        self.state[:] = 0.0
         self._mesh_message = ""
         if depth is None:
             depth = cfg.initial_depth if cfg.initial_depth is not None else cfg.string.length
