@@ -210,7 +210,6 @@ def asymmetric_bit() -> BitConfig:
 PAD = IntEnum("PAD", [
     "ON",           # 1.0 where the blade has a gauge pad
     "EX", "EY",     # unit vector from the hole axis to the pad's point D
-    "OX", "OY",     # D relative to the bit centre (m)
     "PENETRATION",  # |D| - hole radius (m; < 0 off the wall)
     "RATE",         # its rate (m/s)
     "STIFFNESS",    # sum of k over the pad's pieces that push (N/m; 0 off the wall)
@@ -418,8 +417,6 @@ def _gauge_loads(blades, rock_params, kin, cos_z, sin_z, gauge, n, pieces, out):
         pad[PAD.ON] = 1.0
         pad[PAD.EX] = ex
         pad[PAD.EY] = ey
-        pad[PAD.OX] = r_c * c
-        pad[PAD.OY] = r_c * s
         pad[PAD.PENETRATION] = penetration
         pad[PAD.RATE] = penetration_rate
         pad[PAD.STIFFNESS] = 0.0

@@ -71,6 +71,13 @@ def implicit_contacts_on(p):
 
 
 @njit(cache=True, inline="always")
+def kappa_of(p, stiffness, damping):
+    """``beta dt^2 k + gamma dt c``: a penalty's end-of-step force per unit acceleration
+    along its normal (N s^2/m)."""
+    return p[P.BETA] * p[P.DT] * p[P.DT] * stiffness + p[P.GAMMA] * p[P.DT] * damping
+
+
+@njit(cache=True, inline="always")
 def add_term(terms, count, node, dof, nx, ny, kappa, force):
     """Append one term (layout :data:`~drill_env.physics.layout.TERM`); returns the count."""
     row = terms[count]
@@ -87,13 +94,11 @@ def add_term(terms, count, node, dof, nx, ny, kappa, force):
 def pad_terms(p, pads, terms, count, dof):
     """A term for every gauge pad that pushes at the predictors (``pads``: the bit's
     :data:`~drill_env.physics.bit.PAD` rows); returns the count."""
-    h_k = p[P.BETA] * p[P.DT] * p[P.DT]
-    h_c = p[P.GAMMA] * p[P.DT]
     for i in range(pads.shape[0]):
         pad = pads[i]
         if pad[PAD.ON] > 0.0 and pad[PAD.FORCE] > 0.0:
             count = add_term(terms, count, -1.0 - i, dof, pad[PAD.EX], pad[PAD.EY],
-                             h_k * pad[PAD.STIFFNESS] + h_c * pad[PAD.DAMPING],
+                             kappa_of(p, pad[PAD.STIFFNESS], pad[PAD.DAMPING]),
                              pad[PAD.FORCE])
     return count
 
@@ -225,8 +230,7 @@ def resolve(p, implicit, factor, count, acc, m, nodes, l0, bit, n_pieces, lb):
         if terms[t, TERM.NODE] >= 0.0:
             member[int(terms[t, TERM.DOF]) // 2] = t + 1.0
     h3 = p[P.BETA] * p[P.DT] * p[P.DT]
-    h4 = p[P.GAMMA] * p[P.DT]
-    kappa = h3 * p[P.WALL_K] + h4 * p[P.WALL_C]
+    kappa = kappa_of(p, p[P.WALL_K], p[P.WALL_C])
     contact_on = p[P.CONTACT_ON] > 0.0
     pads = bit.pieces.pads
     pads_on = p[P.MACRO_BIT] == 0.0
@@ -301,7 +305,7 @@ def resolve(p, implicit, factor, count, acc, m, nodes, l0, bit, n_pieces, lb):
                 continue
             k_pad, c_pad = _pad_penalty(bit, n_pieces, i)
             force = k_pad * pad[PAD.PENETRATION] + c_pad * pad[PAD.RATE]
-            kappa_pad = h3 * k_pad + h4 * c_pad
+            kappa_pad = kappa_of(p, k_pad, c_pad)
             if force + kappa_pad * along <= 0.0:
                 continue
             if not saved:

@@ -29,6 +29,7 @@ from drill_env.physics.formation import Rock, effective_wob, resistance, rock_at
 from drill_env.physics.implicit_contact import (
     add_term,
     implicit_contacts_on,
+    kappa_of,
     pad_terms,
     resolve,
 )
@@ -229,7 +230,7 @@ def _wall_contacts(p, nodes, m, work, l0, implicit_on, terms):
     to ``terms`` (with ``implicit_on``)."""
     max_wall = 0.0
     count = 0
-    kappa = p[P.BETA] * p[P.DT] * p[P.DT] * p[P.WALL_K] + p[P.GAMMA] * p[P.DT] * p[P.WALL_C]
+    kappa = kappa_of(p, p[P.WALL_K], p[P.WALL_C])
     out = work.contact
     for k in range(l0 + 1, m.ut.shape[0]):
         last = work.node_force[k]  # at the end of the last step
@@ -289,11 +290,10 @@ def _implicit_contacts(p, implicit, factor, count, work, state, gauge, m, nodes,
     dx = 0.0  # the gauge pads' normal force: at the end of the step less at the predictors
     dy = 0.0
     pads = bit.pieces.pads
-    for i in range(pads.shape[0] if p[P.MACRO_BIT] == 0.0 else 0):
-        if pads[i, PAD.ON] > 0.0 and pads[i, PAD.FORCE] > 0.0:
+    for i in range(pads.shape[0]):
+        if p[P.MACRO_BIT] == 0.0 and pads[i, PAD.ON] > 0.0 and pads[i, PAD.FORCE] > 0.0:
             dx += pads[i, PAD.FORCE] * pads[i, PAD.EX]
             dy += pads[i, PAD.FORCE] * pads[i, PAD.EY]
-    for i in range(pads.shape[0]):
         pads[i, PAD.END_FORCE] = 0.0
     for t in range(count):
         force = max(terms[t, TERM.FORCE] + gram[t, count], 0.0)
