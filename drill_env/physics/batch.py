@@ -114,14 +114,37 @@ class TupleSlots:
 
     def of(self, owners: Sequence[Any]) -> List:
         if self._list is None:
-            self._list = List([self._arrays(owner) for owner in owners])
+            self._list = typed_list(self._arrays(owners[0]))
+            for owner in owners[1:]:
+                typed_append(self._list, self._arrays(owner))
             self._keys = [self._key(owner) for owner in owners]
         for e, owner in enumerate(owners):
             key = self._key(owner)
             if key != self._keys[e]:
-                self._list[e] = self._arrays(owner)
+                typed_put(self._list, e, self._arrays(owner))
                 self._keys[e] = key
         return self._list
+
+
+# A typed list's methods called from Python compile in every process (~0.8 s each for
+# these tuples: numba does not cache them); called inside these cached functions, they
+# are compiled once and loaded from the cache after.
+@njit(cache=True)
+def typed_list(item):
+    """A typed list holding ``item``."""
+    out = List()
+    out.append(item)
+    return out
+
+
+@njit(cache=True)
+def typed_append(items, item):
+    items.append(item)
+
+
+@njit(cache=True)
+def typed_put(items, index, item):
+    items[index] = item
 
 
 class SimulatorBatch:

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import pickle
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -104,3 +107,29 @@ def test_claim_hands_out_every_item_once_across_threads():
         take(counter, owner, lanes)
         assert (owner == 1).all()
         assert counter[0] == n + lanes
+
+
+#: Builds a batch's slots and re-points one (what an env batch does at a reset), then
+#: prints the typed-list helpers' numba cache hits and misses.
+SLOTS_IN_A_FRESH_PROCESS = """
+import json
+from drill_env.physics import batch
+from drill_env.physics.simulator import Simulator
+sims = [Simulator() for _ in range(3)]
+slots = batch.TupleSlots(2, batch.simulator_arrays, batch.simulator_key)
+slots.of(sims[:2])
+slots.of([sims[2], sims[1]])
+helpers = (batch.typed_list, batch.typed_append, batch.typed_put)
+print(json.dumps([(len(f.stats.cache_hits), len(f.stats.cache_misses)) for f in helpers]))
+"""
+
+
+def test_the_slots_typed_list_comes_from_numba_s_cache_in_a_new_process():
+    """A typed list's own methods called from Python compile again in every process
+    (~0.8 s each for these tuples); the slots call them inside cached functions, so a
+    second process loads all three from the cache and compiles none."""
+    for _ in range(2):  # the first may compile and write the cache
+        out = subprocess.run([sys.executable, "-c", SLOTS_IN_A_FRESH_PROCESS],
+                             capture_output=True, text=True, check=True)
+    counts = json.loads(out.stdout.strip().splitlines()[-1])
+    assert counts == [[1, 0], [1, 0], [1, 0]]
