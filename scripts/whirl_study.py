@@ -1,0 +1,83 @@
+"""Backward whirl by step and contact treatment: why the fast level keeps explicit
+contacts (docs/performance.md, "Implicit contacts", "Backward whirl").
+
+Runs the drilling task's held-out seeds (1000000-1000019, 300 s, metrics over the last
+290 s, as ``drill-env evaluate`` does) under the stiff and SoftSpeed drives and the best
+constant set point (160 rpm / 65 kN) for each variant: the full model and the fast
+level's mesh (pipe laterally straight, 20 m pipe elements, 0.8 of the explicit critical
+step), with explicit or implicit contacts at several steps. Whirl is bistable: on a
+few seeds the BHA rolls into backward whirl for most of the window, so the table counts
+those episodes ("sustained": backward whirl over 30 % of the window) beside the mean
+share and the mean peak lateral force. The results of each variant stay in
+``--out/<variant>`` (a rerun reuses them). ~4 min on 2 cores.
+
+    python scripts/whirl_study.py [--seeds 20] [--out logs/whirl_study]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+from pathlib import Path
+
+from agents.benchmark import BenchmarkSettings, run_benchmark
+from drill_env.physics.config import FAST_CRITICAL_STEP_FRACTION, FAST_PIPE_ELEMENT_LENGTH
+from drill_env.scenarios import EVALUATION_SEEDS
+
+CONTROLLERS = ["stiff", "soft-speed", "constant:160/65"]
+#: What the fast level sets besides its step (SimulationConfig.resolved), given to the
+#: full level so that the step and the contacts can be chosen freely.
+FAST_MESH = {"solver.pipe_lateral": False,
+             "solver.critical_step_fraction": FAST_CRITICAL_STEP_FRACTION,
+             "string.drill_pipe.element_length": FAST_PIPE_ELEMENT_LENGTH}
+#: (label, folder, overrides of the full level)
+VARIANTS = [
+    ("full, explicit 2 ms (the reference)", "full_explicit", {}),
+    ("full, implicit 2 ms", "full_implicit_2ms", {"solver.implicit_contacts": True}),
+    ("full, implicit 4 ms", "full_implicit_4ms", {"solver.implicit_contacts": True,
+                                                  "solver.time_step": 0.004}),
+    ("fast mesh, explicit 4 ms (the fast level)", "fast_explicit",
+     {**FAST_MESH, "solver.time_step": 0.004}),
+    ("fast mesh, implicit 2 ms", "fast_implicit_2ms",
+     {**FAST_MESH, "solver.implicit_contacts": True, "solver.time_step": 0.002}),
+    ("fast mesh, implicit 4 ms", "fast_implicit_4ms",
+     {**FAST_MESH, "solver.implicit_contacts": True, "solver.time_step": 0.004}),
+    ("fast mesh, implicit 6 ms", "fast_implicit_6ms",
+     {**FAST_MESH, "solver.implicit_contacts": True, "solver.time_step": 0.006}),
+    ("fast mesh, implicit 10 ms", "fast_implicit_10ms",
+     {**FAST_MESH, "solver.implicit_contacts": True, "solver.time_step": 0.010}),
+]
+SUSTAINED = 0.3
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--out", type=Path, default=Path("logs/whirl_study"))
+    args = parser.parse_args()
+    seeds = list(EVALUATION_SEEDS[:args.seeds])
+    names = ["stiff", "soft-speed", "constant"]
+    lines = ["| variant | " + " | ".join(
+        f"{n}: sustained / mean share / mean peak kN" for n in names) + " |",
+        "| --- |" + " --- |" * len(names)]
+    for label, folder, physics in VARIANTS:
+        settings = BenchmarkSettings(duration=300.0, warmup=10.0, fidelity="full",
+                                     physics=physics)
+        rows = run_benchmark(CONTROLLERS, ["random"], seeds, args.out / folder, settings,
+                             progress=False, env_id="DrillOptimise-v0")
+        cells = []
+        for controller in CONTROLLERS:
+            mine = [r for r in rows if r["controller"].startswith(controller.split(":")[0])]
+            shares = [r["backward_whirl_fraction"] for r in mine]
+            peaks = [r["max_lateral_force_kN"] for r in mine]
+            cells.append(f"{sum(s > SUSTAINED for s in shares)} of {len(shares)} / "
+                         f"{100 * statistics.fmean(shares):.1f} % / "
+                         f"{statistics.fmean(peaks):.1f}")
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+        print(lines[-1], flush=True)
+    print("\n" + "\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
