@@ -42,6 +42,7 @@ reversed the bit's rotation. So with implicit contacts the compliances are doubl
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 from numba import njit
@@ -51,6 +52,25 @@ from drill_env.physics.formation import Rock
 from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import TERM, Implicit, P
 from drill_env.physics.linalg import solve3_planes
+
+#: From this step on, implicit contacts keep the BHA out of the sustained backward whirl
+#: that the explicit contacts and the full model show: their friction (the smaller
+#: normal force, half the cap) lets a rolling contact slip. 2 ms whirls as the explicit
+#: model does, 4, 6 and 10 ms do not (scripts/whirl_study.py, docs/performance.md).
+WHIRL_LOST_STEP = 4.0e-3
+
+
+def warn_of_limits(curved: bool, lateral: bool, dt: float) -> None:
+    """The RuntimeWarnings of ``solver.implicit_contacts`` for a simulator with a
+    curved hole or not, lateral DOFs or not and step ``dt`` (s)."""
+    if curved:
+        warnings.warn("solver.implicit_contacts in a curved hole: slower than explicit "
+                      "(docs/performance.md)", RuntimeWarning, stacklevel=3)
+    if lateral and dt >= WHIRL_LOST_STEP * (1.0 - 1e-9):
+        warnings.warn(f"solver.implicit_contacts at a {dt * 1e3:g} ms step: the BHA does "
+                      "not enter backward whirl from 4 ms on (docs/performance.md, "
+                      "'Backward whirl'): fine for stick-slip, not for whirl",
+                      RuntimeWarning, stacklevel=3)
 
 
 def make_implicit(n_lat: int, n_pads: int) -> Implicit:

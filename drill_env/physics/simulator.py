@@ -36,7 +36,7 @@ from drill_env.physics.fem import (
     mud_torsional_damping,
 )
 from drill_env.physics.formation import Rock, effective_wob, formation_arrays, resistance, rock_at
-from drill_env.physics.implicit_contact import make_implicit
+from drill_env.physics.implicit_contact import make_implicit, warn_of_limits
 from drill_env.physics.layout import (
     N_PARAMS,
     N_READINGS,
@@ -100,9 +100,6 @@ class Simulator:
         # ---- lateral (one plane; the other is identical); in a curved hole the axial
         # force follows the TVD and static loads act across the hole (docs/model.md, 6)
         self.hole = curved_hole_loads(cfg, mesh, self.bit_buoyed_weight)
-        if self.hole is not None and cfg.solver.implicit_contacts:
-            warnings.warn("solver.implicit_contacts in a curved hole: slower than explicit "
-                          "(docs/performance.md)", RuntimeWarning, stacklevel=2)
         if self.hole is None:
             self.string_weight = buoyed_string_weight(mesh, self.bit_buoyed_weight)
             self.axial_weight = axial_force_profile(mesh, 0.0, self.bit_buoyed_weight)
@@ -185,6 +182,8 @@ class Simulator:
         # ---- time step and the implicit matrices
         self.top_drive_law = top_drive.resolve(cfg)  # its speed loop limits the step too
         self.dt = self.stable_time_step()
+        if cfg.solver.implicit_contacts:
+            warn_of_limits(self.hole is not None, cfg.solver.lateral, self.dt)
         self._build_parameters()
         self._factor_torsion()
         self._compute_compliance()

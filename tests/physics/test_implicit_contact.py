@@ -10,6 +10,7 @@ not take.
 from __future__ import annotations
 
 import math
+import warnings
 from contextlib import nullcontext
 
 import gymnasium
@@ -30,6 +31,10 @@ from drill_env.physics.units import RPM
 from drill_env.scenarios import HARD, SOFT, make_scenario
 from drill_env.tools.studies import simulate, stick_slip_summary
 
+#: The long steps these tests take are the point: their warning that backward whirl is
+#: lost from 4 ms on is tested once, in test_implicit_contact.py.
+pytestmark = pytest.mark.filterwarnings(
+    "ignore:solver.implicit_contacts at a:RuntimeWarning")
 IMPLICIT = {"solver.implicit_contacts": True}
 
 
@@ -124,6 +129,18 @@ def test_implicit_contacts_lift_the_step_limit_of_the_penalties():
     explicit = Simulator(replace(SimulationConfig(), **{"solver.time_step": 0.008}))
     assert explicit.dt < 0.004  # 0.5 of the ~5 ms penalty limit
     assert Simulator(implicit(SimulationConfig(), 0.008)).dt == 0.008
+
+
+def test_implicit_contacts_warn_from_the_step_on_that_loses_backward_whirl():
+    """scripts/whirl_study.py: at 2 ms the implicit contacts whirl as the explicit ones
+    do, from 4 ms on the BHA never rolls into backward whirl; the simulator says so."""
+    with pytest.warns(RuntimeWarning, match="backward whirl"):
+        Simulator(implicit(SimulationConfig(), 0.004))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Simulator(implicit(SimulationConfig(), 0.002))
+        Simulator(replace(SimulationConfig(), **{"solver.time_step": 0.008}))  # explicit
+        Simulator(replace(SimulationConfig(), **{"solver.fidelity": "fast"}))
 
 
 def thrown_span(config: SimulationConfig, seconds: float = 0.2) -> tuple[float, float]:
