@@ -56,7 +56,40 @@ def _numba_cache_dir() -> str:
     return str(Path(base) / key)
 
 
+#: Old source versions' caches kept besides this one (the most recently used), and how
+#: long (s) unused before a cache beyond those is removed: every edit of the sources
+#: starts a new ~8.5 MB folder, which would otherwise pile up (hundreds in a week).
+CACHES_KEPT, CACHE_UNUSED_FOR = 5, 86400.0
+
+
+def _prune_numba_caches(current: Path, keep: int = CACHES_KEPT,
+                        unused_for: float = CACHE_UNUSED_FOR) -> list[Path]:
+    """Mark ``current`` (a version's cache folder) as used now and remove the sibling
+    version folders (16 hex digits) beyond the ``keep`` most recently used that have not
+    been used for ``unused_for`` seconds. Returns what it removed; never raises."""
+    import re
+    import shutil
+    import time
+
+    removed: list[Path] = []
+    try:
+        current.mkdir(parents=True, exist_ok=True)
+        os.utime(current)
+        others = sorted((p for p in current.parent.iterdir() if p != current and p.is_dir()
+                         and re.fullmatch(r"[0-9a-f]{16}", p.name)),
+                        key=lambda p: p.stat().st_mtime, reverse=True)
+        now = time.time()
+        for old in others[keep:]:
+            if now - old.stat().st_mtime > unused_for:
+                shutil.rmtree(old, ignore_errors=True)
+                removed.append(old)
+    except OSError:  # a read-only or shared cache: leave it as it is
+        pass
+    return removed
+
+
 _CACHE_DIR = _numba_cache_dir()
+_prune_numba_caches(Path(_CACHE_DIR))
 if "numba" in sys.modules:  # numba read its settings already: change them in place
     sys.modules["numba"].config.CACHE_DIR = _CACHE_DIR
 else:

@@ -115,6 +115,37 @@ def test_importing_drill_env_makes_openmp_workers_wait_passively_unless_told():
     assert (default, chosen) == ("PASSIVE", "ACTIVE")
 
 
+def test_old_numba_caches_beyond_the_recent_ones_are_removed_after_a_day(tmp_path):
+    """Every version of the sources gets its own numba cache folder (drill_env's
+    ``_numba_cache_dir``); a version's folder goes once it is beyond the CACHES_KEPT most
+    recently used and unused for a day. Other folders and files are never touched."""
+    import os
+    import time
+
+    import drill_env
+
+    now = time.time()
+    ages = {f"{k:016x}": hours * 3600.0 for k, hours in enumerate([1, 2, 30, 40, 50, 60,
+                                                                    70, 80, 90])}
+    for name, age in ages.items():
+        folder = tmp_path / name
+        (folder / "sub").mkdir(parents=True)
+        (folder / "sub" / "kernel.nbc").write_bytes(b"x")
+        os.utime(folder, (now - age, now - age))
+    (tmp_path / "not-a-version").mkdir()
+    os.utime(tmp_path / "not-a-version", (now - 1e6, now - 1e6))
+    current = tmp_path / "ffffffffffffffff"
+    removed = drill_env._prune_numba_caches(current, keep=5, unused_for=86400.0)
+    left = sorted(p.name for p in tmp_path.iterdir())
+    # the five most recent stay whatever their age (two under a day, three over);
+    # the four oldest go; the current one is made and marked used
+    assert sorted(p.name for p in removed) == [f"{k:016x}" for k in (5, 6, 7, 8)]
+    assert left == sorted([*(f"{k:016x}" for k in range(5)), "ffffffffffffffff",
+                           "not-a-version"])
+    assert time.time() - current.stat().st_mtime < 60.0
+    assert drill_env._prune_numba_caches(current, keep=5, unused_for=86400.0) == []
+
+
 def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_default(tmp_path):
     """``drill-env speed --sections training``: PPO (task 1) and SAC (task 2) trained for
     a moment; every row a positive steps/s with its ratio to the env alone, the shares
