@@ -20,6 +20,7 @@ from typing import Any
 from agents.base import Controller
 from agents.classical import ConstantSetPoints, SoftSpeed, SoftTorque, StiffPI, ZTorque
 from agents.driller import Driller
+from drill_env.physics.validation import did_you_mean
 
 
 def _learned(**kwargs: Any) -> Controller:
@@ -236,8 +237,8 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
     try:
         factory = CONTROLLERS[name]
     except KeyError:
-        raise ValueError(f"controller: unknown name {name!r}; known: "
-                         f"{KNOWN}") from None
+        raise ValueError(f"controller: unknown name {name!r}"
+                         f"{did_you_mean(name, list(CONTROLLERS))}; known: {KNOWN}") from None
     return factory(**kwargs)
 
 

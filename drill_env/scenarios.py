@@ -77,6 +77,7 @@ from drill_env.physics.validation import (
     StrictBool,
     check_newtons,
     config_dataclass,
+    did_you_mean,
     validated,
 )
 
@@ -615,7 +616,8 @@ def scenario_parameters(name: str) -> tuple[str, ...]:
 
 def _check_name(name: str) -> None:
     if not isinstance(name, str) or name not in SCENARIOS:
-        raise ValueError(f"scenario: unknown name {name!r}; known scenarios: "
+        hint = did_you_mean(name, list(SCENARIOS)) if isinstance(name, str) else ""
+        raise ValueError(f"scenario: unknown name {name!r}{hint}; known scenarios: "
                          f"{', '.join(sorted(SCENARIOS))}")
 
 

@@ -145,6 +145,14 @@ def test_scenario_parameters_refuse_bad_values_by_name(name, param):
     assert outcomes[0] == outcomes[1] == outcomes[2] == "refused"
 
 
+def test_a_misspelt_scenario_name_is_told_the_name_it_was_probably_meant_to_be():
+    with pytest.raises(ValueError, match=r"^scenario: unknown name 'stick_slp' \(did you mean "
+                                         r"stick_slip\?\); known scenarios: default"):
+        make_scenario("stick_slp")
+    with pytest.raises(ValueError, match=r"^scenario: unknown name 'zzz'; known scenarios"):
+        make_scenario("zzz")  # nothing close: no guess
+
+
 def test_the_systematic_part_tries_more_than_2000_inputs():
     n = len(BAD_VALUES) * (len(PHYSICS_PATHS) + len(ENV_PATHS) - 1 + len(SCENARIO_PATHS))
     assert n >= 2000, n
@@ -194,13 +202,22 @@ def test_nested_dicts_are_converted_and_unknown_keys_named():
 
 
 def test_a_typo_in_a_section_of_a_list_lists_that_sections_fields():
-    # it said "Unexpected keyword argument" without the fields (a dotted path did)
+    # it said "Unexpected keyword argument" without the fields (a dotted path did); the
+    # field it was meant to be is named, and its "Field required" left out
     from drill_env.physics.config import from_dict
 
     collar = {"lenght": 9.0, "outer_diameter": 0.2, "inner_diameter": 0.07,
               "element_length": 1.0}
-    with pytest.raises(ValueError, match=r"string\.components\[0\]\.lenght: unknown field "
-                                         r"of Section; known: length, outer_diameter"):
+    with pytest.raises(ValueError, match=r"^string\.components\[0\]\.lenght: unknown field "
+                                         r"of Section \(did you mean length\?\); known: "
+                                         r"length, outer_diameter") as err:
+        from_dict(SimulationConfig, {"string": {"components": [collar]}})
+    assert "required" not in str(err.value)
+    with pytest.raises(ValueError, match=r"^solver\.time_stepp: unknown field of SolverConfig "
+                                         r"\(did you mean time_step\?\); known: "):
+        replace(SimulationConfig(), **{"solver.time_stepp": 0.001})
+    collar = {"outer_diameter": 0.2, "inner_diameter": 0.07, "element_length": 1.0}
+    with pytest.raises(ValueError, match=r"length: Field required"):  # a field left out
         from_dict(SimulationConfig, {"string": {"components": [collar]}})
     with pytest.raises(ValueError, match=r"^bogus: unknown field of SimulationConfig; known: "
                                          r"string, mud"):

@@ -252,6 +252,8 @@ def test_registry_names_every_controller_and_refuses_unknown_ones():
         assert make_controller(name).name == name
     with pytest.raises(ValueError, match="unknown name 'pid'.*stiff"):
         make_controller("pid")
+    with pytest.raises(ValueError, match=r"unknown name 'z_torque' \(did you mean z-torque\?\)"):
+        make_controller("z_torque")
     with pytest.raises(ValueError, match="controllers"):
         parse_controllers("stiff,pid")
 

@@ -16,6 +16,7 @@ needs; numba kernels never see these objects (the simulator copies them into arr
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import functools
 import math
 import re
@@ -121,19 +122,42 @@ def _dataclass_in(hint: Any) -> Any:
                  if (found := _dataclass_in(arg)) is not None), None)
 
 
+def closest(name: str, names: list[str]) -> str | None:
+    """The one of ``names`` a misspelt ``name`` was probably meant to be, if any."""
+    close = difflib.get_close_matches(name, names, n=1, cutoff=0.75)
+    return close[0] if close else None
+
+
+def did_you_mean(name: str, names: list[str]) -> str:
+    """`` (did you mean x?)`` with :func:`closest`, or "" when no name is close."""
+    best = closest(name, names)
+    return f" (did you mean {best}?)" if best else ""
+
+
 def _error_text(err: ValidationError, prefix: str = "", root: Any = None) -> str:
     """One line per error: ``path: message, got value``; an unknown field of a section
-    (``root``: the config class) lists the section's fields."""
-    lines = []
-    for e in err.errors(include_url=False):
+    (``root``: the config class) comes first and lists the section's fields, with the
+    one it was probably meant to be, whose own "Field required" is then left out."""
+    unknown, lines = [], []
+    meant: set[tuple[Any, ...]] = set()  # the fields misspelt ones probably were
+    errors = err.errors(include_url=False)
+    for e in errors:
         loc = [p for p in e["loc"] if p not in ("__post_init__",)]
-        msg = str(e["msg"])
         section = _section_at(root, loc[:-1]) if (
             root is not None and e["type"] == "unexpected_keyword_argument") else None
         if section is not None:
-            names = ", ".join(f.name for f in dataclasses.fields(section))
+            known = [f.name for f in dataclasses.fields(section)]
+            hint = did_you_mean(str(loc[-1]), known)
+            if hint:
+                meant.add((*loc[:-1], closest(str(loc[-1]), known)))
             path = ".".join(p for p in (prefix, _format_location(loc)) if p)
-            lines.append(f"{path}: unknown field of {section.__name__}; known: {names}")
+            unknown.append(f"{path}: unknown field of {section.__name__}{hint}; known: "
+                           f"{', '.join(known)}")
+            e["type"] = "handled"
+    for e in errors:
+        loc = [p for p in e["loc"] if p not in ("__post_init__",)]
+        msg = str(e["msg"])
+        if e["type"] == "handled" or (e["type"] == "missing" and tuple(loc) in meant):
             continue
         value_error = e["type"] in ("value_error", "assertion_error")
         if value_error:
@@ -149,7 +173,7 @@ def _error_text(err: ValidationError, prefix: str = "", root: Any = None) -> str
                 type(e["input"]).__name__ != "ArgsKwargs":
             text += f", got {e['input']!r}"
         lines.append(text)
-    return "; ".join(lines)
+    return "; ".join(unknown + lines)
 
 
 def config_error(err: ValidationError, prefix: str = "", root: Any = None) -> ConfigError:
@@ -298,8 +322,8 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
         name = _INDEXED.sub(r"\1", head)
         if name not in names:
             where = f"{path}.{head}" if path else head
-            raise ConfigError(f"{where}: unknown field of {type(config).__name__}; known: "
-                              f"{', '.join(names)}")
+            raise ConfigError(f"{where}: unknown field of {type(config).__name__}"
+                              f"{did_you_mean(name, names)}; known: {', '.join(names)}")
         if rest:
             nested.setdefault(head, {})[rest] = value
         else:
