@@ -60,13 +60,19 @@ def _numba_cache_dir() -> str:
 #: long (s) unused before a cache beyond those is removed: every edit of the sources
 #: starts a new ~8.5 MB folder, which would otherwise pile up (hundreds in a week).
 CACHES_KEPT, CACHE_UNUSED_FOR = 5, 86400.0
+#: The file that marks a folder as one of drill_env's version caches.
+CACHE_MARKER = ".drill_env_numba_cache"
 
 
 def _prune_numba_caches(current: Path, keep: int = CACHES_KEPT,
                         unused_for: float = CACHE_UNUSED_FOR) -> list[Path]:
-    """Mark ``current`` (a version's cache folder) as used now and remove the sibling
-    version folders (16 hex digits) beyond the ``keep`` most recently used that have not
-    been used for ``unused_for`` seconds. Returns what it removed; never raises."""
+    """Mark ``current`` (a version's cache folder) as drill_env's and as used now, and
+    remove the sibling version caches beyond the ``keep`` most recently used that have
+    not been used for ``unused_for`` seconds. A sibling is a version cache if it holds
+    :data:`CACHE_MARKER` (anywhere: a ``NUMBA_CACHE_DIR`` may hold other programs'
+    folders), or, under drill_env's own base ``~/.cache/drill_env/numba``, if its name is
+    16 hex digits (the caches made before the marker). Returns what it removed; never
+    raises."""
     import re
     import shutil
     import time
@@ -74,16 +80,22 @@ def _prune_numba_caches(current: Path, keep: int = CACHES_KEPT,
     removed: list[Path] = []
     try:
         current.mkdir(parents=True, exist_ok=True)
+        (current / CACHE_MARKER).touch()
         os.utime(current)
-        others = sorted((p for p in current.parent.iterdir() if p != current and p.is_dir()
-                         and re.fullmatch(r"[0-9a-f]{16}", p.name)),
+        own_base = current.parent == Path(os.environ.get(
+            "XDG_CACHE_HOME", Path.home() / ".cache")) / "drill_env" / "numba"
+        others = sorted((p for p in current.parent.iterdir()
+                         if p != current and p.is_dir() and (
+                             (p / CACHE_MARKER).exists()
+                             or (own_base and re.fullmatch(r"[0-9a-f]{16}", p.name)))),
                         key=lambda p: p.stat().st_mtime, reverse=True)
         now = time.time()
         for old in others[keep:]:
             if now - old.stat().st_mtime > unused_for:
                 shutil.rmtree(old, ignore_errors=True)
-                removed.append(old)
-    except OSError:  # a read-only or shared cache: leave it as it is
+                if not old.exists():
+                    removed.append(old)
+    except OSError:  # a read-only cache: leave it as it is
         pass
     return removed
 

@@ -115,35 +115,55 @@ def test_importing_drill_env_makes_openmp_workers_wait_passively_unless_told():
     assert (default, chosen) == ("PASSIVE", "ACTIVE")
 
 
-def test_old_numba_caches_beyond_the_recent_ones_are_removed_after_a_day(tmp_path):
+def test_old_numba_caches_beyond_the_recent_ones_are_removed_after_a_day(tmp_path,
+                                                                        monkeypatch):
     """Every version of the sources gets its own numba cache folder (drill_env's
     ``_numba_cache_dir``); a version's folder goes once it is beyond the CACHES_KEPT most
-    recently used and unused for a day. Other folders and files are never touched."""
+    recently used and unused for a day. In a folder the user chose (NUMBA_CACHE_DIR) only
+    folders marked as drill_env's are candidates; under drill_env's own base, unmarked
+    16-hex-digit folders (made before the marker) are too. Nothing else is touched."""
     import os
     import time
 
     import drill_env
 
-    now = time.time()
-    ages = {f"{k:016x}": hours * 3600.0 for k, hours in enumerate([1, 2, 30, 40, 50, 60,
-                                                                    70, 80, 90])}
-    for name, age in ages.items():
-        folder = tmp_path / name
-        (folder / "sub").mkdir(parents=True)
-        (folder / "sub" / "kernel.nbc").write_bytes(b"x")
-        os.utime(folder, (now - age, now - age))
-    (tmp_path / "not-a-version").mkdir()
-    os.utime(tmp_path / "not-a-version", (now - 1e6, now - 1e6))
-    current = tmp_path / "ffffffffffffffff"
-    removed = drill_env._prune_numba_caches(current, keep=5, unused_for=86400.0)
-    left = sorted(p.name for p in tmp_path.iterdir())
-    # the five most recent stay whatever their age (two under a day, three over);
-    # the four oldest go; the current one is made and marked used
-    assert sorted(p.name for p in removed) == [f"{k:016x}" for k in (5, 6, 7, 8)]
-    assert left == sorted([*(f"{k:016x}" for k in range(5)), "ffffffffffffffff",
-                           "not-a-version"])
+    def version_folders(base, marked):
+        now = time.time()
+        for k, hours in enumerate([1, 2, 30, 40, 50, 60, 70, 80, 90]):
+            folder = base / f"{k:016x}"
+            (folder / "sub").mkdir(parents=True)
+            (folder / "sub" / "kernel.nbc").write_bytes(b"x")
+            if marked:
+                (folder / drill_env.CACHE_MARKER).touch()
+            os.utime(folder, (now - hours * 3600.0, now - hours * 3600.0))
+        for name in ("not-a-version", "abcdefabcdefabcd"):  # another program's folders
+            (base / name).mkdir()
+            os.utime(base / name, (now - 1e6, now - 1e6))
+
+    def prune(current):
+        return sorted(p.name for p in drill_env._prune_numba_caches(
+            current, keep=5, unused_for=86400.0))
+
+    # a folder the user chose: the marked versions beyond the five most recent that are
+    # older than a day go (two under a day, three over stay); the others stay
+    chosen = tmp_path / "chosen"
+    version_folders(chosen, marked=True)
+    current = chosen / "ffffffffffffffff"
+    assert prune(current) == [f"{k:016x}" for k in (5, 6, 7, 8)]
+    assert sorted(p.name for p in chosen.iterdir()) == sorted(
+        [*(f"{k:016x}" for k in range(5)), "ffffffffffffffff", "not-a-version",
+         "abcdefabcdefabcd"])
+    assert (current / drill_env.CACHE_MARKER).exists()
     assert time.time() - current.stat().st_mtime < 60.0
-    assert drill_env._prune_numba_caches(current, keep=5, unused_for=86400.0) == []
+    assert prune(current) == []
+    # drill_env's own base: the unmarked version folders of before the marker go too,
+    # and "abcdefabcdefabcd" (16 hex digits, the oldest) with them; "not-a-version" stays
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    own = tmp_path / "xdg" / "drill_env" / "numba"
+    version_folders(own, marked=False)
+    assert prune(own / "ffffffffffffffff") == [
+        *(f"{k:016x}" for k in (5, 6, 7, 8)), "abcdefabcdefabcd"]
+    assert (own / "not-a-version").exists()
 
 
 def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_default(tmp_path):
