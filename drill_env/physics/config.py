@@ -641,7 +641,7 @@ class SolverConfig:
     critical_step_fraction: Positive = Field(default=0.5, ge=0.01, le=0.8)
     #: True: the normal wall and gauge penalties are implicit (physics/implicit_contact.py)
     #: and no longer limit the step. For stick-slip studies: at steps of 4 ms and more
-    #: the BHA does not enter sustained backward whirl (docs/performance.md).
+    #: the BHA rarely enters sustained backward whirl (docs/performance.md).
     implicit_contacts: StrictBool = False
 
 

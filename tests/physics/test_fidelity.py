@@ -77,24 +77,27 @@ def test_the_fast_level_keeps_explicit_contacts_unless_the_config_asks_for_impli
 
 
 @pytest.mark.slow
-def test_the_fast_level_whirls_backward_where_the_full_model_does(tmp_path):
-    """Held-out seed 1000009 of the drilling task: under the stiff and SoftSpeed drives
-    the full model's BHA rolls into backward whirl for ~3/4 of the 290 s window (0.73
-    and 0.75; the explicit fast level 0.73 and 0.72). The implicit contacts at 4-10 ms,
-    the fast level of 2026-12-03, never entered it on any of 60 task episodes (0.004
-    here): their friction rubs with the smaller of the predicted and the last normal
-    force and half the cap, which keeps the rolling contact from gripping. A whirl share
-    is a bistable outcome, so the test asks for the state, not the share."""
+def test_the_fast_level_whirls_backward_as_the_full_model_does(tmp_path):
+    """The drilling task's 20 held-out seeds under the stiff and SoftSpeed drives
+    (scripts/whirl_study.py): on a few of them the BHA rolls into backward whirl for most
+    of the 290 s window, a bistable outcome, so the test asks for the group's share, not
+    a seed's. Full model 5.8 and 12.4 %, the explicit fast level 9.9 and 7.4 % (4
+    sustained whirls of 40 each); the implicit contacts at 10 ms, the fast level of
+    2026-12-03, 2.1 and 0.3 % (none): their friction (the smaller normal force, half the
+    cap) keeps the rolling contact from gripping."""
     from agents.benchmark import BenchmarkSettings, run_benchmark
 
     for level in ("full", "fast"):
         settings = BenchmarkSettings(duration=300.0, warmup=10.0, fidelity=level)
-        rows = run_benchmark(["stiff", "soft-speed"], ["random"], [1_000_009],
-                             tmp_path / level, settings, workers=1, progress=False,
-                             env_id="DrillOptimise-v0")
-        shares = {row["controller"]: row["backward_whirl_fraction"] for row in rows}
-        print(f"{level}: backward whirl share {shares}")
-        assert max(shares.values()) > 0.3, level
+        rows = run_benchmark(["stiff", "soft-speed"], ["random"],
+                             list(range(1_000_000, 1_000_020)), tmp_path / level, settings,
+                             workers=2, progress=False, env_id="DrillOptimise-v0")
+        shares = [row["backward_whirl_fraction"] for row in rows]
+        sustained = sum(share > 0.3 for share in shares)
+        print(f"{level}: mean backward whirl share {np.mean(shares):.3f}, {sustained} of "
+              f"{len(shares)} episodes whirling over 30 % of the window")
+        assert len(shares) == 40
+        assert np.mean(shares) > 0.04, level
 
 
 @pytest.mark.parametrize("scenario", ["default", "paper_case1", "paper_case2"])
