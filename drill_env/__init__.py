@@ -34,6 +34,11 @@ from typing import Any
 __version__ = "0.1.0"
 
 
+def _own_cache_base() -> Path:
+    """drill_env's own base of numba caches, ``~/.cache/drill_env/numba``."""
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "drill_env" / "numba"
+
+
 def _numba_cache_dir() -> str:
     """numba's cache folder for this version of the sources.
 
@@ -49,8 +54,7 @@ def _numba_cache_dir() -> str:
         digest.update(path.relative_to(root).as_posix().encode())
         digest.update(path.read_bytes())
     key = digest.hexdigest()[:16]
-    base = os.environ.get("NUMBA_CACHE_DIR") or str(
-        Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "drill_env" / "numba")
+    base = os.environ.get("NUMBA_CACHE_DIR") or str(_own_cache_base())
     if Path(base).name == key:  # inherited from a parent process that set it already
         return base
     return str(Path(base) / key)
@@ -82,8 +86,7 @@ def _prune_numba_caches(current: Path, keep: int = CACHES_KEPT,
         current.mkdir(parents=True, exist_ok=True)
         (current / CACHE_MARKER).touch()
         os.utime(current)
-        own_base = current.parent == Path(os.environ.get(
-            "XDG_CACHE_HOME", Path.home() / ".cache")) / "drill_env" / "numba"
+        own_base = current.parent == _own_cache_base()
         others = sorted((p for p in current.parent.iterdir()
                          if p != current and p.is_dir() and (
                              (p / CACHE_MARKER).exists()

@@ -68,8 +68,8 @@ def warn_of_limits(curved: bool, lateral: bool, dt: float) -> None:
         warnings.warn("solver.implicit_contacts in a curved hole: slower than explicit "
                       "(docs/performance.md)", RuntimeWarning, stacklevel=3)
     if lateral and dt >= WHIRL_LOST_STEP * (1.0 - 1e-9):
-        warnings.warn(f"solver.implicit_contacts at a {dt * 1e3:g} ms step: the BHA does "
-                      "rarely enter backward whirl from 4 ms on (docs/performance.md, "
+        warnings.warn(f"solver.implicit_contacts at a {dt * 1e3:g} ms step: the BHA "
+                      "rarely enters backward whirl from 4 ms on (docs/performance.md, "
                       "'Backward whirl'): fine for stick-slip, not for whirl",
                       RuntimeWarning, stacklevel=3)
 

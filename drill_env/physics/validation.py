@@ -147,9 +147,10 @@ def _error_text(err: ValidationError, prefix: str = "", root: Any = None) -> str
             root is not None and e["type"] == "unexpected_keyword_argument") else None
         if section is not None:
             known = [f.name for f in dataclasses.fields(section)]
-            hint = did_you_mean(str(loc[-1]), known)
-            if hint:
-                meant.add((*loc[:-1], closest(str(loc[-1]), known)))
+            best = closest(str(loc[-1]), known)
+            if best:
+                meant.add((*loc[:-1], best))
+            hint = f" (did you mean {best}?)" if best else ""
             path = ".".join(p for p in (prefix, _format_location(loc)) if p)
             unknown.append(f"{path}: unknown field of {section.__name__}{hint}; known: "
                            f"{', '.join(known)}")
