@@ -469,6 +469,13 @@ def act(controller: Any, typed: str, where: str, space: Any, obs: Any,
     if np.shape(action) != space.shape:
         raise ValueError(f"controller: {typed}: act() returned an action of shape "
                          f"{np.shape(action)}; the env takes {space.shape} ({where})")
+    try:
+        finite = bool(np.all(np.isfinite(np.asarray(action, dtype=np.float64))))
+    except (TypeError, ValueError):
+        finite = False
+    if not finite:
+        raise ValueError(f"controller: {typed}: act() returned {np.asarray(action).tolist()}"
+                         f", not finite numbers ({where})")
     return action
 
 

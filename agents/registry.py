@@ -314,6 +314,6 @@ def parse_controllers(text: str) -> list[str]:
             except ValueError as err:
                 raise ValueError(f"controllers: {str(err).partition(': ')[2]}") from None
         elif n not in CONTROLLERS:
-            raise ValueError(f"controllers: unknown name {n!r}; known: "
-                             f"{KNOWN}")
+            raise ValueError(f"controllers: unknown name {n!r}"
+                             f"{did_you_mean(n, list(CONTROLLERS))}; known: {KNOWN}")
     return names

@@ -382,7 +382,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     scenarios = [n.strip() for n in text.split(",") if n.strip()]
     unknown = [n for n in scenarios if n not in SCENARIOS]
     if unknown or not scenarios:
-        raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or text!r};"
+        from drill_env.physics.validation import did_you_mean
+
+        hint = did_you_mean(unknown[0], list(SCENARIOS)) if unknown else ""
+        raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or text!r}{hint};"
                                          f" known: {', '.join(sorted(SCENARIOS))}")
     # a task's episodes and window default to the ones evaluate measures the task on
     if args.task is not None:
@@ -633,6 +636,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     configs = None
     if args.controller is not None:
         from agents.registry import CLASSICAL, CONTROLLERS, is_imported, make_controller
+        from drill_env.physics.validation import did_you_mean
 
         args.controller = canonical_controller(args.controller)
         # the map holds the set points fixed: only the top drive's own loops apply
@@ -644,7 +648,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                    "fixed under the top drive's own loop"
                    if own is not None or args.controller in CONTROLLERS
                    or args.controller.startswith(("learned:", "constant:"))
-                   else "is not a controller")
+                   else "is not a controller" + did_you_mean(args.controller, drive))
             raise argparse.ArgumentTypeError(
                 f"--controller: {args.controller} {why}; choose a drive-rate controller: "
                 f"{', '.join(drive)} or one of your own (rate = 'drive')")

@@ -748,3 +748,16 @@ def test_benchmark_windows_default_to_what_help_and_docs_say(monkeypatch, tmp_pa
                  "1", "--out", str(tmp_path / "b")]) == 0
     assert [(s.duration, s.warmup) for s in seen] == [(60.0, 30.0),
                                                       EVALUATION_WINDOWS["stick_slip"]]
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["benchmark", "--scenarios", "stik_slip"], "--scenarios: unknown ['stik_slip'] (did you "
+                                                "mean stick_slip?); known: "),
+    (["stability-map", "--controller", "soft_speed"], "--controller: soft_speed is not a "
+                                                      "controller (did you mean soft-speed?)")])
+def test_a_misspelt_name_gets_the_name_it_was_probably_meant_to_be(argv, said, tmp_path,
+                                                                   capsys):
+    with pytest.raises(SystemExit) as stopped:
+        main([*argv, "--out", str(tmp_path)])
+    assert stopped.value.code == 2
+    assert said in capsys.readouterr().err

@@ -256,6 +256,9 @@ def test_registry_names_every_controller_and_refuses_unknown_ones():
         make_controller("z_torque")
     with pytest.raises(ValueError, match="controllers"):
         parse_controllers("stiff,pid")
+    with pytest.raises(ValueError, match=r"^controllers: unknown name 'z-torq' \(did you "
+                                         r"mean z-torque\?\); known: "):
+        parse_controllers("stiff,z-torq")
 
 
 class FakeEnv:

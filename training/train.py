@@ -522,7 +522,8 @@ def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | N
     path = write_checkpoint(run, model, env, wall_s)
     # one write, so that the lines of a sweep's workers do not run into each other
     print(f"interrupted at {steps} env steps: saved {path}; the same command with --resume "
-          "continues from it (a --seeds sweep: the same command)\n", end="", flush=True)
+          "(instead of --overwrite, if it had that) continues from it (a --seeds sweep: the "
+          "same command)\n", end="", flush=True)
     return path
 
 
