@@ -1,5 +1,5 @@
-"""Backward whirl by step and contact treatment: why the fast level keeps explicit
-contacts (docs/performance.md, "Implicit contacts", "Backward whirl").
+"""Backward whirl by step and contact treatment: whether implicit contacts at long steps
+whirl as the full model does (docs/performance.md, "Implicit contacts", "Backward whirl").
 
 Runs the drilling task's held-out seeds (1000000-1000019, 300 s, metrics over the last
 290 s, as ``drill-env evaluate`` does) under the stiff and SoftSpeed drives and the best
@@ -19,9 +19,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import os
 import statistics
-import warnings
 from pathlib import Path
 
 from agents.benchmark import BenchmarkSettings, run_benchmark
@@ -61,12 +59,6 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("logs/whirl_study"))
     args = parser.parse_args()
     seeds = list(EVALUATION_SEEDS[:args.seeds])
-    # the implicit rows' warning (no whirl from 4 ms on) is what this script measures; the
-    # environment carries the filter into the benchmark's worker processes
-    quiet = "ignore:solver.implicit_contacts at a:RuntimeWarning"
-    os.environ["PYTHONWARNINGS"] = ",".join(
-        w for w in (os.environ.get("PYTHONWARNINGS"), quiet) if w)
-    warnings.filterwarnings("ignore", message="solver.implicit_contacts at a")
     names = ["stiff", "soft-speed", "constant"]
     lines = ["| variant | " + " | ".join(
         f"{n}: sustained / mean share / mean peak kN" for n in names) + " |",

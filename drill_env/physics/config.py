@@ -640,8 +640,7 @@ class SolverConfig:
     #: full model's choice, the fast level uses FAST_CRITICAL_STEP_FRACTION (0.8).
     critical_step_fraction: Positive = Field(default=0.5, ge=0.01, le=0.8)
     #: True: the normal wall and gauge penalties are implicit (physics/implicit_contact.py)
-    #: and no longer limit the step. For stick-slip studies: at steps of 4 ms and more
-    #: the BHA rarely enters sustained backward whirl (docs/performance.md).
+    #: and no longer limit the step; an opt-in (docs/performance.md, "Backward whirl").
     implicit_contacts: StrictBool = False
 
 

@@ -26,7 +26,15 @@ of kN at the predictors while the end of the step has them off the rock. Frictio
 those forces turned the bit back and forth (an 8 ms fast-level run diverged within 11 s).
 So a contact rubs with the smaller of its normal forces at the predictors and at the end
 of the last step (``PAD.END_FORCE`` for the pads, ``node_force`` for the walls): what
-the implicit solve settled, not what the predictor guessed. And its cap, the force that
+the implicit solve settled, not what the predictor guessed. Except a wall contact that
+starts in this step (no force at the end of the last): it rubs with its force at the
+predictors. Backward whirl starts at an impact: the friction of the first step on the
+wall turns a BHA thrown there into rolling. Rubbing with the smaller force, zero on that
+step, the BHA slid off instead, and from 4 ms on it no longer rolled into sustained
+backward whirl where the full model does (docs/performance.md, "Backward whirl"). The
+gauge pads keep the smaller force when they start too: with both starting walls and
+pads rubbing with their predicted forces, 43 of 300 random-action task-2 episodes
+diverged at 10 ms, with the walls alone none. And its cap, the force that
 would stop its slip within the step (``|v_r| / compliance``, docs/model.md), is too
 large for two reasons. The predictor carries the step's acceleration into the next one
 (``v_p' = v_p + dt F / m`` at gamma = 1/2), so a friction force at the cap stops the
@@ -53,25 +61,12 @@ from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.layout import TERM, Implicit, P
 from drill_env.physics.linalg import solve3_planes
 
-#: From this step on, implicit contacts rarely let the BHA into the sustained backward
-#: whirl that the explicit contacts and the full model show: their friction (the smaller
-#: normal force, half the cap) lets a rolling contact slip. On 60 task episodes 2 ms
-#: whirls as the explicit model does (3 sustained whirls against 5), 4 and 10 ms never,
-#: 6 ms once (scripts/whirl_study.py, docs/performance.md).
-WHIRL_LOST_STEP = 4.0e-3
 
-
-def warn_of_limits(curved: bool, lateral: bool, dt: float) -> None:
-    """The RuntimeWarnings of ``solver.implicit_contacts`` for a simulator with a
-    curved hole or not, lateral DOFs or not and step ``dt`` (s)."""
+def warn_of_limits(curved: bool) -> None:
+    """The RuntimeWarning of ``solver.implicit_contacts`` in a curved hole (``curved``)."""
     if curved:
         warnings.warn("solver.implicit_contacts in a curved hole: slower than explicit "
                       "(docs/performance.md)", RuntimeWarning, stacklevel=3)
-    if lateral and dt >= WHIRL_LOST_STEP * (1.0 - 1e-9):
-        warnings.warn(f"solver.implicit_contacts at a {dt * 1e3:g} ms step: the BHA "
-                      "rarely enters backward whirl from 4 ms on (docs/performance.md, "
-                      "'Backward whirl'): fine for stick-slip, not for whirl",
-                      RuntimeWarning, stacklevel=3)
 
 
 def make_implicit(n_lat: int, n_pads: int) -> Implicit:

@@ -183,7 +183,7 @@ class Simulator:
         self.top_drive_law = top_drive.resolve(cfg)  # its speed loop limits the step too
         self.dt = self.stable_time_step()
         if cfg.solver.implicit_contacts:
-            warn_of_limits(self.hole is not None, cfg.solver.lateral, self.dt)
+            warn_of_limits(self.hole is not None)
         self._build_parameters()
         self._factor_torsion()
         self._compute_compliance()

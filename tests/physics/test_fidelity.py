@@ -63,8 +63,9 @@ def test_fast_level_resolves_into_a_straight_coarse_pipe_and_a_longer_step():
 
 def test_the_fast_level_keeps_explicit_contacts_unless_the_config_asks_for_implicit():
     """Explicit contacts at FAST_TIME_STEP, which the simulator shortens to 0.8 of their
-    critical step; a user's implicit contacts and longer step stay (docs/performance.md:
-    the implicit ones keep the BHA out of backward whirl, the test below)."""
+    critical step; a user's implicit contacts and longer step stay (docs/performance.md,
+    "Backward whirl": on the fast mesh the implicit ones lose the backward whirl of the
+    best constant set point of task 2)."""
     level = fast(SimulationConfig()).resolved()
     assert level.solver.implicit_contacts is False
     assert level.solver.time_step == FAST_TIME_STEP
@@ -72,8 +73,7 @@ def test_the_fast_level_keeps_explicit_contacts_unless_the_config_asks_for_impli
     asked = replace(SimulationConfig(), **{"solver.implicit_contacts": True,
                                            "solver.time_step": 0.01})
     assert fast(asked).resolved().solver.implicit_contacts is True
-    with pytest.warns(RuntimeWarning, match="backward whirl"):
-        assert Simulator(fast(asked)).dt == 0.01
+    assert Simulator(fast(asked)).dt == 0.01
 
 
 @pytest.mark.slow
@@ -82,22 +82,26 @@ def test_the_fast_level_whirls_backward_as_the_full_model_does(tmp_path):
     (scripts/whirl_study.py): on a few of them the BHA rolls into backward whirl for most
     of the 290 s window, a bistable outcome, so the test asks for the group's share, not
     a seed's. Full model 5.8 and 12.4 %, the explicit fast level 9.9 and 7.4 % (4
-    sustained whirls of 40 each); the implicit contacts at 10 ms, the fast level of
-    2026-12-03, 2.1 and 0.3 % (none): their friction (the smaller normal force, half the
-    cap) keeps the rolling contact from gripping."""
+    sustained whirls of 40 each). Also the fast level with implicit contacts at 10 ms:
+    12.4 and 16.5 % (8); with a starting wall contact rubbing with the smaller of its
+    predicted and last normal forces (zero) instead of the predicted one, 2.1 and 0.3 %
+    (none), which fails here (physics/implicit_contact.py)."""
     from agents.benchmark import BenchmarkSettings, run_benchmark
 
-    for level in ("full", "fast"):
-        settings = BenchmarkSettings(duration=300.0, warmup=10.0, fidelity=level)
+    implicit = {"solver.implicit_contacts": True, "solver.time_step": 0.010}
+    for level, physics in (("full", None), ("fast", None), ("fast", implicit)):
+        settings = BenchmarkSettings(duration=300.0, warmup=10.0, fidelity=level,
+                                     physics=physics or {})
+        name = level + ("_implicit" if physics else "")
         rows = run_benchmark(["stiff", "soft-speed"], ["random"],
-                             list(range(1_000_000, 1_000_020)), tmp_path / level, settings,
+                             list(range(1_000_000, 1_000_020)), tmp_path / name, settings,
                              workers=2, progress=False, env_id="DrillOptimise-v0")
         shares = [row["backward_whirl_fraction"] for row in rows]
         sustained = sum(share > 0.3 for share in shares)
-        print(f"{level}: mean backward whirl share {np.mean(shares):.3f}, {sustained} of "
+        print(f"{name}: mean backward whirl share {np.mean(shares):.3f}, {sustained} of "
               f"{len(shares)} episodes whirling over 30 % of the window")
         assert len(shares) == 40
-        assert np.mean(shares) > 0.04, level
+        assert np.mean(shares) > 0.04, name
 
 
 @pytest.mark.parametrize("scenario", ["default", "paper_case1", "paper_case2"])

@@ -32,10 +32,6 @@ from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 from drill_env.scenarios import make_scenario
 
-#: The long steps these tests take are the point: their warning that backward whirl is
-#: lost from 4 ms on is tested once, in test_implicit_contact.py.
-pytestmark = pytest.mark.filterwarnings(
-    "ignore:solver.implicit_contacts at a:RuntimeWarning")
 IMPLICIT = {"solver.implicit_contacts": True}
 
 
