@@ -643,8 +643,9 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
                        (["well", "--survey", str(bad)], f"--survey {bad}: survey.md: must "
                                                         "start at 0 and increase"),
                        (["stability-map", "--controller", "ztorque"],
-                        "--controller: ztorque is not a controller; choose a drive-rate "
-                        "controller: stiff, soft-speed, soft-torque, z-torque"),
+                        "--controller: ztorque is not a controller (did you mean "
+                        "z-torque?); choose a drive-rate controller: stiff, soft-speed, "
+                        "soft-torque, z-torque"),
                        (["stability-map", "--controller", "soft-speed:3"],
                         "--controller: soft-speed:3 is not a controller"),
                        (["stability-map", "--controller", "driller"],
