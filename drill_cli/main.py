@@ -845,8 +845,10 @@ def cmd_well(args: argparse.Namespace) -> int:
         well = config.well
         survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
         given = any(key == "well" or key.startswith("well.") for key in overrides)
+        # (a scenario's hole is named apart from the preset well of the same name, which
+        # --well draws at another length: neither overwrites the other's chart)
         name, source = ((args.config.stem, f"--config {args.config}") if given
-                        else (args.scenario, f"--scenario {args.scenario}"))
+                        else (f"scenario_{args.scenario}", f"--scenario {args.scenario}"))
     trajectory = Trajectory(survey)
     bha = sum(section.length for section in config.string.lower)
     shortest = max(bha, CHART_STEP)

@@ -106,10 +106,11 @@ def test_the_well_command_writes_the_chart_and_names_bad_input(tmp_path, capsys)
 
 def test_the_well_command_draws_the_scenarios_or_the_configs_own_well(tmp_path, capsys):
     """Without --well or --survey the chart is of the hole the scenario or --config
-    drills (it once drew the j_shaped preset whatever they held); a well no longer than
-    the string's BHA is refused by the option that set it (it drew an empty chart)."""
+    drills (it once drew the j_shaped preset whatever they held), in files of its own (the
+    preset lateral_60, another length, wrote over them); a well no longer than the
+    string's BHA is refused by the option that set it (it drew an empty chart)."""
     assert main(["well", "--scenario", "lateral_60", "--out", str(tmp_path)]) == 0
-    data = json.loads((tmp_path / "well_lateral_60.json").read_text())
+    data = json.loads((tmp_path / "well_scenario_lateral_60.json").read_text())
     own = make_scenario("lateral_60").config.well
     assert data["survey"]["md"] == pytest.approx(list(own.md))
     assert data["survey"]["inclination_deg"] == pytest.approx(list(own.inclination))
