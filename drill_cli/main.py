@@ -342,10 +342,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         ran_at += f" (set points applied: mean {setpoint_rpm:.0f} rpm, {setpoint_kn:.0f} kN)"
     returned = f"return {fixed(summary['return'])}" + (
         "" if guest is None else f" (DrillString-v0's reward; its task's {fixed(guest)})")
-    print(f"{args.scenario}: {steps} steps ({summary['simulated_s']:.1f} s) at {ran_at} in "
+    print(f"{args.scenario}: {steps} step{'' if steps == 1 else 's'} "
+          f"({summary['simulated_s']:.1f} s) at {ran_at} in "
           f"{summary['wall_s']:.1f} s; {returned}"
           + (f"; ended: {reason}" if reason else ""))
-    print(f"  episode mean of the {base.config.metric_window:g} s window metrics: SSI "
+    window = base.config.metric_window
+    short = (f" (the episode, {summary['simulated_s']:.1f} s, is shorter than the "
+             f"window: they cover what it ran)" if summary["simulated_s"] < window else "")
+    print(f"  episode mean of the {window:g} s window metrics{short}: SSI "
           f"{fixed(summary['mean_ssi'])}, stuck "
           f"{fixed(summary['mean_stuck_fraction'])}, whirl ratio "
           f"{fixed(summary['mean_whirl_ratio'])}, radial ratio "

@@ -762,3 +762,10 @@ def test_a_misspelt_name_gets_the_name_it_was_probably_meant_to_be(argv, said, t
         main([*argv, "--out", str(tmp_path)])
     assert stopped.value.code == 2
     assert said in capsys.readouterr().err
+
+
+def test_a_run_shorter_than_the_metric_window_says_so(tmp_path, capsys):
+    assert main(["run", "--duration", "0.15", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "default: 1 step (0.1 s)" in out
+    assert "window metrics (the episode, 0.1 s, is shorter than the window" in out
