@@ -587,6 +587,19 @@ def default_evaluation_folder(run: Path) -> Path:
     return run / "evaluation"
 
 
+def which_model(run: Path, model: Path) -> str:
+    """What ``model`` (from :func:`agents.learned.policy_files`) is, said when evaluating
+    ``run``: a training run's best or final model, its last checkpoint, or the model a
+    shipped policy folder (a README, no run.json) holds."""
+    if model.name.startswith("best_"):
+        return "the best model on the validation seeds"
+    if model.name != "model.zip":
+        return "the last checkpoint: the run stopped before its first evaluation"
+    if (run / "README.md").exists() and not (run / "run.json").exists():
+        return "the shipped policy's chosen model: its README says which"
+    return "the run's final model: it kept no best model"
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from training.evaluate import evaluate_run
 
@@ -603,11 +616,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     except FileNotFoundError as err:  # a run stopped before its first evaluation
         raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}"
                                          ) from None
-    kept = ("the best model on the validation seeds" if model.name.startswith("best_") else
-            "its model.zip: a final model, or a shipped policy's chosen one"
-            if model.name == "model.zip" else
-            "the last checkpoint: the run stopped before its first evaluation")
-    print(f"evaluating {model} ({kept})")
+    print(f"evaluating {model} ({which_model(args.run, model)})")
     out = args.out or default_evaluation_folder(args.run)
     evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out,
                  ray_address=args.ray_address)

@@ -769,3 +769,16 @@ def test_a_run_shorter_than_the_metric_window_says_so(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "default: 1 step (0.1 s)" in out
     assert "window metrics (the episode, 0.1 s, is shorter than the window" in out
+
+
+def test_evaluate_says_which_model_it_scores(tmp_path):
+    from agents.learned import TRAINED
+    from drill_cli.main import which_model
+
+    shipped = TRAINED / "drilling"
+    assert which_model(shipped, shipped / "model.zip").startswith("the shipped policy's")
+    (tmp_path / "run.json").write_text("{}")
+    assert which_model(tmp_path, tmp_path / "model.zip").startswith("the run's final model")
+    assert which_model(tmp_path, tmp_path / "best_model.zip").startswith("the best model")
+    checkpoint = tmp_path / "checkpoints" / "model_5000_steps.zip"
+    assert which_model(tmp_path, checkpoint).startswith("the last checkpoint")
