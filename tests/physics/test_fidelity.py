@@ -64,8 +64,9 @@ def test_fast_level_resolves_into_a_straight_coarse_pipe_and_a_longer_step():
 def test_the_fast_level_keeps_explicit_contacts_unless_the_config_asks_for_implicit():
     """Explicit contacts at FAST_TIME_STEP, which the simulator shortens to 0.8 of their
     critical step; a user's implicit contacts and longer step stay (docs/performance.md,
-    "Backward whirl": on the fast mesh the implicit ones lose the backward whirl of the
-    best constant set point of task 2)."""
+    "Backward whirl": from ~7.7 ms the implicit ones add backward whirl at task 2's high
+    rpm that the full model does not have, and on the fast mesh they lose the best
+    constant set point's)."""
     level = fast(SimulationConfig()).resolved()
     assert level.solver.implicit_contacts is False
     assert level.solver.time_step == FAST_TIME_STEP
