@@ -34,9 +34,9 @@ step, the BHA slid off instead, and from 4 ms on it no longer rolled into sustai
 backward whirl where the full model does (docs/performance.md, "Backward whirl"). The
 gauge pads keep the smaller force when they start too: with both starting walls and
 pads rubbing with their predicted forces, 43 of 300 random-action task-2 episodes
-diverged at 10 ms, with the walls alone none. (From about 7.7 ms on, the BHA then whirls
-at task 2's high rpm where the full model does not: the step, on either mesh, no longer
-resolves that whirl; docs/performance.md.) And its cap, the force that
+diverged at 10 ms, with the walls alone none. (From about 7.7 ms on, the BHA then also
+whirls at task 2's high rpm where the full model does not, on either mesh;
+docs/performance.md.) And its cap, the force that
 would stop its slip within the step (``|v_r| / compliance``, docs/model.md), is too
 large for two reasons. The predictor carries the step's acceleration into the next one
 (``v_p' = v_p + dt F / m`` at gamma = 1/2), so a friction force at the cap stops the
