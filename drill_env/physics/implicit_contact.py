@@ -27,16 +27,17 @@ those forces turned the bit back and forth (an 8 ms fast-level run diverged with
 So a contact rubs with the smaller of its normal forces at the predictors and at the end
 of the last step (``PAD.END_FORCE`` for the pads, ``node_force`` for the walls): what
 the implicit solve settled, not what the predictor guessed. Except a wall contact that
-starts in this step (no force at the end of the last): it rubs with its force at the
-predictors. Backward whirl starts at an impact: the friction of the first step on the
-wall turns a BHA thrown there into rolling. Rubbing with the smaller force, zero on that
-step, the BHA slid off instead, and from 4 ms on it no longer rolled into sustained
-backward whirl where the full model does (docs/performance.md, "Backward whirl"). The
-gauge pads keep the smaller force when they start too: with both starting walls and
-pads rubbing with their predicted forces, 43 of 300 random-action task-2 episodes
-diverged at 10 ms, with the walls alone none. (From about 7.7 ms on, the BHA then also
-whirls at task 2's high rpm where the full model does not, on either mesh;
-docs/performance.md.) And its cap, the force that
+starts in this step (no force at the end of the last): it rubs with the mean of its
+force at the start of the step, zero, and at the predictors, the step's average for a
+penetration that grows through it. Backward whirl starts at an impact: the friction of
+the first step on the wall turns a BHA thrown there into rolling. Rubbing with the
+smaller force, zero on that step, the BHA slid off instead, and from 4 ms on it no
+longer rolled into sustained backward whirl where the full model does; rubbing with the
+whole predicted force, which grows with the predictor's overshoot, from about 7.7 ms on
+it whirled at task 2's high rpm where the full model does not (docs/performance.md,
+"Backward whirl"). The gauge pads keep the smaller force when they start too: with both
+starting walls and pads rubbing with their predicted forces, 43 of 300 random-action
+task-2 episodes diverged at 10 ms, with the walls alone none. And its cap, the force that
 would stop its slip within the step (``|v_r| / compliance``, docs/model.md), is too
 large for two reasons. The predictor carries the step's acceleration into the next one
 (``v_p' = v_p + dt F / m`` at gamma = 1/2), so a friction force at the cap stops the

@@ -245,10 +245,12 @@ def _wall_contacts(p, nodes, m, work, l0, implicit_on, terms):
         wall_contact(xk, yk, m.vl[0, j], m.vl[1, j], m.vt[k], nodes.clearance[k],
                      nodes.radius[k], p, nodes.compliance[k], out)
         # implicit contacts: a continuing contact rubs with the smaller of its predicted
-        # and last normal forces, a starting one (last == 0) with the predicted force
-        # (physics/implicit_contact.py: the impact's friction starts backward whirl)
-        if implicit_on and last > 0.0 and out[CONTACT.NORMAL] > last:
-            _friction_on(out, last / out[CONTACT.NORMAL], xk, yk, nodes.radius[k])
+        # and last normal forces, a starting one (last == 0) with the mean of its force at
+        # the start of the step (0) and the predicted one (physics/implicit_contact.py:
+        # the impact's friction starts backward whirl)
+        if implicit_on and out[CONTACT.NORMAL] > last:
+            scale = last / out[CONTACT.NORMAL] if last > 0.0 else 0.5
+            _friction_on(out, scale, xk, yk, nodes.radius[k])
         if out[CONTACT.NORMAL] > 0.0:
             work.rl[0, j] += out[CONTACT.FX]
             work.rl[1, j] += out[CONTACT.FY]
@@ -265,9 +267,8 @@ def _wall_contacts(p, nodes, m, work, l0, implicit_on, terms):
 
 @njit(cache=True, inline="always")
 def _friction_on(out, scale, x, y, radius):
-    """Scale the friction part of one wall contact's result (implicit contacts: a
-    continuing contact's friction follows the smaller of the normal forces at the
-    predictors and at the end of the last step, physics/implicit_contact.py)."""
+    """Scale the friction part of one wall contact's result (implicit contacts: the
+    normal force it rubs with, physics/implicit_contact.py)."""
     fr = out[CONTACT.MZ] / radius
     r = np.sqrt(x * x + y * y)
     change = (scale - 1.0) * fr
