@@ -33,7 +33,13 @@ from pydantic import Field
 
 from drill_env.physics.config import Fidelity
 from drill_env.physics.units import HOUR, KILO, MEGA, RPM, shown
-from drill_env.physics.validation import NonNegative, Positive, config_dataclass, jsonable
+from drill_env.physics.validation import (
+    NonNegative,
+    Positive,
+    config_dataclass,
+    jsonable,
+    numbers,
+)
 
 #: benchmark.csv columns, in order (the spec's section 5; meanings in docs/controllers.md);
 #: units in the names.
@@ -470,12 +476,12 @@ def act(controller: Any, typed: str, where: str, space: Any, obs: Any,
         raise ValueError(f"controller: {typed}: act() returned an action of shape "
                          f"{np.shape(action)}; the env takes {space.shape} ({where})")
     try:
-        finite = bool(np.all(np.isfinite(np.asarray(action, dtype=np.float64))))
-    except (TypeError, ValueError):
-        finite = False
-    if not finite:
-        raise ValueError(f"controller: {typed}: act() returned {np.asarray(action).tolist()}"
-                         f", not finite numbers ({where})")
+        values = numbers(action, "action")
+    except ValueError as err:  # strings, None, ragged lists: said with the controller
+        raise ValueError(f"controller: {typed}: act() returned an {err} ({where})") from None
+    if not np.isfinite(values).all():
+        raise ValueError(f"controller: {typed}: act() returned {values.tolist()}, not "
+                         f"finite numbers ({where})")
     return action
 
 

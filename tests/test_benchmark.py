@@ -1048,7 +1048,9 @@ def test_a_broken_controller_file_is_one_line_naming_it_and_exit_2(tmp_path, cap
     ("        return np.zeros(1)\n", "act() returned an action of shape (1,); the env "
                                      "takes (2,)"),
     ("        return np.array([np.nan, 0.0])\n", "act() returned [nan, 0.0], not finite "
-                                               "numbers")])
+                                               "numbers"),
+    ("        return np.array(['1', '2'])\n", "act() returned an action: expected numbers, "
+                                            "got array(['1', '2']")])
 def test_a_controller_of_your_own_that_acts_wrongly_is_named_in_one_line(tmp_path, capsys,
                                                                           body, said):
     """In a pool's worker too: its error comes back as one line naming the controller,
