@@ -65,11 +65,10 @@ from drill_env.physics.layout import TERM, Implicit, P
 from drill_env.physics.linalg import solve3_planes
 
 
-def warn_of_limits(curved: bool) -> None:
-    """The RuntimeWarning of ``solver.implicit_contacts`` in a curved hole (``curved``)."""
-    if curved:
-        warnings.warn("solver.implicit_contacts in a curved hole: slower than explicit "
-                      "(docs/performance.md)", RuntimeWarning, stacklevel=3)
+def warn_of_curved_hole() -> None:
+    """The RuntimeWarning of ``solver.implicit_contacts`` in a curved hole."""
+    warnings.warn("solver.implicit_contacts in a curved hole: slower than explicit "
+                  "(docs/performance.md)", RuntimeWarning, stacklevel=3)
 
 
 def make_implicit(n_lat: int, n_pads: int) -> Implicit:

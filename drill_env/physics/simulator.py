@@ -36,7 +36,7 @@ from drill_env.physics.fem import (
     mud_torsional_damping,
 )
 from drill_env.physics.formation import Rock, effective_wob, formation_arrays, resistance, rock_at
-from drill_env.physics.implicit_contact import make_implicit, warn_of_limits
+from drill_env.physics.implicit_contact import make_implicit, warn_of_curved_hole
 from drill_env.physics.layout import (
     N_PARAMS,
     N_READINGS,
@@ -182,8 +182,8 @@ class Simulator:
         # ---- time step and the implicit matrices
         self.top_drive_law = top_drive.resolve(cfg)  # its speed loop limits the step too
         self.dt = self.stable_time_step()
-        if cfg.solver.implicit_contacts:
-            warn_of_limits(self.hole is not None)
+        if cfg.solver.implicit_contacts and self.hole is not None:
+            warn_of_curved_hole()
         self._build_parameters()
         self._factor_torsion()
         self._compute_compliance()
