@@ -561,13 +561,15 @@ FIDELITY_LEVELS: tuple[str, ...] = get_args(Fidelity)
 #: Fast level: 20 m drill-pipe elements keep the first torsional frequency of the
 #: default string within 0.1 % (tests/physics/test_fidelity.py), the wave to ~10 Hz.
 FAST_PIPE_ELEMENT_LENGTH = 20.0
-#: Fast level step, vertical hole: implicit contacts at 10 ms, which divides the envs'
-#: control intervals; the fidelity tests hold and backward whirl matches the full model
-#: on 300 fresh task-2 seeds (docs/performance.md, "Implicit contacts"). A curved hole's
-#: BHA rests on the wall, where they cost more than they save: explicit contacts at 0.8
-#: of their critical step (5.07 ms: a gauge pad in hard rock; docs/model.md section 5).
-FAST_TIME_STEP, FAST_EXPLICIT_TIME_STEP = 10.0e-3, 4.0e-3
-FAST_CRITICAL_STEP_FRACTION = 0.8  # of the critical step of what stays explicit
+#: Fast level step at a critical_step_fraction of 0.8: the critical steps are 5.07 ms (a
+#: gauge pad in hard rock on the bit node) and 5.71 ms (the wall on the lightest collar
+#: node; docs/model.md section 5); Simulator.stable_time_step shortens a longer request.
+#: Not implicit contacts at 10 ms: their friction keeps the BHA out of the backward
+#: whirl the full model shows (docs/performance.md, "Implicit contacts").
+FAST_TIME_STEP = 4.0e-3
+#: Fast level: 0.8 of the lumped-mass critical step (the full model takes 0.5). Stable
+#: with the stick-slip metrics unchanged in tests/physics/test_fidelity.py.
+FAST_CRITICAL_STEP_FRACTION = 0.8
 
 
 @config_dataclass
@@ -628,8 +630,8 @@ class SolverConfig:
     #: "full": the model as configured. "fast": the training level of docs/performance.md,
     #: resolved by :meth:`SimulationConfig.resolved`: pipe laterally straight
     #: (``pipe_lateral=False``), drill-pipe elements of at least
-    #: ``FAST_PIPE_ELEMENT_LENGTH``, implicit contacts at ``FAST_TIME_STEP`` (a curved
-    #: hole: explicit ones at ``FAST_EXPLICIT_TIME_STEP``).
+    #: ``FAST_PIPE_ELEMENT_LENGTH``, a time step of ``FAST_TIME_STEP`` and
+    #: ``FAST_CRITICAL_STEP_FRACTION`` of the critical step.
     fidelity: Fidelity = "full"
     #: The step is shortened to this fraction of the critical step 2 sqrt(m/k) of the
     #: explicit wall and gauge penalties on the lumped node mass. Two gauge pads on the
@@ -637,8 +639,8 @@ class SolverConfig:
     #: a bit thrown at the wall that way runs away (docs/model.md section 5). 0.5 is the
     #: full model's choice, the fast level uses FAST_CRITICAL_STEP_FRACTION (0.8).
     critical_step_fraction: Positive = Field(default=0.5, ge=0.01, le=0.8)
-    #: True: the normal wall and gauge penalties are implicit (physics/implicit_contact.py;
-    #: the fast level's choice in a vertical hole) and no longer limit the step.
+    #: True: the normal wall and gauge penalties are implicit (physics/implicit_contact.py)
+    #: and no longer limit the step; an opt-in (docs/performance.md, "Backward whirl").
     implicit_contacts: StrictBool = False
 
 
@@ -681,20 +683,17 @@ class SimulationConfig:
 
         "full" returns the config unchanged. "fast" holds the drill pipe laterally
         straight, coarsens its elements to at least ``FAST_PIPE_ELEMENT_LENGTH`` and
-        requests ``FAST_TIME_STEP`` with implicit contacts (in a curved hole,
-        ``FAST_EXPLICIT_TIME_STEP`` with explicit ones) at ``FAST_CRITICAL_STEP_FRACTION``
-        of the critical step; the BHA mesh, the bit and the contacts stay."""
+        requests ``FAST_TIME_STEP`` at ``FAST_CRITICAL_STEP_FRACTION`` of the critical
+        step; the BHA mesh, the bit and the contacts stay (implicit contacts only where
+        the config asks for them)."""
         if self.solver.fidelity == "full":
             return self
         pipe = self.string.drill_pipe
         element = min(max(pipe.element_length, FAST_PIPE_ELEMENT_LENGTH), pipe.length)
-        implicit = self.well.vertical or self.solver.implicit_contacts
-        step = FAST_TIME_STEP if implicit else FAST_EXPLICIT_TIME_STEP
         return replace(self, **{
             "solver.pipe_lateral": False,
-            "solver.time_step": max(self.solver.time_step, step),
+            "solver.time_step": max(self.solver.time_step, FAST_TIME_STEP),
             "solver.critical_step_fraction": max(self.solver.critical_step_fraction,
                                                  FAST_CRITICAL_STEP_FRACTION),
             "string.drill_pipe.element_length": element,
-            "solver.implicit_contacts": implicit,
         })

@@ -47,11 +47,10 @@ def window_of(env):
     {"metric_window": 0.3},  # the window slides every step
     {"metric_window": 0.05},  # shorter than one control interval
     {"record_every": 7, "scenario": "paper_case2"},  # 50 steps: records every 5th
-    {"fidelity": "fast"},  # 10 steps of 10 ms (implicit contacts): every 10th
-    # 25 steps of 4 ms (the fast level until 2026-12-04): every 5th, not 10 (40 and 60 ms
-    # apart)
-    {"physics": {"solver.time_step": 0.004, "solver.critical_step_fraction": 0.8,
-                 "solver.pipe_lateral": False, "string.drill_pipe.element_length": 20.0}},
+    {"fidelity": "fast"},  # 25 steps of 4 ms: every 5th, not 10 (40 and 60 ms apart)
+    # implicit contacts at 10 ms (an opt-in): 10 steps, every 10th
+    {"fidelity": "fast", "physics": {"solver.implicit_contacts": True,
+                                     "solver.time_step": 0.01}},
 ])
 def test_info_and_reward_are_the_metric_definitions_of_the_records(kwargs):
     env = recording(DrillStringEnv(episode_duration=1.5, **kwargs))
