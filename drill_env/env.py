@@ -600,11 +600,11 @@ class DrillStringEnv(BatchFinish, gym.Env):
                       ) -> float:
         """What ``DrillString-v0`` pays for this step with its default weights, also in a
         task's env (a task's policy scored beside the classical controllers): the rate
-        terms (ROP, stick-slip, whirl) weighted by this env's control interval over the
-        plain env's default 0.1 s, so a 1 s step counts as ten; the effort over the plain
-        env's default set-point ranges and the failure as they are (a change, an end)."""
+        terms (ROP, stick-slip, whirl) weighted by the nominal control interval over the
+        plain env's 0.1 s (a 1 s step counts as ten, an uneven 0.0988 s one as one); the
+        effort over the plain env's set-point ranges and the failure as they are."""
         terms = DrillStringEnv._reward_terms(self, step, terminated)
-        k = self.control_interval / PLAIN_CONTROL_INTERVAL
+        k = self.config.control_interval / PLAIN_CONTROL_INTERVAL
         change = self._setpoint_change
         effort = (change[0] / PLAIN_SPANS[0]) ** 2 + (change[1] / PLAIN_SPANS[1]) ** 2
         return (k * (terms["rop"] + terms["stick_slip"] + terms["whirl"])
