@@ -17,7 +17,8 @@ the comparison behind the fast level's choice (docs/performance.md, "300 fresh
 seeds"):
 
     python scripts/whirl_study.py --seed-start 2000000 --seeds 300 \
-        --variants full_explicit,fast_explicit,fast_implicit_10ms   # ~10 min
+        --variants full_explicit,fast_explicit,fast_implicit_5ms,fast_implicit_10ms
+    # ~10 min on 2 cores
 
     python scripts/whirl_study.py [--seeds 20] [--seed-start N] [--variants A,B]
         [--out logs/whirl_study]
@@ -130,6 +131,7 @@ def print_pairs(whirled: dict[str, dict[tuple[str, int], bool]], names: list[str
             p = binomtest(a, a + b).pvalue if a + b else 1.0
             cells.append(f"{both} / {a} / {b} (p = {p:.2f})")
         print(f"| {label} | " + " | ".join(cells) + " |")
+
 
 if __name__ == "__main__":
     main()
