@@ -91,7 +91,7 @@ class EnvConfig:
     start_kick: NonNegative = Field(default=0.0, le=0.5)
     #: Record every k simulator steps inside a control interval (for the metrics); the
     #: env takes the largest divisor of the interval's steps up to k, so the records are
-    #: evenly spaced (the fast level's 25 steps of 4 ms per 0.1 s: every 5th).
+    #: evenly spaced (25 steps of 4 ms per 0.1 s: every 5th; 26 of 3.8 ms: every 2nd).
     record_every: Count = Field(default=10, ge=1, le=1_000_000)
     #: Length of the rolling window of the stick-slip metrics (s).
     metric_window: Positive = Field(default=3.0, le=3600.0)
@@ -139,7 +139,7 @@ def even_record_every(steps_per_action: int, record_every: int) -> int:
     """The record interval (simulator steps) the env uses: the largest divisor of the
     control interval's ``steps_per_action`` that is at most ``record_every``, so that the
     records are evenly spaced in time and every one stands for the same ``dt``. (The fast
-    level's 0.1 s are 25 steps of 4 ms: recording every 10th step kept two records 40
+    level's 0.1 s were 25 steps of 4 ms: recording every 10th step kept two records 40
     and 60 ms apart, and the metrics, which weigh every record by 40 ms, read 80 ms of
     each 100 ms: a 20 % low top-drive energy and a 3.75 s "3 s" window.)"""
     return max(k for k in range(1, min(record_every, steps_per_action) + 1)
