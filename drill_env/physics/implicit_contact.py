@@ -35,9 +35,13 @@ smaller force, zero on that step, the BHA slid off instead, and from 4 ms on it 
 longer rolled into sustained backward whirl where the full model does; rubbing with the
 whole predicted force, which grows with the predictor's overshoot, from about 7.7 ms on
 it whirled at task 2's high rpm where the full model does not (docs/performance.md,
-"Backward whirl"). The gauge pads keep the smaller force when they start too: with both
-starting walls and pads rubbing with their predicted forces, 43 of 300 random-action
-task-2 episodes diverged at 10 ms, with the walls alone none. And its cap, the force that
+"Backward whirl"). With the mean, on 300 fresh task-2 seeds the BHA whirls under the
+classical drives about as often as in the full model, but at 8-10 ms it still adds
+whirl at the shipped policy's high rpm (4 of 100 fresh seeds at 10 ms, "300 fresh
+seeds"): the fast level keeps explicit contacts. The gauge pads keep the smaller force
+when they start too: with both starting walls and pads rubbing with their predicted
+forces, 43 of 300 random-action task-2 episodes diverged at 10 ms, with the walls alone
+none. And its cap, the force that
 would stop its slip within the step (``|v_r| / compliance``, docs/model.md), is too
 large for two reasons. The predictor carries the step's acceleration into the next one
 (``v_p' = v_p + dt F / m`` at gamma = 1/2), so a friction force at the cap stops the

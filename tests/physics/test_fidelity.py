@@ -62,10 +62,10 @@ def test_fast_level_resolves_into_a_straight_coarse_pipe_and_a_longer_step():
 
 
 def test_the_fast_level_keeps_explicit_contacts_unless_the_config_asks_for_implicit():
-    """Explicit contacts at FAST_TIME_STEP, which the simulator shortens to 0.8 of their
-    critical step; a user's implicit contacts and longer step stay (docs/performance.md,
-    "Backward whirl": at 10 ms the implicit ones match the full model at task 2's high
-    rpm but whirl less at moderate rpm)."""
+    """Explicit contacts at FAST_TIME_STEP, which the simulator shortens to
+    FAST_CRITICAL_STEP_FRACTION of their critical step; a user's implicit contacts and
+    longer step stay (docs/performance.md, "300 fresh seeds": at 10 ms the implicit ones
+    add backward whirl at task 2's high rpm)."""
     level = fast(SimulationConfig()).resolved()
     assert level.solver.implicit_contacts is False
     assert level.solver.time_step == FAST_TIME_STEP
