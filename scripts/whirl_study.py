@@ -76,8 +76,9 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("logs/whirl_study"))
     args = parser.parse_args()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
-    chosen = [v for v in VARIANTS if not args.variants or v[1] in args.variants.split(",")]
-    unknown = set(filter(None, args.variants.split(","))) - {v[1] for v in VARIANTS}
+    asked = [name for name in args.variants.split(",") if name]
+    chosen = [v for v in VARIANTS if not asked or v[1] in asked]
+    unknown = set(asked) - {v[1] for v in VARIANTS}
     if unknown:
         parser.error(f"--variants: unknown {sorted(unknown)}; known: "
                      f"{', '.join(v[1] for v in VARIANTS)}")
@@ -122,9 +123,8 @@ def print_pairs(whirled: dict[str, dict[tuple[str, int], bool]], names: list[str
     print("| variant | " + " | ".join(names) + " |\n| --- |" + " --- |" * len(names))
     for label, mine in others:
         cells = []
-        for controller in sorted({c for c, _ in ref}, key=lambda c: [
-                n in c for n in names].index(True)):
-            keys = [k for k in ref if k[0] == controller]
+        for name in names:  # the rows' labels start with them, as in main's table
+            keys = [k for k in ref if k[0].startswith(name)]
             both = sum(ref[k] and mine[k] for k in keys)
             a = sum(ref[k] and not mine[k] for k in keys)
             b = sum(mine[k] and not ref[k] for k in keys)
