@@ -1272,3 +1272,32 @@ def test_sac_warm_up_defaults_to_sb3s_100_steps():
     with pytest.raises(ValueError):
         check_learns(replace(cfg, n_timesteps=100), 0)
     check_learns(replace(cfg, n_timesteps=101), 0)
+
+
+def test_a_model_without_a_log_folder_leaves_no_folder_in_the_temporary_directory(
+        tmp_path, monkeypatch):
+    """SB3 gives each ``learn`` of a model with no logger and no ``tensorboard_log`` a
+    new folder under the system's temporary directory (``SB3-<date>``) that nothing
+    removes (``drill-env speed``'s training section made two per run); ``new_model``
+    gives such a model a logger without a folder. A run's own model still logs into its
+    run folder (``tensorboard_log``)."""
+    import tempfile
+
+    from training.train import make_train_env, new_model
+
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    cfg = load_config("stick_slip", "ppo", n_envs=2, env_kwargs={"episode_duration": 3.0},
+                      hyperparams={"n_steps": 16, "batch_size": 32, "n_epochs": 1})
+    venv = make_train_env(cfg, cfg.seed)
+    try:
+        model = new_model(cfg, venv)
+        model.learn(32)
+        model.learn(32, reset_num_timesteps=False)
+        assert model.num_timesteps == 64 and model.logger.get_dir() is None
+        assert not list(tmp_path.glob("SB3-*"))
+        logged = new_model(cfg, venv, tensorboard_log=str(tmp_path / "tb"))
+        logged.learn(32)
+        assert (tmp_path / "tb").is_dir() and not list(tmp_path.glob("SB3-*"))
+    finally:
+        venv.close()

@@ -251,16 +251,24 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
 
 def new_model(config: TrainConfig, env: Any, **kwargs: Any) -> Any:
     """An untrained model of ``config`` (algorithm, policy, its kwargs, hyperparameters,
-    seed) on ``env``; ``kwargs`` go to the algorithm (e.g. ``tensorboard_log``)."""
+    seed) on ``env``; ``kwargs`` go to the algorithm (e.g. ``tensorboard_log``; without
+    one the model logs nowhere)."""
     policy_kwargs = sb3_policy_kwargs(config.policy_kwargs)
     if config.algo == "sac":  # SAC's net_arch is per network; a list is shared
         policy_kwargs.setdefault("net_arch", [256, 256])
     if config.fused_adam and fused_adam_on_cpu() and not (
             {"optimizer_class", "optimizer_kwargs"} & set(policy_kwargs)):
         policy_kwargs["optimizer_kwargs"] = {"fused": True}  # SB3's default class: Adam
-    return algo_class(config.algo)(config.policy, env, seed=config.seed, verbose=0,
-                                    policy_kwargs=policy_kwargs, **kwargs,
-                                    **config.hyperparams)
+    model = algo_class(config.algo)(config.policy, env, seed=config.seed, verbose=0,
+                                     policy_kwargs=policy_kwargs, **kwargs,
+                                     **config.hyperparams)
+    if kwargs.get("tensorboard_log") is None:
+        # SB3 otherwise gives every learn() without a log folder an empty folder of its
+        # own in the system's temporary directory (tempdir/SB3-<date>), never removed
+        from stable_baselines3.common.logger import Logger
+
+        model.set_logger(Logger(folder=None, output_formats=[]))
+    return model
 
 
 def fused_adam_on_cpu() -> bool:
