@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -75,10 +76,13 @@ print(json.dumps({"steps_per_s": steps / wall, "cpu_s_per_1000": 1e3 * cpu / ste
 """
 
 
-def run_child(tree: Path, args: argparse.Namespace, today: bool) -> dict:
+def run_child(tree: Path, args: argparse.Namespace, today: bool, logs: Path) -> dict:
+    """One timed training in ``tree``; SB3's logger writes to ``logs`` (without a folder
+    it would leave one in the system's temporary directory per ``learn``)."""
     out = subprocess.run([sys.executable, "-c", CHILD, str(args.steps), str(args.warmup),
                           "1" if today else "0", args.workload, args.scenario], cwd=tree,
-                         capture_output=True, text=True)
+                         capture_output=True, text=True,
+                         env={**os.environ, "SB3_LOGDIR": str(logs)})
     if out.returncode != 0:
         raise RuntimeError(f"the run in {tree} failed:\n{out.stderr[-3000:]}")
     row = json.loads(out.stdout.strip().splitlines()[-1])
@@ -116,7 +120,7 @@ def main() -> None:
         try:
             for k in range(args.rounds):
                 for name, tree in (("then", base), ("today", ROOT)):
-                    row = run_child(tree, args, name == "today")
+                    row = run_child(tree, args, name == "today", Path(tmp) / "sb3")
                     runs[name].append(row)
                     write(args, label, runs)  # each run as it arrives
                     print(f"round {k + 1}: {name:5s} {row['steps_per_s']:7.0f} env steps/s, "
