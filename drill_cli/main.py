@@ -840,7 +840,8 @@ def cmd_well(args: argparse.Namespace) -> int:
         try:
             survey = Survey.from_csv(args.survey)
         except ValueError as err:
-            raise argparse.ArgumentTypeError(f"--survey {args.survey}: {err}") from None
+            where = "--survey" if str(args.survey) in str(err) else f"--survey {args.survey}"
+            raise argparse.ArgumentTypeError(f"{where}: {err}") from None
         name, source = args.survey.stem, "--survey"
     elif args.well is not None or not config.well.md:  # no survey of its own
         name = args.well or "j_shaped"

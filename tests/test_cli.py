@@ -638,12 +638,17 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
     blocker.write_text("")
     bad = tmp_path / "bad.csv"
     bad.write_text("md,inclination,azimuth\n0,0,0\n500,0,0\n400,45,90\n")
+    typo = tmp_path / "typo.csv"
+    typo.write_text("md,inclination,azimuth\n0,0,0\n500,abc,0\n")
     for args, says in ((["run", "--record", str(blocker), "--duration", "0.2"],
                         f"--record {blocker}: is a file"),
                        (["well", "--well", "j_shaped", "--total-md", "400"],
                         "--total-md: 400.0 m ends before the profile's last curve"),
                        (["well", "--survey", str(bad)], f"--survey {bad}: survey.md: must "
                                                         "start at 0 and increase"),
+                       (["well", "--survey", str(typo)], f"--survey: survey {typo}, line 3, "
+                                                         "column inclination: 'abc' is not "
+                                                         "a number"),
                        (["stability-map", "--controller", "ztorque"],
                         "--controller: ztorque is not a controller (did you mean "
                         "z-torque?); choose a drive-rate controller: stiff, soft-speed, "

@@ -83,15 +83,23 @@ class Survey:
     @classmethod
     def from_csv(cls, path: str | Path) -> Survey:
         """A CSV with columns ``md`` (m), ``inclination`` and ``azimuth`` (degrees)."""
+        names = ("md", "inclination", "azimuth")
         with Path(path).open(newline="") as f:
-            rows = list(csv.DictReader(f))
-        missing = {"md", "inclination", "azimuth"} - set(rows[0] if rows else {})
-        if missing:
-            raise ValueError(f"survey {path}: missing column(s) {sorted(missing)}")
-        try:
-            columns = [[float(r[k]) for r in rows] for k in ("md", "inclination", "azimuth")]
-        except ValueError as err:
-            raise ValueError(f"survey {path}: not a number ({err})") from None
+            reader = csv.DictReader(f)
+            missing = set(names) - set(reader.fieldnames or ())
+            if missing:
+                raise ValueError(f"survey {path}: missing column(s) {sorted(missing)}")
+            columns: list[list[float]] = [[], [], []]
+            for row in reader:
+                for column, name in zip(columns, names, strict=True):
+                    text = row[name]
+                    try:
+                        column.append(float(text))
+                    except (TypeError, ValueError):  # a short row reads None
+                        raise ValueError(
+                            f"survey {path}, line {reader.line_num}, column {name}: "
+                            + ("missing" if text is None else f"{text!r} is not a number")
+                        ) from None
         return cls.from_stations(*columns)
 
     @classmethod

@@ -173,6 +173,24 @@ def test_a_survey_reads_from_csv(tmp_path):
     path.write_text("md,incl\n0,0\n")
     with pytest.raises(ValueError, match="missing column"):
         Survey.from_csv(path)
+    path.write_text("md,inclination,azimuth\n")  # a header alone: no stations
+    with pytest.raises(ValueError, match="at least two stations"):
+        Survey.from_csv(path)
+
+
+@pytest.mark.parametrize(("body", "said"), [
+    ("0,0,0\n300,0,0\n900,abc,45\n", "line 4, column inclination: 'abc' is not a number"),
+    ("0,0,0\n300,0\n", "line 3, column azimuth: missing"),
+    ("0,0,0\n,0,0\n", "line 3, column md: '' is not a number"),
+])
+def test_a_bad_survey_csv_names_the_line_and_column(tmp_path, body, said):
+    """The line as an editor numbers it (the header is line 1) and the column's name,
+    for a value that is not a number and for a row too short to have one."""
+    path = tmp_path / "survey.csv"
+    path.write_text("md,inclination,azimuth\n" + body)
+    with pytest.raises(ValueError) as err:
+        Survey.from_csv(path)
+    assert str(err.value) == f"survey {path}, {said}"
 
 
 def test_a_weightless_string_pulled_round_a_bend_obeys_the_capstan_equation():
