@@ -110,6 +110,40 @@ if "numba" in sys.modules:  # numba read its settings already: change them in pl
 else:
     os.environ["NUMBA_CACHE_DIR"] = _CACHE_DIR
 
+
+def _load_tbb() -> str | None:
+    """Make numba's TBB threading layer loadable; the library's path, or None.
+
+    numba's TBB layer links ``libtbb.so.12``, which the ``tbb`` wheel installs into the
+    environment's ``lib/``, where the dynamic loader does not look (conda's layout puts
+    it on the path). Loaded here by its path, the layer's own import then finds it, and
+    numba's default order (tbb, omp, workqueue) takes it for the batched envs' parallel
+    calls: its workers join a call ~5x sooner than libgomp's sleeping ones and, unlike
+    libgomp's spinning ones, give the core back to a competing process (docs/
+    performance.md, "TBB"). Nothing is done where the user chose a layer
+    (``NUMBA_THREADING_LAYER``), numba started its threads already, or there is no
+    such library (other platforms, no ``tbb`` package): numba then picks as it would.
+    """
+    import ctypes
+
+    if os.environ.get("NUMBA_THREADING_LAYER", "default") not in ("default", "tbb", "safe") \
+            or sys.platform != "linux":
+        return None
+    parallel = sys.modules.get("numba.np.ufunc.parallel")
+    if parallel is not None and getattr(parallel, "_is_initialized", False):
+        return None
+    library = Path(sys.prefix) / "lib" / "libtbb.so.12"
+    if not library.exists():
+        return None
+    try:
+        ctypes.CDLL(str(library), mode=ctypes.RTLD_GLOBAL)
+    except OSError:
+        return None
+    return str(library)
+
+
+TBB_LIBRARY = _load_tbb()
+
 # OpenMP workers (torch's, and numba's for the batched env) wait for the next parallel
 # region while serial Python runs. libgomp's default wait spins, which costs nothing on
 # an idle machine and takes the core from everyone else on a shared one: PPO training

@@ -195,7 +195,7 @@ class EnvBatch:
         """:func:`step_many` for the envs in ``run``, ``arguments`` its others after
         ``run`` up to the schedule, on :meth:`threads_for` threads: a single env runs on
         the calling thread alone, without waking a worker that would have nothing to do
-        (its wake-up, ~80 us, would hold the call up)."""
+        (a sleeping OpenMP worker's wake-up, ~80 us, would hold the call up)."""
         threads = numba.get_num_threads()
         used = self.threads_for(run)
         self._schedule[Schedule.THREADS] = used

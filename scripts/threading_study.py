@@ -20,6 +20,8 @@ trains PPO (task 1's hyperparameters, 8 batched envs) in a fresh process per set
                    count (``torch_threads = 0``)
 ``spin30k-torch1`` as ``passive-torch1``, but libgomp's workers spin ~0.3 ms
                    (``GOMP_SPINCOUNT=30000``) before they sleep
+``tbb-torch1``     as ``passive-torch1``, with numba's TBB layer (oneTBB's
+                   workers) for the batched physics; needs the ``tbb`` package
 =================  ========================================================
 
 quiet and with one competing CPU-bound process, in turns (``--rounds``), and prints env
@@ -51,6 +53,10 @@ SETUPS = {
     # batched steps of 16 plain envs
     "spin30k-torch1": {"NUMBA_THREADING_LAYER": "omp", "GOMP_SPINCOUNT": "30000",
                        "STUDY_TORCH_THREADS": "1"},
+    # Intel's oneTBB (the ``tbb`` wheel, which puts libtbb.so.12 in the environment's
+    # lib/, off the loader's path) for numba's parallel calls; torch stays on OpenMP
+    "tbb-torch1": {"NUMBA_THREADING_LAYER": "tbb", "STUDY_TORCH_THREADS": "1",
+                   "LD_LIBRARY_PATH": str(Path(sys.prefix) / "lib")},
 }
 
 

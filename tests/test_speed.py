@@ -115,6 +115,38 @@ def test_importing_drill_env_makes_openmp_workers_wait_passively_unless_told():
     assert (default, chosen) == ("PASSIVE", "ACTIVE")
 
 
+def test_the_batched_envs_run_on_tbb_where_its_wheel_is_installed_unless_told():
+    """The ``tbb`` wheel puts libtbb.so.12 off the loader's path, where numba's TBB
+    layer cannot find it and numba falls back to OpenMP, whose sleeping workers join a
+    parallel call ~80 us late (batched / loop 1.6-1.7 at the fast level, N = 16, against
+    1.9 on TBB: docs/performance.md). ``import drill_env`` loads it by its path; a
+    layer the user chose stands. On x86-64 Linux the wheel is a dependency, so there
+    the test insists on TBB."""
+    import os
+    import platform
+    import subprocess
+    import sys
+
+    code = ("import drill_env, numba, numpy as np\n"
+            "@numba.njit(parallel=True)\n"
+            "def total(a):\n"
+            "    s = 0.0\n"
+            "    for i in numba.prange(a.size):\n"
+            "        s += a[i]\n"
+            "    return s\n"
+            "assert total(np.ones(1000)) == 1000.0\n"
+            "print(numba.threading_layer(), drill_env.TBB_LIBRARY is not None)")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
+
+    def layer(**extra: str) -> str:
+        return subprocess.run([sys.executable, "-c", code], env={**env, **extra},
+                              capture_output=True, text=True, check=True).stdout.strip()
+
+    if sys.platform == "linux" and platform.machine() == "x86_64":
+        assert layer() == "tbb True"
+    assert layer(NUMBA_THREADING_LAYER="omp") == "omp False"
+
+
 def test_old_numba_caches_beyond_the_recent_ones_are_removed_after_a_day(tmp_path,
                                                                         monkeypatch):
     """Every version of the sources gets its own numba cache folder (drill_env's
