@@ -118,15 +118,17 @@ def _load_tbb() -> str | None:
     environment's ``lib/``, where the dynamic loader does not look (conda's layout puts
     it on the path). Loaded here by its path, the layer's own import then finds it, and
     numba's default order (tbb, omp, workqueue) takes it for the batched envs' parallel
-    calls: its workers join a call ~5x sooner than libgomp's sleeping ones and, unlike
-    libgomp's spinning ones, give the core back to a competing process (docs/
-    performance.md, "TBB"). Nothing is done where the user chose a layer
-    (``NUMBA_THREADING_LAYER``), numba started its threads already, or there is no
-    such library (other platforms, no ``tbb`` package): numba then picks as it would.
+    calls: its workers join a call without the ~80 us a sleeping libgomp worker takes
+    and, unlike libgomp's spinning ones, give the core back to a competing process (docs/
+    performance.md, "TBB"); and numba counts TBB fork-safe, GNU OpenMP not. Nothing
+    is done where the user chose a layer without TBB (``NUMBA_THREADING_LAYER``), numba
+    started its threads already, or there is no such library (other platforms, no
+    ``tbb`` package): numba then picks as it would.
     """
     import ctypes
 
-    if os.environ.get("NUMBA_THREADING_LAYER", "default") not in ("default", "tbb", "safe") \
+    choices_with_tbb = ("default", "tbb", "safe", "threadsafe", "forksafe")  # numba's names
+    if os.environ.get("NUMBA_THREADING_LAYER", "default") not in choices_with_tbb \
             or sys.platform != "linux":
         return None
     parallel = sys.modules.get("numba.np.ufunc.parallel")
