@@ -229,14 +229,21 @@ def test_the_training_section_splits_each_shipped_run_and_checks_the_torch_defau
     assert "Time to a policy" in (tmp_path / "speed.md").read_text()
 
 
-def test_the_env_section_times_every_set_up_and_the_parallel_ceiling():
+def test_the_env_section_times_every_set_up_and_the_parallel_ceiling(tmp_path):
     """Single, looped, batched (both APIs) and the batch's physics call alone on all
-    threads and on one, whose ratio bounds batched / loop on the machine of the run."""
-    from drill_env.tools.speed.env import bench_env, format_env
+    threads and on one, whose ratio bounds batched / loop on the machine of the run. The
+    report names numba's threading layer, which the batched figures depend on."""
+    import numba
+
+    from drill_env.tools.speed.env import format_env
 
     settings = dataclasses.replace(TINY, env_counts=(2,), env_steps=20, env_warmup_steps=2,
                                    env_batch_steps=8, min_env_calls=2)
-    result = bench_env(settings, progress=False)
+    run_speed(("env",), settings, tmp_path, progress=False, echo=None)
+    written = json.loads((tmp_path / "speed.json").read_text())
+    assert written["machine"]["numba_threading_layer"] == numba.threading_layer()
+    assert f"({numba.threading_layer()} layer)" in (tmp_path / "speed.md").read_text()
+    result = written["env"]
     for fig in result["fidelity"].values():
         assert positive_finite(fig["single"]["steps_per_s"])
         (row,) = fig["counts"]

@@ -53,6 +53,7 @@ from drill_env.tools.speed.common import (
     fidelity_levels,
     machine_info,
     source_stamp,
+    threading_layer,
 )
 from drill_env.tools.speed.core import (
     bench_core,
@@ -134,6 +135,9 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
         assert out is not None
         path = out / "speed.json"
         result["finished_sections"] = [s for s in sections if s in result]
+        layer = threading_layer()  # chosen at the first parallel call (batched envs)
+        if layer is not None:
+            machine["numba_threading_layer"] = layer
         path.write_text(json.dumps(result, indent=2) + "\n")
         # The same tables as markdown, to paste into docs/performance.md.
         report = out / "speed.md"
@@ -145,7 +149,10 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
                 f"{machine['date'][:10]}, commit {machine.get('git_commit', '?')}: "
                 f"{machine['cpu']}, {machine['cpu_count']} cores, {machine['platform']}, "
                 f"Python {machine['python']}, NumPy {machine['numpy']}, numba "
-                f"{machine['numba']}; load average {machine.get('load_average_1min', 0):.1f} "
+                f"{machine['numba']}"
+                + (f" ({machine['numba_threading_layer']} layer)"
+                   if "numba_threading_layer" in machine else "")
+                + f"; load average {machine.get('load_average_1min', 0):.1f} "
                 + (f"at the start, {machine.get('load_average_1min_end', 0):.1f} at the end"
                    + ("; SOURCES CHANGED DURING THE RUN." if changed
                       else "; sources unchanged during the run.") if finished else

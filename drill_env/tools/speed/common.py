@@ -234,6 +234,17 @@ def _cpu_name() -> str:
     return platform.processor() or platform.machine()
 
 
+def threading_layer() -> str | None:
+    """The threading layer numba's parallel calls run on (``tbb``, ``omp``,
+    ``workqueue``), or None before the process's first parallel call chose one."""
+    import numba
+
+    try:
+        return numba.threading_layer()
+    except ValueError:
+        return None
+
+
 def machine_info() -> dict[str, Any]:
     import numba
 
