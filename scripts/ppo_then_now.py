@@ -13,8 +13,9 @@ change made for the issue) and trains the same model on the same envs with both 
 in a fresh process each, in alternating turns (``--rounds``), quiet or beside one
 CPU-bound process (``--loaded``). Each tree runs with its own defaults: the old one as
 it was (libgomp's spinning wait, torch's own thread count), today's as ``drill-env
-train`` does (``import drill_env`` sets a passive OpenMP wait, torch held at one thread
-by ``training.train.torch_threads_callback``). The first ``--warmup`` steps of each
+train`` does (``import drill_env`` sets a passive OpenMP wait and, since 2026-12-04,
+puts numba's parallel calls on TBB; torch held at one thread by
+``training.train.torch_threads_callback``). The first ``--warmup`` steps of each
 process are not timed (numba cache load or compile, first update).
 
 ``--workload train_ppo`` runs instead ``training/train_ppo.py`` of the first speed issue

@@ -15,13 +15,15 @@ trains PPO (task 1's hyperparameters, 8 batched envs) in a fresh process per set
 ``workqueue``      numba's own thread pool (no spinning)
 ``omp-1thread``    OpenMP, one numba thread (no parallel physics)
 ``passive-torch1`` OpenMP passive, torch held at one thread by the training
-                   callback (``TrainConfig.torch_threads = 1``, the default of
-                   ``drill-env train``); the set-ups above leave torch at its own
-                   count (``torch_threads = 0``)
+                   callback (``TrainConfig.torch_threads = 1``, as ``drill-env
+                   train`` holds it); the default until 2026-12-04; the set-ups
+                   above leave torch at its own count (``torch_threads = 0``)
 ``spin30k-torch1`` as ``passive-torch1``, but libgomp's workers spin ~0.3 ms
                    (``GOMP_SPINCOUNT=30000``) before they sleep
 ``tbb-torch1``     as ``passive-torch1``, with numba's TBB layer (oneTBB's
-                   workers) for the batched physics; needs the ``tbb`` package
+                   workers) for the batched physics: the default since
+                   2026-12-04 (``import drill_env`` loads the ``tbb`` package's
+                   library); OpenMP's passive wait still governs torch
 =================  ========================================================
 
 quiet and with one competing CPU-bound process, in turns (``--rounds``), and prints env
