@@ -600,7 +600,21 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
              ({"n_timesteps": True}, "ppo.n_timesteps: must be a whole number, got True"),
              # a NaN entropy coefficient trained on without a word
              ({"hyperparams": {"ent_coef": -0.1}}, "ppo.hyperparams.ent_coef: must be a "
-                                                   "number >= 0"))
+                                                   "number >= 0"),
+             # strings where SB3 takes numbers: an AssertionError or a TypeError deep in
+             # SB3 (naming clip_range's schedule as the learning rate), a run folder left
+             ({"hyperparams": {"clip_range": "big"}},
+              "ppo.hyperparams.clip_range: must be a number or a linear schedule "
+              "'lin_<start>'"),
+             ({"hyperparams": {"gamma": "high"}},
+              "ppo.hyperparams.gamma: must be a number > 0 and <= 1, got 'high'"),
+             ({"hyperparams": {"learning_rate": "lin_0"}},
+              "ppo.hyperparams.learning_rate: the start of 'lin_0' must be a number > 0"),
+             ({"hyperparams": {"normalize_advantage": "no"}},
+              "ppo.hyperparams.normalize_advantage: must be true or false, got 'no'"),
+             ({"hyperparams": {"rollout_buffer_class": "RolloutBuffer"}},
+              "ppo.hyperparams.rollout_buffer_class: a Python object that a YAML cannot "
+              "give"))
     for entry, message in cases:
         path = tmp_path / "h.yml"
         path.write_text(yaml.safe_dump({"ppo": entry}))
@@ -1183,6 +1197,57 @@ def test_a_zero_width_layer_is_refused():
 
     with pytest.raises(ValueError, match="net_arch: must be a list of layer widths"):
         load_config("stick_slip", "ppo", policy_kwargs={"net_arch": [64, 0]})
+
+
+def test_sac_hyperparameters_take_their_string_forms_and_nothing_else():
+    # SB3 took 'lots' as ent_coef until float() failed after training had started, and a
+    # list tau or a noise name as a TypeError mid-run
+    for hyperparams in ({"ent_coef": "auto_0.1"}, {"target_entropy": "auto"},
+                        {"target_entropy": -2.0}, {"train_freq": [4, "episode"]},
+                        {"action_noise": None}):
+        assert load_config("drilling", "sac", hyperparams=hyperparams).hyperparams == \
+            hyperparams
+    refused = (({"ent_coef": "lots"}, "ent_coef: must be a number or 'auto' or 'auto_<"),
+               ({"ent_coef": "auto_-1"}, "ent_coef: must be a number or 'auto'"),
+               ({"target_entropy": "low"}, "target_entropy: must be a number or 'auto', "),
+               ({"tau": [0.02]}, "tau: must be a number > 0 and <= 1, got [0.02]"),
+               ({"action_noise": "normal"}, "action_noise: a Python object"),
+               ({"train_freq": [4, "epoch"]}, "train_freq: must be a whole number or "
+                                              "[count, step|episode]"),
+               ({"replay_buffer_kwargs": 3}, "replay_buffer_kwargs: must be a mapping"))
+    for hyperparams, message in refused:
+        with pytest.raises(ValueError, match=r"^sac\.hyperparams\." + re.escape(message)):
+            load_config("drilling", "sac", hyperparams=hyperparams)
+
+
+def test_linear_schedules_reach_sb3_as_rl_zoo3_builds_them(tmp_path):
+    # rl-zoo3's "lin_<start>" (the YAMLs are rl-zoo3's layout): start x progress_remaining,
+    # against rl-zoo3's own schedule; kept through a save and load; train_freq's YAML
+    # list becomes SB3's tuple
+    from rl_zoo3.utils import SimpleLinearSchedule
+    from stable_baselines3 import PPO
+
+    from training.train import make_train_env, new_model
+
+    config = load_config("stick_slip", "ppo", n_envs=2, hyperparams={
+        "learning_rate": "lin_3e-4", "clip_range": "lin_0.2", "n_steps": 64,
+        "batch_size": 64, "n_epochs": 1})
+    env = make_train_env(config, 0)
+    model = new_model(config, env)
+    for progress in (1.0, 0.7, 0.25, 0.0):
+        assert model.lr_schedule(progress) == pytest.approx(
+            SimpleLinearSchedule(3e-4)(progress), rel=1e-12, abs=0.0)
+        assert model.clip_range(progress) == pytest.approx(
+            SimpleLinearSchedule(0.2)(progress), rel=1e-12, abs=0.0)
+    model.save(tmp_path / "model.zip")
+    env.close()
+    assert PPO.load(tmp_path / "model.zip").clip_range(0.5) == pytest.approx(0.1)
+    config = load_config("drilling", "sac", n_envs=1, hyperparams={
+        "train_freq": [4, "episode"], "buffer_size": 1000})
+    env = make_train_env(config, 0)
+    freq = new_model(config, env).train_freq
+    env.close()
+    assert (freq.frequency, freq.unit.value) == (4, "episode")
 
 
 def test_a_seed_summary_reports_the_best_evaluation_not_the_last(tmp_path, monkeypatch):

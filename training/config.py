@@ -17,6 +17,7 @@ rl-zoo3's; everything that goes to the algorithm's constructor sits under
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -151,15 +152,144 @@ _RANGES: dict[str, tuple[float, float, bool]] = {  # name: (low, high, low inclu
     "learning_rate": (0.0, 10.0, False), "n_steps": (1, 10**9, True),
     "batch_size": (1, 10**9, True), "n_epochs": (1, 10**6, True),
     "gamma": (0.0, 1.0, False), "gae_lambda": (0.0, 1.0, True),
-    "clip_range": (0.0, 10.0, False), "vf_coef": (0.0, 1e6, True),
-    "max_grad_norm": (0.0, 1e9, False), "buffer_size": (1, 10**10, True),
+    "clip_range": (0.0, 10.0, False), "clip_range_vf": (0.0, 1e6, False),
+    "vf_coef": (0.0, 1e6, True), "max_grad_norm": (0.0, 1e9, False),
+    "target_kl": (0.0, 1e6, False), "buffer_size": (1, 10**10, True),
     "learning_starts": (0, 10**10, True), "tau": (0.0, 1.0, False),
     "gradient_steps": (-1, 10**6, True), "train_freq": (1, 10**9, True),
-    "ent_coef": (0.0, 1e6, True),  # a number (SAC's "auto" forms are strings: SB3's check)
+    "ent_coef": (0.0, 1e6, True), "target_entropy": (-1e6, 1e6, True),
+    "sde_sample_freq": (-1, 10**9, True), "target_update_interval": (1, 10**9, True),
+    "stats_window_size": (1, 10**9, True),
 }
 #: Hyperparameters SB3 needs as integers: a YAML ``1e5`` arrives as a float.
 _INTEGERS = {"n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",
-             "gradient_steps", "train_freq"}
+             "gradient_steps", "train_freq", "sde_sample_freq", "target_update_interval",
+             "stats_window_size"}
+#: Hyperparameters that also take rl-zoo3's linear schedule ``lin_<start>``: from <start>
+#: at the first update down to 0 at the end (:class:`LinearSchedule`).
+_SCHEDULES = {"learning_rate", "clip_range", "clip_range_vf"}
+#: Switches (a quoted "no" is refused, not read as true).
+_FLAGS = {"normalize_advantage", "use_sde", "optimize_memory_usage", "use_sde_at_warmup"}
+#: Keyword arguments of a buffer class.
+_MAPPINGS = {"rollout_buffer_kwargs", "replay_buffer_kwargs"}
+#: Python objects (a class, a noise process) that a YAML cannot give: null or left out.
+_OBJECTS = {"action_noise", "rollout_buffer_class", "replay_buffer_class"}
+#: SB3's None (off, or its default) where it takes one.
+_NULLABLE = {"clip_range_vf", "target_kl"} | _MAPPINGS | _OBJECTS
+
+
+class LinearSchedule:
+    """rl-zoo3's ``lin_<start>``: ``start`` times SB3's ``progress_remaining``, which
+    falls from 1 at the first update to 0 at the end (the arithmetic of rl-zoo3's
+    ``SimpleLinearSchedule``; rl-zoo3 is only a dev extra here). A class, not a closure,
+    so that a saved model pickles it by name."""
+
+    def __init__(self, start: float) -> None:
+        self.start = start
+
+    def __call__(self, progress_remaining: float) -> float:
+        return progress_remaining * self.start
+
+    def __repr__(self) -> str:
+        return f"LinearSchedule({self.start!r})"
+
+
+def schedule_start(text: str) -> float:
+    """The start value of a schedule written ``lin_<start>``; ValueError otherwise."""
+    kind, _, start = text.partition("_")
+    try:
+        if kind != "lin":
+            raise ValueError
+        return float(start)
+    except ValueError:
+        raise ValueError(f"must be a number or a linear schedule 'lin_<start>' (rl-zoo3's, "
+                         f"e.g. lin_3e-4), got {text!r}") from None
+
+
+def sb3_hyperparams(hyperparams: dict[str, Any]) -> dict[str, Any]:
+    """``hyperparams`` (checked by :func:`check_algorithm_arguments`) as the algorithm's
+    constructor takes them: schedules as :class:`LinearSchedule`, ``train_freq``'s YAML
+    list ``[4, episode]`` as SB3's tuple; a copy."""
+    out = dict(hyperparams)
+    for key, value in hyperparams.items():
+        if key in _SCHEDULES and isinstance(value, str):
+            out[key] = LinearSchedule(schedule_start(value))
+        elif key == "train_freq" and isinstance(value, list):
+            out[key] = tuple(value)
+    return out
+
+
+def _in_range(key: str, value: Any) -> None:
+    """ValueError unless ``value`` is a number in ``_RANGES[key]``."""
+    import math
+
+    low, high, closed = _RANGES[key]
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not (number and math.isfinite(value) and (value >= low if closed else value > low)
+            and value <= high):
+        raise ValueError(f"must be a number {'>=' if closed else '>'} {low:g} and <= "
+                         f"{high:g}, got {value!r}")
+
+
+def _sac_auto(key: str, value: str) -> None:
+    """SAC's string forms: ``ent_coef`` 'auto' or 'auto_<initial value>' (learnt from
+    that start), ``target_entropy`` 'auto' (minus the action's dimension)."""
+    if value == "auto":
+        return
+    if key == "ent_coef" and value.startswith("auto_"):
+        try:
+            start = float(value.removeprefix("auto_"))
+        except ValueError:
+            start = math.nan
+        if start > 0.0 and start <= 1e6:
+            return
+    forms = "'auto' or 'auto_<initial value > 0>'" if key == "ent_coef" else "'auto'"
+    raise ValueError(f"must be a number or {forms}, got {value!r}")
+
+
+def checked_hyperparameter(algo: str, key: str, value: Any) -> Any:
+    """``value`` of hyperparameter ``key`` of ``algo`` as it is kept (a YAML ``1e5``
+    count an int); ValueError saying what the key takes."""
+    if value is None and key in _NULLABLE:
+        return None
+    if key in _OBJECTS:
+        raise ValueError(f"a Python object that a YAML cannot give; leave it out or null, "
+                         f"got {value!r}")
+    if key in _FLAGS:
+        if not isinstance(value, (bool, np.bool_)):
+            raise ValueError(f"must be true or false, got {value!r}")
+        return bool(value)
+    if key in _MAPPINGS:
+        if not isinstance(value, dict):
+            raise ValueError(f"must be a mapping of keyword arguments, got {value!r}")
+        return value
+    if key == "train_freq" and isinstance(value, (list, tuple)):
+        if len(value) != 2 or value[1] not in ("step", "episode"):
+            raise ValueError(f"must be a whole number or [count, step|episode], got "
+                             f"{list(value)!r}")
+        count = _whole(value[0])
+        _in_range(key, count)
+        if not isinstance(count, int):
+            raise ValueError(f"must be a whole number, got {value[0]!r}")
+        return [count, value[1]]
+    if isinstance(value, str):
+        if key in _SCHEDULES:
+            start = schedule_start(value)
+            try:
+                _in_range(key, start)
+            except ValueError as err:
+                raise ValueError(f"the start of {value!r} {err}") from None
+            return value
+        if algo == "sac" and key in ("ent_coef", "target_entropy"):
+            _sac_auto(key, value)
+            return value
+    if key in _INTEGERS:
+        value = _whole(value)
+        if not isinstance(value, int):
+            raise ValueError(f"must be a whole number, got {value!r}")
+    if key in _RANGES:
+        _in_range(key, value)
+    return value
 
 
 #: ``policy_kwargs.activation_fn`` by name (YAML holds no classes): torch.nn's module.
@@ -208,7 +338,6 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
     constructors, so a misspelt or impossible value fails before a run folder exists, with
     its YAML path (``ppo.hyperparams.n_epochs``) instead of a traceback from SB3 or torch."""
     import inspect
-    import math
 
     algo = algo_class(config.algo)
     where = f"{config.algo}.hyperparams"
@@ -217,20 +346,10 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         if key not in known:
             raise ConfigError(f"{where}.{key}: not an argument of {algo.__name__}; known: "
                               f"{', '.join(sorted(known))}")
-        number = isinstance(value, (int, float)) and not isinstance(value, bool)
-        if key in _INTEGERS:  # the rule of the config's own counts (``Whole``)
-            try:
-                value = config.hyperparams[key] = _whole(value)
-            except ValueError as err:
-                raise ConfigError(f"{where}.{key}: {err}") from None
-            if key != "train_freq" and not isinstance(value, int):
-                raise ConfigError(f"{where}.{key}: must be a whole number, got {value!r}")
-        if key in _RANGES and number:  # schedules ("lin_3e-4"), tuples ([1, "episode"]):
-            low, high, closed = _RANGES[key]  # SB3's own checks
-            if not (math.isfinite(value) and (value >= low if closed else value > low)
-                    and value <= high):
-                bound = f"{'>=' if closed else '>'} {low:g} and <= {high:g}"
-                raise ConfigError(f"{where}.{key}: must be a number {bound}, got {value!r}")
+        try:
+            config.hyperparams[key] = checked_hyperparameter(config.algo, key, value)
+        except ValueError as err:
+            raise ConfigError(f"{where}.{key}: {err}") from None
     if config.algo == "ppo":  # SB3 only warns, then trains on truncated mini-batches
         batch = config.hyperparams.get("batch_size", 64)
         rollout = config.hyperparams.get("n_steps", 2048) * config.n_envs

@@ -44,6 +44,7 @@ from training.config import (
     VALIDATION_SEED,
     TrainConfig,
     algo_class,
+    sb3_hyperparams,
     sb3_policy_kwargs,
     without_inert_keys,
 )
@@ -261,7 +262,7 @@ def new_model(config: TrainConfig, env: Any, **kwargs: Any) -> Any:
         policy_kwargs["optimizer_kwargs"] = {"fused": True}  # SB3's default class: Adam
     model = algo_class(config.algo)(config.policy, env, seed=config.seed, verbose=0,
                                      policy_kwargs=policy_kwargs, **kwargs,
-                                     **config.hyperparams)
+                                     **sb3_hyperparams(config.hyperparams))
     if kwargs.get("tensorboard_log") is None:
         # SB3 otherwise gives every learn() without a log folder an empty folder of its
         # own in the system's temporary directory (tempdir/SB3-<date>), never removed
