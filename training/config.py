@@ -221,8 +221,6 @@ def sb3_hyperparams(hyperparams: dict[str, Any]) -> dict[str, Any]:
 
 def _in_range(key: str, value: Any) -> None:
     """ValueError unless ``value`` is a number in ``_RANGES[key]``."""
-    import math
-
     low, high, closed = _RANGES[key]
     number = isinstance(value, (int, float)) and not isinstance(value, bool)
     if not (number and math.isfinite(value) and (value >= low if closed else value > low)
