@@ -250,8 +250,8 @@ _TABLE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
 def check_interface(name: str, controller: Any) -> None:
     """ValueError naming what a controller of your own lacks or gets wrong: the methods
     and attributes of :class:`agents.base.Controller`, a ``rate``, an ``env_id`` that is
-    registered, ``physics()`` a dict, a table name (:func:`table_name`) that can name
-    files and is not a built-in controller's."""
+    registered, ``physics()`` a dict of overrides that the default config takes, a table
+    name (:func:`table_name`) that can name files and is not a built-in controller's."""
     missing = [a for a in ("name", "rate", "env_id", "physics", "reset", "act")
                if not hasattr(controller, a)]
     if missing:
@@ -276,6 +276,13 @@ def check_interface(name: str, controller: Any) -> None:
         raise ValueError(f"controller: {name}: physics() returned "
                          f"{type(physics).__name__}, not a dict of config overrides "
                          "({} for none)")
+    from drill_env.physics.config import SimulationConfig
+    from drill_env.physics.validation import replace
+
+    try:  # a misspelt key reads as the controller's, not as the user's --config
+        replace(SimulationConfig(), **physics)
+    except (ValueError, TypeError) as err:
+        raise ValueError(f"controller: {name}: physics() returned {err}") from None
     own = table_name(name)  # the class's own name, else the attribute after the colon
     if not _TABLE_NAME.fullmatch(own):
         raise ValueError(f"controller: {name}: name {own!r} cannot name its rows and "

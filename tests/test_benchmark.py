@@ -1012,6 +1012,13 @@ BROKEN = {  # file -> (code, what the one-line error says)
                      "class Bad(SetPointController):\n    name = 'nophysics'\n\n"
                      "    def physics(self):\n        pass\n",
                      "physics() returned NoneType, not a dict"),
+    # a misspelt key of its own top drive read as the user's --config
+    "gain.py": ("from agents import SetPointController\n\n\n"
+                "class Bad(SetPointController):\n    name = 'gain'\n\n"
+                "    def physics(self):\n"
+                "        return {'top_drive.proportional_gian': 3000.0}\n",
+                "Bad: physics() returned top_drive.proportional_gian: unknown field of "
+                "TopDriveConfig (did you mean proportional_gain?)"),
     "typo.py": ("from agents import SetPointController\n\n\n"
                 "class Bad(SetPointController):\n    name = 'typo'\n"
                 "    env_id = 'DrillStrin-v0'\n",
