@@ -492,7 +492,7 @@ def format_maps(maps: Sequence[StabilityMap]) -> str:
             k = np.flatnonzero(np.isclose(m.rpm, r))
             value = m.boundary[k[0]] if k.size else np.nan
             samples.append("-" if not k.size else ("none" if math.isnan(value)
-                                                    else f"{value / 1e3:.0f}"))
+                                                    else f"{value / 1e3:g}"))
         lines.append(f"{m.position:<9} {m.rock2_share:>5.0%}  {m.unstable_fraction:>7.0%}  "
                      f"{m.runs:>4}  {m.unstable.size:>5}   {' / '.join(samples)}")
     lines += ["boundary: the lowest WOB that stick-slips at that speed; none: no WOB of "

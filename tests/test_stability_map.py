@@ -361,3 +361,14 @@ def test_the_map_command_runs_under_a_drive_rate_controller_of_your_own(tmp_path
     with pytest.raises(SystemExit):
         main([*args, "--controller", f"{tmp_path / 'mine.py'}:Chooser"])
     assert "acts at the policy rate" in capsys.readouterr().err
+
+
+def test_the_table_prints_boundaries_on_the_grid_as_they_are():
+    # a 2.5 kN grid printed 22.5 and 47.5 kN as 22 and 48 (Python rounds halves to even)
+    rpm = np.array([25.0, 50.0, 100.0, 150.0])
+    wob = np.arange(1, 41) * 2.5e3
+    boundary = np.array([22.5e3, 47.5e3, 100.0e3, math.nan])
+    unstable = wob[:, None] >= np.nan_to_num(boundary, nan=math.inf)[None, :]
+    m = sm.StabilityMap("P1", 0.0, rpm, wob, unstable, unstable.astype(np.int8), boundary,
+                        runs=0, wall_s=0.0)
+    assert "22.5 / 47.5 / 100 / none" in sm.format_maps([m])
