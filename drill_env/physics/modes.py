@@ -356,7 +356,8 @@ def critical_speed_figure(config: SimulationConfig, modes: Sequence[Modes],
     mode's label holds that place, in a column further left. Each excitation line runs
     into its label: in a band above the modes (the steeper a line, the higher its
     label, so that no line crosses another's label), or, for a line that leaves through
-    the right edge, just above it. No label covers a critical speed (the circles)."""
+    the right edge, just above the line beyond its last critical speed and off the mode
+    lines, the line ending there. No label covers a critical speed (the circles)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -470,7 +471,9 @@ def _lay_out_labels(fig: Any, ax: Any, modes: list[tuple[Any, Any]], drawn: dict
         boxes = (put(text, (frame.x1 - 3.0 - c * column, y)) for c in range(12))
         box = next((b for b in boxes if free(b)), None) or put(text, (frame.x1 - 3.0, y))
         taken.append(box)
-        line.set_xdata([0.0, (box.x1 - 1.0 - frame.x0) / frame.width])  # axes fraction
+        # axes fraction; under the label's left end (its right end showed past the
+        # text's white box)
+        line.set_xdata([0.0, (box.x0 + 3.0 - frame.x0) / frame.width])
 
     origin = to_px((0.0, 0.0))
     ends = {name: to_px(line.get_xydata()[-1]) for name, line in drawn.items()}
@@ -505,15 +508,41 @@ def _lay_out_labels(fig: Any, ax: Any, modes: list[tuple[Any, Any]], drawn: dict
                     return True
         return False
 
+    # the mode lines as drawn (pixels): height, right end (they end at their labels)
+    mode_rows = [(to_px((0.0, line.get_ydata()[0]))[1],
+                  frame.x0 + line.get_xdata()[1] * frame.width) for _, line in modes]
+    dot_px = to_px(circles) if circles else np.zeros((0, 2))
+
+    def off_modes(box: Any) -> bool:
+        """``box`` crossed by no mode line."""
+        return not any(box.y0 < y < box.y1 and box.x0 < right for y, right in mode_rows)
+
     # the least steep first: a steeper line's label then goes above the others' ends
     unplaced = [name for name in sorted(lines, key=lines.__getitem__) if not in_band(name)]
     for name in unplaced:  # above its line, short of where it leaves the plot
         right = ax.get_xlim()[1]
         far = to_px((right, lines[name] * right / 60.0))
         reach = min(1.0, (frame.y1 - origin[1]) / max(far[1] - origin[1], 1e-9))
-        spots = [origin + t * (far - origin) + (-3.0, 3.0)  # the label's lower right
-                 for t in np.linspace(0.97, 0.15, 42) * reach]
-        boxes = (put(texts[name], spot, ha="right", va="bottom") for spot in spots)
-        taken.append(next((b for b in boxes if clear(b, name)), None)
-                     or put(texts[name], spots[0]))
+        # the line ends at its label, beyond its last critical speed
+        slope = (far[1] - origin[1]) / (far[0] - origin[0])
+        own = [x for x, y in dot_px if abs(origin[1] + slope * (x - origin[0]) - y) < 1.0]
+        last = max(own, default=origin[0])
+        placed = None
+        for t in np.linspace(0.97, 0.15, 42) * reach:
+            corner = origin + t * (far - origin)  # on the line: the label's lower right
+            if corner[0] < last + 6.0:
+                break
+            box = put(texts[name], corner + (-3.0, 3.0), ha="right", va="bottom")
+            if clear(box, name, corner) and off_modes(box):
+                ends[name] = corner
+                drawn[name].set_data(*np.transpose(to_data([origin, corner])))
+                placed = box
+                break
+        if placed is None:  # no such room: the first spot free of labels, the line whole
+            spots = [origin + t * (far - origin) + (-3.0, 3.0)
+                     for t in np.linspace(0.97, 0.15, 42) * reach]
+            boxes = (put(texts[name], spot, ha="right", va="bottom") for spot in spots)
+            placed = next((b for b in boxes if clear(b, name)), None) \
+                or put(texts[name], spots[0])
+        taken.append(placed)
 

@@ -589,6 +589,35 @@ def test_mode_labels_stand_apart_and_each_line_ends_at_its_label(string, n_modes
     plt.close(fig)
 
 
+def test_excitation_labels_and_lines_keep_off_the_modes():
+    """The random scenario's seed-3 string (`drill-env modes --scenario random --seed 3`):
+    the 1x line leaves through the right edge just under T3 (4.07 Hz); its label sat on
+    T3's dashed line and the line ran on into T3's label. No excitation label may sit on
+    a mode line, and no excitation line may pass through a mode label."""
+    import matplotlib.pyplot as plt
+
+    from drill_env.physics.modes import _crosses
+    from drill_env.scenarios import make_scenario
+
+    config = make_scenario("random", rng=np.random.default_rng(3)).config
+    fig, ax, _ = _chart(config, 5, 250.0)
+    renderer = fig.canvas.get_renderer()
+    to_px = ax.transData.transform
+    rows = [(to_px((0.0, line.get_ydata()[0]))[1],
+             ax.bbox.x0 + line.get_xdata()[1] * ax.bbox.width)
+            for line in ax.lines if line.get_gid() == "mode line"]
+    mode_boxes = [t.get_window_extent(renderer) for t in ax.texts
+                  if t.get_gid() == "mode label"]
+    for text in (t for t in ax.texts if t.get_gid() == "excitation label"):
+        box = text.get_window_extent(renderer)
+        assert not any(box.y0 < y < box.y1 and box.x0 < end for y, end in rows), \
+            text.get_text()
+    for line in (x for x in ax.lines if str(x.get_gid()).startswith("excitation:")):
+        start, end = to_px(line.get_xydata())
+        assert not any(_crosses(start, end, b) for b in mode_boxes), line.get_gid()
+    plt.close(fig)
+
+
 def test_backward_whirl_labels_say_their_multiplier():
     """A backward whirl line's slope is not in its name: rolling without slip on the
     wall, a body of radius r in a hole of radius R whirls backward at r / (R - r) times
