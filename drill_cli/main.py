@@ -1230,6 +1230,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt as stopped:
         said = "terminated" if isinstance(stopped, Terminated) else "interrupted"
+        if args.command in KEEPS_FINISHED and out is not None:
+            said += (f"; its finished {KEEPS_FINISHED[args.command]} are kept in {out}: the "
+                     "same command again goes on from them")
         print(f"drill-env {args.command}: {said}", file=sys.stderr)
         return exit_status(stopped)
     finally:
@@ -1240,6 +1243,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 _NOT_INSTALLED = object()
+#: Commands that keep what they finished in their --out as it arrives, and what that is
+#: (a rerun with the same settings and code reuses it; `train` says its own checkpoint).
+KEEPS_FINISHED = {"benchmark": "episodes", "stability-map": "points"}
 
 
 def exit_status(stopped: KeyboardInterrupt) -> int:

@@ -741,6 +741,26 @@ def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, s
     assert noted_interrupt() is None  # handled: a later training run must not act on it
 
 
+def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsys,
+                                                             tmp_path):
+    """An interrupted benchmark or stability map keeps its finished episodes or points
+    and a rerun goes on from them: it says so (it said only "interrupted")."""
+    import agents.benchmark as bm
+
+    def stopped(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bm, "run_benchmark", stopped)
+    out = tmp_path / "b"
+    assert main(["benchmark", "--controllers", "stiff", "--seeds", "1", "--out",
+                 str(out)]) == 130
+    assert (f"drill-env benchmark: interrupted; its finished episodes are kept in {out}: "
+            "the same command again goes on from them") in capsys.readouterr().err
+    monkeypatch.setattr("drill_cli.main.cmd_modes", stopped)
+    assert main(["modes", "--out", str(tmp_path / "m")]) == 130
+    assert capsys.readouterr().err.strip() == "drill-env modes: interrupted"
+
+
 def test_benchmark_windows_default_to_what_help_and_docs_say(monkeypatch, tmp_path):
     """Without --duration and --warmup a scenario benchmark runs 60 s episodes measured
     after 30 s (docs/controllers.md, the options' help); with --task, the task's
