@@ -86,9 +86,13 @@ class Survey:
         names = ("md", "inclination", "azimuth")
         with Path(path).open(newline="") as f:
             reader = csv.DictReader(f)
-            missing = set(names) - set(reader.fieldnames or ())
-            if missing:
-                raise ValueError(f"survey {path}: missing column(s) {sorted(missing)}")
+            found = reader.fieldnames or []
+            missing = set(names) - set(found)
+            if missing:  # say what the header held: units in the names, another separator
+                held = f"its header is {found}" if found else "the file is empty"
+                raise ValueError(f"survey {path}: missing column(s) {sorted(missing)}; "
+                                 f"{held} (comma-separated, named md, inclination, "
+                                 "azimuth: m and degrees)")
             columns: list[list[float]] = [[], [], []]
             for row in reader:
                 for column, name in zip(columns, names, strict=True):

@@ -4,6 +4,7 @@ torque-and-drag model, against closed forms."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -172,6 +173,14 @@ def test_a_survey_reads_from_csv(tmp_path):
     np.testing.assert_allclose(survey.inclination, np.radians([0, 0, 60]))
     path.write_text("md,incl\n0,0\n")
     with pytest.raises(ValueError, match="missing column"):
+        Survey.from_csv(path)
+    # what the header held, for units in the names or another separator; an empty file
+    path.write_text("MD (m);Inc (deg);Azi (deg)\n0;0;0\n")
+    with pytest.raises(ValueError, match=re.escape(
+            "its header is ['MD (m);Inc (deg);Azi (deg)'] (comma-separated, named md")):
+        Survey.from_csv(path)
+    path.write_text("")
+    with pytest.raises(ValueError, match="missing column.*; the file is empty"):
         Survey.from_csv(path)
     path.write_text("md,inclination,azimuth\n")  # a header alone: no stations
     with pytest.raises(ValueError, match="at least two stations"):
