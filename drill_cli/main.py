@@ -704,7 +704,26 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
         return {}
     if not isinstance(data, dict):
         raise ValueError(f"--config {path}: expected a mapping of config sections")
+    for key in data:  # what a command's options set, written into the file
+        if key in NOT_PHYSICS:
+            raise ValueError(f"--config {path}: {key}: not a config section; "
+                             f"{NOT_PHYSICS[key]}")
     return flatten(data)
+
+
+#: Keys a --config file may be given that belong to a command's options instead.
+NOT_PHYSICS = {
+    "rpm": "the speed is an option of the command (drill-env run --rpm, in rpm)",
+    "wob": "the weight on bit is an option of the command (drill-env run --wob, in kN)",
+    "weight_on_bit": "the weight on bit is an option of the command (drill-env run --wob, "
+                     "in kN)",
+    "duration": "the episode's length is an option of the command (--duration, in s)",
+    "seed": "the seed is an option of the command (--seed or --seeds)",
+    "scenario": "the scenario is an option of the command (--scenario); the file changes "
+                "its config",
+    "controller": "the controller is an option of the command (--controller or "
+                  "--controllers)",
+}
 
 
 def with_overrides(config, path: Path | None):

@@ -303,6 +303,16 @@ def test_an_empty_config_file_overrides_nothing_and_a_list_is_refused(tmp_path):
         read_overrides(listed)
 
 
+def test_an_operating_point_in_a_config_file_points_to_its_option(tmp_path, capsys):
+    # "rpm: 80" in --config listed the config sections, not where the speed goes
+    path = tmp_path / "rpm.yaml"
+    path.write_text("rpm: 80\nmud: {density: 1200}\n")
+    assert main(["run", "--config", str(path), "--duration", "1", "--out",
+                 str(tmp_path / "o")]) == 2
+    assert (f"--config {path}: rpm: not a config section; the speed is an option of the "
+            "command (drill-env run --rpm, in rpm)") in capsys.readouterr().err
+
+
 def test_the_example_component_string_fits_every_scenario():
     """The README's example file over any scenario: its components replace the
     scenario's BHA, also the crossing cases' 120 m of collars and their stabilizers
