@@ -116,6 +116,12 @@ def progress_bar(items: Iterable, desc: str, enabled: bool) -> Iterator:
                     disable=not enabled)
 
 
+#: How a table names a warning :func:`recorded_warnings` kept: about the benchmark's own
+#: set-up (its advice is not the reader's to follow).
+SETUP_WARNING = ("the simulator warned of this benchmark's own set-up (noted, not for you "
+                 "to act on)")
+
+
 @contextlib.contextmanager
 def recorded_warnings(into: list[str]) -> Iterator[None]:
     """Collect the messages of warnings raised inside (each once) into ``into``: a

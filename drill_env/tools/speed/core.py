@@ -12,6 +12,7 @@ from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.simulator import Simulator
 from drill_env.physics.units import RPM
 from drill_env.tools.speed.common import (
+    SETUP_WARNING,
     SURFACE_SPEED,
     WEIGHT_ON_BIT,
     BenchmarkSettings,
@@ -91,7 +92,7 @@ def format_core(result: dict[str, Any]) -> str:
             f"repeats; x NumPy compares real-time factors (a level may step longer)")
     for name, fig in result["fidelity"].items():
         for message in fig.get("warnings", []):
-            note += f"\n{name}: warning: {message}"
+            note += f"\n{name}: {SETUP_WARNING}: {message}"
     if "fast_over_full_speed" in result:
         note += (f"\nfast / full real-time factor: {result['fast_over_full_speed']:.2f} x "
                  f"(DOFs: 5 per node, whether the level moves them or not)")

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from drill_env.tools.speed.common import (
+    SETUP_WARNING,
     BenchmarkSettings,
     fidelity_levels,
     progress_bar,
@@ -269,7 +270,7 @@ def format_env(result: dict[str, Any]) -> str:
                      f"simulator steps, {single['us_per_env_step']:.0f} us, of which "
                      f"{single['us_in_simulator']:.0f} us in Simulator.advance: Python "
                      f"overhead {single['python_overhead_share']:.0%}")
-        notes += [f"{name}: warning: {m}" for m in fig.get("warnings", [])]
+        notes += [f"{name}: {SETUP_WARNING}: {m}" for m in fig.get("warnings", [])]
     if "fast_over_full_single" in result:
         notes.append(f"fast / full env steps/s: one env {result['fast_over_full_single']:.2f} x,"
                      f" batched (largest N) {result['fast_over_full_batched']:.2f} x")
