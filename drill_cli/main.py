@@ -353,7 +353,7 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{fixed(summary['mean_ssi'])}, stuck "
           f"{fixed(summary['mean_stuck_fraction'])}, whirl ratio "
           f"{fixed(summary['mean_whirl_ratio'])}, radial ratio "
-          f"{fixed(summary['mean_radial_ratio'])}, lateral force "
+          f"{fixed(summary['mean_radial_ratio'])}, bit lateral force "
           f"{summary['mean_lateral_force'] / KILO:.1f} kN, ROP "
           f"{summary['mean_rop'] * HOUR:.1f} m/h")
     if args.record is not None:
