@@ -115,6 +115,9 @@ def figure_16_17_18(runs, out: Path) -> None:
             ax.set_xlim(-12, 12)
             ax.set_ylim(-12, 12)
             ax.set_title(f"{name[-5:]}: {label}", fontsize=9)
+        row[0].set_ylabel("bit y (mm)")
+    for ax in axes[-1]:
+        ax.set_xlabel("bit x (mm)")
     fig.suptitle("Fig. 18: bit orbit (mm) in the 5 mm gauge clearance")
     fig.tight_layout()
     fig.savefig(out / "fig18_orbits.png", dpi=110)
