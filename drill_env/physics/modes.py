@@ -527,9 +527,10 @@ def _lay_out_labels(fig: Any, ax: Any, modes: list[tuple[Any, Any]], drawn: dict
         slope = (far[1] - origin[1]) / (far[0] - origin[0])
         own = [x for x, y in dot_px if abs(origin[1] + slope * (x - origin[0]) - y) < 1.0]
         last = max(own, default=origin[0])
+        corners = [origin + t * (far - origin)  # on the line: a label's lower right
+                   for t in np.linspace(0.97, 0.15, 42) * reach]
         placed = None
-        for t in np.linspace(0.97, 0.15, 42) * reach:
-            corner = origin + t * (far - origin)  # on the line: the label's lower right
+        for corner in corners:
             if corner[0] < last + 6.0:
                 break
             box = put(texts[name], corner + (-3.0, 3.0), ha="right", va="bottom")
@@ -539,10 +540,9 @@ def _lay_out_labels(fig: Any, ax: Any, modes: list[tuple[Any, Any]], drawn: dict
                 placed = box
                 break
         if placed is None:  # no such room: the first spot free of labels, the line whole
-            spots = [origin + t * (far - origin) + (-3.0, 3.0)
-                     for t in np.linspace(0.97, 0.15, 42) * reach]
-            boxes = (put(texts[name], spot, ha="right", va="bottom") for spot in spots)
+            boxes = (put(texts[name], c + (-3.0, 3.0), ha="right", va="bottom")
+                     for c in corners)
             placed = next((b for b in boxes if clear(b, name)), None) \
-                or put(texts[name], spots[0])
+                or put(texts[name], corners[0] + (-3.0, 3.0))
         taken.append(placed)
 
