@@ -11,6 +11,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 
 from drill_env import metrics
 from drill_env.env_batch import (  # noqa: F401  (OBS_BOUND, INFO_WINDOW_METRICS: the surface)
@@ -25,12 +26,13 @@ from drill_env.env_batch import (  # noqa: F401  (OBS_BOUND, INFO_WINDOW_METRICS
     OBS_BOUND,
     BatchFinish,
 )
-from drill_env.env_config import (  # noqa: F401  (EnvConfig re-exported: the env's surface)
+from drill_env.env_config import (  # noqa: F401  (EnvConfig, OBSERVATIONS: the env's surface)
     ENV_FIELDS,
     MAX_EPISODE_DURATION,
     MAX_RECORDS_PER_STEP,
     MAX_WEIGHT,
     MIN_SCALE,
+    OBSERVATIONS,
     PLAIN_CONTROL_INTERVAL,
     PLAIN_SPANS,
     EnvConfig,
@@ -57,19 +59,6 @@ from drill_env.scenarios import (
     scenario_parameters,
     with_physics,
 )
-
-#: Observation layout per ``sensors`` mode (names of the vector entries, in order).
-OBSERVATIONS: dict[str, tuple[str, ...]] = {
-    "downhole": (
-        "torque_on_bit", "bit_speed", "weight_on_bit", "bit_x", "bit_y", "bit_vx", "bit_vy",
-        "whirl_speed", "bit_force_x", "bit_force_y", "max_contact_force", "surface_speed",
-        "surface_torque", "hook_load", "rop", "speed_setpoint", "weight_on_bit_setpoint",
-    ),
-    "surface": (
-        "surface_speed", "surface_torque", "hook_load", "rop", "speed_setpoint",
-        "weight_on_bit_setpoint",
-    ),
-}
 
 #: Seconds of history in a rendered frame (``render_mode="rgb_array"``).
 RENDER_SECONDS = 10.0
@@ -266,6 +255,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
             self._check_range(self.scenario.surface_speed, self.scenario.weight_on_bit, "")
         self._set_simulator(Simulator(self.scenario.config))
         self._init_episode_state()
+        self._reset_done = False  # (step refuses to run before the first reset)
 
     # ------------------------------------------------------------------ set-up
 
@@ -423,6 +413,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._readings = sim.readings.tolist()  # fresh after reset and the start-up
         self._status = self._readings[_STATUS]
         info = self._info()
+        self._reset_done = True
         return self._observation(info), info
 
     def _start_targets(self, speed: float, wob: float, given: frozenset[str]
@@ -448,6 +439,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         sim.advance(0, hook_load=sim.hook_load_for(wob), read=True)
 
     def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if not self._reset_done:  # (as gymnasium.make's OrderEnforcing and the vector envs)
+            raise ResetNeeded("step: call reset() before the first step")
         self.apply_action(action)
         records = self.advance()
         self.keep_records(records)

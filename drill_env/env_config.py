@@ -29,6 +29,18 @@ PLAIN_CONTROL_INTERVAL = 0.1
 #: The spans of ``EnvConfig``'s default ``rpm_range`` (rad/s) and ``weight_on_bit_range``
 #: (N): DrillString-v0's effort term divides set-point changes by them (set below).
 PLAIN_SPANS: tuple[float, float]
+#: Observation layout per ``sensors`` mode (names of the vector entries, in order).
+OBSERVATIONS: dict[str, tuple[str, ...]] = {
+    "downhole": (
+        "torque_on_bit", "bit_speed", "weight_on_bit", "bit_x", "bit_y", "bit_vx", "bit_vy",
+        "whirl_speed", "bit_force_x", "bit_force_y", "max_contact_force", "surface_speed",
+        "surface_torque", "hook_load", "rop", "speed_setpoint", "weight_on_bit_setpoint",
+    ),
+    "surface": (
+        "surface_speed", "surface_torque", "hook_load", "rop", "speed_setpoint",
+        "weight_on_bit_setpoint",
+    ),
+}
 #: Records one control step may hold (memory of the record buffer: 16 floats each).
 MAX_RECORDS_PER_STEP = 100_000
 

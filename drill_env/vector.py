@@ -310,10 +310,9 @@ class DrillStringVectorEnv(VectorEnv):
         """The envs' random generators (as Gymnasium's ``SyncVectorEnv``)."""
         return self.get_attr("np_random")
 
-    def render(self) -> tuple[Any, ...] | None:
-        """Each env's frame (``render_mode="rgb_array"``), as Gymnasium's sync vector env."""
-        if self.render_mode is None:
-            return super().render()
+    def render(self) -> tuple[Any, ...]:
+        """Each env's frame (``render_mode="rgb_array"``; None each, with the env's warning,
+        without a render mode), as Gymnasium's sync vector env."""
         return tuple(env.render() for env in self.envs)
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
@@ -441,6 +440,14 @@ def _sb3_class() -> type:
     DrillStringSB3VecEnv.__qualname__ = "DrillStringSB3VecEnv"
     _SB3_CLASS = DrillStringSB3VecEnv
     return _SB3_CLASS
+
+
+def __getattr__(name: str) -> Any:
+    """``drill_env.vector.DrillStringSB3VecEnv``, built on first use: importable by its
+    name, and so picklable (pickle finds a class by its module and name)."""
+    if name == "DrillStringSB3VecEnv":
+        return _sb3_class()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def make_sb3_vec_env(num_envs: int = 1, env_id: str | None = None, **env_kwargs: Any):

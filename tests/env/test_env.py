@@ -224,6 +224,20 @@ def test_same_seed_same_actions_give_identical_trajectories():
         np.testing.assert_array_equal(a, b)
 
 
+def test_a_step_before_the_first_reset_is_refused_by_the_unwrapped_env_too():
+    """From a fuzz of the API: only gymnasium.make's OrderEnforcing stopped it; the
+    unwrapped task env ran an episode with (0, 0) targets."""
+    from gymnasium.error import ResetNeeded
+
+    for env in (DrillStringEnv(**SHORT), gym.make("DrillStickSlip-v0", **SHORT).unwrapped):
+        action = np.zeros(env.action_space.shape, dtype=np.float32)
+        with pytest.raises(ResetNeeded, match="^step: call reset"):
+            env.step(action)
+        env.reset(seed=0)
+        env.step(action)
+        pickle.loads(pickle.dumps(env)).step(action)  # the reset is carried along
+
+
 def test_pickle_round_trip_of_fresh_and_stepped_env():
     env = DrillStringEnv(scenario="random", observation_noise=0.01, **SHORT)
     env2 = pickle.loads(pickle.dumps(env))

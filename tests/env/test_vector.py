@@ -262,6 +262,33 @@ def test_vector_env_pickles():
     np.testing.assert_array_equal(a[1], b[1])
 
 
+def test_sb3_vec_env_pickles_and_its_class_is_importable_by_its_name():
+    """From a fuzz of the API: the class was built inside a function, so pickle (which
+    looks a class up by module and name) refused it, unlike SB3's own DummyVecEnv."""
+    import drill_env.vector as vector
+
+    venv = make_sb3_vec_env(2, **KW)
+    assert type(venv) is vector.DrillStringSB3VecEnv
+    venv.seed(3)
+    venv.reset()
+    clone = pickle.loads(pickle.dumps(venv))
+    for _ in range(2):
+        a, b = venv.step(np.full((2, 2), 0.3)), clone.step(np.full((2, 2), 0.3))
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])
+    with pytest.raises(AttributeError, match="DrillStringSB3Vec'"):
+        vector.DrillStringSB3Vec  # noqa: B018  (a misspelt name still fails)
+
+
+def test_render_without_a_render_mode_is_none_per_env_as_in_the_sync_vector_env():
+    ours = DrillStringVectorEnv(num_envs=2, **KW)
+    sync = gym.make_vec("DrillString-v0", num_envs=2, vectorization_mode="sync", **KW)
+    for envs in (ours, sync):
+        envs.reset(seed=0)
+        with pytest.warns(UserWarning, match="render_mode"):
+            assert envs.render() == (None, None)
+
+
 def test_sb3_vec_env_autoresets_with_terminal_observation():
     from stable_baselines3.common.vec_env import VecEnv
 
