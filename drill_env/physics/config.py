@@ -435,10 +435,11 @@ class FormationConfig:
 
     ``layers[k]`` names the rock of layer k (index into ``rocks``); layer 0 lies above
     ``interfaces[0]``, layer k between interfaces k-1 and k. Interfaces must not cross
-    inside the region the bit visits. In a curved hole (``well``) "above" means before
-    the crossing along the hole: the layers are listed in the order the hole meets them,
-    which for a hole drilling up-section (a bed dipping more steeply than the hole's
-    inclination, toward the hole's direction) is from the geologically lower rock up.
+    within the bit's radius of the hole axis (the simulator refuses them). In a curved
+    hole (``well``) "above" means before the crossing along the hole: the layers are in
+    the order the hole meets them, which for a hole drilling up-section (a bed dipping
+    more steeply than the hole's inclination, toward the hole's direction) is from the
+    geologically lower rock up.
     """
 
     rocks: tuple[RockConfig, ...] = (RockConfig(),)

@@ -120,9 +120,31 @@ def formation_arrays(cfg: FormationConfig, bit_diameter: float = math.inf,
         # "below" an interface is further along the hole
         normals[k] = local if local[2] > 0.0 else -local
         offsets[k] = interface.depth * abs(local[2])
+    if math.isfinite(bit_diameter):
+        _check_order_under_the_bit(normals, offsets, 0.5 * bit_diameter)
     layer_rock = np.asarray(cfg.layers, dtype=np.int64)
     return FormationArrays(normals, offsets, layer_rock,
                            rock_parameter_table(cfg.rocks, bit_diameter))
+
+
+def _check_order_under_the_bit(normals: np.ndarray, offsets: np.ndarray, radius: float
+                               ) -> None:
+    """ConfigError unless each interface lies below the one before it everywhere within
+    ``radius`` of the hole axis (the bit face; a layer's rock is found by counting the
+    planes above a point, which two crossing planes make wrong). Along the axis at a
+    lateral offset r, plane k lies at offsets[k] / n_z - r . n_xy / n_z: the gap of two
+    planes shrinks by at most radius x |n_xy / n_z difference| over the face."""
+    for k in range(len(offsets) - 1):
+        (a, da), (b, db) = (normals[k], offsets[k]), (normals[k + 1], offsets[k + 1])
+        gap = db / b[2] - da / a[2]
+        tilt = math.hypot(*(b[:2] / b[2] - a[:2] / a[2]))
+        if gap < radius * tilt * (1.0 - 1e-12):
+            raise ConfigError(
+                f"formation.interfaces[{k + 1}]: crosses interfaces[{k}] under the bit: "
+                f"{gap:.4g} m apart on the hole axis, their dips open or close that gap by "
+                f"{tilt:.3g} m per m across the face, so it needs at least "
+                f"{radius * tilt:.4g} m at the bit's radius {radius:.4g} m (layers are "
+                "listed top to bottom)")
 
 
 # --------------------------------------------------------------------------- kernels

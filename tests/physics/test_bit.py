@@ -199,7 +199,9 @@ def test_asymmetric_bit_in_one_rock_pushes_sideways_and_the_force_turns_with_the
 
 def random_formation(rng, n_interfaces, n_rocks=3, spread=0.12):
     """Random interfaces; half the time the rocks have founder points (at 8.75 in,
-    30-180 kN) so that WOBs up to 200 kN cross them."""
+    30-180 kN) so that WOBs up to 200 kN cross them. The planes may cross under the bit:
+    the kernels must split the blades at any planes (a config of crossing ones is refused
+    before they see it, so the arrays are built without a bit and given its rock table)."""
     rocks = (HARD, SOFT, VERY_SOFT)[:n_rocks]
     if rng.random() < 0.5:
         rocks = tuple(dataclasses.replace(r, founder_wob_per_diameter=float(rng.uniform(
@@ -208,8 +210,9 @@ def random_formation(rng, n_interfaces, n_rocks=3, spread=0.12):
     interfaces = tuple(Interface(float(d), float(rng.uniform(0, 80)), float(rng.uniform(0, 360)))
                        for d in depths)
     layers = tuple(int(j) for j in rng.integers(0, n_rocks, n_interfaces + 1))
-    return formation.formation_arrays(FormationConfig(rocks=rocks, interfaces=interfaces,
-                                                      layers=layers), 8.75 * 0.0254)
+    planes = formation.formation_arrays(FormationConfig(rocks=rocks, interfaces=interfaces,
+                                                        layers=layers))
+    return planes._replace(rock_params=formation.rock_parameter_table(rocks, 8.75 * 0.0254))
 
 
 def random_bit(rng) -> BitConfig:

@@ -219,3 +219,26 @@ def test_share_solver_rejects_bad_arguments():
         formation.interface_depth_for_share(bit.symmetric_bit(), 45.0, 0.0, 0.5, "left")
     with pytest.raises(ValueError, match="target_share"):
         formation.interface_depth_for_share(bit.symmetric_bit(), 45.0, 0.0, 1.5)
+
+
+@pytest.mark.parametrize(("azimuth", "dip"), [(0.0, 45.0), (135.0, 45.0), (0.0, 60.0)])
+def test_interfaces_that_cross_under_the_bit_are_refused_where_the_planes_meet(azimuth, dip):
+    """From a walkthrough: crossing planes built and gave the bit a wrong rock mix. A flat
+    plane and one dipping ``dip`` below it, ``gap`` apart on the axis, meet at the lateral
+    distance gap / tan(dip) (plane geometry): refused when that lies inside the bit's
+    radius, kept when outside, whatever the azimuth; parallel planes always kept."""
+    radius = 0.1
+    meet = radius * math.tan(math.radians(dip))  # the gap at which they meet at the rim
+
+    def config(gap: float, second_dip: float) -> FormationConfig:
+        return FormationConfig(rocks=(RockConfig(), RockConfig(), RockConfig()),
+                               interfaces=(Interface(100.0, 0.0),
+                                           Interface(100.0 + gap, second_dip, azimuth)),
+                               layers=(0, 1, 2))
+
+    with pytest.raises(ValueError, match=r"^formation\.interfaces\[1\]: crosses "
+                                         r"interfaces\[0\] under the bit"):
+        formation.formation_arrays(config(0.98 * meet, dip), 2 * radius)
+    formation.formation_arrays(config(1.02 * meet, dip), 2 * radius)
+    formation.formation_arrays(config(0.98 * meet, dip), math.inf)  # no bit: no face
+    formation.formation_arrays(config(0.0, 0.0), 2 * radius)  # a layer of no thickness
