@@ -50,11 +50,12 @@ from drill_env.physics.config import (
 from drill_env.physics.layout import N_READINGS, READINGS, RECORD_CHANNELS
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
-from drill_env.physics.validation import numbers
+from drill_env.physics.validation import check_newtons, numbers
 from drill_env.scenarios import (
     RANDOMISED,
     Scenario,
     check_draws,
+    check_one_string_length,
     make_scenario,
     scenario_parameters,
     with_physics,
@@ -239,6 +240,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
                                  f"{fidelity!r}")
             self.physics_overrides["solver.fidelity"] = fidelity
         self.randomised = scenario in RANDOMISED
+        check_one_string_length(scen_over, self.physics_overrides)
 
         cfg = self.config
         self.observation_names = OBSERVATIONS[cfg.sensors]
@@ -267,13 +269,16 @@ class DrillStringEnv(BatchFinish, gym.Env):
         return scenario
 
     def _check_range(self, speed: float, wob: float, where: str) -> None:
-        """ValueError naming a start set point (rad/s, N) outside the action ranges."""
-        for name, value, (low, high), unit, scale, field in (
-                ("surface_speed", speed, self._speed_range, "rpm", RPM, "rpm_range"),
-                ("weight_on_bit", wob, self._wob_range, "kN", 1e3, "weight_on_bit_range")):
+        """ValueError naming a start set point (rad/s, N) outside the action ranges (or a
+        WOB typed in kN), with the units it was read in."""
+        check_newtons(f"{where}weight_on_bit", (wob,))
+        for name, value, (low, high), unit, scale, field, si in (
+                ("surface_speed", speed, self._speed_range, "rpm", RPM, "rpm_range", "rad/s"),
+                ("weight_on_bit", wob, self._wob_range, "kN", 1e3, "weight_on_bit_range", "N")):
             if not low * (1 - 1e-12) <= value <= high * (1 + 1e-12):
                 raise ValueError(f"{where}{name}: {value / scale:.4g} {unit} lies outside the "
-                                 f"env's {field} {low / scale:g}-{high / scale:g} {unit}")
+                                 f"env's {field} {low / scale:g}-{high / scale:g} {unit} "
+                                 f"({name} is in {si}: {value:.4g} {si})")
 
     def _set_simulator(self, sim: Simulator) -> None:
         self.sim = sim

@@ -607,6 +607,19 @@ def check_draws(name: str, config: SimulationConfig, given: Collection[str]) -> 
             "(string.components)")
 
 
+def check_one_string_length(params: Mapping[str, Any], overrides: Collection[str]) -> None:
+    """Refuse ``string_length=`` beside physics overrides that set the string's length
+    themselves (the pipe's length, the components): the overrides would win without a word."""
+    if params.get("string_length") is None:
+        return
+    setting = sorted(k for k in overrides if k in ("string", "string.drill_pipe",
+                                                   "string.drill_pipe.length")
+                     or k.startswith("string.components"))
+    if setting:
+        raise ValueError(f"string_length: the physics overrides set the string's length too "
+                         f"({', '.join(setting)}); give one of them")
+
+
 def scenario_parameters(name: str) -> tuple[str, ...]:
     """Names of the keyword parameters a scenario takes (``rng`` excluded)."""
     _check_name(name)
@@ -615,6 +628,12 @@ def scenario_parameters(name: str) -> tuple[str, ...]:
 
 
 def _check_name(name: str) -> None:
+    if isinstance(name, Scenario):  # (its repr runs to kilobytes)
+        raise ValueError(
+            f"scenario: takes a scenario's name, not a Scenario (this one: {name.name!r}); "
+            "give its parameters as keywords (scenario_parameters(name): string_length, ...) "
+            "and config overrides as physics={dotted path: value}; known scenarios: "
+            f"{', '.join(sorted(SCENARIOS))}")
     if not isinstance(name, str) or name not in SCENARIOS:
         hint = did_you_mean(name, list(SCENARIOS)) if isinstance(name, str) else ""
         raise ValueError(f"scenario: unknown name {name!r}{hint}; known scenarios: "

@@ -301,6 +301,28 @@ def test_a_task_config_of_the_wrong_type_is_named():
 def test_unknown_scenario_lists_the_known_ones():
     with pytest.raises(ValueError, match="paper_case1"):
         gym.make("DrillString-v0", scenario="moon_rock")
+    # a Scenario object (a walkthrough's try) is told what to pass, not shown its ~4 kB repr
+    from drill_env.scenarios import make_scenario
+
+    with pytest.raises(ValueError, match=r"^scenario: takes a scenario's name, not a Scenario "
+                                         r"\(this one: 'default'\); give its parameters as "
+                                         r"keywords .{,250}$"):
+        gym.make("DrillString-v0", scenario=make_scenario("default"))
+
+
+@pytest.mark.parametrize("physics", [{"string.drill_pipe.length": 1500.0},
+                                     {"string": {"drill_pipe": {"length": 1500.0}}},
+                                     {"string.components": []}])
+def test_a_string_length_beside_overrides_that_set_it_is_refused(physics):
+    """From a walkthrough: string_length=1800 with a YAML string of 2500 m drilled at
+    2500 m without a word (the overrides won); overrides that keep the length pass."""
+    with pytest.raises(ValueError, match=r"^string_length: the physics overrides set the "
+                                         r"string's length too \(string\.(drill_pipe\.length|"
+                                         r"components)\); give one of them"):
+        gym.make("DrillString-v0", string_length=1800.0, physics=physics)
+    env = gym.make("DrillString-v0", string_length=1800.0,
+                   physics={"string.drill_pipe.element_length": 9.0})
+    assert env.unwrapped.sim.config.string.length == pytest.approx(1800.0)
 
 
 def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
@@ -309,13 +331,18 @@ def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
     40-200 rpm) at 40 rpm. The action ranges bound what an episode can hold, so a start
     outside them is an error naming the key, in the user's units; the range ends pass."""
     with pytest.raises(ValueError, match=r"^surface_speed: 477.5 rpm lies outside the "
-                                         r"env's rpm_range 0-200 rpm"):
+                                         r"env's rpm_range 0-200 rpm \(surface_speed is in "
+                                         r"rad/s: 50 rad/s\)"):
         gym.make("DrillString-v0", surface_speed=50.0)
     with pytest.raises(ValueError, match="^weight_on_bit: 100 kN .*weight_on_bit_range 0-80 kN"):
         gym.make("DrillString-v0", weight_on_bit_range=(0.0, 80e3))  # the scenario's 100 kN
     env = gym.make("DrillString-v0")
     with pytest.raises(ValueError, match=r"^reset options: weight_on_bit: 250 kN lies outside"):
         env.reset(seed=0, options={"weight_on_bit": 250e3})
+    # (a walkthrough's WOB typed in kN was refused by the constructor, not by reset)
+    with pytest.raises(ValueError, match=r"^reset options: weight_on_bit: 100 N reaches only "
+                                         r"100 N; WOB is in newtons: did you mean 100e3\?"):
+        env.reset(seed=0, options={"weight_on_bit": 100.0})
     env.reset(seed=0, options={"surface_speed": 200 * RPM, "weight_on_bit": 200e3})
     assert env.unwrapped.targets == pytest.approx((200 * RPM, 200e3))
     task = gym.make("DrillOptimise-v0")
