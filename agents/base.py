@@ -63,6 +63,10 @@ class SetPointController:
     name: ClassVar[str] = "set-point"
     rate: ClassVar[Rate] = "drive"
     env_id: ClassVar[str] = "DrillString-v0"
+    #: Files a controller of your own reads (a model, its statistics): the benchmark reuses
+    #: its stored rows only while these bytes, and the controller's source file, are the
+    #: same (paths as given, from where the benchmark runs).
+    data_files: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self) -> None:
         self._env: Any = None

@@ -34,8 +34,10 @@ from pydantic import Field
 from drill_env.physics.config import Fidelity
 from drill_env.physics.units import HOUR, KILO, MEGA, RPM, shown
 from drill_env.physics.validation import (
+    ConfigError,
     NonNegative,
     Positive,
+    check_newtons,
     config_dataclass,
     jsonable,
     numbers,
@@ -77,11 +79,17 @@ class BenchmarkSettings:
     #: its learned policies were trained with (:func:`task_settings`: reward weights,
     #: targets, telemetry, physics), so that every return and metric comes from one task.
     env_kwargs: dict[str, Any] = Field(default_factory=dict)
+    #: The driller's set points of every episode of a scenario benchmark (rad/s, N; the
+    #: ``--rpm`` / ``--wob`` of ``drill-env benchmark``); None: each scenario's own (a
+    #: randomised one draws them from the seed).
+    surface_speed: NonNegative | None = Field(default=None, le=1.0e3)
+    weight_on_bit: NonNegative | None = Field(default=None, le=1.0e7)
 
     def __post_init__(self) -> None:
         from drill_env.physics.config import flatten
-        from drill_env.physics.validation import ConfigError
 
+        if self.weight_on_bit is not None:
+            check_newtons("weight_on_bit", (self.weight_on_bit,))
         if self.warmup >= self.duration:
             raise ConfigError(f"warmup: {self.warmup} s must be shorter than the duration "
                               f"({self.duration} s)")
@@ -100,6 +108,12 @@ class BenchmarkSettings:
             except (ValueError, TypeError, IndexError) as err:  # values and list entries
                 if "unknown field" in str(err):  # are judged against each scenario's config
                     raise ConfigError(f"physics.{err}") from None
+
+    def set_points(self) -> dict[str, float]:
+        """The set points given (reset options of ``DrillString-v0``), {} for none."""
+        return {key: value for key, value in (("surface_speed", self.surface_speed),
+                                              ("weight_on_bit", self.weight_on_bit))
+                if value is not None}
 
 
 #: Top-drive fields that say which controller the drive is, or override its rule's gains:
@@ -237,7 +251,13 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
     rows of a benchmark results file are reused only for the same model or code."""
     import hashlib
 
-    from agents.registry import CONTROLLERS, imported_factory, is_imported, source_file
+    from agents.registry import (
+        CONTROLLERS,
+        data_files,
+        imported_factory,
+        is_imported,
+        source_file,
+    )
 
     digest = hashlib.sha256()
     if controller == "learned" or controller.startswith("learned:"):
@@ -252,6 +272,8 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
     if own is None:
         return ""
     digest.update(own.read_bytes())
+    for file in data_files(controller, factory):
+        digest.update(str(file).encode() + b"\0" + file.read_bytes())
     return digest.hexdigest()[:12]
 
 
@@ -392,6 +414,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     # a task's policy in its task's env, within a benchmark of the scenario's set points:
     # at those (else the task would draw its own targets)
     options = scenario_set_points(episode.scenario, episode.seed) if guest else None
+    if episode.env_id is None and settings.set_points():  # the user's, over the scenario's
+        options = {**(options or {}), **settings.set_points()}
     try:
         obs, info = env.reset(seed=episode.seed, options=options)
         if guest:  # scored as DrillString-v0 scores the other controllers
@@ -544,6 +568,17 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     from drill_env.sweep import ResultStore, make_executor
 
     settings = settings or BenchmarkSettings()
+    if env_id is not None and settings.set_points():
+        raise ConfigError(
+            f"{next(iter(settings.set_points()))}: a task benchmark drills at the targets its "
+            "task draws from each seed (the same for every controller); set points are a "
+            "scenario benchmark's")
+    if env_id is None and settings.env_kwargs:
+        raise ConfigError(
+            f"env_kwargs: {sorted(settings.env_kwargs)} would change nothing in a scenario "
+            "benchmark, where each controller runs in its own env at the scenario's set "
+            "points: they are a task benchmark's (env_id, --task); config overrides go in "
+            "physics")
     if env_id is not None:  # the policies' task settings, unless the caller gave its own
         settings = dataclasses.replace(settings, env_kwargs={
             **task_settings(controllers, env_id), **settings.env_kwargs})
@@ -560,7 +595,8 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     reused = len(todo_all) - len(todo)
     if reused and progress:
         print(f"benchmark: {reused} of {len(todo_all)} episodes already in "
-              f"{out / RESULTS_FILE} (same settings and code): not rerun", file=sys.stderr)
+              f"{out / RESULTS_FILE} (same settings and code; a controller of your own: its "
+              f"file and data_files): not rerun", file=sys.stderr)
     if todo:
         import os
 
@@ -698,6 +734,19 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     return table
 
 
+def given_set_points(settings: BenchmarkSettings) -> str:
+    """The set points a benchmark was given, in words ("" for none)."""
+    words = []
+    if settings.surface_speed is not None:
+        words.append(f"{settings.surface_speed / RPM:g} rpm")
+    if settings.weight_on_bit is not None:
+        words.append(f"{settings.weight_on_bit / KILO:g} kN")
+    if not words:
+        return ""
+    rest = "" if len(words) == 2 else " (the other set point each scenario's)"
+    return f"the set points {' and '.join(words)} in every scenario{rest}"
+
+
 def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
     """What every episode of a benchmark shares, in words (benchmark.md's first line)."""
     window = (f"metrics over the last {settings.duration - settings.warmup:g} s; physics "
@@ -707,11 +756,12 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
                  + " (--config) merged into every scenario" if settings.physics else "")
               + ". Means over seeds, +- half the range. Rows: benchmark.csv.")
     if env_id is None:
+        at = given_set_points(settings) or "each scenario's set points"
         return (f"{settings.duration:g} s episodes of DrillString-v0 from the settled state "
                 f"(torsionally; laterally straight on the hole axis, from where a compressed "
                 f"BHA settles into a bent equilibrium within its stabilizers, no whirl: the "
                 f"slow drift of the bit's radial position in the series; docs/controllers.md) "
-                f"at each scenario's set points (bit speed kicked by up to "
+                f"at {at} (bit speed kicked by up to "
                 f"{settings.start_kick:.0%} by the seed; a task's policy acts in its "
                 f"task's env from the same start and set points, its return DrillString-v0's "
                 f"reward of its episode); {window}")

@@ -247,6 +247,21 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
 _TABLE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
 
 
+def data_files(name: str, controller: Any) -> list[Path]:
+    """A controller's ``data_files`` (:class:`agents.SetPointController`), each an existing
+    file; ValueError naming the controller otherwise."""
+    files = getattr(controller, "data_files", ())
+    if isinstance(files, (str, bytes)) or not isinstance(files, (tuple, list)) or not all(
+            isinstance(f, (str, os.PathLike)) for f in files):
+        raise ValueError(f"controller: {name}: data_files is {files!r}, not a tuple of "
+                         "file paths")
+    for file in files:
+        if not Path(file).is_file():
+            raise ValueError(f"controller: {name}: data_files: {os.fspath(file)!r} is not a "
+                             f"file (from {Path.cwd()})")
+    return [Path(f) for f in files]
+
+
 def check_interface(name: str, controller: Any) -> None:
     """ValueError naming what a controller of your own lacks or gets wrong: the methods
     and attributes of :class:`agents.base.Controller`, a ``rate``, an ``env_id`` that is
@@ -283,6 +298,7 @@ def check_interface(name: str, controller: Any) -> None:
         replace(SimulationConfig(), **physics)
     except (ValueError, TypeError) as err:
         raise ValueError(f"controller: {name}: physics() returned {err}") from None
+    data_files(name, controller)
     own = table_name(name)  # the class's own name, else the attribute after the colon
     if not _TABLE_NAME.fullmatch(own):
         raise ValueError(f"controller: {name}: name {own!r} cannot name its rows and "

@@ -67,6 +67,19 @@ def number(unit: str, low: float | None = 0.0, high: float | None = None,
     return parse
 
 
+def kilonewtons(text: str) -> float:
+    """An argparse type for a WOB in kN: a finite number >= 0, and none between 0 and 1
+    kN (no string drills on that; it is what a WOB typed in MN gives)."""
+    value = number("kN")(text)
+    if 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"{text} kN is only {value * KILO:g} N: the WOB is "
+                                         "in kN (100 for 100 kN)")
+    return value
+
+
+kilonewtons.__name__ = "kN"
+
+
 def replaced_episode_notes(controllers: Sequence[str], env_id: str,
                            scenarios: Sequence[str], settings: Any) -> list[str]:
     """One note per episode setting (scenario, length, start kick) a policy trained
@@ -363,6 +376,33 @@ def cmd_run(args: argparse.Namespace) -> int:
     return status
 
 
+def benchmark_set_points(args: argparse.Namespace, env_id: str | None) -> dict[str, float]:
+    """``--rpm`` / ``--wob`` as BenchmarkSettings' set points (rad/s, N), checked against
+    DrillString-v0's set-point ranges; refused with ``--task``."""
+    from drill_env.env import EnvConfig
+
+    given = {flag: value for flag, value in (("--rpm", args.rpm), ("--wob", args.wob))
+             if value is not None}
+    if given and env_id is not None:
+        raise argparse.ArgumentTypeError(
+            f"{next(iter(given))}: a task benchmark drills at the targets its task draws "
+            "from each seed, the same for every controller; --rpm and --wob set a scenario "
+            "benchmark's")
+    cfg = EnvConfig()
+    out = {}
+    for flag, key, (low, high), unit, scale in (
+            ("--rpm", "surface_speed", cfg.rpm_range, "rpm", RPM),
+            ("--wob", "weight_on_bit", tuple(v / KILO for v in cfg.weight_on_bit_range),
+             "kN", KILO)):
+        if flag in given:
+            if not low <= given[flag] <= high:
+                raise argparse.ArgumentTypeError(f"{flag}: {given[flag]:g} {unit} is outside "
+                                                 f"DrillString-v0's range {low:g}-{high:g} "
+                                                 f"{unit}")
+            out[key] = given[flag] * scale
+    return out
+
+
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from agents.benchmark import BenchmarkSettings, labels, run_benchmark
     from agents.registry import parse_controllers
@@ -407,12 +447,15 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             f"--warmup: {args.warmup:g} s{whose} must be shorter than --duration "
             f"({args.duration:g} s)" + ("; give a shorter --warmup" if whose else ""))
     check_constant_set_points(controllers, env_id)
+    set_points = benchmark_set_points(args, env_id)
     # a task benchmark runs at the level the task trains and evaluates on
     fidelity: Any = args.fidelity or ("fast" if env_id else "full")  # argparse checked it
     try:
         settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
                                      start_kick=args.start_kick, fidelity=fidelity,
-                                     physics=checked_overrides(args.config, scenarios))
+                                     physics=checked_overrides(args.config, scenarios),
+                                     surface_speed=set_points.get("surface_speed"),
+                                     weight_on_bit=set_points.get("weight_on_bit"))
     except ValueError as err:  # a field of the --config file the benchmark cannot take
         if not str(err).startswith("physics."):
             raise
@@ -976,7 +1019,7 @@ def parser() -> argparse.ArgumentParser:
                         "as <file.py or module>:<class>: docs/controllers.md)")
     p.add_argument("--rpm", type=number("rpm"), default=None,
                    help="surface speed set point in rpm (default: the scenario's)")
-    p.add_argument("--wob", type=number("kN"), default=None,
+    p.add_argument("--wob", type=kilonewtons, default=None,
                    help="weight on bit in kN (default: the scenario's)")
     p.add_argument("--seed", type=integer(0), default=0, help="episode seed")
     p.add_argument("--duration", type=number("s", low=0.0, low_inclusive=False), default=None,
@@ -999,8 +1042,9 @@ def parser() -> argparse.ArgumentParser:
                    help="folder for run_summary.json (this run's) and run_history.jsonl "
                         "(every run's summary, one line each)")
 
-    p = add("benchmark", "controllers x scenarios x seeds at each scenario's set points: "
-                         "table, benchmark.csv, benchmark.md and plots in --out; resumable",
+    p = add("benchmark", "controllers x scenarios x seeds at each scenario's set points "
+                         "(or --rpm / --wob): table, benchmark.csv, benchmark.md and plots "
+                         "in --out; resumable",
             cmd_benchmark)
     p.add_argument("--controllers", default="stiff,soft-speed,soft-torque,z-torque,driller",
                    help="comma-separated controller names (as run's --controller, your "
@@ -1011,6 +1055,11 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--task", choices=("stick_slip", "drilling"), default=None,
                    help="run every controller in this control task's env (its targets, "
                         "observation, reward); default: DrillString-v0")
+    p.add_argument("--rpm", type=number("rpm"), default=None,
+                   help="surface speed set point of every episode in rpm (default: each "
+                        "scenario's; not with --task, whose targets are drawn)")
+    p.add_argument("--wob", type=kilonewtons, default=None,
+                   help="weight on bit of every episode in kN (default: each scenario's)")
     p.add_argument("--seeds", type=integer(1), default=3, help="seeds per pair")
     p.add_argument("--seed-start", type=integer(0), default=0,
                    help="first seed (the held-out evaluation seeds start at 1000000)")
@@ -1117,7 +1166,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=integer(0), default=None,
                    help="the random scenario's draw (default 0; the string an env's "
                         "reset(seed=SEED) drills)")
-    p.add_argument("--wob", type=number("kN"), default=None,
+    p.add_argument("--wob", type=kilonewtons, default=None,
                    help="weight on bit in kN (default: the scenario's)")
     p.add_argument("--config", type=existing_file, default=None,
                    help="YAML of config overrides merged into the scenario's (e.g. a "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import dataclasses
 import math
 import re
 import sys
@@ -386,7 +387,12 @@ def test_benchmark_names_bad_input(capsys):
                            "--warmup: 5 s (the default of --task stick_slip) must be "
                            "shorter than --duration (3 s); give a shorter --warmup"),
                           (["--controllers", "stiff,learned:/no/such/run"],
-                           "--controllers: learned: no such folder /no/such/run")):
+                           "--controllers: learned: no such folder /no/such/run"),
+                          (["--rpm", "500"], "--rpm: 500 rpm is outside DrillString-v0's "
+                                             "range 0-200 rpm"),
+                          (["--wob", "0.1"], "--wob: 0.1 kN is only 100 N: the WOB is in kN"),
+                          (["--task", "stick_slip", "--wob", "100"],
+                           "--wob: a task benchmark drills at the targets its task draws")):
         with pytest.raises(SystemExit):
             main(["benchmark", *args])
         assert message in capsys.readouterr().err
@@ -964,6 +970,76 @@ def test_a_controller_of_your_own_is_named_by_its_file_and_its_edits_rerun(tmp_p
     assert edited[1] == first[1]  # stiff: reused
     assert edited[0] != first[0]  # the gains changed what the drive does
     assert edited[0] == fresh[0]
+
+
+def test_the_files_a_controller_of_your_own_reads_are_followed_as_its_code_is(
+        tmp_path, monkeypatch):
+    """From a walkthrough: a policy class that loads a model was served its old rows after
+    the model was retrained (only the .py was followed); its ``data_files`` are now."""
+    from agents.registry import parse_controllers
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "gain.txt").write_text("1500.0")
+    (tmp_path / "mine.py").write_text(OWN_CONTROLLER.replace("GAIN", "float(open('gain.txt')"
+                                                             ".read())").replace(
+        '    name = "gentle"', '    name = "gentle"\n    data_files = ("gain.txt",)'))
+    before = bm.controller_digest("mine.py:Gentle")
+    assert bm.controller_digest("mine.py:Gentle") == before  # the same bytes
+    (tmp_path / "gain.txt").write_text("2000.0")
+    assert bm.controller_digest("mine.py:Gentle") not in ("", before)
+    for files, said in [('("gone.txt",)', "data_files: 'gone.txt' is not a file"),
+                        ('"gain.txt"', "data_files is 'gain.txt', not a tuple of file "
+                                       "paths")]:
+        (tmp_path / "odd.py").write_text((tmp_path / "mine.py").read_text().replace(
+            '("gain.txt",)', files))
+        with pytest.raises(ValueError, match=f"^controllers: odd.py:Gentle: {re.escape(said)}"):
+            parse_controllers("odd.py:Gentle")
+        with pytest.raises(ValueError, match=f"^controller: odd.py:Gentle: {re.escape(said)}"):
+            bm.controller_digest("odd.py:Gentle")
+    sys.modules.pop("mine", None)
+
+
+def test_set_points_of_your_own_drive_every_scenario_of_a_benchmark(tmp_path):
+    """From a walkthrough: ``benchmark`` had no --rpm / --wob as ``run`` has. Given, they
+    are every episode's set points, on a fixed and on a randomised scenario (which would
+    draw its own), said in benchmark.md; one alone leaves the other the scenario's."""
+    from drill_env.physics.units import RPM
+
+    settings = dataclasses.replace(SHORT, surface_speed=60 * RPM, weight_on_bit=120e3)
+    rows = bm.run_benchmark(["stiff"], ["default", "random"], [0], tmp_path / "both",
+                            settings, progress=False)
+    assert [r["target_rpm"] for r in rows] == pytest.approx([60.0, 60.0])
+    assert [r["mean_bit_rpm"] for r in rows] == pytest.approx([60.0, 60.0], abs=0.5)
+    assert "at the set points 60 rpm and 120 kN in every scenario" in \
+        (tmp_path / "both" / "benchmark.md").read_text()
+    plain = bm.run_benchmark(["stiff"], ["default"], [0], tmp_path / "plain", SHORT,
+                             progress=False)
+    heavier = bm.run_benchmark(["stiff"], ["default"], [0], tmp_path / "wob",
+                               dataclasses.replace(SHORT, weight_on_bit=120e3),
+                               progress=False)
+    assert heavier[0]["target_rpm"] == plain[0]["target_rpm"] == pytest.approx(100.0)
+    assert heavier[0]["rop_m_per_h"] > plain[0]["rop_m_per_h"]  # 120 kN drills faster
+    assert "at the set points 120 kN in every scenario (the other set point each " \
+        "scenario's)" in (tmp_path / "wob" / "benchmark.md").read_text()
+    with pytest.raises(ValueError, match="^surface_speed: a task benchmark drills at the "
+                                         "targets its task draws"):
+        bm.run_benchmark(["stiff"], ["random"], [0], tmp_path / "task",
+                         dataclasses.replace(SHORT, surface_speed=6.0), progress=False,
+                         env_id="DrillStickSlip-v0")
+    with pytest.raises(ValueError, match="^weight_on_bit: 120 N reaches only 120 N"):
+        dataclasses.replace(SHORT, weight_on_bit=120.0)
+
+
+def test_env_kwargs_of_a_scenario_benchmark_are_refused_not_ignored(tmp_path):
+    """From a walkthrough: ``BenchmarkSettings(env_kwargs=...)`` without a task changed
+    nothing (a scenario benchmark runs each controller in its own env)."""
+    from drill_env.physics.validation import ConfigError
+
+    settings = dataclasses.replace(SHORT, env_kwargs={"surface_speed": 9.42})
+    with pytest.raises(ConfigError, match=r"^env_kwargs: \['surface_speed'\] would change "
+                                          "nothing in a scenario benchmark"):
+        bm.run_benchmark(["stiff"], ["default"], [0], tmp_path, settings, progress=False)
+    assert not (tmp_path / bm.RESULTS_FILE).exists()
 
 
 def test_a_controller_of_your_own_that_is_not_one_is_refused_by_name(tmp_path, monkeypatch):
