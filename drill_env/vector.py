@@ -456,7 +456,14 @@ def make_sb3_vec_env(num_envs: int = 1, env_id: str | None = None, **env_kwargs:
     ``env_id``: a registered id (``DrillStickSlip-v0``, ...) whose class and default
     keywords to use; ``env_kwargs`` override its keywords. Default: ``DrillString-v0``.
     For episode returns and lengths in ``info["episode"]`` (what SB3 logs as
-    ``ep_rew_mean``), wrap it in SB3's ``VecMonitor``, as ``drill-env train`` does."""
+    ``ep_rew_mean``), wrap it in SB3's ``VecMonitor``, as ``drill-env train`` does (SB3's
+    own ``make_vec_env`` puts a ``Monitor`` in each env instead)."""
+    if given := sorted({"wrappers", "wrapper_class"} & set(env_kwargs)):
+        raise ValueError(
+            f"{given[0]}: the batched VecEnv steps all envs' physics in one call, so a "
+            "per-env wrapper cannot sit inside it: wrap the VecEnv (an SB3 VecEnvWrapper; "
+            "docs/tasks.md, \"Your own reward on the batched env\"), or use SB3's "
+            "make_vec_env(id, wrapper_class=...) without the batching")
     if env_id is not None:
         cls, defaults = registered(env_id)
         env_kwargs = {**defaults, **env_kwargs}

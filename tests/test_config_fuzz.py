@@ -247,3 +247,35 @@ def test_an_overdamped_wall_contact_is_refused_by_its_damping():
     """Found by the random fuzz: a contact damper so hard that the explicit step falls
     below the minimum was blamed on contact.stiffness alone."""
     assert physics_case("contact.damping", 33418268) == "refused"
+
+
+def test_a_section_dict_replaces_the_section_and_dotted_keys_merge_as_documented():
+    """replace's docstring and docs/model.md, after a walkthrough lost the paper_case2
+    sandwich's interfaces to ``replace(c, formation={"rocks": ...})``: the section dict
+    starts from the section's defaults, ``**flatten(...)`` keeps the rest of it, and both
+    read the same values into the fields they name."""
+    from drill_env.physics.config import flatten
+
+    config = make_scenario("paper_case2").config
+    rocks = [{"name": f"r{k}", "mu_max": 0.7} for k in range(len(config.formation.rocks))]
+    whole = replace(config, formation={"rocks": rocks})
+    merged = replace(config, **flatten({"formation": {"rocks": rocks}}))
+    assert len(config.formation.interfaces) == 2
+    assert whole.formation.interfaces == () and whole.formation.layers == (0,)
+    assert merged.formation.interfaces == config.formation.interfaces
+    assert merged.formation.layers == config.formation.layers
+    assert whole.formation.rocks == merged.formation.rocks
+    assert [r.mu_max for r in merged.formation.rocks] == [0.7] * len(rocks)
+
+
+@pytest.mark.parametrize("rocks", [{"shale": {"mu_max": 0.6}}, {"name": "shale", "mu_max": 0.6}])
+def test_a_list_section_given_as_a_dict_is_told_to_be_a_list(rocks):
+    """From a walkthrough: a rock list typed as a dict (by name, or one rock) read
+    "rocks is not a section", which did not say what it is."""
+    from drill_env.physics.config import flatten
+
+    with pytest.raises(ValueError, match=r"^formation\.rocks: a list of RockConfig, not a "
+                                         r"section: give a list of dicts .* set one entry "
+                                         r"\(formation\.rocks\[0\]\.<field>\)"):
+        gym_physics = flatten({"formation": {"rocks": rocks}})  # as the env reads physics=
+        replace(SimulationConfig(), **gym_physics)

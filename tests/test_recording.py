@@ -146,6 +146,12 @@ def test_missing_info_keys_and_fake_env(tmp_path: Path) -> None:
     texts = [text for _, _, text in back.text_logs["/events"]]
     assert texts[-1] == "terminated: stopped for the test"
     assert any(text.startswith("stick-slip onset") for text in texts)
+    # a path as docs/recording.md's tables list it (a walkthrough's KeyError) names the key
+    for series in (back.scalars, back.text_logs):
+        with pytest.raises(KeyError, match="entity paths start with '/'"):
+            series["events" if series is back.text_logs else "timeseries/speed_rpm/bit"]
+    with pytest.raises(KeyError, match=r"^\"'/nowhere'\"$"):
+        back.scalars["/nowhere"]
 
 
 def test_a_step_half_recorded_when_ctrl_c_lands_is_dropped_and_the_episode_still_ends(

@@ -345,6 +345,12 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
         current = flat.pop(head, kwargs[head])
         if isinstance(current, Mapping):
             current = from_dict(type(kwargs[head]), current)
+        if isinstance(current, (tuple, list)) and current \
+                and dataclasses.is_dataclass(current[0]):
+            raise ConfigError(
+                f"{where}: a list of {type(current[0]).__name__}, not a section: give a list "
+                f"of dicts ([{{...}}, ...]) or set one entry ({where}[0].<field>); cannot set "
+                f"{', '.join(sorted(sub))} in it")
         if not dataclasses.is_dataclass(current):
             raise ConfigError(f"{where}: {head} is not a section; cannot set "
                               f"{', '.join(sorted(sub))} in it")
@@ -379,7 +385,10 @@ def numbers(value: Any, name: str) -> np.ndarray:
 def replace(config: T, **changes: Any) -> T:
     """``dataclasses.replace`` with dotted paths: ``replace(c, **{"mud.density": 1.1e3})``.
 
-    A value may also be a dict for a whole section (``replace(c, mud={"density": 1e3})``).
+    A value may also be a dict for a whole section (``replace(c, mud={"density": 1e3})``):
+    it REPLACES the section, whose fields it does not name take their defaults, not
+    ``config``'s (``formation={"rocks": ...}`` drops the interfaces). To merge, as an env's
+    ``physics=`` and ``--config`` do, pass dotted keys: ``replace(c, **flatten(nested))``.
     Errors name the dotted path.
     """
     if not changes:

@@ -108,6 +108,16 @@ class RecordingContents:
     n_blueprints: int
 
 
+class EntityDict(dict):
+    """A dict keyed by entity path; a path typed without its leading ``/`` (as the docs'
+    tables list them) is a KeyError that names the key to use."""
+
+    def __missing__(self, key: Any) -> Any:
+        hint = f"; entity paths start with '/': {'/' + key!r}" \
+            if isinstance(key, str) and "/" + key in self else ""
+        raise KeyError(f"{key!r}{hint}")
+
+
 def _first(cell: list | None, empty: Any) -> Any:
     """The one value of a rerun component cell (a list), ``empty`` for an empty cell."""
     return cell[0] if cell else empty
@@ -146,7 +156,7 @@ def read_recording(path: str | os.PathLike) -> RecordingContents:
                       [_first(cell, "") for cell in
                        batch.column("TextLog:level").to_pylist()])
             logs.setdefault(entity, []).extend(zip(times.tolist(), levels, texts, strict=True))
-    scalars = {}
+    scalars = EntityDict()
     for entity, parts in raw.items():
         tt = np.concatenate([times for times, _ in parts])
         vv = np.concatenate([values for _, values in parts])
@@ -155,4 +165,4 @@ def read_recording(path: str | os.PathLike) -> RecordingContents:
     for lines in logs.values():
         lines.sort(key=lambda e: e[0])
     return RecordingContents(entry.application_id, entry.recording_id, entities, scalars,
-                             logs, len(reader.blueprints()))
+                             EntityDict(logs), len(reader.blueprints()))

@@ -280,6 +280,15 @@ def test_sb3_vec_env_pickles_and_its_class_is_importable_by_its_name():
         vector.DrillStringSB3Vec  # noqa: B018  (a misspelt name still fails)
 
 
+def test_a_per_env_wrapper_for_the_sb3_vec_env_is_refused_with_the_way_to_wrap_it():
+    """From a walkthrough: ``wrappers=`` was an unknown env argument, with no word on how
+    to reshape a reward on the batched env (docs/tasks.md shows the VecEnvWrapper)."""
+    for key in ("wrappers", "wrapper_class"):
+        with pytest.raises(ValueError, match=rf"^{key}: the batched VecEnv .* wrap the "
+                                             r"VecEnv \(an SB3 VecEnvWrapper"):
+            make_sb3_vec_env(2, **{key: [gym.Wrapper]}, **KW)
+
+
 def test_render_without_a_render_mode_is_none_per_env_as_in_the_sync_vector_env():
     ours = DrillStringVectorEnv(num_envs=2, **KW)
     sync = gym.make_vec("DrillString-v0", num_envs=2, vectorization_mode="sync", **KW)
