@@ -82,7 +82,7 @@ class BenchmarkSettings:
     #: The driller's set points of every episode of a scenario benchmark (rad/s, N; the
     #: ``--rpm`` / ``--wob`` of ``drill-env benchmark``); None: each scenario's own (a
     #: randomised one draws them from the seed).
-    surface_speed: NonNegative | None = Field(default=None, le=1.0e3)
+    surface_speed: Positive | None = Field(default=None, le=1.0e3)
     weight_on_bit: NonNegative | None = Field(default=None, le=1.0e7)
 
     def __post_init__(self) -> None:
@@ -90,6 +90,16 @@ class BenchmarkSettings:
 
         if self.weight_on_bit is not None:
             check_newtons("weight_on_bit", (self.weight_on_bit,))
+        from drill_env.env_config import EnvConfig
+
+        plain = EnvConfig()  # the set points are DrillString-v0's, within its ranges
+        wob_range = tuple(v / KILO for v in plain.weight_on_bit_range)
+        for name, value, (low, high), unit, scale, si in (
+                ("surface_speed", self.surface_speed, plain.rpm_range, "rpm", RPM, "rad/s"),
+                ("weight_on_bit", self.weight_on_bit, wob_range, "kN", KILO, "N")):
+            if value is not None and not low <= value / scale <= high:
+                raise ConfigError(f"{name}: {value:g} {si} is {value / scale:.4g} {unit}, "
+                                  f"outside DrillString-v0's range {low:g}-{high:g} {unit}")
         if self.warmup >= self.duration:
             raise ConfigError(f"warmup: {self.warmup} s must be shorter than the duration "
                               f"({self.duration} s)")

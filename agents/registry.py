@@ -299,6 +299,10 @@ def check_interface(name: str, controller: Any) -> None:
     except (ValueError, TypeError) as err:
         raise ValueError(f"controller: {name}: physics() returned {err}") from None
     data_files(name, controller)
+    if getattr(type(controller), "data_files", ()) != getattr(controller, "data_files", ()):
+        raise ValueError(f"controller: {name}: data_files is set on the instance; set it on "
+                         "the class (the benchmark reads it before it makes the controller, "
+                         "to tell whether its stored rows are current)")
     own = table_name(name)  # the class's own name, else the attribute after the colon
     if not _TABLE_NAME.fullmatch(own):
         raise ValueError(f"controller: {name}: name {own!r} cannot name its rows and "

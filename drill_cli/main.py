@@ -403,6 +403,28 @@ def benchmark_set_points(args: argparse.Namespace, env_id: str | None) -> dict[s
     return out
 
 
+def buckling_notes(scenarios: Sequence[str], wob: float, physics: dict[str, Any]
+                   ) -> list[str]:
+    """A note per scenario whose pipe buckles at the start under ``--wob`` (N), as ``run``
+    notes it: the scenarios refuse such a start of their own, the benchmark runs it."""
+    import numpy as np
+
+    from drill_env.physics.statics import pipe_buckling
+    from drill_env.scenarios import make_scenario, with_physics
+
+    notes = []
+    for name in scenarios:  # (a randomised scenario: its first draw)
+        config = with_physics(make_scenario(name, rng=np.random.default_rng(0)).config,
+                              physics)
+        for b in pipe_buckling(config, wob) if config.solver.lateral else ():
+            notes.append(f"note: --wob {wob / KILO:g} kN compresses the {b.component} of "
+                         f"{name} by {b.compression / KILO:.1f} kN, beyond its buckling load "
+                         f"{b.buckling_load / KILO:.1f} kN: it buckles into the wall (the "
+                         "scenarios refuse such a starting point; docs/model.md, 'Axial "
+                         "load and buckling')")
+    return notes
+
+
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from agents.benchmark import BenchmarkSettings, labels, run_benchmark
     from agents.registry import parse_controllers
@@ -461,6 +483,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             raise
         raise argparse.ArgumentTypeError(
             f"--config {args.config}: {str(err).removeprefix('physics.')}") from None
+    if settings.weight_on_bit is not None:
+        for note in buckling_notes(scenarios, settings.weight_on_bit, settings.physics):
+            print(note, file=sys.stderr)
     if env_id is not None:
         for note in replaced_episode_notes(controllers, env_id, scenarios, settings):
             print(note, file=sys.stderr)
@@ -1055,7 +1080,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--task", choices=("stick_slip", "drilling"), default=None,
                    help="run every controller in this control task's env (its targets, "
                         "observation, reward); default: DrillString-v0")
-    p.add_argument("--rpm", type=number("rpm"), default=None,
+    p.add_argument("--rpm", type=number("rpm", low_inclusive=False), default=None,
                    help="surface speed set point of every episode in rpm (default: each "
                         "scenario's; not with --task, whose targets are drawn)")
     p.add_argument("--wob", type=kilonewtons, default=None,

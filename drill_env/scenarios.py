@@ -609,12 +609,13 @@ def check_draws(name: str, config: SimulationConfig, given: Collection[str]) -> 
 
 def check_one_string_length(params: Mapping[str, Any], overrides: Collection[str]) -> None:
     """Refuse ``string_length=`` beside physics overrides that set the string's length
-    themselves (the pipe's length, the components): the overrides would win without a word."""
+    themselves (the pipe's length, the BHA, the components): the overrides would win
+    without a word."""
     if params.get("string_length") is None:
         return
     setting = sorted(k for k in overrides if k in ("string", "string.drill_pipe",
                                                    "string.drill_pipe.length")
-                     or k.startswith("string.components"))
+                     or k.startswith(("string.components", "string.bha")))
     if setting:
         raise ValueError(f"string_length: the physics overrides set the string's length too "
                          f"({', '.join(setting)}); give one of them")

@@ -391,6 +391,7 @@ def test_benchmark_names_bad_input(capsys):
                           (["--rpm", "500"], "--rpm: 500 rpm is outside DrillString-v0's "
                                              "range 0-200 rpm"),
                           (["--wob", "0.1"], "--wob: 0.1 kN is only 100 N: the WOB is in kN"),
+                          (["--rpm", "0"], "--rpm: must be > 0 rpm, got 0"),
                           (["--task", "stick_slip", "--wob", "100"],
                            "--wob: a task benchmark drills at the targets its task draws")):
         with pytest.raises(SystemExit):
@@ -972,6 +973,10 @@ def test_a_controller_of_your_own_is_named_by_its_file_and_its_edits_rerun(tmp_p
     assert edited[0] == fresh[0]
 
 
+INSTANCE_FILES = ('    def __init__(self):\n        super().__init__()\n'
+                  '        self.data_files = ("gain.txt",)')
+
+
 def test_the_files_a_controller_of_your_own_reads_are_followed_as_its_code_is(
         tmp_path, monkeypatch):
     """From a walkthrough: a policy class that loads a model was served its old rows after
@@ -996,6 +1001,12 @@ def test_the_files_a_controller_of_your_own_reads_are_followed_as_its_code_is(
             parse_controllers("odd.py:Gentle")
         with pytest.raises(ValueError, match=f"^controller: odd.py:Gentle: {re.escape(said)}"):
             bm.controller_digest("odd.py:Gentle")
+    # set on the instance, it would be checked but not followed (the digest reads the class)
+    (tmp_path / "odd.py").write_text((tmp_path / "mine.py").read_text().replace(
+        '    data_files = ("gain.txt",)', INSTANCE_FILES))
+    with pytest.raises(ValueError, match="^controllers: odd.py:Gentle: data_files is set on "
+                                         "the instance; set it on the class"):
+        parse_controllers("odd.py:Gentle")
     sys.modules.pop("mine", None)
 
 
@@ -1026,8 +1037,18 @@ def test_set_points_of_your_own_drive_every_scenario_of_a_benchmark(tmp_path):
         bm.run_benchmark(["stiff"], ["random"], [0], tmp_path / "task",
                          dataclasses.replace(SHORT, surface_speed=6.0), progress=False,
                          env_id="DrillStickSlip-v0")
-    with pytest.raises(ValueError, match="^weight_on_bit: 120 N reaches only 120 N"):
+    with pytest.raises(ValueError, match="^weight_on_bit: 120 N is below 1 kN"):
         dataclasses.replace(SHORT, weight_on_bit=120.0)
+    with pytest.raises(ValueError, match="^surface_speed: 60 rad/s is 573 rpm, outside "
+                                         "DrillString-v0's range 0-200 rpm"):
+        dataclasses.replace(SHORT, surface_speed=60.0)  # rpm typed for rad/s
+    # a WOB that buckles a scenario's pipe at the start runs, with run's note
+    from drill_cli.main import buckling_notes
+
+    notes = buckling_notes(["default", "paper_case1"], 200e3, {})
+    assert len(notes) == 1 and notes[0].startswith("note: --wob 200 kN compresses the 5 in "
+                                                   "HWDP of default by")
+    assert buckling_notes(["default"], 100e3, {}) == []
 
 
 def test_env_kwargs_of_a_scenario_benchmark_are_refused_not_ignored(tmp_path):

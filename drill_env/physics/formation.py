@@ -137,14 +137,20 @@ def _check_order_under_the_bit(normals: np.ndarray, offsets: np.ndarray, radius:
     for k in range(len(offsets) - 1):
         (a, da), (b, db) = (normals[k], offsets[k]), (normals[k + 1], offsets[k + 1])
         gap = db / b[2] - da / a[2]
-        tilt = math.hypot(*(b[:2] / b[2] - a[:2] / a[2]))
+        slope = b[:2] / b[2] - a[:2] / a[2]
+        tilt = math.hypot(*slope)
         if gap < radius * tilt * (1.0 - 1e-12):
+            # where the line the planes share passes closest to the axis
+            near = gap * slope / (tilt * tilt) if tilt > 0.0 else np.zeros(2)
+            depth = da / a[2] - float(near @ (a[:2] / a[2]))
             raise ConfigError(
-                f"formation.interfaces[{k + 1}]: crosses interfaces[{k}] under the bit: "
-                f"{gap:.4g} m apart on the hole axis, their dips open or close that gap by "
-                f"{tilt:.3g} m per m across the face, so it needs at least "
-                f"{radius * tilt:.4g} m at the bit's radius {radius:.4g} m (layers are "
-                "listed top to bottom)")
+                f"formation.interfaces[{k + 1}]: crosses interfaces[{k}] within the bit's "
+                f"radius of the hole axis ({math.hypot(*near):.3g} m from it, at "
+                f"{depth:.2f} m measured depth): {gap:.4g} m apart on the axis, their dips "
+                f"open or close that gap by {tilt:.3g} m per m across, so it needs at least "
+                f"{radius * tilt:.4g} m at the bit's radius {radius:.4g} m. Layers are listed "
+                "top to bottom and may not pinch out where the hole runs, at any depth: "
+                "leave out an interface the bit never reaches")
 
 
 # --------------------------------------------------------------------------- kernels

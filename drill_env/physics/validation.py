@@ -228,8 +228,11 @@ def check_newtons(name: str, values: tuple[float, ...]) -> None:
         meant = ", ".join(f"{v:g}e3" if v else "0" for v in values)
         if len(values) > 1:
             shown, meant = f"({shown})", f"({meant})"
-        raise ValueError(f"{name}: {shown} N reaches only {max(values):g} N; WOB is in "
-                         f"newtons: did you mean {meant}?")
+            what = f"reaches only {max(values):g} N"
+        else:
+            what = "is below 1 kN"
+        raise ValueError(f"{name}: {shown} N {what}; WOB is in newtons: did you mean "
+                         f"{meant}?")
 
 
 # --------------------------------------------------------------------------- loading

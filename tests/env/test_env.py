@@ -312,13 +312,13 @@ def test_unknown_scenario_lists_the_known_ones():
 
 @pytest.mark.parametrize("physics", [{"string.drill_pipe.length": 1500.0},
                                      {"string": {"drill_pipe": {"length": 1500.0}}},
-                                     {"string.components": []}])
+                                     {"string.components": []}, {"string.bha.length": 150.0}])
 def test_a_string_length_beside_overrides_that_set_it_is_refused(physics):
     """From a walkthrough: string_length=1800 with a YAML string of 2500 m drilled at
     2500 m without a word (the overrides won); overrides that keep the length pass."""
     with pytest.raises(ValueError, match=r"^string_length: the physics overrides set the "
                                          r"string's length too \(string\.(drill_pipe\.length|"
-                                         r"components)\); give one of them"):
+                                         r"components|bha\.length)\); give one of them"):
         gym.make("DrillString-v0", string_length=1800.0, physics=physics)
     env = gym.make("DrillString-v0", string_length=1800.0,
                    physics={"string.drill_pipe.element_length": 9.0})
@@ -340,8 +340,8 @@ def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
     with pytest.raises(ValueError, match=r"^reset options: weight_on_bit: 250 kN lies outside"):
         env.reset(seed=0, options={"weight_on_bit": 250e3})
     # (a walkthrough's WOB typed in kN was refused by the constructor, not by reset)
-    with pytest.raises(ValueError, match=r"^reset options: weight_on_bit: 100 N reaches only "
-                                         r"100 N; WOB is in newtons: did you mean 100e3\?"):
+    with pytest.raises(ValueError, match=r"^reset options: weight_on_bit: 100 N is below 1 "
+                                         r"kN; WOB is in newtons: did you mean 100e3\?"):
         env.reset(seed=0, options={"weight_on_bit": 100.0})
     env.reset(seed=0, options={"surface_speed": 200 * RPM, "weight_on_bit": 200e3})
     assert env.unwrapped.targets == pytest.approx((200 * RPM, 200e3))

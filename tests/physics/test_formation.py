@@ -2,6 +2,7 @@
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -236,8 +237,11 @@ def test_interfaces_that_cross_under_the_bit_are_refused_where_the_planes_meet(a
                                            Interface(100.0 + gap, second_dip, azimuth)),
                                layers=(0, 1, 2))
 
+    # the message says where: gap / tan(dip) from the axis, at the flat plane's depth
+    at = f"{0.98 * meet / math.tan(math.radians(dip)):.3g} m from it, at 100.00 m"
     with pytest.raises(ValueError, match=r"^formation\.interfaces\[1\]: crosses "
-                                         r"interfaces\[0\] under the bit"):
+                                         r"interfaces\[0\] within the bit's radius of the "
+                                         rf"hole axis \({re.escape(at)} measured depth\)"):
         formation.formation_arrays(config(0.98 * meet, dip), 2 * radius)
     formation.formation_arrays(config(1.02 * meet, dip), 2 * radius)
     formation.formation_arrays(config(0.98 * meet, dip), math.inf)  # no bit: no face
