@@ -476,6 +476,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         # judged in the env it acted in: a drilling-task policy chooses the rpm in a
         # scenario benchmark too, as a guest (not a benchmark.csv column)
         "own_speed": own if isinstance(own, bool) else sets_own_speed(episode.label, env_id),
+        "guest": guest,  # a task's policy in a scenario benchmark (not a column either)
     }
     if episode.series:
         series_dir = Path(episode.out) / "series"
@@ -757,8 +758,10 @@ def given_set_points(settings: BenchmarkSettings) -> str:
     return f"the set points {' and '.join(words)} in every scenario{rest}"
 
 
-def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
-    """What every episode of a benchmark shares, in words (benchmark.md's first line)."""
+def conditions(settings: BenchmarkSettings, env_id: str | None = None,
+               guests: bool = False) -> str:
+    """What every episode of a benchmark shares, in words (benchmark.md's first line);
+    ``guests``: a task's policy ran in a scenario benchmark."""
     window = (f"metrics over the last {settings.duration - settings.warmup:g} s; physics "
               f"level {settings.fidelity}"
               + ("; config overrides of " + ", ".join(sorted({key.split(".")[0] for key in
@@ -771,10 +774,10 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None) -> str:
                 f"(torsionally; laterally straight on the hole axis, from where a compressed "
                 f"BHA settles into a bent equilibrium within its stabilizers, no whirl: the "
                 f"slow drift of the bit's radial position in the series; docs/controllers.md) "
-                f"at {at} (bit speed kicked by up to "
-                f"{settings.start_kick:.0%} by the seed; a task's policy acts in its "
-                f"task's env from the same start and set points, its return DrillString-v0's "
-                f"reward of its episode); {window}")
+                f"at {at} (bit speed kicked by up to {settings.start_kick:.0%} by the seed"
+                + ("; a task's policy acts in its task's env from the same start and set "
+                   "points, its return DrillString-v0's reward of its episode" if guests
+                   else "") + f"); {window}")
     from drill_env.vector import registered
 
     env_class, kwargs = registered(env_id)
@@ -820,7 +823,8 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
                              env_id, seed=first_seed,
                              stamps=None if stamps is None else {
                                  c: stamps.get((c, s), "") for c in controllers})]
-    lines = [f"# {heading}", "", conditions(settings, env_id), "",
+    guests = any(r.get("guest") for r in rows)
+    lines = [f"# {heading}", "", conditions(settings, env_id, guests), "",
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in table]
     lines += [line for note in notes for line in ("", note)]

@@ -149,6 +149,10 @@ def test_a_guest_is_scored_by_drillstring_reward(tmp_path):
     st = bm.run_episode(bm.Episode("stiff", "stick_slip", 0, vars(SHORT), str(tmp_path)))
     assert g["mean_bit_rpm"] == pytest.approx(st["mean_bit_rpm"], rel=1e-9)
     assert g["episode_return"] == pytest.approx(st["episode_return"], rel=1e-9)
+    # benchmark.md says so only where a guest ran (a check found it in every one)
+    assert (g["guest"], st["guest"]) == (True, False)
+    said = "a task's policy acts in its task's env"
+    assert said in bm.conditions(SHORT, guests=True) and said not in bm.conditions(SHORT)
 
 
 def test_scenario_set_points_follow_the_seed_of_a_random_scenario():
