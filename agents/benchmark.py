@@ -266,6 +266,7 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
         data_files,
         imported_factory,
         is_imported,
+        make_controller,
         source_file,
     )
 
@@ -282,7 +283,9 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
     if own is None:
         return ""
     digest.update(own.read_bytes())
-    for file in data_files(controller, factory):
+    # a factory function's controllers carry the data_files of their class
+    owner = factory if isinstance(factory, type) else type(make_controller(controller))
+    for file in data_files(controller, owner):
         digest.update(str(file).encode() + b"\0" + file.read_bytes())
     return digest.hexdigest()[:12]
 
@@ -566,6 +569,32 @@ def fingerprint(settings: BenchmarkSettings, env_id: str | None = None) -> str:
                        "code": source_digest("drill_env", "agents")}, sort_keys=True)
 
 
+def check_guest_set_points(controllers: Sequence[str], settings: BenchmarkSettings) -> None:
+    """ConfigError naming a controller that acts in a task's env (a guest) whose set-point
+    ranges do not hold the set points given: found before any episode runs, not in it."""
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401  (registers the env ids)
+    from agents.registry import make_controller
+
+    for name in controllers:
+        controller = make_controller(name)
+        if controller.env_id == "DrillString-v0":
+            continue
+        env: Any = gym.make(controller.env_id, **guest_env_kwargs(controller))
+        config = env.unwrapped.config
+        env.close()
+        for key, value, (low, high), unit, scale in (
+                ("surface_speed", settings.surface_speed, config.rpm_range, "rpm", RPM),
+                ("weight_on_bit", settings.weight_on_bit,
+                 tuple(v / KILO for v in config.weight_on_bit_range), "kN", KILO)):
+            if value is not None and not low <= value / scale <= high:
+                raise ConfigError(
+                    f"{key}: {value / scale:g} {unit} lies outside {controller.env_id}'s "
+                    f"range {low:g}-{high:g} {unit}, where {name} acts (a task's policy "
+                    "drills a scenario benchmark in its own env)")
+
+
 def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],
                   out: Path, settings: BenchmarkSettings | None = None,
                   workers: int | None = None, ray_address: str | None = None,
@@ -584,6 +613,8 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             f"{next(iter(settings.set_points()))}: a task benchmark drills at the targets its "
             "task draws from each seed (the same for every controller); set points are a "
             "scenario benchmark's")
+    if env_id is None and settings.set_points():
+        check_guest_set_points(controllers, settings)
     if env_id is None and settings.env_kwargs:
         raise ConfigError(
             f"env_kwargs: {sorted(settings.env_kwargs)} would change nothing in a scenario "

@@ -405,17 +405,15 @@ def benchmark_set_points(args: argparse.Namespace, env_id: str | None) -> dict[s
 
 def buckling_notes(scenarios: Sequence[str], wob: float, physics: dict[str, Any]
                    ) -> list[str]:
-    """A note per scenario whose pipe buckles at the start under ``--wob`` (N), as ``run``
-    notes it: the scenarios refuse such a start of their own, the benchmark runs it."""
-    import numpy as np
-
+    """A note per fixed scenario whose pipe buckles at the start under ``--wob`` (N), as
+    ``run`` notes it: the scenarios refuse such a start of their own, the benchmark runs
+    it (a randomised scenario draws another string per seed: not judged here)."""
     from drill_env.physics.statics import pipe_buckling
-    from drill_env.scenarios import make_scenario, with_physics
+    from drill_env.scenarios import RANDOMISED, make_scenario, with_physics
 
     notes = []
-    for name in scenarios:  # (a randomised scenario: its first draw)
-        config = with_physics(make_scenario(name, rng=np.random.default_rng(0)).config,
-                              physics)
+    for name in (n for n in scenarios if n not in RANDOMISED):
+        config = with_physics(make_scenario(name).config, physics)
         for b in pipe_buckling(config, wob) if config.solver.lateral else ():
             notes.append(f"note: --wob {wob / KILO:g} kN compresses the {b.component} of "
                          f"{name} by {b.compression / KILO:.1f} kN, beyond its buckling load "
@@ -1084,7 +1082,8 @@ def parser() -> argparse.ArgumentParser:
                    help="surface speed set point of every episode in rpm (default: each "
                         "scenario's; not with --task, whose targets are drawn)")
     p.add_argument("--wob", type=kilonewtons, default=None,
-                   help="weight on bit of every episode in kN (default: each scenario's)")
+                   help="weight on bit of every episode in kN (default: each scenario's; "
+                        "not with --task)")
     p.add_argument("--seeds", type=integer(1), default=3, help="seeds per pair")
     p.add_argument("--seed-start", type=integer(0), default=0,
                    help="first seed (the held-out evaluation seeds start at 1000000)")

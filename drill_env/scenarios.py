@@ -613,9 +613,9 @@ def check_one_string_length(params: Mapping[str, Any], overrides: Collection[str
     without a word."""
     if params.get("string_length") is None:
         return
-    setting = sorted(k for k in overrides if k in ("string", "string.drill_pipe",
-                                                   "string.drill_pipe.length")
-                     or k.startswith(("string.components", "string.bha")))
+    sections = ("string.drill_pipe", "string.bha", "string.components")
+    setting = sorted(k for k in overrides if k in ("string", *sections)
+                     or (k.startswith(sections) and k.endswith(".length")))
     if setting:
         raise ValueError(f"string_length: the physics overrides set the string's length too "
                          f"({', '.join(setting)}); give one of them")

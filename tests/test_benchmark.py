@@ -1007,7 +1007,12 @@ def test_the_files_a_controller_of_your_own_reads_are_followed_as_its_code_is(
     with pytest.raises(ValueError, match="^controllers: odd.py:Gentle: data_files is set on "
                                          "the instance; set it on the class"):
         parse_controllers("odd.py:Gentle")
-    sys.modules.pop("mine", None)
+    # a factory function's controllers are followed by their class's data_files
+    (tmp_path / "made.py").write_text((tmp_path / "mine.py").read_text()
+                                      + "\n\ndef make():\n    return Gentle()\n")
+    before = bm.controller_digest("made.py:make")
+    (tmp_path / "gain.txt").write_text("2500.0")
+    assert bm.controller_digest("made.py:make") not in ("", before)
 
 
 def test_set_points_of_your_own_drive_every_scenario_of_a_benchmark(tmp_path):
@@ -1032,6 +1037,13 @@ def test_set_points_of_your_own_drive_every_scenario_of_a_benchmark(tmp_path):
     assert heavier[0]["rop_m_per_h"] > plain[0]["rop_m_per_h"]  # 120 kN drills faster
     assert "at the set points 120 kN in every scenario (the other set point each " \
         "scenario's)" in (tmp_path / "wob" / "benchmark.md").read_text()
+    with pytest.raises(ValueError, match="^weight_on_bit: 160 kN lies outside "
+                                         "DrillOptimise-v0's range 40-140 kN, where "
+                                         "learned:agents/trained/drilling acts"):
+        bm.run_benchmark(["stiff", "learned:agents/trained/drilling"], ["default"], [0],
+                         tmp_path / "guest", dataclasses.replace(SHORT, weight_on_bit=160e3),
+                         progress=False)
+    assert not (tmp_path / "guest").exists()  # refused before any episode
     with pytest.raises(ValueError, match="^surface_speed: a task benchmark drills at the "
                                          "targets its task draws"):
         bm.run_benchmark(["stiff"], ["random"], [0], tmp_path / "task",

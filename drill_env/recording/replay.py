@@ -113,9 +113,9 @@ class EntityDict(dict):
     tables list them) is a KeyError that names the key to use."""
 
     def __missing__(self, key: Any) -> Any:
-        hint = f"; entity paths start with '/': {'/' + key!r}" \
-            if isinstance(key, str) and "/" + key in self else ""
-        raise KeyError(f"{key!r}{hint}")
+        if isinstance(key, str) and "/" + key in self:
+            raise KeyError(f"{key!r}; entity paths start with '/': {'/' + key!r}")
+        raise KeyError(key)
 
 
 def _first(cell: list | None, empty: Any) -> Any:
