@@ -92,14 +92,12 @@ class BenchmarkSettings:
             check_newtons("weight_on_bit", (self.weight_on_bit,))
         from drill_env.env_config import EnvConfig
 
-        plain = EnvConfig()  # the set points are DrillString-v0's, within its ranges
-        wob_range = tuple(v / KILO for v in plain.weight_on_bit_range)
-        for name, value, (low, high), unit, scale, si in (
-                ("surface_speed", self.surface_speed, plain.rpm_range, "rpm", RPM, "rad/s"),
-                ("weight_on_bit", self.weight_on_bit, wob_range, "kN", KILO, "N")):
-            if value is not None and not low <= value / scale <= high:
-                raise ConfigError(f"{name}: {value:g} {si} is {value / scale:.4g} {unit}, "
-                                  f"outside DrillString-v0's range {low:g}-{high:g} {unit}")
+        # the set points are DrillString-v0's, within its ranges
+        if out := set_point_outside(self.surface_speed, self.weight_on_bit, EnvConfig()):
+            name, value, low, high, unit = out
+            si = "rad/s" if unit == "rpm" else "N"
+            raise ConfigError(f"{name}: {getattr(self, name):g} {si} is {value:.4g} {unit}, "
+                              f"outside DrillString-v0's range {low:g}-{high:g} {unit}")
         if self.warmup >= self.duration:
             raise ConfigError(f"warmup: {self.warmup} s must be shorter than the duration "
                               f"({self.duration} s)")
@@ -124,6 +122,19 @@ class BenchmarkSettings:
         return {key: value for key, value in (("surface_speed", self.surface_speed),
                                               ("weight_on_bit", self.weight_on_bit))
                 if value is not None}
+
+
+def set_point_outside(surface_speed: float | None, weight_on_bit: float | None,
+                      config: Any) -> tuple[str, float, float, float, str] | None:
+    """The first set point given (rad/s, N; None: not given) outside the ranges of
+    ``config`` (an env's EnvConfig), as (field, value, low, high, unit) in rpm or kN."""
+    for name, value, (low, high), unit, scale in (
+            ("surface_speed", surface_speed, config.rpm_range, "rpm", RPM),
+            ("weight_on_bit", weight_on_bit,
+             tuple(v / KILO for v in config.weight_on_bit_range), "kN", KILO)):
+        if value is not None and not low <= value / scale <= high:
+            return name, value / scale, low, high, unit
+    return None
 
 
 #: Top-drive fields that say which controller the drive is, or override its rule's gains:
@@ -584,15 +595,12 @@ def check_guest_set_points(controllers: Sequence[str], settings: BenchmarkSettin
         env: Any = gym.make(controller.env_id, **guest_env_kwargs(controller))
         config = env.unwrapped.config
         env.close()
-        for key, value, (low, high), unit, scale in (
-                ("surface_speed", settings.surface_speed, config.rpm_range, "rpm", RPM),
-                ("weight_on_bit", settings.weight_on_bit,
-                 tuple(v / KILO for v in config.weight_on_bit_range), "kN", KILO)):
-            if value is not None and not low <= value / scale <= high:
-                raise ConfigError(
-                    f"{key}: {value / scale:g} {unit} lies outside {controller.env_id}'s "
-                    f"range {low:g}-{high:g} {unit}, where {name} acts (a task's policy "
-                    "drills a scenario benchmark in its own env)")
+        if out := set_point_outside(settings.surface_speed, settings.weight_on_bit, config):
+            key, value, low, high, unit = out
+            raise ConfigError(
+                f"{key}: {value:g} {unit} lies outside {controller.env_id}'s range "
+                f"{low:g}-{high:g} {unit}, where {name} acts (a task's policy drills a "
+                "scenario benchmark in its own env)")
 
 
 def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],

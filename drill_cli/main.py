@@ -279,11 +279,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     start_wob_kn = base.targets[1] / KILO
     lateral = base.simulation_config.solver.lateral  # torsion only: nothing to buckle
     for b in pipe_buckling(base.simulation_config, start_wob_kn * KILO) if lateral else ():
-        print(f"note: {start_wob_kn:g} kN compresses the {b.component} by "
-              f"{b.compression / KILO:.1f} kN, beyond its buckling load "
-              f"{b.buckling_load / KILO:.1f} kN: it buckles into the wall (the scenarios "
-              "refuse such a starting point; docs/model.md, 'Axial load and buckling')",
-              file=sys.stderr)
+        print(buckling_note(f"{start_wob_kn:g} kN", b.component, b), file=sys.stderr)
     # per step: the driller's targets (a task's may change once) and the set points the
     # controller applied (constant:<rpm>/<kN> and the driller set their own, a stick-slip
     # policy corrects the speed): their episode means are what it ran at
@@ -379,6 +375,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 def benchmark_set_points(args: argparse.Namespace, env_id: str | None) -> dict[str, float]:
     """``--rpm`` / ``--wob`` as BenchmarkSettings' set points (rad/s, N), checked against
     DrillString-v0's set-point ranges; refused with ``--task``."""
+    from agents.benchmark import set_point_outside
     from drill_env.env import EnvConfig
 
     given = {flag: value for flag, value in (("--rpm", args.rpm), ("--wob", args.wob))
@@ -388,18 +385,14 @@ def benchmark_set_points(args: argparse.Namespace, env_id: str | None) -> dict[s
             f"{next(iter(given))}: a task benchmark drills at the targets its task draws "
             "from each seed, the same for every controller; --rpm and --wob set a scenario "
             "benchmark's")
-    cfg = EnvConfig()
-    out = {}
-    for flag, key, (low, high), unit, scale in (
-            ("--rpm", "surface_speed", cfg.rpm_range, "rpm", RPM),
-            ("--wob", "weight_on_bit", tuple(v / KILO for v in cfg.weight_on_bit_range),
-             "kN", KILO)):
-        if flag in given:
-            if not low <= given[flag] <= high:
-                raise argparse.ArgumentTypeError(f"{flag}: {given[flag]:g} {unit} is outside "
-                                                 f"DrillString-v0's range {low:g}-{high:g} "
-                                                 f"{unit}")
-            out[key] = given[flag] * scale
+    out = {key: given[flag] * scale for flag, key, scale in (
+        ("--rpm", "surface_speed", RPM), ("--wob", "weight_on_bit", KILO)) if flag in given}
+    if outside := set_point_outside(out.get("surface_speed"), out.get("weight_on_bit"),
+                                    EnvConfig()):
+        key, value, low, high, unit = outside
+        flag = "--rpm" if key == "surface_speed" else "--wob"
+        raise argparse.ArgumentTypeError(f"{flag}: {value:g} {unit} is outside "
+                                         f"DrillString-v0's range {low:g}-{high:g} {unit}")
     return out
 
 
@@ -414,13 +407,18 @@ def buckling_notes(scenarios: Sequence[str], wob: float, physics: dict[str, Any]
     notes = []
     for name in (n for n in scenarios if n not in RANDOMISED):
         config = with_physics(make_scenario(name).config, physics)
-        for b in pipe_buckling(config, wob) if config.solver.lateral else ():
-            notes.append(f"note: --wob {wob / KILO:g} kN compresses the {b.component} of "
-                         f"{name} by {b.compression / KILO:.1f} kN, beyond its buckling load "
-                         f"{b.buckling_load / KILO:.1f} kN: it buckles into the wall (the "
-                         "scenarios refuse such a starting point; docs/model.md, 'Axial "
-                         "load and buckling')")
+        notes += [buckling_note(f"--wob {wob / KILO:g} kN", f"{b.component} of {name}", b)
+                  for b in (pipe_buckling(config, wob) if config.solver.lateral else ())]
     return notes
+
+
+def buckling_note(load: str, component: str, buckled: Any) -> str:
+    """The note on a start whose WOB (``load``, as typed) buckles ``component`` (a
+    :func:`drill_env.physics.statics.pipe_buckling` entry)."""
+    return (f"note: {load} compresses the {component} by {buckled.compression / KILO:.1f} "
+            f"kN, beyond its buckling load {buckled.buckling_load / KILO:.1f} kN: it buckles "
+            "into the wall (the scenarios refuse such a starting point; docs/model.md, "
+            "'Axial load and buckling')")
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
