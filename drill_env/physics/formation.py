@@ -131,7 +131,10 @@ def _check_order_under_the_bit(normals: np.ndarray, offsets: np.ndarray, radius:
                                ) -> None:
     """ConfigError unless each interface lies below the one before it everywhere within
     ``radius`` of the hole axis (the bit face; a layer's rock is found by counting the
-    planes above a point, which two crossing planes make wrong). Along the axis at a
+    planes above a point, which two crossing planes make wrong). Half the bit diameter is
+    the face's whole reach: its cutters lie within the gauge radius (diameter / 2 -
+    gauge_clearance) of the bit's centre, which stays within the clearance of the axis
+    (beyond it only by the gauge contact's penetration). Along the axis at a
     lateral offset r, plane k lies at offsets[k] / n_z - r . n_xy / n_z: the gap of two
     planes shrinks by at most radius x |n_xy / n_z difference| over the face."""
     for k in range(len(offsets) - 1):
