@@ -293,13 +293,14 @@ class ContactConfig:
     stiffness: Positive = Field(default=1.0e7, le=1.0e10)
     #: Penalty damping c of eq. (18). 3e4 N s/m is ~35 % of critical for the lightest
     #: contact node (1 m of collar with mud and added mass, 167 kg on the paper string,
-    #: k = 1e7 N/m: 37 %; docs/model.md): a restitution coefficient of ~0.3 for steel
-    #: striking rock through a mud film (squeeze-film damping makes such impacts nearly
-    #: plastic). With the earlier 5e3 (6 %, restitution 0.8) a symmetric bit thrown to the
+    #: k = 1e7 N/m: 37 %, restitution 0.39 with the no-pull clamp; docs/model.md): steel
+    #: striking rock through a mud film loses most of its normal speed (squeeze-film
+    #: damping). With the earlier 5e3 (6 %, restitution 0.83) a symmetric bit thrown to the
     #: wall by a layer kept whirling backward in homogeneous rock forever; with this value
     #: it settles after the layer, as in the paper (docs/paper-reproduction.md, P6).
     damping: NonNegative = Field(default=3.0e4, le=1.0e8)
-    #: Velocity-dependent wall friction mu(v) = mu_kin + (mu_static - mu_kin) exp(-|v|/v_s).
+    #: Velocity-dependent wall friction mu(v) = mu_kin + (mu_static - mu_kin) exp(-|v|/v_s):
+    #: 0.25-0.30, the open-hole friction factors of torque-and-drag practice (docs/model.md).
     friction_static: NonNegative = Field(default=0.30, le=2.0)
     friction_kinetic: NonNegative = Field(default=0.25, le=2.0)
     friction_decay_speed: Positive = Field(default=0.1, le=100.0)
@@ -485,8 +486,7 @@ class BitConfig:
     #: blades at equal angles (a symmetric bit: no net lateral force in homogeneous rock,
     #: the paper's cases 2-3); the face from 15 mm (the cone at the centre has no cutters)
     #: to 70 mm, about 2/3 of the 111 mm radius; the shoulder at 60 deg from the bit axis
-    #: up to the gauge (its length follows from the geometry when left empty); gauge pads
-    #: 50 mm long, a typical 2 in pad.
+    #: up to the gauge (its length follows from the geometry when left empty); 2 in pads.
     blade_angles: tuple[Annotated[Finite, Field(ge=-360.0, le=360.0)], ...] = (
         0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
     face_start: tuple[NonNegative, ...] = (0.015,) * 6

@@ -302,3 +302,41 @@ def test_a_string_that_slides_without_turning_has_no_surface_torque() -> None:
     for mode in ("pick_up", "slack_off"):
         assert soft_string(_slant(), column, 150.0, 0.3, mode).surface_torque == 0.0
     assert soft_string(_slant(), column, 150.0, 0.3, "rotating").surface_torque > 0.0
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_3d_stations_lie_where_the_ratio_factor_formulas_put_them(seed: int) -> None:
+    """Minimum curvature as the industry computes it (Bourgoyne et al., Applied Drilling
+    Engineering, ch. 8; API Bulletin D20), written out independently of the arcs: each
+    course's dogleg cos(beta) = cos(I2 - I1) - sin I1 sin I2 (1 - cos(A2 - A1)) and its
+    offsets dN, dE, dTVD = dMD / 2 (sum of the two stations' direction cosines) times the
+    ratio factor 2 / beta tan(beta / 2). Random 3-D surveys where inclination and azimuth
+    both change from station to station (a planar arc would not test the azimuth)."""
+    rng = np.random.default_rng(seed)
+    n = 25
+    md = np.concatenate([[0.0], np.cumsum(rng.uniform(10.0, 100.0, n - 1))])
+    inc = np.clip(np.cumsum(rng.uniform(-8.0, 12.0, n)), 0.0, 110.0)
+    inc[0] = 0.0
+    azi = np.mod(rng.uniform(0.0, 360.0) + np.cumsum(rng.uniform(-25.0, 25.0, n)), 360.0)
+    well = Trajectory(Survey.from_stations(md, inc, azi))
+    i, a = np.radians(inc), np.radians(azi)
+    cos_beta = np.cos(i[1:] - i[:-1]) - np.sin(i[:-1]) * np.sin(i[1:]) * (
+        1.0 - np.cos(a[1:] - a[:-1]))
+    beta = np.arccos(np.clip(cos_beta, -1.0, 1.0))
+    ratio = np.where(beta > 1e-9, 2.0 / np.maximum(beta, 1e-9) * np.tan(beta / 2.0), 1.0)
+    half = np.diff(md) / 2.0 * ratio
+    north = half * (np.sin(i[:-1]) * np.cos(a[:-1]) + np.sin(i[1:]) * np.cos(a[1:]))
+    east = half * (np.sin(i[:-1]) * np.sin(a[:-1]) + np.sin(i[1:]) * np.sin(a[1:]))
+    down = half * (np.cos(i[:-1]) + np.cos(i[1:]))
+    expected = np.vstack([np.zeros(3), np.cumsum(np.column_stack([north, east, down]),
+                                                 axis=0)])
+    pos, tangent, curvature = well.at(md)
+    # sums of ~25 offsets of <= 100 m: rounding is ~1e-12 m; the dogleg's arccos near
+    # beta = 0 loses digits (sqrt of eps), which the ratio factor (1 + beta^2 / 12)
+    # turns into ~1e-9 relative at most
+    np.testing.assert_allclose(pos, expected, rtol=0.0, atol=1e-7)
+    np.testing.assert_allclose(well.survey.doglegs(), beta, atol=1e-7)
+    np.testing.assert_allclose(tangent[:, 2], np.cos(i), atol=1e-12)
+    leaning = inc > 1.0  # the azimuth of a vertical tangent is not defined
+    heading = np.arctan2(tangent[leaning, 1], tangent[leaning, 0])
+    np.testing.assert_allclose(np.angle(np.exp(1j * (heading - a[leaning]))), 0.0, atol=1e-9)
