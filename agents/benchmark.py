@@ -307,21 +307,28 @@ SET_BY_BENCHMARK = frozenset({"scenario", "episode_duration", "start_kick", "fid
 
 def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
     """The env keywords of task ``env_id`` that the learned ``controllers`` were trained
-    with, less those the benchmark sets and those at their defaults: what every
-    controller of a task benchmark acts under, so that the classical controllers are
-    scored by the policies' reward, on their physics. Policies trained under different
-    ones cannot share a table: ValueError."""
+    with (a run's ``config.yaml``; a controller of your own: its ``env_kwargs()``), less
+    those the benchmark sets and those at their defaults: what every controller of a task
+    benchmark acts under, so that the classical controllers are scored by the policies'
+    reward, on their physics. Policies trained under different ones cannot share a table,
+    and a policy of another env cannot act in this one: ValueError."""
     from agents.learned import trained_env
+    from agents.registry import is_imported, make_controller
     from drill_env.physics.config import flatten
 
     defaults = _env_defaults(env_id)
     seen: dict[str, dict[str, Any]] = {}
     for name in controllers:
+        kwargs: dict[str, Any] | None = None
         if name == "learned" or name.startswith("learned:"):
             trained_on, kwargs = trained_env(name.partition(":")[2] or None, env_id)
-            if trained_on != env_id:  # found now, not in its first episode
-                raise ValueError(f"controllers: {name} is a policy of {trained_on}; it "
-                                 f"cannot act in {env_id}")
+            check_acts_in(name, "policy", trained_on, env_id)  # now, not in an episode
+        elif is_imported(name):  # a policy of your own: its env and env_kwargs()
+            controller = make_controller(name)
+            check_acts_in(name, controller.rate, controller.env_id, env_id)
+            if callable(getattr(controller, "env_kwargs", None)):
+                kwargs = dict(controller.env_kwargs())
+        if kwargs is not None:
             kwargs["physics"] = flatten(kwargs.get("physics") or {})
             seen[name] = {k: v for k, v in kwargs.items() if k not in SET_BY_BENCHMARK
                           and v != {} and _text(v) != _text(defaults.get(k, _NONE))}
@@ -331,6 +338,16 @@ def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
         raise ValueError(f"controllers: the policies were trained on different {env_id} "
                          f"settings ({listed}); benchmark them apart")
     return next(iter(seen.values()), {})
+
+
+def check_acts_in(name: str, rate: str, own_env: str, env_id: str) -> None:
+    """ValueError unless a controller that acts in ``own_env`` at ``rate`` can act in a
+    benchmark of task ``env_id``: a policy of another env reads another observation and
+    sends another action. A policy of ``DrillString-v0`` passes: the set-point
+    controllers (driller, constants) act in any task through its ``action_for``."""
+    if rate == "policy" and own_env not in (env_id, "DrillString-v0"):
+        raise ValueError(f"controllers: {name} is a policy of {own_env}; it cannot act in "
+                         f"{env_id} (its observation and action differ)")
 
 
 _NONE = object()  # no default: never equal to a given value
@@ -412,10 +429,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     physics = {**flatten(env_kwargs.pop("physics", None) or {}), **settings.physics,
                **controller.physics()}
     env_id = episode.env_id or controller.env_id
-    if controller.rate == "policy" and controller.env_id != env_id \
-            and controller.name == "learned":
-        raise ValueError(f"{episode.controller}: a policy trained on {controller.env_id} "
-                         f"cannot act in {env_id}")
+    check_acts_in(episode.controller, controller.rate, controller.env_id, env_id)
     # under the benchmark's episode settings, which are the same for every controller
     env_kwargs.update(scenario=episode.scenario, episode_duration=settings.duration,
                       start_kick=settings.start_kick, fidelity=settings.fidelity)

@@ -164,6 +164,60 @@ def test_a_policy_of_another_task_is_refused_before_any_episode(tmp_path):
                          "DrillStickSlip-v0")
 
 
+OWN_POLICY = '''
+import numpy as np
+
+from agents import SetPointController
+
+
+class Full(SetPointController):
+    """Always the largest correction: a policy of its own task, trained with KWARGS."""
+
+    name = "full"
+    rate = "policy"
+    env_id = "ENV"
+
+    def env_kwargs(self):
+        return KWARGS
+
+    def reset(self, env):
+        super().reset(env)
+        with open("seen.txt", "a") as f:  # the episode may run in a worker process
+            f.write(f"{env.task.max_correction}\\n")
+
+    def act(self, observation, info):
+        return np.ones(1, dtype=np.float32)
+'''
+
+
+def test_a_policy_of_your_own_acts_under_its_env_kwargs_and_only_in_its_task(tmp_path,
+                                                                            monkeypatch):
+    """From a walkthrough: a policy of your own trained with max_correction 15 rpm ran at
+    30 (the default) in a task benchmark, its env_kwargs() read only where it was a
+    guest, and one of task 2 entered a task-1 table (its first act failed on the
+    observation's shape). Now its env_kwargs() join the task settings as a learned run's
+    do (and are refused beside a run trained under others), and a policy of another task
+    is refused before any episode."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine.py").write_text(OWN_POLICY.replace("ENV", "DrillStickSlip-v0")
+                                      .replace("KWARGS", "{'max_correction': 15.0}"))
+    (tmp_path / "other.py").write_text(OWN_POLICY.replace("ENV", "DrillOptimise-v0")
+                                       .replace("KWARGS", "{}"))
+    assert bm.task_settings(["mine.py:Full", "stiff"], "DrillStickSlip-v0") == {
+        "max_correction": 15.0}
+    rows = bm.run_benchmark(["mine.py:Full"], ["random"], [0], tmp_path / "out", SHORT,
+                            workers=1, progress=False, env_id="DrillStickSlip-v0")
+    assert len(rows) == 1
+    assert (tmp_path / "seen.txt").read_text().split() == ["15.0"]
+    with pytest.raises(ValueError, match="trained on different DrillStickSlip-v0 settings"):
+        bm.task_settings(["mine.py:Full", "learned"], "DrillStickSlip-v0")
+    with pytest.raises(ValueError, match=r"other\.py:Full is a policy of DrillOptimise-v0; "
+                                         "it cannot act in DrillStickSlip-v0"):
+        bm.run_benchmark(["stiff", "other.py:Full"], ["random"], [0], tmp_path / "x", SHORT,
+                         workers=1, progress=False, env_id="DrillStickSlip-v0")
+    assert not (tmp_path / "x" / bm.RESULTS_FILE).exists()
+
+
 def test_changed_settings_do_not_reuse_old_rows(tmp_path):
     bm.run_benchmark(["stiff"], ["stick_slip"], [0], tmp_path, SHORT, workers=1,
                      progress=False)
