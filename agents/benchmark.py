@@ -326,8 +326,9 @@ def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
         elif is_imported(name):  # a policy of your own: its env and env_kwargs()
             controller = make_controller(name)
             check_acts_in(name, controller.rate, controller.env_id, env_id)
-            if callable(getattr(controller, "env_kwargs", None)):
-                kwargs = dict(controller.env_kwargs())
+            own = getattr(controller, "env_kwargs", None)
+            if callable(own):
+                kwargs = dict(own())
         if kwargs is not None:
             kwargs["physics"] = flatten(kwargs.get("physics") or {})
             seen[name] = {k: v for k, v in kwargs.items() if k not in SET_BY_BENCHMARK

@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
-import yaml
 
 from agents.base import Rate
 from drill_env.tasks import TASK_ENVS
@@ -51,8 +50,9 @@ class LearnedController:
         the run's checkpoints."""
         folder = policy_folder(path, env_id)
         model_file, norm_file = files if files is not None else _files(folder)
-        config = yaml.safe_load((folder / "config.yaml").read_text())
-        from training.config import algo_class
+        from training.config import algo_class, read_run_config
+
+        config = read_run_config(folder / "config.yaml")
 
         try:
             algo = algo_class(config.get("algo", "ppo"))
@@ -120,7 +120,9 @@ def trained_env(path: str | Path | None = None, env_id: str | None = None
     ``config.yaml`` read once, without loading the model; a folder without a policy is
     refused as :func:`policy_files` does."""
     policy_files(path, env_id)
-    config = yaml.safe_load((policy_folder(path, env_id) / "config.yaml").read_text())
+    from training.config import read_run_config
+
+    config = read_run_config(policy_folder(path, env_id) / "config.yaml")
     return TASK_ENVS[config["task"]], dict(config.get("env_kwargs") or {})
 
 
@@ -136,6 +138,9 @@ def load_saved(path: Path, load: Any) -> Any:
     import zipfile
 
     try:
+        if Path(path).suffix == ".zip" and not zipfile.is_zipfile(path):
+            # Stable-Baselines3 says so in a ValueError of its own, naming no run
+            raise zipfile.BadZipFile("not a zip file")
         return load(str(path))
     except (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
             json.JSONDecodeError) as err:

@@ -521,8 +521,14 @@ def cmd_train(args: argparse.Namespace) -> int:
     if args.algo is None:  # a named run resumes with its own algorithm; else the default
         named = args.out / args.name if args.resume and args.name else None
         args.algo = (named and saved_algorithm(named)) or "sac"
-    config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
-                         seed=args.seed, n_envs=args.n_envs)
+    try:
+        config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
+                             seed=args.seed, n_envs=args.n_envs)
+    except ValueError as err:  # a field of the --config file: said with the file's name
+        field = str(err).partition(": ")[0]
+        if args.config is None or option_of(field, args.command_parser) is not None:
+            raise
+        raise argparse.ArgumentTypeError(f"--config {args.config}: {err}") from None
     if args.seeds is not None:
         return train_sweep(args, config)
     if args.ray_address is not None:
@@ -581,24 +587,22 @@ def in_range(constant: Any, config: Any, option: str) -> None:
 
 def saved_algorithm(run: Path) -> str | None:
     """The algorithm the run in folder ``run`` was trained with (None: no config there)."""
-    import yaml
+    from training.config import read_run_config
 
     saved = run / "config.yaml"
     if not saved.is_file():
         return None
-    algo = (yaml.safe_load(saved.read_text()) or {}).get("algo")
+    algo = read_run_config(saved).get("algo")
     return algo if algo in ("ppo", "sac") else None
 
 
 def saved_run_config(saved: Path, task: str, algo: str, **overrides: Any) -> Any:
     """The :class:`~training.config.TrainConfig` a run saved (its ``config.yaml``), with
     the ``overrides`` given (None: keep the run's)."""
-    import yaml
-
     from drill_env.physics.validation import from_dict
-    from training.config import TrainConfig, without_inert_keys
+    from training.config import TrainConfig, read_run_config, without_inert_keys
 
-    data = without_inert_keys(yaml.safe_load(saved.read_text()) or {})
+    data = without_inert_keys(read_run_config(saved))
     for flag, value in (("task", task), ("algo", algo)):
         if data.get(flag, value) != value:
             raise argparse.ArgumentTypeError(f"--{flag}: {saved.parent} was trained with "
@@ -1320,8 +1324,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt as stopped:
         said = "terminated" if isinstance(stopped, Terminated) else "interrupted"
-        if args.command in KEEPS_FINISHED and out is not None:
-            said += (f"; its finished {KEEPS_FINISHED[args.command]} are kept in {out}: the "
+        kept = out if args.command != "evaluate" or out is not None else \
+            default_evaluation_folder(args.run)
+        if args.command in KEEPS_FINISHED and kept is not None:
+            said += (f"; its finished {KEEPS_FINISHED[args.command]} are kept in {kept}: the "
                      "same command again goes on from them")
         print(f"drill-env {args.command}: {said}", file=sys.stderr)
         return exit_status(stopped)
@@ -1335,7 +1341,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 _NOT_INSTALLED = object()
 #: Commands that keep what they finished in their --out as it arrives, and what that is
 #: (a rerun with the same settings and code reuses it; `train` says its own checkpoint).
-KEEPS_FINISHED = {"benchmark": "episodes", "stability-map": "points"}
+KEEPS_FINISHED = {"benchmark": "episodes", "stability-map": "points", "evaluate": "episodes",
+                  "demo": "episodes"}
 
 
 def exit_status(stopped: KeyboardInterrupt) -> int:

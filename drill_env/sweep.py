@@ -304,7 +304,8 @@ class ResultStore:
                     entry = json.loads(line)
                 except json.JSONDecodeError:
                     continue
-                if isinstance(entry, dict) and entry.get("fingerprint") == fingerprint:
+                if isinstance(entry, dict) and entry.get("fingerprint") == fingerprint \
+                        and {"key", "result"} <= entry.keys():  # else not a result (an edit)
                     self._results[entry["key"]] = entry["result"]
 
     def __contains__(self, key: str) -> bool:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import json
 import math
 import re
 import sys
@@ -233,6 +234,8 @@ def test_a_damaged_line_of_the_results_file_costs_that_line_only(tmp_path):
                      progress=False)
     with (tmp_path / bm.RESULTS_FILE).open("ab") as f:
         f.write(b"\xff\xfe\x00garbage\n")
+        # a hand-edited line of the right fingerprint without a result: skipped (KeyError)
+        f.write(json.dumps({"fingerprint": bm.fingerprint(SHORT), "key": 5}).encode() + b"\n")
     assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(SHORT))) == 1
 
 

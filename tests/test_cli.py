@@ -766,6 +766,17 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
                  str(out)]) == 130
     assert (f"drill-env benchmark: interrupted; its finished episodes are kept in {out}: "
             "the same command again goes on from them") in capsys.readouterr().err
+    # evaluate's episodes are kept in the run's evaluation folder when no --out is given
+    import shutil
+
+    from agents.learned import TRAINED
+    from drill_cli.main import default_evaluation_folder
+
+    run = shutil.copytree(TRAINED / "stick_slip", tmp_path / "run")
+    monkeypatch.setattr("training.evaluate.evaluate_run", stopped)
+    assert main(["evaluate", str(run)]) == 130
+    assert (f"drill-env evaluate: interrupted; its finished episodes are kept in "
+            f"{default_evaluation_folder(run)}: ") in capsys.readouterr().err
     monkeypatch.setattr("drill_cli.main.cmd_modes", stopped)
     assert main(["modes", "--out", str(tmp_path / "m")]) == 130
     assert capsys.readouterr().err.strip() == "drill-env modes: interrupted"

@@ -279,9 +279,42 @@ def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path
         with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: damaged, cannot be "
                                              r"loaded .*delete it"):
             train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
-        # evaluate and learned:<run> name the file too (SB3 names a bad zip itself)
-        with pytest.raises(ValueError, match=re.escape(str(path))):
+        # evaluate and learned:<run> name the file too (SB3's own error named no run)
+        with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: damaged"):
             LearnedController.load(copy, files=(model, norm))
+
+
+@pytest.mark.parametrize("text", ["", "ppo: {n_envs: 4", "- a list\n", "algo: ppo\n"])
+def test_a_damaged_run_config_is_named_by_every_command_that_reads_it(run, tmp_path, text,
+                                                                      capsys):
+    """From a walkthrough: a config.yaml cut short (it was written in place, so a kill or
+    a full disk could leave it so) gave evaluate, train --resume and a benchmark of
+    learned:RUN a YAML or TypeError traceback, or blamed a --task that was given. Now
+    each names the file and the way on, and the file is written whole (a hidden partial
+    file renamed)."""
+    import shutil
+
+    from agents.benchmark import task_settings
+    from drill_cli.main import main
+    from training.evaluate import evaluate_run
+
+    folder, cfg = run
+    copy = tmp_path / "run"
+    shutil.copytree(folder, copy)
+    saved = copy / "config.yaml"
+    saved.write_text(text)
+    said = rf"^{re.escape(str(saved))}: .*train it again \(--overwrite\) or delete the folder"
+    with pytest.raises(ValueError, match=said):
+        evaluate_run(copy, seeds=1, progress=False)
+    with pytest.raises(ValueError, match=said):
+        train(cfg, copy, resume=True, progress=False)
+    with pytest.raises(ValueError, match=said):
+        LearnedController.load(copy)
+    with pytest.raises(ValueError, match=said):
+        task_settings([f"learned:{copy}"], "DrillStickSlip-v0")
+    assert main(["train", "--task", "stick_slip", "--algo", "ppo", "--resume",
+                 "--name", copy.name, "--out", str(tmp_path)]) == 2
+    assert f"drill-env train: error: {saved}: " in capsys.readouterr().err
 
 
 def test_a_benchmark_refuses_a_damaged_policy_before_any_episode(run, tmp_path):
@@ -618,9 +651,20 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
     for entry, message in cases:
         path = tmp_path / "h.yml"
         path.write_text(yaml.safe_dump({"ppo": entry}))
+        try:  # a field of the file: said as argparse says a bad argument
+            code = main(["train", "--task", "stick_slip", "--algo", "ppo", "--config",
+                         str(path), "--out", str(tmp_path / "runs")])
+        except SystemExit as stop:
+            code = stop.code
+        assert code == 2
+        assert f"--config {path}: {message}" in capsys.readouterr().err  # names the file
+    # a file without an entry per algorithm is the --config's fault, not --algo's
+    for text, message in (("", "holds nothing"), ("- ppo\n", "holds a list")):
+        path.write_text(text)
         assert main(["train", "--task", "stick_slip", "--algo", "ppo", "--config", str(path),
-                     "--out", str(tmp_path / "runs")]) != 0
-        assert message in capsys.readouterr().err
+                     "--out", str(tmp_path / "runs")]) == 2
+        assert f"--config: {path} {message}; it needs one entry per algorithm" in \
+            capsys.readouterr().err
     assert not (tmp_path / "runs").exists()
 
 

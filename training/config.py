@@ -319,6 +319,26 @@ def sb3_policy_kwargs(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def read_run_config(path: Path) -> dict[str, Any]:
+    """A run's saved ``config.yaml`` as a dict of its settings; ValueError naming the file
+    when it holds none (cut short by a full disk or a hand edit: it was a YAML traceback,
+    or a missing ``--task`` of a resume that had given one)."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        reason = " ".join(str(err).split())
+        data, problem = None, f"is not valid YAML ({reason})"
+    else:
+        problem = "" if isinstance(data, dict) and data.get("task") in TASK_ENVS else (
+            f"holds no run's settings (a task of {sorted(TASK_ENVS)}), but {data!r:.60}")
+    if problem:
+        raise ValueError(f"{path}: {problem}; it is written when the run starts: train it "
+                         "again (--overwrite) or delete the folder")
+    return data
+
+
 def without_inert_keys(saved: dict[str, Any]) -> dict[str, Any]:
     """A run's saved ``config.yaml`` without the settings that never acted, which the
     checks now refuse: a SAC ``policy_kwargs.log_std_init`` without gSDE (runs from
@@ -408,6 +428,11 @@ def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
         raise ConfigError(f"task: must be one of {sorted(TASKS)}, got {task!r}")
     file = Path(path) if path is not None else HYPERPARAMS / f"{task}.yml"
     data = read_yaml(file) or {}
+    if not isinstance(data, dict) or not data:
+        what = f"a {type(data).__name__}" if data else "nothing"
+        raise ConfigError(f"config: {file} holds {what}; it needs one entry per algorithm "
+                          f"({algo}: {{n_envs: ..., hyperparams: {{...}}}}), as "
+                          "training/hyperparams/<task>.yml has")
     if algo not in data:
         raise ConfigError(f"algo: {file} has no entry {algo!r}; it has {sorted(data)}")
     entry = dict(data[algo])

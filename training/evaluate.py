@@ -15,7 +15,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from agents.benchmark import (
     BenchmarkSettings,
@@ -27,7 +26,7 @@ from agents.benchmark import (
 from agents.registry import CLASSICAL
 from drill_env.physics.config import Fidelity
 from drill_env.scenarios import EVALUATION_SEEDS
-from training.config import TASKS
+from training.config import TASKS, read_run_config
 
 #: Per task: (episode seconds, warm-up seconds the metrics leave out). Task 1 starts with
 #: the bit stuck; 5 s lets every controller take hold before the metrics start. Task 2
@@ -132,7 +131,7 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     """Benchmark ``learned:<run>`` against ``controllers`` on ``seeds`` held-out seeds;
     for the drilling task also against the best constant set point of a grid search.
     ``ray_address``: run the episodes on that Ray cluster (the ``distributed`` extra)."""
-    config = yaml.safe_load((Path(run) / "config.yaml").read_text())
+    config = read_run_config(Path(run) / "config.yaml")
     task = config["task"]
     if seeds > len(EVALUATION_SEEDS):
         raise ValueError(f"seeds: at most {len(EVALUATION_SEEDS)} held-out seeds")

@@ -44,6 +44,7 @@ from training.config import (
     VALIDATION_SEED,
     TrainConfig,
     algo_class,
+    read_run_config,
     sb3_hyperparams,
     sb3_policy_kwargs,
     without_inert_keys,
@@ -344,7 +345,7 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
         return 0
     saved = run / "config.yaml"
     if saved.exists():
-        old = without_inert_keys(yaml.safe_load(saved.read_text()))
+        old = without_inert_keys(read_run_config(saved))
         new = jsonable(config)
         # change nothing a resumed run learnt (its model keeps its own optimiser)
         free = ("n_timesteps", "torch_threads", "fused_adam")
@@ -484,7 +485,8 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
     # after SB3, which seeds the envs with the run seed (+ i) when it builds or loads
     seed = env_seed(config, int(model.num_timesteps))
     env.seed(seed)
-    saved.write_text(yaml.safe_dump(jsonable(config), sort_keys=False))
+    text = yaml.safe_dump(jsonable(config), sort_keys=False)
+    save_whole(saved, lambda file: Path(file).write_text(text))
     t0 = time.perf_counter()
     # to where the run ends (PPO: whole rollouts), so that the progress bar's total is
     # what it counts to (4,096 of 1,024 once read)
@@ -609,7 +611,10 @@ def plot_learning_curve(run: Path) -> Path | None:
         ax.set_xlabel("env steps (thousands)")
         ax.grid(alpha=0.3)
     saved = run / "config.yaml"
-    config = (yaml.safe_load(saved.read_text()) if saved.exists() else None) or {}
+    try:
+        config = read_run_config(saved) if saved.exists() else {}
+    except ValueError:
+        config = {}  # the plot says less
     what = (f"{str(config['algo']).upper()} on task {config['task']}, deterministic policy "
             f"on {config['eval_episodes']} fixed validation seeds"
             if {"algo", "task", "eval_episodes"} <= set(config)
