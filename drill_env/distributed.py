@@ -13,10 +13,12 @@ an address     join that cluster (``"10.0.0.1:6379"``, ``"ray://host:10001"``)
 
 Each item is one Ray task asking for one CPU; at most ``2 x`` the cluster's CPUs are in
 flight, so results stream back as they finish and an interrupt leaves little work half
-done. A task whose worker process or node dies is run again (``MAX_RETRIES`` times); an
-exception raised by the task itself is not retried (it would raise again: every task is
-a pure function of its argument) and stops the sweep with that error. The results are
-the same numbers whichever backend ran them.
+done: the tasks in flight then end by themselves within ``SETTLE_GRACE`` s or are
+interrupted (a training run saves its checkpoint). A task whose worker process or node
+dies is run again (``MAX_RETRIES`` times); an exception raised by the task itself is
+not retried (it would raise again: every task is a pure function of its argument) and
+stops the sweep with that error. The results are the same numbers whichever backend ran
+them.
 """
 
 from __future__ import annotations
@@ -31,6 +33,11 @@ MAX_RETRIES = 3
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
+#: How long the tasks in flight when a sweep stops may take to end by themselves (s), and
+#: then, interrupted, to finish what they do on an interrupt (a training run saves a
+#: checkpoint: seconds): :meth:`RayExecutor._stop`.
+SETTLE_GRACE = 10.0
+CANCEL_GRACE = 60.0
 #: How long the one connection attempt before ``ray.init`` may take (s): Ray itself
 #: retries an address where nothing answers for minutes, printing only its own logs.
 CONNECT_TIMEOUT = 5.0
@@ -127,9 +134,27 @@ class RayExecutor:
                         in_flight[self._remote.remote(fn_ref, item)] = k_next
                         break
         finally:
-            if ray.is_initialized():  # not after close(): these refs belong to that session
-                for ref in in_flight:
-                    ray.cancel(ref, force=True)
+            if ray.is_initialized() and in_flight:  # not after close(): that session's refs
+                self._stop(list(in_flight))
+
+    def _stop(self, refs: list[Any]) -> None:
+        """End the tasks ``refs`` of a stopped sweep. Those that end within
+        ``SETTLE_GRACE`` s (a benchmark episode, a map point) are left to: cancelling a
+        task as its reply comes in trips a check in Ray's task manager (the driver died
+        with it, or segfaulted, about one Ctrl-C in four; ray-project/ray#54798). A task
+        still running then (a training run) gets a KeyboardInterrupt, as a local worker
+        does (a training run saves its checkpoint on it, which killing its worker lost),
+        and its worker is killed only after ``CANCEL_GRACE`` s more. A second Ctrl-C
+        stops the waiting."""
+        ray = self._ray
+        _, running = ray.wait(refs, num_returns=len(refs), timeout=SETTLE_GRACE)
+        if not running:
+            return
+        for ref in running:
+            ray.cancel(ref, force=False)
+        _, running = ray.wait(running, num_returns=len(running), timeout=CANCEL_GRACE)
+        for ref in running:
+            ray.cancel(ref, force=True)
 
     def close(self) -> None:
         if self._owns and self._ray.is_initialized():

@@ -252,15 +252,39 @@ def test_a_task_that_raises_is_not_run_again_and_stops_the_sweep_with_its_error(
     assert log.read_text().splitlines() == ["ran"]
 
 
-def test_tasks_in_flight_when_a_sweep_stops_are_cancelled(cluster):
-    """An interrupted sweep (its generator closed, as Ctrl-C does) leaves no task running
-    on the cluster: the slow items' workers are stopped, not left to finish."""
-    from drill_env.distributed import RayExecutor
-
-    executor = RayExecutor(cluster.address)
+def _sleep_then_say(args: tuple[str, float]) -> None:
+    """Sleep; on an interrupt write "interrupted" to the file (as a training run saves
+    its checkpoint), else "finished" at the end."""
+    path, seconds = args
     try:
-        results = executor.map_unordered(time.sleep, [0.0, 120.0, 120.0])
-        assert next(results) == (0, None)
+        for _ in range(round(seconds / 0.05)):  # Ray's interrupt lands between sleeps
+            time.sleep(0.05)
+    except KeyboardInterrupt:
+        Path(path).write_text("interrupted")
+        raise
+    Path(path).write_text("finished")
+
+
+def test_tasks_in_flight_when_a_sweep_stops_end_or_are_interrupted(cluster, tmp_path,
+                                                                   monkeypatch):
+    """An interrupted sweep (its generator closed, as Ctrl-C does) leaves no task running
+    on the cluster. A task about to end is left to end (cancelling one as its reply came
+    in crashed Ray's task manager now and then); a long one gets a KeyboardInterrupt, as a
+    local worker does, so a training run saves its checkpoint (its worker was killed:
+    the steps since the last regular checkpoint were lost)."""
+    import ray.cloudpickle
+
+    import drill_env.distributed as distributed
+
+    monkeypatch.setattr(distributed, "SETTLE_GRACE", 5.0)
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers can't
+    executor = distributed.RayExecutor(cluster.address)              # import this file
+    short, long = tmp_path / "short", tmp_path / "long"
+    try:
+        results = executor.map_unordered(_sleep_then_say, [(str(tmp_path / "first"), 0.0),
+                                                           (str(short), 3.0),
+                                                           (str(long), 120.0)])
+        assert next(results)[0] == 0
         deadline = time.monotonic() + 60.0
         while len(ray_task_processes()) < 2 and time.monotonic() < deadline:
             time.sleep(0.1)
@@ -270,8 +294,10 @@ def test_tasks_in_flight_when_a_sweep_stops_are_cancelled(cluster):
         while ray_task_processes() and time.monotonic() < deadline:
             time.sleep(0.1)
         assert not ray_task_processes()
+        assert (short.read_text(), long.read_text()) == ("finished", "interrupted")
     finally:
         executor.close()
+        ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
 
 
 def test_a_ray_session_the_user_started_is_theirs_to_stop(cluster):

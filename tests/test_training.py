@@ -732,7 +732,7 @@ def test_zoo_hyperparameters_are_the_yaml_ones():
     assert load_config("stick_slip", "sac").reward_gamma == 0.98
 
 
-def test_a_seed_sweep_trains_one_run_per_seed_and_skips_finished_ones(tmp_path):
+def test_a_seed_sweep_trains_one_run_per_seed_and_skips_finished_ones(tmp_path, capsys):
     from training.sweep import RESULTS_FILE, train_seeds
 
     cfg = tiny_config()
@@ -753,6 +753,9 @@ def test_a_seed_sweep_trains_one_run_per_seed_and_skips_finished_ones(tmp_path):
     assert [r["seed"] for r in again] == [3, 4, 5] and again[:2] == results
     assert (tmp_path / "stick_slip_ppo_seed3" / "run.json").stat().st_mtime_ns == stamp
     assert len((tmp_path / RESULTS_FILE).read_text().splitlines()) == 3
+    train_seeds(cfg, [3, 5], tmp_path, workers=1)  # said (it said "2 runs in 0 s" only)
+    assert f"2 of 2 runs already in {tmp_path / RESULTS_FILE} (same config): not rerun" in \
+        capsys.readouterr().err
     with pytest.raises(ValueError, match="seeds"):
         train_seeds(cfg, [1, 1], tmp_path)
     # a sweep's run is the single run of its seed, weight for weight: its worker held

@@ -10,7 +10,8 @@ a run whose worker died (or that was interrupted) resumes from its last checkpoi
 table is ``<out>/train_sweep.md``: the env steps each run trained, the validation return
 of the best model per seed, and mean +- std over seeds. A Ctrl-C or SIGTERM (``kill``)
 of the command reaches the workers, which save a checkpoint and stop; on Linux a worker
-dies with its parent.
+dies with its parent. On Ray each running run is interrupted the same way
+(:meth:`drill_env.distributed.RayExecutor._stop`) and saves its checkpoint.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import csv
 import dataclasses
 import json
 import statistics
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -72,6 +74,9 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
     store = ResultStore(out / RESULTS_FILE, digest(common))
     configs = [dataclasses.replace(config, seed=int(s)) for s in seeds]
     todo = [c for c in configs if str(c.seed) not in store]
+    if len(todo) < len(configs) and progress:
+        print(f"training seeds: {len(configs) - len(todo)} of {len(configs)} runs already in "
+              f"{out / RESULTS_FILE} (same config): not rerun", file=sys.stderr)
     if todo:
         executor = make_executor(min(workers or len(todo), len(todo))
                                  if ray_address is None else None, ray_address)
