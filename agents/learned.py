@@ -102,6 +102,90 @@ class LearnedController:
         return np.asarray(action[0], dtype=np.float32)
 
 
+def sb3_policy(model: str | Path, statistics: str | Path | None = None, *, env_id: str,
+               name: str = "my-policy", env_kwargs: dict[str, Any] | None = None
+               ) -> type[LearnedController]:
+    """A controller class for a Stable-Baselines3 model trained elsewhere (plain SB3,
+    rl-zoo3): ``model`` its ``.zip``, ``statistics`` its ``VecNormalize`` file (None: the
+    observations went in raw), ``env_id`` the env it was trained in, ``env_kwargs`` the
+    settings it was trained with (a task benchmark runs every controller under them).
+    The algorithm is read from the zip. Its files are the class's ``data_files``: a
+    benchmark reruns its rows when they change. In ``mine.py``::
+
+        MyPolicy = sb3_policy("runs/x/model.zip", "runs/x/vecnormalize.pkl",
+                              env_id="DrillOptimise-v0", name="my-sac")
+
+    then ``drill-env benchmark --task drilling --controllers mine.py:MyPolicy,learned``.
+    Files are checked when the class is made, the model loaded when it is called."""
+    import gymnasium
+
+    from drill_env.vector import registered
+
+    try:
+        registered(env_id)
+    except gymnasium.error.Error as err:  # NameNotFound, VersionNotFound...
+        raise ValueError(f"env_id: {err}") from None
+    files = tuple(Path(f) for f in (model, statistics) if f is not None)
+    for field, file in zip(("model", "statistics"), files, strict=False):
+        if not file.is_file():
+            raise ValueError(f"{field}: no file {file}")
+    kwargs = dict(env_kwargs or {})
+
+    def __init__(self: LearnedController) -> None:
+        loaded = load_saved(files[0], lambda p: algorithm_of(files[0]).load(p, device="cpu"))
+        LearnedController.__init__(self, loaded, _statistics(files[1:]), env_id, kwargs,
+                                   files[0].parent)
+
+    from agents.benchmark import CHOOSES_RPM
+
+    return type(name, (LearnedController,), {
+        "__init__": __init__, "name": name, "data_files": tuple(map(str, files)),
+        "sets_own_speed": env_id == CHOOSES_RPM,
+        "__doc__": f"{files[0]} in {env_id} (agents.learned.sb3_policy)"})
+
+
+def algorithm_of(model: Path) -> Any:
+    """The Stable-Baselines3 (or sb3-contrib) algorithm class a saved model's zip names
+    (its policy class's module: ``stable_baselines3.sac.policies`` -> ``SAC``)."""
+    import importlib
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(model) as saved:
+            module = json.loads(saved.read("data"))["policy_class"]["__module__"]
+        package, algo = module.split(".")[:2]
+        return getattr(importlib.import_module(package), algo.upper())
+    except (zipfile.BadZipFile, KeyError, ValueError, TypeError, ImportError,
+            AttributeError) as err:
+        raise ValueError(f"{model}: not a Stable-Baselines3 model whose algorithm its zip "
+                         f"names ({type(err).__name__}: {err})") from None
+
+
+class _Raw:
+    """Observations as they come: a model trained without VecNormalize."""
+
+    @staticmethod
+    def normalize_obs(observation: np.ndarray) -> np.ndarray:
+        return observation
+
+
+def _statistics(files: tuple[Path, ...]) -> Any:
+    """The VecNormalize statistics in ``files`` (none: :class:`_Raw`), frozen."""
+    if not files:
+        return _Raw()
+
+    def unpickle(p: str) -> Any:
+        with open(p, "rb") as f:
+            return pickle.load(f)
+
+    normalizer = load_saved(files[0], unpickle)
+    if not callable(getattr(normalizer, "normalize_obs", None)):
+        raise ValueError(f"statistics: {files[0]} holds a {type(normalizer).__name__}, not "
+                         "VecNormalize statistics (VecNormalize.save)")
+    normalizer.training = False
+    return normalizer
+
+
 def policy_folder(path: str | Path | None = None, env_id: str | None = None) -> Path:
     """The folder :meth:`LearnedController.load` reads: ``path``, or the shipped policy
     of ``env_id``'s task (``DrillStickSlip-v0`` when none is given)."""

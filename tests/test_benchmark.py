@@ -1296,16 +1296,18 @@ def test_a_policy_of_your_own_that_chooses_its_rpm_is_marked_as_the_driller(tmp_
     assert marked and not any("stiff" in line and "†" in line for line in table.splitlines())
 
 
-def test_the_docs_recipe_for_a_policy_trained_elsewhere_scores_as_the_shipped_one(tmp_path):
-    """docs/controllers.md's class for a Stable-Baselines3 model trained elsewhere, with
-    the shipped task-2 policy's files, acts as ``learned`` does: the same rows."""
+@pytest.mark.parametrize("recipe", ["sb3_policy(", "class MyPolicy"])
+def test_the_docs_recipe_for_a_policy_trained_elsewhere_scores_as_the_shipped_one(tmp_path,
+                                                                                  recipe):
+    """docs/controllers.md's ways to benchmark a Stable-Baselines3 model trained
+    elsewhere (agents.learned.sb3_policy, and a class by hand), with the shipped task-2
+    policy's files, act as ``learned`` does: the same rows."""
     text = (Path(__file__).resolve().parents[1] / "docs" / "controllers.md").read_text()
     code = next(block for block in text.split("```python\n")[1:]
-                if "class MyPolicy" in block).split("```")[0]
-    assert 'RUN = "agents/trained/drilling"' in code
+                if recipe in block).split("```")[0]
+    assert "agents/trained/drilling" in code
     file = tmp_path / "mine.py"
-    file.write_text(code.replace('RUN = "agents/trained/drilling"',
-                                 f'RUN = "{TRAINED / "drilling"}"'))
+    file.write_text(code.replace("agents/trained/drilling", str(TRAINED / "drilling")))
     settings = bm.BenchmarkSettings(duration=20.0, warmup=10.0)
     rows = bm.run_benchmark([f"{file}:MyPolicy", "learned"], ["random"], [1000000],
                             tmp_path / "out", settings, workers=1, progress=False,
@@ -1313,6 +1315,47 @@ def test_the_docs_recipe_for_a_policy_trained_elsewhere_scores_as_the_shipped_on
     assert [r["controller"] for r in rows] == ["my-sac", "learned"]
     mine, shipped = ({k: v for k, v in r.items() if k != "controller"} for r in rows)
     assert mine == shipped and mine["own_speed"] is True
+
+
+def test_sb3_policy_checks_its_files_and_acts_with_or_without_statistics(tmp_path):
+    """agents.learned.sb3_policy: the files and env id checked when the class is made,
+    the algorithm read from the zip, a wrong statistics file or a zip of no SB3 model
+    named; without statistics the observation goes in raw."""
+    import pickle
+    import zipfile
+
+    import gymnasium as gym
+
+    from agents.learned import sb3_policy
+
+    model, stats = TRAINED / "drilling" / "model.zip", TRAINED / "drilling" / "vecnormalize.pkl"
+    policy = sb3_policy(model, stats, env_id="DrillOptimise-v0", name="mine")
+    assert (policy.name, policy.data_files, policy.sets_own_speed) == (
+        "mine", (str(model), str(stats)), True)
+    assert not sb3_policy(model, env_id="DrillStickSlip-v0").sets_own_speed
+    with pytest.raises(ValueError, match="^model: no file"):
+        sb3_policy(tmp_path / "none.zip", env_id="DrillOptimise-v0")
+    with pytest.raises(ValueError, match="^statistics: no file"):
+        sb3_policy(model, tmp_path / "none.pkl", env_id="DrillOptimise-v0")
+    with pytest.raises(ValueError, match="^env_id: Environment `DrillOptimize` doesn.t exist"):
+        sb3_policy(model, env_id="DrillOptimize-v0")
+    wrong = tmp_path / "wrong.pkl"
+    wrong.write_bytes(pickle.dumps({"mean": 0.0}))
+    with pytest.raises(ValueError, match=r"^statistics: .*wrong\.pkl holds a dict, not "
+                                         "VecNormalize statistics"):
+        sb3_policy(model, wrong, env_id="DrillOptimise-v0")()
+    other = tmp_path / "other.zip"
+    with zipfile.ZipFile(other, "w") as z:
+        z.writestr("data", "{}")
+    with pytest.raises(ValueError, match=r"other\.zip: not a Stable-Baselines3 model"):
+        sb3_policy(other, env_id="DrillOptimise-v0")()
+    raw = sb3_policy(model, env_id="DrillOptimise-v0")()
+    env = gym.make("DrillOptimise-v0")
+    obs, info = env.reset(seed=0)
+    raw.reset(env.unwrapped)
+    action = raw.act(obs, info)
+    assert action.shape == env.action_space.shape and np.all(np.isfinite(action))
+    env.close()
 
 
 def test_plot_swing_ignores_the_warmup():
