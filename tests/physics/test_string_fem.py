@@ -507,6 +507,42 @@ def test_a_node_striking_the_wall_rebounds_with_the_clamped_dashpot_restitution(
     assert rebound > linear + 0.02
 
 
+@pytest.mark.parametrize("omega", [5.0, -8.0])
+def test_a_spinning_node_on_the_wall_settles_into_backward_whirl_at_the_rolling_speed(omega):
+    """Backward whirl as Jansen (1993) derives it: a pipe of radius R turning at omega,
+    rolling without slip inside a hole with clearance dr, whirls at -omega R / dr. Here
+    a node of 200 kg spun at a held omega, started on the wall whirling backward at half
+    that speed, under the wall's force law (eqs. 18-26, the kernel's) integrated by scipy:
+    friction drags the whirl to the rolling speed -omega R / r, r = dr plus the
+    penetration that carries the centrifugal force (m r psi_dot^2 = k f), and holds it
+    there (no slip, no friction) with the orbit steady."""
+    from scipy.integrate import solve_ivp
+
+    p, contact = contact_params()
+    mass, radius, clearance = 200.0, 0.08, 0.02
+    jansen = -omega * radius / clearance
+    out = np.zeros(4)
+
+    def rhs(_t, s):
+        ig.wall_contact(s[0], s[1], s[2], s[3], omega, clearance, radius, p, 0.0, out)
+        return [s[2], s[3], out[0] / mass, out[1] / mass]
+
+    start = [clearance, 0.0, 0.0, 0.5 * jansen * clearance]  # on the wall, half the speed
+    sol = solve_ivp(rhs, (0.0, 4.0), start, method="LSODA", rtol=1e-9, atol=1e-12,
+                    t_eval=np.linspace(3.0, 4.0, 201))
+    x, y, vx, vy = sol.y
+    r = np.hypot(x, y)
+    whirl = (x * vy - y * vx) / r**2  # psi_dot, eq. (25)
+    # the rolling speed at the radius it runs at, and that radius from the force balance
+    np.testing.assert_allclose(whirl, -omega * radius / r, rtol=1e-4)
+    f = r - clearance
+    np.testing.assert_allclose(contact.stiffness * f, mass * r * whirl**2, rtol=1e-3)
+    assert np.ptp(r) < 1e-3 * f.mean()  # a steady circle, not a bouncing one
+    assert whirl.mean() == pytest.approx(jansen, rel=0.02)  # Jansen's -omega R / dr
+    print(f"omega {omega}: whirl {whirl.mean():.3f} rad/s (Jansen {jansen:.3f}), "
+          f"penetration {1e3 * f.mean():.3f} mm")
+
+
 @pytest.mark.parametrize("omega", [5.0, -5.0])
 @pytest.mark.parametrize("psi", [0.0, 2.0])
 def test_wall_friction_opposes_the_slip_of_the_contact_point(omega, psi):
