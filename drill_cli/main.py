@@ -524,11 +524,14 @@ def cmd_train(args: argparse.Namespace) -> int:
     try:
         config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
                              seed=args.seed, n_envs=args.n_envs)
-    except ValueError as err:  # a field of the --config file: said with the file's name
-        field = str(err).partition(": ")[0]
-        if args.config is None or option_of(field, args.command_parser) is not None:
-            raise
-        raise argparse.ArgumentTypeError(f"--config {args.config}: {err}") from None
+    except ValueError as err:  # a field of the entry: a flag's if given, else the file's
+        field, _, rest = str(err).partition(": ")
+        flag, value = TRAIN_OVERRIDES.get(field.removeprefix(f"{args.algo}."), ("", ""))
+        if flag and getattr(args, value) is not None:
+            raise argparse.ArgumentTypeError(f"{flag}: {rest}") from None
+        if args.config is not None and field.startswith(f"{args.algo}."):
+            raise argparse.ArgumentTypeError(f"--config {args.config}: {err}") from None
+        raise
     if args.seeds is not None:
         return train_sweep(args, config)
     if args.ray_address is not None:
@@ -583,6 +586,11 @@ def in_range(constant: Any, config: Any, option: str) -> None:
         constant.check_range(config)
     except ValueError as err:
         raise argparse.ArgumentTypeError(f"{option}: {str(err).partition(': ')[2]}") from None
+
+
+#: Fields of a training entry that flags of `train` set: (flag, its args attribute).
+TRAIN_OVERRIDES = {"n_timesteps": ("--timesteps", "timesteps"), "seed": ("--seed", "seed"),
+                   "n_envs": ("--n-envs", "n_envs")}
 
 
 def saved_algorithm(run: Path) -> str | None:

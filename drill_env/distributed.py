@@ -23,7 +23,9 @@ them.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -144,15 +146,31 @@ class RayExecutor:
         with it, or segfaulted, about one Ctrl-C in four; ray-project/ray#54798). A task
         still running then (a training run) gets a KeyboardInterrupt, as a local worker
         does (a training run saves its checkpoint on it, which killing its worker lost),
-        and its worker is killed only after ``CANCEL_GRACE`` s more. A second Ctrl-C
-        stops the waiting."""
+        and its worker is killed only after ``CANCEL_GRACE`` s more. Those cancels can
+        still meet a reply: rarer (a task that runs that long replies seldom), not
+        impossible. A second Ctrl-C, or an error of Ray's while waiting, stops what is
+        left at once. What ends during the wait is not kept: at most a few seconds' work
+        per worker, which a rerun does again."""
         ray = self._ray
-        _, running = ray.wait(refs, num_returns=len(refs), timeout=SETTLE_GRACE)
-        if not running:
-            return
-        for ref in running:
-            ray.cancel(ref, force=False)
-        _, running = ray.wait(running, num_returns=len(running), timeout=CANCEL_GRACE)
+        running = refs
+        try:
+            _, running = ray.wait(refs, num_returns=len(refs), timeout=0.0)
+            if running:
+                print(f"stopping: {len(running)} Ray tasks in flight, given up to "
+                      f"{SETTLE_GRACE:g} s to end and {CANCEL_GRACE:g} s once interrupted "
+                      "(Ctrl-C again: stop them now)", file=sys.stderr)
+                _, running = ray.wait(running, num_returns=len(running),
+                                      timeout=SETTLE_GRACE)
+            if running:
+                for ref in running:
+                    ray.cancel(ref, force=False)
+                _, running = ray.wait(running, num_returns=len(running),
+                                      timeout=CANCEL_GRACE)
+        except BaseException:  # a second Ctrl-C, a lost cluster: stop what is left now
+            with contextlib.suppress(Exception):
+                for ref in running:
+                    ray.cancel(ref, force=True)
+            raise
         for ref in running:
             ray.cancel(ref, force=True)
 

@@ -256,6 +256,7 @@ def _sleep_then_say(args: tuple[str, float]) -> None:
     """Sleep; on an interrupt write "interrupted" to the file (as a training run saves
     its checkpoint), else "finished" at the end."""
     path, seconds = args
+    Path(f"{path}.started").touch()
     try:
         for _ in range(round(seconds / 0.05)):  # Ray's interrupt lands between sleeps
             time.sleep(0.05)
@@ -285,10 +286,11 @@ def test_tasks_in_flight_when_a_sweep_stops_end_or_are_interrupted(cluster, tmp_
                                                            (str(short), 3.0),
                                                            (str(long), 120.0)])
         assert next(results)[0] == 0
+        started = [Path(f"{path}.started") for path in (short, long)]
         deadline = time.monotonic() + 60.0
-        while len(ray_task_processes()) < 2 and time.monotonic() < deadline:
-            time.sleep(0.1)
-        assert len(ray_task_processes()) == 2, "the two slow tasks did not start"
+        while not all(p.exists() for p in started) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert all(p.exists() for p in started), "the two slow tasks did not start"
         results.close()
         deadline = time.monotonic() + 30.0
         while ray_task_processes() and time.monotonic() < deadline:

@@ -665,6 +665,12 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
                      "--out", str(tmp_path / "runs")]) == 2
         assert f"--config: {path} {message}; it needs one entry per algorithm" in \
             capsys.readouterr().err
+    # a flag's bad value is the flag's, not the file's it overrides
+    path.write_text(yaml.safe_dump({"ppo": {"n_envs": 4}}))
+    with pytest.raises(SystemExit):
+        main(["train", "--task", "stick_slip", "--algo", "ppo", "--config", str(path),
+              "--n-envs", "2000", "--out", str(tmp_path / "runs")])
+    assert "error: --n-envs: Input should be less than or equal to" in capsys.readouterr().err
     assert not (tmp_path / "runs").exists()
 
 
