@@ -291,12 +291,15 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
     factory = imported_factory(controller) if is_imported(controller) \
         else CONTROLLERS.get(controller)
     own = source_file(factory) if factory is not None else None
-    if own is None:
+    files: list[Path] = []
+    if is_imported(controller):  # a factory function's controllers: their class's files
+        owner = factory if isinstance(factory, type) else type(make_controller(controller))
+        files = data_files(controller, owner)
+    if own is None and not files:
         return ""
-    digest.update(own.read_bytes())
-    # a factory function's controllers carry the data_files of their class
-    owner = factory if isinstance(factory, type) else type(make_controller(controller))
-    for file in data_files(controller, owner):
+    if own is not None:
+        digest.update(own.read_bytes())
+    for file in files:
         digest.update(str(file).encode() + b"\0" + file.read_bytes())
     return digest.hexdigest()[:12]
 
@@ -322,13 +325,12 @@ def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
         kwargs: dict[str, Any] | None = None
         if name == "learned" or name.startswith("learned:"):
             trained_on, kwargs = trained_env(name.partition(":")[2] or None, env_id)
-            check_acts_in(name, "policy", trained_on, env_id)  # now, not in an episode
+            check_acts_in(name, ("policy", trained_on), env_id)  # now, not in an episode
         elif is_imported(name):  # a policy of your own: its env and env_kwargs()
             controller = make_controller(name)
-            check_acts_in(name, controller.rate, controller.env_id, env_id)
-            own = getattr(controller, "env_kwargs", None)
-            if callable(own):
-                kwargs = dict(own())
+            check_acts_in(name, controller, env_id)
+            if callable(getattr(controller, "env_kwargs", None)):
+                kwargs = declared_env_kwargs(controller, name)
         if kwargs is not None:
             kwargs["physics"] = flatten(kwargs.get("physics") or {})
             seen[name] = {k: v for k, v in kwargs.items() if k not in SET_BY_BENCHMARK
@@ -341,12 +343,20 @@ def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
     return next(iter(seen.values()), {})
 
 
-def check_acts_in(name: str, rate: str, own_env: str, env_id: str) -> None:
-    """ValueError unless a controller that acts in ``own_env`` at ``rate`` can act in a
-    benchmark of task ``env_id``: a policy of another env reads another observation and
-    sends another action. A policy of ``DrillString-v0`` passes: the set-point
-    controllers (driller, constants) act in any task through its ``action_for``."""
-    if rate == "policy" and own_env not in (env_id, "DrillString-v0"):
+def check_acts_in(name: str, controller: Any, env_id: str) -> None:
+    """ValueError unless ``controller`` (or, for a learned run's name, its
+    ``(rate, env id)``) can act in a benchmark of ``env_id``: a policy of another env
+    reads another observation and sends another action. A set-point controller of
+    ``DrillString-v0`` passes (the driller, constants, yours): it acts in any task through
+    the env's ``action_for``; a model's policy (``LearnedController``, ``sb3_policy``)
+    must be of ``env_id`` itself."""
+    from agents.learned import LearnedController
+
+    rate, own_env = controller if isinstance(controller, tuple) else (controller.rate,
+                                                                      controller.env_id)
+    through_set_points = not isinstance(controller, tuple | LearnedController)
+    allowed = (env_id, "DrillString-v0") if through_set_points else (env_id,)
+    if rate == "policy" and own_env not in allowed:
         raise ValueError(f"controllers: {name} is a policy of {own_env}; it cannot act in "
                          f"{env_id} (its observation and action differ)")
 
@@ -388,9 +398,29 @@ def guest_env_kwargs(controller: Any) -> dict[str, Any]:
     """The env keywords a controller brings to a scenario it is a guest on: a task's
     policy keeps those of its observation, not its run's physics (it drills the scenario,
     on the scenario's physics); a classical controller brings none."""
-    own = dict(getattr(controller, "env_kwargs", dict)())
+    own = declared_env_kwargs(controller, getattr(controller, "name", type(controller).__name__))
     own.pop("physics", None)
     return own
+
+
+def declared_env_kwargs(controller: Any, name: str) -> dict[str, Any]:
+    """A copy of ``controller.env_kwargs()`` (the task settings its policy was trained
+    with; none without the method); ValueError naming the controller when a controller
+    of your own raises in it or returns no mapping (it was a traceback)."""
+    method = getattr(controller, "env_kwargs", None)
+    if method is None:
+        return {}
+    from agents.registry import in_user_code
+
+    try:
+        kwargs = method()
+    except Exception as err:  # noqa: BLE001 - the user's code: said in one line
+        raise ValueError(f"controller: {name}.env_kwargs() raised {in_user_code(err)}"
+                         ) from None
+    if not isinstance(kwargs, Mapping):
+        raise ValueError(f"controller: {name}.env_kwargs() returned {kwargs!r:.60}, not a "
+                         "dict of env keywords")
+    return dict(kwargs)
 
 
 def scenario_set_points(scenario: str, seed: int) -> dict[str, float]:
@@ -430,7 +460,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     physics = {**flatten(env_kwargs.pop("physics", None) or {}), **settings.physics,
                **controller.physics()}
     env_id = episode.env_id or controller.env_id
-    check_acts_in(episode.controller, controller.rate, controller.env_id, env_id)
+    check_acts_in(episode.controller, controller, env_id)
     # under the benchmark's episode settings, which are the same for every controller
     env_kwargs.update(scenario=episode.scenario, episode_duration=settings.duration,
                       start_kick=settings.start_kick, fidelity=settings.fidelity)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import pickle
+import sys
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -102,29 +103,34 @@ class LearnedController:
         return np.asarray(action[0], dtype=np.float32)
 
 
-def sb3_policy(model: str | Path, statistics: str | Path | None = None, *, env_id: str,
-               name: str = "my-policy", env_kwargs: dict[str, Any] | None = None
+def sb3_policy(model: str | Path, statistics: str | Path | None = None, *, algo: str | type,
+               env_id: str, name: str = "my-policy", env_kwargs: dict[str, Any] | None = None
                ) -> type[LearnedController]:
     """A controller class for a Stable-Baselines3 model trained elsewhere (plain SB3,
     rl-zoo3): ``model`` its ``.zip``, ``statistics`` its ``VecNormalize`` file (None: the
-    observations went in raw), ``env_id`` the env it was trained in, ``env_kwargs`` the
-    settings it was trained with (a task benchmark runs every controller under them).
-    The algorithm is read from the zip. Its files are the class's ``data_files``: a
-    benchmark reruns its rows when they change. In ``mine.py``::
+    observations went in raw), ``algo`` its algorithm (``"ppo"``, ``"sac"``, an
+    sb3-contrib name such as ``"tqc"``, or the class: a zip does not say which of the
+    algorithms sharing a policy class saved it), ``env_id`` the env it was trained in,
+    ``env_kwargs`` the settings it was trained with (a task benchmark runs every
+    controller under them). Its files are the class's ``data_files``: a benchmark reruns
+    its rows when they, or the file that calls this, change. In ``mine.py``::
 
-        MyPolicy = sb3_policy("runs/x/model.zip", "runs/x/vecnormalize.pkl",
+        MyPolicy = sb3_policy("runs/x/model.zip", "runs/x/vecnormalize.pkl", algo="sac",
                               env_id="DrillOptimise-v0", name="my-sac")
 
     then ``drill-env benchmark --task drilling --controllers mine.py:MyPolicy,learned``.
-    Files are checked when the class is made, the model loaded when it is called."""
+    Files, algorithm and env id are checked when the class is made, the model loaded
+    when it is called."""
     import gymnasium
 
+    from agents.benchmark import CHOOSES_RPM
     from drill_env.vector import registered
 
     try:
         registered(env_id)
     except gymnasium.error.Error as err:  # NameNotFound, VersionNotFound...
         raise ValueError(f"env_id: {err}") from None
+    algorithm = algorithm_class(algo)
     files = tuple(Path(f) for f in (model, statistics) if f is not None)
     for field, file in zip(("model", "statistics"), files, strict=False):
         if not file.is_file():
@@ -132,33 +138,41 @@ def sb3_policy(model: str | Path, statistics: str | Path | None = None, *, env_i
     kwargs = dict(env_kwargs or {})
 
     def __init__(self: LearnedController) -> None:
-        loaded = load_saved(files[0], lambda p: algorithm_of(files[0]).load(p, device="cpu"))
+        loaded = load_saved(files[0], lambda p: algorithm.load(p, device="cpu"))
         LearnedController.__init__(self, loaded, _statistics(files[1:]), env_id, kwargs,
                                    files[0].parent)
 
-    from agents.benchmark import CHOOSES_RPM
-
+    caller = sys._getframe(1).f_globals.get("__name__", __name__)
     return type(name, (LearnedController,), {
         "__init__": __init__, "name": name, "data_files": tuple(map(str, files)),
         "sets_own_speed": env_id == CHOOSES_RPM,
-        "__doc__": f"{files[0]} in {env_id} (agents.learned.sb3_policy)"})
+        # the caller's module: a benchmark's stored rows follow that file's code too
+        "__module__": caller,
+        "__doc__": f"{files[0]} ({algorithm.__name__}) in {env_id} (agents.learned.sb3_policy)"})
 
 
-def algorithm_of(model: Path) -> Any:
-    """The Stable-Baselines3 (or sb3-contrib) algorithm class a saved model's zip names
-    (its policy class's module: ``stable_baselines3.sac.policies`` -> ``SAC``)."""
+def algorithm_class(algo: str | type) -> Any:
+    """The Stable-Baselines3 or sb3-contrib algorithm ``algo`` names (any case), or
+    ``algo`` itself if it is a class with ``load``."""
     import importlib
-    import zipfile
 
-    try:
-        with zipfile.ZipFile(model) as saved:
-            module = json.loads(saved.read("data"))["policy_class"]["__module__"]
-        package, algo = module.split(".")[:2]
-        return getattr(importlib.import_module(package), algo.upper())
-    except (zipfile.BadZipFile, KeyError, ValueError, TypeError, ImportError,
-            AttributeError) as err:
-        raise ValueError(f"{model}: not a Stable-Baselines3 model whose algorithm its zip "
-                         f"names ({type(err).__name__}: {err})") from None
+    if isinstance(algo, type):
+        if not callable(getattr(algo, "load", None)):
+            raise ValueError(f"algo: {algo.__name__} has no load(): not an algorithm class")
+        return algo
+    known: dict[str, Any] = {}
+    for package in ("stable_baselines3", "sb3_contrib"):
+        try:
+            module = importlib.import_module(package)
+        except ImportError:
+            continue
+        known.update({n.lower(): getattr(module, n) for n in getattr(module, "__all__", ())
+                      if isinstance(getattr(module, n, None), type)
+                      and callable(getattr(getattr(module, n), "load", None))})
+    if not isinstance(algo, str) or algo.lower() not in known:
+        raise ValueError(f"algo: {algo!r} is not an algorithm of Stable-Baselines3 or "
+                         f"sb3-contrib; known: {sorted(known)}")
+    return known[algo.lower()]
 
 
 class _Raw:
@@ -222,7 +236,7 @@ def load_saved(path: Path, load: Any) -> Any:
     import zipfile
 
     try:
-        if Path(path).suffix == ".zip" and not zipfile.is_zipfile(path):
+        if Path(path).suffix == ".zip" and Path(path).exists() and not zipfile.is_zipfile(path):
             # Stable-Baselines3 says so in a ValueError of its own, naming no run
             raise zipfile.BadZipFile("not a zip file")
         return load(str(path))

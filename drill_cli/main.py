@@ -1332,8 +1332,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt as stopped:
         said = "terminated" if isinstance(stopped, Terminated) else "interrupted"
-        kept = out if args.command != "evaluate" or out is not None else \
-            default_evaluation_folder(args.run)
+        kept = finished_work_folder(args, out)
         if args.command in KEEPS_FINISHED and kept is not None:
             said += (f"; its finished {KEEPS_FINISHED[args.command]} are kept in {kept}: the "
                      "same command again goes on from them")
@@ -1351,6 +1350,16 @@ _NOT_INSTALLED = object()
 #: (a rerun with the same settings and code reuses it; `train` says its own checkpoint).
 KEEPS_FINISHED = {"benchmark": "episodes", "stability-map": "points", "evaluate": "episodes",
                   "demo": "episodes"}
+
+
+def finished_work_folder(args: argparse.Namespace, out: Path | None) -> Path | None:
+    """Where a stopped command of :data:`KEEPS_FINISHED` keeps its finished work: its
+    ``--out``; evaluate's default beside the run; the demo's benchmark folder."""
+    if args.command == "evaluate":
+        return out or default_evaluation_folder(args.run)
+    if args.command == "demo":
+        return None if out is None else out / "benchmark"
+    return out
 
 
 def exit_status(stopped: KeyboardInterrupt) -> int:

@@ -20,13 +20,12 @@ import argparse
 from pathlib import Path
 
 import gymnasium as gym
-import yaml
 from scipy.stats import ttest_rel
 
 import drill_env  # noqa: F401  (registers the envs)
 from agents.classical import ConstantSetPoints
 from agents.learned import LearnedController
-from training.config import TASKS
+from training.config import TASKS, read_run_config
 from training.evaluate import acting, held, random_actions, returns_on
 
 FIRST_SEED = 900_100
@@ -57,7 +56,7 @@ def main() -> None:
     parser.add_argument("--from-steps", type=int, default=0,
                         help="checkpoints from this many env steps on (default: all)")
     args = parser.parse_args()
-    configs = [yaml.safe_load((run / "config.yaml").read_text()) for run in args.runs]
+    configs = [read_run_config(run / "config.yaml") for run in args.runs]
     tasks = {c["task"] for c in configs}
     if len(tasks) != 1:
         raise SystemExit(f"runs: all of one task, got {sorted(tasks)}")

@@ -17,9 +17,8 @@ import json
 import shutil
 from pathlib import Path
 
-import yaml
-
 from agents.learned import TRAINED, _files
+from training.config import read_run_config
 
 LIMIT = 2 * 1024 * 1024
 
@@ -31,7 +30,7 @@ def main() -> None:
     parser.add_argument("--final", action="store_true",
                         help="ship the final model, not the best on the validation seeds")
     args = parser.parse_args()
-    config = yaml.safe_load((args.run / "config.yaml").read_text())
+    config = read_run_config(args.run / "config.yaml")
     info = json.loads((args.run / "run.json").read_text())
     model, norm = ((args.run / "model.zip", args.run / "vecnormalize.pkl") if args.final
                    else _files(args.run))

@@ -217,6 +217,21 @@ def test_a_policy_of_your_own_acts_under_its_env_kwargs_and_only_in_its_task(tmp
         bm.run_benchmark(["stiff", "other.py:Full"], ["random"], [0], tmp_path / "x", SHORT,
                          workers=1, progress=False, env_id="DrillStickSlip-v0")
     assert not (tmp_path / "x" / bm.RESULTS_FILE).exists()
+    # env_kwargs() that returns no dict, or raises, is named in one line
+    (tmp_path / "bad.py").write_text(OWN_POLICY.replace("ENV", "DrillStickSlip-v0")
+                                     .replace("return KWARGS", "return None"))
+    with pytest.raises(ValueError, match=r"^controller: bad\.py:Full\.env_kwargs\(\) "
+                                         "returned None, not a dict of env keywords"):
+        bm.task_settings(["bad.py:Full"], "DrillStickSlip-v0")
+    # a model's policy of DrillString-v0 reads its observation: refused in a task (a
+    # set-point controller of DrillString-v0, as the driller, acts through action_for)
+    (tmp_path / "base.py").write_text(
+        "from agents.learned import sb3_policy\n"
+        f"Base = sb3_policy({str(TRAINED / 'stick_slip' / 'model.zip')!r}, algo='sac', "
+        "env_id='DrillString-v0', name='base')\n")
+    with pytest.raises(ValueError, match="base.py:Base is a policy of DrillString-v0; it "
+                                         "cannot act in DrillStickSlip-v0"):
+        bm.task_settings(["driller", "base.py:Base"], "DrillStickSlip-v0")
 
 
 def test_changed_settings_do_not_reuse_old_rows(tmp_path):
@@ -1317,45 +1332,58 @@ def test_the_docs_recipe_for_a_policy_trained_elsewhere_scores_as_the_shipped_on
     assert mine == shipped and mine["own_speed"] is True
 
 
-def test_sb3_policy_checks_its_files_and_acts_with_or_without_statistics(tmp_path):
-    """agents.learned.sb3_policy: the files and env id checked when the class is made,
-    the algorithm read from the zip, a wrong statistics file or a zip of no SB3 model
-    named; without statistics the observation goes in raw."""
+def test_sb3_policy_checks_its_files_and_acts_with_or_without_statistics(tmp_path,
+                                                                          monkeypatch):
+    """agents.learned.sb3_policy: files, algorithm and env id checked when the class is
+    made; a wrong statistics file named; without statistics the observation goes in raw;
+    a PPO model acts too (the algorithm was first guessed from the zip's policy class,
+    which PPO and A2C share: every PPO was refused); the benchmark's stored rows follow
+    the model's bytes (the class was made in agents.learned, so nothing was hashed)."""
     import pickle
-    import zipfile
+    import shutil
 
     import gymnasium as gym
+    from stable_baselines3 import PPO
 
     from agents.learned import sb3_policy
 
     model, stats = TRAINED / "drilling" / "model.zip", TRAINED / "drilling" / "vecnormalize.pkl"
-    policy = sb3_policy(model, stats, env_id="DrillOptimise-v0", name="mine")
+    policy = sb3_policy(model, stats, algo="sac", env_id="DrillOptimise-v0", name="mine")
     assert (policy.name, policy.data_files, policy.sets_own_speed) == (
         "mine", (str(model), str(stats)), True)
-    assert not sb3_policy(model, env_id="DrillStickSlip-v0").sets_own_speed
-    with pytest.raises(ValueError, match="^model: no file"):
-        sb3_policy(tmp_path / "none.zip", env_id="DrillOptimise-v0")
-    with pytest.raises(ValueError, match="^statistics: no file"):
-        sb3_policy(model, tmp_path / "none.pkl", env_id="DrillOptimise-v0")
-    with pytest.raises(ValueError, match="^env_id: Environment `DrillOptimize` doesn.t exist"):
-        sb3_policy(model, env_id="DrillOptimize-v0")
+    assert not sb3_policy(model, algo="SAC", env_id="DrillStickSlip-v0").sets_own_speed
+    for kwargs, said in (({"model": tmp_path / "none.zip"}, "^model: no file"),
+                         ({"statistics": tmp_path / "none.pkl"}, "^statistics: no file"),
+                         ({"env_id": "DrillOptimize-v0"},
+                          "^env_id: Environment `DrillOptimize` doesn.t exist"),
+                         ({"algo": "sack"}, "^algo: 'sack' is not an algorithm of "
+                                            "Stable-Baselines3 or sb3-contrib; known: .*'sac'")):
+        with pytest.raises(ValueError, match=said):
+            sb3_policy(**{"model": model, "algo": "sac", "env_id": "DrillOptimise-v0",
+                          **kwargs})
     wrong = tmp_path / "wrong.pkl"
     wrong.write_bytes(pickle.dumps({"mean": 0.0}))
     with pytest.raises(ValueError, match=r"^statistics: .*wrong\.pkl holds a dict, not "
                                          "VecNormalize statistics"):
-        sb3_policy(model, wrong, env_id="DrillOptimise-v0")()
-    other = tmp_path / "other.zip"
-    with zipfile.ZipFile(other, "w") as z:
-        z.writestr("data", "{}")
-    with pytest.raises(ValueError, match=r"other\.zip: not a Stable-Baselines3 model"):
-        sb3_policy(other, env_id="DrillOptimise-v0")()
-    raw = sb3_policy(model, env_id="DrillOptimise-v0")()
-    env = gym.make("DrillOptimise-v0")
-    obs, info = env.reset(seed=0)
-    raw.reset(env.unwrapped)
-    action = raw.act(obs, info)
-    assert action.shape == env.action_space.shape and np.all(np.isfinite(action))
-    env.close()
+        sb3_policy(model, wrong, algo="sac", env_id="DrillOptimise-v0")()
+    env = gym.make("DrillStickSlip-v0")
+    PPO("MlpPolicy", env, n_steps=64, batch_size=64, device="cpu").save(tmp_path / "ppo.zip")
+    for mine in (sb3_policy(tmp_path / "ppo.zip", algo="ppo", env_id="DrillStickSlip-v0")(),
+                 sb3_policy(model, algo="sac", env_id="DrillOptimise-v0")()):
+        env = gym.make(mine.env_id)
+        obs, info = env.reset(seed=0)
+        mine.reset(env.unwrapped)
+        action = mine.act(obs, info)
+        assert action.shape == env.action_space.shape and np.all(np.isfinite(action))
+        env.close()
+    # a benchmark of mine.py:Mine follows the model file's bytes
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine.py").write_text(
+        "from agents.learned import sb3_policy\n"
+        "Mine = sb3_policy('ppo.zip', algo='ppo', env_id='DrillStickSlip-v0', name='mine')\n")
+    before = bm.controller_digest("mine.py:Mine")
+    shutil.copy(model, tmp_path / "ppo.zip")  # another model under the same name
+    assert before and bm.controller_digest("mine.py:Mine") != before
 
 
 def test_plot_swing_ignores_the_warmup():

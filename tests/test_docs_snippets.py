@@ -24,7 +24,8 @@ def _snippets() -> list[tuple[str, int, str]]:
                          ids=[f"{p}[{k}]" for p, k, _ in _snippets()])
 def test_a_python_example_of_the_docs_runs(page, index, code, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # what an example writes (logs/recordings) stays here
-    (tmp_path / "agents").symlink_to(ROOT / "agents")  # the files they read, as from ROOT
+    (tmp_path / "agents").mkdir()  # the shipped policies' files they read, as from ROOT
+    (tmp_path / "agents" / "trained").symlink_to(ROOT / "agents" / "trained")
     # each example as a reader copies it: nothing defined for it
     exec(compile(code, f"{page} example {index}", "exec"), {})  # noqa: S102
 
