@@ -46,7 +46,21 @@ CONNECT_TIMEOUT = 5.0
 
 
 def _call(fn: Callable[[Any], Any], item: Any) -> Any:
+    _interruptible()
     return fn(item)
+
+
+def _interruptible() -> None:
+    """Let :meth:`RayExecutor._stop` interrupt this task: Ray's cancel reaches a running
+    task through Python's SIGINT handler, which a worker does not have when it inherited
+    SIGINT ignored (a sweep started as a background job, ``drill-env ... &``, whose shell
+    ignores it): the task then ran on until it was killed, a training run unsaved."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread() and \
+            signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def _check_reachable(ray_address: str) -> None:

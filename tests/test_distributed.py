@@ -282,24 +282,21 @@ def _sleep_then_say(args: tuple[str, float]) -> None:
     Path(path).write_text("finished")
 
 
-def test_tasks_in_flight_when_a_sweep_stops_end_or_are_interrupted(tmp_path, monkeypatch):
+def test_tasks_in_flight_when_a_sweep_stops_end_or_are_interrupted(cluster, tmp_path,
+                                                                   monkeypatch):
     """An interrupted sweep (its generator closed, as Ctrl-C does) leaves no task running
     on the cluster. A task about to end is left to end (cancelling one as its reply came
     in crashed Ray's task manager now and then); a long one gets a KeyboardInterrupt, as a
     local worker does, so a training run saves its checkpoint (its worker was killed:
-    the steps since the last regular checkpoint were lost)."""
+    the steps since the last regular checkpoint were lost), also where the workers
+    inherited SIGINT ignored (this suite run as a background job: it failed so)."""
     import ray.cloudpickle
 
     import drill_env.distributed as distributed
 
     monkeypatch.setattr(distributed, "SETTLE_GRACE", 5.0)
     ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers can't
-    # import this file. A Ray of its own, with fresh workers: on the module's cluster, in
-    # the whole suite (twice in CI, never alone), the long task was not interrupted. Last
-    # in this file: a later join of the cluster in this process lost its objects' owner
-    if ray.is_initialized():
-        ray.shutdown()
-    executor = distributed.RayExecutor("local")
+    executor = distributed.RayExecutor(cluster.address)              # import this file
     short, long = tmp_path / "short", tmp_path / "long"
     try:
         results = executor.map_unordered(_sleep_then_say, [(str(tmp_path / "first"), 0.0),
