@@ -757,8 +757,13 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
           f"{time.perf_counter() - t0:.1f} s")
     from agents.benchmark import label  # your own controller by its table name
 
-    paths = sm.write_maps(maps, args.out, settings, label(args.controller or "stiff"))
+    name = label(args.controller or "stiff")
+    kept = sm.kept_maps(args.out / f"{sm.map_stem(name)}.json", maps, settings, name)
+    paths = sm.write_maps(maps, args.out, settings, name)
     print("wrote " + ", ".join(str(p) for p in paths))
+    if kept:
+        print(f"with the maps of {', '.join(m.position for m in kept)} already in "
+              f"{paths[0]} (same settings and grid)")
     return 0
 
 
@@ -1189,7 +1194,9 @@ def parser() -> argparse.ArgumentParser:
     add_ray_address(p, "the simulations")
     p.add_argument("--out", type=Path, default=Path("logs"),
                    help="folder for stability_map.png/.json (stability_map_<controller>.* "
-                        "under another controller than stiff) and the points file")
+                        "under another controller than stiff; maps of other positions "
+                        "already there with the same settings and grid are kept) and the "
+                        "points file")
 
     p = add("modes", "natural frequencies, damping and the critical-speed chart of a "
                      "scenario's string", cmd_modes)

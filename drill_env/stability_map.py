@@ -125,6 +125,18 @@ class StabilityMap:
         d["unstable_fraction"] = self.unstable_fraction
         return d
 
+    @classmethod
+    def from_json(cls, d: dict) -> StabilityMap:
+        """The map :meth:`to_json` wrote (``null`` boundaries read back as NaN)."""
+        return cls(position=d["position"], rock2_share=float(d["rock2_share"]),
+                   rpm=np.asarray(d["rpm"], dtype=float),
+                   weight_on_bit=np.asarray(d["weight_on_bit"], dtype=float),
+                   unstable=np.asarray(d["unstable"], dtype=np.bool_),
+                   tested=np.asarray(d["tested"], dtype=np.int8),
+                   boundary=np.asarray([np.nan if v is None else v for v in d["boundary"]],
+                                       dtype=float),
+                   runs=int(d["runs"]), wall_s=float(d["wall_s"]))
+
 
 class BoundaryTracker:
     """The boundary tracking of the module docstring as a state machine over an
@@ -473,13 +485,36 @@ def map_stem(controller: str = "stiff") -> str:
 
 def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings,
                controller: str = "stiff") -> list[Path]:
-    """``<stem>.json`` and ``<stem>.png`` in ``out`` (stem: ``map_stem``)."""
+    """``<stem>.json`` and ``<stem>.png`` in ``out`` (stem: ``map_stem``). The maps of
+    other positions already in that file join them (:func:`kept_maps`), so maps made a
+    few positions at a time add up to one file and one picture."""
     out.mkdir(parents=True, exist_ok=True)
+    json_path = out / f"{map_stem(controller)}.json"
+    maps = sorted([*maps, *kept_maps(json_path, maps, settings, controller)],
+                  key=lambda m: list(POSITIONS).index(m.position))
     data = {"settings": asdict(settings), "controller": controller,
             "maps": [m.to_json() for m in maps]}
-    json_path = out / f"{map_stem(controller)}.json"
     json_path.write_text(json.dumps(data, indent=1))
     return [json_path, plot_maps(maps, out / f"{map_stem(controller)}.png", controller)]
+
+
+def kept_maps(path: Path, maps: Sequence[StabilityMap], settings: MapSettings,
+              controller: str) -> list[StabilityMap]:
+    """The maps in ``path`` of positions ``maps`` lacks, where they were made by the same
+    controller with the same settings on the same grid (else they do not belong in one
+    picture and are replaced); [] without a readable file."""
+    try:
+        data = json.loads(path.read_text())
+        old = [StabilityMap.from_json(d) for d in data["maps"]]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    if data.get("controller") != controller or data.get("settings") != jsonable(asdict(settings)) \
+            or not maps:
+        return []
+    new = {m.position for m in maps}
+    return [m for m in old if m.position not in new and m.position in POSITIONS
+            and np.array_equal(m.rpm, maps[0].rpm)
+            and np.array_equal(m.weight_on_bit, maps[0].weight_on_bit)]
 
 
 def format_maps(maps: Sequence[StabilityMap]) -> str:

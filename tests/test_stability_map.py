@@ -318,6 +318,46 @@ def test_a_map_without_stick_slip_writes_valid_json() -> None:
     assert json.loads(text)["boundary"] == [None]
 
 
+def _toy_map(position: str, rpm=(50.0, 100.0), share: float = 0.0) -> sm.StabilityMap:
+    rpm, wob = np.array(rpm), np.array([50e3, 100e3])
+    unstable = np.zeros((2, len(rpm)), bool)
+    unstable[1, 0] = True
+    boundary = np.full(len(rpm), np.nan)
+    boundary[0] = 100e3
+    return sm.StabilityMap(position, share, rpm, wob, unstable, unstable.astype(np.int8),
+                           boundary, 2, 0.1)
+
+
+def test_maps_written_a_few_positions_at_a_time_add_up_in_one_file(tmp_path) -> None:
+    import json
+
+    settings = sm.MapSettings(seconds=12.0, measure=10.0)
+    sm.write_maps([_toy_map("P4", share=0.4)], tmp_path, settings)
+    sm.write_maps([_toy_map("P1"), _toy_map("P2")], tmp_path, settings)
+    data = json.loads((tmp_path / "stability_map.json").read_text())
+    assert [m["position"] for m in data["maps"]] == ["P1", "P2", "P4"]  # the paper's order
+    back = sm.StabilityMap.from_json(data["maps"][2])
+    want = _toy_map("P4", share=0.4)
+    assert back.rock2_share == 0.4 and np.array_equal(back.unstable, want.unstable)
+    assert np.array_equal(back.boundary, want.boundary, equal_nan=True)
+    # a position made again replaces its old map
+    sm.write_maps([_toy_map("P4", share=0.5)], tmp_path, settings)
+    data = json.loads((tmp_path / "stability_map.json").read_text())
+    assert [(m["position"], m["rock2_share"]) for m in data["maps"]] == [
+        ("P1", 0.0), ("P2", 0.0), ("P4", 0.5)]
+    # other settings or another grid: the old maps do not belong in the same picture
+    longer = sm.MapSettings(seconds=20.0, measure=10.0)
+    for k, (maps, then) in enumerate([([_toy_map("P3")], longer),
+                                      ([_toy_map("P3", rpm=(25.0, 50.0))], settings)]):
+        sm.write_maps([_toy_map("P1")], tmp_path / str(k), settings)
+        sm.write_maps(maps, tmp_path / str(k), then)
+        data = json.loads((tmp_path / str(k) / "stability_map.json").read_text())
+        assert [m["position"] for m in data["maps"]] == ["P3"]
+    # another controller's maps go to their own file
+    sm.write_maps([_toy_map("P3")], tmp_path, settings, "z-torque")
+    assert len(json.loads((tmp_path / "stability_map.json").read_text())["maps"]) == 3
+
+
 def test_results_are_stored_under_a_key_that_does_not_depend_on_dict_order() -> None:
     from drill_env.sweep import digest
 
