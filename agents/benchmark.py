@@ -692,6 +692,8 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
         print(f"benchmark: {reused} of {len(todo_all)} episodes already in "
               f"{out / RESULTS_FILE} (same settings and code; a controller of your own: its "
               f"file and data_files): not rerun", file=sys.stderr)
+    # before any episode: one recorded now would replace theirs under the same name
+    set_aside_stale_recordings(todo_all, out, progress)
     if todo:
         import os
 
@@ -714,7 +716,6 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             bar.close()
             executor.close()
     rows = [store.get(e.key) for e in todo_all]
-    set_aside_stale_recordings(todo_all, out, progress)
     from agents.learned import policy_files
 
     names = labels(controllers)
@@ -732,8 +733,9 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
 def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool) -> None:
     """Move the recordings under these rows' names that another run made (other
     settings or code: the stamp beside them differs, or is missing) to
-    ``recordings/other_runs/<their stamp>/``: a rerun without ``--record`` into the folder
-    left them beside a table they do not replay. Says how many it moved."""
+    ``recordings/other_runs/<their stamp>/``, before the run records its own: a rerun
+    into the folder, with ``--record``, replaced them, without it, left them beside a table
+    they do not replay. Says how many it moved."""
     moved = 0
     for e in episodes:
         if not e.recording.exists() or e.recording_current():

@@ -377,6 +377,25 @@ def test_a_rerun_without_record_sets_aside_the_recordings_of_other_settings(tmp_
             assert (aside / run / sidecar.name).read_text() == stamp
 
 
+def test_a_rerun_with_record_keeps_the_recordings_of_other_settings(tmp_path, capsys):
+    """Two recorded benchmarks of other settings into one folder: the second's
+    recordings replaced the first's under the same names, silently. Now the first's are
+    set aside before the second records."""
+    other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
+    args = (["stiff"], ["stick_slip"], [0], tmp_path)
+    recording = tmp_path / "recordings" / "stiff_stick_slip_seed0.rrd"
+    sidecar = recording.with_name(recording.name + ".stamp")
+    bm.run_benchmark(*args, SHORT, workers=1, record=True, progress=False)
+    first, stamp = recording.read_bytes(), sidecar.read_text()
+    capsys.readouterr()
+    bm.run_benchmark(*args, other, workers=1, record=True, progress=True)
+    assert "1 recording(s) of another run" in capsys.readouterr().err
+    (kept,) = (tmp_path / "recordings" / "other_runs").iterdir()
+    assert (kept / recording.name).read_bytes() == first
+    assert (kept / sidecar.name).read_text() == stamp
+    assert recording.read_bytes() != first and sidecar.read_text() != stamp
+
+
 def test_a_row_is_reused_only_with_the_series_and_recording_of_its_own_run(tmp_path,
                                                                            monkeypatch):
     """A benchmark into a folder that a run of other settings used: a stored row came
