@@ -1003,22 +1003,45 @@ def cmd_speed(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from drill_env.recording import replay
+    from drill_env.recording import check_recording, replay
+    from drill_env.recording.replay import web_port
 
-    if not args.path.is_file():
-        raise argparse.ArgumentTypeError(f"path: no recording at {args.path}")
-    if args.path.suffix != ".rrd":
-        raise argparse.ArgumentTypeError(f"path: {args.path} is not a rerun recording (.rrd)")
+    for path in args.paths:  # what the viewer would show as an empty page, refused here
+        if path.is_dir():
+            inside = sorted(p.name for p in path.glob("*.rrd"))
+            raise argparse.ArgumentTypeError(
+                f"path: {path} is a folder; give its recordings" + (
+                    f": {', '.join(inside[:3])}{' ...' if len(inside) > 3 else ''}"
+                    if inside else " (it holds no .rrd file)"))
+        if not path.is_file():
+            raise argparse.ArgumentTypeError(f"path: no recording at {path}")
+        if path.suffix != ".rrd":
+            raise argparse.ArgumentTypeError(f"path: {path} is not a rerun recording (.rrd)")
+        with path.open("rb") as f:  # rerun's files start "RRF" and a format version
+            if f.read(3) != b"RRF":
+                raise argparse.ArgumentTypeError(f"path: {path} is not a rerun recording "
+                                                 "(no RRF header)")
+        try:
+            warning = check_recording(path)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        if warning:
+            print(f"warning: {warning}", file=sys.stderr)
+    if args.port is not None and not args.web:
+        raise argparse.ArgumentTypeError("--port: the web viewer's port; add --web")
     if not args.web and sys.platform.startswith("linux") and not (
             os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         raise argparse.ArgumentTypeError("no display here (DISPLAY is not set) for "
                                          "the native viewer; add --web to serve the web "
                                          "viewer instead")
-    with args.path.open("rb") as f:  # rerun's files start "RRF" and a format version
-        if f.read(3) != b"RRF":
-            raise argparse.ArgumentTypeError(f"path: {args.path} is not a rerun recording "
-                                             "(no RRF header)")
-    code = replay(args.path, web=args.web)
+    port = None
+    if args.web:
+        try:
+            port = web_port(args.port)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(
+                f"--port{str(err).removeprefix('web_viewer_port')}") from None
+    code = replay(args.paths, web=args.web, web_viewer_port=port)
     return int(code) if isinstance(code, int) else 0
 
 
@@ -1248,9 +1271,14 @@ def parser() -> argparse.ArgumentParser:
                    help="comma-separated subset of core,env,scaling,compile,memory,"
                         "training (default: all; training is the time to a policy)")
 
-    p = add("replay", "open a .rrd recording in the rerun viewer", cmd_replay)
-    p.add_argument("path", type=Path, help="the .rrd file")
+    p = add("replay", "open .rrd recordings in the rerun viewer", cmd_replay)
+    p.add_argument("paths", type=Path, nargs="+", metavar="FILE",
+                   help="a .rrd file; several open in one viewer, whose recordings panel "
+                        "(left, folded) switches between them")
     p.add_argument("--web", action="store_true", help="serve the web viewer instead")
+    p.add_argument("--port", type=integer(1), default=None,
+                   help="the web viewer's HTTP port (default 9090, or a free one where "
+                        "9090 is taken; the URL is printed)")
     return top
 
 

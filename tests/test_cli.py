@@ -443,22 +443,62 @@ def test_modes_refuses_what_it_cannot_analyse(tmp_path, capsys):
 
 
 def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatch):
+    """Each of these was served as an empty viewer page (or, without a display, blamed
+    the display): the file is checked first, with rerun's own reader."""
+    import importlib
+    import socket
+
+    import drill_env.recording
+
+    replay_module = importlib.import_module("drill_env.recording.replay")
+
     text = tmp_path / "notes.txt"
     text.write_text("not a recording")
-    with pytest.raises(SystemExit):
-        main(["replay", str(text)])
-    assert "is not a rerun recording (.rrd)" in capsys.readouterr().err
-    recording = tmp_path / "episode.rrd"
-    recording.write_bytes(b"")
+    empty = tmp_path / "empty.rrd"
+    empty.write_bytes(b"")
+    assert main(["run", "--scenario", "stick_slip", "--duration", "0.3", "--record",
+                 str(tmp_path / "rec"), "--out", str(tmp_path)]) == 0
+    (good,) = (tmp_path / "rec").glob("*.rrd")
+    data = good.read_bytes()
+    other = tmp_path / "other_version.rrd"  # the header's rerun version made 0.20.0
+    at = data.index(b"RRF2") + 4
+    other.write_bytes(data[:at] + bytes([0, 20, 0, 0]) + data[at + 4:])
+    cut = tmp_path / "cut.rrd"  # too short to hold a recording
+    cut.write_bytes(data[:8])
+    half = tmp_path / "half.rrd"  # a run killed while writing: most of it is there
+    half.write_bytes(data[:len(data) // 2])
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr("sys.platform", "linux")
-    with pytest.raises(SystemExit):
-        main(["replay", str(recording)])
-    assert "add --web" in capsys.readouterr().err
-    with pytest.raises(SystemExit):  # served to the web viewer, which showed nothing
-        main(["replay", str(recording), "--web"])
-    assert "is not a rerun recording (no RRF header)" in capsys.readouterr().err
+    for args, said in [([text], "is not a rerun recording (.rrd)"),
+                       ([empty], "is not a rerun recording (no RRF header)"),
+                       ([empty, "--web"], "is not a rerun recording (no RRF header)"),
+                       ([other, "--web"], "incompatible with the local Rerun version"),
+                       ([cut, "--web"], f"path: {cut} cannot be opened by rerun"),
+                       ([tmp_path / "rec"], f"path: {tmp_path / 'rec'} is a folder; give "
+                                            f"its recordings: {good.name}"),
+                       ([good, good.with_name("gone.rrd")], "no recording at"),
+                       ([good], "add --web"),  # a good file: now the display
+                       ([good, "--port", "9191"], "--port: the web viewer's port; add --web")]:
+        with pytest.raises(SystemExit):
+            main(["replay", *map(str, args)])
+        assert said in capsys.readouterr().err, args
+    opened = []
+    monkeypatch.setattr(drill_env.recording, "replay", lambda paths, web, web_viewer_port:
+                        opened.append((paths, web_viewer_port)) or 0)
+    assert main(["replay", str(good), str(half), "--web"]) == 0
+    assert opened[-1][0] == [good, half]  # several recordings in one viewer
+    assert "warning: " in capsys.readouterr().err  # the half file: read in part
+    with socket.socket() as holder:  # a port another viewer holds
+        holder.bind(("0.0.0.0", 0))
+        holder.listen()
+        taken = holder.getsockname()[1]
+        with pytest.raises(SystemExit):
+            main(["replay", str(good), "--web", "--port", str(taken)])
+        assert f"--port: {taken} is in use" in capsys.readouterr().err
+        monkeypatch.setattr(replay_module, "WEB_VIEWER_PORT", taken)
+        assert main(["replay", str(good), "--web"]) == 0
+        assert opened[-1][1] == 0  # the default port taken: rerun picks a free one
 
 
 def test_version_and_exclusive_well_inputs(tmp_path, capsys):

@@ -384,6 +384,11 @@ def test_replay_is_not_started_here(tmp_path: Path) -> None:
     assert "--web-viewer-port" not in replay_command(tmp_path / "x.rrd", web_viewer_port=9191)
     with pytest.raises(FileNotFoundError, match="path"):
         replay(tmp_path / "missing.rrd")
+    # several recordings in one viewer; its data server on a free port where another
+    # viewer holds rerun's default (a second replay showed the first one's page)
+    two = replay_command([tmp_path / "a.rrd", tmp_path / "b.rrd"], web=True)
+    assert two[-2:] == [str(tmp_path / "a.rrd"), str(tmp_path / "b.rrd")]
+    assert two[two.index("--port") + 1] == "auto"
 
 
 def _fake_viewer(tmp_path: Path, monkeypatch, script: str) -> Path:
@@ -634,8 +639,10 @@ def test_stopping_replay_stops_the_viewer_and_its_children(tmp_path: Path, sig: 
     viewer = tmp_path / "viewer.sh"
     viewer.write_text(_FAKE_VIEWER)
     viewer.chmod(0o755)
-    recording = tmp_path / "x.rrd"
-    recording.write_bytes(b"RRF2")  # what the command checks before starting the viewer
+    env = RecordEpisode(_make_env(0.1), tmp_path / "rec")  # the command reads it first
+    _run_episode(env, seed=0)
+    env.close()
+    (recording,) = env.paths
     child = tmp_path / "child.pid"
     env = {**os.environ, "DRILL_ENV_RERUN": str(viewer), "VIEWER_CHILD": str(child)}
     proc = subprocess.Popen([sys.executable, "-c", _REPLAY_COMMAND, str(recording)], env=env,

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import threading
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,18 +21,83 @@ from drill_env.recording.writer import TIMELINE
 VIEWER_VARIABLE = "DRILL_ENV_RERUN"
 
 
-def replay_command(path: str | os.PathLike, web: bool = False,
+#: The web viewer's HTTP port when none is asked for (rerun's own default).
+WEB_VIEWER_PORT = 9090
+
+
+def replay_command(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = False,
                    web_viewer_port: int | None = None) -> list[str]:
-    """The command line that opens ``path`` in the rerun viewer (see :func:`replay`)."""
+    """The command line that opens ``path`` (one recording or several) in the rerun viewer
+    (see :func:`replay`). The viewer's data server takes a free port where another viewer
+    holds rerun's (``--port auto``): a second replay opens, not a blank page."""
     exe = os.environ.get(VIEWER_VARIABLE) or shutil.which(
         "rerun", path=str(Path(sys.executable).parent)) or shutil.which("rerun")
     cmd = [exe] if exe else [sys.executable, "-m", "rerun"]
+    cmd += ["--port", "auto"]
     if web:
         cmd.append("--web-viewer")
         if web_viewer_port is not None:
             cmd += ["--web-viewer-port", str(int(web_viewer_port))]
-    cmd.append(str(path))
+    cmd += [str(p) for p in _paths(path)]
     return cmd
+
+
+def _paths(path: str | os.PathLike | Sequence[str | os.PathLike]) -> list[Path]:
+    return [Path(path)] if isinstance(path, (str, os.PathLike)) else [Path(p) for p in path]
+
+
+def port_free(port: int) -> bool:
+    """Whether a server could listen on ``port`` here (all interfaces, as rerun's)."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        try:
+            probe.bind(("0.0.0.0", port))
+        except OSError:
+            return False
+    return True
+
+
+def web_port(asked: int | None) -> int:
+    """The web viewer's port: ``asked`` if free (else a ValueError naming it), else
+    :data:`WEB_VIEWER_PORT` if free, else 0 (rerun picks a free one and prints it)."""
+    if asked is not None:
+        if not port_free(asked):
+            raise ValueError(f"web_viewer_port: {asked} is in use (another viewer still "
+                             "running?); give another port, or none for a free one")
+        return asked
+    return WEB_VIEWER_PORT if port_free(WEB_VIEWER_PORT) else 0
+
+
+def check_recording(path: str | os.PathLike) -> str | None:
+    """Read ``path`` through with rerun's reader, as the viewer will. A file the viewer
+    would show as an empty page (rerun's format of another version, too short to hold a
+    recording, no recording in it) is a ValueError naming it. A file rerun cannot read
+    to its end (cut short: a copy or a disk that ran out) returns a warning: the viewer
+    shows what it can. None: the whole file reads."""
+    import warnings
+
+    import rerun
+    from rerun.chunk import RrdReader
+
+    try:
+        with warnings.catch_warnings():  # "no footer": a file cut short is scanned whole
+            warnings.simplefilter("ignore")
+            reader = RrdReader(str(path))
+            stores = reader.recordings()
+            if stores:
+                for _ in reader.stream(store=stores[0]):
+                    pass
+    except RuntimeError as err:  # rerun's "Failed to read RRD file at <path>: <why>"
+        why = str(err).partition(f"{path}: ")[2] or str(err)
+        if "incompatible" in why or "too small" in why:
+            raise ValueError(f"path: {path} cannot be opened by rerun {rerun.__version__}: "
+                             f"{why}") from None
+        return (f"{path}: rerun cannot read it to its end ({why}): cut short? The viewer "
+                "shows what it can read")
+    if not stores:
+        raise ValueError(f"path: {path} holds no recording")
+    return None
 
 
 def stop_viewer(proc: subprocess.Popen, timeout: float = 5.0) -> int:
@@ -49,22 +115,28 @@ def stop_viewer(proc: subprocess.Popen, timeout: float = 5.0) -> int:
     return proc.wait()
 
 
-def replay(path: str | os.PathLike, web: bool = False, *, web_viewer_port: int | None = None,
-           wait: bool = True) -> int | subprocess.Popen:
-    """Open a recording in the rerun viewer (the ``rerun`` binary shipped with rerun-sdk).
+def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = False, *,
+           web_viewer_port: int | None = None, wait: bool = True) -> int | subprocess.Popen:
+    """Open a recording, or several side by side (the viewer's recordings panel switches
+    between them), in the rerun viewer (the ``rerun`` binary shipped with rerun-sdk).
 
     ``web=True`` serves the web viewer over HTTP instead (``rerun --web-viewer``; port
-    9090 unless ``web_viewer_port``) and opens a browser if there is one. Blocks until
+    ``web_viewer_port``, else 9090, else a free one: :func:`web_port`) and opens a
+    browser if there is one. Blocks until
     the viewer exits and returns its exit code; ``wait=False`` returns the process. The
     viewer runs in its own process group: Ctrl-C or SIGTERM stops it and its servers
     (nothing is left holding the ports), then raises on in the caller as
     ``KeyboardInterrupt`` (SIGTERM: :class:`drill_env.sweep.Terminated`, a subclass), so a
     command line exits 130 or 143. Needs a display (native) or a browser (web).
     """
-    p = Path(path)
-    if not p.is_file():
-        raise FileNotFoundError(f"path: no recording at {p}")
-    proc = subprocess.Popen(replay_command(p, web, web_viewer_port), start_new_session=True)
+    paths = _paths(path)
+    for p in paths:
+        if not p.is_file():
+            raise FileNotFoundError(f"path: no recording at {p}")
+    if not paths:
+        raise ValueError("path: no recording given")
+    port = web_port(web_viewer_port) if web else None
+    proc = subprocess.Popen(replay_command(paths, web, port), start_new_session=True)
     if not wait:
         return proc
 
