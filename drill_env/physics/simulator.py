@@ -62,6 +62,7 @@ from drill_env.physics.linalg import (
     twisted_tridiagonal,
 )
 from drill_env.physics.readings import SHARE_MIN_SPEED, SHARE_MIN_WOB, advance_and_read, readout
+from drill_env.physics.settle import rest_on_wall
 from drill_env.physics.statics import (
     OperatingPoint,
     bit_buoyed_weight,
@@ -445,13 +446,11 @@ class Simulator:
 
     def reset(self, operating_point: OperatingPoint | None = None,
               depth: float | None = None) -> None:
-        """Start from a settled state: steady rotation with its static twist.
-
-        The torsional twist balances mud drag and the steady bit torque at this speed
-        and WOB (K phi = f with the top node as reference), and the PI integrator holds
-        the matching motor torque, so the run starts without a start-up transient. The
-        string is laterally straight and at rest.
-        """
+        """Start from a settled state: steady rotation with its static twist, which
+        balances mud drag, the steady bit torque and wall friction at this speed and WOB
+        (K phi = f, top node the reference), the PI integrator holding the matching motor
+        torque: no start-up transient. Laterally at rest: straight in a vertical hole, on
+        the wall in a curved one (:func:`~drill_env.physics.settle.rest_on_wall`)."""
         if depth is not None:
             require_finite(depth, "depth")
         op = operating_point or OperatingPoint()
@@ -470,6 +469,8 @@ class Simulator:
         self.stick[:] = np.sign(omega)
         tob = self.steady_torque_on_bit(omega, wob)
         load = -self.tor_c * omega
+        if self.hole is not None and cfg.solver.lateral:  # the string at rest on the wall
+            load += rest_on_wall(self, omega, wob)
         if self.soft_nodes.any():
             load += string_friction.steady_friction(self.params, self.soft_normal,
                                                     self.node_radius, omega)
