@@ -897,6 +897,9 @@ def cmd_modes(args: argparse.Namespace) -> int:
         for i, (f, z) in enumerate(zip(m.frequency, m.damping_ratio, strict=True)):
             print(f"{m.kind + ' ' + str(i + 1):<12} {f:8.3f} {z:8.1%}   "
                   + (m.boundary if i == 0 else ""))
+        for f, z in zip(m.overdamped, m.overdamped_ratio, strict=True):
+            print(f"({m.kind} mode at {f:.3f} Hz undamped is overdamped, damping {z:.0%}: "
+                  "it creeps back without oscillating, not listed nor counted above)")
         if len(m.frequency) < args.n:  # the mesh has no more oscillating modes
             print(f"({m.kind}: -n {args.n} asked, the model has {len(m.frequency)} "
                   "oscillating modes; overdamped ones are not listed)")
@@ -913,7 +916,9 @@ def cmd_modes(args: argparse.Namespace) -> int:
             "components_N": [vars(load) for load in md.component_loads(config, wob)],
             "modes": [{"kind": m.kind, "boundary": m.boundary,
                        "frequency_Hz": m.frequency.tolist(),
-                       "damping_ratio": m.damping_ratio.tolist()}
+                       "damping_ratio": m.damping_ratio.tolist(),
+                       "overdamped_frequency_Hz": m.overdamped.tolist(),
+                       "overdamped_damping_ratio": m.overdamped_ratio.tolist()}
                       for m in (torsional, lateral)],
             "critical_speeds": [c.__dict__ for c in crit]}
     (args.out / "modes.json").write_text(json.dumps(data, indent=2))

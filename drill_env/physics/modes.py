@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -69,6 +69,10 @@ class Modes:
     shapes: np.ndarray  # (n, n_nodes) mode shapes over the nodes, max |.| = 1
     node_depth: np.ndarray  # (n_nodes,) measured depth of the nodes (m)
     boundary: str  # the boundary conditions, in words
+    #: Undamped frequencies (Hz) and modal damping ratios of the overdamped modes (no
+    #: oscillation: not in ``frequency``) below the highest one listed
+    overdamped: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    overdamped_ratio: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def _damped(k: np.ndarray, c: np.ndarray, m: np.ndarray, n_modes: int
@@ -92,6 +96,20 @@ def _damped(k: np.ndarray, c: np.ndarray, m: np.ndarray, n_modes: int
                                                      np.arange(vec.shape[1])])))
     shapes /= np.max(np.abs(shapes), axis=0)
     return freq, zeta, shapes.T
+
+
+def overdamped_modes(k: np.ndarray, c: np.ndarray, m: np.ndarray, below: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """(undamped frequency in Hz, modal damping ratio) of the modes below ``below`` Hz
+    that :func:`_damped` drops as overdamped: the undamped modes ``K phi = w^2 M phi``
+    whose modal damping ``phi' C phi / (2 w)`` (mass-normalised ``phi``; exact for
+    proportional damping) is at least 1."""
+    w2, phi = scipy.linalg.eigh(k, np.diag(m))
+    w = np.sqrt(np.maximum(w2, 0.0))
+    ratio = np.einsum("ij,ik,kj->j", phi, c, phi) / np.maximum(2.0 * w, 1e-300)
+    hz = w / (2 * math.pi)
+    keep = (ratio >= 1.0) & (hz < below)
+    return hz[keep], ratio[keep]
 
 
 def torsional_system(config: SimulationConfig, top: TopBoundary = "fixed"
@@ -122,17 +140,22 @@ def torsional_modes(config: SimulationConfig, top: TopBoundary = "fixed",
     k, c, j, free = torsional_system(config, top)
     ix = np.ix_(free, free)
     freq, zeta, shapes = _damped(k[ix], c[ix], j[free], n_modes)
+    slow, slow_ratio = overdamped_modes(k[ix], c[ix], j[free],
+                                        float(freq[-1]) if len(freq) else math.inf)
     full = np.zeros((len(freq), k.shape[0]))
     full[:, free] = shapes
     depth = build_mesh(config.resolved()).node_depth
     where = "fixed top" if top == "fixed" else "top drive (inertia + PI) at the top"
-    return Modes("torsional", freq, zeta, full, depth, f"{where}, bit free (off bottom)")
+    return Modes("torsional", freq, zeta, full, depth, f"{where}, bit free (off bottom)",
+                 slow, slow_ratio)
 
 
 def _lateral_supports(config: SimulationConfig, supports: LateralSupports, top_node: int
                       ) -> np.ndarray:
     """Nodes held at zero lateral displacement: ``top_node``, and with "stabilizers" every
-    node below it whose wall clearance is that of a stabilizer, and the bit."""
+    node below it that is a stabilizer (one of ``string.stabilizers`` at
+    ``stabilizer_diameter``, or a component of kind ``stabilizer`` at its own
+    ``contact_diameter``), and the bit."""
     from drill_env.physics.simulator import Simulator
 
     sim = Simulator(config.resolved())
@@ -140,6 +163,9 @@ def _lateral_supports(config: SimulationConfig, supports: LateralSupports, top_n
     if supports == "stabilizers":
         tight = sim.node_clearance <= (sim.config.string.hole_diameter
                                        - sim.config.string.stabilizer_diameter) / 2 + 1e-9
+        # a node takes the wall radius of the element above it (Simulator): its component
+        kinds = np.array([section.kind for section in sim.config.string.sections])
+        tight[1:] |= kinds[sim.mesh.component] == "stabilizer"
         stabilized = np.flatnonzero(tight[top_node + 1:-1]) + top_node + 1
         pinned += stabilized.tolist() + [sim.n_nodes - 1]
     return np.asarray(sorted(set(pinned)))
@@ -249,6 +275,8 @@ def lateral_modes(config: SimulationConfig, weight_on_bit: float = 0.0,
                             "the wall, where modes of the straight string do not hold)"
                             if region == "bha" else ""))
     freq, zeta, shapes = _damped(k[ix], c[ix], m[free], n_modes)
+    slow, slow_ratio = overdamped_modes(k[ix], c[ix], m[free],
+                                        float(freq[-1]) if len(freq) else math.inf)
     dofs = np.zeros((len(freq), 2 * n))
     dofs[:, free] = shapes
     displacement = dofs[:, 0::2]
@@ -256,7 +284,7 @@ def lateral_modes(config: SimulationConfig, weight_on_bit: float = 0.0,
     where = ("BHA pinned below the pipe" if region == "bha" else "top pinned") + (
         ", stabilizers and bit pinned" if supports == "stabilizers" else "")
     return Modes("lateral", freq, zeta, displacement, mesh.node_depth,
-                 f"{where}, WOB {weight_on_bit / 1e3:.0f} kN")
+                 f"{where}, WOB {weight_on_bit / 1e3:.0f} kN", slow, slow_ratio)
 
 
 def undamped_frequencies(k: np.ndarray, m: np.ndarray, n_modes: int) -> np.ndarray:

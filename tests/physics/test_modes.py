@@ -24,6 +24,7 @@ from drill_env.physics.config import (
 )
 from drill_env.physics.fem import assemble_lateral, assemble_torsion, build_mesh
 from drill_env.physics.modes import (
+    _lateral_system,
     critical_speeds,
     excitation_label,
     excitations,
@@ -33,6 +34,7 @@ from drill_env.physics.modes import (
     torsional_system,
     undamped_frequencies,
 )
+from drill_env.scenarios import make_scenario, with_physics
 
 UNDAMPED = {"mud.torsional_damping": 0.0, "damping.stiffness_proportional": 0.0,
             "damping.mass_proportional": 0.0}
@@ -180,6 +182,54 @@ def test_overdamped_motions_are_not_modes():
     freq, zeta, _ = _damped(k, c, np.array([1.0, 1.0]), 3)
     np.testing.assert_allclose(freq, [10.0 / (2 * math.pi)], rtol=1e-12)
     np.testing.assert_allclose(zeta, [0.05], rtol=1e-12)
+
+
+def test_the_overdamped_modes_dropped_are_reported_with_their_damping():
+    """The two uncoupled DOFs above: the one at zeta = 2.5 (w = 1 rad/s) is reported
+    as overdamped, at its undamped frequency and damping (closed form, zeta = c / 2 w),
+    being below the one listed; under mass-proportional damping alone a string's lowest
+    lateral modes are overdamped where a / (2 w) >= 1, and exactly those (and no
+    oscillating one) are reported, each at its undamped frequency."""
+    from drill_env.physics.modes import overdamped_modes, undamped_frequencies
+
+    k = np.array([[100.0, 0.0], [0.0, 1.0]])
+    c = np.array([[1.0, 0.0], [0.0, 5.0]])
+    slow, ratio = overdamped_modes(k, c, np.array([1.0, 1.0]), 10.0 / (2 * math.pi))
+    np.testing.assert_allclose(slow, [1.0 / (2 * math.pi)], rtol=1e-12)
+    np.testing.assert_allclose(ratio, [2.5], rtol=1e-12)
+    a = 3.0  # 1/s: overdamps the modes below a / 2 rad/s = 0.24 Hz
+    config = replace(make_scenario("default").config,
+                     **{"damping.mass_proportional": a, "damping.stiffness_proportional": 0.0})
+    modes = lateral_modes(config, 0.0, n_modes=3, region="string", supports="top_only")
+    assert len(modes.overdamped) > 0
+    np.testing.assert_allclose(modes.overdamped_ratio,
+                               a / (2 * 2 * math.pi * modes.overdamped), rtol=1e-6)
+    assert np.all(modes.overdamped < a / 2 / (2 * math.pi))
+    assert np.all(modes.frequency > modes.overdamped.max())  # none listed is overdamped
+    k, kg, m, free, _, _ = _lateral_system(config.resolved(), 0.0, "top_only", "string")
+    lowest = undamped_frequencies((k + kg)[np.ix_(free, free)], m[free],
+                                  len(modes.overdamped))
+    np.testing.assert_allclose(modes.overdamped, lowest, rtol=1e-6)
+
+
+def test_a_stabilizer_component_is_a_support_whatever_its_blade_diameter():
+    """BHA analysis pins the stabilizers. A component of kind stabilizer with blades
+    1/8 in smaller than ``string.stabilizer_diameter`` (which places the legacy extra
+    stabilizers) was not found, so its span went unpinned: the lowest lateral mode fell
+    by a fifth and the BHA's buckling WOB by 13 % (a drilling engineer's walkthrough).
+    The blade diameter does not move a pin: the modes are the same."""
+    from drill_cli.main import read_overrides
+
+    field = read_overrides(Path(__file__).parents[2] / "examples" / "field_well_string.yaml")
+    base = with_physics(make_scenario("default").config, field)
+    gauge = base.string.stabilizer_diameter
+    found = []
+    for blades in (gauge, gauge - 0.125 * 0.0254):
+        components = tuple(dataclasses.replace(c, contact_diameter=blades)
+                           if c.kind == "stabilizer" else c for c in base.string.components)
+        config = replace(base, **{"string.components": components})
+        found.append(lateral_modes(config, 40e3, n_modes=3, region="bha").frequency)
+    np.testing.assert_allclose(found[0], found[1], rtol=1e-9)
 
 
 def test_lateral_buckling_weight_of_a_pinned_collar_is_eulers_load():
