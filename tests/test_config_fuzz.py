@@ -279,3 +279,20 @@ def test_a_list_section_given_as_a_dict_is_told_to_be_a_list(rocks):
                                          r"\(formation\.rocks\[0\]\.<field>\)"):
         gym_physics = flatten({"formation": {"rocks": rocks}})  # as the env reads physics=
         replace(SimulationConfig(), **gym_physics)
+
+
+@pytest.mark.parametrize("path, value, unit", [
+    ("string.drill_pipe.outer_diameter", 5.0, "metres; 5 in = 0.127 m"),  # inches
+    ("string.hole_diameter", 215.9, "metres; 5 in = 0.127 m"),  # millimetres
+    ("mud.density", 1e5, "kg/m^3; 10 ppg = 1,198 kg/m^3"),
+])
+def test_a_bound_broken_by_a_field_with_a_unit_says_the_unit(path, value, unit):
+    """A diameter typed in inches broke "less than 1" and said no more: which unit the
+    field is in is what the user needs (a drilling engineer's walkthrough)."""
+    with pytest.raises(ValueError) as caught:
+        replace(SimulationConfig(), **{path: value})
+    said = str(caught.value)
+    assert f"{path}: " in said and f"got {value!r} ({unit})" in said
+    with pytest.raises(ValueError) as caught:  # a bound on a field without a unit: as was
+        replace(SimulationConfig(), **{"damping.mass_proportional": -1.0})
+    assert "(" not in str(caught.value).partition("got")[2]

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from drill_env.physics.bit import shoulder_lengths
 from drill_env.physics.formation import rock_at
 from drill_env.physics.simulator import Simulator
 from drill_env.recording.recorder import capture_geometry
@@ -138,7 +139,7 @@ def test_the_blades_lie_on_the_config_blade_rays_and_each_piece_in_the_rock_it_i
         height = strips[:, :, 2] - (depth0 - depth)  # above the bit face
         assert radius.max() == pytest.approx(pad_radius, rel=1e-5)
         assert radius.min() == pytest.approx(min(cfg.face_start), abs=1e-5)
-        top = cfg.shoulder_length[0] * math.cos(alpha) + cfg.gauge_length[0]
+        top = shoulder_lengths(cfg)[0] * math.cos(alpha) + cfg.gauge_length[0]
         assert height.min() == pytest.approx(0.0, abs=1e-5)
         assert height.max() == pytest.approx(top, rel=1e-5)
         # every piece on the ray of one blade: angle = blade angle + bit rotation
@@ -171,7 +172,7 @@ def test_front_share_text_counts_face_and_shoulder_not_the_gauge(
     itf = scenario.config.formation.interfaces[0]
     formation = sim.formation
     alpha = math.radians(cfg.shoulder_angle)
-    rise = cfg.shoulder_length[0] * math.cos(alpha)
+    rise = shoulder_lengths(cfg)[0] * math.cos(alpha)
     pad = cfg.diameter / 2.0 - cfg.gauge_clearance
     depth = itf.depth + pad + rise + 0.01  # the shoulder's top at +x 1 cm below the plane
     top_of_pad = depth - rise - cfg.gauge_length[0]

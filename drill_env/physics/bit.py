@@ -94,23 +94,34 @@ class GaugeContact(NamedTuple):
 # --------------------------------------------------------------------------- geometry
 
 
+def shoulder_lengths(cfg: BitConfig) -> tuple[float, ...]:
+    """Each blade's shoulder length: ``cfg.shoulder_length``, or where that is empty the
+    lengths that reach the gauge radius, ``r_C = r_B + l_sh sin(alpha_sh)``, so that a
+    bit given another diameter gets its own (they were stored at the first size)."""
+    if cfg.shoulder_length:
+        return tuple(cfg.shoulder_length)
+    sin_a = math.sin(math.radians(cfg.shoulder_angle))
+    return tuple((cfg.gauge_radius - rb) / sin_a for rb in cfg.face_end)
+
+
 def blade_arrays(cfg: BitConfig) -> np.ndarray:
     """``(n_blades, N_BLADE_COLUMNS)``: the columns of :data:`Blade` (eq. 29)."""
     n = cfg.n_blades
     alpha = math.radians(cfg.shoulder_angle)
     blades = np.empty((n, N_BLADE_COLUMNS))
+    shoulder = shoulder_lengths(cfg)
     for i in range(n):
         blades[i, Blade.PHI] = math.radians(cfg.blade_angles[i])
         blades[i, Blade.R_A] = cfg.face_start[i]
         blades[i, Blade.R_B] = cfg.face_end[i]
         # docs/model.md 4.1: the shoulder's radial extent is l_sh sin(alpha_sh).
-        blades[i, Blade.R_C] = cfg.face_end[i] + cfg.shoulder_length[i] * math.sin(alpha)
+        blades[i, Blade.R_C] = cfg.face_end[i] + shoulder[i] * math.sin(alpha)
         blades[i, Blade.ALPHA_SH] = alpha
-        blades[i, Blade.L_SH] = cfg.shoulder_length[i]
+        blades[i, Blade.L_SH] = shoulder[i]
         blades[i, Blade.L_G] = cfg.gauge_length[i]
         blades[i, Blade.COS_PHI] = math.cos(blades[i, Blade.PHI])
         blades[i, Blade.SIN_PHI] = math.sin(blades[i, Blade.PHI])
-        blades[i, Blade.RISE_SH] = cfg.shoulder_length[i] * math.cos(alpha)
+        blades[i, Blade.RISE_SH] = shoulder[i] * math.cos(alpha)
     return blades
 
 

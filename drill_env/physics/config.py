@@ -486,7 +486,7 @@ class BitConfig:
     #: blades at equal angles (a symmetric bit: no net lateral force in homogeneous rock,
     #: the paper's cases 2-3); the face from 15 mm (the cone at the centre has no cutters)
     #: to 70 mm, about 2/3 of the 111 mm radius; the shoulder at 60 deg from the bit axis
-    #: up to the gauge (its length follows from the geometry when left empty); 2 in pads.
+    #: up to the gauge (empty: the lengths that reach it, bit.shoulder_lengths); 2 in pads.
     blade_angles: tuple[Annotated[Finite, Field(ge=-360.0, le=360.0)], ...] = (
         0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
     face_start: tuple[NonNegative, ...] = (0.015,) * 6
@@ -526,17 +526,15 @@ class BitConfig:
             _require(self.face_end[i] <= self.gauge_radius, f"face_end[{i}]",
                      f"{self.face_end[i]} m lies beyond the gauge radius (diameter / 2 - "
                      f"gauge_clearance = {self.gauge_radius:.4f} m)")
-        if not self.shoulder_length:
-            # Shoulders reach the gauge radius: r_C = r_B + l_sh sin(alpha_sh).
-            sin_a = math.sin(math.radians(self.shoulder_angle))
-            lengths = tuple((self.gauge_radius - rb) / sin_a for rb in self.face_end)
-            object.__setattr__(self, "shoulder_length", lengths)
-        _require(len(self.shoulder_length) == n, "shoulder_length",
-                 f"needs one value per blade (len(blade_angles) = {n}), got "
-                 f"{len(self.shoulder_length)}")
+        from drill_env.physics.bit import shoulder_lengths  # it imports this module
+
+        lengths = shoulder_lengths(self)  # empty: to the gauge, of this bit's size
+        _require(all(map(math.isfinite, lengths)), "shoulder_angle", f"{self.shoulder_angle} "
+                 "deg: shoulders this close to the bit axis never reach the gauge radius")
+        _require(len(lengths) == n, "shoulder_length", f"needs one value per blade "
+                 f"(len(blade_angles) = {n}), got {len(lengths)}")
         for i in range(n):
-            r_c = self.face_end[i] + self.shoulder_length[i] * math.sin(
-                math.radians(self.shoulder_angle))
+            r_c = self.face_end[i] + lengths[i] * math.sin(math.radians(self.shoulder_angle))
             _require(r_c <= self.gauge_radius + 1e-9, f"shoulder_length[{i}]",
                      f"blade reaches radius {r_c:.4f} m beyond the gauge radius (diameter / "
                      f"2 - gauge_clearance = {self.gauge_radius:.4f} m)")

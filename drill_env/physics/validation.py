@@ -85,6 +85,23 @@ _CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, revalidate_instances="
 
 _PATH_MESSAGE = re.compile(r"^([A-Za-z_][\w.\[\]]*): (.*)$", re.DOTALL)
 
+#: The unit of a field by the end of its name, said with a bound it breaks: a diameter
+#: typed in inches or millimetres breaks "less than 1" (m), which alone does not say why.
+_UNITS = {"diameter": "metres; 5 in = 0.127 m", "length": "metres; 30 ft = 9.144 m",
+          "depth": "metres; 1,000 ft = 304.8 m", "density": "kg/m^3; 10 ppg = 1,198 kg/m^3",
+          "md": "metres; 1,000 ft = 304.8 m"}
+
+
+def _unit_hint(loc: list[Any], error_type: str) -> str:
+    """`` (<unit>; an example)`` for a bound broken by a field whose unit :data:`_UNITS`
+    knows."""
+    if not error_type.startswith(("less_than", "greater_than")) or not loc:
+        return ""
+    name = next((str(p) for p in reversed(loc) if isinstance(p, str)), "")
+    unit = next((u for end, u in _UNITS.items() if name == end or name.endswith("_" + end)),
+                None)
+    return f" ({unit})" if unit else ""
+
 
 def _format_location(parts: list[Any]) -> str:
     out = ""
@@ -172,7 +189,7 @@ def _error_text(err: ValidationError, prefix: str = "", root: Any = None) -> str
         text = f"{path}: {msg}"
         if not value_error and "input" in e and not isinstance(e["input"], Mapping) and \
                 type(e["input"]).__name__ != "ArgsKwargs":
-            text += f", got {e['input']!r}"
+            text += f", got {e['input']!r}" + _unit_hint(loc, e["type"])
         lines.append(text)
     return "; ".join(unknown + lines)
 

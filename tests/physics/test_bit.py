@@ -507,3 +507,22 @@ def test_three_blades_on_one_side_push_the_bit_by_a_third_of_the_cutting_force()
     lever = (face * 0.5 * (blade[Blade.R_A] + blade[Blade.R_B])
              + shoulder * 0.5 * (blade[Blade.R_B] + blade[Blade.R_C])) / (face + shoulder)
     assert out[BitOut.TORQUE] == pytest.approx(mu * WOB * lever, rel=1e-12)
+
+
+def test_a_bit_given_another_diameter_gets_shoulders_to_its_own_gauge():
+    """Shoulders left empty reach the gauge: r_B + l_sh sin(alpha_sh) = gauge radius. They
+    were stored at the default 8 3/4 in bit's size, so a config that then set an
+    8 1/2 in bit was refused ("blade reaches radius 0.1061 m beyond the gauge") for a
+    field the user never wrote (a drilling engineer's walkthrough)."""
+    import math
+
+    from drill_env.physics.bit import shoulder_lengths
+    from drill_env.physics.config import BitConfig, replace
+
+    small = replace(BitConfig(), diameter=8.5 * 0.0254)
+    gauge = small.diameter / 2 - small.gauge_clearance
+    for r_b, l_sh in zip(small.face_end, shoulder_lengths(small), strict=True):
+        assert r_b + l_sh * math.sin(math.radians(small.shoulder_angle)) == \
+            pytest.approx(gauge, rel=1e-12)
+    given = replace(small, shoulder_length=(0.02,) * 6)  # given lengths are kept
+    assert shoulder_lengths(given) == (0.02,) * 6

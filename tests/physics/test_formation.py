@@ -127,7 +127,7 @@ def share_below_by_quadrature(bit_cfg, dip: float, d_rel: float, n: int = 400) -
     alpha = math.radians(bit_cfg.shoulder_angle)
     theta = (np.arange(n) + 0.5) * (2.0 * math.pi / n)
     below = total = 0.0
-    for r_a, r_b, l_sh in zip(bit_cfg.face_start, bit_cfg.face_end, bit_cfg.shoulder_length,
+    for r_a, r_b, l_sh in zip(bit_cfg.face_start, bit_cfg.face_end, bit.shoulder_lengths(bit_cfg),
                               strict=True):
         u = (np.arange(n) + 0.5) / n
         # face: radius r_a..r_b at height 0; shoulder: from (r_b, 0) at alpha from the axis
@@ -146,8 +146,8 @@ def test_front_share_below_a_flat_interface_is_the_face_plus_the_submerged_shoul
     bit_cfg = bit.symmetric_bit()
     alpha = math.radians(bit_cfg.shoulder_angle)
     faces = np.subtract(bit_cfg.face_end, bit_cfg.face_start)
-    front = faces.sum() + sum(bit_cfg.shoulder_length)
-    rise = bit_cfg.shoulder_length[0] * math.cos(alpha)
+    front = faces.sum() + sum(bit.shoulder_lengths(bit_cfg))
+    rise = bit.shoulder_lengths(bit_cfg)[0] * math.cos(alpha)
     for h in (0.1 * rise, 0.5 * rise, 0.9 * rise):
         cfg = FormationConfig(rocks=(HARD, SOFT), interfaces=(Interface(-h, 0.0, 0.0),),
                               layers=(0, 1))
