@@ -296,3 +296,13 @@ def test_a_bound_broken_by_a_field_with_a_unit_says_the_unit(path, value, unit):
     with pytest.raises(ValueError) as caught:  # a bound on a field without a unit: as was
         replace(SimulationConfig(), **{"damping.mass_proportional": -1.0})
     assert "(" not in str(caught.value).partition("got")[2]
+
+
+def test_a_smaller_hole_names_the_default_it_meets_and_what_to_do():
+    """Setting only the hole diameter met the default stabilizer diameter, a field the
+    user never wrote: the error says it is a default and to set it."""
+    with pytest.raises(ValueError) as caught:
+        replace(SimulationConfig(), **{"string.hole_diameter": 8.5 * 0.0254})
+    said = str(caught.value)
+    assert said.startswith("string.stabilizer_diameter: ") and "default" in said
+    assert "set it for this hole" in said

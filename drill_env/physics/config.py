@@ -201,8 +201,8 @@ class StringConfig:
             _require(self.bha == _default_bha(), "components",
                      "give the BHA either as one section (bha) or as components, not both")
         _require(self.stabilizer_diameter < self.hole_diameter, "stabilizer_diameter",
-                 f"must be smaller than hole_diameter ({self.hole_diameter} m): clearance "
-                 f"<= 0, got {self.stabilizer_diameter} m")
+                 f"{self.stabilizer_diameter} m (default: 1/8 in under an 8 3/4 in gauge) must be "
+                 f"smaller than hole_diameter ({self.hole_diameter} m); set it for this hole")
         from drill_env.physics.components import check_stabilizers  # it imports this module
 
         check_stabilizers(self)
