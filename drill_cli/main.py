@@ -195,7 +195,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 #: units; the rest names its unit in its key or is a count or a ratio).
 RUN_SUMMARY_UNITS = {
     "rpm": "rpm", "weight_on_bit_kN": "kN", "mean_setpoint_rpm": "rpm",
-    "mean_setpoint_kN": "kN", "string_length_m": "m", "simulated_s": "s", "wall_s": "s",
+    "mean_setpoint_kN": "kN", "mean_surface_torque_kNm": "kN m", "mean_hook_load_kN": "kN",
+    "string_length_m": "m", "simulated_s": "s", "wall_s": "s",
     "start_kick": "1 (relative bit-speed kick)", "duration_given_s": "s",
     "mean_ssi": "1",
     "mean_stuck_fraction": "1", "mean_whirl_ratio": "1", "mean_radial_ratio": "1",
@@ -284,7 +285,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     # controller applied (constant:<rpm>/<kN> and the driller set their own, a stick-slip
     # policy corrects the speed): their episode means are what it ran at
     sums = dict.fromkeys(("target_speed", "target_wob", "speed_setpoint",
-                          "weight_on_bit_setpoint"), 0.0)
+                          "weight_on_bit_setpoint", "surface_torque", "hook_load"), 0.0)
     try:
         controller.reset(base)
         for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario}",
@@ -298,6 +299,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             sums["target_wob"] += base.targets[1]
             sums["speed_setpoint"] += info["speed_setpoint"]
             sums["weight_on_bit_setpoint"] += info["weight_on_bit_setpoint"]
+            # what a driller reads first: the torque and the load on the rig
+            sums["surface_torque"] += info["surface_torque"]
+            sums["hook_load"] += info["hook_load"]
             for key in keys:
                 totals[key] += info[key]
             if terminated or truncated:
@@ -312,7 +316,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         env.close()  # finishes a recording, interrupted or not
     mean = {key: total / steps for key, total in sums.items()} if steps else {
         "target_speed": base.targets[0], "target_wob": base.targets[1],
-        "speed_setpoint": base.targets[0], "weight_on_bit_setpoint": base.targets[1]}
+        "speed_setpoint": base.targets[0], "weight_on_bit_setpoint": base.targets[1],
+        "surface_torque": info["surface_torque"], "hook_load": info["hook_load"]}
     rpm, wob_kn = mean["target_speed"] / RPM, mean["target_wob"] / KILO
     setpoint_rpm = mean["speed_setpoint"] / RPM
     setpoint_kn = mean["weight_on_bit_setpoint"] / KILO
@@ -325,6 +330,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         "env_id": controller.env_id, "startup": cfg.startup, "rpm": rpm,
         "weight_on_bit_kN": wob_kn, "mean_setpoint_rpm": setpoint_rpm,
         "mean_setpoint_kN": setpoint_kn, "seed": args.seed,
+        "mean_surface_torque_kNm": mean["surface_torque"] / KILO,
+        "mean_hook_load_kN": mean["hook_load"] / KILO,
         # what else set the episode: a history's runs of another string or start apart
         "config": None if args.config is None else str(args.config),
         "start_kick": args.start_kick, "duration_given_s": args.duration,
@@ -365,6 +372,9 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{fixed(summary['mean_radial_ratio'])}, bit lateral force "
           f"{summary['mean_lateral_force'] / KILO:.1f} kN, ROP "
           f"{summary['mean_rop'] * HOUR:.1f} m/h")
+    print(f"  episode mean at the rig: surface torque "
+          f"{summary['mean_surface_torque_kNm']:.2f} kN m, hook load "
+          f"{summary['mean_hook_load_kN']:.1f} kN")
     if args.record is not None:
         print(f"  recording: {summary['recording']} (drill-env replay <file>)")
     print(f"wrote {args.out / 'run_summary.json'} (and a line of "

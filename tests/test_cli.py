@@ -23,6 +23,15 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
     numbers = {k for k, v in summary.items() if isinstance(v, float) and k != "seed"}
     assert numbers <= set(summary["units"]), numbers - set(summary["units"])
     assert summary["units"]["mean_rop"] == "m/s"
+    # what a driller reads first (a drilling engineer's walkthrough): the rig's load is
+    # the string's buoyed weight less the WOB, in a vertical hole
+    from drill_env.physics.simulator import Simulator
+    from drill_env.scenarios import make_scenario
+
+    hanging = Simulator(make_scenario("paper_case1").config).string_weight / 1e3
+    assert summary["mean_hook_load_kN"] == pytest.approx(hanging - 80.0, rel=1e-3)
+    assert summary["units"]["mean_surface_torque_kNm"] == "kN m"
+    assert summary["mean_surface_torque_kNm"] > 0.0
     recordings = list((tmp_path / "rec").glob("stiff_paper_case1_seed0_*.rrd"))
     assert [str(p) for p in recordings] == [summary["recording"]]
     assert "SSI" in capsys.readouterr().out
