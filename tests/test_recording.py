@@ -725,3 +725,24 @@ def test_the_string_nodes_on_the_wall_are_recorded_coloured_by_their_force(tmp_p
     assert len(counts) >= 4  # one snapshot every 0.25 s
     # released straight at reset, the string settles onto the low side
     assert counts == sorted(counts) and counts[-1] > 0.5 * n_nodes
+
+
+def test_the_window_metrics_are_labelled_as_window_means(tmp_path: Path) -> None:
+    """Two series were both called radial_ratio in the viewer: the info's mean over the
+    metric window and the instantaneous one under lateral (they differ: 0.86 against
+    1.02 on paper_case4, a walkthrough). The window means now say so."""
+    from rerun.chunk import RrdReader
+
+    env = RecordEpisode(_make_env(0.3), tmp_path)
+    _run_episode(env, seed=0)
+    env.close()
+    reader = RrdReader(str(env.paths[0]))
+    names = {}
+    for chunk in reader.stream(store=reader.recordings()[0]):
+        batch = chunk.to_record_batch()
+        if "SeriesLines:names" in batch.schema.names:
+            names[chunk.entity_path] = batch.column("SeriesLines:names").to_pylist()[0][0]
+    assert names["/timeseries/info/radial_ratio"] == "radial_ratio (window mean)"
+    assert names["/timeseries/info/mse"] == "mse (window mean)"
+    assert names["/timeseries/lateral/radial_ratio"] == "|bit lateral| / clearance"
+    assert names["/timeseries/info/top_drive_energy"] == "top_drive_energy"  # no window

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from drill_env.env_batch import INFO_WINDOW_METRICS
 from drill_env.events import LayerDetector, StickSlipDetector, WhirlDetector
 from drill_env.physics.validation import jsonable
 from drill_env.recording.writer import (
@@ -414,8 +415,12 @@ class EpisodeRecorder:
                 self._scalars(f"timeseries/rock_share/{name}", t, shares[:, j], name,
                               ROCK_COLORS[j % len(ROCK_COLORS)])
         for name, (times, vals) in sorted(c.sparse.items()):
-            self._scalars(name, np.asarray(times), np.asarray(vals, dtype=np.float64),
-                          name.rsplit("/", 1)[-1])
+            key = name.rsplit("/", 1)[-1]
+            # the window metrics are means over the env's last metric_window s: said, so
+            # the info's radial_ratio is not read as the instantaneous one of "lateral"
+            label = f"{key} (window mean)" if name.startswith(
+                "timeseries/info/") and key in INFO_WINDOW_METRICS else key
+            self._scalars(name, np.asarray(times), np.asarray(vals, dtype=np.float64), label)
         self._orbit_history = writer.orbit(t, bx, by, self._orbit_history)
         writer.string(np.asarray(c.string_t), c.string_xy, np.asarray(c.string_depth),
                       c.string_force)
