@@ -653,9 +653,9 @@ def test_stopping_replay_stops_the_viewer_and_its_children(tmp_path: Path, sig: 
     pid = int(child.read_text())
     assert _alive(pid)  # the viewer's own child runs
     proc.send_signal(getattr(signal, sig))
-    assert proc.wait(timeout=30) == status
-    assert proc.stderr is not None
-    said = proc.stderr.read()
+    # communicate, not a read of stderr: a viewer left running holds the pipe open
+    _, said = proc.communicate(timeout=30)
+    assert proc.returncode == status
     assert ("terminated" if sig == "SIGTERM" else "interrupted") in said
     assert "Traceback" not in said
     deadline = time.monotonic() + 10
@@ -696,7 +696,7 @@ def _alive(pid: int) -> bool:
 
 def test_the_string_nodes_on_the_wall_are_recorded_coloured_by_their_force(tmp_path: Path
                                                                            ) -> None:
-    """In the 60-degree lateral the string falls onto the low side: ``string/contact`` holds
+    """In the 60-degree lateral the string lies on the low side: ``string/contact`` holds
     the nodes with a wall force at each snapshot, coloured on the fixed log scale
     (yellow at 100 N, dark red at 50 kN) and sized by force."""
     from rerun.chunk import RrdReader
@@ -723,8 +723,9 @@ def test_the_string_nodes_on_the_wall_are_recorded_coloured_by_their_force(tmp_p
         counts += [len(cell) for cell in positions.to_pylist()]
         assert any(n.endswith("colors") for n in names)
     assert len(counts) >= 4  # one snapshot every 0.25 s
-    # released straight at reset, the string settles onto the low side
-    assert counts == sorted(counts) and counts[-1] > 0.5 * n_nodes
+    # settled on the low side from the start (physics/settle.py), where it stays while
+    # the action sweep moves the set points
+    assert min(counts) > 0.5 * n_nodes and max(counts) - min(counts) <= 0.05 * n_nodes
 
 
 def test_the_window_metrics_are_labelled_as_window_means(tmp_path: Path) -> None:
@@ -746,3 +747,30 @@ def test_the_window_metrics_are_labelled_as_window_means(tmp_path: Path) -> None
     assert names["/timeseries/info/mse"] == "mse (window mean)"
     assert names["/timeseries/lateral/radial_ratio"] == "|bit lateral| / clearance"
     assert names["/timeseries/info/top_drive_energy"] == "top_drive_energy"  # no window
+
+
+def test_a_stem_that_names_an_existing_file_warns_and_a_vanished_file_is_not_listed(
+        tmp_path: Path) -> None:
+    """Two runs with the same ``stem=`` wrote one file, the second silently replacing
+    the first; a recording whose folder was removed mid-episode was still listed in
+    ``paths`` (a walkthrough). Both now warn."""
+    import shutil
+
+    first = RecordEpisode(_make_env(0.2), tmp_path, stem="mine")
+    _run_episode(first, seed=0)
+    first.close()
+    again = RecordEpisode(_make_env(0.2), tmp_path, stem="mine")
+    with pytest.warns(RuntimeWarning, match="mine.rrd exists: this episode's recording "
+                                            "replaces it"):
+        _run_episode(again, seed=1)
+    again.close()
+    gone = RecordEpisode(_make_env(0.2), tmp_path / "gone", flush_every=1)
+    gone.reset(seed=0)
+    shutil.rmtree(tmp_path / "gone")
+    with pytest.warns(RuntimeWarning, match="not recorded: .*gone after it was written"):
+        while True:
+            *_, terminated, truncated, _ = gone.step(np.zeros(2, dtype=np.float32))
+            if terminated or truncated:
+                break
+    gone.close()
+    assert gone.paths == []

@@ -117,13 +117,13 @@ def stop_viewer(proc: subprocess.Popen, timeout: float = 5.0) -> int:
 
 def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = False, *,
            web_viewer_port: int | None = None, wait: bool = True) -> int | subprocess.Popen:
-    """Open a recording, or several side by side (the viewer's recordings panel switches
-    between them), in the rerun viewer (the ``rerun`` binary shipped with rerun-sdk).
+    """Open a recording, or several (the viewer's recordings panel switches between
+    them), in the rerun viewer (the ``rerun`` binary shipped with rerun-sdk).
 
     ``web=True`` serves the web viewer over HTTP instead (``rerun --web-viewer``; port
     ``web_viewer_port``, else 9090, else a free one: :func:`web_port`) and opens a
-    browser if there is one. Blocks until
-    the viewer exits and returns its exit code; ``wait=False`` returns the process. The
+    browser if there is one. Blocks until the viewer exits and returns its exit code;
+    ``wait=False`` returns the process. The
     viewer runs in its own process group: Ctrl-C or SIGTERM stops it and its servers
     (nothing is left holding the ports), then raises on in the caller as
     ``KeyboardInterrupt`` (SIGTERM: :class:`drill_env.sweep.Terminated`, a subclass), so a
@@ -136,9 +136,9 @@ def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = Fa
     if not paths:
         raise ValueError("path: no recording given")
     port = web_port(web_viewer_port) if web else None
-    proc = subprocess.Popen(replay_command(paths, web, port), start_new_session=True)
+    command = replay_command(paths, web, port)
     if not wait:
-        return proc
+        return subprocess.Popen(command, start_new_session=True)
 
     from drill_env.sweep import Terminated
 
@@ -146,18 +146,22 @@ def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = Fa
         raise Terminated
 
     # only the main thread may set a handler: elsewhere SIGTERM is the main thread's,
-    # and the viewer is stopped below whatever ends the wait
+    # and the viewer is stopped below whatever ends the wait. Set before the viewer
+    # starts: a SIGTERM between the two left the viewer running with no one to stop it
     main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, terminate) if main else None
+    proc = None
     try:
+        proc = subprocess.Popen(command, start_new_session=True)
         return proc.wait()
     except KeyboardInterrupt:
-        stop_viewer(proc)
+        if proc is not None:
+            stop_viewer(proc)
         raise
     finally:
         if main:
             signal.signal(signal.SIGTERM, previous)
-        if proc.poll() is None:
+        if proc is not None and proc.poll() is None:
             stop_viewer(proc)
 
 

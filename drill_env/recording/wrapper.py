@@ -11,7 +11,12 @@ from typing import Any
 import gymnasium
 
 from drill_env.physics.validation import jsonable
-from drill_env.recording.recorder import DEFAULT_DIRECTORY, EpisodeRecorder, check_directory
+from drill_env.recording.recorder import (
+    DEFAULT_DIRECTORY,
+    EpisodeRecorder,
+    check_directory,
+    stem_file_name,
+)
 from drill_env.recording.writer import APPLICATION_ID
 
 
@@ -103,7 +108,10 @@ class RecordEpisode(gymnasium.Wrapper):
             except Exception as exc:  # noqa: BLE001 - recording must not stop a run
                 self._not_recorded(exc, stacklevel=4)  # _flush, then reset/step/close
                 return
-            if path is not None:
+            if path is not None and not Path(path).is_file():  # its folder removed meanwhile
+                self._not_recorded(FileNotFoundError(f"{path}: gone after it was written"),
+                                   stacklevel=4)
+            elif path is not None:
                 self.paths.append(path)
 
     def _not_recorded(self, exc: Exception, stacklevel: int = 3) -> None:
@@ -124,6 +132,11 @@ class RecordEpisode(gymnasium.Wrapper):
             config = getattr(base, "simulation_config", None) or getattr(sim, "config", None)
             stem = self._stem if self._stem is None or self.episode_index == 0 else \
                 f"{self._stem}_ep{self.episode_index:04d}"
+            if stem is not None and (self.recorder.directory / stem_file_name(stem)).is_file():
+                warnings.warn(f"RecordEpisode: {self.recorder.directory / stem_file_name(stem)}"
+                              " exists: this episode's recording replaces it (stem= names "
+                              "one file; without it every name is unique)", RuntimeWarning,
+                              stacklevel=2)
             try:
                 self.recorder.begin(sim=sim, config=config, scenario=self._scenario_name(),
                                     seed=seed, episode_index=self.episode_index,
