@@ -720,9 +720,14 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                                          f" choose from {','.join(sm.POSITIONS)}")
     from drill_env.physics.modes import torsional_modes
 
+    string = read_overrides(args.config)  # a string (and rock, ...) of your own: {} without
+    try:
+        first = sm.map_config(names[0], string)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"--config {args.config}: {err}") from None
     # the stick test reads the last seconds: they must hold a stick-slip cycle, which
     # lasts longer than the string's first torsional period
-    period = 1.0 / float(torsional_modes(sm.map_config(names[0])).frequency[0])
+    period = 1.0 / float(torsional_modes(first).frequency[0])
     if args.seconds < 2.0 * period:
         least = math.ceil(20.0 * period) / 10.0  # two periods, rounded up to what is shown
         raise argparse.ArgumentTypeError(
@@ -732,7 +737,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
             f"{sm.DEFAULT_SETTINGS.seconds:g} s lets it)")
     settings = sm.MapSettings(seconds=args.seconds,
                               measure=min(sm.DEFAULT_SETTINGS.measure, args.seconds))
-    configs = None
+    configs = {p: sm.map_config(p, string) for p in names} if string else None
     if args.controller is not None:
         from agents.registry import CLASSICAL, CONTROLLERS, is_imported, make_controller
         from drill_env.physics.validation import did_you_mean
@@ -752,7 +757,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                 f"--controller: {args.controller} {why}; choose a drive-rate controller: "
                 f"{', '.join(drive)} or one of your own (rate = 'drive')")
         controller = own or typed_controller(args.controller)
-        configs = {p: sm.map_config(p, controller.physics()) for p in names}
+        configs = {p: sm.map_config(p, {**string, **controller.physics()}) for p in names}
     store = args.out / "stability_map.points.jsonl"
     t0 = time.perf_counter()
     maps = sm.stability_maps(names, args.rpm_step, args.wob_step * KILO, settings,
@@ -768,8 +773,10 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     from agents.benchmark import label  # your own controller by its table name
 
     name = label(args.controller or "stiff")
-    kept = sm.kept_maps(args.out / f"{sm.map_stem(name)}.json", maps, settings, name)
-    paths = sm.write_maps(maps, args.out, settings, name)
+    source = None if args.config is None else str(args.config)
+    kept = sm.kept_maps(args.out / f"{sm.map_stem(name, source)}.json", maps, settings, name,
+                        string, source)
+    paths = sm.write_maps(maps, args.out, settings, name, string, source)
     print("wrote " + ", ".join(str(p) for p in paths))
     if kept:
         print(f"with the maps of {', '.join(m.position for m in kept)} already in "
@@ -1227,6 +1234,11 @@ def parser() -> argparse.ArgumentParser:
                    help="highest WOB (kN)")
     p.add_argument("--seconds", type=number("s", low_inclusive=False), default=30.0,
                    help="simulated seconds per grid point")
+    p.add_argument("--config", type=existing_file, default=None,
+                   help="YAML of config overrides merged into the map's scenario (paper case "
+                        "1 at each position): a string of your own, e.g. "
+                        "examples/field_well_string.yaml; its maps are named and titled by "
+                        "the file: stability_map[_<controller>]_<file>.*")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
     add_ray_address(p, "the simulations")

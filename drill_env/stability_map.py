@@ -422,19 +422,22 @@ def linear_boundary(position: str, rpm: Sequence[float], max_wob: float = PAPER_
     return out
 
 
-def plot_maps(maps: Sequence[StabilityMap], path: Path, controller: str = "stiff") -> Path:
+def plot_maps(maps: Sequence[StabilityMap], path: Path, controller: str = "stiff",
+              source: str | None = None) -> Path:
     """Fig. 15 style: one panel per position, the stick-slip zone shaded, simulated
-    points marked (x steady, o stick-slip)."""
+    points marked (x steady, o stick-slip); ``source``: the config file named in the
+    title."""
     import matplotlib.pyplot as plt
 
-    fig = maps_figure(maps, controller)
+    fig = maps_figure(maps, controller, source)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
 
 
-def maps_figure(maps: Sequence[StabilityMap], controller: str = "stiff") -> Any:
+def maps_figure(maps: Sequence[StabilityMap], controller: str = "stiff",
+                source: str | None = None) -> Any:
     """The matplotlib figure of :func:`plot_maps` (Agg backend), laid out."""
     import matplotlib
 
@@ -469,47 +472,56 @@ def maps_figure(maps: Sequence[StabilityMap], controller: str = "stiff") -> Any:
     handles.append(Patch(color=zone, label="stick-slip zone (inferred)"))
     fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=7, frameon=False)
     title = ("Torsional stability maps by boundary tracking (paper Fig. 15), "
-             f"{controller} top drive")
+             f"{controller} top drive" + (f", {Path(source).name}" if source else ""))
     # ~11 characters of the 12 pt title per inch: one panel's width holds half of it
     fig.suptitle(textwrap.fill(title, width=int(11 * 4.2 * cols)))
     fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))  # the legend below the maps
     return fig
 
 
-def map_stem(controller: str = "stiff") -> str:
+def map_stem(controller: str = "stiff", source: str | None = None) -> str:
     """The file name of a controller's maps, without suffix: ``stability_map`` for the
-    stiff PI (the paper's), ``stability_map_<controller>`` for the others, so maps of
-    several controllers written to one folder do not overwrite each other."""
-    return "stability_map" if controller == "stiff" else f"stability_map_{controller}"
+    stiff PI (the paper's), ``stability_map_<controller>`` for the others, and
+    ``_<config file's stem>`` after it for a string of your own (``source``), so maps of
+    several controllers and strings written to one folder do not overwrite each other."""
+    stem = "stability_map" if controller == "stiff" else f"stability_map_{controller}"
+    return stem + (f"_{Path(source).stem}" if source else "")
 
 
 def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings,
-               controller: str = "stiff") -> list[Path]:
+               controller: str = "stiff", physics: dict[str, Any] | None = None,
+               source: str | None = None) -> list[Path]:
     """``<stem>.json`` and ``<stem>.png`` in ``out`` (stem: ``map_stem``). The maps of
     other positions already in that file join them (:func:`kept_maps`), so maps made a
-    few positions at a time add up to one file and one picture."""
+    few positions at a time add up to one file and one picture. ``physics``: the config
+    overrides the maps were made under (a string of your own), named ``source`` (its
+    file) in the title."""
     out.mkdir(parents=True, exist_ok=True)
-    json_path = out / f"{map_stem(controller)}.json"
-    maps = sorted([*maps, *kept_maps(json_path, maps, settings, controller)],
+    json_path = out / f"{map_stem(controller, source)}.json"
+    maps = sorted([*maps, *kept_maps(json_path, maps, settings, controller, physics, source)],
                   key=lambda m: list(POSITIONS).index(m.position))
     data = {"settings": asdict(settings), "controller": controller,
+            "physics": jsonable(physics or {}), "config": source,
             "maps": [m.to_json() for m in maps]}
     json_path.write_text(json.dumps(data, indent=1))
-    return [json_path, plot_maps(maps, out / f"{map_stem(controller)}.png", controller)]
+    return [json_path, plot_maps(maps, out / f"{map_stem(controller, source)}.png",
+                                 controller, source)]
 
 
 def kept_maps(path: Path, maps: Sequence[StabilityMap], settings: MapSettings,
-              controller: str) -> list[StabilityMap]:
+              controller: str, physics: dict[str, Any] | None = None,
+              source: str | None = None) -> list[StabilityMap]:
     """The maps in ``path`` of positions ``maps`` lacks, where they were made by the same
-    controller with the same settings on the same grid (else they do not belong in one
-    picture and are replaced); [] without a readable file."""
+    controller under the same physics with the same settings on the same grid (else
+    they do not belong in one picture and are replaced); [] without a readable file."""
     try:
         data = json.loads(path.read_text())
         old = [StabilityMap.from_json(d) for d in data["maps"]]
     except (OSError, ValueError, KeyError, TypeError):
         return []
     if data.get("controller") != controller or data.get("settings") != jsonable(asdict(settings)) \
-            or not maps:
+            or data.get("physics", {}) != jsonable(physics or {}) \
+            or data.get("config") != source or not maps:
         return []
     new = {m.position for m in maps}
     return [m for m in old if m.position not in new and m.position in POSITIONS

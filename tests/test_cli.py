@@ -260,6 +260,31 @@ def test_stability_map_command_writes_the_map_and_its_picture(tmp_path, capsys):
     assert (tmp_path / "stability_map_z-torque.png").is_file()
 
 
+def test_stability_map_of_a_string_of_your_own(tmp_path, capsys):
+    """``--config`` maps a string of your own (a drilling engineer could not): its maps
+    are named and titled by the file, hold its overrides, and neither replace nor join
+    the paper string's maps in the same folder."""
+    field = Path(__file__).parents[1] / "examples" / "field_well_string.yaml"
+    grid = ["--positions", "P4", "--rpm-step", "125", "--wob-step", "100", "--seconds", "10",
+            "--out", str(tmp_path)]
+    assert main(["stability-map", *grid]) == 0
+    paper = (tmp_path / "stability_map.json").read_text()
+    assert main(["stability-map", *grid, "--config", str(field)]) == 0
+    data = json.loads((tmp_path / "stability_map_field_well_string.json").read_text())
+    assert data["config"] == str(field)
+    assert data["physics"]["string.drill_pipe.length"] == 2214.5
+    assert [m["position"] for m in data["maps"]] == ["P4"]
+    assert (tmp_path / "stability_map_field_well_string.png").stat().st_size > 10_000
+    assert (tmp_path / "stability_map.json").read_text() == paper
+    assert json.loads(paper)["physics"] == {} and json.loads(paper)["config"] is None
+    capsys.readouterr()
+    with pytest.raises(SystemExit):  # a file that is no config: named
+        bad = tmp_path / "bad.yaml"
+        bad.write_text("string: {hole_diameter: 5.0}\n")
+        main(["stability-map", *grid, "--config", str(bad)])
+    assert f"--config {bad}: string.hole_diameter" in capsys.readouterr().err
+
+
 def test_stability_map_command_names_a_bad_position(capsys):
     with pytest.raises(SystemExit):
         main(["stability-map", "--positions", "P7"])
