@@ -103,6 +103,14 @@ def column_for(config: SimulationConfig, bit_md: float) -> StringColumn:
     return StringColumn(length.copy(), weight.copy(), radius.copy())
 
 
+#: The units of ``well_<name>.json`` (an engineer reading it found none).
+JSON_UNITS = {
+    "md": "m", "inclination_deg": "deg", "azimuth_deg": "deg (from north)", "bit_md": "m",
+    "frictions": "1 (friction factor)",
+    "pick_up, slack_off, rotating": "N (hook load off bottom, without the blocks' weight)",
+    "torque": "N m (surface torque rotating off bottom: wall friction only, no mud drag "
+              "and no bit torque)"}
+
 #: Bit-depth step of the torque-and-drag chart (m).
 CHART_STEP = 100.0
 
@@ -145,7 +153,8 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
                 "inclination_deg": np.degrees(trajectory.survey.inclination).tolist(),
                 "azimuth_deg": np.degrees(trajectory.survey.azimuth).tolist()}
     data = out / f"well_{name}.json"
-    data.write_text(json.dumps({"survey": stations, "torque_drag": table}, indent=1))
+    data.write_text(json.dumps({"survey": stations, "torque_drag": table,
+                                "units": JSON_UNITS}, indent=1))
     return [png, data]
 
 
@@ -236,7 +245,7 @@ def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
     torque.legend(fontsize=8)
     hook.set_title("soft-string drag: hook load picking up, slacking off and rotating off "
                    "bottom (no axial drag: one line for every mu)", fontsize=9)
-    torque.set_title("soft-string torque")
+    torque.set_title("soft-string wall torque (no mud drag, no bit)", fontsize=9)
     fig.suptitle(f"well {name}: {trajectory.total_md:.0f} m MD, string of the scenario "
                  "(drill pipe added above it to reach the bit)")
     fig.tight_layout()

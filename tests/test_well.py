@@ -94,6 +94,11 @@ def test_the_well_command_writes_the_chart_and_names_bad_input(tmp_path, capsys)
     data = json.loads((tmp_path / "well_lateral_60.json").read_text())
     mu = data["torque_drag"]["mu=0.4"]
     assert mu["pick_up"][-1] > mu["rotating"][-1] > mu["slack_off"][-1]
+    # every number's unit is in the file (the torque: wall friction alone)
+    keys = {k for k in data["survey"]} | {"bit_md", "frictions", "torque"}
+    named = {part.strip() for key in data["units"] for part in key.split(",")}
+    assert keys <= named and {"pick_up", "slack_off", "rotating"} <= named
+    assert "no mud drag" in data["units"]["torque"]
     assert (tmp_path / "well_lateral_60.png").stat().st_size > 10_000
     survey = tmp_path / "s.csv"
     survey.write_text("md,inclination,azimuth\n0,0,0\n500,0,0\n1200,45,90\n")
