@@ -201,8 +201,9 @@ class StringConfig:
             _require(self.bha == _default_bha(), "components",
                      "give the BHA either as one section (bha) or as components, not both")
         _require(self.stabilizer_diameter < self.hole_diameter, "stabilizer_diameter",
-                 f"{self.stabilizer_diameter} m (default: 1/8 in under an 8 3/4 in gauge) must be "
-                 f"smaller than hole_diameter ({self.hole_diameter} m); set it for this hole")
+                 f"{self.stabilizer_diameter} m (default: 1/8 in under an 8 3/4 in gauge) is not "
+                 f"below hole_diameter {self.hole_diameter} m (clearance <= 0); set it for this "
+                 "hole")
         from drill_env.physics.components import check_stabilizers  # it imports this module
 
         check_stabilizers(self)
