@@ -146,12 +146,12 @@ class DrillStringEnv(BatchFinish, gym.Env):
     ## Starting State
 
     ``startup="settled"`` (default): ``Simulator.reset`` at the scenario's operating point,
-    i.e. steady rotation with the static twist that balances mud drag and bit torque, the
-    string laterally straight. ``startup="stalled"``: the same twist with the string
-    below the top drive at rest (the bit sticks at once). ``start_kick`` (a settled start
-    only) kicks the bit speed by a fraction drawn from the seed. ``startup="paper"``: rest, rpm
-    ramped to the target over
-    10 s, held 10 s off bottom, WOB applied at 20 s; the agent starts at 20 s. ``reset``
+    i.e. steady rotation with the static twist that balances mud drag, bit torque and wall
+    friction, the string straight (vertical hole) or at rest on the wall (curved hole).
+    ``startup="stalled"``: that state with the string below the top drive at rest.
+    ``start_kick`` (a settled start only) kicks the bit speed by a fraction drawn from the
+    seed. ``startup="paper"``: rest, rpm ramped to the target over 10 s, held 10 s off
+    bottom, WOB applied at 20 s; the agent starts at 20 s. ``reset``
     options ``surface_speed`` (rad/s) and ``weight_on_bit`` (N) override the scenario's
     operating point.
 

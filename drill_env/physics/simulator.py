@@ -469,7 +469,7 @@ class Simulator:
         self.stick[:] = np.sign(omega)
         tob = self.steady_torque_on_bit(omega, wob)
         load = -self.tor_c * omega
-        if self.hole is not None and cfg.solver.lateral:  # the string at rest on the wall
+        if self.hole is not None and cfg.solver.lateral and cfg.contact.enabled:  # on the wall
             load += rest_on_wall(self, omega, wob)
         if self.soft_nodes.any():
             load += string_friction.steady_friction(self.params, self.soft_normal,
