@@ -1026,7 +1026,6 @@ def cmd_speed(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     from drill_env.recording import check_recording, replay
-    from drill_env.recording.replay import web_port
 
     for path in args.paths:  # what the viewer would show as an empty page, refused here
         if path.is_dir():
@@ -1056,14 +1055,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError("no display here (DISPLAY is not set) for "
                                          "the native viewer; add --web to serve the web "
                                          "viewer instead")
-    port = None
-    if args.web:
-        try:
-            port = web_port(args.port)
-        except ValueError as err:
+    try:  # the port is checked there, once, just before the viewer takes it
+        code = replay(args.paths, web=args.web, web_viewer_port=args.port)
+    except ValueError as err:
+        if str(err).startswith("web_viewer_port"):
             raise argparse.ArgumentTypeError(
                 f"--port{str(err).removeprefix('web_viewer_port')}") from None
-    code = replay(args.paths, web=args.web, web_viewer_port=port)
+        raise
     return int(code) if isinstance(code, int) else 0
 
 

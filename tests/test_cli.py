@@ -482,8 +482,6 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
     import importlib
     import socket
 
-    import drill_env.recording
-
     replay_module = importlib.import_module("drill_env.recording.replay")
 
     text = tmp_path / "notes.txt"
@@ -517,11 +515,23 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
         with pytest.raises(SystemExit):
             main(["replay", *map(str, args)])
         assert said in capsys.readouterr().err, args
-    opened = []
-    monkeypatch.setattr(drill_env.recording, "replay", lambda paths, web, web_viewer_port:
-                        opened.append((paths, web_viewer_port)) or 0)
+    opened: list[list[str]] = []
+
+    class Viewer:  # stands in for the rerun viewer: records its command line
+        pid = 0
+
+        def __init__(self, command, **kwargs):
+            opened.append(command)
+
+        def wait(self):
+            return 0
+
+        def poll(self):
+            return 0
+
+    monkeypatch.setattr(replay_module.subprocess, "Popen", Viewer)
     assert main(["replay", str(good), str(half), "--web"]) == 0
-    assert opened[-1][0] == [good, half]  # several recordings in one viewer
+    assert opened[-1][-2:] == [str(good), str(half)]  # several recordings in one viewer
     assert "warning: " in capsys.readouterr().err  # the half file: read in part
     with socket.socket() as holder:  # a port another viewer holds
         holder.bind(("0.0.0.0", 0))
@@ -532,7 +542,12 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
         assert f"--port: {taken} is in use" in capsys.readouterr().err
         monkeypatch.setattr(replay_module, "WEB_VIEWER_PORT", taken)
         assert main(["replay", str(good), "--web"]) == 0
-        assert opened[-1][1] == 0  # the default port taken: rerun picks a free one
+        command = opened[-1]  # the default port taken: rerun picks a free one
+        assert command[command.index("--web-viewer-port") + 1] == "0"
+    for port, said in [("70000", "--port: 70000 is not a port (1-65535)")]:
+        with pytest.raises(SystemExit):  # not a traceback (an OverflowError)
+            main(["replay", str(good), "--web", "--port", port])
+        assert said in capsys.readouterr().err
 
 
 def test_version_and_exclusive_well_inputs(tmp_path, capsys):

@@ -774,3 +774,28 @@ def test_a_stem_that_names_an_existing_file_warns_and_a_vanished_file_is_not_lis
                 break
     gone.close()
     assert gone.paths == []
+
+
+def test_a_port_a_closed_viewer_left_in_time_wait_is_free() -> None:
+    """A viewer that served a browser and closed leaves its port in TIME_WAIT for up to a
+    minute; servers bind it again at once (SO_REUSEADDR), so the probe must too (it
+    refused ``--port 9090`` after a viewer closed, a review)."""
+    import socket
+
+    from drill_env.recording.replay import port_free
+
+    server = socket.socket()
+    server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    server.bind(("0.0.0.0", 0))
+    server.listen()
+    port = server.getsockname()[1]
+    client = socket.create_connection(("127.0.0.1", port))
+    conn, _ = server.accept()
+    conn.close()  # the server side closes first: its end waits in TIME_WAIT
+    client.close()
+    server.close()
+    assert port_free(port)
+    with socket.socket() as holder:  # a listening server: taken
+        holder.bind(("0.0.0.0", 0))
+        holder.listen()
+        assert not port_free(holder.getsockname()[1])

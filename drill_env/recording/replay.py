@@ -47,12 +47,17 @@ def _paths(path: str | os.PathLike | Sequence[str | os.PathLike]) -> list[Path]:
 
 
 def port_free(port: int) -> bool:
-    """Whether a server could listen on ``port`` here (all interfaces, as rerun's)."""
+    """Whether a server could listen on ``port`` here (all interfaces, as rerun's, with
+    address reuse as servers set it: a port a closed viewer left in TIME_WAIT is free).
+    Raises ``PermissionError`` for a port this user may not open (below 1024)."""
     import socket
 
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             probe.bind(("0.0.0.0", port))
+        except PermissionError:
+            raise
         except OSError:
             return False
     return True
@@ -62,7 +67,14 @@ def web_port(asked: int | None) -> int:
     """The web viewer's port: ``asked`` if free (else a ValueError naming it), else
     :data:`WEB_VIEWER_PORT` if free, else 0 (rerun picks a free one and prints it)."""
     if asked is not None:
-        if not port_free(asked):
+        if not 1 <= asked <= 65535:
+            raise ValueError(f"web_viewer_port: {asked} is not a port (1-65535)")
+        try:
+            free = port_free(asked)
+        except PermissionError:
+            raise ValueError(f"web_viewer_port: {asked} needs privileges here (ports below "
+                             "1024); give one above") from None
+        if not free:
             raise ValueError(f"web_viewer_port: {asked} is in use (another viewer still "
                              "running?); give another port, or none for a free one")
         return asked
