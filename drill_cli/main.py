@@ -773,7 +773,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
     from agents.benchmark import label  # your own controller by its table name
 
     name = label(args.controller or "stiff")
-    source = None if args.config is None else str(args.config)
+    source = None if args.config is None else str(args.config.resolve())  # one per file
     kept = sm.kept_maps(args.out / f"{sm.map_stem(name, source)}.json", maps, settings, name,
                         string, source)
     paths = sm.write_maps(maps, args.out, settings, name, string, source)

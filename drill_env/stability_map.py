@@ -502,7 +502,7 @@ def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings,
                   key=lambda m: list(POSITIONS).index(m.position))
     data = {"settings": asdict(settings), "controller": controller,
             "physics": jsonable(physics or {}), "config": source,
-            "maps": [m.to_json() for m in maps]}
+            "code": source_digest("drill_env"), "maps": [m.to_json() for m in maps]}
     json_path.write_text(json.dumps(data, indent=1))
     return [json_path, plot_maps(maps, out / f"{map_stem(controller, source)}.png",
                                  controller, source)]
@@ -512,8 +512,9 @@ def kept_maps(path: Path, maps: Sequence[StabilityMap], settings: MapSettings,
               controller: str, physics: dict[str, Any] | None = None,
               source: str | None = None) -> list[StabilityMap]:
     """The maps in ``path`` of positions ``maps`` lacks, where they were made by the same
-    controller under the same physics with the same settings on the same grid (else
-    they do not belong in one picture and are replaced); [] without a readable file."""
+    controller under the same physics and code with the same settings on the same grid
+    (else they do not belong in one picture and are replaced); [] without a readable
+    file."""
     try:
         data = json.loads(path.read_text())
         old = [StabilityMap.from_json(d) for d in data["maps"]]
@@ -521,7 +522,8 @@ def kept_maps(path: Path, maps: Sequence[StabilityMap], settings: MapSettings,
         return []
     if data.get("controller") != controller or data.get("settings") != jsonable(asdict(settings)) \
             or data.get("physics", {}) != jsonable(physics or {}) \
-            or data.get("config") != source or not maps:
+            or data.get("config") != source or not maps \
+            or data.get("code") != source_digest("drill_env"):  # maps of older code
         return []
     new = {m.position for m in maps}
     return [m for m in old if m.position not in new and m.position in POSITIONS

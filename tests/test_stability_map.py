@@ -353,9 +353,15 @@ def test_maps_written_a_few_positions_at_a_time_add_up_in_one_file(tmp_path) -> 
         sm.write_maps(maps, tmp_path / str(k), then)
         data = json.loads((tmp_path / str(k) / "stability_map.json").read_text())
         assert [m["position"] for m in data["maps"]] == ["P3"]
+    # maps of older code do not join (the points store reruns them too)
+    data = json.loads((tmp_path / "stability_map.json").read_text())
+    (tmp_path / "stability_map.json").write_text(json.dumps({**data, "code": "older"}))
+    sm.write_maps([_toy_map("P3")], tmp_path, settings)
+    data = json.loads((tmp_path / "stability_map.json").read_text())
+    assert [m["position"] for m in data["maps"]] == ["P3"]
     # another controller's maps go to their own file
-    sm.write_maps([_toy_map("P3")], tmp_path, settings, "z-torque")
-    assert len(json.loads((tmp_path / "stability_map.json").read_text())["maps"]) == 3
+    sm.write_maps([_toy_map("P4")], tmp_path, settings, "z-torque")
+    assert len(json.loads((tmp_path / "stability_map.json").read_text())["maps"]) == 1
 
 
 def test_results_are_stored_under_a_key_that_does_not_depend_on_dict_order() -> None:
