@@ -79,9 +79,9 @@ def rest_on_wall(sim: Any, omega: float, weight_on_bit: float) -> np.ndarray:
     wall = Wall(sim, nodes, 0.0)
     z[problem.at], z[problem.at + 1] = (wall.clearance * push.T
                                         / np.where(size > 0.0, size, 1.0))
-    # without friction (the minimum of a convex energy), then with it from there; where
-    # the friction's rest state is not found the string starts at the frictionless one
-    # (a climb up the wall of atan(mu) the first steps make)
+    # without friction (a minimum of the potential energy), then with it from there;
+    # where the friction's rest state is not found the string starts at the last share
+    # of it reached (the first steps then climb the rest of the way up the wall)
     z, sim.settle_iterations, imbalance = problem.minimize(z, wall)
     sim.settle_imbalance = imbalance  # N (or N m): what is left out of balance
     if imbalance > LOOSE_TOLERANCE * problem.scale:
@@ -101,7 +101,7 @@ def rest_on_wall(sim: Any, omega: float, weight_on_bit: float) -> np.ndarray:
             z, more = rubbing
             sim.settle_iterations += more
             share = min(1.0, share + increment)
-        wall.mu = share * mu
+        wall.mu = mu  # the twist holds the kernel's torque at t = 0: all of the friction
     sim.settle_share = share
     sim.ul[...] = z.reshape(nl, 2)
     at = problem.at
