@@ -20,12 +20,14 @@ Jacobian is in closed form. First without friction: the minimum of the potential
 energy, by Newton's method with an Armijo line search, the Hessian shifted (Levenberg)
 where the compressed BHA alone is not stable and only the wall holds it. Then with the
 friction, which has no potential, by Newton's method on the imbalance from there, all
-of it at once or, where that fails, in smaller steps. The bit node rests on its gauge
-(clearance hole - gauge radius). The mesoscopic bit's gauge pads are not the wall's law
-and their friction is left out: where no near-bit stabilizer holds the bit off the wall
-(every preset string has one) its start moves a little (6-12 rpm on the bit in the first
-0.4 s, a paper string with stabilizers at 10 and 19 m only, 60 deg, 100 rpm, 30 kN, a
-review's measurement); the macroscopic bit is the kernel's wall contact, friction too.
+of it at once or, where that fails, in smaller steps. The bit node rests on its gauge:
+the macroscopic bit as the kernel's wall contact at the gauge radius; the mesoscopic
+bit's gauge pads (eqs. 55-57: the rock's wall stiffness, the pads' or the rock's
+friction at r_C omega) as one pad facing the wall, which the six rotating pads are on
+average. Where the bit rests on the wall (a build under WOB: docs/config.md's example)
+its speed then ripples with the passing pads from the first step as it does later
+(96-104 rpm at 100 rpm / 100 kN over 0-0.5 s and over 8-12 s); with the pads left out
+it dropped to 88 rpm in the first 0.6 s (a walkthrough).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ import numpy as np
 from numba import njit
 from scipy.linalg import solve_banded, solveh_banded
 
+from drill_env.physics.formation import Rock, resistance
 from drill_env.physics.layout import P
 from drill_env.physics.string_friction import wall_friction_coefficient
 
@@ -159,7 +162,7 @@ class _Problem:
         r = np.hypot(z[at], z[at + 1])
         into = np.maximum(r - wall.clearance, 0.0)
         return float(0.5 * z @ _apply(self.matrix, z) - self.load @ z
-                     + 0.5 * wall.stiffness * into @ into)
+                     + 0.5 * into @ (wall.stiffness * into))
 
     def minimize(self, z: np.ndarray, wall: Wall) -> tuple[np.ndarray, int, float]:
         """The rest state without friction: the energy's minimum by Newton's method, its
@@ -226,22 +229,15 @@ class _Problem:
 
 class Wall:
     """The kernel's wall contact law (:func:`~drill_env.physics.integrator.wall_contact`)
-    at zero lateral speed for the nodes ``nodes``, with its Jacobian."""
+    at zero lateral speed for the nodes ``nodes`` (the mesoscopic bit's gauge pads as
+    one), with its Jacobian."""
 
     def __init__(self, sim: Any, nodes: np.ndarray, omega: float) -> None:
         p = sim.params
-        self.stiffness = p[P.WALL_K]
+        self.stiffness = np.full(nodes.shape[0], p[P.WALL_K])
         self.clearance = sim.node_clearance[nodes].copy()
-        self.radius = sim.node_radius[nodes]
-        # the mesoscopic bit rests on its gauge pads, whose law (stiffness of the rock,
-        # pads at the blades, friction of the rock or the pads) is the bit model's: here
-        # the wall's law at the gauge radius without friction, an approximation where
-        # no near-bit stabilizer holds the bit off the wall; the macroscopic bit is a
-        # wall contact at its gauge radius in the kernel too (node_clearance there)
-        last = (nodes == sim.ut.shape[0] - 1) & (sim.config.bit_model == "mesoscopic")
-        self.clearance[last] = (sim.config.string.hole_diameter / 2
-                                - sim.config.bit.gauge_radius)
-        speed = np.where(last, 0.0, omega * self.radius)  # the contact point slips at R omega
+        self.radius = sim.node_radius[nodes].copy()
+        speed = omega * self.radius  # the contact point slips at R omega
         self.sign = np.sign(speed)
         mu = np.array([wall_friction_coefficient(v, p[P.MU_STATIC], p[P.MU_KINETIC],
                                                  p[P.MU_DECAY]) for v in speed])
@@ -249,6 +245,22 @@ class Wall:
         compliance = sim.compliance[nodes]
         self.cap = np.where(compliance > 0.0, np.abs(speed) / np.where(
             compliance > 0.0, compliance, 1.0), np.inf)  # the kernel's one-step cap
+        # The mesoscopic bit rests on its gauge pads (eqs. 55-57): the rock's wall
+        # stiffness, pads at the gauge radius slipping at r_C omega, the pads' friction
+        # or the rock's resistance curve at omega. Here as one pad facing the wall, which
+        # the rotating pads are on average; the macroscopic bit is the kernel's wall
+        # contact at its gauge radius (node_clearance there), as above.
+        bit = sim.config.bit
+        if sim.config.bit_model == "mesoscopic" and nodes[-1] == sim.ut.shape[0] - 1:
+            rock = sim._rock_at_bit()
+            self.stiffness[-1] = rock[Rock.WALL_STIFFNESS]
+            self.clearance[-1] = sim.config.string.hole_diameter / 2 - bit.gauge_radius
+            self.radius[-1] = bit.gauge_radius
+            self.sign[-1] = np.sign(omega)
+            self.mu[-1] = abs(bit.gauge_friction if bit.gauge_friction is not None else
+                              resistance(omega, rock[Rock.MU_MIN], rock[Rock.MU_MAX],
+                                         rock[Rock.ST1], rock[Rock.ST2]))
+            self.cap[-1] = np.inf
         self.normal = np.zeros(nodes.shape[0])
         self.torque = np.zeros(nodes.shape[0])
 
@@ -279,11 +291,11 @@ def _wall_forces(x, y, clearance, radius, sign, mu, cap, stiffness, force, jacob
             continue
         nx, ny = x[k] / r, y[k] / r
         tx, ty = -ny, nx
-        fn = stiffness * (r - clearance[k])
+        fn = stiffness[k] * (r - clearance[k])
         slip = mu[k] * fn
         capped = slip > cap[k]
         fr = -sign[k] * (cap[k] if capped else slip)
-        dfr = 0.0 if capped else -sign[k] * mu[k] * stiffness
+        dfr = 0.0 if capped else -sign[k] * mu[k] * stiffness[k]
         force[k, 0] = -fn * nx + fr * tx
         force[k, 1] = -fn * ny + fr * ty
         n = (nx, ny)
@@ -294,7 +306,7 @@ def _wall_forces(x, y, clearance, radius, sign, mu, cap, stiffness, force, jacob
                 # (R P)[a, b] = sum_c R[a, c] P[c, b], R = [[0, -1], [1, 0]]
                 turned = (-(((1.0 if b == 1 else 0.0) - n[1] * n[b]) / r) if a == 0
                           else ((1.0 if b == 0 else 0.0) - n[0] * n[b]) / r)
-                jacobian[k, a, b] = (-stiffness * n[a] * n[b] - fn * proj
+                jacobian[k, a, b] = (-stiffness[k] * n[a] * n[b] - fn * proj
                                      + t[a] * dfr * n[b] + fr * turned)
         normal[k] = fn
         torque[k] = radius[k] * fr
