@@ -39,7 +39,6 @@ A whole string: `examples/field_well_string.yaml`; the model behind each field:
 ```yaml
 string:                # StringConfig
   hole_diameter: 0.2159
-  stabilizer_diameter: 0.2127
   drill_pipe: {kind: drill_pipe, length: 1900.0, element_length: 10.0,
                outer_diameter: 0.127, inner_diameter: 0.10861}
   components:          # from the bit up; each a Section

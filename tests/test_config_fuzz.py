@@ -306,3 +306,21 @@ def test_a_smaller_hole_names_the_default_it_meets_and_what_to_do():
     said = str(caught.value)
     assert said.startswith("string.stabilizer_diameter: ") and "default" in said
     assert "set it for this hole" in said
+
+
+def test_a_string_of_components_needs_no_stabilizer_diameter():
+    """With components a stabilizer is a component with its own contact_diameter:
+    string.stabilizer_diameter places only the legacy ``stabilizers`` and was refused,
+    though unused, in a smaller hole (a new user's walkthrough)."""
+    from drill_env.physics.config import Section
+
+    stabilizer = Section(kind="stabilizer", length=1.5, element_length=1.5,
+                         outer_diameter=0.1651, inner_diameter=0.07144,
+                         contact_diameter=0.2127)
+    collars = Section(kind="collar", length=60.0, element_length=3.0,
+                      outer_diameter=0.1651, inner_diameter=0.07144)
+    config = replace(SimulationConfig(), **{
+        "string.hole_diameter": 0.2159, "string.components": (stabilizer, collars),
+        "string.bha": SimulationConfig().string.bha, "string.stabilizers": None,
+        "bit.diameter": 0.2159})
+    assert config.string.stabilizer_diameter > config.string.hole_diameter  # unused

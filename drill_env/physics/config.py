@@ -40,9 +40,7 @@ __all__ = [
     "ContactConfig", "DampingConfig", "FormationConfig", "Interface", "MudConfig", "RockConfig",
     "Section", "SimulationConfig", "SolverConfig", "StringConfig", "TopDriveConfig", "WellConfig",
     "flatten", "from_dict", "load_yaml", "replace", "require_finite", "require_non_negative",
-    "require_positive",
-]
-
+    "require_positive"]
 
 #: Longest string (m): the deepest wells drilled are ~12 km measured depth.
 MAX_STRING_LENGTH = 15_000.0
@@ -191,7 +189,8 @@ class StringConfig:
     #: below the paper's 75-100 kN WOB, so it is packed: near-bit stabilizer plus two
     #: string stabilizers), none with ``components`` (stabilizers are components there).
     stabilizers: tuple[Positive, ...] | None = None
-    #: Stabilizer blade diameter: 1/8 in under gauge, the usual API undergauge.
+    #: Blade diameter of the ``stabilizers`` positions (a component of kind stabilizer
+    #: has its own contact_diameter): 1/8 in under gauge, the usual API undergauge.
     stabilizer_diameter: Positive = Field(default=8.625 * INCH, le=MAX_DIAMETER)
 
     def __post_init__(self) -> None:
@@ -200,7 +199,8 @@ class StringConfig:
         if self.components:
             _require(self.bha == _default_bha(), "components",
                      "give the BHA either as one section (bha) or as components, not both")
-        _require(self.stabilizer_diameter < self.hole_diameter, "stabilizer_diameter",
+        _require(not self.stabilizer_positions or self.stabilizer_diameter
+                 < self.hole_diameter, "stabilizer_diameter",  # only where it places any
                  f"{self.stabilizer_diameter} m (default: 1/8 in under an 8 3/4 in gauge) is not "
                  f"below hole_diameter {self.hole_diameter} m (clearance <= 0); set it for this "
                  "hole")

@@ -392,7 +392,9 @@ def test_unknown_keyword_is_named():
     ({"string_length": 30.0}, "string_length"),  # BHA (35 m) longer than the string
     ({"physics": {"bit.gauge_clearance": 0.0}}, "gauge_clearance"),
     ({"physics": {"string.hole_diameter": 0.15}}, "clearance <= 0"),
-    ({"physics": {"string.stabilizer_diameter": 0.3}}, "stabilizer_diameter"),
+    # where it places stabilizers: the paper string's (components carry their own)
+    ({"scenario": "paper_case1", "physics": {"string.stabilizer_diameter": 0.3}},
+     "stabilizer_diameter"),
     # blades on one angle (modulo 360): two blades in one place
     ({"physics": {"bit.blade_angles": [0.0] * 6}}, r"bit.blade_angles\[1\]: 0 deg repeats"),
     ({"physics": {"bit.blade_angles": [0, 60, 120, 180, 240, 360]}},
