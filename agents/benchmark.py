@@ -857,9 +857,11 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None,
     if env_id is None:
         at = given_set_points(settings) or "each scenario's set points"
         return (f"{settings.duration:g} s episodes of DrillString-v0 from the settled state "
-                f"(torsionally; laterally straight on the hole axis, from where a compressed "
-                f"BHA settles into a bent equilibrium within its stabilizers, no whirl: the "
-                f"slow drift of the bit's radial position in the series; docs/controllers.md) "
+                f"(torsionally with the wall's friction; laterally at rest on the wall in a "
+                f"curved hole, straight on the axis in a vertical one, from where a "
+                f"compressed BHA settles into a bent equilibrium within its stabilizers, no "
+                f"whirl: the slow drift of the bit's radial position in the series; "
+                f"docs/controllers.md) "
                 f"at {at} (bit speed kicked by up to {settings.start_kick:.0%} by the seed"
                 + ("; a task's policy acts in its task's env from the same start and set "
                    "points, its return DrillString-v0's reward of its episode" if guests
