@@ -1443,3 +1443,7 @@ def _stop_as_interrupt() -> Any:
         raise Terminated
 
     return signal.signal(signal.SIGTERM, interrupt)
+
+
+if __name__ == "__main__":  # python -m drill_cli.main, as python -m drill_cli
+    sys.exit(main())

@@ -138,20 +138,45 @@ def _classes(hint: typing.Any) -> list[type]:
     return [c for arg in typing.get_args(hint) for c in _classes(arg)]
 
 
+#: Meanings of fields without a ``#:`` comment in config.py whose meaning is not plain
+#: from the class docstring shown above them (config.py is at its length limit).
+EXTRA = {
+    ("Section", "length"): "Length of the component (m).",
+    ("Section", "outer_diameter"): "Outer diameter of its body (m): mass and stiffness.",
+    ("Section", "inner_diameter"): "Bore (m); 0 for a solid bar.",
+    ("Section", "element_length"): "Finite-element length (m): the component is split into "
+    "max(1, round(length / element_length)) equal elements (9 m at 2 m: 4 of 2.25 m).",
+    ("Section", "shear_modulus"): "G (Pa), see youngs_modulus.",
+    ("Section", "density"): "Steel density (kg/m^3), see youngs_modulus.",
+    ("Section", "kind"): "One of: " + ", ".join(typing.get_args(cfg.ComponentKind))
+    + " (in `drill-env modes` a stabilizer is a support, and the BHA analysed is what "
+    "lies below the lowest drill_pipe or heavy_weight).",
+    ("Section", "name"): "A label for tables and error messages.",
+    ("RockConfig", "name"): "A label (recordings, rock shares).",
+    ("RockConfig", "mu_min"): "The falling part's high-speed limit (the curve above).",
+    ("RockConfig", "mu_max"): "The curve's value as the speed goes to zero (above).",
+    ("FormationConfig", "layers"): "The rock of each layer, as an index into rocks (above).",
+    ("WellConfig", "md"): "Measured depth of each station (m), increasing from 0.",
+    ("WellConfig", "inclination"): "Inclination of each station from vertical (deg, 0-180).",
+    ("WellConfig", "azimuth"): "Azimuth of each station (deg clockwise from north).",
+}
+
+
 def render() -> str:
     out = [HEADER]
     for paths, klass in sections():
         doc = inspect.getdoc(klass) or ""
-        summary = doc.split("\n\n")[0].replace("\n", " ")
+        text = "\n\n".join(part.replace("\n", " ") for part in doc.split("\n\n"))
         where = ", ".join(f"`{p}`" for p in paths)
-        out.append(f"## {klass.__name__}: {where}\n\n{summary}\n")
+        out.append(f"## {klass.__name__}: {where}\n\n{text}\n")
         out.append("| field | type | default | bounds | meaning |\n"
                    "| --- | --- | --- | --- | --- |")
         comments = field_comments(klass)
         for f in dataclasses.fields(klass):
             if f.name.startswith("_"):
                 continue
-            meaning = comments.get(f.name, "").replace("|", "\\|")
+            meaning = (comments.get(f.name) or EXTRA.get((klass.__name__, f.name), "")
+                       ).replace("|", "\\|")
             kind = type_text(f.type).replace("|", "\\|")
             default, bounds = (t.replace("|", "\\|") for t in default_text(f))
             out.append(f"| `{f.name}` | {kind} | `{default}` | {bounds} | {meaning} |")
