@@ -1001,11 +1001,20 @@ def cmd_well(args: argparse.Namespace) -> int:
     bad = [f for f in frictions if not (math.isfinite(f) and 0.0 <= f <= 2.0)]
     if bad or not frictions:
         raise argparse.ArgumentTypeError(f"--friction: factors in [0, 2], got {args.friction!r}")
-    paths = write_well(name, trajectory, config, args.out, frictions)
+    whose = (f"{args.config.name}" if args.config is not None
+             else f"the {args.scenario} scenario")
+    paths = write_well(name, trajectory, config, args.out, frictions, whose)
     end, _, _ = trajectory.at(trajectory.total_md)
     print(f"well {name}: {trajectory.total_md:.0f} m MD, TVD {end[0, 2]:.0f} m, departure "
           f"{math.hypot(end[0, 0], end[0, 1]):.0f} m, inclination at TD "
           f"{math.degrees(trajectory.inclination(trajectory.total_md)[0]):.1f} deg")
+    table = json.loads(paths[1].read_text())["torque_drag"]
+    print(f"at TD, off bottom (soft string, string of {whose}): hook load pick-up / rotating "
+          "/ slack-off (kN), rotating wall torque (kN m)")
+    for mu in frictions:
+        row = table[f"mu={mu:g}"]
+        print(f"  mu {mu:<4g} {row['pick_up'][-1] / KILO:8.1f} {row['rotating'][-1] / KILO:8.1f} "
+              f"{row['slack_off'][-1] / KILO:8.1f}   {row['torque'][-1] / KILO:6.2f}")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 

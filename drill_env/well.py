@@ -139,13 +139,15 @@ def torque_drag_table(trajectory: Trajectory, config: SimulationConfig,
 
 
 def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out: Path,
-               frictions: Sequence[float] = FRICTIONS) -> list[Path]:
-    """``well_<name>.png`` (path and torque-and-drag chart) and ``well_<name>.json``."""
+               frictions: Sequence[float] = FRICTIONS, string: str = "the scenario"
+               ) -> list[Path]:
+    """``well_<name>.png`` (path and torque-and-drag chart) and ``well_<name>.json``;
+    ``string``: whose string it is, for the title (``--config FILE``'s)."""
     import matplotlib.pyplot as plt
 
     out.mkdir(parents=True, exist_ok=True)
     table = torque_drag_table(trajectory, config, frictions)
-    fig = well_figure(name, trajectory, table, frictions)
+    fig = well_figure(name, trajectory, table, frictions, string)
     png = out / f"well_{name}.png"
     fig.savefig(png, dpi=100)
     plt.close(fig)
@@ -159,7 +161,7 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
 
 
 def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
-                frictions: Sequence[float] = FRICTIONS) -> Any:
+                frictions: Sequence[float] = FRICTIONS, string: str = "the scenario") -> Any:
     """The figure of :func:`write_well` (Agg backend), laid out: the path (3-D, plan,
     vertical section) and the :func:`torque_drag_table` ``table``. The hook-load legend
     names each friction factor once (by colour) and each operation once (by line style):
@@ -246,7 +248,7 @@ def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
     hook.set_title("soft-string drag: hook load picking up, slacking off and rotating off "
                    "bottom (no axial drag: one line for every mu)", fontsize=9)
     torque.set_title("soft-string wall torque (no mud drag, no bit)", fontsize=9)
-    fig.suptitle(f"well {name}: {trajectory.total_md:.0f} m MD, string of the scenario "
+    fig.suptitle(f"well {name}: {trajectory.total_md:.0f} m MD, string of {string} "
                  "(drill pipe added above it to reach the bit)")
     fig.tight_layout()
     return fig
