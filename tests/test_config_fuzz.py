@@ -324,3 +324,14 @@ def test_a_string_of_components_needs_no_stabilizer_diameter():
         "string.bha": SimulationConfig().string.bha, "string.stabilizers": None,
         "bit.diameter": 0.2159})
     assert config.string.stabilizer_diameter > config.string.hole_diameter  # unused
+
+
+def test_a_smaller_hole_names_the_default_bit_it_meets():
+    """Only the hole set, the 8 3/4 in default bit was refused without saying it is a
+    default (a new user's walkthrough)."""
+    with pytest.raises(ValueError) as caught:
+        replace(SimulationConfig(), **{"string.hole_diameter": 8.5 * 0.0254,
+                                       "string.stabilizer_diameter": 0.21})
+    said = str(caught.value)
+    assert said.startswith("bit.diameter: ") and "default: 8 3/4 in" in said
+    assert "set it for this hole" in said

@@ -666,8 +666,8 @@ class SimulationConfig:
 
     def __post_init__(self) -> None:
         _require(self.bit.diameter <= self.string.hole_diameter + 1e-12, "bit.diameter",
-                 f"{self.bit.diameter} m must not exceed string.hole_diameter "
-                 f"({self.string.hole_diameter} m)")
+                 f"{self.bit.diameter} m (default: 8 3/4 in) must not exceed string.hole_"
+                 f"diameter ({self.string.hole_diameter} m); set it for this hole")
         lightest = min(s.density for s in self.string.sections)
         _require(self.mud.density < lightest, "mud.density",
                  f"{self.mud.density} kg/m^3 must be below the density of the string "
