@@ -281,6 +281,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     lateral = base.simulation_config.solver.lateral  # torsion only: nothing to buckle
     for b in pipe_buckling(base.simulation_config, start_wob_kn * KILO) if lateral else ():
         print(buckling_note(f"{start_wob_kn:g} kN", b.component, b), file=sys.stderr)
+    from drill_env.physics.modes import bha_buckles
+
+    if bha_buckles(base.simulation_config, start_wob_kn * KILO):  # as modes says
+        print(f"note: {start_wob_kn:g} kN buckles the straight BHA between its stabilizers "
+              "(drill-env modes gives the load): the simulation bends it against the wall and "
+              "drills on", file=sys.stderr)
     # per step: the driller's targets (a task's may change once) and the set points the
     # controller applied (constant:<rpm>/<kN> and the driller set their own, a stick-slip
     # policy corrects the speed): their episode means are what it ran at

@@ -41,6 +41,24 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
         None, 0.02, 0.5)
 
 
+def test_run_notes_a_wob_that_buckles_the_bha(tmp_path, capsys):
+    """modes said the field string's BHA buckles above 120 kN; run at 150 kN said
+    nothing (a new user's walkthrough). It notes it now, and not below the load."""
+    from drill_env.physics.modes import lateral_buckling_weight
+    from drill_env.scenarios import make_scenario, with_physics
+
+    field = Path(__file__).parents[1] / "examples" / "field_well_string.yaml"
+    from drill_cli.main import read_overrides
+
+    limit = lateral_buckling_weight(with_physics(make_scenario("default").config,
+                                                 read_overrides(field))) / 1e3
+    for wob, noted in ((limit * 1.2, True), (limit * 0.8, False)):
+        assert main(["run", "--config", str(field), "--wob", f"{wob:.1f}", "--duration",
+                     "0.2", "--out", str(tmp_path)]) == 0
+        said = capsys.readouterr().err
+        assert ("buckles the straight BHA between its stabilizers" in said) is noted, wob
+
+
 def test_run_and_benchmark_agree_on_the_start(tmp_path):
     """``run`` kicks the bit as the benchmark does (2 %), so the stiff drive stick-slips
     within its 60 s at 50 rpm as in the benchmark table, and starts at the env's own

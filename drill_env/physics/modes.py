@@ -226,6 +226,19 @@ def _lateral_system(cfg: SimulationConfig, weight_on_bit: float, supports: Later
     return k, kg, m, free, mesh, top_node
 
 
+def bha_buckles(config: SimulationConfig, weight_on_bit: float) -> bool:
+    """Whether ``weight_on_bit`` buckles the straight BHA pinned at its stabilizers and bit
+    (:func:`lateral_buckling_weight`'s test at one WOB: one eigenvalue problem); False in
+    a curved hole, which this model does not load."""
+    cfg = config.resolved()
+    if not cfg.solver.lateral or max((abs(a) for a in cfg.well.inclination),
+                                     default=0.0) > 0.5:
+        return False
+    k, kg, _, free, _, _ = _lateral_system(cfg, weight_on_bit, "stabilizers", "bha")
+    ix = np.ix_(free, free)
+    return bool(np.linalg.eigvalsh((k + kg)[ix])[0] <= 0.0)
+
+
 def lateral_buckling_weight(config: SimulationConfig, supports: LateralSupports = "stabilizers",
                             region: Literal["bha", "string"] = "bha") -> float:
     """The WOB (N) at which K + K_g(WOB) of :func:`lateral_modes` stops being positive
