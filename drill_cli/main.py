@@ -508,9 +508,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                   "then the same episodes", file=sys.stderr)
     t0 = time.perf_counter()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
+    heading = "Controller benchmark" + (f", config {args.config}" if args.config else "")
     rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,
                          workers=args.workers, record=args.record, env_id=env_id,
-                         ray_address=args.ray_address)
+                         ray_address=args.ray_address, heading=heading)
     print(f"{counted(len(rows), 'episode')} ({counted(len(controllers), 'controller')} x "
           f"{counted(len(scenarios), 'scenario')} x {counted(args.seeds, 'seed')}) in "
           f"{time.perf_counter() - t0:.0f} s; finished "

@@ -710,8 +710,9 @@ def test_run_and_benchmark_drill_the_string_of_a_config_file(tmp_path, capsys):
                  "--config", str(field), "--out", str(tmp_path / "bench")]) == 0
     stored = (tmp_path / "bench" / "benchmark_results.jsonl").read_text()
     assert "2214.5" in stored  # the drill pipe length of the file, in the fingerprint
-    assert "config overrides of string (--config) merged into every scenario" in (
-        tmp_path / "bench" / "benchmark.md").read_text()
+    markdown = (tmp_path / "bench" / "benchmark.md").read_text()
+    assert "config overrides of string (--config) merged into every scenario" in markdown
+    assert markdown.startswith(f"# Controller benchmark, config {field}")  # which file
     bad = tmp_path / "bad.yaml"
     bad.write_text("string:\n  drill_pipe: {length: -5.0}\n")
     for command in (["run"], ["benchmark", "--controllers", "stiff"]):
