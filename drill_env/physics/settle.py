@@ -17,8 +17,9 @@ steady rotation the friction of the contact point slipping at ``R omega``, which
 the string up the wall by the friction angle. The two planes are interleaved into one
 banded system (the contacts couple a node's two directions); each contact's 2 x 2
 Jacobian is in closed form. First without friction: the minimum of the potential
-energy, by Newton's method with an Armijo line search, the Hessian shifted (Levenberg)
-where the compressed BHA alone is not stable and only the wall holds it. Then with the
+energy, by Newton's method with an Armijo line search, the Hessian shifted (Marquardt:
+each DOF by its own diagonal) where the compressed BHA alone is not stable and only the
+wall holds it; past the iteration limit the best state found. Then with the
 friction, which has no potential, by Newton's method on the imbalance from there, all
 of it at once or, where that fails, in smaller steps. The bit node rests on its gauge:
 the macroscopic bit as the kernel's wall contact at the gauge radius; the mesoscopic
@@ -44,8 +45,9 @@ from drill_env.physics.layout import P
 from drill_env.physics.string_friction import wall_friction_coefficient
 
 #: Newton iterations of one solve before giving up (the curved scenarios at 10-250 rpm,
-#: 0-200 kN took a median 7 without friction and 14 with it, at most 56 and 42: the
-#: contact set changes a few nodes a step).
+#: 0-200 kN took a median 7 without friction and 14 with it, up to 85 with it: the
+#: contact set changes a few nodes a step; a BHA buckled far against the wall, s_shaped
+#: from 200 kN, uses all of them and starts from the best state found).
 MAX_ITERATIONS = 150
 #: The friction's first step from the frictionless rest (all of it at once), halved
 #: while a step's rest state is not found, down to the smallest; past that the string
