@@ -161,8 +161,11 @@ def _lateral_supports(config: SimulationConfig, supports: LateralSupports, top_n
     sim = Simulator(config.resolved())
     pinned = [top_node]
     if supports == "stabilizers":
+        # string.stabilizer_diameter only where it places stabilizers (else, in a large
+        # hole, every collar as tight as its blades would count as one)
         tight = sim.node_clearance <= (sim.config.string.hole_diameter
                                        - sim.config.string.stabilizer_diameter) / 2 + 1e-9
+        tight &= bool(sim.config.string.stabilizer_positions)
         # a node takes the wall radius of the element above it (Simulator): its component
         kinds = np.array([section.kind for section in sim.config.string.sections])
         tight[1:] |= kinds[sim.mesh.component] == "stabilizer"
@@ -229,10 +232,10 @@ def _lateral_system(cfg: SimulationConfig, weight_on_bit: float, supports: Later
 def bha_buckles(config: SimulationConfig, weight_on_bit: float) -> bool:
     """Whether ``weight_on_bit`` buckles the straight BHA pinned at its stabilizers and bit
     (:func:`lateral_buckling_weight`'s test at one WOB: one eigenvalue problem); False in
-    a curved hole, which this model does not load."""
+    a curved hole, which this model does not load, and without lateral motion or a wall."""
     cfg = config.resolved()
-    if not cfg.solver.lateral or max((abs(a) for a in cfg.well.inclination),
-                                     default=0.0) > 0.5:
+    if not cfg.solver.lateral or not cfg.contact.enabled or max(
+            (abs(a) for a in cfg.well.inclination), default=0.0) > 0.5:
         return False
     k, kg, _, free, _, _ = _lateral_system(cfg, weight_on_bit, "stabilizers", "bha")
     ix = np.ix_(free, free)

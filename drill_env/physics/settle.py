@@ -40,6 +40,7 @@ import numpy as np
 from numba import njit
 from scipy.linalg import solve_banded, solveh_banded
 
+from drill_env.physics.bit import Blade
 from drill_env.physics.formation import Rock, resistance
 from drill_env.physics.layout import P
 from drill_env.physics.string_friction import wall_friction_coefficient
@@ -248,20 +249,25 @@ class Wall:
         self.cap = np.where(compliance > 0.0, np.abs(speed) / np.where(
             compliance > 0.0, compliance, 1.0), np.inf)  # the kernel's one-step cap
         # The mesoscopic bit rests on its gauge pads (eqs. 55-57): the rock's wall
-        # stiffness, pads at the gauge radius slipping at r_C omega, the pads' friction
+        # stiffness, pads at their radius r_C slipping at r_C omega, the pads' friction
         # or the rock's resistance curve at omega. Here as one pad facing the wall, which
-        # the rotating pads are on average; the macroscopic bit is the kernel's wall
-        # contact at its gauge radius (node_clearance there), as above.
+        # the rotating pads are on average; none without pads (all gauge lengths 0: the
+        # kernel gives that bit no wall); no friction with implicit contacts, whose pads
+        # rub only once their force is known (PAD.END_FORCE, 0 at the start). The
+        # macroscopic bit is the kernel's wall contact at its gauge radius, as above.
         bit = sim.config.bit
         if sim.config.bit_model == "mesoscopic" and nodes[-1] == sim.ut.shape[0] - 1:
             rock = sim._rock_at_bit()
-            self.stiffness[-1] = rock[Rock.WALL_STIFFNESS]
-            self.clearance[-1] = sim.config.string.hole_diameter / 2 - bit.gauge_radius
-            self.radius[-1] = bit.gauge_radius
+            pads = sim.blades[:, Blade.L_G] > 0.0
+            reach = float(np.max(sim.blades[pads, Blade.R_C])) if pads.any() else 0.0
+            self.stiffness[-1] = rock[Rock.WALL_STIFFNESS] if pads.any() else 0.0
+            self.clearance[-1] = sim.config.string.hole_diameter / 2 - reach
+            self.radius[-1] = reach
             self.sign[-1] = np.sign(omega)
+            rubs = pads.any() and not sim.config.solver.implicit_contacts
             self.mu[-1] = abs(bit.gauge_friction if bit.gauge_friction is not None else
                               resistance(omega, rock[Rock.MU_MIN], rock[Rock.MU_MAX],
-                                         rock[Rock.ST1], rock[Rock.ST2]))
+                                         rock[Rock.ST1], rock[Rock.ST2])) if rubs else 0.0
             self.cap[-1] = np.inf
         self.normal = np.zeros(nodes.shape[0])
         self.torque = np.zeros(nodes.shape[0])

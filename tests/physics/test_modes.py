@@ -726,3 +726,18 @@ def test_the_modes_command_titles_the_chart_with_the_string_of_its_config(tmp_pa
                  "--out", str(tmp_path)]) == 0
     assert titles[0].startswith("default: ")
     assert titles[1].startswith("field_well_string.yaml (scenario default): ")
+
+
+def test_string_stabilizer_diameter_pins_nothing_in_a_string_of_components():
+    """With components, string.stabilizer_diameter places no stabilizer; it still decided
+    which nodes modes pinned, so in a 12 1/4 in hole every 8 in collar node (no tighter
+    than an 8 in stabilizer) became a support (a review). The modes do not depend on it."""
+    from drill_cli.main import read_overrides
+
+    field = read_overrides(Path(__file__).parents[2] / "examples" / "field_well_string.yaml")
+    base = with_physics(make_scenario("default").config,
+                        {**field, "string.hole_diameter": 12.25 * 0.0254,
+                         "bit.diameter": 12.25 * 0.0254})
+    found = [lateral_modes(replace(base, **{"string.stabilizer_diameter": d}), 20e3,
+                           n_modes=3, region="bha").frequency for d in (0.2, 0.3)]
+    np.testing.assert_allclose(found[0], found[1], rtol=1e-12)

@@ -198,3 +198,18 @@ def test_a_bit_resting_on_the_wall_starts_as_it_goes_on():
     start, later = bit[time < 1.0], bit[time > 8.0]
     assert later.max() - later.min() > 2.0  # the pads' ripple (rpm), there to compare
     assert start.min() > later.min() - 0.5 and start.max() < later.max() + 0.5
+
+
+def test_a_bit_without_gauge_pads_does_not_rest_on_a_wall_it_has_none_of():
+    """All gauge lengths 0: the kernel gives the mesoscopic bit no wall, so its settled
+    rest carries no wall force or torque there (it rested on a pad that did not exist)."""
+    config = with_physics(make_scenario("paper_case2").config, {
+        "string.stabilizers": (10.0, 19.0), "bit.gauge_length": (0.0,) * 6,
+        "well.md": (0.0, 2000.0), "well.inclination": (60.0, 60.0),
+        "well.azimuth": (0.0, 0.0)})
+    sim = Simulator(config)
+    sim.reset(OperatingPoint(100.0 * RPM, 30e3))
+    assert sim.node_force[-1] == 0.0
+    with_pads = Simulator(with_physics(config, {"bit.gauge_length": (0.05,) * 6}))
+    with_pads.reset(OperatingPoint(100.0 * RPM, 30e3))
+    assert with_pads.node_force[-1] > 1e3  # the same bit with pads: on the wall
