@@ -262,7 +262,8 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any]) -> Simu
                                 if not (key == "well" or key.startswith("well."))})
     shift = changed.string.length - config.string.length
     if probe is config and not sets_well and (shift == 0.0 or "initial_depth" in given):
-        return changed  # nothing to move (the usual case, as at every random reset)
+        # nothing to move (the usual case, as at every random reset)
+        return _bit_at_string_end(changed, given)
     moved: dict[str, Any] = {}
     if shift != 0.0 and "initial_depth" not in given:
         if config.initial_depth is not None:
@@ -273,7 +274,27 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any]) -> Simu
                 replace(i, depth=i.depth + shift) for i in config.formation.interfaces)
         if not (config.well.vertical or sets_well):
             moved["well.md"] = (*config.well.md[:-1], config.well.md[-1] + max(shift, 0.0))
-    return replace(config, **{**moved, **overrides})
+    return _bit_at_string_end(replace(config, **{**moved, **overrides}), given)
+
+
+#: How far above its string's end a bit depth given by hand may lie (m): a crossing
+#: case's lead (``Lead``) at most.
+MAX_LEAD = 100.0
+
+
+def _bit_at_string_end(config: SimulationConfig, given: tuple[str, ...]) -> SimulationConfig:
+    """``config``; a ValueError naming ``initial_depth`` where the overrides set one that
+    leaves more than :data:`MAX_LEAD` m of the string above the wellhead (a 2,000 m string
+    at ``initial_depth: 1500`` ran, its rocks taken at 1,500 m and its wall loads at
+    2,000 m: a new user's walkthrough)."""
+    if "initial_depth" in given and config.initial_depth is not None:
+        above = config.string.length - config.initial_depth
+        if above > MAX_LEAD:
+            raise ValueError(f"initial_depth: {config.initial_depth:g} m leaves {above:g} m of "
+                             f"the {config.string.length:g} m string above the wellhead: the "
+                             "bit hangs at its bottom (leave initial_depth out, or give a depth "
+                             f"within {MAX_LEAD:g} m of the string's length)")
+    return config
 
 
 def sandwich(bit: BitConfig, middle: RockConfig, bit_depth: float, position: str,

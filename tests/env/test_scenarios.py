@@ -87,8 +87,12 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
     # what the overrides set themselves is kept
     base = scenarios.make_scenario("paper_case2").config
     own = scenarios.with_physics(base, {"string.drill_pipe.length": 500.0,
-                                        "initial_depth": 400.0})
-    assert own.initial_depth == 400.0
+                                        "initial_depth": 560.0})
+    assert own.initial_depth == 560.0
+    # far above the new string's end: refused by name (the bit hangs at its bottom)
+    with pytest.raises(ValueError, match=r"^initial_depth: 400 m leaves .* above the wellhead"):
+        scenarios.with_physics(base, {"string.drill_pipe.length": 500.0,
+                                      "initial_depth": 400.0})
     assert own.formation.interfaces == base.formation.interfaces
     assert scenarios.with_physics(base, {"mud.density": 1100.0}).initial_depth \
         == base.initial_depth
