@@ -200,12 +200,21 @@ def bha_top_node(config: SimulationConfig) -> int:
     return node - config.string.sections[-1].n_elements
 
 
+#: Steepest survey inclination (deg) a vertical hole may show: its survey noise.
+VERTICAL_NOISE = 0.5
+
+
+def _steepest(config: SimulationConfig) -> float:
+    """The well's steepest survey inclination (deg); 0 for the vertical hole."""
+    return max((abs(a) for a in config.well.inclination), default=0.0)
+
+
 def require_vertical(config: SimulationConfig) -> None:
     """The modal analysis loads the string by measured depth, as in a vertical hole; a
     deviated well's loads (weight across the hole, contact on the low side) are not in
     it. ValueError naming ``well`` otherwise."""
-    steepest = max((abs(a) for a in config.well.inclination), default=0.0)
-    if steepest > 0.5:  # deg: a vertical hole's survey noise
+    steepest = _steepest(config)
+    if steepest > VERTICAL_NOISE:
         raise ValueError(f"well: the modal analysis is for vertical holes (axial load by "
                          f"measured depth); this well reaches {steepest:.0f} deg. Its static "
                          "loads: drill-env well")
@@ -234,12 +243,18 @@ def bha_buckles(config: SimulationConfig, weight_on_bit: float) -> bool:
     (:func:`lateral_buckling_weight`'s test at one WOB: one eigenvalue problem); False in
     a curved hole, which this model does not load, and without lateral motion or a wall."""
     cfg = config.resolved()
-    if not cfg.solver.lateral or not cfg.contact.enabled or max(
-            (abs(a) for a in cfg.well.inclination), default=0.0) > 0.5:
+    if not cfg.solver.lateral or not cfg.contact.enabled or _steepest(cfg) > VERTICAL_NOISE:
         return False
-    k, kg, _, free, _, _ = _lateral_system(cfg, weight_on_bit, "stabilizers", "bha")
+    return not _straight_stable(cfg, weight_on_bit, "stabilizers", "bha")
+
+
+def _straight_stable(cfg: SimulationConfig, weight_on_bit: float, supports: LateralSupports,
+                     region: Literal["bha", "string"]) -> bool:
+    """Whether K + K_g(WOB) of :func:`lateral_modes` is positive definite: the straight
+    string stable at ``weight_on_bit``."""
+    k, kg, _, free, _, _ = _lateral_system(cfg, weight_on_bit, supports, region)
     ix = np.ix_(free, free)
-    return bool(np.linalg.eigvalsh((k + kg)[ix])[0] <= 0.0)
+    return bool(np.linalg.eigvalsh((k + kg)[ix])[0] > 0.0)
 
 
 def lateral_buckling_weight(config: SimulationConfig, supports: LateralSupports = "stabilizers",
@@ -249,9 +264,7 @@ def lateral_buckling_weight(config: SimulationConfig, supports: LateralSupports 
     cfg = config.resolved()
 
     def stable(wob: float) -> bool:
-        k, kg, _, free, _, _ = _lateral_system(cfg, wob, supports, region)
-        ix = np.ix_(free, free)
-        return bool(np.linalg.eigvalsh((k + kg)[ix])[0] > 0.0)
+        return _straight_stable(cfg, wob, supports, region)
 
     low, high = 0.0, 1.0e5
     while stable(high):
