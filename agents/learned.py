@@ -69,11 +69,7 @@ class LearnedController:
                           f"the first gradient step ({why}): an untrained policy",
                           RuntimeWarning, stacklevel=2)
 
-        def unpickle(p: str) -> Any:
-            with open(p, "rb") as f:
-                return pickle.load(f)  # a VecNormalize without its venv: statistics only
-
-        normalizer = load_saved(norm_file, unpickle)
+        normalizer = load_saved(norm_file, _unpickle)
         normalizer.training = False
         return cls(model, normalizer, TASK_ENVS[config["task"]], config.get("env_kwargs", {}),
                    folder)
@@ -183,16 +179,18 @@ class _Raw:
         return observation
 
 
+def _unpickle(path: str) -> Any:
+    """A pickled VecNormalize (saved without its venv: statistics only)."""
+    with open(path, "rb") as f:
+        return pickle.load(f)
+
+
 def _statistics(files: tuple[Path, ...]) -> Any:
     """The VecNormalize statistics in ``files`` (none: :class:`_Raw`), frozen."""
     if not files:
         return _Raw()
 
-    def unpickle(p: str) -> Any:
-        with open(p, "rb") as f:
-            return pickle.load(f)
-
-    normalizer = load_saved(files[0], unpickle)
+    normalizer = load_saved(files[0], _unpickle)
     if not callable(getattr(normalizer, "normalize_obs", None)):
         raise ValueError(f"statistics: {files[0]} holds a {type(normalizer).__name__}, not "
                          "VecNormalize statistics (VecNormalize.save)")
