@@ -781,13 +781,14 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
 
     name = label(args.controller or "stiff")
     source = None if args.config is None else str(args.config.resolve())  # one per file
-    kept = sm.kept_maps(args.out / f"{sm.map_stem(name, source)}.json", maps, settings, name,
-                        string, source)
     paths = sm.write_maps(maps, args.out, settings, name, string, source)
     print("wrote " + ", ".join(str(p) for p in paths))
+    made = {m.position for m in maps}  # the file's other maps were kept from before
+    kept = [m["position"] for m in json.loads(paths[0].read_text())["maps"]
+            if m["position"] not in made]
     if kept:
-        print(f"with the maps of {', '.join(m.position for m in kept)} already in "
-              f"{paths[0]} (same settings and grid)")
+        print(f"with the maps of {', '.join(kept)} already in {paths[0]} (same settings "
+              "and grid)")
     return 0
 
 
