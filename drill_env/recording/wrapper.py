@@ -132,11 +132,11 @@ class RecordEpisode(gymnasium.Wrapper):
             config = getattr(base, "simulation_config", None) or getattr(sim, "config", None)
             stem = self._stem if self._stem is None or self.episode_index == 0 else \
                 f"{self._stem}_ep{self.episode_index:04d}"
-            if stem is not None and (self.recorder.directory / stem_file_name(stem)).is_file():
-                warnings.warn(f"RecordEpisode: {self.recorder.directory / stem_file_name(stem)}"
-                              " exists: this episode's recording replaces it (stem= names "
-                              "one file; without it every name is unique)", RuntimeWarning,
-                              stacklevel=2)
+            named = None if stem is None else self.recorder.directory / stem_file_name(stem)
+            if named is not None and named.is_file():
+                warnings.warn(f"RecordEpisode: {named} exists: this episode's recording "
+                              "replaces it (stem= names one file; without it every name is "
+                              "unique)", RuntimeWarning, stacklevel=2)
             try:
                 self.recorder.begin(sim=sim, config=config, scenario=self._scenario_name(),
                                     seed=seed, episode_index=self.episode_index,
