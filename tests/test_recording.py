@@ -87,6 +87,11 @@ def test_roundtrip_series_equal_info(tmp_path: Path) -> None:
         "/timeseries/rock_share/soft", "/timeseries/lateral/radial_ratio",
     } | {"/" + s.entity for s in SERIES}
     assert expected <= rec.entities, sorted(expected - rec.entities)
+    # which code wrote it: recordings of two versions can be told apart
+    from drill_env.sweep import source_digest
+    assert rec.episode["drill_env_version"] == drill_env.__version__
+    assert rec.episode["drill_env_sources"] == source_digest("drill_env")
+    assert rec.episode["state"] == "truncated (time limit)"
 
     t = np.array([i["time"] for i in infos])
     # info is SI; each plot shows the unit its name says (not the writer's own table)

@@ -533,6 +533,7 @@ class EpisodeRecorder:
             "string_exaggeration": self._writer.exaggeration if self._writer else math.nan,
             "string_period_s": self.string_period,
             "gauge_clearance_m": g.clearance, "rock_names": ", ".join(g.rock_names),
+            **_provenance(),
         }
 
     def _summary(self, state: str) -> list[str]:
@@ -542,11 +543,23 @@ class EpisodeRecorder:
                 f"- seed: {self.seed}",
                 f"- episode index: {self.episode_index}",
                 f"- recording id: `{self.recording_id}`",
+                "- written by drill-env {drill_env_version} (sources {drill_env_sources})"
+                .format(**_provenance()),
                 f"- simulated time: {self._start_time:.3f} - {self._last_time:.3f} s "
                 f"({self._flushed} samples)", f"- state: {state}",
                 f"- 3-D string view: lateral displacement exaggerated x{k:g}; "
                 "z = minus measured depth (m)",
                 "- bit view: true scale (m); z = initial bit depth minus depth"]
+
+
+def _provenance() -> dict[str, str]:
+    """Which code wrote a recording: the package version and the digest of its sources
+    (the one stored sweep results are keyed by), so two recordings can be told apart
+    after the code changed in between."""
+    from drill_env import __version__
+    from drill_env.sweep import source_digest
+
+    return {"drill_env_version": __version__, "drill_env_sources": source_digest("drill_env")}
 
 
 def capture_geometry(sim: Any, config: Any) -> Geometry:

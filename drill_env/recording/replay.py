@@ -194,6 +194,9 @@ class RecordingContents:
     text_logs: dict[str, list[tuple[float, str, str]]]
     #: Number of blueprint stores in the file.
     n_blueprints: int
+    #: ``config/episode``'s fields as last written (scenario, seed, state, the
+    #: ``drill_env_version`` and ``drill_env_sources`` digest of the code that wrote it).
+    episode: dict[str, Any]
 
 
 class EntityDict(dict):
@@ -224,11 +227,15 @@ def read_recording(path: str | os.PathLike) -> RecordingContents:
     entities: set[str] = set()
     raw: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
     logs: dict[str, list[tuple[float, str, str]]] = {}
+    episode: dict[str, Any] = {}
     for chunk in reader.stream(store=entry):
         entity = chunk.entity_path
         entities.add(entity)
         batch = chunk.to_record_batch()
         names = batch.schema.names
+        if entity == "/config/episode":  # static: the last chunk is what the viewer shows
+            episode = {name: _first(batch.column(name).to_pylist()[-1], None)
+                       for name in names if not name.startswith("rerun.")}
         if TIMELINE not in names:
             continue
         times = batch.column(TIMELINE).cast(pa.int64()).to_numpy(
@@ -253,4 +260,4 @@ def read_recording(path: str | os.PathLike) -> RecordingContents:
     for lines in logs.values():
         lines.sort(key=lambda e: e[0])
     return RecordingContents(entry.application_id, entry.recording_id, entities, scalars,
-                             EntityDict(logs), len(reader.blueprints()))
+                             EntityDict(logs), len(reader.blueprints()), episode)
