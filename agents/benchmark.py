@@ -220,13 +220,18 @@ class Episode:
 
 def label(controller: str) -> str:
     """The name a controller has in the tables and file names: ``learned:PATH`` ->
-    ``learned``, ``constant:120/100`` -> ``constant-120rpm-100kN``, one of your own
+    ``learned``, ``constant:120/100`` -> ``constant-120rpm-100kN``, ``held:1/-0.5`` ->
+    ``held+1-0.5``, one of your own
     (``file.py:Class``) its class's ``name`` (:func:`agents.registry.table_name`)."""
     from agents.registry import is_imported, table_name
 
     if is_imported(controller):
         return table_name(controller)
     head, _, rest = controller.partition(":")
+    if head == "held" and rest:
+        from agents.trivial import HeldAction
+
+        return HeldAction.label(rest)
     if head == "constant" and rest:
         rpm, _, kn = rest.partition("/")
         try:  # one name for one pair of set points: 1e2, 100 and 100.0 are 100
@@ -254,9 +259,11 @@ def labels(controllers: Sequence[str]) -> list[str]:
     for name in out:
         if out.count(name) > 1:
             twins = [c for c, n in zip(controllers, out, strict=True) if n == name]
-            if name.startswith("constant-"):
-                raise ValueError(f"controllers: {', '.join(twins)} are the same set "
-                                 "points; give them once")
+            if name.startswith("constant-") or name.startswith("held") and not any(
+                    c.startswith("learned:") for c in twins):
+                what = "set points" if name.startswith("constant-") else "held actions"
+                raise ValueError(f"controllers: {', '.join(twins)} are the same {what}; "
+                                 "give them once")
             from agents.registry import is_imported
 
             fix = ("set another name attribute on one of the classes"

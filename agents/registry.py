@@ -20,6 +20,7 @@ from typing import Any
 from agents.base import Controller
 from agents.classical import ConstantSetPoints, SoftSpeed, SoftTorque, StiffPI, ZTorque
 from agents.driller import Driller
+from agents.trivial import HeldAction, RandomActions
 from drill_env.physics.validation import did_you_mean
 
 
@@ -36,18 +37,22 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     SoftTorque.name: SoftTorque,
     ZTorque.name: ZTorque,
     Driller.name: Driller,
+    RandomActions.name: RandomActions,
     "learned": _learned,
 }
-#: The controllers that need no trained policy.
-CLASSICAL = tuple(name for name in CONTROLLERS if name != "learned")
+#: The controllers that need no trained policy (the classical ones and the driller).
+CLASSICAL = tuple(name for name in CONTROLLERS if name not in ("learned", "random"))
+#: The trivial policies a learned one must beat (agents.trivial): every action held at
+#: -1, 0 and +1, and random actions.
+TRIVIAL = ("held:-1", "held:0", "held:1", RandomActions.name)
 
 
 #: What an unknown name's error lists: the registry's names and the parametrised forms.
 KNOWN = (f"{', '.join(CONTROLLERS)}, learned:<run folder>, constant:<rpm>/<kN>, "
-         "<file.py or module>:<class> (your own)")
+         "held:<action>[/<action>], <file.py or module>:<class> (your own)")
 
 #: The prefixes of the registry's parametrised names (not a module to import).
-_PARAMETRISED = ("learned", "constant")
+_PARAMETRISED = ("learned", "constant", "held")
 
 
 def is_imported(name: str) -> bool:
@@ -205,6 +210,9 @@ def canonical(name: str) -> str:
     match = _CONSTANT_LABEL.fullmatch(name)
     if match:
         return f"constant:{match[1]}/{match[2]}"
+    held = HeldAction.from_label(name)
+    if held is not None:
+        return held
     if name.startswith("learned-"):
         raise ValueError(f"controller: {name!r} is a trained run's name in a benchmark "
                          "table; give it as learned:<run folder>")
@@ -217,12 +225,14 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
     ``learned:PATH`` loads the policy of a training run folder (``logs/runs/<name>``);
     plain ``learned`` the shipped policy (of ``env_id``'s task if given);
     ``constant:<rpm>/<kN>`` (or its table name, :func:`canonical`) holds those set
-    points."""
+    points, ``held:<a>[/<a2>]`` those actions (:class:`agents.trivial.HeldAction`)."""
     name = canonical(name)
     if name.startswith("learned:"):
         return _learned(path=name.partition(":")[2], **kwargs)
     if name.startswith("constant:"):
         return ConstantSetPoints.parse(name.partition(":")[2])
+    if name.startswith("held:"):
+        return HeldAction.parse(name.partition(":")[2])
     if name != "learned":
         kwargs.pop("env_id", None)  # only the learned controller depends on the task
     if is_imported(name):
@@ -308,7 +318,8 @@ def check_interface(name: str, controller: Any) -> None:
         raise ValueError(f"controller: {name}: name {own!r} cannot name its rows and "
                          "files: letters, digits and _ . + - (set the class's name "
                          "attribute)")
-    if own in CONTROLLERS or own.startswith(("constant-", "learned-")):
+    if own in CONTROLLERS or own.startswith(("constant-", "learned-")) or \
+            HeldAction.from_label(own) is not None:
         raise ValueError(f"controller: {name}: name {own!r} is a built-in controller's "
                          "(set the class's name attribute to your own)")
 
@@ -323,9 +334,10 @@ def parse_controllers(text: str) -> list[str]:
     if not names:
         raise ValueError("controllers: give at least one name")
     for n in names:
-        if n.startswith("constant:"):
-            try:
-                ConstantSetPoints.parse(n.partition(":")[2])  # checks the numbers
+        if n.startswith(("constant:", "held:")):
+            try:  # checks the numbers
+                (ConstantSetPoints if n.startswith("constant:") else HeldAction).parse(
+                    n.partition(":")[2])
             except ValueError as err:
                 raise ValueError(f"controllers: {str(err).partition(': ')[2]}") from None
         elif n.startswith("learned:"):

@@ -1113,7 +1113,8 @@ def parser() -> argparse.ArgumentParser:
                    help="the scenario")
     p.add_argument("--controller", default="stiff",
                    help="controller name (stiff, soft-speed, soft-torque, z-torque, driller, "
-                        "learned, learned:<run folder>, constant:<rpm>/<kN>, or your own "
+                        "learned, learned:<run folder>, constant:<rpm>/<kN>, the trivial "
+                        "policies random and held:<action>[/<action>], or your own "
                         "as <file.py or module>:<class>: docs/controllers.md)")
     p.add_argument("--rpm", type=number("rpm"), default=None,
                    help="surface speed set point in rpm (default: the scenario's)")
@@ -1220,8 +1221,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--out", type=Path, default=Path("logs/runs"), help="folder of runs")
 
-    p = add("evaluate", "a trained run against the classical controllers on the held-out "
-                        "seeds, through the benchmark", cmd_evaluate)
+    p = add("evaluate", "a trained run against the classical controllers and the trivial "
+                        "policies on the held-out seeds, through the benchmark; paired "
+                        "comparison in comparison.md", cmd_evaluate)
     p.add_argument("run", type=Path, help="run folder of drill-env train")
     p.add_argument("--seeds", type=integer(1), default=20, help="held-out seeds")
     p.add_argument("--workers", type=integer(1), default=None,

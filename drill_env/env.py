@@ -170,15 +170,17 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     ## Info
 
-    Every step, in SI: ``time`` (s), ``bit_speed``, ``surface_speed`` (rad/s),
-    ``torque_on_bit``, ``surface_torque`` (N m), ``weight_on_bit``, ``hook_load`` (N),
-    ``bit_lateral`` (x, y m), ``whirl_speed`` (rad/s), ``depth`` (m), ``rop`` (m/s),
-    ``rock_share``; the set points ``speed_setpoint`` (rad/s) and
-    ``weight_on_bit_setpoint`` (N); the window metrics ``ssi``, ``stuck_fraction``,
-    ``whirl_ratio``, ``radial_ratio``, ``lateral_force``, ``mse`` (Pa, capped at
-    ``metrics.MSE_CEILING`` when the bit turns without drilling) and
-    ``top_drive_energy`` (J, this episode); ``reward_terms`` and ``termination_reason``
-    ("" unless terminated).
+    Every step, in SI: ``time``, ``episode_time`` (s), ``bit_speed``, ``surface_speed``
+    (rad/s), ``torque_on_bit``, ``surface_torque`` (N m), ``weight_on_bit``, ``hook_load``
+    (N), ``bit_lateral`` (x, y m), ``bit_force_x``, ``bit_force_y`` (the lateral force on
+    the bit, N), ``max_contact_force`` (the largest wall force along the string, N),
+    ``whirl_speed`` (rad/s), ``depth`` (m), ``rop`` (m/s), ``rock_share``,
+    ``bit_inclination`` (rad); the set points ``speed_setpoint`` (rad/s),
+    ``weight_on_bit_setpoint`` and the WOB the mesh resolves, ``weight_on_bit_limit`` (N);
+    the window metrics ``ssi``, ``stuck_fraction``, ``whirl_ratio``, ``radial_ratio``,
+    ``lateral_force``, ``mse`` (Pa, capped at ``metrics.MSE_CEILING`` when the bit turns
+    without drilling); ``top_drive_energy`` (J, this episode: sum of |T w| dt, braking
+    counted as spent, no regeneration); ``reward_terms``, ``termination_reason``.
 
     ## Arguments
 

@@ -88,12 +88,20 @@ def test_evaluate_runs_the_policy_through_the_benchmark(run, tmp_path, capsys):
                  "--out", str(tmp_path)])
     assert code == 0
     kept = "best_model.zip" if (folder / "best_model.zip").exists() else "model.zip"
-    assert f"evaluating {folder / kept} (" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert f"evaluating {folder / kept} (" in printed
     with (tmp_path / "benchmark.csv").open() as f:
         rows = list(csv.DictReader(f))
     assert {r["controller"] for r in rows} == {"learned", "stiff", "soft-speed",
-                                               "soft-torque", "z-torque", "driller"}
+                                               "soft-torque", "z-torque", "driller",
+                                               "held-1", "held+0", "held+1", "random"}
     assert {int(r["seed"]) for r in rows} == {1_000_000, 1_000_001}
+    # the policy paired against every other controller, printed and written
+    comparison = (tmp_path / "comparison.md").read_text()
+    for name in ("stiff", "driller", "held-1", "held+0", "held+1", "random"):
+        assert f"| {name} | " in comparison
+    assert "| learned | " not in comparison
+    assert "one-sided paired t-test" in printed
     # the report names what it evaluated
     assert (tmp_path / "benchmark.md").read_text().startswith(
         f"# Evaluation of {folder.name} ({kept}, ppo on task stick_slip), held-out seeds "

@@ -10,6 +10,7 @@ each from the same targets and start; the benchmark writes its table, csv and pl
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -23,7 +24,7 @@ from agents.benchmark import (
     run_benchmark,
     task_settings,
 )
-from agents.registry import CLASSICAL
+from agents.registry import CLASSICAL, TRIVIAL
 from drill_env.physics.config import Fidelity
 from drill_env.scenarios import EVALUATION_SEEDS
 from training.config import TASKS, read_run_config
@@ -124,12 +125,57 @@ def standard_episode_notes(trained: dict[str, Any], settings: BenchmarkSettings
             for key, was, value in replaced_episode_settings(trained, settings, "random")]
 
 
+def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
+                      ) -> list[dict[str, Any]]:
+    """The policy's return against every other controller's on the same seeds (paired:
+    the same string, rocks and targets per seed): per controller its mean return, the
+    policy's mean lead, on how many seeds it led, and the one-sided paired t-test p of
+    a positive lead (``scipy.stats.ttest_rel``; NaN with fewer than two seeds or no
+    spread in the differences)."""
+    from scipy.stats import ttest_rel
+
+    returns: dict[str, dict[int, float]] = {}
+    for row in rows:
+        returns.setdefault(row["controller"], {})[int(row["seed"])] = float(
+            row["episode_return"])
+    mine = returns.get(policy, {})
+    out = []
+    for name, theirs in returns.items():
+        seeds = sorted(set(mine) & set(theirs))
+        if name == policy or not seeds:
+            continue
+        a = np.array([mine[s] for s in seeds])
+        b = np.array([theirs[s] for s in seeds])
+        diff = a - b
+        p = math.nan
+        if len(seeds) > 1 and np.ptp(diff) > 0:
+            p = float(ttest_rel(a, b, alternative="greater").pvalue)
+        out.append({"controller": name, "seeds": len(seeds), "return": float(b.mean()),
+                    "lead": float(diff.mean()), "wins": int(np.sum(diff > 0)), "p": p})
+    return out
+
+
+def comparison_text(comparison: list[dict[str, Any]], policy_return: float) -> str:
+    """:func:`paired_comparison` as the markdown table ``evaluate`` prints and writes."""
+    lines = [f"Paired by seed against the policy (mean return {policy_return:.1f}); p: "
+             "one-sided paired t-test that the policy's return is higher.", "",
+             "| controller | return | policy's lead | policy better on | p |",
+             "| --- | --- | --- | --- | --- |"]
+    for c in comparison:
+        p = "n/a" if math.isnan(c["p"]) else f"{c['p']:.2g}"
+        lines.append(f"| {c['controller']} | {c['return']:.1f} | {c['lead']:+.1f} | "
+                     f"{c['wins']} of {c['seeds']} | {p} |")
+    return "\n".join(lines) + "\n"
+
+
 def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | None = None,
-                 out: Path | None = None, controllers: tuple[str, ...] = CLASSICAL,
+                 out: Path | None = None, controllers: tuple[str, ...] = CLASSICAL + TRIVIAL,
                  progress: bool = True, ray_address: str | None = None
                  ) -> list[dict[str, Any]]:
-    """Benchmark ``learned:<run>`` against ``controllers`` on ``seeds`` held-out seeds;
-    for the drilling task also against the best constant set point of a grid search.
+    """Benchmark ``learned:<run>`` against ``controllers`` on ``seeds`` held-out seeds:
+    the classical ones and the trivial policies (actions held at -1, 0, +1, random); for
+    the drilling task also against the best constant set point of a grid search. Writes
+    the paired comparison (:func:`paired_comparison`) to ``out/comparison.md``.
     ``ray_address``: run the episodes on that Ray cluster (the ``distributed`` extra)."""
     config = read_run_config(Path(run) / "config.yaml")
     task = config["task"]
@@ -156,6 +202,12 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     held_out = list(EVALUATION_SEEDS[:seeds])
     heading = (f"Evaluation of {Path(run).name} ({policy_files(run)[0].name}, {config['algo']} "
                f"on task {task}), held-out seeds {held_out[0]}-{held_out[-1]}")
-    return run_benchmark(names, ["random"], held_out, out, settings, workers=workers,
+    rows = run_benchmark(names, ["random"], held_out, out, settings, workers=workers,
                          progress=progress, env_id=TASKS[task], ray_address=ray_address,
                          heading=heading)
+    mine = [r["episode_return"] for r in rows if r["controller"] == label(names[0])]
+    if mine:
+        text = comparison_text(paired_comparison(rows, label(names[0])), float(np.mean(mine)))
+        (out / "comparison.md").write_text(f"# {heading}\n\n{text}")
+        print(text)  # beside the benchmark's table, which is printed too
+    return rows

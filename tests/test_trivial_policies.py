@@ -1,0 +1,121 @@
+"""The trivial policies as controllers (agents.trivial): what they send, their names in
+the tables, and that they are the baselines docs/tasks.md quotes; the paired comparison
+``drill-env evaluate`` prints against them."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.stats import t as student_t
+
+import drill_env  # noqa: F401  (registers the ids)
+from agents.benchmark import label, labels
+from agents.registry import TRIVIAL, canonical, make_controller, parse_controllers
+from drill_env.physics.units import RPM
+from training.evaluate import episode_return, paired_comparison, random_actions
+
+
+def _play(env, controller, seed: int) -> tuple[float, list[np.ndarray]]:
+    """Return and actions of one episode of ``controller`` (reset after the env's)."""
+    obs, info = env.reset(seed=seed)
+    controller.reset(env.unwrapped)
+    total, sent = 0.0, []
+    while True:
+        action = controller.act(obs, info)
+        sent.append(np.array(action))
+        obs, reward, terminated, truncated, info = env.step(action)
+        total += float(reward)
+        if terminated or truncated:
+            return total, sent
+
+
+def test_random_is_the_random_baseline_of_the_task_tables() -> None:
+    """The same draws, so the same return, as training.evaluate.random_actions (what
+    scripts/fresh_seeds.py and docs/tasks.md's "random" rows play), episode by episode;
+    another seed, other draws."""
+    env = gym.make("DrillStickSlip-v0", episode_duration=3.0)
+    controller = make_controller("random")
+    for seed in (1_000_000, 7):
+        total, sent = _play(env, controller, seed)
+        assert total == episode_return(env, random_actions(env, seed), seed)
+        assert np.ptp(np.concatenate(sent)) > 0.5  # not held: drawn every step
+    again, _ = _play(env, controller, 7)
+    other, _ = _play(env, controller, 8)
+    assert again == total and other != total
+    env.close()
+
+
+def test_held_actions_command_the_ends_of_the_ranges() -> None:
+    """In DrillString-v0 held at +1 / -1 asks for the top / bottom of the rpm and WOB
+    ranges (the env's action mapping), one value per action when given so."""
+    env = gym.make("DrillString-v0", scenario="default", episode_duration=0.5)
+    config = env.unwrapped.config
+    for name, rpm, wob in (("held:1", config.rpm_range[1], config.weight_on_bit_range[1]),
+                           ("held:-1", config.rpm_range[0], config.weight_on_bit_range[0]),
+                           ("held:1/-1", config.rpm_range[1], config.weight_on_bit_range[0])):
+        controller = make_controller(name)
+        obs, info = env.reset(seed=0)
+        controller.reset(env.unwrapped)
+        _, _, _, _, info = env.step(controller.act(obs, info))
+        assert info["speed_setpoint"] == pytest.approx(rpm * RPM, rel=1e-6), name
+        assert info["weight_on_bit_setpoint"] == pytest.approx(wob, rel=1e-6), name
+        assert controller.sets_own_speed
+    with pytest.raises(ValueError, match=r"held:1/0/1: 3 values for an action of 2"):
+        make_controller("held:1/0/1").reset(env.unwrapped)
+    env.close()
+    task = gym.make("DrillStickSlip-v0", episode_duration=0.5)
+    controller = make_controller("held:0.5")
+    controller.reset(task.unwrapped)
+    assert not controller.sets_own_speed  # task 1: a correction around the driller's rpm
+    np.testing.assert_array_equal(controller.act(None, {}), np.array([0.5], np.float32))
+    task.close()
+
+
+@given(st.lists(st.floats(-1.0, 1.0), min_size=1, max_size=2))
+def test_a_held_action_is_run_again_by_its_table_name(values: list[float]) -> None:
+    """``held:...`` -> its table name -> ``held:...`` with the same values (to the
+    table's 15 digits), a name
+    ``benchmark.csv`` can hand back to --controllers (and file names can hold)."""
+    name = "held:" + "/".join(repr(v) for v in values)
+    table = label(name)
+    assert all(c.isalnum() or c in "+-." for c in table)
+    back = canonical(table)
+    assert label(back) == table  # one name for one held action
+    # the table names a value to 15 significant digits, as it does constant set points
+    np.testing.assert_allclose(make_controller(back).values, values, rtol=1e-14, atol=1e-300)
+
+
+def test_bad_held_names_are_refused_by_name() -> None:
+    for typed, said in (("held:2", "each value must be in [-1, 1]"),
+                        ("held:nan", "each value must be in [-1, 1]"),
+                        ("held:x", "held:<a>[/<a2>] expected")):
+        with pytest.raises(ValueError) as err:
+            parse_controllers(typed)
+        text = str(err.value)
+        assert text.startswith("controllers: ") and typed in text and said in text, text
+    with pytest.raises(ValueError, match="held:1, held:1.0 are the same held actions"):
+        labels(["held:1", "held:1.0"])
+    assert parse_controllers(",".join(TRIVIAL)) == list(TRIVIAL)
+
+
+def test_paired_comparison_pairs_by_seed() -> None:
+    """Rows in any order: the lead, wins and p of each controller from the returns of the
+    same seeds; p against the one-sided t distribution of the differences by hand."""
+    learned = {1: 10.0, 2: 20.0, 3: 30.0, 4: 40.0}
+    other = {4: 36.0, 2: 19.0, 1: 8.0, 3: 27.0, 9: 1e6}  # seed 9: the policy has none
+    rows = [{"controller": "other", "seed": s, "episode_return": r} for s, r in other.items()]
+    rows += [{"controller": "learned", "seed": s, "episode_return": r}
+             for s, r in reversed(learned.items())]
+    rows += [{"controller": "same", "seed": s, "episode_return": r} for s, r in learned.items()]
+    (c, same) = paired_comparison(rows)
+    diff = np.array([2.0, 1.0, 3.0, 4.0])
+    t = diff.mean() / (diff.std(ddof=1) / math.sqrt(4))
+    assert c["controller"] == "other" and c["seeds"] == 4 and c["wins"] == 4
+    assert c["lead"] == pytest.approx(2.5) and c["return"] == pytest.approx(22.5)
+    assert c["p"] == pytest.approx(student_t.sf(t, 3), rel=1e-9)
+    assert same["wins"] == 0 and math.isnan(same["p"])  # no spread: no test
