@@ -781,15 +781,29 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
 
     name = label(args.controller or "stiff")
     source = None if args.config is None else str(args.config.resolve())  # one per file
+    json_path = args.out / f"{sm.map_stem(name, source)}.json"
+    before = map_positions(json_path)
     paths = sm.write_maps(maps, args.out, settings, name, string, source)
     print("wrote " + ", ".join(str(p) for p in paths))
     made = {m.position for m in maps}  # the file's other maps were kept from before
-    kept = [m["position"] for m in json.loads(paths[0].read_text())["maps"]
-            if m["position"] not in made]
+    kept = [p for p in map_positions(paths[0]) if p not in made]
     if kept:
         print(f"with the maps of {', '.join(kept)} already in {paths[0]} (same settings "
               "and grid)")
+    replaced = [p for p in before if p not in made and p not in kept]
+    if replaced:
+        print(f"note: the maps of {', '.join(replaced)} that {paths[0]} held were made with "
+              "other settings, grid, physics or code: left out of the file and picture "
+              "(map them again, or give another --out to keep both)")
     return 0
+
+
+def map_positions(path: Path) -> list[str]:
+    """The positions of the maps in a stability-map JSON file, [] without a readable one."""
+    try:
+        return [m["position"] for m in json.loads(path.read_text())["maps"]]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
 
 
 def read_overrides(path: Path | None) -> dict[str, Any]:
@@ -1393,8 +1407,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     out = getattr(args, "out", None)
     if out is not None and (reason := unwritable(out)):  # before the work: found after an
         args.command_parser.error(f"--out {out}: {reason}")  # hour's work, it lost the hour
+    if getattr(args, "ray_address", None) is not None and getattr(args, "workers", None):
+        args.command_parser.error("--workers: the local processes; with --ray-address the "
+                                  "cluster's CPUs run the work: give one of the two")
     stop = _stop_as_interrupt()
     clear_interrupt()  # one noted before this command is not this command's
+    _TERM_RECEIVED.clear()
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
@@ -1409,7 +1427,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         said = f"{option}: {rest}" if option else str(err)
         print(f"drill-env {args.command}: error: {said}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt as stopped:
+    except KeyboardInterrupt as caught:
+        # a SIGTERM's Terminated may come back as a plain KeyboardInterrupt (Ray's wait
+        # turns a signal's exception into its own)
+        stopped = Terminated() if _TERM_RECEIVED else caught
         said = "terminated" if isinstance(stopped, Terminated) else "interrupted"
         kept = finished_work_folder(args, out)
         if args.command in KEEPS_FINISHED and kept is not None:
@@ -1425,6 +1446,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 _NOT_INSTALLED = object()
+#: Set by the command's SIGTERM handler (:func:`_stop_as_interrupt`): what stopped it, also
+#: where the :class:`Terminated` raised for it was replaced on the way up.
+_TERM_RECEIVED: set[bool] = set()
 #: Commands that keep what they finished in their --out as it arrives, and what that is
 #: (a rerun with the same settings and code reuses it; `train` says its own checkpoint).
 KEEPS_FINISHED = {"benchmark": "episodes", "stability-map": "points", "evaluate": "episodes",
@@ -1459,6 +1483,7 @@ def _stop_as_interrupt() -> Any:
 
     def interrupt(signum: int, frame: Any) -> None:
         note_interrupt(Terminated)  # kept also where the raise is lost (training checks it)
+        _TERM_RECEIVED.add(True)
         raise Terminated
 
     return signal.signal(signal.SIGTERM, interrupt)

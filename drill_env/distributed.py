@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import sys
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -99,6 +101,20 @@ class RayExecutor:
                              f"got {ray_address!r}")
         self._ray = ray
         self._owns = not ray.is_initialized()
+        # ray.init sets its own SIGTERM handler (sys.exit(15)) over the command's, which
+        # stops a sweep as a Ctrl-C does (finished work kept, exit 143): put it back
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.getsignal(signal.SIGTERM) if main else None
+        try:
+            self._init(ray, ray_address)
+        finally:
+            if main and previous is not None:
+                signal.signal(signal.SIGTERM, previous)
+        self._remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES,
+                                  retry_exceptions=False)(_call)
+
+    def _init(self, ray: Any, ray_address: str) -> None:
+        """Start (``local``) or join the Ray session, unless one is running."""
         if self._owns:
             # Ray's C++ core logs every failed connection attempt at WARNING: keep the
             # console for our progress bar and one clear error
@@ -121,8 +137,6 @@ class RayExecutor:
                 except ValueError as error:  # not an address at all ("Invalid address ...")
                     raise ValueError(f"ray_address: {ray_address!r} is not 'local', 'auto' "
                                      f"or a cluster address host:port ({error})") from None
-        self._remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES,
-                                  retry_exceptions=False)(_call)
 
     @property
     def cpus(self) -> int:

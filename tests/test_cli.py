@@ -276,6 +276,13 @@ def test_stability_map_command_writes_the_map_and_its_picture(tmp_path, capsys):
         == "z-torque"
     assert json.loads((tmp_path / "stability_map.json").read_text()) == data
     assert (tmp_path / "stability_map_z-torque.png").is_file()
+    capsys.readouterr()
+    # another grid into the same file: P4's map of the old grid is left out, and said so
+    assert main(["stability-map", "--positions", "P1", "--rpm-step", "100", "--wob-step",
+                 "100", "--seconds", "10", "--out", str(tmp_path)]) == 0
+    assert [m["position"] for m in json.loads(
+        (tmp_path / "stability_map.json").read_text())["maps"]] == ["P1"]
+    assert "note: the maps of P4 that " in capsys.readouterr().out
 
 
 def test_stability_map_of_a_string_of_your_own(tmp_path, capsys):
@@ -797,6 +804,12 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
                  "--out", str(tmp_path)]) == 2
     assert "benchmark: error: --ray-address: 'nope' is not 'local', 'auto' or a cluster " \
            "address" in capsys.readouterr().err
+    # --workers was ignored silently beside --ray-address
+    with pytest.raises(SystemExit):
+        main(["benchmark", "--controllers", "stiff", "--workers", "2", "--ray-address",
+              "local", "--out", str(tmp_path)])
+    assert "benchmark: error: --workers: the local processes; with --ray-address" in \
+        capsys.readouterr().err
 
 
 def test_console_numbers_have_no_negative_zero_and_counts_agree_with_their_noun():
@@ -831,12 +844,15 @@ def test_the_demos_stick_slip_table_reproduces_paper_result_1(tmp_path):
     assert (tmp_path / "demo_stick_slip.png").stat().st_size > 10_000
 
 
-@pytest.mark.parametrize("signum, status, said", [("SIGTERM", 143, "terminated"),
-                                                  ("SIGINT", 130, "interrupted")])
+@pytest.mark.parametrize("signum, status, said, replaced", [
+    ("SIGTERM", 143, "terminated", False), ("SIGINT", 130, "interrupted", False),
+    ("SIGTERM", 143, "terminated", True)])
 def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, signum,
-                                                         status, said):
+                                                         status, said, replaced):
     """A command stopped by a signal exits as the shell reports one, 128 + its number: a
-    SIGTERM (a scheduler's stop) exited 130 as if Ctrl-C had stopped it."""
+    SIGTERM (a scheduler's stop) exited 130 as if Ctrl-C had stopped it. Also where the
+    handler's exception comes back as a plain KeyboardInterrupt (``replaced``: Ray's wait
+    does so; a training sweep on Ray said "interrupted" and exited 130)."""
     import signal
 
     import drill_cli.main as cli
@@ -845,7 +861,12 @@ def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, s
         # the handler the signal would run, run here: a signal sent to the process may
         # be handled by Python later than this call (another thread took it)
         number = getattr(signal, signum)
-        signal.getsignal(number)(number, None)
+        try:
+            signal.getsignal(number)(number, None)
+        except KeyboardInterrupt:
+            if replaced:
+                raise KeyboardInterrupt from None
+            raise
         return 0
 
     monkeypatch.setattr(cli, "cmd_modes", stopped)

@@ -209,7 +209,8 @@ def test_the_benchmark_on_the_cluster_equals_the_local_benchmark(cluster, tmp_pa
 
 def test_evaluate_on_the_cluster_equals_evaluate_here(cluster, tmp_path):
     """``drill-env evaluate RUN --ray-address``: the shipped stick-slip policy against the
-    classical controllers on one held-out seed, the same rows as on local processes."""
+    classical controllers and the trivial policies (random actions drawn from the episode
+    seed, wherever it runs) on one held-out seed, the same rows as on local processes."""
     import csv
 
     from drill_cli.main import main
@@ -222,7 +223,7 @@ def test_evaluate_on_the_cluster_equals_evaluate_here(cluster, tmp_path):
                      *extra]) == 0
         with (tmp_path / where / "benchmark.csv").open() as f:
             tables.append(sorted(list(csv.DictReader(f)), key=lambda r: r["controller"]))
-    assert tables[0] == tables[1] and len(tables[0]) == 6
+    assert tables[0] == tables[1] and len(tables[0]) == 10
 
 
 def _fail_and_count(path: str) -> None:
@@ -266,6 +267,29 @@ def test_a_ray_session_the_user_started_is_theirs_to_stop(cluster):
         assert ray.get(ray.put(3)) == 3
     finally:
         ray.shutdown()
+
+
+def test_joining_ray_keeps_the_commands_sigterm_handler(cluster):
+    """ray.init sets a SIGTERM handler of its own (sys.exit(15)): a sweep on Ray stopped by
+    SIGTERM exited 15 without saying what it kept, instead of the command's handling
+    (exit 143, finished work kept, a training run's checkpoint saved)."""
+    from drill_env.distributed import RayExecutor
+
+    if ray.is_initialized():
+        ray.shutdown()
+
+    def ours(signum, frame):  # the command's (drill_cli.main._stop_as_interrupt)
+        raise AssertionError("not called here")
+
+    previous = signal.signal(signal.SIGTERM, ours)
+    try:
+        executor = RayExecutor(cluster.address)
+        try:
+            assert signal.getsignal(signal.SIGTERM) is ours
+        finally:
+            executor.close()
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _sleep_then_say(args: tuple[str, float]) -> None:

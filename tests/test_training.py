@@ -767,6 +767,14 @@ def test_a_seed_sweep_trains_one_run_per_seed_and_skips_finished_ones(tmp_path, 
     assert [r["seed"] for r in again] == [3, 4, 5] and again[:2] == results
     assert (tmp_path / "stick_slip_ppo_seed3" / "run.json").stat().st_mtime_ns == stamp
     assert len((tmp_path / RESULTS_FILE).read_text().splitlines()) == 3
+    # a sweep stopped after a run finished but before it noted it: the rerun takes the run
+    # as it is (it refused it: "--timesteps: ... has done 2048 env steps already")
+    store = tmp_path / RESULTS_FILE
+    lines = store.read_text().splitlines(keepends=True)
+    store.write_text("".join(line for line in lines if json.loads(line)["key"] != "4"))
+    stamp = (tmp_path / "stick_slip_ppo_seed4" / "run.json").stat().st_mtime_ns
+    assert train_seeds(cfg, [3, 4], tmp_path, workers=1, progress=False) == results
+    assert (tmp_path / "stick_slip_ppo_seed4" / "run.json").stat().st_mtime_ns == stamp
     train_seeds(cfg, [3, 5], tmp_path, workers=1)  # said (it said "2 runs in 0 s" only)
     assert f"2 of 2 runs already in {tmp_path / RESULTS_FILE} (same config): not rerun" in \
         capsys.readouterr().err
@@ -1427,3 +1435,39 @@ def test_a_model_without_a_log_folder_leaves_no_folder_in_the_temporary_director
         assert (tmp_path / "tb").is_dir() and not list(tmp_path.glob("SB3-*"))
     finally:
         venv.close()
+
+
+def test_an_evaluation_row_is_added_whole(tmp_path, monkeypatch):
+    """A process killed while it added a row left half a row, the next row was glued to it
+    and every later resume failed ("'yerr' must not contain negative values"): a row now
+    goes in with the whole file written beside it and renamed into place."""
+    from pathlib import Path
+
+    from training.train import add_row
+
+    path = tmp_path / "evaluations.csv"
+    add_row(path, {"timesteps": 1024, "return": -1.5, "wall_s": 2.0})
+    add_row(path, {"timesteps": 2048, "return": -1.0, "wall_s": 4.0})
+    real = Path.write_text
+
+    def killed_half_way(self, text, *args, **kwargs):
+        real(self, text[: len(text) // 2], *args, **kwargs)
+        raise OSError("killed")
+
+    monkeypatch.setattr(Path, "write_text", killed_half_way)
+    with pytest.raises(OSError, match="killed"):
+        add_row(path, {"timesteps": 3072, "return": -0.5, "wall_s": 6.0})
+    monkeypatch.undo()
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    assert [(int(r["timesteps"]), float(r["return"])) for r in rows] == [(1024, -1.5),
+                                                                         (2048, -1.0)]
+
+
+def test_a_damaged_progress_file_is_named(tmp_path):
+    from training.train import _rewind
+
+    (tmp_path / "checkpoints").mkdir()
+    (tmp_path / "checkpoints" / "progress_512.json").write_text("")
+    with pytest.raises(ValueError, match=r"resume: .*progress_512.json is damaged"):
+        _rewind(tmp_path, 512, from_checkpoint=True)

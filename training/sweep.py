@@ -40,13 +40,15 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     """One seed's run (resumed from its last checkpoint if it has one)."""
     import torch
 
-    from training.train import holds_run, train
+    from training.train import finished, holds_run, train
 
     config, folder = args
     torch.set_num_threads(1)
     run = Path(folder)
-    # an interrupted sweep continues its runs; a new one starts them
-    train(config, run, resume=holds_run(run), progress=False)
+    # an interrupted sweep continues its runs, and takes those it had finished as they
+    # are (stopped before it noted them); a new one starts them
+    if not finished(run, config):
+        train(config, run, resume=holds_run(run), progress=False)
     info = json.loads((run / "run.json").read_text())
     rows = []
     if (run / "evaluations.csv").exists():  # none before the first evaluation

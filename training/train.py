@@ -143,7 +143,11 @@ def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
             writer.writerows(kept)
     progress = run / "checkpoints" / f"progress_{steps}.json"
     if from_checkpoint and progress.exists():
-        wall = float(json.loads(progress.read_text())["wall_s"])
+        try:
+            wall = float(json.loads(progress.read_text())["wall_s"])
+        except (ValueError, KeyError, TypeError) as err:  # written whole since 2026-12-05
+            raise ValueError(f"resume: {progress} is damaged ({err!r}); delete it (the run's "
+                             "wall time then counts from its last evaluation)") from None
     elif not from_checkpoint and (run / "run.json").exists():
         wall = float(json.loads((run / "run.json").read_text()).get("wall_s", 0.0))
     else:  # a checkpoint of an older version: the last evaluation before it
@@ -222,12 +226,7 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
             result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
             row = {"timesteps": self.num_timesteps, **result,
                    "wall_s": time.perf_counter() - started}
-            new = not self.path.exists()
-            with self.path.open("a", newline="") as f:
-                writer = csv.DictWriter(f, fieldnames=list(row))
-                if new:
-                    writer.writeheader()
-                writer.writerow(row)
+            add_row(self.path, row)
             for key in ("return", "ssi", "stuck_fraction"):
                 self.logger.record(f"validation/{key}", result[key])
             if result["return"] > self.best:
@@ -343,6 +342,22 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
     if not resume:
         check_learns(config, 0)
         return 0
+    check_same_config(run, config)
+    point = resume_point(run)
+    if point is None:
+        check_learns(config, 0)  # nothing to resume: it starts from the beginning
+        return 0
+    done, updates = point
+    if done >= config.n_timesteps:
+        raise ValueError(f"--timesteps: {run} has done {done} env steps already; give more "
+                         "than that to continue it")
+    check_learns(config, done, learnt=updates > 0)
+    return done
+
+
+def check_same_config(run: Path, config: TrainConfig) -> None:
+    """ValueError if ``run`` was started with another config than ``config`` in anything
+    but ``n_timesteps``, ``torch_threads`` and ``fused_adam``."""
     saved = run / "config.yaml"
     if saved.exists():
         old = without_inert_keys(read_run_config(saved))
@@ -356,16 +371,18 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
                              "differ; only n_timesteps, torch_threads and fused_adam may "
                              "change); train it under another --name (a --seeds sweep: "
                              "another --out), or delete the folder")
+
+
+def finished(run: Path, config: TrainConfig) -> bool:
+    """Whether ``run`` is a finished run of ``config``: its final record (``run.json``)
+    written and its model at ``n_timesteps`` or beyond (ValueError if of another
+    config). A seed sweep stopped after a run finished but before it noted the run goes
+    on from it instead of refusing to train it further."""
+    if not (run / "run.json").exists():
+        return False
+    check_same_config(run, config)
     point = resume_point(run)
-    if point is None:
-        check_learns(config, 0)  # nothing to resume: it starts from the beginning
-        return 0
-    done, updates = point
-    if done >= config.n_timesteps:
-        raise ValueError(f"--timesteps: {run} has done {done} env steps already; give more "
-                         "than that to continue it")
-    check_learns(config, done, learnt=updates > 0)
-    return done
+    return point is not None and point[0] >= config.n_timesteps
 
 
 def check_learns(config: TrainConfig, done: int, learnt: bool = False) -> None:
@@ -511,7 +528,8 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
             "env_seed": seed,  # of this session's first reset (env i: + i)
             "validation_seeds": {"first": VALIDATION_SEED, "count": config.eval_episodes},
             "machine": platform.platform(), "python": platform.python_version()}
-    (run / "run.json").write_text(json.dumps(info, indent=2))
+    text = json.dumps(info, indent=2)
+    save_whole(run / "run.json", lambda file: Path(file).write_text(text))
     plot_learning_curve(run)
     env.close()
     return run / "model.zip"
@@ -548,8 +566,26 @@ def write_checkpoint(run: Path, model: Any, env: Any, wall_s: float) -> Path:
     path = folder / f"model_{steps}_steps.zip"
     save_whole(path, model.save)
     save_whole(folder / f"vecnormalize_{steps}.pkl", env.save)
-    (folder / f"progress_{steps}.json").write_text(json.dumps({"wall_s": wall_s}))
+    text = json.dumps({"wall_s": wall_s})
+    save_whole(folder / f"progress_{steps}.json", lambda file: Path(file).write_text(text))
     return path
+
+
+def add_row(path: Path, row: dict[str, Any]) -> None:
+    """Add ``row`` to the CSV file ``path`` (its header first if new), the whole file
+    written anew and renamed into place (:func:`save_whole`): a process killed while it
+    appended left a half row that the next row was glued to, and every later resume
+    failed on it."""
+    import io
+
+    old = path.read_text() if path.exists() else ""
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=list(row))
+    if not old:
+        writer.writeheader()
+    writer.writerow(row)
+    text = old + buffer.getvalue()
+    save_whole(path, lambda file: Path(file).write_text(text, newline=""))
 
 
 def save_whole(path: Path, save: Any) -> None:
@@ -616,7 +652,8 @@ def plot_learning_curve(run: Path) -> Path | None:
     except ValueError:
         config = {}  # the plot says less
     what = (f"{str(config['algo']).upper()} on task {config['task']}, deterministic policy "
-            f"on {config['eval_episodes']} fixed validation seeds"
+            f"on {config['eval_episodes']} fixed validation seed"
+            f"{'' if config['eval_episodes'] == 1 else 's'}"
             if {"algo", "task", "eval_episodes"} <= set(config)
             else "deterministic policy on the fixed validation seeds")
     fig.suptitle(f"{run.name}: {what}")
