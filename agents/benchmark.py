@@ -259,8 +259,9 @@ def labels(controllers: Sequence[str]) -> list[str]:
     for name in out:
         if out.count(name) > 1:
             twins = [c for c, n in zip(controllers, out, strict=True) if n == name]
-            if name.startswith("constant-") or name.startswith("held") and not any(
-                    c.startswith("learned:") for c in twins):
+            from agents.trivial import HeldAction
+
+            if name.startswith("constant-") or HeldAction.from_label(name) is not None:
                 what = "set points" if name.startswith("constant-") else "held actions"
                 raise ValueError(f"controllers: {', '.join(twins)} are the same {what}; "
                                  "give them once")
