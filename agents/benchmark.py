@@ -656,6 +656,31 @@ def check_guest_set_points(controllers: Sequence[str], settings: BenchmarkSettin
                 "scenario benchmark in its own env)")
 
 
+def check_held_actions(controllers: Sequence[str], env_id: str | None) -> None:
+    """ValueError unless each ``held:...`` gives one value, or one per action, of the env
+    it acts in (``env_id``, else ``DrillString-v0``): said before any episode runs, not in
+    a worker after other controllers' episodes."""
+    held = [n for n in controllers if n.startswith("held:")]
+    if not held:
+        return
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401  (registers the env ids)
+    from agents.trivial import HeldAction
+
+    env = gym.make(env_id or "DrillString-v0")
+    try:
+        size = int(np.prod(env.action_space.shape or ()))
+    finally:
+        env.close()
+    for name in held:
+        try:
+            HeldAction.parse(name.partition(":")[2]).check_size(size)
+        except ValueError as err:
+            raise ValueError(f"controllers: {str(err).partition(': ')[2]} "
+                             f"({env_id or 'DrillString-v0'})") from None
+
+
 def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],
                   out: Path, settings: BenchmarkSettings | None = None,
                   workers: int | None = None, ray_address: str | None = None,
@@ -682,6 +707,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             "benchmark, where each controller runs in its own env at the scenario's set "
             "points: they are a task benchmark's (env_id, --task); config overrides go in "
             "physics")
+    check_held_actions(controllers, env_id)
     if env_id is not None:  # the policies' task settings, unless the caller gave its own
         settings = dataclasses.replace(settings, env_kwargs={
             **task_settings(controllers, env_id), **settings.env_kwargs})
@@ -791,7 +817,8 @@ SUMMARY = (("ssi", "SSI", "{:.2f}"), ("stuck_fraction", "stuck", "{:.0%}"),
 #: The mark on the "rpm error" of a controller that sets its own speed, and its footnote.
 OWN_SPEED_MARK = "\N{DAGGER}"
 OWN_SPEED_NOTE = (f"{OWN_SPEED_MARK} sets its own speed (the driller, constant set "
-                  "points, the drilling task's policy): its rpm error is how far its mean "
+                  "points, the drilling task's policy, the trivial policies outside task "
+                  "1): its rpm error is how far its mean "
                   "bit rpm departed from the planned rpm (the scenario's or task's target), "
                   "by its choice, not a failure to track it (docs/controllers.md).")
 
@@ -799,14 +826,23 @@ OWN_SPEED_NOTE = (f"{OWN_SPEED_MARK} sets its own speed (the driller, constant s
 #: The task whose policy chooses the rpm (task 2); task 1's corrects the top drive around
 #: the driller's target, which it tracks.
 CHOOSES_RPM = "DrillOptimise-v0"
+#: The task whose action corrects the top drive's speed around the driller's target.
+CORRECTS_SPEED = "DrillStickSlip-v0"
 
 
 def sets_own_speed(name: str, env_id: str | None = None) -> bool:
     """Whether the controller of table name ``name`` (:func:`labels`) chooses its own rpm
-    instead of holding the planned one: the driller, constant set points, and a learned
-    policy in a benchmark of the drilling task (``env_id``)."""
+    instead of holding the planned one: the driller, constant set points, a learned
+    policy in a benchmark of the drilling task (``env_id``), and the trivial policies
+    (held actions, random) in any env but task 1's."""
     if name == "driller" or name.startswith("constant-"):
         return True
+    from agents.trivial import HeldAction
+
+    if name == "random" or HeldAction.from_label(name) is not None:
+        # on the env's own action: the rpm everywhere but in task 1, where it corrects
+        # the speed around the driller's target
+        return env_id != CORRECTS_SPEED
     return env_id == CHOOSES_RPM and (name == "learned" or name.startswith("learned-"))
 
 

@@ -40,11 +40,11 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     RandomActions.name: RandomActions,
     "learned": _learned,
 }
-#: The controllers that need no trained policy (the classical ones and the driller).
-CLASSICAL = tuple(name for name in CONTROLLERS if name not in ("learned", "random"))
 #: The trivial policies a learned one must beat (agents.trivial): every action held at
 #: -1, 0 and +1, and random actions.
 TRIVIAL = ("held:-1", "held:0", "held:1", RandomActions.name)
+#: The controllers that need no trained policy (the classical ones and the driller).
+CLASSICAL = tuple(name for name in CONTROLLERS if name != "learned" and name not in TRIVIAL)
 
 
 #: What an unknown name's error lists: the registry's names and the parametrised forms.

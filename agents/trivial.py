@@ -19,34 +19,30 @@ import numpy as np
 
 from agents.base import Rate
 
+#: One signed value of a held action's table name (``+1``, ``-0.5``, ``+1e-05``).
+_SIGNED = r"[+-](?:\d+(?:\.\d*)?|\.\d+)(?:e[+-]?\d+)?"
 #: A held action's table name: ``held`` and each action's value with its sign.
-HELD_LABEL = re.compile(r"held((?:[+-](?:\d+(?:\.\d*)?|\.\d+)(?:e[+-]?\d+)?)+)")
-_SIGNED = re.compile(r"[+-](?:\d+(?:\.\d*)?|\.\d+)(?:e[+-]?\d+)?")
+HELD_LABEL = re.compile(rf"held((?:{_SIGNED})+)")
 
 
 class _ActionSpacePolicy:
     """What both share: a policy of any env (``env_id`` is the plain env, so the
-    benchmark lets it act in a task's env too, as the set-point controllers do)."""
+    benchmark lets it act in a task's env too, as the set-point controllers do). Whether
+    it chooses its own rpm is the benchmark's to say (``agents.benchmark.sets_own_speed``:
+    not in task 1, whose action corrects the speed around the driller's target)."""
 
     name: ClassVar[str]
     rate: ClassVar[Rate] = "policy"
     env_id: ClassVar[str] = "DrillString-v0"
     data_files: ClassVar[tuple[str, ...]] = ()
 
-    def __init__(self) -> None:
-        self._env: Any = None
-        #: Whether it chooses the rpm (marked in the benchmark's table): everywhere but
-        #: task 1, whose action corrects the top drive around the driller's target.
-        self.sets_own_speed = True
-
     def physics(self) -> dict[str, Any]:
         return {}
 
-    def reset(self, env: Any) -> None:
-        from drill_env.tasks.stick_slip import StickSlipEnv
 
-        self._env = env
-        self.sets_own_speed = not isinstance(env, StickSlipEnv)
+def _plain(value: float) -> str:
+    """A held value as its table name writes it: signed, 15 digits, -0 as +0."""
+    return f"{value + 0.0:+.15g}"
 
 
 class HeldAction(_ActionSpacePolicy):
@@ -57,7 +53,6 @@ class HeldAction(_ActionSpacePolicy):
     name = "held"
 
     def __init__(self, values: tuple[float, ...]) -> None:
-        super().__init__()
         if not values or not all(math.isfinite(v) and -1.0 <= v <= 1.0 for v in values):
             raise ValueError(f"controller: held:{'/'.join(f'{v:g}' for v in values)}: "
                              "each value must be in [-1, 1] (the env's action box)")
@@ -79,7 +74,7 @@ class HeldAction(_ActionSpacePolicy):
         """The table name of ``held:<text>``: ``held:1/-0.5`` -> ``held+1-0.5``; as typed
         (``held-<text>``) where the values do not parse."""
         try:
-            return "held" + "".join(f"{float(v):+.15g}" for v in text.split("/"))
+            return "held" + "".join(_plain(float(v)) for v in text.split("/"))
         except ValueError:
             return f"held-{text}"
 
@@ -89,17 +84,22 @@ class HeldAction(_ActionSpacePolicy):
         match = HELD_LABEL.fullmatch(name)
         if match is None:
             return None
-        return "held:" + "/".join(f"{float(v):.15g}" for v in _SIGNED.findall(match[1]))
+        return "held:" + "/".join(_plain(float(v)).lstrip("+")
+                                  for v in re.findall(_SIGNED, match[1]))
+
+    def check_size(self, size: int) -> None:
+        """ValueError unless the values fit an action of ``size`` entries (one value for
+        all, or one each)."""
+        if len(self.values) not in (1, size):
+            typed = "/".join(f"{v:g}" for v in self.values)
+            give = "one value" if size == 1 else f"one value or {size}"
+            raise ValueError(f"controller: held:{typed}: {len(self.values)} values for an "
+                             f"action of {size}; give {give}")
 
     def reset(self, env: Any) -> None:
         """Start an episode; one value per action, or one for all of them."""
-        super().reset(env)
         shape = env.action_space.shape
-        size = int(np.prod(shape))
-        if len(self.values) not in (1, size):
-            raise ValueError(f"controller: held:{'/'.join(f'{v:g}' for v in self.values)}: "
-                             f"{len(self.values)} values for an action of {size}; give one "
-                             f"or {size}")
+        self.check_size(int(np.prod(shape)))
         self._action = np.broadcast_to(np.asarray(self.values, dtype=np.float32),
                                        shape).copy()
 
@@ -108,24 +108,27 @@ class HeldAction(_ActionSpacePolicy):
 
 
 class RandomActions(_ActionSpacePolicy):
-    """Uniform random actions in [-1, 1], a new draw every control step, from a generator
-    seeded by the episode's seed (``reset(seed=...)``): an episode repeats, and the draws
-    are those of ``scripts/fresh_seeds.py``'s random baseline. Registry name
-    ``random``."""
+    """Uniform random actions in [-1, 1], a new draw every control step. An episode reset
+    with a seed draws from a stream of that seed, so it repeats, and the same for every
+    use (the benchmark, ``scripts/fresh_seeds.py``); the stream is a child of the seed's
+    (``SeedSequence(seed).spawn``), not the env's own (``default_rng(seed)``), whose draws
+    set the episode's targets and rocks. Episodes reset without a seed draw on from the
+    last stream. Registry name ``random``."""
 
     name = "random"
 
     def __init__(self) -> None:
-        super().__init__()
         self._rng = np.random.default_rng()
+        self._env_rng: Any = None  # the env's generator the stream was seeded for
         self._shape: tuple[int, ...] = ()
 
     def reset(self, env: Any) -> None:
-        super().reset(env)
-        seed = getattr(env, "np_random_seed", None)
-        # an episode reset without a seed has none to repeat: fresh entropy
-        self._rng = np.random.default_rng(seed if isinstance(seed, int) and seed >= 0
-                                          else None)
+        generator = env.np_random  # a reset with a seed makes a new one
+        if generator is not self._env_rng:
+            self._env_rng = generator
+            seed = env.np_random_seed
+            entropy = np.random.SeedSequence(seed) if seed >= 0 else np.random.SeedSequence()
+            self._rng = np.random.default_rng(entropy.spawn(1)[0])
         self._shape = env.action_space.shape
 
     def act(self, observation: Any, info: dict[str, Any]) -> np.ndarray:

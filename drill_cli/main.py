@@ -17,6 +17,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -713,7 +714,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     out = args.out or default_evaluation_folder(args.run)
     evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out,
                  ray_address=args.ray_address)
-    print(f"wrote {out / 'benchmark.csv'}, benchmark.md and the plots")
+    print(f"wrote {out / 'benchmark.csv'}, benchmark.md, comparison.md and the plots")
     return 0
 
 
@@ -758,7 +759,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                    "speed command), which the map does not run: it holds the set points "
                    "fixed under the top drive's own loop"
                    if own is not None or args.controller in CONTROLLERS
-                   or args.controller.startswith(("learned:", "constant:"))
+                   or args.controller.startswith(("learned:", "constant:", "held:"))
                    else "is not a controller" + did_you_mean(args.controller, drive))
             raise argparse.ArgumentTypeError(
                 f"--controller: {args.controller} {why}; choose a drive-rate controller: "
@@ -1410,9 +1411,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if getattr(args, "ray_address", None) is not None and getattr(args, "workers", None):
         args.command_parser.error("--workers: the local processes; with --ray-address the "
                                   "cluster's CPUs run the work: give one of the two")
-    stop = _stop_as_interrupt()
+    stop, terminated = _stop_as_interrupt()
     clear_interrupt()  # one noted before this command is not this command's
-    _TERM_RECEIVED.clear()
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
@@ -1430,7 +1430,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt as caught:
         # a SIGTERM's Terminated may come back as a plain KeyboardInterrupt (Ray's wait
         # turns a signal's exception into its own)
-        stopped = Terminated() if _TERM_RECEIVED else caught
+        stopped = Terminated() if terminated.is_set() else caught
         said = "terminated" if isinstance(stopped, Terminated) else "interrupted"
         kept = finished_work_folder(args, out)
         if args.command in KEEPS_FINISHED and kept is not None:
@@ -1446,9 +1446,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 _NOT_INSTALLED = object()
-#: Set by the command's SIGTERM handler (:func:`_stop_as_interrupt`): what stopped it, also
-#: where the :class:`Terminated` raised for it was replaced on the way up.
-_TERM_RECEIVED: set[bool] = set()
 #: Commands that keep what they finished in their --out as it arrives, and what that is
 #: (a rerun with the same settings and code reuses it; `train` says its own checkpoint).
 KEEPS_FINISHED = {"benchmark": "episodes", "stability-map": "points", "evaluate": "episodes",
@@ -1471,22 +1468,23 @@ def exit_status(stopped: KeyboardInterrupt) -> int:
     return 128 + (signal.SIGTERM if isinstance(stopped, Terminated) else signal.SIGINT)
 
 
-def _stop_as_interrupt() -> Any:
+def _stop_as_interrupt() -> tuple[Any, threading.Event]:
     """SIGTERM (``kill``, a scheduler's stop) handled as Ctrl-C for the command's duration:
     what is done is kept and a sweep's workers are stopped (it ended this process at once,
-    its workers left running); returns the previous handler (``_NOT_INSTALLED`` off the
-    main thread, where none can be set)."""
-    import threading
-
+    its workers left running). Returns the previous handler (``_NOT_INSTALLED`` off the
+    main thread, where none can be set) and an event the handler sets: what stopped the
+    command also where its :class:`Terminated` was replaced on the way up (Ray's wait
+    raises a KeyboardInterrupt of its own)."""
+    terminated = threading.Event()
     if threading.current_thread() is not threading.main_thread():
-        return _NOT_INSTALLED
+        return _NOT_INSTALLED, terminated
 
     def interrupt(signum: int, frame: Any) -> None:
         note_interrupt(Terminated)  # kept also where the raise is lost (training checks it)
-        _TERM_RECEIVED.add(True)
+        terminated.set()
         raise Terminated
 
-    return signal.signal(signal.SIGTERM, interrupt)
+    return signal.signal(signal.SIGTERM, interrupt), terminated
 
 
 if __name__ == "__main__":  # python -m drill_cli.main, as python -m drill_cli

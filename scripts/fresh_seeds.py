@@ -25,7 +25,8 @@ from scipy.stats import ttest_rel
 import drill_env  # noqa: F401  (registers the ids; before torch: OMP_WAIT_POLICY)
 from agents.classical import ConstantSetPoints
 from agents.learned import TRAINED, LearnedController
-from training.evaluate import acting, held, random_actions, returns_on
+from agents.trivial import HeldAction, RandomActions
+from training.evaluate import acting, returns_on
 
 #: The drilling task's best constant (docs/tasks.md: the grid search on training seeds).
 BEST_CONSTANT = "160/65"
@@ -56,8 +57,9 @@ def main() -> None:
         controller = LearnedController.load(TRAINED / task)
         env = gym.make(controller.env_id, **controller.env_kwargs())
         policy = returns_on(env, seeds, acting(controller))
-        baselines = {"held at -1": held(-1.0), "held at 0": held(0.0),
-                     "held at +1": held(1.0), "random": random_actions}
+        baselines = {f"held at {v:+g}".replace("+0", "0"): acting(HeldAction((v,)))
+                     for v in (-1.0, 0.0, 1.0)}
+        baselines["random"] = acting(RandomActions())
         if task == "drilling":
             baselines[f"constant {BEST_CONSTANT}"] = acting(
                 ConstantSetPoints.parse(BEST_CONSTANT))

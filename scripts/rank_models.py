@@ -25,8 +25,9 @@ from scipy.stats import ttest_rel
 import drill_env  # noqa: F401  (registers the envs)
 from agents.classical import ConstantSetPoints
 from agents.learned import LearnedController
+from agents.trivial import HeldAction, RandomActions
 from training.config import TASKS, read_run_config
-from training.evaluate import acting, held, random_actions, returns_on
+from training.evaluate import acting, returns_on
 
 FIRST_SEED = 900_100
 #: The drilling task's best constant set point (docs/tasks.md: 5 x 5 grid, training seeds).
@@ -64,7 +65,8 @@ def main() -> None:
     env_id = TASKS[task]
     env = gym.make(env_id, **configs[0].get("env_kwargs", {}))
     seeds = list(range(FIRST_SEED, FIRST_SEED + args.seeds))
-    others = {"+1": held(1.0), "0": held(0.0), "-1": held(-1.0), "random": random_actions}
+    others = {"+1": acting(HeldAction((1.0,))), "0": acting(HeldAction((0.0,))),
+              "-1": acting(HeldAction((-1.0,))), "random": acting(RandomActions())}
     if task == "drilling":
         others["constant"] = acting(ConstantSetPoints(*BEST_CONSTANT))
     baseline = {name: returns_on(env, seeds, make) for name, make in others.items()}

@@ -231,7 +231,7 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
             pass  # lost, as inside a ctypes callback
 
     expected = Terminated if signum == "SIGTERM" else KeyboardInterrupt
-    previous = _stop_as_interrupt()  # the command line's SIGTERM handler
+    previous, _ = _stop_as_interrupt()  # the command line's SIGTERM handler
     try:
         with ctrl_c_as_in_a_terminal():
             real_make, real_crossed, calls = tt.make_train_env, tt.crossed, []
@@ -1462,6 +1462,21 @@ def test_an_evaluation_row_is_added_whole(tmp_path, monkeypatch):
         rows = list(csv.DictReader(f))
     assert [(int(r["timesteps"]), float(r["return"])) for r in rows] == [(1024, -1.5),
                                                                          (2048, -1.0)]
+    raw = path.read_bytes()  # the csv module's line ends throughout, not mixed
+    assert raw.count(b"\r\n") == raw.count(b"\n") == 3
+
+
+def test_a_finished_run_is_one_of_the_same_config_and_steps(run):
+    """A seed sweep takes a finished run as its result only for the config and steps it
+    was trained with (a longer run is not the result of a shorter one)."""
+    from drill_env.physics.config import replace
+    from training.train import finished
+
+    folder, cfg = run
+    assert finished(folder, cfg)
+    assert not finished(folder, replace(cfg, n_timesteps=1024))
+    with pytest.raises(ValueError, match="another config"):
+        finished(folder, replace(cfg, eval_episodes=3))
 
 
 def test_a_damaged_progress_file_is_named(tmp_path):

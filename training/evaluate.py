@@ -26,6 +26,7 @@ from agents.benchmark import (
 )
 from agents.registry import CLASSICAL, TRIVIAL
 from drill_env.physics.config import Fidelity
+from drill_env.physics.units import shown
 from drill_env.scenarios import EVALUATION_SEEDS
 from training.config import TASKS, read_run_config
 
@@ -50,9 +51,11 @@ Act = Callable[[np.ndarray, dict[str, Any]], np.ndarray]
 MakeAct = Callable[[Any, int], Act]
 
 
-def episode_return(env: Any, act: Act, seed: int) -> float:
-    """The return of one episode of ``env`` from ``reset(seed=seed)`` under ``act``."""
+def episode_return(env: Any, make: MakeAct, seed: int) -> float:
+    """The return of one episode of ``env`` from ``reset(seed=seed)`` under the policy
+    ``make`` builds after that reset (a controller reads the episode's targets and seed)."""
     obs, info = env.reset(seed=seed)
+    act = make(env, seed)
     total = 0.0
     while True:
         obs, reward, terminated, truncated, info = env.step(act(obs, info))
@@ -64,25 +67,12 @@ def episode_return(env: Any, act: Act, seed: int) -> float:
 def returns_on(env: Any, seeds: list[int] | tuple[int, ...], make: MakeAct) -> np.ndarray:
     """Episode returns on ``seeds`` (paired across policies: the same string, rock and
     targets per seed); ``make`` builds each episode's policy."""
-    return np.array([episode_return(env, make(env, seed), seed) for seed in seeds])
-
-
-def held(value: float) -> MakeAct:
-    """The trivial policy that holds every action at ``value``."""
-    def make(env: Any, seed: int) -> Act:
-        a = np.full(env.action_space.shape, value, dtype=np.float32)
-        return lambda obs, info: a
-    return make
-
-
-def random_actions(env: Any, seed: int) -> Act:
-    """Uniform random actions in [-1, 1], drawn from ``seed``."""
-    rng = np.random.default_rng(seed)
-    return lambda obs, info: rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
+    return np.array([episode_return(env, make, seed) for seed in seeds])
 
 
 def acting(controller: Any) -> MakeAct:
-    """A controller (``reset(env)``, ``act``) as the policy of each episode."""
+    """A controller (``reset(env)``, ``act``) as the policy of each episode: the
+    registry's, e.g. ``acting(make_controller("held:1"))``, ``acting(RandomActions())``."""
     def make(env: Any, seed: int) -> Act:
         controller.reset(env.unwrapped)
         return controller.act
@@ -135,9 +125,12 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
     from scipy.stats import ttest_rel
 
     returns: dict[str, dict[int, float]] = {}
+    ended: dict[str, set[int]] = {}  # the seeds whose episode a failure ended early
     for row in rows:
         returns.setdefault(row["controller"], {})[int(row["seed"])] = float(
             row["episode_return"])
+        if row.get("termination"):
+            ended.setdefault(row["controller"], set()).add(int(row["seed"]))
     mine = returns.get(policy, {})
     out = []
     for name, theirs in returns.items():
@@ -151,20 +144,25 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
         if len(seeds) > 1 and np.ptp(diff) > 0:
             p = float(ttest_rel(a, b, alternative="greater").pvalue)
         out.append({"controller": name, "seeds": len(seeds), "return": float(b.mean()),
-                    "lead": float(diff.mean()), "wins": int(np.sum(diff > 0)), "p": p})
+                    "lead": float(diff.mean()), "wins": int(np.sum(diff > 0)), "p": p,
+                    "ended_early": len(ended.get(name, set()) & set(seeds)),
+                    "policy_ended_early": len(ended.get(policy, set()) & set(seeds))})
     return out
 
 
 def comparison_text(comparison: list[dict[str, Any]], policy_return: float) -> str:
     """:func:`paired_comparison` as the markdown table ``evaluate`` prints and writes."""
-    lines = [f"Paired by seed against the policy (mean return {policy_return:.1f}); p: "
-             "one-sided paired t-test that the policy's return is higher.", "",
-             "| controller | return | policy's lead | policy better on | p |",
-             "| --- | --- | --- | --- | --- |"]
+    lines = [f"Paired by seed against the policy (mean return {shown('{:.1f}', policy_return)}"
+             "); p: one-sided paired t-test that the policy's return is higher; ended early: "
+             "episodes a failure stopped (their return is the steps until then and the "
+             "failure penalty: a shorter sum, not always a lower one).", "",
+             "| controller | return | policy's lead | policy better on | p | ended early "
+             "(theirs / the policy's) |", "| --- | --- | --- | --- | --- | --- |"]
     for c in comparison:
         p = "n/a" if math.isnan(c["p"]) else f"{c['p']:.2g}"
-        lines.append(f"| {c['controller']} | {c['return']:.1f} | {c['lead']:+.1f} | "
-                     f"{c['wins']} of {c['seeds']} | {p} |")
+        lines.append(f"| {c['controller']} | {shown('{:.1f}', c['return'])} | "
+                     f"{shown('{:+.1f}', c['lead'])} | {c['wins']} of {c['seeds']} | {p} | "
+                     f"{c['ended_early']} / {c['policy_ended_early']} |")
     return "\n".join(lines) + "\n"
 
 

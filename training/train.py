@@ -27,6 +27,7 @@ across evaluations.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import platform
 import time
@@ -137,10 +138,12 @@ def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
         if (run / "best_model.zip").exists() else -np.inf
     kept = [r for r in rows if int(float(r["timesteps"])) <= steps]
     if len(kept) < len(rows):
-        with path.open("w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(kept)
+        buffer = io.StringIO()
+        writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(kept)
+        text = buffer.getvalue()  # written whole, as add_row does
+        save_whole(path, lambda file: Path(file).write_text(text, newline=""))
     progress = run / "checkpoints" / f"progress_{steps}.json"
     if from_checkpoint and progress.exists():
         try:
@@ -378,11 +381,14 @@ def finished(run: Path, config: TrainConfig) -> bool:
     written and its model at ``n_timesteps`` or beyond (ValueError if of another
     config). A seed sweep stopped after a run finished but before it noted the run goes
     on from it instead of refusing to train it further."""
-    if not (run / "run.json").exists():
+    if not ((run / "run.json").exists() and (run / "config.yaml").exists()):
         return False
     check_same_config(run, config)
+    # a run trained for more steps than asked is not this config's result
+    asked = read_run_config(run / "config.yaml").get("n_timesteps")
     point = resume_point(run)
-    return point is not None and point[0] >= config.n_timesteps
+    return asked == config.n_timesteps and point is not None and \
+        point[0] >= config.n_timesteps
 
 
 def check_learns(config: TrainConfig, done: int, learnt: bool = False) -> None:
@@ -576,9 +582,10 @@ def add_row(path: Path, row: dict[str, Any]) -> None:
     written anew and renamed into place (:func:`save_whole`): a process killed while it
     appended left a half row that the next row was glued to, and every later resume
     failed on it."""
-    import io
-
-    old = path.read_text() if path.exists() else ""
+    old = ""
+    if path.exists():
+        with path.open(newline="") as f:  # its \r\n line ends as the csv module wrote them
+            old = f.read()
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=list(row))
     if not old:
