@@ -48,15 +48,19 @@ def _say_empty(ax: Any, text: str) -> None:
 
 
 def _colours(controllers: Sequence[str]) -> dict[str, Any]:
-    """Each controller's colour: its own (:data:`COLOURS`), else the next one free."""
+    """Each controller's colour: its own (:data:`COLOURS`), else the next one free: tab10's
+    four left, then tab20b's twenty (an evaluation has eleven controllers: with tab10
+    alone the eleventh took the seventh's colour)."""
     cmap = plt.get_cmap("tab10")
-    free = [k for k in range(10) if k not in COLOURS.values()]
+    extra = plt.get_cmap("tab20b")
+    free = [cmap(k) for k in range(10) if k not in COLOURS.values()]
+    free += [extra(k) for k in range(20)]
     out, n = {}, 0
     for c in controllers:
         if c in COLOURS:
             out[c] = cmap(COLOURS[c])
         else:
-            out[c] = cmap(free[n % len(free)])
+            out[c] = free[n % len(free)]
             n += 1
     return out
 

@@ -1007,6 +1007,11 @@ def test_a_controller_keeps_its_colour_in_every_picture():
     assert pair["driller"] == five["driller"]
     named = set(map(tuple, five.values())) | {tuple(pair["driller"])}
     assert tuple(pair["constant-120rpm-100kN"]) not in named  # others take a free colour
+    # an evaluation of task 2: eleven controllers, eleven colours (the eleventh repeated
+    # the seventh's)
+    evaluation = ["learned", *five, "held-1", "held+0", "held+1", "random",
+                  "constant-160rpm-65kN"]
+    assert len({tuple(c) for c in _colours(evaluation).values()}) == 11
 
 
 def test_a_lines_swing_is_its_oscillation_not_a_change_of_target():
