@@ -823,6 +823,14 @@ OWN_SPEED_NOTE = (f"{OWN_SPEED_MARK} sets its own speed (the driller, constant s
                   "by its choice, not a failure to track it (docs/controllers.md).")
 
 
+#: What the "return" of a scenario benchmark is, and is not (a controls engineer sorting
+#: by it picked the driller, which stick-slipped and ran 93 % off the planned rpm).
+RETURN_NOTE = ("return: DrillString-v0's reward summed over the episode: ROP pays, "
+               "stick-slip, whirl and set-point changes cost (docs/controllers.md); a "
+               "controller that drills faster off the plan can lead it while it stick-slips: "
+               "judge stick-slip control by the SSI and stuck columns.")
+
+
 #: The task whose policy chooses the rpm (task 2); task 1's corrects the top drive around
 #: the driller's target, which it tracks.
 CHOOSES_RPM = "DrillOptimise-v0"
@@ -940,6 +948,8 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     table = summary_table(rows, controllers, scenarios, env_id)
     notes = [OWN_SPEED_NOTE] if any(OWN_SPEED_MARK in r[header.index("rpm error")]
                                     for r in table) else []
+    notes.append(RETURN_NOTE if env_id is None else
+                 f"return: {env_id}'s reward summed over the episode (docs/tasks.md).")
     if runs:  # which model a row is (a plain label does not say it)
         notes.append("Trained runs: " + "; ".join(f"{name}: the policy of {path}"
                                                   for name, path in runs.items()) + ".")
@@ -948,13 +958,17 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
 
     for old in out.glob(SERIES_PICTURE.format(scenario="*")):
         old.unlink()
-    bar_chart(rows, controllers, scenarios, out / "benchmark_bars.png")
+    # the pictures say what benchmark.md's heading says (a --config run read "default")
+    given = given_set_points(settings) if env_id is None else ""
+    title = heading + (f"; {given}" if given else "")
+    bar_chart(rows, controllers, scenarios, out / "benchmark_bars.png", title)
     drawn = [s for s in scenarios
              if series_chart(out / "series", controllers, s,
                              out / SERIES_PICTURE.format(scenario=s), settings.warmup,
                              env_id, seed=first_seed,
                              stamps=None if stamps is None else {
-                                 c: stamps.get((c, s), "") for c in controllers})]
+                                 c: stamps.get((c, s), "") for c in controllers},
+                             title=title)]
     guests = any(r.get("guest") for r in rows)
     lines = [f"# {heading}", "", conditions(settings, env_id, guests), "",
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]

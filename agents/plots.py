@@ -66,9 +66,11 @@ def _colours(controllers: Sequence[str]) -> dict[str, Any]:
 
 
 def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
-              scenarios: Sequence[str], path: Path) -> None:
+              scenarios: Sequence[str], path: Path, title: str = "Controller benchmark"
+              ) -> None:
     """One panel per metric; bars per controller, grouped by scenario; whiskers span the
-    seeds (min to max)."""
+    seeds (min to max). ``title``: what the benchmark was (benchmark.md's heading: its
+    --config file, set points given on the command line)."""
     colours = _colours(controllers)
     fig, axes = plt.subplots(1, len(BARS), figsize=(4.2 * len(BARS), 4.2))
     width = 0.8 / max(len(controllers), 1)
@@ -105,8 +107,8 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                               clip_on=False, zorder=3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(controllers), fontsize=9)
-    fig.suptitle("Controller benchmark: means over seeds, whiskers min-max; a coloured "
-                 "base line alone: about zero")
+    fig.suptitle(f"{title}\nmeans over seeds, whiskers min-max; a coloured base line "
+                 "alone: about zero")
     fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -139,13 +141,14 @@ def _swing(t: np.ndarray, speed: np.ndarray, warmup: float) -> float:
 
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
                  warmup: float, env_id: str | None = None, seed: int = 0,
-                 stamps: Mapping[str, str] | None = None) -> bool:
+                 stamps: Mapping[str, str] | None = None, title: str = "") -> bool:
     """Bit speed, torque on bit and the bit's radial position over the gauge clearance,
     one line per controller (``seed``: the benchmark's first), on one time axis; the grey
     band is the warm-up the metrics leave out. Returns whether it drew: False (no file written) when
     ``series_dir`` holds no series of ``scenario``. ``env_id``: the task env every
     controller acted in (its title names it; None: the scenario's ``DrillString-v0``);
-    ``stamps``: the stamp each controller's file must carry (another run's is left out)."""
+    ``stamps``: the stamp each controller's file must carry (another run's is left out);
+    ``title``: a first title line (the benchmark's heading), if any."""
     colours = _colours(controllers)
     fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
     found = False
@@ -208,8 +211,9 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
                    bbox_to_anchor=(0.5, 1.0), frameon=False)
     axes[-1].set_xlabel("time (s)")
     where = f"{env_id} on the {scenario} scenario" if env_id else scenario
-    fig.suptitle(f"{where}: every controller from the same start and targets "
-                 "(first seed; grey: warm-up, not in the metrics)", fontsize=11)
+    fig.suptitle((f"{title}\n" if title else "") + f"{where}: every controller from the "
+                 "same start and targets (first seed; grey: warm-up, not in the metrics)",
+                 fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

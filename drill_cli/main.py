@@ -129,6 +129,20 @@ def unwritable(folder: Path) -> str:
     return ""
 
 
+class Once(argparse.Action):
+    """An option given at most once: a second ``--config`` replaced the first silently
+    (a string of one file and a top-drive setting of another ran on the default string)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> None:
+        given = f"_{self.dest}_given"
+        if getattr(namespace, given, False):
+            parser.error(f"{option_string}: given twice ({getattr(namespace, self.dest)} and "
+                         f"{values}); put all the overrides in one file (docs/config.md)")
+        setattr(namespace, self.dest, values)
+        setattr(namespace, given, True)
+
+
 def existing_file(text: str) -> Path:
     """An argparse type: the path of a file that exists (else a one-line error)."""
     path = Path(text)
@@ -202,7 +216,7 @@ RUN_SUMMARY_UNITS = {
     "mean_ssi": "1",
     "mean_stuck_fraction": "1", "mean_whirl_ratio": "1", "mean_radial_ratio": "1",
     "mean_lateral_force": "N", "mean_rop": "m/s", "return": "reward units",
-    "task_return": "reward units"}
+    "task_return": "reward units", "swing_per_block_rpm": "rpm, per 30 s block"}
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -293,6 +307,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     # policy corrects the speed): their episode means are what it ran at
     sums = dict.fromkeys(("target_speed", "target_wob", "speed_setpoint",
                           "weight_on_bit_setpoint", "surface_torque", "hook_load"), 0.0)
+    speeds: list[tuple[float, float]] = []  # (episode time s, bit rpm) per step
     try:
         controller.reset(base)
         for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario}",
@@ -309,6 +324,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             # what a driller reads first: the torque and the load on the rig
             sums["surface_torque"] += info["surface_torque"]
             sums["hook_load"] += info["hook_load"]
+            speeds.append((info["episode_time"], info["bit_speed"] / RPM))
             for key in keys:
                 totals[key] += info[key]
             if terminated or truncated:
@@ -349,6 +365,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         # its own task's apart
         "return": reward if guest is None else base.plain_return, "task_return": guest,
         "termination_reason": reason,
+        # does stick-slip grow or decay (a tuning run's question: docs/controllers.md)
+        "swing_per_block_rpm": swing_per_block(speeds),
         **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
         "wall_s": time.perf_counter() - t0,
         "units": RUN_SUMMARY_UNITS,
@@ -365,7 +383,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         ran_at += f" (set points applied: mean {setpoint_rpm:.0f} rpm, {setpoint_kn:.0f} kN)"
     returned = f"return {fixed(summary['return'])}" + (
         "" if guest is None else f" (DrillString-v0's reward; its task's {fixed(guest)})")
-    print(f"{args.scenario}: {steps} step{'' if steps == 1 else 's'} "
+    named = args.scenario + (f" with {args.config}" if args.config is not None else "")
+    print(f"{named}: {steps} step{'' if steps == 1 else 's'} "
           f"({summary['simulated_s']:.1f} s) at {ran_at} in "
           f"{summary['wall_s']:.1f} s; {returned}"
           + (f"; ended: {reason}" if reason else ""))
@@ -382,11 +401,49 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"  episode mean at the rig: surface torque "
           f"{summary['mean_surface_torque_kNm']:.2f} kN m, hook load "
           f"{summary['mean_hook_load_kN']:.1f} kN")
+    if len(swings := summary["swing_per_block_rpm"]) >= 2:
+        print(f"  bit-speed swing (half of max - min) per {SWING_BLOCK:g} s: "
+              + ", ".join(f"{v:.3g}" for v in swings) + f" rpm: {swing_trend(swings, rpm)}")
     if args.record is not None:
         print(f"  recording: {summary['recording']} (drill-env replay <file>)")
     print(f"wrote {args.out / 'run_summary.json'} (and a line of "
           f"{args.out / 'run_history.jsonl'}, which keeps every run's)")
     return status
+
+
+#: Seconds per block of :func:`swing_per_block` (docs/controllers.md's k table: the swing
+#: per 30 s from a small kick tells a growing stick-slip from a decaying one).
+SWING_BLOCK = 30.0
+#: A swing below this (rpm) is no oscillation to speak of (a steady bit reads ~1e-3).
+NO_SWING = 0.01
+
+
+def swing_per_block(speeds: Sequence[tuple[float, float]]) -> list[float]:
+    """Half of (max - min) of the bit speed in each whole ``SWING_BLOCK`` of an episode,
+    from its (time s, rpm) samples."""
+    blocks: dict[int, list[float]] = {}
+    for t, rpm in speeds:
+        blocks.setdefault(int(t // SWING_BLOCK), []).append(rpm)
+    end = speeds[-1][0] if speeds else 0.0
+    whole = int((end + 1e-6) // SWING_BLOCK)  # the last block only if the episode filled it
+    return [round(0.5 * (max(blocks[k]) - min(blocks[k])), 6) for k in range(whole)
+            if blocks.get(k)]
+
+
+def swing_trend(swings: Sequence[float], target_rpm: float) -> str:
+    """What the last two blocks' swings say: full stick-slip (the swing reaches the mean
+    speed), growing or decaying (by more than 10 % per block, with the factor) or
+    steady."""
+    last, before = swings[-1], swings[-2]
+    if target_rpm > 0 and last >= 0.9 * target_rpm:
+        return "full stick-slip"
+    if last < NO_SWING:  # rounding, not an oscillation: no ratio of two such to quote
+        return f"none to speak of (below {NO_SWING:g} rpm)"
+    if before > 0 and last > 1.1 * before:
+        return f"growing (x{last / before:.2g} per {SWING_BLOCK:g} s)"
+    if last < 0.9 * before:
+        return f"decaying (x{last / before:.2g} per {SWING_BLOCK:g} s)"
+    return "steady"
 
 
 def benchmark_set_points(args: argparse.Namespace, env_id: str | None) -> dict[str, float]:
@@ -943,6 +1000,18 @@ def cmd_modes(args: argparse.Namespace) -> int:
         if len(m.frequency) < args.n:  # the mesh has no more oscillating modes
             print(f"({m.kind}: -n {args.n} asked, the model has {len(m.frequency)} "
                   "oscillating modes; overdamped ones are not listed)")
+    laws = top_drive_laws(config)
+    print("\ntop-drive controllers tuned for this string (docs/controllers.md; Z = "
+          f"{laws[0].impedance:.1f} N m s/rad, f_s = {laws[1].tuning_frequency:.4f} Hz (fixed "
+          f"top, undamped), J_td = "
+          f"{laws[0].inertia:g} kg m^2; a value the config sets wins):")
+    print(f"  {'controller':<12} {'P (N m s/rad)':>14} {'I (N m/rad)':>12}   torque feedback")
+    for law in laws:
+        feedback = "none" if law.torque_feedback == "none" else (
+            f"{law.torque_feedback.replace('_', '-')} at {law.filter_frequency:.4g} Hz, "
+            f"gain {law.feedback_gain:.3g} rad/s per N m")
+        print(f"  {law.controller.replace('_', '-'):<12} {law.proportional_gain:14,.0f} "
+              f"{law.integral_gain:12,.0f}   {feedback}")
     crit = md.critical_speeds(config, (torsional, lateral), args.max_rpm)
     print(f"\ncritical speeds up to {args.max_rpm:.0f} rpm:")
     for c in crit:
@@ -960,10 +1029,22 @@ def cmd_modes(args: argparse.Namespace) -> int:
                        "overdamped_frequency_Hz": m.overdamped.tolist(),
                        "overdamped_damping_ratio": m.overdamped_ratio.tolist()}
                       for m in (torsional, lateral)],
-            "critical_speeds": [c.__dict__ for c in crit]}
+            "critical_speeds": [c.__dict__ for c in crit],
+            # SI: gains in N m s/rad and N m/rad, filter in Hz, feedback gain rad/s per N m
+            "top_drive_controllers": [dataclasses.asdict(law) for law in laws]}
     (args.out / "modes.json").write_text(json.dumps(data, indent=2))
     print(f"wrote {png} and {args.out / 'modes.json'}")
     return 0
+
+
+def top_drive_laws(config: Any) -> list[Any]:
+    """The four drive-rate controllers as ``config``'s string tunes them
+    (``top_drive.resolve``), stiff first."""
+    from drill_env.physics.config import replace
+    from drill_env.physics.top_drive import resolve
+
+    return [resolve(replace(config, **{"top_drive.controller": name}))
+            for name in ("stiff", "soft_speed", "soft_torque", "z_torque")]
 
 
 def cmd_well(args: argparse.Namespace) -> int:
@@ -1149,7 +1230,7 @@ def parser() -> argparse.ArgumentParser:
                    const=RECORD_UNDER_OUT,
                    help="write a rerun .rrd of the episode into this folder (given without "
                         "a folder: --out/recordings)")
-    p.add_argument("--config", type=existing_file, default=None,
+    p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides merged into the scenario's (e.g. a "
                         "string of components: examples/field_well_string.yaml)")
     p.add_argument("--out", type=Path, default=Path("logs"),
@@ -1195,7 +1276,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--record", action="store_true",
                    help="write one rerun recording per episode to --out/recordings, named "
                         "<controller>_<scenario>_seed<N>")
-    p.add_argument("--config", type=existing_file, default=None,
+    p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides merged into every episode's scenario, under "
                         "each controller's top drive (e.g. a string of components: "
                         "examples/field_well_string.yaml)")
@@ -1210,7 +1291,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--algo", choices=("ppo", "sac"), default=None,
                    help="algorithm (default: sac, what the shipped policies of both tasks "
                         "were trained with, docs/tasks.md; --resume --name: the run's own)")
-    p.add_argument("--config", type=existing_file, default=None,
+    p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="hyperparameter YAML (default: training/hyperparams/<task>.yml)")
     p.add_argument("--timesteps", type=integer(1), default=None,
                    help="env steps (default: the YAML's n_timesteps)")
@@ -1266,7 +1347,7 @@ def parser() -> argparse.ArgumentParser:
                    help="highest WOB (kN)")
     p.add_argument("--seconds", type=number("s", low_inclusive=False), default=30.0,
                    help="simulated seconds per grid point")
-    p.add_argument("--config", type=existing_file, default=None,
+    p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides merged into the map's scenario (paper case "
                         "1 at each position): a string of your own, e.g. "
                         "examples/field_well_string.yaml; its maps are named and titled by "
@@ -1291,7 +1372,7 @@ def parser() -> argparse.ArgumentParser:
                         "reset(seed=SEED) drills)")
     p.add_argument("--wob", type=kilonewtons, default=None,
                    help="weight on bit in kN (default: the scenario's)")
-    p.add_argument("--config", type=existing_file, default=None,
+    p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides merged into the scenario's (e.g. a "
                         "string of components: examples/field_well_string.yaml)")
     p.add_argument("--top", choices=("fixed", "top_drive"), default="fixed",
@@ -1316,7 +1397,7 @@ def parser() -> argparse.ArgumentParser:
                    help=f"measured depth of the preset well (default {DEFAULT_WELL_MD:g} m)")
     p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
                    help="whose string (its BHA and pipe; drill pipe added to reach TD)")
-    p.add_argument("--config", type=existing_file, default=None,
+    p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides (e.g. examples/field_well_string.yaml)")
     p.add_argument("--friction", default="0.1,0.2,0.3,0.4",
                    help="comma-separated friction factors")

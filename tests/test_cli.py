@@ -2,6 +2,7 @@
 
 import argparse
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -39,6 +40,39 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
     # field-well config and of the default string apart only by their length)
     assert (summary["config"], summary["start_kick"], summary["duration_given_s"]) == (
         None, 0.02, 0.5)
+
+
+def test_run_says_whether_stick_slip_grows_or_decays():
+    """The swing per 30 s block a tuning run reads (docs/controllers.md's k table): of a
+    sine growing x2 per block, 2x per block; the trend of the last two blocks."""
+    import math
+
+    from drill_cli.main import swing_per_block, swing_trend
+
+    speeds = [(t / 10.0, 50.0 + 0.1 * 2.0 ** (t / 300.0) * math.sin(2.0 * math.pi * 0.44
+                                                                    * t / 10.0))
+              for t in range(0, 1201)]  # 120 s at 10 Hz, ending on the block's edge
+    swings = swing_per_block(speeds)
+    assert len(swings) == 4  # whole blocks only
+    for before, after in zip(swings[:-1], swings[1:], strict=True):
+        assert after / before == pytest.approx(2.0, rel=0.05)
+    assert swing_trend(swings, 50.0) == "growing (x2 per 30 s)"
+    assert swing_trend([4.0, 1.0], 50.0) == "decaying (x0.25 per 30 s)"
+    assert swing_trend([1.0, 1.05], 50.0) == "steady"
+    assert swing_trend([40.0, 46.0], 50.0) == "full stick-slip"
+    assert swing_trend([1e-4, 3e-3], 50.0).startswith("none to speak of")
+    assert swing_per_block(speeds[:200]) == []  # shorter than a block
+
+
+def test_a_second_config_file_is_refused_not_dropped(tmp_path, capsys):
+    """``--config a --config b`` ran b alone: a string in one file and a top-drive
+    setting in the other ran on the default string."""
+    root = __import__("pathlib").Path(__file__).parents[1]
+    field = str(root / "examples/field_well_string.yaml")
+    for command in (["run"], ["benchmark"], ["modes"], ["stability-map"]):
+        with pytest.raises(SystemExit):
+            main([*command, "--config", field, "--config", field, "--out", str(tmp_path)])
+        assert "--config: given twice" in capsys.readouterr().err
 
 
 def test_run_notes_a_wob_that_buckles_the_bha(tmp_path, capsys):
@@ -348,6 +382,38 @@ def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
     data = json.loads((tmp_path / "modes.json").read_text())
     assert data["modes"][0]["frequency_Hz"][0] > 0.0
     assert (tmp_path / "modes_critical_speeds.png").stat().st_size > 10_000
+
+
+def test_modes_prints_the_top_drive_gains_the_string_tunes(tmp_path, capsys):
+    """The gains of docs/controllers.md's table, for the string analysed: no command
+    showed them (a controls engineer computed them in Python). Checked against the closed
+    forms: Z = J_p sqrt(G rho) of the drill pipe from its diameters, stiff P = 50 Z,
+    SoftSpeed P = 4 Z and I = (2 pi f_s)^2 J_td, the torque feedback's gain 1/Z, ZTorque's
+    corner f_s / 4, with f_s the first torsional frequency modes prints."""
+    import math
+
+    from drill_env.scenarios import make_scenario
+
+    assert main(["modes", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "top-drive controllers tuned for this string" in out
+    assert re.search(r"soft-speed\s+1,187\s+7,762\s+none", out)
+    laws = {law["controller"]: law for law in
+            json.loads((tmp_path / "modes.json").read_text())["top_drive_controllers"]}
+    pipe = make_scenario("default").config.string.drill_pipe
+    j_p = math.pi / 32.0 * (pipe.outer_diameter ** 4 - pipe.inner_diameter ** 4)
+    z = j_p * math.sqrt(pipe.shear_modulus * pipe.density)
+    f_s = json.loads((tmp_path / "modes.json").read_text())["modes"][0]["frequency_Hz"][0]
+    assert laws["stiff"]["proportional_gain"] == pytest.approx(50.0 * z, rel=1e-9)
+    assert laws["soft_speed"]["proportional_gain"] == pytest.approx(4.0 * z, rel=1e-9)
+    # modes lists the damped frequency; the tuning uses the undamped one (9 % damping:
+    # sqrt(1 - 0.09^2) = 0.996)
+    assert laws["soft_speed"]["tuning_frequency"] == pytest.approx(f_s, rel=5e-3)
+    f = laws["soft_speed"]["tuning_frequency"]
+    assert laws["soft_speed"]["integral_gain"] == pytest.approx(
+        (2.0 * math.pi * f) ** 2 * laws["soft_speed"]["inertia"], rel=1e-9)
+    assert laws["z_torque"]["filter_frequency"] == pytest.approx(f / 4.0, rel=1e-9)
+    assert laws["soft_torque"]["feedback_gain"] == pytest.approx(1.0 / z, rel=1e-9)
 
 
 def test_an_empty_config_file_overrides_nothing_and_a_list_is_refused(tmp_path):
