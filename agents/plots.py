@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -54,7 +55,7 @@ def _colours(controllers: Sequence[str]) -> dict[str, Any]:
     cmap = plt.get_cmap("tab10")
     extra = plt.get_cmap("tab20b")
     free = [cmap(k) for k in range(10) if k not in COLOURS.values()]
-    free += [extra(k) for k in range(20)]
+    free += [extra(4 * (k % 5) + k // 5) for k in range(20)]  # a hue apart, then shades
     out, n = {}, 0
     for c in controllers:
         if c in COLOURS:
@@ -107,8 +108,8 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                               clip_on=False, zorder=3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(controllers), fontsize=9)
-    fig.suptitle(f"{title}\nmeans over seeds, whiskers min-max; a coloured base line "
-                 "alone: about zero")
+    fig.suptitle(f"{textwrap.fill(title, 150)}\nmeans over seeds, whiskers min-max; a "
+                 "coloured base line alone: about zero")
     fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -211,7 +212,8 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
                    bbox_to_anchor=(0.5, 1.0), frameon=False)
     axes[-1].set_xlabel("time (s)")
     where = f"{env_id} on the {scenario} scenario" if env_id else scenario
-    fig.suptitle((f"{title}\n" if title else "") + f"{where}: every controller from the "
+    fig.suptitle((f"{textwrap.fill(title, 110)}\n" if title else "") + f"{where}: every "
+                 "controller from the "
                  "same start and targets (first seed; grey: warm-up, not in the metrics)",
                  fontsize=11)
     fig.tight_layout()

@@ -308,6 +308,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     sums = dict.fromkeys(("target_speed", "target_wob", "speed_setpoint",
                           "weight_on_bit_setpoint", "surface_torque", "hook_load"), 0.0)
     speeds: list[tuple[float, float]] = []  # (episode time s, bit rpm) per step
+    held_set_points = controller.rate == "drive" and controller.env_id == "DrillString-v0"
     try:
         controller.reset(base)
         for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario}",
@@ -365,8 +366,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         # its own task's apart
         "return": reward if guest is None else base.plain_return, "task_return": guest,
         "termination_reason": reason,
-        # does stick-slip grow or decay (a tuning run's question: docs/controllers.md)
-        "swing_per_block_rpm": swing_per_block(speeds),
+        # does stick-slip grow or decay (a tuning run's question: docs/controllers.md);
+        # only where the set points hold (a drive-rate loop in DrillString-v0): a policy's
+        # speed changes would read as swing
+        "swing_per_block_rpm": swing_per_block(speeds) if held_set_points else None,
         **{f"mean_{key}": totals[key] / max(steps, 1) for key in keys},
         "wall_s": time.perf_counter() - t0,
         "units": RUN_SUMMARY_UNITS,
@@ -401,9 +404,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"  episode mean at the rig: surface torque "
           f"{summary['mean_surface_torque_kNm']:.2f} kN m, hook load "
           f"{summary['mean_hook_load_kN']:.1f} kN")
-    if len(swings := summary["swing_per_block_rpm"]) >= 2:
+    swings = summary["swing_per_block_rpm"]
+    if swings is not None and len(swings) >= 2:
+        lowest = min(rpm for t, rpm in speeds if t >= (len(swings) - 1) * SWING_BLOCK)
         print(f"  bit-speed swing (half of max - min) per {SWING_BLOCK:g} s: "
-              + ", ".join(f"{v:.3g}" for v in swings) + f" rpm: {swing_trend(swings, rpm)}")
+              + ", ".join(f"{v:.3g}" for v in swings)
+              + f" rpm: {swing_trend(swings, lowest)}")
+    elif swings is not None:
+        print(f"  (the bit-speed swing per {SWING_BLOCK:g} s, growing or decaying, needs "
+              f"{2 * SWING_BLOCK:g} s or more of episode)")
     if args.record is not None:
         print(f"  recording: {summary['recording']} (drill-env replay <file>)")
     print(f"wrote {args.out / 'run_summary.json'} (and a line of "
@@ -416,6 +425,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 SWING_BLOCK = 30.0
 #: A swing below this (rpm) is no oscillation to speak of (a steady bit reads ~1e-3).
 NO_SWING = 0.01
+#: A bit slower than this (rpm) at some sample of a block has stopped: stick-slip.
+STOPPED = 0.5
 
 
 def swing_per_block(speeds: Sequence[tuple[float, float]]) -> list[float]:
@@ -430,16 +441,18 @@ def swing_per_block(speeds: Sequence[tuple[float, float]]) -> list[float]:
             if blocks.get(k)]
 
 
-def swing_trend(swings: Sequence[float], target_rpm: float) -> str:
-    """What the last two blocks' swings say: full stick-slip (the swing reaches the mean
-    speed), growing or decaying (by more than 10 % per block, with the factor) or
-    steady."""
+def swing_trend(swings: Sequence[float], lowest_rpm: float) -> str:
+    """What the last two blocks' swings say: full stick-slip (the bit stops: its lowest
+    speed in the last block, ``lowest_rpm``, under :data:`STOPPED`), growing or decaying
+    (by more than 10 % per block, with the factor) or steady."""
     last, before = swings[-1], swings[-2]
-    if target_rpm > 0 and last >= 0.9 * target_rpm:
-        return "full stick-slip"
+    if lowest_rpm < STOPPED:
+        return "full stick-slip (the bit stops)"
     if last < NO_SWING:  # rounding, not an oscillation: no ratio of two such to quote
         return f"none to speak of (below {NO_SWING:g} rpm)"
-    if before > 0 and last > 1.1 * before:
+    if before < NO_SWING:
+        return f"growing (from below {NO_SWING:g} rpm)"
+    if last > 1.1 * before:
         return f"growing (x{last / before:.2g} per {SWING_BLOCK:g} s)"
     if last < 0.9 * before:
         return f"decaying (x{last / before:.2g} per {SWING_BLOCK:g} s)"
@@ -1001,17 +1014,21 @@ def cmd_modes(args: argparse.Namespace) -> int:
             print(f"({m.kind}: -n {args.n} asked, the model has {len(m.frequency)} "
                   "oscillating modes; overdamped ones are not listed)")
     laws = top_drive_laws(config)
+    given_f = config.top_drive.tuning_frequency is not None
     print("\ntop-drive controllers tuned for this string (docs/controllers.md; Z = "
-          f"{laws[0].impedance:.1f} N m s/rad, f_s = {laws[1].tuning_frequency:.4f} Hz (fixed "
-          f"top, undamped), J_td = "
-          f"{laws[0].inertia:g} kg m^2; a value the config sets wins):")
+          f"{laws[0].impedance:.1f} N m s/rad, f_s = {laws[1].tuning_frequency:.4f} Hz ("
+          + ("the config's top_drive.tuning_frequency" if given_f else
+             "fixed top, undamped") + f"), J_td = {laws[0].inertia:g} kg m^2; a value the "
+          "config sets wins under every controller):")
     print(f"  {'controller':<12} {'P (N m s/rad)':>14} {'I (N m/rad)':>12}   torque feedback")
     for law in laws:
         feedback = "none" if law.torque_feedback == "none" else (
             f"{law.torque_feedback.replace('_', '-')} at {law.filter_frequency:.4g} Hz, "
             f"gain {law.feedback_gain:.3g} rad/s per N m")
+        chosen = "   <- the config's" if args.config is not None and \
+            law.controller == config.top_drive.controller else ""
         print(f"  {law.controller.replace('_', '-'):<12} {law.proportional_gain:14,.0f} "
-              f"{law.integral_gain:12,.0f}   {feedback}")
+              f"{law.integral_gain:12,.0f}   {feedback}{chosen}")
     crit = md.critical_speeds(config, (torsional, lateral), args.max_rpm)
     print(f"\ncritical speeds up to {args.max_rpm:.0f} rpm:")
     for c in crit:
@@ -1031,7 +1048,9 @@ def cmd_modes(args: argparse.Namespace) -> int:
                       for m in (torsional, lateral)],
             "critical_speeds": [c.__dict__ for c in crit],
             # SI: gains in N m s/rad and N m/rad, filter in Hz, feedback gain rad/s per N m
-            "top_drive_controllers": [dataclasses.asdict(law) for law in laws]}
+            "top_drive_controllers": [
+                {k: None if isinstance(v, float) and not math.isfinite(v) else v
+                 for k, v in dataclasses.asdict(law).items()} for law in laws]}
     (args.out / "modes.json").write_text(json.dumps(data, indent=2))
     print(f"wrote {png} and {args.out / 'modes.json'}")
     return 0

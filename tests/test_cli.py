@@ -44,7 +44,9 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
 
 def test_run_says_whether_stick_slip_grows_or_decays():
     """The swing per 30 s block a tuning run reads (docs/controllers.md's k table): of a
-    sine growing x2 per block, 2x per block; the trend of the last two blocks."""
+    sine growing x2 per block, 2x per block; the trend of the last two blocks. Printed for
+    a drive-rate controller in DrillString-v0 (set points held), not for a policy, whose
+    speed changes would read as swing."""
     import math
 
     from drill_cli.main import swing_per_block, swing_trend
@@ -56,19 +58,37 @@ def test_run_says_whether_stick_slip_grows_or_decays():
     assert len(swings) == 4  # whole blocks only
     for before, after in zip(swings[:-1], swings[1:], strict=True):
         assert after / before == pytest.approx(2.0, rel=0.05)
-    assert swing_trend(swings, 50.0) == "growing (x2 per 30 s)"
-    assert swing_trend([4.0, 1.0], 50.0) == "decaying (x0.25 per 30 s)"
-    assert swing_trend([1.0, 1.05], 50.0) == "steady"
-    assert swing_trend([40.0, 46.0], 50.0) == "full stick-slip"
-    assert swing_trend([1e-4, 3e-3], 50.0).startswith("none to speak of")
+    # the second argument: the lowest bit speed of the last block (rpm)
+    assert swing_trend(swings, 49.0) == "growing (x2 per 30 s)"
+    assert swing_trend([4.0, 1.0], 49.0) == "decaying (x0.25 per 30 s)"
+    assert swing_trend([1.0, 1.05], 49.0) == "steady"
+    # the bit stops: stick-slip, whatever the speed it ran at (a 46 rpm swing at 120 rpm
+    # is none, at 50 rpm it is)
+    assert swing_trend([40.0, 46.0], 0.0) == "full stick-slip (the bit stops)"
+    assert swing_trend([40.0, 46.0], 74.0) == "growing (x1.1 per 30 s)"
+    assert swing_trend([1e-4, 3e-3], 49.9).startswith("none to speak of")
+    assert swing_trend([0.0, 0.5], 49.5) == "growing (from below 0.01 rpm)"
     assert swing_per_block(speeds[:200]) == []  # shorter than a block
+
+
+def test_run_prints_the_swing_for_a_drive_rate_loop_only(tmp_path, capsys):
+    """stiff PI at 50 rpm / 100 kN stick-slips by its second block: said; the driller
+    moves its set points, which would read as swing: nothing printed, None kept."""
+    args = ["run", "--scenario", "stick_slip", "--duration", "60", "--out", str(tmp_path)]
+    assert main([*args, "--controller", "stiff"]) == 0
+    assert "per 30 s: " in capsys.readouterr().out
+    swings = json.loads((tmp_path / "run_summary.json").read_text())["swing_per_block_rpm"]
+    assert len(swings) == 2 and swings[1] > 20.0
+    assert main([*args, "--controller", "driller"]) == 0
+    assert "per 30 s" not in capsys.readouterr().out
+    assert json.loads((tmp_path / "run_summary.json").read_text())[
+        "swing_per_block_rpm"] is None
 
 
 def test_a_second_config_file_is_refused_not_dropped(tmp_path, capsys):
     """``--config a --config b`` ran b alone: a string in one file and a top-drive
     setting in the other ran on the default string."""
-    root = __import__("pathlib").Path(__file__).parents[1]
-    field = str(root / "examples/field_well_string.yaml")
+    field = str(Path(__file__).parents[1] / "examples/field_well_string.yaml")
     for command in (["run"], ["benchmark"], ["modes"], ["stability-map"]):
         with pytest.raises(SystemExit):
             main([*command, "--config", field, "--config", field, "--out", str(tmp_path)])
@@ -398,8 +418,12 @@ def test_modes_prints_the_top_drive_gains_the_string_tunes(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "top-drive controllers tuned for this string" in out
     assert re.search(r"soft-speed\s+1,187\s+7,762\s+none", out)
-    laws = {law["controller"]: law for law in
-            json.loads((tmp_path / "modes.json").read_text())["top_drive_controllers"]}
+    def strict(constant):  # JSON has no NaN: strict readers refuse the file
+        raise AssertionError(f"modes.json holds {constant}")
+
+    laws = {law["controller"]: law for law in json.loads(
+        (tmp_path / "modes.json").read_text(), parse_constant=strict)["top_drive_controllers"]}
+    assert laws["stiff"]["tuning_frequency"] is None  # the stiff PI tunes to none
     pipe = make_scenario("default").config.string.drill_pipe
     j_p = math.pi / 32.0 * (pipe.outer_diameter ** 4 - pipe.inner_diameter ** 4)
     z = j_p * math.sqrt(pipe.shear_modulus * pipe.density)
