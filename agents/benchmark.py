@@ -743,9 +743,12 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
         bar = tqdm(total=len(todo_all), initial=len(todo_all) - len(todo), unit="episode",
                    desc="benchmark", disable=not progress, file=sys.stderr)
         try:
-            for k, row in executor.map_unordered(run_episode, todo):
+            def keep(k: int, row: dict[str, Any]) -> None:
                 store.put(todo[k].key, row)
                 bar.update(1)
+
+            for k, row in executor.map_unordered(run_episode, todo, late=keep):
+                keep(k, row)
         finally:
             bar.close()
             executor.close()

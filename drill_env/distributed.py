@@ -31,6 +31,8 @@ import threading
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
+from drill_env.sweep import Late
+
 #: How many times a task whose worker died is resubmitted before the sweep fails.
 MAX_RETRIES = 3
 #: Workers run one numba / OpenMP thread each: the cluster's CPUs are the parallelism.
@@ -143,8 +145,8 @@ class RayExecutor:
         """The cluster's CPUs now (at least 1)."""
         return max(1, int(self._ray.cluster_resources().get("CPU", 1)))
 
-    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any]
-                      ) -> Iterator[tuple[int, Any]]:
+    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any],
+                      late: Late | None = None) -> Iterator[tuple[int, Any]]:
         ray = self._ray
         fn_ref = ray.put(fn)
         pending = iter(enumerate(items))
@@ -165,9 +167,9 @@ class RayExecutor:
                         break
         finally:
             if ray.is_initialized() and in_flight:  # not after close(): that session's refs
-                self._stop(list(in_flight))
+                self._stop(in_flight, late)
 
-    def _stop(self, refs: list[Any]) -> None:
+    def _stop(self, in_flight: dict[Any, int], late: Late | None = None) -> None:
         """End the tasks ``refs`` of a stopped sweep. Those that end within
         ``SETTLE_GRACE`` s (a benchmark episode, a map point) are left to: cancelling a
         task as its reply comes in trips a check in Ray's task manager (the driver died
@@ -177,18 +179,32 @@ class RayExecutor:
         and its worker is killed only after ``CANCEL_GRACE`` s more. Those cancels can
         still meet a reply: rarer (a task that runs that long replies seldom), not
         impossible. A second Ctrl-C, or an error of Ray's while waiting, stops what is
-        left at once. What ends during the wait is not kept: at most a few seconds' work
-        per worker, which a rerun does again."""
+        left at once. What ends before or during the wait goes to ``late`` (index,
+        result), for the sweep to keep: a rerun need not do it again."""
         ray = self._ray
+        refs = list(in_flight)
         running = refs
+
+        def keep(ready: list[Any]) -> None:
+            if late is None:
+                return
+            for ref in ready:
+                try:
+                    result = ray.get(ref, timeout=0.0)
+                except Exception:  # noqa: BLE001 - a failed task: nothing to keep
+                    continue
+                late(in_flight[ref], result)
+
         try:
-            _, running = ray.wait(refs, num_returns=len(refs), timeout=0.0)
+            ready, running = ray.wait(refs, num_returns=len(refs), timeout=0.0)
+            keep(ready)
             if running:
                 print(f"stopping: {len(running)} Ray tasks in flight, given up to "
                       f"{SETTLE_GRACE:g} s to end and {CANCEL_GRACE:g} s once interrupted "
                       "(Ctrl-C again: stop them now)", file=sys.stderr)
-                _, running = ray.wait(running, num_returns=len(running),
-                                      timeout=SETTLE_GRACE)
+                ready, running = ray.wait(running, num_returns=len(running),
+                                          timeout=SETTLE_GRACE)
+                keep(ready)
             if running:
                 for ref in running:
                     ray.cancel(ref, force=False)

@@ -363,7 +363,9 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
                     executor = make_executor(workers, ray_address)
                 # the results' iterator is not kept in a variable: an exception (an
                 # interrupt) closes it at once, before the executor shuts down
-                for k, result in executor.map_unordered(_point_task, tasks):
+                # (bound now: the map is consumed, late results included, in this turn)
+                def keep(k: int, result: dict[str, Any], todo: list[Any] = todo,
+                         found: dict[Any, Any] = found, keys: dict[Any, Any] = keys) -> None:
                     p = todo[k]
                     found[p] = result
                     runs[p] += 1
@@ -371,6 +373,9 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
                         results.put(keys[p], result)
                     if tick is not None:
                         tick()
+
+                for k, result in executor.map_unordered(_point_task, tasks, late=keep):
+                    keep(k, result)
             for p in wanted:
                 trackers[p].report(found[p]["stuck_fraction"] > 0.0)
             if bar is not None:

@@ -36,14 +36,21 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from pathlib import Path
 from typing import Any, Protocol
 
+#: Called with ``(index, result)`` for a task that finished while a stopped sweep waited
+#: for its tasks in flight (Ray's grace, :class:`drill_env.distributed.RayExecutor`): the
+#: sweep keeps it as it keeps what it was yielded.
+Late = Callable[[int, Any], None]
+
 
 class Executor(Protocol):
-    """Runs ``fn(item)`` for every item; yields ``(index, result)`` as tasks finish."""
+    """Runs ``fn(item)`` for every item; yields ``(index, result)`` as tasks finish;
+    ``late`` receives what finishes after the sweep was stopped (where the executor waits
+    for its tasks: Ray; local workers are interrupted at once)."""
 
     name: str
 
-    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any]
-                      ) -> Iterator[tuple[int, Any]]: ...
+    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any],
+                      late: Late | None = None) -> Iterator[tuple[int, Any]]: ...
 
     def close(self) -> None: ...
 
@@ -53,8 +60,8 @@ class SerialExecutor:
 
     name = "serial"
 
-    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any]
-                      ) -> Iterator[tuple[int, Any]]:
+    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any],
+                      late: Late | None = None) -> Iterator[tuple[int, Any]]:
         for k, item in enumerate(items):
             yield k, fn(item)
 
@@ -191,8 +198,8 @@ class ProcessExecutor:
                                          initializer=_single_threaded_worker,
                                          initargs=(os.getpid(),))
 
-    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any]
-                      ) -> Iterator[tuple[int, Any]]:
+    def map_unordered(self, fn: Callable[[Any], Any], items: Sequence[Any],
+                      late: Late | None = None) -> Iterator[tuple[int, Any]]:
         futures: dict[Future, int] = {}
         pending = iter(enumerate(items))
         try:

@@ -313,7 +313,8 @@ def test_tasks_in_flight_when_a_sweep_stops_end_or_are_interrupted(cluster, tmp_
     in crashed Ray's task manager now and then); a long one gets a KeyboardInterrupt, as a
     local worker does, so a training run saves its checkpoint (its worker was killed:
     the steps since the last regular checkpoint were lost), also where the workers
-    inherited SIGINT ignored (this suite run as a background job: it failed so)."""
+    inherited SIGINT ignored (this suite run as a background job: it failed so). What
+    ends during the wait goes to ``late``, for the sweep to keep."""
     import ray.cloudpickle
 
     import drill_env.distributed as distributed
@@ -322,10 +323,12 @@ def test_tasks_in_flight_when_a_sweep_stops_end_or_are_interrupted(cluster, tmp_
     ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers can't
     executor = distributed.RayExecutor(cluster.address)              # import this file
     short, long = tmp_path / "short", tmp_path / "long"
+    kept: list[int] = []
     try:
         results = executor.map_unordered(_sleep_then_say, [(str(tmp_path / "first"), 0.0),
                                                            (str(short), 3.0),
-                                                           (str(long), 120.0)])
+                                                           (str(long), 120.0)],
+                                         late=lambda k, result: kept.append(k))
         assert next(results)[0] == 0
         started = [Path(f"{path}.started") for path in (short, long)]
         deadline = time.monotonic() + 60.0
@@ -338,6 +341,9 @@ def test_tasks_in_flight_when_a_sweep_stops_end_or_are_interrupted(cluster, tmp_
             time.sleep(0.1)
         assert not ray_task_processes()
         assert (short.read_text(), long.read_text()) == ("finished", "interrupted")
+        # what ended during the wait is handed back to be kept (it was dropped: a rerun
+        # ran it again); the interrupted one is not
+        assert kept == [1]
     finally:
         executor.close()
         ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])

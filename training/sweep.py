@@ -86,9 +86,12 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
                    desc="training seeds", disable=not progress)
         try:
             items = [(c, str(out / run_name(c))) for c in todo]
-            for k, summary in executor.map_unordered(_train_task, items):
+            def keep(k: int, summary: dict[str, Any]) -> None:
                 store.put(str(todo[k].seed), summary)
                 bar.update(1)
+
+            for k, summary in executor.map_unordered(_train_task, items, late=keep):
+                keep(k, summary)
         finally:
             bar.close()
             executor.close()
