@@ -127,11 +127,14 @@ def test_an_interrupted_ray_sweep_resumes_computing_only_the_missing_points(
     with pytest.raises(KeyboardInterrupt):
         stability_maps(POSITIONS, settings=SETTINGS, grid_points=GRID, store=store,
                        ray_address=cluster.address, progress=stop_after(3))
-    assert len(points(store)) == 3
+    # the three done before the interrupt, and those in flight that ended during the wait
+    kept = points(store)
+    assert 3 <= len(kept) <= len(expected)
+    assert all(kept[key] == expected[key] for key in kept)
     resumed = []
     again = stability_maps(POSITIONS, settings=SETTINGS, grid_points=GRID, store=store,
                            ray_address=cluster.address, progress=lambda: resumed.append(1))
-    assert len(resumed) == len(expected) - 3
+    assert len(resumed) == len(expected) - len(kept)
     same_maps(again, maps)
     assert points(store) == expected
 
