@@ -170,7 +170,7 @@ class RayExecutor:
                 self._stop(in_flight, late)
 
     def _stop(self, in_flight: dict[Any, int], late: Late | None = None) -> None:
-        """End the tasks ``refs`` of a stopped sweep. Those that end within
+        """End the tasks ``in_flight`` (ref -> index) of a stopped sweep. Those that end within
         ``SETTLE_GRACE`` s (a benchmark episode, a map point) are left to: cancelling a
         task as its reply comes in trips a check in Ray's task manager (the driver died
         with it, or segfaulted, about one Ctrl-C in four; ray-project/ray#54798). A task

@@ -361,8 +361,6 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
             if tasks:
                 if executor is None:
                     executor = make_executor(workers, ray_address)
-                # the results' iterator is not kept in a variable: an exception (an
-                # interrupt) closes it at once, before the executor shuts down
                 # (bound now: the map is consumed, late results included, in this turn)
                 def keep(k: int, result: dict[str, Any], todo: list[Any] = todo,
                          found: dict[Any, Any] = found, keys: dict[Any, Any] = keys) -> None:
@@ -374,6 +372,8 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
                     if tick is not None:
                         tick()
 
+                # the results' iterator is not kept in a variable: an exception (an
+                # interrupt) closes it at once, before the executor shuts down
                 for k, result in executor.map_unordered(_point_task, tasks, late=keep):
                     keep(k, result)
             for p in wanted:
