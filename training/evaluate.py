@@ -1,10 +1,11 @@
 """``drill-env evaluate RUN``: a trained policy through the controller benchmark.
 
-The policy (the controller ``learned``, from the run folder) and the classical
-controllers act in the run's task env on the held-out seeds
-(``drill_env.scenarios.EVALUATION_SEEDS``, never used in training or model selection),
-each from the same targets and start; the benchmark writes its table, csv and plots to
-``RUN/evaluation/``.
+The policy (the controller ``learned``, from the run folder), the classical controllers
+and the trivial policies (:mod:`agents.trivial`) act in the run's task env on the
+held-out seeds (``drill_env.scenarios.EVALUATION_SEEDS``, never used in training or model
+selection), each from the same targets and start; the benchmark writes its table, csv
+and plots to ``RUN/evaluation/``, and the policy paired by seed against each of the
+others to ``comparison.md``.
 """
 
 from __future__ import annotations
