@@ -325,7 +325,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             # what a driller reads first: the torque and the load on the rig
             sums["surface_torque"] += info["surface_torque"]
             sums["hook_load"] += info["hook_load"]
-            speeds.append((info["episode_time"], info["bit_speed"] / RPM))
+            if held_set_points:  # the swing per block: only where it is reported
+                speeds.append((info["episode_time"], info["bit_speed"] / RPM))
             for key in keys:
                 totals[key] += info[key]
             if terminated or truncated:

@@ -204,9 +204,10 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     rows = run_benchmark(names, ["random"], held_out, out, settings, workers=workers,
                          progress=progress, env_id=TASKS[task], ray_address=ray_address,
                          heading=heading)
-    mine = [r["episode_return"] for r in rows if r["controller"] == label(names[0])]
+    policy = label(names[0])
+    mine = [r["episode_return"] for r in rows if r["controller"] == policy]
     if mine:
-        text = comparison_text(paired_comparison(rows, label(names[0])), float(np.mean(mine)))
+        text = comparison_text(paired_comparison(rows, policy), float(np.mean(mine)))
         (out / "comparison.md").write_text(f"# {heading}\n\n{text}")
         print(text)  # beside the benchmark's table, which is printed too
     return rows

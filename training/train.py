@@ -138,12 +138,7 @@ def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
         if (run / "best_model.zip").exists() else -np.inf
     kept = [r for r in rows if int(float(r["timesteps"])) <= steps]
     if len(kept) < len(rows):
-        buffer = io.StringIO()
-        writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(kept)
-        text = buffer.getvalue()  # written whole, as add_row does
-        save_whole(path, lambda file: Path(file).write_text(text, newline=""))
+        save_text(path, csv_text(rows[0], kept), newline="")  # whole, as add_row writes
     progress = run / "checkpoints" / f"progress_{steps}.json"
     if from_checkpoint and progress.exists():
         try:
@@ -508,8 +503,7 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
     # after SB3, which seeds the envs with the run seed (+ i) when it builds or loads
     seed = env_seed(config, int(model.num_timesteps))
     env.seed(seed)
-    text = yaml.safe_dump(jsonable(config), sort_keys=False)
-    save_whole(saved, lambda file: Path(file).write_text(text))
+    save_text(saved, yaml.safe_dump(jsonable(config), sort_keys=False))
     t0 = time.perf_counter()
     # to where the run ends (PPO: whole rollouts), so that the progress bar's total is
     # what it counts to (4,096 of 1,024 once read)
@@ -534,8 +528,7 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
             "env_seed": seed,  # of this session's first reset (env i: + i)
             "validation_seeds": {"first": VALIDATION_SEED, "count": config.eval_episodes},
             "machine": platform.platform(), "python": platform.python_version()}
-    text = json.dumps(info, indent=2)
-    save_whole(run / "run.json", lambda file: Path(file).write_text(text))
+    save_text(run / "run.json", json.dumps(info, indent=2))
     plot_learning_curve(run)
     env.close()
     return run / "model.zip"
@@ -572,8 +565,7 @@ def write_checkpoint(run: Path, model: Any, env: Any, wall_s: float) -> Path:
     path = folder / f"model_{steps}_steps.zip"
     save_whole(path, model.save)
     save_whole(folder / f"vecnormalize_{steps}.pkl", env.save)
-    text = json.dumps({"wall_s": wall_s})
-    save_whole(folder / f"progress_{steps}.json", lambda file: Path(file).write_text(text))
+    save_text(folder / f"progress_{steps}.json", json.dumps({"wall_s": wall_s}))
     return path
 
 
@@ -586,13 +578,22 @@ def add_row(path: Path, row: dict[str, Any]) -> None:
     if path.exists():
         with path.open(newline="") as f:  # its \r\n line ends as the csv module wrote them
             old = f.read()
+    save_text(path, old + csv_text(row, [row], header=not old), newline="")
+
+
+def csv_text(fieldnames: Any, rows: list[dict[str, Any]], header: bool = True) -> str:
+    """``rows`` as CSV text (the csv module's \r\n line ends), the header first."""
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=list(row))
-    if not old:
+    writer = csv.DictWriter(buffer, fieldnames=list(fieldnames))
+    if header:
         writer.writeheader()
-    writer.writerow(row)
-    text = old + buffer.getvalue()
-    save_whole(path, lambda file: Path(file).write_text(text, newline=""))
+    writer.writerows(rows)
+    return buffer.getvalue()
+
+
+def save_text(path: Path, text: str, newline: str | None = None) -> None:
+    """``text`` into ``path`` whole (:func:`save_whole`)."""
+    save_whole(path, lambda file: Path(file).write_text(text, newline=newline))
 
 
 def save_whole(path: Path, save: Any) -> None:
