@@ -100,6 +100,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
         ax.set_ylim(0.0, max(top, 0.05))  # an all-zero metric shows as zero, not noise
         if not np.any(np.nan_to_num(shown)):  # all zero (or not defined)
             _say_empty(ax, empty)
+            ax.set_yticks([])  # no scale: 0-0.05 ticks read as small measured values
         else:  # a bar too low to see is drawn as a coloured base line: zero, not missing
             low = 0.01 * ax.get_ylim()[1]
             for x, mean, colour in bars:

@@ -775,8 +775,9 @@ def _series(out, controllers, scenarios, radial: float = 0.3) -> None:
                      torque_on_bit=3.5e3 + 0 * t)
 
 
-def _drawn_texts(monkeypatch) -> list[str]:
-    """The texts written into the panels of every figure closed from now on."""
+def _drawn_texts(monkeypatch, ticks: list[int] | None = None) -> list[str]:
+    """The texts written into the panels of every figure closed from now on (and, into
+    ``ticks``, each panel's number of y ticks)."""
     import matplotlib.pyplot as plt
 
     texts: list[str] = []
@@ -784,6 +785,8 @@ def _drawn_texts(monkeypatch) -> list[str]:
 
     def keep_texts(fig=None):
         texts.extend(t.get_text() for ax in fig.axes for t in ax.texts)
+        if ticks is not None:
+            ticks.extend(len(ax.get_yticks()) for ax in fig.axes)
         close(fig)
 
     monkeypatch.setattr(plt, "close", keep_texts)
@@ -795,9 +798,11 @@ def test_a_panel_whose_values_are_all_zero_says_so(tmp_path, monkeypatch):
     instead of an empty 0-0.05 axis that looks like a broken plot; the others do not."""
     from agents.plots import bar_chart, series_chart
 
-    texts = _drawn_texts(monkeypatch)
+    ticked: list[int] = []  # y ticks per panel: an empty one has no scale to misread
+    texts = _drawn_texts(monkeypatch, ticked)
     rows = [_row("stiff", "stick_slip", ssi=1.3), _row("z-torque", "stick_slip")]
     bar_chart(rows, ["stiff", "z-torque"], ["stick_slip"], tmp_path / "bars.png")
+    assert ticked.count(0) == 2 and len(ticked) > 2
     assert "no backward whirl in any episode" in texts
     assert "the bit never stuck in any episode" in texts
     assert "no stick-slip in any episode" not in texts  # the stiff one stick-slips
