@@ -298,6 +298,23 @@ def test_a_bound_broken_by_a_field_with_a_unit_says_the_unit(path, value, unit):
     assert "(" not in str(caught.value).partition("got")[2]
 
 
+@pytest.mark.parametrize("density, warned", [  # 1 US gal = 3.785412 L, 1 lb = 0.4535924 kg
+    (10.0, "1,198 kg/m^3"), (19.5, "2,337 kg/m^3"), (1.2, ""), (1200.0, ""), (2100.0, "")])
+def test_a_mud_density_typed_in_ppg_is_warned_of(density, warned):
+    """10 (ppg, typed for 1,198 kg/m^3) was accepted silently: the string then drills
+    without buoyancy. It warns with the conversion; air (1.2) and real muds do not."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        config = replace(SimulationConfig(), **{"mud.density": density})
+    said = [str(w.message) for w in seen if "mud.density" in str(w.message)]
+    assert config.mud.density == density  # a warning, not a refusal: air at depth is light
+    assert bool(said) == bool(warned)
+    if warned:
+        assert warned in said[0] and "ppg" in said[0]
+
+
 def test_a_smaller_hole_names_the_default_it_meets_and_what_to_do():
     """Setting only the hole diameter met the default stabilizer diameter, a field the
     user never wrote: the error says it is a default and to set it."""

@@ -21,6 +21,7 @@ from drill_env.physics.validation import (
     ConfigError,
     Count,
     Finite,
+    FluidDensity,
     NonNegative,
     Positive,
     StrictBool,
@@ -255,9 +256,9 @@ class StringConfig:
 class MudConfig:
     """Drilling fluid: buoyancy, added lateral mass and viscous torsional drag."""
 
-    #: 10 ppg water-based mud. Must be lighter than the string (checked by
-    #: SimulationConfig): a string lighter than its mud floats.
-    density: NonNegative = Field(default=1200.0, le=MAX_MUD_DENSITY)
+    #: 10 ppg water-based mud (kg/m^3: 5-25 warns, a mud typed in ppg). Must be lighter
+    #: than the string (checked by SimulationConfig): a string lighter than its mud floats.
+    density: FluidDensity = Field(default=1200.0, le=MAX_MUD_DENSITY)
     #: Added-mass coefficient of the displaced fluid for lateral motion; 1.0 is the
     #: potential-flow value for a cylinder in unbounded fluid (confinement raises it).
     added_mass_coefficient: NonNegative = Field(default=1.0, le=10.0)

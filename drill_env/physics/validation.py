@@ -21,12 +21,14 @@ import functools
 import math
 import re
 import typing
+import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Annotated, Any, TypeVar, dataclass_transform
 
 import numpy as np
 from pydantic import (
+    AfterValidator,
     BeforeValidator,
     ConfigDict,
     Field,
@@ -76,6 +78,23 @@ Positive = Annotated[Finite, Field(gt=0.0)]
 NonNegative = Annotated[Finite, Field(ge=0.0)]
 #: An integer (NumPy integers accepted, bools and floats refused).
 Count = Annotated[int, BeforeValidator(_integer), Strict()]
+
+#: Densities (kg/m^3) that are a drilling mud typed in pounds per gallon: 6-25 ppg spans
+#: oil-based to the heaviest weighted muds. Air and mist at depth are this light too,
+#: so it is a warning, not an error.
+PPG_LIKE = (5.0, 25.0)
+
+
+def _mud_density(value: float) -> float:
+    if PPG_LIKE[0] <= value <= PPG_LIKE[1]:
+        warnings.warn(f"mud.density: {value:g} kg/m^3 is as light as air or mist; a mud "
+                      f"of {value:g} ppg is {value * 119.826:,.0f} kg/m^3 (the density is "
+                      "in kg/m^3)", UserWarning, stacklevel=2)
+    return value
+
+
+#: A fluid density (kg/m^3) that warns when it looks typed in ppg.
+FluidDensity = Annotated[NonNegative, AfterValidator(_mud_density)]
 
 _CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, revalidate_instances="never",
                      arbitrary_types_allowed=True)
