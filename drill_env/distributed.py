@@ -24,6 +24,7 @@ them.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import sys
@@ -86,6 +87,20 @@ def _check_reachable(ray_address: str) -> None:
                               f"answers there ({error}); 'local' starts one here") from None
 
 
+@contextlib.contextmanager
+def _quiet_token_notice() -> Iterator[None]:
+    """Ray's notice that a new cluster uses token authentication (Ray's default, kept) off
+    the console during ``ray.init``: it reads as a warning above our progress bar and
+    asks the user to opt out of a safe default."""
+    notice = logging.getLogger("ray._private.authentication.authentication_token_setup")
+    level = notice.level
+    notice.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        notice.setLevel(level)
+
+
 class RayExecutor:
     """Runs a sweep's tasks on Ray; yields ``(index, result)`` as tasks finish."""
 
@@ -118,21 +133,24 @@ class RayExecutor:
     def _init(self, ray: Any, ray_address: str) -> None:
         """Start (``local``) or join the Ray session, unless one is running."""
         if self._owns:
-            # Ray's C++ core logs every failed connection attempt at WARNING: keep the
-            # console for our progress bar and one clear error
-            os.environ.setdefault("RAY_BACKEND_LOG_LEVEL", "error")
             runtime_env = {"env_vars": dict(WORKER_ENV)}
             if ray_address == "local":
                 # address="local": a new private instance even where a cluster runs (without
                 # it Ray joins that cluster and refuses num_cpus)
-                ray.init(address="local", num_cpus=os.cpu_count() or 1, include_dashboard=False,
-                         runtime_env=runtime_env, log_to_driver=False,
-                         configure_logging=False)
+                with _quiet_token_notice():
+                    ray.init(address="local", num_cpus=os.cpu_count() or 1,
+                             include_dashboard=False, runtime_env=runtime_env,
+                             log_to_driver=False, configure_logging=False)
             else:
+                # Ray's C++ core logs every failed connection attempt at WARNING: keep the
+                # console for our progress bar and one clear error (not for "local", which
+                # makes no attempts: the variable costs a line of its own there)
+                os.environ.setdefault("RAY_BACKEND_LOG_LEVEL", "error")
                 _check_reachable(ray_address)
                 try:
-                    ray.init(address=ray_address, runtime_env=runtime_env,
-                             log_to_driver=False, configure_logging=False)
+                    with _quiet_token_notice():
+                        ray.init(address=ray_address, runtime_env=runtime_env,
+                                 log_to_driver=False, configure_logging=False)
                 except ConnectionError as error:
                     raise ConnectionError(f"ray_address: no Ray cluster at {ray_address!r} "
                                           f"({error})") from error

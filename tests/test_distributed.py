@@ -350,3 +350,22 @@ def test_tasks_in_flight_when_a_sweep_stops_end_or_are_interrupted(cluster, tmp_
     finally:
         executor.close()
         ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+
+
+def test_a_local_ray_instance_starts_without_notices_on_the_console(tmp_path):
+    """`--ray-address local` printed Ray's token-authentication notice (asking to opt out
+    of a safe default) and a C++ log line that it set the log level from an environment
+    variable we set, above the progress bar. Token authentication stays on."""
+    import subprocess
+
+    script = ("import os; from drill_env.distributed import RayExecutor; "
+              "e = RayExecutor('local'); "
+              "print(sorted(e.map_unordered(abs, [-1, -2]))); "
+              "print(os.environ.get('RAY_AUTH_MODE')); e.close()")
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("RAY_AUTH", "RAY_BACKEND_LOG"))}
+    env["HOME"] = str(tmp_path)  # Ray keeps the token it makes in ~/.ray
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=env, timeout=300, check=True)
+    assert done.stdout.split() == ["[(0,", "1),", "(1,", "2)]", "token"]
+    assert "Token authentication" not in done.stderr and "logging.cc" not in done.stderr
