@@ -78,6 +78,23 @@ def test_roundtrip_series_equal_info(tmp_path: Path) -> None:
     assert rec.application_id == APPLICATION_ID
     assert rec.recording_id == env.recorder.last_recording_id
     assert rec.n_blueprints == 1
+    # every plot shows the whole episode (they followed the cursor with a one-minute
+    # window: the first half of a 90 s episode out of sight, the rest of the window empty)
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(str(path))
+    views: dict[str, set[str]] = {}
+    for chunk in reader.stream(store=reader.blueprints()[0]):
+        batch = chunk.to_record_batch()
+        wanted = [c for c in ("TimeAxis:view_range", "PlotLegend:corner")
+                  if c in batch.schema.names]
+        for row in batch.select(wanted).to_pylist():
+            for column, value in row.items():
+                if column == "TimeAxis:view_range":
+                    assert value == [{"start": None, "end": None}]  # both unbounded
+                views.setdefault(chunk.entity_path.rsplit("/", 1)[0], set()).add(column)
+    plots = [v for v, columns in views.items() if "PlotLegend:corner" in columns]
+    assert len(plots) >= 10 and all("TimeAxis:view_range" in views[v] for v in plots)
     expected = {
         "/config/episode", "/config/simulation", "/config/env", "/config/document",
         "/orbit_mm/bit", "/orbit_mm/clearance", "/string/deflection", "/string/wall",

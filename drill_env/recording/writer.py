@@ -493,14 +493,21 @@ def piece_points(blades: np.ndarray, si: np.ndarray, pb: np.ndarray, ps: np.ndar
 
 
 def blueprint(geometry: Geometry, exaggeration: float) -> Any:
-    """Default layout: time series left; string, bit, orbit, events, texts right. The 3-D
-    cameras look at the bottom of the string and at the bit (a whole 1 km string is a
-    line), the time panel starts folded."""
+    """Default layout: time series (whole episode) left; string, bit, orbit, events, texts
+    right. The 3-D cameras look at the bottom of the string and at the bit (a whole 1 km
+    string is a line), the time panel starts folded."""
     import rerun.blueprint as rrb
+
+    # every plot spans the whole episode, legends at the top left (its quiet start):
+    # by default they followed the cursor with a one-minute window, out of which half a
+    # 90 s episode's history fell while the window's end stood empty
+    whole = rrb.archetypes.TimeAxis(view_range=rrb.components.TimeRange(
+        start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()))
 
     def ts(group: str, name: str) -> Any:
         return rrb.TimeSeriesView(origin=f"/timeseries/{group}", name=name,
-                                  plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop))
+                                  plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.LeftTop),
+                                  axis_x=whole)
 
     clearance = geometry.clearance
     bounds = None
