@@ -431,6 +431,26 @@ def declared_env_kwargs(controller: Any, name: str) -> dict[str, Any]:
     return dict(kwargs)
 
 
+def starting_at(scenario: str, set_points: Mapping[str, float],
+                physics: Mapping[str, Any]) -> dict[str, float]:
+    """The ``set_points`` given (``surface_speed`` rad/s, ``weight_on_bit`` N) that
+    ``scenario`` takes as parameters of its starting point, as env keywords: the scenario
+    checks its pipe against buckling at the WOB it starts at, which must be the one run
+    (on a horizontal well its own 100 kN buckled the pipe and refused ``--wob 60``). A WOB
+    that buckles the pipe itself (under the ``physics`` overrides) stays out: the run
+    and the benchmark note it and drill it, from the scenario's own start."""
+    from drill_env.physics.statics import pipe_buckling
+    from drill_env.scenarios import make_scenario, scenario_parameters, with_physics
+
+    params = scenario_parameters(scenario)
+    start = {key: value for key, value in set_points.items() if key in params}
+    if "weight_on_bit" in start:
+        config = with_physics(make_scenario(scenario).config, physics)
+        if config.solver.lateral and pipe_buckling(config, start["weight_on_bit"]):
+            del start["weight_on_bit"]
+    return start
+
+
 def scenario_set_points(scenario: str, seed: int) -> dict[str, float]:
     """The set points (``surface_speed`` rad/s, ``weight_on_bit`` N) at which
     ``DrillString-v0`` starts episode ``seed`` of ``scenario``: the driller's, at which the
@@ -477,6 +497,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     guest = episode.env_id is None and env_id != "DrillString-v0"
     if guest:
         env_kwargs["startup"] = "settled"
+    if episode.env_id is None:  # --rpm / --wob, the scenario's start (also reset options)
+        env_kwargs.update(starting_at(episode.scenario, settings.set_points(), physics))
     env: Any = gym.make(env_id, physics=physics, **env_kwargs)
     if episode.record:
         from drill_env.recording import RecordEpisode

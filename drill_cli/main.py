@@ -223,8 +223,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import drill_env  # noqa: F401  (registers the ids)
-    from agents.benchmark import guest_env_kwargs, scenario_set_points
+    from agents.benchmark import (
+        guest_env_kwargs,
+        scenario_set_points,
+        set_point_outside,
+        starting_at,
+    )
     from agents.classical import ConstantSetPoints, drive_loop_name
+    from drill_env.env_config import EnvConfig
 
     args.controller = canonical_controller(args.controller)
     controller = typed_controller(args.controller)
@@ -247,6 +253,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         kwargs.update(startup="settled", episode_duration=None)
     if args.duration is not None:
         kwargs["episode_duration"] = args.duration
+    # --rpm / --wob start the scenario (its buckling check is at the WOB run), where in
+    # range (else the check below names the flag)
+    given = {"surface_speed": None if args.rpm is None else args.rpm * RPM,
+             "weight_on_bit": None if args.wob is None else args.wob * KILO}
+    if not set_point_outside(given["surface_speed"], given["weight_on_bit"], EnvConfig()):
+        kwargs.update(starting_at(args.scenario,
+                                  {k: v for k, v in given.items() if v is not None}, physics))
     env: Any = gym.make(controller.env_id, **kwargs)
     base: Any = env.unwrapped
     cfg = base.config
@@ -504,7 +517,8 @@ def buckling_note(load: str, component: str, buckled: Any) -> str:
     """The note on a start whose WOB (``load``, as typed) buckles ``component`` (a
     :func:`drill_env.physics.statics.pipe_buckling` entry)."""
     return (f"note: {load} compresses the {component} by {buckled.compression / KILO:.1f} "
-            f"kN, beyond its buckling load {buckled.buckling_load / KILO:.1f} kN: it buckles "
+            f"kN {buckled.place}, beyond its buckling load "
+            f"{buckled.buckling_load / KILO:.1f} kN there: it buckles "
             "into the wall (the scenarios refuse such a starting point; docs/model.md, "
             "'Axial load and buckling')")
 
@@ -992,7 +1006,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
             "the string straight")
     for b in pipe_buckling(config, wob):
         print(f"note: at {wob / KILO:.0f} kN the {b.component} is compressed by "
-              f"{b.compression / KILO:.1f} kN, beyond its buckling load "
+              f"{b.compression / KILO:.1f} kN {b.place}, beyond its buckling load "
               f"{b.buckling_load / KILO:.1f} kN: it would buckle, and {then}; the modes "
               "below are of the straight string")
     print(f"\n{'component (bit up)':<22} {'length':>7} {'air':>8} {'in mud':>8} "

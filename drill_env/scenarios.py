@@ -191,11 +191,12 @@ class Scenario:
             b = buckled[0]
             raise ValueError(
                 f"weight_on_bit: {self.weight_on_bit / 1e3:.0f} kN compresses the "
-                f"{b.component} by {b.compression / 1e3:.1f} kN, beyond its buckling load "
-                f"{b.buckling_load / 1e3:.1f} kN (neutral point "
-                f"{self.neutral_point:.0f} m above the bit): lower the WOB or use a "
-                "heavier BHA (string.components); to study the buckled string on purpose, "
-                "build the Scenario in Python with allow_pipe_buckling=True")
+                f"{b.component} by {b.compression / 1e3:.1f} kN {b.place}, beyond its "
+                f"buckling load {b.buckling_load / 1e3:.1f} kN there (neutral point "
+                f"{self.neutral_point:.0f} m above the bit): lower the WOB (--wob, or "
+                "weight_on_bit= in Python) or, in a near-vertical hole, use a heavier BHA "
+                "(string.components); to study the buckled string on purpose, build the "
+                "Scenario in Python with allow_pipe_buckling=True")
 
     @property
     def neutral_point(self) -> float:
@@ -623,9 +624,9 @@ def check_draws(name: str, config: SimulationConfig, given: Collection[str]) -> 
         raise ValueError(
             f"physics: with {', '.join(sorted(given))} the {name} scenario's starting "
             f"WOB, drawn up to {top / 1e3:.0f} kN at each reset, would compress the "
-            f"{b.component} by {b.compression / 1e3:.1f} kN, beyond its buckling load "
-            f"{b.buckling_load / 1e3:.1f} kN: lighten the mud or make the BHA heavier "
-            "(string.components)")
+            f"{b.component} by {b.compression / 1e3:.1f} kN {b.place}, beyond its "
+            f"buckling load {b.buckling_load / 1e3:.1f} kN: lighten the mud or make the BHA "
+            "heavier (string.components)")
 
 
 def check_one_string_length(params: Mapping[str, Any], overrides: Collection[str]) -> None:

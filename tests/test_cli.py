@@ -168,6 +168,28 @@ def test_run_notes_a_wob_that_buckles_the_pipe(tmp_path, capsys):
     assert "note:" not in capsys.readouterr().err
 
 
+def test_a_wob_given_is_the_one_the_scenario_checks_for_buckling(tmp_path, capsys):
+    """On a horizontal well the scenario's own 100 kN buckles the pipe: `run` and
+    `benchmark` refused --wob 60, which does not, for the 100 kN they were not going to
+    run (a directional driller's walkthrough)."""
+    well = tmp_path / "horizontal.yaml"
+    well.write_text("well: {md: [0, 300, 900, 1400], inclination: [0, 0, 90, 90], "
+                    "azimuth: [45, 45, 45, 45]}\n")
+    out = tmp_path / "out"
+    assert main(["run", "--config", str(well), "--duration", "0.2", "--out", str(out)]) == 2
+    assert "weight_on_bit: 100 kN compresses the 5 in DP" in capsys.readouterr().err
+    assert main(["run", "--config", str(well), "--wob", "60", "--duration", "0.2",
+                 "--out", str(out)]) == 0
+    summary = json.loads((out / "run_summary.json").read_text())
+    assert summary["weight_on_bit_kN"] == pytest.approx(60.0)
+    assert summary["mean_setpoint_kN"] == pytest.approx(60.0, rel=1e-6)  # float32 actions
+    capsys.readouterr()
+    assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default",
+                 "--config", str(well), "--wob", "60", "--seeds", "1", "--duration", "1",
+                 "--warmup", "0.5", "--workers", "1", "--out", str(out / "b")]) == 0
+    assert "error" not in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("command", [["run", "--duration", "0.2"], ["modes"],
                                      ["speed", "--quick", "--sections", "memory"]])
 def test_an_out_that_is_a_file_is_refused_before_the_work(tmp_path, capsys, command):

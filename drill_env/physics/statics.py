@@ -129,6 +129,18 @@ class PipeBuckling:
     component: str
     compression: float  # compression where it comes nearest to buckling (N)
     buckling_load: float  # the buckling load there (N)
+    measured_depth: float = math.nan  # of that place (m; the bit at initial_depth)
+    inclination: float = 0.0  # of the hole there (rad)
+
+    @property
+    def place(self) -> str:
+        """"at 367 m measured depth" (and ", 10.0 deg inclination" in a curved hole): a
+        horizontal well's pipe may buckle first where the vertical-hole limit still holds,
+        not where it is most compressed."""
+        where = f"at {self.measured_depth:.0f} m measured depth"
+        if self.inclination > 0.0:
+            where += f", {math.degrees(self.inclination):.1f} deg inclination"
+        return where
 
 
 def axial_force_and_inclination(config: SimulationConfig, mesh, weight_on_bit: float
@@ -155,6 +167,9 @@ def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBu
     that comes nearest to buckling (in a vertical hole: the most compressed)."""
     mesh = build_mesh(config)
     force, inclination = axial_force_and_inclination(config, mesh, weight_on_bit)
+    bit = config.initial_depth if config.initial_depth is not None else config.string.length
+    node_md = mesh.node_depth + (bit - mesh.node_depth[-1])
+    middle_md = 0.5 * (node_md[:-1] + node_md[1:])
     sin_i = np.where(inclination >= DAWSON_PASLAY_MIN_INCLINATION, np.sin(inclination), 0.0)
     out = []
     for index, section in enumerate(config.string.sections):
@@ -170,7 +185,8 @@ def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBu
         worst = int(np.argmax(ratio))
         if ratio[worst] > 1.0:
             out.append(PipeBuckling(section.label, -float(force[mine][worst]),
-                                    float(limit[worst])))
+                                    float(limit[worst]), float(middle_md[mine][worst]),
+                                    float(inclination[mine][worst])))
     return out
 
 

@@ -58,3 +58,38 @@ def test_the_mesh_refinement_error_names_the_component_it_found_too_coarse() -> 
     k = int(re.search(r"components\[(\d+)\]", str(err.value)).group(1))
     assert config.string.components[k].name == "coarse DC"
     assert f"({config.string.components[k].label}," in str(err.value)
+
+
+def test_the_buckling_names_where_the_pipe_comes_nearest_to_buckling() -> None:
+    """Vertical: the drill pipe's bottom element (the most compressed), its compression
+    the WOB less the buoyed weight hanging below its midpoint, summed by hand. Horizontal
+    well (a build of 90 deg over 600 m from 300 m, in one plane: the inclination grows
+    linearly with measured depth): the pipe buckles first above 10 deg, where the
+    vertical-hole limit holds, not in the lateral; the place says so (a directional
+    driller read "29.8 kN" against the 100 kN of the lateral)."""
+    import math
+
+    config = SimulationConfig()
+    string, g = config.string, 9.81
+    pipe = string.drill_pipe
+    [found] = pipe_buckling(config, 100e3)
+    assert found.measured_depth == pytest.approx(pipe.length - 0.5 * pipe.element_length)
+    assert found.inclination == 0.0 and found.place == f"at {found.measured_depth:.0f} m " \
+        "measured depth"
+    below = sum((s.density - config.mud.density) * s.area * g * s.length
+                for s in string.sections[1:])
+    below += (pipe.density - config.mud.density) * pipe.area * g * 0.5 * pipe.element_length
+    steel = string.sections[-1].density  # the bit's, as the collar it hangs from
+    below += config.bit.mass * g * (1.0 - config.mud.density / steel)
+    assert found.compression == pytest.approx(100e3 - below, rel=1e-6)
+
+    well = replace(config, well={"md": (0.0, 300.0, 900.0, 1400.0),
+                                 "inclination": (0.0, 0.0, 90.0, 90.0),
+                                 "azimuth": (45.0, 45.0, 45.0, 45.0)})
+    [curved] = pipe_buckling(well, 100e3)
+    assert 300.0 < curved.measured_depth < 900.0
+    assert curved.inclination == pytest.approx(
+        math.radians(90.0 * (curved.measured_depth - 300.0) / 600.0), rel=1e-6)
+    assert curved.inclination < math.radians(10.0)  # the vertical-hole limit's last element
+    assert curved.buckling_load == pytest.approx(found.buckling_load)  # Lubinski's, as there
+    assert f"{math.degrees(curved.inclination):.1f} deg inclination" in curved.place
