@@ -254,7 +254,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
         # Build (and validate) the physics now; randomised scenarios redraw at reset.
         self.scenario: Scenario = self._build_scenario(np.random.default_rng(0))
-        check_draws(scenario, self.scenario.config, flatten(physics or {}))
+        check_draws(scenario, scen_over, flatten(physics or {}))
         if not self.randomised:
             self._check_range(self.scenario.surface_speed, self.scenario.weight_on_bit, "")
         self._set_simulator(Simulator(self.scenario.config))
@@ -266,7 +266,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
     def _build_scenario(self, rng: np.random.Generator) -> Scenario:
         scenario = make_scenario(self.scenario_name, rng=rng, **self.scenario_params)
         if self.physics_overrides:
-            config = with_physics(scenario.config, self.physics_overrides)
+            config = with_physics(scenario.config, self.physics_overrides, self.randomised)
             scenario = dataclasses.replace(scenario, config=config)
         return scenario
 

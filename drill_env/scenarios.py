@@ -52,6 +52,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import Field
 
+from drill_env.overrides import with_physics
 from drill_env.physics.bit import asymmetric_bit, symmetric_bit
 from drill_env.physics.components import realistic_string
 from drill_env.physics.config import (
@@ -231,71 +232,6 @@ def with_string_length(config: SimulationConfig, string_length: float | None) ->
 
 def _bit_depth(config: SimulationConfig) -> float:
     return config.initial_depth if config.initial_depth is not None else config.string.length
-
-
-def with_physics(config: SimulationConfig, overrides: Mapping[str, Any]) -> SimulationConfig:
-    """A scenario's ``config`` with dotted physics ``overrides`` (a user's ``physics=`` or
-    ``--config``), its bit kept at the bottom of its string.
-
-    A scenario puts the bit face at the bottom of its string (``initial_depth``, a lead
-    above it in the crossing cases), its rock layers where they are relative to the bit
-    and its well's survey to below the bit. When the overrides change the string's length,
-    the bit depth and the layer interfaces move by the same amount, as ``string_length=``
-    would have placed them, and a longer string's survey is extended by it (its last
-    station: the preset wells end in a hold), unless the overrides set ``initial_depth``,
-    the interfaces or the well. Components (``string.components``) replace the scenario's
-    one-section BHA and its stabilizers unless the overrides set those as well.
-    """
-    if not overrides:
-        return config
-    if overrides.get("string.components"):
-        # components replace the scenario's one-section BHA and the stabilizers placed on
-        # it (the crossing cases' 120 m of collars): they would clash with the components
-        blank = StringConfig()
-        overrides = {"string.bha": blank.bha, "string.stabilizers": blank.stabilizers,
-                     **overrides}
-    given = tuple(overrides)
-    sets_well = any(key == "well" or key.startswith("well.") for key in given)
-    # the new string's length, before a survey (the scenario's, which may now be short,
-    # or the overrides', which may end above the scenario's bit) is checked
-    probe = config if config.well.vertical else replace(config, well={})
-    changed = replace(probe, **{key: value for key, value in overrides.items()
-                                if not (key == "well" or key.startswith("well."))})
-    shift = changed.string.length - config.string.length
-    if probe is config and not sets_well and (shift == 0.0 or "initial_depth" in given):
-        # nothing to move (the usual case, as at every random reset)
-        return _bit_at_string_end(changed, given)
-    moved: dict[str, Any] = {}
-    if shift != 0.0 and "initial_depth" not in given:
-        if config.initial_depth is not None:
-            moved["initial_depth"] = config.initial_depth + shift
-        if not any(key == "formation" or key.startswith("formation.interfaces")
-                   for key in given):
-            moved["formation.interfaces"] = tuple(
-                replace(i, depth=i.depth + shift) for i in config.formation.interfaces)
-        if not (config.well.vertical or sets_well):
-            moved["well.md"] = (*config.well.md[:-1], config.well.md[-1] + max(shift, 0.0))
-    return _bit_at_string_end(replace(config, **{**moved, **overrides}), given)
-
-
-#: How far above its string's end a bit depth given by hand may lie (m): a crossing
-#: case's lead (``Lead``) at most.
-MAX_LEAD = 100.0
-
-
-def _bit_at_string_end(config: SimulationConfig, given: tuple[str, ...]) -> SimulationConfig:
-    """``config``; a ValueError naming ``initial_depth`` where the overrides set one that
-    leaves more than :data:`MAX_LEAD` m of the string above the wellhead (a 2,000 m string
-    at ``initial_depth: 1500`` ran, its rocks taken at 1,500 m and its wall loads at
-    2,000 m: a new user's walkthrough)."""
-    if "initial_depth" in given and config.initial_depth is not None:
-        above = config.string.length - config.initial_depth
-        if above > MAX_LEAD:
-            raise ValueError(f"initial_depth: {config.initial_depth:g} m leaves {above:g} m of "
-                             f"the {config.string.length:g} m string above the wellhead: the "
-                             "bit hangs at its bottom (leave initial_depth out, or give a depth "
-                             f"within {MAX_LEAD:g} m of the string's length)")
-    return config
 
 
 def sandwich(bit: BitConfig, middle: RockConfig, bit_depth: float, position: str,
@@ -548,7 +484,8 @@ def random(rng: np.random.Generator | None = None,
     Drawn: three rocks (hard, soft, very soft presets, each curve parameter within
     +-30 %); a middle layer of soft or very soft rock between two parallel interfaces
     whose top lies 0.3 m above to 0.5 m below the bit, 0.1-1 m thick along the axis,
-    dipping 0-60 deg at any azimuth; a symmetric or asymmetric bit (even odds); the length
+    dipping 0-60 deg to the hole at any azimuth (in a curved well set by physics overrides
+    the true dip follows: ``with_physics``); a symmetric or asymmetric bit (even odds); the length
     of the realistic string (:func:`~drill_env.physics.components.realistic_string`) in
     ``string_length_range`` (the drill pipe's element LENGTH changes, the element count
     does not); the start operating point (rpm, WOB) uniformly in the given ranges (up to
@@ -609,24 +546,43 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
 RANDOMISED = frozenset({"random"})
 
 
-def check_draws(name: str, config: SimulationConfig, given: Collection[str]) -> None:
-    """Refuse the physics overrides ``given`` (their dotted keys) under which a randomised
-    scenario would buckle its pipe at some later reset, not only at the first: its
-    starting WOB is drawn up to the top of :data:`RANDOM_WEIGHT_ON_BIT_RANGE`, and the
-    pipe's compression there is set by what every draw shares (BHA, heavy-weight pipe,
-    bit, mud: ``config`` is one draw with the overrides), not by the drawn pipe length."""
-    if name not in RANDOMISED or not given or not config.solver.lateral:
+def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, Any]) -> None:
+    """Refuse the physics ``overrides`` (dotted) under which a randomised scenario drawn
+    with ``params`` would fail at some later reset, not only at the first: its starting
+    WOB is drawn up to the top of its range and must not buckle the pipe, and in a curved
+    well the survey must reach the longest string drawn and the pipe's place in the hole
+    moves with the drawn length (checked along the range; in a vertical hole the pipe's
+    compression is set by what every draw shares: BHA, heavy-weight pipe, bit, mud)."""
+    if name not in RANDOMISED or not overrides:
         return
-    top = RANDOM_WEIGHT_ON_BIT_RANGE[1]
-    buckled = pipe_buckling(config, top)
-    if buckled:
-        b = buckled[0]
-        raise ValueError(
-            f"physics: with {', '.join(sorted(given))} the {name} scenario's starting "
-            f"WOB, drawn up to {top / 1e3:.0f} kN at each reset, would compress the "
-            f"{b.component} by {b.compression / 1e3:.1f} kN {b.place}, beyond its "
-            f"buckling load {b.buckling_load / 1e3:.1f} kN: lighten the mud or make the BHA "
-            "heavier (string.components)")
+    defaults = inspect.signature(SCENARIOS[name]).parameters
+    low, high = params.get("string_length_range", defaults["string_length_range"].default)
+    top = params.get("weight_on_bit_range", defaults["weight_on_bit_range"].default)[1]
+    for length in np.linspace(high, low, 7):
+        draw = make_scenario(name, np.random.default_rng(0),
+                             **{**params, "string_length_range": (length, length)})
+        try:
+            config = with_physics(draw.config, overrides, drawn=True)
+        except ValueError as err:
+            if not str(err).startswith("well.md"):
+                raise
+            raise ValueError(f"physics: {err}: the {name} scenario draws strings of "
+                             f"{low:g}-{high:g} m (string_length_range); extend the survey "
+                             "or narrow the range") from None
+        buckled = pipe_buckling(config, top) if config.solver.lateral else []
+        if buckled:
+            b = buckled[0]
+            raise ValueError(
+                f"physics: with {', '.join(sorted(overrides))} the {name} scenario's "
+                f"starting WOB, drawn up to {top / 1e3:.0f} kN at each reset, would "
+                f"compress the {b.component} of a {length:.0f} m string by "
+                f"{b.compression / 1e3:.1f} kN {b.place}, beyond its buckling load "
+                f"{b.buckling_load / 1e3:.1f} kN: "
+                + ("" if config.well.vertical else "narrow string_length_range (where the "
+                   "pipe lies in the hole), ")
+                + "lighten the mud or make the BHA heavier (string.components)")
+        if config.well.vertical:
+            return
 
 
 def check_one_string_length(params: Mapping[str, Any], overrides: Collection[str]) -> None:

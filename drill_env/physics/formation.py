@@ -32,6 +32,7 @@ from drill_env.physics.config import (
     FormationConfig,
     Interface,
     RockConfig,
+    replace,
 )
 
 #: Columns of ``FormationArrays.rock_params``: one row per rock (RockConfig fields).
@@ -90,6 +91,30 @@ def rock_parameter_table(rocks, bit_diameter: float = math.inf) -> np.ndarray:
 #: bit (relative dip below ~88.9 deg): a plane nearly parallel to the hole would cross
 #: its axis far from ``depth`` and under the bit only sideways.
 MIN_RELATIVE_COSINE = 0.02
+
+
+def across_the_hole(formation: FormationConfig, tangent: np.ndarray) -> FormationConfig:
+    """``formation`` with each interface's dip and azimuth read as relative to a hole of
+    unit ``tangent`` (north, east, down) at the bit, turned into the true ones: the plane
+    crosses that hole as it would cross a vertical one at its given dip (the angle
+    between its normal and the hole axis). The azimuth is measured from the hole's low
+    side (north in a vertical hole, where nothing changes); ``depth`` stays along the
+    hole."""
+    t = np.asarray(tangent, dtype=float)
+    across = np.array([0.0, 0.0, 1.0]) - t[2] * t  # down, across the hole
+    if np.linalg.norm(across) < 1e-12:  # vertical: e1 north
+        across = np.array([1.0, 0.0, 0.0])
+    e1 = across / np.linalg.norm(across)
+    frame = np.stack([e1, np.cross(t, e1), t])  # rows e1, e2, t as formation_arrays's
+    interfaces = []
+    for interface in formation.interfaces:
+        normal, _ = interface_plane(interface.depth, interface.dip, interface.azimuth)
+        true = frame.T @ normal
+        true = true if true[2] >= 0.0 else -true
+        dip = min(math.degrees(math.acos(min(true[2], 1.0))), 89.999)  # Interface: < 90
+        azimuth = math.degrees(math.atan2(-true[1], -true[0])) % 360.0 if dip > 0.0 else 0.0
+        interfaces.append(Interface(interface.depth, dip, azimuth))
+    return replace(formation, interfaces=tuple(interfaces))
 
 
 def formation_arrays(cfg: FormationConfig, bit_diameter: float = math.inf,

@@ -246,3 +246,27 @@ def test_interfaces_that_cross_under_the_bit_are_refused_where_the_planes_meet(a
     formation.formation_arrays(config(1.02 * meet, dip), 2 * radius)
     formation.formation_arrays(config(0.98 * meet, dip), math.inf)  # no bit: no face
     formation.formation_arrays(config(0.0, 0.0), 2 * radius)  # a layer of no thickness
+
+
+def test_an_interface_across_a_hole_makes_its_dip_with_the_hole_axis() -> None:
+    """:func:`across_the_hole`: the true plane's normal makes the given dip with the hole's
+    tangent (any direction), the plane's depth along the hole is kept, and in a vertical
+    hole nothing changes."""
+    from drill_env.physics.formation import across_the_hole, interface_plane
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        tangent = rng.normal(size=3)
+        tangent[2] = abs(tangent[2])  # drilling down or sideways
+        tangent /= np.linalg.norm(tangent)
+        dip, azimuth = rng.uniform(0.0, 80.0), rng.uniform(0.0, 360.0)
+        given = FormationConfig(rocks=(RockConfig(), RockConfig()),
+                                interfaces=(Interface(1234.5, dip, azimuth),), layers=(0, 1))
+        [true] = across_the_hole(given, tangent).interfaces
+        normal, _ = interface_plane(true.depth, true.dip, true.azimuth)
+        assert math.degrees(math.acos(min(abs(normal @ tangent), 1.0))) == \
+            pytest.approx(dip, abs=1e-6)
+        assert true.depth == 1234.5 and 0.0 <= true.dip < 90.0
+        [same] = across_the_hole(given, np.array([0.0, 0.0, 1.0])).interfaces
+        assert (same.dip, same.azimuth % 360.0) == (pytest.approx(dip),
+                                                     pytest.approx(azimuth % 360.0))

@@ -1,0 +1,99 @@
+"""A scenario's physics config with a user's overrides (``physics=`` of an env, ``--config``
+of a command): the bit kept at the bottom of its string, the layers and the survey moved
+with the string's length, a randomised scenario's layers turned to cross a curved hole as
+drawn."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from drill_env.physics.config import SimulationConfig, StringConfig, replace
+from drill_env.physics.formation import across_the_hole
+from drill_env.physics.trajectory import Survey, Trajectory
+
+__all__ = ["MAX_LEAD", "with_physics"]
+
+
+def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
+                 drawn: bool = False) -> SimulationConfig:
+    """A scenario's ``config`` with dotted physics ``overrides`` (a user's ``physics=`` or
+    ``--config``), its bit kept at the bottom of its string. ``drawn``: its layers were
+    drawn as they cross the hole (a randomised scenario's, 0-60 deg): in a curved well the
+    overrides set they cross it so at the bit (:func:`~drill_env.physics.formation.
+    across_the_hole`; as true dips some ran parallel to a 75 deg hole, refused).
+
+    A scenario puts the bit face at the bottom of its string (``initial_depth``, a lead
+    above it in the crossing cases), its rock layers where they are relative to the bit
+    and its well's survey to below the bit. When the overrides change the string's length,
+    the bit depth and the layer interfaces move by the same amount, as ``string_length=``
+    would have placed them, and a longer string's survey is extended by it (its last
+    station: the preset wells end in a hold), unless the overrides set ``initial_depth``,
+    the interfaces or the well. Components (``string.components``) replace the scenario's
+    one-section BHA and its stabilizers unless the overrides set those as well.
+    """
+    changed = _overridden(config, overrides)
+    if not drawn or changed.well.vertical or any(
+            key == "formation" or key.startswith("formation.") for key in overrides):
+        return changed
+    well = changed.well
+    bit = changed.initial_depth if changed.initial_depth is not None else changed.string.length
+    _, tangent, _ = Trajectory(Survey.from_stations(well.md, well.inclination,
+                                                    well.azimuth)).at(np.array([bit]))
+    return replace(changed, formation=across_the_hole(changed.formation, tangent[0]))
+
+
+def _overridden(config: SimulationConfig, overrides: Mapping[str, Any]) -> SimulationConfig:
+    """:func:`with_physics` but the layers' turn."""
+    if not overrides:
+        return config
+    if overrides.get("string.components"):
+        # components replace the scenario's one-section BHA and the stabilizers placed on
+        # it (the crossing cases' 120 m of collars): they would clash with the components
+        blank = StringConfig()
+        overrides = {"string.bha": blank.bha, "string.stabilizers": blank.stabilizers,
+                     **overrides}
+    given = tuple(overrides)
+    sets_well = any(key == "well" or key.startswith("well.") for key in given)
+    # the new string's length, before a survey (the scenario's, which may now be short,
+    # or the overrides', which may end above the scenario's bit) is checked
+    probe = config if config.well.vertical else replace(config, well={})
+    changed = replace(probe, **{key: value for key, value in overrides.items()
+                                if not (key == "well" or key.startswith("well."))})
+    shift = changed.string.length - config.string.length
+    if probe is config and not sets_well and (shift == 0.0 or "initial_depth" in given):
+        # nothing to move (the usual case, as at every random reset)
+        return _bit_at_string_end(changed, given)
+    moved: dict[str, Any] = {}
+    if shift != 0.0 and "initial_depth" not in given:
+        if config.initial_depth is not None:
+            moved["initial_depth"] = config.initial_depth + shift
+        if not any(key == "formation" or key.startswith("formation.interfaces")
+                   for key in given):
+            moved["formation.interfaces"] = tuple(
+                replace(i, depth=i.depth + shift) for i in config.formation.interfaces)
+        if not (config.well.vertical or sets_well):
+            moved["well.md"] = (*config.well.md[:-1], config.well.md[-1] + max(shift, 0.0))
+    return _bit_at_string_end(replace(config, **{**moved, **overrides}), given)
+
+
+#: How far above its string's end a bit depth given by hand may lie (m): a crossing
+#: case's lead (``Lead``) at most.
+MAX_LEAD = 100.0
+
+
+def _bit_at_string_end(config: SimulationConfig, given: tuple[str, ...]) -> SimulationConfig:
+    """``config``; a ValueError naming ``initial_depth`` where the overrides set one that
+    leaves more than :data:`MAX_LEAD` m of the string above the wellhead (a 2,000 m string
+    at ``initial_depth: 1500`` ran, its rocks taken at 1,500 m and its wall loads at
+    2,000 m: a new user's walkthrough)."""
+    if "initial_depth" in given and config.initial_depth is not None:
+        above = config.string.length - config.initial_depth
+        if above > MAX_LEAD:
+            raise ValueError(f"initial_depth: {config.initial_depth:g} m leaves {above:g} m of "
+                             f"the {config.string.length:g} m string above the wellhead: the "
+                             "bit hangs at its bottom (leave initial_depth out, or give a depth "
+                             f"within {MAX_LEAD:g} m of the string's length)")
+    return config
