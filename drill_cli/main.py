@@ -216,7 +216,8 @@ RUN_SUMMARY_UNITS = {
     "mean_ssi": "1",
     "mean_stuck_fraction": "1", "mean_whirl_ratio": "1", "mean_radial_ratio": "1",
     "mean_lateral_force": "N", "mean_rop": "m/s", "return": "reward units",
-    "task_return": "reward units", "swing_per_block_rpm": "rpm, per 30 s block"}
+    "task_return": "reward units", "swing_per_block_rpm": "rpm, per 30 s block",
+    "bit_inclination_deg": "deg (0: vertical)"}
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -375,6 +376,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         "start_kick": args.start_kick, "duration_given_s": args.duration,
         "fidelity": base.simulation_config.solver.fidelity,
         "string_length_m": base.simulation_config.string.length, "steps": steps,
+        # the hole at the bit: a --config's well shows in the record of the run
+        "bit_inclination_deg": round(math.degrees(base.sim.bit_inclination), 6),
         "simulated_s": round(float(info.get("episode_time", 0.0)), 6),  # steps of ms
         # a task's policy: DrillString-v0's reward of its episode (as benchmark), and
         # its own task's apart
@@ -401,6 +404,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     returned = f"return {fixed(summary['return'])}" + (
         "" if guest is None else f" (DrillString-v0's reward; its task's {fixed(guest)})")
     named = args.scenario + (f" with {args.config}" if args.config is not None else "")
+    if summary["bit_inclination_deg"] > 0.0:
+        named += f" (hole at {summary['bit_inclination_deg']:.1f} deg at the bit)"
     print(f"{named}: {steps} step{'' if steps == 1 else 's'} "
           f"({summary['simulated_s']:.1f} s) at {ran_at} in "
           f"{summary['wall_s']:.1f} s; {returned}"
@@ -1147,12 +1152,15 @@ def cmd_well(args: argparse.Namespace) -> int:
           f"{math.hypot(end[0, 0], end[0, 1]):.0f} m, inclination at TD "
           f"{math.degrees(trajectory.inclination(trajectory.total_md)[0]):.1f} deg")
     table = json.loads(paths[1].read_text())["torque_drag"]
-    print(f"at TD, off bottom (soft string, string of {whose}): hook load pick-up / rotating "
-          "/ slack-off (kN), rotating wall torque (kN m)")
+    print(f"at TD (the survey's end), off bottom (soft string, string of {whose}): hook load "
+          "pick-up / rotating / slack-off (kN), rotating wall torque (kN m)")
     for mu in frictions:
         row = table[f"mu={mu:g}"]
         print(f"  mu {mu:<4g} {row['pick_up'][-1] / KILO:8.1f} {row['rotating'][-1] / KILO:8.1f} "
               f"{row['slack_off'][-1] / KILO:8.1f}   {row['torque'][-1] / KILO:6.2f}")
+    if any(table[f"mu={mu:g}"]["slack_off"][-1] < 0.0 for mu in frictions):
+        print("  (a negative slack-off: at that friction the string does not slide down under "
+              "its own weight; it must be pushed)")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 

@@ -352,3 +352,17 @@ def test_a_smaller_hole_names_the_default_bit_it_meets():
     said = str(caught.value)
     assert said.startswith("bit.diameter: ") and "default: 8 3/4 in" in said
     assert "set it for this hole" in said
+
+
+def test_a_survey_missing_a_field_names_the_field_missing():
+    """A well without azimuth said "well: md, inclination: one value per survey station":
+    it named the two fields given, not the one left out."""
+    from drill_env.physics.validation import from_dict
+
+    for well, named in (({"md": [0, 300, 800], "inclination": [0, 0, 30]}, "well.azimuth: "),
+                        ({"md": [0, 300, 800]}, "well: inclination, azimuth: "),
+                        ({"md": [0, 300, 800], "inclination": [0, 30], "azimuth": [0] * 3},
+                         "well.inclination: ")):
+        with pytest.raises(ValueError) as caught:
+            from_dict(SimulationConfig, {"well": well})
+        assert str(caught.value).startswith(named), str(caught.value)

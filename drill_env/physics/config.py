@@ -592,8 +592,8 @@ class WellConfig:
         if not any(sizes.values()):
             return
         if len(set(sizes.values())) > 1:
-            given = [k for k, v in sizes.items() if v] or list(sizes)
-            raise ValueError(f"{', '.join(given)}: one value per survey station in each of "
+            short = [k for k, v in sizes.items() if v < max(sizes.values())]  # or missing
+            raise ValueError(f"{', '.join(short)}: one value per survey station in each of "
                              f"md, inclination and azimuth, got {sizes}")
         from drill_env.physics.trajectory import Survey
 

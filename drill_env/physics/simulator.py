@@ -144,27 +144,28 @@ class Simulator:
         self.tor_c = mud_torsional_damping(mesh, cfg.mud.torsional_damping)
 
         # ---- node geometry for wall contact
-        radius = np.empty(n)
-        radius[0] = mesh.contact_radius[0]
-        radius[1:] = mesh.contact_radius  # a node takes the component below it
-        hole_r = cfg.string.hole_diameter / 2
-        self.node_radius = radius
+        above, below = mesh.contact_radius[:-1], mesh.contact_radius[1:]
+        sub = np.array([s.kind == "stabilizer" for s in cfg.string.sections])[mesh.component]
+        # a node between components touches with the larger (a collar's top end below the
+        # pipe), a stabilizer sub at its lower end only (a point contact)
+        self.node_radius = radius = np.concatenate(
+            [above[:1], np.where(sub[1:], above, np.maximum(above, below)), below[-1:]])
         self.node_contact = np.ones(n)
         self.node_contact[: self.lateral_start + 1] = 0.0  # pinned or held straight
         for height in cfg.string.stabilizer_positions:
             k = int(np.argmin(np.abs(mesh.node_depth[-1] - mesh.node_depth - height)))
             if 0 < k < n - 1:
                 radius[k] = cfg.string.stabilizer_diameter / 2
-        self.node_clearance = hole_r - radius
+        self.node_clearance = cfg.string.hole_diameter / 2 - radius
         # nodes without lateral DOFs in a curved hole: soft-string friction (_hole_wob)
         self.soft_nodes = string_friction.soft_string_nodes(
             cfg.solver.lateral, n, self.lateral_start) & (self.hole is not None)
         self.soft_normal = np.zeros(n)
         if cfg.bit_model == "mesoscopic":
             self.node_contact[-1] = 0.0  # the gauge model handles the bit
-        else:
-            self.node_radius[-1] = cfg.bit.gauge_radius
-            self.node_clearance[-1] = hole_r - cfg.bit.gauge_radius
+        else:  # the macroscopic bit touches the wall with its gauge
+            radius[-1] = cfg.bit.gauge_radius
+            self.node_clearance[-1] = cfg.string.hole_diameter / 2 - radius[-1]
 
         # ---- bit and formation
         self.blades = blade_arrays(cfg.bit)
@@ -190,9 +191,8 @@ class Simulator:
         self._compute_compliance()
 
         # ---- state
-        # Lateral state is stored plane-major, (2, 2n): each bending plane is one
-        # contiguous vector for the kernel. ``ul``/``vl``/``al`` are (2n, 2) views of
-        # the same memory (row = DOF, column = plane x/y) for readers and tests.
+        # Lateral state plane-major, (2, 2n): each bending plane one contiguous vector for
+        # the kernel; ``ul``/``vl``/``al``: (2n, 2) views (row DOF, column plane x/y).
         nl = 2 * (n - self.lateral_start)
         self.lat_planes = np.zeros((3, 2, nl))  # displacement, velocity, acceleration
         self._bind_lateral_views()

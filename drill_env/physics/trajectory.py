@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import csv
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,6 +43,35 @@ def tangent(inclination: np.ndarray | float, azimuth: np.ndarray | float) -> np.
     azi = np.asarray(azimuth, dtype=float)
     return np.stack([np.sin(inc) * np.cos(azi), np.sin(inc) * np.sin(azi), np.cos(inc)],
                     axis=-1)
+
+
+#: Dogleg severity (deg per 30 m) beyond which a survey warns: rotating drill pipe is
+#: kept to a few deg/30 m for fatigue (API RP 7G's dogleg limits) and medium-radius
+#: wells build at 8-20 deg/30 m; past it the bending of the hole's curvature, which the
+#: model does not load (docs/model.md section 6), dominates the string's stresses
+#: (E r kappa: 150 MPa in 5 in pipe at 20 deg/30 m).
+MAX_DOGLEG_SEVERITY = 20.0
+
+
+def _warn_of_radians_or_sharp_bends(survey: Survey, inc: np.ndarray, azi: np.ndarray
+                                    ) -> None:
+    """UserWarning for angles that look typed in radians (every inclination within pi and
+    every azimuth within 2 pi, some of each not zero: a build to 75 deg typed as 1.309 ran
+    as a near-vertical well; a well due north has no azimuth to tell) and for a course
+    bent beyond :data:`MAX_DOGLEG_SEVERITY`."""
+    if 0.0 < inc.max() <= math.pi and 0.0 < np.abs(azi).max() <= 2.0 * math.pi:
+        warnings.warn(f"survey: every inclination is at most {inc.max():g} deg and every "
+                      f"azimuth at most {np.abs(azi).max():g} deg: typed in radians? They "
+                      f"are degrees ({inc.max():g} rad = {math.degrees(inc.max()):.0f} deg)",
+                      UserWarning, stacklevel=1)  # once per process, wherever from
+    severity = np.degrees(survey.doglegs()) / np.diff(survey.md) * 30.0
+    k = int(np.argmax(severity))
+    if severity[k] > MAX_DOGLEG_SEVERITY:
+        stress = 2.07e11 * 0.0635 * math.radians(severity[k]) / 30.0 / 1e6  # 5 in steel pipe
+        warnings.warn(f"survey: stations {k} and {k + 1} bend the hole {severity[k]:.0f} "
+                      f"deg/30 m, beyond {MAX_DOGLEG_SEVERITY:g} deg/30 m (a bending stress "
+                      f"of {stress:,.0f} MPa in 5 in pipe): the model does not load that "
+                      "bending (docs/model.md section 6)", UserWarning, stacklevel=1)
 
 
 @dataclass(frozen=True)
@@ -78,6 +108,7 @@ class Survey:
             k = int(np.argmax(dogleg))
             raise ValueError(f"survey: stations {k} and {k + 1} turn the hole back on "
                              "itself (dogleg 180 degrees)")
+        _warn_of_radians_or_sharp_bends(survey, inc, azi)
         return survey
 
     @classmethod

@@ -115,8 +115,33 @@ def test_stabilizer_components_touch_the_wall_at_their_blades():
     sim = Simulator(SimulationConfig(string=cp.realistic_string()))
     blade = cp.STABILIZER_8_3_4 / 2
     hole = sim.config.string.hole_diameter / 2
-    assert np.sum(np.isclose(sim.node_clearance, hole - blade)) >= 5  # five stabilizers
+    assert np.sum(np.isclose(sim.node_clearance, hole - blade)) == 5  # one node each
     assert sim.node_clearance.min() == pytest.approx(hole - blade)
+
+
+def test_a_node_between_two_components_touches_with_the_larger():
+    """The top node of the collars (below the heavy-weight pipe) had the pipe's radius:
+    the collar's end could sink 19 mm into the wall before touching (a review against
+    the paper). Each node between two body components takes the larger body; a
+    stabilizer sub (one element) stays a point contact at its lower node."""
+    config = SimulationConfig(string=cp.realistic_string())
+    sim = Simulator(config)
+    sections = config.string.sections
+    radius = {s.label: s.outer_diameter / 2 for s in sections}
+    kind = [sections[c].kind for c in sim.mesh.component]
+    for k in range(1, len(kind)):  # node k: element k - 1 above, element k below
+        up, down = sections[sim.mesh.component[k - 1]], sections[sim.mesh.component[k]]
+        if up is down:
+            continue
+        if kind[k] == "stabilizer":
+            expected = sim.mesh.contact_radius[k - 1]  # the body above it, as before
+        else:
+            expected = max(sim.mesh.contact_radius[k - 1], sim.mesh.contact_radius[k])
+        assert sim.node_radius[k] == expected, (k, up.label, down.label)
+    collars = [k for k in range(1, len(kind)) if kind[k] == "collar" and
+               kind[k - 1] == "heavy_weight"]
+    assert len(collars) == 1
+    assert sim.node_radius[collars[0]] == pytest.approx(radius["6 1/2 in DC"])
 
 
 def test_the_default_string_carries_its_wob_in_the_bha_with_margin():

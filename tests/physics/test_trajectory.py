@@ -340,3 +340,31 @@ def test_3d_stations_lie_where_the_ratio_factor_formulas_put_them(seed: int) -> 
     leaning = inc > 1.0  # the azimuth of a vertical tangent is not defined
     heading = np.arctan2(tangent[leaning, 1], tangent[leaning, 0])
     np.testing.assert_allclose(np.angle(np.exp(1j * (heading - a[leaning]))), 0.0, atol=1e-9)
+
+
+def test_a_survey_typed_in_radians_or_bent_past_pipe_limits_warns() -> None:
+    """Radians (a build to 75 deg typed 1.309, azimuth 45 deg typed 0.785) ran as a
+    near-vertical well without a word; a course of 225 deg/30 m (a typo'd station depth)
+    ran with plausible numbers although its bending stress, which the model does not
+    load, is past steel's yield. Both warn; the preset profiles (2-4 deg/30 m) do not."""
+    import warnings
+
+    from drill_env.well import WELLS
+
+    def said(md, inc, azi) -> list[str]:
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            Survey.from_stations(md, inc, azi)
+        return [str(w.message) for w in seen]
+
+    [radians] = said([0, 300, 800, 1400], [0, 0, 1.309, 1.309], [0.785] * 4)
+    assert "typed in radians?" in radians and "1.309 rad = 75 deg" in radians
+    [sharp] = said([0, 300, 310, 1400], [0, 0, 75, 75], [45] * 4)
+    # 75 deg over 10 m: 225 deg/30 m; E r kappa = 207 GPa x 63.5 mm x 0.131 /m
+    assert "stations 1 and 2 bend the hole 225 deg/30 m" in sharp and "1,721 MPa" in sharp
+    assert said([0, 300, 800, 1400], [0, 0, 75, 75], [45] * 4) == []
+    assert said([0, 500, 1000], [0, 1.0, 2.5], [0, 120, 130]) == []  # degrees, near vertical
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for profile in WELLS.values():
+            profile(3000.0)
