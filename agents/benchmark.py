@@ -437,18 +437,31 @@ def starting_at(scenario: str, set_points: Mapping[str, float],
     ``scenario`` takes as parameters of its starting point, as env keywords: the scenario
     checks its pipe against buckling at the WOB it starts at, which must be the one run
     (on a horizontal well its own 100 kN buckled the pipe and refused ``--wob 60``). A WOB
-    that buckles the pipe itself (under the ``physics`` overrides) stays out: the run
-    and the benchmark note it and drill it, from the scenario's own start."""
+    that buckles the pipe itself (under the ``physics`` overrides) stays out where the
+    scenario's own start does not: the run and the benchmark note it and drill it from
+    there; where both buckle, the scenario refuses the WOB given, by its value."""
     from drill_env.physics.statics import pipe_buckling
     from drill_env.scenarios import make_scenario, scenario_parameters, with_physics
 
     params = scenario_parameters(scenario)
     start = {key: value for key, value in set_points.items() if key in params}
     if "weight_on_bit" in start:
-        config = with_physics(make_scenario(scenario).config, physics)
-        if config.solver.lateral and pipe_buckling(config, start["weight_on_bit"]):
+        own = make_scenario(scenario)
+        config = with_physics(own.config, physics)
+        if config.solver.lateral and pipe_buckling(config, start["weight_on_bit"]) \
+                and not pipe_buckling(config, own.weight_on_bit):
             del start["weight_on_bit"]
     return start
+
+
+def env_ranges(env_id: str, kwargs: Mapping[str, Any]) -> Any:
+    """The set-point ranges ``gymnasium.make(env_id, **kwargs)`` will have (``rpm_range``
+    rpm, ``weight_on_bit_range`` N; a task's own), for :func:`set_point_outside`."""
+    from types import SimpleNamespace
+
+    values = {**_env_defaults(env_id), **dict(kwargs.get("config") or {}), **kwargs}
+    return SimpleNamespace(rpm_range=tuple(values["rpm_range"]),
+                           weight_on_bit_range=tuple(values["weight_on_bit_range"]))
 
 
 def scenario_set_points(scenario: str, seed: int) -> dict[str, float]:

@@ -225,13 +225,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     import drill_env  # noqa: F401  (registers the ids)
     from agents.benchmark import (
+        env_ranges,
         guest_env_kwargs,
         scenario_set_points,
         set_point_outside,
         starting_at,
     )
     from agents.classical import ConstantSetPoints, drive_loop_name
-    from drill_env.env_config import EnvConfig
 
     args.controller = canonical_controller(args.controller)
     controller = typed_controller(args.controller)
@@ -258,7 +258,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     # range (else the check below names the flag)
     given = {"surface_speed": None if args.rpm is None else args.rpm * RPM,
              "weight_on_bit": None if args.wob is None else args.wob * KILO}
-    if not set_point_outside(given["surface_speed"], given["weight_on_bit"], EnvConfig()):
+    if not set_point_outside(given["surface_speed"], given["weight_on_bit"],
+                             env_ranges(controller.env_id, kwargs)):
         kwargs.update(starting_at(args.scenario,
                                   {k: v for k, v in given.items() if v is not None}, physics))
     env: Any = gym.make(controller.env_id, **kwargs)

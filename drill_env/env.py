@@ -253,8 +253,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._wob_range = tuple(float(v) for v in cfg.weight_on_bit_range)
 
         # Build (and validate) the physics now; randomised scenarios redraw at reset.
+        check_draws(scenario, scen_over, flatten(physics or {}))  # before the first draw
         self.scenario: Scenario = self._build_scenario(np.random.default_rng(0))
-        check_draws(scenario, scen_over, flatten(physics or {}))
         if not self.randomised:
             self._check_range(self.scenario.surface_speed, self.scenario.weight_on_bit, "")
         self._set_simulator(Simulator(self.scenario.config))

@@ -35,8 +35,8 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
     one-section BHA and its stabilizers unless the overrides set those as well.
     """
     changed = _overridden(config, overrides)
-    if not drawn or changed.well.vertical or any(
-            key == "formation" or key.startswith("formation.") for key in overrides):
+    if not drawn or changed.well.vertical or any(  # the layers given: the user's, true
+            key == "formation" or key.startswith("formation.interfaces") for key in overrides):
         return changed
     well = changed.well
     bit = changed.initial_depth if changed.initial_depth is not None else changed.string.length

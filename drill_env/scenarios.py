@@ -546,19 +546,27 @@ SCENARIOS: dict[str, Callable[..., Scenario]] = {
 RANDOMISED = frozenset({"random"})
 
 
+#: Spacing (m) of the string lengths at which a curved well's draws are checked: the
+#: lengths at which a build's pipe buckles can form a window ~15 m wide.
+DRAW_CHECK_STEP = 5.0
+_CHECKED: set[str] = set()  # the (scenario, params, overrides) found sound in this process
+
+
 def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, Any]) -> None:
     """Refuse the physics ``overrides`` (dotted) under which a randomised scenario drawn
     with ``params`` would fail at some later reset, not only at the first: its starting
     WOB is drawn up to the top of its range and must not buckle the pipe, and in a curved
     well the survey must reach the longest string drawn and the pipe's place in the hole
-    moves with the drawn length (checked along the range; in a vertical hole the pipe's
-    compression is set by what every draw shares: BHA, heavy-weight pipe, bit, mud)."""
-    if name not in RANDOMISED or not overrides:
+    moves with the drawn length (checked every :data:`DRAW_CHECK_STEP` along the range;
+    in a vertical hole the pipe's compression is set by what every draw shares: BHA,
+    heavy-weight pipe, bit, mud). Each set of arguments is checked once per process."""
+    key = repr((name, sorted(params.items()), sorted(overrides.items())))
+    if name not in RANDOMISED or not overrides or key in _CHECKED:
         return
     defaults = inspect.signature(SCENARIOS[name]).parameters
     low, high = params.get("string_length_range", defaults["string_length_range"].default)
     top = params.get("weight_on_bit_range", defaults["weight_on_bit_range"].default)[1]
-    for length in np.linspace(high, low, 7):
+    for length in (*np.arange(high, low, -DRAW_CHECK_STEP), low):
         draw = make_scenario(name, np.random.default_rng(0),
                              **{**params, "string_length_range": (length, length)})
         try:
@@ -582,7 +590,8 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
                    "pipe lies in the hole), ")
                 + "lighten the mud or make the BHA heavier (string.components)")
         if config.well.vertical:
-            return
+            break
+    _CHECKED.add(key)
 
 
 def check_one_string_length(params: Mapping[str, Any], overrides: Collection[str]) -> None:

@@ -188,6 +188,15 @@ def test_a_wob_given_is_the_one_the_scenario_checks_for_buckling(tmp_path, capsy
                  "--config", str(well), "--wob", "60", "--seeds", "1", "--duration", "1",
                  "--warmup", "0.5", "--workers", "1", "--out", str(out / "b")]) == 0
     assert "error" not in capsys.readouterr().err
+    # 90 kN buckles it too: refused by the value typed (it named the scenario's 100 kN)
+    assert main(["run", "--config", str(well), "--wob", "90", "--duration", "0.2",
+                 "--out", str(out)]) == 2
+    assert "weight_on_bit: 90 kN compresses the 5 in DP" in capsys.readouterr().err
+    # a task policy's own range names the flag (DrillOptimise-v0: 40-200 rpm)
+    with pytest.raises(SystemExit):
+        main(["run", "--controller", "learned:agents/trained/drilling", "--rpm", "30",
+              "--duration", "2", "--out", str(out)])
+    assert "--rpm: 30 rpm is outside the env's range 40-200 rpm" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("command", [["run", "--duration", "0.2"], ["modes"],

@@ -105,7 +105,9 @@ def across_the_hole(formation: FormationConfig, tangent: np.ndarray) -> Formatio
     if np.linalg.norm(across) < 1e-12:  # vertical: e1 north
         across = np.array([1.0, 0.0, 0.0])
     e1 = across / np.linalg.norm(across)
-    frame = np.stack([e1, np.cross(t, e1), t])  # rows e1, e2, t as formation_arrays's
+    # rows e1 (the low side), e2, t: not the simulator's bit frame (carried down from
+    # the surface), but the same tangent, so the dip to the hole is kept
+    frame = np.stack([e1, np.cross(t, e1), t])
     interfaces = []
     for interface in formation.interfaces:
         normal, _ = interface_plane(interface.depth, interface.dip, interface.azimuth)

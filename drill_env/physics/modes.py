@@ -166,7 +166,7 @@ def _lateral_supports(config: SimulationConfig, supports: LateralSupports, top_n
         tight = sim.node_clearance <= (sim.config.string.hole_diameter
                                        - sim.config.string.stabilizer_diameter) / 2 + 1e-9
         tight &= bool(sim.config.string.stabilizer_positions)
-        # a node takes the wall radius of the element above it (Simulator): its component
+        # a stabilizer sub touches the wall at its lower node (Simulator): its component
         kinds = np.array([section.kind for section in sim.config.string.sections])
         tight[1:] |= kinds[sim.mesh.component] == "stabilizer"
         stabilized = np.flatnonzero(tight[top_node + 1:-1]) + top_node + 1

@@ -294,14 +294,21 @@ def test_a_curved_well_too_short_or_buckling_for_the_random_draws_is_refused_at_
     made, naming what to change (a directional driller's walkthrough)."""
     import gymnasium as gym
 
-    short = {"well": {**BUILD_AND_HOLD_75["well"], "md": [0.0, 300.0, 800.0, 1400.0]}}
-    with pytest.raises(ValueError, match=r"physics: well.md: the survey ends at 1400.0 m.*"
-                                         r"strings of 900-1600 m \(string_length_range\)"):
-        gym.make("DrillStickSlip-v0", physics=short)
+    for end in (1400.0, 1300.0):  # 1300: short also of the first draw (1346 m), built first
+        short = {"well": {**BUILD_AND_HOLD_75["well"], "md": [0.0, 300.0, 800.0, end]}}
+        with pytest.raises(ValueError, match=rf"physics: well.md: the survey ends at {end} m.*"
+                                             r"strings of 900-1600 m \(string_length_range\)"):
+            gym.make("DrillStickSlip-v0", physics=short)
     with pytest.raises(ValueError, match=r"drawn up to 130 kN.* of a \d+ m string by .* at "
                                          r"\d+ m measured depth, [\d.]+ deg inclination.*"
                                          r"narrow string_length_range"):
         gym.make("DrillStickSlip-v0", physics=BUILD_AND_HOLD_75)
+    # a build low in the hole buckles the pipe over a window of drawn lengths ~15 m wide
+    # (1135-1150 m) besides the long strings: found although the range ends below them
+    late = {"well.md": [0.0, 1000.0, 1300.0, 2000.0], "well.inclination": [0, 0, 90, 90],
+            "well.azimuth": [0, 0, 0, 0]}
+    with pytest.raises(ValueError, match=r"of a 11[345]\d m string"):
+        scenarios.check_draws("random", {"string_length_range": (1000.0, 1260.0)}, late)
 
 
 def test_the_random_layers_cross_a_curved_hole_at_their_drawn_dip():

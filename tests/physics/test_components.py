@@ -126,22 +126,16 @@ def test_a_node_between_two_components_touches_with_the_larger():
     stabilizer sub (one element) stays a point contact at its lower node."""
     config = SimulationConfig(string=cp.realistic_string())
     sim = Simulator(config)
-    sections = config.string.sections
-    radius = {s.label: s.outer_diameter / 2 for s in sections}
-    kind = [sections[c].kind for c in sim.mesh.component]
-    for k in range(1, len(kind)):  # node k: element k - 1 above, element k below
-        up, down = sections[sim.mesh.component[k - 1]], sections[sim.mesh.component[k]]
-        if up is down:
-            continue
-        if kind[k] == "stabilizer":
-            expected = sim.mesh.contact_radius[k - 1]  # the body above it, as before
-        else:
-            expected = max(sim.mesh.contact_radius[k - 1], sim.mesh.contact_radius[k])
-        assert sim.node_radius[k] == expected, (k, up.label, down.label)
-    collars = [k for k in range(1, len(kind)) if kind[k] == "collar" and
-               kind[k - 1] == "heavy_weight"]
-    assert len(collars) == 1
-    assert sim.node_radius[collars[0]] == pytest.approx(radius["6 1/2 in DC"])
+    hwdp, collar = (next(s for s in config.string.sections if s.kind == kind)
+                    for kind in ("heavy_weight", "collar"))
+    below_pipe = config.string.length - (config.string.drill_pipe.length + hwdp.length)
+    depth = sim.mesh.node_depth  # from the top
+    top_collar = int(np.argmin(np.abs(depth - (config.string.length - below_pipe))))
+    assert sim.node_radius[top_collar] == pytest.approx(collar.outer_diameter / 2)
+    assert sim.node_radius[top_collar - 1] == pytest.approx(0.127 / 2)  # 5 in HWDP body
+    # every stabilizer a point contact: one node at the blades' radius each (five)
+    blades = np.isclose(sim.node_radius, cp.STABILIZER_8_3_4 / 2)
+    assert blades.sum() == 5 and not np.any(blades[1:] & blades[:-1])
 
 
 def test_the_default_string_carries_its_wob_in_the_bha_with_margin():

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from drill_env.physics import bit, bit_reference, formation
-from drill_env.physics.config import FormationConfig, Interface, RockConfig
+from drill_env.physics.config import FormationConfig, Interface, RockConfig, replace
 
 HARD = RockConfig(name="hard", mu_min=0.5, mu_max=0.9, st1=3.0, st2=0.0)
 SOFT = RockConfig(name="soft", mu_min=0.3, mu_max=0.45, st1=5.0, st2=0.005)
@@ -267,6 +267,14 @@ def test_an_interface_across_a_hole_makes_its_dip_with_the_hole_axis() -> None:
         assert math.degrees(math.acos(min(abs(normal @ tangent), 1.0))) == \
             pytest.approx(dip, abs=1e-6)
         assert true.depth == 1234.5 and 0.0 <= true.dip < 90.0
+        # azimuth from the low side: at relative azimuth 0 the normal leans away from it
+        low = np.array([0.0, 0.0, 1.0]) - tangent[2] * tangent
+        low /= np.linalg.norm(low)
+        [zero] = across_the_hole(replace(given, interfaces=(Interface(0.0, dip, 0.0),)),
+                                 tangent).interfaces
+        lean, _ = interface_plane(0.0, zero.dip, zero.azimuth)
+        expected = -math.sin(math.radians(dip)) * low + math.cos(math.radians(dip)) * tangent
+        assert np.allclose(lean * np.sign(lean @ expected), expected, atol=1e-9)
         [same] = across_the_hole(given, np.array([0.0, 0.0, 1.0])).interfaces
         assert (same.dip, same.azimuth % 360.0) == (pytest.approx(dip),
                                                      pytest.approx(azimuth % 360.0))
