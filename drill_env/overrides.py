@@ -21,9 +21,10 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
                  drawn: bool = False) -> SimulationConfig:
     """A scenario's ``config`` with dotted physics ``overrides`` (a user's ``physics=`` or
     ``--config``), its bit kept at the bottom of its string. ``drawn``: its layers were
-    drawn as they cross the hole (a randomised scenario's, 0-60 deg): in a curved well the
-    overrides set they cross it so at the bit (:func:`~drill_env.physics.formation.
-    across_the_hole`; as true dips some ran parallel to a 75 deg hole, refused).
+    drawn as they cross the hole (a randomised scenario's, 0-60 deg): in a curved well
+    the overrides set, they cross it so at the bit
+    (:func:`~drill_env.physics.formation.across_the_hole`; as true dips some ran
+    parallel to a 75 deg hole and were refused).
 
     A scenario puts the bit face at the bottom of its string (``initial_depth``, a lead
     above it in the crossing cases), its rock layers where they are relative to the bit
