@@ -943,7 +943,9 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None,
               f"level {settings.fidelity}"
               + ("; config overrides of " + ", ".join(sorted({key.split(".")[0] for key in
                                                                settings.physics}))
-                 + " (--config) merged into every scenario" if settings.physics else "")
+                 + " (--config) merged into every scenario"
+                 + (", over the task settings' own" if env_id else "")
+                 if settings.physics else "")
               + ". Means over seeds, +- half the range. Rows: benchmark.csv.")
     if env_id is None:
         at = given_set_points(settings) or "each scenario's set points"
@@ -967,8 +969,9 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None,
     return (f"{settings.duration:g} s episodes of {env_id}: its own start ({startup}) and "
             f"targets, drawn from each seed (and changed during the episode where the task "
             f"does), the same for every controller of a seed"
-            + (f"; every controller under the task settings the policies were trained "
-               f"with ({trained})" if trained else "") + f"; {window}")
+            + (f"; every controller under these task settings (the learned policies' "
+               f"training settings, --string-lengths): {trained}" if trained else "")
+            + f"; {window}")
 
 
 def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequence[str],

@@ -529,6 +529,17 @@ def buckling_note(load: str, component: str, buckled: Any) -> str:
             "'Axial load and buckling')")
 
 
+def length_range(text: str) -> tuple[float, float]:
+    """``"1300,1600"``: a range of string lengths in metres."""
+    try:
+        low, high = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"two lengths in m, LO,HI, got {text!r}") from None
+    if not (math.isfinite(low) and math.isfinite(high) and 0.0 < low <= high):
+        raise argparse.ArgumentTypeError(f"LO,HI in m with 0 < LO <= HI, got {text!r}")
+    return low, high
+
+
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from agents.benchmark import BenchmarkSettings, labels, run_benchmark
     from agents.registry import parse_controllers
@@ -574,12 +585,18 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             f"({args.duration:g} s)" + ("; give a shorter --warmup" if whose else ""))
     check_constant_set_points(controllers, env_id)
     set_points = benchmark_set_points(args, env_id)
+    if args.string_lengths is not None and env_id is None:
+        raise argparse.ArgumentTypeError("--string-lengths: the range a task's random "
+                                         "scenario draws; give --task with it")
+    lengths = {} if args.string_lengths is None else {
+        "string_length_range": args.string_lengths}
     # a task benchmark runs at the level the task trains and evaluates on
     fidelity: Any = args.fidelity or ("fast" if env_id else "full")  # argparse checked it
     try:
         settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
                                      start_kick=args.start_kick, fidelity=fidelity,
                                      physics=checked_overrides(args.config, scenarios),
+                                     env_kwargs=lengths,
                                      surface_speed=set_points.get("surface_speed"),
                                      weight_on_bit=set_points.get("weight_on_bit"))
     except ValueError as err:  # a field of the --config file the benchmark cannot take
@@ -1299,6 +1316,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--wob", type=kilonewtons, default=None,
                    help="weight on bit of every episode in kN (default: each scenario's; "
                         "not with --task)")
+    p.add_argument("--string-lengths", type=length_range, default=None, metavar="LO,HI",
+                   help="with --task: the string lengths the task's random scenario draws, "
+                        "in m (default 900,1600; a curved well of --config may need a "
+                        "narrower range, docs/tasks.md)")
     p.add_argument("--seeds", type=integer(1), default=3, help="seeds per pair")
     p.add_argument("--seed-start", type=integer(0), default=0,
                    help="first seed (the held-out evaluation seeds start at 1000000)")

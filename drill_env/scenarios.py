@@ -566,32 +566,50 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
     defaults = inspect.signature(SCENARIOS[name]).parameters
     low, high = params.get("string_length_range", defaults["string_length_range"].default)
     top = params.get("weight_on_bit_range", defaults["weight_on_bit_range"].default)[1]
+    buckling: list[tuple[float, Any]] = []  # (length, the first component) that buckle
     for length in (*np.arange(high, low, -DRAW_CHECK_STEP), low):
         draw = make_scenario(name, np.random.default_rng(0),
                              **{**params, "string_length_range": (length, length)})
         try:
             config = with_physics(draw.config, overrides, drawn=True)
         except ValueError as err:
-            if not str(err).startswith("well.md"):
+            if "the survey ends at" not in str(err):
                 raise
             raise ValueError(f"physics: {err}: the {name} scenario draws strings of "
                              f"{low:g}-{high:g} m (string_length_range); extend the survey "
                              "or narrow the range") from None
         buckled = pipe_buckling(config, top) if config.solver.lateral else []
         if buckled:
-            b = buckled[0]
-            raise ValueError(
-                f"physics: with {', '.join(sorted(overrides))} the {name} scenario's "
-                f"starting WOB, drawn up to {top / 1e3:.0f} kN at each reset, would "
-                f"compress the {b.component} of a {length:.0f} m string by "
-                f"{b.compression / 1e3:.1f} kN {b.place}, beyond its buckling load "
-                f"{b.buckling_load / 1e3:.1f} kN: "
-                + ("" if config.well.vertical else "narrow string_length_range (where the "
-                   "pipe lies in the hole), ")
-                + "lighten the mud or make the BHA heavier (string.components)")
+            buckling.append((float(length), buckled[0]))
         if config.well.vertical:
             break
+    if buckling:
+        length, b = buckling[0]
+        spans = _spans(sorted(at for at, _ in buckling), DRAW_CHECK_STEP)
+        given = ", ".join(k for k in sorted(overrides) if not k.startswith("top_drive."))
+        raise ValueError(
+            f"physics: with {given} the {name} scenario's starting "
+            f"WOB, drawn up to {top / 1e3:.0f} kN at each reset, would compress the "
+            f"{b.component} of a {length:.0f} m string by {b.compression / 1e3:.1f} kN "
+            f"{b.place}, beyond its buckling load {b.buckling_load / 1e3:.1f} kN: "
+            + ("" if config.well.vertical else
+               f"strings of {spans} m buckle (checked every {DRAW_CHECK_STEP:g} m): draw "
+               "others (string_length_range=(lo, hi) in gym.make, --string-lengths in "
+               "drill-env benchmark --task), ")
+            + "lighten the mud or make the BHA heavier (string.components)")
     _CHECKED.add(key)
+
+
+def _spans(lengths: list[float], step: float) -> str:
+    """"900-1110, 1135-1150": the runs of ``lengths`` (sorted) no more than ``step``
+    apart."""
+    runs = [[lengths[0], lengths[0]]]
+    for at in lengths[1:]:
+        if at - runs[-1][1] <= step + 1e-9:
+            runs[-1][1] = at
+        else:
+            runs.append([at, at])
+    return ", ".join(f"{a:.0f}" if a == b else f"{a:.0f}-{b:.0f}" for a, b in runs)
 
 
 def check_one_string_length(params: Mapping[str, Any], overrides: Collection[str]) -> None:

@@ -923,7 +923,7 @@ def test_a_task_benchmark_runs_every_controller_under_the_policys_task_settings(
     rows = bm.run_benchmark([trained, "stiff"], ["random"], [0], tmp_path / "out", SHORT,
                             progress=False, env_id="DrillStickSlip-v0")
     assert [r["episode_return"] for r in rows] == [0.0, 0.0]
-    assert "under the task settings the policies were trained with" in (
+    assert "under these task settings (the learned policies' training settings" in (
         tmp_path / "out" / "benchmark.md").read_text()
     with pytest.raises(ValueError, match="trained on different DrillStickSlip-v0 settings"):
         bm.run_benchmark([trained, "learned", "stiff"], ["random"], [0], tmp_path / "x",

@@ -1080,3 +1080,27 @@ def test_evaluate_says_which_model_it_scores(tmp_path):
     assert which_model(tmp_path, tmp_path / "best_model.zip").startswith("the best model")
     checkpoint = tmp_path / "checkpoints" / "model_5000_steps.zip"
     assert which_model(tmp_path, checkpoint).startswith("the last checkpoint")
+
+
+def test_a_task_benchmark_on_a_curved_well_draws_the_lengths_given(tmp_path, capsys):
+    """On a 75 deg build the task's default strings (900-1600 m) buckle the pipe for
+    900-1110 m; `benchmark --task` had no way to draw others (a researcher's walkthrough:
+    the classical controllers alone could not be benchmarked on the docs' example well).
+    The refusal names the lengths that buckle and the flag."""
+    well = tmp_path / "well75.yaml"
+    well.write_text("well: {md: [0, 300, 800, 2000], inclination: [0, 0, 75, 75], "
+                    "azimuth: [0, 0, 90, 90]}\n")
+    args = ["benchmark", "--task", "stick_slip", "--controllers", "stiff", "--config",
+            str(well), "--seeds", "1", "--duration", "1", "--warmup", "0.5", "--workers",
+            "1", "--out", str(tmp_path / "b")]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "strings of 900-1110 m buckle" in err and "--string-lengths" in err
+    assert "top_drive" not in err  # the benchmark's own settings are not the user's
+    assert main([*args, "--string-lengths", "1300,1600"]) == 0
+    md = (tmp_path / "b" / "benchmark.md").read_text()
+    assert "string_length_range (1300.0, 1600.0)" in md
+    with pytest.raises(SystemExit):  # a scenario benchmark draws no lengths
+        main(["benchmark", "--string-lengths", "1300,1600", "--out", str(tmp_path / "c")])
+    assert "--string-lengths: the range a task's random scenario draws" in \
+        capsys.readouterr().err

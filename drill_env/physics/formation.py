@@ -140,10 +140,14 @@ def formation_arrays(cfg: FormationConfig, bit_diameter: float = math.inf,
             continue
         local = bit_frame @ normals[k]
         if abs(local[2]) < MIN_RELATIVE_COSINE:
+            hole = bit_frame[2]  # the tangent: north, east, down
+            heading = math.degrees(math.atan2(hole[1], hole[0])) % 360.0
             raise ConfigError(
                 f"formation.interfaces[{k}]: the plane (dip {interface.dip:g} deg, azimuth "
                 f"{interface.azimuth:g} deg) is nearly parallel to the hole at the bit "
-                f"({math.degrees(math.acos(abs(local[2]))):.1f} deg from its normal)")
+                f"({math.degrees(math.acos(abs(local[2]))):.1f} deg from its normal; the "
+                f"hole there: inclination {math.degrees(math.acos(hole[2])):.1f} deg, "
+                f"azimuth {heading:.1f} deg): give the plane another dip or azimuth")
         # "below" an interface is further along the hole
         normals[k] = local if local[2] > 0.0 else -local
         offsets[k] = interface.depth * abs(local[2])

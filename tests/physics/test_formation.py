@@ -278,3 +278,20 @@ def test_an_interface_across_a_hole_makes_its_dip_with_the_hole_axis() -> None:
         [same] = across_the_hole(given, np.array([0.0, 0.0, 1.0])).interfaces
         assert (same.dip, same.azimuth % 360.0) == (pytest.approx(dip),
                                                      pytest.approx(azimuth % 360.0))
+
+
+def test_a_plane_parallel_to_a_curved_hole_is_refused_with_the_hole_s_direction() -> None:
+    """A bed dipping 15 deg east along a 75 deg hole drilled east lies along the hole:
+    the refusal said so without a remedy; it names the hole's direction at the bit."""
+    from drill_env.physics.config import SimulationConfig
+    from drill_env.physics.simulator import Simulator
+
+    config = replace(SimulationConfig(), **{
+        "well": {"md": (0.0, 300.0, 800.0, 1500.0), "inclination": (0.0, 0.0, 75.0, 75.0),
+                 "azimuth": (0.0, 0.0, 90.0, 90.0)},
+        "formation": {"rocks": [{}, {}], "interfaces": [{"depth": 1000.0, "dip": 15.0,
+                                                         "azimuth": 90.0}],
+                      "layers": [0, 1]}})
+    with pytest.raises(ValueError, match=r"inclination 75.0 deg, azimuth 90.0 deg\): give "
+                                         r"the plane another dip or azimuth"):
+        Simulator(config)
