@@ -1,6 +1,7 @@
 # Two entry points (see README): `make demo` and `make test`.
-# Each creates .venv and installs what it needs; torch is pinned to the CPU build
-# that lies on these machines' disk before anything can pull a CUDA build.
+# Each creates .venv and installs what it needs; torch is pinned first, to the CPU build
+# that lies on these machines' disk (pip's find-links), before anything can pull a CUDA
+# build. Elsewhere add --index-url https://download.pytorch.org/whl/cpu to its line.
 PY := .venv/bin/python
 PIP := .venv/bin/pip
 

@@ -109,6 +109,7 @@ def test_roundtrip_series_equal_info(tmp_path: Path) -> None:
     assert rec.episode["drill_env_version"] == drill_env.__version__
     assert rec.episode["drill_env_sources"] == source_digest("drill_env")
     assert rec.episode["state"] == "truncated (time limit)"
+    assert rec.episode["controller"] == ""  # none given (rerun drops the empty string)
 
     t = np.array([i["time"] for i in infos])
     # info is SI; each plot shows the unit its name says (not the writer's own table)

@@ -259,5 +259,7 @@ def read_recording(path: str | os.PathLike) -> RecordingContents:
         scalars[entity] = (tt[order], vv[order])
     for lines in logs.values():
         lines.sort(key=lambda e: e[0])
+    if episode:  # rerun drops the empty string written for "no controller": as written
+        episode["controller"] = episode.get("controller") or ""
     return RecordingContents(entry.application_id, entry.recording_id, entities, scalars,
                              EntityDict(logs), len(reader.blueprints()), episode)
