@@ -194,10 +194,12 @@ class Scenario:
                 f"weight_on_bit: {self.weight_on_bit / 1e3:.0f} kN compresses the "
                 f"{b.component} by {b.compression / 1e3:.1f} kN {b.place}, beyond its "
                 f"buckling load {b.buckling_load / 1e3:.1f} kN there (neutral point "
-                f"{self.neutral_point:.0f} m above the bit): lower the WOB (--wob, or "
-                "weight_on_bit= in Python) or, in a near-vertical hole, use a heavier BHA "
-                "(string.components); to study the buckled string on purpose, build the "
-                "Scenario in Python with allow_pipe_buckling=True")
+                f"{self.neutral_point:.0f} m above the bit): "
+                + ("lower the WOB (--wob, or weight_on_bit= in Python)" if self.name not in
+                   RANDOMISED else "draw other string lengths (string_length_range=)")
+                + " or, in a near-vertical hole, use a heavier BHA (string.components); to "
+                "study the buckled string on purpose, build the Scenario in Python with "
+                "allow_pipe_buckling=True")
 
     @property
     def neutral_point(self) -> float:
