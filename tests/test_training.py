@@ -105,10 +105,24 @@ def test_evaluate_runs_the_policy_through_the_benchmark(run, tmp_path, capsys):
     # the report names what it evaluated
     assert (tmp_path / "benchmark.md").read_text().startswith(
         f"# Evaluation of {folder.name} ({kept}, ppo on task stick_slip), held-out seeds "
-        "1000000-1000001")
+        "1000000-1000001, physics level fast\n")  # no physics of its own: none named
+    assert comparison.startswith(f"# Evaluation of {folder.name} (")
     # same targets for every controller of a seed
     for seed in ("1000000", "1000001"):
         assert len({r["target_rpm"] for r in rows if r["seed"] == seed}) == 1
+
+
+def test_an_evaluation_names_the_physics_its_run_trained_on():
+    """A run trained on a curved well (and a heavier mud) was evaluated there, as it must
+    be, but comparison.md and the pictures read as if on the random scenario's vertical
+    wells (an RL researcher's walkthrough)."""
+    from training.evaluate import evaluation_heading
+
+    trained = {"fidelity": "full", "physics": {"well": {"md": [0, 300]},
+                                               "mud.density": 1300.0}}
+    assert evaluation_heading("curved", "model.zip", "sac", "stick_slip", [7, 9], trained) \
+        == ("Evaluation of curved (model.zip, sac on task stick_slip), held-out seeds 7-9, "
+            "physics level full, the run's own mud, well")
 
 
 def test_resume_continues_from_the_last_checkpoint(run, tmp_path):

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -167,6 +167,19 @@ def comparison_text(comparison: list[dict[str, Any]], policy_return: float) -> s
     return "\n".join(lines) + "\n"
 
 
+def evaluation_heading(run: str, model: str, algo: str, task: str, seeds: Sequence[int],
+                       trained: Mapping[str, Any]) -> str:
+    """The title of an evaluation's benchmark.md, comparison.md and pictures: the run and
+    what its episodes ran on (physics level, the physics sections the run trained with:
+    a run trained on a curved well read as if on the random scenario's vertical ones)."""
+    from drill_env.physics.config import flatten
+
+    changed = sorted({key.split(".")[0] for key in flatten(trained.get("physics") or {})})
+    return (f"Evaluation of {run} ({model}, {algo} on task {task}), held-out seeds "
+            f"{seeds[0]}-{seeds[-1]}, physics level {trained.get('fidelity', 'fast')}"
+            + (f", the run's own {', '.join(changed)}" if changed else ""))
+
+
 def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | None = None,
                  out: Path | None = None, controllers: tuple[str, ...] = CLASSICAL + TRIVIAL,
                  progress: bool = True, ray_address: str | None = None
@@ -199,8 +212,8 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     from agents.learned import policy_files
 
     held_out = list(EVALUATION_SEEDS[:seeds])
-    heading = (f"Evaluation of {Path(run).name} ({policy_files(run)[0].name}, {config['algo']} "
-               f"on task {task}), held-out seeds {held_out[0]}-{held_out[-1]}")
+    heading = evaluation_heading(Path(run).name, policy_files(run)[0].name, config["algo"],
+                                 task, held_out, trained)
     rows = run_benchmark(names, ["random"], held_out, out, settings, workers=workers,
                          progress=progress, env_id=TASKS[task], ray_address=ray_address,
                          heading=heading)
