@@ -12,7 +12,7 @@ import numpy as np
 
 from drill_env.physics.config import SimulationConfig, StringConfig, replace
 from drill_env.physics.formation import across_the_hole
-from drill_env.physics.trajectory import Survey, Trajectory
+from drill_env.physics.trajectory import Survey, Trajectory, bit_depth
 
 __all__ = ["MAX_LEAD", "with_physics"]
 
@@ -36,14 +36,18 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
     one-section BHA and its stabilizers unless the overrides set those as well.
     """
     changed = _overridden(config, overrides)
-    if not drawn or changed.well.vertical or any(  # the layers given: the user's, true
-            key == "formation" or key.startswith("formation.interfaces") for key in overrides):
+    if not drawn or changed.well.vertical or _sets_layers(overrides):  # the user's: true
         return changed
     well = changed.well
-    bit = changed.initial_depth if changed.initial_depth is not None else changed.string.length
     _, tangent, _ = Trajectory(Survey.from_stations(well.md, well.inclination,
-                                                    well.azimuth)).at(np.array([bit]))
+                                                    well.azimuth)).at(np.array([bit_depth(changed)]))
     return replace(changed, formation=across_the_hole(changed.formation, tangent[0]))
+
+
+def _sets_layers(keys: Any) -> bool:
+    """Whether the override ``keys`` set the formation's interfaces (the whole formation
+    or its ``interfaces``)."""
+    return any(key == "formation" or key.startswith("formation.interfaces") for key in keys)
 
 
 def _overridden(config: SimulationConfig, overrides: Mapping[str, Any]) -> SimulationConfig:
@@ -71,8 +75,7 @@ def _overridden(config: SimulationConfig, overrides: Mapping[str, Any]) -> Simul
     if shift != 0.0 and "initial_depth" not in given:
         if config.initial_depth is not None:
             moved["initial_depth"] = config.initial_depth + shift
-        if not any(key == "formation" or key.startswith("formation.interfaces")
-                   for key in given):
+        if not _sets_layers(given):
             moved["formation.interfaces"] = tuple(
                 replace(i, depth=i.depth + shift) for i in config.formation.interfaces)
         if not (config.well.vertical or sets_well):

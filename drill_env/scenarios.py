@@ -70,6 +70,7 @@ from drill_env.physics.config import (
 )
 from drill_env.physics.formation import interface_depth_for_share
 from drill_env.physics.statics import neutral_point_height, pipe_buckling
+from drill_env.physics.trajectory import bit_depth
 from drill_env.physics.units import RPM
 from drill_env.physics.validation import (
     Finite,
@@ -232,10 +233,6 @@ def with_string_length(config: SimulationConfig, string_length: float | None) ->
                               "string.drill_pipe.element_length": pipe_length / n})
 
 
-def _bit_depth(config: SimulationConfig) -> float:
-    return config.initial_depth if config.initial_depth is not None else config.string.length
-
-
 def sandwich(bit: BitConfig, middle: RockConfig, bit_depth: float, position: str,
              thickness: float = 1.0, dip: float = 45.0, azimuth: float = 0.0,
              hard: RockConfig = HARD) -> FormationConfig:
@@ -337,7 +334,7 @@ def _deviated_scenario(name: str, description: str) -> Callable[..., Scenario]:
 
         # off bottom here: the pipe's buckling is judged in the deviated hole, below
         sc = default(surface_speed, 0.0, episode_duration, string_length)
-        depth = _bit_depth(sc.config)
+        depth = bit_depth(sc.config)
         try:
             survey = WELLS[name](depth + 100.0)
         except ValueError as err:  # the profile's curves do not fit above the bit
@@ -367,7 +364,7 @@ def _torsional_sandwich_case(name: str, bit: BitConfig, middle: RockConfig, posi
                              string_length: float | None, description: str) -> Scenario:
     """The paper's string in a sandwich, bit at ``position``, torsion only (case 1)."""
     cfg = _base(string_length, bit)
-    formation = sandwich(bit, middle, _bit_depth(cfg), position, thickness, dip)
+    formation = sandwich(bit, middle, bit_depth(cfg), position, thickness, dip)
     cfg = replace(cfg, formation=formation, solver=SolverConfig(lateral=False))
     return Scenario(name, cfg, surface_speed, weight_on_bit, episode_duration, description)
 
@@ -515,7 +512,7 @@ def random(rng: np.random.Generator | None = None,
     rocks = (_jitter(rng, HARD, "hard"), _jitter(rng, SOFT, "soft"),
              _jitter(rng, VERY_SOFT, "very_soft"))
     middle = int(rng.integers(1, 3))
-    top = _bit_depth(cfg) + float(rng.uniform(*LAYER_TOP))
+    top = bit_depth(cfg) + float(rng.uniform(*LAYER_TOP))
     thickness = float(rng.uniform(*LAYER_THICKNESS))
     dip = float(rng.uniform(*LAYER_DIP))
     azimuth = float(rng.uniform(0.0, 360.0))

@@ -70,7 +70,7 @@ from drill_env.physics.statics import (
     resolved_weight_on_bit,
 )
 from drill_env.physics.top_drive import MAX_FILTER_W_DT
-from drill_env.physics.trajectory import curved_hole_loads
+from drill_env.physics.trajectory import bit_depth, curved_hole_loads
 from drill_env.physics.validation import duration_steps, require_finite, require_steps
 
 __all__ = ["MAX_FILTER_W_DT", "RECORD_CHANNELS", "STATUS_MESSAGES", "OperatingPoint",
@@ -460,7 +460,7 @@ class Simulator:
             arr[...] = 0.0
         self._mesh_message = ""
         if depth is None:
-            depth = cfg.initial_depth if cfg.initial_depth is not None else cfg.string.length
+            depth = bit_depth(cfg)
         self.state[S.DEPTH] = depth
         omega, wob = op.surface_speed, op.weight_on_bit
         self.check_mesh_resolves(wob)

@@ -24,7 +24,7 @@ import numpy as np
 
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.fem import axial_force_profile, build_mesh
-from drill_env.physics.trajectory import hole_loads, string_in_hole
+from drill_env.physics.trajectory import bit_depth, hole_loads, string_in_hole
 from drill_env.physics.units import GRAVITY
 from drill_env.physics.validation import require_non_negative
 
@@ -167,8 +167,7 @@ def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBu
     that comes nearest to buckling (in a vertical hole: the most compressed)."""
     mesh = build_mesh(config)
     force, inclination = axial_force_and_inclination(config, mesh, weight_on_bit)
-    bit = config.initial_depth if config.initial_depth is not None else config.string.length
-    node_md = mesh.node_depth + (bit - mesh.node_depth[-1])
+    node_md = mesh.node_depth + (bit_depth(config) - mesh.node_depth[-1])
     middle_md = 0.5 * (node_md[:-1] + node_md[1:])
     sin_i = np.where(inclination >= DAWSON_PASLAY_MIN_INCLINATION, np.sin(inclination), 0.0)
     out = []

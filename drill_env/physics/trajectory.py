@@ -53,18 +53,18 @@ def tangent(inclination: np.ndarray | float, azimuth: np.ndarray | float) -> np.
 MAX_DOGLEG_SEVERITY = 20.0
 
 
-def _warn_of_radians_or_sharp_bends(survey: Survey, inc: np.ndarray, azi: np.ndarray
-                                    ) -> None:
+def _warn_of_radians_or_sharp_bends(md: np.ndarray, inc: np.ndarray, azi: np.ndarray,
+                                    dogleg: np.ndarray) -> None:
     """UserWarning for angles that look typed in radians (every inclination within pi and
     every azimuth within 2 pi, some of each not zero: a build to 75 deg typed as 1.309 ran
     as a near-vertical well; a well due north has no azimuth to tell) and for a course
-    bent beyond :data:`MAX_DOGLEG_SEVERITY`."""
+    bent beyond :data:`MAX_DOGLEG_SEVERITY` (``dogleg``: each course's, rad)."""
     if 0.0 < inc.max() <= math.pi and 0.0 < np.abs(azi).max() <= 2.0 * math.pi:
         warnings.warn(f"survey: every inclination is at most {inc.max():g} deg and every "
                       f"azimuth at most {np.abs(azi).max():g} deg: typed in radians? They "
                       f"are degrees ({inc.max():g} rad = {math.degrees(inc.max()):.0f} deg)",
                       UserWarning, stacklevel=1)  # once per process, wherever from
-    severity = np.degrees(survey.doglegs()) / np.diff(survey.md) * 30.0
+    severity = np.degrees(dogleg) / np.diff(md) * 30.0
     k = int(np.argmax(severity))
     if severity[k] > MAX_DOGLEG_SEVERITY:
         stress = 2.07e11 * 0.0635 * math.radians(severity[k]) / 30.0 / 1e6  # 5 in steel pipe
@@ -108,7 +108,7 @@ class Survey:
             k = int(np.argmax(dogleg))
             raise ValueError(f"survey: stations {k} and {k + 1} turn the hole back on "
                              "itself (dogleg 180 degrees)")
-        _warn_of_radians_or_sharp_bends(survey, inc, azi)
+        _warn_of_radians_or_sharp_bends(md, inc, azi, dogleg)
         return survey
 
     @classmethod
@@ -436,6 +436,12 @@ def hole_loads(trajectory: Trajectory, node_md: np.ndarray, element_weight: np.n
 
 
 
+def bit_depth(config) -> float:
+    """Measured depth of the bit face at t = 0 (m): ``initial_depth``, default the
+    string's length."""
+    return config.initial_depth if config.initial_depth is not None else config.string.length
+
+
 def string_in_hole(config, mesh) -> tuple[Trajectory, np.ndarray] | None:
     """``config.well``'s hole and the measured depths of ``mesh``'s nodes in it (the bit
     at ``initial_depth``, default the string's length; < 0 above the wellhead); None for
@@ -443,7 +449,7 @@ def string_in_hole(config, mesh) -> tuple[Trajectory, np.ndarray] | None:
     well = config.well
     if well.vertical:
         return None
-    depth = config.initial_depth if config.initial_depth is not None else config.string.length
+    depth = bit_depth(config)
     survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
     return Trajectory(survey), mesh.node_depth + (depth - mesh.node_depth[-1])
 

@@ -79,8 +79,8 @@ NonNegative = Annotated[Finite, Field(ge=0.0)]
 #: An integer (NumPy integers accepted, bools and floats refused).
 Count = Annotated[int, BeforeValidator(_integer), Strict()]
 
-#: Densities (kg/m^3) that are a drilling mud typed in pounds per gallon: 6-25 ppg spans
-#: oil-based to the heaviest weighted muds. Air and mist at depth are this light too,
+#: Densities (kg/m^3) that are a drilling mud typed in pounds per gallon: 5-25 ppg spans
+#: light oil-based to the heaviest weighted muds. Air and mist at depth are this light too,
 #: so it is a warning, not an error.
 PPG_LIKE = (5.0, 25.0)
 
