@@ -537,11 +537,31 @@ def test_ppo_learns_to_the_end_of_its_last_rollout_which_its_progress_bar_counts
     assert totals == [reached] == [planned_steps(cfg)] == [1024]
 
 
-@pytest.mark.parametrize(("n_envs", "first"), [(4, 1024), (3, 1026)])
+def test_ppo_scores_the_model_its_last_rollout_trained_not_the_one_before(tmp_path):
+    """A PPO run of one rollout (4 x 128 steps) crosses its evaluation line inside that
+    rollout, before the update: scored there, the untrained policy became
+    best_model.zip, which evaluate and learned:<run> prefer, and the trained one was
+    never scored. The evaluation waits for the update: the best model is the final one."""
+    from stable_baselines3 import PPO
+
+    cfg = tiny_config(n_timesteps=512, eval_freq=512, checkpoint_freq=10_000)
+    folder = tmp_path / "run"
+    train(cfg, folder, progress=False)
+    with (folder / "evaluations.csv").open() as f:
+        assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [512]
+    final = PPO.load(folder / "model.zip").policy.state_dict()
+    best = PPO.load(folder / "best_model.zip").policy.state_dict()
+    assert final.keys() == best.keys()
+    for key in final:
+        np.testing.assert_array_equal(best[key].numpy(), final[key].numpy(), err_msg=key)
+
+
+@pytest.mark.parametrize(("n_envs", "first"), [(4, 1024), (3, 1152)])
 def test_a_ctrl_c_during_an_evaluation_is_evaluated_again_on_resume(tmp_path, monkeypatch,
                                                                     n_envs, first):
-    """The Ctrl-C checkpoint lands on the step that crossed the grid line of the
-    evaluation it cut short (1026 with 3 envs); counted from there, the resumed run never
+    """The Ctrl-C checkpoint lands where the evaluation it cut short ran: PPO evaluates
+    after the update of the rollout that crossed the grid line (3 envs cross 1024 at 1026,
+    inside the rollout that ends at 1152). Counted from there, the resumed run never
     evaluated that line (evaluations.csv kept its row out for good)."""
     import training.train as tt
 
@@ -586,8 +606,10 @@ def test_a_run_killed_before_its_first_checkpoint_starts_its_records_afresh(tmp_
 
 def test_evaluations_and_checkpoints_stay_on_their_grid_across_a_resume(tmp_path):
     """Resumed from a checkpoint off the evaluation grid (768 steps, evaluations every
-    1024), the run evaluates at 1024, 2048, 3072 like an uninterrupted one: counted in
-    callback calls from the resume, it evaluated at 1792 and 2816 and skipped its last."""
+    1024), the run evaluates once per grid line like an uninterrupted one: counted in
+    callback calls from the resume, it evaluated at 1792 and 2816 and skipped its last.
+    Its rollouts of 512 now end at 1280, 2304 and 3328: each line is scored after the
+    update of the rollout that crosses it."""
     from drill_env.physics.config import replace
 
     cfg = tiny_config(n_timesteps=1536, checkpoint_freq=768, eval_freq=1024)
@@ -598,7 +620,7 @@ def test_evaluations_and_checkpoints_stay_on_their_grid_across_a_resume(tmp_path
         (folder / name).unlink()
     train(replace(cfg, n_timesteps=3072), folder, resume=True, progress=False)
     with (folder / "evaluations.csv").open() as f:
-        assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [1024, 2048, 3072]
+        assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [1280, 2304, 3328]
     saved = sorted(int(p.stem.split("_")[1]) for p in (folder / "checkpoints").glob(
         "model_*_steps.zip"))
     assert saved == [768, 1536, 2304, 3072]

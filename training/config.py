@@ -102,7 +102,8 @@ class TrainConfig:
     hyperparams: dict[str, Any] = Field(default_factory=dict)
     env_kwargs: dict[str, Any] = Field(default_factory=dict)
     #: Evaluate every this many env steps (all envs together) on ``eval_episodes``
-    #: validation seeds; the best model is kept as ``best_model.zip``.
+    #: validation seeds; the best model is kept as ``best_model.zip``. PPO evaluates
+    #: after the update of the rollout that crosses a multiple of it.
     eval_freq: Whole = Field(default=50_000, ge=1, le=10**9)
     eval_episodes: Whole = Field(default=10, ge=1, le=10_000)
     checkpoint_freq: Whole = Field(default=200_000, ge=1, le=10**10)

@@ -194,15 +194,26 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
 
     class SeededEval(OnGrid):
         """EvalCallback on fixed validation seeds: the same episodes every time, every
-        ``eval_freq`` env steps."""
+        ``eval_freq`` env steps.
+
+        PPO crosses a grid line inside a rollout, whose update comes after it: its
+        evaluation waits for that update (the next rollout's start, or the end of
+        training), so that a row scores the model trained on the steps it names. Scored
+        where the line was crossed, a one-rollout run kept its untrained policy as the
+        best model and never scored the trained one."""
 
         def __init__(self) -> None:
             super().__init__(config.eval_freq)
             self.path = run / "evaluations.csv"
             # a resumed run keeps its best model until an evaluation beats it
             self.best = resumed.best_return
+            self.on_policy = False
+            self.pending = False
 
         def _on_training_start(self) -> None:
+            from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+
+            self.on_policy = isinstance(self.model, OnPolicyAlgorithm)
             super()._on_training_start()
             # a Ctrl-C during an evaluation saves its checkpoint at the step that crossed
             # the grid line (on it when n_envs divides eval_freq) without that evaluation's
@@ -221,8 +232,23 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
                            for r in csv.DictReader(f))
 
         def act(self) -> None:
+            if self.on_policy:
+                self.pending = True
+            else:
+                self.evaluate()
+
+        def _on_rollout_start(self) -> None:
+            if self.pending:
+                self.evaluate()
+
+        def _on_training_end(self) -> None:
+            if self.pending:
+                self.evaluate()
+
+        def evaluate(self) -> None:
+            self.pending = False
             result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
-            row = {"timesteps": self.num_timesteps, **result,
+            row = {"timesteps": int(self.model.num_timesteps), **result,
                    "wall_s": time.perf_counter() - started}
             add_row(self.path, row)
             for key in ("return", "ssi", "stuck_fraction"):
