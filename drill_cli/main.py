@@ -779,14 +779,25 @@ def train_sweep(args: argparse.Namespace, config) -> int:
     return 0
 
 
-def default_evaluation_folder(run: Path) -> Path:
+def default_evaluation_folder(run: Path, fidelity: str | None = None) -> Path:
     """``RUN/evaluation`` beside a training run; for a policy shipped in the package
-    (``agents/trained/<task>``), ``logs/evaluation/<task>``: not into the source tree."""
+    (``agents/trained/<task>``), ``logs/evaluation/<task>``: not into the source tree.
+    At a physics level other than the run's own (``--fidelity``), ``_<level>`` is added,
+    so that the evaluation at the run's level is kept beside it."""
     from agents.learned import TRAINED
 
     if run.resolve().is_relative_to(TRAINED):
-        return Path("logs") / "evaluation" / run.resolve().name
-    return run / "evaluation"
+        folder = Path("logs") / "evaluation" / run.resolve().name
+    else:
+        folder = run / "evaluation"
+    if fidelity is not None and (run / "config.yaml").exists():
+        from training.config import read_run_config
+        from training.evaluate import trained_fidelity
+
+        own = trained_fidelity(read_run_config(run / "config.yaml").get("env_kwargs") or {})
+        if fidelity != own:
+            folder = folder.with_name(f"{folder.name}_{fidelity}")
+    return folder
 
 
 def which_model(run: Path, model: Path) -> str:
@@ -819,9 +830,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}"
                                          ) from None
     print(f"evaluating {model} ({which_model(args.run, model)})")
-    out = args.out or default_evaluation_folder(args.run)
+    out = args.out or default_evaluation_folder(args.run, args.fidelity)
     evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out,
-                 ray_address=args.ray_address)
+                 ray_address=args.ray_address, fidelity=args.fidelity)
     print(f"wrote {out / 'benchmark.csv'}, benchmark.md, comparison.md and the plots")
     return 0
 
@@ -1386,12 +1397,17 @@ def parser() -> argparse.ArgumentParser:
                         "comparison in comparison.md", cmd_evaluate)
     p.add_argument("run", type=Path, help="run folder of drill-env train")
     p.add_argument("--seeds", type=integer(1), default=20, help="held-out seeds")
+    p.add_argument("--fidelity", choices=("full", "fast"), default=None,
+                   help="physics level of every episode, the policy's and the others' "
+                        "(default: the level the run trained at, fast for the tasks; full "
+                        "judges a fast-trained policy in the full model)")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
     add_ray_address(p, "the episodes")
     p.add_argument("--out", type=Path, default=None,
                    help="output folder (default: RUN/evaluation; logs/evaluation/<task> "
-                        "for a shipped policy)")
+                        "for a shipped policy; _full or _fast added at a --fidelity other "
+                        "than the run's)")
 
     p = add("stability-map", "torsional stability maps P1-P6 (paper Fig. 15) by boundary "
                              "tracking; finished points are kept in --out and reused",
@@ -1601,7 +1617,7 @@ def finished_work_folder(args: argparse.Namespace, out: Path | None) -> Path | N
     """Where a stopped command of :data:`KEEPS_FINISHED` keeps its finished work: its
     ``--out``; evaluate's default beside the run; the demo's benchmark folder."""
     if args.command == "evaluate":
-        return out or default_evaluation_folder(args.run)
+        return out or default_evaluation_folder(args.run, args.fidelity)
     if args.command == "demo":
         return None if out is None else out / "benchmark"
     return out

@@ -222,6 +222,31 @@ def test_evaluate_scores_a_run_at_the_fidelity_it_trained_at(run, tmp_path, monk
     assert [args[4].fidelity for args in seen] == ["full"]
 
 
+def test_evaluate_judges_a_fast_trained_run_in_the_full_model_when_asked(
+        run, tmp_path, monkeypatch, capsys):
+    """``--fidelity full``: the policy and every controller beside it in the full model,
+    said in a note and in the title, written beside the evaluation at the run's own level
+    (RUN/evaluation_full), not over it. The tasks train at the fast level; judging there
+    only was the one way (benchmark --task --fidelity full did it without the paired
+    comparison)."""
+    import training.evaluate as ev
+    from drill_cli.main import default_evaluation_folder
+
+    folder, _ = run
+    seen = []
+    monkeypatch.setattr(ev, "run_benchmark", lambda *args, **kw: seen.append((args, kw)) or [])
+    ev.evaluate_run(folder, seeds=1, out=tmp_path / "out", progress=False, fidelity="full")
+    assert [args[4].fidelity for args, _ in seen] == ["full"]
+    assert "physics level full (trained at fast)" in seen[0][1]["heading"]
+    assert "the run trained at the fast level; evaluate scores it" in capsys.readouterr().out
+    assert default_evaluation_folder(folder, "full") == folder / "evaluation_full"
+    assert default_evaluation_folder(folder, "fast") == default_evaluation_folder(folder) \
+        == folder / "evaluation"
+    with pytest.raises(SystemExit):
+        main(["evaluate", str(folder), "--fidelity", "medium"])
+    assert "argument --fidelity: invalid choice: 'medium'" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
 def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, monkeypatch,
                                                                    signum):

@@ -167,28 +167,41 @@ def comparison_text(comparison: list[dict[str, Any]], policy_return: float) -> s
     return "\n".join(lines) + "\n"
 
 
+def trained_fidelity(trained: Mapping[str, Any]) -> Fidelity:
+    """The physics level a run trained at, from its ``env_kwargs`` (the tasks' default:
+    fast)."""
+    return trained.get("fidelity", "fast")
+
+
 def evaluation_heading(run: str, model: str, algo: str, task: str, seeds: Sequence[int],
-                       trained: Mapping[str, Any]) -> str:
+                       trained: Mapping[str, Any], fidelity: Fidelity | None = None) -> str:
     """The title of an evaluation's benchmark.md, comparison.md and pictures: the run and
     what its episodes ran on (physics level, the physics sections the run trained with:
-    a run trained on a curved well read as if on the random scenario's vertical ones)."""
+    a run trained on a curved well read as if on the random scenario's vertical ones).
+    ``fidelity``: the level the episodes ran at, where not the one the run trained at."""
     from drill_env.physics.config import flatten
 
+    own = trained_fidelity(trained)
+    level = fidelity or own
     changed = sorted({key.split(".")[0] for key in flatten(trained.get("physics") or {})})
     return (f"Evaluation of {run} ({model}, {algo} on task {task}), held-out seeds "
-            f"{seeds[0]}-{seeds[-1]}, physics level {trained.get('fidelity', 'fast')}"
+            f"{seeds[0]}-{seeds[-1]}, physics level {level}"
+            + (f" (trained at {own})" if level != own else "")
             + (f", the run's own {', '.join(changed)}" if changed else ""))
 
 
 def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | None = None,
                  out: Path | None = None, controllers: tuple[str, ...] = CLASSICAL + TRIVIAL,
-                 progress: bool = True, ray_address: str | None = None
-                 ) -> list[dict[str, Any]]:
+                 progress: bool = True, ray_address: str | None = None,
+                 fidelity: Fidelity | None = None) -> list[dict[str, Any]]:
     """Benchmark ``learned:<run>`` against ``controllers`` on ``seeds`` held-out seeds:
     the classical ones and the trivial policies (actions held at -1, 0, +1, random); for
     the drilling task also against the best constant set point of a grid search. Writes
     the paired comparison (:func:`paired_comparison`) to ``out/comparison.md``.
-    ``ray_address``: run the episodes on that Ray cluster (the ``distributed`` extra)."""
+    ``ray_address``: run the episodes on that Ray cluster (the ``distributed`` extra);
+    ``fidelity``: the physics level of every episode (default: the one the run trained
+    at; ``"full"`` judges a policy trained at the fast level in the full model, the
+    classical controllers and the best constant with it)."""
     config = read_run_config(Path(run) / "config.yaml")
     task = config["task"]
     if seeds > len(EVALUATION_SEEDS):
@@ -196,10 +209,14 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     out = out or Path(run) / "evaluation"
     names = [f"learned:{run}", *controllers]
     trained = config.get("env_kwargs") or {}
-    fidelity = trained.get("fidelity", "fast")
+    own = trained_fidelity(trained)
+    level = fidelity or own
     # every controller, and the grid search, under the task settings the run trained with
-    settings = dataclasses.replace(settings_of(task, fidelity), env_kwargs=task_settings(
+    settings = dataclasses.replace(settings_of(task, level), env_kwargs=task_settings(
         names[:1], TASKS[task]))
+    if level != own:
+        print(f"note: the run trained at the {own} level; evaluate scores it, and every "
+              f"controller beside it, at the {level} level (--fidelity)")
     for note in standard_episode_notes(trained, settings):
         print(note)
     from agents.registry import make_controller
@@ -213,7 +230,7 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
 
     held_out = list(EVALUATION_SEEDS[:seeds])
     heading = evaluation_heading(Path(run).name, policy_files(run)[0].name, config["algo"],
-                                 task, held_out, trained)
+                                 task, held_out, trained, level)
     rows = run_benchmark(names, ["random"], held_out, out, settings, workers=workers,
                          progress=progress, env_id=TASKS[task], ray_address=ray_address,
                          heading=heading)
