@@ -35,9 +35,11 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig, OBSERVATIONS: the 
     OBSERVATIONS,
     PLAIN_CONTROL_INTERVAL,
     PLAIN_SPANS,
+    START_RANGES,
     EnvConfig,
     even_record_every,
     mesh_weight_on_bit_limit,
+    start_ranges,
 )
 from drill_env.metrics import Metric
 from drill_env.physics.config import (
@@ -188,6 +190,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     - ``scenario``: a name of :data:`drill_env.scenarios.SCENARIOS`; keywords that are
       parameters of that scenario (e.g. ``position="P3"`` for ``paper_case1``) go to it;
+      ``random`` draws its start in ``start_rpm_range`` (rpm) and
+      ``start_weight_on_bit_range`` (N), by default its own cut to the action ranges;
     - ``config``: an :class:`EnvConfig` or dict; every :class:`EnvConfig` field can also be
       passed as a keyword (``episode_duration=5.0``, ``action_mode="incremental"``,
       ``stick_slip_weight=2.0``, ...);
@@ -220,15 +224,15 @@ class DrillStringEnv(BatchFinish, gym.Env):
         params = set(scenario_parameters(scenario))  # validates the name
         env_over = {k: v for k, v in overrides.items() if k in ENV_FIELDS}
         scen_over = {k: v for k, v in overrides.items() if k in params and k not in ENV_FIELDS}
-        unknown = set(overrides) - set(env_over) - set(scen_over)
+        starts = {k: v for k, v in overrides.items() if k in START_RANGES}
+        unknown = set(overrides) - set(env_over) - set(scen_over) - set(starts)
         if unknown:
             raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}; "
                              f"EnvConfig fields: {sorted(ENV_FIELDS)}; scenario "
                              f"{scenario!r} parameters: {sorted(params)}")
-        base = from_dict(EnvConfig, config)
-        self.config: EnvConfig = replace(base, **env_over)
+        self.config: EnvConfig = replace(from_dict(EnvConfig, config), **env_over)
         self.scenario_name = scenario
-        self.scenario_params = scen_over
+        self.scenario_params = {**scen_over, **start_ranges(scenario, starts, self.config)}
         if physics is not None and not isinstance(physics, dict):
             raise ValueError(f"physics: expected a dict of overrides, got "
                              f"{type(physics).__name__}")
@@ -242,7 +246,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
                                  f"{fidelity!r}")
             self.physics_overrides["solver.fidelity"] = fidelity
         self.randomised = scenario in RANDOMISED
-        check_one_string_length(scen_over, self.physics_overrides)
+        check_one_string_length(self.scenario_params, self.physics_overrides)
 
         cfg = self.config
         self.observation_names = OBSERVATIONS[cfg.sensors]
@@ -253,7 +257,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._wob_range = tuple(float(v) for v in cfg.weight_on_bit_range)
 
         # Build (and validate) the physics now; randomised scenarios redraw at reset.
-        check_draws(scenario, scen_over, flatten(physics or {}))  # before the first draw
+        check_draws(scenario, self.scenario_params, flatten(physics or {}))  # before a draw
         self.scenario: Scenario = self._build_scenario(np.random.default_rng(0))
         if not self.randomised:
             self._check_range(self.scenario.surface_speed, self.scenario.weight_on_bit, "")
@@ -431,18 +435,14 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     def _paper_startup(self, speed: float, wob: float) -> None:
         """Paper section 4 start-up: ramp rpm over 10 s, hold 10 s off bottom, WOB at 20 s."""
-        sim = self.sim
-        n = self._steps_per_action
-        dt_ctrl = n * sim.dt
+        sim, n = self.sim, self._steps_per_action
         off_bottom = sim.string_weight  # the hook carries everything: WOB = 0
-        ramp_steps = max(1, round(10.0 / dt_ctrl))
-        for k in range(ramp_steps):
-            self.rolling_metrics.add(sim.advance(n, speed_setpoint=speed * (k + 1) / ramp_steps,
-                                         hook_load=off_bottom,
-                                         record_every=self._record_every))
-        for _ in range(ramp_steps):
-            self.rolling_metrics.add(sim.advance(n, speed_setpoint=speed, hook_load=off_bottom,
-                                         record_every=self._record_every))
+        ramp = max(1, round(10.0 / (n * sim.dt)))  # control steps in 10 s
+        for k in range(2 * ramp):
+            set_point = speed * (k + 1) / ramp if k < ramp else speed
+            self.rolling_metrics.add(sim.advance(n, speed_setpoint=set_point,
+                                                 hook_load=off_bottom,
+                                                 record_every=self._record_every))
         sim.advance(0, hook_load=sim.hook_load_for(wob), read=True)
 
     def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:

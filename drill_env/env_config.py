@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
+import inspect
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import Field
 
 from drill_env.physics.units import RPM
@@ -15,6 +17,7 @@ from drill_env.physics.validation import (
     StrictBool,
     check_newtons,
     config_dataclass,
+    numbers,
 )
 
 #: Bounds that keep the reward and the episode finite: weights up to 1e6 times terms that
@@ -145,6 +148,53 @@ class EnvConfig:
 
 
 ENV_FIELDS = frozenset(f.name for f in dataclasses.fields(EnvConfig))
+#: A randomised scenario's ranges of the drawn start set point, by the env keyword that
+#: sets them (the scenario's own names are the env's action ranges): keyword -> the
+#: scenario's parameter.
+START_RANGES = {"start_rpm_range": "rpm_range",
+                "start_weight_on_bit_range": "weight_on_bit_range"}
+
+
+def start_ranges(scenario: str, given: dict[str, Any], config: EnvConfig) -> dict[str, Any]:
+    """The ranges (rpm, N) a randomised ``scenario`` draws its start set point in, as its
+    parameters: those ``given`` (``start_rpm_range``, ``start_weight_on_bit_range``),
+    else the scenario's own cut to the env's action ranges: ``rpm_range=(0, 100)`` drew
+    40-160 rpm and clamped every draw above 100 onto 100 (half the episodes). ValueError,
+    naming the keyword, for a range given to a scenario that draws no start, reaching
+    outside the action range, or an action range that misses the scenario's own."""
+    from drill_env.scenarios import RANDOMISED, SCENARIOS
+
+    if scenario not in RANDOMISED:
+        if given:
+            raise ValueError(f"{next(iter(given))}: scenario {scenario!r} draws no start; "
+                             "it starts at its surface_speed and weight_on_bit")
+        return {}
+    defaults = inspect.signature(SCENARIOS[scenario]).parameters
+    out = {}
+    for key, param in START_RANGES.items():
+        unit, scale = ("rpm", 1.0) if param == "rpm_range" else ("kN", 1e3)
+        low, high = getattr(config, param)
+        span = f"the env's {param} {low / scale:g}-{high / scale:g} {unit}"
+        if key in given:
+            pair = numbers(given[key], key)
+            if pair.shape != (2,) or not np.all(np.isfinite(pair)):
+                raise ValueError(f"{key}: expected (low, high) in {unit.replace('kN', 'N')}, "
+                                 f"got {given[key]!r}")
+            if param == "weight_on_bit_range":
+                check_newtons(key, tuple(pair))
+            lo, hi = float(pair[0]), float(pair[1])
+            if not low <= lo <= hi <= high:
+                raise ValueError(f"{key}: {lo / scale:g}-{hi / scale:g} {unit} must be an "
+                                 f"ordered range within {span}")
+        else:
+            own_lo, own_hi = defaults[param].default
+            lo, hi = max(own_lo, low), min(own_hi, high)
+            if lo > hi:
+                raise ValueError(f"{param}: {span} misses the {scenario} scenario's starting "
+                                 f"draws, {own_lo / scale:g}-{own_hi / scale:g} {unit}; give "
+                                 f"{key} within it")
+        out[param] = (lo, hi)
+    return out
 
 
 def even_record_every(steps_per_action: int, record_every: int) -> int:

@@ -24,7 +24,8 @@ name                      what it is (parameters)
                           asymmetric, string length, start operating point); takes
                           ``string_length_range``, ``rpm_range``,
                           ``weight_on_bit_range`` and ``episode_duration`` instead of
-                          the parameters below
+                          the parameters below (an env takes the two start ranges as
+                          ``start_rpm_range``, ``start_weight_on_bit_range``)
 ``j_shaped``              the default string and hard rock in a J-shaped well (kick-off
                           500 m, 3 deg/30 m to 45 deg; :data:`drill_env.well.WELLS`)
 ``s_shaped``              the same in an S-shaped well (to 30 deg, vertical again below

@@ -56,8 +56,8 @@ class TaskEnv(DrillStringEnv):
         if unused:
             raise ValueError(
                 f"{unused[0]}: {type(self).__name__} does not use "
-                f"{', '.join(unused)} (a setting of DrillString-v0: the task builds its own "
-                f"observation, reward and action); its own settings: "
+                f"{', '.join(unused)} (a setting of DrillString-v0 that the task replaces "
+                f"by its own observation, reward, action or targets); its own settings: "
                 f"{', '.join(sorted(fields))}")
         if isinstance(task, self.task_class):
             base = task

@@ -178,8 +178,9 @@ class StickSlipEnv(TaskEnv):
     task_class = StickSlipTask
     task: StickSlipTask
     #: (the action corrects the speed command: no action mode or steps of DrillString-v0)
-    unused_env_fields = TaskEnv.unused_env_fields | {"action_mode", "rpm_step",
-                                                     "weight_on_bit_step"}
+    unused_env_fields = TaskEnv.unused_env_fields | {  # it draws its own targets, too
+        "action_mode", "rpm_step", "weight_on_bit_step", "start_rpm_range",
+        "start_weight_on_bit_range"}
     env_defaults = ENV_DEFAULTS
     frame = FRAME
     extras = EXTRAS

@@ -483,6 +483,47 @@ def test_info_is_finite_with_the_bit_turning_under_zero_rpm():
             done = terminated or truncated
 
 
+def test_the_random_scenario_draws_its_start_within_the_action_ranges_or_as_told():
+    """The random scenario's own start ranges (rpm_range, weight_on_bit_range) share their
+    names with the env's action ranges, which took them: ``rpm_range=(0, 100)`` drew
+    40-160 rpm and clamped every draw above 100 onto 100. The draws are cut to the action
+    ranges now, and ``start_rpm_range`` / ``start_weight_on_bit_range`` set them."""
+    def starts(**kwargs):
+        env = gym.make("DrillStringRandom-v0", episode_duration=0.5, **kwargs)
+        out = []
+        for seed in range(16):
+            _, info = env.reset(seed=seed)
+            out.append((info["speed_setpoint"] / RPM, info["weight_on_bit_setpoint"]))
+        return np.array(out), env.unwrapped.scenario_params
+
+    rpm, params = starts()
+    assert params == {"rpm_range": (40.0, 160.0), "weight_on_bit_range": (50.0e3, 130.0e3)}
+    narrowed, params = starts(rpm_range=(0.0, 100.0), weight_on_bit_range=(0.0, 90.0e3))
+    assert params == {"rpm_range": (40.0, 100.0), "weight_on_bit_range": (50.0e3, 90.0e3)}
+    assert np.all((narrowed[:, 0] >= 40.0) & (narrowed[:, 0] < 100.0))
+    assert np.all((narrowed[:, 1] >= 50.0e3) & (narrowed[:, 1] < 90.0e3))
+    assert np.ptp(narrowed[:, 0]) > 30.0  # spread over the range, not piled on its end
+    told, _ = starts(start_rpm_range=(60.0, 70.0), start_weight_on_bit_range=(80e3, 90e3))
+    assert np.all((told >= (60.0, 80e3)) & (told <= (70.0, 90e3)))
+    for kwargs, message in (
+            ({"start_rpm_range": (0.0, 300.0)}, "start_rpm_range: 0-300 rpm must be an "
+             "ordered range within the env's rpm_range 0-200 rpm"),
+            ({"start_rpm_range": (90.0, 60.0)}, "start_rpm_range: 90-60 rpm must be"),
+            ({"start_rpm_range": (60.0, "fast")}, "start_rpm_range: expected numbers"),
+            ({"start_weight_on_bit_range": (80, 90)}, "start_weight_on_bit_range: .* N "
+             "reaches only 90 N; WOB is in newtons"),
+            ({"rpm_range": (170.0, 200.0)}, "rpm_range: the env's rpm_range 170-200 rpm misses "
+             "the random scenario's starting draws, 40-160 rpm; give start_rpm_range")):
+        with pytest.raises(ValueError, match=message):
+            gym.make("DrillStringRandom-v0", **kwargs)
+    with pytest.raises(ValueError, match="start_rpm_range: scenario 'default' draws no start"):
+        gym.make("DrillString-v0", start_rpm_range=(60.0, 70.0))
+    with pytest.raises(ValueError, match="start_rpm_range: StickSlipEnv does not use"):
+        gym.make("DrillStickSlip-v0", start_rpm_range=(60.0, 70.0))  # its targets' ranges
+    env = gym.make("DrillOptimise-v0", start_rpm_range=(60.0, 70.0))  # starts as drawn
+    assert 60.0 <= env.reset(seed=3)[1]["speed_setpoint"] / RPM <= 70.0
+
+
 def test_info_after_a_divergence_holds_the_last_finite_state():
     env = gym.make("DrillString-v0", episode_duration=2.0)
     env.reset(seed=0)
