@@ -291,10 +291,10 @@ class DrillStringEnv(BatchFinish, gym.Env):
         cfg = self.config
         self._steps_per_action = round(cfg.control_interval / sim.dt)
         if self._steps_per_action < 1:  # not silently one step: the policy's period changes
-            raise ValueError(f"control_interval: {cfg.control_interval:g} s is shorter than "
+            raise ValueError(f"control_interval: {cfg.control_interval:g} s is at most "
                              f"half the simulator's step ({sim.dt:.3g} s)")
         if round(self.episode_duration / self.control_interval) < 1:
-            raise ValueError(f"episode_duration: {self.episode_duration:g} s is shorter than "
+            raise ValueError(f"episode_duration: {self.episode_duration:g} s is at most "
                              f"half a control interval ({self.control_interval:g} s)")
         self._record_every = even_record_every(self._steps_per_action, cfg.record_every)
         self.metadata = {**type(self).metadata, "render_fps": 1.0 / self.control_interval}

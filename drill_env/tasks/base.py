@@ -42,7 +42,6 @@ class TaskEnv(DrillStringEnv):
 
     def __init__(self, scenario: str, task: Any, **kwargs: Any) -> None:
         fields = {f.name for f in dataclasses.fields(self.task_class)}
-        given = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
         config = kwargs.get("config")
         if config is not None and not isinstance(config, Mapping):
             raise ValueError(
@@ -51,6 +50,14 @@ class TaskEnv(DrillStringEnv):
                 f"value for every field, and the task's own defaults "
                 f"({', '.join(k for k in self.env_defaults if k != 'scenario')}) could not "
                 f"tell the ones you set from EnvConfig's defaults")
+        if config:  # a task setting in the dict is the task's (the reward weights both
+            # have: in EnvConfig, which the task's reward does not read, it changed nothing)
+            given = {k: v for k, v in config.items() if k in fields}
+            kwargs["config"] = {k: v for k, v in config.items() if k not in fields}
+            config = kwargs["config"]
+        else:
+            given = {}
+        given.update({k: kwargs.pop(k) for k in list(kwargs) if k in fields})  # keywords win
         typed = set(kwargs) | set(config or {})
         unused = sorted(typed & (self.unused_env_fields - fields))
         if unused:

@@ -407,7 +407,9 @@ def test_unknown_keyword_is_named():
     ({"scenario": "paper_case1", "position": "P9"}, "position"),
     ({"episode_duration": -1.0}, "episode_duration"),
     # faster than half the solver's step (2 ms): it would act every step, not at 1 us
-    ({"control_interval": 1e-6}, "control_interval: 1e-06 s is shorter than half"),
+    ({"control_interval": 1e-6}, "control_interval: 1e-06 s is at most half"),
+    ({"episode_duration": 0.05}, "episode_duration: 0.05 s is at most half a control "
+                                 "interval"),  # exactly half rounds to no step
     # shorter than half its one step: it would run 60 s, not 1 s
     ({"control_interval": 60.0, "episode_duration": 1.0}, "episode_duration: 1 s"),
 ])

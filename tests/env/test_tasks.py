@@ -167,6 +167,28 @@ def test_a_task_refuses_an_env_config_instance_by_name():
         gym.make("DrillOptimise-v0", config=EnvConfig(control_interval=0.5))
 
 
+@pytest.mark.parametrize("env_id, name", [("DrillStickSlip-v0", "stick_slip_weight"),
+                                           ("DrillOptimise-v0", "rop_weight")])
+def test_a_reward_weight_in_the_config_dict_reaches_the_task(env_id, name):
+    """The reward weights are fields of both EnvConfig and the task config: given in
+    ``config={...}`` (the docstrings' other way to give DrillString-v0 settings) one
+    landed in EnvConfig, which the task's reward does not read, and changed nothing (an
+    RL researcher's walkthrough). A keyword beside it wins, as in DrillString-v0."""
+    def run(**kwargs):
+        env = gym.make(env_id, episode_duration=6.0, **kwargs)
+        env.reset(seed=1)
+        total = sum(env.step(np.zeros(env.action_space.shape, np.float32))[4]["reward_terms"][
+            "stick_slip" if name == "stick_slip_weight" else "rop"] for _ in range(5))
+        return env.unwrapped.task, total
+
+    base_task, base = run()
+    task, scaled = run(config={name: 5.0 * getattr(base_task, name)})
+    assert getattr(task, name) == 5.0 * getattr(base_task, name)
+    assert base != 0.0 and scaled == pytest.approx(5.0 * base, rel=1e-9)
+    keyword, _ = run(config={name: 5.0}, **{name: 2.0})
+    assert getattr(keyword, name) == 2.0
+
+
 def test_a_task_settings_typo_lists_the_tasks_own_settings():
     with pytest.raises(ValueError, match=r"^StickSlipEnv: unknown argument\(s\) "
                                          r"\['max_corection'\].*task settings: .*"
