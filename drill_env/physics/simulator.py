@@ -407,8 +407,7 @@ class Simulator:
         force = self.axial_weight - weight_on_bit  # along the hole, curved or not
         if np.min(force[: self.lateral_start]) < 0.0:
             self._warned_compression = True
-            # one text: shown once per place, not once per WOB a curved-well task draws
-            warnings.warn(
+            warnings.warn(  # one text: once per place, not per WOB a curved-well task draws
                 "the weight on bit puts the drill pipe in compression, but "
                 "solver.pipe_lateral=False (fidelity='fast') holds it straight: pipe buckling "
                 "and its wall contacts are not modelled. Use fidelity='full' or a heavier BHA "
