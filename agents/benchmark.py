@@ -305,6 +305,9 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
         files = data_files(controller, owner)
     if own is None and not files:
         return ""
+    if is_imported(controller):  # which of a file's controllers: two of one name in one
+        # file shared their rows (the second served the first's numbers)
+        digest.update(getattr(factory, "__qualname__", "").encode() + b"\0")
     if own is not None:
         digest.update(own.read_bytes())
     for file in files:
@@ -402,13 +405,40 @@ def _env_defaults(env_id: str) -> dict[str, Any]:
     return values
 
 
+#: EnvConfig fields that shape only DrillString-v0's reward: a scenario benchmark scores
+#: every row with their defaults, whatever a controller's ``env_kwargs()`` say (one that
+#: zeroed its stick-slip weight led the return column with the stiff PI's stick-slip).
+REWARD_ONLY = frozenset({"rop_weight", "stick_slip_weight", "whirl_weight", "effort_weight",
+                         "failure_weight", "ssi_cap"})
+#: EnvConfig fields of the episode itself, the same for every controller of a scenario
+#: benchmark: a controller's ``env_kwargs()`` may not set them (a make-up torque of its
+#: own ended its episodes early; ``rop_scale`` scales the reward as well as the
+#: observation).
+EPISODE_FIELDS = frozenset({"makeup_torque", "startup", "drawworks_rate", "record_every",
+                            "metric_window", "limit_weight_on_bit_to_mesh", "rop_scale"})
+
+
 def guest_env_kwargs(controller: Any) -> dict[str, Any]:
-    """The env keywords a controller brings to a scenario it is a guest on: a task's
-    policy keeps those of its observation, not its run's physics (it drills the scenario,
-    on the scenario's physics); a classical controller brings none."""
-    own = declared_env_kwargs(controller, getattr(controller, "name", type(controller).__name__))
+    """The env keywords a controller brings to a scenario: a task's policy (a guest)
+    keeps those of its observation, not its run's physics (it drills the scenario, on the
+    scenario's physics); a controller acting in DrillString-v0 keeps those of its
+    observation and action, not its own reward weights (:data:`REWARD_ONLY`: every row's
+    return is scored alike) and never its own episode (:data:`EPISODE_FIELDS`: refused,
+    naming the controller); a classical controller brings none."""
+    name = getattr(controller, "name", type(controller).__name__)
+    own = declared_env_kwargs(controller, name)
     own.pop("physics", None)
-    return own
+    if getattr(controller, "env_id", "DrillString-v0") != "DrillString-v0":
+        return own
+    config = own.pop("config", None) or {}
+    own = {**dict(config), **own}
+    episode = sorted(EPISODE_FIELDS & set(own))
+    if episode:
+        raise ValueError(f"controller: {name}.env_kwargs() sets {', '.join(episode)}: in a "
+                         "scenario benchmark every controller drills the same episode (its "
+                         "start, make-up torque, records and reward scale); a controller "
+                         "brings only its observation and action settings")
+    return {key: value for key, value in own.items() if key not in REWARD_ONLY}
 
 
 def declared_env_kwargs(controller: Any, name: str) -> dict[str, Any]:
@@ -551,6 +581,10 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         episode.recording_stamp.write_text(f"{episode.stamp}\n{episode.run}\n")
     everything = np.concatenate(kept) if kept else np.zeros((0, len(RECORD_CHANNELS)))
     records = everything[everything[:, R.TIME] >= start + settings.warmup]
+    if len(records) < 2 and reason:  # a failure in the warm-up is a result too: its
+        # metrics are the whole episode's (it stopped the whole benchmark with a traceback)
+        records = everything
+        reason += "; in the warm-up: metrics over the whole episode"
     if len(records) < 2:
         raise RuntimeError(f"{episode.key}: the episode ended before the warm-up was over "
                            f"({reason or 'no samples'})")
@@ -870,6 +904,11 @@ RETURN_NOTE = ("return: DrillString-v0's reward summed over the episode: ROP pay
                "judge stick-slip control by the SSI and stuck columns.")
 
 
+#: Beside the seed count of a controller some of whose episodes a failure ended (make-up
+#: torque, divergence): their rows hold the metrics until then (benchmark.md lists them).
+ENDED_EARLY_MARK = "ended early"
+
+
 #: The task whose policy chooses the rpm (task 2); task 1's corrects the top drive around
 #: the driller's target, which it tracks.
 CHOOSES_RPM = "DrillOptimise-v0"
@@ -904,7 +943,8 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
             sel = [r for r in rows if r["controller"] == c and r["scenario"] == s]
             if not sel:
                 continue
-            cells = [s, c, str(len(sel))]
+            ended = sum(1 for r in sel if r.get("termination"))
+            cells = [s, c, str(len(sel)) + (f" ({ended} {ENDED_EARLY_MARK})" if ended else "")]
             for key, _, fmt in SUMMARY:
                 values = np.array([r[key] for r in sel], dtype=float)
                 if np.isnan(values).all():  # not defined (a zero target's rpm error)
@@ -995,6 +1035,11 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     if runs:  # which model a row is (a plain label does not say it)
         notes.append("Trained runs: " + "; ".join(f"{name}: the policy of {path}"
                                                   for name, path in runs.items()) + ".")
+    failed = [r for r in rows if r.get("termination")]
+    if failed:  # on screen too: only benchmark.md's last line said it
+        notes.append("Episodes that ended early (metrics until then): " + ", ".join(
+            f"{r['controller']}/{r['scenario']}/{r['seed']} ({r['termination']})"
+            for r in failed) + ".")
     _print_table(header, table, [*notes, "Means over seeds, +- half the range."])
     from agents.plots import bar_chart, series_chart
 
@@ -1016,11 +1061,6 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in table]
     lines += [line for note in notes for line in ("", note)]
-    failed = [r for r in rows if r.get("termination")]
-    if failed:
-        lines += ["", "Episodes that ended early: " + ", ".join(
-            f"{r['controller']}/{r['scenario']}/{r['seed']} ({r['termination']})"
-            for r in failed)]
     lines += ["", "## Metrics", "", "![metrics](benchmark_bars.png)"]
     # one section per scenario: each picture in its own paragraph, none hidden beside another
     for s in drawn:

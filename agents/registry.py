@@ -308,6 +308,17 @@ def check_interface(name: str, controller: Any) -> None:
         replace(SimulationConfig(), **physics)
     except (ValueError, TypeError) as err:
         raise ValueError(f"controller: {name}: physics() returned {err}") from None
+    from drill_env.physics.config import flatten
+
+    # its top drive only: the string, rock, well and bit are the scenario's, the same for
+    # every controller (one that softened the rock was listed as curing stick-slip at
+    # twice the ROP, "every controller from the same start and targets")
+    other = sorted(key for key in flatten(dict(physics)) if not key.startswith("top_drive."))
+    if other:
+        raise ValueError(f"controller: {name}: physics() sets {', '.join(other)}: a "
+                         "controller sets its top drive only (top_drive.*); the string, "
+                         "rock, well and bit are the scenario's, the same for every "
+                         "controller")
     data_files(name, controller)
     if getattr(type(controller), "data_files", ()) != getattr(controller, "data_files", ()):
         raise ValueError(f"controller: {name}: data_files is set on the instance; set it on "

@@ -1431,3 +1431,94 @@ def test_plot_swing_is_the_median_block_range_not_a_one_off_step():
     t = np.arange(0.0, 25.0, 0.1)
     speed = np.where(t < 12.0, 5.0, 8.0)  # one step, inside the third 5 s block
     assert _swing(t, speed, warmup=0.0) == 0.0
+
+
+EQUAL_TERMS = '''
+from agents import SetPointController
+
+
+class Mild(SetPointController):
+    name = "my-lp"
+
+    def physics(self):
+        return {"top_drive.controller": "stiff", "top_drive.proportional_gain": 1500.0}
+
+
+class Strong(Mild):
+    def physics(self):
+        return {"top_drive.controller": "stiff", "top_drive.proportional_gain": 9000.0}
+
+
+class RockSwap(SetPointController):
+    name = "rock-swap"
+
+    def physics(self):
+        return {"top_drive.controller": "stiff", "formation.rocks[0].mu_max": 0.5}
+
+
+class NoStickSlipCost(SetPointController):
+    name = "no-cost"
+
+    def physics(self):
+        return {"top_drive.controller": "stiff"}
+
+    def env_kwargs(self):
+        return {"stick_slip_weight": 0.0, "config": {"rop_weight": 5.0}}
+
+
+class OwnMakeUp(NoStickSlipCost):
+    name = "own-makeup"
+
+    def env_kwargs(self):
+        return {"makeup_torque": 3000.0}
+'''
+
+
+def test_a_controller_of_your_own_is_compared_on_equal_terms(tmp_path, monkeypatch):
+    """From a controls engineer's walkthrough: a controller's physics() softened the rock
+    and was listed as curing stick-slip at twice the ROP; its env_kwargs() zeroed the
+    stick-slip weight and led the return column with the stiff PI's stick-slip, or set its
+    own make-up torque; and a second class of the same name in the same file was served
+    the first's rows. Now physics() sets the top drive only, a controller's reward
+    weights are the benchmark's and its episode settings are refused, and the rows of two
+    classes are told apart."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine.py").write_text(EQUAL_TERMS)
+    with pytest.raises(ValueError, match=r"controller: .*RockSwap.*physics\(\) sets "
+                                         r"formation\.rocks\[0\]\.mu_max: a controller sets "
+                                         r"its top drive only"):
+        bm.run_benchmark(["mine.py:RockSwap"], ["stick_slip"], [0], tmp_path / "r", SHORT,
+                         workers=1, progress=False)
+    with pytest.raises(ValueError, match=r"controller: own-makeup\.env_kwargs\(\) sets "
+                                         r"makeup_torque: in a scenario benchmark"):
+        bm.run_benchmark(["mine.py:OwnMakeUp"], ["stick_slip"], [0], tmp_path / "m", SHORT,
+                         workers=1, progress=False)
+    rows = bm.run_benchmark(["stiff", "mine.py:NoStickSlipCost"], ["stick_slip"], [0],
+                            tmp_path / "w", SHORT, workers=1, progress=False)
+    assert rows[0]["ssi"] == rows[1]["ssi"]  # the same drive, the same episode
+    assert rows[1]["episode_return"] == rows[0]["episode_return"]  # scored alike
+    mild = bm.run_benchmark(["mine.py:Mild"], ["stick_slip"], [0], tmp_path / "d", SHORT,
+                            workers=1, progress=False)
+    strong = bm.run_benchmark(["mine.py:Strong"], ["stick_slip"], [0], tmp_path / "d",
+                              SHORT, workers=1, progress=False)
+    alone = bm.run_benchmark(["mine.py:Strong"], ["stick_slip"], [0], tmp_path / "s",
+                             SHORT, workers=1, progress=False)
+    assert strong == alone != mild
+
+
+def test_an_episode_a_failure_ends_in_the_warm_up_is_a_row_and_is_said(tmp_path, capfd):
+    """From a controls engineer's walkthrough: a controller whose episode tripped the
+    make-up torque in the warm-up stopped the whole benchmark with a traceback, and one
+    that tripped it later was scored as if fine, said only on benchmark.md's last line.
+    Now the first is a row with the whole episode's metrics, and both are marked in the
+    table on screen and in benchmark.md."""
+    settings = dataclasses.replace(SHORT, warmup=4.0, env_kwargs={"makeup_torque": 500.0})
+    out = tmp_path / "out"
+    rows = bm.run_benchmark(["stiff", "soft-speed"], ["random"], [0], out, settings,
+                            workers=1, progress=False, env_id="DrillStickSlip-v0")
+    assert all("in the warm-up: metrics over the whole episode" in r["termination"]
+               for r in rows)
+    printed = capfd.readouterr().out
+    assert "Episodes that ended early (metrics until then): stiff/random/0" in " ".join(
+        printed.split())
+    assert "| 1 (1 ended early) |" in (out / "benchmark.md").read_text()

@@ -45,7 +45,7 @@ def test_benchmark_md_lists_episodes_that_ended_early(tmp_path):
         r.update(target_rpm=50.0, radial_ratio=0.1)
     bm.write_outputs(rows, tmp_path, ["stiff"], ["x"], bm.BenchmarkSettings())
     md = (tmp_path / "benchmark.md").read_text()
-    assert "Episodes that ended early: stiff/x/0 (stalled)" in md
+    assert "Episodes that ended early (metrics until then): stiff/x/0 (stalled)" in md
 
 
 def test_guest_keeps_its_observation_keywords_not_its_physics():
