@@ -542,7 +542,12 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         env_kwargs["startup"] = "settled"
     if episode.env_id is None:  # --rpm / --wob, the scenario's start (also reset options)
         env_kwargs.update(starting_at(episode.scenario, settings.set_points(), physics))
-    env: Any = gym.make(env_id, physics=physics, **env_kwargs)
+    try:
+        env: Any = gym.make(env_id, physics=physics, **env_kwargs)
+    except ValueError as err:  # said with whose episode it is (a gain of yours too high
+        # for the step read as the scenario's)
+        raise ValueError(f"{err} (the episode of {episode.label} on {episode.scenario})"
+                         ) from None
     if episode.record:
         from drill_env.recording import RecordEpisode
 

@@ -884,6 +884,14 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                 f"--controller: {args.controller} {why}; choose a drive-rate controller: "
                 f"{', '.join(drive)} or one of your own (rate = 'drive')")
         controller = own or typed_controller(args.controller)
+        from agents.base import SetPointController
+
+        if own is not None and type(own).act is not SetPointController.act:
+            raise argparse.ArgumentTypeError(  # it mapped the loop of physics() alone
+                f"--controller: {args.controller} has rate 'drive' but an act() of its "
+                "own, which the map does not run (it holds the set points fixed under the "
+                "top drive's loop of physics()); a controller that acts at the policy "
+                "rate sets rate = 'policy' and is judged by drill-env benchmark")
         configs = {p: sm.map_config(p, {**string, **controller.physics()}) for p in names}
     store = args.out / "stability_map.points.jsonl"
     t0 = time.perf_counter()
@@ -1416,7 +1424,8 @@ def parser() -> argparse.ArgumentParser:
                    help="comma-separated bit positions")
     p.add_argument("--controller", default=None,
                    help="drive-rate top-drive controller (stiff, soft-speed, soft-torque, "
-                        "z-torque; default: the scenario's stiff PI)")
+                        "z-torque, or one of your own with rate 'drive': file.py:Class; "
+                        "default: the scenario's stiff PI)")
     p.add_argument("--rpm-step", type=number("rpm", low_inclusive=False), default=5.0,
                    help="speed step (rpm)")
     p.add_argument("--wob-step", type=number("kN", low_inclusive=False), default=5.0,

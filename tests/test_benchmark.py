@@ -1466,6 +1466,14 @@ class NoStickSlipCost(SetPointController):
         return {"stick_slip_weight": 0.0, "config": {"rop_weight": 5.0}}
 
 
+class Huge(SetPointController):
+    name = "huge"
+
+    def physics(self):
+        return {"top_drive.controller": "stiff", "top_drive.proportional_gain": 1e9,
+                "top_drive.integral_gain": 1e9}
+
+
 class OwnMakeUp(NoStickSlipCost):
     name = "own-makeup"
 
@@ -1492,6 +1500,10 @@ def test_a_controller_of_your_own_is_compared_on_equal_terms(tmp_path, monkeypat
     with pytest.raises(ValueError, match=r"controller: own-makeup\.env_kwargs\(\) sets "
                                          r"makeup_torque: in a scenario benchmark"):
         bm.run_benchmark(["mine.py:OwnMakeUp"], ["stick_slip"], [0], tmp_path / "m", SHORT,
+                         workers=1, progress=False)
+    with pytest.raises(ValueError, match=r"proportional_gain.*\(the episode of huge on "
+                                         r"stick_slip\)"):  # whose gains, said
+        bm.run_benchmark(["mine.py:Huge"], ["stick_slip"], [0], tmp_path / "h", SHORT,
                          workers=1, progress=False)
     rows = bm.run_benchmark(["stiff", "mine.py:NoStickSlipCost"], ["stick_slip"], [0],
                             tmp_path / "w", SHORT, workers=1, progress=False)

@@ -397,7 +397,9 @@ def test_the_map_command_runs_under_a_drive_rate_controller_of_your_own(tmp_path
         "from agents import SetPointController\n\n\n"
         f"class GentlePI(SetPointController):\n    name = 'gentle-pi'\n\n"
         f"    def physics(self):\n        return {{{gains}}}\n\n\n"
-        "class Chooser(GentlePI):\n    name = 'chooser'\n    rate = 'policy'\n")
+        "class Chooser(GentlePI):\n    name = 'chooser'\n    rate = 'policy'\n\n\n"
+        "class Acting(GentlePI):\n    name = 'acting'\n\n"
+        "    def act(self, observation, info):\n        return super().act(observation, info)\n")
     args = ["stability-map", "--positions", "P1", "--rpm-step", "100", "--wob-step", "100",
             "--max-rpm", "200", "--max-wob", "200", "--seconds", "4", "--workers", "1",
             "--out", str(tmp_path / "maps")]
@@ -407,6 +409,11 @@ def test_the_map_command_runs_under_a_drive_rate_controller_of_your_own(tmp_path
     with pytest.raises(SystemExit):
         main([*args, "--controller", f"{tmp_path / 'mine.py'}:Chooser"])
     assert "acts at the policy rate" in capsys.readouterr().err
+    # a drive-rate one with an act() of its own: the map ran its physics() alone (a
+    # controls engineer's walkthrough: its low-pass loop mapped as the stiff PI)
+    with pytest.raises(SystemExit):
+        main([*args, "--controller", f"{tmp_path / 'mine.py'}:Acting"])
+    assert "has rate 'drive' but an act() of its own" in capsys.readouterr().err
 
 
 def test_the_table_prints_boundaries_on_the_grid_as_they_are():
