@@ -596,7 +596,8 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
                f"strings of {spans} m buckle (checked every {DRAW_CHECK_STEP:g} m): draw "
                "others (string_length_range=(lo, hi) in gym.make, --string-lengths in "
                "drill-env benchmark --task), ")
-            + "lighten the mud or make the BHA heavier (string.components)")
+            + "draw a lower WOB (start_weight_on_bit_range in gym.make), lighten the mud "
+            "or make the BHA heavier (string.components)")
     _CHECKED.add(key)
 
 

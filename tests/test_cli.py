@@ -188,10 +188,10 @@ def test_a_wob_given_is_the_one_the_scenario_checks_for_buckling(tmp_path, capsy
                  "--config", str(well), "--wob", "60", "--seeds", "1", "--duration", "1",
                  "--warmup", "0.5", "--workers", "1", "--out", str(out / "b")]) == 0
     assert "error" not in capsys.readouterr().err
-    # 90 kN buckles it too: refused by the value typed (it named the scenario's 100 kN)
-    assert main(["run", "--config", str(well), "--wob", "90", "--duration", "0.2",
+    # 110 kN buckles it too: refused by the value typed (it named the scenario's 100 kN)
+    assert main(["run", "--config", str(well), "--wob", "110", "--duration", "0.2",
                  "--out", str(out)]) == 2
-    assert "weight_on_bit: 90 kN compresses the 5 in DP" in capsys.readouterr().err
+    assert "weight_on_bit: 110 kN compresses the 5 in DP" in capsys.readouterr().err
     # a task policy's own range names the flag (DrillOptimise-v0: 40-200 rpm)
     with pytest.raises(SystemExit):
         main(["run", "--controller", "learned:agents/trained/drilling", "--rpm", "30",
@@ -1083,23 +1083,25 @@ def test_evaluate_says_which_model_it_scores(tmp_path):
 
 
 def test_a_task_benchmark_on_a_curved_well_draws_the_lengths_given(tmp_path, capsys):
-    """On a 75 deg build the task's default strings (900-1600 m) buckle the pipe for
-    900-1110 m; `benchmark --task` had no way to draw others (a researcher's walkthrough:
-    the classical controllers alone could not be benchmarked on the docs' example well).
-    The refusal names the lengths that buckle and the flag."""
-    well = tmp_path / "well75.yaml"
-    well.write_text("well: {md: [0, 300, 800, 2000], inclination: [0, 0, 75, 75], "
+    """On a horizontal well the task's default strings (900-1600 m) buckle the pipe for
+    1015-1600 m, where the build leaves the vertical; `benchmark --task` had no way to
+    draw others (a researcher's walkthrough: the classical controllers alone could not be
+    benchmarked on the docs' example well, where 900-1110 m buckled while the build's
+    2-10 degrees took the vertical-hole load). The refusal names the lengths that buckle
+    and the flag."""
+    well = tmp_path / "horizontal.yaml"
+    well.write_text("well: {md: [0, 300, 1000, 2000], inclination: [0, 0, 90, 90], "
                     "azimuth: [0, 0, 90, 90]}\n")
     args = ["benchmark", "--task", "stick_slip", "--controllers", "stiff", "--config",
             str(well), "--seeds", "1", "--duration", "1", "--warmup", "0.5", "--workers",
             "1", "--out", str(tmp_path / "b")]
     assert main(args) == 2
     err = capsys.readouterr().err
-    assert "strings of 900-1110 m buckle" in err and "--string-lengths" in err
+    assert "strings of 1015-1600 m buckle" in err and "--string-lengths" in err
     assert "top_drive" not in err  # the benchmark's own settings are not the user's
-    assert main([*args, "--string-lengths", "1300,1600"]) == 0
+    assert main([*args, "--string-lengths", "900,1010"]) == 0
     md = (tmp_path / "b" / "benchmark.md").read_text()
-    assert "string_length_range (1300.0, 1600.0)" in md
+    assert "string_length_range (900.0, 1010.0)" in md
     with pytest.raises(SystemExit):  # a scenario benchmark draws no lengths
         main(["benchmark", "--string-lengths", "1300,1600", "--out", str(tmp_path / "c")])
     assert "--string-lengths: the range a task's random scenario draws" in \
