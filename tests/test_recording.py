@@ -66,6 +66,25 @@ def _record_one(args: tuple[str, int]) -> tuple[str, str]:
 # --------------------------------------------------------------------------- round trip
 
 
+@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="threads counted in /proc")
+def test_recording_many_episodes_in_one_process_holds_its_threads(tmp_path: Path) -> None:
+    """An ML engineer's dataset walkthrough: every recorded episode left rerun's streams
+    (the episode's and its saved layout's) open, 4 threads and ~4.8 MB each, 1,206 threads
+    after 300 episodes in one process. The layout's stream is closed and the dropped
+    streams freed now: the thread count stays where it is; each file keeps its layout."""
+    def threads() -> int:
+        return len(list(Path("/proc/self/task").iterdir()))
+
+    env = RecordEpisode(_make_env(0.2), tmp_path)
+    _run_episode(env, seed=0)
+    before = threads()
+    for seed in range(1, 13):
+        _run_episode(env, seed=seed)
+    env.close()
+    assert threads() <= before + 2  # was + 48
+    assert all(read_recording(path).n_blueprints == 1 for path in tmp_path.glob("*.rrd"))
+
+
 def test_roundtrip_series_equal_info(tmp_path: Path) -> None:
     env = RecordEpisode(_make_env(2.0), tmp_path, string_period=0.2)
     infos, actions, rewards = _run_episode(env, seed=7)
