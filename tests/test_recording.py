@@ -66,6 +66,23 @@ def _record_one(args: tuple[str, int]) -> tuple[str, str]:
 # --------------------------------------------------------------------------- round trip
 
 
+def test_a_cut_recording_is_named_and_rerun_off_is_said(tmp_path: Path, monkeypatch) -> None:
+    """An ML engineer's dataset walkthrough: a file cut short (or still being written)
+    stopped a loop over a folder with rerun's bare RuntimeError; with RERUN=off nothing
+    was recorded and nothing said so (only rerun's own lines)."""
+    path, _ = _record_one((str(tmp_path / "whole"), 1))
+    cut = tmp_path / "cut.rrd"
+    cut.write_bytes(Path(path).read_bytes()[: Path(path).stat().st_size // 3])
+    with pytest.raises(ValueError, match=r"cut\.rrd cannot be read to its end"):
+        read_recording(cut)
+    monkeypatch.setenv("RERUN", "off")
+    env = RecordEpisode(_make_env(0.2), tmp_path / "off")
+    with pytest.warns(RuntimeWarning, match=r"rerun is disabled in this process \(RERUN=off\)"):
+        _run_episode(env, seed=0)
+    env.close()
+    assert env.paths == []
+
+
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="threads counted in /proc")
 def test_recording_many_episodes_in_one_process_holds_its_threads(tmp_path: Path) -> None:
     """An ML engineer's dataset walkthrough: every recorded episode left rerun's streams

@@ -18,6 +18,7 @@ import math
 import os
 import re
 import uuid
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -293,7 +294,9 @@ class EpisodeRecorder:
         self._writer = None
         self._saved = False  # whether the file was started (to remove if it fails)
         self.active = True
-        if not rr.is_enabled(stream):  # RERUN=off: record nothing
+        if not rr.is_enabled(stream):  # RERUN=off: record nothing, said once per process
+            warnings.warn("rerun is disabled in this process (RERUN=off): nothing is "
+                          "recorded", RuntimeWarning, stacklevel=3)
             return self.recording_id
         try:
             self._open(stream, geometry, config, env_settings, info)

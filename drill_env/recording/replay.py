@@ -215,7 +215,18 @@ def _first(cell: list | None, empty: Any) -> Any:
 
 
 def read_recording(path: str | os.PathLike) -> RecordingContents:
-    """Read a recording back with rerun's own reader (``rerun.chunk.RrdReader``)."""
+    """Read a recording back with rerun's own reader (``rerun.chunk.RrdReader``).
+    ValueError naming the file where it cannot be read to its end (cut short, or still
+    being written): rerun's bare RuntimeError stopped a loop over a folder."""
+    try:
+        return _read_recording(path)
+    except RuntimeError as err:
+        raise ValueError(f"path: {path} cannot be read to its end ({err}); "
+                         "check_recording(path) says what the viewer can show") from None
+
+
+def _read_recording(path: str | os.PathLike) -> RecordingContents:
+    """:func:`read_recording` but rerun's errors."""
     import pyarrow as pa
     from rerun.chunk import RrdReader
 
