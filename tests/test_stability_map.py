@@ -137,7 +137,9 @@ def test_unstable_zone_grows_with_contact_to_rock_one(maps):
     f = {p: m.unstable_fraction for p, m in maps.items()}
     assert f["P4"] < f["P3"] < f["P5"] < f["P2"] <= max(f["P1"], f["P6"]) + 0.01
     assert f["P4"] < 0.5 * f["P1"]
-    assert abs(f["P1"] - f["P6"]) < 0.03  # both all in hard rock
+    # both all in hard rock, the bit held there: the same map (with the bit returned
+    # every 0.5 s P1's drilled into the layer below it and differed by 2 points)
+    assert f["P1"] == f["P6"]
 
 
 def test_hard_rock_map_lies_within_the_linear_instability(maps):
