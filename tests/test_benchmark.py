@@ -1479,6 +1479,15 @@ class OwnMakeUp(NoStickSlipCost):
 
     def env_kwargs(self):
         return {"makeup_torque": 3000.0}
+
+
+class OwnMakeUpConfig(NoStickSlipCost):
+    name = "own-makeup-config"
+
+    def env_kwargs(self):
+        from drill_env.env_config import EnvConfig
+
+        return {"config": EnvConfig(makeup_torque=3000.0, sensors="surface")}
 '''
 
 
@@ -1501,6 +1510,9 @@ def test_a_controller_of_your_own_is_compared_on_equal_terms(tmp_path, monkeypat
                                          r"makeup_torque: in a scenario benchmark"):
         bm.run_benchmark(["mine.py:OwnMakeUp"], ["stick_slip"], [0], tmp_path / "m", SHORT,
                          workers=1, progress=False)
+    with pytest.raises(ValueError, match=r"own-makeup-config\.env_kwargs\(\) sets makeup_torque"):
+        bm.run_benchmark(["mine.py:OwnMakeUpConfig"], ["stick_slip"], [0], tmp_path / "c",
+                         SHORT, workers=1, progress=False)  # in an EnvConfig too
     with pytest.raises(ValueError, match=r"proportional_gain.*\(the episode of huge on "
                                          r"stick_slip\)"):  # whose gains, said
         bm.run_benchmark(["mine.py:Huge"], ["stick_slip"], [0], tmp_path / "h", SHORT,
