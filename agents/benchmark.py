@@ -431,8 +431,10 @@ def guest_env_kwargs(controller: Any) -> dict[str, Any]:
     if getattr(controller, "env_id", "DrillString-v0") != "DrillString-v0":
         return own
     config = own.pop("config", None) or {}
-    if dataclasses.is_dataclass(config):  # an EnvConfig: the fields it sets otherwise
-        default = type(config)()
+    from drill_env.env_config import EnvConfig
+
+    if isinstance(config, EnvConfig):  # the fields it sets otherwise than the default
+        default = EnvConfig()
         config = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)
                   if getattr(config, f.name) != getattr(default, f.name)}
     own = {**dict(config), **own}

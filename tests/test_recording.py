@@ -146,6 +146,8 @@ def test_roundtrip_series_equal_info(tmp_path: Path) -> None:
     assert rec.episode["drill_env_sources"] == source_digest("drill_env")
     assert rec.episode["state"] == "truncated (time limit)"
     assert rec.episode["controller"] == ""  # none given (rerun drops the empty string)
+    assert rec.episode["env_id"] == "DrillString-v0"  # a task's said which (a dataset's
+    # walkthrough: DrillStickSlip-v0's episodes read "random" alone)
 
     t = np.array([i["time"] for i in infos])
     # info is SI; each plot shows the unit its name says (not the writer's own table)

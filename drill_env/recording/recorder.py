@@ -570,6 +570,9 @@ class EpisodeRecorder:
         g = self._geometry
         return {
             "scenario": self.scenario, "controller": self.controller or "",
+            # the env's registered id ("" for an env not made by id): a task's episodes
+            # were told from the plain env's by /config/env alone, which is not returned
+            "env_id": str(self._settings.get("env_id") or ""),
             "seed": -1 if self.seed is None else self.seed,
             "episode_index": self.episode_index, "recording_id": self.recording_id,
             "samples": self._flushed, "start_time_s": self._start_time,

@@ -272,5 +272,6 @@ def _read_recording(path: str | os.PathLike) -> RecordingContents:
         lines.sort(key=lambda e: e[0])
     if episode:  # rerun drops the empty string written for "no controller": as written
         episode["controller"] = episode.get("controller") or ""
+        episode["env_id"] = episode.get("env_id") or ""  # (older files: none written)
     return RecordingContents(entry.application_id, entry.recording_id, entities, scalars,
                              EntityDict(logs), len(reader.blueprints()), episode)
