@@ -140,7 +140,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
     - ``rop``: ``rop_weight * mean ROP / rop_scale`` over the control interval;
     - ``stick_slip``: ``-stick_slip_weight * min(SSI, ssi_cap)``, SSI of the bit speed over
       the last ``metric_window`` seconds (:func:`drill_env.metrics.stick_slip_severity`);
-    - ``whirl``: ``-whirl_weight * mean radial displacement / clearance`` over the interval;
+    - ``whirl``: ``-whirl_weight * mean excursion ratio`` over the interval: the bit's lateral
+      distance from where the reset put it (:func:`drill_env.metrics.excursion_ratio`);
     - ``effort``: ``-effort_weight * ((d rpm / rpm span)^2 + (d WOB / WOB span)^2)``, the
       change of the commanded set points;
     - ``failure``: ``-failure_weight`` on a termination (torque limit, divergence).
@@ -403,21 +404,19 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._init_episode_state()
         wob_start = min(wob, self.weight_on_bit_limit)
         sim = self.sim
-        if self.config.startup in ("settled", "stalled"):
-            sim.reset(OperatingPoint(surface_speed=speed, weight_on_bit=wob_start))
-            if self.config.startup == "stalled":
-                sim.vt[1:] = 0.0  # the string below the top drive at rest, twisted
-                sim.read()
-            if self.config.start_kick > 0.0:
-                kick = self.config.start_kick * self.np_random.uniform(-1.0, 1.0)
-                sim.vt[-1] *= 1.0 + kick
-                sim.read()
-        else:
-            sim.reset(OperatingPoint(0.0, 0.0))
+        settled = self.config.startup in ("settled", "stalled")
+        sim.reset(OperatingPoint(speed, wob_start) if settled else OperatingPoint(0.0, 0.0))
+        # the whirl reward's excursion is measured from where the reset put the bit
+        self.rolling_metrics.set_rest(sim.readings[_BIT_X], sim.readings[_BIT_Y])
+        if self.config.startup == "stalled":
+            sim.vt[1:] = 0.0  # the string below the top drive at rest, twisted
+            sim.read()
+        if settled and self.config.start_kick > 0.0:
+            sim.vt[-1] *= 1.0 + self.config.start_kick * self.np_random.uniform(-1.0, 1.0)
+            sim.read()
+        if not settled:
             self._paper_startup(speed, wob_start)
-        self._speed_target = speed
-        self._wob_target = wob
-        self.targets = (speed, wob)
+        self._speed_target, self._wob_target = self.targets = (speed, wob)
         self._wob_applied = wob_start
         self._start_time = sim.time
         self._window_metrics = self.rolling_metrics.window()
@@ -584,14 +583,14 @@ class DrillStringEnv(BatchFinish, gym.Env):
         """The reward terms of this step (they sum to the reward); ``step`` as above."""
         cfg = self.config
         if step is not None and step[1]:
-            rop, radial = step[0][Metric.ROP], step[0][Metric.RADIAL_RATIO]
+            rop, excursion = step[0][Metric.ROP], step[0][Metric.EXCURSION_RATIO]
         else:
-            rop, radial = 0.0, 1.0
+            rop, excursion = 0.0, 1.0
         ssi = self._window_ssi()
         return {
             "rop": cfg.rop_weight * rop / cfg.rop_scale,
             "stick_slip": -cfg.stick_slip_weight * min(ssi, cfg.ssi_cap),
-            "whirl": -cfg.whirl_weight * radial,
+            "whirl": -cfg.whirl_weight * excursion,
             "effort": -cfg.effort_weight * self._effort,
             "failure": -cfg.failure_weight if terminated else 0.0,
         }

@@ -121,14 +121,14 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
         out.truncated[e] = (not terminated) and st[BatchState.COUNT] >= st[BatchState.MAX_STEPS]
         # _reward_terms, summed in their order from 0 as sum() does
         rop = step[e, Metric.ROP] if step_ok else 0.0
-        radial = step[e, Metric.RADIAL_RATIO] if step_ok else 1.0
+        excursion = step[e, Metric.EXCURSION_RATIO] if step_ok else 1.0
         ssi = st[BatchState.SSI]
         cap = weights[BatchWeight.SSI_CAP]
         ssi = cap if cap < ssi else ssi  # min(ssi, cap)
         out.terms[RewardTerm.ROP, e] = weights[BatchWeight.ROP] * rop / \
             weights[BatchWeight.ROP_SCALE]
         out.terms[RewardTerm.STICK_SLIP, e] = -weights[BatchWeight.STICK_SLIP] * ssi
-        out.terms[RewardTerm.WHIRL, e] = -weights[BatchWeight.WHIRL] * radial
+        out.terms[RewardTerm.WHIRL, e] = -weights[BatchWeight.WHIRL] * excursion
         out.terms[RewardTerm.EFFORT, e] = -weights[BatchWeight.EFFORT] * st[BatchState.EFFORT]
         out.terms[RewardTerm.FAILURE, e] = -weights[BatchWeight.FAILURE] if terminated else 0.0
         reward = 0.0

@@ -21,7 +21,7 @@ from drill_env.physics.validation import (
 )
 
 #: Bounds that keep the reward and the episode finite: weights up to 1e6 times terms that
-#: are themselves bounded (SSI capped, radial ratio below the runaway limit, ROP over a
+#: are themselves bounded (SSI capped, excursion ratio below the runaway limit, ROP over a
 #: scale of at least 1e-6 m/s) cannot overflow; time spans up to a year of simulated time.
 MAX_WEIGHT = 1.0e6
 MIN_SCALE = 1.0e-6
@@ -118,8 +118,8 @@ class EnvConfig:
     #: Reward weights (the terms are in DrillStringEnv's docstring), chosen so that the terms
     #: are of one order at typical operating points: drilling at ~30 m/h earns ~0.8 per
     #: step (ROP over ``rop_scale``), full stick-slip (SSI ~1.3) costs ~1.3, so drilling
-    #: fast in stick-slip earns less than drilling smoothly; the bit on the wall all the
-    #: time costs 0.5 (whirl: weaker than stick-slip, as in the paper's priorities); a
+    #: fast in stick-slip earns less than drilling smoothly; the bit whirling on the wall all
+    #: the time costs ~0.5 (whirl: weaker than stick-slip, as in the paper's priorities); a
     #: set-point jump across the whole range costs 0.2 per action (effort), a small
     #: trim almost nothing; a failure (torque over the make-up torque, divergence) costs
     #: 10, an order above any one step's terms.

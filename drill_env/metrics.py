@@ -14,6 +14,7 @@ whirl ratio                mean whirl speed / mean bit speed: > 0 forward, < 0 b
 whirl fraction             share of samples that whirl (:func:`whirling`: the one rule)
 backward whirl fraction    share of samples that whirl against the rotation
 radial ratio               bit lateral displacement over the gauge clearance
+excursion ratio            bit lateral displacement from its rest over the clearance
 lateral force              magnitude of the bit's lateral force (N)
 ROP                        mean rate of penetration (m/s)
 MSE                        mechanical specific energy, Teale (1965), in Pa (J/m^3), capped
@@ -89,6 +90,17 @@ def radial_ratio(bit_x, bit_y, clearance: float) -> np.ndarray:
     if not clearance > 0:
         raise ValueError(f"clearance: must be > 0, got {clearance!r}")
     return np.hypot(np.asarray(bit_x, dtype=float), np.asarray(bit_y, dtype=float)) / clearance
+
+
+def excursion_ratio(bit_x, bit_y, clearance: float, rest=(0.0, 0.0)) -> np.ndarray:
+    """Bit lateral displacement from its rest position ``rest`` (m: x, y) over the radial
+    clearance: the lateral vibration the env's whirl reward pays for. The rest is where
+    the env's reset placed the bit: the hole axis in a vertical hole (the radial ratio),
+    the low side of a deviated one, where gravity holds the bit without any whirl."""
+    if not clearance > 0:
+        raise ValueError(f"clearance: must be > 0, got {clearance!r}")
+    return np.hypot(np.asarray(bit_x, dtype=float) - rest[0],
+                    np.asarray(bit_y, dtype=float) - rest[1]) / clearance
 
 
 def whirl_ratio(whirl_speed, bit_speed, min_mean_speed: float = SSI_MIN_MEAN_SPEED) -> float:
@@ -197,14 +209,14 @@ def peak_surface_torque(surface_torque) -> float:
 
 
 def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
-                   bit_diameter: float) -> dict[str, float]:
+                   bit_diameter: float, rest=(0.0, 0.0)) -> dict[str, float]:
     """All metrics of a simulator record window (rows: samples ``dt`` apart).
 
     ``channels`` names the record columns (the simulator's ``RECORD_CHANNELS``). Returns
     the :data:`WINDOW_METRICS`: ``ssi, stuck_fraction, whirl_ratio, radial_ratio (mean),
     radial_ratio_max, lateral_force (mean), lateral_force_max, rop, mse,
     top_drive_energy, surface_torque_max, whirl_fraction, backward_whirl_fraction,
-    mean_bit_speed``.
+    mean_bit_speed, excursion_ratio`` (mean, from the bit's ``rest``: :func:`excursion_ratio`).
     """
     col = {name: k for k, name in enumerate(channels)}
     rec = np.asarray(records, dtype=float)
@@ -233,6 +245,8 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
         "backward_whirl_fraction": float(np.mean(
             backward_whirling(radial, c("whirl_speed"), c("bit_speed")))),
         "mean_bit_speed": float(np.mean(c("bit_speed"))),
+        "excursion_ratio": float(np.mean(excursion_ratio(c("bit_x"), c("bit_y"), clearance,
+                                                         rest))),
     }
 
 
@@ -249,6 +263,7 @@ Metric = IntEnum("Metric", [
     "SSI", "STUCK_FRACTION", "WHIRL_RATIO", "RADIAL_RATIO", "RADIAL_RATIO_MAX",
     "LATERAL_FORCE", "LATERAL_FORCE_MAX", "ROP", "MSE", "TOP_DRIVE_ENERGY",
     "SURFACE_TORQUE_MAX", "WHIRL_FRACTION", "BACKWARD_WHIRL_FRACTION", "MEAN_BIT_SPEED",
+    "EXCURSION_RATIO",
 ], start=0)
 WINDOW_METRICS: tuple[str, ...] = tuple(m.name.lower() for m in Metric)
 #: The record channels the metrics read, in the order of :func:`metric_columns`.
@@ -261,11 +276,13 @@ METRIC_CHANNELS: tuple[str, ...] = tuple(c.name.lower() for c in Channel)
 #: is 1.0 where every channel of the record is finite, else 0.0).
 Sample = IntEnum("Sample", [
     "BIT_SPEED", "WHIRL_SPEED", "RADIAL_RATIO", "LATERAL_FORCE", "ROP", "WEIGHT_ON_BIT",
-    "BIT_POWER", "MOTOR_POWER", "SURFACE_TORQUE", "FINITE",
+    "BIT_POWER", "MOTOR_POWER", "SURFACE_TORQUE", "EXCURSION_RATIO", "FINITE",
 ], start=0)
 METRIC_SAMPLES: tuple[str, ...] = tuple(m.name.lower() for m in Sample)
-#: Scalars of a rolling window (``WindowArrays.params``).
-WindowParam = IntEnum("WindowParam", ["CLEARANCE", "DT", "AREA", "SIZE"], start=0)
+#: Scalars of a rolling window (``WindowArrays.params``); REST_X, REST_Y: the bit's rest
+#: position (m) that the excursion ratio is measured from (:meth:`RollingMetrics.set_rest`).
+WindowParam = IntEnum("WindowParam", ["CLEARANCE", "DT", "AREA", "SIZE", "REST_X", "REST_Y"],
+                      start=0)
 
 
 class WindowArrays(NamedTuple):
@@ -373,20 +390,23 @@ def _max(a):
 
 
 @njit(cache=True, nogil=True)
-def metric_samples_into(records, columns, clearance, samples):
+def metric_samples_into(records, columns, params, samples):
     """The :data:`Sample` quantities of each record (row of ``records``) into ``samples``.
 
-    ``columns``: :func:`metric_columns`; ``samples``: ``(len(Sample), n)``.
-    The element-wise parts of the definitions above.
+    ``columns``: :func:`metric_columns`; ``params``: the window's :data:`WindowParam`
+    values; ``samples``: ``(len(Sample), n)``. The element-wise parts of the definitions
+    above.
     """
     n_channels = records.shape[1]
+    clearance = params[WindowParam.CLEARANCE]
+    rest_x, rest_y = params[WindowParam.REST_X], params[WindowParam.REST_Y]
     for k in range(records.shape[0]):
         w = records[k, columns[Channel.BIT_SPEED]]
+        x, y = records[k, columns[Channel.BIT_X]], records[k, columns[Channel.BIT_Y]]
         samples[Sample.BIT_SPEED, k] = w
         samples[Sample.WHIRL_SPEED, k] = records[k, columns[Channel.WHIRL_SPEED]]
-        samples[Sample.RADIAL_RATIO, k] = math.hypot(records[k, columns[Channel.BIT_X]],
-                                                     records[k, columns[Channel.BIT_Y]]) \
-            / clearance
+        samples[Sample.RADIAL_RATIO, k] = math.hypot(x, y) / clearance
+        samples[Sample.EXCURSION_RATIO, k] = math.hypot(x - rest_x, y - rest_y) / clearance
         samples[Sample.LATERAL_FORCE, k] = math.hypot(records[k, columns[Channel.BIT_FORCE_X]],
                                                       records[k, columns[Channel.BIT_FORCE_Y]])
         samples[Sample.ROP, k] = records[k, columns[Channel.ROP]]
@@ -436,6 +456,8 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
                                                     1.0)
     out[Metric.RADIAL_RATIO] = _pairwise_sum(samples[Sample.RADIAL_RATIO], tasks, partial) / n
     out[Metric.RADIAL_RATIO_MAX] = _max(samples[Sample.RADIAL_RATIO])
+    out[Metric.EXCURSION_RATIO] = _pairwise_sum(samples[Sample.EXCURSION_RATIO], tasks,
+                                                partial) / n
     out[Metric.LATERAL_FORCE] = _pairwise_sum(samples[Sample.LATERAL_FORCE], tasks,
                                               partial) / n
     out[Metric.LATERAL_FORCE_MAX] = _max(samples[Sample.LATERAL_FORCE])
@@ -507,7 +529,7 @@ def rolling_add(records, window, with_window):
                 samples[row, k] = samples[row, start + k]
         start, end = 0, kept
     new = samples[:, end:end + n]
-    metric_samples_into(records, window.columns, params[WindowParam.CLEARANCE], new)
+    metric_samples_into(records, window.columns, params, new)
     end += n
     start = max(start, end - size)
     bounds[0], bounds[1] = start, end
@@ -566,6 +588,12 @@ class RollingMetrics:
 
     def clear(self) -> None:
         self.arrays.bounds[:] = 0
+
+    def set_rest(self, x: float, y: float) -> None:
+        """The bit's rest position (m) the excursion ratio of the records added from now on
+        is measured from (:func:`excursion_ratio`; the env sets it at each reset)."""
+        self.arrays.params[WindowParam.REST_X] = x
+        self.arrays.params[WindowParam.REST_Y] = y
 
     @property
     def bit_speed(self) -> np.ndarray:

@@ -358,3 +358,42 @@ def test_mse_is_the_ceiling_when_not_drilling_but_spending_rotary_power():
     rop = [5.0e-10] * 4    # below MSE_MIN_ROP but > 0
     assert metrics.mechanical_specific_energy(wob, torque, speed, rop, 0.2) \
         == metrics.MSE_CEILING
+
+
+def test_the_excursion_ratio_is_measured_from_the_rest_on_both_paths():
+    """The excursion ratio (the whirl reward's measure) is the bit's distance from its
+    rest position over the clearance: 0 for a bit held at rest on a deviated hole's low
+    side, whose radial ratio is its offset; for an orbit of the clearance's radius about
+    the axis, seen from a rest r0 off it, the mean of |c e^{i t} - r0| over the orbit,
+    (2 / pi) (c + r0) E(k), k^2 = 4 c r0 / (c + r0)^2 (complete elliptic integral of
+    the second kind, scipy), over c. Both paths give it; the fast path reads the rest it
+    was given (x and y), the NumPy definition takes it as an argument."""
+    from scipy.special import ellipe
+
+    rest = (-0.6 * CLEARANCE, 0.2 * CLEARANCE)
+    r0 = math.hypot(*rest)
+    rec = np.zeros((64, len(CHANNELS)))
+    rec[:, COL["bit_x"]], rec[:, COL["bit_y"]] = rest
+    rolling = metrics.RollingMetrics(len(rec), CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
+    rolling.set_rest(*rest)
+    (values, _), _ = rolling.update(rec)
+    numpy = metrics.window_metrics(rec, CHANNELS, DT, CLEARANCE, BIT_DIAMETER, rest)
+    for m in (dict(zip(metrics.WINDOW_METRICS, values, strict=True)), numpy):
+        assert m["excursion_ratio"] == 0.0
+        assert m["radial_ratio"] == pytest.approx(r0 / CLEARANCE, rel=1e-12)
+
+    phase = np.linspace(0.0, 2.0 * np.pi, 4096, endpoint=False)
+    rec = np.zeros((len(phase), len(CHANNELS)))
+    rec[:, COL["bit_x"]] = CLEARANCE * np.cos(phase)
+    rec[:, COL["bit_y"]] = CLEARANCE * np.sin(phase)
+    rolling = metrics.RollingMetrics(len(rec), CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
+    rolling.set_rest(*rest)
+    (values, _), _ = rolling.update(rec)
+    c = CLEARANCE
+    expected = 2.0 / np.pi * (c + r0) * ellipe(4.0 * c * r0 / (c + r0) ** 2) / c
+    fast = dict(zip(metrics.WINDOW_METRICS, values, strict=True))
+    numpy = metrics.window_metrics(rec, CHANNELS, DT, CLEARANCE, BIT_DIAMETER, rest)
+    for m in (fast, numpy):
+        # the uniform sampling of a smooth periodic integrand converges spectrally
+        assert m["excursion_ratio"] == pytest.approx(expected, rel=1e-9)
+        assert m["radial_ratio"] == pytest.approx(1.0, rel=1e-12)

@@ -82,7 +82,8 @@ class StickSlipTask:
     #: because agents park inside it (design note).
     tracking_weight: NonNegative = Field(default=0.3, le=1.0e6)
     tracking_deadband: NonNegative = Field(default=1.0, le=100.0)
-    #: Mean radial bit displacement over the gauge clearance (whirl, wall contact).
+    #: Per mean bit displacement from its rest (the reset's) over the gauge clearance
+    #: (whirl, lateral vibration: drill_env.metrics.excursion_ratio).
     whirl_weight: NonNegative = Field(default=0.5, le=1.0e6)
     #: Squared change of the action per step: a speed command that chatters wears the
     #: top drive and excites the string.
@@ -149,7 +150,7 @@ class StickSlipEnv(TaskEnv):
     ## Rewards
 
     Per step: ``-stick_slip_weight min(SSI, cap) - stuck_weight stuck - tracking_weight
-    max(0, |mean bit rpm - target rpm| - deadband) - whirl_weight radial ratio -
+    max(0, |mean bit rpm - target rpm| - deadband) - whirl_weight excursion ratio -
     effort_weight (delta action)^2``, ``-failure_weight`` on termination; SSI, stuck
     share and mean bit speed over the env's 3 s metric window. No ROP term: the targets
     are the driller's. ``info["reward_terms"]`` holds the terms.
@@ -279,12 +280,12 @@ class StickSlipEnv(TaskEnv):
         stuck = window[Metric.STUCK_FRACTION] if window is not None else 1.0
         mean = window[Metric.MEAN_BIT_SPEED] if window is not None else 0.0
         error = abs(mean - self.targets[0]) / RPM
-        radial = step[0][Metric.RADIAL_RATIO] if step is not None and step[1] else 1.0
+        excursion = step[0][Metric.EXCURSION_RATIO] if step is not None and step[1] else 1.0
         return {
             "stick_slip": -t.stick_slip_weight * min(ssi, t.ssi_cap),
             "stuck": -t.stuck_weight * stuck,
             "tracking": -t.tracking_weight * max(0.0, error - t.tracking_deadband),
-            "whirl": -t.whirl_weight * radial,
+            "whirl": -t.whirl_weight * excursion,
             "effort": -t.effort_weight * self._action_change,
             "failure": -t.failure_weight if terminated else 0.0,
         }

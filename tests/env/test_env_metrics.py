@@ -53,11 +53,14 @@ def window_of(env):
     # implicit contacts at 10 ms (an opt-in): 10 steps, every 10th
     {"fidelity": "fast", "physics": {"solver.implicit_contacts": True,
                                      "solver.time_step": 0.01}},
+    # a deviated hole: the bit rests off the axis, on the low side
+    {"fidelity": "fast", "scenario": "j_shaped"},
 ])
 def test_info_and_reward_are_the_metric_definitions_of_the_records(kwargs):
     env = recording(DrillStringEnv(episode_duration=1.5, **kwargs))
     cfg = env.config
-    env.reset(seed=0)
+    _, info = env.reset(seed=0)
+    rest = info["bit_lateral"]  # a settled start: where the reset put the bit
     rng = np.random.default_rng(0)
     energy = 0.0
     for _ in range(15):
@@ -72,15 +75,47 @@ def test_info_and_reward_are_the_metric_definitions_of_the_records(kwargs):
                                            records[:, COL["surface_speed"]], dt)
         assert info["top_drive_energy"] == pytest.approx(energy, rel=1e-12)
         rop = metrics.mean_rop(records[:, COL["rop"]])
-        radial = np.mean(metrics.radial_ratio(records[:, COL["bit_x"]],
-                                              records[:, COL["bit_y"]], env.clearance))
+        excursion = np.mean(metrics.excursion_ratio(records[:, COL["bit_x"]],
+                                                    records[:, COL["bit_y"]], env.clearance,
+                                                    rest))
         terms = info["reward_terms"]
         assert terms["rop"] == pytest.approx(cfg.rop_weight * rop / cfg.rop_scale, rel=1e-12)
-        assert terms["whirl"] == pytest.approx(-cfg.whirl_weight * radial, rel=1e-12)
+        assert terms["whirl"] == pytest.approx(-cfg.whirl_weight * excursion, rel=1e-12)
         ssi = metrics.stick_slip_severity(window[:, COL["bit_speed"]])
         assert terms["stick_slip"] == pytest.approx(
             -cfg.stick_slip_weight * min(ssi, cfg.ssi_cap), rel=1e-12)
         assert reward == sum(terms.values())
+
+
+@pytest.mark.parametrize("env_id", ["DrillString-v0", "DrillStickSlip-v0"])
+def test_a_bit_held_on_the_low_side_of_a_deviated_hole_pays_no_whirl(env_id):
+    """Gravity holds the bit off the axis of an inclined hole (j_shaped: 45 deg at the
+    bit) without any orbit: the whirl term is the bit's distance from where the reset put
+    it (metrics.excursion_ratio), ~0 there, where the mean radial ratio it was until
+    2026-12-05 read ~0.36 and charged ~0.18 a step. A whirling bit (paper case 4,
+    continuous whirl on the wall of the vertical paper string) pays nearly the whole
+    weight."""
+    import gymnasium as gym
+
+    def terms_and_radial(scenario):
+        env = gym.make(env_id, scenario=scenario, episode_duration=3.0)
+        env.reset(seed=0)
+        action = np.zeros(env.action_space.shape, dtype=np.float32)
+        whirl, radial = [], []
+        for _ in range(30):
+            *_, terminated, truncated, info = env.step(action)
+            whirl.append(info["reward_terms"]["whirl"])
+            radial.append(info["radial_ratio"])
+            assert not terminated
+        return np.array(whirl), float(np.mean(radial)), env.unwrapped
+
+    whirl, radial, base = terms_and_radial("j_shaped")
+    weight = base.task.whirl_weight if hasattr(base, "task") else base.config.whirl_weight
+    assert radial > 0.2
+    assert np.mean(whirl) > -0.05 * weight
+    whirl, radial, _ = terms_and_radial("paper_case4")
+    assert radial > 0.5
+    assert np.mean(whirl[10:]) < -0.8 * weight
 
 
 def named_observation(env):

@@ -591,10 +591,10 @@ def _with_window_metric(env_id: str, name: str, value: float) -> tuple[Any, list
     return env.unwrapped, values
 
 
-def test_stick_slip_whirl_term_reads_a_non_finite_step_as_full_radial():
-    # the plain env (drill_env/env.py, non-finite step -> radial 1.0) and task 2 (whirl
+def test_stick_slip_whirl_term_reads_a_non_finite_step_as_full_excursion():
+    # the plain env (drill_env/env.py, non-finite step -> excursion 1.0) and task 2 (whirl
     # share 1.0) both charge a step without finite values the full whirl penalty
-    base, values = _with_window_metric("DrillStickSlip-v0", "RADIAL_RATIO", 0.3)
+    base, values = _with_window_metric("DrillStickSlip-v0", "EXCURSION_RATIO", 0.3)
     assert base._reward_terms((values, True), False)["whirl"] == pytest.approx(
         -base.task.whirl_weight * 0.3)
     assert base._reward_terms((values, False), False)["whirl"] == pytest.approx(
