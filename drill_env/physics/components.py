@@ -132,16 +132,22 @@ def buoyed_weight(components: tuple[Component, ...], mud_density: float) -> floa
 
 def check_stabilizers(string: StringConfig) -> None:
     """ValueError naming the field unless every extra stabilizer of ``string`` lies on it
-    and its blades are no narrower than the body they sit on (narrower, the node's
-    clearance would grow: a recess, not a stabilizer). The simulator puts a stabilizer on
-    the nearest node, which may belong to the next component: it is refused only if it is
-    narrower than every body within an element of its position."""
+    above the bit's node and its blades are no narrower than the body they sit on
+    (narrower, the node's clearance would grow: a recess, not a stabilizer). The simulator
+    puts a stabilizer on the nearest node, which may belong to the next component: it is
+    refused only if it is narrower than every body within an element of its position."""
     bodies = (*string.lower, string.drill_pipe)
     tops = list(itertools.accumulate(s.length for s in bodies))
     for k, pos in enumerate(string.stabilizer_positions):
         if pos >= string.length:
             raise ValueError(f"stabilizers[{k}]: {pos} m above the bit is outside the "
                              f"{string.length} m string")
+        bottom = bodies[0].length / bodies[0].n_elements  # the element on the bit
+        if pos < bottom / 2:  # (at half an element the node above takes it)
+            raise ValueError(f"stabilizers[{k}]: {pos} m above the bit is nearest the bit's "
+                             f"node ({bottom} m elements there), where the bit's gauge "
+                             f"touches the wall; place it at least {bottom / 2} m up, or give "
+                             "the lowest component shorter elements")
         reach = bodies[bisect.bisect_right(tops, pos)].element_length
         near = bodies[bisect.bisect_right(tops, max(pos - reach, 0.0)):
                       bisect.bisect_right(tops, pos + reach) + 1]

@@ -111,6 +111,34 @@ def build_mesh(config: SimulationConfig) -> Mesh:
     )
 
 
+def node_contact_radius(mesh: Mesh, config: SimulationConfig) -> np.ndarray:
+    """The radius with which each node touches the wall (m).
+
+    A node between components touches with the larger of the two (a collar's top end
+    below the pipe); a stabilizer sub with the blades of its lower end only (a point
+    contact), or, where that end is the bit's node (whose wall contact is the bit's
+    gauge), with those of its own node nearest its middle: its top end when it is one
+    element. The extra ``stabilizers`` go on the nodes nearest their heights (the
+    bit's node excepted: ``check_stabilizers`` refuses a height nearest it).
+    """
+    string = config.string
+    n = mesh.n_nodes
+    above, below = mesh.contact_radius[:-1], mesh.contact_radius[1:]
+    sub = np.array([s.kind == "stabilizer" for s in string.sections])[mesh.component]
+    radius = np.concatenate(
+        [above[:1], np.where(sub[1:], above, np.maximum(above, below)), below[-1:]])
+    if sub[-1]:  # a stabilizer on the bit: its blades on its own node nearest its middle
+        nodes = np.flatnonzero(mesh.component == mesh.component[-1])  # its top down
+        middle = mesh.node_depth[-1] - 0.5 * string.sections[-1].length
+        k = nodes[np.argmin(np.abs(mesh.node_depth[nodes] - middle))]
+        radius[k] = max(radius[k], mesh.contact_radius[-1])
+    for height in string.stabilizer_positions:
+        k = int(np.argmin(np.abs(mesh.node_depth[-1] - mesh.node_depth - height)))
+        if 0 < k < n - 1:
+            radius[k] = string.stabilizer_diameter / 2
+    return radius
+
+
 # --------------------------------------------------------------------------- elements
 
 

@@ -34,6 +34,7 @@ from drill_env.physics.fem import (
     build_mesh,
     buoyed_string_weight,
     mud_torsional_damping,
+    node_contact_radius,
 )
 from drill_env.physics.formation import Rock, effective_wob, formation_arrays, resistance, rock_at
 from drill_env.physics.implicit_contact import make_implicit, warn_of_curved_hole
@@ -144,18 +145,9 @@ class Simulator:
         self.tor_c = mud_torsional_damping(mesh, cfg.mud.torsional_damping)
 
         # ---- node geometry for wall contact
-        above, below = mesh.contact_radius[:-1], mesh.contact_radius[1:]
-        sub = np.array([s.kind == "stabilizer" for s in cfg.string.sections])[mesh.component]
-        # a node between components touches with the larger (a collar's top end below the
-        # pipe), a stabilizer sub at its lower end only (a point contact)
-        self.node_radius = radius = np.concatenate(
-            [above[:1], np.where(sub[1:], above, np.maximum(above, below)), below[-1:]])
+        self.node_radius = radius = node_contact_radius(mesh, cfg)
         self.node_contact = np.ones(n)
         self.node_contact[: self.lateral_start + 1] = 0.0  # pinned or held straight
-        for height in cfg.string.stabilizer_positions:
-            k = int(np.argmin(np.abs(mesh.node_depth[-1] - mesh.node_depth - height)))
-            if 0 < k < n - 1:
-                radius[k] = cfg.string.stabilizer_diameter / 2
         self.node_clearance = cfg.string.hole_diameter / 2 - radius
         # nodes without lateral DOFs in a curved hole: soft-string friction (_hole_wob)
         self.soft_nodes = string_friction.soft_string_nodes(

@@ -138,6 +138,53 @@ def test_a_node_between_two_components_touches_with_the_larger():
     assert blades.sum() == 5 and not np.any(blades[1:] & blades[:-1])
 
 
+
+@pytest.mark.parametrize("elements", [1, 3])
+def test_a_stabilizer_on_the_bit_holds_the_bit_with_its_blades(elements):
+    """A near-bit stabilizer made up directly on the bit (components[0], no bit sub):
+    its lower end is the bit's node, whose wall contact is the bit's gauge model, and
+    a stabilizer of one element lost its blades (an outside check: docs/config.md's
+    J-well example did this). They now sit on its own node nearest its middle: its top
+    end when it is one element (the inner nodes of a longer one had them already). In a
+    45 degree hole, settled at 100 kN: that node rests on the low side at the blades'
+    clearance (plus the wall's penalty penetration, under a millimetre here) carrying
+    the BHA, and the bit stays inside its own gauge clearance, as with the stabilizer on
+    a 0.5 m bit sub (checked here too)."""
+    from drill_env.physics.config import BitConfig, WellConfig
+
+    collar = Section(kind="collar", length=90.0, element_length=3.0,
+                     outer_diameter=0.1651, inner_diameter=0.07144)
+    stabilizer = Section(kind="stabilizer", length=1.5, element_length=1.5 / elements,
+                         outer_diameter=0.1651, inner_diameter=0.07144,
+                         contact_diameter=0.2127)
+    bit_sub = Section(kind="bit_sub", length=0.5, element_length=0.5,
+                      outer_diameter=0.1651, inner_diameter=0.07144)
+    well = WellConfig(md=(0.0, 500.0, 1000.0, 1200.0), inclination=(0.0, 0.0, 45.0, 45.0),
+                      azimuth=(0.0, 0.0, 0.0, 0.0))
+    results = []
+    for lower in ((stabilizer, collar), (bit_sub, stabilizer, collar)):
+        string = StringConfig(hole_diameter=0.2159, components=lower)
+        config = SimulationConfig(string=string, well=well, bit=BitConfig(diameter=0.2159))
+        sim = Simulator(config)
+        sim.reset(OperatingPoint(0.0, 100e3))
+        blades = np.flatnonzero(np.isclose(sim.node_radius, 0.2127 / 2)
+                                & (sim.node_contact > 0.0))
+        assert blades.size >= 1
+        k = blades[np.argmax(sim.contact_forces[blades])]  # the one that carries the BHA
+        height = sim.mesh.node_depth[-1] - sim.mesh.node_depth[k]
+        offset = np.hypot(*sim.lateral_displacement[k])
+        clearance = (0.2159 - 0.2127) / 2
+        assert clearance <= offset < clearance + 1e-3
+        assert sim.contact_forces[k] > 1e3
+        radial = np.hypot(*sim.lateral_displacement[-1]) / config.bit.gauge_clearance
+        results.append((height, radial, sim.contact_forces[k]))
+    (height, radial, force), (_, radial_sub, force_sub) = results
+    # one element: its top end; three: an inner node (they had the blades before)
+    assert height == pytest.approx(1.5 if elements == 1 else 1.0)
+    assert radial < 0.6 and radial_sub < 0.6
+    assert force == pytest.approx(force_sub, rel=0.15)
+
+
 def test_the_default_string_carries_its_wob_in_the_bha_with_margin():
     config = SimulationConfig(string=cp.realistic_string())
     bha = cp.packed_bha()
@@ -234,6 +281,11 @@ def test_a_stabilizer_narrower_than_its_body_is_refused_by_name():
     with pytest.raises(ValueError, match=r"stabilizers\[0\]: 5000.0 m above the bit is "
                                          "outside the 1035.0 m string"):
         StringConfig(stabilizers=(5000.0,))
+    # nearest the bit's node (1 m elements at the bit): the bit's gauge touches there
+    with pytest.raises(ValueError, match=r"stabilizers\[0\]: 0.3 m above the bit is nearest "
+                                         r"the bit's node"):
+        StringConfig(stabilizers=(0.3,))
+    assert StringConfig(stabilizers=(0.5,)).stabilizers == (0.5,)  # the node above takes it
     # on the pipe above a 35 m BHA a 6 in stabilizer is wider than the 5 in body: accepted,
     # also at 34.6 m, whose nearest node (35 m) carries the pipe
     assert StringConfig(stabilizers=(100.0,), stabilizer_diameter=6 * INCH).stabilizers
