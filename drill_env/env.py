@@ -40,6 +40,7 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig, OBSERVATIONS: the 
     even_record_every,
     mesh_weight_on_bit_limit,
     start_ranges,
+    warn_above_limit,
 )
 from drill_env.metrics import Metric
 from drill_env.physics.config import (
@@ -102,10 +103,10 @@ class DrillStringEnv(BatchFinish, gym.Env):
     most ``drawworks_rate * control_interval`` per step (drawworks rate limit) and never
     above ``weight_on_bit_limit``, the largest WOB the FE mesh resolves (see
     ``limit_weight_on_bit_to_mesh``: the top of the default 0-200 kN range in the
-    built-in scenarios, 195 kN in ``lateral_60``, less on a string with a light BHA); the
-    speed
-    set point is rate limited inside the simulator (top-drive ``max_acceleration``). The
-    WOB is held constant within a control interval.
+    built-in scenarios, 195 kN in ``lateral_60``, less on a string with a light BHA or in
+    a long build: a reset option above it warns); the speed set point is rate limited
+    inside the simulator (top-drive ``max_acceleration``). The WOB is held constant
+    within a control interval.
 
     ## Observation Space
 
@@ -154,9 +155,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
     ``startup="stalled"``: that state with the string below the top drive at rest.
     ``start_kick`` (a settled start only) kicks the bit speed by a fraction drawn from the
     seed. ``startup="paper"``: rest, rpm ramped to the target over 10 s, held 10 s off
-    bottom, WOB applied at 20 s; the agent starts at 20 s. ``reset``
-    options ``surface_speed`` (rad/s) and ``weight_on_bit`` (N) override the scenario's
-    operating point.
+    bottom, WOB applied at 20 s; the agent starts at 20 s. ``reset`` options
+    ``surface_speed`` (rad/s) and ``weight_on_bit`` (N) override the scenario's set points.
 
     ## Episode End
 
@@ -260,9 +260,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
         # Build (and validate) the physics now; randomised scenarios redraw at reset.
         check_draws(scenario, self.scenario_params, flatten(physics or {}))  # before a draw
         self.scenario: Scenario = self._build_scenario(np.random.default_rng(0))
+        self._set_simulator(Simulator(self.scenario.config))
         if not self.randomised:
             self._check_range(self.scenario.surface_speed, self.scenario.weight_on_bit, "")
-        self._set_simulator(Simulator(self.scenario.config))
         self._init_episode_state()
         self._reset_done = False  # (step refuses to run before the first reset)
 
@@ -286,6 +286,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
                 raise ValueError(f"{where}{name}: {value / scale:.4g} {unit} lies outside the "
                                  f"env's {field} {low / scale:g}-{high / scale:g} {unit} "
                                  f"({name} is in {si}: {value:.4g} {si})")
+        warn_above_limit(where, wob, self.weight_on_bit_limit)
 
     def _set_simulator(self, sim: Simulator) -> None:
         self.sim = sim

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import warnings
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -234,6 +235,17 @@ def mesh_weight_on_bit_limit(sim: Any, upper: float, tol: float = 100.0) -> floa
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ok(mid) else (lo, mid)
     return lo
+
+
+def warn_above_limit(where: str, wob: float, limit: float) -> None:
+    """RuntimeWarning where a start WOB a caller gave (N) is above the env's
+    ``weight_on_bit_limit`` (:func:`mesh_weight_on_bit_limit`): the bit gets the limit."""
+    if wob > limit * (1 + 1e-12):
+        warnings.warn(f"{where}weight_on_bit: {wob / 1e3:.4g} kN is above this string's "
+                      f"weight_on_bit_limit, {limit / 1e3:.4g} kN, the largest WOB its mesh "
+                      "resolves (info['weight_on_bit_limit']; EnvConfig."
+                      "limit_weight_on_bit_to_mesh): the bit gets at most that",
+                      RuntimeWarning, stacklevel=4)
 
 
 def _default_spans() -> tuple[float, float]:

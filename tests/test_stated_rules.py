@@ -37,9 +37,11 @@ def test_incremental_action_below_minus_one_is_clipped_to_one_step_down():
 
 def test_applied_hook_load_never_asks_for_more_than_the_mesh_limit():
     """Docstring: the hook load is sim.hook_load_for(WOB) with the WOB 'never above
-    weight_on_bit_limit'; on lateral_60 the limit is below the 200 kN range top."""
+    weight_on_bit_limit'; on lateral_60 the limit is below the 200 kN range top (a reset
+    option above it warns)."""
     env = DrillStringEnv(scenario="lateral_60", episode_duration=5.0)
-    _, info = env.reset(seed=0, options={"weight_on_bit": 200e3})
+    with pytest.warns(RuntimeWarning, match="weight_on_bit_limit"):
+        _, info = env.reset(seed=0, options={"weight_on_bit": 200e3})
     limit = info["weight_on_bit_limit"]
     assert limit < 199e3
     for _ in range(5):

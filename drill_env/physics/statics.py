@@ -143,6 +143,9 @@ class PipeBuckling:
     buckling_load: float  # the buckling load there (N)
     measured_depth: float = math.nan  # of that place (m; the bit at initial_depth)
     inclination: float = 0.0  # of the hole there (rad)
+    #: the hole drops there and the compression lifts the pipe off the low side (its
+    #: weight no longer holds it down: the vertical-hole limit applies)
+    lifted: bool = False
 
     @property
     def place(self) -> str:
@@ -152,6 +155,9 @@ class PipeBuckling:
         where = f"at {self.measured_depth:.0f} m measured depth"
         if self.inclination > 0.0:
             where += f", {math.degrees(self.inclination):.1f} deg inclination"
+        if self.lifted:
+            where += (", where the hole drops and the compression lifts the pipe off the "
+                      "low side")
         return where
 
 
@@ -206,7 +212,8 @@ def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBu
         if ratio[worst] > 1.0:
             out.append(PipeBuckling(section.label, -float(force[mine][worst]),
                                     float(limit[worst]), float(middle_md[mine][worst]),
-                                    float(inclination[mine][worst])))
+                                    float(inclination[mine][worst]),
+                                    bool(sin_i[mine][worst] > 0.0 and held[worst] == 0.0)))
     return out
 
 

@@ -559,13 +559,18 @@ def test_incremental_actions_step_from_the_set_point_clipped_to_one_step():
 def test_the_drawworks_unloads_at_its_rate_and_never_past_the_mesh_limit():
     """The applied WOB follows the set point at ``drawworks_rate`` both ways, and never
     exceeds ``weight_on_bit_limit`` (the largest WOB the mesh resolves: below the action
-    range's 200 kN on the 60-degree well), at reset either."""
+    range's 200 kN on the 60-degree well), at reset either, where a reset option above
+    it says so (it was silent: an outside check)."""
     env = DrillStringEnv(drawworks_rate=50e3, **SHORT)
-    env.reset(seed=0, options={"weight_on_bit": 100e3})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # below the limit: no warning
+        env.reset(seed=0, options={"weight_on_bit": 100e3})
     _, _, _, _, info = env.step(np.array([0.0, -1.0]))  # ask for 0 kN
     assert info["weight_on_bit"] == pytest.approx(95e3)  # 50 kN/s x 0.1 s
     env = DrillStringEnv(scenario="lateral_60", episode_duration=5.0)
-    _, info = env.reset(seed=0, options={"weight_on_bit": 200e3})
+    with pytest.warns(RuntimeWarning, match=r"reset options: weight_on_bit: 200 kN is above "
+                                            r"this string's weight_on_bit_limit, 19\d\.\d kN"):
+        _, info = env.reset(seed=0, options={"weight_on_bit": 200e3})
     limit = info["weight_on_bit_limit"]
     assert limit < 199e3 and info["weight_on_bit"] <= limit
     for _ in range(45):  # 100 kN/s x 4.5 s: the set point's 200 kN is long reached

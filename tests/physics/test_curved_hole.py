@@ -258,6 +258,11 @@ def test_where_the_hole_drops_its_compression_lifts_the_pipe_off_the_low_side():
     assert build.buckling_load == pytest.approx(2.0 * math.sqrt(
         ei * w * math.sin(build.inclination) / clearance), rel=1e-9)
     assert build.buckling_load > 3.0 * vertical
+    # the refusal says why the drop's limit is the vertical one (an outside check read
+    # "in a near-vertical hole" at 13.5 degrees)
+    assert limits["drop"].lifted and not build.lifted
+    assert limits["drop"].place.endswith("where the hole drops and the compression lifts "
+                                         "the pipe off the low side")
 
 
 def test_the_straight_pipe_warning_uses_the_axial_force_along_the_curved_hole():
