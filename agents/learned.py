@@ -237,6 +237,14 @@ def load_saved(path: Path, load: Any) -> Any:
         if Path(path).suffix == ".zip" and Path(path).exists() and not zipfile.is_zipfile(path):
             # Stable-Baselines3 says so in a ValueError of its own, naming no run
             raise zipfile.BadZipFile("not a zip file")
+        if Path(path).suffix == ".pkl" and Path(path).exists():
+            # garbage can fail in any of pickle's opcodes ("garbage": a ValueError from
+            # int()), so the file alone is unpickled first, any failure its damage
+            try:
+                with Path(path).open("rb") as f:
+                    pickle.load(f)
+            except Exception as err:  # noqa: BLE001 (whatever the bytes make pickle do)
+                raise pickle.UnpicklingError(f"{type(err).__name__}: {err}") from None
         return load(str(path))
     except (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
             json.JSONDecodeError) as err:

@@ -329,6 +329,13 @@ def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path
         # evaluate and learned:<run> name the file too (SB3's own error named no run)
         with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: damaged"):
             LearnedController.load(copy, files=(model, norm))
+        if damaged == "vecnormalize":  # text over it: pickle read "garbage" as opcodes
+            # and gave int()'s ValueError, naming no file (an outside check)
+            norm.write_bytes(b"garbage\n")
+            with pytest.raises(ValueError, match=rf"^{re.escape(str(norm))}: damaged, "
+                                                 r"cannot be loaded \(UnpicklingError: "
+                                                 "ValueError"):
+                LearnedController.load(copy, files=(model, norm))
 
 
 @pytest.mark.parametrize("text", ["", "ppo: {n_envs: 4", "- a list\n", "algo: ppo\n"])
@@ -733,6 +740,13 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
         assert main(["train", "--task", "stick_slip", "--algo", "ppo", "--config", str(path),
                      "--out", str(tmp_path / "runs")]) == 2
         assert f"--config: {path} {message}; it needs one entry per algorithm" in \
+            capsys.readouterr().err
+    # an entry that is not a mapping (left empty, a number, a list) was a traceback
+    for text, shown in (("ppo:\n", "None"), ("ppo: 5\n", "5"), ("ppo: [1, 2]\n", "[1, 2]")):
+        path.write_text(text)
+        assert main(["train", "--task", "stick_slip", "--algo", "ppo", "--config", str(path),
+                     "--out", str(tmp_path / "runs")]) == 2
+        assert f"ppo: {path} gives {shown}; it needs a mapping of settings" in \
             capsys.readouterr().err
     # a flag's bad value is the flag's, not the file's it overrides
     path.write_text(yaml.safe_dump({"ppo": {"n_envs": 4}}))
@@ -1319,6 +1333,21 @@ def test_a_ppo_batch_just_larger_than_the_rollout_is_refused():
     with pytest.raises(ValueError, match="batch_size: 200 is more than a rollout holds"):
         load_config("stick_slip", "ppo", n_envs=2,
                     hyperparams={"n_steps": 64, "batch_size": 200})
+
+
+def test_a_sac_buffer_smaller_than_a_batch_is_refused():
+    # check_algorithm_arguments: SB3 samples each batch with replacement from the
+    # buffer, so a buffer under one batch repeated transitions in every batch (it trained
+    # without a word: an outside check); one batch exactly is accepted
+    from training.config import load_config
+
+    with pytest.raises(ValueError, match=r"sac.hyperparams.buffer_size: 10 holds less than "
+                                         r"one batch \(batch_size = 256\)"):
+        load_config("stick_slip", "sac", hyperparams={"buffer_size": 10, "batch_size": 256})
+    with pytest.raises(ValueError, match="buffer_size: 100 holds less than one batch"):
+        load_config("stick_slip", "sac", hyperparams={"buffer_size": 100})  # SB3's 256
+    assert load_config("stick_slip", "sac", hyperparams={"buffer_size": 256,
+                                                          "batch_size": 256})
 
 
 def test_a_zero_width_layer_is_refused():

@@ -375,6 +375,12 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         if isinstance(batch, int) and isinstance(rollout, int) and batch > rollout:
             raise ConfigError(f"{where}.batch_size: {batch} is more than a rollout holds "
                               f"(n_steps x n_envs = {rollout})")
+    if "buffer_size" in known:  # SB3 samples a batch with replacement from what it holds
+        batch = config.hyperparams.get("batch_size", 256)
+        buffer = config.hyperparams.get("buffer_size", 1_000_000)
+        if isinstance(batch, int) and isinstance(buffer, int) and batch > buffer:
+            raise ConfigError(f"{where}.buffer_size: {buffer} holds less than one batch "
+                              f"(batch_size = {batch}): every batch would repeat transitions")
     policies = getattr(algo, "policy_aliases", {})
     if config.policy not in policies:
         raise ConfigError(f"{config.algo}.policy: must be one of {sorted(policies)}, got "
@@ -436,6 +442,9 @@ def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
                           "training/hyperparams/<task>.yml has")
     if algo not in data:
         raise ConfigError(f"algo: {file} has no entry {algo!r}; it has {sorted(data)}")
+    if not isinstance(data[algo], dict):
+        raise ConfigError(f"{algo}: {file} gives {data[algo]!r}; it needs a mapping of "
+                          f"settings ({algo}: {{n_envs: ..., hyperparams: {{...}}}})")
     entry = dict(data[algo])
     entry.update({k: v for k, v in overrides.items() if v is not None})
     try:
