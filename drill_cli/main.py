@@ -540,6 +540,20 @@ def length_range(text: str) -> tuple[float, float]:
     return low, high
 
 
+def checked_string_lengths(lengths: tuple[float, float]) -> tuple[float, float]:
+    """``--string-lengths`` judged as the random scenario judges its range, before any
+    episode: its refusal named the length a seed drew, not the range typed."""
+    from drill_env.scenarios import check_draws, make_scenario
+
+    try:
+        make_scenario("random", string_length_range=lengths)
+        check_draws("random", {"string_length_range": lengths}, {})
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(
+            f"--string-lengths {lengths[0]:g},{lengths[1]:g}: {err}") from None
+    return lengths
+
+
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from agents.benchmark import BenchmarkSettings, labels, run_benchmark
     from agents.registry import parse_controllers
@@ -559,6 +573,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         args.out = Path("logs/benchmark") / (args.task or "")
         if reason := unwritable(args.out):
             raise argparse.ArgumentTypeError(f"--out {args.out}: {reason}")
+    if args.scenarios is not None and not args.scenarios.strip(", "):  # (an unset variable)
+        raise argparse.ArgumentTypeError("--scenarios: give at least one name, or leave the "
+                                         "option out for the default set")
     text = args.scenarios or ("random" if env_id else "default,stick_slip")
     scenarios = [n.strip() for n in text.split(",") if n.strip()]
     unknown = [n for n in scenarios if n not in SCENARIOS]
@@ -589,7 +606,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError("--string-lengths: the range a task's random "
                                          "scenario draws; give --task with it")
     lengths = {} if args.string_lengths is None else {
-        "string_length_range": args.string_lengths}
+        "string_length_range": checked_string_lengths(args.string_lengths)}
     # a task benchmark runs at the level the task trains and evaluates on
     fidelity: Any = args.fidelity or ("fast" if env_id else "full")  # argparse checked it
     try:

@@ -919,6 +919,13 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
         assert main([*command, "--config", str(broken)]) == 2
         err = capsys.readouterr().err
         assert "not valid YAML at line 2, column 1" in err and len(err.splitlines()) == 1
+    # UTF-16 (Notepad's "Unicode") named no file: 'utf-8' codec can't decode byte 0xff
+    utf16 = tmp_path / "utf16.yaml"
+    utf16.write_text("mud: {density: 1200.0}\n", encoding="utf-16")
+    for command in (["train", "--task", "stick_slip"], ["run"]):
+        assert main([*command, "--config", str(utf16)]) == 2
+        err = capsys.readouterr().err
+        assert f"{utf16}: not UTF-8 text (byte 0: invalid start byte); save it as UTF-8" in err
     pytest.importorskip("ray")
     assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default", "--seeds",
                  "1", "--duration", "1", "--warmup", "0.5", "--ray-address", "nope",
@@ -1053,7 +1060,10 @@ def test_benchmark_windows_default_to_what_help_and_docs_say(monkeypatch, tmp_pa
     (["benchmark", "--scenarios", "stik_slip"], "--scenarios: unknown ['stik_slip'] (did you "
                                                 "mean stick_slip?); known: "),
     (["stability-map", "--controller", "soft_speed"], "--controller: soft_speed is not a "
-                                                      "controller (did you mean soft-speed?)")])
+                                                      "controller (did you mean soft-speed?)"),
+    # an empty list (an unset shell variable) ran the default set quietly
+    (["benchmark", "--scenarios", ""], "--scenarios: give at least one name"),
+    (["benchmark", "--scenarios", " , "], "--scenarios: give at least one name")])
 def test_a_misspelt_name_gets_the_name_it_was_probably_meant_to_be(argv, said, tmp_path,
                                                                    capsys):
     with pytest.raises(SystemExit) as stopped:
@@ -1106,3 +1116,14 @@ def test_a_task_benchmark_on_a_curved_well_draws_the_lengths_given(tmp_path, cap
         main(["benchmark", "--string-lengths", "1300,1600", "--out", str(tmp_path / "c")])
     assert "--string-lengths: the range a task's random scenario draws" in \
         capsys.readouterr().err
+    # a range the random scenario refuses is named as typed, before any episode (the
+    # refusal quoted the length a seed drew: "got (20.0, 20.0)" for 10,20)
+    for typed, message in (("10,20", "the strings need more than"),
+                           ("900,20000", r"\[1\]: Input should be less")):
+        with pytest.raises(SystemExit):
+            main(["benchmark", "--task", "stick_slip", "--controllers", "stiff",
+                  "--string-lengths", typed, "--out", str(tmp_path / "d")])
+        err = capsys.readouterr().err
+        assert re.search(rf"error: --string-lengths {typed}: string_length_range.*"
+                         rf"{message}", err), err
+        assert "np.float64" not in err and not (tmp_path / "d").exists()

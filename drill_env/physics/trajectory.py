@@ -113,12 +113,15 @@ class Survey:
 
     @classmethod
     def from_csv(cls, path: str | Path) -> Survey:
-        """A CSV with columns ``md`` (m), ``inclination`` and ``azimuth`` (degrees)."""
+        """A CSV with columns ``md`` (m), ``inclination`` and ``azimuth`` (degrees), named
+        in any case with spaces around them; a UTF-8 byte-order mark (Excel's "CSV UTF-8")
+        is skipped."""
         names = ("md", "inclination", "azimuth")
-        with Path(path).open(newline="") as f:
+        with Path(path).open(newline="", encoding="utf-8-sig") as f:
             reader = csv.DictReader(f)
             found = reader.fieldnames or []
-            missing = set(names) - set(found)
+            reader.fieldnames = [name.strip().lower() for name in found]
+            missing = set(names) - set(reader.fieldnames)
             if missing:  # say what the header held: units in the names, another separator
                 held = f"its header is {found}" if found else "the file is empty"
                 raise ValueError(f"survey {path}: missing column(s) {sorted(missing)}; "

@@ -322,7 +322,12 @@ def read_yaml(path: str | Path) -> Any:
     import yaml
 
     try:
-        return yaml.load(Path(path).read_text(), Loader=_config_loader())  # noqa: S506
+        text = Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:  # (UTF-16 from Notepad, a binary file)
+        raise ConfigError(f"{path}: not UTF-8 text (byte {err.start}: {err.reason}); save "
+                          "it as UTF-8") from None
+    try:
+        return yaml.load(text, Loader=_config_loader())  # noqa: S506
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""

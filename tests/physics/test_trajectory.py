@@ -185,6 +185,11 @@ def test_a_survey_reads_from_csv(tmp_path):
     path.write_text("md,inclination,azimuth\n")  # a header alone: no stations
     with pytest.raises(ValueError, match="at least two stations"):
         Survey.from_csv(path)
+    # Excel's "CSV UTF-8" (a byte-order mark, CRLF) and names in another case or spaced
+    # out: the BOM was an invisible '\ufeffmd' in the refusal (an outside check)
+    for header in ("\ufeffmd,inclination,azimuth", "MD, Inclination ,Azimuth"):
+        path.write_bytes(f"{header}\r\n0,0,0\r\n300,0,0\r\n900,60,45\r\n".encode())
+        np.testing.assert_allclose(Survey.from_csv(path).inclination, np.radians([0, 0, 60]))
 
 
 @pytest.mark.parametrize(("body", "said"), [
