@@ -21,6 +21,7 @@ import csv
 import dataclasses
 import json
 import math
+import os
 import sys
 import zipfile
 from collections.abc import Mapping, Sequence
@@ -879,11 +880,13 @@ def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool
 
 
 def write_csv(rows: Sequence[dict[str, Any]], path: Path) -> None:
-    with path.open("w", newline="") as f:
+    part = path.with_name(path.name + ".part")  # an interrupt leaves the old file whole
+    with part.open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(COLUMNS)
         for row in rows:
             writer.writerow([_csv_value(row[c]) for c in COLUMNS])
+    os.replace(part, path)
 
 
 def _csv_value(value: Any) -> Any:
@@ -1054,8 +1057,6 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     _print_table(header, table, [*notes, "Means over seeds, +- half the range."])
     from agents.plots import bar_chart, series_chart
 
-    for old in out.glob(SERIES_PICTURE.format(scenario="*")):
-        old.unlink()
     # the pictures say what benchmark.md's heading says (a --config run read "default")
     given = given_set_points(settings) if env_id is None else ""
     title = heading + (f"; {given}" if given else "")
@@ -1067,6 +1068,11 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
                              stamps=None if stamps is None else {
                                  c: stamps.get((c, s), "") for c in controllers},
                              title=title)]
+    # an earlier benchmark's series pictures go once this one's are drawn (an interrupt
+    # before left benchmark.md linking pictures already removed)
+    for old in out.glob(SERIES_PICTURE.format(scenario="*")):
+        if old.name not in {SERIES_PICTURE.format(scenario=s) for s in drawn}:
+            old.unlink()
     guests = any(r.get("guest") for r in rows)
     lines = [f"# {heading}", "", conditions(settings, env_id, guests), "",
              "| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
@@ -1077,7 +1083,9 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     for s in drawn:
         lines += ["", f"## {s}: time series (first seed)", "",
                   f"![{s}]({SERIES_PICTURE.format(scenario=s)})"]
-    (out / "benchmark.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    part = out / "benchmark.md.part"
+    part.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    os.replace(part, out / "benchmark.md")
 
 
 def _print_table(header: Sequence[str], table: Sequence[Sequence[str]],

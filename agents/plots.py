@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -40,6 +41,18 @@ DASHES = ("-", (0, (6, 3)), (0, (2, 2)), (0, (8, 2, 2, 2)), (0, (12, 3)),
 #: Radial position / clearance below which the series chart says the bit stayed on the
 #: hole axis: a line that close to zero is hidden by the axis line (the panel spans >= 0.2).
 ON_AXIS = 1e-3
+
+
+def save(fig: Any, path: Path) -> None:
+    """``fig`` as a PNG at ``path`` by way of a file beside it, then closed: an interrupt
+    leaves the old picture whole (benchmark.md links it), never a torn or missing one."""
+    part = path.with_name(path.name + ".part")
+    try:
+        fig.savefig(part, dpi=110, format="png")
+        os.replace(part, path)
+    finally:
+        plt.close(fig)
+        part.unlink(missing_ok=True)  # (an interrupted one)
 
 
 def _say_empty(ax: Any, text: str) -> None:
@@ -112,8 +125,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     fig.suptitle(f"{textwrap.fill(title, 150)}\nmeans over seeds, whiskers min-max; a "
                  "coloured base line alone: about zero")
     fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)
 
 
 #: Bit-speed swing (:func:`_swing`, rad/s) above which a series line is drawn
@@ -218,6 +230,5 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
                  "same start and targets (first seed; grey: warm-up, not in the metrics)",
                  fontsize=11)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)
     return True

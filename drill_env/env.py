@@ -37,19 +37,14 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig, OBSERVATIONS: the 
     PLAIN_SPANS,
     START_RANGES,
     EnvConfig,
+    check_set_points,
     even_record_every,
     mesh_weight_on_bit_limit,
     start_ranges,
     warn_above_limit,
 )
 from drill_env.metrics import Metric
-from drill_env.physics.config import (
-    FIDELITY_LEVELS,
-    SimulationConfig,
-    flatten,
-    from_dict,
-    replace,
-)
+from drill_env.physics.config import FIDELITY_LEVELS, SimulationConfig, flatten, from_dict, replace
 from drill_env.physics.layout import N_READINGS, READINGS, RECORD_CHANNELS
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
@@ -471,6 +466,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         to the env's ranges: how a controller that thinks in set points drives the env."""
         if self.config.action_mode != "absolute":
             raise ValueError("action_for: needs action_mode 'absolute'")
+        check_set_points("action_for", surface_speed, weight_on_bit)
         (s_lo, s_hi), (w_lo, w_hi) = self._speed_range, self._wob_range
         a = (2.0 * (surface_speed - s_lo) / (s_hi - s_lo) - 1.0,
              2.0 * (weight_on_bit - w_lo) / (w_hi - w_lo) - 1.0)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import math
 import warnings
 from typing import Annotated, Any, Literal
 
@@ -235,6 +236,14 @@ def mesh_weight_on_bit_limit(sim: Any, upper: float, tol: float = 100.0) -> floa
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ok(mid) else (lo, mid)
     return lo
+
+
+def check_set_points(where: str, surface_speed: float, weight_on_bit: float) -> None:
+    """ValueError unless the set points a controller asks for (rad/s, N) are finite
+    numbers: clipped into the ranges, a NaN became a NaN action."""
+    if not (math.isfinite(surface_speed) and math.isfinite(weight_on_bit)):
+        raise ValueError(f"{where}: set points must be finite numbers, got surface_speed "
+                         f"{surface_speed!r} rad/s, weight_on_bit {weight_on_bit!r} N")
 
 
 def warn_above_limit(where: str, wob: float, limit: float) -> None:

@@ -181,7 +181,10 @@ def mechanical_specific_energy(weight_on_bit, torque_on_bit, bit_speed, rop,
     ``mean(WOB) / A + mean(omega T) / (A mean(ROP))``. ``A = pi d^2 / 4``. The result
     is capped at :data:`MSE_CEILING`; when the mean ROP is below ``min_rop`` (not
     drilling) the rotary term is undefined: the result is the ceiling if rotary power is
-    spent, else just ``mean(WOB) / A``.
+    spent, else just ``mean(WOB) / A``. The env's and benchmark's ``torque_on_bit`` is
+    the blades' cutting torque (the simulator's record): the gauge pads' friction on
+    the wall, which turns the string too when the bit rubs the wall (whirl, a bit
+    lying on a deviated hole's low side), is not in it.
     """
     area = bit_area(bit_diameter)
     wob = float(np.mean(_signal(weight_on_bit, "weight_on_bit")))

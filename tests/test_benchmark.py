@@ -979,6 +979,42 @@ def test_a_benchmark_into_a_used_folder_removes_the_old_series_pictures(tmp_path
     assert "benchmark_default_series" not in (tmp_path / "benchmark.md").read_text()
 
 
+def test_an_interrupt_while_the_outputs_are_written_leaves_every_linked_picture(
+        tmp_path, monkeypatch):
+    """The series pictures were removed before the new ones were drawn: a Ctrl-C in
+    between left benchmark.md linking pictures that were gone (an outside check). Now
+    the old ones stay until the new ones are drawn, and each file is written beside
+    itself and moved into place, so an interrupt at any picture leaves every picture
+    benchmark.md links whole, and no part files."""
+    import re
+
+    from agents import plots
+
+    scenarios = ["default", "stick_slip"]
+    _series(tmp_path, ["stiff"], scenarios)
+    rows = [_row("stiff", s) for s in scenarios]
+    bm.write_outputs(rows, tmp_path, ["stiff"], scenarios, SHORT)
+    sizes = {p.name: p.stat().st_size for p in tmp_path.glob("*.png")}
+    drawn = []
+    real = plots.plt.Figure.savefig
+
+    def savefig_then_stop(fig, *args, **kwargs):
+        drawn.append(1)
+        if len(drawn) == 2:  # amid the first series picture: half a file written
+            Path(args[0]).write_bytes(b"torn")
+            raise KeyboardInterrupt
+        return real(fig, *args, **kwargs)
+
+    monkeypatch.setattr(plots.plt.Figure, "savefig", savefig_then_stop)
+    with pytest.raises(KeyboardInterrupt):
+        bm.write_outputs(rows, tmp_path, ["stiff"], scenarios, SHORT)
+    monkeypatch.undo()
+    text = (tmp_path / "benchmark.md").read_text()
+    for name in re.findall(r"\]\(([^)]+)\)", text):
+        assert (tmp_path / name).stat().st_size == sizes[name], name
+    assert not [p.name for p in tmp_path.iterdir() if p.suffix == ".part"]
+
+
 def test_a_policy_and_its_five_baselines_each_draw_their_own_line_style(tmp_path,
                                                                        monkeypatch):
     """The evaluation's series: with four dash patterns the policy (first) and ZTorque

@@ -162,8 +162,7 @@ def _default_bha() -> Section:
 #: Component is the name to use when building a string from parts.
 Component = Section
 
-#: Stabilizers of the paper's 35 m single-section BHA (metres above the bit): see
-#: StringConfig.stabilizers.
+#: Stabilizers of the paper's 35 m BHA (m above the bit): see StringConfig.stabilizers.
 LEGACY_STABILIZERS = (1.0, 10.0, 19.0)
 
 
@@ -480,7 +479,8 @@ class BitConfig:
 
     #: 8 3/4 in PDC bit, six blades.
     diameter: Positive = Field(default=8.75 * INCH, le=MAX_DIAMETER)
-    #: Radial clearance between gauge pads and borehole wall (paper section 4: 0.005 m);
+    #: Gauge-pad to wall clearance (paper section 4: 0.005 m, its results; section 3.1.1
+    #: says 1/16 in; backward whirl turns at -R/clearance, ~21x the bit speed here);
     #: at least 0.1 mm (a bit's is millimetres; radial ratios divide by it).
     gauge_clearance: Positive = Field(default=0.005, ge=1.0e-4)
     #: Blade geometry (the paper gives the parametrisation of its Fig. 6, not numbers;

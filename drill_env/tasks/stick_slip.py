@@ -9,6 +9,7 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import Field
 
+from drill_env.env_config import check_set_points
 from drill_env.metrics import Metric
 from drill_env.physics.layout import READ
 from drill_env.physics.units import RPM
@@ -240,6 +241,7 @@ class StickSlipEnv(TaskEnv):
 
     def action_for(self, surface_speed: float, weight_on_bit: float) -> np.ndarray:
         """The correction that asks for ``surface_speed`` (the WOB is the target's)."""
+        check_set_points("action_for", surface_speed, weight_on_bit)
         a = (surface_speed - self.targets[0]) / self._max_correction
         return np.array([min(max(a, -1.0), 1.0)], dtype=np.float32)
 

@@ -619,6 +619,18 @@ def test_stick_slip_penalty_is_capped_at_ssi_cap():
     assert terms["stick_slip"] == pytest.approx(-base.task.stick_slip_weight * 2.0)
 
 
+@pytest.mark.parametrize("env_id", ["DrillString-v0", "DrillStickSlip-v0",
+                                    "DrillOptimise-v0"])
+def test_action_for_refuses_set_points_that_are_not_finite(env_id):
+    # a NaN set point came back as a NaN action (an outside check; step() refuses one)
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    for speed, wob in ((math.nan, 100e3), (60 * RPM, math.inf)):
+        with pytest.raises(ValueError, match="action_for: set points must be finite"):
+            env.unwrapped.action_for(speed, wob)
+    assert np.all(np.isfinite(env.unwrapped.action_for(60 * RPM, 100e3)))
+
+
 def test_stick_slip_action_for_maps_a_speed_above_the_target_to_a_positive_action():
     # StickSlipEnv: speed command = target + action x max_correction (30 rpm)
     env = gym.make("DrillStickSlip-v0", target_change_probability=0.0)
