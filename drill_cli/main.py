@@ -19,6 +19,7 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -1600,6 +1601,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                   "cluster's CPUs run the work: give one of the two")
     stop, terminated = _stop_as_interrupt()
     clear_interrupt()  # one noted before this command is not this command's
+    shown = warnings.formatwarning
+    warnings.formatwarning = _command_warning(args.command)
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
@@ -1626,10 +1629,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"drill-env {args.command}: {said}", file=sys.stderr)
         return exit_status(stopped)
     finally:
+        warnings.formatwarning = shown
         clear_interrupt()  # handled here: not a later command's (or caller's) to act on
         if stop is not _NOT_INSTALLED:
             signal.signal(signal.SIGTERM, stop if stop is not None else signal.SIG_DFL)
     return 2
+
+
+def _command_warning(command: str) -> Any:
+    """``warnings.formatwarning`` for a command: a warning meant for its user (a unit
+    that looks wrong, a setting that cannot hold) on one line under the command's name,
+    not Python's file and source line (a validator's warning showed pydantic's)."""
+    plain = warnings.formatwarning
+
+    def formatted(message: Any, category: type[Warning], filename: str, lineno: int,
+                  line: str | None = None) -> str:
+        if issubclass(category, (UserWarning, RuntimeWarning)):
+            return f"drill-env {command}: warning: {message}\n"
+        return plain(message, category, filename, lineno, line)
+
+    return formatted
 
 
 _NOT_INSTALLED = object()

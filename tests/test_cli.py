@@ -1127,3 +1127,31 @@ def test_a_task_benchmark_on_a_curved_well_draws_the_lengths_given(tmp_path, cap
         assert re.search(rf"error: --string-lengths {typed}: string_length_range.*"
                          rf"{message}", err), err
         assert "np.float64" not in err and not (tmp_path / "d").exists()
+
+
+def test_a_command_says_its_warnings_on_one_line_under_its_name(tmp_path, capsys):
+    """A plausibility warning (a mud density typed in ppg) showed pydantic's file and
+    source line (an outside check): a command prints its user's warnings as one line
+    under its name, keeps Python's format for the others, and gives the format back."""
+    import subprocess
+    import sys
+    import warnings
+
+    from drill_cli.main import _command_warning
+
+    said = _command_warning("run")
+    assert said(UserWarning("x: looks wrong"), UserWarning, "/lib/p.py", 3) == \
+        "drill-env run: warning: x: looks wrong\n"
+    assert "DeprecationWarning" in said(DeprecationWarning("old"), DeprecationWarning,
+                                        "/lib/p.py", 3)
+    before = warnings.formatwarning
+    assert main(["run", "--duration", "0.2", "--out", str(tmp_path)]) == 0
+    assert warnings.formatwarning is before
+    config = tmp_path / "mud.yaml"
+    config.write_text("mud: {density: 10.0}\n")
+    done = subprocess.run([sys.executable, "-m", "drill_cli", "run", "--config", str(config),
+                           "--duration", "0.2", "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "drill-env run: warning: mud.density: 10 kg/m^3" in done.stderr
+    assert "pydantic" not in done.stderr
