@@ -235,6 +235,10 @@ class DrillStringEnv(BatchFinish, gym.Env):
         # {"mud": {"density": 1300}} and {"mud.density": 1300} both set one field.
         self.physics_overrides = flatten(physics or {})
         if bit_model is not None:
+            if self.physics_overrides.get("bit_model", bit_model) != bit_model:
+                raise ValueError(f"physics.bit_model: {self.physics_overrides['bit_model']!r}"
+                                 f" against bit_model={bit_model!r} (DrillStringMacro-v0's "
+                                 "is 'macroscopic'): give one of the two")
             self.physics_overrides["bit_model"] = bit_model
         if fidelity is not None:
             if fidelity not in FIDELITY_LEVELS:

@@ -631,3 +631,16 @@ def test_a_failure_is_terminated_not_truncated_and_a_truncation_pays_no_failure(
     env.reset(seed=0)
     _, _, terminated, truncated, info = env.step(np.zeros(2))
     assert truncated and not terminated and info["reward_terms"]["failure"] == 0.0
+
+
+def test_the_macroscopic_id_refuses_physics_that_asks_for_the_other_bit():
+    """DrillStringMacro-v0 is the macroscopic bit; physics={"bit_model": "mesoscopic"}
+    was overridden by the id's own without a word (an outside check). Refused by name;
+    the same model given twice is fine."""
+    env = gym.make("DrillStringMacro-v0")
+    assert env.unwrapped.sim.config.bit_model == "macroscopic"
+    with pytest.raises(ValueError, match=r"physics.bit_model: 'mesoscopic' against "
+                                         r"bit_model='macroscopic'"):
+        gym.make("DrillStringMacro-v0", physics={"bit_model": "mesoscopic"})
+    same = gym.make("DrillStringMacro-v0", physics={"bit_model": "macroscopic"})
+    assert same.unwrapped.sim.config.bit_model == "macroscopic"
