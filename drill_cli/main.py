@@ -1289,8 +1289,9 @@ def parser() -> argparse.ArgumentParser:
 
     def add(name: str, help_text: str, func: Callable[[argparse.Namespace], int]
             ) -> argparse.ArgumentParser:
+        # no abbreviations: `evaluate RUN --seed 3` quietly meant --seeds 3
         p = sub.add_parser(name, help=help_text, description=help_text,
-                           formatter_class=_Formatter)
+                           formatter_class=_Formatter, allow_abbrev=False)
         p.set_defaults(func=func, command_parser=p)
         return p
 

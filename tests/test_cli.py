@@ -1155,3 +1155,14 @@ def test_a_command_says_its_warnings_on_one_line_under_its_name(tmp_path, capsys
     assert done.returncode == 0, done.stderr
     assert "drill-env run: warning: mud.density: 10 kg/m^3" in done.stderr
     assert "pydantic" not in done.stderr
+
+
+def test_an_option_cut_short_is_not_taken_for_a_longer_one(tmp_path, capsys):
+    """argparse took `--seed 3` for evaluate's --seeds (three seeds, not seed 3) and
+    `--dur` for --duration (an outside check): the commands take whole names only."""
+    for argv, cut in ((["run", "--dur", "0.2"], "--dur"),
+                      (["benchmark", "--seed", "3"], "--seed")):
+        with pytest.raises(SystemExit) as stopped:
+            main([*argv, "--out", str(tmp_path)])
+        assert stopped.value.code == 2
+        assert f"unrecognized arguments: {cut}" in capsys.readouterr().err
