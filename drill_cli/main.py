@@ -858,7 +858,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 def cmd_stability_map(args: argparse.Namespace) -> int:
     from drill_env import stability_map as sm
 
-    names = tuple(p.strip() for p in args.positions.split(",") if p.strip())
+    names = tuple(p.strip().upper() for p in args.positions.split(",") if p.strip())  # p1
     unknown = [p for p in names if p not in sm.POSITIONS]
     if unknown or not names:
         raise argparse.ArgumentTypeError(f"--positions: unknown {unknown or args.positions!r};"

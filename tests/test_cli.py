@@ -353,8 +353,9 @@ def test_stability_map_command_writes_the_map_and_its_picture(tmp_path, capsys):
     assert (data["settings"]["seconds"], data["settings"]["measure"]) == (12.0, 10.0)
     assert (tmp_path / "stability_map.png").stat().st_size > 10_000
     assert "boundary tracking" in capsys.readouterr().out
-    # another controller's maps in the same folder keep the stiff PI's
-    assert main(["stability-map", "--positions", "P4", "--rpm-step", "100", "--wob-step",
+    # another controller's maps in the same folder keep the stiff PI's (and a position
+    # typed in lower case is the position: 'p4' was unknown without a hint)
+    assert main(["stability-map", "--positions", "p4", "--rpm-step", "100", "--wob-step",
                  "100", "--seconds", "10", "--controller", "z-torque",
                  "--out", str(tmp_path)]) == 0
     assert json.loads((tmp_path / "stability_map_z-torque.json").read_text())["controller"] \
