@@ -127,7 +127,7 @@ class TaskEnv(DrillStringEnv):
         that message / 10 s (capped at 100 s)."""
         now = self._readings[READ.TIME]
         if not self._telemetry_started:
-            self._telemetry.reset(now)
+            self._telemetry.reset(now, self.control_interval)
             self._telemetry_started = True
         held = self._telemetry.update(now, downhole)
         return [*held, min(self._telemetry.age(now), 100.0) / 10.0]

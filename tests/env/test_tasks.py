@@ -204,6 +204,7 @@ def test_a_task_settings_typo_lists_the_tasks_own_settings():
 def test_telemetry_is_sampled_delayed_and_held(kind, period, delay, dt):
     times = np.arange(0.0, 50 * period + 1e-9, dt)
     tele = Telemetry(kind, 1)
+    tele.reset(0.0, dt)
     got = [tele.update(t, [t])[0] for t in times]
     assert all(v == 0.0 for v, t in zip(got, times, strict=True) if t < delay - 1e-9)
     for v, t in zip(got, times, strict=True):
@@ -213,6 +214,7 @@ def test_telemetry_is_sampled_delayed_and_held(kind, period, delay, dt):
     # the age of what is held: since its sampling, not since it arrived; before the first
     # message it is stale beyond any cap (the task observation clips it), not fresh
     tele = Telemetry(kind, 1)
+    tele.reset(0.0, dt)
     for t in times:
         tele.update(t, [t])
         if t >= delay - 1e-9:
@@ -222,6 +224,44 @@ def test_telemetry_is_sampled_delayed_and_held(kind, period, delay, dt):
             assert tele.age(t) > 1e6
     with pytest.raises(ValueError, match="telemetry"):
         Telemetry("smoke", 1)
+
+
+@pytest.mark.parametrize("interval", [0.9986, 1.0, 1.0005, 0.0998, 0.1002])
+def test_mud_pulse_keeps_its_schedule_when_the_step_is_a_little_off(interval):
+    """A task's control step is a whole number of the drawn simulator step: 0.9986 s on
+    task 2's seed 3. Sampled by the clock, the 2 s mark fell 3 ms after the second step
+    and the message went at the third: every 3 s and 4 s late on ~40 % of task 2's seeds
+    (an outside check). Counted in steps: every 2 s and 3 s late, to within the step's
+    own error, on every seed; the held message's age cycles 3-4 steps."""
+    steps = round(2.0 / interval), round(3.0 / interval)
+    tele = Telemetry("mud_pulse", 1)
+    tele.reset(0.0, interval)
+    ages = []
+    for k in range(40 * steps[0]):
+        t = k * interval
+        held = tele.update(t, [float(k)])[0]
+        if k >= steps[1]:  # the message of the last sampling step at least 3 s back
+            assert held == steps[0] * ((k - steps[1]) // steps[0])
+            ages.append(round(tele.age(t) / interval))
+        else:
+            assert held == 0.0
+    assert sorted(set(ages)) == list(range(steps[1], steps[1] + steps[0]))
+
+
+def test_task_2_telemetry_arrives_every_2_s_and_3_s_late_on_every_seed():
+    """Over seeds whose control step rounds both ways, the first message arrives at the
+    third step and messages two steps apart (their ages 3 or 4 steps)."""
+    env = gym.make("DrillOptimise-v0")
+    base = env.unwrapped
+    age = base.observation_names.index("telemetry_age")
+    for seed in range(8):
+        obs, _ = env.reset(seed=seed)
+        seen = []
+        for _ in range(9):
+            obs, *_ = env.step(np.zeros(2, dtype=np.float32))
+            seen.append(round(float(obs[age]) * 10.0 / base.control_interval))
+        assert seen[:2] == [100, 100] or seen[0] > 10  # nothing before the 3rd step
+        assert seen[2:] == [3, 4, 3, 4, 3, 4, 3], (seed, base.control_interval, seen)
 
 
 @pytest.mark.parametrize("env_id", TASKS)
