@@ -102,7 +102,8 @@ class DrillingEnv(TaskEnv):
     ## Observation Space
 
     ``Box(-10, 10, (history x 5 + 5,), float32)`` (history: 4 frames), oldest first. Frame:
-    torque / ``torque_scale``, ROP / ``rop_reference`` (measured at the surface), the
+    torque / ``torque_scale``, ROP / ``rop_reference`` (the bit's, over the step: what the
+    surface's block height gives on average), the
     drillability ROP / (rev/s x WOB) / ``DRILLABILITY_SCALE`` (the mud logger's d-exponent
     idea: which rock the bit is in), rpm set point / 200 rpm, WOB set point / 140 kN.
     Then the mud-pulse telemetry: bit speed / set point, min(SSI, cap) / cap, stuck
