@@ -277,8 +277,9 @@ def labels(controllers: Sequence[str]) -> list[str]:
 
 def controller_digest(controller: str, env_id: str | None = None) -> str:
     """A short hash of a learned controller's model files, or of the source file of a
-    controller of your own ("" for this project's, whose code the fingerprint follows):
-    rows of a benchmark results file are reused only for the same model or code."""
+    controller of your own and what its ``physics()`` and ``env_kwargs()`` return ("" for
+    this project's, whose code the fingerprint follows): rows of a benchmark results file
+    are reused only for the same model, or the same code and settings."""
     import hashlib
 
     from agents.registry import (
@@ -313,6 +314,14 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
         digest.update(own.read_bytes())
     for file in files:
         digest.update(str(file).encode() + b"\0" + file.read_bytes())
+    if is_imported(controller):  # what it asks of the physics and the env, resolved: a gain
+        # read from a helper module or an environment variable changed these, not its file
+        made = make_controller(controller)
+        for name in ("physics", "env_kwargs"):
+            method = getattr(made, name, None)
+            if callable(method):
+                digest.update(json.dumps(method(), sort_keys=True, default=repr).encode()
+                              + b"\0")
     return digest.hexdigest()[:12]
 
 

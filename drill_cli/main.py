@@ -242,8 +242,15 @@ def cmd_run(args: argparse.Namespace) -> int:
             f"--config {args.config}: top_drive.controller: drill-env run takes the "
             f"controller from --controller (default stiff); give --controller "
             f"{drive_loop_name(overrides['top_drive.controller'])} instead")
-    # the controller's own physics (its top drive) over the file's
-    physics = {**overrides, **controller.physics()}
+    # the controller's own physics (its top drive) over the file's; a value of the file
+    # it would replace is refused (it was dropped without a word)
+    own = controller.physics()
+    for key in sorted(k for k in own if k in overrides and overrides[k] != own[k]):
+        raise argparse.ArgumentTypeError(
+            f"--config {args.config}: {key}: --controller {args.controller} sets it "
+            f"({own[key]!r}), which would replace the file's {overrides[key]!r}: remove it "
+            "from the file, or change the controller")
+    physics = {**overrides, **own}
     # a task's policy drills this scenario, as in a scenario benchmark
     kwargs: dict[str, Any] = {**guest_env_kwargs(controller), "scenario": args.scenario,
                               "start_kick": args.start_kick, "physics": physics}

@@ -1152,6 +1152,22 @@ def test_the_files_a_controller_of_your_own_reads_are_followed_as_its_code_is(
     assert bm.controller_digest("made.py:make") not in ("", before)
 
 
+def test_a_gain_read_from_outside_its_file_is_followed_through_physics(tmp_path,
+                                                                      monkeypatch):
+    """From an outside check: a controller whose gain came from a helper module (here an
+    environment variable, as a new process would read either) was served its old rows
+    after the gain changed, its file unchanged. What its physics() returns is now in its
+    digest; the same value, the same digest."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MY_GAIN", "3000.0")
+    (tmp_path / "mine.py").write_text("import os\n" + OWN_CONTROLLER.replace(
+        "GAIN", "float(os.environ['MY_GAIN'])"))
+    before = bm.controller_digest("mine.py:Gentle")
+    assert bm.controller_digest("mine.py:Gentle") == before
+    monkeypatch.setenv("MY_GAIN", "20000.0")
+    assert bm.controller_digest("mine.py:Gentle") not in ("", before)
+
+
 def test_set_points_of_your_own_drive_every_scenario_of_a_benchmark(tmp_path):
     """From a walkthrough: ``benchmark`` had no --rpm / --wob as ``run`` has. Given, they
     are every episode's set points, on a fixed and on a randomised scenario (which would

@@ -1167,3 +1167,29 @@ def test_an_option_cut_short_is_not_taken_for_a_longer_one(tmp_path, capsys):
             main([*argv, "--out", str(tmp_path)])
         assert stopped.value.code == 2
         assert f"unrecognized arguments: {cut}" in capsys.readouterr().err
+
+
+def test_run_refuses_a_config_value_its_own_controller_would_replace(tmp_path, monkeypatch,
+                                                                    capsys):
+    """From an outside check: `run --config` with a top-drive gain that the controller of
+    your own also sets ran the controller's and dropped the file's without a word (the
+    benchmark refuses such keys, `modes` says the config wins). Refused, naming both
+    values; the same value in both is fine."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine.py").write_text(
+        "from agents import SetPointController\n\n\nclass GentlePI(SetPointController):\n"
+        "    name = 'gentle-pi'\n\n    def physics(self):\n"
+        "        return {'top_drive.controller': 'stiff', "
+        "'top_drive.proportional_gain': 3000.0, 'top_drive.integral_gain': 800.0}\n")
+    for gain, refused in ((100000.0, True), (3000.0, False)):
+        (tmp_path / "pg.yaml").write_text(f"top_drive: {{proportional_gain: {gain}}}\n")
+        argv = ["run", "--controller", "mine.py:GentlePI", "--scenario", "stick_slip",
+                "--config", "pg.yaml", "--duration", "0.5", "--out", str(tmp_path / "o")]
+        if refused:
+            with pytest.raises(SystemExit):
+                main(argv)
+            assert ("--config pg.yaml: top_drive.proportional_gain: --controller "
+                    "mine.py:GentlePI sets it (3000.0), which would replace the file's "
+                    "100000.0") in capsys.readouterr().err
+        else:
+            assert main(argv) == 0

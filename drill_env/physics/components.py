@@ -16,6 +16,7 @@ from __future__ import annotations
 import bisect
 import functools
 import itertools
+import warnings
 
 from drill_env.physics.config import Component, StringConfig
 from drill_env.physics.units import GRAVITY, INCH
@@ -132,10 +133,11 @@ def buoyed_weight(components: tuple[Component, ...], mud_density: float) -> floa
 
 def check_stabilizers(string: StringConfig) -> None:
     """ValueError naming the field unless every extra stabilizer of ``string`` lies on it
-    above the bit's node and its blades are no narrower than the body they sit on
-    (narrower, the node's clearance would grow: a recess, not a stabilizer). The simulator
-    puts a stabilizer on the nearest node, which may belong to the next component: it is
-    refused only if it is narrower than every body within an element of its position."""
+    and its blades are no narrower than the body they sit on (narrower, the node's
+    clearance would grow: a recess, not a stabilizer). The simulator puts a stabilizer on
+    the nearest node, which may belong to the next component: it is refused only if it is
+    narrower than every body within an element of its position. One nearest the bit's
+    node is not modelled (the bit's gauge holds that node): a UserWarning says so."""
     bodies = (*string.lower, string.drill_pipe)
     tops = list(itertools.accumulate(s.length for s in bodies))
     for k, pos in enumerate(string.stabilizer_positions):
@@ -144,10 +146,13 @@ def check_stabilizers(string: StringConfig) -> None:
                              f"{string.length} m string")
         bottom = bodies[0].length / bodies[0].n_elements  # the element on the bit
         if pos < bottom / 2:  # (at half an element the node above takes it)
-            raise ValueError(f"stabilizers[{k}]: {pos} m above the bit is nearest the bit's "
-                             f"node ({bottom} m elements there), where the bit's gauge "
-                             f"touches the wall; place it at least {bottom / 2} m up, or give "
-                             "the lowest component shorter elements")
+            # said, not refused: the paper BHA's near-bit stabilizer (1 m, a default the
+            # user may never have typed) meets it on any mesh coarser than 2 m
+            warnings.warn(f"stabilizers[{k}]: {pos} m above the bit is nearest the bit's "
+                          f"node ({bottom} m elements there), where the bit's gauge touches "
+                          f"the wall: it is not modelled; place it at least {bottom / 2} m "
+                          "up, or give the lowest component shorter elements", UserWarning,
+                          stacklevel=2)
         reach = bodies[bisect.bisect_right(tops, pos)].element_length
         near = bodies[bisect.bisect_right(tops, max(pos - reach, 0.0)):
                       bisect.bisect_right(tops, pos + reach) + 1]
