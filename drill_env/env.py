@@ -48,7 +48,7 @@ from drill_env.physics.config import FIDELITY_LEVELS, SimulationConfig, flatten,
 from drill_env.physics.layout import N_READINGS, READINGS, RECORD_CHANNELS
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
-from drill_env.physics.validation import check_newtons, numbers
+from drill_env.physics.validation import check_newtons, did_you_mean, numbers
 from drill_env.scenarios import (
     RANDOMISED,
     Scenario,
@@ -94,14 +94,13 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     The second action is the drawworks' hook load, commanded as the WOB it leaves on the
     bit (the same quantity in units a driller sets): applied as ``sim.hook_load_for(WOB)``
-    (buoyed string weight minus WOB, ``info["hook_load"]``), it moves by at
-    most ``drawworks_rate * control_interval`` per step (drawworks rate limit) and never
-    above ``weight_on_bit_limit``, the largest WOB the FE mesh resolves (see
-    ``limit_weight_on_bit_to_mesh``: the top of the default 0-200 kN range in the
-    built-in scenarios, 195 kN in ``lateral_60``, less on a string with a light BHA or in
-    a long build: a reset option above it warns); the speed set point is rate limited
-    inside the simulator (top-drive ``max_acceleration``). The WOB is held constant
-    within a control interval.
+    (buoyed string weight minus WOB, ``info["hook_load"]``), it moves by at most
+    ``drawworks_rate * control_interval`` per step (drawworks rate limit) and never above
+    ``weight_on_bit_limit``, the largest WOB the FE mesh resolves (see
+    ``limit_weight_on_bit_to_mesh``: the top of the default 0-200 kN range in the built-in
+    scenarios, 195 kN in ``lateral_60``, less on a string with a light BHA or in a long
+    build: a reset option above it warns); the speed set point is rate limited inside the
+    simulator (top-drive ``max_acceleration``). The WOB is held within a control interval.
 
     ## Observation Space
 
@@ -223,7 +222,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         starts = {k: v for k, v in overrides.items() if k in START_RANGES}
         unknown = set(overrides) - set(env_over) - set(scen_over) - set(starts)
         if unknown:
-            raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}; "
+            raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}"
+                             f"{did_you_mean(min(unknown), [*ENV_FIELDS, *params])}; "
                              f"EnvConfig fields: {sorted(ENV_FIELDS)}; scenario "
                              f"{scenario!r} parameters: {sorted(params)}")
         self.config: EnvConfig = replace(from_dict(EnvConfig, config), **env_over)

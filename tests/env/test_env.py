@@ -644,3 +644,13 @@ def test_the_macroscopic_id_refuses_physics_that_asks_for_the_other_bit():
         gym.make("DrillStringMacro-v0", physics={"bit_model": "mesoscopic"})
     same = gym.make("DrillStringMacro-v0", physics={"bit_model": "macroscopic"})
     assert same.unwrapped.sim.config.bit_model == "macroscopic"
+
+
+def test_a_misspelt_keyword_of_the_plain_env_gets_the_field_it_was_meant_to_be():
+    # an outside check: the refusal listed every field but suggested none, where config
+    # errors and the tasks' keywords do
+    with pytest.raises(ValueError, match=r"^DrillStringEnv: unknown argument\(s\) "
+                                         r"\['whirl_wieght'\] \(did you mean whirl_weight\?\)"):
+        gym.make("DrillString-v0", whirl_wieght=1.0)
+    with pytest.raises(ValueError, match=r"\(did you mean string_length\?\)"):
+        gym.make("DrillString-v0", string_lenght=1300.0)
