@@ -245,7 +245,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     # the controller's own physics (its top drive) over the file's; a value of the file
     # it would replace is refused (it was dropped without a word)
     own = controller.physics()
-    for key in sorted(k for k in own if k in overrides and overrides[k] != own[k]):
+    replaced = sorted(k for k in own if k in overrides and overrides[k] != own[k])
+    if replaced:
+        key = replaced[0]
         raise argparse.ArgumentTypeError(
             f"--config {args.config}: {key}: --controller {args.controller} sets it "
             f"({own[key]!r}), which would replace the file's {overrides[key]!r}: remove it "

@@ -375,9 +375,10 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         if isinstance(batch, int) and isinstance(rollout, int) and batch > rollout:
             raise ConfigError(f"{where}.batch_size: {batch} is more than a rollout holds "
                               f"(n_steps x n_envs = {rollout})")
-    if "buffer_size" in known:  # SB3 samples a batch with replacement from what it holds
-        batch = config.hyperparams.get("batch_size", 256)
-        buffer = config.hyperparams.get("buffer_size", 1_000_000)
+    if {"buffer_size", "batch_size"} <= known:  # SB3 samples a batch with replacement
+        defaults = inspect.signature(algo.__init__).parameters
+        batch = config.hyperparams.get("batch_size", defaults["batch_size"].default)
+        buffer = config.hyperparams.get("buffer_size", defaults["buffer_size"].default)
         if isinstance(batch, int) and isinstance(buffer, int) and batch > buffer:
             raise ConfigError(f"{where}.buffer_size: {buffer} holds less than one batch "
                               f"(batch_size = {batch}): every batch would repeat transitions")

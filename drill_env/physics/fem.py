@@ -119,7 +119,8 @@ def node_contact_radius(mesh: Mesh, config: SimulationConfig) -> np.ndarray:
     contact), or, where that end is the bit's node (whose wall contact is the bit's
     gauge), with those of its own node nearest its middle: its top end when it is one
     element. The extra ``stabilizers`` go on the nodes nearest their heights (the
-    bit's node excepted: ``check_stabilizers`` refuses a height nearest it).
+    bit's node excepted: one nearest it is not modelled, and ``check_stabilizers``
+    warns of it).
     """
     string = config.string
     n = mesh.n_nodes
