@@ -260,7 +260,7 @@ def test_task_2_telemetry_arrives_every_2_s_and_3_s_late_on_every_seed():
         for _ in range(9):
             obs, *_ = env.step(np.zeros(2, dtype=np.float32))
             seen.append(round(float(obs[age]) * 10.0 / base.control_interval))
-        assert seen[:2] == [100, 100] or seen[0] > 10  # nothing before the 3rd step
+        assert min(seen[:2]) > 10  # nothing before the 3rd step (the age reads its cap)
         assert seen[2:] == [3, 4, 3, 4, 3, 4, 3], (seed, base.control_interval, seen)
 
 
