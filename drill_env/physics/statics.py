@@ -166,8 +166,15 @@ def axial_force_and_inclination(config: SimulationConfig, mesh, weight_on_bit: f
     """Static axial force at the element midpoints (N, tension > 0) at this WOB, the
     buoyed weight below by true vertical depth in a curved hole (as the simulator's),
     and the hole's inclination there (rad; 0 in a vertical hole)."""
+    return _axial_force_and_inclination(config, mesh, weight_on_bit,
+                                        string_in_hole(config, mesh))
+
+
+def _axial_force_and_inclination(config: SimulationConfig, mesh, weight_on_bit: float,
+                                 placed) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`axial_force_and_inclination` of a string already placed in its hole
+    (``string_in_hole``'s result)."""
     bit_weight = bit_buoyed_weight(config)
-    placed = string_in_hole(config, mesh)
     if placed is None:
         return (axial_force_profile(mesh, weight_on_bit, bit_weight),
                 np.zeros(mesh.node_depth.shape[0] - 1))
@@ -184,12 +191,12 @@ def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBu
     empty when the pipe is safe. Each names the compression and the limit of the element
     that comes nearest to buckling (in a vertical hole: the most compressed)."""
     mesh = build_mesh(config)
-    force, inclination = axial_force_and_inclination(config, mesh, weight_on_bit)
+    placed = string_in_hole(config, mesh)  # (once: it builds the survey's trajectory)
+    force, inclination = _axial_force_and_inclination(config, mesh, weight_on_bit, placed)
     node_md = mesh.node_depth + (bit_depth(config) - mesh.node_depth[-1])
     middle_md = 0.5 * (node_md[:-1] + node_md[1:])
     sin_i = np.where(inclination >= DAWSON_PASLAY_MIN_INCLINATION, np.sin(inclination), 0.0)
     drop = np.zeros_like(inclination)  # rad/m the inclination falls along the element
-    placed = string_in_hole(config, mesh)
     if placed is not None:
         trajectory, md = placed
         ends = trajectory.inclination(np.maximum(md, 0.0))
