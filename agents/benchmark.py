@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import io
 import json
 import math
-import os
 import sys
 import zipfile
 from collections.abc import Mapping, Sequence
@@ -43,6 +43,7 @@ from drill_env.physics.validation import (
     jsonable,
     numbers,
 )
+from drill_env.sweep import save_text
 
 #: benchmark.csv columns, in order (the spec's section 5; meanings in docs/controllers.md);
 #: units in the names.
@@ -891,13 +892,12 @@ def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool
 
 
 def write_csv(rows: Sequence[dict[str, Any]], path: Path) -> None:
-    part = path.with_name(path.name + ".part")  # an interrupt leaves the old file whole
-    with part.open("w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(COLUMNS)
-        for row in rows:
-            writer.writerow([_csv_value(row[c]) for c in COLUMNS])
-    os.replace(part, path)
+    text = io.StringIO()
+    writer = csv.writer(text)
+    writer.writerow(COLUMNS)
+    for row in rows:
+        writer.writerow([_csv_value(row[c]) for c in COLUMNS])
+    save_text(path, text.getvalue(), newline="")  # an interrupt leaves the old file whole
 
 
 def _csv_value(value: Any) -> Any:
@@ -1094,9 +1094,7 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     for s in drawn:
         lines += ["", f"## {s}: time series (first seed)", "",
                   f"![{s}]({SERIES_PICTURE.format(scenario=s)})"]
-    part = out / "benchmark.md.part"
-    part.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    os.replace(part, out / "benchmark.md")
+    save_text(out / "benchmark.md", "\n".join(lines) + "\n")
 
 
 def _print_table(header: Sequence[str], table: Sequence[Sequence[str]],

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import os
 import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -44,15 +43,14 @@ ON_AXIS = 1e-3
 
 
 def save(fig: Any, path: Path) -> None:
-    """``fig`` as a PNG at ``path`` by way of a file beside it, then closed: an interrupt
-    leaves the old picture whole (benchmark.md links it), never a torn or missing one."""
-    part = path.with_name(path.name + ".part")
+    """``fig`` as a PNG at ``path`` (:func:`drill_env.sweep.save_whole`), then closed: an
+    interrupt leaves the old picture whole (benchmark.md links it), never a torn one."""
+    from drill_env.sweep import save_whole
+
     try:
-        fig.savefig(part, dpi=110, format="png")
-        os.replace(part, path)
+        save_whole(path, lambda file: fig.savefig(file, dpi=110, format="png"))
     finally:
         plt.close(fig)
-        part.unlink(missing_ok=True)  # (an interrupted one)
 
 
 def _say_empty(ax: Any, text: str) -> None:

@@ -334,3 +334,22 @@ class ResultStore:
             f.write(json.dumps({"fingerprint": self.fingerprint, "key": key,
                                 "result": result}) + "\n")
             f.flush()
+
+
+def save_text(path: Path, text: str, newline: str | None = None) -> None:
+    """``text`` into ``path`` whole (:func:`save_whole`)."""
+    save_whole(path, lambda file: Path(file).write_text(text, newline=newline,
+                                                       encoding="utf-8"))
+
+
+def save_whole(path: Path, save: Callable[[str], Any]) -> None:
+    """``save(file)`` into a hidden file beside ``path``, then renamed to it: a process
+    killed mid-write leaves no truncated file where it is read (a resume of a model cut
+    short crashed on an UnpicklingError; a benchmark interrupted while drawing left its
+    pictures half there). A save that raises (a Ctrl-C) leaves no partial file either."""
+    partial = path.with_name(f".{path.stem}.partial{path.suffix}")
+    try:
+        save(str(partial))
+        partial.replace(path)
+    finally:
+        partial.unlink(missing_ok=True)

@@ -1012,7 +1012,7 @@ def test_an_interrupt_while_the_outputs_are_written_leaves_every_linked_picture(
     text = (tmp_path / "benchmark.md").read_text()
     for name in re.findall(r"\]\(([^)]+)\)", text):
         assert (tmp_path / name).stat().st_size == sizes[name], name
-    assert not [p.name for p in tmp_path.iterdir() if p.suffix == ".part"]
+    assert not [p.name for p in tmp_path.iterdir() if ".partial" in p.name]
 
 
 def test_a_policy_and_its_five_baselines_each_draw_their_own_line_style(tmp_path,

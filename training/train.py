@@ -39,7 +39,7 @@ import yaml
 
 from agents.learned import latest_checkpoint, load_saved
 from drill_env.physics.validation import jsonable
-from drill_env.sweep import noted_interrupt, watch_interrupts
+from drill_env.sweep import noted_interrupt, save_text, save_whole, watch_interrupts
 from training.config import (
     TRAINING_SEEDS,
     VALIDATION_SEED,
@@ -615,20 +615,6 @@ def csv_text(fieldnames: Any, rows: list[dict[str, Any]], header: bool = True) -
         writer.writeheader()
     writer.writerows(rows)
     return buffer.getvalue()
-
-
-def save_text(path: Path, text: str, newline: str | None = None) -> None:
-    """``text`` into ``path`` whole (:func:`save_whole`)."""
-    save_whole(path, lambda file: Path(file).write_text(text, newline=newline))
-
-
-def save_whole(path: Path, save: Any) -> None:
-    """``save(file)`` into a hidden file beside ``path``, then renamed to it: a process
-    killed mid-write leaves no truncated model or statistics where a resume or an
-    evaluation reads them (a resume of one crashed on an UnpicklingError)."""
-    partial = path.with_name(f".{path.stem}.partial{path.suffix}")
-    save(str(partial))
-    partial.replace(path)
 
 
 def plot_learning_curve(run: Path) -> Path | None:
