@@ -233,26 +233,38 @@ def load_saved(path: Path, load: Any) -> Any:
     naming it and what to do, not a traceback from pickle or zipfile."""
     import zipfile
 
+    damage = (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
+              json.JSONDecodeError)
     try:
         if Path(path).suffix == ".zip" and Path(path).exists() and not zipfile.is_zipfile(path):
             # Stable-Baselines3 says so in a ValueError of its own, naming no run
             raise zipfile.BadZipFile("not a zip file")
-        if Path(path).suffix == ".pkl" and Path(path).exists():
+        try:
+            return load(str(path))
+        except damage:
+            raise
+        except Exception as err:  # noqa: BLE001 - judged below, else raised as it was
             # garbage can fail in any of pickle's opcodes ("garbage": a ValueError from
-            # int()), so the file alone is unpickled first, any failure its damage
-            try:
-                with Path(path).open("rb") as f:
-                    pickle.load(f)
-            except Exception as err:  # noqa: BLE001 (whatever the bytes make pickle do)
-                raise pickle.UnpicklingError(f"{type(err).__name__}: {err}") from None
-        return load(str(path))
-    except (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
-            json.JSONDecodeError) as err:
+            # int()); damage if the file alone does not unpickle, else the load's own error
+            if Path(path).suffix != ".pkl" or _unpickles(Path(path)):
+                raise
+            raise pickle.UnpicklingError(f"{type(err).__name__}: {err}") from None
+    except damage as err:
         raise ValueError(f"{path}: damaged, cannot be loaded ({type(err).__name__}: {err}); "
                          "delete it and the files saved with it, and the run's other files "
                          "are used (train --resume: the newest complete checkpoint left; "
                          "nothing falls back by itself); or retrain with --overwrite"
                          ) from None
+
+
+def _unpickles(path: Path) -> bool:
+    """Whether ``path`` unpickles at all (whatever it holds)."""
+    try:
+        with path.open("rb") as f:
+            pickle.load(f)
+    except Exception:  # noqa: BLE001 (whatever the bytes make pickle do)
+        return False
+    return True
 
 
 def latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
