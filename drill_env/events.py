@@ -1,7 +1,7 @@
 """Drilling events from sampled signals: stick-slip onsets, whirl on/off, layer changes.
 
 The rules sit next to :mod:`drill_env.metrics` and use its definitions (a stuck bit is
-``|bit speed| < STUCK_SPEED``; whirl is :func:`drill_env.metrics.whirling`, the one rule
+``|bit speed| < STUCK_SPEED``; whirl is :func:`drill_env.metrics.whirl_signs`, the one rule
 the metrics, the benchmark and the recordings share). Each detector is streaming: feed
 it the samples chunk by chunk (``update``) and it returns the events that the chunk
 completes, carrying its state across chunks, so a recording writes events as the
@@ -17,17 +17,21 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from drill_env.metrics import STUCK_SPEED, whirl_sign, whirling
+from drill_env.metrics import STUCK_SPEED, whirl_signs
 from drill_env.physics.units import RPM
 
 Event = tuple[float, str, str]
 
 #: A stick after this long (s) without one is a stick-slip ONSET (else one more cycle).
 STICK_SLIP_QUIET = 5.0
-#: Whirl (the rule of :func:`drill_env.metrics.whirling`) counts as on after it has held
-#: this long (s), and as off after the same time without it: the orbit passes through
-#: the rule's thresholds twice a cycle in a transition.
+#: Whirl (the rule of :func:`drill_env.metrics.whirl_signs`) counts as on after it has
+#: held this long (s), and as off after the same time without it: the orbit passes
+#: through the rule's thresholds twice a cycle in a transition.
 WHIRL_MIN_DURATION = 0.3
+#: Seconds of past samples the whirl detector judges new ones with: a leg of the rule
+#: (half a turn round the hole) starts before the chunk that completes it (a forward
+#: whirl at 30 rpm takes 1 s), and a chunk is one env step (0.1 s by default).
+WHIRL_CONTEXT = 2.0
 
 
 class StickSlipDetector:
@@ -68,9 +72,10 @@ class StickSlipDetector:
 
 
 class WhirlDetector:
-    """Whirl on and off by :func:`drill_env.metrics.whirling`, held ``min_duration``;
-    the onset says forward or backward (the sign of whirl against rotation while it
-    held) and the radial ratio, whirl and bit speeds where it began."""
+    """Whirl on and off by :func:`drill_env.metrics.whirl_signs`, held ``min_duration``;
+    the onset says forward or backward (the direction most samples took while it held)
+    and the radial ratio, whirl and bit speeds where it began. Each chunk is judged with
+    the last ``WHIRL_CONTEXT`` seconds before it."""
 
     def __init__(self, clearance: float, min_duration: float = WHIRL_MIN_DURATION) -> None:
         if not clearance > 0:
@@ -82,17 +87,27 @@ class WhirlDetector:
         # whirl-against-rotation signs since then.
         self._since: tuple[float, float, float, float] | None = None
         self._signs: list[float] = []
+        # the samples of the last WHIRL_CONTEXT seconds: time, radial ratio, whirl speed,
+        # bit speed
+        self._past = np.empty((4, 0))
 
     def update(self, t: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray,
                whirl_speed: np.ndarray, bit_speed: np.ndarray) -> list[Event]:
         events: list[Event] = []
+        t = np.asarray(t, dtype=np.float64)
         radial = np.hypot(bit_x, bit_y) / self.clearance
         ws = np.asarray(whirl_speed, dtype=np.float64)
         w = np.asarray(bit_speed, dtype=np.float64)
-        cond = whirling(radial, ws, w)
-        sign = whirl_sign(ws, w)  # the metrics' rule: a stuck bit counts as turning forward
+        seen = np.concatenate([self._past, np.stack([t, radial, ws, w])], axis=1)
+        spacing = np.diff(seen[0])
+        if spacing.size and np.all(spacing > 0):
+            sign = whirl_signs(seen[1], seen[2], seen[3], float(np.median(spacing)))
+            sign = sign[sign.size - len(t):]
+        else:  # one sample so far, or times that do not advance: no orbit to follow
+            sign = np.zeros(len(t))
+        self._past = seen[:, seen[0] > seen[0, -1] - WHIRL_CONTEXT] if len(t) else seen
         for i in range(len(t)):
-            if bool(cond[i]) == self._on:
+            if (sign[i] != 0.0) == self._on:
                 self._since = None
                 self._signs = []
                 continue

@@ -37,19 +37,18 @@ from numba import njit
 
 from drill_env.physics.jit import TUPLE_KERNEL
 from drill_env.physics.units import RPM
+from drill_env.whirl_rule import (  # noqa: F401  (the rule's constants: the surface)
+    WHIRL_RADIAL_RATIO,
+    WHIRL_REVERSAL,
+    WHIRL_SPEED_RATIO,
+    WHIRL_SWEEP,
+    whirl_legs,
+)
 
 #: The bit counts as stuck below this speed (rad/s): 1 rpm.
 STUCK_SPEED = 1.0 * RPM
 #: Floor of |mean bit speed| in the SSI denominator (rad/s): 1 rpm.
 SSI_MIN_MEAN_SPEED = 1.0 * RPM
-#: The whirl rule, used by the metrics, the env, the benchmark and the recorder's events:
-#: a sample whirls when the bit centre is at least WHIRL_RADIAL_RATIO of the gauge
-#: clearance off the hole axis AND orbits at at least WHIRL_SPEED_RATIO of the bit speed
-#: (floored at 1 rpm), in either direction. Half the clearance keeps the small static
-#: offset of a bit pushed by a dipping interface out; a quarter of the bit speed keeps a
-#: slow drift out and catches forward (~1x) and backward (~ -R/clearance, ~ -20x) whirl.
-WHIRL_RADIAL_RATIO = 0.5
-WHIRL_SPEED_RATIO = 0.25
 #: Below this mean ROP (m/s) the bit is not drilling and the MSE rotary term is undefined.
 MSE_MIN_ROP = 1e-9
 #: Ceiling of the reported MSE (Pa). Hard rock has a compressive strength of ~200 MPa and
@@ -118,13 +117,11 @@ def whirl_ratio(whirl_speed, bit_speed, min_mean_speed: float = SSI_MIN_MEAN_SPE
     return float(np.mean(ws)) / denom
 
 
-def whirling(radial, whirl_speed, bit_speed) -> np.ndarray:
-    """The whirl rule per sample (module constants WHIRL_RADIAL_RATIO, WHIRL_SPEED_RATIO):
-    the bit is off the axis AND its centre orbits fast. NaN samples do not whirl."""
-    radial = np.nan_to_num(np.asarray(radial, dtype=float))
-    ws = np.nan_to_num(np.asarray(whirl_speed, dtype=float))
-    floor = np.maximum(np.abs(np.nan_to_num(np.asarray(bit_speed, dtype=float))), STUCK_SPEED)
-    return (radial > WHIRL_RADIAL_RATIO) & (np.abs(ws) > WHIRL_SPEED_RATIO * floor)
+def whirling(radial, whirl_speed, bit_speed, dt: float) -> np.ndarray:
+    """The whirl rule (:mod:`drill_env.whirl_rule`; :func:`whirl_signs`) per sample of
+    signals ``dt`` apart: the bit off the axis AND its centre travelling round the hole.
+    NaN samples do not whirl."""
+    return whirl_signs(radial, whirl_speed, bit_speed, dt) != 0.0
 
 
 def whirl_sign(whirl_speed, bit_speed) -> np.ndarray:
@@ -136,22 +133,37 @@ def whirl_sign(whirl_speed, bit_speed) -> np.ndarray:
     return np.sign(ws * np.where(w != 0.0, np.sign(w), 1.0))
 
 
-def backward_whirling(radial, whirl_speed, bit_speed) -> np.ndarray:
-    """Samples that whirl (:func:`whirling`) against the rotation (:func:`whirl_sign`)."""
-    return whirling(radial, whirl_speed, bit_speed) & (whirl_sign(whirl_speed, bit_speed)
-                                                         < 0.0)
+def whirl_signs(radial, whirl_speed, bit_speed, dt: float) -> np.ndarray:
+    """Per sample: +1 where the bit whirls with the rotation, -1 against it, 0 where it
+    does not whirl (:mod:`drill_env.whirl_rule`; samples ``dt`` apart). Within a
+    leg the direction is the leg's; a stuck bit counts as turning the positive way."""
+    radial = np.ascontiguousarray(radial, dtype=float)
+    ws = np.ascontiguousarray(whirl_speed, dtype=float)
+    w = np.ascontiguousarray(bit_speed, dtype=float)
+    if not radial.shape == ws.shape == w.shape or radial.ndim != 1:
+        raise ValueError(f"radial, whirl_speed, bit_speed: need 1-D signals of one length, "
+                         f"got shapes {radial.shape}, {ws.shape}, {w.shape}")
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt: must be a finite sample spacing > 0 s, got {dt!r}")
+    out = np.zeros(radial.shape[0])
+    whirl_legs(radial, ws, w, dt, STUCK_SPEED, out)
+    return out
 
 
-def whirl_direction(whirl_speed, bit_speed, radial) -> str:
+def backward_whirling(radial, whirl_speed, bit_speed, dt: float) -> np.ndarray:
+    """Samples that whirl (:func:`whirling`) against the rotation."""
+    return whirl_signs(radial, whirl_speed, bit_speed, dt) < 0.0
+
+
+def whirl_direction(whirl_speed, bit_speed, radial, dt: float) -> str:
     """"forward", "backward" or "none" (no sample whirls by :func:`whirling`, or as many
     whirl each way).
 
-    The direction most whirling samples take (:func:`whirl_sign`): the share of time,
+    The direction most whirling samples take (:func:`whirl_signs`): the share of time,
     as the backward-whirl fraction counts it and the recordings' whirl events name it
     (not the mean whirl speed, which a fast backward whirl would outweigh).
     """
-    mask = whirling(_signal(radial, "radial"), whirl_speed, bit_speed)
-    votes = float(np.sum(whirl_sign(whirl_speed, bit_speed)[mask]))
+    votes = float(np.sum(whirl_signs(_signal(radial, "radial"), whirl_speed, bit_speed, dt)))
     return "forward" if votes > 0 else "backward" if votes < 0 else "none"
 
 
@@ -231,6 +243,7 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
 
     radial = radial_ratio(c("bit_x"), c("bit_y"), clearance)
     force = lateral_force(c("bit_force_x"), c("bit_force_y"))
+    signs = whirl_signs(radial, c("whirl_speed"), c("bit_speed"), dt)
     return {
         "ssi": stick_slip_severity(c("bit_speed")),
         "stuck_fraction": stuck_fraction(c("bit_speed")),
@@ -244,9 +257,8 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
                                           c("bit_speed"), c("rop"), bit_diameter),
         "top_drive_energy": top_drive_energy(c("motor_torque"), c("surface_speed"), dt),
         "surface_torque_max": peak_surface_torque(c("surface_torque")),
-        "whirl_fraction": float(np.mean(whirling(radial, c("whirl_speed"), c("bit_speed")))),
-        "backward_whirl_fraction": float(np.mean(
-            backward_whirling(radial, c("whirl_speed"), c("bit_speed")))),
+        "whirl_fraction": float(np.mean(signs != 0.0)),
+        "backward_whirl_fraction": float(np.mean(signs < 0.0)),
         "mean_bit_speed": float(np.mean(c("bit_speed"))),
         "excursion_ratio": float(np.mean(excursion_ratio(c("bit_x"), c("bit_y"), clearance,
                                                          rest))),
@@ -276,10 +288,11 @@ Channel = IntEnum("Channel", [
 ], start=0)
 METRIC_CHANNELS: tuple[str, ...] = tuple(c.name.lower() for c in Channel)
 #: Per-sample quantities the window metrics reduce (rows of a samples array; ``FINITE``
-#: is 1.0 where every channel of the record is finite, else 0.0).
+#: is 1.0 where every channel of the record is finite, else 0.0; ``WHIRL_SIGN`` is the
+#: reduction's scratch: :func:`whirl_signs` of the samples reduced last).
 Sample = IntEnum("Sample", [
     "BIT_SPEED", "WHIRL_SPEED", "RADIAL_RATIO", "LATERAL_FORCE", "ROP", "WEIGHT_ON_BIT",
-    "BIT_POWER", "MOTOR_POWER", "SURFACE_TORQUE", "EXCURSION_RATIO", "FINITE",
+    "BIT_POWER", "MOTOR_POWER", "SURFACE_TORQUE", "EXCURSION_RATIO", "FINITE", "WHIRL_SIGN",
 ], start=0)
 METRIC_SAMPLES: tuple[str, ...] = tuple(m.name.lower() for m in Sample)
 #: Scalars of a rolling window (``WindowArrays.params``); REST_X, REST_Y: the bit's rest
@@ -480,17 +493,17 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
         if abs(v) > peak or v != v:
             peak = abs(v)
     out[Metric.SURFACE_TORQUE_MAX] = peak
-    whirls = 0  # the whirl rule of whirling() / backward_whirling(), NaN: no whirl
+    # the whirl rule of whirl_signs(), into the samples' scratch row (NaN: no whirl)
+    signs = samples[Sample.WHIRL_SIGN]
+    signs[:] = 0.0
+    whirl_legs(samples[Sample.RADIAL_RATIO], samples[Sample.WHIRL_SPEED], w, dt, STUCK_SPEED,
+               signs)
+    whirls = 0
     backward = 0
-    radial = samples[Sample.RADIAL_RATIO]
-    ws = samples[Sample.WHIRL_SPEED]
     for k in range(n):
-        speed = abs(w[k])
-        floor_k = speed if speed > STUCK_SPEED else STUCK_SPEED
-        if radial[k] > WHIRL_RADIAL_RATIO and abs(ws[k]) > WHIRL_SPEED_RATIO * floor_k:
+        if signs[k] != 0.0:
             whirls += 1
-            sign = w[k] if (w[k] != 0.0 and w[k] == w[k]) else 1.0
-            if ws[k] * sign < 0.0:
+            if signs[k] < 0.0:
                 backward += 1
     out[Metric.WHIRL_FRACTION] = whirls / n
     out[Metric.BACKWARD_WHIRL_FRACTION] = backward / n

@@ -9,6 +9,7 @@ import numpy as np
 from drill_env.events import (
     STICK_SLIP_QUIET,
     WHIRL_MIN_DURATION,
+    WhirlDetector,
     layer_events,
     stick_slip_events,
     whirl_events,
@@ -58,8 +59,9 @@ def test_whirl_shorter_than_the_hold_time_is_no_whirl() -> None:
 
 
 def test_the_whirl_direction_is_that_of_most_samples_since_the_onset() -> None:
-    """Backward whirl held 0.3 s, with the sample that completes the hold turning
-    forward: the onset says backward, as :func:`drill_env.metrics.whirl_direction`."""
+    """Backward whirl with one sample's whirl speed reversed: the angle it travels turns
+    back by none of the rule's 45 degrees, so the sample belongs to the backward leg and
+    the onset says backward, as :func:`drill_env.metrics.whirl_direction`."""
     t = np.arange(0.0, 2.0, 0.1)
     radial = np.full_like(t, 0.9)
     x, y = _orbit(t, radial)
@@ -68,4 +70,23 @@ def test_the_whirl_direction_is_that_of_most_samples_since_the_onset() -> None:
     bit_speed = np.full_like(t, 5.0)
     events = whirl_events(t, x, y, whirl_speed, bit_speed, CLEARANCE)
     assert events[0][2].startswith("whirl onset (backward)")
-    assert whirl_direction(whirl_speed[:4], bit_speed[:4], radial[:4]) == "backward"
+    assert whirl_direction(whirl_speed[:4], bit_speed[:4], radial[:4], 0.1) == "backward"
+
+
+def test_whirl_fed_step_by_step_is_judged_with_the_seconds_before() -> None:
+    """A forward whirl at 0.6 of the bit speed takes ~1 s to travel the rule's half turn;
+    fed in 0.1 s chunks (an env step) the detector still sees it, from the chunk that
+    completes the half turn, with the whole-array onset at the start of the orbit."""
+    t = np.arange(0.0, 6.0, 0.01)
+    radial = np.full_like(t, 0.9)
+    x, y = _orbit(t, radial)
+    ws, w = np.full_like(t, 3.0), np.full_like(t, 5.0)
+    whole = whirl_events(t, x, y, ws, w, CLEARANCE)
+    assert [e[2].split(":")[0] for e in whole] == ["whirl onset (forward)"]
+    assert whole[0][0] == 0.0
+    detector = WhirlDetector(CLEARANCE)
+    chunked = [e for k in range(0, t.size, 10) for e in detector.update(
+        t[k:k + 10], x[k:k + 10], y[k:k + 10], ws[k:k + 10], w[k:k + 10])]
+    assert [e[2].split(":")[0] for e in chunked] == ["whirl onset (forward)"]
+    # from the chunk in which it has gone half a turn at 3 rad/s
+    assert np.pi / 3.0 - 0.1 <= chunked[0][0] <= np.pi / 3.0

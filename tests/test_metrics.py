@@ -45,60 +45,75 @@ def test_empty_signals_are_rejected_by_name():
 def test_whirl_sign_tells_forward_from_backward():
     omega = np.full(T.size, 10.0)
     forward = np.full(T.size, 10.0)
+    dt = T[1] - T[0]
     assert metrics.whirl_ratio(forward, omega) == pytest.approx(1.0)
     assert metrics.whirl_ratio(-20 * forward, omega) == pytest.approx(-20.0)
     radial = np.full(T.size, 0.8)
-    assert metrics.whirl_direction(forward, omega, radial) == "forward"
-    assert metrics.whirl_direction(-forward, omega, radial) == "backward"
-    assert metrics.whirl_direction(forward, omega, 0.01 * radial) == "none"
+    assert metrics.whirl_direction(forward, omega, radial, dt) == "forward"
+    assert metrics.whirl_direction(-forward, omega, radial, dt) == "backward"
+    assert metrics.whirl_direction(forward, omega, 0.01 * radial, dt) == "none"
     # by the share of time, as the backward-whirl fraction and the whirl events count it:
-    # one fast backward sample does not outvote two forward ones
-    three = np.array([1.0, 1.0, 1.0])
-    assert metrics.whirl_direction([5.0, 5.0, -100.0], 5.0 * three, three) == "forward"
-    assert metrics.whirl_direction([5.0, -5.0], [5.0, 5.0], [1.0, 1.0]) == "none"
+    # one second of fast backward whirl does not outvote two seconds of forward whirl
+    two, one = T <= 2.0, (T > 2.0) & (T <= 3.0)
+    ws = np.where(two, 10.0, -200.0)[two | one]
+    assert metrics.whirl_direction(ws, omega[two | one], radial[two | one], dt) == "forward"
+    assert metrics.whirl_signs(radial[two | one], ws, omega[two | one], dt).tolist() == [
+        1.0] * int(two.sum()) + [-1.0] * int(one.sum())
 
 
-def test_radial_ratio_of_an_orbit_on_the_wall_is_one():
-    c = 0.005
-    x, y = c * np.cos(2 * np.pi * T), c * np.sin(2 * np.pi * T)
-    np.testing.assert_allclose(metrics.radial_ratio(x, y, c), 1.0)
-    with pytest.raises(ValueError, match="clearance"):
-        metrics.radial_ratio(x, y, 0.0)
+def _rocking(amplitude_deg, frequency=10.0, radial=1.0, spin=10.0, seconds=4.0, dt=0.002):
+    """The bit on the wall, its centre rocking about the low side by +-amplitude at
+    ``frequency`` (Hz), the bit turning at ``spin`` rad/s: (radial, whirl speed, bit
+    speed, dt) with the whirl speed the exact derivative of the angle."""
+    t = np.arange(0.0, seconds, dt)
+    a = np.radians(amplitude_deg)
+    ws = a * 2 * np.pi * frequency * np.cos(2 * np.pi * frequency * t)
+    return np.full(t.size, radial), ws, np.full(t.size, spin), dt
 
 
-def test_lateral_force_is_the_magnitude():
-    assert metrics.lateral_force(3.0, 4.0) == pytest.approx(5.0)
+def test_a_bit_rattling_on_the_wall_does_not_whirl_one_that_goes_round_does():
+    """The rule's sweep: a centre rocking +-70 degrees on the wall at 10 Hz (the chatter
+    of a slick BHA on a deviated hole's low side, or of the paper's sandwich cases) turns
+    back before half an orbit, so it never whirls, though it is on the wall and its orbit
+    speed reaches 7x the bit speed, which the per-sample rule of radius and speed read
+    as whirl for ~90 % of the samples. Rocking +-100 degrees travels 200 degrees a leg:
+    it whirls, either way in turn. A forward orbit at the bit speed with a +-30 degree
+    wobble at 6 Hz turns back by ~20 degrees each cycle, under the rule's 45: one long
+    forward leg, as paper case 4's forward whirl reads."""
+    radial, ws, w, dt = _rocking(70.0)
+    assert np.mean((radial > 0.5) & (np.abs(ws) > 0.25 * w)) > 0.8  # the old rule's read
+    assert not metrics.whirling(radial, ws, w, dt).any()
+    radial, ws, w, dt = _rocking(100.0)
+    signs = metrics.whirl_signs(radial, ws, w, dt)
+    assert np.mean(signs != 0) > 0.9
+    assert 0.4 < np.mean(signs < 0) < 0.6
+    t = np.arange(0.0, 4.0, dt)
+    wobble = np.radians(30.0) * 2 * np.pi * 6.0 * np.cos(2 * np.pi * 6.0 * t)
+    assert (10.0 + wobble < 0).any()  # it does turn back
+    signs = metrics.whirl_signs(np.full(t.size, 0.9), 10.0 + wobble, np.full(t.size, 10.0), dt)
+    assert np.mean(signs > 0) > 0.95 and not (signs < 0).any()
 
 
-def test_mse_matches_teale_in_si():
-    # WOB 100 kN, 100 rpm, 5 kN m, 10 m/h, 8.75 in bit.
-    d = 8.75 * 0.0254
-    area = math.pi * d * d / 4
-    wob, n_rps, torque, rop = 1e5, 100 / 60, 5e3, 10 / 3600
-    expected = wob / area + 2 * math.pi * n_rps * torque / (area * rop)
-    got = metrics.mechanical_specific_energy(np.full(5, wob), np.full(5, torque),
-                                             np.full(5, 2 * math.pi * n_rps), np.full(5, rop), d)
-    assert got == pytest.approx(expected)
-    # ~ 0.9 GPa: hard-rock drilling is in the hundreds of MPa to GPa range.
-    assert 1e8 < got < 1e10
-
-
-def test_mse_without_penetration_is_the_ceiling_or_just_the_thrust_term():
-    d = 0.2
-    zero = np.zeros(3)
-    assert metrics.mechanical_specific_energy(np.full(3, 1e5), np.full(3, 1e3), np.full(3, 1.0),
-                                              zero, d) == metrics.MSE_CEILING
-    # barely drilling: the rotary term would be ~1e13 Pa, reported as the ceiling
-    assert metrics.mechanical_specific_energy(np.full(3, 1e5), np.full(3, 1e3), np.full(3, 1.0),
-                                              np.full(3, 1e-8), d) == metrics.MSE_CEILING
-    assert metrics.mechanical_specific_energy(np.full(3, 1e5), zero, zero, zero, d) == \
-        pytest.approx(1e5 / metrics.bit_area(d))
-
-
-def test_top_drive_energy_integrates_absolute_power():
-    torque = np.full(100, 2e3)
-    speed = np.concatenate([np.full(50, 10.0), np.full(50, -10.0)])
-    assert metrics.top_drive_energy(torque, speed, 0.01) == pytest.approx(2e3 * 10 * 1.0)
+def test_the_whirl_rule_needs_the_orbit_fast_and_off_the_axis():
+    """A slow drift round the wall (a tenth of the bit speed, 6 turns in a minute) is not
+    whirl; a circle of half the clearance's radius or less is not, at any speed; a
+    whirl interrupted by a pass near the axis is two legs, each judged alone."""
+    dt = 0.01
+    n = 6000
+    w = np.full(n, 10.0)
+    assert not metrics.whirling(np.full(n, 0.9), 0.1 * w, w, dt).any()
+    assert metrics.whirling(np.full(n, 0.9), 0.3 * w, w, dt).all()
+    assert not metrics.whirling(np.full(n, 0.5), -20 * w, w, dt).any()
+    radial = np.full(400, 0.9)
+    radial[195:205] = 0.2  # through the middle: 1.95 s and 1.95 s of whirl either side
+    signs = metrics.whirl_signs(radial, np.full(400, 20.0), np.full(400, 10.0), dt)
+    assert signs.tolist() == [1.0] * 195 + [0.0] * 10 + [1.0] * 195
+    radial[20:380] = 0.2  # 0.2 s either side at 10 rad/s: 1.9 rad each, under half a turn
+    assert not metrics.whirling(radial, np.full(400, 10.0), np.full(400, 10.0), dt).any()
+    with pytest.raises(ValueError, match="dt"):
+        metrics.whirl_signs(radial, radial, radial, 0.0)
+    with pytest.raises(ValueError, match="one length"):
+        metrics.whirl_signs(radial, radial[:3], radial, dt)
 
 
 def test_window_metrics_reads_simulator_records():
@@ -331,14 +346,15 @@ def test_the_metric_rules_of_the_module_table_on_both_paths():
     w = 10.0
     for radial, whirl, whirls in ((0.6, 0.3 * w, True), (0.6, 0.2 * w, False),
                                   (0.4, 2.0 * w, False), (0.6, -0.3 * w, True)):
-        for m in _both_paths(bit_speed=w, bit_x=radial * CLEARANCE, whirl_speed=whirl):
+        # 8 s: the 0.3x orbit travels 24 rad, past the rule's half turn
+        for m in _both_paths(400, bit_speed=w, bit_x=radial * CLEARANCE, whirl_speed=whirl):
             assert m["whirl_fraction"] == float(whirls), (radial, whirl)
     for m in _both_paths(bit_speed=-10.0, whirl_speed=-10.0):
         assert m["whirl_ratio"] == pytest.approx(1.0)  # forward, with the rotation
     for m in _both_paths(bit_speed=-10.0, whirl_speed=200.0):
         assert m["whirl_ratio"] == pytest.approx(-20.0)  # backward
-    for whirl, backward in ((-1.0, 1.0), (1.0, 0.0)):
-        for m in _both_paths(bit_speed=0.0, bit_x=0.9 * CLEARANCE, whirl_speed=whirl):
+    for whirl, backward in ((-1.0, 1.0), (1.0, 0.0)):  # 8 rad in 8 s
+        for m in _both_paths(400, bit_speed=0.0, bit_x=0.9 * CLEARANCE, whirl_speed=whirl):
             assert m["whirl_fraction"] == 1.0
             assert m["backward_whirl_fraction"] == backward
     for m in _both_paths(surface_torque=np.r_[np.full(25, -5e4), np.full(25, 1e3)]):

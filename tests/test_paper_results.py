@@ -138,6 +138,14 @@ def test_asymmetric_bit_whirls_forward_for_most_of_the_run():
     assert moving.mean() > 0.5
     assert forward.mean() > 0.6
     assert lateral_force(run)[late].min() > 100.0  # a lateral force all the time
+    # as the metrics, the benchmark and task 2 count it: most of the time whirling
+    # forward, never backward (the per-sample rule to 2026-12-05 read the bit's rattle on
+    # the wall while stuck as 17 % backward whirl at 60 rpm)
+    from drill_env.metrics import whirl_signs
+
+    time = run.time[late]
+    signs = whirl_signs(radial / GAUGE_CLEARANCE, whirl, rotation, time[1] - time[0])
+    assert np.mean(signs > 0) > 0.6 and not (signs < 0).any()
 
 
 def test_symmetric_bit_settles_after_the_layer_and_stick_slip_returns():

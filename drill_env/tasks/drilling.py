@@ -43,8 +43,8 @@ class DrillingTask:
     rop_weight: NonNegative = Field(default=1.0, le=1.0e6)
     rop_reference: Positive = Field(default=30.0 / HOUR, ge=MIN_SCALE, le=1.0)
     #: Vibration damage: SSI (capped) and stuck share of the 3 s window, and the share of
-    #: the step the bit whirls (``metrics.whirling``: off centre and orbiting; a bit
-    #: resting off centre in its clearance is not damage).
+    #: the step the bit whirls (``metrics.whirling``: off centre and travelling round the
+    #: hole; a bit resting off centre in its clearance, or rattling there, is not damage).
     stick_slip_weight: NonNegative = Field(default=1.0, le=1.0e6)
     stuck_weight: NonNegative = Field(default=1.0, le=1.0e6)
     whirl_weight: NonNegative = Field(default=1.0, le=1.0e6)

@@ -189,3 +189,39 @@ def test_non_finite_records_zero_the_window_metrics_and_cap_the_stick_slip_penal
     for _ in range(3):  # the 0.3 s window (3 control steps) forgets the bad sample
         _, _, _, _, info = env.step(np.zeros(2))
     assert info["ssi"] > 0.0 and math.isfinite(info["reward_terms"]["stick_slip"])
+
+
+def test_a_slick_bha_rattling_on_the_low_side_does_not_whirl():
+    """docs/config.md's J-well without its near-bit stabilizer: gravity holds the slick
+    BHA's bit on the low side of the 45-degree hole, where it rattles to and fro over
+    ~80 degrees at the blade-pass rate without going round (whirl ratio ~0). The
+    metrics' whirl rule (metrics.whirl_signs) reads no whirl; a per-sample test of
+    radius and orbit speed (the rule to 2026-12-05) read ~90 %, half of it backward."""
+    from pathlib import Path
+
+    import yaml
+
+    from drill_env.metrics import STUCK_SPEED, window_metrics
+    from drill_env.physics.config import SimulationConfig
+    from drill_env.physics.layout import R
+    from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
+    from drill_env.physics.units import RPM
+
+    text = (Path(__file__).parents[2] / "docs" / "config.md").read_text()
+    example = yaml.safe_load(text.split("```yaml\n", 1)[1].split("```", 1)[0])
+    assert example["string"]["components"][0]["kind"] == "stabilizer"
+    del example["string"]["components"][0]
+    sim = Simulator(SimulationConfig(**example))
+    sim.reset(OperatingPoint(100 * RPM, 60e3))
+    rec = sim.run(25.0, 100 * RPM, sim.hook_load_for(60e3), record_every=1)
+    rec = rec[rec[:, R.TIME] > rec[0, R.TIME] + 10.0]
+    clearance = sim.config.bit.gauge_clearance
+    m = window_metrics(rec, RECORD_CHANNELS, sim.dt, clearance, sim.config.bit.diameter)
+    radial = np.hypot(rec[:, R.BIT_X], rec[:, R.BIT_Y]) / clearance
+    ws, w = rec[:, R.WHIRL_SPEED], rec[:, R.BIT_SPEED]
+    per_sample = (radial > 0.5) & (np.abs(ws) > 0.25 * np.maximum(np.abs(w), STUCK_SPEED))
+    print(f"radial {m['radial_ratio']:.2f}, whirl ratio {m['whirl_ratio']:+.3f}, per-sample "
+          f"rule {per_sample.mean():.2f}, whirl fraction {m['whirl_fraction']:.3f}")
+    assert m["radial_ratio"] > 0.9 and abs(m["whirl_ratio"]) < 0.1  # on the wall, no orbit
+    assert per_sample.mean() > 0.5  # it does rattle fast
+    assert m["whirl_fraction"] < 0.02 and m["backward_whirl_fraction"] < 0.01

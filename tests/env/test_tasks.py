@@ -382,10 +382,10 @@ def test_reward_terms_follow_their_documented_formulas_from_the_raw_records():
         power = energy / base.config.control_interval  # J over the nominal step's 1 s
         assert terms["energy"] == pytest.approx(-0.05 * power / 100e3, rel=1e-9)
         # whirl: the share of the step's records that whirl (metrics.whirling: off
-        # centre AND turning about the hole axis; a bit resting off centre is not whirl)
+        # centre AND travelling round the hole axis; a bit resting off centre is not)
         off_centre = np.hypot(rec[:, R.BIT_X], rec[:, R.BIT_Y]) / base.clearance
         share = np.mean(metrics.whirling(off_centre, rec[:, R.WHIRL_SPEED],
-                                         rec[:, R.BIT_SPEED]))
+                                         rec[:, R.BIT_SPEED], dt))
         assert terms["whirl"] == pytest.approx(-base.task.whirl_weight * share,
                                                abs=1e-12)
         assert reward == pytest.approx(sum(terms.values()), rel=1e-12)

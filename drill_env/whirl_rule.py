@@ -1,0 +1,95 @@
+"""The whirl rule: when the bit whirls, sample by sample (compiled; one rule for the
+metrics, the env's rewards, the benchmark and the recordings' events, through
+:func:`drill_env.metrics.whirl_signs` and the metrics' fast path)."""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+#: The whirl rule, used by the metrics, the env, the benchmark and the recorder's events
+#: (:func:`whirl_legs`): the bit centre travels round the hole, off its axis. The
+#: centre's angle about the axis (the integral of the whirl speed) is cut into *legs*,
+#: runs over which it moves one way and turns back by less than WHIRL_REVERSAL; a sample
+#: nearer the axis than WHIRL_RADIAL_RATIO of the gauge clearance ends a leg and never
+#: whirls. A leg whirls, all its samples, when it travels at least WHIRL_SWEEP at a mean
+#: orbit speed of at least WHIRL_SPEED_RATIO of its mean bit speed (floored at 1 rpm).
+#: Half the clearance keeps the small static offset of a bit pushed by a dipping
+#: interface out; a quarter of the bit speed keeps a slow drift out and catches forward
+#: (~1x) and backward (~ -R/clearance, ~ -20x) whirl. Half a turn of travel keeps out a
+#: bit that rattles on the wall without going round: the chatter of the paper's
+#: sandwich cases (~70 degrees to and fro, case 2 at 60 rpm) and of a slick BHA that
+#: gravity holds on the low side of a deviated hole (~80 degrees at the blade-pass rate),
+#: which a per-sample test of radius and orbit speed read as 30-90 % whirl, half of it
+#: backward. A reversal of 45 degrees ends a leg: a forward whirl's wobble turns back
+#: less (paper case 4 at 60-120 rpm reads 83-97 % forward whirl and none backward).
+WHIRL_RADIAL_RATIO = 0.5
+WHIRL_SPEED_RATIO = 0.25
+WHIRL_SWEEP = math.pi
+WHIRL_REVERSAL = 0.25 * math.pi
+
+
+@njit(cache=True, nogil=True)
+def _close_leg(w, start, end, direction, travel, dt, stuck, out):
+    """Mark the samples ``start..end`` (inclusive) of a leg that travelled ``travel`` (rad)
+    as whirling if it went far and fast enough (the rule above; ``stuck``: the bit-speed
+    floor, rad/s)."""
+    if direction == 0 or end <= start or abs(travel) < WHIRL_SWEEP:
+        return
+    spin = 0.0
+    for k in range(start, end + 1):
+        spin += abs(w[k])
+    floor = spin / (end - start + 1)
+    if not floor > stuck:  # NaN: no whirl
+        floor = stuck if floor == floor else math.inf
+    if abs(travel) < WHIRL_SPEED_RATIO * floor * (end - start) * dt:
+        return
+    for k in range(start, end + 1):
+        turning = w[k] if (w[k] != 0.0 and w[k] == w[k]) else 1.0
+        out[k] = 1.0 if direction * turning > 0.0 else -1.0
+
+
+@njit(cache=True, nogil=True)
+def whirl_legs(radial, ws, w, dt, stuck, out):
+    """The whirl rule over signals ``dt`` apart (radial ratio, whirl speed, bit speed;
+    ``stuck``: the bit-speed floor of the speed test, rad/s): ``out[k]`` +1 / -1 / 0
+    (with the rotation, against it, no whirl; ``out`` zeroed by the caller). A leg ends
+    at its extreme sample; the next begins after it. The angle travelled between samples
+    is the trapezoid of the whirl speed, which the simulator computes from the bit's
+    state: it holds the direction of a backward whirl that turns by more than half an
+    orbit between records (25 Hz in some task episodes), where differences of the
+    recorded angle alias."""
+    n = radial.shape[0]
+    k = 0
+    while k < n:
+        if not (radial[k] > WHIRL_RADIAL_RATIO and ws[k] == ws[k]):
+            k += 1
+            continue
+        # a stretch of samples off the axis from k: its angle from 0, cut into legs
+        angle, high, low = 0.0, 0.0, 0.0
+        i_high, i_low, start, start_angle, direction = k, k, k, 0.0, 0
+        j = k + 1
+        while j < n and radial[j] > WHIRL_RADIAL_RATIO and ws[j] == ws[j]:
+            angle += 0.5 * (ws[j] + ws[j - 1]) * dt
+            if angle > high:
+                high, i_high = angle, j
+            if angle < low:
+                low, i_low = angle, j
+            if direction == 0:
+                if angle - low >= WHIRL_REVERSAL:
+                    direction, start, start_angle, high, i_high = 1, i_low, low, angle, j
+                elif high - angle >= WHIRL_REVERSAL:
+                    direction, start, start_angle, low, i_low = -1, i_high, high, angle, j
+            elif direction > 0 and high - angle >= WHIRL_REVERSAL:
+                _close_leg(w, start, i_high, 1, high - start_angle, dt, stuck, out)
+                direction, start, start_angle, low, i_low = -1, i_high + 1, high, angle, j
+            elif direction < 0 and angle - low >= WHIRL_REVERSAL:
+                _close_leg(w, start, i_low, -1, low - start_angle, dt, stuck, out)
+                direction, start, start_angle, high, i_high = 1, i_low + 1, low, angle, j
+            j += 1
+        if direction > 0:
+            _close_leg(w, start, i_high, 1, high - start_angle, dt, stuck, out)
+        elif direction < 0:
+            _close_leg(w, start, i_low, -1, low - start_angle, dt, stuck, out)
+        k = j
