@@ -26,6 +26,7 @@ revolution (the bit's blades), and backward whirl of a component rolling on the 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -146,6 +147,14 @@ def torsional_modes(config: SimulationConfig, top: TopBoundary = "fixed",
     full[:, free] = shapes
     depth = build_mesh(config.resolved()).node_depth
     where = "fixed top" if top == "fixed" else "top drive (inertia + PI) at the top"
+    feedback = "none" if top == "fixed" else resolve_top_drive(config.resolved()).torque_feedback
+    if feedback != "none":  # its filter adds a state the modes leave out
+        where = (f"top drive (inertia + PI; its {feedback.replace('_', '-')} torque feedback "
+                 "not modelled) at the top")
+        warnings.warn(f"top_drive.controller: {config.top_drive.controller}'s torque "
+                      f"feedback ({feedback.replace('_', '-')}) is not in the modal model: "
+                      "these are the modes of its PI speed loop alone (run the simulator "
+                      "for the controller's effect)", UserWarning, stacklevel=2)
     return Modes("torsional", freq, zeta, full, depth, f"{where}, bit free (off bottom)",
                  slow, slow_ratio)
 

@@ -741,3 +741,24 @@ def test_string_stabilizer_diameter_pins_nothing_in_a_string_of_components():
     found = [lateral_modes(replace(base, **{"string.stabilizer_diameter": d}), 20e3,
                            n_modes=3, region="bha").frequency for d in (0.2, 0.3)]
     np.testing.assert_allclose(found[0], found[1], rtol=1e-12)
+
+
+def test_modes_with_a_torque_feedback_drive_say_the_feedback_is_left_out():
+    """The modal model holds the top drive's inertia and PI speed loop, not a torque
+    feedback's filter: for z_torque and soft_torque it says so in a warning and in the
+    boundary's label, instead of passing its PI's modes off as the controller's."""
+    import warnings
+
+    from drill_env.physics.config import SimulationConfig, replace
+    from drill_env.physics.modes import torsional_modes
+
+    for name, feedback in (("z_torque", "high-pass"), ("soft_torque", "band-pass")):
+        config = replace(SimulationConfig(), **{"top_drive.controller": name})
+        with pytest.warns(UserWarning, match=f"top_drive.controller: {name}.*{feedback}"):
+            modes = torsional_modes(config, "top_drive")
+        assert f"its {feedback} torque feedback not modelled" in modes.boundary
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        modes = torsional_modes(replace(SimulationConfig(), **{
+            "top_drive.controller": "soft_speed"}), "top_drive")
+    assert "not modelled" not in modes.boundary
