@@ -690,6 +690,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     if args.ray_address is not None:
         raise argparse.ArgumentTypeError("--ray-address: a single run trains here; give "
                                          "--seeds to fan several runs out")
+    if args.workers is not None:  # it started a full run without a word
+        raise argparse.ArgumentTypeError("--workers: a single run trains in this process; "
+                                         "give --seeds to train several runs side by side")
     run = args.out / (args.name or f"{args.task}_{args.algo}_seed{config.seed}")
     saved = run / "config.yaml"
     if args.resume and not holds_run(run):
@@ -1250,21 +1253,24 @@ def cmd_replay(args: argparse.Namespace) -> int:
         if path.is_dir():
             inside = sorted(p.name for p in path.glob("*.rrd"))
             raise argparse.ArgumentTypeError(
-                f"path: {path} is a folder; give its recordings" + (
+                f"FILE: {path} is a folder; give its recordings" + (
                     f": {', '.join(inside[:3])}{' ...' if len(inside) > 3 else ''}"
                     if inside else " (it holds no .rrd file)"))
         if not path.is_file():
-            raise argparse.ArgumentTypeError(f"path: no recording at {path}")
+            raise argparse.ArgumentTypeError(f"FILE: no recording at {path}")
         if path.suffix != ".rrd":
-            raise argparse.ArgumentTypeError(f"path: {path} is not a rerun recording (.rrd)")
+            raise argparse.ArgumentTypeError(f"FILE: {path} is not a rerun recording (.rrd)")
         with path.open("rb") as f:  # rerun's files start "RRF" and a format version
             if f.read(3) != b"RRF":
-                raise argparse.ArgumentTypeError(f"path: {path} is not a rerun recording "
+                raise argparse.ArgumentTypeError(f"FILE: {path} is not a rerun recording "
                                                  "(no RRF header)")
         try:
             warning = check_recording(path)
-        except ValueError as err:
-            raise argparse.ArgumentTypeError(str(err)) from None
+        except ValueError as err:  # the library names its argument; the usage says FILE
+            text = str(err)
+            raise argparse.ArgumentTypeError(
+                "FILE: " + text.removeprefix("path: ") if text.startswith("path: ") else text
+            ) from None
         if warning:
             print(f"warning: {warning}", file=sys.stderr)
     if args.port is not None and not args.web:

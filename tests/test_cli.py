@@ -653,10 +653,10 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
                        ([empty], "is not a rerun recording (no RRF header)"),
                        ([empty, "--web"], "is not a rerun recording (no RRF header)"),
                        ([other, "--web"], "incompatible with the local Rerun version"),
-                       ([cut, "--web"], f"path: {cut} cannot be opened by rerun"),
-                       ([tmp_path / "rec"], f"path: {tmp_path / 'rec'} is a folder; give "
+                       ([cut, "--web"], f"FILE: {cut} cannot be opened by rerun"),
+                       ([tmp_path / "rec"], f"FILE: {tmp_path / 'rec'} is a folder; give "
                                             f"its recordings: {good.name}"),
-                       ([good, good.with_name("gone.rrd")], "no recording at"),
+                       ([good, good.with_name("gone.rrd")], "FILE: no recording at"),
                        ([good], "add --web"),  # a good file: now the display
                        ([good, "--port", "9191"], "--port: the web viewer's port; add --web")]:
         with pytest.raises(SystemExit):
@@ -927,6 +927,13 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
         assert main([*command, "--config", str(utf16)]) == 2
         err = capsys.readouterr().err
         assert f"{utf16}: not UTF-8 text (byte 0: invalid start byte); save it as UTF-8" in err
+    # train without --seeds started a full single run and ignored --workers
+    with pytest.raises(SystemExit):
+        main(["train", "--task", "stick_slip", "--workers", "2", "--out",
+              str(tmp_path / "runs")])
+    assert "--workers: a single run trains in this process; give --seeds" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "runs").exists()
     pytest.importorskip("ray")
     assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default", "--seeds",
                  "1", "--duration", "1", "--warmup", "0.5", "--ray-address", "nope",

@@ -1202,8 +1202,8 @@ def test_a_ctrl_c_saves_a_checkpoint_that_resume_continues_from(tmp_path, monkey
     steps = int(saved.stem.split("_")[1])
     assert 600 <= steps < 1024  # before the first periodic checkpoint
     assert (folder / "checkpoints" / f"vecnormalize_{steps}.pkl").exists()
-    assert json.loads((folder / "checkpoints" / f"progress_{steps}.json").read_text()
-                      )["wall_s"] > 0.0
+    progress = json.loads((folder / "checkpoints" / f"progress_{steps}.json").read_text())
+    assert progress["wall_s"] > 0.0 and progress["steps"] == steps  # docs/tasks.md
     assert f"interrupted at {steps} env steps" in capsys.readouterr().out
     # stopped before its first evaluation, the run is evaluated from that checkpoint
     from agents.learned import policy_files

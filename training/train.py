@@ -591,7 +591,7 @@ def write_checkpoint(run: Path, model: Any, env: Any, wall_s: float) -> Path:
     path = folder / f"model_{steps}_steps.zip"
     save_whole(path, model.save)
     save_whole(folder / f"vecnormalize_{steps}.pkl", env.save)
-    save_text(folder / f"progress_{steps}.json", json.dumps({"wall_s": wall_s}))
+    save_text(folder / f"progress_{steps}.json", json.dumps({"steps": steps, "wall_s": wall_s}))
     return path
 
 
