@@ -1057,6 +1057,11 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
                                     for r in table) else []
     notes.append(RETURN_NOTE if env_id is None else
                  f"return: {env_id}'s reward summed over the episode (docs/tasks.md).")
+    if any(c == "learned" or c.startswith("learned:") for c in controllers):
+        notes.append("Sensors: a learned policy reads its env's observation (in the tasks "
+                     "surface history and delayed mud-pulse telemetry) once per control "
+                     "step; the classical drives read the surface speed and torque at every "
+                     "solver step (docs/controllers.md).")
     if runs:  # which model a row is (a plain label does not say it)
         notes.append("Trained runs: " + "; ".join(f"{name}: the policy of {path}"
                                                   for name, path in runs.items()) + ".")

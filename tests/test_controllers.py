@@ -448,6 +448,6 @@ def test_soft_speed_refuses_a_zero_tuning_frequency():
 
     # docstring/error text: "must be > 0 Hz"
     with pytest.raises(ValueError):
-        soft_speed_gains(1.0, 1.0, 0.0)
+        soft_speed_gains(1.0, 1.0, 0.0, 4.0)
     kp, ki = soft_speed_gains(2.0, 3.0, 1.0, 4.0)  # P = kZ = 8, I = (2 pi)^2 * 3
     assert kp == pytest.approx(8.0) and ki == pytest.approx(4 * np.pi**2 * 3.0)

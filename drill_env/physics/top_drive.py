@@ -16,7 +16,8 @@ string torque at the top.
   the real ``k Z`` there and its reflection coefficient ``(1 - k) / (1 + k)``, 0 at k = 1.
   We use k = 4 (``TopDriveConfig.impedance_factor``, measured choice: r = 0.6 at
   ``w_s``, but a band wide enough to hold the two modes the soft top splits the first
-  one into; at k = 1.5-3 stick-slip grows back within 1-4 minutes).
+  one into; at k = 1-2.5, and at 3 under 150 kN, stick-slip grows back within 1-4
+  minutes on the default string: docs/controllers.md).
 * **soft_torque** (Shell's Soft Torque Rotary System as described by Dwars 2015,
   SPE/IADC-173037): the stiff PI speed loop, its command lowered by the string torque
   through a band-pass centred on ``w_s`` and the gain 1/Z:
@@ -58,7 +59,7 @@ def stiff_pi_gains(impedance: float, top_drive_inertia: float) -> tuple[float, f
 
 
 def soft_speed_gains(impedance: float, top_drive_inertia: float, frequency: float,
-                     impedance_factor: float = 1.0) -> tuple[float, float]:
+                     impedance_factor: float) -> tuple[float, float]:
     """(P, I) of SoftSpeed: ``P = k Z``, ``I = (2 pi f_s)^2 J_td``."""
     if not (frequency > 0.0 and math.isfinite(frequency)):
         raise ValueError(f"tuning_frequency: must be > 0 Hz, got {frequency!r}")
