@@ -29,8 +29,8 @@ STICK_SLIP_QUIET = 5.0
 #: through the rule's thresholds twice a cycle in a transition.
 WHIRL_MIN_DURATION = 0.3
 #: Seconds of past samples the whirl detector judges new ones with: a leg of the rule
-#: (half a turn round the hole) starts before the chunk that completes it (a forward
-#: whirl at 30 rpm takes 1 s), and a chunk is one env step (0.1 s by default).
+#: (half a turn round the hole) can start before the chunk that completes it (a forward
+#: whirl at 30 rpm takes 1 s; a recording flushes its chunks every 100 env steps).
 WHIRL_CONTEXT = 2.0
 
 

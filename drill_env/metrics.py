@@ -119,8 +119,8 @@ def whirl_ratio(whirl_speed, bit_speed, min_mean_speed: float = SSI_MIN_MEAN_SPE
 
 def whirling(radial, whirl_speed, bit_speed, dt: float) -> np.ndarray:
     """The whirl rule (:mod:`drill_env.whirl_rule`; :func:`whirl_signs`) per sample of
-    signals ``dt`` apart: the bit off the axis AND its centre travelling round the hole.
-    NaN samples do not whirl."""
+    signals ``dt`` apart: the bit off the axis AND its centre travelling round the hole,
+    fast. A sample with a NaN whirl speed or radius does not whirl and ends a leg."""
     return whirl_signs(radial, whirl_speed, bit_speed, dt) != 0.0
 
 
@@ -135,8 +135,9 @@ def whirl_sign(whirl_speed, bit_speed) -> np.ndarray:
 
 def whirl_signs(radial, whirl_speed, bit_speed, dt: float) -> np.ndarray:
     """Per sample: +1 where the bit whirls with the rotation, -1 against it, 0 where it
-    does not whirl (:mod:`drill_env.whirl_rule`; samples ``dt`` apart). Within a
-    leg the direction is the leg's; a stuck bit counts as turning the positive way."""
+    does not whirl (:mod:`drill_env.whirl_rule`; samples ``dt`` apart). A sample's sign
+    is its leg's direction of travel against its own bit speed's sign (a stuck bit, or
+    a NaN bit speed, counts as turning the positive way)."""
     radial = np.ascontiguousarray(radial, dtype=float)
     ws = np.ascontiguousarray(whirl_speed, dtype=float)
     w = np.ascontiguousarray(bit_speed, dtype=float)

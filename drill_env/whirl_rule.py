@@ -9,45 +9,43 @@ import math
 from numba import njit
 
 #: The whirl rule, used by the metrics, the env, the benchmark and the recorder's events
-#: (:func:`whirl_legs`): the bit centre travels round the hole, off its axis. The
+#: (:func:`whirl_legs`): the bit centre travels round the hole, off its axis, fast. The
 #: centre's angle about the axis (the integral of the whirl speed) is cut into *legs*,
 #: runs over which it moves one way and turns back by less than WHIRL_REVERSAL; a sample
-#: nearer the axis than WHIRL_RADIAL_RATIO of the gauge clearance ends a leg and never
-#: whirls. A leg whirls, all its samples, when it travels at least WHIRL_SWEEP at a mean
-#: orbit speed of at least WHIRL_SPEED_RATIO of its mean bit speed (floored at 1 rpm).
+#: nearer the axis than WHIRL_RADIAL_RATIO of the gauge clearance (or with a NaN whirl
+#: speed) ends a leg and never whirls. In a leg that travels at least WHIRL_SWEEP, a
+#: sample whirls where the centre orbits at least WHIRL_SPEED_RATIO of the bit speed
+#: (floored at 1 rpm; a NaN bit speed reads as stuck), in the leg's direction.
 #: Half the clearance keeps the small static offset of a bit pushed by a dipping
-#: interface out; a quarter of the bit speed keeps a slow drift out and catches forward
-#: (~1x) and backward (~ -R/clearance, ~ -20x) whirl. Half a turn of travel keeps out a
-#: bit that rattles on the wall without going round: the chatter of the paper's
-#: sandwich cases (~70 degrees to and fro, case 2 at 60 rpm) and of a slick BHA that
-#: gravity holds on the low side of a deviated hole (~80 degrees at the blade-pass rate),
-#: which a per-sample test of radius and orbit speed read as 30-90 % whirl, half of it
-#: backward. A reversal of 45 degrees ends a leg: a forward whirl's wobble turns back
-#: less (paper case 4 at 60-120 rpm reads 83-97 % forward whirl and none backward).
+#: interface out; a quarter of the bit speed keeps a slow drift or a pause out and
+#: catches forward (~1x) and backward (~ -R/clearance, ~ -20x) whirl. Half a turn of
+#: travel keeps out a bit that rattles on the wall without going round, up to half a turn
+#: from end to end: the chatter of the paper's sandwich cases (~70 degrees to and fro,
+#: case 2 at 60 rpm) and of a slick BHA that gravity holds on the low side of a deviated
+#: hole (~80 degrees at the blade-pass rate), which the per-sample radius and speed test
+#: alone (the rule to 2026-12-05) read as 17-94 % whirl, half of it backward. A reversal
+#: of 90 degrees ends a leg: a forward whirl's wobble at the blade pass turns back less
+#: (paper case 4 at 60-120 rpm reads 78-92 % forward whirl and none backward). Limits:
+#: a forward orbit whose wobble turns it back by more than 90 degrees is not read, and
+#: records far slower than the rattle (25 Hz against ~10 Hz) alias it into legs.
 WHIRL_RADIAL_RATIO = 0.5
 WHIRL_SPEED_RATIO = 0.25
 WHIRL_SWEEP = math.pi
-WHIRL_REVERSAL = 0.25 * math.pi
+WHIRL_REVERSAL = 0.5 * math.pi
 
 
 @njit(cache=True, nogil=True)
-def _close_leg(w, start, end, direction, travel, dt, stuck, out):
-    """Mark the samples ``start..end`` (inclusive) of a leg that travelled ``travel`` (rad)
-    as whirling if it went far and fast enough (the rule above; ``stuck``: the bit-speed
-    floor, rad/s)."""
-    if direction == 0 or end <= start or abs(travel) < WHIRL_SWEEP:
-        return
-    spin = 0.0
-    for k in range(start, end + 1):
-        spin += abs(w[k])
-    floor = spin / (end - start + 1)
-    if not floor > stuck:  # NaN: no whirl
-        floor = stuck if floor == floor else math.inf
-    if abs(travel) < WHIRL_SPEED_RATIO * floor * (end - start) * dt:
+def _close_leg(ws, w, start, end, direction, travel, stuck, out):
+    """Mark the samples ``start..end`` (inclusive) of a leg that travelled ``travel`` (rad):
+    if it went at least WHIRL_SWEEP, those of its samples that orbit fast (the rule
+    above; ``stuck``: the bit-speed floor, rad/s; a NaN bit speed reads as stuck)."""
+    if direction == 0 or abs(travel) < WHIRL_SWEEP:
         return
     for k in range(start, end + 1):
-        turning = w[k] if (w[k] != 0.0 and w[k] == w[k]) else 1.0
-        out[k] = 1.0 if direction * turning > 0.0 else -1.0
+        spin = abs(w[k]) if w[k] == w[k] else 0.0
+        if abs(ws[k]) > WHIRL_SPEED_RATIO * max(spin, stuck):
+            turning = w[k] if (w[k] != 0.0 and w[k] == w[k]) else 1.0
+            out[k] = 1.0 if direction * turning > 0.0 else -1.0
 
 
 @njit(cache=True, nogil=True)
@@ -82,14 +80,14 @@ def whirl_legs(radial, ws, w, dt, stuck, out):
                 elif high - angle >= WHIRL_REVERSAL:
                     direction, start, start_angle, low, i_low = -1, i_high, high, angle, j
             elif direction > 0 and high - angle >= WHIRL_REVERSAL:
-                _close_leg(w, start, i_high, 1, high - start_angle, dt, stuck, out)
+                _close_leg(ws, w, start, i_high, 1, high - start_angle, stuck, out)
                 direction, start, start_angle, low, i_low = -1, i_high + 1, high, angle, j
             elif direction < 0 and angle - low >= WHIRL_REVERSAL:
-                _close_leg(w, start, i_low, -1, low - start_angle, dt, stuck, out)
+                _close_leg(ws, w, start, i_low, -1, low - start_angle, stuck, out)
                 direction, start, start_angle, high, i_high = 1, i_low + 1, low, angle, j
             j += 1
         if direction > 0:
-            _close_leg(w, start, i_high, 1, high - start_angle, dt, stuck, out)
+            _close_leg(ws, w, start, i_high, 1, high - start_angle, stuck, out)
         elif direction < 0:
-            _close_leg(w, start, i_low, -1, low - start_angle, dt, stuck, out)
+            _close_leg(ws, w, start, i_low, -1, low - start_angle, stuck, out)
         k = j

@@ -61,6 +61,49 @@ def test_whirl_sign_tells_forward_from_backward():
         1.0] * int(two.sum()) + [-1.0] * int(one.sum())
 
 
+def test_radial_ratio_of_an_orbit_on_the_wall_is_one():
+    c = 0.005
+    x, y = c * np.cos(2 * np.pi * T), c * np.sin(2 * np.pi * T)
+    np.testing.assert_allclose(metrics.radial_ratio(x, y, c), 1.0)
+    with pytest.raises(ValueError, match="clearance"):
+        metrics.radial_ratio(x, y, 0.0)
+
+
+def test_lateral_force_is_the_magnitude():
+    assert metrics.lateral_force(3.0, 4.0) == pytest.approx(5.0)
+
+
+def test_mse_matches_teale_in_si():
+    # WOB 100 kN, 100 rpm, 5 kN m, 10 m/h, 8.75 in bit.
+    d = 8.75 * 0.0254
+    area = math.pi * d * d / 4
+    wob, n_rps, torque, rop = 1e5, 100 / 60, 5e3, 10 / 3600
+    expected = wob / area + 2 * math.pi * n_rps * torque / (area * rop)
+    got = metrics.mechanical_specific_energy(np.full(5, wob), np.full(5, torque),
+                                             np.full(5, 2 * math.pi * n_rps), np.full(5, rop), d)
+    assert got == pytest.approx(expected)
+    # ~ 0.9 GPa: hard-rock drilling is in the hundreds of MPa to GPa range.
+    assert 1e8 < got < 1e10
+
+
+def test_mse_without_penetration_is_the_ceiling_or_just_the_thrust_term():
+    d = 0.2
+    zero = np.zeros(3)
+    assert metrics.mechanical_specific_energy(np.full(3, 1e5), np.full(3, 1e3), np.full(3, 1.0),
+                                              zero, d) == metrics.MSE_CEILING
+    # barely drilling: the rotary term would be ~1e13 Pa, reported as the ceiling
+    assert metrics.mechanical_specific_energy(np.full(3, 1e5), np.full(3, 1e3), np.full(3, 1.0),
+                                              np.full(3, 1e-8), d) == metrics.MSE_CEILING
+    assert metrics.mechanical_specific_energy(np.full(3, 1e5), zero, zero, zero, d) == \
+        pytest.approx(1e5 / metrics.bit_area(d))
+
+
+def test_top_drive_energy_integrates_absolute_power():
+    torque = np.full(100, 2e3)
+    speed = np.concatenate([np.full(50, 10.0), np.full(50, -10.0)])
+    assert metrics.top_drive_energy(torque, speed, 0.01) == pytest.approx(2e3 * 10 * 1.0)
+
+
 def _rocking(amplitude_deg, frequency=10.0, radial=1.0, spin=10.0, seconds=4.0, dt=0.002):
     """The bit on the wall, its centre rocking about the low side by +-amplitude at
     ``frequency`` (Hz), the bit turning at ``spin`` rad/s: (radial, whirl speed, bit
@@ -77,21 +120,37 @@ def test_a_bit_rattling_on_the_wall_does_not_whirl_one_that_goes_round_does():
     back before half an orbit, so it never whirls, though it is on the wall and its orbit
     speed reaches 7x the bit speed, which the per-sample rule of radius and speed read
     as whirl for ~90 % of the samples. Rocking +-100 degrees travels 200 degrees a leg:
-    it whirls, either way in turn. A forward orbit at the bit speed with a +-30 degree
-    wobble at 6 Hz turns back by ~20 degrees each cycle, under the rule's 45: one long
-    forward leg, as paper case 4's forward whirl reads."""
+    it whirls, either way in turn, where its orbit is fast. A forward orbit at the bit
+    speed with a +-30 degree wobble at 6 Hz turns back by ~20 degrees each cycle, under
+    the rule's 90: one long forward leg, whose samples count where the orbit speed is
+    at least a quarter of the bit speed either way (91 % of them; forward, the leg's
+    direction, also where the wobble turns it back)."""
     radial, ws, w, dt = _rocking(70.0)
-    assert np.mean((radial > 0.5) & (np.abs(ws) > 0.25 * w)) > 0.8  # the old rule's read
+    per_sample = (radial > 0.5) & (np.abs(ws) > 0.25 * w)
+    assert per_sample.mean() > 0.8  # the old rule's read
     assert not metrics.whirling(radial, ws, w, dt).any()
     radial, ws, w, dt = _rocking(100.0)
     signs = metrics.whirl_signs(radial, ws, w, dt)
-    assert np.mean(signs != 0) > 0.9
-    assert 0.4 < np.mean(signs < 0) < 0.6
+    assert np.mean(signs != 0) == pytest.approx(np.mean(np.abs(ws) > 0.25 * w), abs=0.02)
+    assert 0.4 < np.mean(signs < 0) / np.mean(signs != 0) < 0.6
     t = np.arange(0.0, 4.0, dt)
     wobble = np.radians(30.0) * 2 * np.pi * 6.0 * np.cos(2 * np.pi * 6.0 * t)
     assert (10.0 + wobble < 0).any()  # it does turn back
     signs = metrics.whirl_signs(np.full(t.size, 0.9), 10.0 + wobble, np.full(t.size, 10.0), dt)
-    assert np.mean(signs > 0) > 0.95 and not (signs < 0).any()
+    fast = np.abs(10.0 + wobble) > 2.5
+    assert fast.mean() == pytest.approx(0.905, abs=0.01)  # 1 - (arccos(-0.38) - arccos(-0.63)) / pi
+    assert np.array_equal(signs > 0, fast) and not (signs < 0).any()
+
+
+def test_a_pause_or_a_creep_beside_a_whirl_is_not_whirl():
+    """The leg of a short backward whirl also holds the rest before it and a slow creep
+    the same way after it (1 rpm, 1 % of the bit speed, for 40 s): neither is whirl, and
+    the creep does not take the whirl's own samples out (a leg-mean speed test did both)."""
+    rpm = 2 * np.pi / 60
+    burst = np.full(50, -2000 * rpm)  # 0.5 s, 17 turns
+    for ws in (np.r_[np.zeros(3000), burst], np.r_[burst, np.full(4000, -1.0 * rpm)]):
+        signs = metrics.whirl_signs(np.full(ws.size, 0.9), ws, np.full(ws.size, 100 * rpm), 0.01)
+        assert np.array_equal(signs < 0, ws == -2000 * rpm) and not (signs > 0).any()
 
 
 def test_the_whirl_rule_needs_the_orbit_fast_and_off_the_axis():
