@@ -871,8 +871,11 @@ def test_the_rpm_error_of_a_controller_that_sets_its_own_speed_is_marked(tmp_pat
     assert body[0] == SPEC_COLUMNS
     assert body[2][SPEC_COLUMNS.index("rpm_tracking_error")] == "0.582"
 
+    # a learned row's sensors and rate are not the classical drives': said under the table
+    assert "Sensors: a learned policy reads its env's observation" in text
     bm.write_outputs(rows[:1], tmp_path, ["stiff"], ["stick_slip"], SHORT)
-    assert bm.OWN_SPEED_MARK not in (tmp_path / "benchmark.md").read_text()  # no footnote
+    text = (tmp_path / "benchmark.md").read_text()
+    assert bm.OWN_SPEED_MARK not in text and "Sensors:" not in text  # no footnotes
 
 
 def test_a_drilling_policy_is_marked_as_a_guest_in_a_scenario_benchmark():
