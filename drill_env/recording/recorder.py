@@ -27,6 +27,7 @@ import numpy as np
 
 from drill_env.env_batch import INFO_WINDOW_METRICS
 from drill_env.events import LayerDetector, StickSlipDetector, WhirlDetector
+from drill_env.physics.layout import R
 from drill_env.physics.validation import jsonable
 from drill_env.recording.writer import (
     APPLICATION_ID,
@@ -44,6 +45,8 @@ DEFAULT_DIRECTORY = Path("logs") / "recordings"
 _SPECIAL_KEYS = frozenset({"time", "bit_lateral", "rock_share", "reward_terms",
                            "termination_reason", *SERIES_KEYS})
 _ACTION_NAMES = tuple(f"timeseries/action/{i}" for i in range(16))
+#: Columns of a step's records that the whirl events read (``record(records=...)``).
+_ORBIT_COLUMNS = [R.TIME, R.BIT_X, R.BIT_Y, R.WHIRL_SPEED, R.BIT_SPEED]
 
 
 def _num(value: Any) -> float:
@@ -136,6 +139,9 @@ class _Chunk:
         self.string_force: list[np.ndarray | None] = []
         self.string_depth: list[float] = []
         self.string_state: list[tuple[float, float, float, float]] = []
+        # the steps' own records for the whirl events: (m, 5) time, bit x, bit y, whirl
+        # speed, bit speed each (record() with ``records``)
+        self.orbit: list[np.ndarray] = []
 
     def drop_partial(self) -> None:
         """Drop what an interrupted :meth:`EpisodeRecorder.record` left half-appended
@@ -346,10 +352,14 @@ class EpisodeRecorder:
     # ------------------------------------------------------------------ steps
 
     def record(self, info: Mapping[str, Any], action: Any = None, reward: float | None = None,
-               sim: Any = None) -> None:
+               sim: Any = None, records: np.ndarray | None = None) -> None:
         """Append one step: the ``info`` values, optionally the action and the reward.
 
-        Missing keys are skipped (NaN, not plotted); nothing here raises on odd input.
+        ``records``: the step's simulator records (columns ``RECORD_CHANNELS``, the env's
+        ``last_records``); given, the whirl events judge them, at the rate the metrics
+        read, instead of one reading per step (which aliases a rattle at the blade-pass
+        rate into an orbit). Missing keys are skipped (NaN, not plotted); nothing here
+        raises on odd input.
         """
         if not self.active:
             self.begin(sim=sim)
@@ -363,6 +373,8 @@ class EpisodeRecorder:
         if math.isnan(self._start_time):
             self._start_time = t
         self._last_time = t
+        if records is not None and getattr(records, "ndim", 0) == 2 and len(records):
+            c.orbit.append(np.asarray(records, dtype=np.float64)[:, _ORBIT_COLUMNS])
         c.t.append(t)
         for key in SERIES_KEYS:
             c.cols[key].append(_num(info.get(key)))
@@ -470,7 +482,10 @@ class EpisodeRecorder:
         stick, whirl, layer = self._detectors
         w = np.asarray(c.cols["bit_speed"], dtype=np.float64)
         events = stick.update(t, w)
-        if whirl is not None:
+        if whirl is not None and c.orbit:  # the steps' records
+            o = np.concatenate(c.orbit)
+            events += whirl.update(o[:, 0], o[:, 1], o[:, 2], o[:, 3], o[:, 4])
+        elif whirl is not None:  # one reading a step
             events += whirl.update(t, bx, by, np.asarray(c.cols["whirl_speed"]), w)
         if shares is not None:
             events += layer.update(t, shares)

@@ -151,7 +151,8 @@ class RecordEpisode(gymnasium.Wrapper):
         self._steps += 1
         if self.recorder.active:
             try:
-                self.recorder.record(info, action=action, reward=reward)
+                self.recorder.record(info, action=action, reward=reward,
+                                     records=getattr(self.env.unwrapped, "last_records", None))
             except Exception as exc:  # noqa: BLE001 - recording must not stop a run
                 self._not_recorded(exc)
                 return obs, reward, terminated, truncated, info
