@@ -87,7 +87,9 @@ def test_the_fast_level_whirls_backward_as_the_full_model_does(tmp_path):
     adds whirl at task 2's high rpm, docs/performance.md, "300 fresh seeds"); with a
     starting wall contact rubbing with the smaller of its predicted and last normal
     forces (zero) instead of half the predicted one, 2.1 and 0.3 % (none), which fails
-    here (physics/implicit_contact.py)."""
+    here (physics/implicit_contact.py). Those shares are the per-sample whirl rule's; under
+    the legs rule of 2026-12-05 (metrics.whirl_signs) the group means read 8.4 % (full),
+    10.3 % (fast) and 6.4 % (fast, implicit 10 ms), with 4, 5 and 3 sustained whirls."""
     from agents.benchmark import BenchmarkSettings, run_benchmark
 
     implicit = {"solver.implicit_contacts": True, "solver.time_step": 0.010}
