@@ -1655,13 +1655,19 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _command_warning(command: str) -> Any:
     """``warnings.formatwarning`` for a command: a warning meant for its user (a unit
     that looks wrong, a setting that cannot hold) on one line under the command's name,
-    not Python's file and source line (a validator's warning showed pydantic's)."""
+    not Python's file and source line (a validator's warning showed pydantic's), and
+    once."""
     plain = warnings.formatwarning
+    said: set[str] = set()  # the same words from two places (two call sites) once
 
     def formatted(message: Any, category: type[Warning], filename: str, lineno: int,
                   line: str | None = None) -> str:
         if issubclass(category, (UserWarning, RuntimeWarning)):
-            return f"drill-env {command}: warning: {message}\n"
+            text = f"drill-env {command}: warning: {message}\n"
+            if text in said:
+                return ""
+            said.add(text)
+            return text
         return plain(message, category, filename, lineno, line)
 
     return formatted

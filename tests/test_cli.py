@@ -1150,6 +1150,8 @@ def test_a_command_says_its_warnings_on_one_line_under_its_name(tmp_path, capsys
     said = _command_warning("run")
     assert said(UserWarning("x: looks wrong"), UserWarning, "/lib/p.py", 3) == \
         "drill-env run: warning: x: looks wrong\n"
+    # the same words from another call site are said once (both zero gains, 2026-12-05)
+    assert said(UserWarning("x: looks wrong"), UserWarning, "/lib/q.py", 9) == ""
     assert "DeprecationWarning" in said(DeprecationWarning("old"), DeprecationWarning,
                                         "/lib/p.py", 3)
     before = warnings.formatwarning

@@ -451,3 +451,21 @@ def test_soft_speed_refuses_a_zero_tuning_frequency():
         soft_speed_gains(1.0, 1.0, 0.0, 4.0)
     kp, ki = soft_speed_gains(2.0, 3.0, 1.0, 4.0)  # P = kZ = 8, I = (2 pi)^2 * 3
     assert kp == pytest.approx(8.0) and ki == pytest.approx(4 * np.pi**2 * 3.0)
+
+
+def test_a_top_drive_with_both_gains_zero_is_said_to_be_a_free_top():
+    """Both PI gains 0 (a study's free top, or a typo) ran without a word and read as mild
+    stick-slip (an outside review); it warns now, naming both fields."""
+    import warnings
+
+    from drill_env.physics.config import SimulationConfig, replace
+    from drill_env.physics.top_drive import resolve
+
+    free = replace(SimulationConfig(), **{"top_drive.proportional_gain": 0.0,
+                                          "top_drive.integral_gain": 0.0})
+    with pytest.warns(UserWarning, match="proportional_gain, top_drive.integral_gain: both 0"):
+        law = resolve(free)
+    assert law.proportional_gain == law.integral_gain == 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        resolve(replace(SimulationConfig(), **{"top_drive.integral_gain": 0.0}))
