@@ -19,6 +19,7 @@ import numpy as np
 
 from drill_env.metrics import STUCK_SPEED, whirl_signs
 from drill_env.physics.units import RPM
+from drill_env.whirl_rule import orbit_angles
 
 Event = tuple[float, str, str]
 
@@ -73,9 +74,9 @@ class StickSlipDetector:
 
 class WhirlDetector:
     """Whirl on and off by :func:`drill_env.metrics.whirl_signs`, held ``min_duration``;
-    the onset says forward or backward (the direction most samples took while it held)
-    and the radial ratio, whirl and bit speeds where it began. Each chunk is judged with
-    the last ``WHIRL_CONTEXT`` seconds before it."""
+    the onset says forward or backward (the direction most samples took while it held),
+    the radial ratio where it began and the mean whirl and bit speeds while it held.
+    Each chunk is judged with the last ``WHIRL_CONTEXT`` seconds before it."""
 
     def __init__(self, clearance: float, min_duration: float = WHIRL_MIN_DURATION) -> None:
         if not clearance > 0:
@@ -87,9 +88,10 @@ class WhirlDetector:
         # whirl-against-rotation signs since then.
         self._since: tuple[float, float, float, float] | None = None
         self._signs: list[float] = []
+        self._speeds: list[tuple[float, float]] = []  # (whirl, bit speed) since then
         # the samples of the last WHIRL_CONTEXT seconds: time, radial ratio, whirl speed,
-        # bit speed
-        self._past = np.empty((4, 0))
+        # bit speed, the centre's angle about the axis
+        self._past = np.empty((5, 0))
 
     def update(self, t: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray,
                whirl_speed: np.ndarray, bit_speed: np.ndarray) -> list[Event]:
@@ -98,10 +100,12 @@ class WhirlDetector:
         radial = np.hypot(bit_x, bit_y) / self.clearance
         ws = np.asarray(whirl_speed, dtype=np.float64)
         w = np.asarray(bit_speed, dtype=np.float64)
-        seen = np.concatenate([self._past, np.stack([t, radial, ws, w])], axis=1)
+        angle = orbit_angles(np.ascontiguousarray(bit_x, dtype=np.float64),
+                             np.ascontiguousarray(bit_y, dtype=np.float64))
+        seen = np.concatenate([self._past, np.stack([t, radial, ws, w, angle])], axis=1)
         spacing = np.diff(seen[0])
         if spacing.size and np.all(spacing > 0):
-            sign = whirl_signs(seen[1], seen[2], seen[3], float(np.median(spacing)))
+            sign = whirl_signs(seen[1], seen[2], seen[3], float(np.median(spacing)), seen[4])
             sign = sign[sign.size - len(t):]
         else:  # one sample so far, or times that do not advance: no orbit to follow
             sign = np.zeros(len(t))
@@ -113,17 +117,23 @@ class WhirlDetector:
                 continue
             if self._since is None:
                 self._since = (float(t[i]), float(radial[i]), float(ws[i]), float(w[i]))
+                self._speeds = []
             self._signs.append(float(sign[i]))
-            start, r0, ws0, w0 = self._since
+            self._speeds.append((float(ws[i]), float(w[i])))
+            start, r0, _, _ = self._since
             if float(t[i]) - start < self.min_duration:
                 continue
             self._on = not self._on
             if self._on:
-                # the rule of metrics.whirl_direction over the samples since the onset
+                # the rule of metrics.whirl_direction over the samples since the onset;
+                # the speeds are their means (one sample's whirl speed swings both ways
+                # in a wobbling orbit: "forward ... whirl -10 rpm" read as a contradiction)
                 direction = "forward" if np.sum(self._signs) > 0 else "backward"
+                ws_mean, w_mean = np.mean(self._speeds, axis=0)
                 events.append((start, "WARN",
                                f"whirl onset ({direction}): radial ratio {r0:.2f}, whirl "
-                               f"{ws0 / RPM:.0f} rpm, bit {w0 / RPM:.0f} rpm"))
+                               f"{ws_mean / RPM:.0f} rpm, bit {w_mean / RPM:.0f} rpm "
+                               f"(means over the {self.min_duration:g} s held)"))
             else:
                 events.append((start, "INFO", "whirl ended"))
             self._since = None

@@ -42,6 +42,7 @@ from drill_env.whirl_rule import (  # noqa: F401  (the rule's constants: the sur
     WHIRL_REVERSAL,
     WHIRL_SPEED_RATIO,
     WHIRL_SWEEP,
+    orbit_angles,
     whirl_legs,
 )
 
@@ -117,11 +118,11 @@ def whirl_ratio(whirl_speed, bit_speed, min_mean_speed: float = SSI_MIN_MEAN_SPE
     return float(np.mean(ws)) / denom
 
 
-def whirling(radial, whirl_speed, bit_speed, dt: float) -> np.ndarray:
+def whirling(radial, whirl_speed, bit_speed, dt: float, position=None) -> np.ndarray:
     """The whirl rule (:mod:`drill_env.whirl_rule`; :func:`whirl_signs`) per sample of
     signals ``dt`` apart: the bit off the axis AND its centre travelling round the hole,
     fast. A sample with a NaN whirl speed or radius does not whirl and ends a leg."""
-    return whirl_signs(radial, whirl_speed, bit_speed, dt) != 0.0
+    return whirl_signs(radial, whirl_speed, bit_speed, dt, position) != 0.0
 
 
 def whirl_sign(whirl_speed, bit_speed) -> np.ndarray:
@@ -133,30 +134,36 @@ def whirl_sign(whirl_speed, bit_speed) -> np.ndarray:
     return np.sign(ws * np.where(w != 0.0, np.sign(w), 1.0))
 
 
-def whirl_signs(radial, whirl_speed, bit_speed, dt: float) -> np.ndarray:
+def whirl_signs(radial, whirl_speed, bit_speed, dt: float, position=None) -> np.ndarray:
     """Per sample: +1 where the bit whirls with the rotation, -1 against it, 0 where it
-    does not whirl (:mod:`drill_env.whirl_rule`; samples ``dt`` apart). A sample's sign
-    is its leg's direction of travel against its own bit speed's sign (a stuck bit, or
-    a NaN bit speed, counts as turning the positive way)."""
+    does not whirl (:mod:`drill_env.whirl_rule`; samples ``dt`` apart). ``position``: the
+    bit centre's angle about the hole axis (rad, ``atan2(y, x)``), which the rule follows
+    between samples where the orbit cannot have turned half a turn (recorded signals give
+    it; without it the rule integrates the whirl speed, which a rattle sampled at 50 Hz
+    misreads). A sample's sign is its leg's direction of travel against its own bit
+    speed's sign (a stuck bit, or a NaN bit speed, counts as turning the positive way)."""
     radial = np.ascontiguousarray(radial, dtype=float)
     ws = np.ascontiguousarray(whirl_speed, dtype=float)
     w = np.ascontiguousarray(bit_speed, dtype=float)
-    if not radial.shape == ws.shape == w.shape or radial.ndim != 1:
-        raise ValueError(f"radial, whirl_speed, bit_speed: need 1-D signals of one length, "
-                         f"got shapes {radial.shape}, {ws.shape}, {w.shape}")
+    angle = np.zeros(0) if position is None else np.ascontiguousarray(position, dtype=float)
+    if not radial.shape == ws.shape == w.shape or radial.ndim != 1 or (
+            position is not None and angle.shape != radial.shape):
+        raise ValueError(f"radial, whirl_speed, bit_speed, position: need 1-D signals of one "
+                         f"length, got shapes {radial.shape}, {ws.shape}, {w.shape}"
+                         + ("" if position is None else f", {angle.shape}"))
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt: must be a finite sample spacing > 0 s, got {dt!r}")
     out = np.zeros(radial.shape[0])
-    whirl_legs(radial, ws, w, dt, STUCK_SPEED, out)
+    whirl_legs(radial, angle, ws, w, dt, STUCK_SPEED, out)
     return out
 
 
-def backward_whirling(radial, whirl_speed, bit_speed, dt: float) -> np.ndarray:
+def backward_whirling(radial, whirl_speed, bit_speed, dt: float, position=None) -> np.ndarray:
     """Samples that whirl (:func:`whirling`) against the rotation."""
-    return whirl_signs(radial, whirl_speed, bit_speed, dt) < 0.0
+    return whirl_signs(radial, whirl_speed, bit_speed, dt, position) < 0.0
 
 
-def whirl_direction(whirl_speed, bit_speed, radial, dt: float) -> str:
+def whirl_direction(whirl_speed, bit_speed, radial, dt: float, position=None) -> str:
     """"forward", "backward" or "none" (no sample whirls by :func:`whirling`, or as many
     whirl each way).
 
@@ -164,7 +171,8 @@ def whirl_direction(whirl_speed, bit_speed, radial, dt: float) -> str:
     as the backward-whirl fraction counts it and the recordings' whirl events name it
     (not the mean whirl speed, which a fast backward whirl would outweigh).
     """
-    votes = float(np.sum(whirl_signs(_signal(radial, "radial"), whirl_speed, bit_speed, dt)))
+    votes = float(np.sum(whirl_signs(_signal(radial, "radial"), whirl_speed, bit_speed, dt,
+                                     position)))
     return "forward" if votes > 0 else "backward" if votes < 0 else "none"
 
 
@@ -244,7 +252,9 @@ def window_metrics(records: np.ndarray, channels, dt: float, clearance: float,
 
     radial = radial_ratio(c("bit_x"), c("bit_y"), clearance)
     force = lateral_force(c("bit_force_x"), c("bit_force_y"))
-    signs = whirl_signs(radial, c("whirl_speed"), c("bit_speed"), dt)
+    signs = whirl_signs(radial, c("whirl_speed"), c("bit_speed"), dt,
+                        orbit_angles(np.ascontiguousarray(c("bit_x")),
+                                     np.ascontiguousarray(c("bit_y"))))
     return {
         "ssi": stick_slip_severity(c("bit_speed")),
         "stuck_fraction": stuck_fraction(c("bit_speed")),
@@ -289,11 +299,13 @@ Channel = IntEnum("Channel", [
 ], start=0)
 METRIC_CHANNELS: tuple[str, ...] = tuple(c.name.lower() for c in Channel)
 #: Per-sample quantities the window metrics reduce (rows of a samples array; ``FINITE``
-#: is 1.0 where every channel of the record is finite, else 0.0; ``WHIRL_SIGN`` is the
+#: is 1.0 where every channel of the record is finite, else 0.0; ``ORBIT_ANGLE`` is the bit
+#: centre's angle about the axis, atan2(y, x), for the whirl rule; ``WHIRL_SIGN`` is the
 #: reduction's scratch: :func:`whirl_signs` of the samples reduced last).
 Sample = IntEnum("Sample", [
     "BIT_SPEED", "WHIRL_SPEED", "RADIAL_RATIO", "LATERAL_FORCE", "ROP", "WEIGHT_ON_BIT",
-    "BIT_POWER", "MOTOR_POWER", "SURFACE_TORQUE", "EXCURSION_RATIO", "FINITE", "WHIRL_SIGN",
+    "BIT_POWER", "MOTOR_POWER", "SURFACE_TORQUE", "EXCURSION_RATIO", "FINITE", "ORBIT_ANGLE",
+    "WHIRL_SIGN",
 ], start=0)
 METRIC_SAMPLES: tuple[str, ...] = tuple(m.name.lower() for m in Sample)
 #: Scalars of a rolling window (``WindowArrays.params``); REST_X, REST_Y: the bit's rest
@@ -424,6 +436,7 @@ def metric_samples_into(records, columns, params, samples):
         samples[Sample.WHIRL_SPEED, k] = records[k, columns[Channel.WHIRL_SPEED]]
         samples[Sample.RADIAL_RATIO, k] = math.hypot(x, y) / clearance
         samples[Sample.EXCURSION_RATIO, k] = math.hypot(x - rest_x, y - rest_y) / clearance
+        samples[Sample.ORBIT_ANGLE, k] = math.atan2(y, x)
         samples[Sample.LATERAL_FORCE, k] = math.hypot(records[k, columns[Channel.BIT_FORCE_X]],
                                                       records[k, columns[Channel.BIT_FORCE_Y]])
         samples[Sample.ROP, k] = records[k, columns[Channel.ROP]]
@@ -497,8 +510,8 @@ def reduce_metric_samples(samples, dt, area, out, tasks, partial):
     # the whirl rule of whirl_signs(), into the samples' scratch row (NaN: no whirl)
     signs = samples[Sample.WHIRL_SIGN]
     signs[:] = 0.0
-    whirl_legs(samples[Sample.RADIAL_RATIO], samples[Sample.WHIRL_SPEED], w, dt, STUCK_SPEED,
-               signs)
+    whirl_legs(samples[Sample.RADIAL_RATIO], samples[Sample.ORBIT_ANGLE],
+               samples[Sample.WHIRL_SPEED], w, dt, STUCK_SPEED, signs)
     whirls = 0
     backward = 0
     for k in range(n):

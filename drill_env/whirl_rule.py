@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 #: The whirl rule, used by the metrics, the env, the benchmark and the recorder's events
 #: (:func:`whirl_legs`): the bit centre travels round the hole, off its axis, fast. The
-#: centre's angle about the axis (the integral of the whirl speed) is cut into *legs*,
+#: centre's angle about the axis (followed as :func:`whirl_legs` says) is cut into *legs*,
 #: runs over which it moves one way and turns back by less than WHIRL_REVERSAL; a sample
 #: nearer the axis than WHIRL_RADIAL_RATIO of the gauge clearance (or with a NaN whirl
 #: speed) ends a leg and never whirls. In a leg that travels at least WHIRL_SWEEP, a
@@ -25,9 +26,8 @@ from numba import njit
 #: hole (~80 degrees at the blade-pass rate), which the per-sample radius and speed test
 #: alone (the rule to 2026-12-05) read as 17-94 % whirl, half of it backward. A reversal
 #: of 90 degrees ends a leg: a forward whirl's wobble at the blade pass turns back less
-#: (paper case 4 at 60-120 rpm reads 78-92 % forward whirl and none backward). Limits:
-#: a forward orbit whose wobble turns it back by more than 90 degrees is not read, and
-#: records far slower than the rattle (25 Hz against ~10 Hz) alias it into legs.
+#: (paper case 4 at 60-120 rpm reads 78-92 % forward whirl and none backward). Limit: a
+#: forward orbit whose wobble turns it back by more than 90 degrees is not read.
 WHIRL_RADIAL_RATIO = 0.5
 WHIRL_SPEED_RATIO = 0.25
 WHIRL_SWEEP = math.pi
@@ -49,16 +49,22 @@ def _close_leg(ws, w, start, end, direction, travel, stuck, out):
 
 
 @njit(cache=True, nogil=True)
-def whirl_legs(radial, ws, w, dt, stuck, out):
-    """The whirl rule over signals ``dt`` apart (radial ratio, whirl speed, bit speed;
-    ``stuck``: the bit-speed floor of the speed test, rad/s): ``out[k]`` +1 / -1 / 0
-    (with the rotation, against it, no whirl; ``out`` zeroed by the caller). A leg ends
-    at its extreme sample; the next begins after it. The angle travelled between samples
-    is the trapezoid of the whirl speed, which the simulator computes from the bit's
-    state: it holds the direction of a backward whirl that turns by more than half an
-    orbit between records (25 Hz in some task episodes), where differences of the
-    recorded angle alias."""
+def whirl_legs(radial, position, ws, w, dt, stuck, out):
+    """The whirl rule over signals ``dt`` apart (radial ratio, the centre's angle about
+    the axis ``position`` (rad, ``atan2(y, x)``; an empty array: none), whirl speed, bit
+    speed; ``stuck``: the bit-speed floor of the speed test, rad/s): ``out[k]`` +1 / -1 /
+    0 (with the rotation, against it, no whirl; ``out`` zeroed by the caller). A leg ends
+    at its extreme sample; the next begins after it.
+
+    The angle travelled between two samples is the difference of their positions where
+    the whirl speed at both ends turns the centre by less than half a turn in ``dt``
+    (exact at any record rate: a rattle's records are positions on its arc), else the
+    trapezoid of the whirl speed (a backward whirl that turns by more than half an orbit
+    between records, 25 Hz in some task episodes, keeps its direction there, where the
+    positions' differences alias). Without positions, the trapezoid throughout: at 50 Hz
+    records it misreads a blade-pass rattle's turning back and forth by up to ~2x."""
     n = radial.shape[0]
+    positions = position.shape[0] == n
     k = 0
     while k < n:
         if not (radial[k] > WHIRL_RADIAL_RATIO and ws[k] == ws[k]):
@@ -69,7 +75,11 @@ def whirl_legs(radial, ws, w, dt, stuck, out):
         i_high, i_low, start, start_angle, direction = k, k, k, 0.0, 0
         j = k + 1
         while j < n and radial[j] > WHIRL_RADIAL_RATIO and ws[j] == ws[j]:
-            angle += 0.5 * (ws[j] + ws[j - 1]) * dt
+            if positions and max(abs(ws[j]), abs(ws[j - 1])) * dt < math.pi:
+                turn = position[j] - position[j - 1]
+                angle += turn - 2.0 * math.pi * math.floor((turn + math.pi) / (2.0 * math.pi))
+            else:
+                angle += 0.5 * (ws[j] + ws[j - 1]) * dt
             if angle > high:
                 high, i_high = angle, j
             if angle < low:
@@ -91,3 +101,13 @@ def whirl_legs(radial, ws, w, dt, stuck, out):
         elif direction < 0:
             _close_leg(ws, w, start, i_low, -1, low - start_angle, stuck, out)
         k = j
+
+
+@njit(cache=True, nogil=True)
+def orbit_angles(x, y):
+    """The bit centre's angle about the hole axis (rad), ``atan2(y, x)`` per sample: as
+    the metrics' fast path computes it, so both paths follow the same positions."""
+    out = np.empty(x.shape[0])
+    for k in range(x.shape[0]):
+        out[k] = math.atan2(y[k], x[k])
+    return out

@@ -142,6 +142,27 @@ def test_a_bit_rattling_on_the_wall_does_not_whirl_one_that_goes_round_does():
     assert np.array_equal(signs > 0, fast) and not (signs < 0).any()
 
 
+def test_a_rattle_sampled_at_50_hz_is_followed_by_its_positions():
+    """A rattle of +-60 degrees at 10 Hz with a 20-degree harmonic at 40 Hz, recorded at
+    50 Hz (the env's default rate): the trapezoid of the sampled whirl speed aliases the
+    harmonic into a steady turn and reads whirl nearly all the time, where the recorded
+    positions, which the rule follows while the orbit cannot turn half a turn between
+    records, show the rattle it is (a slick BHA on a deviated hole read 13-48 % so)."""
+    dt = 0.02
+    t = np.arange(0.0, 30.0, dt)
+    a, b = np.radians(60.0), np.radians(20.0)
+    angle = -np.pi / 2 + a * np.sin(2 * np.pi * 10 * t) + b * np.sin(2 * np.pi * 40 * t + 0.3)
+    ws = a * 2 * np.pi * 10 * np.cos(2 * np.pi * 10 * t) + b * 2 * np.pi * 40 * np.cos(
+        2 * np.pi * 40 * t + 0.3)
+    radial, w = np.ones(t.size), np.full(t.size, 10.5)
+    assert np.mean(metrics.whirling(radial, ws, w, dt)) > 0.9  # the whirl speed alone
+    assert not metrics.whirling(radial, ws, w, dt, angle).any()
+    # a backward whirl turning 0.8 of a turn between records keeps its direction there
+    ws = np.full(t.size, -2 * np.pi * 0.8 / dt)
+    angle = np.cumsum(ws * dt)
+    assert (metrics.whirl_signs(radial, ws, w, dt, np.angle(np.exp(1j * angle))) < 0).all()
+
+
 def test_a_pause_or_a_creep_beside_a_whirl_is_not_whirl():
     """The leg of a short backward whirl also holds the rest before it and a slow creep
     the same way after it (1 rpm, 1 % of the bit speed, for 40 s): neither is whirl, and
@@ -208,6 +229,8 @@ def test_each_window_metric_reads_its_own_channels():
     for name, value in values.items():
         rec[:, col[name]] = value
     rec[:, col["whirl_speed"]] = np.where(np.arange(n) < n // 2, -40.0, 40.0)
+    rec[:, col["bit_x"]], rec[:, col["bit_y"]] = 0.9 * clearance, 0.0  # on the orbit the
+    _orbit_at_whirl_speed(rec, dt)  # whirl speed drives: positions and speed agree
     m = metrics.window_metrics(rec, RECORD_CHANNELS, dt, clearance, diameter)
     area = math.pi * diameter**2 / 4
     assert m["mse"] == pytest.approx(8e4 / area + 5.0 * 3000.0 / (area * 0.004), rel=1e-12)
@@ -227,6 +250,8 @@ def test_each_window_metric_reads_its_own_channels():
     # the rotation reversed: the other half whirls against it
     rec[:, col["bit_speed"]] = -5.0
     rec[: n // 4, col["whirl_speed"]] = 40.0
+    rec[:, col["bit_x"]], rec[:, col["bit_y"]] = 0.9 * clearance, 0.0
+    _orbit_at_whirl_speed(rec, dt)
     m = metrics.window_metrics(rec, RECORD_CHANNELS, dt, clearance, diameter)
     assert m["backward_whirl_fraction"] == 0.75
     assert m["whirl_ratio"] == pytest.approx((0.25 * 40.0 + 0.25 * -40.0 + 0.5 * 40.0) / -5.0)
@@ -383,12 +408,25 @@ def test_rolling_metrics_need_the_metric_channels():
 
 def _both_paths(n: int = 50, **channels) -> list[dict[str, float]]:
     """The window metrics of records whose channels are ``channels`` (a value or an
-    array each, the rest 0), by the NumPy definitions and by the fast path."""
+    array each, the rest 0), by the NumPy definitions and by the fast path. Given a
+    whirl speed and a bit_x but no bit_y, the bit centre goes round at that whirl speed
+    at radius bit_x (the records' positions and whirl speed agree, as a simulator's do)."""
     rec = np.zeros((n, len(CHANNELS)))
     for name, value in channels.items():
         rec[:, COL[name]] = value
+    if "whirl_speed" in channels and "bit_x" in channels and "bit_y" not in channels:
+        _orbit_at_whirl_speed(rec, DT)
     fast = dict(zip(metrics.WINDOW_METRICS, fast_metrics(rec)[1][0], strict=True))
     return [metrics.window_metrics(rec, CHANNELS, DT, CLEARANCE, BIT_DIAMETER), fast]
+
+
+def _orbit_at_whirl_speed(rec: np.ndarray, dt: float) -> None:
+    """Put the bit centre of ``rec`` on the orbit its whirl speed drives, at the radius
+    of its bit_x (the trapezoid of the whirl speed from angle 0)."""
+    ws = rec[:, COL["whirl_speed"]]
+    angle = np.concatenate([[0.0], np.cumsum(0.5 * (ws[1:] + ws[:-1]) * dt)])
+    r = rec[:, COL["bit_x"]].copy()
+    rec[:, COL["bit_x"]], rec[:, COL["bit_y"]] = r * np.cos(angle), r * np.sin(angle)
 
 
 def test_the_metric_rules_of_the_module_table_on_both_paths():

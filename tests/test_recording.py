@@ -420,8 +420,9 @@ def test_events_fed_chunk_by_chunk_are_the_events_of_the_whole_signal(chunk) -> 
     w[(t > 14.0) & (t < 21.0)] = 5.0
     clearance = 0.005
     r = clearance * np.where(np.sin(2.0 * np.pi * t / 7.0) > 0.2, 0.9, 0.1)
-    x, y = r * np.cos(3.0 * t), r * np.sin(3.0 * t)
     ws = np.where(t < 15.0, -40.0, 40.0)
+    angle = np.cumsum(ws) * 0.05  # the orbit the whirl speed drives
+    x, y = r * np.cos(angle), r * np.sin(angle)
     shares = np.zeros((t.size, 2))
     shares[:, 0] = 0.5 + 0.5 * np.cos(2.0 * np.pi * t / 9.0)
     shares[:, 1] = 1.0 - shares[:, 0]
