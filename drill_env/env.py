@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections import deque
 from collections.abc import Mapping
@@ -54,9 +53,8 @@ from drill_env.scenarios import (
     Scenario,
     check_draws,
     check_one_string_length,
-    make_scenario,
     scenario_parameters,
-    with_physics,
+    scenario_with_physics,
 )
 
 #: Seconds of history in a rendered frame (``render_mode="rgb_array"``).
@@ -268,11 +266,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
     # ------------------------------------------------------------------ set-up
 
     def _build_scenario(self, rng: np.random.Generator) -> Scenario:
-        scenario = make_scenario(self.scenario_name, rng=rng, **self.scenario_params)
-        if self.physics_overrides:
-            config = with_physics(scenario.config, self.physics_overrides, self.randomised)
-            scenario = dataclasses.replace(scenario, config=config)
-        return scenario
+        return scenario_with_physics(self.scenario_name, rng, self.scenario_params,
+                                     self.physics_overrides, self.randomised)
 
     def _check_range(self, speed: float, wob: float, where: str) -> None:
         """ValueError naming a start set point (rad/s, N) outside the action ranges (or a

@@ -1202,3 +1202,25 @@ def test_run_refuses_a_config_value_its_own_controller_would_replace(tmp_path, m
                     "100000.0") in capsys.readouterr().err
         else:
             assert main(argv) == 0
+
+
+def test_a_config_string_is_judged_at_the_wob_given_not_the_scenarios_string(tmp_path,
+                                                                              capsys):
+    """docs/config.md's J-well at 170 kN: its 90 m of collars carry it, but the run was
+    refused for the default scenario's heavy-weight pipe, which the --config replaces
+    (an outside check): the starting WOB's buckling check is made on the string drilled."""
+    from drill_cli.main import read_overrides
+    from drill_env.physics.statics import pipe_buckling
+    from drill_env.scenarios import make_scenario, with_physics
+
+    text = (Path(__file__).parents[1] / "docs" / "config.md").read_text()
+    config = tmp_path / "jwell.yaml"
+    config.write_text(text.split("```yaml\n", 1)[1].split("```", 1)[0])
+    assert pipe_buckling(make_scenario("default").config, 170e3)  # the scenario's own
+    assert not pipe_buckling(with_physics(make_scenario("default").config,
+                                          read_overrides(config)), 170e3)
+    assert main(["run", "--rpm", "60", "--wob", "170", "--config", str(config),
+                 "--duration", "0.2", "--out", str(tmp_path / "out")]) == 0
+    assert "buckl" not in capsys.readouterr().err
+    summary = json.loads((tmp_path / "out" / "run_summary.json").read_text())
+    assert summary["weight_on_bit_kN"] == 170.0
