@@ -486,6 +486,8 @@ def _require(condition: bool, name: str, message: str) -> None:
 
 def require_finite(value: Any, name: str) -> None:
     """Raise :class:`ConfigError` naming ``name`` unless ``value`` is a finite number."""
+    if type(value) is float and math.isfinite(value):  # the usual case, per env step
+        return
     _require(isinstance(value, (int, float, np.integer, np.floating))
              and not isinstance(value, (bool, np.bool_)) and math.isfinite(value), name,
              f"must be a finite number, got {value!r}")
