@@ -56,13 +56,14 @@ def whirl_legs(radial, position, ws, w, dt, stuck, out):
     0 (with the rotation, against it, no whirl; ``out`` zeroed by the caller). A leg ends
     at its extreme sample; the next begins after it.
 
-    The angle travelled between two samples is the difference of their positions where
-    the whirl speed at both ends turns the centre by less than half a turn in ``dt``
-    (exact at any record rate: a rattle's records are positions on its arc), else the
-    trapezoid of the whirl speed (a backward whirl that turns by more than half an orbit
-    between records, 25 Hz in some task episodes, keeps its direction there, where the
-    positions' differences alias). Without positions, the trapezoid throughout: at 50 Hz
-    records it misreads a blade-pass rattle's turning back and forth by up to ~2x."""
+    The angle travelled between two samples is the difference of their positions plus
+    the whole turns that the trapezoid of the whirl speed over the interval implies: the
+    positions fix the angle to within whole turns at any record rate (a rattle's records
+    are points on its arc), the whirl speed, which the simulator computes from the bit's
+    state, counts the turns (a backward whirl that turns by more than half an orbit
+    between records, 25 Hz in some task episodes, keeps its direction). Without positions
+    (or where one is NaN), the trapezoid: at 50 Hz records it misreads a blade-pass
+    rattle's turning back and forth by up to ~2x."""
     n = radial.shape[0]
     positions = position.shape[0] == n
     k = 0
@@ -75,11 +76,13 @@ def whirl_legs(radial, position, ws, w, dt, stuck, out):
         i_high, i_low, start, start_angle, direction = k, k, k, 0.0, 0
         j = k + 1
         while j < n and radial[j] > WHIRL_RADIAL_RATIO and ws[j] == ws[j]:
-            if positions and max(abs(ws[j]), abs(ws[j - 1])) * dt < math.pi:
-                turn = position[j] - position[j - 1]
-                angle += turn - 2.0 * math.pi * math.floor((turn + math.pi) / (2.0 * math.pi))
-            else:
-                angle += 0.5 * (ws[j] + ws[j - 1]) * dt
+            spun = 0.5 * (ws[j] + ws[j - 1]) * dt  # the trapezoid of the whirl speed
+            turn = position[j] - position[j - 1] if positions else math.nan
+            if turn == turn:  # the positions' difference, with the whole turns it implies
+                angle += turn + 2.0 * math.pi * math.floor((spun - turn) / (2.0 * math.pi)
+                                                           + 0.5)
+            else:  # no positions (or a NaN one)
+                angle += spun
             if angle > high:
                 high, i_high = angle, j
             if angle < low:

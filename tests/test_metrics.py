@@ -163,6 +163,23 @@ def test_a_rattle_sampled_at_50_hz_is_followed_by_its_positions():
     assert (metrics.whirl_signs(radial, ws, w, dt, np.angle(np.exp(1j * angle))) < 0).all()
 
 
+def test_a_wobbling_forward_whirl_at_25_hz_records_is_never_read_backward():
+    """A forward whirl at the bit speed (120 rpm) with a +-80 degree wobble at 10 Hz: at
+    25 Hz records some intervals travel just over half a turn between two slow ends,
+    where the positions' difference alone points the other way (an outside review read
+    60 % backward whirl so). The whirl speed's trapezoid counts the turns the positions
+    leave open: no sample reads backward, as at 500 Hz."""
+    spin = 120 * 2 * np.pi / 60
+    for dt in (0.002, 0.04):
+        t = np.arange(0.0, 10.0, dt)
+        angle = spin * t + np.radians(80.0) * np.sin(2 * np.pi * 10.0 * t)
+        ws = spin + np.radians(80.0) * 2 * np.pi * 10.0 * np.cos(2 * np.pi * 10.0 * t)
+        signs = metrics.whirl_signs(np.full(t.size, 0.95), ws, np.full(t.size, spin), dt,
+                                    np.angle(np.exp(1j * angle)))
+        assert not (signs < 0).any(), dt
+    assert np.mean(signs > 0) > 0.1  # read forward, in part, at 25 Hz
+
+
 def test_a_pause_or_a_creep_beside_a_whirl_is_not_whirl():
     """The leg of a short backward whirl also holds the rest before it and a slow creep
     the same way after it (1 rpm, 1 % of the bit speed, for 40 s): neither is whirl, and
