@@ -137,11 +137,12 @@ def whirl_sign(whirl_speed, bit_speed) -> np.ndarray:
 def whirl_signs(radial, whirl_speed, bit_speed, dt: float, position=None) -> np.ndarray:
     """Per sample: +1 where the bit whirls with the rotation, -1 against it, 0 where it
     does not whirl (:mod:`drill_env.whirl_rule`; samples ``dt`` apart). ``position``: the
-    bit centre's angle about the hole axis (rad, ``atan2(y, x)``), which the rule follows
-    between samples where the orbit cannot have turned half a turn (recorded signals give
-    it; without it the rule integrates the whirl speed, which a rattle sampled at 50 Hz
-    misreads). A sample's sign is its leg's direction of travel against its own bit
-    speed's sign (a stuck bit, or a NaN bit speed, counts as turning the positive way)."""
+    bit centre's angle about the hole axis (rad, ``atan2(y, x)``): between samples the
+    rule takes its difference plus the whole turns the whirl speed implies (recorded
+    signals give it; without it the rule integrates the whirl speed alone, which a rattle
+    sampled at 50 Hz misreads). A sample's sign is its leg's direction of travel against
+    its own bit speed's sign (a stuck bit, or a NaN bit speed, counts as turning the
+    positive way)."""
     radial = np.ascontiguousarray(radial, dtype=float)
     ws = np.ascontiguousarray(whirl_speed, dtype=float)
     w = np.ascontiguousarray(bit_speed, dtype=float)

@@ -26,8 +26,9 @@ from numba import njit
 #: hole (~80 degrees at the blade-pass rate), which the per-sample radius and speed test
 #: alone (the rule to 2026-12-05) read as 17-94 % whirl, half of it backward. A reversal
 #: of 90 degrees ends a leg: a forward whirl's wobble at the blade pass turns back less
-#: (paper case 4 at 60-120 rpm reads 78-92 % forward whirl and none backward). Limit: a
-#: forward orbit whose wobble turns it back by more than 90 degrees is not read.
+#: (paper case 4 at 60-120 rpm reads 78-92 % forward whirl and none backward). Limits:
+#: a forward orbit whose wobble turns it back by more than 90 degrees is not read (at
+#: fast records); records cannot resolve a motion faster than half their rate.
 WHIRL_RADIAL_RATIO = 0.5
 WHIRL_SPEED_RATIO = 0.25
 WHIRL_SWEEP = math.pi

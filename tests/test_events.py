@@ -60,7 +60,7 @@ def test_whirl_shorter_than_the_hold_time_is_no_whirl() -> None:
 
 def test_the_whirl_direction_is_that_of_most_samples_since_the_onset() -> None:
     """Backward whirl with one sample's whirl speed reversed: the angle it travels turns
-    back by none of the rule's 45 degrees, so the sample belongs to the backward leg and
+    back by none of the rule's 90 degrees, so the sample belongs to the backward leg and
     the onset says backward, as :func:`drill_env.metrics.whirl_direction`."""
     t = np.arange(0.0, 2.0, 0.1)
     radial = np.full_like(t, 0.9)

@@ -161,7 +161,7 @@ def resolve(config: SimulationConfig) -> TopDriveLaw:
         kp, ki = stiff_pi_gains(z, td.inertia)
     kp = kp if td.proportional_gain is None else td.proportional_gain
     ki = ki if td.integral_gain is None else td.integral_gain
-    if kp == 0.0 and ki == 0.0:  # a study's free top, or a slip that reads as stick-slip
+    if kp == 0.0 and ki == 0.0:  # a study's free top, or a typo that reads as mild stick-slip
         warnings.warn("top_drive.proportional_gain, top_drive.integral_gain: both 0, so the "
                       "drive's speed loop applies no torque: a free top (the string runs "
                       "down on its own)", UserWarning, stacklevel=2)
