@@ -954,7 +954,13 @@ def sets_own_speed(name: str, env_id: str | None = None) -> bool:
         # on the env's own action: the rpm everywhere but in task 1, where it corrects
         # the speed around the driller's target
         return env_id != CORRECTS_SPEED
-    return env_id == CHOOSES_RPM and (name == "learned" or name.startswith("learned-"))
+    return env_id == CHOOSES_RPM and is_learned_label(name)
+
+
+def is_learned_label(name: str) -> bool:
+    """Whether a row label (:func:`labels`) is a trained policy's: ``learned``, or
+    ``learned-<run>`` where several runs are benchmarked."""
+    return name == "learned" or name.startswith("learned-")
 
 
 def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
@@ -1057,7 +1063,7 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
                                     for r in table) else []
     notes.append(RETURN_NOTE if env_id is None else
                  f"return: {env_id}'s reward summed over the episode (docs/tasks.md).")
-    if any(c == "learned" or c.startswith("learned:") for c in controllers):
+    if any(is_learned_label(c) for c in controllers):  # the row labels (labels())
         notes.append("Sensors: a learned policy reads its env's observation (in the tasks "
                      "surface history and delayed mud-pulse telemetry) once per control "
                      "step; the classical drives read the surface speed and torque at every "

@@ -871,8 +871,13 @@ def test_the_rpm_error_of_a_controller_that_sets_its_own_speed_is_marked(tmp_pat
     assert body[0] == SPEC_COLUMNS
     assert body[2][SPEC_COLUMNS.index("rpm_tracking_error")] == "0.582"
 
-    # a learned row's sensors and rate are not the classical drives': said under the table
+    # a learned row's sensors and rate are not the classical drives': said under the table,
+    # also where several runs are labelled learned-<run> (labels())
     assert "Sensors: a learned policy reads its env's observation" in text
+    assert bm.labels(["learned:/runs/a", "learned:/runs/b"]) == ["learned-a", "learned-b"]
+    bm.write_outputs([_row("learned-a", "stick_slip")], tmp_path, ["learned-a"],
+                     ["stick_slip"], SHORT)
+    assert "Sensors: a learned policy" in (tmp_path / "benchmark.md").read_text()
     bm.write_outputs(rows[:1], tmp_path, ["stiff"], ["stick_slip"], SHORT)
     text = (tmp_path / "benchmark.md").read_text()
     assert bm.OWN_SPEED_MARK not in text and "Sensors:" not in text  # no footnotes
