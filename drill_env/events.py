@@ -84,11 +84,10 @@ class WhirlDetector:
         self.clearance = clearance
         self.min_duration = min_duration
         self._on = False
-        # The candidate change: its first sample's time and values, and the samples'
-        # whirl-against-rotation signs since then.
-        self._since: tuple[float, float, float, float] | None = None
-        self._signs: list[float] = []
-        self._speeds: list[tuple[float, float]] = []  # (whirl, bit speed) since then
+        # The candidate change: its first sample's time and radial ratio, and each sample's
+        # (whirl sign, whirl speed, bit speed) since then.
+        self._since: tuple[float, float] | None = None
+        self._held: list[tuple[float, float, float]] = []
         # the samples of the last WHIRL_CONTEXT seconds: time, radial ratio, whirl speed,
         # bit speed, the centre's angle about the axis
         self._past = np.empty((5, 0))
@@ -113,14 +112,12 @@ class WhirlDetector:
         for i in range(len(t)):
             if (sign[i] != 0.0) == self._on:
                 self._since = None
-                self._signs = []
+                self._held = []
                 continue
             if self._since is None:
-                self._since = (float(t[i]), float(radial[i]), float(ws[i]), float(w[i]))
-                self._speeds = []
-            self._signs.append(float(sign[i]))
-            self._speeds.append((float(ws[i]), float(w[i])))
-            start, r0, _, _ = self._since
+                self._since = (float(t[i]), float(radial[i]))
+            self._held.append((float(sign[i]), float(ws[i]), float(w[i])))
+            start, r0 = self._since
             if float(t[i]) - start < self.min_duration:
                 continue
             self._on = not self._on
@@ -128,8 +125,9 @@ class WhirlDetector:
                 # the rule of metrics.whirl_direction over the samples since the onset;
                 # the speeds are their means (one sample's whirl speed swings both ways
                 # in a wobbling orbit: "forward ... whirl -10 rpm" read as a contradiction)
-                direction = "forward" if np.sum(self._signs) > 0 else "backward"
-                ws_mean, w_mean = np.mean(self._speeds, axis=0)
+                held = np.array(self._held)
+                direction = "forward" if held[:, 0].sum() > 0 else "backward"
+                ws_mean, w_mean = held[:, 1:].mean(axis=0)
                 events.append((start, "WARN",
                                f"whirl onset ({direction}): radial ratio {r0:.2f}, whirl "
                                f"{ws_mean / RPM:.0f} rpm, bit {w_mean / RPM:.0f} rpm "
@@ -137,7 +135,7 @@ class WhirlDetector:
             else:
                 events.append((start, "INFO", "whirl ended"))
             self._since = None
-            self._signs = []
+            self._held = []
         return events
 
 

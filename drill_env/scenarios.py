@@ -668,16 +668,16 @@ def scenario_with_physics(name: str, rng: np.random.Generator | None,
     the string drilled: where the scenario's own string buckles at the WOB asked and the
     overrides' string does not, the WOB stands (a --config J-well at 170 kN was refused
     for the default string's heavy-weight pipe)."""
+    start: dict[str, Any] = {}
     try:
         scenario = make_scenario(name, rng=rng, **params)
     except ValueError:
         if not physics or drawn or "weight_on_bit" not in params:
             raise
-        own = {key: value for key, value in params.items() if key != "weight_on_bit"}
-        scenario = make_scenario(name, rng=rng, **own)
-        return dataclasses.replace(scenario, config=with_physics(scenario.config, physics),
-                                   weight_on_bit=params["weight_on_bit"])
+        start = {"weight_on_bit": params["weight_on_bit"]}  # checked below, on the string
+        scenario = make_scenario(name, rng=rng, **{key: value for key, value in params.items()
+                                                   if key not in start})
     if physics:
-        scenario = dataclasses.replace(scenario,
+        scenario = dataclasses.replace(scenario, **start,
                                        config=with_physics(scenario.config, physics, drawn))
     return scenario
