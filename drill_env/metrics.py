@@ -125,15 +125,6 @@ def whirling(radial, whirl_speed, bit_speed, dt: float, position=None) -> np.nda
     return whirl_signs(radial, whirl_speed, bit_speed, dt, position) != 0.0
 
 
-def whirl_sign(whirl_speed, bit_speed) -> np.ndarray:
-    """Per sample: +1 where the whirl goes with the rotation, -1 against it, 0 without
-    whirl speed. A stuck bit (speed 0; NaN reads as 0) counts as turning the positive,
-    drilling way: its whirl against that is backward."""
-    w = np.nan_to_num(np.asarray(bit_speed, dtype=float))
-    ws = np.nan_to_num(np.asarray(whirl_speed, dtype=float))
-    return np.sign(ws * np.where(w != 0.0, np.sign(w), 1.0))
-
-
 def whirl_signs(radial, whirl_speed, bit_speed, dt: float, position=None) -> np.ndarray:
     """Per sample: +1 where the bit whirls with the rotation, -1 against it, 0 where it
     does not whirl (:mod:`drill_env.whirl_rule`; samples ``dt`` apart). ``position``: the
