@@ -68,13 +68,16 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     A finite-element drill string (the ``default`` scenario's realistic 1250 m string:
     5 in pipe over 140 m of heavy-weight pipe and a packed BHA; lateral and torsional dynamics,
-    borehole-wall contact) drives a mesoscopic PDC bit through a layered formation
-    (``drill_env.physics``). The agent sets the top drive's speed set point and the hook
-    load (commanded as the weight on bit it leaves) ten times a second; the simulator
+    borehole-wall contact) drives a mesoscopic PDC bit (``drill_env.physics``) through
+    one hard rock (``default``, ``stick_slip``) or a dipping hard-soft-hard sandwich
+    (``paper_case2``-``4`` and ``random``, which the control tasks train on). The agent
+    sets the top drive's speed set point and the hook load (commanded as the weight on
+    bit it leaves) ten times a second; the simulator
     integrates the string in between (``round(control_interval / dt)`` steps of 2 ms at
     the full level) and records the bit's motion, from which the stick-slip and whirl
     metrics of :mod:`drill_env.metrics` are computed. The task: drill fast without
-    stick-slip and whirl while the bit crosses formation changes.
+    stick-slip and whirl, and, in a layered scenario, while the bit crosses formation
+    changes.
 
     ## Action Space
 

@@ -109,8 +109,9 @@ FRAME = ("surface_torque_ripple", "surface_speed_error", "action")
 #: Entries after the history.
 EXTRAS = ("surface_torque_mean", "target_rpm", "target_weight_on_bit", "telemetry_bit_speed",
           "telemetry_ssi", "telemetry_stuck_fraction", "telemetry_age")
-#: Time constant of the surface torque's running mean (s): longer than a stick-slip
-#: period (2-3 s), so the ripple around it is the oscillation a controller reacts to.
+#: Time constant of the surface torque's running mean (s; a first-order low-pass, not a
+#: moving average): longer than a stick-slip period (2-3 s), so the ripple around it is
+#: the oscillation a controller reacts to.
 TORQUE_MEAN_SECONDS = 3.0
 
 
@@ -142,7 +143,8 @@ class StickSlipEnv(TaskEnv):
     ## Observation Space
 
     ``Box(-10, 10, (3 x history + 7,), float32)``, oldest frame first. Each frame: the
-    surface torque's ripple (torque - its 3 s running mean) / ``torque_scale``,
+    surface torque's ripple (torque - its running mean, a first-order low-pass of 3 s
+    time constant) / ``torque_scale``,
     (surface speed - target) / ``max_correction``, the action taken. Then: the running
     mean / ``torque_scale``, target rpm / 100, target WOB / 100 kN, and the telemetry:
     bit speed / target, min(SSI, cap) / cap and stuck share of the window, as last
