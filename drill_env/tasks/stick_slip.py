@@ -248,10 +248,13 @@ class StickSlipEnv(TaskEnv):
         return np.array([min(max(a, -1.0), 1.0)], dtype=np.float32)
 
     def apply_action(self, action) -> None:
-        a = numbers(action, "action")
-        if a.shape != (1,):
-            raise ValueError(f"action: expected shape (1,), got {np.shape(action)}")
-        value = float(a[0])
+        if type(action) is np.ndarray and action.shape == (1,) and action.dtype.char in "fd":
+            value = action.item()  # the usual policy output (a batch's row), as float64
+        else:
+            a = numbers(action, "action")
+            if a.shape != (1,):
+                raise ValueError(f"action: expected shape (1,), got {np.shape(action)}")
+            value = float(a[0])
         if not math.isfinite(value):
             raise ValueError(f"action: must be finite, got {value} (NaN/inf)")
         value = 1.0 if value > 1.0 else -1.0 if value < -1.0 else value
