@@ -1275,17 +1275,24 @@ def cmd_replay(args: argparse.Namespace) -> int:
             print(f"warning: {warning}", file=sys.stderr)
     if args.port is not None and not args.web:
         raise argparse.ArgumentTypeError("--port: the web viewer's port; add --web")
+    if args.bind is not None and not args.web:
+        raise argparse.ArgumentTypeError("--bind: the web viewer's address; add --web")
     if not args.web and sys.platform.startswith("linux") and not (
             os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         raise argparse.ArgumentTypeError("no display here (DISPLAY is not set) for "
                                          "the native viewer; add --web to serve the web "
                                          "viewer instead")
+    if args.web:
+        print("serving the web viewer (rerun's server keeps one core busy while it runs: "
+              "Ctrl-C when done)", file=sys.stderr)
     try:  # the port is checked there, once, just before the viewer takes it
-        code = replay(args.paths, web=args.web, web_viewer_port=args.port)
+        code = replay(args.paths, web=args.web, web_viewer_port=args.port,
+                      **({"bind": args.bind} if args.bind is not None else {}))
     except ValueError as err:
-        if str(err).startswith("web_viewer_port"):
-            raise argparse.ArgumentTypeError(
-                f"--port{str(err).removeprefix('web_viewer_port')}") from None
+        for name, flag in (("web_viewer_port", "--port"), ("bind", "--bind")):
+            if str(err).startswith(name):
+                raise argparse.ArgumentTypeError(
+                    f"{flag}{str(err).removeprefix(name)}") from None
         raise
     return int(code) if isinstance(code, int) else 0
 
@@ -1542,6 +1549,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--port", type=integer(1), default=None,
                    help="the web viewer's HTTP port (default 9090, or a free one where "
                         "9090 is taken; the URL is printed)")
+    p.add_argument("--bind", default=None, metavar="ADDRESS",
+                   help="the address the web viewer listens on (default 127.0.0.1: this "
+                        "machine only; 0.0.0.0 serves every interface, i.e. the network)")
     return top
 
 

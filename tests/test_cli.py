@@ -695,6 +695,20 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
         with pytest.raises(SystemExit):  # not a traceback (an OverflowError)
             main(["replay", str(good), "--web", "--port", port])
         assert said in capsys.readouterr().err
+    # the web viewer serves this machine only unless asked (rerun's default served every
+    # interface, a review); 192.0.2.1 is a documentation address, never a machine's own
+    command = opened[-1]
+    assert command[command.index("--bind") + 1] == "127.0.0.1"
+    assert main(["replay", str(good), "--web", "--bind", "0.0.0.0"]) == 0
+    assert opened[-1][opened[-1].index("--bind") + 1] == "0.0.0.0"
+    for args, said in [(["--bind", "0.0.0.0"], "--bind: the web viewer's address; add --web"),
+                       (["--web", "--bind", "localhost:1"], "--bind: 'localhost:1' is not an "
+                                                            "IP address"),
+                       (["--web", "--bind", "192.0.2.1"], "--bind: 192.0.2.1 is not an "
+                                                          "address of this machine")]:
+        with pytest.raises(SystemExit):
+            main(["replay", str(good), *args])
+        assert said in capsys.readouterr().err, args
 
 
 def test_version_and_exclusive_well_inputs(tmp_path, capsys):

@@ -462,7 +462,9 @@ def test_whirl_flickers_apart_do_not_add_up_to_whirl() -> None:
 def test_replay_is_not_started_here(tmp_path: Path) -> None:
     cmd = replay_command(tmp_path / "x.rrd", web=True, web_viewer_port=9191)
     assert cmd[-1].endswith("x.rrd") and "--web-viewer" in cmd and "9191" in cmd
+    assert cmd[cmd.index("--bind") + 1] == "127.0.0.1"  # this machine only by default
     assert "--web-viewer" not in replay_command(tmp_path / "x.rrd")
+    assert "--bind" not in replay_command(tmp_path / "x.rrd")  # the native viewer serves none
     # the port is the web viewer's: the native viewer takes none
     assert "--web-viewer-port" not in replay_command(tmp_path / "x.rrd", web_viewer_port=9191)
     with pytest.raises(FileNotFoundError, match="path"):

@@ -23,19 +23,24 @@ VIEWER_VARIABLE = "DRILL_ENV_RERUN"
 
 #: The web viewer's HTTP port when none is asked for (rerun's own default).
 WEB_VIEWER_PORT = 9090
+#: The address the web viewer and its data server listen on when none is asked for: this
+#: machine only (rerun's own default, all interfaces, served the recording to anyone on
+#: the network; from another machine, forward the ports over ssh or pass ``0.0.0.0``).
+WEB_BIND = "127.0.0.1"
 
 
 def replay_command(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = False,
-                   web_viewer_port: int | None = None) -> list[str]:
+                   web_viewer_port: int | None = None, bind: str = WEB_BIND) -> list[str]:
     """The command line that opens ``path`` (one recording or several) in the rerun viewer
     (see :func:`replay`). The viewer's data server takes a free port where another viewer
-    holds rerun's (``--port auto``): a second replay opens, not a blank page."""
+    holds rerun's (``--port auto``): a second replay opens, not a blank page. The web
+    viewer listens on ``bind``."""
     exe = os.environ.get(VIEWER_VARIABLE) or shutil.which(
         "rerun", path=str(Path(sys.executable).parent)) or shutil.which("rerun")
     cmd = [exe] if exe else [sys.executable, "-m", "rerun"]
     cmd += ["--port", "auto"]
     if web:
-        cmd.append("--web-viewer")
+        cmd += ["--web-viewer", "--bind", bind]
         if web_viewer_port is not None:
             cmd += ["--web-viewer-port", str(int(web_viewer_port))]
     cmd += [str(p) for p in _paths(path)]
@@ -46,16 +51,18 @@ def _paths(path: str | os.PathLike | Sequence[str | os.PathLike]) -> list[Path]:
     return [Path(path)] if isinstance(path, (str, os.PathLike)) else [Path(p) for p in path]
 
 
-def port_free(port: int) -> bool:
-    """Whether a server could listen on ``port`` here (all interfaces, as rerun's, with
-    address reuse as servers set it: a port a closed viewer left in TIME_WAIT is free).
-    Raises ``PermissionError`` for a port this user may not open (below 1024)."""
+def port_free(port: int, bind: str = "0.0.0.0") -> bool:
+    """Whether a server could listen on ``port`` at address ``bind`` here (all
+    interfaces by default; with address reuse as servers set it: a port a closed viewer
+    left in TIME_WAIT is free). Raises ``PermissionError`` for a port this user may not
+    open (below 1024)."""
     import socket
 
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+    family = socket.AF_INET6 if ":" in bind else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
         probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
-            probe.bind(("0.0.0.0", port))
+            probe.bind((bind, port))
         except PermissionError:
             raise
         except OSError:
@@ -63,14 +70,15 @@ def port_free(port: int) -> bool:
     return True
 
 
-def web_port(asked: int | None) -> int:
-    """The web viewer's port: ``asked`` if free (else a ValueError naming it), else
-    :data:`WEB_VIEWER_PORT` if free, else 0 (rerun picks a free one and prints it)."""
+def web_port(asked: int | None, bind: str = WEB_BIND) -> int:
+    """The web viewer's port at address ``bind``: ``asked`` if free (else a ValueError
+    naming it), else :data:`WEB_VIEWER_PORT` if free, else 0 (rerun picks a free one and
+    prints it)."""
     if asked is not None:
         if not 1 <= asked <= 65535:
             raise ValueError(f"web_viewer_port: {asked} is not a port (1-65535)")
         try:
-            free = port_free(asked)
+            free = port_free(asked, bind)
         except PermissionError:
             raise ValueError(f"web_viewer_port: {asked} needs privileges here (ports below "
                              "1024); give one above") from None
@@ -78,7 +86,22 @@ def web_port(asked: int | None) -> int:
             raise ValueError(f"web_viewer_port: {asked} is in use (another viewer still "
                              "running?); give another port, or none for a free one")
         return asked
-    return WEB_VIEWER_PORT if port_free(WEB_VIEWER_PORT) else 0
+    return WEB_VIEWER_PORT if port_free(WEB_VIEWER_PORT, bind) else 0
+
+
+def check_bind(bind: str) -> None:
+    """ValueError naming ``bind`` unless it is an IP address of this machine (or all of
+    them: ``0.0.0.0``, ``::``), which the viewer's servers can listen on."""
+    import ipaddress
+
+    try:
+        ipaddress.ip_address(bind)
+    except ValueError:
+        raise ValueError(f"bind: {bind!r} is not an IP address (127.0.0.1: this machine "
+                         "only; 0.0.0.0 or ::, every interface)") from None
+    if not port_free(0, bind):  # any free port: fails only for an address not here
+        raise ValueError(f"bind: {bind} is not an address of this machine (127.0.0.1: "
+                         "this machine only; 0.0.0.0 or ::, every interface)")
 
 
 def check_recording(path: str | os.PathLike) -> str | None:
@@ -128,13 +151,16 @@ def stop_viewer(proc: subprocess.Popen, timeout: float = 5.0) -> int:
 
 
 def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = False, *,
-           web_viewer_port: int | None = None, wait: bool = True) -> int | subprocess.Popen:
+           web_viewer_port: int | None = None, bind: str = WEB_BIND,
+           wait: bool = True) -> int | subprocess.Popen:
     """Open a recording, or several (the viewer's recordings panel switches between
     them), in the rerun viewer (the ``rerun`` binary shipped with rerun-sdk).
 
     ``web=True`` serves the web viewer over HTTP instead (``rerun --web-viewer``; port
-    ``web_viewer_port``, else 9090, else a free one: :func:`web_port`) and opens a
-    browser if there is one. Blocks until the viewer exits and returns its exit code;
+    ``web_viewer_port``, else 9090, else a free one: :func:`web_port`; on address
+    ``bind``, this machine only unless given: :data:`WEB_BIND`) and opens a browser if
+    there is one. rerun 0.41's web server keeps one core busy while it runs, a browser
+    attached or not: stop it when done. Blocks until the viewer exits and returns its exit code;
     ``wait=False`` returns the process. The
     viewer runs in its own process group: Ctrl-C or SIGTERM stops it and its servers
     (nothing is left holding the ports), then raises on in the caller as
@@ -147,8 +173,10 @@ def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = Fa
             raise FileNotFoundError(f"path: no recording at {p}")
     if not paths:
         raise ValueError("path: no recording given")
-    port = web_port(web_viewer_port) if web else None
-    command = replay_command(paths, web, port)
+    if web:
+        check_bind(bind)
+    port = web_port(web_viewer_port, bind) if web else None
+    command = replay_command(paths, web, port, bind)
     if not wait:
         return subprocess.Popen(command, start_new_session=True)
 
