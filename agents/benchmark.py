@@ -1110,19 +1110,31 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
 
 def _print_table(header: Sequence[str], table: Sequence[Sequence[str]],
                  notes: Sequence[str] = ()) -> None:
+    """The table on screen, every cell on one line: on a terminal narrower than the table
+    its columns are split over as many tables as it takes, each with the scenario and
+    controller (a terminal wrapping the lines of one wide table garbled every row, a
+    review; rich folding the cells split figures); in a log or a pipe, one table."""
     from rich.console import Console
     from rich.table import Table
 
-    t = Table(title="controller benchmark (means over seeds)",
-              caption="\n".join(notes) or None, caption_justify="left")
-    widths = [max(len(str(cell)) for cell in column) for column in zip(header, *table,
-                                                                        strict=True)]
-    for k, name in enumerate(header):
-        t.add_column(name, no_wrap=k < 2)  # scenario and controller names never wrap
-    for r in table:
-        t.add_row(*r)
+    widths = [max(len(str(cell)) for cell in column) + 3 for column in zip(header, *table,
+                                                                            strict=True)]
     console = Console()
-    # wide enough for every cell on one line: a narrow terminal wraps the lines, but
-    # rich never cuts a name to "soft-spe..."
-    console.width = max(console.width, sum(w + 3 for w in widths) + 1)
-    console.print(t)
+    keys = 2  # scenario and controller: in every part
+    if not console.is_terminal:
+        console.width = max(console.width, sum(widths) + 1)
+    parts: list[list[int]] = [[]]
+    for k in range(keys, len(header)):
+        if parts[-1] and sum(widths[j] for j in [*range(keys), *parts[-1], k]) + 1 \
+                > console.width:
+            parts.append([])
+        parts[-1].append(k)
+    for n, part in enumerate(parts):
+        t = Table(title="controller benchmark (means over seeds)" if n == 0 else None)
+        for k in [*range(keys), *part]:
+            t.add_column(header[k], no_wrap=True)
+        for r in table:
+            t.add_row(*(r[k] for k in [*range(keys), *part]))
+        console.print(t)
+    for note in notes:  # under the tables, as wide as the terminal
+        console.print(note, style="dim italic", highlight=False)

@@ -1606,3 +1606,28 @@ def test_an_episode_a_failure_ends_in_the_warm_up_is_a_row_and_is_said(tmp_path,
     assert "Episodes that ended early (metrics until then): stiff/random/0" in " ".join(
         printed.split())
     assert "| 1 (1 ended early) |" in (out / "benchmark.md").read_text()
+
+
+def test_the_table_fits_the_terminal_without_cutting_a_figure(monkeypatch, capsys) -> None:
+    """On a terminal narrower than the table (100 columns against ~150) the columns go to
+    stacked tables, each with the scenario and controller, every figure whole on one line:
+    the terminal wrapped every row of one wide table (a review). In a pipe or a log, one
+    table as wide as its cells."""
+    header = ["scenario", "controller", *(f"metric {k}" for k in range(12))]
+    table = [["stick_slip", name, *(f"{k}.{k}5 +-0.0{k}" for k in range(12))]
+             for name in ("soft-speed", "z-torque")]
+    note = "a note " * 30
+    monkeypatch.setenv("FORCE_COLOR", "1")  # rich: a terminal
+    monkeypatch.setenv("COLUMNS", "100")
+    bm._print_table(header, table, [note])
+    out = re.sub(r"\x1b\[[0-9;]*m", "", capsys.readouterr().out)
+    assert max(map(len, out.splitlines())) <= 100
+    assert out.count("┃ controller") >= 2  # several tables, each naming the rows
+    for row in table:
+        for cell in row:
+            assert re.search(rf"│ {re.escape(cell)}\s+│", out), cell
+    monkeypatch.delenv("FORCE_COLOR")
+    monkeypatch.setattr("sys.stdout.isatty", lambda: False, raising=False)
+    bm._print_table(header, table, [note])
+    out = capsys.readouterr().out
+    assert out.count("┃ controller") == 1 and max(map(len, out.splitlines())) > 100
