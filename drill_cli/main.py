@@ -110,6 +110,28 @@ def same_physics(scenarios: Sequence[str]) -> list[str]:
             if any(c == other for t, other in configs.items() if t != s)]
 
 
+def same_episodes(scenarios: Sequence[str], set_points: dict[str, float]
+                  ) -> dict[str, str]:
+    """The fixed scenarios among ``scenarios`` that the benchmark's ``set_points`` (its
+    ``--rpm``, ``--wob``) make equal to an earlier one (config and set points: e.g.
+    default and stick_slip at one --rpm), each mapped to that earlier one."""
+    from drill_env.scenarios import RANDOMISED, make_scenario
+
+    seen: dict[tuple, str] = {}
+    same = {}
+    for name in scenarios:
+        if name in RANDOMISED:
+            continue
+        s = make_scenario(name, None, **set_points)
+        key = (s.config, s.surface_speed, s.weight_on_bit, s.episode_duration,
+               s.allow_pipe_buckling)
+        if key in seen:
+            same[name] = seen[key]
+        else:
+            seen[key] = name
+    return same
+
+
 def unwritable(folder: Path) -> str:
     """Why ``folder`` could not be written (created if missing), or "" if it can; creates
     nothing, so a command refused later leaves no folder behind."""
@@ -612,6 +634,16 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             f"({args.duration:g} s)" + ("; give a shorter --warmup" if whose else ""))
     check_constant_set_points(controllers, env_id)
     set_points = benchmark_set_points(args, env_id)
+    if set_points:  # one episode is not run twice under two names
+        twins = same_episodes(scenarios, set_points)
+        if twins:
+            scenarios = [n for n in scenarios if n not in twins]
+            flags = " ".join(f"{f} {v:g}" for f, v in (("--rpm", args.rpm), ("--wob", args.wob))
+                             if v is not None)
+            print("note: at " + flags + ", " + "; ".join(
+                f"{n} is the same episode as {first}" for n, first in twins.items())
+                + " (they differ only in set points): run once, as "
+                + ", ".join(dict.fromkeys(twins.values())), file=sys.stderr)
     if args.string_lengths is not None and env_id is None:
         raise argparse.ArgumentTypeError("--string-lengths: the range a task's random "
                                          "scenario draws; give --task with it")

@@ -1224,6 +1224,28 @@ def test_set_points_of_your_own_drive_every_scenario_of_a_benchmark(tmp_path):
     assert buckling_notes(["default"], 100e3, {}) == []
 
 
+def test_scenarios_that_set_points_make_one_episode_run_once(tmp_path, capsys):
+    """From a walkthrough: the README's ``benchmark --rpm 60 --wob 120`` ran default and
+    stick_slip (default at 50 rpm) as two names of one episode, bit-identical rows, twice
+    the time, nothing said. Now the later name is dropped with a note; a WOB alone
+    leaves their speeds apart."""
+    from drill_cli.main import same_episodes
+    from drill_env.physics.units import RPM
+
+    names = ["default", "stick_slip", "paper_case1", "random"]
+    assert same_episodes(names, {"surface_speed": 60 * RPM}) == {"stick_slip": "default"}
+    assert same_episodes(names, {"weight_on_bit": 80e3}) == {}
+    assert same_episodes(["stick_slip", "default"], {"surface_speed": 60 * RPM,
+                                                     "weight_on_bit": 80e3}) \
+        == {"default": "stick_slip"}
+    assert main(["benchmark", "--controllers", "stiff", "--seeds", "1", "--duration", "12",
+                 "--warmup", "4", "--rpm", "60", "--out", str(tmp_path)]) == 0
+    assert "note: at --rpm 60, stick_slip is the same episode as default (they differ " \
+        "only in set points): run once, as default" in capsys.readouterr().err
+    with (tmp_path / "benchmark.csv").open() as f:
+        assert [r["scenario"] for r in csv.DictReader(f)] == ["default"]
+
+
 def test_env_kwargs_of_a_scenario_benchmark_are_refused_not_ignored(tmp_path):
     """From a walkthrough: ``BenchmarkSettings(env_kwargs=...)`` without a task changed
     nothing (a scenario benchmark runs each controller in its own env)."""
