@@ -207,6 +207,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    own_settings: tuple[str, ...] = ()  # a subclass's settings besides EnvConfig's
 
     def __init__(self, scenario: str = "default", config: EnvConfig | dict | None = None, *,
                  physics: dict[str, Any] | None = None, bit_model: str | None = None,
@@ -223,8 +224,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
         starts = {k: v for k, v in overrides.items() if k in START_RANGES}
         unknown = set(overrides) - set(env_over) - set(scen_over) - set(starts)
         if unknown:
+            known = [*ENV_FIELDS, *params, *self.own_settings]
             raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}"
-                             f"{did_you_mean(min(unknown), [*ENV_FIELDS, *params])}; "
+                             f"{did_you_mean(min(unknown), known)}; "
                              f"EnvConfig fields: {sorted(ENV_FIELDS)}; scenario "
                              f"{scenario!r} parameters: {sorted(params)}")
         self.config: EnvConfig = replace(from_dict(EnvConfig, config), **env_over)

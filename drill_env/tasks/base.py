@@ -42,6 +42,7 @@ class TaskEnv(DrillStringEnv):
 
     def __init__(self, scenario: str, task: Any, **kwargs: Any) -> None:
         fields = {f.name for f in dataclasses.fields(self.task_class)}
+        self.own_settings = tuple(sorted(fields))  # a typo of one is suggested one
         config = kwargs.get("config")
         if config is not None and not isinstance(config, Mapping):
             raise ValueError(

@@ -191,9 +191,14 @@ def test_a_reward_weight_in_the_config_dict_reaches_the_task(env_id, name):
 
 def test_a_task_settings_typo_lists_the_tasks_own_settings():
     with pytest.raises(ValueError, match=r"^StickSlipEnv: unknown argument\(s\) "
-                                         r"\['max_corection'\].*task settings: .*"
+                                         r"\['max_corection'\] \(did you mean "
+                                         r"max_correction\?\);.*task settings: .*"
                                          r"'max_correction'"):
         gym.make("DrillStickSlip-v0", max_corection=20.0)
+    # a task's own setting is suggested as EnvConfig's are (a walkthrough's typo got none)
+    with pytest.raises(ValueError, match=r"\['tracking_wieght'\] \(did you mean "
+                                         r"tracking_weight\?\)"):
+        gym.make("DrillStickSlip-v0", tracking_wieght=1.0)
     gym.make("DrillOptimise-v0", action_mode="incremental", rop_weight=2.0)  # it uses both
 
 
