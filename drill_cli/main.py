@@ -1645,12 +1645,26 @@ def typed_controller(name: str) -> Any:
         raise argparse.ArgumentTypeError(f"--controller: {detail}") from None
 
 
+def option_hint(word: str, command: argparse.ArgumentParser) -> str:
+    """`` (did you mean --rpm?)`` for a misspelt option of ``command``, else ""."""
+    from drill_env.physics.validation import did_you_mean
+
+    if not word.startswith("--"):
+        return ""
+    return did_you_mean(word.partition("=")[0], [o for action in command._actions
+                                                 for o in action.option_strings
+                                                 if o.startswith("--")])
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     top = parser()
     if not (sys.argv[1:] if argv is None else argv):  # no command: what the commands are
         top.print_help()
         return 2
-    args = top.parse_args(argv)
+    args, extra = top.parse_known_args(argv)
+    if extra:  # said by the command's parser (argparse's own said the top usage)
+        args.command_parser.error(f"unrecognized arguments: {' '.join(extra)}"
+                                  + option_hint(extra[0], args.command_parser))
     out = getattr(args, "out", None)
     if out is not None and (reason := unwritable(out)):  # before the work: found after an
         args.command_parser.error(f"--out {out}: {reason}")  # hour's work, it lost the hour

@@ -711,6 +711,20 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
         assert said in capsys.readouterr().err, args
 
 
+def test_a_misspelt_option_gets_its_commands_usage_and_a_suggestion(capsys):
+    """From a walkthrough: ``run --rmp 50`` printed the top-level usage and no hint."""
+    for argv, said in [(["run", "--rmp", "50"], "drill-env run: error: unrecognized "
+                                                "arguments: --rmp 50 (did you mean --rpm?)"),
+                       (["benchmark", "--seeds", "1", "--wobb=3"],
+                        "unrecognized arguments: --wobb=3 (did you mean --wob?)"),
+                       (["benchmark", "extra"], "benchmark: error: unrecognized arguments: "
+                                                "extra\n")]:
+        with pytest.raises(SystemExit):
+            main(argv)
+        err = capsys.readouterr().err
+        assert said in err and f"usage: drill-env {argv[0]} " in err, argv
+
+
 def test_version_and_exclusive_well_inputs(tmp_path, capsys):
     with pytest.raises(SystemExit) as done:
         main(["--version"])
