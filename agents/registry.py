@@ -338,8 +338,11 @@ def check_interface(name: str, controller: Any) -> None:
 def parse_controllers(text: str) -> list[str]:
     """``"stiff,z-torque"`` -> the names, each checked (table names of constant set
     points as :func:`canonical` gives them)."""
+    parts = [n.strip() for n in text.split(",")]
+    if any(parts) and not all(parts):  # "stiff,,z-torque": a name left out, not nothing
+        raise ValueError(f"controllers: an empty name in {text!r} (two commas, or one at an end)")
     try:
-        names = [canonical(n.strip()) for n in text.split(",") if n.strip()]
+        names = [canonical(n) for n in parts if n]
     except ValueError as err:
         raise ValueError(f"controllers: {str(err).partition(': ')[2]}") from None
     if not names:

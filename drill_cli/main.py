@@ -1010,7 +1010,9 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
         data = read_yaml(path)
     except ValueError as err:
         raise ValueError(f"--config {err}") from None
-    if data is None:  # an empty file (or only comments): nothing to override
+    if data is None:  # an empty file (or only comments): nothing to override, said
+        warnings.warn(f"--config {path} holds no settings (empty, or only comments): the "
+                      "defaults run", UserWarning, stacklevel=2)
         return {}
     if not isinstance(data, dict):
         raise ValueError(f"--config {path}: expected a mapping of config sections")

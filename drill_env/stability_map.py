@@ -246,8 +246,11 @@ def grid(rpm_step: float = PAPER_RPM_STEP, wob_step: float = PAPER_WOB_STEP,
     for name, value in (("rpm_step", rpm_step), ("wob_step", wob_step), ("max_rpm", max_rpm),
                         ("max_wob", max_wob)):
         require_positive(value, name)
-    if rpm_step > max_rpm or wob_step > max_wob:
-        raise ValueError("rpm_step/wob_step: a step must not exceed the map's maximum")
+    for name, step, top, unit, scale in (("rpm_step", rpm_step, max_rpm, "rpm", 1.0),
+                                         ("wob_step", wob_step, max_wob, "kN", 1e3)):
+        if step > top:
+            raise ValueError(f"{name}: {step / scale:g} {unit} is more than the map's maximum "
+                             f"({top / scale:g} {unit}): no line would fit")
     for name, value, cap, unit, scale in (("max_rpm", max_rpm, MAX_MAP_RPM, "rpm", 1.0),
                                           ("max_wob", max_wob, MAX_MAP_WOB, "kN", 1e3)):
         if value > cap:

@@ -477,7 +477,8 @@ def test_an_empty_config_file_overrides_nothing_and_a_list_is_refused(tmp_path):
 
     empty = tmp_path / "empty.yaml"
     empty.write_text("# nothing yet\n")
-    assert read_overrides(empty) == {}
+    with pytest.warns(UserWarning, match="holds no settings"):  # said: a walkthrough's
+        assert read_overrides(empty) == {}  # empty file ran the defaults unsaid
     listed = tmp_path / "list.yaml"
     listed.write_text("- string\n")
     with pytest.raises(ValueError, match="expected a mapping of config sections"):
@@ -592,6 +593,11 @@ def test_an_unwritable_out_is_refused_before_the_work(tmp_path, capsys):
     (["--rpm-step", "1e-6"], "--rpm-step: the map would have 2.5e+08 lines of points"),
     (["--max-wob", "1e9"], "--max-wob: at most 2000 kN"),
     (["--positions", "P1,P1"], "--positions: P1 given twice"),
+    # the one step at fault, not both (a walkthrough)
+    (["--max-rpm", "1", "--rpm-step", "5"], "--rpm-step: 5 rpm is more than the map's "
+                                            "maximum (1 rpm)"),
+    (["--max-wob", "10", "--wob-step", "20"], "--wob-step: 20 kN is more than the map's "
+                                              "maximum (10 kN)"),
     (["--max-wob", "600"], "--max-wob: 600 kN at 250 rpm: lateral stiffness not positive "
                            "definite")])
 def test_a_stability_map_beyond_its_bounds_is_refused_naming_the_option(tmp_path, capsys,

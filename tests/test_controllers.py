@@ -259,6 +259,9 @@ def test_registry_names_every_controller_and_refuses_unknown_ones():
     with pytest.raises(ValueError, match=r"^controllers: unknown name 'z-torq' \(did you "
                                          r"mean z-torque\?\); known: "):
         parse_controllers("stiff,z-torq")
+    for typed in ("stiff,,z-torque", "stiff,"):  # a name left out: dropped, unsaid
+        with pytest.raises(ValueError, match=r"^controllers: an empty name in "):
+            parse_controllers(typed)
 
 
 class FakeEnv:
