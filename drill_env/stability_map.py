@@ -475,19 +475,26 @@ def maps_figure(maps: Sequence[StabilityMap], controller: str = "stiff",
         ax.set_xlabel("rotary speed (rpm)")
     for ax in axes[:, 0]:
         ax.set_ylabel("WOB (kN)")
-    for ax in list(axes.flat)[len(maps):]:
-        ax.set_visible(False)
+    for k in range(len(maps), rows * cols):  # an empty place: the map above it shows
+        axes.flat[k].set_visible(False)      # the speed axis (sharex hid its labels)
+        above = axes.flat[k - cols]
+        above.xaxis.set_tick_params(labelbottom=True)
+        above.set_xlabel("rotary speed (rpm)")
     from matplotlib.patches import Patch
 
     handles, _ = axes.flat[0].get_legend_handles_labels()
-    zone = plt.get_cmap("Reds")(1.0 / 2.5)  # the colour pcolormesh gives unstable = 1
-    handles.append(Patch(color=zone, label="stick-slip zone (inferred)"))
-    fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=7, frameon=False)
+    reds = plt.get_cmap("Reds")  # the colours pcolormesh gives unstable = 1 and 0
+    handles.append(Patch(color=reds(1.0 / 2.5), label="stick-slip zone (inferred)"))
+    handles.append(Patch(facecolor=reds(0.0), edgecolor="0.6", linewidth=0.5,
+                         label="steady zone (inferred)"))
+    ncol = 4 if cols > 1 else 2  # one panel's width holds two entries a line
+    fig.legend(handles=handles, loc="lower center", ncol=ncol, fontsize=7, frameon=False)
     title = ("Torsional stability maps by boundary tracking (paper Fig. 15), "
              f"{controller} top drive" + (f", {Path(source).name}" if source else ""))
     # ~11 characters of the 12 pt title per inch: one panel's width holds half of it
     fig.suptitle(textwrap.fill(title, width=int(11 * 4.2 * cols)))
-    fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))  # the legend below the maps
+    # the legend below the maps: its lines' height over the figure's
+    fig.tight_layout(rect=(0.0, 0.24 / fig.get_figheight() * (4 // ncol), 1.0, 1.0))
     return fig
 
 
