@@ -120,7 +120,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                               clip_on=False, zorder=3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(controllers), fontsize=9)
-    fig.suptitle(f"{textwrap.fill(title, 150)}\nmeans over seeds, whiskers min-max; a "
+    fig.suptitle(f"{balanced_fill(title, 150)}\nmeans over seeds, whiskers min-max; a "
                  "coloured base line alone: about zero")
     fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
     save(fig, path)
@@ -149,6 +149,18 @@ def _swing(t: np.ndarray, speed: np.ndarray, warmup: float) -> float:
         return 0.0
     blocks = blocks[finite]
     return float(np.median(np.nanmax(blocks, axis=1) - np.nanmin(blocks, axis=1)))
+
+
+def balanced_fill(text: str, width: int) -> str:
+    """``text`` in as few lines of at most ``width`` characters as ``textwrap`` needs, of
+    even length: a title one word longer than a line no longer leaves the word alone on
+    its second line ("... physics level" / "fast")."""
+    lines = textwrap.wrap(text, width)
+    for narrower in range(math.ceil(len(text) / max(len(lines), 1)), width):
+        even = textwrap.wrap(text, narrower)
+        if len(even) <= len(lines):
+            return "\n".join(even)
+    return "\n".join(lines)
 
 
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
@@ -223,7 +235,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
                    bbox_to_anchor=(0.5, 1.0), frameon=False)
     axes[-1].set_xlabel("time (s)")
     where = f"{env_id} on the {scenario} scenario" if env_id else scenario
-    fig.suptitle((f"{textwrap.fill(title, 110)}\n" if title else "") + f"{where}: every "
+    fig.suptitle((f"{balanced_fill(title, 110)}\n" if title else "") + f"{where}: every "
                  "controller from the "
                  "same start and targets (first seed; grey: warm-up, not in the metrics)",
                  fontsize=11)

@@ -1653,3 +1653,16 @@ def test_the_table_fits_the_terminal_without_cutting_a_figure(monkeypatch, capsy
     bm._print_table(header, table, [note])
     out = capsys.readouterr().out
     assert out.count("┃ controller") == 1 and max(map(len, out.splitlines())) > 100
+
+
+def test_a_title_wraps_into_even_lines_not_a_lone_last_word() -> None:
+    """From a walkthrough: an evaluation's series title wrapped at 110 characters left
+    "fast" alone on its second line."""
+    from agents.plots import balanced_fill
+
+    title = ("Evaluation of stick_slip (logs/runs/stick_slip_sac_seed0/best_model.zip, sac "
+             "on task stick_slip), held-out seeds 1000000-1000019, physics level fast")
+    lines = balanced_fill(title, 110).split("\n")
+    assert len(lines) == 2 and " ".join(lines) == title
+    assert min(map(len, lines)) > 0.8 * max(map(len, lines))  # even, not 110 + 4
+    assert balanced_fill("short", 110) == "short"
