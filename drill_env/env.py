@@ -70,9 +70,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
     5 in pipe over 140 m of heavy-weight pipe and a packed BHA; lateral and torsional dynamics,
     borehole-wall contact) drives a mesoscopic PDC bit (``drill_env.physics``) through
     one hard rock (``default``, ``stick_slip``) or a dipping hard-soft-hard sandwich
-    (``paper_case2``-``4`` and ``random``, which the control tasks train on). The agent
-    sets the top drive's speed set point and the hook load (commanded as the weight on
-    bit it leaves) ten times a second; the simulator
+    (``paper_case2``-``4``, ``random``: the tasks'). The agent sets the top drive's speed
+    set point and the hook load (as the weight on bit it leaves) ten times a second; the simulator
     integrates the string in between (``round(control_interval / dt)`` steps of 2 ms at
     the full level) and records the bit's motion, from which the stick-slip and whirl
     metrics of :mod:`drill_env.metrics` are computed. The task: drill fast without
@@ -207,7 +206,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
-    own_settings: tuple[str, ...] = ()  # a subclass's settings besides EnvConfig's
+    own_settings: tuple[str, ...] = ()  # a subclass's settings besides EnvConfig's,
+    unused_env_fields: frozenset[str] = frozenset()  # and the EnvConfig ones it ignores
 
     def __init__(self, scenario: str = "default", config: EnvConfig | dict | None = None, *,
                  physics: dict[str, Any] | None = None, bit_model: str | None = None,
@@ -224,11 +224,11 @@ class DrillStringEnv(BatchFinish, gym.Env):
         starts = {k: v for k, v in overrides.items() if k in START_RANGES}
         unknown = set(overrides) - set(env_over) - set(scen_over) - set(starts)
         if unknown:
-            known = [*ENV_FIELDS, *params, *self.own_settings]
-            raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}"
-                             f"{did_you_mean(min(unknown), known)}; "
-                             f"EnvConfig fields: {sorted(ENV_FIELDS)}; scenario "
-                             f"{scenario!r} parameters: {sorted(params)}")
+            fields = sorted(set(ENV_FIELDS) - self.unused_env_fields)  # the ones it reads
+            hint = did_you_mean(min(unknown), [*fields, *params, *self.own_settings])
+            raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}{hint}; "
+                             f"EnvConfig fields: {fields}; scenario {scenario!r} "
+                             f"parameters: {sorted(params)}")
         self.config: EnvConfig = replace(from_dict(EnvConfig, config), **env_over)
         self.scenario_name = scenario
         self.scenario_params = {**scen_over, **start_ranges(scenario, starts, self.config)}

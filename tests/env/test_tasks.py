@@ -197,8 +197,12 @@ def test_a_task_settings_typo_lists_the_tasks_own_settings():
         gym.make("DrillStickSlip-v0", max_corection=20.0)
     # a task's own setting is suggested as EnvConfig's are (a walkthrough's typo got none)
     with pytest.raises(ValueError, match=r"\['tracking_wieght'\] \(did you mean "
-                                         r"tracking_weight\?\)"):
+                                         r"tracking_weight\?\)") as err:
         gym.make("DrillStickSlip-v0", tracking_wieght=1.0)
+    # and the EnvConfig fields listed are those the task reads (observation_noise, listed,
+    # was then refused as a setting the task does not use)
+    listed = str(err.value).partition("EnvConfig fields: ")[2].partition("]")[0]
+    assert "'control_interval'" in listed and "'observation_noise'" not in listed
     gym.make("DrillOptimise-v0", action_mode="incremental", rop_weight=2.0)  # it uses both
 
 
