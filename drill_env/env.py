@@ -67,16 +67,15 @@ class DrillStringEnv(BatchFinish, gym.Env):
     ## Description
 
     A finite-element drill string (the ``default`` scenario's realistic 1250 m string:
-    5 in pipe over 140 m of heavy-weight pipe and a packed BHA; lateral and torsional dynamics,
-    borehole-wall contact) drives a mesoscopic PDC bit (``drill_env.physics``) through
-    one hard rock (``default``, ``stick_slip``) or a dipping hard-soft-hard sandwich
+    5 in pipe over 140 m of heavy-weight pipe and a packed BHA; lateral and torsional
+    dynamics, borehole-wall contact) drives a mesoscopic PDC bit (``drill_env.physics``)
+    through one hard rock (``default``, ``stick_slip``) or a dipping hard-soft-hard sandwich
     (``paper_case2``-``4``, ``random``: the tasks'). The agent sets the top drive's speed
-    set point and the hook load (as the weight on bit it leaves) ten times a second; the simulator
-    integrates the string in between (``round(control_interval / dt)`` steps of 2 ms at
-    the full level) and records the bit's motion, from which the stick-slip and whirl
-    metrics of :mod:`drill_env.metrics` are computed. The task: drill fast without
-    stick-slip and whirl, and, in a layered scenario, while the bit crosses formation
-    changes.
+    set point and the hook load (as the WOB it leaves) ten times a second; the simulator
+    integrates the string in between (``round(control_interval / dt)`` steps of 2 ms at the
+    full level) and records the bit's motion, from which :mod:`drill_env.metrics` computes
+    the stick-slip and whirl metrics. The task: drill fast without stick-slip and whirl,
+    and in a layered scenario while the bit crosses formation changes.
 
     ## Action Space
 
@@ -447,6 +446,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
     def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if not self._reset_done:  # (as gymnasium.make's OrderEnforcing and the vector envs)
             raise ResetNeeded("step: call reset() before the first step")
+        if self._step_count >= self._max_steps:  # undefined in Gymnasium: said, as CartPole
+            gym.logger.warn("step: past the episode's end (truncated): call reset()")
         self.apply_action(action)
         records = self.advance()
         self.keep_records(records)
@@ -458,12 +459,11 @@ class DrillStringEnv(BatchFinish, gym.Env):
         if self._frames is not None:
             self._frames.add(records)
 
-    # The three phases of a step are separate so a batched env can advance many
-    # simulators between them (see drill_env.batching: there the metric windows are
-    # updated inside the parallel call, and finish_metrics does the rest). The Python
-    # around the simulator call runs every step and would cost a third of the physics with
-    # a NumPy call per quantity: it works on floats read from the simulator's compiled
-    # readout, and the metrics on a preallocated rolling window.
+    # The three phases of a step are separate so a batched env can advance many simulators
+    # between them (drill_env.batching: the metric windows are updated in the parallel
+    # call, finish_metrics does the rest). The Python around the simulator call works on
+    # floats read from its compiled readout (a NumPy call per quantity cost a third of the
+    # physics), the metrics on a preallocated rolling window.
 
     def action_for(self, surface_speed: float, weight_on_bit: float) -> np.ndarray:
         """The absolute-mode action that asks for these set points (rad/s, N), clipped

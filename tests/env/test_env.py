@@ -654,3 +654,22 @@ def test_a_misspelt_keyword_of_the_plain_env_gets_the_field_it_was_meant_to_be()
         gym.make("DrillString-v0", whirl_wieght=1.0)
     with pytest.raises(ValueError, match=r"\(did you mean string_length\?\)"):
         gym.make("DrillString-v0", string_lenght=1300.0)
+
+
+def test_a_step_past_the_episodes_end_is_said() -> None:
+    """From an RL researcher's review: a single env stepped on after its truncation went
+    on silently (the vector envs raise ResetNeeded; Gymnasium leaves it undefined and
+    its own CartPole warns, as this does)."""
+    env = gym.make("DrillString-v0", episode_duration=0.3)
+    env.reset(seed=0)
+    truncated = False
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing said within the episode
+        while not truncated:
+            *_, truncated, _ = env.step(env.action_space.sample())
+    with pytest.warns(UserWarning, match="past the episode's end"):
+        env.step(env.action_space.sample())
+    env.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env.step(env.action_space.sample())  # a new episode: nothing said
