@@ -122,8 +122,9 @@ def same_episodes(scenarios: Sequence[str], set_points: dict[str, float]
     for name in scenarios:
         if name in RANDOMISED:
             continue
-        s = make_scenario(name, None, **set_points)
-        key = (s.config, s.surface_speed, s.weight_on_bit, s.episode_duration,
+        s = make_scenario(name)  # its own start (the benchmark runs a buckling --wob too)
+        key = (s.config, set_points.get("surface_speed", s.surface_speed),
+               set_points.get("weight_on_bit", s.weight_on_bit), s.episode_duration,
                s.allow_pipe_buckling)
         if key in seen:
             same[name] = seen[key]
