@@ -728,6 +728,12 @@ def cmd_train(args: argparse.Namespace) -> int:
                                          "give --seeds to train several runs side by side")
     run = args.out / (args.name or f"{args.task}_{args.algo}_seed{config.seed}")
     saved = run / "config.yaml"
+    if args.resume and not holds_run(run) and run.is_dir():
+        # stopped before it saved anything (a Ctrl-C in its first seconds): a fresh start
+        # is what resuming it gives ("--resume starts it", the interrupt said)
+        print(f"note: {run} holds nothing of a run yet (stopped before it saved its "
+              "config): --resume starts it", file=sys.stderr)
+        args.resume = False
     if args.resume and not holds_run(run):
         raise argparse.ArgumentTypeError(f"--resume: no run in {run}; name it by --name, or "
                                          "by --seed (and --algo) as it was started")

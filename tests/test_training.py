@@ -1242,6 +1242,12 @@ def test_train_command_resumes_with_the_runs_own_config_and_checks_its_flags(tmp
         with pytest.raises(SystemExit):
             main(args)
         assert says in capsys.readouterr().err
+    # a run stopped in its first seconds leaves a folder without its config, and the
+    # interrupt says "--resume starts it": it does (it said "no run in", an RL review)
+    (tmp_path / "runs" / "early").mkdir()
+    assert main(command("--config", str(custom), "--resume", name="early")) == 0
+    assert "holds nothing of a run yet" in capsys.readouterr().err
+    assert (tmp_path / "runs" / "early" / "run.json").is_file()
 
 
 def test_a_run_of_an_algorithm_drill_env_does_not_train_is_named_before_any_episode(
