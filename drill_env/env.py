@@ -47,7 +47,7 @@ from drill_env.physics.config import FIDELITY_LEVELS, SimulationConfig, flatten,
 from drill_env.physics.layout import N_READINGS, READINGS, RECORD_CHANNELS
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
-from drill_env.physics.validation import check_newtons, did_you_mean, numbers
+from drill_env.physics.validation import action_values, check_newtons, did_you_mean
 from drill_env.scenarios import (
     RANDOMISED,
     Scenario,
@@ -478,15 +478,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     def apply_action(self, action) -> None:
         """Validate ``action``, map it to set points (clipped, rate limited)."""
-        if type(action) is np.ndarray and action.shape == (2,) and action.dtype.char in "fd":
-            a0, a1 = action.tolist()  # the usual float32 policy output, exactly as float64
-        else:
-            a = numbers(action, "action")
-            if a.shape != (2,):
-                raise ValueError(f"action: expected shape (2,), got {np.shape(action)}")
-            a0, a1 = a.tolist()
-        if not (math.isfinite(a0) and math.isfinite(a1)):
-            raise ValueError(f"action: must be finite, got {[a0, a1]} (NaN/inf)")
+        a0, a1 = action_values(action, 2)
         a0 = 1.0 if a0 > 1.0 else -1.0 if a0 < -1.0 else a0
         a1 = 1.0 if a1 > 1.0 else -1.0 if a1 < -1.0 else a1
         cfg = self.config

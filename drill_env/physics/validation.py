@@ -426,6 +426,23 @@ def numbers(value: Any, name: str) -> np.ndarray:
     return array.astype(np.float64, copy=False)
 
 
+def action_values(action: Any, size: int) -> list[float]:
+    """An env's ``action`` of ``size`` entries as floats; ValueError naming ``action`` when
+    it is not ``size`` finite numbers. The usual policy output (a float32 or float64 array
+    of that shape, a batch's row) takes a fast path, exactly as float64."""
+    if type(action) is np.ndarray and action.shape == (size,) and action.dtype.char in "fd":
+        values = action.tolist()
+    else:
+        a = numbers(action, "action")
+        if a.shape != (size,):
+            raise ValueError(f"action: expected shape ({size},), got {np.shape(action)}")
+        values = a.tolist()
+    if not all(map(math.isfinite, values)):
+        raise ValueError(f"action: must be finite, got {values if size > 1 else values[0]} "
+                         "(NaN/inf)")
+    return values
+
+
 def replace(config: T, **changes: Any) -> T:
     """``dataclasses.replace`` with dotted paths: ``replace(c, **{"mud.density": 1.1e3})``.
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Any
 
 import numpy as np
@@ -17,9 +16,9 @@ from drill_env.physics.validation import (
     Count,
     NonNegative,
     Positive,
+    action_values,
     check_newtons,
     config_dataclass,
-    numbers,
 )
 from drill_env.tasks.base import TaskEnv
 from drill_env.tasks.telemetry import TelemetryKind
@@ -248,15 +247,7 @@ class StickSlipEnv(TaskEnv):
         return np.array([min(max(a, -1.0), 1.0)], dtype=np.float32)
 
     def apply_action(self, action) -> None:
-        if type(action) is np.ndarray and action.shape == (1,) and action.dtype.char in "fd":
-            value = action.item()  # the usual policy output (a batch's row), as float64
-        else:
-            a = numbers(action, "action")
-            if a.shape != (1,):
-                raise ValueError(f"action: expected shape (1,), got {np.shape(action)}")
-            value = float(a[0])
-        if not math.isfinite(value):
-            raise ValueError(f"action: must be finite, got {value} (NaN/inf)")
+        (value,) = action_values(action, 1)
         value = 1.0 if value > 1.0 else -1.0 if value < -1.0 else value
         if self._step_count == self._change_step:
             self._change_targets()
