@@ -100,37 +100,39 @@ def replaced_episode_notes(controllers: Sequence[str], env_id: str,
     return notes
 
 
+def scenario_twins(scenarios: Sequence[str], key: Callable[[Any], Any]) -> dict[str, str]:
+    """The fixed scenarios among ``scenarios`` whose ``key`` (of the scenario as built,
+    its own start) equals an earlier one's, each mapped to that earlier one."""
+    from drill_env.scenarios import RANDOMISED, make_scenario
+
+    first: dict[Any, str] = {}
+    twins = {}
+    for name in (n for n in scenarios if n not in RANDOMISED):
+        k = key(make_scenario(name))
+        if k in first:
+            twins[name] = first[k]
+        else:
+            first[k] = name
+    return twins
+
+
 def same_physics(scenarios: Sequence[str]) -> list[str]:
     """The fixed scenarios among ``scenarios`` whose physics equals another's (they differ
     only in their set points, e.g. default and stick_slip)."""
-    from drill_env.scenarios import RANDOMISED, make_scenario
-
-    configs = {s: make_scenario(s).config for s in scenarios if s not in RANDOMISED}
-    return [s for s, c in configs.items()
-            if any(c == other for t, other in configs.items() if t != s)]
+    twins = scenario_twins(scenarios, lambda s: s.config)
+    return [s for s in scenarios if s in twins or s in twins.values()]
 
 
 def same_episodes(scenarios: Sequence[str], set_points: dict[str, float]
                   ) -> dict[str, str]:
     """The fixed scenarios among ``scenarios`` that the benchmark's ``set_points`` (its
     ``--rpm``, ``--wob``) make equal to an earlier one (config and set points: e.g.
-    default and stick_slip at one --rpm), each mapped to that earlier one."""
-    from drill_env.scenarios import RANDOMISED, make_scenario
-
-    seen: dict[tuple, str] = {}
-    same = {}
-    for name in scenarios:
-        if name in RANDOMISED:
-            continue
-        s = make_scenario(name)  # its own start (the benchmark runs a buckling --wob too)
-        key = (s.config, set_points.get("surface_speed", s.surface_speed),
-               set_points.get("weight_on_bit", s.weight_on_bit), s.episode_duration,
-               s.allow_pipe_buckling)
-        if key in seen:
-            same[name] = seen[key]
-        else:
-            seen[key] = name
-    return same
+    default and stick_slip at one --rpm), each mapped to that earlier one. Compared as
+    built at their own start: the benchmark runs a --wob that buckles it too."""
+    return scenario_twins(scenarios, lambda s: (
+        s.config, set_points.get("surface_speed", s.surface_speed),
+        set_points.get("weight_on_bit", s.weight_on_bit), s.episode_duration,
+        s.allow_pipe_buckling))
 
 
 def unwritable(folder: Path) -> str:
