@@ -107,7 +107,7 @@ def scenario_twins(scenarios: Sequence[str], key: Callable[[Any], Any]) -> dict[
 
     first: dict[Any, str] = {}
     twins = {}
-    for name in (n for n in scenarios if n not in RANDOMISED):
+    for name in dict.fromkeys(n for n in scenarios if n not in RANDOMISED):  # once each
         k = key(make_scenario(name))
         if k in first:
             twins[name] = first[k]
@@ -120,7 +120,7 @@ def same_physics(scenarios: Sequence[str]) -> list[str]:
     """The fixed scenarios among ``scenarios`` whose physics equals another's (they differ
     only in their set points, e.g. default and stick_slip)."""
     twins = scenario_twins(scenarios, lambda s: s.config)
-    return [s for s in scenarios if s in twins or s in twins.values()]
+    return [s for s in dict.fromkeys(scenarios) if s in twins or s in twins.values()]
 
 
 def same_episodes(scenarios: Sequence[str], set_points: dict[str, float]
