@@ -1235,6 +1235,8 @@ def test_scenarios_that_set_points_make_one_episode_run_once(tmp_path, capsys):
     names = ["default", "stick_slip", "paper_case1", "random"]
     assert same_episodes(names, {"surface_speed": 60 * RPM}) == {"stick_slip": "default"}
     assert same_episodes(names, {"weight_on_bit": 80e3}) == {}
+    # a name given twice is not its own twin (it would be dropped altogether)
+    assert same_episodes(["default", "default"], {"surface_speed": 60 * RPM}) == {}
     # a WOB that buckles the pipe at the start: the benchmark runs it with a note, so the
     # check must not build the scenario's own (refused) start (it did: an error)
     assert same_episodes(names, {"surface_speed": 60 * RPM, "weight_on_bit": 200e3}) \
