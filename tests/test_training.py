@@ -527,8 +527,11 @@ def test_training_envs_are_seeded_apart_per_run_and_per_resume(tmp_path, monkeyp
     train(replace(cfg, n_timesteps=512), tmp_path / "run", resume=True, progress=False)
     assert first == [env_seed(cfg, 0), env_seed(cfg, 0) + 1]
     assert sorted(seeds) == [env_seed(cfg, 256), env_seed(cfg, 256) + 1]
-    assert json.loads((tmp_path / "run" / "run.json").read_text())["env_seed"] == \
-        env_seed(cfg, 256)
+    record = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert record["env_seed"] == env_seed(cfg, 256)
+    # every session's seed, not only the last one's
+    assert record["sessions"] == [{"from_env_steps": 0, "env_seed": env_seed(cfg, 0)},
+                                  {"from_env_steps": 256, "env_seed": env_seed(cfg, 256)}]
 
 
 def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path):
@@ -545,8 +548,11 @@ def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path):
     assert done % 512  # the checkpoint at 768 lies inside the second rollout
     longer = replace(cfg, n_timesteps=2048)
     train(longer, tmp_path / "run", resume=True, progress=False)
-    reached = json.loads((tmp_path / "run" / "run.json").read_text())["env_steps"]
-    assert reached == planned_steps(longer, done) == done + 1536 != planned_steps(longer)
+    record = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert record["env_steps"] == planned_steps(longer, done) == done + 1536 != \
+        planned_steps(longer)
+    # the killed session is known from its checkpoint's progress record
+    assert [s["from_env_steps"] for s in record["sessions"]] == [0, done]
 
 
 def test_ppo_learns_to_the_end_of_its_last_rollout_which_its_progress_bar_counts_to(

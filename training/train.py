@@ -31,6 +31,7 @@ import io
 import json
 import platform
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -114,15 +115,31 @@ def evaluate_policy_on_seeds(model: Any, normalizer: Any, env: Any, seeds: list[
 
 
 class Resumed(NamedTuple):
-    """Where a resumed run stands: training wall time so far (s) and the validation
-    return of its best model (-inf: none kept)."""
+    """Where a resumed run stands: training wall time so far (s), the validation return
+    of its best model (-inf: none kept) and the env steps each earlier session started
+    from (each session's envs were seeded by :func:`env_seed` from them; recorded since
+    2026-12-05, empty for a run of an older version)."""
 
     wall_s: float
     best_return: float
+    sessions: tuple[int, ...] = ()
 
 
 #: A run that starts from nothing.
 FRESH = Resumed(0.0, -np.inf)
+
+
+def session_record(config: TrainConfig, sessions: Sequence[int]) -> list[dict[str, int]]:
+    """``run.json``'s ``sessions``: the env steps each session started from and the seed
+    of its envs' first reset (env i: + i), so a resumed run says every seed it trained on."""
+    return [{"from_env_steps": done, "env_seed": env_seed(config, done)} for done in sessions]
+
+
+def _sessions(record: Any) -> tuple[int, ...]:
+    """The sessions' start steps from a progress or ``run.json`` record (none if it
+    predates them)."""
+    found = record.get("sessions", []) if isinstance(record, dict) else []
+    return tuple(int(s["from_env_steps"]) if isinstance(s, dict) else int(s) for s in found)
 
 
 def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
@@ -140,17 +157,22 @@ def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
     if len(kept) < len(rows):
         save_text(path, csv_text(rows[0], kept), newline="")  # whole, as add_row writes
     progress = run / "checkpoints" / f"progress_{steps}.json"
+    sessions: tuple[int, ...] = ()
     if from_checkpoint and progress.exists():
         try:
-            wall = float(json.loads(progress.read_text())["wall_s"])
+            record = json.loads(progress.read_text())
+            wall = float(record["wall_s"])
+            sessions = _sessions(record)
         except (ValueError, KeyError, TypeError) as err:  # written whole since 2026-12-05
             raise ValueError(f"resume: {progress} is damaged ({err!r}); delete it (the run's "
                              "wall time then counts from its last evaluation)") from None
     elif not from_checkpoint and (run / "run.json").exists():
-        wall = float(json.loads((run / "run.json").read_text()).get("wall_s", 0.0))
+        record = json.loads((run / "run.json").read_text())
+        wall = float(record.get("wall_s", 0.0))
+        sessions = _sessions(record)
     else:  # a checkpoint of an older version: the last evaluation before it
         wall = float(kept[-1]["wall_s"]) if kept else 0.0
-    return Resumed(wall, best)
+    return Resumed(wall, best, sessions)
 
 
 def crossed(before: int, now: int, every: int) -> bool:
@@ -162,7 +184,7 @@ def crossed(before: int, now: int, every: int) -> bool:
 
 
 def _callbacks(config: TrainConfig, run: Path, train_env: Any,
-               resumed: Resumed = FRESH) -> list[Any]:
+               resumed: Resumed = FRESH, sessions: Sequence[int] = (0,)) -> list[Any]:
     import gymnasium as gym
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -266,7 +288,8 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
             super().__init__(config.checkpoint_freq)
 
         def act(self) -> None:
-            write_checkpoint(run, self.model, train_env, time.perf_counter() - started)
+            write_checkpoint(run, self.model, train_env, time.perf_counter() - started,
+                             sessions)
 
     callbacks = [SeededEval(), Checkpoints()]
     if config.torch_threads:
@@ -528,6 +551,7 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
         resumed = FRESH
     # after SB3, which seeds the envs with the run seed (+ i) when it builds or loads
     seed = env_seed(config, int(model.num_timesteps))
+    sessions = (*resumed.sessions, int(model.num_timesteps))
     env.seed(seed)
     save_text(saved, yaml.safe_dump(jsonable(config), sort_keys=False))
     t0 = time.perf_counter()
@@ -537,12 +561,13 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
     try:
         if (lost := noted_interrupt()) is not None:  # while the envs were built
             raise lost
-        model.learn(remaining, callback=[*_callbacks(config, run, env, resumed),
+        model.learn(remaining, callback=[*_callbacks(config, run, env, resumed, sessions),
                                          stop_when_interrupted()],
                     progress_bar=progress, reset_num_timesteps=latest is None,
                     tb_log_name=config.algo)
     except KeyboardInterrupt:
-        save_interrupted(run, model, env, resumed.wall_s + time.perf_counter() - t0)
+        save_interrupted(run, model, env, resumed.wall_s + time.perf_counter() - t0,
+                         sessions)
         env.close()
         raise
     wall = time.perf_counter() - t0
@@ -552,6 +577,7 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
             "env_steps": int(model.num_timesteps), "wall_s_this_session": wall,
             "wall_s": resumed.wall_s + wall,
             "env_seed": seed,  # of this session's first reset (env i: + i)
+            "sessions": session_record(config, sessions),  # every session's
             "validation_seeds": {"first": VALIDATION_SEED, "count": config.eval_episodes},
             "machine": platform.platform(), "python": platform.python_version()}
     save_text(run / "run.json", json.dumps(info, indent=2))
@@ -560,7 +586,8 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
     return run / "model.zip"
 
 
-def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | None:
+def save_interrupted(run: Path, model: Any, env: Any, wall_s: float,
+                     sessions: Sequence[int] = (0,)) -> Path | None:
     """After a Ctrl-C: the model, its VecNormalize statistics and the wall time so far
     as a checkpoint (:func:`write_checkpoint`, as the periodic ones), so that ``--resume``
     continues from here and not from the last periodic checkpoint. Says what it kept.
@@ -573,7 +600,7 @@ def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | N
         print(f"interrupted before the first env step: nothing saved in {run} but its "
               "config (--resume starts it, --overwrite starts afresh)")
         return None
-    path = write_checkpoint(run, model, env, wall_s)
+    path = write_checkpoint(run, model, env, wall_s, sessions)
     # one write, so that the lines of a sweep's workers do not run into each other
     print(f"interrupted at {steps} env steps: saved {path}; the same command with --resume "
           "(instead of --overwrite, if it had that) continues from it (a --seeds sweep: the "
@@ -581,9 +608,11 @@ def save_interrupted(run: Path, model: Any, env: Any, wall_s: float) -> Path | N
     return path
 
 
-def write_checkpoint(run: Path, model: Any, env: Any, wall_s: float) -> Path:
-    """The model, its VecNormalize statistics (a resume needs both) and the training wall
-    time so far (a resumed run counts on from it), as ``checkpoints/model_<steps>_steps.zip``,
+def write_checkpoint(run: Path, model: Any, env: Any, wall_s: float,
+                     sessions: Sequence[int] = (0,)) -> Path:
+    """The model, its VecNormalize statistics (a resume needs both), the training wall
+    time so far (a resumed run counts on from it) and the env steps each session started
+    from (``run.json``'s ``sessions``), as ``checkpoints/model_<steps>_steps.zip``,
     ``vecnormalize_<steps>.pkl`` and ``progress_<steps>.json``; returns the model's file."""
     steps = int(model.num_timesteps)
     folder = run / "checkpoints"
@@ -591,7 +620,8 @@ def write_checkpoint(run: Path, model: Any, env: Any, wall_s: float) -> Path:
     path = folder / f"model_{steps}_steps.zip"
     save_whole(path, model.save)
     save_whole(folder / f"vecnormalize_{steps}.pkl", env.save)
-    save_text(folder / f"progress_{steps}.json", json.dumps({"steps": steps, "wall_s": wall_s}))
+    save_text(folder / f"progress_{steps}.json", json.dumps(
+        {"steps": steps, "wall_s": wall_s, "sessions": list(sessions)}))
     return path
 
 
