@@ -80,11 +80,41 @@ def _check_reachable(ray_address: str) -> None:
             ":" in host and not (host.startswith("[") and host.endswith("]"))):
         return
     try:
-        socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT
-                                 ).close()
+        connection = socket.create_connection((host.strip("[]"), int(port)),
+                                              timeout=CONNECT_TIMEOUT)
     except OSError as error:
         raise ConnectionError(f"ray_address: no Ray cluster at {ray_address!r}: nothing "
                               f"answers there ({error}); 'local' starts one here") from None
+    with connection:
+        if os.environ.get("RAY_USE_TLS", "0").lower() in ("0", "", "false"):
+            _check_grpc(connection, ray_address)
+
+
+#: The client's HTTP/2 connection preface (RFC 9113, 3.4) and an empty SETTINGS frame.
+_HTTP2_PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes([0, 0, 0, 4, 0, 0, 0, 0, 0])
+#: The type of an HTTP/2 SETTINGS frame: a server's first frame (RFC 9113, 3.4).
+_HTTP2_SETTINGS = 4
+
+
+def _check_grpc(connection: Any, ray_address: str) -> None:
+    """ConnectionError if what answers at the address is not a gRPC server, as Ray's
+    GCS and its client server are: Ray would retry it for ~20 s, printing its own
+    errors. A gRPC server answers the HTTP/2 connection preface with a SETTINGS frame
+    (its first frame, RFC 9113, 3.4); an SSH or HTTP/1 server says something else or
+    closes. (Not asked with TLS, ``RAY_USE_TLS``, where the first bytes are TLS's.)"""
+    header, reason = b"", "it closed the connection"
+    try:
+        connection.sendall(_HTTP2_PREFACE)
+        while len(header) < 4 and (part := connection.recv(9 - len(header))):
+            header += part
+    except OSError as error:  # (a timeout: silent for CONNECT_TIMEOUT s)
+        reason = f"{error}"
+    if header:
+        reason = "it does not speak gRPC"
+    if len(header) < 4 or header[3] != _HTTP2_SETTINGS:
+        raise ConnectionError(f"ray_address: no Ray cluster at {ray_address!r}: something "
+                              f"answers there, but not Ray ({reason}); the address is the "
+                              "head's GCS port (6379 by default) or ray://host:10001")
 
 
 @contextlib.contextmanager

@@ -171,6 +171,46 @@ def test_an_address_where_nothing_answers_fails_at_once():
         _check_reachable(f"[::1]:{port}")
 
 
+def test_an_address_where_something_other_than_ray_answers_fails_at_once():
+    """An SSH or HTTP server at the address (a wrong port): Ray retried it for ~20 s,
+    printing its own errors. A gRPC server (as Ray's GCS; the cluster tests join a real
+    one) passes the check."""
+    import socket
+    from concurrent import futures
+
+    import grpc
+
+    from drill_env.distributed import _check_reachable
+
+    for greeting in (b"SSH-2.0-OpenSSH_9.6\r\n", b"HTTP/1.1 400 Bad Request\r\n\r\n", b""):
+        with socket.socket() as server:
+            server.bind(("127.0.0.1", 0))
+            server.listen()
+            port = server.getsockname()[1]
+
+            def answer(server=server, greeting=greeting):
+                connection, _ = server.accept()
+                with connection:
+                    connection.sendall(greeting)
+
+            thread = threading.Thread(target=answer, daemon=True)
+            thread.start()
+            started = time.perf_counter()
+            with pytest.raises(ConnectionError, match=f"no Ray cluster at '127.0.0.1:{port}': "
+                                                      "something answers there, but not Ray"):
+                _check_reachable(f"127.0.0.1:{port}")
+            assert time.perf_counter() - started < 5.0
+            thread.join(5.0)
+    server = grpc.server(futures.ThreadPoolExecutor(max_workers=1))
+    port = server.add_insecure_port("127.0.0.1:0")
+    server.start()
+    try:
+        assert _check_reachable(f"127.0.0.1:{port}") is None
+        assert _check_reachable(f"ray://127.0.0.1:{port}") is None
+    finally:
+        server.stop(None)
+
+
 def test_the_stability_map_command_runs_on_the_cluster(cluster, tmp_path):
     from drill_cli.main import main
 
