@@ -5,7 +5,8 @@ The rules sit next to :mod:`drill_env.metrics` and use its definitions (a stuck 
 the metrics, the benchmark and the recordings share). Each detector is streaming: feed
 it the samples chunk by chunk (``update``) and it returns the events that the chunk
 completes, carrying its state across chunks, so a recording writes events as the
-episode runs. An event is ``(time s, level, text)`` with the levels of rerun's text log.
+episode runs (the whirl detector's come up to ``WHIRL_CONTEXT`` late, the rest at its
+``finish``). An event is ``(time s, level, text)`` with the levels of rerun's text log.
 The functions :func:`stick_slip_events`, :func:`whirl_events` and :func:`layer_events`
 run one detector over whole arrays.
 """
@@ -29,9 +30,12 @@ STICK_SLIP_QUIET = 5.0
 #: held this long (s), and as off after the same time without it: the orbit passes
 #: through the rule's thresholds twice a cycle in a transition.
 WHIRL_MIN_DURATION = 0.3
-#: Seconds of past samples the whirl detector judges new ones with: a leg of the rule
-#: (half a turn round the hole) can start before the chunk that completes it (a forward
-#: whirl at 30 rpm takes 1 s; a recording flushes its chunks every 100 env steps).
+#: Seconds of samples the whirl detector judges a sample with, before it and after it: a
+#: leg of the rule (half a turn round the hole) can start before the chunk that holds its
+#: end (a forward whirl at 30 rpm takes 1 s to go half a turn; a recording flushes its
+#: chunks every 100 env steps). A sample is judged once this much has come after it (or
+#: at :meth:`WhirlDetector.finish`), so its sign, and an event's time, is that of the
+#: whole signal wherever the chunks end: its events come up to this late.
 WHIRL_CONTEXT = 2.0
 
 
@@ -76,7 +80,9 @@ class WhirlDetector:
     """Whirl on and off by :func:`drill_env.metrics.whirl_signs`, held ``min_duration``;
     the onset says forward or backward (the direction most samples took while it held),
     the radial ratio where it began and the mean whirl and bit speeds while it held.
-    Each chunk is judged with the last ``WHIRL_CONTEXT`` seconds before it."""
+    Each sample is judged with the ``WHIRL_CONTEXT`` seconds before and after it:
+    :meth:`update` returns the events of the samples that have that much after them,
+    :meth:`finish` those of the rest (the end of the signal)."""
 
     def __init__(self, clearance: float, min_duration: float = WHIRL_MIN_DURATION) -> None:
         if not clearance > 0:
@@ -88,28 +94,53 @@ class WhirlDetector:
         # (whirl sign, whirl speed, bit speed) since then.
         self._since: tuple[float, float] | None = None
         self._held: list[tuple[float, float, float]] = []
-        # the samples of the last WHIRL_CONTEXT seconds: time, radial ratio, whirl speed,
-        # bit speed, the centre's angle about the axis
-        self._past = np.empty((5, 0))
+        # the samples kept, one row each of time, radial ratio, whirl speed, bit speed and
+        # the centre's angle about the axis: the last WHIRL_CONTEXT seconds of those judged
+        # (columns up to _judged), then those not judged yet
+        self._seen = np.empty((5, 0))
+        self._judged = 0
 
     def update(self, t: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray,
                whirl_speed: np.ndarray, bit_speed: np.ndarray) -> list[Event]:
-        events: list[Event] = []
         t = np.asarray(t, dtype=np.float64)
         radial = np.hypot(bit_x, bit_y) / self.clearance
-        ws = np.asarray(whirl_speed, dtype=np.float64)
-        w = np.asarray(bit_speed, dtype=np.float64)
         angle = orbit_angles(np.ascontiguousarray(bit_x, dtype=np.float64),
                              np.ascontiguousarray(bit_y, dtype=np.float64))
-        seen = np.concatenate([self._past, np.stack([t, radial, ws, w, angle])], axis=1)
+        new = np.stack([t, radial, np.asarray(whirl_speed, dtype=np.float64),
+                        np.asarray(bit_speed, dtype=np.float64), angle])
+        self._seen = np.concatenate([self._seen, new], axis=1)
+        if not self._seen.shape[1]:
+            return []
+        ready = int(np.searchsorted(self._seen[0], self._seen[0, -1] - WHIRL_CONTEXT,
+                                    side="right"))
+        return self._judge(max(ready, self._judged))
+
+    def finish(self) -> list[Event]:
+        """The events of the samples not judged yet: the signal has ended."""
+        return self._judge(self._seen.shape[1])
+
+    def _judge(self, until: int) -> list[Event]:
+        """Judge the samples from ``_judged`` to ``until`` (their events), and keep the
+        last WHIRL_CONTEXT seconds of them as the context of the next ones."""
+        seen, first = self._seen, self._judged
+        if until <= first:
+            return []
         spacing = np.diff(seen[0])
         if spacing.size and np.all(spacing > 0):
             sign = whirl_signs(seen[1], seen[2], seen[3], float(np.median(spacing)), seen[4])
-            sign = sign[sign.size - len(t):]
         else:  # one sample so far, or times that do not advance: no orbit to follow
-            sign = np.zeros(len(t))
-        self._past = seen[:, seen[0] > seen[0, -1] - WHIRL_CONTEXT] if len(t) else seen
-        for i in range(len(t)):
+            sign = np.zeros(seen.shape[1])
+        events = self._events(seen[:, first:until], sign[first:until])
+        keep = int(np.searchsorted(seen[0, :until], seen[0, until - 1] - WHIRL_CONTEXT,
+                                   side="right"))
+        self._seen = seen[:, keep:]
+        self._judged = until - keep
+        return events
+
+    def _events(self, samples: np.ndarray, sign: np.ndarray) -> list[Event]:
+        events: list[Event] = []
+        t, radial, ws, w = samples[0], samples[1], samples[2], samples[3]
+        for i in range(samples.shape[1]):
             if (sign[i] != 0.0) == self._on:
                 self._since = None
                 self._held = []
@@ -182,9 +213,10 @@ def whirl_events(t: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray, whirl_spee
                  bit_speed: np.ndarray, clearance: float,
                  min_duration: float = WHIRL_MIN_DURATION) -> list[Event]:
     """:class:`WhirlDetector` over whole arrays."""
-    return WhirlDetector(clearance, min_duration).update(
-        np.asarray(t), np.asarray(bit_x, dtype=np.float64),
-        np.asarray(bit_y, dtype=np.float64), whirl_speed, bit_speed)
+    detector = WhirlDetector(clearance, min_duration)
+    return detector.update(np.asarray(t), np.asarray(bit_x, dtype=np.float64),
+                           np.asarray(bit_y, dtype=np.float64), whirl_speed,
+                           bit_speed) + detector.finish()
 
 
 def layer_events(t: np.ndarray, shares: np.ndarray, names: Sequence[str]) -> list[Event]:

@@ -8,6 +8,7 @@ import numpy as np
 
 from drill_env.events import (
     STICK_SLIP_QUIET,
+    WHIRL_CONTEXT,
     WHIRL_MIN_DURATION,
     WhirlDetector,
     layer_events,
@@ -73,10 +74,11 @@ def test_the_whirl_direction_is_that_of_most_samples_since_the_onset() -> None:
     assert whirl_direction(whirl_speed[:4], bit_speed[:4], radial[:4], 0.1) == "backward"
 
 
-def test_whirl_fed_step_by_step_is_judged_with_the_seconds_before() -> None:
+def test_whirl_fed_step_by_step_is_judged_with_the_seconds_before_and_after() -> None:
     """A forward whirl at 0.6 of the bit speed takes ~1 s to travel the rule's half turn;
-    fed in 0.1 s chunks (an env step) the detector still sees it, from the chunk that
-    completes the half turn, with the whole-array onset at the start of the orbit."""
+    fed in 0.1 s chunks (an env step) the detector dates it, as the whole array does, from
+    the start of the orbit (it had dated it from the chunk that completed the half turn,
+    ~1 s late), and says so once WHIRL_CONTEXT seconds have come after that start."""
     t = np.arange(0.0, 6.0, 0.01)
     radial = np.full_like(t, 0.9)
     x, y = _orbit(t, radial)
@@ -85,8 +87,29 @@ def test_whirl_fed_step_by_step_is_judged_with_the_seconds_before() -> None:
     assert [e[2].split(":")[0] for e in whole] == ["whirl onset (forward)"]
     assert whole[0][0] == 0.0
     detector = WhirlDetector(CLEARANCE)
-    chunked = [e for k in range(0, t.size, 10) for e in detector.update(
-        t[k:k + 10], x[k:k + 10], y[k:k + 10], ws[k:k + 10], w[k:k + 10])]
-    assert [e[2].split(":")[0] for e in chunked] == ["whirl onset (forward)"]
-    # from the chunk in which it has gone half a turn at 3 rad/s
-    assert np.pi / 3.0 - 0.1 <= chunked[0][0] <= np.pi / 3.0
+    said_at = []
+    chunked = []
+    for k in range(0, t.size, 10):
+        found = detector.update(t[k:k + 10], x[k:k + 10], y[k:k + 10], ws[k:k + 10],
+                                w[k:k + 10])
+        said_at += [t[min(k + 9, t.size - 1)]] * len(found)
+        chunked += found
+    assert detector.finish() == []
+    assert chunked == whole
+    # the onset held WHIRL_MIN_DURATION, then WHIRL_CONTEXT more came (one chunk late)
+    assert WHIRL_CONTEXT + WHIRL_MIN_DURATION <= said_at[0] <= \
+        WHIRL_CONTEXT + WHIRL_MIN_DURATION + 0.1
+
+
+def test_whirl_events_left_at_the_end_come_with_finish() -> None:
+    """A whirl in the last WHIRL_CONTEXT seconds of a signal is judged at ``finish``."""
+    t = np.arange(0.0, 3.0, 0.01)
+    radial = np.where(t > 1.5, 0.9, 0.1)
+    x, y = _orbit(t, radial)
+    ws, w = np.full_like(t, 3.0), np.full_like(t, 5.0)
+    detector = WhirlDetector(CLEARANCE)
+    assert detector.update(t, x, y, ws, w) == []
+    events = detector.finish()
+    assert [e[2].split(":")[0] for e in events] == ["whirl onset (forward)"]
+    assert events == whirl_events(t, x, y, ws, w, CLEARANCE)
+    assert detector.finish() == []  # each sample judged once

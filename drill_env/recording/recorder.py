@@ -530,6 +530,9 @@ class EpisodeRecorder:
                     path.unlink(missing_ok=True)
                 return None
             self.flush()
+            whirl = self._detectors[1]
+            if whirl is not None:  # the last seconds' samples, which no later one follows
+                writer.events(whirl.finish())
             last = self._last_time
             if termination_reason:
                 end = (last, "ERROR", f"terminated: {termination_reason}")
