@@ -96,6 +96,26 @@ def test_explicitly_configured_values_win_over_the_rule(name):
                                                             "band_pass")
 
 
+@pytest.mark.parametrize("given", [{}, {"top_drive.controller": "soft_speed"},
+                                   {"top_drive.controller": "z_torque",
+                                    "top_drive.torque_feedback": "none"}])
+def test_a_feedback_gain_for_a_drive_without_torque_feedback_is_refused(given):
+    """A gain given to a drive that runs no torque feedback was dropped (resolve's law had
+    gain 0): a controller of one's own with ``physics()`` = {feedback_gain: ...} alone
+    drilled exactly as stiff PI. It is refused, naming the field and what to set."""
+    from drill_env.physics.config import ConfigError
+
+    with pytest.raises(ConfigError, match="^top_drive.feedback_gain: .*would change nothing: "
+                                          "set torque_feedback"):
+        replace(make_scenario("default").config, **given,
+                **{"top_drive.feedback_gain": 3e-3})
+    # with a feedback it is the drive's
+    law = resolve(replace(make_scenario("default").config,
+                          **{**given, "top_drive.feedback_gain": 3e-3,
+                             "top_drive.torque_feedback": "high_pass"}))
+    assert (law.torque_feedback, law.feedback_gain) == ("high_pass", 3e-3)
+
+
 def test_a_stiff_drive_with_torque_feedback_tunes_its_filter_to_the_string():
     """A stiff PI given a high-pass torque feedback and no corner: the corner follows the
     ZTorque rule on the string's stick-slip frequency, as for ZTorque itself (it was

@@ -353,7 +353,8 @@ class TopDriveConfig:
     #: speed still follows the set point. None: the controller's choice.
     torque_feedback: Literal["none", "high_pass", "band_pass"] | None = None
     #: (rad/s per N m); None: 1/Z of the drill pipe, which makes the top absorb the
-    #: torsional waves that the filter passes.
+    #: torsional waves that the filter passes. Refused for a drive without torque
+    #: feedback (stiff and soft_speed unless ``torque_feedback`` gives one).
     feedback_gain: Annotated[NonNegative, Field(le=1.0)] | None = None
     #: Corner (high-pass) or centre (band-pass) of the torque filter (Hz); None: the rule.
     filter_frequency: Annotated[Positive, Field(le=100.0)] | None = None
@@ -363,6 +364,20 @@ class TopDriveConfig:
     max_torque: Positive = Field(default=50.0e3, le=1.0e6)
     #: Rate limit of the speed set point (rad/s^2): 0 -> 150 rpm in ~5 s (tests: 1e4).
     max_acceleration: Positive = Field(default=3.0, le=1.0e6)
+
+    def __post_init__(self) -> None:
+        # a gain for a feedback the drive does not run was dropped without a word
+        why = f"the {self.controller} drive runs no torque feedback" \
+            if self.torque_feedback is None else "torque_feedback is 'none'"
+        _require(self.feedback_gain is None or self.feedback() != "none", "feedback_gain",
+                 f"{why}, so a gain of {self.feedback_gain} would change nothing: set "
+                 "torque_feedback to 'high_pass' or 'band_pass' as well")
+
+    def feedback(self) -> str:
+        """The torque feedback the drive runs: ``torque_feedback``, else its controller's
+        (SoftTorque a band-pass, ZTorque a high-pass, the others none)."""
+        return self.torque_feedback or {"soft_torque": "band_pass",
+                                        "z_torque": "high_pass"}.get(self.controller, "none")
 
 
 # --------------------------------------------------------------------------- bit & rock

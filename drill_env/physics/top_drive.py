@@ -165,8 +165,7 @@ def resolve(config: SimulationConfig) -> TopDriveLaw:
         warnings.warn("top_drive.proportional_gain, top_drive.integral_gain: both 0, so the "
                       "drive's speed loop applies no torque: a free top (the string runs "
                       "down on its own)", UserWarning, stacklevel=2)
-    feedback: str = td.torque_feedback or {"soft_torque": "band_pass",
-                                           "z_torque": "high_pass"}.get(name, "none")
+    feedback = td.feedback()
     filter_frequency = 0.0
     if feedback != "none":
         if td.filter_frequency is not None:
