@@ -353,8 +353,12 @@ def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
         elif is_imported(name):  # a policy of your own: its env and env_kwargs()
             controller = make_controller(name)
             check_acts_in(name, controller, env_id)
-            if callable(getattr(controller, "env_kwargs", None)):
+            # (a controller of DrillString-v0 acts in the task through its set points: its
+            # env_kwargs() are DrillString-v0's, not the task's: set_point_guests)
+            if controller.env_id == env_id and callable(getattr(controller, "env_kwargs",
+                                                                None)):
                 kwargs = declared_env_kwargs(controller, name)
+                _check_env_kwargs(name, env_id, kwargs)
         if kwargs is not None:
             kwargs["physics"] = flatten(kwargs.get("physics") or {})
             seen[name] = {k: v for k, v in kwargs.items() if k not in SET_BY_BENCHMARK
@@ -365,6 +369,38 @@ def task_settings(controllers: Sequence[str], env_id: str) -> dict[str, Any]:
         raise ValueError(f"controllers: the policies were trained on different {env_id} "
                          f"settings ({listed}); benchmark them apart")
     return next(iter(seen.values()), {})
+
+
+def _check_env_kwargs(name: str, env_id: str, kwargs: Mapping[str, Any]) -> None:
+    """ValueError naming the controller if ``env_id`` refuses its ``env_kwargs()``:
+    applied to every controller of the task benchmark, they failed in its first episode,
+    named as that controller's (the stiff PI's)."""
+    import gymnasium as gym
+
+    try:
+        gym.make(env_id, **kwargs).close()
+    except ValueError as err:
+        raise ValueError(f"controllers: {name}.env_kwargs(): {err}") from None
+
+
+def set_point_guests(controllers: Sequence[str], env_id: str) -> list[str]:
+    """The controllers of your own that are policies of ``DrillString-v0`` (``rate``
+    "policy"): in a benchmark of task ``env_id`` they act through the task env's
+    ``action_for``, and their ``act`` gets the task's observation (its
+    ``observation_names``), not DrillString-v0's; their ``env_kwargs()`` do not apply.
+    A caller says so (``drill-env benchmark`` prints a note): one that reads the
+    observation by position reads other quantities there."""
+    from agents.registry import is_imported, make_controller
+
+    if env_id == "DrillString-v0":
+        return []
+    found = []
+    for name in controllers:
+        if is_imported(name):
+            controller = make_controller(name)
+            if controller.rate == "policy" and controller.env_id == "DrillString-v0":
+                found.append(name)
+    return found
 
 
 def check_acts_in(name: str, controller: Any, env_id: str) -> None:
@@ -780,8 +816,9 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
                   record: bool = False, progress: bool = True, env_id: str | None = None,
                   heading: str = "Controller benchmark") -> list[dict[str, Any]]:
     """Run what is not in ``out/benchmark_results.jsonl`` yet, then write the table,
-    summary and plots of every finished row (``heading``: benchmark.md's title). Returns
-    the rows."""
+    summary and plots of every finished row (``heading``: benchmark.md's title) and print
+    the table (``progress``: the progress bar and the note of reused rows). Returns the
+    rows."""
     from tqdm import tqdm
 
     from drill_env.sweep import ResultStore, make_executor

@@ -672,6 +672,13 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if env_id is not None:
         for note in replaced_episode_notes(controllers, env_id, scenarios, settings):
             print(note, file=sys.stderr)
+        from agents.benchmark import set_point_guests
+
+        for name in set_point_guests(controllers, env_id):
+            print(f"note: {name} is a policy of DrillString-v0: in {env_id} its act gets the "
+                  "task's observation (env.observation_names: read what it needs from info, "
+                  "by name), acts through the task's action_for, and its env_kwargs() do "
+                  "not apply", file=sys.stderr)
         same = same_physics(scenarios)
         if same:
             print(f"note: a task benchmark drills each scenario at the task's targets drawn "

@@ -234,6 +234,32 @@ def test_a_policy_of_your_own_acts_under_its_env_kwargs_and_only_in_its_task(tmp
         bm.task_settings(["driller", "base.py:Base"], "DrillStickSlip-v0")
 
 
+def test_a_set_point_policy_of_drill_string_in_a_task_is_named_and_keeps_its_own_settings(
+        tmp_path, monkeypatch):
+    """From a walkthrough: a policy-rate controller of DrillString-v0 of your own that
+    declared its sensors (env_kwargs() {"sensors": "surface"}) broke a task benchmark with
+    "sensors: StickSlipEnv does not use sensors ... (the episode of stiff on random)": its
+    DrillString-v0 settings were taken as the task's and tried on the stiff PI. They are
+    its own (not the task's), and it is listed for the note that its act reads the task's
+    observation; a task policy's env_kwargs() that the task refuses name that policy."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine.py").write_text(
+        "from agents import SetPointController\n\n"
+        "class Slow(SetPointController):\n"
+        "    name = 'slow'\n    rate = 'policy'\n\n"
+        "    def env_kwargs(self):\n        return {'sensors': 'surface'}\n\n"
+        "class Drive(Slow):\n    name = 'drive'\n    rate = 'drive'\n")
+    assert bm.task_settings(["stiff", "mine.py:Slow"], "DrillStickSlip-v0") == {}
+    assert bm.set_point_guests(["stiff", "driller", "mine.py:Slow", "mine.py:Drive"],
+                               "DrillStickSlip-v0") == ["mine.py:Slow"]
+    assert bm.set_point_guests(["mine.py:Slow"], "DrillString-v0") == []
+    (tmp_path / "task.py").write_text(OWN_POLICY.replace("ENV", "DrillStickSlip-v0")
+                                      .replace("KWARGS", "{'sensors': 'surface'}"))
+    with pytest.raises(ValueError, match=r"^controllers: task\.py:Full\.env_kwargs\(\): "
+                                         "sensors: StickSlipEnv does not use sensors"):
+        bm.task_settings(["stiff", "task.py:Full"], "DrillStickSlip-v0")
+
+
 def test_changed_settings_do_not_reuse_old_rows(tmp_path):
     bm.run_benchmark(["stiff"], ["stick_slip"], [0], tmp_path, SHORT, workers=1,
                      progress=False)
