@@ -468,6 +468,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     elif swings is not None:
         print(f"  (the bit-speed swing per {SWING_BLOCK:g} s, growing or decaying, needs "
               f"{2 * SWING_BLOCK:g} s or more of episode)")
+    else:  # said, not left out: a tuning run of a policy looked for it
+        print("  (no bit-speed swing reported: the set points move with the policy's "
+              "actions, and their changes would read as swing)")
     if args.record is not None:
         print(f"  recording: {summary['recording']} (drill-env replay <file>)")
     print(f"wrote {args.out / 'run_summary.json'} (and a line of "

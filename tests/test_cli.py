@@ -73,14 +73,17 @@ def test_run_says_whether_stick_slip_grows_or_decays():
 
 def test_run_prints_the_swing_for_a_drive_rate_loop_only(tmp_path, capsys):
     """stiff PI at 50 rpm / 100 kN stick-slips by its second block: said; the driller
-    moves its set points, which would read as swing: nothing printed, None kept."""
+    moves its set points, which would read as swing: None kept, and why none is printed
+    (a walkthrough's policy-rate controller had looked for it)."""
     args = ["run", "--scenario", "stick_slip", "--duration", "60", "--out", str(tmp_path)]
     assert main([*args, "--controller", "stiff"]) == 0
     assert "per 30 s: " in capsys.readouterr().out
     swings = json.loads((tmp_path / "run_summary.json").read_text())["swing_per_block_rpm"]
     assert len(swings) == 2 and swings[1] > 20.0
     assert main([*args, "--controller", "driller"]) == 0
-    assert "per 30 s" not in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "per 30 s" not in out
+    assert "no bit-speed swing reported: the set points move" in out  # said, not left out
     assert json.loads((tmp_path / "run_summary.json").read_text())[
         "swing_per_block_rpm"] is None
 
