@@ -74,6 +74,16 @@ class SetPointController:
     def physics(self) -> dict[str, Any]:
         return {}
 
+    def tuning(self, config: Any) -> Any:
+        """The top drive's loop this controller runs on ``config``'s string (a
+        ``SimulationConfig``): its gains and filters after :meth:`physics`, as a
+        :class:`~drill_env.physics.top_drive.TopDriveLaw` (``reflection_coefficient(f)``,
+        ``impedance_at(f)``), yours as the built-in ones."""
+        from drill_env.physics.config import replace
+        from drill_env.physics.top_drive import resolve
+
+        return resolve(replace(config, **self.physics()))
+
     def reset(self, env: Any) -> None:
         self._env = env
 

@@ -6,7 +6,7 @@ filters come from the configured string (drill-pipe impedance ``Z = J_p sqrt(G r
 top-drive inertia ``J_td``, stick-slip frequency ``f_s`` = first torsional natural
 frequency with a fixed top and a free bit) by :func:`drill_env.physics.top_drive.resolve`
 when the simulator is built, so a scenario with another string retunes them.
-:func:`tuning` shows the numbers for a config.
+:meth:`~agents.base.SetPointController.tuning` shows the numbers for a config.
 """
 
 from __future__ import annotations
@@ -15,8 +15,6 @@ import math
 from typing import Any, ClassVar
 
 from agents.base import SetPointController
-from drill_env.physics.config import SimulationConfig, replace
-from drill_env.physics.top_drive import TopDriveLaw, resolve
 from drill_env.physics.units import RPM
 
 
@@ -26,10 +24,6 @@ class _DriveLoop(SetPointController):
 
     def physics(self) -> dict[str, Any]:
         return {"top_drive.controller": self.top_drive}
-
-    def tuning(self, config: SimulationConfig) -> TopDriveLaw:
-        """Gains and filters this controller gets on ``config``'s string."""
-        return resolve(replace(config, **self.physics()))
 
 
 def drive_loop_name(top_drive: str) -> str:

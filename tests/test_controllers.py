@@ -96,6 +96,27 @@ def test_explicitly_configured_values_win_over_the_rule(name):
                                                             "band_pass")
 
 
+def test_a_controller_of_your_own_has_the_tuning_of_its_physics():
+    """A walkthrough needed private plumbing for the closed-form reflection of its own
+    loop (tuning() was the built-in controllers' only); every SetPointController has it,
+    the law of its physics() on the config's string."""
+    from agents import SetPointController
+
+    class Mine(SetPointController):
+        def physics(self):
+            return {"top_drive.torque_feedback": "high_pass", "top_drive.feedback_gain": 2.5e-3,
+                    "top_drive.filter_frequency": 0.2}
+
+    config = make_scenario("default").config
+    law = Mine().tuning(config)
+    assert (law.torque_feedback, law.feedback_gain, law.filter_frequency) == (
+        "high_pass", 2.5e-3, 0.2)
+    assert (law.proportional_gain, law.integral_gain) == (
+        StiffPI().tuning(config).proportional_gain, StiffPI().tuning(config).integral_gain)
+    assert abs(law.reflection_coefficient(1.0)) < abs(
+        StiffPI().tuning(config).reflection_coefficient(1.0))
+
+
 @pytest.mark.parametrize("given", [{}, {"top_drive.controller": "soft_speed"},
                                    {"top_drive.controller": "z_torque",
                                     "top_drive.torque_feedback": "none"}])
