@@ -824,6 +824,8 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     from drill_env.sweep import ResultStore, make_executor
 
     settings = settings or BenchmarkSettings()
+    if twice := next((n for k, n in enumerate(scenarios) if n in scenarios[:k]), None):
+        raise ValueError(f"scenarios: {twice!r} is given twice")
     if env_id is not None and settings.set_points():
         raise ConfigError(
             f"{next(iter(settings.set_points()))}: a task benchmark drills at the targets its "

@@ -135,6 +135,15 @@ def same_episodes(scenarios: Sequence[str], set_points: dict[str, float]
         s.allow_pipe_buckling))
 
 
+def out_folder(text: str) -> Path:
+    """An output folder's name: not empty (``--out ''`` wrote into the current folder,
+    from an unset shell variable)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("give a folder's name (an empty one would write "
+                                         "into the current folder; '.' says that)")
+    return Path(text)
+
+
 def unwritable(folder: Path) -> str:
     """Why ``folder`` could not be written (created if missing), or "" if it can; creates
     nothing, so a command refused later leaves no folder behind."""
@@ -181,7 +190,11 @@ def existing_file(text: str) -> Path:
 existing_file.__name__ = "file"
 
 
-def integer(low: int = 0) -> Callable[[str], int]:
+#: The most seeds a benchmark takes per (controller, scenario) pair.
+MAX_BENCHMARK_SEEDS = 10_000
+
+
+def integer(low: int = 0, high: int | None = None) -> Callable[[str], int]:
     def parse(text: str) -> int:
         try:
             value = int(text)
@@ -195,6 +208,8 @@ def integer(low: int = 0) -> Callable[[str], int]:
                 raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
         if value < low:
             raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
+        if high is not None and value > high:
+            raise argparse.ArgumentTypeError(f"must be <= {high:,}, got {value:,}")
         return value
     parse.__name__ = "integer"
     return parse
@@ -623,6 +638,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         hint = did_you_mean(unknown[0], list(SCENARIOS)) if unknown else ""
         raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or text!r}{hint};"
                                          f" known: {', '.join(sorted(SCENARIOS))}")
+    if twice := next((n for k, n in enumerate(scenarios) if n in scenarios[:k]), None):
+        # (it ran the same episodes twice, and benchmark.csv held their rows twice)
+        raise argparse.ArgumentTypeError(f"--scenarios: {twice!r} is given twice")
     # a task's episodes and window default to the ones evaluate measures the task on
     if args.task is not None:
         from training.evaluate import EVALUATION_WINDOWS
@@ -1372,7 +1390,7 @@ def parser() -> argparse.ArgumentParser:
 
     p = add("demo", "the main job: stick-slip at 50 vs 100 rpm, then the controller "
                     "benchmark on the default scenarios; outputs in --out", cmd_demo)
-    p.add_argument("--out", type=Path, default=Path("logs"), help="output folder")
+    p.add_argument("--out", type=out_folder, default=Path("logs"), help="output folder")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes for the benchmark (default: all cores)")
 
@@ -1406,7 +1424,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides merged into the scenario's (e.g. a "
                         "string of components: examples/field_well_string.yaml)")
-    p.add_argument("--out", type=Path, default=Path("logs"),
+    p.add_argument("--out", type=out_folder, default=Path("logs"),
                    help="folder for run_summary.json (this run's) and run_history.jsonl "
                         "(every run's summary, one line each)")
 
@@ -1433,7 +1451,9 @@ def parser() -> argparse.ArgumentParser:
                    help="with --task: the string lengths the task's random scenario draws, "
                         "in m (default 900,1600; a curved well of --config may need a "
                         "narrower range, docs/tasks.md)")
-    p.add_argument("--seeds", type=integer(1), default=3, help="seeds per pair")
+    # (1e12 was a MemoryError building the seed list; 10,000 seeds x one pair take days)
+    p.add_argument("--seeds", type=integer(1, MAX_BENCHMARK_SEEDS), default=3,
+                   help="seeds per pair")
     p.add_argument("--seed-start", type=integer(0), default=0,
                    help="first seed (the held-out evaluation seeds start at 1000000)")
     p.add_argument("--duration", type=number("s", low_inclusive=False), default=None,
@@ -1457,7 +1477,7 @@ def parser() -> argparse.ArgumentParser:
                    help="YAML of config overrides merged into every episode's scenario, under "
                         "each controller's top drive (e.g. a string of components: "
                         "examples/field_well_string.yaml)")
-    p.add_argument("--out", type=Path, default=None,
+    p.add_argument("--out", type=out_folder, default=None,
                    help="output folder (default: logs/benchmark; with --task "
                         "logs/benchmark/<task>, beside the scenario benchmark's outputs)")
 
@@ -1492,7 +1512,7 @@ def parser() -> argparse.ArgumentParser:
                        help="delete an existing run of that name and start again (without "
                             "it, an existing run is refused)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--out", type=Path, default=Path("logs/runs"), help="folder of runs")
+    p.add_argument("--out", type=out_folder, default=Path("logs/runs"), help="folder of runs")
 
     p = add("evaluate", "a trained run against the classical controllers and the trivial "
                         "policies on the held-out seeds, through the benchmark; paired "
@@ -1506,7 +1526,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
     add_ray_address(p, "the episodes")
-    p.add_argument("--out", type=Path, default=None,
+    p.add_argument("--out", type=out_folder, default=None,
                    help="output folder (default: RUN/evaluation; logs/evaluation/<task> "
                         "for a shipped policy; _full or _fast added at a --fidelity other "
                         "than the run's)")
@@ -1538,7 +1558,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: all cores)")
     add_ray_address(p, "the simulations")
-    p.add_argument("--out", type=Path, default=Path("logs"),
+    p.add_argument("--out", type=out_folder, default=Path("logs"),
                    help="folder for stability_map.png/.json (stability_map_<controller>.* "
                         "under another controller than stiff; maps of other positions "
                         "already there with the same settings and grid are kept) and the "
@@ -1563,7 +1583,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("-n", type=integer(1), default=5, help="modes of each kind")
     p.add_argument("--max-rpm", type=number("rpm", low_inclusive=False), default=250.0,
                    help="highest speed of the chart")
-    p.add_argument("--out", type=Path, default=Path("logs"),
+    p.add_argument("--out", type=out_folder, default=Path("logs"),
                    help="folder for modes_critical_speeds.png and modes.json")
 
     p = add("well", "a well path (preset or survey CSV) and the soft-string torque-and-drag "
@@ -1584,11 +1604,11 @@ def parser() -> argparse.ArgumentParser:
                    help="YAML of config overrides (e.g. examples/field_well_string.yaml)")
     p.add_argument("--friction", default="0.1,0.2,0.3,0.4",
                    help="comma-separated friction factors")
-    p.add_argument("--out", type=Path, default=Path("logs"),
+    p.add_argument("--out", type=out_folder, default=Path("logs"),
                    help="folder for well_<name>.png and .json")
 
     p = add("speed", "speed and memory benchmark; speed.json and speed.md in --out", cmd_speed)
-    p.add_argument("--out", type=Path, default=Path("logs"), help="output folder")
+    p.add_argument("--out", type=out_folder, default=Path("logs"), help="output folder")
     p.add_argument("--quick", action="store_true", help="short runs (smoke test, ~1 min)")
     p.add_argument("--sections", default=None,
                    help="comma-separated subset of core,env,scaling,compile,memory,"

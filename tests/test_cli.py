@@ -581,6 +581,29 @@ def test_a_yaml_key_written_twice_is_refused_with_its_lines(tmp_path, capsys):
         capsys.readouterr().err
 
 
+def test_benchmark_refuses_a_seed_count_or_scenario_list_it_cannot_mean(tmp_path, capsys,
+                                                                         monkeypatch):
+    """From a fuzzing walkthrough: --seeds 1e12 was a MemoryError traceback (the seed
+    list), --scenarios default,default ran every episode twice into two identical rows,
+    and --out '' (an unset variable) wrote into the current folder."""
+    monkeypatch.chdir(tmp_path)
+    for args, message in ((["--seeds", "1e12"], "--seeds: must be <= 10,000"),
+                          (["--scenarios", "default,default"],
+                           "--scenarios: 'default' is given twice"),
+                          (["--out", " "], "--out: give a folder's name")):
+        with pytest.raises(SystemExit):
+            main(["benchmark", "--controllers", "stiff", *args])
+        assert message in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["run", "--out", ""])
+    assert "--out: give a folder's name" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+    from agents.benchmark import run_benchmark
+
+    with pytest.raises(ValueError, match="scenarios: 'default' is given twice"):
+        run_benchmark(["stiff"], ["default", "default"], [0], tmp_path / "out")
+
+
 def test_an_unwritable_out_is_refused_before_the_work(tmp_path, capsys):
     (tmp_path / "file").write_text("")
     for out, message in ((tmp_path / "file" / "sub", "file is a file, not a folder"),
