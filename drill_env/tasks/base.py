@@ -58,7 +58,14 @@ class TaskEnv(DrillStringEnv):
             config = kwargs["config"]
         else:
             given = {}
-        given.update({k: kwargs.pop(k) for k in list(kwargs) if k in fields})  # keywords win
+        keywords = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
+        # a setting in the task dict and beside it: the dict's was dropped without a word
+        # (a keyword wins over ``config``, as in DrillString-v0)
+        for where, place in (("in config", given), ("as a keyword", keywords)):
+            if twice := sorted(set(task if isinstance(task, dict) else {}) & set(place)):
+                raise ValueError(f"{twice[0]}: given twice (in the task dict and {where}); "
+                                 "give one")
+        given.update(keywords)  # keywords win
         typed = set(kwargs) | set(config or {})
         unused = sorted(typed & (self.unused_env_fields - fields))
         if unused:

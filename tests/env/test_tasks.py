@@ -187,6 +187,10 @@ def test_a_reward_weight_in_the_config_dict_reaches_the_task(env_id, name):
     assert base != 0.0 and scaled == pytest.approx(5.0 * base, rel=1e-9)
     keyword, _ = run(config={name: 5.0}, **{name: 2.0})
     assert getattr(keyword, name) == 2.0
+    # beside the task dict it is refused (the dict's value was dropped without a word)
+    for beside in ({name: 2.0}, {"config": {name: 2.0}}):
+        with pytest.raises(ValueError, match=f"^{name}: given twice \\(in the task dict and "):
+            gym.make(env_id, task={name: 5.0}, **beside)
 
 
 def test_a_task_settings_typo_lists_the_tasks_own_settings():
