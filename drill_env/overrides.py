@@ -100,4 +100,13 @@ def _bit_at_string_end(config: SimulationConfig, given: tuple[str, ...]) -> Simu
                              f"the {config.string.length:g} m string above the wellhead: the "
                              "bit hangs at its bottom (leave initial_depth out, or give a depth "
                              f"within {MAX_LEAD:g} m of the string's length)")
+        if above < -DEPTH_TOLERANCE:  # (1e5 m on a 1,250 m string ran: depth 100 km)
+            raise ValueError(f"initial_depth: {config.initial_depth:g} m is below the end of "
+                             f"the {config.string.length:g} m string that hangs from the top "
+                             "drive (leave initial_depth out, or lengthen the string: "
+                             "string.drill_pipe.length)")
     return config
+
+
+#: How far below its string's end a bit depth given by hand may lie (m): round-off.
+DEPTH_TOLERANCE = 1e-3

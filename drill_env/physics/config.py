@@ -677,7 +677,9 @@ class SimulationConfig:
     well: WellConfig = field(default_factory=WellConfig)
     #: "mesoscopic" (paper section 3) or "macroscopic" (eq. 38, torque only).
     bit_model: BitModel = "mesoscopic"
-    #: Measured depth of the bit face at t = 0 (m); None: the string length.
+    #: Measured depth of the bit face at t = 0 (m); None: the string length. Given by
+    #: hand: at most the string's length, and within 100 m of it (the string hangs from the
+    #: top drive at the wellhead; drill_env.overrides).
     initial_depth: Annotated[Finite, Field(ge=0.0, le=1.0e5)] | None = None
 
     def __post_init__(self) -> None:

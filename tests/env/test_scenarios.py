@@ -93,6 +93,10 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
     with pytest.raises(ValueError, match=r"^initial_depth: 400 m leaves .* above the wellhead"):
         scenarios.with_physics(base, {"string.drill_pipe.length": 500.0,
                                       "initial_depth": 400.0})
+    # below the string's end (the top drive under the wellhead): refused as well (1e5 m
+    # on a 1,250 m string ran, its depth 100 km, a fuzzing walkthrough)
+    with pytest.raises(ValueError, match=r"^initial_depth: 100000 m is below the end of "):
+        scenarios.with_physics(base, {"initial_depth": 1e5})
     assert own.formation.interfaces == base.formation.interfaces
     assert scenarios.with_physics(base, {"mud.density": 1100.0}).initial_depth \
         == base.initial_depth
