@@ -1144,6 +1144,52 @@ def test_a_log_std_init_sac_would_ignore_is_refused(tmp_path):
         venv.close()
 
 
+@pytest.mark.parametrize(("algo", "changes", "message"), [
+    ("ppo", {"hyperparams": {"n_steps": 64, "batch_size": 1}},
+     "ppo.hyperparams.batch_size: 1 cannot normalise the advantages"),
+    ("ppo", {"policy": "CnnPolicy"}, "ppo.policy: the tasks' observations are vectors, for "
+                                     "MlpPolicy; CnnPolicy is for images"),
+    ("sac", {"policy": "MultiInputPolicy"}, "sac.policy: the tasks' observations are "
+                                            "vectors"),
+    ("ppo", {"policy_kwargs": {"log_std_init": 1e308}},
+     "ppo.policy_kwargs.log_std_init: must be a number in -20 to 2, got 1e+308"),
+    ("ppo", {"policy_kwargs": {"log_std_init": "-1"}},
+     "ppo.policy_kwargs.log_std_init: must be a number")])
+def test_settings_sb3_or_torch_would_fail_on_name_their_field(algo, changes, message):
+    """From a fuzzing walkthrough: each was an AssertionError of SB3 or a torch NaN dump
+    once training began, without the field (batch_size 1 with normalised advantages, an
+    image policy for vector observations, an initial log std of 1e308)."""
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace("+", r"\+")):
+        load_config("stick_slip", algo, n_envs=1, **changes)
+    load_config("stick_slip", "ppo", n_envs=1,  # without normalised advantages SB3 takes 1
+                hyperparams={"n_steps": 64, "batch_size": 1, "normalize_advantage": False})
+
+
+def test_a_run_that_diverges_says_so_not_torchs_tensor_dump(tmp_path, monkeypatch):
+    """A learning rate inside its range can still diverge (10 did, for PPO and SAC): torch
+    then stopped the run with "Expected parameter loc ... found invalid values" and 64
+    lines of NaN. The run now says it diverged, where, and what to look at."""
+    import torch
+
+    from training import train as train_module
+
+    original = train_module.new_model
+
+    def poisoned(config, env, **kwargs):  # a policy whose outputs are NaN: a divergence
+        model = original(config, env, **kwargs)
+        with torch.no_grad():
+            for parameter in model.policy.parameters():
+                parameter.fill_(float("nan"))
+        return model
+
+    monkeypatch.setattr(train_module, "new_model", poisoned)
+    cfg = tiny_config(n_timesteps=256, eval_freq=10_000, checkpoint_freq=10_000)
+    with pytest.raises(ValueError, match=r"^ppo: training diverged at \d+ env steps \(the "
+                                         r"policy's outputs became NaN\): ppo\.hyperparams\."
+                                         r"learning_rate .*no checkpoint yet"):
+        train(cfg, tmp_path / "run", progress=False)
+
+
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_the_policy_optimisers_are_fused_adam_unless_the_yaml_says_otherwise(algo):
     """``fused_adam`` (default) gives every policy optimiser Adam's fused kernel; a

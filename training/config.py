@@ -162,6 +162,13 @@ _RANGES: dict[str, tuple[float, float, bool]] = {  # name: (low, high, low inclu
     "sde_sample_freq": (-1, 10**9, True), "target_update_interval": (1, 10**9, True),
     "stats_window_size": (1, 10**9, True),
 }
+#: The policy for the tasks' observations (vectors; SB3's CnnPolicy takes images, its
+#: MultiInputPolicy dicts).
+VECTOR_POLICY = "MlpPolicy"
+#: The range of ``policy_kwargs.log_std_init``, the log of the initial standard deviation
+#: of the Gaussian policy over actions in [-1, 1]: below e^-20 it never explores, above
+#: e^2 (std 7.4) nearly every action lands on a bound.
+LOG_STD_RANGE = (-20.0, 2.0)
 #: Hyperparameters SB3 needs as integers: a YAML ``1e5`` arrives as a float.
 _INTEGERS = {"n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",
              "gradient_steps", "train_freq", "sde_sample_freq", "target_update_interval",
@@ -375,6 +382,11 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         if isinstance(batch, int) and isinstance(rollout, int) and batch > rollout:
             raise ConfigError(f"{where}.batch_size: {batch} is more than a rollout holds "
                               f"(n_steps x n_envs = {rollout})")
+        if batch == 1 and config.hyperparams.get("normalize_advantage", True):
+            # (SB3's AssertionError otherwise: a traceback without the YAML path)
+            raise ConfigError(f"{where}.batch_size: 1 cannot normalise the advantages (a "
+                              "mini-batch of one has no spread): give 2 or more, or "
+                              "normalize_advantage: false")
     if {"buffer_size", "batch_size"} <= known:  # SB3 samples a batch with replacement
         defaults = inspect.signature(algo.__init__).parameters
         batch = config.hyperparams.get("batch_size", defaults["batch_size"].default)
@@ -386,6 +398,10 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
     if config.policy not in policies:
         raise ConfigError(f"{config.algo}.policy: must be one of {sorted(policies)}, got "
                           f"{config.policy!r}")
+    if config.policy != VECTOR_POLICY:  # (SB3's AssertionError on the first env: a traceback)
+        raise ConfigError(f"{config.algo}.policy: the tasks' observations are vectors, for "
+                          f"{VECTOR_POLICY}; {config.policy} is for "
+                          + ("images" if "Cnn" in config.policy else "dict observations"))
     where = f"{config.algo}.policy_kwargs"
     known = set(inspect.signature(policies[config.policy].__init__).parameters) - _SET_BY_SB3
     for key in config.policy_kwargs:
@@ -398,6 +414,12 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         raise ConfigError(f"{where}.log_std_init: has no effect on SAC without "
                           "gSDE (the actor's log std is a learned layer, std ~1 at first); "
                           "leave it out or set sac.hyperparams.use_sde: true")
+    log_std = config.policy_kwargs.get("log_std_init")
+    if log_std is not None and not (isinstance(log_std, int | float) and not isinstance(
+            log_std, bool) and LOG_STD_RANGE[0] <= log_std <= LOG_STD_RANGE[1]):
+        # (1e308: the first action was NaN, a torch error with no field in it)
+        raise ConfigError(f"{where}.log_std_init: must be a number in {LOG_STD_RANGE[0]:g} to "
+                          f"{LOG_STD_RANGE[1]:g}, got {log_std!r}")
     try:
         sb3_policy_kwargs(config.policy_kwargs)
     except ValueError as err:

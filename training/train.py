@@ -570,6 +570,11 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
                          sessions)
         env.close()
         raise
+    except ValueError as err:  # torch's distribution check: the policy's outputs are NaN
+        if "found invalid values" not in str(err):
+            raise
+        env.close()
+        raise ValueError(diverged_message(config, run, int(model.num_timesteps))) from None
     wall = time.perf_counter() - t0
     save_whole(run / "model.zip", model.save)
     save_whole(run / "vecnormalize.pkl", env.save)
@@ -584,6 +589,18 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
     plot_learning_curve(run)
     env.close()
     return run / "model.zip"
+
+
+def diverged_message(config: TrainConfig, run: Path, steps: int) -> str:
+    """What to say when training diverged (torch found NaN in the policy's outputs: a
+    64-line tensor dump without a cause)."""
+    rate = config.hyperparams.get("learning_rate")
+    kept = latest_checkpoint(run)
+    return (f"{config.algo}: training diverged at {steps} env steps (the policy's outputs "
+            f"became NaN): {config.algo}.hyperparams.learning_rate "
+            f"({rate if rate is not None else 'the default'}) or the network's scale "
+            f"(policy_kwargs) too large for this task? Nothing saved at the divergence; "
+            + (f"the last checkpoint is {kept[0]}" if kept else "no checkpoint yet"))
 
 
 def save_interrupted(run: Path, model: Any, env: Any, wall_s: float,
