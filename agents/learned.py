@@ -283,8 +283,9 @@ def latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
 def _files(folder: Path) -> tuple[Path, Path]:
     """(model, normalisation) of a run or policy folder: the best model if kept."""
     if not folder.is_dir():
-        raise FileNotFoundError(f"learned: no such folder {folder} (learned:<run folder of "
-                                "drill-env train>)")
+        what = f"{folder} is a file, not a folder" if folder.exists() else \
+            f"no such folder {folder}"
+        raise FileNotFoundError(f"learned: {what} (learned:<run folder of drill-env train>)")
     for model, norm in (("best_model.zip", "best_vecnormalize.pkl"),
                         ("model.zip", "vecnormalize.pkl")):
         if (folder / model).exists() and (folder / norm).exists():

@@ -182,9 +182,17 @@ def existing_file(text: str) -> Path:
     """An argparse type: the path of a file that exists (else a one-line error)."""
     path = Path(text)
     if not path.is_file():
-        raise argparse.ArgumentTypeError(f"{text} is a folder, not a file" if path.is_dir()
-                                         else f"no such file: {text}")
+        raise argparse.ArgumentTypeError(not_a_file(path))
     return path
+
+
+def not_a_file(path: Path) -> str:
+    """Why ``path``, which is not a regular file, cannot be read as one."""
+    if path.is_dir():
+        return f"{path} is a folder, not a file"
+    if path.exists():  # /dev/null, a named pipe ("no such file" said of one that exists)
+        return f"{path} is not a regular file (a device or a pipe); give a file"
+    return f"no such file: {path}"
 
 
 existing_file.__name__ = "file"
@@ -916,8 +924,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from training.evaluate import evaluate_run
 
     if not args.run.is_dir():
-        raise argparse.ArgumentTypeError(f"RUN: no such folder {args.run} (a run folder of "
-                                         "drill-env train, e.g. logs/runs/<name>)")
+        what = f"{args.run} is a file, not a run folder" if args.run.exists() else \
+            f"no such folder {args.run}"
+        raise argparse.ArgumentTypeError(f"RUN: {what} (a run folder of drill-env train, "
+                                         "e.g. logs/runs/<name>)")
     if not (args.run / "config.yaml").exists():
         raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
                                          "train (no config.yaml)")
@@ -1042,7 +1052,7 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
     from drill_env.physics.validation import read_yaml
 
     if not path.is_file():
-        raise ValueError(f"--config {path}: no such file")
+        raise ValueError(f"--config {path}: {not_a_file(path).removeprefix(f'{path} ')}")
     try:
         data = read_yaml(path)
     except ValueError as err:

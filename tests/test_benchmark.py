@@ -505,6 +505,8 @@ def test_benchmark_names_bad_input(capsys):
                            "shorter than --duration (3 s); give a shorter --warmup"),
                           (["--controllers", "stiff,learned:/no/such/run"],
                            "--controllers: learned: no such folder /no/such/run"),
+                          (["--controllers", f"stiff,learned:{__file__}"],
+                           f"--controllers: learned: {__file__} is a file, not a folder"),
                           (["--rpm", "500"], "--rpm: 500 rpm is outside DrillString-v0's "
                                              "range 0-200 rpm"),
                           (["--wob", "0.1"], "--wob: 0.1 kN is only 100 N: the WOB is in kN"),

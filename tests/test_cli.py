@@ -935,7 +935,9 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
     a malformed Ray address says what an address looks like."""
     cases = ((["well", "--survey", str(tmp_path / "none.csv")], "--survey: no such file"),
              (["run", "--config", str(tmp_path)], "--config: " + f"{tmp_path} is a folder"),
-             (["modes", "--config", str(tmp_path / "none.yaml")], "--config: no such file"))
+             (["modes", "--config", str(tmp_path / "none.yaml")], "--config: no such file"),
+             # it exists: "no such file" was wrong (a fuzzing walkthrough)
+             (["run", "--config", "/dev/null"], "--config: /dev/null is not a regular file"))
     for args, says in cases:
         with pytest.raises(SystemExit):
             main(args)

@@ -1024,8 +1024,10 @@ def test_evaluate_says_which_training_settings_its_standard_episodes_replace():
 
 
 def test_evaluate_tells_a_missing_folder_from_a_folder_that_is_no_run(tmp_path, capsys):
+    (tmp_path / "a_file").write_text("")
     for folder, said in ((tmp_path / "none", "RUN: no such folder"),
-                         (tmp_path, "is not a run folder of drill-env train (no config.yaml)")):
+                         (tmp_path, "is not a run folder of drill-env train (no config.yaml)"),
+                         (tmp_path / "a_file", "a_file is a file, not a run folder")):
         with pytest.raises(SystemExit):
             main(["evaluate", str(folder)])
         assert said in capsys.readouterr().err
