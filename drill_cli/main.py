@@ -1067,7 +1067,10 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
         if key in NOT_PHYSICS:
             raise ValueError(f"--config {path}: {key}: not a config section; "
                              f"{NOT_PHYSICS[key]}")
-    return flatten(data)
+    try:
+        return flatten(data)
+    except ValueError as err:  # a key that is no name (1: 2): said with the file
+        raise ValueError(f"--config {path}: {err}") from None
 
 
 #: Keys a --config file may be given that belong to a command's options instead.

@@ -942,6 +942,12 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
         with pytest.raises(SystemExit):
             main(args)
         assert says in capsys.readouterr().err
+    # "overrides: keys must be strings, got 3" named neither the file nor where
+    numbers = tmp_path / "numbers.yaml"
+    numbers.write_text("mud:\n  3: 1\n")
+    assert main(["run", "--config", str(numbers), "--out", str(tmp_path)]) == 2
+    assert f"--config {numbers}: mud: the key 3 is not a field's name" in \
+        capsys.readouterr().err
     # errors of the library's fields, named by the option that set them
     blocker = tmp_path / "a_file"
     blocker.write_text("")

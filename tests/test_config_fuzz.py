@@ -235,6 +235,10 @@ def test_a_typo_in_a_section_of_a_list_lists_that_sections_fields():
     # it named string.drill_pipe.length, which the user had not touched
     ("default", {"string.components[12].length": 14000.0},
      r"^string\.components\[12\]\.length: the string is 15110\.0 m long"),
+    # it read as an unknown field "components[-1]" ("did you mean components?")
+    ("default", {"string.components[-1].length": 9.0},
+     r"^string\.components\[-1\]: an index is a whole number from 0 \(components\[0\] "
+     r"is the first\), got \[-1\]"),
 ])
 def test_a_dotted_path_error_names_what_the_user_typed(scenario, physics, message):
     from drill_env.env import DrillStringEnv

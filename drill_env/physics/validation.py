@@ -341,6 +341,7 @@ def load_yaml(cls: type[T], path: str | Path) -> T:
 
 
 _INDEXED = re.compile(r"^(\w+)\[(\d+)\]$")
+_ANY_INDEX = re.compile(r"^(\w+)\[(.*)\]$")
 
 
 def _sections(value: Any, where: str) -> list[Any]:
@@ -364,6 +365,11 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
     flat: dict[str, Any] = {}
     for key, value in changes.items():
         head, _, rest = key.partition(".")
+        if (odd := _ANY_INDEX.match(head)) and not _INDEXED.match(head):
+            # (components[-1] read as an unknown field named "components[-1]")
+            raise ConfigError(f"{path + '.' if path else ''}{head}: an index is a whole number "
+                              f"from 0 ({odd.group(1)}[0] is the first), got "
+                              f"[{odd.group(2)}]")
         name = _INDEXED.sub(r"\1", head)
         if name not in names:
             where = f"{path}.{head}" if path else head
@@ -464,7 +470,8 @@ def flatten(changes: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in changes.items():
         if not isinstance(key, str):
-            raise ConfigError(f"{prefix or 'overrides'}: keys must be strings, got {key!r}")
+            raise ConfigError(f"{prefix + ': ' if prefix else ''}the key {key!r} is not a "
+                              "field's name (keys are names, e.g. mud or density)")
         path = f"{prefix}.{key}" if prefix else key
         nested = isinstance(value, Mapping) and value
         for leaf, leaf_value in (flatten(value, path).items() if nested else ((path, value),)):
