@@ -259,7 +259,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._wob_range = tuple(float(v) for v in cfg.weight_on_bit_range)
 
         # Build (and validate) the physics now; randomised scenarios redraw at reset.
-        check_draws(scenario, self.scenario_params, flatten(physics or {}))  # before a draw
+        check_draws(scenario, self.scenario_params, flatten(physics or {}),  # before a draw
+                    *self._start_wob_draw())
         self.scenario: Scenario = self._build_scenario(np.random.default_rng(0))
         self._set_simulator(Simulator(self.scenario.config))
         if not self.randomised:
@@ -424,6 +425,11 @@ class DrillStringEnv(BatchFinish, gym.Env):
         info = self._info()
         self._reset_done = True
         return self._observation(info), info
+
+    def _start_wob_draw(self) -> tuple[float | None, str]:
+        """The most WOB an episode of a randomised scenario starts at (N; None: its own
+        range's top) and the setting that lowers it: the draws' buckling check."""
+        return None, "start_weight_on_bit_range in gym.make"
 
     def _start_targets(self, speed: float, wob: float, given: frozenset[str]
                        ) -> tuple[float, float]:

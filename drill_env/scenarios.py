@@ -553,20 +553,26 @@ DRAW_CHECK_STEP = 5.0
 _CHECKED: set[str] = set()  # the (scenario, params, overrides) found sound in this process
 
 
-def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, Any]) -> None:
+def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, Any],
+                top_wob: float | None = None,
+                lower_wob: str = "start_weight_on_bit_range in gym.make") -> None:
     """Refuse the physics ``overrides`` (dotted) under which a randomised scenario drawn
     with ``params`` would fail at some later reset, not only at the first: its starting
     WOB is drawn up to the top of its range and must not buckle the pipe, and in a curved
     well the survey must reach the longest string drawn and the pipe's place in the hole
     moves with the drawn length (checked every :data:`DRAW_CHECK_STEP` along the range;
     in a vertical hole the pipe's compression is set by what every draw shares: BHA,
-    heavy-weight pipe, bit, mud). Each set of arguments is checked once per process."""
-    key = repr((name, sorted(params.items()), sorted(overrides.items())))
-    if name not in RANDOMISED or not overrides or key in _CHECKED:
+    heavy-weight pipe, bit, mud). ``top_wob``: the most WOB an episode starts at (N; None:
+    the top of the scenario's ``weight_on_bit_range``), and ``lower_wob`` the setting that
+    lowers it (a task draws its own targets). Each set of arguments is checked once per
+    process."""
+    key = repr((name, sorted(params.items()), sorted(overrides.items()), top_wob))
+    if name not in RANDOMISED or not (overrides or top_wob is not None) or key in _CHECKED:
         return
     defaults = inspect.signature(SCENARIOS[name]).parameters
     low, high = params.get("string_length_range", defaults["string_length_range"].default)
-    top = params.get("weight_on_bit_range", defaults["weight_on_bit_range"].default)[1]
+    top = params.get("weight_on_bit_range", defaults["weight_on_bit_range"].default)[1] \
+        if top_wob is None else top_wob
     buckling: list[tuple[float, Any]] = []  # (length, the first component) that buckle
     for length in (*np.arange(high, low, -DRAW_CHECK_STEP), low):
         draw = make_scenario(name, np.random.default_rng(0),
@@ -589,7 +595,7 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
         spans = _spans(sorted(at for at, _ in buckling), DRAW_CHECK_STEP)
         given = ", ".join(k for k in sorted(overrides) if not k.startswith("top_drive."))
         raise ValueError(
-            f"physics: with {given} the {name} scenario's starting "
+            f"physics: {'with ' + given + ' ' if given else ''}the {name} scenario's starting "
             f"WOB, drawn up to {top / 1e3:.0f} kN at each reset, would compress the "
             f"{b.component} of a {length:.0f} m string by {b.compression / 1e3:.1f} kN "
             f"{b.place}, beyond its buckling load {b.buckling_load / 1e3:.1f} kN: "
@@ -597,8 +603,8 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
                f"strings of {spans} m buckle (checked every {DRAW_CHECK_STEP:g} m): draw "
                "others (string_length_range=(lo, hi) in gym.make, --string-lengths in "
                "drill-env benchmark --task), ")
-            + "draw a lower WOB (start_weight_on_bit_range in gym.make), lighten the mud "
-            "or make the BHA heavier (string.components)")
+            + f"draw a lower WOB ({lower_wob}), lighten the mud or make the BHA heavier "
+            "(string.components)")
     _CHECKED.add(key)
 
 

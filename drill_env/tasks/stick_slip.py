@@ -215,6 +215,10 @@ class StickSlipEnv(TaskEnv):
         self._action = 0.0
         self._action_change = 0.0
 
+    def _start_wob_draw(self) -> tuple[float | None, str]:
+        # its own draw, not the scenario's
+        return self.task.weight_on_bit_targets[1], "weight_on_bit_targets in gym.make"
+
     def _start_targets(self, speed: float, wob: float, given: frozenset[str]
                        ) -> tuple[float, float]:
         # (the episode state is initialised after this: the change lives here)

@@ -156,6 +156,16 @@ def test_overrides_that_would_buckle_a_random_draw_are_refused_at_make():
     env = gym.make("DrillStickSlip-v0", physics={"mud.density": 1500.0})
     for seed in range(40):
         env.reset(seed=seed)
+    # task 1 starts at its own WOB targets, not the scenario's draw: the check takes their
+    # top (targets up to 200 kN on the default mud were let through, to buckle the HWDP at
+    # some later reset), and names the task's setting, not the plain env's (a fuzzing
+    # walkthrough was told to set start_weight_on_bit_range, which the task refuses)
+    assert pipe_buckling(config, 200.0e3) and not pipe_buckling(config, 130.0e3)
+    with pytest.raises(ValueError, match=r"^physics: the random scenario's starting WOB, "
+                                         r"drawn up to 200 kN.*draw a lower WOB "
+                                         r"\(weight_on_bit_targets in gym.make\)"):
+        gym.make("DrillStickSlip-v0", weight_on_bit_targets=(70e3, 200e3),
+                 weight_on_bit_range=(0.0, 200e3))
 
 
 def test_random_scenario_is_reproducible_and_keeps_array_shapes():
