@@ -59,7 +59,17 @@ class LearnedController:
             algo = algo_class(config.get("algo", "ppo"))
         except ValueError as err:
             raise ValueError(f"{folder / 'config.yaml'}: {err}") from None
-        model = load_saved(model_file, lambda p: algo.load(p, device="cpu"))
+        other = (f"{folder / 'config.yaml'}: algo {config.get('algo', 'ppo')!r}, but "
+                 f"{model_file.name} is the model of another algorithm")
+        try:
+            model = load_saved(model_file, lambda p: algo.load(p, device="cpu"))
+        except (TypeError, AttributeError) as err:  # (a SAC model loaded as PPO: a TypeError
+            raise ValueError(f"{other} ({err})") from None  # of SACPolicy's arguments)
+        policy = algo.policy_aliases.get(config.get("policy", "MlpPolicy"))
+        if policy is not None and not isinstance(model.policy, policy):
+            # (a PPO model loaded as SAC failed at its first action: no attribute 'actor')
+            raise ValueError(f"{other} (it holds a {type(model.policy).__name__}, not a "
+                             f"{policy.__name__})")
         if getattr(model, "_n_updates", 1) == 0:  # saved before any gradient step
             import warnings
 
@@ -88,10 +98,11 @@ class LearnedController:
                   for space in ("observation_space", "action_space")]
         if any(have is not None and have != want for have, want in shapes):
             spec = getattr(env, "spec", None)
-            raise ValueError(f"controller: this policy was trained on {self.env_id} "
-                             f"(observation {shapes[0][1]}, action {shapes[1][1]}); "
-                             f"{getattr(spec, 'id', type(env).__name__)} has observation "
-                             f"{shapes[0][0]}, action {shapes[1][0]}")
+            # (not "trained on": the env id is its config.yaml's word, which can be wrong)
+            raise ValueError(f"controller: this policy's model takes observation "
+                             f"{shapes[0][1]}, action {shapes[1][1]} (its config.yaml names "
+                             f"{self.env_id}); {getattr(spec, 'id', type(env).__name__)} has "
+                             f"observation {shapes[0][0]}, action {shapes[1][0]}")
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         obs = self.normalizer.normalize_obs(np.asarray(observation, dtype=np.float32)[None])

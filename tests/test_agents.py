@@ -33,9 +33,28 @@ def test_a_policy_reset_in_another_tasks_env_says_which_env_it_was_trained_on():
 
     policy = LearnedController.load()  # task 1's
     env = gym.make("DrillOptimise-v0")
-    with pytest.raises(ValueError, match="trained on DrillStickSlip-v0"):
+    with pytest.raises(ValueError, match=r"takes observation \(67,\), action \(1,\) \(its "
+                                         r"config.yaml names DrillStickSlip-v0\); "
+                                         r"DrillOptimise-v0 has observation \(25,\)"):
         policy.reset(env.unwrapped)
     own = gym.make("DrillStickSlip-v0")
     policy.reset(own.unwrapped)
     env.close()
     own.close()
+
+
+def test_a_run_whose_config_names_another_algorithm_says_so(tmp_path):
+    """A hand-edited config.yaml (algo: ppo on a SAC model) failed deep inside SB3 (a
+    TypeError of SACPolicy's arguments; the other way round, an AttributeError at the
+    first action); it is named at the load."""
+    import shutil
+
+    from agents.learned import TRAINED, LearnedController
+
+    run = tmp_path / "run"
+    shutil.copytree(TRAINED / "stick_slip", run)
+    config = run / "config.yaml"
+    config.write_text(config.read_text().replace("algo: sac", "algo: ppo"))
+    with pytest.raises(ValueError, match=r"config.yaml: algo 'ppo', but model.zip is the "
+                                         r"model of another algorithm"):
+        LearnedController.load(run)

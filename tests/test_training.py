@@ -1636,3 +1636,17 @@ def test_a_damaged_progress_file_is_named(tmp_path):
     (tmp_path / "checkpoints" / "progress_512.json").write_text("")
     with pytest.raises(ValueError, match=r"resume: .*progress_512.json is damaged"):
         _rewind(tmp_path, 512, from_checkpoint=True)
+
+
+def test_a_ppo_run_whose_config_says_sac_is_named_at_the_load(run, tmp_path):
+    """A PPO model loaded as SAC (a hand-edited config.yaml) loaded, then failed at its
+    first action with "no attribute 'actor'": named at the load now."""
+    import shutil
+
+    copy = tmp_path / "run"
+    shutil.copytree(run[0], copy)
+    config = copy / "config.yaml"
+    config.write_text(config.read_text().replace("algo: ppo", "algo: sac"))
+    with pytest.raises(ValueError, match=r"algo 'sac', but .*model.zip is the model of "
+                                         r"another algorithm"):
+        LearnedController.load(copy)
