@@ -570,6 +570,14 @@ def test_yaml_numbers_in_short_scientific_form_are_numbers(tmp_path):
                     "h: .5e3\n")
     assert read_yaml(path) == {"a": 2.1e11, "b": 3e-4, "c": -1e3, "d": 3e-4, "e": 12,
                                "f": "3e-4", "g": "1e", "h": 500.0}
+    # YAML 1.1's base 60: "density: 20:00" ran at 1200 kg/m^3 (a fuzzing walkthrough)
+    for text, value in (("20:00", "1200"), ("1:30.5", "90.5")):
+        path.write_text(f"a: {text}\n")
+        with pytest.raises(ValueError, match=f"at line 1, column 4 \\({text} is the base-60 "
+                                             f"number {value} to YAML 1.1"):
+            read_yaml(path)
+    path.write_text("a: '20:00'\nb: 12:a\n")  # quoted, or not a number: text
+    assert read_yaml(path) == {"a": "20:00", "b": "12:a"}
 
 
 def test_a_yaml_key_written_twice_is_refused_with_its_lines(tmp_path, capsys):

@@ -288,10 +288,11 @@ def from_dict(cls: type[T], data: Mapping[str, Any] | T | None) -> T:
 
 
 def _config_loader() -> type:
-    """PyYAML's safe loader with two changes for hand-written configs: numbers such as
+    """PyYAML's safe loader with three changes for hand-written configs: numbers such as
     ``3e-4`` and ``2.1e11`` are floats (YAML 1.1 wants ``3.0e-4``, and PyYAML read them as
-    strings: "not a number" errors and SB3 tracebacks), and a key written twice in one
-    mapping is refused (the last one silently won)."""
+    strings: "not a number" errors and SB3 tracebacks), a key written twice in one
+    mapping is refused (the last one silently won), and so is a base-60 number (``20:00``
+    read as 1200)."""
     import yaml
 
     class ConfigLoader(yaml.SafeLoader):
@@ -308,6 +309,21 @@ def _config_loader() -> type:
                 first[key] = key_node.start_mark.line + 1
             return super().construct_mapping(node, deep=deep)
 
+        def construct_yaml_int(self, node: Any) -> Any:
+            return _not_base_60(node, super().construct_yaml_int(node))
+
+        def construct_yaml_float(self, node: Any) -> Any:
+            return _not_base_60(node, super().construct_yaml_float(node))
+
+    def _not_base_60(node: Any, value: Any) -> Any:
+        if ":" in str(node.value):  # YAML 1.1 reads 20:00 as 1200 (meant as a time? a ratio?)
+            raise yaml.constructor.ConstructorError(
+                None, None, f"{node.value} is the base-60 number {value} to YAML 1.1; write "
+                "the number itself, or quote it for a text", node.start_mark)
+        return value
+
+    ConfigLoader.add_constructor("tag:yaml.org,2002:int", ConfigLoader.construct_yaml_int)
+    ConfigLoader.add_constructor("tag:yaml.org,2002:float", ConfigLoader.construct_yaml_float)
     ConfigLoader.add_implicit_resolver(
         "tag:yaml.org,2002:float",
         re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
