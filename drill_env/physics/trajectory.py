@@ -102,6 +102,8 @@ class Survey:
                              f"{md.tolist()}")
         if np.any(inc < 0.0) or np.any(inc > 180.0):
             raise ValueError(f"survey.inclination: degrees in [0, 180], got {inc.tolist()}")
+        if np.any(np.abs(azi) > 360.0):  # (1e300 degrees passed: its sine is round-off)
+            raise ValueError(f"survey.azimuth: degrees in [-360, 360], got {azi.tolist()}")
         survey = cls(md, np.radians(inc), np.radians(azi))
         dogleg = survey.doglegs()
         if np.any(dogleg >= math.pi - 1e-6):

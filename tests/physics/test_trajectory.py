@@ -261,6 +261,13 @@ def test_a_survey_that_turns_back_on_itself_is_refused() -> None:
         Survey.from_stations([0, 100], [0, 180], [0, 0])
 
 
+def test_an_azimuth_beyond_a_turn_is_refused() -> None:
+    """1e300 degrees passed (finite), its sine round-off (a fuzzing walkthrough)."""
+    with pytest.raises(ValueError, match=r"survey.azimuth: degrees in \[-360, 360\]"):
+        Survey.from_stations([0, 100, 200], [0, 30, 30], [0, 1e300, 1e300])
+    Survey.from_stations([0, 100, 200], [0, 30, 30], [-90, 350, 359])  # every bearing
+
+
 def test_the_bit_weight_pushes_the_last_node_against_the_low_side() -> None:
     """A weightless string with a 1 kN bit in a 60 deg hole: the bit node's lateral load
     is the bit weight's component across the hole, 1 kN sin 60 deg."""
