@@ -139,7 +139,7 @@ class WhirlDetector:
 
     def _events(self, samples: np.ndarray, sign: np.ndarray) -> list[Event]:
         events: list[Event] = []
-        t, radial, ws, w = samples[0], samples[1], samples[2], samples[3]
+        t, radial, ws, w, _ = samples  # (the rows of _seen)
         for i in range(samples.shape[1]):
             if (sign[i] != 0.0) == self._on:
                 self._since = None

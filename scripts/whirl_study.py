@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.benchmark import BenchmarkSettings, run_benchmark
-from drill_env.physics.config import FAST_CRITICAL_STEP_FRACTION, FAST_PIPE_ELEMENT_LENGTH
+from drill_env.physics.fidelity import FAST_CRITICAL_STEP_FRACTION, FAST_PIPE_ELEMENT_LENGTH
 from drill_env.scenarios import EVALUATION_SEEDS
 
 CONTROLLERS = ["stiff", "soft-speed", "constant:160/65"]

@@ -16,6 +16,8 @@ from typing import Annotated, Literal, get_args
 
 from pydantic import Field
 
+from drill_env.physics import fidelity
+from drill_env.physics.fidelity import FIDELITY_LEVELS, Fidelity
 from drill_env.physics.units import GRAVITY, INCH
 from drill_env.physics.validation import (
     ConfigError,
@@ -352,9 +354,8 @@ class TopDriveConfig:
     #: ``filter_frequency`` with damping ``filter_damping``. Neither passes DC: the mean
     #: speed still follows the set point. None: the controller's choice.
     torque_feedback: Literal["none", "high_pass", "band_pass"] | None = None
-    #: (rad/s per N m); None: 1/Z of the drill pipe, which makes the top absorb the
-    #: torsional waves that the filter passes. Refused for a drive without torque
-    #: feedback (stiff and soft_speed unless ``torque_feedback`` gives one).
+    #: (rad/s per N m); None: 1/Z of the drill pipe, so the top absorbs the torsional waves
+    #: the filter passes. Refused where the drive runs no torque feedback.
     feedback_gain: Annotated[NonNegative, Field(le=1.0)] | None = None
     #: Corner (high-pass) or centre (band-pass) of the torque filter (Hz); None: the rule.
     filter_frequency: Annotated[Positive, Field(le=100.0)] | None = None
@@ -365,17 +366,14 @@ class TopDriveConfig:
     #: Rate limit of the speed set point (rad/s^2): 0 -> 150 rpm in ~5 s (tests: 1e4).
     max_acceleration: Positive = Field(default=3.0, le=1.0e6)
 
-    def __post_init__(self) -> None:
-        # a gain for a feedback the drive does not run was dropped without a word
-        why = f"the {self.controller} drive runs no torque feedback" \
-            if self.torque_feedback is None else "torque_feedback is 'none'"
+    def __post_init__(self) -> None:  # a gain for no feedback was dropped without a word
         _require(self.feedback_gain is None or self.feedback() != "none", "feedback_gain",
-                 f"{why}, so a gain of {self.feedback_gain} would change nothing: set "
-                 "torque_feedback to 'high_pass' or 'band_pass' as well")
+                 f"the {self.controller} drive runs no torque feedback (torque_feedback "
+                 f"{self.torque_feedback or 'not set'}), so it would change nothing: set "
+                 "torque_feedback to 'high_pass' or 'band_pass'")
 
     def feedback(self) -> str:
-        """The torque feedback the drive runs: ``torque_feedback``, else its controller's
-        (SoftTorque a band-pass, ZTorque a high-pass, the others none)."""
+        """``torque_feedback``, else its controller's (SoftTorque's, ZTorque's) or "none"."""
         return self.torque_feedback or {"soft_torque": "band_pass",
                                         "z_torque": "high_pass"}.get(self.controller, "none")
 
@@ -572,20 +570,6 @@ class BitConfig:
 # --------------------------------------------------------------------------- simulation
 
 
-Fidelity = Literal["full", "fast"]
-FIDELITY_LEVELS: tuple[str, ...] = get_args(Fidelity)
-#: Fast level: 20 m drill-pipe elements keep the first torsional frequency of the
-#: default string within 0.1 % (tests/physics/test_fidelity.py), the wave to ~10 Hz.
-FAST_PIPE_ELEMENT_LENGTH = 20.0
-#: Fast level step: at FAST_CRITICAL_STEP_FRACTION of the critical step (5.07 ms for a
-#: gauge pad in hard rock on the bit node; docs/model.md section 5) the simulator takes
-#: 3.3-4 ms on the random scenario (median 3.8). Not implicit contacts at 10 ms: at task
-#: 2's high rpm they add a backward whirl the full model does not show (docs/performance.md).
-FAST_TIME_STEP = 4.0e-3
-#: 0.75 of the lumped-mass critical step (the full model takes 0.5): two gauge pads on a
-#: wall lower the limit to 0.82 of it; at 0.8 10 of 1,000 random-action task-2 episodes
-#: ran away, at 0.75 none of 2,000 (docs/tasks.md, "A rare numerical failure").
-FAST_CRITICAL_STEP_FRACTION = 0.75
 
 
 @config_dataclass
@@ -677,9 +661,8 @@ class SimulationConfig:
     well: WellConfig = field(default_factory=WellConfig)
     #: "mesoscopic" (paper section 3) or "macroscopic" (eq. 38, torque only).
     bit_model: BitModel = "mesoscopic"
-    #: Measured depth of the bit face at t = 0 (m); None: the string length. Given by
-    #: hand: at most the string's length, and within 100 m of it (the string hangs from the
-    #: top drive at the wellhead; drill_env.overrides).
+    #: Measured depth of the bit face at t = 0 (m); None: the string length. Given: at most
+    #: that, and within 100 m of it (the string hangs at the wellhead; drill_env.overrides).
     initial_depth: Annotated[Finite, Field(ge=0.0, le=1.0e5)] | None = None
 
     def __post_init__(self) -> None:
@@ -707,11 +690,11 @@ class SimulationConfig:
         if self.solver.fidelity == "full":
             return self
         pipe = self.string.drill_pipe
-        element = min(max(pipe.element_length, FAST_PIPE_ELEMENT_LENGTH), pipe.length)
+        element = min(max(pipe.element_length, fidelity.FAST_PIPE_ELEMENT_LENGTH), pipe.length)
         return replace(self, **{
             "solver.pipe_lateral": False,
-            "solver.time_step": max(self.solver.time_step, FAST_TIME_STEP),
+            "solver.time_step": max(self.solver.time_step, fidelity.FAST_TIME_STEP),
             "solver.critical_step_fraction": max(self.solver.critical_step_fraction,
-                                                 FAST_CRITICAL_STEP_FRACTION),
+                                                 fidelity.FAST_CRITICAL_STEP_FRACTION),
             "string.drill_pipe.element_length": element,
         })

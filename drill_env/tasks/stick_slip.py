@@ -216,8 +216,9 @@ class StickSlipEnv(TaskEnv):
         self._action_change = 0.0
 
     def _start_wob_draw(self) -> tuple[float | None, str]:
-        # its own draw, not the scenario's
-        return self.task.weight_on_bit_targets[1], "weight_on_bit_targets in gym.make"
+        # its own draw, not the scenario's (clamped to the env's range, as every draw)
+        top = min(self.task.weight_on_bit_targets[1], self.config.weight_on_bit_range[1])
+        return top, "weight_on_bit_targets in gym.make"
 
     def _start_targets(self, speed: float, wob: float, given: frozenset[str]
                        ) -> tuple[float, float]:

@@ -16,14 +16,13 @@ import pytest
 import scipy.linalg
 
 from drill_env.physics.config import (
-    FAST_PIPE_ELEMENT_LENGTH,
-    FAST_TIME_STEP,
     FormationConfig,
     SimulationConfig,
     SolverConfig,
     replace,
 )
 from drill_env.physics.fem import from_band
+from drill_env.physics.fidelity import FAST_PIPE_ELEMENT_LENGTH, FAST_TIME_STEP
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 from drill_env.scenarios import HARD, make_scenario
