@@ -79,10 +79,10 @@ class SetPointController:
         ``SimulationConfig``): its gains and filters after :meth:`physics`, as a
         :class:`~drill_env.physics.top_drive.TopDriveLaw` (``reflection_coefficient(f)``,
         ``impedance_at(f)``), yours as the built-in ones."""
-        from drill_env.physics.config import replace
+        from drill_env.physics.config import flatten, replace
         from drill_env.physics.top_drive import resolve
 
-        return resolve(replace(config, **self.physics()))
+        return resolve(replace(config, **flatten(self.physics())))  # (nested as dotted)
 
     def reset(self, env: Any) -> None:
         self._env = env

@@ -244,16 +244,23 @@ def label(controller: str) -> str:
     return head
 
 
+def repeated(names: Sequence[str]) -> str | None:
+    """The first name given a second time (None: each once)."""
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            return name
+        seen.add(name)
+    return None
+
+
 def labels(controllers: Sequence[str]) -> list[str]:
     """The table names of ``controllers``, distinct: :func:`label`, except that a
     ``learned:PATH`` whose label another controller has too is called
     ``learned-<folder name>``. A name given twice, or two run folders of the same name, is
     an error naming the field."""
-    seen: set[str] = set()
-    for name in controllers:
-        if name in seen:
-            raise ValueError(f"controllers: {name!r} is given twice")
-        seen.add(name)
+    if (twice := repeated(controllers)) is not None:
+        raise ValueError(f"controllers: {twice!r} is given twice")
     plain = [label(c) for c in controllers]
     out = [f"learned-{Path(c.partition(':')[2]).resolve().name}"
            if c.startswith("learned:") and plain.count(plain[k]) > 1 else plain[k]
@@ -824,7 +831,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     from drill_env.sweep import ResultStore, make_executor
 
     settings = settings or BenchmarkSettings()
-    if twice := next((n for k, n in enumerate(scenarios) if n in scenarios[:k]), None):
+    if (twice := repeated(scenarios)) is not None:
         raise ValueError(f"scenarios: {twice!r} is given twice")
     if env_id is not None and settings.set_points():
         raise ConfigError(

@@ -59,17 +59,15 @@ class LearnedController:
             algo = algo_class(config.get("algo", "ppo"))
         except ValueError as err:
             raise ValueError(f"{folder / 'config.yaml'}: {err}") from None
-        other = (f"{folder / 'config.yaml'}: algo {config.get('algo', 'ppo')!r}, but "
-                 f"{model_file.name} is the model of another algorithm")
+        name = f"{folder / 'config.yaml'}: algo {config.get('algo', 'ppo')!r}, but "
         try:
             model = load_saved(model_file, lambda p: algo.load(p, device="cpu"))
         except (TypeError, AttributeError) as err:  # (a SAC model loaded as PPO: a TypeError
-            raise ValueError(f"{other} ({err})") from None  # of SACPolicy's arguments)
-        policy = algo.policy_aliases.get(config.get("policy", "MlpPolicy"))
-        if policy is not None and not isinstance(model.policy, policy):
-            # (a PPO model loaded as SAC failed at its first action: no attribute 'actor')
-            raise ValueError(f"{other} (it holds a {type(model.policy).__name__}, not a "
-                             f"{policy.__name__})")
+            # of SACPolicy's arguments; PPO's as SAC: no attribute 'actor'; or a model of
+            # another SB3 version or policy class)
+            raise ValueError(f"{name}{model_file.name} does not load as one ({err}): the "
+                             "model of another algorithm, or of another Stable-Baselines3 "
+                             "version?") from None
         if getattr(model, "_n_updates", 1) == 0:  # saved before any gradient step
             import warnings
 

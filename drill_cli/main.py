@@ -646,8 +646,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         hint = did_you_mean(unknown[0], list(SCENARIOS)) if unknown else ""
         raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or text!r}{hint};"
                                          f" known: {', '.join(sorted(SCENARIOS))}")
-    if twice := next((n for k, n in enumerate(scenarios) if n in scenarios[:k]), None):
-        # (it ran the same episodes twice, and benchmark.csv held their rows twice)
+    from agents.benchmark import repeated
+
+    if (twice := repeated(scenarios)) is not None:  # (it ran the same episodes twice, and
+        # benchmark.csv held their rows twice)
         raise argparse.ArgumentTypeError(f"--scenarios: {twice!r} is given twice")
     # a task's episodes and window default to the ones evaluate measures the task on
     if args.task is not None:
@@ -1190,7 +1192,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
           f"{laws[0].impedance:.1f} N m s/rad, f_s = {laws[1].tuning_frequency:.4f} Hz ("
           + ("the config's top_drive.tuning_frequency" if given_f else
              "fixed top, undamped") + f"), J_td = {laws[0].inertia:g} kg m^2; a value the "
-          "config sets wins under every controller):")
+          "config sets wins under every controller that uses it):")
     print(f"  {'controller':<12} {'P (N m s/rad)':>14} {'I (N m/rad)':>12}   torque feedback")
     for law in laws:
         feedback = "none" if law.torque_feedback == "none" else (
@@ -1233,8 +1235,14 @@ def top_drive_laws(config: Any) -> list[Any]:
     from drill_env.physics.config import replace
     from drill_env.physics.top_drive import resolve
 
-    return [resolve(replace(config, **{"top_drive.controller": name}))
-            for name in ("stiff", "soft_speed", "soft_torque", "z_torque")]
+    laws = []
+    for name in ("stiff", "soft_speed", "soft_torque", "z_torque"):
+        drive = replace(config.top_drive, controller=name, feedback_gain=None)
+        if drive.feedback() != "none":  # the config's feedback gain where the drive runs
+            # a feedback (the others refuse one: a soft_torque gain is not the stiff PI's)
+            drive = replace(drive, feedback_gain=config.top_drive.feedback_gain)
+        laws.append(resolve(replace(config, top_drive=drive)))
+    return laws
 
 
 def cmd_well(args: argparse.Namespace) -> int:

@@ -70,8 +70,9 @@ def _interruptible() -> None:
 
 def _check_reachable(ray_address: str) -> None:
     """ConnectionError naming the address if ``host:port`` (or ``ray://host:port``;
-    ``[v6]:port`` for IPv6) does not accept a TCP connection; other forms (``auto``,
-    another scheme, an address without a port) are left to Ray, which names them."""
+    ``[v6]:port`` for IPv6) does not accept a TCP connection, or what answers is not a
+    gRPC server (:func:`_check_grpc`); other forms (``auto``, another scheme, an address
+    without a port) are left to Ray, which names them."""
     import socket
 
     rest = ray_address.removeprefix("ray://")
@@ -102,13 +103,19 @@ def _check_grpc(connection: Any, ray_address: str) -> None:
     errors. A gRPC server answers the HTTP/2 connection preface with a SETTINGS frame
     (its first frame, RFC 9113, 3.4); an SSH or HTTP/1 server says something else or
     closes. (Not asked with TLS, ``RAY_USE_TLS``, where the first bytes are TLS's.)"""
-    header, reason = b"", "it closed the connection"
+    header, reason, silent = b"", "it closed the connection", False
     try:
         connection.sendall(_HTTP2_PREFACE)
         while len(header) < 4 and (part := connection.recv(9 - len(header))):
             header += part
-    except OSError as error:  # (a timeout: silent for CONNECT_TIMEOUT s)
+    except TimeoutError:
+        silent = not header
+    except OSError as error:
         reason = f"{error}"
+    if silent:  # a head too busy to answer in time is not "not Ray"
+        raise ConnectionError(f"ray_address: nothing came back from {ray_address!r} in "
+                              f"{CONNECT_TIMEOUT:g} s: not a Ray cluster, or one too busy to "
+                              "answer")
     if header:
         reason = "it does not speak gRPC"
     if len(header) < 4 or header[3] != _HTTP2_SETTINGS:

@@ -5,7 +5,7 @@ The rules sit next to :mod:`drill_env.metrics` and use its definitions (a stuck 
 the metrics, the benchmark and the recordings share). Each detector is streaming: feed
 it the samples chunk by chunk (``update``) and it returns the events that the chunk
 completes, carrying its state across chunks, so a recording writes events as the
-episode runs (the whirl detector's come up to ``WHIRL_CONTEXT`` late, the rest at its
+episode runs (the whirl detector's come up to ``WHIRL_CONTEXT`` late, the last at its
 ``finish``). An event is ``(time s, level, text)`` with the levels of rerun's text log.
 The functions :func:`stick_slip_events`, :func:`whirl_events` and :func:`layer_events`
 run one detector over whole arrays.
@@ -32,11 +32,13 @@ STICK_SLIP_QUIET = 5.0
 WHIRL_MIN_DURATION = 0.3
 #: Seconds of samples the whirl detector judges a sample with, before it and after it: a
 #: leg of the rule (half a turn round the hole) can start before the chunk that holds its
-#: end (a forward whirl at 30 rpm takes 1 s to go half a turn; a recording flushes its
-#: chunks every 100 env steps). A sample is judged once this much has come after it (or
-#: at :meth:`WhirlDetector.finish`), so its sign, and an event's time, is that of the
-#: whole signal wherever the chunks end: its events come up to this late.
-WHIRL_CONTEXT = 2.0
+#: end (a recording flushes its chunks every 100 env steps). A sample is judged once this
+#: much has come after it (or at :meth:`WhirlDetector.finish`), so its events come up to
+#: this late, dated as the whole signal dates them wherever the chunks end for a whirl
+#: that goes half a turn within it: 7.5 rpm or faster (the rule takes whirl down to a
+#: quarter of the bit speed: 10 rpm at 40 rpm). A slower one is dated from where it had
+#: gone half a turn within this window.
+WHIRL_CONTEXT = 4.0
 
 
 class StickSlipDetector:
@@ -102,18 +104,24 @@ class WhirlDetector:
 
     def update(self, t: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray,
                whirl_speed: np.ndarray, bit_speed: np.ndarray) -> list[Event]:
-        t = np.asarray(t, dtype=np.float64)
-        radial = np.hypot(bit_x, bit_y) / self.clearance
-        angle = orbit_angles(np.ascontiguousarray(bit_x, dtype=np.float64),
-                             np.ascontiguousarray(bit_y, dtype=np.float64))
-        new = np.stack([t, radial, np.asarray(whirl_speed, dtype=np.float64),
-                        np.asarray(bit_speed, dtype=np.float64), angle])
-        self._seen = np.concatenate([self._seen, new], axis=1)
+        self.add(t, bit_x, bit_y, whirl_speed, bit_speed)
         if not self._seen.shape[1]:
             return []
         ready = int(np.searchsorted(self._seen[0], self._seen[0, -1] - WHIRL_CONTEXT,
                                     side="right"))
         return self._judge(max(ready, self._judged))
+
+    def add(self, t: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray,
+            whirl_speed: np.ndarray, bit_speed: np.ndarray) -> None:
+        """Take samples without judging any (:meth:`update` judges those that are ready):
+        :func:`whirl_events` judges a whole signal at once, with all of it as context."""
+        radial = np.hypot(bit_x, bit_y) / self.clearance
+        angle = orbit_angles(np.ascontiguousarray(bit_x, dtype=np.float64),
+                             np.ascontiguousarray(bit_y, dtype=np.float64))
+        new = np.stack([np.asarray(t, dtype=np.float64), radial,
+                        np.asarray(whirl_speed, dtype=np.float64),
+                        np.asarray(bit_speed, dtype=np.float64), angle])
+        self._seen = np.concatenate([self._seen, new], axis=1)
 
     def finish(self) -> list[Event]:
         """The events of the samples not judged yet: the signal has ended."""
@@ -214,9 +222,9 @@ def whirl_events(t: np.ndarray, bit_x: np.ndarray, bit_y: np.ndarray, whirl_spee
                  min_duration: float = WHIRL_MIN_DURATION) -> list[Event]:
     """:class:`WhirlDetector` over whole arrays."""
     detector = WhirlDetector(clearance, min_duration)
-    return detector.update(np.asarray(t), np.asarray(bit_x, dtype=np.float64),
-                           np.asarray(bit_y, dtype=np.float64), whirl_speed,
-                           bit_speed) + detector.finish()
+    detector.add(np.asarray(t), np.asarray(bit_x, dtype=np.float64),
+                 np.asarray(bit_y, dtype=np.float64), whirl_speed, bit_speed)
+    return detector.finish()  # every sample judged with the whole signal
 
 
 def layer_events(t: np.ndarray, shares: np.ndarray, names: Sequence[str]) -> list[Event]:

@@ -595,7 +595,9 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
         spans = _spans(sorted(at for at, _ in buckling), DRAW_CHECK_STEP)
         given = ", ".join(k for k in sorted(overrides) if not k.startswith("top_drive."))
         raise ValueError(
-            f"physics: {'with ' + given + ' ' if given else ''}the {name} scenario's starting "
+            # (named by what lowers it when no physics was given: a task's WOB targets)
+            (f"physics: with {given} " if given else f"{lower_wob.split()[0]}: ")
+            + f"the {name} scenario's starting "
             f"WOB, drawn up to {top / 1e3:.0f} kN at each reset, would compress the "
             f"{b.component} of a {length:.0f} m string by {b.compression / 1e3:.1f} kN "
             f"{b.place}, beyond its buckling load {b.buckling_load / 1e3:.1f} kN: "

@@ -55,6 +55,6 @@ def test_a_run_whose_config_names_another_algorithm_says_so(tmp_path):
     shutil.copytree(TRAINED / "stick_slip", run)
     config = run / "config.yaml"
     config.write_text(config.read_text().replace("algo: sac", "algo: ppo"))
-    with pytest.raises(ValueError, match=r"config.yaml: algo 'ppo', but model.zip is the "
-                                         r"model of another algorithm"):
+    with pytest.raises(ValueError, match=r"config.yaml: algo 'ppo', but model.zip does not "
+                                         r"load as one .*: the model of another algorithm"):
         LearnedController.load(run)

@@ -116,6 +116,16 @@ def test_a_controller_of_your_own_has_the_tuning_of_its_physics():
     assert abs(law.reflection_coefficient(1.0)) < abs(
         StiffPI().tuning(config).reflection_coefficient(1.0))
 
+    class Nested(Mine):  # physics() nested, as the env and benchmark take it too
+        def physics(self):
+            return {"top_drive": {"torque_feedback": "high_pass", "feedback_gain": 2.5e-3,
+                                  "filter_frequency": 0.2}}
+
+    # (whole, the section would have replaced the config's: its inertia back to default)
+    heavy = replace(config, **{"top_drive.inertia": 1500.0})
+    assert Nested().tuning(heavy) == Mine().tuning(heavy)
+    assert Nested().tuning(heavy).inertia == 1500.0
+
 
 @pytest.mark.parametrize("given", [{}, {"top_drive.controller": "soft_speed"},
                                    {"top_drive.controller": "z_torque",
@@ -135,6 +145,19 @@ def test_a_feedback_gain_for_a_drive_without_torque_feedback_is_refused(given):
                           **{**given, "top_drive.feedback_gain": 3e-3,
                              "top_drive.torque_feedback": "high_pass"}))
     assert (law.torque_feedback, law.feedback_gain) == ("high_pass", 3e-3)
+
+
+def test_modes_shows_a_configs_feedback_gain_under_the_drives_that_run_a_feedback():
+    """A review of the refusal above: drill-env modes tunes all four drives on the config,
+    and a soft_torque config's feedback_gain made the stiff PI's law an error. The gain is
+    each feedback drive's; the others have none."""
+    from drill_cli.main import top_drive_laws
+
+    config = replace(make_scenario("default").config,
+                     **{"top_drive.controller": "soft_torque", "top_drive.feedback_gain": 2e-3})
+    laws = top_drive_laws(config)
+    assert [(law.torque_feedback, law.feedback_gain) for law in laws] == [
+        ("none", 0.0), ("none", 0.0), ("band_pass", 2e-3), ("high_pass", 2e-3)]
 
 
 def test_a_stiff_drive_with_torque_feedback_tunes_its_filter_to_the_string():

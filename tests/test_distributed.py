@@ -171,7 +171,7 @@ def test_an_address_where_nothing_answers_fails_at_once():
         _check_reachable(f"[::1]:{port}")
 
 
-def test_an_address_where_something_other_than_ray_answers_fails_at_once():
+def test_an_address_where_something_other_than_ray_answers_fails_at_once(monkeypatch):
     """An SSH or HTTP server at the address (a wrong port): Ray retried it for ~20 s,
     printing its own errors. A gRPC server (as Ray's GCS; the cluster tests join a real
     one) passes the check."""
@@ -201,6 +201,15 @@ def test_an_address_where_something_other_than_ray_answers_fails_at_once():
                 _check_reachable(f"127.0.0.1:{port}")
             assert time.perf_counter() - started < 5.0
             thread.join(5.0)
+    # one that sends nothing in time is said as such (a head too busy is not "not Ray")
+    monkeypatch.setattr("drill_env.distributed.CONNECT_TIMEOUT", 0.5)
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen()
+        port = server.getsockname()[1]
+        with pytest.raises(ConnectionError, match=f"nothing came back from '127.0.0.1:{port}' "
+                                                  "in 0.5 s"):
+            _check_reachable(f"127.0.0.1:{port}")
     server = grpc.server(futures.ThreadPoolExecutor(max_workers=1))
     port = server.add_insecure_port("127.0.0.1:0")
     server.start()

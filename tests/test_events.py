@@ -5,6 +5,7 @@ rock a layer event names."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from drill_env.events import (
     STICK_SLIP_QUIET,
@@ -99,6 +100,30 @@ def test_whirl_fed_step_by_step_is_judged_with_the_seconds_before_and_after() ->
     # the onset held WHIRL_MIN_DURATION, then WHIRL_CONTEXT more came (one chunk late)
     assert WHIRL_CONTEXT + WHIRL_MIN_DURATION <= said_at[0] <= \
         WHIRL_CONTEXT + WHIRL_MIN_DURATION + 0.1
+
+
+def test_a_slow_whirl_fed_in_chunks_is_dated_as_the_whole_signal_dates_it() -> None:
+    """A review: a 10 rpm whirl on a 29 rpm bit (the rule takes down to a quarter of the
+    bit speed) takes 3 s to go half a turn: with 2 s of context, fed in 0.1 s chunks, it
+    was dated 6.1 s to 12.9 s where the whole signal says 5.0 s to 14.0 s. With
+    WHIRL_CONTEXT 4 s every whirl of 7.5 rpm or more is dated as the whole signal."""
+    from drill_env.physics.units import RPM
+
+    assert 0.5 * 2.0 * np.pi / (7.5 * RPM) <= WHIRL_CONTEXT  # half a turn at 7.5 rpm
+    t = np.arange(0.0, 20.0, 0.01)
+    on = (t >= 5.0) & (t < 14.0)
+    radial = np.where(on, 0.9, 0.1)
+    ws = np.full_like(t, 7.6 * RPM)
+    w = np.full_like(t, 29.0 * RPM)
+    angle = np.cumsum(ws) * 0.01
+    x, y = radial * CLEARANCE * np.cos(angle), radial * CLEARANCE * np.sin(angle)
+    whole = whirl_events(t, x, y, ws, w, CLEARANCE)
+    assert [(e[0], e[2].split(":")[0]) for e in whole] == [
+        (5.0, "whirl onset (forward)"), (pytest.approx(14.0), "whirl ended")]
+    detector = WhirlDetector(CLEARANCE)
+    chunked = [e for k in range(0, t.size, 10) for e in detector.update(
+        t[k:k + 10], x[k:k + 10], y[k:k + 10], ws[k:k + 10], w[k:k + 10])]
+    assert chunked + detector.finish() == whole
 
 
 def test_whirl_events_left_at_the_end_come_with_finish() -> None:

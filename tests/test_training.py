@@ -1639,14 +1639,14 @@ def test_a_damaged_progress_file_is_named(tmp_path):
 
 
 def test_a_ppo_run_whose_config_says_sac_is_named_at_the_load(run, tmp_path):
-    """A PPO model loaded as SAC (a hand-edited config.yaml) loaded, then failed at its
-    first action with "no attribute 'actor'": named at the load now."""
+    """A PPO model loaded as SAC (a hand-edited config.yaml) failed with "no attribute
+    'actor'" (a traceback): named at the load now."""
     import shutil
 
     copy = tmp_path / "run"
     shutil.copytree(run[0], copy)
     config = copy / "config.yaml"
     config.write_text(config.read_text().replace("algo: ppo", "algo: sac"))
-    with pytest.raises(ValueError, match=r"algo 'sac', but .*model.zip is the model of "
-                                         r"another algorithm"):
+    with pytest.raises(ValueError, match=r"algo 'sac', but .*model.zip does not load as "
+                                         r"one .*: the model of another algorithm"):
         LearnedController.load(copy)

@@ -551,7 +551,9 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
         resumed = FRESH
     # after SB3, which seeds the envs with the run seed (+ i) when it builds or loads
     seed = env_seed(config, int(model.num_timesteps))
-    sessions = (*resumed.sessions, int(model.num_timesteps))
+    sessions = resumed.sessions  # and this one, unless it resumes one that did no step
+    if not sessions or sessions[-1] != int(model.num_timesteps):
+        sessions = (*sessions, int(model.num_timesteps))
     env.seed(seed)
     save_text(saved, yaml.safe_dump(jsonable(config), sort_keys=False))
     t0 = time.perf_counter()

@@ -161,9 +161,9 @@ def test_overrides_that_would_buckle_a_random_draw_are_refused_at_make():
     # some later reset), and names the task's setting, not the plain env's (a fuzzing
     # walkthrough was told to set start_weight_on_bit_range, which the task refuses)
     assert pipe_buckling(config, 200.0e3) and not pipe_buckling(config, 130.0e3)
-    with pytest.raises(ValueError, match=r"^physics: the random scenario's starting WOB, "
-                                         r"drawn up to 200 kN.*draw a lower WOB "
-                                         r"\(weight_on_bit_targets in gym.make\)"):
+    with pytest.raises(ValueError, match=r"^weight_on_bit_targets: the random scenario's "
+                                         r"starting WOB, drawn up to 200 kN.*draw a lower "
+                                         r"WOB \(weight_on_bit_targets in gym.make\)"):
         gym.make("DrillStickSlip-v0", weight_on_bit_targets=(70e3, 200e3),
                  weight_on_bit_range=(0.0, 200e3))
 
