@@ -1602,7 +1602,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--top", choices=("fixed", "top_drive"), default="fixed",
                    help="torsional boundary at the top")
     p.add_argument("-n", type=integer(1), default=5, help="modes of each kind")
-    p.add_argument("--max-rpm", type=number("rpm", low_inclusive=False), default=250.0,
+    # (1e20 ran, dividing by zero; no drill string turns near 10,000 rpm, a turbine ~1,500)
+    p.add_argument("--max-rpm", type=number("rpm", low=0.0, high=10_000.0,
+                                            low_inclusive=False), default=250.0,
                    help="highest speed of the chart")
     p.add_argument("--out", type=out_folder, default=Path("logs"),
                    help="folder for modes_critical_speeds.png and modes.json")

@@ -119,6 +119,9 @@ class DrillStringVectorEnv(VectorEnv):
             if len(seeds) != self.num_envs:
                 raise ValueError(f"seed: a list needs num_envs={self.num_envs} entries, "
                                  f"got {len(seeds)}")
+        if options is not None and not isinstance(options, dict):  # (dict() of a list: a
+            # TypeError about "dictionary update sequence")
+            raise ValueError(f"reset options: must be a dict, got {options!r}")
         options = dict(options or {})
         mask = options.pop("reset_mask", None)
         if mask is None:

@@ -686,6 +686,8 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
     cut.write_bytes(data[:8])
     half = tmp_path / "half.rrd"  # a run killed while writing: most of it is there
     half.write_bytes(data[:len(data) // 2])
+    garbage = tmp_path / "garbage.rrd"  # rerun's magic over garbage: the viewer's page was
+    garbage.write_bytes(b"RRF2garbagegarbagegarbage")  # empty, with a warning (a fuzzer)
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr("sys.platform", "linux")
@@ -694,6 +696,7 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
                        ([empty, "--web"], "is not a rerun recording (no RRF header)"),
                        ([other, "--web"], "incompatible with the local Rerun version"),
                        ([cut, "--web"], f"FILE: {cut} cannot be opened by rerun"),
+                       ([garbage, "--web"], f"FILE: {garbage} cannot be opened by rerun "),
                        ([tmp_path / "rec"], f"FILE: {tmp_path / 'rec'} is a folder; give "
                                             f"its recordings: {good.name}"),
                        ([good, good.with_name("gone.rrd")], "FILE: no recording at"),
@@ -1300,3 +1303,11 @@ def test_a_config_string_is_judged_at_the_wob_given_not_the_scenarios_string(tmp
     assert "buckl" not in capsys.readouterr().err
     summary = json.loads((tmp_path / "out" / "run_summary.json").read_text())
     assert summary["weight_on_bit_kN"] == 170.0
+
+
+def test_modes_refuses_a_chart_speed_no_string_turns_at(tmp_path, capsys):
+    """--max-rpm 1e20 ran, warning of a division by zero and printing a 300-digit
+    heading at 1e300 (a fuzzing walkthrough)."""
+    with pytest.raises(SystemExit):
+        main(["modes", "--max-rpm", "1e20", "--out", str(tmp_path)])
+    assert "--max-rpm: must be <= 10000 rpm, got 1e20" in capsys.readouterr().err

@@ -342,6 +342,36 @@ def test_a_stem_names_the_files(tmp_path: Path) -> None:
                for p in env.paths)
 
 
+def test_odd_recorder_arguments_are_named_and_an_open_episode_is_not_pickled(
+        tmp_path: Path) -> None:
+    """From a fuzzing walkthrough: stem "../../etc/x" wrote the hidden file
+    .._.._etc_x.rrd, stem "" wrote x.rrd, a text exaggeration or string period and a
+    number for the folder were bare TypeErrors, and pickling or copying the env in an
+    episode raised rerun's own TypeError (then an AttributeError in its __del__)."""
+    import copy
+    import pickle
+
+    from drill_env.recording.recorder import stem_file_name
+
+    assert stem_file_name("../../etc/x") == "etc_x.rrd"
+    for kwargs, message in (({"stem": ""}, "stem: a file name needs a letter or digit"),
+                            ({"exaggeration": "x"}, "exaggeration: must be a number > 0"),
+                            ({"string_period": "0.1"}, "string_period: must be a finite"),
+                            ({"directory": 123}, "directory: expected a folder's path, "
+                                                 "got int 123")):
+        with pytest.raises(ValueError, match=message):
+            RecordEpisode(_make_env(0.3), **{"directory": tmp_path, **kwargs})
+    env = RecordEpisode(_make_env(0.3), tmp_path)
+    env.reset(seed=0)
+    env.step(np.zeros(2, dtype=np.float32))
+    for copier in (pickle.dumps, copy.deepcopy):
+        with pytest.raises(TypeError, match="an episode is being recorded"):
+            copier(env)
+    pickle.loads(pickle.dumps(env.env))  # what it wraps travels
+    env.close()
+    assert isinstance(copy.deepcopy(env), RecordEpisode)  # between episodes it copies
+
+
 def test_termination_reason_logged(tmp_path: Path) -> None:
     env = RecordEpisode(gymnasium.make("DrillString-v0", scenario="default",
                                        episode_duration=1.0, makeup_torque=1.0), tmp_path)

@@ -60,13 +60,35 @@ def _num(value: Any) -> float:
 
 
 def _sanitize(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", str(text)).strip("_") or "x"
+    # (no leading dot: a stem "../x" was written as the hidden file .._x.rrd)
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", str(text)).lstrip("._").rstrip("_") or "x"
+
+
+def folder_path(directory: Any) -> Path:
+    """``directory`` as a Path; ValueError naming it when it is no path (pathlib's bare
+    TypeError)."""
+    if not isinstance(directory, str | os.PathLike):
+        raise ValueError(f"directory: expected a folder's path, got "
+                         f"{type(directory).__name__} {directory!r}")
+    return Path(directory)
+
+
+def check_stem(stem: str | None) -> None:
+    """ValueError naming ``stem`` unless it is None or a text with a letter or digit (an
+    empty one was written as ``x.rrd``)."""
+    if stem is not None and not (isinstance(stem, str) and re.search(r"[A-Za-z0-9]", stem)):
+        raise ValueError(f"stem: a file name needs a letter or digit, got {stem!r} (None: "
+                         "the default name)")
 
 
 def stem_file_name(stem: str) -> str:
     """The file a recording named by ``stem`` is written to: ``<stem>.rrd``, characters
     other than letters, digits, ``_``, ``.`` and ``-`` replaced by ``_``."""
     return f"{_sanitize(stem)}.rrd"
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def _path_part(text: str) -> str:
@@ -219,14 +241,16 @@ class EpisodeRecorder:
     def __init__(self, directory: str | os.PathLike = DEFAULT_DIRECTORY, *,
                  string_period: float = 0.1, exaggeration: float | None = None,
                  flush_every: int = 100, application_id: str = APPLICATION_ID) -> None:
-        if not (math.isfinite(string_period) and string_period >= 0):
+        if not (_is_number(string_period) and math.isfinite(string_period)
+                and string_period >= 0):
             raise ValueError(f"string_period: must be a finite number >= 0, got "
                              f"{string_period!r}")
-        if exaggeration is not None and not (math.isfinite(exaggeration) and exaggeration > 0):
-            raise ValueError(f"exaggeration: must be > 0, got {exaggeration!r}")
+        if exaggeration is not None and not (_is_number(exaggeration) and
+                                             math.isfinite(exaggeration) and exaggeration > 0):
+            raise ValueError(f"exaggeration: must be a number > 0, got {exaggeration!r}")
         if not (isinstance(flush_every, int) and flush_every >= 1):
             raise ValueError(f"flush_every: must be an integer >= 1, got {flush_every!r}")
-        self.directory = Path(directory)
+        self.directory = folder_path(directory)
         self.string_period = float(string_period)
         self.exaggeration = exaggeration
         self.flush_every = flush_every
@@ -247,6 +271,15 @@ class EpisodeRecorder:
         self._stream: Any = None
         self._writer: RerunWriter | None = None
         self._saved = False
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Picklable (a copy, a worker process) between episodes, not while one is being
+        recorded: rerun's stream cannot travel (a raw TypeError of rerun's bindings)."""
+        if self._stream is not None:
+            raise TypeError("EpisodeRecorder: an episode is being recorded (its rerun stream "
+                            "is open): pickle or copy the env it wraps (.env), or this one "
+                            "between episodes")
+        return self.__dict__.copy()
 
     # ------------------------------------------------------------------ begin
 

@@ -125,7 +125,9 @@ def check_recording(path: str | os.PathLike) -> str | None:
                     pass
     except RuntimeError as err:  # rerun's "Failed to read RRD file at <path>: <why>"
         why = str(err).partition(f"{path}: ")[2] or str(err)
-        if "incompatible" in why or "too small" in why:
+        # (a header of rerun's magic bytes over garbage: "Invalid encoding options"; the
+        # viewer started on an empty page)
+        if "incompatible" in why or "too small" in why or "encoding options" in why:
             raise ValueError(f"path: {path} cannot be opened by rerun {rerun.__version__}: "
                              f"{why}") from None
         return (f"{path}: rerun cannot read it to its end ({why}): cut short? The viewer "

@@ -15,6 +15,8 @@ from drill_env.recording.recorder import (
     DEFAULT_DIRECTORY,
     EpisodeRecorder,
     check_directory,
+    check_stem,
+    folder_path,
     stem_file_name,
 )
 from drill_env.recording.writer import APPLICATION_ID
@@ -49,8 +51,9 @@ class RecordEpisode(gymnasium.Wrapper):
         super().__init__(env)
         if not (isinstance(every, int) and every >= 1):
             raise ValueError(f"every: must be an integer >= 1, got {every!r}")
+        check_stem(stem)
         if record:
-            check_directory(Path(directory))  # fail now, in one line, not after an episode
+            check_directory(folder_path(directory))  # now, in one line, not after an episode
         self.recorder = EpisodeRecorder(directory, string_period=string_period,
                                         exaggeration=exaggeration, flush_every=flush_every,
                                         application_id=application_id)

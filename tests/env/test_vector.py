@@ -190,6 +190,10 @@ def test_reset_mask_resets_only_the_masked_envs():
     assert info["_time"].tolist() == mask.tolist()
     times = envs.get_attr("sim")
     assert [s.time for s in times] == pytest.approx([0.0, 0.1, 0.0, 0.1])
+    # options that are no dict: named, as a single env names them (dict() of a list was a
+    # TypeError about "dictionary update sequence", a fuzzing walkthrough)
+    with pytest.raises(ValueError, match=r"^reset options: must be a dict, got \[1, 2\]"):
+        envs.reset(options=[1, 2])
 
 
 def test_set_attr_sets_one_value_per_env_or_one_for_all_as_gymnasium_does():
