@@ -83,7 +83,8 @@ def check_stem(stem: str | None) -> None:
 
 def stem_file_name(stem: str) -> str:
     """The file a recording named by ``stem`` is written to: ``<stem>.rrd``, characters
-    other than letters, digits, ``_``, ``.`` and ``-`` replaced by ``_``."""
+    other than letters, digits, ``_``, ``.`` and ``-`` replaced by ``_``, without leading
+    dots (no hidden file, nothing above the folder)."""
     return f"{_sanitize(stem)}.rrd"
 
 
