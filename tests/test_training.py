@@ -1650,3 +1650,32 @@ def test_a_ppo_run_whose_config_says_sac_is_named_at_the_load(run, tmp_path):
     with pytest.raises(ValueError, match=r"algo 'sac', but .*model.zip does not load as "
                                          r"one .*: the model of another algorithm"):
         LearnedController.load(copy)
+
+
+def test_a_session_interrupted_before_its_first_step_is_recorded_once(tmp_path, monkeypatch):
+    """A review: a resumed session stopped before its first env step saves a checkpoint
+    at the steps it resumed from, with itself among the sessions; the next resume from
+    that checkpoint appended its start again. run.json lists each session once."""
+    from training import train as train_module
+
+    cfg = tiny_config(n_timesteps=512, n_envs=2, eval_freq=10_000, checkpoint_freq=10_000)
+    calls = []
+
+    def interrupt_after(n):  # a Ctrl-C noticed at the n-th check (one a step, and one
+        def noted():  # before learn starts)
+            calls.append(1)
+            return KeyboardInterrupt() if len(calls) > n else None
+        return noted
+
+    monkeypatch.setattr(train_module, "noted_interrupt", interrupt_after(100))
+    with pytest.raises(KeyboardInterrupt):  # the first session, stopped after some steps
+        train(cfg, tmp_path / "run", progress=False)
+    calls.clear()
+    monkeypatch.setattr(train_module, "noted_interrupt", interrupt_after(0))
+    with pytest.raises(KeyboardInterrupt):  # the second, before its first step
+        train(cfg, tmp_path / "run", resume=True, progress=False)
+    monkeypatch.undo()
+    train(cfg, tmp_path / "run", resume=True, progress=False)
+    record = json.loads((tmp_path / "run" / "run.json").read_text())
+    starts = [s["from_env_steps"] for s in record["sessions"]]
+    assert len(starts) == 2 and starts[0] == 0 and 0 < starts[1] < 512, starts
