@@ -42,6 +42,7 @@ from drill_env.physics.validation import (
     config_dataclass,
     jsonable,
     numbers,
+    repeated,
 )
 from drill_env.sweep import save_text
 
@@ -242,16 +243,6 @@ def label(controller: str) -> str:
             pass  # named as typed; ConstantSetPoints.parse says what is wrong with it
         return f"constant-{rpm}rpm-{kn}kN"
     return head
-
-
-def repeated(names: Sequence[str]) -> str | None:
-    """The first name given a second time (None: each once)."""
-    seen: set[str] = set()
-    for name in names:
-        if name in seen:
-            return name
-        seen.add(name)
-    return None
 
 
 def labels(controllers: Sequence[str]) -> list[str]:

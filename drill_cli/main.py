@@ -182,17 +182,18 @@ def existing_file(text: str) -> Path:
     """An argparse type: the path of a file that exists (else a one-line error)."""
     path = Path(text)
     if not path.is_file():
-        raise argparse.ArgumentTypeError(not_a_file(path))
+        raise argparse.ArgumentTypeError(f"{text} {not_a_file(path)}" if path.exists()
+                                         else f"no such file: {text}")
     return path
 
 
 def not_a_file(path: Path) -> str:
-    """Why ``path``, which is not a regular file, cannot be read as one."""
+    """Why ``path``, which exists and is not a regular file, cannot be read as one (said
+    after its name)."""
     if path.is_dir():
-        return f"{path} is a folder, not a file"
-    if path.exists():  # /dev/null, a named pipe ("no such file" said of one that exists)
-        return f"{path} is not a regular file (a device or a pipe); give a file"
-    return f"no such file: {path}"
+        return "is a folder, not a file"
+    # /dev/null, a named pipe: "no such file" was said of one that exists
+    return "is not a regular file (a device or a pipe); give a file"
 
 
 existing_file.__name__ = "file"
@@ -646,7 +647,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         hint = did_you_mean(unknown[0], list(SCENARIOS)) if unknown else ""
         raise argparse.ArgumentTypeError(f"--scenarios: unknown {unknown or text!r}{hint};"
                                          f" known: {', '.join(sorted(SCENARIOS))}")
-    from agents.benchmark import repeated
+    from drill_env.physics.validation import repeated
 
     if (twice := repeated(scenarios)) is not None:  # (it ran the same episodes twice, and
         # benchmark.csv held their rows twice)
@@ -1054,7 +1055,8 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
     from drill_env.physics.validation import read_yaml
 
     if not path.is_file():
-        raise ValueError(f"--config {path}: {not_a_file(path).removeprefix(f'{path} ')}")
+        raise ValueError(f"--config {path}: "
+                         + (not_a_file(path) if path.exists() else "no such file"))
     try:
         data = read_yaml(path)
     except ValueError as err:

@@ -53,7 +53,14 @@ from drill_env.physics.config import replace, require_positive
 from drill_env.physics.layout import R
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
-from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass, jsonable
+from drill_env.physics.validation import (
+    Count,
+    NonNegative,
+    Positive,
+    config_dataclass,
+    jsonable,
+    repeated,
+)
 from drill_env.scenarios import POSITIONS, make_scenario, with_physics
 from drill_env.sweep import ResultStore, digest, make_executor, source_digest
 
@@ -318,8 +325,7 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
         rpm, wob = grid(rpm_step, wob_step, max_rpm, max_wob)
     else:
         rpm, wob = (np.asarray(g, dtype=float) for g in grid_points)
-    if len(set(positions)) < len(positions):
-        twice = next(p for p in positions if list(positions).count(p) > 1)
+    if (twice := repeated(positions)) is not None:
         raise ValueError(f"positions: {twice} given twice")
     for position in positions:
         if position not in POSITIONS:

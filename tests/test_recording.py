@@ -355,7 +355,7 @@ def test_odd_recorder_arguments_are_named_and_an_open_episode_is_not_pickled(
 
     assert stem_file_name("../../etc/x") == "etc_x.rrd"
     for kwargs, message in (({"stem": ""}, "stem: a file name needs a letter or digit"),
-                            ({"exaggeration": "x"}, "exaggeration: must be a number > 0"),
+                            ({"exaggeration": "x"}, "exaggeration: must be a finite number"),
                             ({"string_period": "0.1"}, "string_period: must be a finite"),
                             ({"directory": 123}, "directory: expected a folder's path, "
                                                  "got int 123")):

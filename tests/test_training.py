@@ -1154,7 +1154,7 @@ def test_a_log_std_init_sac_would_ignore_is_refused(tmp_path):
     ("sac", {"policy": "MultiInputPolicy"}, "sac.policy: the tasks' observations are "
                                             "vectors"),
     ("ppo", {"policy_kwargs": {"log_std_init": 1e308}},
-     "ppo.policy_kwargs.log_std_init: must be a number in -20 to 2, got 1e+308"),
+     "ppo.policy_kwargs.log_std_init: must be a number >= -20 and <= 2, got 1e+308"),
     ("ppo", {"policy_kwargs": {"log_std_init": "-1"}},
      "ppo.policy_kwargs.log_std_init: must be a number")])
 def test_settings_sb3_or_torch_would_fail_on_name_their_field(algo, changes, message):

@@ -161,14 +161,14 @@ _RANGES: dict[str, tuple[float, float, bool]] = {  # name: (low, high, low inclu
     "ent_coef": (0.0, 1e6, True), "target_entropy": (-1e6, 1e6, True),
     "sde_sample_freq": (-1, 10**9, True), "target_update_interval": (1, 10**9, True),
     "stats_window_size": (1, 10**9, True),
+    # policy_kwargs.log_std_init: the log of the initial standard deviation of the
+    # Gaussian policy over actions in [-1, 1]: below e^-20 it never explores, above e^2
+    # (std 7.4) nearly every action lands on a bound
+    "log_std_init": (-20.0, 2.0, True),
 }
 #: The policy for the tasks' observations (vectors; SB3's CnnPolicy takes images, its
 #: MultiInputPolicy dicts).
 VECTOR_POLICY = "MlpPolicy"
-#: The range of ``policy_kwargs.log_std_init``, the log of the initial standard deviation
-#: of the Gaussian policy over actions in [-1, 1]: below e^-20 it never explores, above
-#: e^2 (std 7.4) nearly every action lands on a bound.
-LOG_STD_RANGE = (-20.0, 2.0)
 #: Hyperparameters SB3 needs as integers: a YAML ``1e5`` arrives as a float.
 _INTEGERS = {"n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",
              "gradient_steps", "train_freq", "sde_sample_freq", "target_update_interval",
@@ -414,12 +414,11 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
         raise ConfigError(f"{where}.log_std_init: has no effect on SAC without "
                           "gSDE (the actor's log std is a learned layer, std ~1 at first); "
                           "leave it out or set sac.hyperparams.use_sde: true")
-    log_std = config.policy_kwargs.get("log_std_init")
-    if log_std is not None and not (isinstance(log_std, int | float) and not isinstance(
-            log_std, bool) and LOG_STD_RANGE[0] <= log_std <= LOG_STD_RANGE[1]):
-        # (1e308: the first action was NaN, a torch error with no field in it)
-        raise ConfigError(f"{where}.log_std_init: must be a number in {LOG_STD_RANGE[0]:g} to "
-                          f"{LOG_STD_RANGE[1]:g}, got {log_std!r}")
+    if "log_std_init" in config.policy_kwargs:  # (1e308: the first action was NaN, a
+        try:  # torch error with no field in it)
+            _in_range("log_std_init", config.policy_kwargs["log_std_init"])
+        except ValueError as err:
+            raise ConfigError(f"{where}.log_std_init: {err}") from None
     try:
         sb3_policy_kwargs(config.policy_kwargs)
     except ValueError as err:

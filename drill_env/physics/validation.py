@@ -22,7 +22,7 @@ import math
 import re
 import typing
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any, TypeVar, dataclass_transform
 
@@ -162,6 +162,16 @@ def closest(name: str, names: list[str]) -> str | None:
     """The one of ``names`` a misspelt ``name`` was probably meant to be, if any."""
     close = difflib.get_close_matches(name, names, n=1, cutoff=0.75)
     return close[0] if close else None
+
+
+def repeated(names: Sequence[str]) -> str | None:
+    """The first name given a second time in ``names`` (None: each once)."""
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            return name
+        seen.add(name)
+    return None
 
 
 def did_you_mean(name: str, names: list[str]) -> str:

@@ -28,7 +28,7 @@ import numpy as np
 from drill_env.env_batch import INFO_WINDOW_METRICS
 from drill_env.events import LayerDetector, StickSlipDetector, WhirlDetector
 from drill_env.physics.layout import R
-from drill_env.physics.validation import jsonable
+from drill_env.physics.validation import jsonable, require_non_negative, require_positive
 from drill_env.recording.writer import (
     APPLICATION_ID,
     ROCK_COLORS,
@@ -86,10 +86,6 @@ def stem_file_name(stem: str) -> str:
     other than letters, digits, ``_``, ``.`` and ``-`` replaced by ``_``, without leading
     dots (no hidden file, nothing above the folder)."""
     return f"{_sanitize(stem)}.rrd"
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def _path_part(text: str) -> str:
@@ -242,13 +238,9 @@ class EpisodeRecorder:
     def __init__(self, directory: str | os.PathLike = DEFAULT_DIRECTORY, *,
                  string_period: float = 0.1, exaggeration: float | None = None,
                  flush_every: int = 100, application_id: str = APPLICATION_ID) -> None:
-        if not (_is_number(string_period) and math.isfinite(string_period)
-                and string_period >= 0):
-            raise ValueError(f"string_period: must be a finite number >= 0, got "
-                             f"{string_period!r}")
-        if exaggeration is not None and not (_is_number(exaggeration) and
-                                             math.isfinite(exaggeration) and exaggeration > 0):
-            raise ValueError(f"exaggeration: must be a number > 0, got {exaggeration!r}")
+        require_non_negative(string_period, "string_period")
+        if exaggeration is not None:
+            require_positive(exaggeration, "exaggeration")
         if not (isinstance(flush_every, int) and flush_every >= 1):
             raise ValueError(f"flush_every: must be an integer >= 1, got {flush_every!r}")
         self.directory = folder_path(directory)
