@@ -299,7 +299,6 @@ Sample = IntEnum("Sample", [
     "BIT_POWER", "MOTOR_POWER", "SURFACE_TORQUE", "EXCURSION_RATIO", "FINITE", "ORBIT_ANGLE",
     "WHIRL_SIGN",
 ], start=0)
-METRIC_SAMPLES: tuple[str, ...] = tuple(m.name.lower() for m in Sample)
 #: Scalars of a rolling window (``WindowArrays.params``); REST_X, REST_Y: the bit's rest
 #: position (m) that the excursion ratio is measured from (:meth:`RollingMetrics.set_rest`).
 WindowParam = IntEnum("WindowParam", ["CLEARANCE", "DT", "AREA", "SIZE", "REST_X", "REST_Y"],
