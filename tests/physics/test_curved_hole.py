@@ -85,6 +85,39 @@ def test_in_a_build_the_fe_and_soft_string_torques_agree_and_tension_lifts_the_s
     assert np.all(toward_high[in_hold] < -0.9)
 
 
+def test_a_compression_pushes_the_string_to_the_outside_of_a_build():
+    """The WOB's share of the static side load in a build: a compression C along a hole
+    of curvature k pushes each length L of string outward, to the low side of a build,
+    with C k L (the tension's turning load of the soft-string model, Johancsik et al.
+    1984, reversed). The build of :func:`build_section` is an arc of 3 deg per 30 m in a
+    vertical plane: the change of the simulator's lumped static loads between two WOBs
+    must be that load, node by node, wherever a node's two elements lie in the arc."""
+    config, survey = build_section()
+    sim = Simulator(config)
+    wob = 80e3
+    loads = []
+    for w in (0.0, wob):
+        sim.reset(OperatingPoint(60 * RPM, w))
+        loads.append(sim.static_load[:, 0::2].copy())
+    change = loads[1] - loads[0]  # (plane, node from lateral_start)
+    node_md = sim.mesh.node_depth[sim.lateral_start:]
+    t, e1, e2 = Trajectory(survey).frames(node_md)
+    pushed = change[0][:, None] * e1 + change[1][:, None] * e2
+    across = DOWN[None, :] - t[:, 2:3] * t
+    low = across / np.maximum(np.linalg.norm(across, axis=1), 1e-12)[:, None]
+    above, below = np.diff(node_md, prepend=node_md[0]), np.diff(node_md, append=node_md[-1])
+    in_arc = (node_md - above >= 100.0) & (node_md + below <= 400.0)  # kick-off to 30 deg
+    assert in_arc.sum() > 20
+    expected = wob * math.radians(3.0) / 30.0 * 0.5 * (above + below)[in_arc]
+    toward_low = np.sum(pushed * low, axis=1)[in_arc]
+    np.testing.assert_allclose(toward_low, expected, rtol=1e-9)
+    sideways = pushed[in_arc] - toward_low[:, None] * low[in_arc]
+    assert np.max(np.linalg.norm(sideways, axis=1)) < 1e-9 * np.max(expected)
+    # where the hole is straight (the vertical top, the hold) the WOB adds no side load
+    straight = (node_md + below < 100.0) | (node_md - above > 400.0)
+    assert np.max(np.abs(change[:, straight])) < 1e-9 * np.max(expected)
+
+
 def test_a_survey_that_ends_above_the_string_is_refused_by_name():
     from drill_env.physics.config import ConfigError
 
