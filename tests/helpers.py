@@ -4,13 +4,37 @@ from __future__ import annotations
 
 import contextlib
 import signal
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+
+import numpy as np
 
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.trajectory import Survey
 from drill_env.physics.units import RPM
 from drill_env.scenarios import make_scenario
 from drill_env.well import rotating_wall_torque, sliding_friction, with_survey
+
+# --------------------------------------------------------------------------- tolerances
+
+
+def conditioned(reference: Callable[..., np.ndarray], *arrays: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``reference(*arrays)`` (floats) and the tolerance another implementation of it
+    (another summation order, a rolling update) must meet, set by the values'
+    conditioning on these inputs: the spread of the reference when every input is
+    perturbed by a few eps (means of signed samples, ptp over a mean, ratios of sums lose
+    digits to cancellation), times the log2(n) growth of a summation's error in another
+    order, plus the round-off of the value itself."""
+    value = np.asarray(reference(*arrays), dtype=float)
+    rng = np.random.default_rng(0)
+    eps = np.finfo(float).eps
+    spread = np.zeros_like(value)
+    for _ in range(4):
+        noisy = [a * (1.0 + 4.0 * eps * rng.standard_normal(np.shape(a))) for a in arrays]
+        spread = np.maximum(spread, np.abs(np.asarray(reference(*noisy)) - value))
+    n = max(len(a) for a in arrays)
+    return value, 10.0 * max(1.0, np.log2(n)) * (spread + 4.0 * eps * np.abs(value))
+
 
 # --------------------------------------------------------------------------- curved holes
 

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import conditioned
 
 from drill_env import metrics
 from drill_env.physics.simulator import RECORD_CHANNELS
@@ -303,22 +304,12 @@ def _reference(records) -> np.ndarray:
 
 
 def assert_same_metrics(values, records):
-    """The fast path against the NumPy definitions, to a tolerance set by each metric's
-    conditioning on these records: the spread of the definitions' values when every
-    record is perturbed by a few eps (means of signed samples, ptp over a mean, ratios of
-    sums lose digits to cancellation), times the log2(n) growth of a summation's error in
-    another order, plus the round-off of the value itself."""
-    reference = _reference(records)
-    rng = np.random.default_rng(0)
-    eps = np.finfo(float).eps
-    spread = np.zeros_like(reference)
-    for _ in range(4):
-        noisy = records * (1.0 + 4.0 * eps * rng.standard_normal(records.shape))
-        spread = np.maximum(spread, np.abs(_reference(noisy) - reference))
+    """The fast path against the NumPy definitions, to the tolerance their conditioning
+    on these records sets (:func:`helpers.conditioned`)."""
+    reference, tol = conditioned(_reference, records)
     values = np.asarray(values)
     finite = np.isfinite(reference)  # non-finite samples: the same NaN or inf
     np.testing.assert_array_equal(values[~finite], reference[~finite])
-    tol = 10.0 * max(1.0, np.log2(len(records))) * (spread + 4.0 * eps * np.abs(reference))
     assert np.all(np.abs(values - reference)[finite] <= tol[finite]), (values, reference, tol)
 
 

@@ -510,7 +510,6 @@ def test_training_envs_are_seeded_apart_per_run_and_per_resume(tmp_path, monkeyp
     assert all(set(a).isdisjoint(b) for i, a in enumerate(blocks) for b in blocks[i + 1:])
     assert all(TRAINING_SEEDS <= b.start and b.stop <= 2**32 for b in blocks)
     assert TRAINING_SEEDS > max(VALIDATION_SEED + 10**5, max(EVALUATION_SEEDS))
-    assert env_seed(cfg, 256) == env_seed(cfg, 256)  # reproducible
 
     seeds = []
     reset = DrillStringEnv.reset

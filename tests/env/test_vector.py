@@ -350,7 +350,12 @@ def test_sb3_can_run_a_few_ppo_steps_on_the_vec_env():
 
     venv = make_sb3_vec_env(2, **KW)
     model = PPO("MlpPolicy", venv, n_steps=8, batch_size=8, n_epochs=1, seed=0, device="cpu")
+    before = [w.detach().clone() for w in model.policy.parameters()]
     model.learn(total_timesteps=16)
+    assert model.num_timesteps == 16  # one rollout, 8 steps of 2 envs, then an update
+    after = list(model.policy.parameters())
+    assert all(bool(w.isfinite().all()) for w in after)
+    assert any(not bool((a == b).all()) for a, b in zip(after, before, strict=True))
 
 
 def _assert_same_infos(a: dict, b: dict) -> None:

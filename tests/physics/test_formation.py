@@ -98,13 +98,17 @@ def test_resistance_rising_branch_has_slope_st2():
 
 
 def test_resistance_kernel_matches_the_reference_on_random_inputs():
+    """The compiled curve against bit_reference's transcription of eq. (39): a sum of
+    three positive terms, so the two agree to the rounding of exp (an ulp, a few with a
+    vector math library) and of two additions: 16 eps relative."""
     rng = np.random.default_rng(1)
+    tol = 16 * np.finfo(float).eps
     for _ in range(200):
         mu_min = rng.uniform(0.1, 0.6)
         args = (mu_min, mu_min + rng.uniform(0, 0.5), rng.uniform(0.5, 10), rng.uniform(0, 0.02))
         w = rng.normal(scale=20.0)
         assert formation.resistance(w, *args) == pytest.approx(
-            bit_reference.mu_curve(w, *args), rel=1e-14)
+            bit_reference.mu_curve(w, *args), rel=tol)
 
 
 # --------------------------------------------------------------------------- P1-P6

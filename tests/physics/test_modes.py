@@ -407,14 +407,20 @@ def _numpy_torsion_poles(config: SimulationConfig, top_drive: tuple[float, float
 
 
 def test_torsional_damping_ratios_match_an_independent_damped_eigenproblem():
-    """The documented 9.4 % of the paper string's first torsional mode, against the
-    chain of :func:`_numpy_torsion_poles`. The meshes differ (10 m pipe elements
-    there), so they agree to the discretisation error."""
+    """The paper string's first torsional modes against the chain of
+    :func:`_numpy_torsion_poles`. The meshes differ (10 m pipe elements there), so they
+    agree to the discretisation error; the chain's first ratio is the one docs/model.md
+    states, to the 0.1 % it is given in."""
+    import re
+
     config = SimulationConfig()
     poles = _numpy_torsion_poles(config)
     zeta = -poles.real / np.abs(poles)
     modes = torsional_modes(config, "fixed", 2)
-    assert modes.damping_ratio[0] == pytest.approx(0.094, abs=0.0005)  # docs/model.md
+    model = (Path(__file__).parents[2] / "docs" / "model.md").read_text()
+    stated = re.search(r"paper string\s+has ([\d.]+) % of critical damping", model)
+    assert stated, "docs/model.md no longer states the paper string's modal damping"
+    assert zeta[0] == pytest.approx(float(stated[1]) / 100.0, abs=0.0005)
     np.testing.assert_allclose(modes.damping_ratio, zeta, rtol=2e-3)
     np.testing.assert_allclose(modes.frequency, np.abs(poles) / (2.0 * math.pi), rtol=1e-3)
 
