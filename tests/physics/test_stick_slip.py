@@ -19,7 +19,7 @@ from drill_env.physics.config import (
     SolverConfig,
     StringConfig,
 )
-from drill_env.physics.simulator import OperatingPoint, Simulator
+from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
 from drill_env.physics.stability import stick_slip_threshold, torsional_growth_rate
 from drill_env.physics.units import RPM
 
@@ -50,6 +50,40 @@ def run_from_steady(sim: Simulator, omega: float, seconds: float) -> np.ndarray:
 def sim_and_threshold():
     sim = Simulator(simple_config())
     return sim, stick_slip_threshold(sim, WOB)
+
+
+def test_the_bit_sticks_exactly_while_the_torque_that_holds_it_is_the_static_one_or_less():
+    """Coulomb's stick as Karnopp (1985) states it for a stepped model: within a step the
+    bit stops whenever the torque that stops it is at most the static resistance
+    mu_max a WOB (eq. 38 at mu_max), and slips at the falling curve's torque otherwise.
+    One step from the steady 60 rpm windup with the whole string turning at a speed
+    bisected for where the step stops sticking: on the stuck side the bit ends at rest,
+    held by a torque that reaches mu_max a WOB; on the other it slips, with less."""
+    sim = Simulator(simple_config())
+    col = {name: k for k, name in enumerate(RECORD_CHANNELS)}
+    static = sim.lever_arm * ROCK.mu_max * WOB
+
+    def one_step(omega: float) -> tuple[bool, float, float]:
+        sim.reset(OperatingPoint(60 * RPM, WOB))
+        sim.vt[:] = omega
+        record = sim.run(sim.dt, 60 * RPM, sim.hook_load_for(WOB), record_every=1)[-1]
+        return (bool(record[col["stuck"]] > 0.0), abs(record[col["torque_on_bit"]]),
+                record[col["bit_speed"]])
+
+    low, high = 0.0, 5.0
+    assert one_step(low)[0] and not one_step(high)[0]
+    for _ in range(80):
+        middle = 0.5 * (low + high)
+        if one_step(middle)[0]:
+            low = middle
+        else:
+            high = middle
+    stuck, holding, speed = one_step(low)
+    assert stuck and speed == 0.0
+    assert holding == pytest.approx(static, rel=1e-9)
+    stuck, torque, speed = one_step(high)
+    assert not stuck and speed > 0.0
+    assert 0.8 * static < torque < static  # the falling curve, past its static peak
 
 
 def test_threshold_lies_in_the_operating_range(sim_and_threshold):
