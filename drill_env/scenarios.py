@@ -571,6 +571,11 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
         return
     defaults = inspect.signature(SCENARIOS[name]).parameters
     low, high = params.get("string_length_range", defaults["string_length_range"].default)
+    if "initial_depth" in overrides:  # (it fit some draws and was refused at other resets,
+        # with advice to lengthen a string the scenario draws)
+        raise ValueError(f"physics: initial_depth: the {name} scenario draws each episode's "
+                         f"string ({low:g}-{high:g} m, string_length_range) and hangs the "
+                         "bit at its bottom: leave initial_depth out")
     top = params.get("weight_on_bit_range", defaults["weight_on_bit_range"].default)[1] \
         if top_wob is None else top_wob
     buckling: list[tuple[float, Any]] = []  # (length, the first component) that buckle

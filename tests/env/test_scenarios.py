@@ -97,6 +97,15 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
     # on a 1,250 m string ran, its depth 100 km, a fuzzing walkthrough)
     with pytest.raises(ValueError, match=r"^initial_depth: 100000 m is below the end of "):
         scenarios.with_physics(base, {"initial_depth": 1e5})
+    # the random scenario draws its string's length: a bit depth of one's own fits some
+    # draws only (1,550 m was refused at make for a 1,346 m draw, with advice to lengthen
+    # the string, and passed where the draws were longer): refused for every draw
+    import gymnasium as gym
+
+    for depth in (1550.0, 1600.0):
+        with pytest.raises(ValueError, match=r"^physics: initial_depth: the random scenario "
+                                             r"draws each episode's string \(900-1600 m"):
+            gym.make("DrillStringRandom-v0", physics={"initial_depth": depth})
     assert own.formation.interfaces == base.formation.interfaces
     assert scenarios.with_physics(base, {"mud.density": 1100.0}).initial_depth \
         == base.initial_depth
