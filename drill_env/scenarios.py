@@ -571,7 +571,7 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
         return
     defaults = inspect.signature(SCENARIOS[name]).parameters
     low, high = params.get("string_length_range", defaults["string_length_range"].default)
-    if "initial_depth" in overrides:  # (it fit some draws and was refused at other resets,
+    if overrides.get("initial_depth") is not None:  # (it fit some draws, was refused at others,
         # with advice to lengthen a string the scenario draws)
         raise ValueError(f"physics: initial_depth: the {name} scenario draws each episode's "
                          f"string ({low:g}-{high:g} m, string_length_range) and hangs the "
