@@ -60,6 +60,32 @@ def test_whirl_shorter_than_the_hold_time_is_no_whirl() -> None:
                         CLEARANCE) == []
 
 
+def test_whirl_held_longer_than_the_hold_time_is_an_event_dated_at_its_start() -> None:
+    """docs/recording.md: the rule held for 0.3 s is an onset, off for 0.3 s an end. A
+    backward whirl on the wall for 0.4 s (1.0-1.4 s) is one onset at 1.0 s and its end."""
+    t = np.arange(0.0, 3.0, 0.01)
+    radial = np.where((t >= 1.0) & (t < 1.4), 0.9, 0.1)
+    whirl = np.full_like(t, -40.0)  # rad/s, the orbit turning backward
+    angle = np.cumsum(whirl) * 0.01
+    x, y = radial * CLEARANCE * np.cos(angle), radial * CLEARANCE * np.sin(angle)
+    events = whirl_events(t, x, y, whirl, np.full_like(t, 5.0), CLEARANCE)
+    assert [e[2].split(":")[0] for e in events] == ["whirl onset (backward)", "whirl ended"]
+    assert events[0][0] == pytest.approx(1.0)
+
+
+def test_a_stick_after_five_quiet_seconds_is_a_new_stick_slip_onset() -> None:
+    """docs/recording.md: a stick after 5 s without one starts a new episode (WARN); one
+    4 s after the last continues it (DEBUG)."""
+    assert STICK_SLIP_QUIET == 5.0
+    t = np.arange(0.0, 20.0, 0.1)
+    w = np.full_like(t, 5.0)
+    for start in (1.0, 5.0, 11.0):  # 4 s, then 6 s after the one before
+        w[(t >= start) & (t < start + 0.3)] = 0.0
+    assert [(e[0], e[1]) for e in stick_slip_events(t, w)] == [
+        (pytest.approx(1.0), "WARN"), (pytest.approx(5.0), "DEBUG"),
+        (pytest.approx(11.0), "WARN")]
+
+
 def test_the_whirl_direction_is_that_of_most_samples_since_the_onset() -> None:
     """Backward whirl with one sample's whirl speed reversed: the angle it travels turns
     back by none of the rule's 90 degrees, so the sample belongs to the backward leg and

@@ -30,6 +30,7 @@ def test_stalled_bit_has_finite_severity_thanks_to_the_mean_floor():
     ssi = metrics.stick_slip_severity(speed)
     assert math.isfinite(ssi)
     assert ssi == pytest.approx(0.5 / (2 * metrics.SSI_MIN_MEAN_SPEED))
+    assert metrics.SSI_MIN_MEAN_SPEED == pytest.approx(1.0 * RPM)  # the documented 1 rpm
 
 
 def test_stuck_fraction_counts_samples_below_one_rpm():

@@ -117,6 +117,18 @@ def test_episode_truncates_at_its_duration():
     assert flags == [False, False, True]
 
 
+def test_the_effort_term_measures_a_change_over_the_set_point_range_s_span():
+    """The effort term (class docstring): -effort_weight ((d rpm / rpm span)^2 + ...): a
+    move across the whole of a 100-200 rpm range costs the whole weight, as across the
+    default 0-200 rpm (a span measured from 0 read it as a quarter)."""
+    env = gym.make("DrillString-v0", rpm_range=(100.0, 200.0), episode_duration=1.0)
+    env.reset(seed=0)
+    env.step(np.array([-1.0, 0.0], dtype=np.float32))  # 100 rpm
+    *_, info = env.step(np.array([1.0, 0.0], dtype=np.float32))  # 200 rpm, the WOB kept
+    weight = env.unwrapped.config.effort_weight
+    assert info["reward_terms"]["effort"] == pytest.approx(-weight, rel=1e-12)
+
+
 def test_incremental_actions_move_the_set_point_by_at_most_a_step():
     env = DrillStringEnv(action_mode="incremental", rpm_step=10.0, **SHORT)
     env.reset(seed=0, options={"surface_speed": 100 * RPM, "weight_on_bit": 100e3})

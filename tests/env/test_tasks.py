@@ -48,6 +48,9 @@ def test_stick_slip_targets_are_drawn_in_range_and_observed():
         speed, wob = base.targets
         assert 40.0 * RPM <= speed <= 100.0 * RPM and 70e3 <= wob <= 130e3
         assert obs[-6] == pytest.approx(speed / (100.0 * RPM), rel=1e-6)  # target rpm entry
+        # the target WOB over 100 kN (the class docstring's table)
+        names = base.observation_names
+        assert obs[names.index("target_weight_on_bit")] == pytest.approx(wob / 100e3, rel=1e-6)
         assert info["target_speed"] == speed
         speeds.append(speed)
     assert np.std(speeds) > 10.0 * RPM
@@ -615,16 +618,22 @@ def test_the_drilling_reward_counts_whirl_both_ways_and_a_missing_window_as_stuc
     assert base._reward_terms((values, True), False)["stuck"] == -base.task.stuck_weight
 
 
-def test_the_drilling_telemetry_radial_entry_is_a_past_window_mean():
+@pytest.mark.parametrize("scenario, action", [
+    ("paper_case2", [0.6, 0.8]),  # the bit crossing into a dipping layer, pushed off centre
+    # the bit lying on the low side of a 45-degree hole, off the axis without an orbit:
+    # its radial ratio (~0.36), not the excursion from where it rests (~0)
+    ("j_shaped", [0.0, 0.0]),
+])
+def test_the_drilling_telemetry_radial_entry_is_a_past_window_mean(scenario, action):
     """Task 2's downhole radial entry is the metric window's mean radial ratio
-    (``info["radial_ratio"]``) as some earlier step read it, through the telemetry."""
-    # the bit crossing into a dipping layer is pushed off centre (paper case 2)
-    env = gym.make("DrillOptimise-v0", telemetry="wired_pipe", scenario="paper_case2")
+    (``info["radial_ratio"]``: radial displacement over clearance, docs/tasks.md) as some
+    earlier step read it, through the telemetry."""
+    env = gym.make("DrillOptimise-v0", telemetry="wired_pipe", scenario=scenario)
     _, info = env.reset(seed=0)
     k = env.unwrapped.observation_names.index("telemetry_radial_ratio")
     seen, shown = [0.0, info["radial_ratio"]], []
     for _ in range(15):
-        obs, *_, info = env.step(np.array([0.6, 0.8], dtype=np.float32))
+        obs, *_, info = env.step(np.array(action, dtype=np.float32))
         shown.append(float(obs[k]))
         seen.append(info["radial_ratio"])
     assert max(shown) > 0.1
