@@ -570,8 +570,6 @@ class BitConfig:
 # --------------------------------------------------------------------------- simulation
 
 
-
-
 @config_dataclass
 class WellConfig:
     """The hole's path by survey stations (docs/model.md section 6): measured depth (m,
