@@ -21,7 +21,7 @@ import uuid
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -140,6 +140,14 @@ def release_streams() -> None:
     except ImportError:  # another rerun: it frees them itself or not at all
         return
     flush_and_cleanup_orphaned_recordings()
+
+
+class _Detectors(NamedTuple):
+    """The streaming event detectors of one episode (state carried across chunks)."""
+
+    stick: StickSlipDetector
+    whirl: WhirlDetector | None  # None where the hole has no clearance to whirl in
+    layer: LayerDetector
 
 
 class _Chunk:
@@ -307,7 +315,7 @@ class EpisodeRecorder:
         self.recording_id = recording_id or uuid.uuid4().hex
         self.stem = stem
         geometry = capture_geometry(sim, config)
-        self._detectors = (
+        self._detectors = _Detectors(
             StickSlipDetector(),
             WhirlDetector(geometry.clearance) if math.isfinite(geometry.clearance)
             and geometry.clearance > 0 else None,
@@ -556,7 +564,7 @@ class EpisodeRecorder:
                     path.unlink(missing_ok=True)
                 return None
             self.flush()
-            whirl = self._detectors[1]
+            whirl = self._detectors.whirl
             if whirl is not None:  # the last seconds' samples, which no later one follows
                 writer.events(whirl.finish())
             last = self._last_time
