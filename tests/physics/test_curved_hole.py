@@ -217,14 +217,10 @@ def test_pipe_on_the_low_side_of_an_inclined_hole_buckles_at_the_dawson_paslay_l
 
 
 def _low_side_spread(inclination: float, share: float) -> float:
-    """The FE string (the paper's: 1000 m of 5 in drill pipe on a 35 m BHA) turning at
-    60 rpm in a straight hole at ``inclination`` (deg), its drill pipe compressed to
-    ``share`` of Dawson & Paslay's load and kicked sideways (2 cm/s per node, seeded):
-    the spread (deg) of its lowest 40 pipe nodes around the hole after 20 s. On the low
-    side it stays a few degrees; buckled, the pipe winds around the hole."""
+    """The FE string (the paper's: 1000 m of 5 in drill pipe on a 35 m BHA) in a straight
+    hole at ``inclination`` (deg), its drill pipe compressed to ``share`` of Dawson &
+    Paslay's load: :func:`_spread_compressed`."""
     from drill_env.physics.config import SimulationConfig
-    from drill_env.physics.fem import build_mesh
-    from drill_env.physics.statics import axial_force_and_inclination
     from drill_env.physics.trajectory import Survey
     from drill_env.well import with_survey
 
@@ -236,11 +232,22 @@ def _low_side_spread(inclination: float, share: float) -> float:
     clearance = 0.5 * (config.string.hole_diameter - pipe.outer_diameter)
     load = 2.0 * math.sqrt(pipe.youngs_modulus * pipe.second_moment * w
                            * math.sin(math.radians(inclination)) / clearance)
+    return _spread_compressed(config, share * load)
+
+
+def _spread_compressed(config, compression: float) -> float:
+    """The FE string of ``config`` turning at 60 rpm with its drill pipe's lowest element
+    compressed by ``compression`` (N) and kicked sideways (2 cm/s per node, seeded): the
+    spread (deg) of its lowest 40 pipe nodes around the hole after 20 s. On the low side
+    it stays a few degrees; buckled, the pipe winds around the hole."""
+    from drill_env.physics.fem import build_mesh
+    from drill_env.physics.statics import axial_force_and_inclination
+
     mesh = build_mesh(config)
     force, _ = axial_force_and_inclination(config, mesh, 0.0)
     in_pipe = np.nonzero(mesh.component == 0)[0]
     sim = Simulator(config)
-    sim.reset(OperatingPoint(60 * RPM, share * load + float(np.min(force[in_pipe]))))
+    sim.reset(OperatingPoint(60 * RPM, compression + float(force[in_pipe[-1]])))
     sim.vl[0::2] += np.random.default_rng(0).normal(0.0, 0.02, sim.vl[0::2].shape)
     sim.run(20.0)
     assert sim.status == 0
@@ -260,6 +267,50 @@ def test_the_fe_pipe_holds_the_low_side_below_the_dawson_paslay_load_from_1_degr
     for inclination in (1.0, 2.0, 5.0):
         assert _low_side_spread(inclination, 0.8) < 10.0, inclination
     assert _low_side_spread(5.0, 1.6) > 60.0
+
+
+@pytest.mark.parametrize("rate", [1.5, 2.0])  # deg / 30 m
+def test_a_builds_curvature_holds_the_pipe_down_to_the_load_the_fe_string_buckles_at(rate):
+    """Compression F in a hole that builds at k rad/m presses the pipe onto the low side
+    with F k per metre on top of its weight's w sin(i): the check's load is the root of
+    F^2 = 4 E I (w sin(i) + F k) / r (Dawson & Paslay's with that load), 1.4-1.5x the
+    straight hole's here (a hole building from 3 degrees at the surface: 53 and 70 at the
+    pipe's foot). The screen refuses just past it, and the FE string (5 m pipe elements,
+    so that they resolve these loads) holds its pipe on the low side at 0.9 of it and
+    winds it around the hole at 1.5."""
+    from drill_env.physics.config import SimulationConfig, replace
+    from drill_env.physics.fem import build_mesh
+    from drill_env.physics.statics import axial_force_and_inclination, pipe_buckling
+    from drill_env.physics.trajectory import Survey
+    from drill_env.well import with_survey
+
+    base = replace(SimulationConfig(), **{"string.drill_pipe.element_length": 5.0})
+    k = math.radians(rate / 30.0)
+    end = base.string.length + 100.0
+    config = with_survey(base, Survey.from_stations(
+        [0.0, end], [3.0, 3.0 + math.degrees(k * end)], [0.0, 0.0]))
+    pipe = config.string.drill_pipe
+    w = (pipe.density - config.mud.density) * pipe.area * 9.81
+    ei = pipe.youngs_modulus * pipe.second_moment
+    r = 0.5 * (config.string.hole_diameter - pipe.outer_diameter)
+    mesh = build_mesh(config)
+    force, inclination = axial_force_and_inclination(config, mesh, 0.0)
+    foot = np.nonzero(mesh.component == 0)[0][-1]  # the pipe's most compressed element
+    held = w * math.sin(inclination[foot])
+    critical = 2 * ei * k / r + math.sqrt((2 * ei * k / r) ** 2 + 4 * ei * held / r)
+    straight = 2.0 * math.sqrt(ei * held / r)
+    assert critical > 1.3 * straight
+
+    def refused(share: float) -> list:
+        return pipe_buckling(config, share * critical + float(force[foot]))
+
+    assert refused(0.999) == []
+    (past,) = refused(1.001)
+    assert past.compression == pytest.approx(1.001 * critical, rel=1e-9)
+    assert past.buckling_load == pytest.approx(2.0 * math.sqrt(
+        ei * (held + past.compression * k) / r), rel=1e-6)
+    assert _spread_compressed(config, 0.9 * critical) < 20.0
+    assert _spread_compressed(config, 1.5 * critical) > 60.0
 
 
 def test_where_the_hole_drops_its_compression_lifts_the_pipe_off_the_low_side():
