@@ -318,8 +318,9 @@ def test_where_the_hole_drops_its_compression_lifts_the_pipe_off_the_low_side():
     side with F k per metre, against the weight across the hole that holds it down in
     Dawson & Paslay's load: the load is taken with w sin(i) - F k, and where F k outweighs
     the weight the vertical-hole load stands alone. A sharp drop (60 to 20 degrees over
-    100 m) at a high compression lifts the HWDP; the same hole building (20 to 60) keeps
-    their load at the inclination."""
+    100 m) at a high compression lifts the HWDP; in the same hole building (20 to 60),
+    where the build presses it down, it comes nearest to buckling below the build, at
+    their load for the straight 60 degrees."""
     from drill_env.physics.statics import pipe_buckling
     from drill_env.physics.trajectory import Survey
     from drill_env.well import with_survey
