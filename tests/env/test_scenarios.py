@@ -177,6 +177,22 @@ def test_overrides_that_would_buckle_a_random_draw_are_refused_at_make():
                  weight_on_bit_range=(0.0, 200e3))
 
 
+@pytest.mark.parametrize(("lengths", "said"), [
+    ((100.0, 50.0), r"string_length_range: the low end must not exceed the high end, "
+                    r"got \(100.0, 50.0\)"),
+    ((-100.0, 50.0), r"string_length_range\[0\]: .* greater than 0, got -100"),
+    ((1e5, 1e6), r"string_length_range\[0\]: .* got 100000.0; string_length_range\[1\]")])
+def test_a_tasks_string_lengths_are_refused_as_typed(lengths, said):
+    """The task checks its draws at make with each length alone, (l, l): a range typed
+    wrong was quoted back as one nobody typed ((100, 100) for (100, 50); (50, 50) for
+    (-100, 50)), found by an outside check of bad input. The range is judged as given
+    first."""
+    import gymnasium as gym
+
+    with pytest.raises(ValueError, match=said):
+        gym.make("DrillStickSlip-v0", string_length_range=lengths)
+
+
 def test_random_scenario_is_reproducible_and_keeps_array_shapes():
     draws = [scenarios.random(np.random.default_rng(s)) for s in range(6)]
     again = [scenarios.random(np.random.default_rng(s)) for s in range(6)]

@@ -97,6 +97,26 @@ def test_resistance_rising_branch_has_slope_st2():
     assert slope == pytest.approx(0.01, rel=1e-9)
 
 
+def test_a_rising_branch_steeper_than_the_step_carries_is_refused_by_name():
+    """st2 was taken up to 10 s/rad; an outside check of bad input found 0.5 diverging in
+    the first step and 0.2-0.3 within 2 s at the env's top WOB. It is refused past 0.1,
+    naming the field, and at 0.1 the default scenario at the top of both action ranges
+    runs 3 s without diverging."""
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401
+
+    with pytest.raises(ValueError, match=r"st2: .*less than or equal to 0.1"):
+        RockConfig(st2=0.2)
+    env = gym.make("DrillString-v0", scenario="default",
+                   physics={"formation.rocks[0].st2": 0.1})
+    env.reset(seed=0)
+    for _ in range(30):
+        *_, terminated, _, info = env.step(np.ones(2))
+        assert not terminated, info.get("termination_reason")
+    assert info["time"] == pytest.approx(3.0)
+
+
 def test_resistance_kernel_matches_the_reference_on_random_inputs():
     """The compiled curve against bit_reference's transcription of eq. (39): a sum of
     three positive terms, so the two agree to the rounding of exp (an ulp, a few with a
