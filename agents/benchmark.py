@@ -639,13 +639,14 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         episode.recording_stamp.write_text(f"{episode.stamp}\n{episode.run}\n")
     everything = np.concatenate(kept) if kept else np.zeros((0, len(RECORD_CHANNELS)))
     records = everything[everything[:, R.TIME] >= start + settings.warmup]
-    if len(records) < 2 and reason:  # a failure in the warm-up is a result too: its
-        # metrics are the whole episode's (it stopped the whole benchmark with a traceback)
+    if len(records) < 2 <= len(everything) and reason:  # a failure in the warm-up is a
+        # result too: its metrics are the whole episode's (it stopped the whole benchmark)
         records = everything
         reason += "; in the warm-up: metrics over the whole episode"
-    if len(records) < 2:
-        raise RuntimeError(f"{episode.key}: the episode ended before the warm-up was over "
-                           f"({reason or 'no samples'})")
+    if len(records) < 2:  # (a ValueError: said in one line, not a worker's traceback)
+        raise ValueError(f"the episode of {episode.label} on {episode.scenario}, seed "
+                         f"{episode.seed}, ended before a second sample, with nothing to "
+                         f"measure ({reason or 'no samples'})")
     dt = float(records[1, R.TIME] - records[0, R.TIME])
     m = window_metrics(records, RECORD_CHANNELS, dt, base.clearance,
                        base.sim.config.bit.diameter)

@@ -1664,6 +1664,34 @@ def test_an_episode_a_failure_ends_in_the_warm_up_is_a_row_and_is_said(tmp_path,
     assert "| 1 (1 ended early) |" in (out / "benchmark.md").read_text()
 
 
+def test_an_episode_that_stops_before_a_second_sample_is_said_in_one_line(
+        tmp_path, capsys, monkeypatch):
+    """An episode whose simulation diverged in its first step (an outside check: a rock
+    curve steeper than the step carries, since refused) left no samples to measure and
+    ended the benchmark with twenty lines of a process pool's traceback. It is said in
+    one line naming the episode and the reason, exit status 2."""
+    from drill_env.env import DrillStringEnv
+
+    step = DrillStringEnv.step
+
+    def diverging(self, action):
+        obs, reward, _, truncated, info = step(self, action)
+        self.last_records = self.last_records[:1]
+        return obs, reward, True, truncated, {**info, "termination_reason":
+                                              "simulation diverged (a test's)"}
+
+    monkeypatch.setattr(DrillStringEnv, "step", diverging)
+    assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default", "--seeds",
+                 "1", "--duration", "5", "--warmup", "0", "--workers", "1",
+                 "--out", str(tmp_path / "out")]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines()
+           if line.strip() and not line.startswith("benchmark:")]  # (the progress bar's)
+    assert len(err) == 1 and err[0].startswith("drill-env benchmark: error: ")
+    err = err[0]
+    assert ("the episode of stiff on default, seed 0, ended before a second sample, with "
+            "nothing to measure (simulation diverged (a test's))") in err
+
+
 def test_the_table_fits_the_terminal_without_cutting_a_figure(monkeypatch, capsys) -> None:
     """On a terminal narrower than the table (100 columns against ~150) the columns go to
     stacked tables, each with the scenario and controller, every figure whole on one line:
