@@ -62,7 +62,8 @@ class StickSlipTask:
     rpm_change: tuple[Rpm, Rpm] = (5.0, 20.0)
     weight_on_bit_change: tuple[Newton, Newton] = (0.0, 20.0e3)
     #: The action [-1, 1] moves the speed command by up to this around the target (rpm):
-    #: the prototype's +-30 rpm was enough to cure stick-slip at 35-65 rpm.
+    #: the prototype's +-30 rpm was enough to cure stick-slip at 35-65 rpm. At most the
+    #: lowest rpm target, so that the command never turns the string backwards.
     max_correction: Positive = Field(default=30.0, ge=0.01, le=500.0)
     #: Frames of surface history in the observation (control steps): 20 frames = 2 s at
     #: 10 Hz, most of a stick-slip period (2-3 s on the 900-1600 m strings), from which the
@@ -100,6 +101,11 @@ class StickSlipTask:
                                  f"{(low, high)}")
         for name in ("weight_on_bit_targets", "weight_on_bit_change"):
             check_newtons(name, getattr(self, name))
+        if self.max_correction > self.rpm_targets[0]:  # (an outside check: -125 rpm at the
+            # bit, target 40 rpm and a correction of 100; a top drive drills turning forward)
+            raise ValueError(f"max_correction: {self.max_correction:g} rpm around targets "
+                             f"from {self.rpm_targets[0]:g} rpm (rpm_targets) would command "
+                             "the top drive backwards: at most the lowest target")
 
 
 

@@ -155,7 +155,13 @@ def test_a_fidelity_in_physics_wins_over_the_tasks_fast_default(physics):
     ({"rpm_targets": (400.0, 900.0)}, "rpm_targets: 400-900 rpm reaches outside the env's "
                                       "rpm_range 0-200 rpm"),
     ({"weight_on_bit_targets": (70e3, 150e3), "weight_on_bit_range": (0.0, 120e3)},
-     "weight_on_bit_targets: 70-150 kN reaches outside the env's weight_on_bit_range")])
+     "weight_on_bit_targets: 70-150 kN reaches outside the env's weight_on_bit_range"),
+    # a correction past the lowest target turned the string backwards (-125 rpm at the bit
+    # after 10 s at action -1, an outside check); the default 30 around 40 rpm is forward
+    ({"max_correction": 100.0, "rpm_targets": (40.0, 40.0)},
+     "max_correction: 100 rpm around targets from 40 rpm \\(rpm_targets\\) would command "
+     "the top drive backwards"),
+    ({"rpm_targets": (0.0, 0.0)}, "max_correction: 30 rpm around targets from 0 rpm")])
 def test_targets_outside_the_set_point_ranges_are_refused(kwargs, message):
     # they were clipped to the range without a word: a 400-900 rpm task drilled at 200
     with pytest.raises(ValueError, match=f"^{message}"):
