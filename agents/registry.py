@@ -21,7 +21,7 @@ from agents.base import Controller
 from agents.classical import ConstantSetPoints, SoftSpeed, SoftTorque, StiffPI, ZTorque
 from agents.driller import Driller
 from agents.trivial import HeldAction, RandomActions
-from drill_env.physics.validation import did_you_mean
+from drill_env.physics.validation import comma_items, did_you_mean
 
 
 def _learned(**kwargs: Any) -> Controller:
@@ -338,11 +338,8 @@ def check_interface(name: str, controller: Any) -> None:
 def parse_controllers(text: str) -> list[str]:
     """``"stiff,z-torque"`` -> the names, each checked (table names of constant set
     points as :func:`canonical` gives them)."""
-    parts = [n.strip() for n in text.split(",")]
-    if any(parts) and not all(parts):  # "stiff,,z-torque": a name left out, not nothing
-        raise ValueError(f"controllers: an empty name in {text!r} (two commas, or one at an end)")
     try:
-        names = [canonical(n) for n in parts if n]
+        names = [canonical(n) for n in comma_items(text, "controllers")]
     except ValueError as err:
         raise ValueError(f"controllers: {str(err).partition(': ')[2]}") from None
     if not names:

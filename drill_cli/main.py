@@ -638,8 +638,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if args.scenarios is not None and not args.scenarios.strip(", "):  # (an unset variable)
         raise argparse.ArgumentTypeError("--scenarios: give at least one name, or leave the "
                                          "option out for the default set")
+    from drill_env.physics.validation import comma_items
+
     text = args.scenarios or ("random" if env_id else "default,stick_slip")
-    scenarios = [n.strip() for n in text.split(",") if n.strip()]
+    scenarios = comma_items(text, "--scenarios")
     unknown = [n for n in scenarios if n not in SCENARIOS]
     if unknown or not scenarios:
         from drill_env.physics.validation import did_you_mean
@@ -951,8 +953,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 def cmd_stability_map(args: argparse.Namespace) -> int:
     from drill_env import stability_map as sm
+    from drill_env.physics.validation import comma_items
 
-    names = tuple(p.strip().upper() for p in args.positions.split(",") if p.strip())  # p1
+    names = tuple(p.upper() for p in comma_items(args.positions, "--positions",
+                                                  "position"))  # p1 too
     unknown = [p for p in names if p not in sm.POSITIONS]
     if unknown or not names:
         raise argparse.ArgumentTypeError(f"--positions: unknown {unknown or args.positions!r};"
@@ -1297,8 +1301,13 @@ def cmd_well(args: argparse.Namespace) -> int:
             f"{source}: the well is {trajectory.total_md:g} m long; the chart needs more than "
             f"{shortest:g} m (the string's BHA is {bha:g} m, the chart's depth step "
             f"{CHART_STEP:g} m)")
+    from drill_env.physics.validation import comma_items
+
+    items = comma_items(args.friction, "--friction", "factor")
+    if not items:
+        raise argparse.ArgumentTypeError("--friction: give at least one factor")
     try:
-        frictions = [float(v) for v in args.friction.split(",") if v.strip()]
+        frictions = [float(v) for v in items]
     except ValueError:
         raise argparse.ArgumentTypeError(f"--friction: comma-separated numbers, got "
                                          f"{args.friction!r}") from None

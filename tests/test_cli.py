@@ -1311,3 +1311,25 @@ def test_modes_refuses_a_chart_speed_no_string_turns_at(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["modes", "--max-rpm", "1e20", "--out", str(tmp_path)])
     assert "--max-rpm: must be <= 10000 rpm, got 1e20" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["stability-map", "--positions", "P1,,P2"], "--positions: an empty position in "
+                                                 "'P1,,P2'"),
+    (["well", "--friction", "0.1,0.2,"], "--friction: an empty factor in '0.1,0.2,'"),
+    (["well", "--friction", " "], "--friction: give at least one factor"),
+    (["speed", "--quick", "--sections", "core,,env"], "--sections: an empty section in "),
+    (["benchmark", "--scenarios", "default,,stick_slip"], "--scenarios: an empty name in ")])
+def test_an_empty_item_in_a_comma_list_is_refused_by_every_command(argv, said, tmp_path,
+                                                                   capsys):
+    """``--controllers a,,b`` and ``--seeds 0,,1`` were refused (a name left out), while
+    these lists dropped the empty item and ran (an outside check of bad input): a typo
+    there now stops the command the same way, before any work."""
+    try:
+        code = main([*argv, "--out", str(tmp_path / "out")])
+    except SystemExit as stop:  # (argparse's way of saying a bad argument)
+        code = stop.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert said in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()

@@ -174,6 +174,17 @@ def repeated(names: Sequence[str]) -> str | None:
     return None
 
 
+def comma_items(text: str, field: str, what: str = "name") -> list[str]:
+    """``"a, b"`` -> ``["a", "b"]``; ``ValueError`` naming ``field`` for an empty item
+    between items (``"a,,b"``, ``"a,"``: one left out, not nothing). An empty or blank
+    ``text`` gives ``[]``: the caller says what it needs."""
+    items = [item.strip() for item in text.split(",")]
+    if any(items) and not all(items):
+        raise ValueError(f"{field}: an empty {what} in {text!r} (two commas, or one at an "
+                         "end)")
+    return [item for item in items if item]
+
+
 def did_you_mean(name: str, names: list[str]) -> str:
     """`` (did you mean x?)`` with :func:`closest`, or "" when no name is close."""
     best = closest(name, names)

@@ -45,6 +45,7 @@ from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from drill_env.physics.validation import comma_items
 from drill_env.tools.speed.common import (
     FULL,
     QUICK,
@@ -88,7 +89,7 @@ def parse_sections(text: str, extra: Iterable[str] = ()) -> tuple[str, ...]:
     """``"core,env"`` -> ``("core", "env")``; ``ValueError`` naming an unknown section.
     ``extra``: sections a caller adds (``drill-env speed`` adds ``training``)."""
     known = (*SECTIONS, *extra)
-    names = tuple(s.strip() for s in text.split(",") if s.strip())
+    names = tuple(comma_items(text, "sections", "section"))
     unknown = [s for s in names if s not in known]
     if unknown or not names:
         raise ValueError(f"sections: unknown {unknown or text!r}; choose from "
