@@ -427,6 +427,36 @@ def test_a_finished_run_resumes_from_its_final_model_not_an_older_checkpoint(run
     assert resume_files(copy)[0] == later and saved_steps(later)[0] == done + 512
 
 
+def test_a_run_stopped_between_its_last_step_and_its_final_save_finishes_on_resume(
+        run, tmp_path):
+    """Killed after its last checkpoint (the last step's) but before model.zip and
+    run.json were written, a run could never be finished: resume and a seed sweep refused
+    it as having done its steps (an outside check of interrupts). Resumed, it saves its
+    final files from that checkpoint, its weights as they were, without a step more."""
+    import shutil
+
+    import torch
+    from stable_baselines3 import PPO
+
+    from training.train import latest_checkpoint, saved_steps
+
+    folder, cfg = run
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    for name in ("model.zip", "vecnormalize.pkl", "run.json"):
+        (copy / name).unlink()
+    last, _ = latest_checkpoint(copy)
+    assert saved_steps(last)[0] == cfg.n_timesteps
+    train(cfg, copy, resume=True, progress=False)
+    record = json.loads((copy / "run.json").read_text())
+    assert record["env_steps"] == cfg.n_timesteps and (copy / "vecnormalize.pkl").exists()
+    before = PPO.load(last).policy.state_dict()
+    after = PPO.load(copy / "model.zip").policy.state_dict()
+    assert all(torch.equal(before[k], after[k]) for k in before)
+    with pytest.raises(ValueError, match=f"has done {cfg.n_timesteps} env steps already"):
+        train(cfg, copy, resume=True, progress=False)  # finished now
+
+
 def test_a_resumed_run_redoes_the_evaluations_after_its_checkpoint(run, tmp_path):
     """Killed after the evaluation at 2048 steps but before its checkpoint, a run resumes
     from 1024: the evaluation at 2048 is done again and replaces the old row, and the

@@ -377,9 +377,10 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
     """FileExistsError if ``run`` holds a run and neither ``resume`` nor ``overwrite``.
     With ``resume`` and a ``config``, ValueError if the run was started with another
     config or has done ``config.n_timesteps`` env steps already (as the model it would load
-    records them: :func:`resume_point`), and (any run) if SAC would save a policy that
-    never learnt (:func:`check_learns`). Returns the env steps the run starts from (0 but
-    for a resume)."""
+    records them: :func:`resume_point`) and saved its final record (``run.json``; one
+    stopped between its last step and that record goes on to save it), and (any run)
+    if SAC would save a policy that never learnt (:func:`check_learns`). Returns the env
+    steps the run starts from (0 but for a resume)."""
     if holds_run(run) and not (resume or overwrite):
         raise FileExistsError(f"{run} already holds a training run: --resume continues it, "
                               "--overwrite deletes it and starts again, or give another "
@@ -395,6 +396,8 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
         check_learns(config, 0)  # nothing to resume: it starts from the beginning
         return 0
     done, updates = point
+    if done >= config.n_timesteps and not (run / "run.json").exists():
+        return done  # stopped after its last step, before its final save: it saves now
     if done >= config.n_timesteps:
         raise ValueError(f"--timesteps: {run} has done {done} env steps already; give more "
                          "than that to continue it")
