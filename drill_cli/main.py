@@ -1732,6 +1732,16 @@ def option_hint(word: str, command: argparse.ArgumentParser) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``drill-env`` command; returns its exit status."""
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # before the command ran (building the parser: imports), a
+        # Ctrl-C printed a traceback of dozens of lines (an outside check of interrupts)
+        print("drill-env: interrupted", file=sys.stderr)
+        return exit_status(KeyboardInterrupt())
+
+
+def _main(argv: Sequence[str] | None) -> int:
     top = parser()
     if not (sys.argv[1:] if argv is None else argv):  # no command: what the commands are
         top.print_help()
@@ -1770,7 +1780,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         stopped = Terminated() if terminated.is_set() else caught
         said = "terminated" if isinstance(stopped, Terminated) else "interrupted"
         kept = finished_work_folder(args, out)
-        if args.command in KEEPS_FINISHED and kept is not None:
+        if args.command in KEEPS_FINISHED and kept is not None and kept.is_dir() and any(
+                f.stat().st_size for f in kept.rglob("*.jsonl")):  # (none finished: none
+            # kept, which it said all the same)
             said += (f"; its finished {KEEPS_FINISHED[args.command]} are kept in {kept}: the "
                      "same command again goes on from them")
         print(f"drill-env {args.command}: {said}", file=sys.stderr)

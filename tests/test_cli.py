@@ -1098,16 +1098,25 @@ def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, s
 def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsys,
                                                              tmp_path):
     """An interrupted benchmark or stability map keeps its finished episodes or points
-    and a rerun goes on from them: it says so (it said only "interrupted")."""
+    and a rerun goes on from them: it says so (it said only "interrupted"), once one
+    finished (an outside check: it said so of a benchmark stopped before any)."""
     import agents.benchmark as bm
 
+    kept: list[Path] = []  # where the stopped work had finished an episode
+
     def stopped(*args, **kwargs):
+        for folder in kept:
+            folder.mkdir(parents=True, exist_ok=True)
+            (folder / bm.RESULTS_FILE).write_text('{"a finished episode": 1}\n')
         raise KeyboardInterrupt
 
     monkeypatch.setattr(bm, "run_benchmark", stopped)
     out = tmp_path / "b"
-    assert main(["benchmark", "--controllers", "stiff", "--seeds", "1", "--out",
-                 str(out)]) == 130
+    command = ["benchmark", "--controllers", "stiff", "--seeds", "1", "--out", str(out)]
+    assert main(command) == 130
+    assert capsys.readouterr().err.strip().endswith("drill-env benchmark: interrupted")
+    kept.append(out)
+    assert main(command) == 130
     assert (f"drill-env benchmark: interrupted; its finished episodes are kept in {out}: "
             "the same command again goes on from them") in capsys.readouterr().err
     # evaluate's episodes are kept in the run's evaluation folder when no --out is given
@@ -1117,6 +1126,7 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
     from drill_cli.main import default_evaluation_folder
 
     run = shutil.copytree(TRAINED / "stick_slip", tmp_path / "run")
+    kept.append(default_evaluation_folder(run))
     monkeypatch.setattr("training.evaluate.evaluate_run", stopped)
     assert main(["evaluate", str(run)]) == 130
     assert (f"drill-env evaluate: interrupted; its finished episodes are kept in "
@@ -1333,3 +1343,17 @@ def test_an_empty_item_in_a_comma_list_is_refused_by_every_command(argv, said, t
     err = capsys.readouterr().err
     assert said in err and "Traceback" not in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_ctrl_c_before_the_command_runs_is_said_in_one_line(monkeypatch, capsys):
+    """A Ctrl-C while the command line was read (the parser's imports: the first half
+    second of any command) printed a traceback of dozens of lines, exit 130 (an outside
+    check of interrupts): it is said in one line, with the same status."""
+    import drill_cli.main as cli
+
+    def interrupted() -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "parser", interrupted)
+    assert main(["--version"]) == 130
+    assert capsys.readouterr().err == "drill-env: interrupted\n"
