@@ -427,6 +427,27 @@ def test_a_finished_run_resumes_from_its_final_model_not_an_older_checkpoint(run
     assert resume_files(copy)[0] == later and saved_steps(later)[0] == done + 512
 
 
+def test_a_ppo_checkpoint_holds_the_model_that_learnt_from_its_steps(run):
+    """PPO's scheduled checkpoints were written where the rollout crossed the grid line,
+    before that rollout's update: a run resumed from one (after a kill) never learnt from
+    that rollout, and a Ctrl-C checkpoint of the same name held a model one update on (an
+    outside check of interrupts). Written after the update, as the evaluations are, the
+    checkpoint at 1,024 steps has the updates of two rollouts, and the last one is the
+    final model."""
+    import torch
+    from stable_baselines3 import PPO
+
+    folder, cfg = run
+    epochs, rollout = cfg.hyperparams["n_epochs"], cfg.hyperparams["n_steps"] * cfg.n_envs
+    first = PPO.load(folder / "checkpoints" / "model_1024_steps.zip")
+    assert first._n_updates == epochs * 1024 // rollout
+    last = PPO.load(folder / "checkpoints" / f"model_{cfg.n_timesteps}_steps.zip")
+    final = PPO.load(folder / "model.zip")
+    assert last._n_updates == final._n_updates == epochs * cfg.n_timesteps // rollout
+    weights, kept = final.policy.state_dict(), last.policy.state_dict()
+    assert all(torch.equal(weights[k], kept[k]) for k in weights)
+
+
 def test_a_run_stopped_between_its_last_step_and_its_final_save_finishes_on_resume(
         run, tmp_path):
     """Killed after its last checkpoint (the last step's) but before model.zip and
@@ -563,16 +584,28 @@ def test_training_envs_are_seeded_apart_per_run_and_per_resume(tmp_path, monkeyp
                                   {"from_env_steps": 256, "env_seed": env_seed(cfg, 256)}]
 
 
-def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path):
-    """A checkpoint need not fall on a whole rollout: resumed from one, PPO does whole
-    rollouts from there, and the step count announced (planned_steps) is the one reached."""
+def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path, monkeypatch):
+    """A Ctrl-C checkpoint need not fall on a whole rollout (the scheduled ones do, after
+    the update): resumed from one, PPO does whole rollouts from there, and the step count
+    announced (planned_steps) is the one reached."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    import training.train as tt
     from drill_env.physics.config import replace
     from training.train import resume_point
 
-    cfg = tiny_config(n_timesteps=1024, checkpoint_freq=768, eval_freq=10_000)
-    train(cfg, tmp_path / "run", progress=False)  # rollouts of 128 x 4 = 512
-    for name in ("model.zip", "vecnormalize.pkl", "run.json"):  # killed after 768 steps
-        (tmp_path / "run" / name).unlink()
+    class CtrlC(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= 768:
+                raise KeyboardInterrupt
+            return True
+
+    made = tt._callbacks
+    monkeypatch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
+    cfg = tiny_config(n_timesteps=1024, checkpoint_freq=10_000, eval_freq=10_000)
+    with pytest.raises(KeyboardInterrupt):
+        train(cfg, tmp_path / "run", progress=False)  # rollouts of 128 x 4 = 512
+    monkeypatch.setattr(tt, "_callbacks", made)
     done = resume_point(tmp_path / "run")[0]
     assert done % 512  # the checkpoint at 768 lies inside the second rollout
     longer = replace(cfg, n_timesteps=2048)
@@ -580,7 +613,7 @@ def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path):
     record = json.loads((tmp_path / "run" / "run.json").read_text())
     assert record["env_steps"] == planned_steps(longer, done) == done + 1536 != \
         planned_steps(longer)
-    # the killed session is known from its checkpoint's progress record
+    # the interrupted session is known from its checkpoint's progress record
     assert [s["from_env_steps"] for s in record["sessions"]] == [0, done]
 
 
@@ -671,26 +704,37 @@ def test_a_run_killed_before_its_first_checkpoint_starts_its_records_afresh(tmp_
     assert zipfile.is_zipfile(folder / "best_model.zip")  # this session's best
 
 
-def test_evaluations_and_checkpoints_stay_on_their_grid_across_a_resume(tmp_path):
-    """Resumed from a checkpoint off the evaluation grid (768 steps, evaluations every
-    1024), the run evaluates once per grid line like an uninterrupted one: counted in
-    callback calls from the resume, it evaluated at 1792 and 2816 and skipped its last.
-    Its rollouts of 512 now end at 1280, 2304 and 3328: each line is scored after the
-    update of the rollout that crosses it."""
+def test_evaluations_and_checkpoints_stay_on_their_grid_across_a_resume(tmp_path,
+                                                                       monkeypatch):
+    """Resumed from a Ctrl-C checkpoint off the evaluation grid (768 steps, evaluations
+    every 1024), the run evaluates once per grid line like an uninterrupted one: counted
+    in callback calls from the resume, it evaluated at 1792 and 2816 and skipped its last.
+    Its rollouts of 512 now end at 1280, 1792, ..., 3328: each line is scored, and
+    checkpointed (every 768), after the update of the rollout that crosses it."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    import training.train as tt
     from drill_env.physics.config import replace
 
+    class CtrlC(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= 768:
+                raise KeyboardInterrupt
+            return True
+
+    made = tt._callbacks
+    monkeypatch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
     cfg = tiny_config(n_timesteps=1536, checkpoint_freq=768, eval_freq=1024)
     folder = tmp_path / "run"
-    train(cfg, folder, progress=False)
-    for name in ("model.zip", "vecnormalize.pkl", "run.json",  # killed after 1536 steps,
-                 "checkpoints/model_1536_steps.zip"):          # its last checkpoint lost
-        (folder / name).unlink()
+    with pytest.raises(KeyboardInterrupt):
+        train(cfg, folder, progress=False)
+    monkeypatch.setattr(tt, "_callbacks", made)
     train(replace(cfg, n_timesteps=3072), folder, resume=True, progress=False)
     with (folder / "evaluations.csv").open() as f:
         assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [1280, 2304, 3328]
     saved = sorted(int(p.stem.split("_")[1]) for p in (folder / "checkpoints").glob(
         "model_*_steps.zip"))
-    assert saved == [768, 1536, 2304, 3072]
+    assert saved == [768, 1792, 2304, 3328]
 
 
 def test_a_resumed_run_keeps_its_best_model_until_an_evaluation_beats_it(run, tmp_path):

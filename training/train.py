@@ -194,15 +194,23 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
     started = time.perf_counter() - resumed.wall_s
 
     class OnGrid(BaseCallback):
-        """Calls :meth:`act` when the env steps pass a multiple of ``every``
-        (:func:`crossed`)."""
+        """Calls :meth:`fire` when the env steps pass a multiple of ``every``
+        (:func:`crossed`). PPO crosses a grid line inside a rollout, whose update comes
+        after it: it fires after that update (the next rollout's start, or the end of
+        training), so that what it saves or scores under a number of steps is the model
+        that learnt from them."""
 
         def __init__(self, every: int) -> None:
             super().__init__()
             self.every = every
             self.last = 0
+            self.on_policy = False
+            self.pending = False
 
         def _on_training_start(self) -> None:
+            from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+
+            self.on_policy = isinstance(self.model, OnPolicyAlgorithm)
             self.last = int(self.model.num_timesteps)
 
         def _on_step(self) -> bool:
@@ -212,30 +220,35 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
             return True
 
         def act(self) -> None:
+            if self.on_policy:
+                self.pending = True
+            else:
+                self.fire()
+
+        def _on_rollout_start(self) -> None:
+            if self.pending:
+                self.fire()
+
+        def _on_training_end(self) -> None:
+            if self.pending:
+                self.fire()
+
+        def fire(self) -> None:
             raise NotImplementedError
 
     class SeededEval(OnGrid):
         """EvalCallback on fixed validation seeds: the same episodes every time, every
-        ``eval_freq`` env steps.
-
-        PPO crosses a grid line inside a rollout, whose update comes after it: its
-        evaluation waits for that update (the next rollout's start, or the end of
-        training), so that a row scores the model trained on the steps it names. Scored
-        where the line was crossed, a one-rollout run kept its untrained policy as the
-        best model and never scored the trained one."""
+        ``eval_freq`` env steps (PPO's after the update: scored where the line was
+        crossed, a one-rollout run kept its untrained policy as the best model and never
+        scored the trained one)."""
 
         def __init__(self) -> None:
             super().__init__(config.eval_freq)
             self.path = run / "evaluations.csv"
             # a resumed run keeps its best model until an evaluation beats it
             self.best = resumed.best_return
-            self.on_policy = False
-            self.pending = False
 
         def _on_training_start(self) -> None:
-            from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
-
-            self.on_policy = isinstance(self.model, OnPolicyAlgorithm)
             super()._on_training_start()
             # a Ctrl-C during an evaluation saves its checkpoint at the step that crossed
             # the grid line (on it when n_envs divides eval_freq) without that evaluation's
@@ -253,21 +266,7 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
                 return any(int(float(r["timesteps"])) // self.every == line
                            for r in csv.DictReader(f))
 
-        def act(self) -> None:
-            if self.on_policy:
-                self.pending = True
-            else:
-                self.evaluate()
-
-        def _on_rollout_start(self) -> None:
-            if self.pending:
-                self.evaluate()
-
-        def _on_training_end(self) -> None:
-            if self.pending:
-                self.evaluate()
-
-        def evaluate(self) -> None:
+        def fire(self) -> None:
             self.pending = False
             result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
             row = {"timesteps": int(self.model.num_timesteps), **result,
@@ -282,12 +281,16 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
             plot_learning_curve(run)
 
     class Checkpoints(OnGrid):
-        """Every ``checkpoint_freq`` env steps: :func:`write_checkpoint`."""
+        """Every ``checkpoint_freq`` env steps: :func:`write_checkpoint` (PPO's after the
+        update: written where the line was crossed, a checkpoint held the model from
+        before its last rollout's update, and a run resumed from it never learnt from
+        that rollout, an outside check of interrupts found)."""
 
         def __init__(self) -> None:
             super().__init__(config.checkpoint_freq)
 
-        def act(self) -> None:
+        def fire(self) -> None:
+            self.pending = False
             write_checkpoint(run, self.model, train_env, time.perf_counter() - started,
                              sessions)
 
