@@ -292,7 +292,7 @@ class ResultStore:
     ``fingerprint`` identifies what the results belong to (settings, configs): lines
     written under another fingerprint are ignored, so a changed sweep starts afresh
     instead of mixing old results in. A half-written last line (a killed process) is
-    skipped.
+    skipped. :attr:`ignored` and :attr:`unreadable` count both, for the caller to say.
     """
 
     def __init__(self, path: Path, fingerprint: str) -> None:
@@ -301,6 +301,8 @@ class ResultStore:
         self._results: dict[str, Any] = {}
         #: a killed writer's half line: the next result starts on a line of its own
         self._broken_end = False
+        self.ignored = 0  # results of another fingerprint
+        self.unreadable = 0  # lines that are not JSON (a killed writer's half line)
         if self.path.exists():
             # bytes that are not UTF-8 (a damaged file) spoil their line only: it is
             # skipped, or kept with U+FFFD in a string where it still parses as JSON
@@ -310,10 +312,14 @@ class ResultStore:
                 try:
                     entry = json.loads(line)
                 except json.JSONDecodeError:
+                    self.unreadable += bool(line.strip())
                     continue
-                if isinstance(entry, dict) and entry.get("fingerprint") == fingerprint \
-                        and {"key", "result"} <= entry.keys():  # else not a result (an edit)
+                if not (isinstance(entry, dict) and {"key", "result"} <= entry.keys()):
+                    continue  # not a result (an edit)
+                if entry.get("fingerprint") == fingerprint:
                     self._results[entry["key"]] = entry["result"]
+                else:
+                    self.ignored += 1
 
     def __contains__(self, key: str) -> bool:
         return key in self._results

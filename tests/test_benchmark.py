@@ -260,12 +260,25 @@ def test_a_set_point_policy_of_drill_string_in_a_task_is_named_and_keeps_its_own
         bm.task_settings(["stiff", "task.py:Full"], "DrillStickSlip-v0")
 
 
-def test_changed_settings_do_not_reuse_old_rows(tmp_path):
+def test_changed_settings_do_not_reuse_old_rows_and_say_so(tmp_path, capsys):
+    """Rows of other settings are not reused, and a run that starts afresh beside them
+    says how many it left (it said nothing; an outside check of interrupts), as it says
+    how many half-written lines it skipped."""
     bm.run_benchmark(["stiff"], ["stick_slip"], [0], tmp_path, SHORT, workers=1,
                      progress=False)
     other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
     assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(SHORT))) == 1
     assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(other))) == 0
+    with (tmp_path / bm.RESULTS_FILE).open("a") as f:
+        f.write('{"fingerprint": "f", "ke')  # a writer killed mid-line
+    capsys.readouterr()
+    bm.run_benchmark(["stiff"], ["stick_slip"], [0], tmp_path, other, workers=1)
+    said = " ".join(capsys.readouterr().err.split())
+    assert (f"benchmark: 1 stored row(s) of other settings or code in "
+            f"{tmp_path / bm.RESULTS_FILE}: not used (kept in the file)") in said
+    assert "benchmark: 1 unreadable line(s) in " in said
+    store = ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(other))
+    assert (len(store), store.ignored, store.unreadable) == (1, 1, 1)
 
 
 def test_a_damaged_line_of_the_results_file_costs_that_line_only(tmp_path):
