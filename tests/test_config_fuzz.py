@@ -239,6 +239,9 @@ def test_a_typo_in_a_section_of_a_list_lists_that_sections_fields():
     ("default", {"string.components[-1].length": 9.0},
      r"^string\.components\[-1\]: an index is a whole number from 0 \(components\[0\] "
      r"is the first\), got \[-1\]"),
+    # cut at the dot inside the index, it named a field "components[1" (an outside check)
+    ("default", {"string.components[1.5].length": 9.0},
+     r"^string\.components\[1\.5\]: an index is a whole number from 0 .* got \[1\.5\]"),
 ])
 def test_a_dotted_path_error_names_what_the_user_typed(scenario, physics, message):
     from drill_env.env import DrillStringEnv

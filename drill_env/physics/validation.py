@@ -392,6 +392,18 @@ def _sections(value: Any, where: str) -> list[Any]:
     return list(value)
 
 
+def _split_dotted(key: str) -> tuple[str, str]:
+    """``"rocks[1].mu_max"`` -> ``("rocks[1]", "mu_max")``: split at the first dot outside
+    brackets (``components[1.5].length`` was cut inside the index and named a field
+    ``components[1``)."""
+    depth = 0
+    for i, char in enumerate(key):
+        depth += (char == "[") - (char == "]")
+        if char == "." and depth == 0:
+            return key[:i], key[i + 1:]
+    return key, ""
+
+
 def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[str, Any]:
     """The fields of ``config`` as keyword arguments with dotted ``changes`` applied;
     changed sub-sections come back as dicts, so one construction validates them all and
@@ -401,7 +413,7 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
     nested: dict[str, dict[str, Any]] = {}
     flat: dict[str, Any] = {}
     for key, value in changes.items():
-        head, _, rest = key.partition(".")
+        head, rest = _split_dotted(key)
         if (odd := _ANY_INDEX.match(head)) and not _INDEXED.match(head):
             # (components[-1] read as an unknown field named "components[-1]")
             raise ConfigError(f"{path + '.' if path else ''}{head}: an index is a whole number "
