@@ -6,6 +6,7 @@ import dataclasses
 import inspect
 import math
 import warnings
+from numbers import Real
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -241,7 +242,8 @@ def mesh_weight_on_bit_limit(sim: Any, upper: float, tol: float = 100.0) -> floa
 def check_set_points(where: str, surface_speed: float, weight_on_bit: float) -> None:
     """ValueError unless the set points a controller asks for (rad/s, N) are finite
     numbers: clipped into the ranges, a NaN became a NaN action."""
-    if not (math.isfinite(surface_speed) and math.isfinite(weight_on_bit)):
+    if not all(isinstance(v, Real) and not isinstance(v, bool)
+               and math.isfinite(v) for v in (surface_speed, weight_on_bit)):
         raise ValueError(f"{where}: set points must be finite numbers, got surface_speed "
                          f"{surface_speed!r} rad/s, weight_on_bit {weight_on_bit!r} N")
 

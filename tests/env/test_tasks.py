@@ -690,10 +690,12 @@ def test_stick_slip_penalty_is_capped_at_ssi_cap():
 @pytest.mark.parametrize("env_id", ["DrillString-v0", "DrillStickSlip-v0",
                                     "DrillOptimise-v0"])
 def test_action_for_refuses_set_points_that_are_not_finite(env_id):
-    # a NaN set point came back as a NaN action (an outside check; step() refuses one)
+    # a NaN set point came back as a NaN action (an outside check; step() refuses one);
+    # a string or a bool was a bare TypeError, or a number (another outside check)
     env = gym.make(env_id)
     env.reset(seed=0)
-    for speed, wob in ((math.nan, 100e3), (60 * RPM, math.inf)):
+    for speed, wob in ((math.nan, 100e3), (60 * RPM, math.inf), ("a", 100e3),
+                       (60 * RPM, True)):
         with pytest.raises(ValueError, match="action_for: set points must be finite"):
             env.unwrapped.action_for(speed, wob)
     assert np.all(np.isfinite(env.unwrapped.action_for(60 * RPM, 100e3)))
