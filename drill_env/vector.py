@@ -53,6 +53,24 @@ def autoreset_mode_of(mode: Any) -> AutoresetMode:
                      f"{', '.join(repr(m.value) for m in AutoresetMode)}, got {mode!r}")
 
 
+#: The most envs one batch takes: 10^9 filled a 24 GiB machine's memory until the kernel
+#: ended the process (an outside check); 4,096 hold ~1.6 GiB (0.33-0.40 MiB each after a
+#: reset, measured 2026-12-05), where the batched physics call saturates two cores from
+#: N = 16 (docs/performance.md) and a 128-core machine from a few hundred.
+MAX_NUM_ENVS = 4096
+
+
+def check_num_envs(num_envs: Any) -> None:
+    """ValueError naming ``num_envs`` unless it is an integer in 1-:data:`MAX_NUM_ENVS`."""
+    if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) \
+            or num_envs < 1:
+        raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
+    if num_envs > MAX_NUM_ENVS:
+        raise ValueError(f"num_envs: at most {MAX_NUM_ENVS}, got {num_envs} (each env holds "
+                         "~0.4 MiB and the batch's physics call gains nothing past a few "
+                         "envs per core)")
+
+
 class DrillStringVectorEnv(VectorEnv):
     """N drill-string envs stepped together (Gymnasium ``VectorEnv``).
 
@@ -73,9 +91,7 @@ class DrillStringVectorEnv(VectorEnv):
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
                  env_class: type[DrillStringEnv] | str | None = None,
                  **env_kwargs: Any) -> None:
-        if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) \
-                or num_envs < 1:
-            raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
+        check_num_envs(num_envs)
         self.autoreset_mode = autoreset_mode_of(autoreset_mode)
         if "max_episode_steps" in env_kwargs:
             raise ValueError("max_episode_steps: the batched vector env ends its episodes "
@@ -377,9 +393,7 @@ def _sb3_class() -> type:
         def __init__(self, num_envs: int = 1,
                      env_class: type[DrillStringEnv] | str | None = None,
                      **env_kwargs: Any) -> None:
-            if not isinstance(num_envs, (int, np.integer)) or isinstance(num_envs, bool) \
-                    or num_envs < 1:
-                raise ValueError(f"num_envs: must be a positive integer, got {num_envs!r}")
+            check_num_envs(num_envs)
             self.env_class = env_class_of(env_class)
             self.env_kwargs = dict(env_kwargs)
             super().__init__([self._make_env for _ in range(int(num_envs))])

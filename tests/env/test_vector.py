@@ -251,6 +251,13 @@ def test_the_vector_envs_arguments_are_refused_by_name():
         DrillStringVectorEnv(num_envs=1, autoreset_mode="later", **KW)
     with pytest.raises(ValueError, match=r"^num_envs: must be a positive integer, got True"):
         DrillStringVectorEnv(num_envs=True, **KW)
+    # 10^9 was taken at its word and filled the machine's memory (an outside check)
+    from drill_env.vector import MAX_NUM_ENVS, make_sb3_vec_env
+
+    for make in (DrillStringVectorEnv, make_sb3_vec_env):
+        with pytest.raises(ValueError, match=rf"^num_envs: at most {MAX_NUM_ENVS}, got "
+                                             rf"{MAX_NUM_ENVS + 1} \(each env holds"):
+            make(num_envs=MAX_NUM_ENVS + 1, **KW)
     with pytest.raises(ValueError, match=r"^scenario: unknown name \['default'\]"):
         DrillStringVectorEnv(num_envs=1, scenario=["default"])
 
