@@ -459,6 +459,7 @@ def test_a_run_stopped_between_its_last_step_and_its_final_save_finishes_on_resu
     import torch
     from stable_baselines3 import PPO
 
+    from drill_env.physics.config import replace
     from training.train import latest_checkpoint, saved_steps
 
     folder, cfg = run
@@ -468,6 +469,9 @@ def test_a_run_stopped_between_its_last_step_and_its_final_save_finishes_on_resu
         (copy / name).unlink()
     last, _ = latest_checkpoint(copy)
     assert saved_steps(last)[0] == cfg.n_timesteps
+    # fewer steps than it was started for is still refused, not "finished" short
+    with pytest.raises(ValueError, match=f"has done {cfg.n_timesteps} env steps already"):
+        train(replace(cfg, n_timesteps=1024), copy, resume=True, progress=False)
     train(cfg, copy, resume=True, progress=False)
     record = json.loads((copy / "run.json").read_text())
     assert record["env_steps"] == cfg.n_timesteps and (copy / "vecnormalize.pkl").exists()

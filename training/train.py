@@ -399,7 +399,9 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
         check_learns(config, 0)  # nothing to resume: it starts from the beginning
         return 0
     done, updates = point
-    if done >= config.n_timesteps and not (run / "run.json").exists():
+    saved = run / "config.yaml"
+    if done >= config.n_timesteps and not (run / "run.json").exists() and saved.exists() \
+            and read_run_config(saved).get("n_timesteps") == config.n_timesteps:
         return done  # stopped after its last step, before its final save: it saves now
     if done >= config.n_timesteps:
         raise ValueError(f"--timesteps: {run} has done {done} env steps already; give more "
