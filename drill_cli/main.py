@@ -1009,7 +1009,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                 "top drive's loop of physics()); a controller that acts at the policy "
                 "rate sets rate = 'policy' and is judged by drill-env benchmark")
         configs = {p: sm.map_config(p, {**string, **controller.physics()}) for p in names}
-    store = args.out / "stability_map.points.jsonl"
+    store = args.out / MAP_POINTS_FILE
     t0 = time.perf_counter()
     maps = sm.stability_maps(names, args.rpm_step, args.wob_step * KILO, settings,
                              args.max_rpm, args.max_wob * KILO, progress=True, store=store,
@@ -1735,10 +1735,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """The ``drill-env`` command; returns its exit status."""
     try:
         return _main(argv)
-    except KeyboardInterrupt:  # before the command ran (building the parser: imports), a
-        # Ctrl-C printed a traceback of dozens of lines (an outside check of interrupts)
-        print("drill-env: interrupted", file=sys.stderr)
-        return exit_status(KeyboardInterrupt())
+    except KeyboardInterrupt as caught:  # before the command ran (building the parser:
+        # imports), a Ctrl-C printed a traceback of dozens of lines (an outside check)
+        said = "terminated" if isinstance(caught, Terminated) else "interrupted"
+        print(f"drill-env: {said}", file=sys.stderr)
+        return exit_status(caught)
 
 
 def _main(argv: Sequence[str] | None) -> int:
@@ -1756,6 +1757,7 @@ def _main(argv: Sequence[str] | None) -> int:
     if getattr(args, "ray_address", None) is not None and getattr(args, "workers", None):
         args.command_parser.error("--workers: the local processes; with --ray-address the "
                                   "cluster's CPUs run the work: give one of the two")
+    started = time.time()  # (what its results file holds from before is not its work)
     stop, terminated = _stop_as_interrupt()
     clear_interrupt()  # one noted before this command is not this command's
     shown = warnings.formatwarning
@@ -1780,9 +1782,9 @@ def _main(argv: Sequence[str] | None) -> int:
         stopped = Terminated() if terminated.is_set() else caught
         said = "terminated" if isinstance(stopped, Terminated) else "interrupted"
         kept = finished_work_folder(args, out)
-        if args.command in KEEPS_FINISHED and kept is not None and kept.is_dir() and any(
-                f.stat().st_size for f in kept.rglob("*.jsonl")):  # (none finished: none
-            # kept, which it said all the same)
+        if args.command in KEEPS_FINISHED and kept is not None and finished_since(
+                results_file(args.command, kept), started):  # (none finished: it said so
+            # all the same)
             said += (f"; its finished {KEEPS_FINISHED[args.command]} are kept in {kept}: the "
                      "same command again goes on from them")
         print(f"drill-env {args.command}: {said}", file=sys.stderr)
@@ -1819,6 +1821,8 @@ def _command_warning(command: str) -> Any:
 _NOT_INSTALLED = object()
 #: Commands that keep what they finished in their --out as it arrives, and what that is
 #: (a rerun with the same settings and code reuses it; `train` says its own checkpoint).
+#: The stability map's store of finished points (one JSON line each).
+MAP_POINTS_FILE = "stability_map.points.jsonl"
 KEEPS_FINISHED = {"benchmark": "episodes", "stability-map": "points", "evaluate": "episodes",
                   "demo": "episodes"}
 
@@ -1831,6 +1835,25 @@ def finished_work_folder(args: argparse.Namespace, out: Path | None) -> Path | N
     if args.command == "demo":
         return None if out is None else out / "benchmark"
     return out
+
+
+def results_file(command: str, folder: Path) -> Path:
+    """The file in ``folder`` where a command of :data:`KEEPS_FINISHED` appends its
+    finished episodes or points."""
+    if command == "stability-map":
+        return folder / MAP_POINTS_FILE
+    from agents.benchmark import RESULTS_FILE
+
+    return folder / RESULTS_FILE
+
+
+def finished_since(path: Path, started: float) -> bool:
+    """Whether ``path`` was written since ``started`` (``time.time()``): a result finished
+    then."""
+    try:
+        return path.stat().st_mtime >= started
+    except OSError:
+        return False
 
 
 def exit_status(stopped: KeyboardInterrupt) -> int:

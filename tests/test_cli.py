@@ -1115,6 +1115,16 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
     command = ["benchmark", "--controllers", "stiff", "--seeds", "1", "--out", str(out)]
     assert main(command) == 130
     assert capsys.readouterr().err.strip().endswith("drill-env benchmark: interrupted")
+    # nor when the folder holds results from before, or other commands' lines (a run's
+    # history): only this command's finished work counts (a review)
+    out.mkdir()
+    (out / "run_history.jsonl").write_text('{"a run": 1}\n')
+    (out / bm.RESULTS_FILE).write_text('{"an older episode": 1}\n')
+    import os
+
+    os.utime(out / bm.RESULTS_FILE, (0, 0))
+    assert main(command) == 130
+    assert capsys.readouterr().err.strip().endswith("drill-env benchmark: interrupted")
     kept.append(out)
     assert main(command) == 130
     assert (f"drill-env benchmark: interrupted; its finished episodes are kept in {out}: "
