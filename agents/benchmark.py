@@ -856,9 +856,9 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     if store.ignored and progress:  # (it started afresh without a word)
         print(f"benchmark: {store.ignored} stored row(s) of other settings or code in "
               f"{out / RESULTS_FILE}: not used (kept in the file)", file=sys.stderr)
-    if store.unreadable and progress:
-        print(f"benchmark: {store.unreadable} unreadable line(s) in {out / RESULTS_FILE} "
-              "(a run cut while writing): skipped, their episodes run again", file=sys.stderr)
+    if store.cut and progress:
+        print(f"benchmark: the last line of {out / RESULTS_FILE} was cut (a run stopped "
+              "while writing it): skipped, its episode runs again", file=sys.stderr)
     if reused and progress:
         print(f"benchmark: {reused} of {len(todo_all)} episodes already in "
               f"{out / RESULTS_FILE} (same settings and code; a controller of your own: its "

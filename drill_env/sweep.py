@@ -292,7 +292,8 @@ class ResultStore:
     ``fingerprint`` identifies what the results belong to (settings, configs): lines
     written under another fingerprint are ignored, so a changed sweep starts afresh
     instead of mixing old results in. A half-written last line (a killed process) is
-    skipped. :attr:`ignored` and :attr:`unreadable` count both, for the caller to say.
+    skipped. :attr:`ignored` counts the first, :attr:`cut` says the second, for the caller
+    to say (once: the next result goes on a line of its own after the half line).
     """
 
     def __init__(self, path: Path, fingerprint: str) -> None:
@@ -302,17 +303,18 @@ class ResultStore:
         #: a killed writer's half line: the next result starts on a line of its own
         self._broken_end = False
         self.ignored = 0  # results of another fingerprint
-        self.unreadable = 0  # lines that are not JSON (a killed writer's half line)
+        self.cut = False  # the last line is a killed writer's half line
         if self.path.exists():
             # bytes that are not UTF-8 (a damaged file) spoil their line only: it is
             # skipped, or kept with U+FFFD in a string where it still parses as JSON
             text = self.path.read_bytes().decode("utf-8", errors="replace")
             self._broken_end = bool(text) and not text.endswith("\n")
-            for line in text.splitlines():
+            lines = text.splitlines()
+            for index, line in enumerate(lines):
                 try:
                     entry = json.loads(line)
                 except json.JSONDecodeError:
-                    self.unreadable += bool(line.strip())
+                    self.cut = self._broken_end and index == len(lines) - 1
                     continue
                 if not (isinstance(entry, dict) and {"key", "result"} <= entry.keys()):
                     continue  # not a result (an edit)
