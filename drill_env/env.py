@@ -476,7 +476,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         to the env's ranges: how a controller that thinks in set points drives the env."""
         if self.config.action_mode != "absolute":
             raise ValueError("action_for: needs action_mode 'absolute'")
-        check_set_points("action_for", surface_speed, weight_on_bit)
+        surface_speed, weight_on_bit = check_set_points("action_for", surface_speed,
+                                                        weight_on_bit)
         (s_lo, s_hi), (w_lo, w_hi) = self._speed_range, self._wob_range
         a = (2.0 * (surface_speed - s_lo) / (s_hi - s_lo) - 1.0,
              2.0 * (weight_on_bit - w_lo) / (w_hi - w_lo) - 1.0)

@@ -6,7 +6,6 @@ import dataclasses
 import inspect
 import math
 import warnings
-from numbers import Real
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -239,13 +238,26 @@ def mesh_weight_on_bit_limit(sim: Any, upper: float, tol: float = 100.0) -> floa
     return lo
 
 
-def check_set_points(where: str, surface_speed: float, weight_on_bit: float) -> None:
-    """ValueError unless the set points a controller asks for (rad/s, N) are finite
-    numbers: clipped into the ranges, a NaN became a NaN action."""
-    if not all(isinstance(v, Real) and not isinstance(v, bool)
-               and math.isfinite(v) for v in (surface_speed, weight_on_bit)):
+def _real(value: Any) -> float:
+    """``value`` as a float where it is a number (a Python or NumPy scalar, a 0-d array, a
+    one-element tensor), NaN where it is not: a string ("100" would convert), a bool."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        return math.nan
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def check_set_points(where: str, surface_speed: float, weight_on_bit: float
+                     ) -> tuple[float, float]:
+    """The set points a controller asks for (rad/s, N) as floats; ValueError unless they
+    are finite numbers: clipped into the ranges, a NaN became a NaN action."""
+    speed, wob = _real(surface_speed), _real(weight_on_bit)
+    if not (math.isfinite(speed) and math.isfinite(wob)):
         raise ValueError(f"{where}: set points must be finite numbers, got surface_speed "
                          f"{surface_speed!r} rad/s, weight_on_bit {weight_on_bit!r} N")
+    return speed, wob
 
 
 def warn_above_limit(where: str, wob: float, limit: float) -> None:

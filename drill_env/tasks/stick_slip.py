@@ -253,7 +253,7 @@ class StickSlipEnv(TaskEnv):
 
     def action_for(self, surface_speed: float, weight_on_bit: float) -> np.ndarray:
         """The correction that asks for ``surface_speed`` (the WOB is the target's)."""
-        check_set_points("action_for", surface_speed, weight_on_bit)
+        surface_speed, _ = check_set_points("action_for", surface_speed, weight_on_bit)
         a = (surface_speed - self.targets[0]) / self._max_correction
         return np.array([min(max(a, -1.0), 1.0)], dtype=np.float32)
 

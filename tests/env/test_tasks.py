@@ -699,6 +699,9 @@ def test_action_for_refuses_set_points_that_are_not_finite(env_id):
         with pytest.raises(ValueError, match="action_for: set points must be finite"):
             env.unwrapped.action_for(speed, wob)
     assert np.all(np.isfinite(env.unwrapped.action_for(60 * RPM, 100e3)))
+    # any number goes: a 0-d array, a NumPy scalar (a review of the check above)
+    assert np.array_equal(env.unwrapped.action_for(np.array(60 * RPM), np.float32(100e3)),
+                          env.unwrapped.action_for(60 * RPM, 100e3))
 
 
 def test_stick_slip_action_for_maps_a_speed_above_the_target_to_a_positive_action():
