@@ -101,6 +101,9 @@ class StickSlipTask:
                                  f"{(low, high)}")
         for name in ("weight_on_bit_targets", "weight_on_bit_change"):
             check_newtons(name, getattr(self, name))
+        if self.rpm_targets[0] <= 0.0:
+            raise ValueError(f"rpm_targets: the lowest target must be above 0 rpm (the "
+                             f"driller drills turning), got {self.rpm_targets}")
         if self.max_correction > self.rpm_targets[0]:  # (an outside check: -125 rpm at the
             # bit, target 40 rpm and a correction of 100; a top drive drills turning forward)
             raise ValueError(f"max_correction: {self.max_correction:g} rpm around targets "
