@@ -24,10 +24,14 @@ low side, the vertical-hole limit stands alone. The FE string agrees: its pipe i
 building at 1.5 and 2 deg / 30 m from 3 degrees at the surface (53 and 70 degrees at
 the pipe's foot, where this load is 1.4-1.5x the straight hole's) held the low side at
 0.9 and 1.0 of this load and wound around the hole at 1.3 and 1.5
-(tests/physics/test_curved_hole.py checks 0.9 and 1.5). The published curved-hole loads
-(He & Kyllingstad 1993, SPE 25370; Wu & Juvkam-Wold 1995, J. Energy Resour. Technol. 117)
-derive the curvature's share by energy methods and were not adopted: this one is checked
-against the FE string the simulator runs. The curvature counts from
+(tests/physics/test_curved_hole.py checks 0.9 and 1.5). That check is of the stability
+argument under this load (bending, wall contact, gravity and rotation in the FE model),
+not of the curvature's share itself: the FE string takes a hole's curvature as the same
+side load F k on elements straight in their local frames (:func:`~drill_env.physics.
+trajectory.hole_loads`, the soft-string load of Johancsik et al. 1984). The published
+curved-hole loads (He & Kyllingstad 1993, SPE 25370; Wu & Juvkam-Wold 1995, J. Energy
+Resour. Technol. 117) derive a larger share by energy methods; the screen keeps the
+model's own, so that what it lets through the simulator carries. The curvature counts from
 :data:`DAWSON_PASLAY_MIN_INCLINATION` on, as the weight does. The hole's turn (azimuth)
 is not counted: it presses the pipe sideways, which only raises the load across the hole
 (conservative).

@@ -277,7 +277,9 @@ def test_a_builds_curvature_holds_the_pipe_down_to_the_load_the_fe_string_buckle
     straight hole's here (a hole building from 3 degrees at the surface: 53 and 70 at the
     pipe's foot). The screen refuses just past it, and the FE string (5 m pipe elements,
     so that they resolve these loads) holds its pipe on the low side at 0.9 of it and
-    winds it around the hole at 1.5."""
+    winds it around the hole at 1.5. (The FE string takes the curvature as the same side
+    load F k, hole_loads: this checks the stability argument under it, and that leaving
+    the build out, or doubling its share, would misjudge what the simulator carries.)"""
     from drill_env.physics.config import SimulationConfig, replace
     from drill_env.physics.fem import build_mesh
     from drill_env.physics.statics import axial_force_and_inclination, pipe_buckling
