@@ -555,7 +555,8 @@ _CHECKED: set[str] = set()  # the (scenario, params, overrides) found sound in t
 
 def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, Any],
                 top_wob: float | None = None,
-                lower_wob: str = "start_weight_on_bit_range in gym.make") -> None:
+                lower_wob: str = "start_weight_on_bit_range in gym.make or env_kwargs"
+                ) -> None:
     """Refuse the physics ``overrides`` (dotted) under which a randomised scenario drawn
     with ``params`` would fail at some later reset, not only at the first: its starting
     WOB is drawn up to the top of its range and must not buckle the pipe, and in a curved
@@ -611,7 +612,8 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
             f"{b.place}, beyond its buckling load {b.buckling_load / 1e3:.1f} kN: "
             + ("" if config.well.vertical else
                f"strings of {spans} m buckle (checked every {DRAW_CHECK_STEP:g} m): draw "
-               "others (string_length_range=(lo, hi) in gym.make, --string-lengths in "
+               "others (string_length_range=(lo, hi) in gym.make or env_kwargs, "
+               "--string-lengths in "
                "drill-env benchmark --task), ")
             + f"draw a lower WOB ({lower_wob}), lighten the mud or make the BHA heavier "
             "(string.components)")

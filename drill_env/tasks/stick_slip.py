@@ -227,7 +227,7 @@ class StickSlipEnv(TaskEnv):
     def _start_wob_draw(self) -> tuple[float | None, str]:
         # its own draw, not the scenario's (clamped to the env's range, as every draw)
         top = min(self.task.weight_on_bit_targets[1], self.config.weight_on_bit_range[1])
-        return top, "weight_on_bit_targets in gym.make"
+        return top, "weight_on_bit_targets in gym.make or env_kwargs"
 
     def _start_targets(self, speed: float, wob: float, given: frozenset[str]
                        ) -> tuple[float, float]:

@@ -172,7 +172,8 @@ def test_overrides_that_would_buckle_a_random_draw_are_refused_at_make():
     assert pipe_buckling(config, 200.0e3) and not pipe_buckling(config, 130.0e3)
     with pytest.raises(ValueError, match=r"^weight_on_bit_targets: the random scenario's "
                                          r"starting WOB, drawn up to 200 kN.*draw a lower "
-                                         r"WOB \(weight_on_bit_targets in gym.make\)"):
+                                         r"WOB \(weight_on_bit_targets in gym.make or "
+                                         r"env_kwargs\)"):
         gym.make("DrillStickSlip-v0", weight_on_bit_targets=(70e3, 200e3),
                  weight_on_bit_range=(0.0, 200e3))
 
