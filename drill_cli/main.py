@@ -1386,8 +1386,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
                                          "the native viewer; add --web to serve the web "
                                          "viewer instead")
     if args.web:
-        print("serving the web viewer (rerun's server keeps one core busy while it runs: "
-              "Ctrl-C when done)", file=sys.stderr)
+        print("serving the web viewer: open the URL on rerun's line below (its server keeps "
+              "one core busy while it runs: Ctrl-C when done)", file=sys.stderr)
     try:  # the port is checked there, once, just before the viewer takes it
         code = replay(args.paths, web=args.web, web_viewer_port=args.port,
                       **({"bind": args.bind} if args.bind is not None else {}))
