@@ -1760,8 +1760,12 @@ def _main(argv: Sequence[str] | None) -> int:
     started = time.time()  # (what its results file holds from before is not its work)
     stop, terminated = _stop_as_interrupt()
     clear_interrupt()  # one noted before this command is not this command's
-    shown = warnings.formatwarning
-    warnings.formatwarning = _command_warning(args.command)
+    from drill_env.sweep import COMMAND_VARIABLE, command_warning
+
+    shown, named = warnings.formatwarning, os.environ.get(COMMAND_VARIABLE)
+    warnings.formatwarning = command_warning(args.command)
+    # a sweep's pool workers (spawned) say their warnings the same way
+    os.environ[COMMAND_VARIABLE] = args.command
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
@@ -1791,38 +1795,21 @@ def _main(argv: Sequence[str] | None) -> int:
         return exit_status(stopped)
     finally:
         warnings.formatwarning = shown
+        if named is None:
+            os.environ.pop(COMMAND_VARIABLE, None)
+        else:
+            os.environ[COMMAND_VARIABLE] = named
         clear_interrupt()  # handled here: not a later command's (or caller's) to act on
         if stop is not _NOT_INSTALLED:
             signal.signal(signal.SIGTERM, stop if stop is not None else signal.SIG_DFL)
     return 2
 
 
-def _command_warning(command: str) -> Any:
-    """``warnings.formatwarning`` for a command: a warning meant for its user (a unit
-    that looks wrong, a setting that cannot hold) on one line under the command's name,
-    not Python's file and source line (a validator's warning showed pydantic's), and
-    once."""
-    plain = warnings.formatwarning
-    said: set[str] = set()  # the same words from two places (two call sites) once
-
-    def formatted(message: Any, category: type[Warning], filename: str, lineno: int,
-                  line: str | None = None) -> str:
-        if issubclass(category, (UserWarning, RuntimeWarning)):
-            text = f"drill-env {command}: warning: {message}\n"
-            if text in said:
-                return ""
-            said.add(text)
-            return text
-        return plain(message, category, filename, lineno, line)
-
-    return formatted
-
-
 _NOT_INSTALLED = object()
-#: Commands that keep what they finished in their --out as it arrives, and what that is
-#: (a rerun with the same settings and code reuses it; `train` says its own checkpoint).
 #: The stability map's store of finished points (one JSON line each).
 MAP_POINTS_FILE = "stability_map.points.jsonl"
+#: Commands that keep what they finished in their --out as it arrives, and what that is
+#: (a rerun with the same settings and code reuses it; `train` says its own checkpoint).
 KEEPS_FINISHED = {"benchmark": "episodes", "stability-map": "points", "evaluate": "episodes",
                   "demo": "episodes"}
 

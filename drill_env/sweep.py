@@ -31,6 +31,7 @@ import os
 import signal
 import sys
 import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from pathlib import Path
@@ -69,6 +70,32 @@ class SerialExecutor:
         pass
 
 
+#: The environment variable through which the command line names its command to the pool
+#: workers it spawns (their warnings are said as the command's own: :func:`command_warning`).
+COMMAND_VARIABLE = "DRILL_ENV_COMMAND"
+
+
+def command_warning(command: str) -> Any:
+    """``warnings.formatwarning`` for a command: a warning meant for its user (a unit
+    that looks wrong, a setting that cannot hold) on one line under the command's name,
+    not Python's file and source line (a validator's warning showed pydantic's), and
+    once."""
+    plain = warnings.formatwarning
+    said: set[str] = set()  # the same words from two places (two call sites) once
+
+    def formatted(message: Any, category: type[Warning], filename: str, lineno: int,
+                  line: str | None = None) -> str:
+        if issubclass(category, (UserWarning, RuntimeWarning)):
+            text = f"drill-env {command}: warning: {message}\n"
+            if text in said:
+                return ""
+            said.add(text)
+            return text
+        return plain(message, category, filename, lineno, line)
+
+    return formatted
+
+
 def _single_threaded_worker(parent: int) -> None:
     """A pool worker's set-up: one numba thread (the pool is the parallelism); the first
     Ctrl-C or SIGTERM interrupts its task (a training run saves its checkpoint) and later
@@ -79,6 +106,9 @@ def _single_threaded_worker(parent: int) -> None:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     signal.signal(signal.SIGINT, _interrupt_once)
     signal.signal(signal.SIGTERM, _interrupt_once)
+    if command := os.environ.get(COMMAND_VARIABLE):  # (a worker's warning showed Python's
+        # file and source line, mixed into the command's progress bar)
+        warnings.formatwarning = command_warning(command)
     if sys.platform.startswith("linux"):
         import ctypes
 

@@ -1244,9 +1244,9 @@ def test_a_command_says_its_warnings_on_one_line_under_its_name(tmp_path, capsys
     import sys
     import warnings
 
-    from drill_cli.main import _command_warning
+    from drill_env.sweep import command_warning
 
-    said = _command_warning("run")
+    said = command_warning("run")
     assert said(UserWarning("x: looks wrong"), UserWarning, "/lib/p.py", 3) == \
         "drill-env run: warning: x: looks wrong\n"
     # the same words from another call site are said once (both zero gains, 2026-12-05)
@@ -1367,3 +1367,18 @@ def test_a_ctrl_c_before_the_command_runs_is_said_in_one_line(monkeypatch, capsy
     monkeypatch.setattr(cli, "parser", interrupted)
     assert main(["--version"]) == 130
     assert capsys.readouterr().err == "drill-env: interrupted\n"
+
+
+def test_a_sweeps_workers_say_their_warnings_as_the_command_does(tmp_path, capfd):
+    """A benchmark's pool workers (spawned) printed a warning in Python's format, with its
+    file and source line, once per worker and into the progress bar (a new user's
+    walkthrough): they say it as the command does, on one line under its name."""
+    config = tmp_path / "mud.yaml"
+    config.write_text("mud: {density: 10.0}\n")  # in ppg, where kg/m^3 go: a warning
+    assert main(["benchmark", "--config", str(config), "--controllers", "stiff",
+                 "--scenarios", "default", "--seeds", "2", "--duration", "1", "--warmup",
+                 "0", "--workers", "2", "--out", str(tmp_path / "out")]) == 0
+    err = capfd.readouterr().err
+    said = err.count("drill-env benchmark: warning: mud.density: 10 kg/m^3")
+    assert said >= 1 and err.lower().count("warning") == said, err
+    assert "warnings.warn(" not in err and ".py:" not in err
