@@ -577,9 +577,7 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
         raise ValueError(f"physics: initial_depth: the {name} scenario draws each episode's "
                          f"string ({low:g}-{high:g} m, string_length_range) and hangs the "
                          "bit at its bottom: leave initial_depth out")
-    # the ranges as typed first: the draws below pass (length, length), whose errors
-    # would quote a range nobody typed
-    make_scenario(name, np.random.default_rng(0), **params)
+    make_scenario(name, np.random.default_rng(0), **params)  # (as typed: not (l, l) below)
     top = params.get("weight_on_bit_range", defaults["weight_on_bit_range"].default)[1] \
         if top_wob is None else top_wob
     buckling: list[tuple[float, Any]] = []  # (length, the first component) that buckle
