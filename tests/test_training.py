@@ -806,7 +806,12 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
               "ppo.hyperparams.normalize_advantage: must be true or false, got 'no'"),
              ({"hyperparams": {"rollout_buffer_class": "RolloutBuffer"}},
               "ppo.hyperparams.rollout_buffer_class: a Python object that a YAML cannot "
-              "give"))
+              "give"),
+             # every bad key at once (a walkthrough's n_epoch hid its gamma: high)
+             ({"hyperparams": {"n_epoch": 3, "gamma": "high"}},  # (dumped sorted)
+              "ppo.hyperparams.gamma: must be a number > 0 and <= 1, got 'high'; "
+              "ppo.hyperparams.n_epoch: not an argument of PPO (did you mean n_epochs?) "
+              "(known: "))
     for entry, message in cases:
         path = tmp_path / "h.yml"
         path.write_text(yaml.safe_dump({"ppo": entry}))

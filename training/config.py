@@ -28,6 +28,7 @@ from drill_env.physics.validation import (
     ConfigError,
     StrictBool,
     config_dataclass,
+    did_you_mean,
     from_dict,
     read_yaml,
 )
@@ -368,14 +369,21 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
     algo = algo_class(config.algo)
     where = f"{config.algo}.hyperparams"
     known = set(inspect.signature(algo.__init__).parameters) - _SET_BY_TRAIN
+    wrong = []  # every bad key at once (the first alone was said: a walkthrough's n_epoch
+    # hid its gamma: high)
     for key, value in list(config.hyperparams.items()):
         if key not in known:
-            raise ConfigError(f"{where}.{key}: not an argument of {algo.__name__}; known: "
-                              f"{', '.join(sorted(known))}")
+            wrong.append(f"{where}.{key}: not an argument of {algo.__name__}"
+                         f"{did_you_mean(key, sorted(known))}")
+            continue
         try:
             config.hyperparams[key] = checked_hyperparameter(config.algo, key, value)
         except ValueError as err:
-            raise ConfigError(f"{where}.{key}: {err}") from None
+            wrong.append(f"{where}.{key}: {err}")
+    if wrong:
+        unknown = any("not an argument" in w for w in wrong)
+        raise ConfigError("; ".join(wrong) + (f" (known: {', '.join(sorted(known))})"
+                                              if unknown else ""))
     if config.algo == "ppo":  # SB3 only warns, then trains on truncated mini-batches
         batch = config.hyperparams.get("batch_size", 64)
         rollout = config.hyperparams.get("n_steps", 2048) * config.n_envs
