@@ -504,7 +504,8 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     replay buffer is not checkpointed (it would be ~100x the model), so a resumed SAC run
     starts from an empty buffer, which it fills for ``learning_starts`` steps (random
     actions, as at the start) before its first gradient step. Resuming with
-    ``n_timesteps`` at or below the steps done is refused."""
+    ``n_timesteps`` at or below the steps done is refused, but for a run stopped between
+    its last step and its final save, resumed at its own ``n_timesteps``: it saves."""
     import shutil
 
     check_run_folder(run, resume, overwrite, config)
