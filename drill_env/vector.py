@@ -404,6 +404,15 @@ def _sb3_class() -> type:
         def _make_env(self) -> DrillStringEnv:
             return self.env_class(**self.env_kwargs)
 
+        def seed(self, seed: int | None = None) -> Sequence[int | None]:
+            # refused here, naming it, not at the next reset by Gymnasium's check of env
+            # 0 (-1, 1.5 and "a" were taken: an outside check of bad input)
+            if seed is not None and (not isinstance(seed, (int, np.integer))
+                                     or isinstance(seed, bool) or seed < 0):
+                raise ValueError(f"seed: a whole number >= 0 (env i gets seed + i) or None, "
+                                 f"got {seed!r}")
+            return super().seed(seed)
+
         def reset(self):
             obs = super().reset()
             self._reset_done = True

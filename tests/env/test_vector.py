@@ -273,6 +273,16 @@ def test_vector_env_pickles():
     np.testing.assert_array_equal(a[1], b[1])
 
 
+@pytest.mark.parametrize("seed", [-1, 1.5, "a", True])
+def test_sb3_vec_env_refuses_a_seed_gymnasium_would_refuse_at_reset(seed):
+    """SB3's VecEnv.seed took -1, 1.5 and "a", to fail at the next reset in Gymnasium's
+    check of env 0 (an outside check of bad input): refused when given, by name."""
+    venv = make_sb3_vec_env(2, **KW)
+    with pytest.raises(ValueError, match=r"^seed: a whole number >= 0 \(env i gets seed \+ i\)"):
+        venv.seed(seed)
+    assert venv.seed(5) == [5, 6] and len(venv.seed(None)) == 2
+
+
 def test_sb3_vec_env_pickles_and_its_class_is_importable_by_its_name():
     """From a fuzz of the API: the class was built inside a function, so pickle (which
     looks a class up by module and name) refused it, unlike SB3's own DummyVecEnv."""
