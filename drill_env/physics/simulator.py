@@ -69,6 +69,7 @@ from drill_env.physics.statics import (
     bit_buoyed_weight,
     element_buckling_error,
     resolved_weight_on_bit,
+    warn_if_hook_pushes,
 )
 from drill_env.physics.top_drive import MAX_FILTER_W_DT
 from drill_env.physics.trajectory import bit_depth, curved_hole_loads
@@ -457,6 +458,7 @@ class Simulator:
         omega, wob = op.surface_speed, op.weight_on_bit
         self.check_mesh_resolves(wob)
         self._warn_if_straight_pipe_compressed(wob)
+        warn_if_hook_pushes(self.string_weight, wob)
         self._hole_wob(wob)
         self.stick[:] = np.sign(omega)
         tob = self.steady_torque_on_bit(omega, wob)

@@ -40,6 +40,7 @@ is not counted: it presses the pipe sideways, which only raises the load across 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,6 +87,20 @@ class OperatingPoint:
     def __post_init__(self) -> None:
         for name in ("surface_speed", "weight_on_bit"):
             require_non_negative(getattr(self, name), f"OperatingPoint.{name}")
+
+
+def warn_if_hook_pushes(string_weight: float, weight_on_bit: float) -> None:
+    """Warn where ``weight_on_bit`` exceeds the string's hanging weight (N; the buoyed
+    weight by true vertical depth in a curved hole): the hook load ``string_weight - WOB``
+    is then negative, the top drive pushing the string down, which a conventional rig
+    cannot (an outside check found -50 to -480 kN in builds that start near the surface).
+    The simulator carries it; one text, so once per place, not per WOB."""
+    if weight_on_bit > string_weight:
+        warnings.warn("the weight on bit exceeds the string's hanging weight in this hole "
+                      "(its buoyed weight by true vertical depth): the hook load is "
+                      "negative, the top drive pushing the string down, which a rig "
+                      "cannot; a lower WOB or a heavier or longer string "
+                      "(docs/model.md)", RuntimeWarning, stacklevel=3)
 
 
 def bit_buoyed_weight(config: SimulationConfig) -> float:

@@ -427,3 +427,40 @@ def test_the_layer_a_point_near_the_bit_lies_in_follows_the_true_plane(dip, azim
             == expected, (x, y, dz)
     if dip == 75.0:
         assert before > 0  # drilling up-section: the layer met second is above the bed
+
+
+def test_a_wob_past_the_strings_hanging_weight_is_warned_of():
+    """In a curved hole the string's hanging weight is its buoyed weight by true vertical
+    depth: a WOB above it leaves a negative hook load, the top drive pushing the string
+    down, which the simulator carries and a rig cannot (an outside check of the buckling
+    screen found -50 to -480 kN in builds from the surface). Warned of at the start; the
+    hanging weight checked against its closed form, w x TVD summed over the elements, the
+    arc's TVD (sin i2 - sin i1) / k, and the bit's weight along the hole at the bit."""
+    import warnings
+
+    from drill_env.physics.config import SimulationConfig, replace
+    from drill_env.physics.fem import build_mesh
+    from drill_env.physics.statics import bit_buoyed_weight
+    from drill_env.physics.trajectory import Survey
+    from drill_env.well import with_survey
+
+    base = replace(SimulationConfig(), **{"string.drill_pipe.element_length": 5.0})
+    k = math.radians(2.0 / 30.0)
+    end = base.string.length + 100.0
+    config = with_survey(base, Survey.from_stations(
+        [0.0, end], [3.0, 3.0 + math.degrees(k * end)], [0.0, 0.0]))
+    sim = Simulator(config)
+    mesh = build_mesh(config)
+    md = mesh.node_depth  # the bit at the string's length: measured depth from the top
+    i = np.radians(3.0) + k * md  # a constant build: inclination linear in md
+    tvd = np.sin(np.radians(3.0) + k * md) / k - math.sin(math.radians(3.0)) / k
+    weight = float(np.sum(mesh.buoyed_weight * mesh.element_length * np.diff(tvd)
+                          / np.diff(md))) + bit_buoyed_weight(config) * math.cos(i[-1])
+    assert sim.string_weight == pytest.approx(weight, rel=1e-9)
+    assert np.degrees(i[-1]) > 60.0  # most of the weight lies along the hole, not down it
+    for wob, warned in ((0.95 * sim.string_weight, False), (1.05 * sim.string_weight, True)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            sim.reset(OperatingPoint(60 * RPM, wob))
+        pushes = [w for w in caught if "hook load is negative" in str(w.message)]
+        assert bool(pushes) == warned, wob
