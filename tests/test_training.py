@@ -33,6 +33,26 @@ def tiny_config(**overrides):
     return replace(cfg, hyperparams=hyper)
 
 
+def train_interrupted_at(steps: int, cfg, folder, monkeypatch) -> None:
+    """Train ``cfg`` into ``folder`` with a Ctrl-C at the first env step at or past
+    ``steps`` (the KeyboardInterrupt the run saves its checkpoint on, then raises)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    import training.train as tt
+
+    class CtrlC(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= steps:
+                raise KeyboardInterrupt
+            return True
+
+    made = tt._callbacks
+    with monkeypatch.context() as patch:
+        patch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
+        with pytest.raises(KeyboardInterrupt):
+            train(cfg, folder, progress=False)
+
+
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("runs") / "tiny"
@@ -592,24 +612,11 @@ def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path, monkeyp
     """A Ctrl-C checkpoint need not fall on a whole rollout (the scheduled ones do, after
     the update): resumed from one, PPO does whole rollouts from there, and the step count
     announced (planned_steps) is the one reached."""
-    from stable_baselines3.common.callbacks import BaseCallback
-
-    import training.train as tt
     from drill_env.physics.config import replace
     from training.train import resume_point
 
-    class CtrlC(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.num_timesteps >= 768:
-                raise KeyboardInterrupt
-            return True
-
-    made = tt._callbacks
-    monkeypatch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
     cfg = tiny_config(n_timesteps=1024, checkpoint_freq=10_000, eval_freq=10_000)
-    with pytest.raises(KeyboardInterrupt):
-        train(cfg, tmp_path / "run", progress=False)  # rollouts of 128 x 4 = 512
-    monkeypatch.setattr(tt, "_callbacks", made)
+    train_interrupted_at(768, cfg, tmp_path / "run", monkeypatch)  # rollouts of 4 x 128
     done = resume_point(tmp_path / "run")[0]
     assert done % 512  # the checkpoint at 768 lies inside the second rollout
     longer = replace(cfg, n_timesteps=2048)
@@ -715,24 +722,11 @@ def test_evaluations_and_checkpoints_stay_on_their_grid_across_a_resume(tmp_path
     in callback calls from the resume, it evaluated at 1792 and 2816 and skipped its last.
     Its rollouts of 512 now end at 1280, 1792, ..., 3328: each line is scored, and
     checkpointed (every 768), after the update of the rollout that crosses it."""
-    from stable_baselines3.common.callbacks import BaseCallback
-
-    import training.train as tt
     from drill_env.physics.config import replace
 
-    class CtrlC(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.num_timesteps >= 768:
-                raise KeyboardInterrupt
-            return True
-
-    made = tt._callbacks
-    monkeypatch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
     cfg = tiny_config(n_timesteps=1536, checkpoint_freq=768, eval_freq=1024)
     folder = tmp_path / "run"
-    with pytest.raises(KeyboardInterrupt):
-        train(cfg, folder, progress=False)
-    monkeypatch.setattr(tt, "_callbacks", made)
+    train_interrupted_at(768, cfg, folder, monkeypatch)
     train(replace(cfg, n_timesteps=3072), folder, resume=True, progress=False)
     with (folder / "evaluations.csv").open() as f:
         assert [int(r["timesteps"]) for r in csv.DictReader(f)] == [1280, 2304, 3328]
@@ -1318,22 +1312,9 @@ def test_a_ctrl_c_saves_a_checkpoint_that_resume_continues_from(tmp_path, monkey
                                                                  capsys):
     """Interrupted between periodic checkpoints, a run keeps its progress: the model, its
     normalisation and the wall time at the interrupt, which --resume picks up."""
-    from stable_baselines3.common.callbacks import BaseCallback
-
-    import training.train as tt
-
-    class CtrlC(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.num_timesteps >= 600:
-                raise KeyboardInterrupt
-            return True
-
-    made = tt._callbacks
-    monkeypatch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
     cfg = tiny_config()
     folder = tmp_path / "cut"
-    with pytest.raises(KeyboardInterrupt):
-        train(cfg, folder, progress=False)
+    train_interrupted_at(600, cfg, folder, monkeypatch)
     (saved,) = (folder / "checkpoints").glob("model_*_steps.zip")
     steps = int(saved.stem.split("_")[1])
     assert 600 <= steps < 1024  # before the first periodic checkpoint
@@ -1346,7 +1327,6 @@ def test_a_ctrl_c_saves_a_checkpoint_that_resume_continues_from(tmp_path, monkey
 
     assert policy_files(folder) == (saved, folder / "checkpoints" /
                                     f"vecnormalize_{steps}.pkl")
-    monkeypatch.setattr(tt, "_callbacks", made)
     train(cfg, folder, resume=True, progress=False)
     assert f"resuming from {saved.name} ({steps} steps)" in capsys.readouterr().out
     assert json.loads((folder / "run.json").read_text())["env_steps"] >= cfg.n_timesteps
