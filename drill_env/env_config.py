@@ -238,25 +238,19 @@ def mesh_weight_on_bit_limit(sim: Any, upper: float, tol: float = 100.0) -> floa
     return lo
 
 
-def _real(value: Any) -> float:
-    """``value`` as a float where it is a number (a Python or NumPy scalar, a 0-d array, a
-    one-element tensor), NaN where it is not: a string ("100" would convert), a bool."""
-    if isinstance(value, (str, bytes, bool, np.bool_)):
-        return math.nan
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return math.nan
-
-
 def check_set_points(where: str, surface_speed: float, weight_on_bit: float
                      ) -> tuple[float, float]:
     """The set points a controller asks for (rad/s, N) as floats; ValueError unless they
     are finite numbers: clipped into the ranges, a NaN became a NaN action."""
-    speed, wob = _real(surface_speed), _real(weight_on_bit)
+    said = (f"{where}: set points must be finite numbers, got surface_speed "
+            f"{surface_speed!r} rad/s, weight_on_bit {weight_on_bit!r} N")
+    try:  # any one number (a 0-d array, a one-element tensor); not a string or a bool
+        speed, wob = (float(numbers(v, where).reshape(()))
+                      for v in (surface_speed, weight_on_bit))
+    except ValueError:
+        raise ValueError(said) from None
     if not (math.isfinite(speed) and math.isfinite(wob)):
-        raise ValueError(f"{where}: set points must be finite numbers, got surface_speed "
-                         f"{surface_speed!r} rad/s, weight_on_bit {weight_on_bit!r} N")
+        raise ValueError(said)
     return speed, wob
 
 
