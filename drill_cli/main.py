@@ -1312,7 +1312,7 @@ def cmd_well(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(f"--friction: comma-separated numbers, got "
                                          f"{args.friction!r}") from None
     bad = [f for f in frictions if not (math.isfinite(f) and 0.0 <= f <= 2.0)]
-    if bad or not frictions:
+    if bad:  # (none given is said above)
         raise argparse.ArgumentTypeError(f"--friction: factors in [0, 2], got {args.friction!r}")
     whose = (f"{args.config.name}" if args.config is not None
              else f"the {args.scenario} scenario")
