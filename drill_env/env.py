@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
@@ -39,6 +38,7 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig, OBSERVATIONS: the 
     check_set_points,
     even_record_every,
     mesh_weight_on_bit_limit,
+    reset_options,
     start_ranges,
     warn_above_limit,
 )
@@ -373,22 +373,11 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
+        options = reset_options(options)  # refused before the seed is taken
+        # no step until this reset has finished: a refused one (a target out of range)
+        # left a new string drawn under the old episode's state, and steps ran on it
+        self._reset_done = False
         super().reset(seed=seed)
-        if not isinstance(options, (Mapping, type(None))):
-            raise ValueError(f"reset options: must be a dict, got {options!r}")
-        options = dict(options or {})
-        if unknown := set(options) - {"surface_speed", "weight_on_bit"}:
-            raise ValueError(f"reset options: unknown key(s) {sorted(map(str, unknown))}; "
-                             "known: ['surface_speed', 'weight_on_bit']")
-        for name, value in options.items():  # a number (a 0-d array too), not a bool or text
-            try:
-                number = None if isinstance(value, (bool, np.bool_, str, bytes)) \
-                    else float(value)
-            except (TypeError, ValueError):
-                number = None
-            if number is None or not math.isfinite(number):
-                raise ValueError(f"reset options: {name}: must be a finite number, got "
-                                 f"{value!r}")
         given = frozenset(options)  # the targets the caller fixed
         if self.randomised:
             self.scenario = self._build_scenario(self.np_random)
@@ -689,6 +678,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         """``render_mode="rgb_array"``: the last ``RENDER_SECONDS`` of bit and surface
         speed, torque on bit and the bit orbit in its clearance, as an RGB array
         (:mod:`drill_env.render`). Without a render mode: a warning and None."""
+        if not self._reset_done:  # (it read the readings of no episode)
+            raise ResetNeeded("render: call reset() before rendering")
         if self.render_mode is None or self._frames is None:
             gym.logger.warn("render() called without a render_mode: pass render_mode="
                             "'rgb_array' to gymnasium.make")

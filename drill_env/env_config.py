@@ -6,6 +6,7 @@ import dataclasses
 import inspect
 import math
 import warnings
+from collections.abc import Mapping
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -272,3 +273,23 @@ def _default_spans() -> tuple[float, float]:
 
 
 PLAIN_SPANS = _default_spans()
+
+
+def reset_options(options: Any) -> dict[str, Any]:
+    """``reset(options=...)`` of a single env, checked: a dict of ``surface_speed`` and
+    ``weight_on_bit``, each a finite number (a 0-d array too, not a bool or text); their
+    ranges are judged once the episode's scenario is drawn."""
+    if not isinstance(options, (Mapping, type(None))):
+        raise ValueError(f"reset options: must be a dict, got {options!r}")
+    options = dict(options or {})
+    if unknown := set(options) - {"surface_speed", "weight_on_bit"}:
+        raise ValueError(f"reset options: unknown key(s) {sorted(map(str, unknown))}; "
+                         "known: ['surface_speed', 'weight_on_bit']")
+    for name, value in options.items():
+        try:
+            number = None if isinstance(value, (bool, np.bool_, str, bytes)) else float(value)
+        except (TypeError, ValueError):
+            number = None
+        if number is None or not math.isfinite(number):
+            raise ValueError(f"reset options: {name}: must be a finite number, got {value!r}")
+    return options

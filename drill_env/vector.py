@@ -148,6 +148,7 @@ class DrillStringVectorEnv(VectorEnv):
                 raise ValueError(f"options['reset_mask']: needs a bool array of shape "
                                  f"({self.num_envs},), got {mask.dtype} {mask.shape}")
         entries: list[tuple[int, dict[str, Any]]] = []
+        self._has_episode[mask] = False  # until each is reset (a refused one has none)
         for i in np.flatnonzero(mask):
             self._obs[i], info = self.envs[i].reset(seed=seeds[i], options=options or None)
             entries.append((int(i), info))
@@ -411,9 +412,11 @@ def _sb3_class() -> type:
                                      or isinstance(seed, bool) or seed < 0):
                 raise ValueError(f"seed: a whole number >= 0 (env i gets seed + i) or None, "
                                  f"got {seed!r}")
-            return super().seed(seed)
+            # as a Python int: Gymnasium's reset refuses a NumPy one (SB3 passes it on)
+            return super().seed(None if seed is None else int(seed))
 
         def reset(self):
+            self._reset_done = False  # no step after a refused reset
             obs = super().reset()
             self._reset_done = True
             return obs

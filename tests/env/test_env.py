@@ -250,6 +250,34 @@ def test_a_step_before_the_first_reset_is_refused_by_the_unwrapped_env_too():
         pickle.loads(pickle.dumps(env)).step(action)  # the reset is carried along
 
 
+def test_a_refused_reset_leaves_no_episode_to_step_or_render():
+    """From an outside check of the API: a reset refused for a target out of range had
+    already drawn a new string (the task's scenario is randomised) under the old
+    episode's step count and targets, and step() ran on it (time 0.5 -> 0.1 s, another
+    string); render() before any reset was an AttributeError in the batched envs, which
+    build the raw class. Both say ResetNeeded; options of the wrong kind are refused
+    before the seed is taken."""
+    from gymnasium.error import ResetNeeded
+
+    env = gym.make("DrillStickSlip-v0", **SHORT).unwrapped
+    action = np.zeros(env.action_space.shape, dtype=np.float32)
+    env.reset(seed=0)
+    env.step(action)
+    with pytest.raises(ValueError, match="surface_speed"):
+        env.reset(seed=1, options={"surface_speed": 1.0e9})
+    with pytest.raises(ResetNeeded, match="^step: call reset"):
+        env.step(action)
+    env.reset(seed=2)
+    with pytest.raises(ValueError, match="unknown key"):
+        env.reset(seed=9, options={"rpm": 5.0})
+    assert env.np_random_seed == 2  # not reseeded by a reset refused at its options
+    fresh = DrillStringEnv(render_mode="rgb_array", **SHORT)
+    with pytest.raises(ResetNeeded, match="^render: call reset"):
+        fresh.render()
+    fresh.reset(seed=0)
+    assert fresh.render().ndim == 3
+
+
 def test_pickle_round_trip_of_fresh_and_stepped_env():
     env = DrillStringEnv(scenario="random", observation_noise=0.01, **SHORT)
     env2 = pickle.loads(pickle.dumps(env))

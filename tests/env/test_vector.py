@@ -281,6 +281,38 @@ def test_sb3_vec_env_refuses_a_seed_gymnasium_would_refuse_at_reset(seed):
     with pytest.raises(ValueError, match=r"^seed: a whole number >= 0 \(env i gets seed \+ i\)"):
         venv.seed(seed)
     assert venv.seed(5) == [5, 6] and len(venv.seed(None)) == 2
+    # a NumPy integer is a seed (as in the Gymnasium batch), handed on as a Python one:
+    # Gymnasium's reset refused the np.int64 SB3 passed on (an outside check of the API)
+    assert venv.seed(np.int64(5)) == [5, 6]
+    venv.reset()
+
+
+def test_a_refused_reset_of_a_batch_leaves_no_episode_to_step():
+    """A reset refused for one env's target out of range left the batch's others to step
+    the old episode's state under a new string (an outside check of the API)."""
+    from gymnasium.error import ResetNeeded
+
+    for envs in (gym.make_vec("DrillStickSlip-v0", num_envs=2, **KW),
+                 make_sb3_vec_env(2, env_id="DrillStickSlip-v0", **KW)):
+        def step(e):
+            return e.step(np.zeros((2, 1), np.float32))
+
+        if isinstance(envs, DrillStringVectorEnv):
+            envs.reset(seed=0)
+            step(envs)
+            with pytest.raises(ValueError, match="surface_speed"):
+                envs.reset(seed=1, options={"surface_speed": 1.0e9})
+        else:
+            envs.reset()
+            step(envs)
+            envs.set_options({"surface_speed": 1.0e9})
+            with pytest.raises(ValueError, match="surface_speed"):
+                envs.reset()
+            envs.set_options({})
+        with pytest.raises(ResetNeeded, match="reset"):
+            step(envs)
+        envs.reset()
+        step(envs)
 
 
 def test_sb3_vec_env_pickles_and_its_class_is_importable_by_its_name():
