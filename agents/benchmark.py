@@ -672,6 +672,10 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         # scenario benchmark too, as a guest (not a benchmark.csv column)
         "own_speed": own if isinstance(own, bool) else sets_own_speed(episode.label, env_id),
         "guest": guest,  # a task's policy in a scenario benchmark (not a column either)
+        # a stick-slip still building, which the window's SSI may not show yet (not a
+        # column): judged where the set points hold, a drive-rate loop's
+        "swing_trend": window_swing_trend(everything, targets, start, settings)
+        if getattr(controller, "rate", "") == "drive" and not reason else "",
     }
     if episode.series:
         series_dir = Path(episode.out) / "series"
@@ -685,6 +689,30 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         arrays["stamp"] = np.array(episode.stamp)
         np.savez_compressed(episode.series_file, **arrays)
     return row
+
+
+def window_swing_trend(records: np.ndarray, targets: Sequence[tuple[float, float]],
+                       start: float, settings: BenchmarkSettings) -> str:
+    """Whether the bit-speed swing grows from the warm-up into the metric window
+    (:func:`drill_env.swing.swing_trend`): the last ``block`` s of the window against the
+    ``block`` s before it, ``block`` the shorter of the warm-up and the window; "" where
+    the target moved meanwhile (its change would read as swing). A controls engineer's
+    check: SoftSpeed on a 2,000 kg m^2 top drive read SSI 0.00 over 30-60 s while its
+    swing grew x4 per 30 s, to full stick-slip by ~200 s."""
+    from drill_env.physics.layout import R
+    from drill_env.swing import swing_trend
+
+    split, end = start + settings.warmup, start + settings.duration
+    block = min(settings.warmup, settings.duration - settings.warmup)
+    if len({speed for t, speed in targets if t > split - block}) > 1:
+        return ""
+    time, rpm = records[:, R.TIME], records[:, R.BIT_SPEED] / RPM
+    before = rpm[(time >= split - block) & (time < split)]
+    last = rpm[time >= min(end, float(time[-1])) - block]
+    if len(before) < 2 or len(last) < 2:
+        return ""
+    swings = [0.5 * float(np.ptp(before)), 0.5 * float(np.ptp(last))]
+    return swing_trend(swings, float(np.min(last)), block=end - split)
 
 
 def act(controller: Any, typed: str, where: str, space: Any, obs: Any,
@@ -978,6 +1006,17 @@ RETURN_NOTE = ("return: DrillString-v0's reward summed over the episode: ROP pay
 ENDED_EARLY_MARK = "ended early"
 
 
+#: Beside the seed count of a controller some of whose episodes' bit-speed swing grows
+#: from the warm-up into the metric window (:func:`window_swing_trend`).
+GROWING_MARK = "growing"
+
+
+def growing(row: Mapping[str, Any]) -> bool:
+    """Whether a row's stick-slip was still growing in its metric window (rows stored
+    before the trend was kept have none)."""
+    return str(row.get("swing_trend", "")).startswith("growing")
+
+
 #: The task whose policy chooses the rpm (task 2); task 1's corrects the top drive around
 #: the driller's target, which it tracks.
 CHOOSES_RPM = "DrillOptimise-v0"
@@ -1018,8 +1057,10 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
             sel = [r for r in rows if r["controller"] == c and r["scenario"] == s]
             if not sel:
                 continue
-            ended = sum(1 for r in sel if r.get("termination"))
-            cells = [s, c, str(len(sel)) + (f" ({ended} {ENDED_EARLY_MARK})" if ended else "")]
+            marks = [f"{n} {mark}" for n, mark in (
+                (sum(1 for r in sel if r.get("termination")), ENDED_EARLY_MARK),
+                (sum(1 for r in sel if growing(r)), GROWING_MARK)) if n]
+            cells = [s, c, str(len(sel)) + (f" ({', '.join(marks)})" if marks else "")]
             for key, _, fmt in SUMMARY:
                 values = np.array([r[key] for r in sel], dtype=float)
                 if np.isnan(values).all():  # not defined (a zero target's rpm error)
@@ -1050,15 +1091,42 @@ def given_set_points(settings: BenchmarkSettings) -> str:
     return f"the set points {' and '.join(words)} in every scenario{rest}"
 
 
+#: Up to this many ``--config`` overrides are listed with their values in benchmark.md's
+#: first line; more (a string file) by section, with a count.
+LISTED_OVERRIDES = 8
+
+
+def overrides_in_words(physics: Mapping[str, Any]) -> str:
+    """``--config``'s overrides in words: each key with its value (a list by its length),
+    or, past :data:`LISTED_OVERRIDES` keys, each section with its count. A controls
+    engineer's check: "config overrides of top_drive" hid a SoftSpeed row run at k = 1 on
+    a 2,000 kg m^2 top drive."""
+    from drill_env.physics.config import flatten
+
+    flat = flatten(dict(physics))
+    if len(flat) > LISTED_OVERRIDES:
+        sections: dict[str, int] = {}
+        for key in flat:
+            sections[key.split(".")[0]] = sections.get(key.split(".")[0], 0) + 1
+        return "of " + ", ".join(f"{name} ({count} keys)" if count > 1 else name
+                                 for name, count in sorted(sections.items()))
+
+    def value(v: Any) -> str:
+        if isinstance(v, (list, tuple)):
+            return f"a list of {len(v)}"
+        return f"{v:g}" if isinstance(v, float) else str(v)
+
+    return ", ".join(f"{key} = {value(v)}" for key, v in sorted(flat.items()))
+
+
 def conditions(settings: BenchmarkSettings, env_id: str | None = None,
                guests: bool = False) -> str:
     """What every episode of a benchmark shares, in words (benchmark.md's first line);
     ``guests``: a task's policy ran in a scenario benchmark."""
     window = (f"metrics over the last {settings.duration - settings.warmup:g} s; physics "
               f"level {settings.fidelity}"
-              + ("; config overrides of " + ", ".join(sorted({key.split(".")[0] for key in
-                                                               settings.physics}))
-                 + " (--config) merged into every scenario"
+              + ("; config overrides (--config) " + overrides_in_words(settings.physics)
+                 + " merged into every scenario"
                  + (", over the task settings' own" if env_id else "")
                  if settings.physics else "")
               + ". Means over seeds, +- half the range. Rows: benchmark.csv.")
@@ -1120,6 +1188,15 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
         notes.append("Episodes that ended early (metrics until then): " + ", ".join(
             f"{r['controller']}/{r['scenario']}/{r['seed']} ({r['termination']})"
             for r in failed) + ".")
+    building = [r for r in rows if growing(r)]
+    if building:  # SSI 0.00 in the window of a loop that stick-slips a minute later
+        notes.append("Growing: the bit-speed swing of the metric window exceeds the one "
+                     "before it by more than 10 %, a stick-slip still building that the "
+                     "window's SSI and stuck share may not show yet; follow it in a longer "
+                     "run (drill-env run --duration 240 prints the swing per 30 s): "
+                     + ", ".join(f"{r['controller']}/{r['scenario']}/{r['seed']} "
+                                 f"({r['swing_trend'].removeprefix('growing (').removesuffix(')')})"
+                                 for r in building) + ".")
     _print_table(header, table, [*notes, "Means over seeds, +- half the range."])
     from agents.plots import bar_chart, series_chart
 

@@ -47,6 +47,11 @@ TRIVIAL = ("held:-1", "held:0", "held:1", RandomActions.name)
 CLASSICAL = tuple(name for name in CONTROLLERS if name != "learned" and name not in TRIVIAL)
 
 
+#: The top drive's hardware (``TopDriveConfig``): the scenario's, the same for every
+#: controller; ``--config`` may change it for all of them.
+TOP_DRIVE_HARDWARE = frozenset({"top_drive.inertia", "top_drive.max_torque",
+                                "top_drive.max_acceleration"})
+
 #: What an unknown name's error lists: the registry's names and the parametrised forms.
 KNOWN = (f"{', '.join(CONTROLLERS)}, learned:<run folder>, constant:<rpm>/<kN>, "
          "held:<action>[/<action>], <file.py or module>:<class> (your own)")
@@ -317,8 +322,17 @@ def check_interface(name: str, controller: Any) -> None:
     if other:
         raise ValueError(f"controller: {name}: physics() sets {', '.join(other)}: a "
                          "controller sets its top drive only (top_drive.*); the string, "
-                         "rock, well and bit are the scenario's, the same for every "
-                         "controller")
+                         "rock (formation.*), well, mud and bit are the scenario's, the same "
+                         "for every controller")
+    # nor the drive itself: a controller that gave itself a 50 kg m^2 rotor and a 500 kN m
+    # rating was listed beside the others without a word (a controls engineer's check)
+    hardware = sorted(key for key in flatten(dict(physics)) if key in TOP_DRIVE_HARDWARE)
+    if hardware:
+        raise ValueError(f"controller: {name}: physics() sets {', '.join(hardware)}: the "
+                         "top drive's hardware (rotor inertia, torque rating, acceleration "
+                         "limit) is the same for every controller; a controller sets its "
+                         "loop (controller, gains, tuning, torque feedback); to drill with "
+                         "another drive, give it to all with --config")
     data_files(name, controller)
     if getattr(type(controller), "data_files", ()) != getattr(controller, "data_files", ()):
         raise ValueError(f"controller: {name}: data_files is set on the instance; set it on "
@@ -333,6 +347,7 @@ def check_interface(name: str, controller: Any) -> None:
             HeldAction.from_label(own) is not None:
         raise ValueError(f"controller: {name}: name {own!r} is a built-in controller's "
                          "(set the class's name attribute to your own)")
+
 
 
 def parse_controllers(text: str) -> list[str]:

@@ -26,6 +26,7 @@ from typing import Any
 
 from drill_env.physics.units import HOUR, KILO, RPM, shown
 from drill_env.sweep import Terminated, clear_interrupt, note_interrupt
+from drill_env.swing import SWING_BLOCK, swing_per_block, swing_trend
 
 DESCRIPTION = """\
 drill-env: drill-string dynamics, classical top-drive controllers and RL agents.
@@ -500,45 +501,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"wrote {args.out / 'run_summary.json'} (and a line of "
           f"{args.out / 'run_history.jsonl'}, which keeps every run's)")
     return status
-
-
-#: Seconds per block of :func:`swing_per_block` (docs/controllers.md's k table: the swing
-#: per 30 s from a small kick tells a growing stick-slip from a decaying one).
-SWING_BLOCK = 30.0
-#: A swing below this (rpm) is no oscillation to speak of (a steady bit reads ~1e-3).
-NO_SWING = 0.01
-#: A bit slower than this (rpm) at some sample of a block has stopped: stick-slip.
-STOPPED = 0.5
-
-
-def swing_per_block(speeds: Sequence[tuple[float, float]]) -> list[float]:
-    """Half of (max - min) of the bit speed in each whole ``SWING_BLOCK`` of an episode,
-    from its (time s, rpm) samples."""
-    blocks: dict[int, list[float]] = {}
-    for t, rpm in speeds:
-        blocks.setdefault(int(t // SWING_BLOCK), []).append(rpm)
-    end = speeds[-1][0] if speeds else 0.0
-    whole = int((end + 1e-6) // SWING_BLOCK)  # the last block only if the episode filled it
-    return [round(0.5 * (max(blocks[k]) - min(blocks[k])), 6) for k in range(whole)
-            if blocks.get(k)]
-
-
-def swing_trend(swings: Sequence[float], lowest_rpm: float) -> str:
-    """What the last two blocks' swings say: full stick-slip (the bit stops: its lowest
-    speed in the last block, ``lowest_rpm``, under :data:`STOPPED`), growing or decaying
-    (by more than 10 % per block, with the factor) or steady."""
-    last, before = swings[-1], swings[-2]
-    if lowest_rpm < STOPPED:
-        return "full stick-slip (the bit stops)"
-    if last < NO_SWING:  # rounding, not an oscillation: no ratio of two such to quote
-        return f"none to speak of (below {NO_SWING:g} rpm)"
-    if before < NO_SWING:
-        return f"growing (from below {NO_SWING:g} rpm)"
-    if last > 1.1 * before:
-        return f"growing (x{last / before:.2g} per {SWING_BLOCK:g} s)"
-    if last < 0.9 * before:
-        return f"decaying (x{last / before:.2g} per {SWING_BLOCK:g} s)"
-    return "steady"
 
 
 def benchmark_set_points(args: argparse.Namespace, env_id: str | None) -> dict[str, float]:

@@ -1604,6 +1604,14 @@ class Huge(SetPointController):
                 "top_drive.integral_gain": 1e9}
 
 
+class HardTop(NoStickSlipCost):
+    name = "hard-top"
+
+    def physics(self):
+        return {"top_drive": {"controller": "stiff", "inertia": 50.0,
+                              "max_torque": 5.0e5}}
+
+
 class OwnMakeUp(NoStickSlipCost):
     name = "own-makeup"
 
@@ -1625,8 +1633,9 @@ def test_a_controller_of_your_own_is_compared_on_equal_terms(tmp_path, monkeypat
     """From a controls engineer's walkthrough: a controller's physics() softened the rock
     and was listed as curing stick-slip at twice the ROP; its env_kwargs() zeroed the
     stick-slip weight and led the return column with the stiff PI's stick-slip, or set its
-    own make-up torque; and a second class of the same name in the same file was served
-    the first's rows. Now physics() sets the top drive only, a controller's reward
+    own make-up torque; one gave itself a 50 kg m^2 rotor and a 500 kN m rating; and a
+    second class of the same name in the same file was served the first's rows. Now
+    physics() sets the top drive's loop only, a controller's reward
     weights are the benchmark's and its episode settings are refused, and the rows of two
     classes are told apart."""
     monkeypatch.chdir(tmp_path)
@@ -1635,6 +1644,11 @@ def test_a_controller_of_your_own_is_compared_on_equal_terms(tmp_path, monkeypat
                                          r"formation\.rocks\[0\]\.mu_max: a controller sets "
                                          r"its top drive only"):
         bm.run_benchmark(["mine.py:RockSwap"], ["stick_slip"], [0], tmp_path / "r", SHORT,
+                         workers=1, progress=False)
+    with pytest.raises(ValueError, match=r"controller: .*HardTop.*physics\(\) sets "
+                                         r"top_drive\.inertia, top_drive\.max_torque: the "
+                                         r"top drive's hardware"):  # its own 50 kg m^2 rotor
+        bm.run_benchmark(["mine.py:HardTop"], ["stick_slip"], [0], tmp_path / "t", SHORT,
                          workers=1, progress=False)
     with pytest.raises(ValueError, match=r"controller: own-makeup\.env_kwargs\(\) sets "
                                          r"makeup_torque: in a scenario benchmark"):
@@ -1742,3 +1756,49 @@ def test_a_title_wraps_into_even_lines_not_a_lone_last_word() -> None:
     assert len(lines) == 2 and " ".join(lines) == title
     assert min(map(len, lines)) > 0.8 * max(map(len, lines))  # even, not 110 + 4
     assert balanced_fill("short", 110) == "short"
+
+
+def test_a_stick_slip_still_growing_in_the_metric_window_is_marked(tmp_path):
+    """A controls engineer's check: SoftSpeed on a 2,000 kg m^2 top drive read SSI 0.00
+    and 0 % stuck over the window (30-60 s) while its bit-speed swing grew x4 per 30 s, to
+    full stick-slip by ~200 s (drill-env run --duration 240), beside the torque-feedback
+    loops that do cure it. Its row is marked growing, in the table and benchmark.md."""
+    settings = bm.BenchmarkSettings(physics={"top_drive.inertia": 2000.0})
+    rows = bm.run_benchmark(["soft-speed", "soft-torque"], ["stick_slip"], [0],
+                            tmp_path, settings, workers=1, progress=False)
+    trend = {r["controller"]: r["swing_trend"] for r in rows}
+    assert trend["soft-speed"].startswith("growing (x")
+    assert rows[0]["ssi"] < 0.01  # what the window shows without the mark
+    assert trend["soft-torque"].startswith("none to speak of")
+    markdown = (tmp_path / "benchmark.md").read_text()
+    assert "| stick_slip | soft-speed | 1 (1 growing) |" in markdown
+    assert "| stick_slip | soft-torque | 1 |" in markdown
+    assert "soft-speed/stick_slip/0 (x" in markdown
+
+
+def test_the_window_swing_trend_compares_equal_blocks_at_a_held_target():
+    """The swing of the window's last block against the block before the window, blocks
+    the shorter of warm-up and window; none where the target moved (a driller's change
+    would read as swing)."""
+    from drill_env.physics.layout import RECORD_CHANNELS, R
+    from drill_env.physics.units import RPM
+
+    t = np.arange(0.0, 60.0, 0.01)
+    records = np.zeros((len(t), len(RECORD_CHANNELS)))
+    records[:, R.TIME] = t
+    amplitude = 0.5 * 2.0 ** (t / 20.0)  # x2 per 20 s: x4 from 10-20 s to 50-60 s
+    records[:, R.BIT_SPEED] = (50.0 + amplitude * np.sin(2.0 * np.pi * 0.44 * t)) * RPM
+    settings = bm.BenchmarkSettings(duration=60.0, warmup=20.0)
+    held = [(float(x), 5.0) for x in t[::10]]
+    trend = bm.window_swing_trend(records, held, 0.0, settings)
+    factor = re.fullmatch(r"growing \(x(\S+) per 40 s\)", trend)
+    assert factor and float(factor[1]) == pytest.approx(4.0, rel=0.05), trend
+    moved = [(x, 5.0 if x < 15.0 else 6.0) for x, _ in held]
+    assert bm.window_swing_trend(records, moved, 0.0, settings) == ""
+    late = bm.BenchmarkSettings(duration=60.0, warmup=40.0)  # blocks 20-40 s and 40-60 s
+    early = [(x, 5.0 if x < 15.0 else 6.0) for x, _ in held]  # before the blocks: judged
+    trend = bm.window_swing_trend(records, early, 0.0, late)
+    factor = re.fullmatch(r"growing \(x(\S+) per 20 s\)", trend)
+    assert factor and float(factor[1]) == pytest.approx(2.0, rel=0.05), trend
+    records[:, R.BIT_SPEED] = (50.0 + 0.5 * 0.5 ** (t / 20.0) * np.sin(t)) * RPM
+    assert bm.window_swing_trend(records, held, 0.0, settings).startswith("decaying")

@@ -32,10 +32,24 @@ def test_conditions_state_the_metric_window_length():
     assert "metrics over the last 40 s" in text
 
 
-def test_conditions_name_the_config_sections_overridden():
-    s = bm.BenchmarkSettings(physics={"string.drill_pipe.length": 2000.0})
-    text = bm.conditions(s)
-    assert "config overrides of string (--config)" in text
+def test_conditions_name_each_config_override_with_its_value():
+    """A controls engineer's check: benchmark.md said only "config overrides of
+    top_drive", so a SoftSpeed row run at k = 1 on a 2,000 kg m^2 drive read as the
+    default one. A few overrides are listed with their values, many by section."""
+    s = bm.BenchmarkSettings(physics={"top_drive": {"inertia": 2000.0,
+                                                    "impedance_factor": 1.0}})
+    assert ("config overrides (--config) top_drive.impedance_factor = 1, "
+            "top_drive.inertia = 2000 merged into every scenario") in bm.conditions(s)
+    many = {f"string.drill_pipe.{k}": 1.0 for k in ("length", "element_length",
+                                                    "outer_diameter", "inner_diameter")}
+    many.update({"mud.density": 1300.0, "string.components": [{}, {}],
+                 "formation.dip": 0.1, "top_drive.inertia": 800.0,
+                 "top_drive.max_torque": 4.0e4})
+    assert len(many) > bm.LISTED_OVERRIDES
+    assert bm.overrides_in_words(many) == ("of formation, mud, string (5 keys), "
+                                           "top_drive (2 keys)")
+    assert bm.overrides_in_words({"string.components": [{}, {}]}) == (
+        "string.components = a list of 2")
 
 
 def test_benchmark_md_lists_episodes_that_ended_early(tmp_path):

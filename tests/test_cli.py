@@ -49,7 +49,7 @@ def test_run_says_whether_stick_slip_grows_or_decays():
     speed changes would read as swing."""
     import math
 
-    from drill_cli.main import swing_per_block, swing_trend
+    from drill_env.swing import swing_per_block, swing_trend
 
     speeds = [(t / 10.0, 50.0 + 0.1 * 2.0 ** (t / 300.0) * math.sin(2.0 * math.pi * 0.44
                                                                     * t / 10.0))
@@ -911,7 +911,9 @@ def test_run_and_benchmark_drill_the_string_of_a_config_file(tmp_path, capsys):
     stored = (tmp_path / "bench" / "benchmark_results.jsonl").read_text()
     assert "2214.5" in stored  # the drill pipe length of the file, in the fingerprint
     markdown = (tmp_path / "bench" / "benchmark.md").read_text()
-    assert "config overrides of string (--config) merged into every scenario" in markdown
+    assert ("config overrides (--config) string.components = a list of 10, "
+            "string.drill_pipe.element_length = 10, ") in markdown
+    assert "string.drill_pipe.length = 2214.5" in markdown
     assert markdown.startswith(f"# Controller benchmark, config {field}")  # which file
     bad = tmp_path / "bad.yaml"
     bad.write_text("string:\n  drill_pipe: {length: -5.0}\n")
