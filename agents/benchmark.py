@@ -673,9 +673,12 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         "own_speed": own if isinstance(own, bool) else sets_own_speed(episode.label, env_id),
         "guest": guest,  # a task's policy in a scenario benchmark (not a column either)
         # a stick-slip still building, which the window's SSI may not show yet (not a
-        # column): judged where the set points hold, a drive-rate loop's
+        # column): judged where the set points hold, a drive-rate loop's, and the rock
+        # stays (a scenario benchmark: a task's 300 s cross layers, whose change of rock
+        # would read as growth)
         "swing_trend": window_swing_trend(everything, targets, start, settings)
-        if getattr(controller, "rate", "") == "drive" and not reason else "",
+        if getattr(controller, "rate", "") == "drive" and episode.env_id is None
+        and not reason else "",
     }
     if episode.series:
         series_dir = Path(episode.out) / "series"

@@ -59,14 +59,28 @@ def _say_empty(ax: Any, text: str) -> None:
             color="0.3", wrap=True, bbox={"boxstyle": "round", "fc": "white", "ec": "0.7"})
 
 
+#: Least RGB distance (0-1 per channel) of a colour taken for a name without its own from
+#: every colour taken before it: tab20b's gold-brown beside the policy's brown (0.14 apart)
+#: could not be told from it in a legend of thirteen (a check of the pictures).
+DISTINCT = 0.2
+
+
 def _colours(controllers: Sequence[str]) -> dict[str, Any]:
     """Each controller's colour: its own (:data:`COLOURS`), else the next one free: tab10's
     four left, then tab20b's twenty (an evaluation has eleven controllers: with tab10
-    alone the eleventh took the seventh's colour)."""
+    alone the eleventh took the seventh's colour), each at least :data:`DISTINCT` from
+    the fixed colours and from those before it (where too few are, the rest in turn)."""
     cmap = plt.get_cmap("tab10")
     extra = plt.get_cmap("tab20b")
-    free = [cmap(k) for k in range(10) if k not in COLOURS.values()]
-    free += [extra(4 * (k % 5) + k // 5) for k in range(20)]  # a hue apart, then shades
+    candidates = [cmap(k) for k in range(10) if k not in COLOURS.values()]
+    candidates += [extra(4 * (k % 5) + k // 5) for k in range(20)]  # a hue apart, then shades
+    taken = [np.array(cmap(k)[:3]) for k in COLOURS.values()]
+    free = []
+    for colour in candidates:
+        if min(float(np.linalg.norm(np.array(colour[:3]) - t)) for t in taken) >= DISTINCT:
+            free.append(colour)
+            taken.append(np.array(colour[:3]))
+    free += [c for c in candidates if c not in free]
     out, n = {}, 0
     for c in controllers:
         if c in COLOURS:
@@ -80,11 +94,17 @@ def _colours(controllers: Sequence[str]) -> dict[str, Any]:
 def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
               scenarios: Sequence[str], path: Path, title: str = "Controller benchmark"
               ) -> None:
-    """One panel per metric; bars per controller, grouped by scenario; whiskers span the
-    seeds (min to max). ``title``: what the benchmark was (benchmark.md's heading: its
-    --config file, set points given on the command line)."""
+    """One panel per metric; bars per controller, grouped by scenario, a dot per seed (in
+    seed order across the bar); an SSI bar of a stick-slip still growing in the window is marked.
+    ``title``: what the benchmark was (benchmark.md's heading: its --config file, the set
+    points given on the command line, a task and its seeds)."""
+    from agents.benchmark import growing
+
     colours = _colours(controllers)
-    fig, axes = plt.subplots(1, len(BARS), figsize=(4.2 * len(BARS), 4.2))
+    # two by two, not four in a row: shrunk to a page's width (~800 px) the row's text was
+    # ~6 px high (a check of the pictures)
+    fig, grid = plt.subplots(2, 2, figsize=(11.0, 8.4))
+    axes = grid.ravel()
     width = 0.8 / max(len(controllers), 1)
     for ax, (key, label, scale, empty) in zip(axes, BARS, strict=True):
         shown: list[float] = []
@@ -101,9 +121,18 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                 ax.bar(x, mean, width * 0.9, color=colours[c],
                        label=c if j == 0 else None)
                 bars.append((x, mean, colours[c]))
-                if values.size > 1:
-                    ax.plot([x, x], [values.min() * scale, values.max() * scale], color="k",
-                            lw=1)
+                if key == "ssi" and any(growing(r) for r in rows if r["controller"] == c
+                                        and r["scenario"] == s):
+                    # the table's mark: a stick-slip still building that the window's SSI
+                    # does not show yet (agents.benchmark.window_swing_trend)
+                    ax.annotate("growing", (x, mean), xytext=(0, 4),
+                                textcoords="offset points", rotation=90, ha="center",
+                                va="bottom", fontsize=8, color=colours[c])
+                if values.size > 1:  # each seed a dot: a min-max whisker of 20 seeds
+                    # drew one outlier as the spread of all (a check of the pictures)
+                    spread = np.linspace(-0.25, 0.25, values.size) * width
+                    ax.scatter(x + spread, values * scale, s=7, color="k", alpha=0.6,
+                               linewidths=0, zorder=4)
         ax.set_xticks(range(len(scenarios)), scenarios)
         ax.set_title(label, fontsize=10)
         ax.grid(axis="y", alpha=0.3)
@@ -119,11 +148,19 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                     ax.hlines(0.0, x - 0.45 * width, x + 0.45 * width, colors=colour, lw=4,
                               clip_on=False, zorder=3)
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(controllers), fontsize=9)
-    fig.suptitle(f"{balanced_fill(title, 150)}\nmeans over seeds, whiskers min-max; a "
+    # in rows of at most six (as the series chart's): thirteen controllers in one row ran
+    # off both sides of the picture
+    lines = max(1, math.ceil(len(labels) / LEGEND_ROW))
+    fig.legend(handles, labels, loc="lower center", ncol=math.ceil(len(labels) / lines),
+               fontsize=9, frameon=False)
+    fig.suptitle(f"{balanced_fill(title, 100)}\nbars: means over seeds, dots: each seed; a "
                  "coloured base line alone: about zero")
-    fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
+    fig.tight_layout(rect=(0.0, 0.035 * lines + 0.01, 1.0, 1.0))
     save(fig, path)
+
+
+#: Most entries in a row of a picture's legend.
+LEGEND_ROW = 6
 
 
 #: Bit-speed swing (:func:`_swing`, rad/s) above which a series line is drawn
@@ -230,7 +267,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
                             "the clearance off it) under every controller")
     # above the plots, in rows of at most six: a sweep of constant set points has dozens
     entries = len(axes[0].get_legend_handles_labels()[1])
-    rows = math.ceil(entries / 6)  # rows as even as they come: 7 -> 4 + 3
+    rows = math.ceil(entries / LEGEND_ROW)  # rows as even as they come: 7 -> 4 + 3
     axes[0].legend(fontsize=8, ncol=math.ceil(entries / rows), loc="lower center",
                    bbox_to_anchor=(0.5, 1.0), frameon=False)
     axes[-1].set_xlabel("time (s)")

@@ -683,6 +683,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
     heading = "Controller benchmark" + (f", config {args.config}" if args.config else "")
+    if env_id is not None:  # its pictures said "Controller benchmark" and "random" alone
+        heading += (f", task {args.task} ({env_id}), seeds {seeds[0]}-{seeds[-1]}"
+                    if len(seeds) > 1 else f", task {args.task} ({env_id}), seed {seeds[0]}")
     rows = run_benchmark(controllers, scenarios, seeds, args.out, settings,
                          workers=args.workers, record=args.record, env_id=env_id,
                          ray_address=args.ray_address, heading=heading)

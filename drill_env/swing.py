@@ -39,8 +39,10 @@ def swing_trend(swings: Sequence[float], lowest_rpm: float,
         return f"none to speak of (below {NO_SWING:g} rpm)"
     if before < NO_SWING:
         return f"growing (from below {NO_SWING:g} rpm)"
+    ratio = last / before
+    factor = f"{ratio:.2g}" if ratio < 100.0 else f"{ratio:,.0f}"  # not 2.7e+02
     if last > 1.1 * before:
-        return f"growing (x{last / before:.2g} per {block:g} s)"
+        return f"growing (x{factor} per {block:g} s)"
     if last < 0.9 * before:
-        return f"decaying (x{last / before:.2g} per {block:g} s)"
+        return f"decaying (x{factor} per {block:g} s)"
     return "steady"

@@ -160,6 +160,10 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
     return [png, data]
 
 
+#: A path whose plan view spans less than this (m) is a vertical hole: drawn as a point.
+NO_DEPARTURE = 0.01
+
+
 def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
                 frictions: Sequence[float] = FRICTIONS, string: str = "the scenario") -> Any:
     """The figure of :func:`write_well` (Agg backend), laid out: the path (3-D, plan,
@@ -196,6 +200,13 @@ def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
     ax3.set_title("path")
     plan = fig.add_subplot(2, 3, 2)
     plan.plot(pos[:, 1], pos[:, 0], lw=2)
+    if max(np.ptp(pos[:, 0]), np.ptp(pos[:, 1])) < NO_DEPARTURE:  # a vertical hole: one
+        # point, which a line does not draw, on axes of +-0.04 m (a check of the pictures)
+        plan.plot(pos[-1, 1], pos[-1, 0], "o", ms=6, color="C0")
+        plan.set_xlim(-50.0, 50.0)
+        plan.set_ylim(-50.0, 50.0)
+        plan.text(0.5, 0.35, "vertical hole: no departure", transform=plan.transAxes,
+                  ha="center", color="0.3")
     plan.set_xlabel("east (m)")
     plan.set_ylabel("north (m)")
     plan.set_aspect("equal", adjustable="datalim")
@@ -247,6 +258,13 @@ def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
     torque.legend(fontsize=8)
     hook.set_title("soft-string drag: hook load picking up, slacking off and rotating off "
                    "bottom (no axial drag: one line for every mu)", fontsize=9)
+    if not np.any(np.abs([entry["torque"] for entry in entries]) > 1e-6):  # type: ignore[index]
+        # no wall contact anywhere (a vertical hole): zeros on a +-0.04 kN m axis, four
+        # lines on one, said instead
+        torque.set_xlim(0.0, 1.0)
+        torque.text(0.5, 0.5, "no wall contact: no wall torque\nand no drag (every line "
+                    "of the hook load is one)", transform=torque.transAxes, ha="center",
+                    va="center", color="0.3")
     torque.set_title("soft-string wall torque (no mud drag, no bit)", fontsize=9)
     fig.suptitle(f"well {name}: {trajectory.total_md:.0f} m MD, string of {string} "
                  "(drill pipe added above it to reach the bit)")

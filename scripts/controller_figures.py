@@ -74,8 +74,15 @@ def map_shares(out: Path) -> None:
     width = 0.2
     for k, name in enumerate(DRIVE):
         x = np.arange(len(sm.POSITIONS)) + (k - 1.5) * width
-        ax.bar(x, np.array(shares[name]) * 100, width * 0.9, label=name)
+        values = np.array(shares[name]) * 100
+        bars = ax.bar(x, values, width * 0.9, label=name)
+        for bar, value in zip(bars, values, strict=True):
+            if value == 0.0:  # no bar: said to be zero, not missing
+                ax.text(bar.get_x() + bar.get_width() / 2, 0.3, "0", ha="center",
+                        va="bottom", fontsize=8, color=bar.get_facecolor())
     ax.set_xticks(range(len(sm.POSITIONS)), list(sm.POSITIONS))
+    ax.set_xlabel("the bit's position in the layer (paper Fig. 15: P1-P4 entering it, "
+                  "P5-P6 leaving it)")
     ax.set_ylabel("stick-slip share of the map (%)")
     ax.set_title("Paper Fig. 15 maps (0-250 rpm x 0-200 kN, 5 rpm / 5 kN) under each "
                  "top-drive controller", fontsize=10)

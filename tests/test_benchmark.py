@@ -1103,6 +1103,40 @@ def test_a_controller_keeps_its_colour_in_every_picture():
     evaluation = ["learned", *five, "held-1", "held+0", "held+1", "random",
                   "constant-160rpm-65kN"]
     assert len({tuple(c) for c in _colours(evaluation).values()}) == 11
+    # a check of the pictures: thirteen in task 2's benchmark gave "random" a gold-brown
+    # 0.14 from the policy's brown; every colour is now DISTINCT from each other one
+    from agents.plots import DISTINCT
+
+    thirteen = [*evaluation, "constant-120rpm-90kN", "constant-200rpm-140kN"]
+    rgb = [np.array(c[:3]) for c in _colours(thirteen).values()]
+    assert min(np.linalg.norm(a - b) for i, a in enumerate(rgb) for b in rgb[i + 1:]) \
+        >= DISTINCT
+
+
+def test_the_bar_charts_legend_wraps_into_rows_inside_the_picture(tmp_path, monkeypatch):
+    """A check of the pictures: thirteen controllers in one legend row ran off both sides
+    of the bar chart. In rows of at most six, inside the figure."""
+    import matplotlib.figure
+
+    from agents.plots import LEGEND_ROW, bar_chart
+
+    legends = []
+    real = matplotlib.figure.Figure.legend
+
+    def keep(fig, *args, **kwargs):
+        legends.append((fig, real(fig, *args, **kwargs)))
+        return legends[-1][1]
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "legend", keep)
+    names = [f"constant-{100 + k}rpm-90kN" for k in range(13)]
+    rows = [_row(c, "random", ssi=0.1 * k) for k, c in enumerate(names)]
+    monkeypatch.setattr("agents.plots.save", lambda fig, path: fig.canvas.draw())
+    bar_chart(rows, names, ["random"], tmp_path / "bars.png")
+    fig, legend = legends[0]
+    assert legend._ncols <= LEGEND_ROW
+    box = legend.get_window_extent(fig.canvas.get_renderer())
+    width, height = fig.canvas.get_width_height()
+    assert 0 <= box.x0 and box.x1 <= width and 0 <= box.y0
 
 
 def test_a_lines_swing_is_its_oscillation_not_a_change_of_target():

@@ -68,6 +68,7 @@ def test_run_says_whether_stick_slip_grows_or_decays():
     assert swing_trend([40.0, 46.0], 74.0) == "growing (x1.1 per 30 s)"
     assert swing_trend([1e-4, 3e-3], 49.9).startswith("none to speak of")
     assert swing_trend([0.0, 0.5], 49.5) == "growing (from below 0.01 rpm)"
+    assert swing_trend([0.02, 5.4], 49.5) == "growing (x270 per 30 s)"  # not x2.7e+02
     assert swing_per_block(speeds[:200]) == []  # shorter than a block
 
 
@@ -259,6 +260,10 @@ def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path, capsys, monkeypat
     tmp_path = tmp_path / "logs" / "benchmark" / "stick_slip"
     assert (tmp_path / "benchmark.csv").exists()
     assert not (tmp_path.parent / "benchmark.csv").exists()
+    # which task and seeds, in benchmark.md's heading and so in its pictures' titles (the
+    # two tasks' bar charts said "Controller benchmark" and "random" alone)
+    assert (tmp_path / "benchmark.md").read_text().startswith(
+        "# Controller benchmark, task stick_slip (DrillStickSlip-v0), seed 0\n")
     # scenarios that differ only in set points are the same task episodes: said
     assert same_physics(["default", "stick_slip", "random", "paper_case2"]) == [
         "default", "stick_slip"]

@@ -1084,6 +1084,17 @@ def test_flat_learning_curves_keep_off_the_frame_and_apart(tmp_path, monkeypatch
     assert abs(heights[0] - heights[1]) > 0.1
 
 
+def test_a_learning_curve_of_zeros_says_so(tmp_path, monkeypatch):
+    """A check of the pictures: task 2's stuck share, zero at every evaluation, lay on the
+    frame's bottom, where it could not be seen. Said across the panel; a curve that
+    moves says nothing."""
+    axes = _learning_curve_axes(tmp_path, monkeypatch, "1000,90,20,0.02,0.0,60\n"
+                                "2000,110,20,0.01,0.0,120\n")
+    assert [t.get_text() for t in axes["SSI"].texts] == ["never stuck\nat every evaluation"]
+    axes = _learning_curve_axes(tmp_path, monkeypatch, "1000,90,20,0.02,0.01,60\n")
+    assert not list(axes["SSI"].texts)
+
+
 def test_evaluate_says_which_training_settings_its_standard_episodes_replace():
     """A run trained on 10 s episodes is scored, as every run of its task, on the task's
     30 s held-out episodes: said, not done silently (an outside test found it)."""

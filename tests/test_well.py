@@ -171,6 +171,29 @@ def test_the_hook_load_legend_names_each_friction_and_each_operation_once():
     plt.close(fig)
 
 
+def test_a_vertical_wells_picture_says_it_has_no_departure_and_no_wall_torque():
+    """A check of the pictures: a vertical well's plan view was empty (its path one point,
+    which a line does not draw) on +-0.04 m axes, its wall torque a line of zeros on a
+    +-0.04 kN m axis. The point is marked and both panels say why; a curved well's do
+    not."""
+    import matplotlib.pyplot as plt
+
+    config = make_scenario("default").config
+    texts = {}
+    for name in ("vertical", "j_shaped"):
+        well = Trajectory(WELLS[name](1500.0))
+        fig = well_figure(name, well, torque_drag_table(well, config, step=500.0))
+        texts[name] = " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
+        plan = next(ax for ax in fig.axes if ax.get_title() == "plan view")
+        if name == "vertical":
+            assert plan.get_xlim() == (-50.0, 50.0)
+            assert any(line.get_marker() == "o" for line in plan.get_lines())
+        plt.close(fig)
+    assert "vertical hole: no departure" in texts["vertical"]
+    assert "no wall contact: no wall torque" in texts["vertical"]
+    assert texts["j_shaped"] == ""
+
+
 @pytest.mark.parametrize(("scenario", "degrees"), [("lateral_60", 60.0), ("j_shaped", 45.0),
                                                    ("default", 0.0)])
 def test_info_reports_the_inclination_of_the_hole_at_the_bit(scenario, degrees):

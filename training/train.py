@@ -719,6 +719,15 @@ def plot_learning_curve(run: Path) -> Path | None:
 
     stuck_axis.set_ylim(0.0, max(1.6 * highest(stuck_values), 1.0))
     axes[1].set_ylim(0.0, max(1.15 * highest(ssi_values), 0.05))
+    # a line of zeros lies on the frame's bottom, where it cannot be seen: said (a check of
+    # the pictures: task 2's stuck share, zero at every evaluation)
+    nothing = [words for values, words in ((ssi_values, "no stick-slip (SSI 0)"),
+                                           (stuck_values, "never stuck"))
+               if highest(values) == 0.0]
+    if nothing:
+        axes[1].text(0.5, 0.5, " and ".join(nothing) + "\nat every evaluation",
+                     transform=axes[1].transAxes, ha="center", va="center", fontsize=9,
+                     color="0.3")
     axes[0].set_title("return", fontsize=10)
     axes[1].set_title("stick-slip", fontsize=10)
     for ax in axes:
