@@ -47,7 +47,9 @@ import numpy as np
 from drill_env.physics.config import ConfigError, SimulationConfig
 from drill_env.physics.layout import Feedback, P
 
-#: Stiff PI (the usual factory tuning, Kyllingstad & Nessjoen 2009): P = 50 Z, I = 5 J_td.
+#: Stiff PI, the drive Kyllingstad & Nessjoen (2009) contrast SoftSpeed with: P = 50 Z,
+#: I = 5 J_td, our numbers for a loop much stiffer than the pipe (P >> Z; it reflects at least
+#: 49/51 of a torsional wave), not quoted from the paper.
 STIFF_IMPEDANCE_FACTOR = 50.0
 STIFF_INTEGRAL_FACTOR = 5.0  # 1/s^2
 #: ZTorque's high-pass corner as a fraction of the stick-slip frequency.
