@@ -37,6 +37,9 @@ DASHES = ("-", (0, (6, 3)), (0, (2, 2)), (0, (8, 2, 2, 2)), (0, (12, 3)),
           (0, (4, 2, 1, 2, 1, 2)))
 
 
+#: Last radial position / clearance above which the series chart says that a drift the
+#: same under every controller (and still rising: up 20 % in the last 5 s) is not theirs.
+SAME_DRIFT = 0.05
 #: Radial position / clearance below which the series chart says the bit stayed on the
 #: hole axis: a line that close to zero is hidden by the axis line (the panel spans >= 0.2).
 ON_AXIS = 1e-3
@@ -203,18 +206,22 @@ def balanced_fill(text: str, width: int) -> str:
 def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, path: Path,
                  warmup: float, env_id: str | None = None, seed: int = 0,
                  stamps: Mapping[str, str] | None = None, title: str = "") -> bool:
-    """Bit speed, torque on bit and the bit's radial position over the gauge clearance,
-    one line per controller (``seed``: the benchmark's first), on one time axis; the grey
-    band is the warm-up the metrics leave out. Returns whether it drew: False (no file written) when
-    ``series_dir`` holds no series of ``scenario``. ``env_id``: the task env every
-    controller acted in (its title names it; None: the scenario's ``DrillString-v0``);
-    ``stamps``: the stamp each controller's file must carry (another run's is left out);
-    ``title``: a first title line (the benchmark's heading), if any."""
+    """Bit speed, surface torque, torque on bit and the bit's radial position over the gauge
+    clearance, one line per controller (``seed``: the benchmark's first), on one time
+    axis; the grey band is the warm-up the metrics leave out. Returns whether it drew:
+    False (no file written) when ``series_dir`` holds no series of ``scenario``.
+    ``env_id``: the task env every controller acted in (its title names it; None: the
+    scenario's ``DrillString-v0``); ``stamps``: the stamp each controller's file must
+    carry (another run's is left out); ``title``: a first title line (the benchmark's
+    heading), if any."""
     colours = _colours(controllers)
-    fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+    # the surface torque is what a drive-rate loop does (a controls engineer's check: the
+    # picture showed the bit alone, not the drive's torque that cures or feeds it)
+    fig, axes = plt.subplots(4, 1, figsize=(11, 10), sharex=True)
     found = False
     drawn: list[tuple[int, float, list[Any]]] = []  # (order given, bit-speed swing, lines)
     off_axis = 0.0  # the largest radial position drawn
+    ends: list[tuple[float, float]] = []  # each one's radial position 5 s before the end, last
     for k, c in enumerate(controllers):
         file = Path(series_dir) / f"{c}_{scenario}_seed{seed}.npz"
         if not file.exists():
@@ -227,14 +234,17 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         t = d["time"]
         radial = np.hypot(d["bit_x"], d["bit_y"]) / float(d["clearance"])
         off_axis = max(off_axis, float(np.nanmax(radial, initial=0.0)))
+        before = radial[t <= t[-1] - 5.0]  # 5 s before the end: still drifting?
+        ends.append((float(before[-1]) if before.size else math.nan, float(radial[-1])))
         kw = {"color": colours[c], "lw": 0.8, "label": c, "ls": DASHES[k % len(DASHES)]}
         if "target_time" in d and k == 0:  # the planned rpm (a task's drawn targets)
             axes[0].step(d["target_time"], d["target_rpm"], where="post", color="k",
                          lw=1.0, ls=(0, (1, 1)), label="target", zorder=1)
         swing = _swing(t, d["bit_speed"], warmup)
         drawn.append((k, swing, [axes[0].plot(t, d["bit_speed"] / RPM, **kw)[0],
-                                 axes[1].plot(t, d["torque_on_bit"] / 1e3, **kw)[0],
-                                 axes[2].plot(t, radial, **kw)[0]]))
+                                 axes[1].plot(t, d["surface_torque"] / 1e3, **kw)[0],
+                                 axes[2].plot(t, d["torque_on_bit"] / 1e3, **kw)[0],
+                                 axes[3].plot(t, radial, **kw)[0]]))
     if not found:
         plt.close(fig)
         return False
@@ -249,8 +259,9 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
                 line.set_alpha(0.55)
     # the smallest span each axis shows (rpm, kN m, -): a steady run is a flat line,
     # not its last digits magnified into what looks like an oscillation
-    spans = (20.0, 1.0, 0.2)
-    for ax, label, span in zip(axes, ("bit speed (rpm)", "torque on bit (kN m)",
+    spans = (20.0, 1.0, 1.0, 0.2)
+    for ax, label, span in zip(axes, ("bit speed (rpm)", "surface torque (kN m)",
+                                      "torque on bit (kN m)",
                                       "bit radial position / clearance"), spans,
                                strict=True):
         ax.set_ylabel(label)
@@ -261,9 +272,18 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         ax.ticklabel_format(axis="y", useOffset=False)
         ax.axvspan(0.0, warmup, color="0.85", zorder=0)
         ax.grid(alpha=0.3)
-    axes[2].set_ylim(bottom=0.0)  # a distance
+    axes[3].set_ylim(bottom=0.0)  # a distance
+    last = [end for _, end in ends]
+    if len(ends) > 1 and min(last) > SAME_DRIFT and np.ptp(last) < 0.1 * min(last) and all(
+            end > 1.2 * earlier for earlier, end in ends):  # (NaN: too short to tell)
+        # a rise at the end that reads as a lateral instability of the controllers (a
+        # controls engineer's check): one the same under all of them is not of their making
+        axes[3].text(0.01, 0.95, "the same under every controller: not of their making "
+                     "(in a vertical hole, a compressed BHA settling into a bent "
+                     "equilibrium; docs/controllers.md)", transform=axes[3].transAxes,
+                     ha="left", va="top", fontsize=8, color="0.3")
     if off_axis < ON_AXIS:  # the lines lie on the axis line: say so
-        _say_empty(axes[2], f"the bit stays on the hole axis (less than {ON_AXIS:.1%} of "
+        _say_empty(axes[3], f"the bit stays on the hole axis (less than {ON_AXIS:.1%} of "
                             "the clearance off it) under every controller")
     # above the plots, in rows of at most six: a sweep of constant set points has dozens
     entries = len(axes[0].get_legend_handles_labels()[1])

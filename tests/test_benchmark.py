@@ -631,7 +631,7 @@ def test_the_series_chart_lays_out_a_sweep_of_many_controllers(tmp_path):
     for k, name in enumerate(names):
         np.savez(tmp_path / f"{name}_random_seed0.npz", time=t, bit_x=0.001 * np.sin(t),
                  bit_y=0.001 * np.cos(t), clearance=0.02, bit_speed=(5.0 + k) * (1 + 0 * t),
-                 torque_on_bit=2e3 + 0 * t)
+                 torque_on_bit=2e3 + 0 * t, surface_torque=3e3 + 0 * t)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         series_chart(tmp_path, names, "random", tmp_path / "series.png", warmup=2.0)
@@ -648,7 +648,7 @@ def test_the_series_picture_draws_only_this_runs_episodes(tmp_path):
     t = np.linspace(0.0, 10.0, 101)
     np.savez(tmp_path / "stiff_stick_slip_seed0.npz", time=t, bit_x=0 * t, bit_y=0 * t,
              clearance=0.02, bit_speed=5.0 + 0 * t, torque_on_bit=2e3 + 0 * t,
-             stamp=np.array("other run"))
+             surface_torque=3e3 + 0 * t, stamp=np.array("other run"))
     picture = tmp_path / "series.png"
     assert not series_chart(tmp_path, ["stiff"], "stick_slip", picture, warmup=2.0,
                             stamps={"stiff": "this run"})
@@ -814,7 +814,7 @@ def _series(out, controllers, scenarios, radial: float = 0.3) -> None:
         for s in scenarios:
             np.savez(out / "series" / f"{c}_{s}_seed0.npz", time=t, clearance=0.02,
                      bit_x=0.02 * radial + 0 * t, bit_y=0 * t, bit_speed=5.2 + 0 * t,
-                     torque_on_bit=3.5e3 + 0 * t)
+                     torque_on_bit=3.5e3 + 0 * t, surface_torque=4.3e3 + 0 * t)
 
 
 def _drawn_texts(monkeypatch, ticks: list[int] | None = None) -> list[str]:
@@ -1079,7 +1079,8 @@ def test_a_policy_and_its_five_baselines_each_draw_their_own_line_style(tmp_path
     t = np.linspace(0.0, 10.0, 101)
     for k, name in enumerate(names):
         np.savez(tmp_path / f"{name}_random_seed0.npz", time=t, bit_x=0 * t, bit_y=0 * t,
-                 clearance=0.02, bit_speed=(5.0 + k) + 0 * t, torque_on_bit=2e3 + 0 * t)
+                 clearance=0.02, bit_speed=(5.0 + k) + 0 * t, torque_on_bit=2e3 + 0 * t,
+                 surface_torque=3e3 + 0 * t)
     saved = keep_saved_figures(monkeypatch)
     series_chart(tmp_path, names, "random", tmp_path / "series.png", warmup=2.0)
     lines = [line for line in saved[0].axes[0].get_lines() if line.get_label() in names]
@@ -1836,3 +1837,51 @@ def test_the_window_swing_trend_compares_equal_blocks_at_a_held_target():
     assert factor and float(factor[1]) == pytest.approx(2.0, rel=0.05), trend
     records[:, R.BIT_SPEED] = (50.0 + 0.5 * 0.5 ** (t / 20.0) * np.sin(t)) * RPM
     assert bm.window_swing_trend(records, held, 0.0, settings).startswith("decaying")
+
+
+def test_the_series_picture_shows_the_drives_surface_torque(tmp_path, monkeypatch):
+    """A controls engineer's check: the series showed the bit alone, not the surface
+    torque through which a drive-rate loop acts (stiff PI's 1.3-7.8 kN m swing, the tuned
+    loops' flat line). A panel of its own, in kN m."""
+    from helpers import keep_saved_figures
+
+    from agents.plots import series_chart
+
+    _series(tmp_path, ["stiff"], ["default"])
+    saved = keep_saved_figures(monkeypatch)
+    assert series_chart(tmp_path / "series", ["stiff"], "default", tmp_path / "s.png", 2.0)
+    panel = next(ax for ax in saved[0].axes if ax.get_ylabel() == "surface torque (kN m)")
+    assert list(panel.get_lines()[0].get_ydata()) == pytest.approx([4.3] * 101)
+
+
+def test_a_drift_the_same_under_every_controller_is_said_not_to_be_theirs(tmp_path,
+                                                                           monkeypatch):
+    """A controls engineer's check: the demo's radial panel ends mid-rise under every
+    controller (the compressed BHA settling, seeded by round-off) and read as a lateral
+    instability of theirs. Said where every line ends the same and still rising; not for
+    one controller, lines that differ, or a bit resting where it is."""
+    from agents.plots import series_chart
+
+    t = np.linspace(0.0, 60.0, 601)
+
+    def write(name, radial):
+        (tmp_path / "series").mkdir(exist_ok=True)
+        np.savez(tmp_path / "series" / f"{name}_default_seed0.npz", time=t, clearance=0.02,
+                 bit_x=0.02 * radial, bit_y=0 * t, bit_speed=5.2 + 0 * t,
+                 torque_on_bit=3.5e3 + 0 * t, surface_torque=4.3e3 + 0 * t)
+
+    texts = _drawn_texts(monkeypatch)
+    rising = 0.16 * np.exp((t - 60.0) / 2.0)
+    cases = {"same, rising": (rising, rising * 1.02, True),
+             "differ": (rising, rising * 1.5, False),
+             "resting": (0.32 + 0 * t, 0.32 + 0 * t, False)}
+    for name, (a, b, said) in cases.items():
+        write("stiff", a)
+        write("z-torque", b)
+        texts.clear()
+        assert series_chart(tmp_path / "series", ["stiff", "z-torque"], "default",
+                            tmp_path / "s.png", 30.0)
+        assert any("not of their making" in x for x in texts) == said, name
+    texts.clear()
+    series_chart(tmp_path / "series", ["stiff"], "default", tmp_path / "s.png", 30.0)
+    assert not any("not of their making" in x for x in texts)
