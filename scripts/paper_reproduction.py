@@ -49,7 +49,7 @@ def figure_13_14(out: Path) -> None:
     for ax, rpm in zip(axes, (50.0, 100.0), strict=True):
         run = torsional_crossing(rpm)
         ax.plot(run.time, run.channel("bit_speed") / RPM, lw=0.6, label="bit speed")
-        ax.set_ylabel("rpm")
+        ax.set_ylabel("bit speed (rpm)")
         ax2 = ax.twinx()
         ax2.fill_between(run.share_time, run.shares[:, 1], color="tab:orange", alpha=0.25,
                          label="share of rock 2")
@@ -79,11 +79,14 @@ def figure_16_17_18(runs, out: Path) -> None:
               "paper_case3": "case 3: symmetric, very soft layer",
               "paper_case4": "case 4: asymmetric, soft layer"}
     def time_series(values, ylabel: str, figure: str, filename: str) -> None:
-        fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+        # one scale for the three cases, which the docs compare (case 3's larger lateral
+        # forces read against case 2's own 0-12 kN axis; a check of the pictures)
+        fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True, sharey=True)
         for ax, (name, run) in zip(axes, runs.items(), strict=True):
             ax.plot(run.time, values(run), lw=0.5)
             ax.set_ylabel(ylabel)
-            ax.set_title(f"{figure} {titles[name]}")
+            ax.set_title(f"{figure} {titles[name]} (50 rpm, 75 kN)")
+            ax.yaxis.set_tick_params(labelleft=True)
             ax2 = ax.twinx()  # shaded: share of the middle rock under the blades
             ax2.fill_between(run.share_time, run.shares[:, 1], color="tab:orange", alpha=0.25)
             ax2.set_ylim(0, 1.05)

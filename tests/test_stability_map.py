@@ -257,6 +257,11 @@ def test_map_figure_keeps_its_title_on_the_page(positions):
     page = fig.bbox
     assert page.x0 <= title.x0 and title.x1 <= page.x1, (title, page)
     assert "soft-torque" in fig._suptitle.get_text()
+    # the maps, not the title and legend, fill most of it: one map alone at 4.2 x 3.4 in
+    # was a 400 x 160 px panel under a three-line title (a check of the pictures)
+    rows = math.ceil(len(positions) / 3)
+    panels = rows * fig.axes[0].get_window_extent(renderer).height
+    assert panels > 0.5 * page.height, (panels, page.height)
 
 
 # ----------------------------------------------------------------- bookkeeping rules
