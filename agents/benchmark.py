@@ -609,6 +609,9 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     base = env.unwrapped
     kept: list[np.ndarray] = []
     targets: list[tuple[float, float]] = []  # (time, target speed) per step
+    # (time, (speed and WOB set points, rock shares)) per step: what must hold for a
+    # growing swing to be the loop's (window_swing_trend)
+    held: list[tuple[float, tuple[float, ...]]] = []
     total = 0.0
     reason = ""
     # a task's policy in its task's env, within a benchmark of the scenario's set points:
@@ -629,6 +632,9 @@ def run_episode(episode: Episode) -> dict[str, Any]:
             total += float(reward)
             kept.append(base.last_records)
             targets.append((float(info["time"]), base.targets[0]))
+            held.append((float(info["time"]), (float(info["speed_setpoint"]),
+                                               float(info["weight_on_bit_setpoint"]),
+                                               *np.asarray(info["rock_share"], float))))
             if terminated or truncated:
                 reason = str(info.get("termination_reason", "")) if terminated else ""
                 break
@@ -673,12 +679,10 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         "own_speed": own if isinstance(own, bool) else sets_own_speed(episode.label, env_id),
         "guest": guest,  # a task's policy in a scenario benchmark (not a column either)
         # a stick-slip still building, which the window's SSI may not show yet (not a
-        # column): judged where the set points hold, a drive-rate loop's, and the rock
-        # stays (a scenario benchmark: a task's 300 s cross layers, whose change of rock
-        # would read as growth)
-        "swing_trend": window_swing_trend(everything, targets, start, settings)
-        if getattr(controller, "rate", "") == "drive" and episode.env_id is None
-        and not reason else "",
+        # column): judged in DrillString-v0 (a guest's corrections, like a task's
+        # target changes, would read as swing) where set points and rock held
+        "swing_trend": window_swing_trend(everything, held, start, settings)
+        if episode.env_id is None and not guest and not reason else "",
     }
     if episode.series:
         series_dir = Path(episode.out) / "series"
@@ -694,12 +698,25 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     return row
 
 
-def window_swing_trend(records: np.ndarray, targets: Sequence[tuple[float, float]],
+#: Least bit-speed swing (rpm, half of max - min) of a window that the benchmark marks as
+#: growing: above the ~0.02 rpm a held SoftSpeed loop settles to on a 1,500 kg m^2 top
+#: drive (rising from ~0.003 rpm, not stick-slip), below the 0.045 rpm at 60 s of the
+#: 2,000 kg m^2 drive's stick-slip, which is full by ~200 s (docs/controllers.md);
+#: :data:`drill_env.swing.NO_SWING`, 0.01 rpm, marked loops that hold.
+GROWING_FLOOR = 0.03
+#: Rock shares under the bit that differ by more than this are another rock: a layer
+#: crossed raises the swing without any loop's doing (paper_case2's ZTorque, x2.5).
+SAME_ROCK = 1e-3
+
+
+def window_swing_trend(records: np.ndarray, held: Sequence[tuple[float, tuple[float, ...]]],
                        start: float, settings: BenchmarkSettings) -> str:
     """Whether the bit-speed swing grows from the warm-up into the metric window
     (:func:`drill_env.swing.swing_trend`): the last ``block`` s of the window against the
-    ``block`` s before it, ``block`` the shorter of the warm-up and the window; "" where
-    the target moved meanwhile (its change would read as swing). A controls engineer's
+    ``block`` s before it, ``block`` the shorter of the warm-up and the window. "" where
+    the window's swing is under :data:`GROWING_FLOOR`, or where ``held`` (per step: time,
+    then set points and rock shares) changed over the two blocks: a set point moved by a
+    policy or a target, or a layer crossed, would read as growth. A controls engineer's
     check: SoftSpeed on a 2,000 kg m^2 top drive read SSI 0.00 over 30-60 s while its
     swing grew x4 per 30 s, to full stick-slip by ~200 s."""
     from drill_env.physics.layout import R
@@ -707,12 +724,14 @@ def window_swing_trend(records: np.ndarray, targets: Sequence[tuple[float, float
 
     split, end = start + settings.warmup, start + settings.duration
     block = min(settings.warmup, settings.duration - settings.warmup)
-    if len({speed for t, speed in targets if t > split - block}) > 1:
+    spanned = np.array([values for t, values in held if t > split - block])
+    if len(spanned) and (np.ptp(spanned[:, :2], axis=0).any()  # a set point moved
+                         or float(np.max(np.ptp(spanned[:, 2:], axis=0))) > SAME_ROCK):
         return ""
     time, rpm = records[:, R.TIME], records[:, R.BIT_SPEED] / RPM
     before = rpm[(time >= split - block) & (time < split)]
     last = rpm[time >= min(end, float(time[-1])) - block]
-    if len(before) < 2 or len(last) < 2:
+    if len(before) < 2 or len(last) < 2 or 0.5 * float(np.ptp(last)) < GROWING_FLOOR:
         return ""
     swings = [0.5 * float(np.ptp(before)), 0.5 * float(np.ptp(last))]
     return swing_trend(swings, float(np.min(last)), block=end - split)
@@ -1017,7 +1036,9 @@ GROWING_MARK = "growing"
 def growing(row: Mapping[str, Any]) -> bool:
     """Whether a row's stick-slip was still growing in its metric window (rows stored
     before the trend was kept have none)."""
-    return str(row.get("swing_trend", "")).startswith("growing")
+    from drill_env.swing import is_growing
+
+    return is_growing(str(row.get("swing_trend", "")))
 
 
 #: The task whose policy chooses the rpm (task 2); task 1's corrects the top drive around

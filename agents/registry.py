@@ -47,10 +47,13 @@ TRIVIAL = ("held:-1", "held:0", "held:1", RandomActions.name)
 CLASSICAL = tuple(name for name in CONTROLLERS if name != "learned" and name not in TRIVIAL)
 
 
-#: The top drive's hardware (``TopDriveConfig``): the scenario's, the same for every
-#: controller; ``--config`` may change it for all of them.
-TOP_DRIVE_HARDWARE = frozenset({"top_drive.inertia", "top_drive.max_torque",
-                                "top_drive.max_acceleration"})
+#: The fields of ``TopDriveConfig`` that make a controller's loop, which its ``physics()``
+#: may set; every other field is the drive's hardware (rotor inertia, torque rating,
+#: acceleration limit, and any added later), the same for every controller, which
+#: ``--config`` changes for all of them.
+TOP_DRIVE_LOOP = frozenset({"controller", "proportional_gain", "integral_gain",
+                            "tuning_frequency", "impedance_factor", "torque_feedback",
+                            "feedback_gain", "filter_frequency", "filter_damping"})
 
 #: What an unknown name's error lists: the registry's names and the parametrised forms.
 KNOWN = (f"{', '.join(CONTROLLERS)}, learned:<run folder>, constant:<rpm>/<kN>, "
@@ -326,7 +329,8 @@ def check_interface(name: str, controller: Any) -> None:
                          "for every controller")
     # nor the drive itself: a controller that gave itself a 50 kg m^2 rotor and a 500 kN m
     # rating was listed beside the others without a word (a controls engineer's check)
-    hardware = sorted(key for key in flatten(dict(physics)) if key in TOP_DRIVE_HARDWARE)
+    hardware = sorted(key for key in flatten(dict(physics))
+                      if key.removeprefix("top_drive.") not in TOP_DRIVE_LOOP)
     if hardware:
         raise ValueError(f"controller: {name}: physics() sets {', '.join(hardware)}: the "
                          "top drive's hardware (rotor inertia, torque rating, acceleration "
@@ -347,7 +351,6 @@ def check_interface(name: str, controller: Any) -> None:
             HeldAction.from_label(own) is not None:
         raise ValueError(f"controller: {name}: name {own!r} is a built-in controller's "
                          "(set the class's name attribute to your own)")
-
 
 
 def parse_controllers(text: str) -> list[str]:

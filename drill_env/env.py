@@ -373,10 +373,10 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
-        options = reset_options(options)  # refused before the seed is taken
         # no step until this reset has finished: a refused one (a target out of range)
         # left a new string drawn under the old episode's state, and steps ran on it
         self._reset_done = False
+        options = reset_options(options)  # refused before the seed is taken
         super().reset(seed=seed)
         given = frozenset(options)  # the targets the caller fixed
         if self.randomised:
@@ -440,7 +440,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     def step(self, action) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if not self._reset_done:  # (as gymnasium.make's OrderEnforcing and the vector envs)
-            raise ResetNeeded("step: call reset() before the first step")
+            raise ResetNeeded("step: call reset() first (no episode: none yet, or the last "
+                              "reset was refused)")
         if self._step_count >= self._max_steps:  # undefined in Gymnasium: said, as CartPole
             gym.logger.warn("step: past the episode's end (truncated): call reset()")
         self.apply_action(action)

@@ -27,6 +27,11 @@ def swing_per_block(speeds: Sequence[tuple[float, float]]) -> list[float]:
             if blocks.get(k)]
 
 
+def is_growing(trend: str) -> bool:
+    """Whether a :func:`swing_trend` text (a benchmark row's ``swing_trend``) says growing."""
+    return trend.startswith("growing")
+
+
 def swing_trend(swings: Sequence[float], lowest_rpm: float,
                 block: float = SWING_BLOCK) -> str:
     """What the last two blocks' swings say: full stick-slip (the bit stops: its lowest
@@ -37,8 +42,9 @@ def swing_trend(swings: Sequence[float], lowest_rpm: float,
         return "full stick-slip (the bit stops)"
     if last < NO_SWING:  # rounding, not an oscillation: no ratio of two such to quote
         return f"none to speak of (below {NO_SWING:g} rpm)"
-    if before < NO_SWING:
-        return f"growing (from below {NO_SWING:g} rpm)"
+    if before < NO_SWING:  # no ratio of rounding to quote; 10 % above the floor to grow
+        # (0.0099 -> 0.0101 rpm read as growing)
+        return f"growing (from below {NO_SWING:g} rpm)" if last > 1.1 * NO_SWING else "steady"
     ratio = last / before
     factor = f"{ratio:.2g}" if ratio < 100.0 else f"{ratio:,.0f}"  # not 2.7e+02
     if last > 1.1 * before:

@@ -162,8 +162,9 @@ class DrillStringVectorEnv(VectorEnv):
     def step(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                      dict[str, Any]]:
         if not self._has_episode.all():
-            raise ResetNeeded("step: call reset() before the first step (envs "
-                              f"{np.flatnonzero(~self._has_episode).tolist()} have none)")
+            raise ResetNeeded("step: call reset() first (envs "
+                              f"{np.flatnonzero(~self._has_episode).tolist()} have no "
+                              "episode: none yet, or their last reset was refused)")
         mode = self.autoreset_mode
         if mode == AutoresetMode.DISABLED and np.any(self._autoreset_envs):
             raise ValueError("autoreset is disabled: reset the finished envs (reset_mask) "
@@ -424,7 +425,8 @@ def _sb3_class() -> type:
         def step_async(self, actions) -> None:
             # as the Gymnasium batch and SB3's own make_vec_env: no episode, no step
             if not getattr(self, "_reset_done", False):
-                raise ResetNeeded("step: call reset() before the first step")
+                raise ResetNeeded("step: call reset() first (no episode: none yet, or the "
+                                  "last reset was refused)")
             super().step_async(actions)
 
         def step_wait(self):

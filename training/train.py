@@ -723,7 +723,7 @@ def plot_learning_curve(run: Path) -> Path | None:
     # the pictures: task 2's stuck share, zero at every evaluation)
     nothing = [words for values, words in ((ssi_values, "no stick-slip (SSI 0)"),
                                            (stuck_values, "never stuck"))
-               if highest(values) == 0.0]
+               if np.isfinite(values).any() and highest(values) == 0.0]  # (not undefined)
     if nothing:
         axes[1].text(0.5, 0.5, " and ".join(nothing) + "\nat every evaluation",
                      transform=axes[1].transAxes, ha="center", va="center", fontsize=9,

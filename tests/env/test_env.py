@@ -271,6 +271,8 @@ def test_a_refused_reset_leaves_no_episode_to_step_or_render():
     with pytest.raises(ValueError, match="unknown key"):
         env.reset(seed=9, options={"rpm": 5.0})
     assert env.np_random_seed == 2  # not reseeded by a reset refused at its options
+    with pytest.raises(ResetNeeded, match="the last reset was refused"):
+        env.step(action)  # no episode either, as in the batches
     fresh = DrillStringEnv(render_mode="rgb_array", **SHORT)
     with pytest.raises(ResetNeeded, match="^render: call reset"):
         fresh.render()

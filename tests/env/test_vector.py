@@ -236,7 +236,7 @@ def test_the_vector_envs_arguments_are_refused_by_name():
                                          r"got 1\.5"):
         envs.reset(seed=1.5)
     envs.reset(options={"reset_mask": np.array([True, False])})
-    with pytest.raises(ResetNeeded, match=r"envs \[1\] have none"):
+    with pytest.raises(ResetNeeded, match=r"envs \[1\] have no episode"):
         envs.step(np.zeros((2, 2)))
     envs.reset(options={"reset_mask": np.array([False, True])})  # every env in parts
     envs.step(np.zeros((2, 2)))
