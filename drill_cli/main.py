@@ -672,9 +672,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 
         for name in set_point_guests(controllers, env_id):
             print(f"note: {name} is a policy of DrillString-v0: in {env_id} its act gets the "
-                  "task's observation (env.observation_names: read what it needs from info, "
-                  "by name), acts through the task's action_for, and its env_kwargs() do "
-                  "not apply", file=sys.stderr)
+                  "task's observation (env.unwrapped.observation_names: read what it needs "
+                  "from info, by name), acts through the task's action_for, and its "
+                  "env_kwargs() do not apply", file=sys.stderr)
         same = same_physics(scenarios)
         if same:
             print(f"note: a task benchmark drills each scenario at the task's targets drawn "

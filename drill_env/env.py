@@ -124,8 +124,10 @@ class DrillStringEnv(BatchFinish, gym.Env):
     | 16  | WOB set point (cmd)      | max of ``weight_on_bit_range``              |
 
     ``sensors="surface"`` (n = 6): entries 11-16 only. The names are in
-    ``env.observation_names``. ``telemetry_delay`` delays the observation by that many
-    control steps; ``observation_noise`` adds Gaussian noise drawn from ``np_random``.
+    ``env.unwrapped.observation_names``. ``telemetry_delay`` delays the observation by that
+    many control steps; ``observation_noise`` adds Gaussian noise of that standard
+    deviation, in the observation's own scaled units, drawn from ``np_random``, to every
+    entry (the set points' echo too).
 
     ## Rewards
 
@@ -462,15 +464,21 @@ class DrillStringEnv(BatchFinish, gym.Env):
     # physics), the metrics on a preallocated rolling window.
 
     def action_for(self, surface_speed: float, weight_on_bit: float) -> np.ndarray:
-        """The absolute-mode action that asks for these set points (rad/s, N), clipped
-        to the env's ranges: how a controller that thinks in set points drives the env."""
-        if self.config.action_mode != "absolute":
-            raise ValueError("action_for: needs action_mode 'absolute'")
+        """The action that asks for these set points (rad/s, N), clipped to the env's
+        ranges: how a controller that thinks in set points drives the env. Incremental
+        mode: the step toward them from the present set points, at most one ``rpm_step``
+        and ``weight_on_bit_step`` (the classical controllers refused such a run)."""
         surface_speed, weight_on_bit = check_set_points("action_for", surface_speed,
                                                         weight_on_bit)
         (s_lo, s_hi), (w_lo, w_hi) = self._speed_range, self._wob_range
-        a = (2.0 * (surface_speed - s_lo) / (s_hi - s_lo) - 1.0,
-             2.0 * (weight_on_bit - w_lo) / (w_hi - w_lo) - 1.0)
+        if self.config.action_mode == "absolute":
+            a = (2.0 * (surface_speed - s_lo) / (s_hi - s_lo) - 1.0,
+                 2.0 * (weight_on_bit - w_lo) / (w_hi - w_lo) - 1.0)
+        else:
+            a = ((min(max(surface_speed, s_lo), s_hi) - self._speed_target)
+                 / (self.config.rpm_step * RPM),
+                 (min(max(weight_on_bit, w_lo), w_hi) - self._wob_target)
+                 / self.config.weight_on_bit_step)
         return np.clip(np.array(a, dtype=np.float32), -1.0, 1.0)
 
     def apply_action(self, action) -> None:

@@ -1425,6 +1425,21 @@ def test_the_best_constant_is_the_grid_point_of_highest_mean_return(tmp_path, mo
     assert returns[name] == len(returns) - 1 and len(rows) == 2 * len(returns)
 
 
+def test_the_grid_search_spans_the_runs_own_action_ranges():
+    """An outside check: a task-2 run trained on rpm_range 60-180 had its evaluation
+    refused at the fixed grid's 40 rpm ("constant:40/40 is outside the env's range"). The
+    grid spans the ranges the run trained with; the task's defaults give the docs' grid."""
+    from training.evaluate import GRID_STEPS, grid_points
+
+    default = grid_points({})
+    assert sorted({r for r, _ in default}) == [40.0, 80.0, 120.0, 160.0, 200.0]
+    assert sorted({w for _, w in default}) == [40.0, 65.0, 90.0, 115.0, 140.0]
+    narrow = grid_points({"rpm_range": [60.0, 180.0], "weight_on_bit_range": [50e3, 90e3]})
+    assert sorted({r for r, _ in narrow}) == [60.0, 90.0, 120.0, 150.0, 180.0]
+    assert sorted({w for _, w in narrow}) == [50.0, 60.0, 70.0, 80.0, 90.0]
+    assert len(narrow) == GRID_STEPS**2
+
+
 def test_every_held_out_seed_can_be_asked_for(tmp_path, monkeypatch):
     import training.evaluate as ev
     from agents.learned import TRAINED

@@ -37,10 +37,10 @@ from training.config import TASKS, read_run_config
 EVALUATION_WINDOWS = {"stick_slip": (30.0, 5.0), "drilling": (300.0, 10.0)}
 
 
-#: The constant set points the drilling task's grid search tries (rpm, kN): its whole
-#: action range in 5 x 5 steps.
-GRID_RPM = (40.0, 80.0, 120.0, 160.0, 200.0)
-GRID_KN = (40.0, 65.0, 90.0, 115.0, 140.0)
+#: Points per axis of the drilling task's grid search of constant set points: its whole
+#: action range (the run's own rpm and WOB ranges) in 5 x 5 steps; the task's default
+#: ranges give 40, 80, ..., 200 rpm and 40, 65, ..., 140 kN.
+GRID_STEPS = 5
 #: Seeds of the training distribution the grid search picks its point on (not held out;
 #: the training envs themselves draw from ``training.train.env_seed``).
 GRID_SEEDS = tuple(range(8))
@@ -86,6 +86,26 @@ def settings_of(task: str, fidelity: Fidelity = "fast") -> BenchmarkSettings:
                              fidelity=fidelity)
 
 
+def grid_points(env_kwargs: dict[str, Any]) -> list[tuple[float, float]]:
+    """The (rpm, kN) set points of the drilling task's grid search: :data:`GRID_STEPS`
+    per axis over the action ranges of the task's env under ``env_kwargs`` (a run trained
+    on 60-180 rpm had its evaluation refused at the fixed grid's 40 rpm: an outside
+    check), rounded to 0.1."""
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401  (registers the tasks)
+
+    env: Any = gym.make(TASKS["drilling"], **env_kwargs)
+    try:
+        cfg = env.unwrapped.config
+        (rpm_low, rpm_high), (wob_low, wob_high) = cfg.rpm_range, cfg.weight_on_bit_range
+        rpm = np.linspace(rpm_low, rpm_high, GRID_STEPS)
+        kn = np.linspace(wob_low, wob_high, GRID_STEPS) / 1e3
+    finally:
+        env.close()
+    return [(round(float(r), 1), round(float(w), 1)) for r in rpm for w in kn]
+
+
 def best_constant(out: Path, workers: int | None = None, progress: bool = True,
                   ray_address: str | None = None, settings: BenchmarkSettings | None = None
                   ) -> tuple[str, list[dict[str, Any]]]:
@@ -94,9 +114,9 @@ def best_constant(out: Path, workers: int | None = None, progress: bool = True,
     name and the grid rows.
     ``ray_address``: run the grid on that Ray cluster (the ``distributed`` extra);
     ``settings``: those of the evaluation it is for (default :func:`settings_of`)."""
-    names = [f"constant:{r:g}/{w:g}" for r in GRID_RPM for w in GRID_KN]
-    rows = run_benchmark(names, ["random"], list(GRID_SEEDS), out,
-                         settings or settings_of("drilling"),
+    settings = settings or settings_of("drilling")
+    names = [f"constant:{r:g}/{w:g}" for r, w in grid_points(settings.env_kwargs)]
+    rows = run_benchmark(names, ["random"], list(GRID_SEEDS), out, settings,
                          workers=workers, progress=progress, env_id=TASKS["drilling"],
                          ray_address=ray_address)
     means: dict[str, list[float]] = {}

@@ -95,7 +95,7 @@ class DrillingEnv(TaskEnv):
 
     ## Action Space
 
-    ``Box(-1, 1, (2,), float32)``: absolute set points, rpm in ``rpm_range`` (40-200)
+    ``Box(-1, 1, (2,), float32)``: absolute set points (by default), rpm in ``rpm_range`` (40-200)
     and WOB in ``weight_on_bit_range`` (40-140 kN), clipped; the top drive's
     acceleration and the drawworks' rate limit how fast they are reached.
 
@@ -119,10 +119,13 @@ class DrillingEnv(TaskEnv):
     ## Starting State, Episode End, Info, Arguments
 
     As ``DrillString-v0``: settled at the scenario's start point, kicked 2 %; 300 s
-    episodes. Every field of :class:`DrillingTask` and every ``DrillString-v0`` keyword
-    is an argument of ``gymnasium.make("DrillOptimise-v0", ...)`` (EnvConfig fields one by
-    one or as a ``config`` dict); what you give wins over the task's
-    :data:`ENV_DEFAULTS`.
+    episodes. Every field of :class:`DrillingTask` and the ``DrillString-v0`` keywords
+    are arguments of ``gymnasium.make("DrillOptimise-v0", ...)`` (EnvConfig fields one by
+    one or as a ``config`` dict) but those the task replaces (``unused_env_fields``:
+    sensors, delay and noise of the plain observation, its reward weights), which are
+    refused by name; what you give wins over the task's :data:`ENV_DEFAULTS`.
+    ``action_mode="incremental"`` makes each action a step of at most ``rpm_step`` and
+    ``weight_on_bit_step`` from the present set points.
 
     ## Version History
 

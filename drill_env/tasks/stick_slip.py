@@ -178,9 +178,11 @@ class StickSlipEnv(TaskEnv):
 
     ``gymnasium.make("DrillStickSlip-v0", **kwargs)``: every field of
     :class:`StickSlipTask` (``max_correction=20``, ``telemetry="wired_pipe"``, reward
-    weights, ...) and every keyword of ``DrillString-v0`` (``scenario``, ``physics``,
-    EnvConfig fields such as ``control_interval``, one by one or as a ``config`` dict);
-    what you give wins over the task's :data:`ENV_DEFAULTS`.
+    weights, ...) and the keywords of ``DrillString-v0`` (``scenario``, ``physics``,
+    EnvConfig fields such as ``control_interval``, one by one or as a ``config`` dict)
+    but those the task replaces (``unused_env_fields``: sensors, delay and noise of the
+    plain observation, its reward weights, action mode and steps, start ranges), which
+    are refused by name; what you give wins over the task's :data:`ENV_DEFAULTS`.
 
     ## Version History
 

@@ -715,3 +715,25 @@ def test_a_step_past_the_episodes_end_is_said() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         env.step(env.action_space.sample())  # a new episode: nothing said
+
+
+def test_action_for_steps_toward_set_points_in_incremental_mode():
+    """An outside check: a task-2 run trained with action_mode incremental could not be
+    evaluated, every classical controller failing with "action_for: needs action_mode
+    'absolute'". In incremental mode the action is the step toward the set points, at
+    most one rpm_step / weight_on_bit_step, zero where they are."""
+    from drill_env.physics.units import RPM
+
+    env = gym.make("DrillString-v0", action_mode="incremental", rpm_step=5.0,
+                   weight_on_bit_step=10e3, **SHORT).unwrapped
+    _, info = env.reset(seed=0)
+    speed, wob = env.targets
+    np.testing.assert_array_equal(env.action_for(speed, wob), [0.0, 0.0])
+    np.testing.assert_allclose(env.action_for(speed + 2.5 * RPM, wob - 30e3), [0.5, -1.0])
+    goal = (speed + 12.0 * RPM, wob - 25e3)
+    for _ in range(3):
+        _, _, _, _, info = env.step(env.action_for(*goal))
+    assert info["speed_setpoint"] == pytest.approx(goal[0], rel=1e-6)
+    assert info["weight_on_bit_setpoint"] == pytest.approx(goal[1], rel=1e-6)
+    top = env.action_for(1e3, 1e9)  # beyond the ranges: toward their ends
+    assert top.tolist() == [1.0, 1.0]
