@@ -1725,12 +1725,16 @@ def _main(argv: Sequence[str] | None) -> int:
     started = time.time()  # (what its results file holds from before is not its work)
     stop, terminated = _stop_as_interrupt()
     clear_interrupt()  # one noted before this command is not this command's
-    from drill_env.sweep import COMMAND_VARIABLE, command_warning
+    import tempfile
+
+    from drill_env.sweep import COMMAND_VARIABLE, SAID_VARIABLE, command_warning
 
     shown, named = warnings.formatwarning, os.environ.get(COMMAND_VARIABLE)
-    warnings.formatwarning = command_warning(args.command)
-    # a sweep's pool workers (spawned) say their warnings the same way
+    marks = tempfile.TemporaryDirectory(prefix="drill-env-warnings-")
+    warnings.formatwarning = command_warning(args.command, marks.name)
+    # a sweep's pool workers (spawned) say their warnings the same way, and once in all
     os.environ[COMMAND_VARIABLE] = args.command
+    os.environ[SAID_VARIABLE] = marks.name
     try:
         return int(args.func(args))
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
@@ -1764,6 +1768,8 @@ def _main(argv: Sequence[str] | None) -> int:
             os.environ.pop(COMMAND_VARIABLE, None)
         else:
             os.environ[COMMAND_VARIABLE] = named
+        os.environ.pop(SAID_VARIABLE, None)
+        marks.cleanup()
         clear_interrupt()  # handled here: not a later command's (or caller's) to act on
         if stop is not _NOT_INSTALLED:
             signal.signal(signal.SIGTERM, stop if stop is not None else signal.SIG_DFL)

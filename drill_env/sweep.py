@@ -73,24 +73,44 @@ class SerialExecutor:
 #: The environment variable through which the command line names its command to the pool
 #: workers it spawns (their warnings are said as the command's own: :func:`command_warning`).
 COMMAND_VARIABLE = "DRILL_ENV_COMMAND"
+#: The environment variable naming the folder in which the command and its pool workers
+#: mark the warnings said (one empty file each), so that a warning is said once per
+#: command, not once per process (a sweep's two or three workers each said it).
+SAID_VARIABLE = "DRILL_ENV_WARNINGS_SAID"
 
 
-def command_warning(command: str) -> Any:
+def command_warning(command: str, said_folder: str | None = None) -> Any:
     """``warnings.formatwarning`` for a command: a warning meant for its user (a unit
     that looks wrong, a setting that cannot hold) on one line under the command's name,
     not Python's file and source line (a validator's warning showed pydantic's), and
-    once."""
+    once: in this process, and in every process sharing ``said_folder`` where it is
+    given and exists. On a terminal the line first clears the one it is on, where a
+    progress bar may be drawn (the bar then draws itself again below it)."""
     plain = warnings.formatwarning
     said: set[str] = set()  # the same words from two places (two call sites) once
+
+    def first_time(text: str) -> bool:
+        if text in said:
+            return False
+        said.add(text)
+        if said_folder is None:
+            return True
+        mark = os.path.join(said_folder, hashlib.sha1(text.encode()).hexdigest()[:16])
+        try:  # created by one process only: the others find it there
+            os.close(os.open(mark, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except FileExistsError:
+            return False
+        except OSError:  # the folder gone (another machine's Ray worker): this process's
+            pass
+        return True
 
     def formatted(message: Any, category: type[Warning], filename: str, lineno: int,
                   line: str | None = None) -> str:
         if issubclass(category, (UserWarning, RuntimeWarning)):
             text = f"drill-env {command}: warning: {message}\n"
-            if text in said:
+            if not first_time(text):
                 return ""
-            said.add(text)
-            return text
+            return ("\r\033[K" if sys.stderr.isatty() else "") + text
         return plain(message, category, filename, lineno, line)
 
     return formatted
@@ -108,7 +128,7 @@ def _single_threaded_worker(parent: int) -> None:
     signal.signal(signal.SIGTERM, _interrupt_once)
     if command := os.environ.get(COMMAND_VARIABLE):  # (a worker's warning showed Python's
         # file and source line, mixed into the command's progress bar)
-        warnings.formatwarning = command_warning(command)
+        warnings.formatwarning = command_warning(command, os.environ.get(SAID_VARIABLE))
     if sys.platform.startswith("linux"):
         import ctypes
 

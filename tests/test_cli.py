@@ -1274,6 +1274,32 @@ def test_a_command_says_its_warnings_on_one_line_under_its_name(tmp_path, capsys
     assert "pydantic" not in done.stderr
 
 
+def test_a_sweeps_warning_is_said_once_not_once_per_process(tmp_path):
+    """A mud density typed in ppg was said three times by a two-worker benchmark (the
+    command and each pool worker): the processes of a command mark what they said in
+    one folder. Two formatters on one folder (two processes) say it once; without the
+    folder (a Ray worker on another machine) each process says it once."""
+    import subprocess
+    import sys
+
+    from drill_env.sweep import command_warning
+
+    first, second = command_warning("x", str(tmp_path)), command_warning("x", str(tmp_path))
+    assert first(UserWarning("w"), UserWarning, "a.py", 1) == "drill-env x: warning: w\n"
+    assert second(UserWarning("w"), UserWarning, "b.py", 2) == ""
+    gone = str(tmp_path / "gone")
+    assert command_warning("x", gone)(UserWarning("w"), UserWarning, "a.py", 1) != ""
+    config = tmp_path / "mud.yaml"
+    config.write_text("mud: {density: 10.0}\n")
+    done = subprocess.run([sys.executable, "-m", "drill_cli", "benchmark", "--controllers",
+                           "stiff", "--scenarios", "default,stick_slip", "--seeds", "2",
+                           "--duration", "1", "--warmup", "0.5", "--workers", "2",
+                           "--config", str(config), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.count("warning: mud.density") == 1, done.stderr
+
+
 def test_an_option_cut_short_is_not_taken_for_a_longer_one(tmp_path, capsys):
     """argparse took `--seed 3` for evaluate's --seeds (three seeds, not seed 3) and
     `--dur` for --duration (an outside check): the commands take whole names only."""
