@@ -699,11 +699,15 @@ def run_episode(episode: Episode) -> dict[str, Any]:
 
 
 #: Least bit-speed swing (rpm, half of max - min) of a window that the benchmark marks as
-#: growing: above the ~0.02 rpm a held SoftSpeed loop settles to on a 1,500 kg m^2 top
-#: drive (rising from ~0.003 rpm, not stick-slip), below the 0.045 rpm at 60 s of the
-#: 2,000 kg m^2 drive's stick-slip, which is full by ~200 s (docs/controllers.md);
-#: :data:`drill_env.swing.NO_SWING`, 0.01 rpm, marked loops that hold.
-GROWING_FLOOR = 0.03
+#: growing: above the ~0.02 rpm a held SoftSpeed loop (k = 4) settles to on a 1,500 kg m^2
+#: top drive and the 0.027-0.028 rpm hump at 60-90 s of k = 5 there, which then decays
+#: (seeds 0-4; both rise from ~0.003 rpm, neither is stick-slip), below the 0.045 rpm at
+#: 60 s of the 2,000 kg m^2 drive's stick-slip, full by ~200 s (docs/controllers.md); about
+#: midway. :data:`drill_env.swing.NO_SWING`, 0.01 rpm, marked loops that hold.
+GROWING_FLOOR = 0.035
+#: The start of a row's ``swing_trend`` where the trend was not judged, and why.
+NOT_JUDGED = "not judged: "
+ROCK_CHANGED = NOT_JUDGED + "the rock under the bit changed"
 #: Rock shares under the bit that differ by more than this are another rock: a layer
 #: crossed raises the swing without any loop's doing (paper_case2's ZTorque, x2.5).
 SAME_ROCK = 1e-3
@@ -714,9 +718,10 @@ def window_swing_trend(records: np.ndarray, held: Sequence[tuple[float, tuple[fl
     """Whether the bit-speed swing grows from the warm-up into the metric window
     (:func:`drill_env.swing.swing_trend`): the last ``block`` s of the window against the
     ``block`` s before it, ``block`` the shorter of the warm-up and the window. "" where
-    the window's swing is under :data:`GROWING_FLOOR`, or where ``held`` (per step: time,
-    then set points and rock shares) changed over the two blocks: a set point moved by a
-    policy or a target, or a layer crossed, would read as growth. A controls engineer's
+    the window's swing is under :data:`GROWING_FLOOR`; :data:`NOT_JUDGED` and why where
+    ``held`` (per step: time, then set points and rock shares) changed over the two
+    blocks: a set point moved by a policy or a target, or a layer crossed, would read as
+    growth. A controls engineer's
     check: SoftSpeed on a 2,000 kg m^2 top drive read SSI 0.00 over 30-60 s while its
     swing grew x4 per 30 s, to full stick-slip by ~200 s."""
     from drill_env.physics.layout import R
@@ -725,9 +730,10 @@ def window_swing_trend(records: np.ndarray, held: Sequence[tuple[float, tuple[fl
     split, end = start + settings.warmup, start + settings.duration
     block = min(settings.warmup, settings.duration - settings.warmup)
     spanned = np.array([values for t, values in held if t > split - block])
-    if len(spanned) and (np.ptp(spanned[:, :2], axis=0).any()  # a set point moved
-                         or float(np.max(np.ptp(spanned[:, 2:], axis=0))) > SAME_ROCK):
-        return ""
+    if len(spanned) and np.ptp(spanned[:, :2], axis=0).any():
+        return NOT_JUDGED + "a set point moved"
+    if len(spanned) and float(np.max(np.ptp(spanned[:, 2:], axis=0))) > SAME_ROCK:
+        return ROCK_CHANGED
     time, rpm = records[:, R.TIME], records[:, R.BIT_SPEED] / RPM
     before = rpm[(time >= split - block) & (time < split)]
     last = rpm[time >= min(end, float(time[-1])) - block]
@@ -1221,6 +1227,13 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
                      + ", ".join(f"{r['controller']}/{r['scenario']}/{r['seed']} "
                                  f"({r['swing_trend'].removeprefix('growing (').removesuffix(')')})"
                                  for r in building) + ".")
+    crossed = [r for r in rows if r.get("swing_trend") == ROCK_CHANGED]
+    if crossed:  # no mark is not "not growing" there (an outside review)
+        per = {s: sum(1 for r in crossed if r["scenario"] == s) for s in scenarios}
+        notes.append("Whether a stick-slip still grows is not judged where the rock under "
+                     "the bit changed over the warm-up's end and the window (a layer "
+                     "crossed raises the swing by itself): " + ", ".join(
+                         f"{n} episodes of {s}" for s, n in per.items() if n) + ".")
     _print_table(header, table, [*notes, "Means over seeds, +- half the range."])
     from agents.plots import bar_chart, series_chart
 

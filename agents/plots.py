@@ -170,7 +170,6 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     save(fig, path)
 
 
-
 #: Bit-speed swing (:func:`_swing`, rad/s) above which a series line is drawn
 #: translucent: 50 rpm, above a controller's transient after a change of target (up to
 #: ~30 rpm in task 1's picture), below a stick-slip band (the bit stopping, then running

@@ -1730,6 +1730,7 @@ def _main(argv: Sequence[str] | None) -> int:
     from drill_env.sweep import COMMAND_VARIABLE, SAID_VARIABLE, command_warning
 
     shown, named = warnings.formatwarning, os.environ.get(COMMAND_VARIABLE)
+    outer = os.environ.get(SAID_VARIABLE)  # a command run inside another (tests)
     marks = tempfile.TemporaryDirectory(prefix="drill-env-warnings-")
     warnings.formatwarning = command_warning(args.command, marks.name)
     # a sweep's pool workers (spawned) say their warnings the same way, and once in all
@@ -1768,7 +1769,10 @@ def _main(argv: Sequence[str] | None) -> int:
             os.environ.pop(COMMAND_VARIABLE, None)
         else:
             os.environ[COMMAND_VARIABLE] = named
-        os.environ.pop(SAID_VARIABLE, None)
+        if outer is None:
+            os.environ.pop(SAID_VARIABLE, None)
+        else:
+            os.environ[SAID_VARIABLE] = outer
         marks.cleanup()
         clear_interrupt()  # handled here: not a later command's (or caller's) to act on
         if stop is not _NOT_INSTALLED:

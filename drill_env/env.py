@@ -467,7 +467,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         """The action that asks for these set points (rad/s, N), clipped to the env's
         ranges: how a controller that thinks in set points drives the env. Incremental
         mode: the step toward them from the present set points, at most one ``rpm_step``
-        and ``weight_on_bit_step`` (the classical controllers refused such a run)."""
+        and ``weight_on_bit_step``, so that set-point controllers drive such envs too."""
         surface_speed, weight_on_bit = check_set_points("action_for", surface_speed,
                                                         weight_on_bit)
         (s_lo, s_hi), (w_lo, w_hi) = self._speed_range, self._wob_range

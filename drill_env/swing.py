@@ -44,7 +44,8 @@ def swing_trend(swings: Sequence[float], lowest_rpm: float,
         return f"none to speak of (below {NO_SWING:g} rpm)"
     if before < NO_SWING:  # no ratio of rounding to quote; 10 % above the floor to grow
         # (0.0099 -> 0.0101 rpm read as growing)
-        return f"growing (from below {NO_SWING:g} rpm)" if last > 1.1 * NO_SWING else "steady"
+        return (f"growing (from below {NO_SWING:g} rpm)" if last > 1.1 * NO_SWING
+                else f"none to speak of (about {NO_SWING:g} rpm)")
     ratio = last / before
     factor = f"{ratio:.2g}" if ratio < 100.0 else f"{ratio:,.0f}"  # not 2.7e+02
     if last > 1.1 * before:

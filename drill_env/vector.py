@@ -123,6 +123,27 @@ class DrillStringVectorEnv(VectorEnv):
 
     def reset(self, *, seed: int | list[int | None] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        try:
+            seeds, options, mask = self._reset_arguments(seed, options)
+        except ValueError:  # a refused reset leaves no episode, as a single env's (the
+            self._has_episode[:] = False  # old episodes stepped on after a bad seed)
+            raise
+        entries: list[tuple[int, dict[str, Any]]] = []
+        self._has_episode[mask] = False  # until each is reset (a refused one has none)
+        for i in np.flatnonzero(mask):
+            self._obs[i], info = self.envs[i].reset(seed=seeds[i], options=options or None)
+            entries.append((int(i), info))
+        infos = self._batch_infos(entries)
+        self._has_episode[mask] = True
+        self._terminations[mask] = False
+        self._truncations[mask] = False
+        self._autoreset_envs[mask] = False
+        return self._obs.copy(), infos
+
+    def _reset_arguments(self, seed: Any, options: Any
+                         ) -> tuple[list[int | None], dict[str, Any], np.ndarray]:
+        """``reset``'s seed, options and ``reset_mask`` checked: the seed of each env, the
+        options for each env's reset and the mask of the envs to reset."""
         if seed is None:
             seeds: list[int | None] = [None] * self.num_envs
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
@@ -147,17 +168,7 @@ class DrillStringVectorEnv(VectorEnv):
             if mask.shape != (self.num_envs,) or mask.dtype != np.bool_:
                 raise ValueError(f"options['reset_mask']: needs a bool array of shape "
                                  f"({self.num_envs},), got {mask.dtype} {mask.shape}")
-        entries: list[tuple[int, dict[str, Any]]] = []
-        self._has_episode[mask] = False  # until each is reset (a refused one has none)
-        for i in np.flatnonzero(mask):
-            self._obs[i], info = self.envs[i].reset(seed=seeds[i], options=options or None)
-            entries.append((int(i), info))
-        infos = self._batch_infos(entries)
-        self._has_episode[mask] = True
-        self._terminations[mask] = False
-        self._truncations[mask] = False
-        self._autoreset_envs[mask] = False
-        return self._obs.copy(), infos
+        return seeds, options, mask
 
     def step(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                      dict[str, Any]]:

@@ -1825,7 +1825,9 @@ def test_a_stick_slip_still_growing_in_the_metric_window_is_marked(tmp_path, mon
     # on paper_case2 was marked x2.5 at SSI 0.02)
     rows = bm.run_benchmark(["z-torque"], ["paper_case2"], [0], tmp_path / "crossing",
                             bm.BenchmarkSettings(), workers=1, progress=False)
-    assert rows[0]["swing_trend"] == ""
+    assert rows[0]["swing_trend"] == bm.ROCK_CHANGED  # and said: no mark is not "holds"
+    assert "not judged where the rock under the bit changed" in " ".join(
+        (tmp_path / "crossing" / "benchmark.md").read_text().split())
 
 
 def test_the_window_swing_trend_compares_equal_blocks_where_set_points_and_rock_held():
@@ -1851,9 +1853,12 @@ def test_the_window_swing_trend_compares_equal_blocks_where_set_points_and_rock_
     factor = re.fullmatch(r"growing \(x(\S+) per 40 s\)", trend)
     assert factor and float(factor[1]) == pytest.approx(4.0, rel=0.05), trend
     moved = held(speed=lambda x: 5.0 if x < 15.0 else 6.0)
-    assert bm.window_swing_trend(records, moved, 0.0, settings) == ""
+    assert bm.window_swing_trend(records, moved, 0.0, settings) == \
+        "not judged: a set point moved"
     crossed = held(share=lambda x: 1.0 if x < 30.0 else 0.7)  # a layer under the bit
-    assert bm.window_swing_trend(records, crossed, 0.0, settings) == ""
+    assert bm.window_swing_trend(records, crossed, 0.0, settings) == bm.ROCK_CHANGED
+    jitter = held(share=lambda x: 1.0 - 0.5 * bm.SAME_ROCK * (x % 2.0))  # the same rock
+    assert bm.window_swing_trend(records, jitter, 0.0, settings).startswith("growing")
     late = bm.BenchmarkSettings(duration=60.0, warmup=40.0)  # blocks 20-40 s and 40-60 s
     early = held(speed=lambda x: 5.0 if x < 15.0 else 6.0)  # before the blocks: judged
     trend = bm.window_swing_trend(records, early, 0.0, late)
@@ -1900,7 +1905,8 @@ def test_a_drift_the_same_under_every_controller_is_said_not_to_be_theirs(tmp_pa
     texts = _drawn_texts(monkeypatch)
     rising = 0.16 * np.exp((t - 60.0) / 2.0)
     cases = {"same, rising": (rising, rising * 1.02, True),
-             "differ": (rising, rising * 2.0, False),
+             "alike, the default's ends": (rising, rising * 1.37, True),
+             "differ": (rising, rising * 1.6, False),
              "resting": (0.32 + 0 * t, 0.32 + 0 * t, False)}
     for name, (a, b, said) in cases.items():
         write("stiff", a)

@@ -1093,6 +1093,9 @@ def test_a_learning_curve_of_zeros_says_so(tmp_path, monkeypatch):
     assert [t.get_text() for t in axes["SSI"].texts] == ["never stuck\nat every evaluation"]
     axes = _learning_curve_axes(tmp_path, monkeypatch, "1000,90,20,0.02,0.01,60\n")
     assert not list(axes["SSI"].texts)
+    # an SSI not defined at any evaluation is not "no stick-slip"
+    axes = _learning_curve_axes(tmp_path, monkeypatch, "1000,90,20,nan,0.01,60\n")
+    assert not list(axes["SSI"].texts)
 
 
 def test_evaluate_says_which_training_settings_its_standard_episodes_replace():
@@ -1438,6 +1441,13 @@ def test_the_grid_search_spans_the_runs_own_action_ranges():
     assert sorted({r for r, _ in narrow}) == [60.0, 90.0, 120.0, 150.0, 180.0]
     assert sorted({w for _, w in narrow}) == [50.0, 60.0, 70.0, 80.0, 90.0]
     assert len(narrow) == GRID_STEPS**2
+    # ends off the 0.1 grid round inwards (40.04 gave 40, refused as outside), a range
+    # narrower than the steps gives each point once (an outside review)
+    odd = grid_points({"rpm_range": [40.04, 199.96], "weight_on_bit_range": [50040.0, 9e4]})
+    assert min(r for r, _ in odd) >= 40.04 and max(r for r, _ in odd) <= 199.96
+    assert min(w for _, w in odd) >= 50.04
+    tight = grid_points({"rpm_range": [100.0, 100.1]})
+    assert len(tight) == len(set(tight)) == 2 * GRID_STEPS
 
 
 def test_every_held_out_seed_can_be_asked_for(tmp_path, monkeypatch):

@@ -90,7 +90,7 @@ def grid_points(env_kwargs: dict[str, Any]) -> list[tuple[float, float]]:
     """The (rpm, kN) set points of the drilling task's grid search: :data:`GRID_STEPS`
     per axis over the action ranges of the task's env under ``env_kwargs`` (a run trained
     on 60-180 rpm had its evaluation refused at the fixed grid's 40 rpm: an outside
-    check), rounded to 0.1."""
+    check), rounded to 0.1 inside the ranges, each point once."""
     import gymnasium as gym
 
     import drill_env  # noqa: F401  (registers the tasks)
@@ -103,7 +103,12 @@ def grid_points(env_kwargs: dict[str, Any]) -> list[tuple[float, float]]:
         kn = np.linspace(wob_low, wob_high, GRID_STEPS) / 1e3
     finally:
         env.close()
-    return [(round(float(r), 1), round(float(w), 1)) for r in rpm for w in kn]
+    low, high = math.ceil(rpm_low * 10.0) / 10.0, math.floor(rpm_high * 10.0) / 10.0
+    kn_low, kn_high = (math.ceil(wob_low / 100.0) / 10.0, math.floor(wob_high / 100.0) / 10.0)
+    points = [(min(max(round(float(r), 1), low), high),  # rounded inside the range: an end
+               min(max(round(float(w), 1), kn_low), kn_high))  # of 40.04 rpm gave 40
+              for r in rpm for w in kn]
+    return list(dict.fromkeys(points))  # a range narrower than the steps: each point once
 
 
 def best_constant(out: Path, workers: int | None = None, progress: bool = True,
