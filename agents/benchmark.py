@@ -721,9 +721,8 @@ def window_swing_trend(records: np.ndarray, held: Sequence[tuple[float, tuple[fl
     the window's swing is under :data:`GROWING_FLOOR`; :data:`NOT_JUDGED` and why where
     ``held`` (per step: time, then set points and rock shares) changed over the two
     blocks: a set point moved by a policy or a target, or a layer crossed, would read as
-    growth. A controls engineer's
-    check: SoftSpeed on a 2,000 kg m^2 top drive read SSI 0.00 over 30-60 s while its
-    swing grew x4 per 30 s, to full stick-slip by ~200 s."""
+    growth. A controls engineer's check: SoftSpeed on a 2,000 kg m^2 top drive read SSI
+    0.00 over 30-60 s while its swing grew x4 per 30 s, to full stick-slip by ~200 s."""
     from drill_env.physics.layout import R
     from drill_env.swing import swing_trend
 
@@ -1039,6 +1038,26 @@ ENDED_EARLY_MARK = "ended early"
 GROWING_MARK = "growing"
 
 
+def not_judged(rows: Sequence[Mapping[str, Any]]) -> str:
+    """Where :func:`window_swing_trend` judged nothing, in words ("" where it judged every
+    row it saw): per reason, the episodes by controller and scenario."""
+    words = []
+    for reason, why in (("a set point moved", "a set point moved (a policy's action or a "
+                                              "target)"),
+                        ("the rock under the bit changed", "the rock under the bit changed "
+                                                           "(a layer crossed raises the "
+                                                           "swing by itself)")):
+        hit: dict[str, int] = {}
+        for r in rows:
+            if r.get("swing_trend") == NOT_JUDGED + reason:
+                where = f"{r['controller']} on {r['scenario']}"
+                hit[where] = hit.get(where, 0) + 1
+        if hit:
+            words.append(f"{why}: " + ", ".join(
+                f"{where} ({n} episode{'' if n == 1 else 's'})" for where, n in hit.items()))
+    return "; or where ".join(words)
+
+
 def growing(row: Mapping[str, Any]) -> bool:
     """Whether a row's stick-slip was still growing in its metric window (rows stored
     before the trend was kept have none)."""
@@ -1227,13 +1246,9 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
                      + ", ".join(f"{r['controller']}/{r['scenario']}/{r['seed']} "
                                  f"({r['swing_trend'].removeprefix('growing (').removesuffix(')')})"
                                  for r in building) + ".")
-    crossed = [r for r in rows if r.get("swing_trend") == ROCK_CHANGED]
-    if crossed:  # no mark is not "not growing" there (an outside review)
-        per = {s: sum(1 for r in crossed if r["scenario"] == s) for s in scenarios}
-        notes.append("Whether a stick-slip still grows is not judged where the rock under "
-                     "the bit changed over the warm-up's end and the window (a layer "
-                     "crossed raises the swing by itself): " + ", ".join(
-                         f"{n} episodes of {s}" for s, n in per.items() if n) + ".")
+    if unjudged := not_judged(rows):  # no mark is not "not growing" (an outside review)
+        notes.append("Whether a stick-slip still grows is not judged where, over the "
+                     "warm-up's end and the window, " + unjudged + ".")
     _print_table(header, table, [*notes, "Means over seeds, +- half the range."])
     from agents.plots import bar_chart, series_chart
 

@@ -35,8 +35,9 @@ def is_growing(trend: str) -> bool:
 def swing_trend(swings: Sequence[float], lowest_rpm: float,
                 block: float = SWING_BLOCK) -> str:
     """What the last two blocks' swings say: full stick-slip (the bit stops: its lowest
-    speed in the last block, ``lowest_rpm``, under :data:`STOPPED`), growing or decaying
-    (by more than 10 % per block of ``block`` s, with the factor) or steady."""
+    speed in the last block, ``lowest_rpm``, under :data:`STOPPED`), none to speak of
+    (about :data:`NO_SWING` or less), growing or decaying (by more than 10 % per block of
+    ``block`` s, with the factor) or steady."""
     last, before = swings[-1], swings[-2]
     if lowest_rpm < STOPPED:
         return "full stick-slip (the bit stops)"

@@ -125,8 +125,8 @@ class DrillStringVectorEnv(VectorEnv):
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         try:
             seeds, options, mask = self._reset_arguments(seed, options)
-        except ValueError:  # a refused reset leaves no episode, as a single env's (the
-            self._has_episode[:] = False  # old episodes stepped on after a bad seed)
+        except (ValueError, TypeError):  # a refused reset leaves no episode, as a single
+            self._has_episode[:] = False  # env's (old episodes stepped on after a bad seed)
             raise
         entries: list[tuple[int, dict[str, Any]]] = []
         self._has_episode[mask] = False  # until each is reset (a refused one has none)
@@ -144,6 +144,8 @@ class DrillStringVectorEnv(VectorEnv):
                          ) -> tuple[list[int | None], dict[str, Any], np.ndarray]:
         """``reset``'s seed, options and ``reset_mask`` checked: the seed of each env, the
         options for each env's reset and the mask of the envs to reset."""
+        if isinstance(seed, np.ndarray) and seed.ndim == 0:  # a 0-d array: its number
+            seed = seed.item()
         if seed is None:
             seeds: list[int | None] = [None] * self.num_envs
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):

@@ -1826,8 +1826,22 @@ def test_a_stick_slip_still_growing_in_the_metric_window_is_marked(tmp_path, mon
     rows = bm.run_benchmark(["z-torque"], ["paper_case2"], [0], tmp_path / "crossing",
                             bm.BenchmarkSettings(), workers=1, progress=False)
     assert rows[0]["swing_trend"] == bm.ROCK_CHANGED  # and said: no mark is not "holds"
-    assert "not judged where the rock under the bit changed" in " ".join(
-        (tmp_path / "crossing" / "benchmark.md").read_text().split())
+    said = " ".join((tmp_path / "crossing" / "benchmark.md").read_text().split())
+    assert ("the rock under the bit changed (a layer crossed raises the swing by itself): "
+            "z-torque on paper_case2 (1 episode)") in said
+    # nor where a policy moves its set points (the driller of the demo's benchmark)
+    rows = bm.run_benchmark(["driller"], ["stick_slip"], [0], tmp_path / "driller",
+                            bm.BenchmarkSettings(), workers=1, progress=False)
+    assert rows[0]["swing_trend"] == "not judged: a set point moved"
+    assert "a set point moved (a policy's action or a target): driller on stick_slip" in \
+        " ".join((tmp_path / "driller" / "benchmark.md").read_text().split())
+    # a loop that holds, whose swing humps to 0.028 rpm at 60-90 s and decays (SoftSpeed
+    # k = 5 on a 1,500 kg m^2 drive): under the floor, not marked
+    hump = bm.BenchmarkSettings(duration=90.0, warmup=60.0, physics={
+        "top_drive.inertia": 1500.0, "top_drive.impedance_factor": 5.0})
+    rows = bm.run_benchmark(["soft-speed"], ["stick_slip"], [0], tmp_path / "hump", hump,
+                            workers=1, progress=False)
+    assert not bm.growing(rows[0])
 
 
 def test_the_window_swing_trend_compares_equal_blocks_where_set_points_and_rock_held():

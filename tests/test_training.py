@@ -1448,6 +1448,9 @@ def test_the_grid_search_spans_the_runs_own_action_ranges():
     assert min(w for _, w in odd) >= 50.04
     tight = grid_points({"rpm_range": [100.0, 100.1]})
     assert len(tight) == len(set(tight)) == 2 * GRID_STEPS
+    with pytest.raises(ValueError, match="rpm_range: the run's range holds no 0.1 rpm step"):
+        grid_points({"rpm_range": [100.01, 100.09]})
+    assert min(w for _, w in grid_points({"weight_on_bit_range": [16.1 * 1000, 9e4]})) == 16.1
 
 
 def test_every_held_out_seed_can_be_asked_for(tmp_path, monkeypatch):

@@ -300,11 +300,12 @@ def test_a_refused_reset_of_a_batch_leaves_no_episode_to_step():
         if isinstance(envs, DrillStringVectorEnv):
             # arguments refused before any env's reset leave no episode either (an
             # outside review: the old episodes stepped on after a bad seed)
-            for bad in ({"seed": 1.5}, {"options": [1]},
-                        {"options": {"reset_mask": np.array([1, 0])}}):
+            for bad, said in (({"seed": 1.5}, "seed"), ({"seed": np.array(1.5)}, "seed"),
+                              ({"options": [1]}, "options"),
+                              ({"options": {"reset_mask": np.array([1, 0])}}, "reset_mask")):
                 envs.reset(seed=0)
                 step(envs)
-                with pytest.raises(ValueError):
+                with pytest.raises(ValueError, match=said):
                     envs.reset(**bad)
                 with pytest.raises(ResetNeeded, match="reset"):
                     step(envs)
