@@ -24,6 +24,7 @@ import json
 import math
 import sys
 import zipfile
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -707,6 +708,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
 GROWING_FLOOR = 0.035
 #: The start of a row's ``swing_trend`` where the trend was not judged, and why.
 NOT_JUDGED = "not judged: "
+SET_POINT_MOVED = NOT_JUDGED + "a set point moved"
 ROCK_CHANGED = NOT_JUDGED + "the rock under the bit changed"
 #: Rock shares under the bit that differ by more than this are another rock: a layer
 #: crossed raises the swing without any loop's doing (paper_case2's ZTorque, x2.5).
@@ -730,7 +732,7 @@ def window_swing_trend(records: np.ndarray, held: Sequence[tuple[float, tuple[fl
     block = min(settings.warmup, settings.duration - settings.warmup)
     spanned = np.array([values for t, values in held if t > split - block])
     if len(spanned) and np.ptp(spanned[:, :2], axis=0).any():
-        return NOT_JUDGED + "a set point moved"
+        return SET_POINT_MOVED
     if len(spanned) and float(np.max(np.ptp(spanned[:, 2:], axis=0))) > SAME_ROCK:
         return ROCK_CHANGED
     time, rpm = records[:, R.TIME], records[:, R.BIT_SPEED] / RPM
@@ -1042,18 +1044,12 @@ def not_judged(rows: Sequence[Mapping[str, Any]]) -> str:
     """Where :func:`window_swing_trend` judged nothing, in words ("" where it judged every
     row it saw): per reason, the episodes by controller and scenario."""
     words = []
-    for reason, why in (("a set point moved", "a set point moved (a policy's action or a "
-                                              "target)"),
-                        ("the rock under the bit changed", "the rock under the bit changed "
-                                                           "(a layer crossed raises the "
-                                                           "swing by itself)")):
-        hit: dict[str, int] = {}
-        for r in rows:
-            if r.get("swing_trend") == NOT_JUDGED + reason:
-                where = f"{r['controller']} on {r['scenario']}"
-                hit[where] = hit.get(where, 0) + 1
+    for reason, why in ((SET_POINT_MOVED, "(a policy's action or a target)"),
+                        (ROCK_CHANGED, "(a layer crossed raises the swing by itself)")):
+        hit = Counter(f"{r['controller']} on {r['scenario']}" for r in rows
+                      if r.get("swing_trend") == reason)
         if hit:
-            words.append(f"{why}: " + ", ".join(
+            words.append(f"{reason.removeprefix(NOT_JUDGED)} {why}: " + ", ".join(
                 f"{where} ({n} episode{'' if n == 1 else 's'})" for where, n in hit.items()))
     return "; or where ".join(words)
 
@@ -1154,9 +1150,7 @@ def overrides_in_words(physics: Mapping[str, Any]) -> str:
 
     flat = flatten(dict(physics))
     if len(flat) > LISTED_OVERRIDES:
-        sections: dict[str, int] = {}
-        for key in flat:
-            sections[key.split(".")[0]] = sections.get(key.split(".")[0], 0) + 1
+        sections = Counter(key.split(".")[0] for key in flat)
         return "of " + ", ".join(f"{name} ({count} keys)" if count > 1 else name
                                  for name, count in sorted(sections.items()))
 

@@ -106,7 +106,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     seed order across the bar); an SSI bar of a stick-slip still growing in the window is marked.
     ``title``: what the benchmark was (benchmark.md's heading: its --config file, the set
     points given on the command line, a task and its seeds)."""
-    from drill_env.swing import is_growing
+    from agents.benchmark import growing
 
     colours = _colours(controllers)
     # two by two, not four in a row: shrunk to a page's width (~800 px) the row's text was
@@ -119,8 +119,8 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
         bars: list[tuple[float, float, str]] = []  # (x, mean, colour)
         for i, c in enumerate(controllers):
             for j, s in enumerate(scenarios):
-                values = np.array([r[key] for r in rows
-                                   if r["controller"] == c and r["scenario"] == s], float)
+                sel = [r for r in rows if r["controller"] == c and r["scenario"] == s]
+                values = np.array([r[key] for r in sel], float)
                 if values.size == 0:
                     continue
                 mean = float(values.mean()) * scale
@@ -129,9 +129,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                 ax.bar(x, mean, width * 0.9, color=colours[c],
                        label=c if j == 0 else None)
                 bars.append((x, mean, colours[c]))
-                if key == "ssi" and any(is_growing(str(r.get("swing_trend", "")))
-                                        for r in rows
-                                        if r["controller"] == c and r["scenario"] == s):
+                if key == "ssi" and any(growing(r) for r in sel):
                     # the table's mark: a stick-slip still building that the window's SSI
                     # does not show yet (agents.benchmark.window_swing_trend)
                     ax.annotate("growing", (x, mean), xytext=(0, 4),

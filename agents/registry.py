@@ -321,7 +321,8 @@ def check_interface(name: str, controller: Any) -> None:
     # its top drive only: the string, rock, well and bit are the scenario's, the same for
     # every controller (one that softened the rock was listed as curing stick-slip at
     # twice the ROP, "every controller from the same start and targets")
-    other = sorted(key for key in flatten(dict(physics)) if not key.startswith("top_drive."))
+    keys = flatten(dict(physics))
+    other = sorted(key for key in keys if not key.startswith("top_drive."))
     if other:
         raise ValueError(f"controller: {name}: physics() sets {', '.join(other)}: a "
                          "controller sets its top drive only (top_drive.*); the string, "
@@ -329,7 +330,7 @@ def check_interface(name: str, controller: Any) -> None:
                          "for every controller")
     # nor the drive itself: a controller that gave itself a 50 kg m^2 rotor and a 500 kN m
     # rating was listed beside the others without a word (a controls engineer's check)
-    hardware = sorted(key for key in flatten(dict(physics))
+    hardware = sorted(key for key in keys
                       if key.removeprefix("top_drive.") not in TOP_DRIVE_LOOP)
     if hardware:
         raise ValueError(f"controller: {name}: physics() sets {', '.join(hardware)}: the "

@@ -99,23 +99,21 @@ def grid_points(env_kwargs: dict[str, Any]) -> list[tuple[float, float]]:
     try:
         cfg = env.unwrapped.config
         (rpm_low, rpm_high), (wob_low, wob_high) = cfg.rpm_range, cfg.weight_on_bit_range
-        rpm = np.linspace(rpm_low, rpm_high, GRID_STEPS)
-        kn = np.linspace(wob_low, wob_high, GRID_STEPS) / 1e3
     finally:
         env.close()
-    # the ends on the 0.1 grid inside the ranges (1e-9: 16.1 x 1,000 N is 16.1 kN)
-    low, high = (math.ceil(rpm_low * 10.0 - 1e-9) / 10.0,
-                 math.floor(rpm_high * 10.0 + 1e-9) / 10.0)
-    kn_low, kn_high = (math.ceil(wob_low / 100.0 - 1e-9) / 10.0,
-                       math.floor(wob_high / 100.0 + 1e-9) / 10.0)
-    for name, (a, b), unit in (("rpm_range", (low, high), "rpm"),
-                               ("weight_on_bit_range", (kn_low, kn_high), "kN")):
-        if a > b:  # no set point of the grid's 0.1 steps inside the range
+
+    def axis(low: float, high: float, name: str, unit: str) -> list[float]:
+        # the ends on the 0.1 grid inside the range (1e-9: 16.1 x 1,000 N is 16.1 kN), each
+        # point rounded inside it: an end of 40.04 rpm gave 40, refused as outside
+        inner = (math.ceil(low * 10.0 - 1e-9) / 10.0, math.floor(high * 10.0 + 1e-9) / 10.0)
+        if inner[0] > inner[1]:
             raise ValueError(f"{name}: the run's range holds no 0.1 {unit} step, which the "
                              "grid search of constant set points needs")
-    points = [(min(max(round(float(r), 1), low), high),  # rounded inside the range: an end
-               min(max(round(float(w), 1), kn_low), kn_high))  # of 40.04 rpm gave 40
-              for r in rpm for w in kn]
+        return [min(max(round(float(v), 1), inner[0]), inner[1])
+                for v in np.linspace(low, high, GRID_STEPS)]
+
+    points = [(r, w) for r in axis(rpm_low, rpm_high, "rpm_range", "rpm")
+              for w in axis(wob_low / 1e3, wob_high / 1e3, "weight_on_bit_range", "kN")]
     return list(dict.fromkeys(points))  # a range narrower than the steps: each point once
 
 
