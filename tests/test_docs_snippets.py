@@ -88,3 +88,16 @@ def test_the_controllers_page_states_the_defaults_the_code_has():
     text = " ".join((ROOT / "docs/controllers.md").read_text().split())
     assert f"A map point is {m.seconds:g} s from a {100 * m.kick:g} % kick (`MapSettings`)" \
         in text
+
+
+def test_the_citation_and_licence_files_say_what_the_package_declares():
+    """CITATION.cff's version and licence are pyproject's; LICENSE is the licence named."""
+    import tomllib
+
+    import yaml
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    citation = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+    assert str(citation["version"]) == project["version"]
+    assert citation["license"] == project["license"]
+    assert (ROOT / "LICENSE").read_text().startswith(f"{project['license']} License")
