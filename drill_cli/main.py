@@ -20,7 +20,7 @@ import sys
 import threading
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -653,7 +653,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     try:
         settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
                                      start_kick=args.start_kick, fidelity=fidelity,
-                                     physics=checked_overrides(args.config, scenarios),
+                                     physics=checked_overrides(args.config, scenarios, lengths),
                                      env_kwargs=lengths,
                                      surface_speed=set_points.get("surface_speed"),
                                      weight_on_bit=set_points.get("weight_on_bit"))
@@ -1077,14 +1077,36 @@ def _merged(config, overrides: dict[str, Any], path: Path | None):
         raise ValueError(f"--config {path}: {err}") from None
 
 
-def checked_overrides(path: Path | None, scenarios: Sequence[str]) -> dict[str, Any]:
+def checked_overrides(path: Path | None, scenarios: Sequence[str],
+                      params: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """:func:`read_overrides`, merged once into each scenario's config here, so that a
-    bad field fails now, named by its dotted path, not in the first episode."""
-    from drill_env.scenarios import make_scenario
+    bad field fails now, named by its dotted path, not in the first episode. A randomised
+    scenario is checked on the longest string its ``params``' range draws (a survey must
+    reach that one; it was an unseeded draw from the default range, so that a survey
+    shorter than the default range's top failed at random whatever --string-lengths)."""
+    import inspect
+
+    import numpy as np
+
+    from drill_env.scenarios import RANDOMISED, SCENARIOS, make_scenario
 
     overrides = read_overrides(path)  # the file read once
     for name in scenarios if overrides else ():
-        _merged(make_scenario(name).config, overrides, path)
+        if name not in RANDOMISED:
+            _merged(make_scenario(name).config, overrides, path)
+            continue
+        low, high = dict(params or {}).get("string_length_range") or inspect.signature(
+            SCENARIOS[name]).parameters["string_length_range"].default
+        longest = make_scenario(name, np.random.default_rng(0),
+                                **{**(params or {}), "string_length_range": (high, high)})
+        try:
+            _merged(longest.config, overrides, path)
+        except ValueError as err:
+            if "the survey ends at" not in str(err):
+                raise
+            raise ValueError(f"{err}: the {name} scenario draws strings of {low:g}-{high:g} "
+                             "m; extend the survey or draw shorter strings (--string-lengths "
+                             "with --task)") from None
     return overrides
 
 

@@ -1416,3 +1416,20 @@ def test_a_sweeps_workers_say_their_warnings_as_the_command_does(tmp_path, capfd
     said = err.count("drill-env benchmark: warning: mud.density: 10 kg/m^3")
     assert said >= 1 and err.lower().count("warning") == said, err
     assert "warnings.warn(" not in err and ".py:" not in err
+
+
+def test_a_task_benchmark_checks_a_curved_survey_against_the_string_lengths_typed(tmp_path):
+    """A survey that reaches the longest string of --string-lengths is taken every time
+    (an outside check: it was checked on an unseeded draw from the default 900-1600 m, and
+    refused at random, 4 runs in 7); one shorter than the range's top is refused always,
+    naming the range."""
+    from drill_cli.main import checked_overrides
+
+    survey = tmp_path / "curved.yaml"
+    survey.write_text("well: {md: [0, 200, 500, 700, 900, 1400], inclination: [0, 0, 45, "
+                      "45, 90, 90], azimuth: [0, 0, 0, 0, 30, 30]}\n")
+    for _ in range(12):
+        assert checked_overrides(survey, ["random"],
+                                 {"string_length_range": (900.0, 980.0)})["well.md"][-1] == 1400
+    with pytest.raises(ValueError, match=r"survey ends at 1400.*draws strings of 900-1600 m"):
+        checked_overrides(survey, ["random"])
