@@ -189,8 +189,18 @@ class RayExecutor:
                         ray.init(address=ray_address, runtime_env=runtime_env,
                                  log_to_driver=False, configure_logging=False)
                 except ConnectionError as error:
-                    raise ConnectionError(f"ray_address: no Ray cluster at {ray_address!r} "
-                                          f"({error})") from error
+                    # `ray start` (Ray >= 2.59) turns token authentication on wherever
+                    # ~/.ray/auth_token exists, which a `local` run writes; Ray sends the
+                    # token to `auto` but to an address only with RAY_AUTH_MODE=token (it
+                    # does not hand a secret to an address unasked, nor do we): the join
+                    # failed after ~20 s as "no Ray cluster" (an outside check)
+                    hint = "" if os.environ.get("RAY_AUTH_MODE") == "token" else (
+                        "; if the cluster uses token authentication (Ray's default for "
+                        "`ray start` from 2.59), Ray sends your token only to 'auto' or "
+                        "with RAY_AUTH_MODE=token set (the token from RAY_AUTH_TOKEN or "
+                        "~/.ray/auth_token; `ray get-auth-token` prints the head's)")
+                    raise ConnectionError(f"ray_address: could not join a Ray cluster at "
+                                          f"{ray_address!r} ({error}){hint}") from error
                 except ValueError as error:  # not an address at all ("Invalid address ...")
                     raise ValueError(f"ray_address: {ray_address!r} is not 'local', 'auto' "
                                      f"or a cluster address host:port ({error})") from None

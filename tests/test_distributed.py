@@ -418,3 +418,58 @@ def test_a_local_ray_instance_starts_without_notices_on_the_console(tmp_path):
                           env=env, timeout=300, check=True)
     assert done.stdout.split() == ["[(0,", "1),", "(1,", "2)]", "token"]
     assert "Token authentication" not in done.stderr and "logging.cc" not in done.stderr
+
+
+def test_joining_a_cluster_with_token_authentication_by_its_address_says_how(tmp_path):
+    """`ray start` (Ray >= 2.59) turns token authentication on where ~/.ray/auth_token
+    exists, which a `--ray-address local` run writes, and Ray sends the token to an
+    explicit address only with RAY_AUTH_MODE=token: the join failed as "no Ray cluster"
+    (an outside check). The error says what Ray wants, and what it says works."""
+    import secrets
+    import socket
+    import subprocess
+    import tempfile
+
+    home = tmp_path / "home"
+    (home / ".ray").mkdir(parents=True)
+    (home / ".ray" / "auth_token").write_text(secrets.token_hex(32))
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("RAY_AUTH", "RAY_ADDRESS"))}
+    env["HOME"] = str(home)
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    ray_bin = Path(sys.executable).with_name("ray")
+    # its own session folder (short: Ray's socket paths must fit 107 bytes) and its own
+    # process group, stopped below without `ray stop`, which would stop every cluster
+    temp = tempfile.mkdtemp(prefix="rt", dir="/tmp")
+    head = subprocess.Popen([str(ray_bin), "start", "--head", "--block", f"--port={port}",
+                             "--num-cpus=1", "--include-dashboard=false",
+                             "--disable-usage-stats", f"--temp-dir={temp}"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    script = ("from drill_env.distributed import RayExecutor\n"
+              "try:\n"
+              f"    e = RayExecutor('127.0.0.1:{port}')\n"
+              "    print('joined', sorted(e.map_unordered(abs, [-3]))); e.close()\n"
+              "except ConnectionError as err:\n"
+              "    print(err)\n")
+    try:
+        deadline = time.monotonic() + 60.0
+        while True:  # the head's GCS port open
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+                break
+            except OSError:
+                assert time.monotonic() < deadline, "the head did not start"
+                time.sleep(0.5)
+        plain = subprocess.run([sys.executable, "-c", script], capture_output=True,
+                               text=True, env=env, timeout=180)
+        assert "could not join a Ray cluster" in plain.stdout
+        assert "RAY_AUTH_MODE=token" in plain.stdout
+        told = subprocess.run([sys.executable, "-c", script], capture_output=True,
+                              text=True, env={**env, "RAY_AUTH_MODE": "token"}, timeout=180)
+        assert told.stdout.split() == ["joined", "[(0,", "3)]"], told.stderr[-2000:]
+    finally:
+        os.killpg(head.pid, signal.SIGTERM)
+        head.wait(timeout=60)
