@@ -50,9 +50,29 @@ CANCEL_GRACE = 60.0
 CONNECT_TIMEOUT = 5.0
 
 
-def _call(fn: Callable[[Any], Any], item: Any) -> Any:
+def _call(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[str, type]]]:
+    """``fn(item)`` and the warnings it gave, (text, category) each: a Ray worker's
+    stderr does not reach the command (``log_to_driver=False``), so a warning said on
+    local processes (a WOB above the string's limit, a pipe in compression) was lost on
+    Ray (an outside check); the driver says them again (:func:`_said`)."""
+    import warnings
+
     _interruptible()
-    return fn(item)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # each task's own, whatever this worker said before
+        result = fn(item)
+    return result, [(str(w.message), w.category) for w in caught]
+
+
+def _said(reply: tuple[Any, list[tuple[str, type]]]) -> Any:
+    """The result of a :func:`_call` reply, its warnings given here (the command says
+    each once: :func:`drill_env.sweep.command_warning`)."""
+    import warnings
+
+    result, caught = reply
+    for text, category in caught:
+        warnings.warn(text, category, stacklevel=2)
+    return result
 
 
 def _interruptible() -> None:
@@ -226,7 +246,7 @@ class RayExecutor:
                 done, _ = ray.wait(list(in_flight), num_returns=1)
                 for ref in done:
                     k = in_flight.pop(ref)
-                    yield k, ray.get(ref)
+                    yield k, _said(ray.get(ref))
                     for k_next, item in pending:
                         in_flight[self._remote.remote(fn_ref, item)] = k_next
                         break
@@ -255,7 +275,7 @@ class RayExecutor:
                 return
             for ref in ready:
                 try:
-                    result = ray.get(ref, timeout=0.0)
+                    result = _said(ray.get(ref, timeout=0.0))
                 except Exception:  # noqa: BLE001 - a failed task: nothing to keep
                     continue
                 late(in_flight[ref], result)

@@ -305,6 +305,27 @@ def test_a_task_that_raises_is_not_run_again_and_stops_the_sweep_with_its_error(
     assert log.read_text().splitlines() == ["ran"]
 
 
+def test_a_warning_a_task_gives_on_ray_is_given_here(cluster):
+    """A Ray worker's stderr does not reach the command: a benchmark on a curved well said
+    its WOB above the string's limit on local processes and nothing on Ray (an outside
+    check). The warnings come back with the result and are given in the driver."""
+    import warnings
+
+    from drill_env.distributed import RayExecutor
+
+    executor = RayExecutor(cluster.address)
+    said = ["weight_on_bit: 100 kN is above the limit", "the pipe is in compression"]
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            results = sorted(executor.map_unordered(warnings.warn, said))
+    finally:
+        executor.close()
+    assert results == [(0, None), (1, None)]
+    assert sorted(str(w.message) for w in caught) == sorted(said)
+    assert {w.category for w in caught} == {UserWarning}
+
+
 def test_a_ray_session_the_user_started_is_theirs_to_stop(cluster):
     from drill_env.distributed import RayExecutor
 
