@@ -1780,3 +1780,30 @@ def test_a_session_interrupted_before_its_first_step_is_recorded_once(tmp_path, 
     record = json.loads((tmp_path / "run" / "run.json").read_text())
     starts = [s["from_env_steps"] for s in record["sessions"]]
     assert len(starts) == 2 and starts[0] == 0 and 0 < starts[1] < 512, starts
+
+
+def test_a_stopped_seed_sweep_says_what_finished_and_what_continues(tmp_path, capsys,
+                                                                   monkeypatch):
+    """On Ray a run's own line (what it saved, how to go on) does not reach the console:
+    a stopped sweep said only "interrupted" (an outside check). The sweep says which runs
+    finished and which continue from their checkpoints when the command runs again."""
+    import training.sweep as sweep
+
+    summary = {"seed": 3, "run": "r", "env_steps": 2048, "wall_s": 1.0, "best_return": 1.0,
+               "best_at_steps": 2048, "best_ssi": 0.1}
+
+    class StoppedAfterOne:  # the first run finishes, then a Ctrl-C
+        def map_unordered(self, fn, items, late=None):
+            yield 0, summary
+            raise KeyboardInterrupt
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(sweep, "make_executor", lambda *args: StoppedAfterOne())
+    with pytest.raises(KeyboardInterrupt):
+        sweep.train_seeds(tiny_config(), [3, 4, 5], tmp_path)
+    said = capsys.readouterr().err
+    assert (f"stopped with 1 of 3 runs finished ({tmp_path / sweep.RESULTS_FILE}); "
+            f"stick_slip_ppo_seed4, stick_slip_ppo_seed5 continue from their last "
+            f"checkpoints in {tmp_path}") in said
