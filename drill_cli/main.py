@@ -262,6 +262,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 RUN_SUMMARY_UNITS = {
     "rpm": "rpm", "weight_on_bit_kN": "kN", "mean_setpoint_rpm": "rpm",
     "mean_setpoint_kN": "kN", "mean_surface_torque_kNm": "kN m", "mean_hook_load_kN": "kN",
+    "mean_weight_on_bit_kN": "kN",
     "string_length_m": "m", "simulated_s": "s", "wall_s": "s",
     "start_kick": "1 (relative bit-speed kick)", "duration_given_s": "s",
     "mean_ssi": "1",
@@ -381,7 +382,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     # controller applied (constant:<rpm>/<kN> and the driller set their own, a stick-slip
     # policy corrects the speed): their episode means are what it ran at
     sums = dict.fromkeys(("target_speed", "target_wob", "speed_setpoint",
-                          "weight_on_bit_setpoint", "surface_torque", "hook_load"), 0.0)
+                          "weight_on_bit_setpoint", "surface_torque", "hook_load",
+                          "weight_on_bit"), 0.0)
     speeds: list[tuple[float, float]] = []  # (episode time s, bit rpm) per step
     held_set_points = controller.rate == "drive" and controller.env_id == "DrillString-v0"
     try:
@@ -400,6 +402,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             # what a driller reads first: the torque and the load on the rig
             sums["surface_torque"] += info["surface_torque"]
             sums["hook_load"] += info["hook_load"]
+            # what the bit got: below the set point where the string's mesh limits it
+            # (the summary said the 100 kN asked where the bit got 96.6: an outside check)
+            sums["weight_on_bit"] += info["weight_on_bit"]
             if held_set_points:  # the swing per block: only where it is reported
                 speeds.append((info["episode_time"], info["bit_speed"] / RPM))
             for key in keys:
@@ -417,7 +422,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     mean = {key: total / steps for key, total in sums.items()} if steps else {
         "target_speed": base.targets[0], "target_wob": base.targets[1],
         "speed_setpoint": base.targets[0], "weight_on_bit_setpoint": base.targets[1],
-        "surface_torque": info["surface_torque"], "hook_load": info["hook_load"]}
+        "surface_torque": info["surface_torque"], "hook_load": info["hook_load"],
+        "weight_on_bit": info["weight_on_bit"]}
     rpm, wob_kn = mean["target_speed"] / RPM, mean["target_wob"] / KILO
     setpoint_rpm = mean["speed_setpoint"] / RPM
     setpoint_kn = mean["weight_on_bit_setpoint"] / KILO
@@ -432,6 +438,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         "mean_setpoint_kN": setpoint_kn, "seed": args.seed,
         "mean_surface_torque_kNm": mean["surface_torque"] / KILO,
         "mean_hook_load_kN": mean["hook_load"] / KILO,
+        "mean_weight_on_bit_kN": mean["weight_on_bit"] / KILO,
         # what else set the episode: a history's runs of another string or start apart
         "config": None if args.config is None else str(args.config),
         "start_kick": args.start_kick, "duration_given_s": args.duration,
@@ -483,7 +490,8 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{summary['mean_rop'] * HOUR:.1f} m/h")
     print(f"  episode mean at the rig: surface torque "
           f"{summary['mean_surface_torque_kNm']:.2f} kN m, hook load "
-          f"{summary['mean_hook_load_kN']:.1f} kN")
+          f"{summary['mean_hook_load_kN']:.1f} kN; at the bit: WOB "
+          f"{summary['mean_weight_on_bit_kN']:.1f} kN")
     swings = summary["swing_per_block_rpm"]
     if swings is not None and len(swings) >= 2:
         lowest = min(rpm for t, rpm in speeds if t >= (len(swings) - 1) * SWING_BLOCK)
