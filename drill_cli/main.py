@@ -1309,7 +1309,9 @@ def cmd_well(args: argparse.Namespace) -> int:
     bad = [f for f in frictions if not (math.isfinite(f) and 0.0 <= f <= 2.0)]
     if bad:  # (none given is said above)
         raise argparse.ArgumentTypeError(f"--friction: factors in [0, 2], got {args.friction!r}")
-    whose = (f"{args.config.name}" if args.config is not None
+    # (a file of only a well was named as the string's: "string of curved.yaml")
+    whose = (f"{args.config.name}" if any(key == "string" or key.startswith("string.")
+                                          for key in overrides)
              else f"the {args.scenario} scenario")
     paths = write_well(name, trajectory, config, args.out, frictions, whose)
     end, _, _ = trajectory.at(trajectory.total_md)

@@ -133,7 +133,10 @@ def test_the_well_command_draws_the_scenarios_or_the_configs_own_well(tmp_path, 
     assert main(["well", "--config", str(yaml), "--out", str(tmp_path)]) == 0
     data = json.loads((tmp_path / "well_mine.json").read_text())
     assert data["survey"]["md"] == [0.0, 300.0, 1250.0]
-    assert "well mine: 1250 m MD" in capsys.readouterr().out
+    said = capsys.readouterr().out
+    assert "well mine: 1250 m MD" in said
+    # a file of only a well drills the scenario's string (it said "string of mine.yaml")
+    assert "string of the default scenario" in said and "string of mine.yaml" not in said
     yaml.write_text("well: {md: [0, 2000], inclination: [0, 0], azimuth: [0, 0]}\n")
     assert main(["well", "--config", str(yaml), "--out", str(tmp_path)]) == 0
     assert "well mine: 2000 m MD" in capsys.readouterr().out  # vertical, but its own
