@@ -61,7 +61,8 @@ def _call(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[str, typ
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")  # each task's own, whatever this worker said before
         result = fn(item)
-    return result, [(str(w.message), w.category) for w in caught]
+    # each once (a warning given at every step of a training run came back as thousands)
+    return result, list(dict.fromkeys((str(w.message), w.category) for w in caught))
 
 
 def _said(reply: tuple[Any, list[tuple[str, type]]]) -> Any:

@@ -305,25 +305,39 @@ def test_a_task_that_raises_is_not_run_again_and_stops_the_sweep_with_its_error(
     assert log.read_text().splitlines() == ["ran"]
 
 
+def _warn_often(n: int) -> int:
+    import warnings
+
+    for _ in range(100):
+        warnings.warn("at every step", RuntimeWarning, stacklevel=1)
+    return n
+
+
 def test_a_warning_a_task_gives_on_ray_is_given_here(cluster):
     """A Ray worker's stderr does not reach the command: a benchmark on a curved well said
     its WOB above the string's limit on local processes and nothing on Ray (an outside
     check). The warnings come back with the result and are given in the driver."""
     import warnings
 
+    import ray.cloudpickle
+
     from drill_env.distributed import RayExecutor
 
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # _warn_often
     executor = RayExecutor(cluster.address)
     said = ["weight_on_bit: 100 kN is above the limit", "the pipe is in compression"]
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             results = sorted(executor.map_unordered(warnings.warn, said))
+            # a task that gives the same warning at every step sends it back once
+            assert list(executor.map_unordered(_warn_often, [3])) == [(0, 3)]
     finally:
         executor.close()
+        ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
     assert results == [(0, None), (1, None)]
-    assert sorted(str(w.message) for w in caught) == sorted(said)
-    assert {w.category for w in caught} == {UserWarning}
+    assert sorted(str(w.message) for w in caught) == sorted([*said, "at every step"])
+    assert {w.category for w in caught} == {UserWarning, RuntimeWarning}
 
 
 def test_a_ray_session_the_user_started_is_theirs_to_stop(cluster):

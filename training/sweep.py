@@ -94,8 +94,8 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
                 keep(k, summary)
         except KeyboardInterrupt:  # (on Ray the runs' own lines, what each saved, do not
             # reach this console: the sweep said only "interrupted")
-            if progress:
-                left = [run_name(c) for c in todo if str(c.seed) not in store]
+            left = [run_name(c) for c in todo if str(c.seed) not in store]
+            if progress and left:
                 print(f"training seeds: stopped with {len(configs) - len(left)} of "
                       f"{len(configs)} runs finished ({out / RESULTS_FILE}); "
                       f"{', '.join(left)} continue from their last checkpoints in {out} "
