@@ -306,6 +306,22 @@ def test_tube_presets_weigh_what_the_api_tables_list(make, lb_per_ft):
     assert kg_per_m / 1.48816 == pytest.approx(lb_per_ft, abs=1.0)  # 1 lb/ft = 1.48816 kg/m
 
 
+@pytest.mark.parametrize("make, listed", [(cp.drill_pipe_5, 17.93), (cp.drill_pipe_5_5, 19.81),
+                                          (cp.heavy_weight_5, None)])
+def test_pipe_bodies_weigh_what_the_api_plain_end_formula_gives(make, listed):
+    """API Spec 5DP's plain-end weight of a steel tube, w = 10.68 (D - t) t lb/ft (D, t
+    in inches), to its constant's rounding: 5 in x 0.362 in 17.93 lb/ft and 5 1/2 in x
+    0.361 in 19.81 lb/ft as its table lists them; the heavy-weight pipe's tube body (5 x
+    3 in; its tool joints and centre upset, 49.3 lb/ft nominal, are not modelled). The
+    check the test above makes to the pound, to 0.2 %."""
+    tube = make(30.0)
+    d, wall = tube.outer_diameter / INCH, (tube.outer_diameter - tube.inner_diameter) / 2 / INCH
+    api = 10.68 * (d - wall) * wall
+    if listed is not None:
+        assert api == pytest.approx(listed, rel=1e-3)
+    assert tube.density * tube.area / 1.48816 == pytest.approx(api, rel=2e-3)
+
+
 def test_buoyed_weight_takes_the_mud_s_buoyancy_factor():
     """Weight in mud = weight in air x (1 - mud weight / 65.5 ppg), the driller's
     buoyancy factor (65.5 ppg: steel; Bourgoyne et al., Applied Drilling Engineering):

@@ -375,3 +375,27 @@ def test_the_stick_slip_limit_cycle_is_that_of_an_independent_switched_integrati
         assert sim["period"] == pytest.approx(exact["period"], rel=0.005)
         assert sim["stuck"] == pytest.approx(exact["stuck"], abs=0.01)
     assert abs(errors[0.5e-3]["peak"]) < 0.5 * abs(errors[2.0e-3]["peak"])  # converges
+
+
+def test_the_thresholds_docs_model_states_are_the_linear_analysis_of_today():
+    """docs/model.md gives the stiff top drive's linear stick-slip thresholds at 100 kN
+    (hard rock on the paper string and on the default scenario's, soft rock on both): the
+    numbers this analysis gives, to the whole rpm they are stated in (a change of string,
+    rock or analysis left them stale; a review of the tests)."""
+    import re
+    from pathlib import Path
+
+    from drill_env.physics.config import replace
+    from drill_env.scenarios import HARD, SOFT, make_scenario
+
+    text = (Path(__file__).parents[2] / "docs" / "model.md").read_text()
+    hard = re.search(r"linear threshold (\d+) rpm on the paper string.*?; (\d+) rpm on the "
+                     r"`default`", text, re.S)
+    soft = re.search(r"\(threshold (\d+) and (\d+) rpm at 100 kN\)", text)
+    assert hard and soft, "docs/model.md no longer states the thresholds this test reads"
+    strings = (SimulationConfig(), make_scenario("default").config)
+    for rock, stated in ((HARD, hard), (SOFT, soft)):
+        for k, config in enumerate(strings):
+            config = replace(config, formation=FormationConfig(rocks=(rock,)))
+            threshold = stick_slip_threshold(Simulator(config), 100e3) / RPM
+            assert threshold == pytest.approx(int(stated[k + 1]), abs=0.5), (rock.name, k)

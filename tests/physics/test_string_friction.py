@@ -205,6 +205,10 @@ def test_a_string_stuck_along_a_lateral_neither_creeps_nor_chatters_and_breaks_a
     assert np.max(np.abs(sim.vt)) < 1e-9
     trapped = sim.state[S.SURFACE_TORQUE]
     assert trapped > 1e3  # the friction holds the wound-up string
+    # and no more than static friction can: the string at rest off bottom, the top's
+    # torque is the wall's, at most mu_static r N summed over the nodes (5.7 of 7.2 kN m)
+    capacity = np.sum(sim.node_radius[soft] * sim.node_force[soft])
+    assert trapped <= config.contact.friction_static * capacity * (1.0 + 1e-9)
     held = sim.soft_work[2] > 0.0  # the nodes the last solve held: at rest, no acceleration
     assert held.sum() > 0.7 * soft.sum()
     assert np.all(sim.at[held] == 0.0) and np.all(sim.vt[held] == 0.0)
