@@ -1,6 +1,7 @@
 """Closed-form validation of the FE drill string (SPEC section 3)."""
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -32,6 +33,7 @@ from drill_env.physics.fem import (
     beam_geometric_stiffness,
     beam_stiffness,
     build_mesh,
+    from_band,
     to_band,
 )
 from drill_env.physics.layout import R
@@ -614,6 +616,107 @@ def test_span_thrown_at_the_wall_does_not_tunnel(speed):
           f"of {clearance * 1e3:.1f} mm clearance")
     assert 0.0 < peak < 0.5 * clearance
     assert peak == pytest.approx(fine, rel=0.1)
+
+
+def _span_throw(time_step: float, speed: float = 2.0) -> tuple[Simulator, int]:
+    """The default string (macroscopic bit, not turning, at rest in one plane) with the
+    collar span between the stabilizers 10 m and 19 m above the bit thrown at the wall
+    in x (first-mode profile, ``speed`` at mid-span); and the mid-span node."""
+    sim = Simulator(SimulationConfig(bit_model="macroscopic",
+                                     solver=SolverConfig(time_step=time_step)))
+    sim.reset(OperatingPoint(0.0, 0.0))
+    height = sim.mesh.node_depth[-1] - sim.mesh.node_depth
+    span = (height > 10.0 + 1e-9) & (height < 19.0 - 1e-9)
+    sim.vl[0::2, 0][span] = speed * np.sin(math.pi * (height[span] - 10.0) / 9.0)
+    return sim, int(np.argmin(np.abs(height - 14.5)))
+
+
+def _impact(history: np.ndarray, clearance: np.ndarray, k: int, dt: float,
+            energy: Callable[[np.ndarray], float]) -> tuple[float, float, float]:
+    """(peak penetration of node ``k`` (m), contact time (s), energy after it / before)
+    of a history of lateral x states (one row per sample ``dt`` apart: displacements then
+    velocities, w and tilt interleaved; the first row the start)."""
+    w = np.abs(history[:, : history.shape[1] // 2 : 2])
+    touching = (w > clearance).any(axis=1)
+    first = int(np.flatnonzero(touching)[0])
+    end = first + int(np.flatnonzero(~touching[first:])[0])  # every contact let go
+    return (float(np.max(w[:, k] - clearance[k])), (end - first) * dt,
+            energy(history[end]) / energy(history[0]))
+
+
+@pytest.mark.slow
+def test_a_span_thrown_at_the_wall_agrees_with_scipy_on_the_same_equations():
+    """The integrator and the wall's penalty contact (eqs. 18-20) against scipy's Radau
+    (rtol 1e-8) on the same semi-discrete equations, M u'' + C u' + K u = f_wall(u, u'),
+    in one plane without rotation (no friction, no torsion): peak penetration, contact
+    time and the energy the span keeps. At 0.1 ms the simulator is the converged answer;
+    at the default 2 ms it stays stable and keeps the energy to 3 %, but its peak
+    penetration is ~18 % low (docs/model.md says so; a review of the tests: the
+    simulator had only been compared with itself at a finer step)."""
+    from scipy.integrate import solve_ivp
+
+    sim, k = _span_throw(1.0e-4)
+    cfg = sim.config
+    n = len(sim.lat_m)
+    free = np.arange(1, n - 1 if cfg.bit.axis_aligned else n)  # top pinned, bit tilt held
+    m = sim.lat_m[free]
+    stiffness = from_band(sim.lat_k + sim.lat_kg_weight)[np.ix_(free, free)]
+    damping = (cfg.damping.mass_proportional * np.diag(m)
+               + from_band(sim.lat_k_damp)[np.ix_(free, free)])
+    # the w of every node but the top's and the bit's (its gauge is another law; the
+    # span's throw does not reach it: asserted below)
+    wall = np.flatnonzero((free % 2 == 0) & (free < n - 2))
+    gap = sim.node_clearance[free[wall] // 2]
+    kw, cw = cfg.contact.stiffness, cfg.contact.damping
+    size = len(free)
+    linear = np.block([[np.zeros((size, size)), np.eye(size)],
+                       [-stiffness / m[:, None], -damping / m[:, None]]])
+
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        x, v = y[wall], y[size + wall]
+        side = np.sign(x)
+        push = kw * (np.abs(x) - gap) + cw * side * v  # the normal force, clamped at zero
+        push = np.where((np.abs(x) > gap) & (push > 0.0), push, 0.0)
+        out = linear @ y
+        out[size + wall] -= side * push / m[wall]
+        return out
+
+    def energy(state: np.ndarray) -> float:  # lateral x: kinetic and elastic
+        u, v = state[free], state[n + free]
+        return 0.5 * v @ (m * v) + 0.5 * u @ (stiffness @ u)
+
+    t_end, dt = 0.07, 1.0e-4  # the contact lasts ~44 ms from ~7 ms
+    start = np.concatenate([sim.ul[free, 0], sim.vl[free, 0]])
+    samples = np.arange(round(t_end / dt) + 1) * dt
+    solved = solve_ivp(rhs, (0.0, t_end), start, method="Radau", jac=linear, rtol=1e-8,
+                       atol=1e-12, t_eval=samples, max_step=2.0e-4)
+    assert solved.success
+    full = np.zeros((len(samples), 2 * n))
+    full[:, free], full[:, n + free] = solved.y[:size].T, solved.y[size:].T
+    clearance = sim.node_clearance
+    ref = _impact(full, clearance, k, dt, energy)
+    assert np.max(np.abs(full[:, n - 2])) < clearance[-1]  # the bit stays off the wall
+
+    def simulated(time_step: float) -> tuple[float, float, float]:
+        run, node = _span_throw(time_step)
+        assert node == k
+        rows = [np.concatenate([run.ul[:, 0], run.vl[:, 0]])]
+        for _ in range(round(t_end / time_step)):
+            run.advance(1, 0.0, run.string_weight)
+            rows.append(np.concatenate([run.ul[:, 0], run.vl[:, 0]]))
+        assert run.status == 0
+        return _impact(np.array(rows), clearance, k, time_step, energy)
+
+    fine, default = simulated(1.0e-4), simulated(2.0e-3)
+    print(f"scipy peak {ref[0] * 1e3:.3f} mm, contact {ref[1] * 1e3:.1f} ms, energy kept "
+          f"{ref[2]:.3f}; 0.1 ms {fine}; 2 ms {default}")
+    assert ref[0] > 0.0 and 0.0 < ref[2] < 1.0  # it touched, and the wall took energy
+    assert fine[0] == pytest.approx(ref[0], rel=0.01)
+    assert fine[1] == pytest.approx(ref[1], abs=2.0e-4)
+    assert fine[2] == pytest.approx(ref[2], abs=0.005)
+    assert default[0] == pytest.approx(ref[0], rel=0.25)  # ~18 % low, said in the docs
+    assert default[1] == pytest.approx(ref[1], rel=0.1)
+    assert default[2] == pytest.approx(ref[2], abs=0.03)
 
 
 def test_mesh_check_raises_exactly_where_an_element_passes_80_percent_of_its_buckling_load():
