@@ -429,6 +429,30 @@ class TestGauge:
         out = loads(self.cfg, self.fa, bx=self.bx, vy=0.05, omega=0.0)
         assert out[BitOut.GAUGE_Y] < 0.0
 
+    @pytest.mark.parametrize("omega", [5.0, -8.0])
+    def test_a_pad_rolling_on_the_wall_without_slip_feels_no_friction(self, omega):
+        """The pad's material point slips along the wall at the centre's tangential speed
+        plus omega r_C (docs/model.md section 4, in place of the printed eq. 37): a bit
+        whose centre moves at -omega r_C along the wall rolls on it, with neither
+        friction nor gauge torque; a slip v_t added gets mu(|v_t| / r_C) of the normal
+        force against it. By hand, where the oracle of the same authors had been the
+        only check of rotation and lateral motion together (a review of the tests)."""
+        rolling = -omega * self.r_c
+        f_hard = 0.3 * HARD.wall_stiffness * self.penetration
+        f_soft = 0.7 * SOFT.wall_stiffness * self.penetration
+        out = loads(self.cfg, self.fa, bx=self.bx, vy=rolling, omega=omega)
+        assert out[BitOut.GAUGE_X] == pytest.approx(-(f_hard + f_soft), rel=1e-9)
+        assert abs(out[BitOut.GAUGE_Y]) < 1e-9 * (f_hard + f_soft)
+        assert abs(out[BitOut.GAUGE_TORQUE]) < 1e-9 * self.r_c * (f_hard + f_soft)
+        for slip in (0.02, -0.03):
+            out = loads(self.cfg, self.fa, bx=self.bx, vy=rolling + slip, omega=omega)
+            w = abs(slip) / self.r_c
+            mu_hard = formation.resistance(w, HARD.mu_min, HARD.mu_max, HARD.st1, HARD.st2)
+            mu_soft = formation.resistance(w, SOFT.mu_min, SOFT.mu_max, SOFT.st1, SOFT.st2)
+            friction = -math.copysign(mu_hard * f_hard + mu_soft * f_soft, slip)
+            assert out[BitOut.GAUGE_Y] == pytest.approx(friction, rel=1e-9)
+            assert out[BitOut.GAUGE_TORQUE] == pytest.approx(self.r_c * friction, rel=1e-9)
+
     def test_friction_is_regularised_and_capped_at_low_slip(self):
         vy = 1e-4
         full = loads(self.cfg, self.fa, bx=self.bx, vy=vy, omega=0.0, regularisation=0.0)
