@@ -118,14 +118,21 @@ def test_very_soft_layer_gives_a_larger_lateral_force_peak(case2, case3):
     contact's first damping case 2's spanned 37-65 kN across initial kicks of 0.5-3 %;
     with today's, 9-13 kN against case 3's 11 kN), while the 95th percentile keeps case
     3 above case 2 at every kick (docs/paper-reproduction.md). The paper has case 3's
-    peaks larger too: that part is not reproduced.
+    peaks larger too: that part is not reproduced. Held at each kick of 0.5-3 % with a
+    margin, 5 % (measured 10-29 %), not merely above (a review of the tests: one kick,
+    and 0.1 % would have passed).
     """
     def peak(run):
         share = run.share_at(run.time, 1)
         transition = (share > 0.01) & (share < 0.99)
         return np.percentile(lateral_force(run)[transition], 95)
 
-    assert peak(case3) > peak(case2)
+    assert peak(case3) > 1.05 * peak(case2)  # the fixtures' kick, 1 %
+    for kick in (0.005, 0.02, 0.03):
+        soft, very_soft = (make_scenario(name) for name in ("paper_case2", "paper_case3"))
+        runs = [simulate(sc.config, 50.0, sc.weight_on_bit, 150.0, kick=kick)
+                for sc in (soft, very_soft)]
+        assert peak(runs[1]) > 1.05 * peak(runs[0]), kick
 
 
 def test_asymmetric_bit_whirls_forward_for_most_of_the_run():
