@@ -1739,9 +1739,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         return exit_status(caught)
 
 
+def _joined_values(argv: Sequence[str]) -> list[str]:
+    """``--seeds -1,2`` as ``--seeds=-1,2``: argparse reads a value that starts with '-'
+    and is not a plain number as an option, and said "expected one argument" (a
+    negative list or 1e3 refused without naming what was wrong); no option of ours
+    starts with '-' and a digit, so the value is the option's, judged by its checks."""
+    out: list[str] = []
+    for token in argv:
+        if out and token[:2] in {f"-{d}" for d in "0123456789"} and \
+                out[-1].startswith("--") and "=" not in out[-1]:
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
+
+
 def _main(argv: Sequence[str] | None) -> int:
     top = parser()
-    if not (sys.argv[1:] if argv is None else argv):  # no command: what the commands are
+    argv = _joined_values(sys.argv[1:] if argv is None else argv)
+    if not argv:  # no command: what the commands are
         top.print_help()
         return 2
     args, extra = top.parse_known_args(argv)

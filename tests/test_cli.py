@@ -1451,3 +1451,16 @@ def test_run_says_the_weight_on_bit_the_bit_got_where_the_mesh_limits_it(tmp_pat
     assert 90.0 < summary["mean_weight_on_bit_kN"] < 99.0
     assert f"at the bit: WOB {summary['mean_weight_on_bit_kN']:.1f} kN" in \
         capsys.readouterr().out
+
+
+def test_a_value_starting_with_a_minus_sign_is_the_options_and_judged_by_its_check(capsys):
+    """argparse read `--seeds -1,2` (and `--wob -1e3`) as an option and said only
+    "expected one argument"; the value is the option's, and its own check names what is
+    wrong with it."""
+    for argv, said in ((["train", "--task", "stick_slip", "--seeds", "-1,2"],
+                        "--seeds: distinct integers"),
+                       (["benchmark", "--wob", "-1e3"], "--wob: must be >= 0 kN, got -1e3")):
+        with pytest.raises(SystemExit):
+            main(argv)
+        err = capsys.readouterr().err
+        assert said in err and "expected one argument" not in err
