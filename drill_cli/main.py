@@ -86,18 +86,25 @@ kilonewtons.__name__ = "kN"
 def replaced_episode_notes(controllers: Sequence[str], env_id: str,
                            scenarios: Sequence[str], settings: Any) -> list[str]:
     """One note per episode setting (scenario, length, start kick) a policy trained
-    under and a task benchmark replaces by its own, as ``evaluate`` says them."""
-    from agents.benchmark import replaced_episode_settings
+    under and a task benchmark replaces by its own, as ``evaluate`` says them: a run's
+    (``learned:RUN``) and a controller of your own's ``env_kwargs()`` (an ``sb3_policy``
+    trained on 60 s episodes was run on the benchmark's without a word)."""
+    from agents.benchmark import declared_env_kwargs, replaced_episode_settings
     from agents.learned import trained_env
+    from agents.registry import is_imported, make_controller
 
     notes = []
     for name in controllers:
         if name == "learned" or name.startswith("learned:"):
             trained = trained_env(name.partition(":")[2] or None, env_id)[1]
-            notes += [f"note: {name} trained with {key}={was!r}; the benchmark runs every "
-                      f"controller on its own episodes ({key}={value!r})"
-                      for key, was, value in replaced_episode_settings(
-                          trained, settings, ",".join(scenarios))]
+        elif is_imported(name) and (made := make_controller(name)).env_id == env_id:
+            trained = declared_env_kwargs(made, name)
+        else:
+            continue
+        notes += [f"note: {name} trained with {key}={was!r}; the benchmark runs every "
+                  f"controller on its own episodes ({key}={value!r})"
+                  for key, was, value in replaced_episode_settings(
+                      trained, settings, ",".join(scenarios))]
     return notes
 
 

@@ -508,6 +508,16 @@ def test_a_task_benchmark_says_which_training_episodes_it_replaces(tmp_path):
                      "(episode_duration=30.0)"]
     assert replaced_episode_notes(["learned"], "DrillStickSlip-v0", ["random"],
                                   settings) == []  # the shipped policy: the task's own
+    # a model of your own (sb3_policy) says the episodes it trained on the same way
+    mine = tmp_path / "mine.py"
+    mine.write_text("from agents.learned import sb3_policy\n"
+                    f"Mine = sb3_policy({str(run / 'model.zip')!r}, "
+                    f"{str(run / 'vecnormalize.pkl')!r}, algo='sac', "
+                    "env_id='DrillStickSlip-v0', env_kwargs={'episode_duration': 60.0})\n")
+    assert replaced_episode_notes([f"{mine}:Mine"], "DrillStickSlip-v0", ["random"],
+                                  settings) == [
+        f"note: {mine}:Mine trained with episode_duration=60.0; the benchmark runs every "
+        "controller on its own episodes (episode_duration=30.0)"]
 
 
 def test_benchmark_names_bad_input(capsys):
