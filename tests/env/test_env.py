@@ -611,8 +611,14 @@ def test_the_drawworks_unloads_at_its_rate_and_never_past_the_mesh_limit():
     assert info["weight_on_bit"] == pytest.approx(95e3)  # 50 kN/s x 0.1 s
     env = DrillStringEnv(scenario="lateral_60", episode_duration=5.0)
     with pytest.warns(RuntimeWarning, match=r"reset options: weight_on_bit: 200 kN is above "
-                                            r"this string's weight_on_bit_limit, 19\d\.\d kN"):
+                                            r"this string's weight_on_bit_limit, 19\d\.\d kN"
+                      ) as said:
         _, info = env.reset(seed=0, options={"weight_on_bit": 200e3})
+    # at the line that asked (it pointed into the env, or through gym.make into gymnasium)
+    assert said[0].filename == __file__
+    with pytest.warns(RuntimeWarning, match="weight_on_bit_limit") as said:
+        gym.make("DrillString-v0", scenario="lateral_60", weight_on_bit=200e3)
+    assert said[0].filename == __file__
     limit = info["weight_on_bit_limit"]
     assert limit < 199e3 and info["weight_on_bit"] <= limit
     for _ in range(45):  # 100 kN/s x 4.5 s: the set point's 200 kN is long reached
