@@ -668,7 +668,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     try:
         settings = BenchmarkSettings(duration=args.duration, warmup=args.warmup,
                                      start_kick=args.start_kick, fidelity=fidelity,
-                                     physics=checked_overrides(args.config, scenarios, lengths),
+                                     physics=checked_overrides(
+                                         args.config, scenarios, lengths,
+                                         "--string-lengths with --task"),
                                      env_kwargs=lengths,
                                      surface_speed=set_points.get("surface_speed"),
                                      weight_on_bit=set_points.get("weight_on_bit"))
@@ -1093,35 +1095,26 @@ def _merged(config, overrides: dict[str, Any], path: Path | None):
 
 
 def checked_overrides(path: Path | None, scenarios: Sequence[str],
-                      params: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                      params: Mapping[str, Any] | None = None, narrow: str = "") -> dict[str, Any]:
     """:func:`read_overrides`, merged once into each scenario's config here, so that a
     bad field fails now, named by its dotted path, not in the first episode. A randomised
     scenario is checked on the longest string its ``params``' range draws (a survey must
     reach that one; it was an unseeded draw from the default range, so that a survey
-    shorter than the default range's top failed at random whatever --string-lengths)."""
-    import inspect
-
-    import numpy as np
-
-    from drill_env.scenarios import RANDOMISED, SCENARIOS, make_scenario
+    shorter than the default range's top failed at random whatever --string-lengths);
+    ``narrow``: the option that narrows the range ("": the command has none)."""
+    from drill_env.overrides import drawn_with_physics
+    from drill_env.scenarios import RANDOMISED, make_scenario
 
     overrides = read_overrides(path)  # the file read once
     for name in scenarios if overrides else ():
         if name not in RANDOMISED:
             _merged(make_scenario(name).config, overrides, path)
             continue
-        low, high = dict(params or {}).get("string_length_range") or inspect.signature(
-            SCENARIOS[name]).parameters["string_length_range"].default
-        longest = make_scenario(name, np.random.default_rng(0),
-                                **{**(params or {}), "string_length_range": (high, high)})
         try:
-            _merged(longest.config, overrides, path)
+            drawn_with_physics(name, dict(params or {}), overrides, narrow=narrow)
         except ValueError as err:
-            if "the survey ends at" not in str(err):
-                raise
-            raise ValueError(f"{err}: the {name} scenario draws strings of {low:g}-{high:g} "
-                             "m; extend the survey or draw shorter strings (--string-lengths "
-                             "with --task)") from None
+            raise ValueError(f"--config {path}: {str(err).removeprefix('physics: ')}"
+                             ) from None
     return overrides
 
 
@@ -1254,6 +1247,7 @@ def top_drive_laws(config: Any) -> list[Any]:
 
 
 def cmd_well(args: argparse.Namespace) -> int:
+    from drill_env.overrides import sets_section
     from drill_env.physics.config import MAX_STRING_LENGTH
     from drill_env.physics.trajectory import Survey, Trajectory
     from drill_env.scenarios import make_scenario
@@ -1290,7 +1284,7 @@ def cmd_well(args: argparse.Namespace) -> int:
     else:  # the scenario's hole, or the one --config gives (its well section)
         well = config.well
         survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
-        given = any(key == "well" or key.startswith("well.") for key in overrides)
+        given = sets_section(overrides, "well")
         # (a scenario's hole is named apart from the preset well of the same name, which
         # --well draws at another length: neither overwrites the other's chart)
         name, source = ((args.config.stem, f"--config {args.config}") if given
@@ -1316,10 +1310,12 @@ def cmd_well(args: argparse.Namespace) -> int:
     bad = [f for f in frictions if not (math.isfinite(f) and 0.0 <= f <= 2.0)]
     if bad:  # (none given is said above)
         raise argparse.ArgumentTypeError(f"--friction: factors in [0, 2], got {args.friction!r}")
-    # (a file of only a well was named as the string's: "string of curved.yaml")
-    whose = (f"{args.config.name}" if any(key == "string" or key.startswith("string.")
-                                          for key in overrides)
-             else f"the {args.scenario} scenario")
+    # the string the chart's loads are of (a file of only a well was named as the
+    # string's: "string of curved.yaml"; one of the mud said nothing of it)
+    whose = (args.config.name if sets_section(overrides, "string") else
+             f"the {args.scenario} scenario" + (
+                 f" with {args.config.name}" if any(not sets_section((key,), "well")
+                                                     for key in overrides) else ""))
     paths = write_well(name, trajectory, config, args.out, frictions, whose)
     end, _, _ = trajectory.at(trajectory.total_md)
     print(f"well {name}: {trajectory.total_md:.0f} m MD, TVD {end[0, 2]:.0f} m, departure "

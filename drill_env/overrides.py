@@ -14,7 +14,7 @@ from drill_env.physics.config import SimulationConfig, StringConfig, replace
 from drill_env.physics.formation import across_the_hole
 from drill_env.physics.trajectory import Survey, Trajectory, bit_depth
 
-__all__ = ["MAX_LEAD", "with_physics"]
+__all__ = ["MAX_LEAD", "drawn_with_physics", "sets_section", "with_physics"]
 
 
 def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
@@ -44,6 +44,36 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
     return replace(changed, formation=across_the_hole(changed.formation, tangent[0]))
 
 
+def drawn_with_physics(name: str, params: Mapping[str, Any], overrides: Mapping[str, Any],
+                       length: float | None = None, narrow: str = "string_length_range"
+                       ) -> SimulationConfig:
+    """The randomised ``name`` drawn (rng 0) with ``params`` at string ``length`` (None:
+    the longest its range draws), with the ``overrides``; a survey ending above the
+    string is said with the range, and ``narrow`` (what narrows it; "": nothing)."""
+    import inspect
+
+    from drill_env.scenarios import SCENARIOS, make_scenario  # (it imports this module)
+
+    low, high = params.get("string_length_range") or inspect.signature(
+        SCENARIOS[name]).parameters["string_length_range"].default
+    draw = make_scenario(name, np.random.default_rng(0), **{
+        **params, "string_length_range": (high, high) if length is None else (length, length)})
+    try:
+        return with_physics(draw.config, overrides, drawn=True)
+    except ValueError as err:
+        if "the survey ends at" not in str(err):
+            raise
+        raise ValueError(f"physics: {err}: the {name} scenario draws strings of {low:g}-"
+                         f"{high:g} m" + (f" ({narrow}); extend the survey or narrow the range"
+                                          if narrow else "; extend the survey")) from None
+
+
+def sets_section(keys: Any, section: str) -> bool:
+    """Whether the dotted override ``keys`` set the config ``section`` ("well"), whole
+    or a field of it."""
+    return any(key == section or key.startswith(f"{section}.") for key in keys)
+
+
 def _sets_layers(keys: Any) -> bool:
     """Whether the override ``keys`` set the formation's interfaces (the whole formation
     or its ``interfaces``)."""
@@ -61,12 +91,12 @@ def _overridden(config: SimulationConfig, overrides: Mapping[str, Any]) -> Simul
         overrides = {"string.bha": blank.bha, "string.stabilizers": blank.stabilizers,
                      **overrides}
     given = tuple(overrides)
-    sets_well = any(key == "well" or key.startswith("well.") for key in given)
+    sets_well = sets_section(given, "well")
     # the new string's length, before a survey (the scenario's, which may now be short,
     # or the overrides', which may end above the scenario's bit) is checked
     probe = config if config.well.vertical else replace(config, well={})
     changed = replace(probe, **{key: value for key, value in overrides.items()
-                                if not (key == "well" or key.startswith("well."))})
+                                if not sets_section((key,), "well")})
     shift = changed.string.length - config.string.length
     if probe is config and not sets_well and (shift == 0.0 or "initial_depth" in given):
         # nothing to move (the usual case, as at every random reset)

@@ -54,7 +54,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import Field
 
-from drill_env.overrides import with_physics
+from drill_env.overrides import drawn_with_physics, with_physics
 from drill_env.physics.bit import asymmetric_bit, symmetric_bit
 from drill_env.physics.components import realistic_string
 from drill_env.physics.config import (
@@ -582,16 +582,7 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
         if top_wob is None else top_wob
     buckling: list[tuple[float, Any]] = []  # (length, the first component) that buckle
     for length in (*np.arange(high, low, -DRAW_CHECK_STEP), low):
-        draw = make_scenario(name, np.random.default_rng(0),
-                             **{**params, "string_length_range": (length, length)})
-        try:
-            config = with_physics(draw.config, overrides, drawn=True)
-        except ValueError as err:
-            if "the survey ends at" not in str(err):
-                raise
-            raise ValueError(f"physics: {err}: the {name} scenario draws strings of "
-                             f"{low:g}-{high:g} m (string_length_range); extend the survey "
-                             "or narrow the range") from None
+        config = drawn_with_physics(name, params, overrides, length)
         buckled = pipe_buckling(config, top) if config.solver.lateral else []
         if buckled:
             buckling.append((float(length), buckled[0]))

@@ -1419,11 +1419,12 @@ def test_a_sweeps_workers_say_their_warnings_as_the_command_does(tmp_path, capfd
     assert "warnings.warn(" not in err and ".py:" not in err
 
 
-def test_a_task_benchmark_checks_a_curved_survey_against_the_string_lengths_typed(tmp_path):
+def test_a_task_benchmark_checks_a_curved_survey_against_the_string_lengths_typed(
+        tmp_path, capsys):
     """A survey that reaches the longest string of --string-lengths is taken every time
     (an outside check: it was checked on an unseeded draw from the default 900-1600 m, and
     refused at random, 4 runs in 7); one shorter than the range's top is refused always,
-    naming the range."""
+    naming the range and what narrows it (run has nothing that does)."""
     from drill_cli.main import checked_overrides
 
     survey = tmp_path / "curved.yaml"
@@ -1432,8 +1433,16 @@ def test_a_task_benchmark_checks_a_curved_survey_against_the_string_lengths_type
     for _ in range(12):
         assert checked_overrides(survey, ["random"],
                                  {"string_length_range": (900.0, 980.0)})["well.md"][-1] == 1400
-    with pytest.raises(ValueError, match=r"survey ends at 1400.*draws strings of 900-1600 m"):
-        checked_overrides(survey, ["random"])
+    assert main(["benchmark", "--task", "stick_slip", "--controllers", "stiff", "--seeds",
+                 "1", "--duration", "2", "--warmup", "1", "--string-lengths", "900,980",
+                 "--config", str(survey), "--out", str(tmp_path / "fits")]) == 0
+    for argv, remedy in ((["benchmark", "--task", "stick_slip"],
+                          " (--string-lengths with --task); extend the survey or narrow the "
+                          "range"),
+                         (["run", "--scenario", "random"], "; extend the survey\n")):
+        assert main([*argv, "--config", str(survey), "--out", str(tmp_path / "short")]) == 2
+        err = capsys.readouterr().err
+        assert "survey ends at 1400.0 m" in err and "draws strings of 900-1600 m" + remedy in err
 
 
 def test_run_says_the_weight_on_bit_the_bit_got_where_the_mesh_limits_it(tmp_path,

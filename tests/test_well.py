@@ -137,6 +137,10 @@ def test_the_well_command_draws_the_scenarios_or_the_configs_own_well(tmp_path, 
     assert "well mine: 1250 m MD" in said
     # a file of only a well drills the scenario's string (it said "string of mine.yaml")
     assert "string of the default scenario" in said and "string of mine.yaml" not in said
+    yaml.write_text("well: {md: [0, 300, 1250], inclination: [0, 0, 40], "
+                    "azimuth: [0, 0, 90]}\nmud: {density: 1300}\n")
+    assert main(["well", "--config", str(yaml), "--out", str(tmp_path)]) == 0
+    assert "string of the default scenario with mine.yaml" in capsys.readouterr().out
     yaml.write_text("well: {md: [0, 2000], inclination: [0, 0], azimuth: [0, 0]}\n")
     assert main(["well", "--config", str(yaml), "--out", str(tmp_path)]) == 0
     assert "well mine: 2000 m MD" in capsys.readouterr().out  # vertical, but its own
