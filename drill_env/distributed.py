@@ -50,29 +50,41 @@ CANCEL_GRACE = 60.0
 CONNECT_TIMEOUT = 5.0
 
 
-def _call(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[str, type]]]:
-    """``fn(item)`` and the warnings it gave, (text, category) each: a Ray worker's
-    stderr does not reach the command (``log_to_driver=False``), so a warning said on
-    local processes (a WOB above the string's limit, a pipe in compression) was lost on
-    Ray (an outside check); the driver says them again (:func:`_said`)."""
+#: A warning a task gave, as it travels back: (text, category, file, line).
+Said = tuple[str, type, str, int]
+
+
+def _call(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[Said]]:
+    """``fn(item)`` and the warnings it gave: a Ray worker's stderr does not reach the
+    command (``log_to_driver=False``), so a warning said on local processes (a WOB above
+    the string's limit, a pipe in compression) was lost on Ray (an outside check); the
+    driver gives them again (:func:`_said`). Each place's first only, as Python's default
+    filter shows them (a warning at every step of a training run would be kept a million
+    times), each task's anew (the filters set, the worker's registry of what it said
+    counts no more)."""
     import warnings
 
     _interruptible()
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")  # each task's own, whatever this worker said before
+        warnings.simplefilter("default")
         result = fn(item)
-    # each once (a warning given at every step of a training run came back as thousands)
-    return result, list(dict.fromkeys((str(w.message), w.category) for w in caught))
+    return result, list(dict.fromkeys((str(w.message), w.category, w.filename, w.lineno)
+                                      for w in caught))
 
 
-def _said(reply: tuple[Any, list[tuple[str, type]]]) -> Any:
-    """The result of a :func:`_call` reply, its warnings given here (the command says
-    each once: :func:`drill_env.sweep.command_warning`)."""
+def _said(reply: tuple[Any, list[Said]], registry: dict[Any, Any]) -> Any:
+    """The result of a :func:`_call` reply, its warnings given here at their own file and
+    line (``registry``: the sweep's, so each place's first is shown once). One that
+    cannot be given again (a category not rebuilt from its text, a filter that turns it
+    into an error) is printed: the result is kept either way."""
     import warnings
 
     result, caught = reply
-    for text, category in caught:
-        warnings.warn(text, category, stacklevel=2)
+    for text, category, filename, lineno in caught:
+        try:
+            warnings.warn_explicit(text, category, filename, lineno, registry=registry)
+        except Exception:  # noqa: BLE001 - the task's result matters more than its warning
+            print(f"{filename}:{lineno}: {category.__name__}: {text}", file=sys.stderr)
     return result
 
 
@@ -175,6 +187,7 @@ class RayExecutor:
             raise ValueError("ray_address: must be 'local', 'auto' or a cluster address, "
                              f"got {ray_address!r}")
         self._ray = ray
+        self._warned: dict[Any, Any] = {}  # what the tasks' warnings said here (_said)
         self._owns = not ray.is_initialized()
         # ray.init sets its own SIGTERM handler (sys.exit(15)) over the command's, which
         # stops a sweep as a Ctrl-C does (finished work kept, exit 143): put it back
@@ -247,7 +260,7 @@ class RayExecutor:
                 done, _ = ray.wait(list(in_flight), num_returns=1)
                 for ref in done:
                     k = in_flight.pop(ref)
-                    yield k, _said(ray.get(ref))
+                    yield k, _said(ray.get(ref), self._warned)
                     for k_next, item in pending:
                         in_flight[self._remote.remote(fn_ref, item)] = k_next
                         break
@@ -276,7 +289,7 @@ class RayExecutor:
                 return
             for ref in ready:
                 try:
-                    result = _said(ray.get(ref, timeout=0.0))
+                    result = _said(ray.get(ref, timeout=0.0), self._warned)
                 except Exception:  # noqa: BLE001 - a failed task: nothing to keep
                     continue
                 late(in_flight[ref], result)
