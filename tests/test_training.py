@@ -1800,10 +1800,15 @@ def test_a_stopped_seed_sweep_says_what_finished_and_what_continues(tmp_path, ca
         def close(self):
             pass
 
+    import training.train as train_module
+
     monkeypatch.setattr(sweep, "make_executor", lambda *args: StoppedAfterOne())
+    # seed 4 saved a checkpoint before the Ctrl-C, seed 5 had not (or never started)
+    monkeypatch.setattr(train_module, "resume_point",
+                        lambda run: (1024, 0) if run.name.endswith("seed4") else None)
     with pytest.raises(KeyboardInterrupt):
         sweep.train_seeds(tiny_config(), [3, 4, 5], tmp_path)
     said = capsys.readouterr().err
-    assert (f"stopped with 1 of 3 runs finished ({tmp_path / sweep.RESULTS_FILE}); "
-            f"stick_slip_ppo_seed4, stick_slip_ppo_seed5 continue from their last "
-            f"checkpoints in {tmp_path}") in said
+    assert (f"stopped with 1 of 3 runs finished ({tmp_path / sweep.RESULTS_FILE}); the "
+            f"same command goes on with stick_slip_ppo_seed4 from the checkpoints in "
+            f"{tmp_path} and starts stick_slip_ppo_seed5 anew (nothing saved)") in said

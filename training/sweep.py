@@ -94,12 +94,9 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
                 keep(k, summary)
         except KeyboardInterrupt:  # (on Ray the runs' own lines, what each saved, do not
             # reach this console: the sweep said only "interrupted")
-            left = [run_name(c) for c in todo if str(c.seed) not in store]
-            if progress and left:
-                print(f"training seeds: stopped with {len(configs) - len(left)} of "
-                      f"{len(configs)} runs finished ({out / RESULTS_FILE}); "
-                      f"{', '.join(left)} continue from their last checkpoints in {out} "
-                      "when the same command runs again", file=sys.stderr)
+            bar.close()
+            if progress:
+                print(stopped_note(configs, todo, store, out), file=sys.stderr)
             raise
         finally:
             bar.close()
@@ -107,6 +104,23 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
     results = [store.get(str(c.seed)) for c in configs]
     write_summary(results, out / "train_sweep.md", config)
     return results
+
+
+def stopped_note(configs: Sequence[TrainConfig], todo: Sequence[TrainConfig],
+                 store: ResultStore, out: Path) -> str:
+    """What a stopped sweep finished, and what the same command does with the rest: a run
+    with a saved model goes on from it, one without starts anew."""
+    from training.train import resume_point
+
+    left = [run_name(c) for c in todo if str(c.seed) not in store]
+    going_on = [name for name in left if resume_point(out / name) is not None]
+    anew = [name for name in left if name not in going_on]
+    then = ([f"goes on with {', '.join(going_on)} from the checkpoints in {out}"]
+            if going_on else []) + ([f"starts {', '.join(anew)} anew (nothing saved)"]
+                                    if anew else [])
+    return (f"training seeds: stopped with {len(configs) - len(left)} of {len(configs)} "
+            f"runs finished ({out / RESULTS_FILE})"
+            + (f"; the same command {' and '.join(then)}" if then else ""))
 
 
 def write_summary(results: list[dict[str, Any]], path: Path, config: TrainConfig) -> Path:
