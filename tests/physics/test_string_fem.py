@@ -744,11 +744,11 @@ def test_a_span_thrown_at_the_wall_agrees_with_scipy_on_the_same_equations():
     fine, default = simulated(1.0e-4), simulated(2.0e-3)
     print(f"scipy peak {ref[0] * 1e3:.3f} mm, contact {ref[1] * 1e3:.1f} ms, energy kept "
           f"{ref[2]:.3f}; 0.1 ms {fine}; 2 ms {default}")
-    assert ref[0] > 0.0 and 0.0 < ref[2] < 1.0  # it touched, and the wall took energy
+    assert ref[0] > 0.0  # it touched the wall
     assert fine[0] == pytest.approx(ref[0], rel=0.01)
     assert fine[1] == pytest.approx(ref[1], abs=2.0e-4)
     assert fine[2] == pytest.approx(ref[2], abs=0.005)
-    assert default[0] == pytest.approx(ref[0], rel=0.25)  # ~18 % low, said in the docs
+    assert 0.75 < default[0] / ref[0] < 0.88  # ~18 % low (0.82), as the docs say
     assert default[1] == pytest.approx(ref[1], rel=0.1)
     assert default[2] == pytest.approx(ref[2], abs=0.03)
 
