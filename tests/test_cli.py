@@ -526,6 +526,41 @@ def test_the_example_component_string_fits_every_scenario():
         assert config.string.length == pytest.approx(2500.0), name
 
 
+def test_modes_gives_the_pi_loops_stick_slip_thresholds_a_heavy_drive_moves(tmp_path,
+                                                                               capsys):
+    """The linear stick-slip threshold of the PI loops at the WOB: SoftSpeed's rises past
+    the 50 rpm its docs' runs grew at as the top drive gets heavier (46 rpm at 1,000,
+    55 at 2,000 kg m^2; tests/physics/test_stick_slip.py checks both against the
+    simulator), the stiff PI's stays; none on a rock curve that does not fall. modes
+    left the bit's falling friction out and could not tell (a controls engineer)."""
+    from drill_env.physics.config import replace
+    from drill_env.physics.simulator import Simulator
+    from drill_env.physics.stability import stick_slip_threshold
+    from drill_env.physics.units import RPM
+    from drill_env.scenarios import make_scenario
+
+    heavy = tmp_path / "heavy.yaml"
+    heavy.write_text("top_drive: {inertia: 2000.0}\n")
+    flat = tmp_path / "flat.yaml"
+    flat.write_text("formation: {rocks: [{name: flat, mu_min: 0.5, mu_max: 0.5}]}\n")
+    found = {}
+    for name, extra in (("light", []), ("heavy", ["--config", str(heavy)]),
+                        ("flat", ["--config", str(flat)])):
+        assert main(["modes", *extra, "--out", str(tmp_path / name)]) == 0
+        out = capsys.readouterr().out
+        found[name] = json.loads((tmp_path / name / "modes.json").read_text())[
+            "stick_slip_threshold_rpm"]
+        assert "not in the linear model" in out and set(found[name]) == {"stiff",
+                                                                         "soft-speed"}
+    assert found["light"]["soft-speed"] < 50.0 < found["heavy"]["soft-speed"]
+    assert found["heavy"]["stiff"] == pytest.approx(found["light"]["stiff"], abs=0.5)
+    assert found["flat"] == {"stiff": None, "soft-speed": None}
+    config = replace(make_scenario("default").config, **{"top_drive.inertia": 2000.0,
+                                                          "top_drive.controller": "soft_speed"})
+    assert found["heavy"]["soft-speed"] == pytest.approx(
+        stick_slip_threshold(Simulator(config), 100e3) / RPM, rel=1e-9)
+
+
 def test_modes_command_draws_random_by_seed_and_names_what_it_cannot_analyse(tmp_path,
                                                                               capsys):
     import numpy as np

@@ -399,3 +399,30 @@ def test_the_thresholds_docs_model_states_are_the_linear_analysis_of_today():
             config = replace(config, formation=FormationConfig(rocks=(rock,)))
             threshold = stick_slip_threshold(Simulator(config), 100e3) / RPM
             assert threshold == pytest.approx(int(stated[k + 1]), abs=0.5), (rock.name, k)
+
+
+@pytest.mark.parametrize("inertia", [500.0, 2000.0])
+def test_the_linear_threshold_tells_which_top_drive_soft_speed_can_hold(inertia):
+    """SoftSpeed (k = 4) on the default string at 100 kN: the linear analysis (the
+    eigenvalues, not the integrator) puts its threshold below 50 rpm on a 500 kg m^2
+    drive (46) and above it on a 2,000 kg m^2 one (55); 150 s of the simulator at 50 rpm
+    from a 1 % kick agree: the swing stays below 0.05 rpm on the light drive and grows
+    tenfold past 1 rpm on the heavy one (docs/controllers.md's table of heavy drives,
+    every case of which the threshold sorts the same way)."""
+    from drill_env.physics.config import replace
+    from drill_env.physics.layout import R
+    from drill_env.scenarios import make_scenario
+    from drill_env.swing import swing_per_block
+    from drill_env.tools.studies import simulate
+
+    config = replace(make_scenario("default").config, **{
+        "top_drive.inertia": inertia, "top_drive.controller": "soft_speed"})
+    threshold = stick_slip_threshold(Simulator(config), 100e3) / RPM
+    run = simulate(config, 50.0, 100e3, 150.0)
+    swing = swing_per_block(list(zip(run.time, run.records[:, R.BIT_SPEED] / RPM,
+                                     strict=True)))
+    assert len(swing) == 5
+    if inertia < 1000.0:
+        assert threshold < 48.0 and max(swing) < 0.05
+    else:
+        assert threshold > 52.0 and swing[-1] > max(1.0, 10.0 * swing[0])
