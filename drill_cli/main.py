@@ -1207,11 +1207,10 @@ def cmd_modes(args: argparse.Namespace) -> int:
     rock = config.formation.rocks[0].name
     print(f"\nlinear stick-slip threshold at {wob / KILO:.0f} kN on the {rock} rock (steady "
           "rotation below it is unstable: the bit's falling friction against the string's "
-          "damping and the drive's PI; drill_env.physics.stability):")
+          "damping and the drive's loop; drill_env.physics.stability):")
     for name, rpm in thresholds.items():
         print(f"  {name:<12} " + ("none: stable at every speed" if rpm is None else
                                   f"{rpm:6.1f} rpm"))
-    print("  (soft-torque, z-torque: their torque feedback is not in the linear model)")
     crit = md.critical_speeds(config, (torsional, lateral), args.max_rpm)
     print(f"\ncritical speeds up to {args.max_rpm:.0f} rpm:")
     for c in crit:
@@ -1243,22 +1242,21 @@ def cmd_modes(args: argparse.Namespace) -> int:
 def stick_slip_thresholds(config: Any, laws: Sequence[Any], wob: float
                           ) -> dict[str, float | None]:
     """The linear stick-slip threshold (rpm) at ``wob`` on ``config``'s first rock under
-    each of ``laws`` without torque feedback (the PI loops the linear model holds): a
-    SoftSpeed tuning that cannot hold a heavy drive shows there (docs/controllers.md)."""
+    each of ``laws`` (None: stable at every speed): a SoftSpeed tuning that cannot hold a
+    heavy drive shows there (docs/controllers.md)."""
     from drill_env.physics.config import replace
     from drill_env.physics.simulator import Simulator
     from drill_env.physics.stability import stick_slip_threshold
 
     out = {}
     for law in laws:
-        if law.torque_feedback == "none":
-            with warnings.catch_warnings():  # (its notes said above, once)
-                warnings.simplefilter("ignore")
-                sim = Simulator(replace(config, **{"top_drive.controller": law.controller}))
-            low, high = 0.05, 60.0  # rad/s: the range searched (0.5-573 rpm)
-            found = stick_slip_threshold(sim, wob, omega_range=(low, high))
-            # None: stable at every speed searched (a rising or flat rock curve)
-            out[law.controller.replace("_", "-")] = None if found <= low else found / RPM
+        with warnings.catch_warnings():  # (its notes said above, once)
+            warnings.simplefilter("ignore")
+            sim = Simulator(replace(config, **{"top_drive.controller": law.controller}))
+        low, high = 0.05, 60.0  # rad/s: the range searched (0.5-573 rpm)
+        found = stick_slip_threshold(sim, wob, omega_range=(low, high))
+        # None: stable at every speed searched (a rising or flat rock curve)
+        out[law.controller.replace("_", "-")] = None if found <= low else found / RPM
     return out
 
 

@@ -3,7 +3,8 @@
 Around steady rotation at speed Omega the bit torque ``a mu(w) WOB`` acts on small speed
 perturbations like a damper of coefficient ``c_bit = a WOB mu'(Omega)``; a falling curve
 (mu' < 0) gives negative damping. The PI top drive adds ``kp`` to the damping and ``ki``
-to the stiffness of the top node. Steady rotation is linearly stable when every
+to the stiffness of the top node; a torque feedback (SoftTorque, ZTorque) adds its
+filter's states. Steady rotation is linearly stable when every
 eigenvalue of the first-order system has a negative real part. The rotary speed where
 the largest real part crosses zero is the stick-slip threshold (Kyllingstad & Halsey
 1988; Brett 1992): below it, stick-slip grows out of steady rotation.
@@ -37,6 +38,9 @@ def torsional_growth_rate(sim, omega: float, weight_on_bit: float,
     b = sim.config.damping.stiffness_proportional
     c = b * k + np.diag(sim.tor_c)
     kp, ki = sim.top_drive_gains
+    # the string torque at the top, as the drive measures it: T_s = k_e ((th0 - th1)
+    # + b (w0 - w1)) (integrator: S.SURFACE_TORQUE), a row over (th, w)
+    torque_row = -k[0, 1] * np.concatenate([[1.0, -1.0], np.zeros(k.shape[0] - 2)])
     k = k.copy()
     c[0, 0] += kp
     k[0, 0] += ki
@@ -51,8 +55,51 @@ def torsional_growth_rate(sim, omega: float, weight_on_bit: float,
     a[:n, n:] = np.eye(n)
     a[n:, :n] = -m_inv[:, None] * k
     a[n:, n:] = -m_inv[:, None] * c
+    a = _with_torque_feedback(a, getattr(sim, "top_drive_law", None), kp, ki, m_inv[0],
+                              np.concatenate([torque_row, b * torque_row]))
     eig = scipy.linalg.eigvals(a)
+    if a.shape[0] > 2 * n:  # the feedback's integral q and the angles share one motion:
+        # the string turned by c and q by -c / g leave every force as it was, a zero
+        # eigenvalue of the model, not of the drive (its speed loop holds th0 + g q)
+        eig = np.delete(eig, np.argmin(np.abs(eig)))
     return float(np.max(eig.real))
+
+
+def _with_torque_feedback(a: np.ndarray, law, kp: float, ki: float, m0_inv: float,
+                          torque: np.ndarray) -> np.ndarray:
+    """The first-order system ``a`` over (th, w) of the string, with the top drive's
+    torque feedback (SoftTorque, ZTorque; ``law`` a ``TopDriveLaw``) as extra states: the
+    speed command drops by ``g y``, ``y = H(T_s)`` (``torque``: the row giving T_s), so
+    the PI adds ``-kp g y - ki g q`` to the top node, ``q' = y``. High-pass
+    ``H = s / (s + w_c)``: ``x' = w_c (T_s - x)``, ``y = T_s - x``; band-pass
+    ``x1' = x2``, ``x2' = T_s - w0^2 x1 - 2 z w0 x2``, ``y = 2 z w0 x2`` (the kernel's
+    filters, integrator._torque_feedback, in continuous time)."""
+    if law is None or law.torque_feedback == "none":  # (None: a stand-in without one)
+        return a
+    size, w, g = a.shape[0], 2.0 * np.pi * law.filter_frequency, law.feedback_gain
+    top = size // 2  # the row of the top node's acceleration
+    band = law.torque_feedback == "band_pass"
+    extra = 3 if band else 2  # (x1, x2, q) or (x, q)
+    out = np.zeros((size + extra, size + extra))
+    out[:size, :size] = a
+    q = size + extra - 1
+    y = np.zeros(size + extra)  # y as a row over the augmented state
+    if band:
+        two_zw = 2.0 * law.filter_damping * w
+        x1, x2 = size, size + 1
+        out[x1, x2] = 1.0
+        out[x2, :size] = torque
+        out[x2, x1], out[x2, x2] = -w * w, -two_zw
+        y[x2] = two_zw
+    else:
+        x = size
+        out[x, :size] = w * torque
+        out[x, x] = -w
+        y[:size], y[x] = torque, -1.0
+    out[q] = y
+    out[top] -= m0_inv * g * (kp * y)
+    out[top, q] -= m0_inv * g * ki
+    return out
 
 
 def stick_slip_threshold(sim, weight_on_bit: float, rock: int = 0,
