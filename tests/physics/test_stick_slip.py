@@ -452,3 +452,30 @@ def test_the_linear_threshold_of_a_torque_feedback_loop_is_where_the_simulator_t
             assert swing[-1] > max(1.0, 10.0 * swing[0]), swing
         else:
             assert max(swing) < 0.05, swing
+
+
+def test_the_eigenvalue_the_feedback_model_drops_is_its_structural_zero(monkeypatch):
+    """With a torque feedback the model holds the string's angles and the feedback's
+    integral q, of which the drive only sees th0 + g q: one eigenvalue is zero by
+    construction and is dropped; it is ~1e-11 against the next smallest's ~0.3 /s, so
+    no motion of the drive is dropped with it."""
+    import scipy.linalg
+
+    from drill_env.physics import stability
+    from drill_env.physics.config import replace
+    from drill_env.scenarios import make_scenario
+
+    seen, solve = [], scipy.linalg.eigvals
+
+    def eigenvalues(a):
+        values = solve(a)
+        seen.append(np.sort(np.abs(values))[:2])
+        return values
+
+    monkeypatch.setattr(stability.scipy.linalg, "eigvals", eigenvalues)
+    for controller in ("soft_torque", "z_torque"):
+        config = replace(make_scenario("default").config,
+                         **{"top_drive.controller": controller})
+        torsional_growth_rate(Simulator(config), 45 * RPM, 100e3)
+    for smallest, next_one in seen:
+        assert smallest < 1e-8 * next_one and next_one > 0.1
