@@ -1203,7 +1203,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
             law.controller == config.top_drive.controller else ""
         print(f"  {law.controller.replace('_', '-'):<12} {law.proportional_gain:14,.0f} "
               f"{law.integral_gain:12,.0f}   {feedback}{chosen}")
-    thresholds = stick_slip_thresholds(config, laws, wob)
+    thresholds = stick_slip_thresholds(config, wob)
     rock = config.formation.rocks[0].name
     print(f"\nlinear stick-slip threshold at {wob / KILO:.0f} kN on the {rock} rock (steady "
           "rotation below it is unstable: the bit's falling friction against the string's "
@@ -1239,41 +1239,47 @@ def cmd_modes(args: argparse.Namespace) -> int:
     return 0
 
 
-def stick_slip_thresholds(config: Any, laws: Sequence[Any], wob: float
-                          ) -> dict[str, float | None]:
+def stick_slip_thresholds(config: Any, wob: float) -> dict[str, float | None]:
     """The linear stick-slip threshold (rpm) at ``wob`` on ``config``'s first rock under
-    each of ``laws`` (None: stable at every speed): a SoftSpeed tuning that cannot hold a
-    heavy drive shows there (docs/controllers.md)."""
-    from drill_env.physics.config import replace
+    each drive-rate controller (None: stable at every speed): a SoftSpeed tuning that
+    cannot hold a heavy drive shows there (docs/controllers.md)."""
     from drill_env.physics.simulator import Simulator
     from drill_env.physics.stability import stick_slip_threshold
 
     out = {}
-    for law in laws:
+    for each in controller_configs(config):
         with warnings.catch_warnings():  # (its notes said above, once)
             warnings.simplefilter("ignore")
-            sim = Simulator(replace(config, **{"top_drive.controller": law.controller}))
+            sim = Simulator(each)
         low, high = 0.05, 60.0  # rad/s: the range searched (0.5-573 rpm)
         found = stick_slip_threshold(sim, wob, omega_range=(low, high))
         # None: stable at every speed searched (a rising or flat rock curve)
-        out[law.controller.replace("_", "-")] = None if found <= low else found / RPM
+        name = each.top_drive.controller.replace("_", "-")
+        out[name] = None if found <= low else found / RPM
+    return out
+
+
+def controller_configs(config: Any) -> list[Any]:
+    """``config`` under each of the four drive-rate controllers, stiff first: what it sets
+    of the drive wins, but a feedback gain only where the drive runs a feedback (the
+    others refuse one: a soft_torque gain is not the stiff PI's)."""
+    from drill_env.physics.config import replace
+
+    out = []
+    for name in ("stiff", "soft_speed", "soft_torque", "z_torque"):
+        drive = replace(config.top_drive, controller=name, feedback_gain=None)
+        if drive.feedback() != "none":
+            drive = replace(drive, feedback_gain=config.top_drive.feedback_gain)
+        out.append(replace(config, top_drive=drive))
     return out
 
 
 def top_drive_laws(config: Any) -> list[Any]:
     """The four drive-rate controllers as ``config``'s string tunes them
     (``top_drive.resolve``), stiff first."""
-    from drill_env.physics.config import replace
     from drill_env.physics.top_drive import resolve
 
-    laws = []
-    for name in ("stiff", "soft_speed", "soft_torque", "z_torque"):
-        drive = replace(config.top_drive, controller=name, feedback_gain=None)
-        if drive.feedback() != "none":  # the config's feedback gain where the drive runs
-            # a feedback (the others refuse one: a soft_torque gain is not the stiff PI's)
-            drive = replace(drive, feedback_gain=config.top_drive.feedback_gain)
-        laws.append(resolve(replace(config, top_drive=drive)))
-    return laws
+    return [resolve(each) for each in controller_configs(config)]
 
 
 def cmd_well(args: argparse.Namespace) -> int:

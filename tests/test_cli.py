@@ -543,9 +543,12 @@ def test_modes_gives_each_loops_stick_slip_threshold_a_heavy_drive_moves(tmp_pat
     heavy.write_text("top_drive: {inertia: 2000.0}\n")
     flat = tmp_path / "flat.yaml"
     flat.write_text("formation: {rocks: [{name: flat, mu_min: 0.5, mu_max: 0.5}]}\n")
+    # a feedback gain of the file's is the feedback loops' only (the stiff PI refused it)
+    gain = tmp_path / "gain.yaml"
+    gain.write_text("top_drive: {controller: soft_torque, feedback_gain: 0.002}\n")
     found = {}
     for name, extra in (("light", []), ("heavy", ["--config", str(heavy)]),
-                        ("flat", ["--config", str(flat)])):
+                        ("flat", ["--config", str(flat)]), ("gain", ["--config", str(gain)])):
         assert main(["modes", *extra, "--out", str(tmp_path / name)]) == 0
         out = capsys.readouterr().out
         found[name] = json.loads((tmp_path / name / "modes.json").read_text())[
@@ -556,6 +559,8 @@ def test_modes_gives_each_loops_stick_slip_threshold_a_heavy_drive_moves(tmp_pat
     assert max(found["heavy"]["soft-torque"], found["heavy"]["z-torque"]) < 50.0
     assert found["heavy"]["stiff"] == pytest.approx(found["light"]["stiff"], abs=0.5)
     assert set(found["flat"].values()) == {None}
+    assert found["gain"]["stiff"] == found["light"]["stiff"]
+    assert found["gain"]["soft-torque"] != found["light"]["soft-torque"]
     config = replace(make_scenario("default").config, **{"top_drive.inertia": 2000.0,
                                                           "top_drive.controller": "soft_speed"})
     assert found["heavy"]["soft-speed"] == pytest.approx(
