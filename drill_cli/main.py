@@ -1785,7 +1785,7 @@ def _joined_values(argv: Sequence[str]) -> list[str]:
     starts with '-' and a digit, so the value is the option's, judged by its checks."""
     out: list[str] = []
     for token in argv:
-        if out and token[:2] in {f"-{d}" for d in "0123456789"} and \
+        if out and token[:1] == "-" and token[1:2].isdigit() and \
                 out[-1].startswith("--") and "=" not in out[-1]:
             out[-1] = f"{out[-1]}={token}"
         else:

@@ -50,12 +50,10 @@ def drawn_with_physics(name: str, params: Mapping[str, Any], overrides: Mapping[
     """The randomised ``name`` drawn (rng 0) with ``params`` at string ``length`` (None:
     the longest its range draws), with the ``overrides``; a survey ending above the
     string is said with the range, and ``narrow`` (what narrows it; "": nothing)."""
-    import inspect
+    from drill_env.scenarios import make_scenario, string_length_range  # (it imports
+    # this module)
 
-    from drill_env.scenarios import SCENARIOS, make_scenario  # (it imports this module)
-
-    low, high = params.get("string_length_range") or inspect.signature(
-        SCENARIOS[name]).parameters["string_length_range"].default
+    low, high = string_length_range(name, params)
     draw = make_scenario(name, np.random.default_rng(0), **{
         **params, "string_length_range": (high, high) if length is None else (length, length)})
     try:

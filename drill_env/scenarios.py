@@ -571,7 +571,7 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
     if name not in RANDOMISED or not (overrides or top_wob is not None) or key in _CHECKED:
         return
     defaults = inspect.signature(SCENARIOS[name]).parameters
-    low, high = params.get("string_length_range", defaults["string_length_range"].default)
+    low, high = string_length_range(name, params)
     if overrides.get("initial_depth") is not None:  # (it fit some draws, was refused at others,
         # with advice to lengthen a string the scenario draws)
         raise ValueError(f"physics: initial_depth: the {name} scenario draws each episode's "
@@ -607,6 +607,13 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
             + f"draw a lower WOB ({lower_wob}), lighten the mud or make the BHA heavier "
             "(string.components)")
     _CHECKED.add(key)
+
+
+def string_length_range(name: str, params: Mapping[str, Any]) -> tuple[float, float]:
+    """(shortest, longest) string (m) the randomised ``name`` draws with ``params``."""
+    low, high = params.get("string_length_range", inspect.signature(
+        SCENARIOS[name]).parameters["string_length_range"].default)
+    return low, high
 
 
 def _spans(lengths: list[float], step: float) -> str:

@@ -401,6 +401,27 @@ def test_the_thresholds_docs_model_states_are_the_linear_analysis_of_today():
             assert threshold == pytest.approx(int(stated[k + 1]), abs=0.5), (rock.name, k)
 
 
+def _default_string_with(**drive):
+    """The default scenario's string with the top drive's settings ``drive``."""
+    from drill_env.physics.config import replace
+    from drill_env.scenarios import make_scenario
+
+    return replace(make_scenario("default").config,
+                   **{f"top_drive.{key}": value for key, value in drive.items()})
+
+
+def _swing_per_block(config, rpm: float) -> list[float]:
+    """The bit-speed swing (rpm) per 30 s block of 150 s at ``rpm`` and 100 kN from a
+    1 % kick."""
+    from drill_env.physics.layout import R
+    from drill_env.swing import swing_per_block
+    from drill_env.tools.studies import simulate
+
+    run = simulate(config, rpm, 100e3, 150.0)
+    return swing_per_block(list(zip(run.time, run.records[:, R.BIT_SPEED] / RPM,
+                                    strict=True)))
+
+
 @pytest.mark.parametrize("inertia", [500.0, 2000.0])
 def test_the_linear_threshold_tells_which_top_drive_soft_speed_can_hold(inertia):
     """SoftSpeed (k = 4) on the default string at 100 kN: the linear analysis (the
@@ -409,18 +430,9 @@ def test_the_linear_threshold_tells_which_top_drive_soft_speed_can_hold(inertia)
     from a 1 % kick agree: the swing stays below 0.05 rpm on the light drive and grows
     tenfold past 1 rpm on the heavy one (docs/controllers.md's table of heavy drives,
     every case of which the threshold sorts the same way)."""
-    from drill_env.physics.config import replace
-    from drill_env.physics.layout import R
-    from drill_env.scenarios import make_scenario
-    from drill_env.swing import swing_per_block
-    from drill_env.tools.studies import simulate
-
-    config = replace(make_scenario("default").config, **{
-        "top_drive.inertia": inertia, "top_drive.controller": "soft_speed"})
+    config = _default_string_with(inertia=inertia, controller="soft_speed")
     threshold = stick_slip_threshold(Simulator(config), 100e3) / RPM
-    run = simulate(config, 50.0, 100e3, 150.0)
-    swing = swing_per_block(list(zip(run.time, run.records[:, R.BIT_SPEED] / RPM,
-                                     strict=True)))
+    swing = _swing_per_block(config, 50.0)
     assert len(swing) == 5
     if inertia < 1000.0:
         assert threshold < 48.0 and max(swing) < 0.05
@@ -435,19 +447,11 @@ def test_the_linear_threshold_of_a_torque_feedback_loop_is_where_the_simulator_t
     filters as extra states, in continuous time) against the simulator, whose filters
     are discrete and one step late: on the default string at 100 kN, 4 rpm below the
     threshold a 1 % kick grows into stick-slip within 150 s, 4 rpm above it dies away."""
-    from drill_env.physics.config import replace
-    from drill_env.physics.layout import R
-    from drill_env.scenarios import make_scenario
-    from drill_env.swing import swing_per_block
-    from drill_env.tools.studies import simulate
-
-    config = replace(make_scenario("default").config, **{"top_drive.controller": controller})
+    config = _default_string_with(controller=controller)
     threshold = stick_slip_threshold(Simulator(config), 100e3) / RPM
     assert 38.0 < threshold < 50.0  # below the stiff PI's 72, near SoftSpeed's 46
     for rpm, grows in ((threshold - 4.0, True), (threshold + 4.0, False)):
-        run = simulate(config, rpm, 100e3, 150.0)
-        swing = swing_per_block(list(zip(run.time, run.records[:, R.BIT_SPEED] / RPM,
-                                         strict=True)))
+        swing = _swing_per_block(config, rpm)
         if grows:
             assert swing[-1] > max(1.0, 10.0 * swing[0]), swing
         else:
@@ -462,8 +466,6 @@ def test_the_eigenvalue_the_feedback_model_drops_is_its_structural_zero(monkeypa
     import scipy.linalg
 
     from drill_env.physics import stability
-    from drill_env.physics.config import replace
-    from drill_env.scenarios import make_scenario
 
     seen, solve = [], scipy.linalg.eigvals
 
@@ -474,8 +476,7 @@ def test_the_eigenvalue_the_feedback_model_drops_is_its_structural_zero(monkeypa
 
     monkeypatch.setattr(stability.scipy.linalg, "eigvals", eigenvalues)
     for controller in ("soft_torque", "z_torque"):
-        config = replace(make_scenario("default").config,
-                         **{"top_drive.controller": controller})
+        config = _default_string_with(controller=controller)
         torsional_growth_rate(Simulator(config), 45 * RPM, 100e3)
     for smallest, next_one in seen:
         assert smallest < 1e-8 * next_one and next_one > 0.1
