@@ -50,8 +50,8 @@ CANCEL_GRACE = 60.0
 CONNECT_TIMEOUT = 5.0
 
 
-#: A warning a task gave, as it travels back: (text, category, file, line).
-Said = tuple[str, type, str, int]
+#: A warning a task gave, as it travels back: (text, category, file, line, module).
+Said = tuple[str, type, str, int, str | None]
 
 
 def _call(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[Said]]:
@@ -68,8 +68,20 @@ def _call(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[Said]]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default")
         result = fn(item)
-    return result, list(dict.fromkeys((str(w.message), w.category, w.filename, w.lineno)
-                                      for w in caught))
+    places = dict.fromkeys((str(w.message), w.category, w.filename, w.lineno)
+                           for w in caught)
+    return result, [(*place, _module_of(place[2])) for place in places]
+
+
+def _module_of(filename: str) -> str | None:
+    """The name of the module loaded from ``filename``, which a filter by module matches
+    (``warnings.filterwarnings(..., module="drill_env.env_config")``): given again with
+    the file alone, a warning's module reads as the file's path. None where no loaded
+    module has that file (the path then stands for it, as before)."""
+    for name, module in list(sys.modules.items()):
+        if getattr(module, "__file__", None) == filename:
+            return name
+    return None
 
 
 def _said(reply: tuple[Any, list[Said]], registry: dict[Any, Any]) -> Any:
@@ -80,9 +92,15 @@ def _said(reply: tuple[Any, list[Said]], registry: dict[Any, Any]) -> Any:
     import warnings
 
     result, caught = reply
-    for text, category, filename, lineno in caught:
+    for text, category, filename, lineno, module in caught:
         try:
-            warnings.warn_explicit(text, category, filename, lineno, registry=registry)
+            # module=None would drop the warning (CPython's warn_explicit gives nothing
+            # for it): leave it out and the file names the module
+            if module is None:
+                warnings.warn_explicit(text, category, filename, lineno, registry=registry)
+            else:
+                warnings.warn_explicit(text, category, filename, lineno, module=module,
+                                       registry=registry)
         except Exception:  # noqa: BLE001 - the task's result matters more than its warning
             print(f"{filename}:{lineno}: {category.__name__}: {text}", file=sys.stderr)
     return result

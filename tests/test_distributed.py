@@ -360,6 +360,36 @@ def test_a_warning_a_task_gives_on_ray_is_given_here(cluster, capsys):
     assert any(w.filename == __file__ for w in caught)
 
 
+def test_a_warning_given_again_is_filtered_by_its_module_as_where_it_was_said():
+    """A filter by module (``-W ignore::UserWarning:drill_env.env_config``) silenced the
+    WOB-limit warning on local processes but not from a Ray task: given again with its
+    file alone, its module read as the file's path."""
+    import re
+    import warnings
+
+    from drill_env.distributed import _call, _said
+
+    reply = _call(_warn_coded_free, 4)
+    assert reply[1][0][4] == __name__
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.filterwarnings("ignore", module=re.escape(__name__) + "$")
+        assert _said(reply, {}) == 4
+    assert caught == []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.filterwarnings("ignore", module="another_module")
+        _said(reply, {})
+    assert [str(w.message) for w in caught] == ["limit"]
+
+
+def _warn_coded_free(n: int) -> int:
+    import warnings
+
+    warnings.warn("limit", UserWarning, stacklevel=1)
+    return n
+
+
 def test_a_ray_session_the_user_started_is_theirs_to_stop(cluster):
     from drill_env.distributed import RayExecutor
 
