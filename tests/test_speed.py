@@ -253,3 +253,32 @@ def test_the_env_section_times_every_set_up_and_the_parallel_ceiling(tmp_path):
             assert positive_finite(row[key]), key
         assert row["physics_threads"] >= 1
     assert "the machine's parallel gain now" in format_env(result)
+
+
+def test_the_commit_recorded_is_drill_envs_own_not_an_enclosing_repositorys(tmp_path):
+    """Installed from a wheel into a venv inside the user's own git repository, speed.json
+    named the user's commit (an outside check): only the top of a work tree counts."""
+    import subprocess
+    from pathlib import Path
+
+    from drill_env.tools.speed.common import checkout_commit
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
+                              cwd=tmp_path, capture_output=True, text=True,
+                              check=True).stdout.strip()
+
+    site = tmp_path / "venv" / "lib" / "site-packages"
+    site.mkdir(parents=True)
+    (tmp_path / "a.txt").write_text("a")
+    git("init", "-q")
+    git("add", "a.txt")
+    git("commit", "-q", "-m", "user's")
+    assert checkout_commit(site) is None
+    assert checkout_commit(tmp_path) == git("rev-parse", "--short", "HEAD")
+    (tmp_path / "a.txt").write_text("b")
+    assert checkout_commit(tmp_path).endswith("+dirty")
+    assert checkout_commit(tmp_path / "nowhere") is None
+    this = Path(__file__).resolve().parents[1]
+    if (this / ".git").exists():  # a checkout (CI clones one), not an unpacked sdist
+        assert checkout_commit(this) is not None

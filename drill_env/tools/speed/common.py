@@ -254,6 +254,8 @@ def threading_layer() -> str | None:
 def machine_info() -> dict[str, Any]:
     import numba
 
+    import drill_env
+
     info: dict[str, Any] = {
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "cpu": _cpu_name(),
@@ -265,15 +267,28 @@ def machine_info() -> dict[str, Any]:
     }
     if hasattr(os, "getloadavg"):
         info["load_average_1min"] = os.getloadavg()[0]
-    root = Path(__file__).resolve().parents[3]  # the repository
-    try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root,
-                                capture_output=True, text=True, timeout=10, check=True)
-        dirty = subprocess.run(["git", "status", "--porcelain"], cwd=root,
-                               capture_output=True, text=True, timeout=10, check=True)
-        info["git_commit"] = commit.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
-    except (OSError, subprocess.SubprocessError):
-        pass
+    info["drill_env"] = drill_env.__version__
+    commit = checkout_commit(Path(drill_env.__file__).resolve().parent.parent)
+    if commit is not None:
+        info["git_commit"] = commit
     return info
+
+
+def checkout_commit(root: Path) -> str | None:
+    """The commit of the drill-env checkout at ``root`` (``+dirty`` with changes), or None
+    where ``root`` is not the top of a git work tree: an installed package's root is
+    site-packages, whose enclosing repository (a project that keeps its venv inside) is
+    not ours (an outside check found its commit in speed.json)."""
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], cwd=root, capture_output=True, text=True,
+                              timeout=10, check=True).stdout.strip()
+
+    try:
+        if Path(git("rev-parse", "--show-toplevel")).resolve() != root.resolve():
+            return None
+        return git("rev-parse", "--short", "HEAD") + ("+dirty" if git("status", "--porcelain")
+                                                      else "")
+    except (OSError, subprocess.SubprocessError):
+        return None
 
 
