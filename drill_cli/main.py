@@ -908,13 +908,18 @@ def which_model(run: Path, model: Path) -> str:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
+    from agents.learned import TRAINED
+    from training.config import TASKS
     from training.evaluate import evaluate_run
 
+    if not args.run.exists() and str(args.run) in TASKS:  # a task's shipped policy
+        args.run = TRAINED / str(args.run)
     if not args.run.is_dir():
         what = f"{args.run} is a file, not a run folder" if args.run.exists() else \
             f"no such folder {args.run}"
         raise argparse.ArgumentTypeError(f"RUN: {what} (a run folder of drill-env train, "
-                                         "e.g. logs/runs/<name>)")
+                                         "e.g. logs/runs/<name>, or a task's name for its "
+                                         f"shipped policy: {', '.join(sorted(TASKS))})")
     if not (args.run / "config.yaml").exists():
         raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
                                          "train (no config.yaml)")
@@ -1585,7 +1590,8 @@ def parser() -> argparse.ArgumentParser:
     p = add("evaluate", "a trained run against the classical controllers and the trivial "
                         "policies on the held-out seeds, through the benchmark; paired "
                         "comparison in comparison.md", cmd_evaluate)
-    p.add_argument("run", type=Path, help="run folder of drill-env train")
+    p.add_argument("run", type=Path, help="run folder of drill-env train, or a task's name "
+                                           "(stick_slip, drilling) for its shipped policy")
     p.add_argument("--seeds", type=integer(1), default=20, help="held-out seeds")
     p.add_argument("--fidelity", choices=("full", "fast"), default=None,
                    help="physics level of every episode, the policy's and the others' "

@@ -7,6 +7,7 @@ import dataclasses
 import json
 import re
 import zipfile
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -1121,6 +1122,30 @@ def test_evaluate_tells_a_missing_folder_from_a_folder_that_is_no_run(tmp_path, 
         with pytest.raises(SystemExit):
             main(["evaluate", str(folder)])
         assert said in capsys.readouterr().err
+
+
+def test_evaluate_takes_a_tasks_name_for_its_shipped_policy(tmp_path, monkeypatch, capsys):
+    """Installed from a wheel, the shipped policies lie in site-packages: `evaluate`
+    promised logs/evaluation/<task> for one but took only its folder's path (an outside
+    check). A task's name names it; a run folder of that name in the working folder wins."""
+    import training.evaluate
+    from agents.learned import TRAINED
+
+    scored = []
+    monkeypatch.setattr(training.evaluate, "evaluate_run",
+                        lambda run, **kw: scored.append((run, kw["out"])))
+    monkeypatch.chdir(tmp_path)
+    assert main(["evaluate", "stick_slip", "--seeds", "1"]) == 0
+    assert scored == [(TRAINED / "stick_slip", Path("logs") / "evaluation" / "stick_slip")]
+    assert "the shipped policy's" in capsys.readouterr().out
+    (tmp_path / "drilling").mkdir()  # the user's own folder of that name is theirs
+    with pytest.raises(SystemExit):
+        main(["evaluate", "drilling"])
+    assert "drilling is not a run folder" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["evaluate", "stick"])
+    assert "or a task's name for its shipped policy: drilling, stick_slip" in \
+        capsys.readouterr().err
 
 
 def test_evaluate_names_the_model_files_it_looked_for(tmp_path, capsys):
