@@ -1496,7 +1496,8 @@ def parser() -> argparse.ArgumentParser:
                         "a folder: --out/recordings)")
     p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides merged into the scenario's (e.g. a "
-                        "string of components: examples/field_well_string.yaml)")
+                        "string of components: the repository's "
+                        "examples/field_well_string.yaml)")
     p.add_argument("--out", type=out_folder, default=Path("logs"),
                    help="folder for run_summary.json (this run's) and run_history.jsonl "
                         "(every run's summary, one line each)")
@@ -1548,8 +1549,8 @@ def parser() -> argparse.ArgumentParser:
                         "<controller>_<scenario>_seed<N>")
     p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides merged into every episode's scenario, under "
-                        "each controller's top drive (e.g. a string of components: "
-                        "examples/field_well_string.yaml)")
+                        "each controller's top drive (e.g. a string of components: the "
+                        "repository's examples/field_well_string.yaml)")
     p.add_argument("--out", type=out_folder, default=None,
                    help="output folder (default: logs/benchmark; with --task "
                         "logs/benchmark/<task>, beside the scenario benchmark's outputs)")
@@ -1562,7 +1563,9 @@ def parser() -> argparse.ArgumentParser:
                    help="algorithm (default: sac, what the shipped policies of both tasks "
                         "were trained with, docs/tasks.md; --resume --name: the run's own)")
     p.add_argument("--config", type=existing_file, default=None, action=Once,
-                   help="hyperparameter YAML (default: training/hyperparams/<task>.yml)")
+                   help="hyperparameter YAML (default: the task's file shipped with "
+                        f"drill-env, {shipped_hyperparameters()}/<task>.yml; copy it to "
+                        "change it)")
     p.add_argument("--timesteps", type=integer(1), default=None,
                    help="env steps (default: the YAML's n_timesteps)")
     p.add_argument("--n-envs", type=integer(1), default=None,
@@ -1626,7 +1629,7 @@ def parser() -> argparse.ArgumentParser:
                    help="simulated seconds per grid point")
     p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides merged into the map's scenario (paper case "
-                        "1 at each position): a string of your own, e.g. "
+                        "1 at each position): a string of your own, e.g. the repository's "
                         "examples/field_well_string.yaml; its maps are named and titled by "
                         "the file: stability_map[_<controller>]_<file>.*")
     p.add_argument("--workers", type=integer(1), default=None,
@@ -1651,7 +1654,8 @@ def parser() -> argparse.ArgumentParser:
                    help="weight on bit in kN (default: the scenario's)")
     p.add_argument("--config", type=existing_file, default=None, action=Once,
                    help="YAML of config overrides merged into the scenario's (e.g. a "
-                        "string of components: examples/field_well_string.yaml)")
+                        "string of components: the repository's "
+                        "examples/field_well_string.yaml)")
     p.add_argument("--top", choices=("fixed", "top_drive"), default="fixed",
                    help="torsional boundary at the top")
     p.add_argument("-n", type=integer(1), default=5, help="modes of each kind")
@@ -1677,7 +1681,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
                    help="whose string (its BHA and pipe; drill pipe added to reach TD)")
     p.add_argument("--config", type=existing_file, default=None, action=Once,
-                   help="YAML of config overrides (e.g. examples/field_well_string.yaml)")
+                   help="YAML of config overrides (e.g. the repository's "
+                        "examples/field_well_string.yaml)")
     p.add_argument("--friction", default="0.1,0.2,0.3,0.4",
                    help="comma-separated friction factors")
     p.add_argument("--out", type=out_folder, default=Path("logs"),
@@ -1799,7 +1804,50 @@ def _joined_values(argv: Sequence[str]) -> list[str]:
     return out
 
 
+#: drill-env's packages beside drill_cli: top-level names (the repository's layout, SPEC
+#: section 1) that a user's own module of that name can shadow.
+SIBLING_PACKAGES = ("agents", "training")
+
+
+def shipped_hyperparameters() -> str:
+    """The folder of the hyperparameter files shipped in the ``training`` package (found
+    without importing it: the help is built for every command)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("training")
+    where = next(iter(spec.submodule_search_locations or []), None) if spec else None
+    return str(Path(where) / "hyperparams") if where else "training/hyperparams"
+
+
+def shadowed_packages() -> list[str]:
+    """Each of :data:`SIBLING_PACKAGES` that Python would import from somewhere other than
+    beside drill_cli, said as "NAME: FILE": ``python -m drill_cli`` from a folder holding
+    ``training.py`` or ``agents/`` imported the user's and failed far inside a command
+    with "No module named 'training.config'" (an outside check)."""
+    import importlib.util
+
+    home = Path(__file__).resolve().parent.parent
+    said = []
+    for name in SIBLING_PACKAGES:
+        try:
+            spec = importlib.util.find_spec(name)
+        except (ImportError, ValueError):
+            spec = None
+        where = None if spec is None else \
+            (spec.origin or next(iter(spec.submodule_search_locations or []), None))
+        if where is None or Path(where).resolve().parent.parent != home and \
+                Path(where).resolve().parent != home:
+            said.append(f"{name}: {where or 'not found'}")
+    return said
+
+
 def _main(argv: Sequence[str] | None) -> int:
+    if shadowed := shadowed_packages():
+        print(f"drill-env: {'; '.join(shadowed)} is not drill-env's own package (those "
+              f"lie in {Path(__file__).resolve().parent.parent}): a module of that name in "
+              "the working folder or on PYTHONPATH hides it; run from another folder or "
+              "rename yours", file=sys.stderr)
+        return 2
     top = parser()
     argv = _joined_values(sys.argv[1:] if argv is None else argv)
     if not argv:  # no command: what the commands are

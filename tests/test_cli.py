@@ -1514,3 +1514,41 @@ def test_a_value_starting_with_a_minus_sign_is_the_options_and_judged_by_its_che
             main(argv)
         err = capsys.readouterr().err
         assert said in err and "expected one argument" not in err
+
+
+def test_a_users_training_module_in_the_working_folder_is_named_not_imported(tmp_path):
+    """drill-env's `agents` and `training` are top-level packages (SPEC section 1):
+    `python -m drill_cli train ...` from a folder holding a training.py imported that one
+    and failed with "No module named 'training.config'" (an outside check)."""
+    import os
+    import subprocess
+    import sys
+
+    home = Path(__file__).resolve().parents[1]
+    (tmp_path / "training.py").write_text("x = 1\n")
+    env = {**os.environ, "PYTHONPATH": str(home)}  # drill_cli found, the user's first
+    ran = subprocess.run([sys.executable, "-m", "drill_cli", "--version"], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=120)
+    assert ran.returncode == 2
+    assert f"training: {tmp_path / 'training.py'} is not drill-env's own package" in \
+        ran.stderr
+    assert "agents" not in ran.stderr.split("(")[0]
+    (tmp_path / "training.py").unlink()
+    ran = subprocess.run([sys.executable, "-m", "drill_cli", "--version"], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=120)
+    assert ran.returncode == 0, ran.stderr
+
+
+def test_trains_help_names_where_the_shipped_hyperparameters_lie(capsys):
+    """Installed from a wheel, "default: training/hyperparams/<task>.yml" read as a path
+    in the working folder, where `--config training/hyperparams/stick_slip.yml` was then
+    refused (an outside check): the help names the installed folder."""
+    from drill_cli.main import shipped_hyperparameters
+    from training.config import HYPERPARAMS
+
+    assert Path(shipped_hyperparameters()) == HYPERPARAMS
+    assert (HYPERPARAMS / "stick_slip.yml").is_file()
+    with pytest.raises(SystemExit):
+        main(["train", "--help"])
+    assert "".join(capsys.readouterr().out.split()).count(
+        "".join(f"{HYPERPARAMS}/<task>.yml".split())) == 1
