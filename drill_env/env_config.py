@@ -73,7 +73,10 @@ class EnvConfig:
     rpm_range: tuple[Annotated[NonNegative, Field(le=1000.0)],
                      Annotated[NonNegative, Field(le=1000.0)]] = (0.0, 200.0)
     #: Weight-on-bit range (N) mapped from action[1]; applied as the hook load
-    #: ``string_weight - WOB``.
+    #: ``string_weight - WOB``. Not cut to what the string carries: the default string's
+    #: HWDP buckles above ~141 kN (``statics.pipe_buckling``; its BHA weighs ~122 kN in
+    #: mud), which the coupled model then shows, as a real string would; only a start WOB
+    #: is screened (``Scenario``). Task 2 (DrillOptimise-v0) drills up to 140 kN.
     weight_on_bit_range: tuple[Annotated[NonNegative, Field(le=1.0e7)],
                                Annotated[NonNegative, Field(le=1.0e7)]] = (0.0, 200.0e3)
     #: "absolute": action -> set point in the range; "incremental": action -> change of

@@ -28,7 +28,10 @@ from numba import njit
 #: of 90 degrees ends a leg: a forward whirl's wobble at the blade pass turns back less
 #: (paper case 4 at 60-120 rpm reads 78-92 % forward whirl and none backward). Limits:
 #: a forward orbit whose wobble turns it back by more than 90 degrees is not read (at
-#: fast records); records cannot resolve a motion faster than half their rate.
+#: fast records); records cannot resolve a motion faster than half their rate. The
+#: clearance is the bit's (``bit.gauge_clearance``): on the realistic strings the
+#: near-bit stabilizer 1 m above it has 0.32 of that (docs/model.md, "The compressed BHA
+#: leans on its stabilizers"), so a bit there reaches half only by pressing it into the wall.
 WHIRL_RADIAL_RATIO = 0.5
 WHIRL_SPEED_RATIO = 0.25
 WHIRL_SWEEP = math.pi

@@ -21,7 +21,9 @@ import warnings
 from drill_env.physics.config import Component, StringConfig
 from drill_env.physics.units import GRAVITY, INCH
 
-#: Stabilizer blades 1/8 in under an 8 3/4 in gauge (the usual API undergauge).
+#: Stabilizer blades 1/8 in under an 8 3/4 in hole: an undergauge choice (API's blade
+#: tolerance is ~1/32 in), and larger than the bit, 10 mm under the hole (docs/model.md,
+#: "The compressed BHA leans on its stabilizers").
 STABILIZER_8_3_4 = 8.625 * INCH
 
 
@@ -83,9 +85,9 @@ def bit_sub(length: float = 1.0, element_length: float = 1.0) -> Component:
 
 
 #: The packed vertical-hole BHA of the realistic strings, from the bit up: stabilizers at
-#: 1-2.5, 11.5-13, 31-32.5, 50.5-52 and 70-71.5 m keep every span that carries more than
-#: ~40 kN of compression below a third of its Euler load (the compressed collars stay
-#: straight), 107.5 m in all (~122 kN in 1.2 g/cc mud): 100 kN of WOB puts the neutral point
+#: 1-2.5, 11.5-13, 31-32.5, 50.5-52 and 70-71.5 m keep every span below half of its pinned
+#: Euler load at 100 kN (the 19.5 m span above stabilizer 1: 0.45, the compressed collars
+#: stay straight), 107.5 m in all (~122 kN in 1.2 g/cc mud): 100 kN of WOB puts the neutral point
 #: in the collars ~88 m above the bit, with ~18 % of the BHA weight to spare (API RP 7G
 #: asks for 15-25 %).
 def packed_bha() -> tuple[Component, ...]:

@@ -192,7 +192,7 @@ class StringConfig:
     #: string stabilizers), none with ``components`` (stabilizers are components there).
     stabilizers: tuple[Positive, ...] | None = None
     #: Blade diameter of the ``stabilizers`` positions (a component of kind stabilizer
-    #: has its own contact_diameter): 1/8 in under gauge, the usual API undergauge.
+    #: has its own contact_diameter): 1/8 in under the hole, more than the bit (docs/model.md).
     stabilizer_diameter: Positive = Field(default=8.625 * INCH, le=MAX_DIAMETER)
 
     def __post_init__(self) -> None:
