@@ -393,7 +393,7 @@ def test_stability_map_of_a_string_of_your_own(tmp_path, capsys):
     assert main(["stability-map", *grid, "--config", str(field)]) == 0
     data = json.loads((tmp_path / "stability_map_field_well_string.json").read_text())
     assert data["config"] == str(field)
-    assert data["physics"]["string.drill_pipe.length"] == 2214.5
+    assert data["physics"]["string.drill_pipe.length"] == 2205.5
     assert [m["position"] for m in data["maps"]] == ["P4"]
     assert (tmp_path / "stability_map_field_well_string.png").stat().st_size > 10_000
     assert (tmp_path / "stability_map.json").read_text() == paper
@@ -431,7 +431,7 @@ def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
                  "--out", str(tmp_path)])
     assert code == 0
     out = capsys.readouterr().out
-    assert "string 2500 m" in out and "8 in DC" in out and "5 1/2 in DP" in out
+    assert "string 2500 m" in out and "6 1/2 in DC" in out and "5 1/2 in DP" in out
     # the scenario's description (its string, rock) is not the file's
     assert "field_well_string.yaml (scenario default): the file changes its string" in out
     assert "1250 m" not in out.splitlines()[0]
@@ -950,18 +950,18 @@ def test_run_and_benchmark_drill_the_string_of_a_config_file(tmp_path, capsys):
         assert main(["run", "--duration", "0.5", "--out", str(tmp_path / name), *extra]) == 0
         summary[name] = json.loads((tmp_path / name / "run_summary.json").read_text())
     assert summary["field"]["steps"] == summary["default"]["steps"] == 5
-    # 2214.5 m of drill pipe over 190 m of HWDP and ~100 m of BHA (examples/)
+    # 2205.5 m of drill pipe over 190 m of HWDP and ~100 m of BHA (examples/)
     assert 2450.0 < summary["field"]["string_length_m"] < 2550.0
     assert summary["default"]["string_length_m"] < 2000.0
     assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default", "--seeds",
                  "1", "--duration", "1", "--warmup", "0.5", "--workers", "1",
                  "--config", str(field), "--out", str(tmp_path / "bench")]) == 0
     stored = (tmp_path / "bench" / "benchmark_results.jsonl").read_text()
-    assert "2214.5" in stored  # the drill pipe length of the file, in the fingerprint
+    assert "2205.5" in stored  # the drill pipe length of the file, in the fingerprint
     markdown = (tmp_path / "bench" / "benchmark.md").read_text()
     assert ("config overrides (--config) string.components = a list of 10, "
             "string.drill_pipe.element_length = 10, ") in markdown
-    assert "string.drill_pipe.length = 2214.5" in markdown
+    assert "string.drill_pipe.length = 2205.5" in markdown
     assert markdown.startswith(f"# Controller benchmark, config {field}")  # which file
     bad = tmp_path / "bad.yaml"
     bad.write_text("string:\n  drill_pipe: {length: -5.0}\n")
