@@ -1204,8 +1204,8 @@ def cmd_modes(args: argparse.Namespace) -> int:
         feedback = "none" if law.torque_feedback == "none" else (
             f"{law.torque_feedback.replace('_', '-')} at {law.filter_frequency:.4g} Hz, "
             f"gain {law.feedback_gain:.3g} rad/s per N m")
-        chosen = "   <- the config's" if args.config is not None and \
-            law.controller == config.top_drive.controller else ""
+        chosen = "   <- the config's" if config.top_drive != scenario.config.top_drive \
+            and law.controller == config.top_drive.controller else ""
         print(f"  {law.controller.replace('_', '-'):<12} {law.proportional_gain:14,.0f} "
               f"{law.integral_gain:12,.0f}   {feedback}{chosen}")
     thresholds = stick_slip_thresholds(config, wob)

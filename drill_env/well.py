@@ -248,7 +248,7 @@ def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
                        + (" (every mu)" if mode == "rotating" and one_rotating else ""))
                 for mode in MODES]
     for ax, xlabel in ((hook, "hook load (kN), off bottom, no blocks weight"),
-                       (torque, "surface torque rotating off bottom (kN m)")):
+                       (torque, "surface torque of wall friction, rotating off bottom (kN m)")):
         ax.invert_yaxis()
         ax.set_ylabel("bit depth MD (m)")
         ax.set_xlabel(xlabel)

@@ -1552,3 +1552,18 @@ def test_trains_help_names_where_the_shipped_hyperparameters_lie(capsys):
         main(["train", "--help"])
     assert "".join(capsys.readouterr().out.split()).count(
         "".join(f"{HYPERPARAMS}/<task>.yml".split())) == 1
+
+
+def test_modes_marks_a_controller_as_the_configs_only_where_the_file_sets_its_drive(
+        tmp_path, capsys):
+    """A file of only a string marked the stiff PI "<- the config's" (the scenario's own
+    drive; a drilling engineer's review): the mark is for a top drive the file changes."""
+    string_only = Path(__file__).parents[1] / "examples" / "field_well_string.yaml"
+    drive = tmp_path / "drive.yaml"
+    drive.write_text("top_drive: {controller: soft_torque}\n")
+    marked = {}
+    for file in (string_only, drive):
+        assert main(["modes", "--config", str(file), "--out", str(tmp_path / file.stem)]) == 0
+        marked[file.stem] = [line.split()[0] for line in capsys.readouterr().out.splitlines()
+                             if line.endswith("<- the config's")]
+    assert marked == {"field_well_string": [], "drive": ["soft-torque"]}
