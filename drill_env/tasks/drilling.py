@@ -39,7 +39,8 @@ class DrillingTask:
     """Observation and reward of the drilling-optimisation task (weights per second)."""
 
     #: Depth per time: ``rop_weight * ROP / rop_reference`` (30 m/h: a good PDC run in
-    #: hard rock); the value of progress.
+    #: the scenarios' "hard" rock, ~40-50 MPa by its specific energy: docs/model.md
+    #: section 7); the value of progress.
     rop_weight: NonNegative = Field(default=1.0, le=1.0e6)
     rop_reference: Positive = Field(default=30.0 / HOUR, ge=MIN_SCALE, le=1.0)
     #: Vibration damage: SSI (capped) and stuck share of the 3 s window, and the share of
