@@ -1226,6 +1226,13 @@ def cmd_modes(args: argparse.Namespace) -> int:
                             f"{source}: natural frequencies and excitations "
                             f"(WOB {wob / KILO:.0f} kN)")
     data = {"scenario": args.scenario, "weight_on_bit_N": wob,
+            # keys without a unit in their name (a drilling engineer's review)
+            "units": {"components_N": "length and bottom_depth m, the rest N (weights, "
+                                      "axial forces)",
+                      "critical_speeds": "rpm rpm, frequency Hz",
+                      "top_drive_controllers": "gains and impedance N m s/rad, integral "
+                      "gain N m/rad, inertia kg m^2, frequencies Hz, feedback gain rad/s "
+                      "per N m"},
             "components_N": [vars(load) for load in md.component_loads(config, wob)],
             "modes": [{"kind": m.kind, "boundary": m.boundary,
                        "frequency_Hz": m.frequency.tolist(),
@@ -1235,7 +1242,6 @@ def cmd_modes(args: argparse.Namespace) -> int:
                       for m in (torsional, lateral)],
             "critical_speeds": [c.__dict__ for c in crit],
             "stick_slip_threshold_rpm": thresholds, "stick_slip_rock": rock,
-            # SI: gains in N m s/rad and N m/rad, filter in Hz, feedback gain rad/s per N m
             "top_drive_controllers": [
                 {k: None if isinstance(v, float) and not math.isfinite(v) else v
                  for k, v in dataclasses.asdict(law).items()} for law in laws]}

@@ -443,6 +443,9 @@ def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
     assert "hard rock" not in head
     data = json.loads((tmp_path / "modes.json").read_text())
     assert data["modes"][0]["frequency_Hz"][0] > 0.0
+    # every list of records whose keys carry no unit says its units
+    assert {"components_N", "critical_speeds", "top_drive_controllers"} == set(data["units"])
+    assert {"length", "weight", "force_bottom"} <= set(data["components_N"][0])
     assert (tmp_path / "modes_critical_speeds.png").stat().st_size > 10_000
 
 
