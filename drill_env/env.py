@@ -542,7 +542,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         updates the windows of all envs in its compiled call, then calls this."""
         self._step_count += 1
         if step is not None:
-            self._episode_energy += step[0][Metric.TOP_DRIVE_ENERGY]
+            if step[1]:  # records not all finite add no energy: info stays finite
+                self._episode_energy += step[0][Metric.TOP_DRIVE_ENERGY]
             self._window_metrics = window
         fresh = self.sim.readings.tolist()
         self._status = fresh[_STATUS]

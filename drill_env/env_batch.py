@@ -108,7 +108,7 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
         has = n_rec[e] > 0
         step_ok = has and (flags[e] & STEP_FINITE) != 0
         energy = st[BatchState.ENERGY]
-        if has:
+        if step_ok:  # records not all finite add no energy (finish_metrics)
             energy += step[e, Metric.TOP_DRIVE_ENERGY]
         out.energy[e] = energy
         # _termination_reason: a stopped simulator, or the torque above make-up

@@ -527,6 +527,24 @@ def test_info_is_finite_with_the_bit_turning_under_zero_rpm():
             done = terminated or truncated
 
 
+def test_a_step_whose_records_are_not_all_finite_adds_no_energy_to_info():
+    """A metrics audit: the episode's top-drive energy summed every step's without the
+    finite flag, so a record with a NaN motor torque put NaN in info["top_drive_energy"]
+    (info holds no NaN, docs): that step adds none, the steps after it count again."""
+    from drill_env.physics.layout import R
+
+    env = gym.make("DrillString-v0", scenario="stick_slip", episode_duration=5.0,
+                   fidelity="fast")
+    env.reset(seed=0)
+    held = np.zeros(2, dtype=np.float32)
+    before = env.step(held)[4]["top_drive_energy"]
+    records = env.unwrapped.last_records.copy()
+    records[-1, R.MOTOR_TORQUE] = np.nan
+    info = env.unwrapped.finish_step(records)[4]
+    assert info["top_drive_energy"] == before and not _finite_info_values(info)
+    assert env.step(held)[4]["top_drive_energy"] > before
+
+
 def test_the_random_scenario_draws_its_start_within_the_action_ranges_or_as_told():
     """The random scenario's own start ranges (rpm_range, weight_on_bit_range) share their
     names with the env's action ranges, which took them: ``rpm_range=(0, 100)`` drew
