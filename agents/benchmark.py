@@ -651,9 +651,16 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         records = everything
         reason += "; in the warm-up: metrics over the whole episode"
     if len(records) < 2:  # (a ValueError: said in one line, not a worker's traceback)
+        # not a failure: whole control steps end the episode before --duration (20 s are
+        # 202 steps of 0.0988 s, 19.97 s, at the fast level: a metrics audit's 19.98 s
+        # warm-up left no sample)
+        ended = float(info["time"]) - start
+        why = reason or (f"the warm-up, {settings.warmup:g} s, leaves no two samples in it: "
+                         f"it ends at {ended:.4g} s, {base.max_episode_steps} control steps of "
+                         f"{base.control_interval:.4g} s")
         raise ValueError(f"the episode of {episode.label} on {episode.scenario}, seed "
                          f"{episode.seed}, ended before a second sample, with nothing to "
-                         f"measure ({reason or 'no samples'})")
+                         f"measure ({why})")
     dt = float(records[1, R.TIME] - records[0, R.TIME])
     m = window_metrics(records, RECORD_CHANNELS, dt, base.clearance,
                        base.sim.config.bit.diameter)
@@ -1040,6 +1047,21 @@ ENDED_EARLY_MARK = "ended early"
 GROWING_MARK = "growing"
 
 
+#: Beside the seed count of a controller some of whose episodes did not drill in the
+#: metric window (:func:`not_drilling`): their SSI and MSE say nothing (a metrics audit:
+#: a bit held at 0 rpm and 200 kN read SSI 0.00 and MSE 5 MPa, the best of its table).
+NOT_DRILLING_MARK = "not drilling"
+
+
+def not_drilling(row: Mapping[str, Any]) -> bool:
+    """Whether a row's bit drilled nothing in its metric window (mean ROP under the MSE's
+    floor, :data:`~drill_env.metrics.MSE_MIN_ROP`): a bit that never turns has no swing
+    (SSI 0) and an MSE of the thrust term alone (WOB / A)."""
+    from drill_env.metrics import MSE_MIN_ROP
+
+    return float(row["rop_m_per_h"]) / HOUR < MSE_MIN_ROP
+
+
 def not_judged(rows: Sequence[Mapping[str, Any]]) -> str:
     """Where :func:`window_swing_trend` judged nothing, in words ("" where it judged every
     row it saw): per reason, the episodes by controller and scenario."""
@@ -1104,7 +1126,8 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                 continue
             marks = [f"{n} {mark}" for n, mark in (
                 (sum(1 for r in sel if r.get("termination")), ENDED_EARLY_MARK),
-                (sum(1 for r in sel if growing(r)), GROWING_MARK)) if n]
+                (sum(1 for r in sel if growing(r)), GROWING_MARK),
+                (sum(1 for r in sel if not_drilling(r)), NOT_DRILLING_MARK)) if n]
             cells = [s, c, str(len(sel)) + (f" ({', '.join(marks)})" if marks else "")]
             for key, _, fmt in SUMMARY:
                 values = np.array([r[key] for r in sel], dtype=float)
@@ -1240,6 +1263,13 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
                      + ", ".join(f"{r['controller']}/{r['scenario']}/{r['seed']} "
                                  f"({r['swing_trend'].removeprefix('growing (').removesuffix(')')})"
                                  for r in building) + ".")
+    idle = [r for r in rows if not_drilling(r)]
+    if idle:
+        notes.append("Not drilling: the bit drilled nothing in the metric window, so its SSI "
+                     "(0 for a bit that never turns) and MSE (the thrust term WOB / A alone) "
+                     "say nothing of vibration or efficiency; the stuck share and ROP do: "
+                     + ", ".join(f"{r['controller']}/{r['scenario']}/{r['seed']}"
+                                 for r in idle) + ".")
     if unjudged := not_judged(rows):  # no mark is not "not growing" (an outside review)
         notes.append("Whether a stick-slip still grows is not judged where, over the "
                      "warm-up's end and the window, " + unjudged + ".")

@@ -103,10 +103,11 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
               scenarios: Sequence[str], path: Path, title: str = "Controller benchmark"
               ) -> None:
     """One panel per metric; bars per controller, grouped by scenario, a dot per seed (in
-    seed order across the bar); an SSI bar of a stick-slip still growing in the window is marked.
+    seed order across the bar); an SSI bar of a stick-slip still growing in the window, or
+    of a bit that drilled nothing, is marked.
     ``title``: what the benchmark was (benchmark.md's heading: its --config file, the set
     points given on the command line, a task and its seeds)."""
-    from agents.benchmark import growing
+    from agents.benchmark import growing, not_drilling
 
     colours = _colours(controllers)
     # two by two, not four in a row: shrunk to a page's width (~800 px) the row's text was
@@ -129,10 +130,14 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                 ax.bar(x, mean, width * 0.9, color=colours[c],
                        label=c if j == 0 else None)
                 bars.append((x, mean, colours[c]))
-                if key == "ssi" and any(growing(r) for r in sel):
-                    # the table's mark: a stick-slip still building that the window's SSI
-                    # does not show yet (agents.benchmark.window_swing_trend)
-                    ax.annotate("growing", (x, mean), xytext=(0, 4),
+                # the table's marks: a stick-slip still building that the window's SSI
+                # does not show yet (agents.benchmark.window_swing_trend), a bit that
+                # drilled nothing (its SSI 0: no swing of a bit that never turns)
+                said = [word for word, hit in (("growing", growing),
+                                               ("not drilling", not_drilling))
+                        if key == "ssi" and any(hit(r) for r in sel)]
+                if said:
+                    ax.annotate(", ".join(said), (x, mean), xytext=(0, 4),
                                 textcoords="offset points", rotation=90, ha="center",
                                 va="bottom", fontsize=8, color=colours[c])
                 if values.size > 1:  # each seed a dot: a min-max whisker of 20 seeds
@@ -148,7 +153,8 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
         top = ax.get_ylim()[1]
         ax.set_ylim(0.0, max(top, 0.05))  # an all-zero metric shows as zero, not noise
         if not np.any(np.nan_to_num(shown)):  # all zero (or not defined)
-            _say_empty(ax, empty)
+            _say_empty(ax, empty if key != "ssi" or not any(map(not_drilling, rows))
+                       else "no swing in any episode (some did not drill)")
             ax.set_yticks([])  # no scale: 0-0.05 ticks read as small measured values
         else:  # a bar too low to see is drawn as a coloured base line: zero, not missing
             low = 0.01 * ax.get_ylim()[1]

@@ -72,7 +72,8 @@ def stick_slip_severity(bit_speed, min_mean_speed: float = SSI_MIN_MEAN_SPEED) -
 
     0 for steady rotation; a sinusoid ``m + a sin(t)`` over whole periods gives ``a / m``;
     full stick-slip (bit stops, peaks at 2x mean) gives ~1. The mean is floored at
-    ``min_mean_speed`` (1 rpm) so a stalled bit gives a large but finite value.
+    ``min_mean_speed`` (1 rpm) so a bit rocking about zero gives a large but finite
+    value; a bit that never turns has no swing and gives 0 (its stuck share says it).
     """
     w = _signal(bit_speed, "bit_speed")
     mean = max(abs(float(np.mean(w))), min_mean_speed)

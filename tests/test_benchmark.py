@@ -1010,7 +1010,7 @@ def test_the_tables_show_no_negative_zero(tmp_path, capsys):
     bm.write_outputs(rows, tmp_path, ["stiff"], ["stick_slip"], SHORT)
     negative_zero = re.compile(r"(?<![\d.])-0(\.0*)?%?(?![\d.])")
     text = (tmp_path / "benchmark.md").read_text()
-    assert "| stick_slip | stiff | 2 | 0.00 | 0% | 0.0 |" in text
+    assert "| stick_slip | stiff | 2 (2 not drilling) | 0.00 | 0% | 0.0 |" in text
     assert not negative_zero.search(text), text
     assert not negative_zero.search(capsys.readouterr().out)
     # a real negative keeps its sign, an infinite one too
@@ -1740,7 +1740,8 @@ def test_an_episode_a_failure_ends_in_the_warm_up_is_a_row_and_is_said(tmp_path,
     printed = capfd.readouterr().out
     assert "Episodes that ended early (metrics until then): stiff/random/0" in " ".join(
         printed.split())
-    assert "| 1 (1 ended early) |" in (out / "benchmark.md").read_text()
+    # (a bit that stalled at once is not drilling either: "1 ended early, 1 not drilling")
+    assert "| 1 (1 ended early" in (out / "benchmark.md").read_text()
 
 
 def test_an_episode_that_stops_before_a_second_sample_is_said_in_one_line(
@@ -1942,3 +1943,42 @@ def test_a_drift_the_same_under_every_controller_is_said_not_to_be_theirs(tmp_pa
     texts.clear()
     series_chart(tmp_path / "series", ["stiff"], "default", tmp_path / "s.png", 30.0)
     assert not any("not of their making" in x for x in texts)
+
+
+def test_a_bit_that_drills_nothing_is_marked_not_drilling(tmp_path):
+    """A metrics audit: a bit held at 0 rpm and 200 kN read SSI 0.00 and MSE 5 MPa (the
+    thrust term alone), the best of its table beside a stiff PI drilling at 146 MPa. Its
+    row is marked: the stuck share and ROP say what happened."""
+    settings = bm.BenchmarkSettings(duration=20.0, warmup=10.0, fidelity="fast")
+    rows = bm.run_benchmark(["held:-1/1", "stiff"], ["stick_slip"], [0], tmp_path,
+                            settings, workers=1, progress=False)
+    held, stiff = rows
+    assert held["stuck_fraction"] == 1.0 and held["rop_m_per_h"] == 0.0
+    assert held["ssi"] < stiff["ssi"] and held["mse_MPa"] < stiff["mse_MPa"]  # unmarked: best
+    assert [bm.not_drilling(r) for r in rows] == [True, False]
+    markdown = " ".join((tmp_path / "benchmark.md").read_text().split())
+    assert f"| stick_slip | {held['controller']} | 1 (1 not drilling) |" in markdown
+    assert "| stick_slip | stiff | 1 (1 growing) |" in markdown  # 50 rpm stick-slips
+    assert "Not drilling: the bit drilled nothing in the metric window" in markdown
+    assert f"{held['controller']}/stick_slip/0." in markdown
+
+
+def test_a_warm_up_past_the_last_whole_control_step_says_where_the_episode_ends(
+        tmp_path, capsys):
+    """A metrics audit: 20 s at the fast level are 202 control steps of 0.0988 s, 19.97 s;
+    a 19.98 s warm-up passed the settings' check and the episode then said it "ended before
+    a second sample (no samples)", as if it had failed. It says where it ends and why."""
+    from drill_cli.main import main
+
+    assert main(["benchmark", "--controllers", "stiff", "--scenarios", "stick_slip",
+                 "--seeds", "1", "--duration", "20", "--warmup", "19.98", "--fidelity",
+                 "fast", "--workers", "1", "--out", str(tmp_path)]) == 2
+    import re
+
+    err = " ".join(capsys.readouterr().err.split())
+    said = re.search(r"ended before a second sample, with nothing to measure \(the "
+                     r"warm-up, 19.98 s, leaves no two samples in it: it ends at ([\d.]+) s, "
+                     r"(\d+) control steps of ([\d.]+) s\)", err)
+    assert said, err
+    ends, steps, interval = float(said[1]), int(said[2]), float(said[3])
+    assert ends < 19.98 and ends == pytest.approx(steps * interval, rel=1e-3)
