@@ -34,7 +34,7 @@ import numpy as np
 from pydantic import Field
 
 from drill_env.physics.config import Fidelity
-from drill_env.physics.units import HOUR, KILO, MEGA, RPM, shown
+from drill_env.physics.units import HOUR, KILO, MEGA, RPM, few, shown
 from drill_env.physics.validation import (
     ConfigError,
     NonNegative,
@@ -1251,25 +1251,26 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
                                                   for name, path in runs.items()) + ".")
     failed = [r for r in rows if r.get("termination")]
     if failed:  # on screen too: only benchmark.md's last line said it
-        notes.append("Episodes that ended early (metrics until then): " + ", ".join(
-            f"{r['controller']}/{r['scenario']}/{r['seed']} ({r['termination']})"
-            for r in failed) + ".")
+        notes.append("Episodes that ended early (metrics until then): " + few(
+            [f"{r['controller']}/{r['scenario']}/{r['seed']} ({r['termination']})"
+             for r in failed], "in benchmark.csv's termination column") + ".")
     building = [r for r in rows if growing(r)]
     if building:  # SSI 0.00 in the window of a loop that stick-slips a minute later
         notes.append("Growing: the bit-speed swing of the metric window exceeds the one "
                      "before it by more than 10 %, a stick-slip still building that the "
                      "window's SSI and stuck share may not show yet; follow it in a longer "
                      "run (drill-env run --duration 240 prints the swing per 30 s): "
-                     + ", ".join(f"{r['controller']}/{r['scenario']}/{r['seed']} "
-                                 f"({r['swing_trend'].removeprefix('growing (').removesuffix(')')})"
-                                 for r in building) + ".")
+                     + few([f"{r['controller']}/{r['scenario']}/{r['seed']} "
+                            f"({r['swing_trend'].removeprefix('growing (').removesuffix(')')})"
+                            for r in building], "in benchmark_results.jsonl's swing_trend")
+                     + ".")
     idle = [r for r in rows if not_drilling(r)]
     if idle:
         notes.append("Not drilling: the bit drilled nothing in the metric window, so its SSI "
                      "(0 for a bit that never turns) and MSE (the thrust term WOB / A alone) "
                      "say nothing of vibration or efficiency; the stuck share and ROP do: "
-                     + ", ".join(f"{r['controller']}/{r['scenario']}/{r['seed']}"
-                                 for r in idle) + ".")
+                     + few([f"{r['controller']}/{r['scenario']}/{r['seed']}" for r in idle],
+                           "with ROP 0 in benchmark.csv") + ".")
     if unjudged := not_judged(rows):  # no mark is not "not growing" (an outside review)
         notes.append("Whether a stick-slip still grows is not judged where, over the "
                      "warm-up's end and the window, " + unjudged + ".")

@@ -24,7 +24,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from drill_env.physics.units import HOUR, KILO, RPM, shown
+from drill_env.physics.units import HOUR, KILO, RPM, few, shown
 from drill_env.sweep import Terminated, clear_interrupt, note_interrupt
 from drill_env.swing import SWING_BLOCK, swing_per_block, swing_trend
 
@@ -503,7 +503,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if swings is not None and len(swings) >= 2:
         lowest = min(rpm for t, rpm in speeds if t >= (len(swings) - 1) * SWING_BLOCK)
         print(f"  bit-speed swing (half of max - min) per {SWING_BLOCK:g} s: "
-              + ", ".join(f"{v:.3g}" for v in swings)
+              + few([f"{v:.3g}" for v in swings], "in run_summary.json")
               + f" rpm: {swing_trend(swings, lowest)}")
     elif swings is not None:
         print(f"  (the bit-speed swing per {SWING_BLOCK:g} s, growing or decaying, needs "
@@ -1871,6 +1871,7 @@ def _main(argv: Sequence[str] | None) -> int:
                                   "cluster's CPUs run the work: give one of the two")
     started = time.time()  # (what its results file holds from before is not its work)
     stop, terminated = _stop_as_interrupt()
+    heard = _hear_interrupts()
     clear_interrupt()  # one noted before this command is not this command's
     import tempfile
 
@@ -1924,6 +1925,8 @@ def _main(argv: Sequence[str] | None) -> int:
         clear_interrupt()  # handled here: not a later command's (or caller's) to act on
         if stop is not _NOT_INSTALLED:
             signal.signal(signal.SIGTERM, stop if stop is not None else signal.SIG_DFL)
+        if heard:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
     return 2
 
 
@@ -1969,6 +1972,18 @@ def exit_status(stopped: KeyboardInterrupt) -> int:
     """The shell's status of a command stopped by a signal, 128 + its number: 143 after
     SIGTERM, 130 after Ctrl-C (SIGINT)."""
     return 128 + (signal.SIGTERM if isinstance(stopped, Terminated) else signal.SIGINT)
+
+
+def _hear_interrupts() -> bool:
+    """Python's Ctrl-C handler for the command where SIGINT came ignored (a background job
+    of a script, ``drill-env train ... &``, inherits it so, POSIX): ``kill -INT`` then did
+    nothing to ``train``, which ran to its end unsaved, where the sweeps stopped and kept
+    their work (a scale trial). True where installed (the caller puts SIG_IGN back)."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        return False
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    return True
 
 
 def _stop_as_interrupt() -> tuple[Any, threading.Event]:

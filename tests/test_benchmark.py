@@ -1982,3 +1982,22 @@ def test_a_warm_up_past_the_last_whole_control_step_says_where_the_episode_ends(
     assert said, err
     ends, steps, interval = float(said[1]), int(said[2]), float(said[3])
     assert ends < 19.98 and ends == pytest.approx(steps * interval, rel=1e-3)
+
+
+def test_a_note_that_lists_episodes_shows_the_first_and_last_few(tmp_path, capsys):
+    """A scale trial: a 200-seed benchmark listed 199 episodes in one note (9 KB on screen
+    and in benchmark.md). A list longer than twelve shows six at each end and how many
+    more there are, and where they all are."""
+    from drill_env.physics.units import FEW, few
+
+    assert few(list("abc"), "x") == "a, b, c"
+    many = [str(k) for k in range(30)]
+    assert few(many, "in the CSV") == "0, 1, 2, 3, 4, 5, ... 18 more in the CSV ..., " \
+        "24, 25, 26, 27, 28, 29"
+    assert few(many[:FEW], "x") == ", ".join(many[:FEW])
+    rows = [_row("stiff", "stick_slip", seed=k, rop_m_per_h=0.0) for k in range(30)]
+    bm.write_outputs(rows, tmp_path, ["stiff"], ["stick_slip"], SHORT)
+    said = " ".join((tmp_path / "benchmark.md").read_text().split())
+    assert ("stiff/stick_slip/5, ... 18 more with ROP 0 in benchmark.csv ..., "
+            "stiff/stick_slip/24") in said
+    assert "stiff/stick_slip/12" not in said

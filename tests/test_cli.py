@@ -1570,3 +1570,30 @@ def test_modes_marks_a_controller_as_the_configs_only_where_the_file_sets_its_dr
         marked[file.stem] = [line.split()[0] for line in capsys.readouterr().out.splitlines()
                              if line.endswith("<- the config's")]
     assert marked == {"field_well_string": [], "drive": ["soft-torque"]}
+
+
+def test_a_command_started_with_sigint_ignored_still_stops_on_one(tmp_path):
+    """A script's background job (`drill-env train ... &`) inherits SIGINT ignored: `kill
+    -INT` stopped the sweeps but `train` ran to its end, unsaved (a scale trial). Every
+    command hears it: an hour at the fast level stops at the first SIGINT after start-up
+    (sent each second until it ends) with 130, not after its ~30 s of work with 0."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    home = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(home)}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "drill_cli", "run", "--duration", "36000", "--fidelity",
+         "fast", "--out", str(tmp_path)], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    started = time.monotonic()
+    while process.poll() is None and time.monotonic() - started < 120:
+        time.sleep(1.0)
+        process.send_signal(signal.SIGINT)
+    out, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "ended: interrupted" in out  # the summary of what it ran
