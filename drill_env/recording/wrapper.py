@@ -47,7 +47,7 @@ class RecordEpisode(gymnasium.Wrapper):
                  controller: str | None = None,
                  string_period: float = 0.1,
                  exaggeration: float | None = None, every: int = 1, record: bool = True,
-                 flush_every: int = 100, application_id: str = APPLICATION_ID) -> None:
+                 flush_every: int = 1000, application_id: str = APPLICATION_ID) -> None:
         super().__init__(env)
         if not (isinstance(every, int) and every >= 1):
             raise ValueError(f"every: must be an integer >= 1, got {every!r}")
