@@ -1596,4 +1596,6 @@ def test_a_command_started_with_sigint_ignored_still_stops_on_one(tmp_path):
         process.send_signal(signal.SIGINT)
     out, err = process.communicate(timeout=60)
     assert process.returncode == 130, err
-    assert "ended: interrupted" in out  # the summary of what it ran
+    # the summary of what it ran; or, where the kernels were still compiling (a fresh
+    # cache), the command's own word
+    assert "ended: interrupted" in out or "drill-env run: interrupted" in err
