@@ -1056,7 +1056,8 @@ NOT_DRILLING_MARK = "not drilling"
 def not_drilling(row: Mapping[str, Any]) -> bool:
     """Whether a row's bit drilled nothing in its metric window (mean ROP under the MSE's
     floor, :data:`~drill_env.metrics.MSE_MIN_ROP`): a bit that never turns has no swing
-    (SSI 0) and an MSE of the thrust term alone (WOB / A)."""
+    (SSI 0) and an MSE of the thrust term alone (WOB / A). A NaN ROP (a row of a broken
+    episode) is not judged: its cells read nan."""
     from drill_env.metrics import MSE_MIN_ROP
 
     return float(row["rop_m_per_h"]) / HOUR < MSE_MIN_ROP
@@ -1253,7 +1254,7 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     if failed:  # on screen too: only benchmark.md's last line said it
         notes.append("Episodes that ended early (metrics until then): " + few(
             [f"{r['controller']}/{r['scenario']}/{r['seed']} ({r['termination']})"
-             for r in failed], "in benchmark.csv's termination column") + ".")
+             for r in failed], "in benchmark_results.jsonl's termination field") + ".")
     building = [r for r in rows if growing(r)]
     if building:  # SSI 0.00 in the window of a loop that stick-slips a minute later
         notes.append("Growing: the bit-speed swing of the metric window exceeds the one "

@@ -912,17 +912,20 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from training.config import TASKS
     from training.evaluate import evaluate_run
 
-    if not args.run.exists() and str(args.run) in TASKS:  # a task's shipped policy
-        args.run = TRAINED / str(args.run)
+    # a task's name is its shipped policy, unless a file or folder here has that name
+    local = f"; {args.run} here is yours, not the task's shipped policy, which is " \
+        f"{TRAINED / str(args.run)}" if str(args.run) in TASKS else ""
+    if not args.run.exists() and local:
+        args.run, local = TRAINED / str(args.run), ""
     if not args.run.is_dir():
-        what = f"{args.run} is a file, not a run folder" if args.run.exists() else \
+        what = f"{args.run} is a file, not a run folder{local}" if args.run.exists() else \
             f"no such folder {args.run}"
         raise argparse.ArgumentTypeError(f"RUN: {what} (a run folder of drill-env train, "
                                          "e.g. logs/runs/<name>, or a task's name for its "
                                          f"shipped policy: {', '.join(sorted(TASKS))})")
     if not (args.run / "config.yaml").exists():
         raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
-                                         "train (no config.yaml)")
+                                         f"train (no config.yaml){local}")
     from agents.learned import policy_files
 
     try:
@@ -1227,12 +1230,15 @@ def cmd_modes(args: argparse.Namespace) -> int:
                             f"(WOB {wob / KILO:.0f} kN)")
     data = {"scenario": args.scenario, "weight_on_bit_N": wob,
             # keys without a unit in their name (a drilling engineer's review)
-            "units": {"components_N": "length and bottom_depth m, the rest N (weights, "
-                                      "axial forces)",
-                      "critical_speeds": "rpm rpm, frequency Hz",
-                      "top_drive_controllers": "gains and impedance N m s/rad, integral "
-                      "gain N m/rad, inertia kg m^2, frequencies Hz, feedback gain rad/s "
-                      "per N m"},
+            "units": {"components_N": {"length": "m", "bottom_depth": "m", "weight": "N",
+                                       "buoyed_weight": "N", "force_bottom": "N",
+                                       "force_top": "N"},
+                      "critical_speeds": {"rpm": "rpm", "frequency": "Hz"},
+                      "top_drive_controllers": {
+                          "proportional_gain": "N m s/rad", "integral_gain": "N m/rad",
+                          "feedback_gain": "rad/s per N m", "filter_frequency": "Hz",
+                          "filter_damping": "1", "tuning_frequency": "Hz",
+                          "impedance": "N m s/rad", "inertia": "kg m^2"}},
             "components_N": [vars(load) for load in md.component_loads(config, wob)],
             "modes": [{"kind": m.kind, "boundary": m.boundary,
                        "frequency_Hz": m.frequency.tolist(),
@@ -1827,9 +1833,10 @@ def shipped_hyperparameters() -> str:
 
 def shadowed_packages() -> list[str]:
     """Each of :data:`SIBLING_PACKAGES` that Python would import from somewhere other than
-    beside drill_cli, said as "NAME: FILE": ``python -m drill_cli`` from a folder holding
-    ``training.py`` or ``agents/`` imported the user's and failed far inside a command
-    with "No module named 'training.config'" (an outside check)."""
+    beside drill_cli, in words ("training is ./training.py"): ``python -m drill_cli`` from
+    a folder holding ``training.py`` or ``agents/`` imported the user's and failed far
+    inside a command with "No module named 'training.config'" (an outside check). Asked
+    where an import failed: a folder of that name blocks nothing that does not need it."""
     import importlib.util
 
     home = Path(__file__).resolve().parent.parent
@@ -1841,19 +1848,15 @@ def shadowed_packages() -> list[str]:
             spec = None
         where = None if spec is None else \
             (spec.origin or next(iter(spec.submodule_search_locations or []), None))
-        if where is None or Path(where).resolve().parent.parent != home and \
+        if where is None:
+            said.append(f"{name} is not installed")
+        elif Path(where).resolve().parent.parent != home and \
                 Path(where).resolve().parent != home:
-            said.append(f"{name}: {where or 'not found'}")
+            said.append(f"{name} is {where}")
     return said
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    if shadowed := shadowed_packages():
-        print(f"drill-env: {'; '.join(shadowed)} is not drill-env's own package (those "
-              f"lie in {Path(__file__).resolve().parent.parent}): a module of that name in "
-              "the working folder or on PYTHONPATH hides it; run from another folder or "
-              "rename yours", file=sys.stderr)
-        return 2
     top = parser()
     argv = _joined_values(sys.argv[1:] if argv is None else argv)
     if not argv:  # no command: what the commands are
@@ -1871,7 +1874,7 @@ def _main(argv: Sequence[str] | None) -> int:
                                   "cluster's CPUs run the work: give one of the two")
     started = time.time()  # (what its results file holds from before is not its work)
     stop, terminated = _stop_as_interrupt()
-    heard = _hear_interrupts()
+    heard = False
     clear_interrupt()  # one noted before this command is not this command's
     import tempfile
 
@@ -1885,7 +1888,16 @@ def _main(argv: Sequence[str] | None) -> int:
     os.environ[COMMAND_VARIABLE] = args.command
     os.environ[SAID_VARIABLE] = marks.name
     try:
+        heard = _hear_interrupts()
         return int(args.func(args))
+    except ImportError as err:  # our agents or training package hidden by the user's
+        if not (shadowed := shadowed_packages()):
+            raise
+        print(f"drill-env {args.command}: error: {err}: {'; '.join(shadowed)} (drill-env's "
+              f"own lie in {Path(__file__).resolve().parent.parent}): a module or folder of "
+              "that name in the working folder or on PYTHONPATH hides it; run from another "
+              "folder or rename yours", file=sys.stderr)
+        return 2
     except BrokenPipeError:  # the reader went away (`drill-env modes | head`): stop quietly
         sys.stderr.close()  # nothing more can be said on a closed pipe
         return 0

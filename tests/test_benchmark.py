@@ -1994,7 +1994,8 @@ def test_a_note_that_lists_episodes_shows_the_first_and_last_few(tmp_path, capsy
     many = [str(k) for k in range(30)]
     assert few(many, "in the CSV") == "0, 1, 2, 3, 4, 5, ... 18 more in the CSV ..., " \
         "24, 25, 26, 27, 28, 29"
-    assert few(many[:FEW], "x") == ", ".join(many[:FEW])
+    assert few(many[:FEW + 2], "x") == ", ".join(many[:FEW + 2])  # hiding 2 saves nothing
+    assert "... 3 more x ..." in few(many[:FEW + 3], "x")
     rows = [_row("stiff", "stick_slip", seed=k, rop_m_per_h=0.0) for k in range(30)]
     bm.write_outputs(rows, tmp_path, ["stiff"], ["stick_slip"], SHORT)
     said = " ".join((tmp_path / "benchmark.md").read_text().split())

@@ -1141,7 +1141,10 @@ def test_evaluate_takes_a_tasks_name_for_its_shipped_policy(tmp_path, monkeypatc
     (tmp_path / "drilling").mkdir()  # the user's own folder of that name is theirs
     with pytest.raises(SystemExit):
         main(["evaluate", "drilling"])
-    assert "drilling is not a run folder" in capsys.readouterr().err
+    said = " ".join(capsys.readouterr().err.split())
+    assert "drilling is not a run folder of drill-env train (no config.yaml); drilling " \
+        f"here is yours, not the task's shipped policy, which is {TRAINED / 'drilling'}" \
+        in said
     with pytest.raises(SystemExit):
         main(["evaluate", "stick"])
     assert "or a task's name for its shipped policy: drilling, stick_slip" in \

@@ -39,11 +39,11 @@ FEW = 12
 
 
 def few(items: list[str], more: str) -> str:
-    """``items`` joined by commas, at most :data:`FEW` of them: the first and the last
+    """``items`` joined by commas, at most :data:`FEW` + 2 of them: else the first and last
     halves, with how many were left out between, and ``more``, where they all are (a 10 h
     run printed 1,200 swings on one line, a 200-seed benchmark 199 episodes in a note: a
     scale trial)."""
-    if len(items) <= FEW:
+    if len(items) <= FEW + 2:  # (hiding one or two saves nothing)
         return ", ".join(items)
     half = FEW // 2
     return ", ".join([*items[:half], f"... {len(items) - FEW} more {more} ...",

@@ -4,11 +4,14 @@
 fails at once, in one line), keeps the per-step values of the current chunk in plain
 lists (a few microseconds a step), and writes every ``flush_every`` steps: the series,
 orbit, string and blade snapshots of the chunk, and the events the streaming detectors
-of :mod:`drill_env.events` found in it. Memory stays bounded by one chunk, and an
+of :mod:`drill_env.events` found in it. The steps not yet written are one chunk (rerun's
+stream keeps ~0.5 MB per chunk written until the file closes: ``flush_every``), and an
 interrupted run leaves a readable file with every chunk written so far (the wrapper
-finishes the episode on ``close``, as after Ctrl-C). Each episode has its own
-:class:`rerun.RecordingStream` (never the global one), so it works the same in a single
-process, in subprocess workers and with several envs side by side.
+finishes the episode on ``close``, as after Ctrl-C; a process killed outright loses the
+chunk not yet written, up to ``flush_every`` steps: a 60 s episode at 10 Hz is one).
+Each episode has its own :class:`rerun.RecordingStream` (never the global one), so it
+works the same in a single process, in subprocess workers and with several envs side by
+side.
 """
 
 from __future__ import annotations
