@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from drill_env.physics.units import HOUR, KILO, RPM, few, shown
-from drill_env.sweep import Terminated, clear_interrupt, note_interrupt
+from drill_env.sweep import Terminated, clear_interrupt, hear_interrupts, note_interrupt
 from drill_env.swing import SWING_BLOCK, swing_per_block, swing_trend
 
 DESCRIPTION = """\
@@ -1821,12 +1821,21 @@ def _joined_values(argv: Sequence[str]) -> list[str]:
 SIBLING_PACKAGES = ("agents", "training")
 
 
+def _package_spec(name: str) -> Any:
+    """Where Python would import the top-level ``name`` from (its ``ModuleSpec``, None if
+    nowhere), found without importing it."""
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec(name)
+    except (ImportError, ValueError):  # (a module in sys.modules without a spec)
+        return None
+
+
 def shipped_hyperparameters() -> str:
     """The folder of the hyperparameter files shipped in the ``training`` package (found
     without importing it: the help is built for every command)."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("training")
+    spec = _package_spec("training")
     where = next(iter(spec.submodule_search_locations or []), None) if spec else None
     return str(Path(where) / "hyperparams") if where else "training/hyperparams"
 
@@ -1837,15 +1846,10 @@ def shadowed_packages() -> list[str]:
     a folder holding ``training.py`` or ``agents/`` imported the user's and failed far
     inside a command with "No module named 'training.config'" (an outside check). Asked
     where an import failed: a folder of that name blocks nothing that does not need it."""
-    import importlib.util
-
     home = Path(__file__).resolve().parent.parent
     said = []
     for name in SIBLING_PACKAGES:
-        try:
-            spec = importlib.util.find_spec(name)
-        except (ImportError, ValueError):
-            spec = None
+        spec = _package_spec(name)
         where = None if spec is None else \
             (spec.origin or next(iter(spec.submodule_search_locations or []), None))
         if where is None:
@@ -1888,7 +1892,7 @@ def _main(argv: Sequence[str] | None) -> int:
     os.environ[COMMAND_VARIABLE] = args.command
     os.environ[SAID_VARIABLE] = marks.name
     try:
-        heard = _hear_interrupts()
+        heard = hear_interrupts()  # (a script's background job: kill -INT stops it)
         return int(args.func(args))
     except ImportError as err:  # our agents or training package hidden by the user's
         if not (shadowed := shadowed_packages()):
@@ -1984,18 +1988,6 @@ def exit_status(stopped: KeyboardInterrupt) -> int:
     """The shell's status of a command stopped by a signal, 128 + its number: 143 after
     SIGTERM, 130 after Ctrl-C (SIGINT)."""
     return 128 + (signal.SIGTERM if isinstance(stopped, Terminated) else signal.SIGINT)
-
-
-def _hear_interrupts() -> bool:
-    """Python's Ctrl-C handler for the command where SIGINT came ignored (a background job
-    of a script, ``drill-env train ... &``, inherits it so, POSIX): ``kill -INT`` then did
-    nothing to ``train``, which ran to its end unsaved, where the sweeps stopped and kept
-    their work (a scale trial). True where installed (the caller puts SIG_IGN back)."""
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
-        return False
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    return True
 
 
 def _stop_as_interrupt() -> tuple[Any, threading.Event]:

@@ -111,12 +111,9 @@ def _interruptible() -> None:
     task through Python's SIGINT handler, which a worker does not have when it inherited
     SIGINT ignored (a sweep started as a background job, ``drill-env ... &``, whose shell
     ignores it): the task then ran on until it was killed, a training run unsaved."""
-    import signal
-    import threading
+    from drill_env.sweep import hear_interrupts
 
-    if threading.current_thread() is threading.main_thread() and \
-            signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+    hear_interrupts()
 
 
 def _check_reachable(ray_address: str) -> None:

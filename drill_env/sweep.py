@@ -182,6 +182,22 @@ def note_interrupt(kind: type[KeyboardInterrupt] = KeyboardInterrupt) -> None:
     _noted = kind
 
 
+def hear_interrupts() -> bool:
+    """Python's Ctrl-C handler where SIGINT came ignored, in the main thread (a background
+    job of a script, ``drill-env train ... &``, inherits it so, POSIX, and so does a Ray
+    worker it started): ``kill -INT`` did nothing to ``train``, which ran to its end
+    unsaved, nor Ray's cancel to a task (the command's ``_main``, a scale trial;
+    :mod:`drill_env.distributed`). True where installed (the command puts SIG_IGN back
+    after it)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        return False
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    return True
+
+
 def clear_interrupt() -> None:
     """Forget a noted interrupt: whoever handled its exception calls it."""
     global _noted

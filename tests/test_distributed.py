@@ -369,7 +369,7 @@ def test_a_warning_given_again_is_filtered_by_its_module_as_where_it_was_said():
 
     from drill_env.distributed import _call, _said
 
-    reply = _call(_warn_coded_free, 4)
+    reply = _call(_warn_limit, 4)
     assert reply[1][0][4] == __name__
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -383,7 +383,7 @@ def test_a_warning_given_again_is_filtered_by_its_module_as_where_it_was_said():
     assert [str(w.message) for w in caught] == ["limit"]
 
 
-def _warn_coded_free(n: int) -> int:
+def _warn_limit(n: int) -> int:
     import warnings
 
     warnings.warn("limit", UserWarning, stacklevel=1)
