@@ -359,8 +359,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         from agents.benchmark import label
         from drill_env.recording import RecordEpisode
 
-        # named as the benchmark names its recordings: <controller>_<scenario>_seed<seed>...
-        env = RecordEpisode(env, args.record, scenario=args.scenario,
+        # named as the benchmark names its recordings: <controller>_<scenario>_seed<seed>...,
+        # the --config file's name joined to the scenario's (runs of two wells told apart)
+        scenario = args.scenario if args.config is None \
+            else f"{args.scenario}+{args.config.stem}"
+        env = RecordEpisode(env, args.record, scenario=scenario,
                             controller=label(args.controller))
     from tqdm import tqdm
 

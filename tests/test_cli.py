@@ -954,9 +954,14 @@ def test_run_and_benchmark_drill_the_string_of_a_config_file(tmp_path, capsys):
     field = Path(__file__).parents[1] / "examples" / "field_well_string.yaml"
     summary = {}
     for name, extra in (("default", []), ("field", ["--config", str(field)])):
-        assert main(["run", "--duration", "0.5", "--out", str(tmp_path / name), *extra]) == 0
+        assert main(["run", "--duration", "0.5", "--out", str(tmp_path / name), "--record",
+                     *extra]) == 0
         summary[name] = json.loads((tmp_path / name / "run_summary.json").read_text())
     assert summary["field"]["steps"] == summary["default"]["steps"] == 5
+    # the recording names the file of the well it drilled (runs of two wells apart)
+    assert Path(summary["field"]["recording"]).name.startswith(
+        "stiff_default_field_well_string_seed0_")  # ("+" is no file name's character)
+    assert Path(summary["default"]["recording"]).name.startswith("stiff_default_seed0_")
     # 2205.5 m of drill pipe over 190 m of HWDP and ~100 m of BHA (examples/)
     assert 2450.0 < summary["field"]["string_length_m"] < 2550.0
     assert summary["default"]["string_length_m"] < 2000.0
