@@ -39,8 +39,8 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
     if not drawn or changed.well.vertical or _sets_layers(overrides):  # the user's: true
         return changed
     well = changed.well
-    _, tangent, _ = Trajectory(Survey.from_stations(well.md, well.inclination,
-                                                    well.azimuth)).at(np.array([bit_depth(changed)]))
+    survey = Survey.from_stations(well.md, well.inclination, well.azimuth, warn=False)
+    _, tangent, _ = Trajectory(survey).at(np.array([bit_depth(changed)]))
     return replace(changed, formation=across_the_hole(changed.formation, tangent[0]))
 
 

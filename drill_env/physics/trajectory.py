@@ -85,7 +85,10 @@ class Survey:
     azimuth: np.ndarray
 
     @classmethod
-    def from_stations(cls, md, inclination_deg, azimuth_deg) -> Survey:
+    def from_stations(cls, md, inclination_deg, azimuth_deg, *, warn: bool = True) -> Survey:
+        """The survey of the stations (degrees), checked; ``warn``: say when the angles
+        look typed in radians or a course bends past pipe limits (False where a config's
+        well, which said so when it was built, is read again)."""
         md = np.asarray(md, dtype=float)
         inc = np.asarray(inclination_deg, dtype=float)
         azi = np.asarray(azimuth_deg, dtype=float)
@@ -110,7 +113,8 @@ class Survey:
             k = int(np.argmax(dogleg))
             raise ValueError(f"survey: stations {k} and {k + 1} turn the hole back on "
                              "itself (dogleg 180 degrees)")
-        _warn_of_radians_or_sharp_bends(md, inc, azi, dogleg)
+        if warn:
+            _warn_of_radians_or_sharp_bends(md, inc, azi, dogleg)
         return survey
 
     @classmethod
@@ -455,7 +459,7 @@ def string_in_hole(config, mesh) -> tuple[Trajectory, np.ndarray] | None:
     if well.vertical:
         return None
     depth = bit_depth(config)
-    survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
+    survey = Survey.from_stations(well.md, well.inclination, well.azimuth, warn=False)
     return Trajectory(survey), mesh.node_depth + (depth - mesh.node_depth[-1])
 
 

@@ -380,3 +380,26 @@ def test_a_survey_typed_in_radians_or_bent_past_pipe_limits_warns() -> None:
         warnings.simplefilter("error")
         for profile in WELLS.values():
             profile(3000.0)
+
+
+def test_an_env_in_a_sharply_bent_well_says_so_once() -> None:
+    """The survey's warnings belong to the config that holds it: an env built, reset and
+    stepped in a well bent 90 deg/30 m says so once even where every warning is shown
+    (simplefilter "always"), not again each time the string is put in the hole (three
+    times before)."""
+    import warnings
+
+    import gymnasium as gym
+
+    import drill_env  # noqa: F401  (registers the env)
+
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        env = gym.make("DrillString-v0", physics={
+            "well.md": (0.0, 300.0, 310.0, 2500.0), "well.inclination": (0.0, 0.0, 30.0, 30.0),
+            "well.azimuth": (45.0,) * 4})
+        env.reset(seed=0)
+        env.step(env.action_space.sample())
+        env.close()
+    bends = [str(w.message) for w in seen if "bend the hole" in str(w.message)]
+    assert len(bends) == 1 and "90 deg/30 m" in bends[0]
