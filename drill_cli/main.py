@@ -382,6 +382,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     lateral = base.simulation_config.solver.lateral  # torsion only: nothing to buckle
     for b in pipe_buckling(base.simulation_config, start_wob_kn * KILO) if lateral else ():
         print(buckling_note(f"{start_wob_kn:g} kN", b.component, b), file=sys.stderr)
+    for note in tension_notes(base.simulation_config, start_wob_kn * KILO):
+        print(note, file=sys.stderr)
     from drill_env.physics.modes import bha_buckles
 
     if bha_buckles(base.simulation_config, start_wob_kn * KILO):  # as modes says
@@ -569,6 +571,18 @@ def buckling_note(load: str, component: str, buckled: Any) -> str:
             f"{buckled.buckling_load / KILO:.1f} kN there: it buckles "
             "into the wall (the scenarios refuse such a starting point; docs/model.md, "
             "'Axial load and buckling')")
+
+
+def tension_notes(config: Any, wob: float) -> list[str]:
+    """A note per component whose static tension at ``wob`` (N) passes the allowable
+    design load of the strongest common pipe grade (``over_allowable_tension``)."""
+    from drill_env.physics.statics import over_allowable_tension
+
+    return [f"note: the {o.component} carries {o.tension / KILO:,.0f} kN at its top hanging "
+            f"straight, above {o.allowable / KILO:,.0f} kN, API RP 7G's allowable tension "
+            "for its body even in S-135 pipe (90 % of 931 MPa): a real string stretches "
+            "plastically or parts there, the model has no yield (docs/model.md, 'Axial "
+            "load and buckling')" for o in over_allowable_tension(config, wob)]
 
 
 def length_range(text: str) -> tuple[float, float]:
@@ -1179,6 +1193,8 @@ def cmd_modes(args: argparse.Namespace) -> int:
               f"{b.compression / KILO:.1f} kN {b.place}, beyond its buckling load "
               f"{b.buckling_load / KILO:.1f} kN: it would buckle, and {then}; the modes "
               "below are of the straight string")
+    for note in tension_notes(config, wob):
+        print(note)
     print(f"\n{'component (bit up)':<22} {'length':>7} {'air':>8} {'in mud':>8} "
           f"{'N bottom':>9} {'N top':>9}   (m, kN; tension > 0)")
     for load in md.component_loads(config, wob):

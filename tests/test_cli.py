@@ -1613,3 +1613,23 @@ def test_a_command_started_with_sigint_ignored_still_stops_on_one(tmp_path):
     # the summary of what it ran; or, where the kernels were still compiling (a fresh
     # cache), the command's own word
     assert "ended: interrupted" in out or "drill-env run: interrupted" in err
+
+
+def test_run_and_modes_note_a_string_past_the_allowable_tension(tmp_path, capsys,
+                                                                 monkeypatch):
+    """Where the statics find a component past S-135's allowable tension (a 13 km string:
+    tests/physics/test_statics.py; too slow to build here, so the finding is put in), run
+    notes it on stderr and modes with its loads table, in kN as typed."""
+    from drill_env.physics import statics
+
+    found = [statics.OverTension("5 in DP", 3.237e6, 3.150e6)]
+    monkeypatch.setattr(statics, "over_allowable_tension", lambda config, wob: found)
+    assert main(["run", "--duration", "0.2", "--out", str(tmp_path / "run")]) == 0
+    err = capsys.readouterr().err
+    assert "note: the 5 in DP carries 3,237 kN at its top hanging straight, above 3,150 kN" \
+        in err
+    assert main(["modes", "-n", "1", "--out", str(tmp_path / "modes")]) == 0
+    assert "note: the 5 in DP carries 3,237 kN" in capsys.readouterr().out
+    monkeypatch.setattr(statics, "over_allowable_tension", lambda config, wob: [])
+    assert main(["run", "--duration", "0.2", "--out", str(tmp_path / "run")]) == 0
+    assert "allowable tension" not in capsys.readouterr().err

@@ -164,6 +164,38 @@ def component_loads(config: SimulationConfig, weight_on_bit: float) -> list[Comp
     return out
 
 
+#: The strongest common drill-pipe grade, API 5DP's S-135: minimum yield 135,000 psi
+#: (931 MPa); API RP 7G's maximum allowable design tension is 90 % of the tension at
+#: minimum yield. The model has no grade: a string past this load is past every common
+#: grade's (E-75 yields at 517 MPa, G-105 at 724 MPa).
+S135_YIELD, RP7G_DESIGN_FACTOR = 135_000 * 6894.757, 0.9
+
+
+@dataclass(frozen=True)
+class OverTension:
+    """A component whose static tension passes the allowable design load of S-135 pipe."""
+
+    component: str
+    tension: float  # at its top, hanging straight (N)
+    allowable: float  # 0.9 x 931 MPa x its body's area (N)
+
+
+def over_allowable_tension(config: SimulationConfig, weight_on_bit: float
+                           ) -> list[OverTension]:
+    """The components, from the bit up, whose static tension at their top (hanging
+    straight: :func:`component_loads`; a curved hole's true vertical depth lowers it, drag
+    while pulling out raises it) is above the allowable design tension of S-135 pipe of
+    their body (:data:`S135_YIELD`, :data:`RP7G_DESIGN_FACTOR`): the model has no yield,
+    and the top of a string that long stretches plastically or parts in a real well."""
+    sections = config.string.lower + (config.string.drill_pipe,)
+    out = []
+    for load, section in zip(component_loads(config, weight_on_bit), sections, strict=True):
+        allowable = RP7G_DESIGN_FACTOR * S135_YIELD * section.area
+        if load.force_top > allowable:
+            out.append(OverTension(load.component, load.force_top, allowable))
+    return out
+
+
 @dataclass(frozen=True)
 class PipeBuckling:
     """A pipe component compressed beyond its buckling load."""

@@ -93,3 +93,39 @@ def test_the_buckling_names_where_the_pipe_comes_nearest_to_buckling() -> None:
     assert curved.inclination < math.radians(10.0)  # the vertical-hole limit's last element
     assert curved.buckling_load == pytest.approx(found.buckling_load)  # Lubinski's, as there
     assert f"{math.degrees(curved.inclination):.1f} deg inclination" in curved.place
+
+
+def test_a_string_past_the_allowable_tension_of_s135_pipe_is_named_at_its_length() -> None:
+    """The default scenario's string lengthened: the drill pipe's static tension at the
+    top, the buoyed weight of everything below it less the WOB (Archimedes, summed here
+    from the sections' diameters and densities), reaches API RP 7G's allowable load of
+    S-135 pipe (0.9 x 135,000 psi x the body's area) at a length solved by hand; 20 m
+    shorter the string passes, 20 m longer the drill pipe is named, and only it."""
+    import math
+
+    from drill_env.physics.statics import over_allowable_tension
+    from drill_env.physics.units import GRAVITY
+    from drill_env.scenarios import make_scenario
+
+    base = make_scenario("default").config
+    lower = cp.realistic_string(1250.0).lower
+    mud, wob = base.mud.density, 100e3
+
+    def buoyed(section) -> float:  # per metre (N/m)
+        area = math.pi / 4 * (section.outer_diameter ** 2 - section.inner_diameter ** 2)
+        return area * (section.density - mud) * GRAVITY
+
+    below = sum(buoyed(s) * s.length for s in lower) \
+        + base.bit.mass * GRAVITY * (1.0 - mud / lower[0].density)
+    pipe = cp.realistic_string(1250.0).drill_pipe
+    pipe_area = math.pi / 4 * (pipe.outer_diameter ** 2 - pipe.inner_diameter ** 2)
+    allowable = 0.9 * 135_000 * 6894.757 * pipe_area  # psi to Pa
+    length = sum(s.length for s in lower) + (allowable + wob - below) / buoyed(pipe)
+    assert length == pytest.approx(12_650.0, abs=50.0)  # docs/model.md: 12.65 km
+    for extra, named in ((-20.0, []), (20.0, [pipe.label])):
+        config = replace(base, string=cp.realistic_string(length + extra))
+        over = over_allowable_tension(config, wob)
+        assert [o.component for o in over] == named
+        for o in over:
+            assert o.allowable == pytest.approx(allowable, rel=1e-12)
+            assert o.tension == pytest.approx(allowable + 20.0 * buoyed(pipe), rel=1e-9)
