@@ -161,12 +161,14 @@ def _projected(sim, weight_on_bit: float, rock: int, basis: np.ndarray
     return growth
 
 
-#: Modes of the projected system :func:`stick_slip_threshold` searches on, and the
-#: relative half-width of the bracket in which the full system then confirms the root
-#: (the search's root corrected by the full system's growth rate there lands within
-#: 5e-5 of the full system's on a 2,500 m string and 6e-6 on a 5,000 m one, under each
-#: controller; a root outside the bracket costs a search on the full system)
-SEARCH_MODES, CONFIRM_WIDTH = 80, 2e-4
+#: Modes of the projected system :func:`stick_slip_threshold` searches on; strings of at
+#: most :data:`FULL_SEARCH_NODES` nodes are searched on the full system (as fast there);
+#: the relative half-width of the bracket in which the full system confirms a root, and
+#: how many times the root is corrected before the full system is searched instead (the
+#: search's root shifted by the full system's growth rate lands within 1e-5 of the full
+#: system's under the stiff PI and SoftSpeed, 1e-4 under SoftTorque and up to 7.5e-4
+#: under ZTorque on 2,000-5,000 m strings; corrected again at the bracket, within 2e-4)
+SEARCH_MODES, FULL_SEARCH_NODES, CONFIRM_WIDTH, CORRECTIONS = 80, 200, 2e-4, 3
 
 
 def stick_slip_threshold(sim, weight_on_bit: float, rock: int = 0,
@@ -175,32 +177,40 @@ def stick_slip_threshold(sim, weight_on_bit: float, rock: int = 0,
     """Rotary speed (rad/s) below which steady rotation is linearly unstable.
 
     Returns ``omega_range[0]`` if stable everywhere in the range, ``omega_range[1]`` if
-    unstable everywhere. The root is searched on the string's ``search_modes`` lowest
-    modes (:func:`string_modes`, :func:`_projected`), then corrected by the full
-    system's growth rate at it (the search's function shifted to pass through it), and
-    confirmed by the full system: its growth rate changes sign within 0.02 % of the
-    corrected root (the root then interpolated between the two), or the full system is
-    searched instead. A string of n nodes costs the full 2n-square eigenproblem three
-    times, not the ~14 times of a search on it: `drill-env modes` (four controllers)
-    takes 9 s on a 5,000 m string and 42 s on a 10,000 m one, against 30 s and 149 s
-    (docs/controllers.md).
+    unstable everywhere; between them, where the growth rate turns negative (one
+    crossing assumed, as a search on the full system assumes). On a string of more than
+    :data:`FULL_SEARCH_NODES` nodes the root is searched on its ``search_modes`` lowest
+    modes (:func:`string_modes`, :func:`_projected`), that search shifted by the full
+    system's growth rate at the root found, and the root confirmed by the full system:
+    its growth rate changes sign within 0.02 % of it (the root then interpolated between
+    the two), or the shift is taken there again, up to :data:`CORRECTIONS` times, before
+    the full system is searched instead. A long string costs the full 2n-square
+    eigenproblem three times, not the ~14 times of a search on it: `drill-env modes`
+    (four controllers) takes 10 s on a 5,000 m string and 34-42 s on a 10,000 m one,
+    against 30 s and 149 s (docs/controllers.md).
     """
     lo, hi = omega_range
 
     def full(w: float) -> float:
         return torsional_growth_rate(sim, w, weight_on_bit, rock)
 
+    if sim.tor_m.shape[0] <= FULL_SEARCH_NODES:
+        return _root(full, lo, hi)
     reduced = _projected(sim, weight_on_bit, rock, string_modes(sim, search_modes))
     guess = _root(reduced, lo, hi)
     if guess in (lo, hi):  # (stable or unstable throughout: one or two full solves)
         return _root(full, lo, hi)
     shift = full(guess) - reduced(guess)
-    guess = _root(lambda w: reduced(w) + shift, lo, hi)
-    a, b = guess * (1.0 - CONFIRM_WIDTH), guess * (1.0 + CONFIRM_WIDTH)
-    if lo < a and b < hi:
+    for _ in range(CORRECTIONS):
+        guess = _root(lambda w, shift=shift: reduced(w) + shift, lo, hi)
+        a, b = guess * (1.0 - CONFIRM_WIDTH), guess * (1.0 + CONFIRM_WIDTH)
+        if not lo < a < b < hi:
+            break
         g_a, g_b = full(a), full(b)
         if g_a > 0.0 >= g_b:
             return a + (b - a) * g_a / (g_a - g_b)  # the secant's root: ~1e-8 relative
+        near, g_near = (a, g_a) if g_a <= 0.0 else (b, g_b)  # the end nearer the root
+        shift = g_near - reduced(near)
     return _root(full, lo, hi)
 
 
