@@ -359,8 +359,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         from agents.benchmark import label
         from drill_env.recording import RecordEpisode
 
-        # named as the benchmark names its recordings: <controller>_<scenario>_seed<seed>...,
-        # the --config file's name joined to the scenario's (runs of two wells told apart)
+        # <controller>_<scenario>_seed<seed>_ep..., the benchmark's order; the --config
+        # file's name joined to the scenario's (runs of two wells in one folder told apart)
         scenario = args.scenario if args.config is None \
             else f"{args.scenario}+{args.config.stem}"
         env = RecordEpisode(env, args.record, scenario=scenario,
@@ -580,9 +580,9 @@ def tension_notes(config: Any, wob: float) -> list[str]:
 
     return [f"note: the {o.component} carries {o.tension / KILO:,.0f} kN at its top hanging "
             f"straight, above {o.allowable / KILO:,.0f} kN, API RP 7G's allowable tension "
-            "for its body even in S-135 pipe (90 % of 931 MPa): a real string stretches "
-            "plastically or parts there, the model has no yield (docs/model.md, 'Axial "
-            "load and buckling')" for o in over_allowable_tension(config, wob)]
+            "for its body even in new S-135 pipe (90 % of 931 MPa): within 10 % of yield, "
+            "past any common grade's design limit; the model has no yield (docs/model.md, "
+            "'Axial load and buckling')" for o in over_allowable_tension(config, wob)]
 
 
 def length_range(text: str) -> tuple[float, float]:
@@ -1355,7 +1355,7 @@ def cmd_well(args: argparse.Namespace) -> int:
         source = "--total-md"
     else:  # the scenario's hole, or the one --config gives (its well section)
         well = config.well
-        survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
+        survey = Survey.from_stations(well.md, well.inclination, well.azimuth, warn=False)
         given = sets_section(overrides, "well")
         # (a scenario's hole is named apart from the preset well of the same name, which
         # --well draws at another length: neither overwrites the other's chart)

@@ -59,7 +59,7 @@ def torque() -> None:
     speed = 60 * RPM
     mu = sliding_friction(cfg, speed)
     well = cfg.well
-    survey = Survey.from_stations(well.md, well.inclination, well.azimuth)
+    survey = Survey.from_stations(well.md, well.inclination, well.azimuth, warn=False)
     soft = soft_string(Trajectory(survey), column_for(cfg, LENGTH), LENGTH, mu)
     print(f"soft-string model: {soft.surface_torque / 1e3:.1f} kN m "
           f"({soft.surface_torque / math.sqrt(1 + mu * mu) / 1e3:.1f} after the friction angle)")

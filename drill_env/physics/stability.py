@@ -161,14 +161,18 @@ def _projected(sim, weight_on_bit: float, rock: int, basis: np.ndarray
     return growth
 
 
-#: Modes of the projected system :func:`stick_slip_threshold` searches on; strings of at
-#: most :data:`FULL_SEARCH_NODES` nodes are searched on the full system (as fast there);
-#: the relative half-width of the bracket in which the full system confirms a root, and
-#: how many times the root is corrected before the full system is searched instead (the
+#: Modes of the projected system :func:`stick_slip_threshold` searches on.
+SEARCH_MODES = 80
+#: Strings of at most this many nodes are searched on the full system alone (an outside
+#: check measured the projection no faster there).
+FULL_SEARCH_NODES = 200
+#: Relative half-width of the bracket in which the full system confirms a root, and how
+#: many times the root is shifted again before the full system is searched instead: the
 #: search's root shifted by the full system's growth rate lands within 1e-5 of the full
 #: system's under the stiff PI and SoftSpeed, 1e-4 under SoftTorque and up to 7.5e-4
-#: under ZTorque on 2,000-5,000 m strings; corrected again at the bracket, within 2e-4)
-SEARCH_MODES, FULL_SEARCH_NODES, CONFIRM_WIDTH, CORRECTIONS = 80, 200, 2e-4, 3
+#: under ZTorque on 2,000-5,000 m strings; shifted again at the bracket, within 2e-4.
+CONFIRM_WIDTH = 2e-4
+CORRECTIONS = 3
 
 
 def stick_slip_threshold(sim, weight_on_bit: float, rock: int = 0,
@@ -182,43 +186,61 @@ def stick_slip_threshold(sim, weight_on_bit: float, rock: int = 0,
     :data:`FULL_SEARCH_NODES` nodes the root is searched on its ``search_modes`` lowest
     modes (:func:`string_modes`, :func:`_projected`), that search shifted by the full
     system's growth rate at the root found, and the root confirmed by the full system:
-    its growth rate changes sign within 0.02 % of it (the root then interpolated between
-    the two), or the shift is taken there again, up to :data:`CORRECTIONS` times, before
-    the full system is searched instead. A long string costs the full 2n-square
-    eigenproblem three times, not the ~14 times of a search on it: `drill-env modes`
-    (four controllers) takes 10 s on a 5,000 m string and 34-42 s on a 10,000 m one,
-    against 30 s and 149 s (docs/controllers.md).
+    its growth rate changes sign within :data:`CONFIRM_WIDTH` of it (the root then
+    interpolated between the two), or the shift is taken there again, up to
+    :data:`CORRECTIONS` times, before the full system is searched instead, between the
+    speeds it was already found unstable and stable at. A long string costs three
+    solves of the full eigenproblem (2n and the feedback's states), not the ~14 of a
+    search on it (timings: docs/controllers.md).
     """
+    if search_modes < 1:
+        raise ValueError(f"search_modes: at least one mode, got {search_modes}")
     lo, hi = omega_range
+    seen: dict[float, float] = {}  # the full system's growth rate at the speeds solved
 
     def full(w: float) -> float:
-        return torsional_growth_rate(sim, w, weight_on_bit, rock)
+        if w not in seen:
+            seen[w] = torsional_growth_rate(sim, w, weight_on_bit, rock)
+        return seen[w]
 
     if sim.tor_m.shape[0] <= FULL_SEARCH_NODES:
         return _root(full, lo, hi)
     reduced = _projected(sim, weight_on_bit, rock, string_modes(sim, search_modes))
-    guess = _root(reduced, lo, hi)
+    fine = CONFIRM_WIDTH / 20.0  # the projected roots well inside the bracket
+    guess = _root(reduced, lo, hi, rtol=fine)
     if guess in (lo, hi):  # (stable or unstable throughout: one or two full solves)
         return _root(full, lo, hi)
     shift = full(guess) - reduced(guess)
     for _ in range(CORRECTIONS):
-        guess = _root(lambda w, shift=shift: reduced(w) + shift, lo, hi)
+        guess = _root(lambda w, shift=shift: reduced(w) + shift, lo, hi, rtol=fine)
         a, b = guess * (1.0 - CONFIRM_WIDTH), guess * (1.0 + CONFIRM_WIDTH)
         if not lo < a < b < hi:
             break
         g_a, g_b = full(a), full(b)
         if g_a > 0.0 >= g_b:
-            return a + (b - a) * g_a / (g_a - g_b)  # the secant's root: ~1e-8 relative
+            # the secant's root: ~1e-8 relative where the growth rate is smooth in the
+            # bracket (a kink, two modes' real parts crossing, leaves it within the bracket)
+            return a + (b - a) * g_a / (g_a - g_b)
         near, g_near = (a, g_a) if g_a <= 0.0 else (b, g_b)  # the end nearer the root
         shift = g_near - reduced(near)
-    return _root(full, lo, hi)
+    return _root(full, lo, hi, seen=seen)
 
 
-def _root(growth, lo: float, hi: float) -> float:
+def _root(growth, lo: float, hi: float, rtol: float | None = None,
+          seen: dict[float, float] | None = None) -> float:
     """Where ``growth`` turns from positive to negative in ``[lo, hi]``: ``lo`` if it is
-    not positive there, ``hi`` if it is positive at ``hi``."""
+    not positive there, ``hi`` if it is positive at ``hi``; to 1e-4 rad/s, or to ``rtol``
+    of the root where given. ``seen``: its values already known at some speeds, which
+    narrow the search (unless they show more than one crossing)."""
     if growth(lo) <= 0.0:
         return lo
     if growth(hi) > 0.0:
         return hi
-    return float(brentq(growth, lo, hi, xtol=1e-4))
+    known = {w: g for w, g in (seen or {}).items() if lo < w < hi}
+    a = max((w for w, g in known.items() if g > 0.0), default=lo)
+    b = min((w for w, g in known.items() if g <= 0.0), default=hi)
+    if a >= b:
+        a, b = lo, hi
+    if rtol is None:
+        return float(brentq(growth, a, b, xtol=1e-4))
+    return float(brentq(growth, a, b, xtol=1e-12, rtol=rtol))

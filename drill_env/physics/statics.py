@@ -48,7 +48,7 @@ import numpy as np
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.fem import axial_force_profile, build_mesh
 from drill_env.physics.trajectory import bit_depth, hole_loads, string_in_hole
-from drill_env.physics.units import GRAVITY
+from drill_env.physics.units import GRAVITY, PSI
 from drill_env.physics.validation import require_non_negative
 
 #: Kinds of component that are pipe (not built to carry compression).
@@ -166,14 +166,18 @@ def component_loads(config: SimulationConfig, weight_on_bit: float) -> list[Comp
 
 #: The strongest common drill-pipe grade, API 5DP's S-135: minimum yield 135,000 psi
 #: (931 MPa); API RP 7G's maximum allowable design tension is 90 % of the tension at
-#: minimum yield. The model has no grade: a string past this load is past every common
-#: grade's (E-75 yields at 517 MPa, G-105 at 724 MPa).
-S135_YIELD, RP7G_DESIGN_FACTOR = 135_000 * 6894.757, 0.9
+#: minimum yield of new pipe. The model has no grade: a string past this load is past
+#: every common grade's (E-75 yields at 517 MPa, G-105 at 724 MPa), and the load is the
+#: lenient bound: new pipe's body, static, no tool joints (the model's 5 in pipe weighs
+#: 17.95 lb/ft, real 19.5 lb/ft pipe with its joints ~22-23), no slip crushing, margin of
+#: overpull or torque (docs/model.md).
+S135_YIELD, RP7G_DESIGN_FACTOR = 135_000 * PSI, 0.9
 
 
 @dataclass(frozen=True)
 class OverTension:
-    """A component whose static tension passes the allowable design load of S-135 pipe."""
+    """A pipe component whose static tension passes the allowable design load of new
+    S-135 pipe."""
 
     component: str
     tension: float  # at its top, hanging straight (N)
@@ -182,16 +186,19 @@ class OverTension:
 
 def over_allowable_tension(config: SimulationConfig, weight_on_bit: float
                            ) -> list[OverTension]:
-    """The components, from the bit up, whose static tension at their top (hanging
-    straight: :func:`component_loads`; a curved hole's true vertical depth lowers it, drag
-    while pulling out raises it) is above the allowable design tension of S-135 pipe of
-    their body (:data:`S135_YIELD`, :data:`RP7G_DESIGN_FACTOR`): the model has no yield,
-    and the top of a string that long stretches plastically or parts in a real well."""
+    """The pipe components (drill pipe, heavy-weight pipe and the string's top section),
+    from the bit up, whose static tension at their top (hanging straight:
+    :func:`component_loads`; a curved hole's true vertical depth lowers it, drag while
+    pulling out raises it) is above the allowable design tension of new S-135 pipe of
+    their body (:data:`S135_YIELD`, :data:`RP7G_DESIGN_FACTOR`): within 10 % of its
+    minimum yield, past the design limit of any common grade; the model has no yield.
+    The BHA below the pipe carries less tension than the pipe above it."""
     sections = config.string.lower + (config.string.drill_pipe,)
     out = []
     for load, section in zip(component_loads(config, weight_on_bit), sections, strict=True):
         allowable = RP7G_DESIGN_FACTOR * S135_YIELD * section.area
-        if load.force_top > allowable:
+        pipe = section.kind in PIPE_KINDS or section is config.string.drill_pipe
+        if pipe and load.force_top > allowable:
             out.append(OverTension(load.component, load.force_top, allowable))
     return out
 

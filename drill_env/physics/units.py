@@ -20,6 +20,8 @@ MEGA = 1.0e6
 HOUR = 3600.0
 #: Standard gravity (m/s^2).
 GRAVITY = 9.81
+#: One pound-force per square inch in pascals (pipe grades: 135,000 psi is 931 MPa).
+PSI = 6894.757
 
 
 def shown(fmt: str, value: float) -> str:

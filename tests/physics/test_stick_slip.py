@@ -211,6 +211,7 @@ def test_the_string_modes_are_the_lowest_of_the_generalised_eigenproblem(long_st
     np.testing.assert_allclose(got, expected, rtol=1e-8, atol=1e-10 * scale)
     np.testing.assert_allclose(basis.T @ (j[:, None] * basis), np.eye(40), atol=1e-9)
     assert abs(expected[0]) < 1e-9 * scale  # the rigid turn: the top is free
+    assert np.ptp(basis[:, 0]) < 1e-9 * np.max(np.abs(basis[:, 0]))  # (the basis's own)
 
 
 @pytest.fixture(scope="module")
@@ -252,14 +253,19 @@ def test_the_threshold_searched_on_the_string_modes_is_the_full_systems(
 
 def test_a_search_on_too_few_modes_is_refused_by_the_full_system(
         long_string_sims, full_thresholds, monkeypatch):
-    """On one mode the searched root is too far off for the full system to confirm
-    (here under the stiff PI and ZTorque): the full system is searched instead, and the
-    threshold is its own, to brentq's tolerance of 1e-4 rad/s."""
-    for k in (0, 3):
+    """Searched on too few modes, the threshold is still the full system's, to brentq's
+    tolerance of 1e-4 rad/s: under the stiff PI one mode (the rigid turn) is stable at
+    every speed, which the full system refuses at the range's low end; under ZTorque
+    three modes put the root at 2.48 rad/s against 3.15, too far for the shifts to
+    reach, and the full system is searched between the speeds it was solved at (13
+    solves: the seven of the shifts and brentq's, no more than a search on it alone)."""
+    for k, modes in ((0, 1), (3, 3)):
         calls = _counting_full_solves(monkeypatch)
-        got = stick_slip_threshold(long_string_sims[k], 100e3, search_modes=1)
+        got = stick_slip_threshold(long_string_sims[k], 100e3, search_modes=modes)
         assert got == pytest.approx(full_thresholds[k], abs=1e-4)
-        assert calls[0] > 1 + 2 * CORRECTIONS  # more than every correction takes
+        assert 1 + 2 * CORRECTIONS < calls[0] <= 14  # more than all the shifts: searched
+    with pytest.raises(ValueError, match="search_modes: at least one mode, got 0"):
+        stick_slip_threshold(long_string_sims[0], 100e3, search_modes=0)
 
 
 def test_the_example_strings_threshold_under_ztorque_is_confirmed_after_a_second_shift(
