@@ -581,8 +581,9 @@ def tension_notes(config: Any, wob: float) -> list[str]:
     return [f"note: the {o.component} carries {o.tension / KILO:,.0f} kN at its top hanging "
             f"straight, above {o.allowable / KILO:,.0f} kN, API RP 7G's allowable tension "
             "for its body even in new S-135 pipe (90 % of 931 MPa): within 10 % of yield, "
-            "past any common grade's design limit; the model has no yield (docs/model.md, "
-            "'Axial load and buckling')" for o in over_allowable_tension(config, wob)]
+            "past any common grade's design limit; the model has no yield, and its pipe no "
+            "tool joints, so a real string's load is higher (docs/model.md, 'Axial load "
+            "and buckling')" for o in over_allowable_tension(config, wob)]
 
 
 def length_range(text: str) -> tuple[float, float]:
@@ -1182,7 +1183,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
     print(f"{source}: {described}; string {config.string.length:.0f} m, "
           f"WOB {wob / KILO:.0f} kN, neutral point "
           f"{md.neutral_point_height(config, wob):.0f} m above the bit")
-    from drill_env.physics.statics import pipe_buckling
+    from drill_env.physics.statics import bit_buoyed_weight, pipe_buckling
 
     # what a scenario refuses to start at; a torsion-only one drills it straight
     then = ("a scenario refuses to start there" if config.solver.lateral else "this "
@@ -1201,6 +1202,8 @@ def cmd_modes(args: argparse.Namespace) -> int:
         print(f"{load.component:<22} {load.length:7.1f} {load.weight / KILO:8.1f} "
               f"{load.buoyed_weight / KILO:8.1f} {load.force_bottom / KILO:9.1f} "
               f"{load.force_top / KILO:9.1f}")
+    print(f"(the lowest N bottom is the bit's own weight in mud, "
+          f"{bit_buoyed_weight(config) / KILO:.1f} kN, less the WOB)")
     print()
     header = f"{'mode':<12} {'f (Hz)':>8} {'damping':>8}   boundary"
     print(header + "\n" + "-" * 78)

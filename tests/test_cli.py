@@ -1633,3 +1633,21 @@ def test_run_and_modes_note_a_string_past_the_allowable_tension(tmp_path, capsys
     monkeypatch.setattr(statics, "over_allowable_tension", lambda config, wob: [])
     assert main(["run", "--duration", "0.2", "--out", str(tmp_path / "run")]) == 0
     assert "allowable tension" not in capsys.readouterr().err
+
+
+def test_modes_says_what_the_bits_row_of_its_load_table_holds(tmp_path, capsys):
+    """The load table's lowest "N bottom" is not -WOB: the bit's own weight in mud
+    (mass x g x (1 - rho_mud / rho_steel), by hand here) hangs below it, which the line
+    under the table says (a user read -99.6 kN against a stated 100 kN unexplained)."""
+    from drill_env.physics.units import GRAVITY
+    from drill_env.scenarios import make_scenario
+
+    config = make_scenario("default").config
+    steel = config.string.lower[0].density
+    bit = config.bit.mass * GRAVITY * (1.0 - config.mud.density / steel) / 1e3
+    assert main(["modes", "-n", "1", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert (f"(the lowest N bottom is the bit's own weight in mud, {bit:.1f} kN, less the "
+            "WOB)") in out
+    first_row = out.split("(m, kN; tension > 0)\n")[1].splitlines()[0].split()
+    assert float(first_row[-2]) == pytest.approx(bit - 100.0, abs=0.06)  # N bottom, kN
