@@ -47,6 +47,7 @@ from drill_env.physics.statics import (  # noqa: F401  (re-exported for the CLI)
     PIPE_KINDS,
     bit_buoyed_weight,
     component_loads,
+    is_pipe,
     neutral_point_height,
 )
 from drill_env.physics.top_drive import resolve as resolve_top_drive
@@ -203,7 +204,7 @@ def bha_top_node(config: SimulationConfig) -> int:
     section whatever its label)."""
     node = 0
     for index, section in enumerate(config.string.sections):
-        if index > 0 and section.kind not in PIPE_KINDS:
+        if not is_pipe(section, top=index == 0):
             return node
         node += section.n_elements
     return node - config.string.sections[-1].n_elements

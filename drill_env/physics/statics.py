@@ -53,6 +53,12 @@ from drill_env.physics.validation import require_non_negative
 
 #: Kinds of component that are pipe (not built to carry compression).
 PIPE_KINDS = frozenset({"drill_pipe", "heavy_weight"})
+
+
+def is_pipe(section, top: bool) -> bool:
+    """Whether a section of the string is pipe: of a :data:`PIPE_KINDS` kind, or the
+    string's top section (``top``) whatever its label."""
+    return top or section.kind in PIPE_KINDS
 #: Lubinski's heavy-column coefficient: F_c = 1.94 (E I w^2)^(1/3), his 1950 value for
 #: pipe pinned at its lower end. The exact load of that idealisation falls slowly with the
 #: pipe's length (the pin's reaction decays only as 1/x up the string): 1.88 at 10 units
@@ -193,12 +199,12 @@ def over_allowable_tension(config: SimulationConfig, weight_on_bit: float
     their body (:data:`S135_YIELD`, :data:`RP7G_DESIGN_FACTOR`): within 10 % of its
     minimum yield, past the design limit of any common grade; the model has no yield.
     The BHA below the pipe carries less tension than the pipe above it."""
-    sections = config.string.lower + (config.string.drill_pipe,)
+    sections = config.string.lower + (config.string.drill_pipe,)  # component_loads' order
     out = []
-    for load, section in zip(component_loads(config, weight_on_bit), sections, strict=True):
+    for k, (load, section) in enumerate(zip(component_loads(config, weight_on_bit),
+                                            sections, strict=True)):
         allowable = RP7G_DESIGN_FACTOR * S135_YIELD * section.area
-        pipe = section.kind in PIPE_KINDS or section is config.string.drill_pipe
-        if pipe and load.force_top > allowable:
+        if is_pipe(section, top=k == len(sections) - 1) and load.force_top > allowable:
             out.append(OverTension(load.component, load.force_top, allowable))
     return out
 
@@ -272,8 +278,8 @@ def pipe_buckling(config: SimulationConfig, weight_on_bit: float) -> list[PipeBu
         build = (ends[1:] - ends[:-1]) / np.maximum(np.diff(md), 1e-9)
     out = []
     for index, section in enumerate(config.string.sections):
-        if section.kind not in PIPE_KINDS and index != 0:
-            continue  # the top section is pipe whatever its label
+        if not is_pipe(section, top=index == 0):
+            continue
         mine = mesh.component == index
         w = (section.density - config.mud.density) * section.area * GRAVITY
         ei = section.youngs_modulus * section.second_moment
