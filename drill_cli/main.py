@@ -11,6 +11,7 @@ its outputs under ``--out`` (default ``logs/``; ``benchmark`` ``logs/benchmark``
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import json
 import math
@@ -20,7 +21,7 @@ import sys
 import threading
 import time
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -371,6 +372,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from drill_env.physics.statics import pipe_buckling
 
     t0 = time.perf_counter()
+    first_step_s, bar = 0.0, None
     keys = ("ssi", "stuck_fraction", "whirl_ratio", "radial_ratio", "lateral_force", "rop")
     totals = dict.fromkeys(keys, 0.0)
     steps, reward, reason = 0, 0.0, ""
@@ -400,12 +402,17 @@ def cmd_run(args: argparse.Namespace) -> int:
     held_set_points = controller.rate == "drive" and controller.env_id == "DrillString-v0"
     try:
         controller.reset(base)
-        for _ in tqdm(range(base.max_episode_steps), desc=f"  {args.scenario}",
-                      leave=False, file=sys.stderr):
+        bar = tqdm(total=base.max_episode_steps, desc=f"  {args.scenario}", leave=False,
+                   file=sys.stderr)
+        for _ in range(base.max_episode_steps):
             obs, r, terminated, truncated, info = env.step(act(
                 controller, args.controller, f"{args.scenario} seed {args.seed}",
                 env.action_space, obs, info))
             steps += 1
+            if steps == 1:  # on a first run the compile: the bar's rate starts after it
+                first_step_s = time.perf_counter() - t0
+                bar.reset()
+            bar.update()
             reward += float(r)
             sums["target_speed"] += base.targets[0]
             sums["target_wob"] += base.targets[1]
@@ -430,6 +437,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     else:
         status = 0
     finally:
+        if bar is not None:
+            bar.close()
         env.close()  # finishes a recording, interrupted or not
     mean = {key: total / steps for key, total in sums.items()} if steps else {
         "target_speed": base.targets[0], "target_wob": base.targets[1],
@@ -484,11 +493,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     returned = f"return {fixed(summary['return'])}" + (
         "" if guest is None else f" (DrillString-v0's reward; its task's {fixed(guest)})")
     named = args.scenario + (f" with {args.config}" if args.config is not None else "")
+    compiled = f" ({first_step_s:.1f} s of it the reset and first step, which compiled " \
+        "the kernels)" if getattr(args, "compiled", [False])[0] and steps else ""
     if summary["bit_inclination_deg"] > 0.0:
         named += f" (hole at {summary['bit_inclination_deg']:.1f} deg at the bit)"
     print(f"{named}: {steps} step{'' if steps == 1 else 's'} "
           f"({summary['simulated_s']:.1f} s) at {ran_at} in "
-          f"{summary['wall_s']:.1f} s; {returned}"
+          f"{summary['wall_s']:.1f} s{compiled}; {returned}"
           + (f"; ended: {reason}" if reason else ""))
     window = base.config.metric_window
     short = (f" (the episode, {summary['simulated_s']:.1f} s, is shorter than the "
@@ -1882,6 +1893,46 @@ def shadowed_packages() -> list[str]:
     return said
 
 
+#: The commands that run numba kernels (a first run after an install compiles them).
+COMPILING_COMMANDS = frozenset(("demo", "run", "benchmark", "train", "evaluate",
+                                "stability-map", "modes", "speed"))
+
+
+@contextlib.contextmanager
+def compile_notice(command: str) -> Iterator[list[bool]]:
+    """While a command runs, say on stderr when numba starts compiling a kernel (once:
+    a first run after an install or an edit of the sources); yields a flag list whose
+    first item tells whether it did. A new user's first `run` sat ~20 s on its first step
+    unexplained, its progress bar projecting three hours. numba's "numba:compile" event
+    comes only where its cache had nothing to load, so a warm run says nothing. (A
+    benchmark's worker processes compile unseen: the demo and run compile here first.)"""
+    said = [False]
+    if command not in COMPILING_COMMANDS:
+        yield said
+        return
+    from numba.core import event
+
+    from drill_env import numba_cache_dir
+
+    class Notice(event.Listener):
+        def on_start(self, event: event.Event) -> None:
+            if not said[0]:
+                said[0] = True
+                print(f"drill-env {command}: numba compiles the simulator's kernels, once "
+                      f"for this version of drill-env (20-60 s on 2 cores; cached in "
+                      f"{numba_cache_dir()})", file=sys.stderr, flush=True)
+
+        def on_end(self, event: event.Event) -> None:
+            pass
+
+    listener = Notice()
+    event.register("numba:compile", listener)
+    try:
+        yield said
+    finally:
+        event.unregister("numba:compile", listener)
+
+
 def _main(argv: Sequence[str] | None) -> int:
     top = parser()
     argv = _joined_values(sys.argv[1:] if argv is None else argv)
@@ -1915,7 +1966,8 @@ def _main(argv: Sequence[str] | None) -> int:
     os.environ[SAID_VARIABLE] = marks.name
     try:
         heard = hear_interrupts()  # (a script's background job: kill -INT stops it)
-        return int(args.func(args))
+        with compile_notice(args.command) as args.compiled:
+            return int(args.func(args))
     except ImportError as err:  # our agents or training package hidden by the user's
         if not (shadowed := shadowed_packages()):
             raise

@@ -111,6 +111,12 @@ else:
     os.environ["NUMBA_CACHE_DIR"] = _CACHE_DIR
 
 
+def numba_cache_dir() -> Path:
+    """The folder of this version's compiled kernels (``NUMBA_CACHE_DIR`` or
+    ``~/.cache/drill_env/numba``, then a key of the sources)."""
+    return Path(_CACHE_DIR)
+
+
 def _load_tbb() -> str | None:
     """Make numba's TBB threading layer loadable; the library's path, or None.
 

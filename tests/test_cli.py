@@ -1651,3 +1651,43 @@ def test_modes_says_what_the_bits_row_of_its_load_table_holds(tmp_path, capsys):
             "WOB)") in out
     first_row = out.split("(m, kN; tension > 0)\n")[1].splitlines()[0].split()
     assert float(first_row[-2]) == pytest.approx(bit - 100.0, abs=0.06)  # N bottom, kN
+
+
+
+
+def test_a_first_run_says_it_compiles_the_kernels(tmp_path, capsys, monkeypatch):
+    """A simulating command says on stderr when numba starts compiling (a first run after
+    an install: ~20 s on the first step unexplained, the progress bar projecting three
+    hours), once, and nothing where numba has the function already (its compile event
+    comes only on a cache miss) or the command compiles nothing; run's summary line says
+    how much of its wall time the reset and first step (the compile) took."""
+    import contextlib
+
+    from numba import njit
+
+    import drill_cli.main as cli
+    from drill_env import numba_cache_dir
+
+    def plus_one(x: float) -> float:
+        return x + 1.0
+
+    kernel = njit(plus_one)
+    with cli.compile_notice("run") as said:
+        assert kernel(1.0) == 2.0 and njit(plus_one)(2.0) == 3.0  # two compiles, one note
+    assert said == [True]
+    assert capsys.readouterr().err == (
+        "drill-env run: numba compiles the simulator's kernels, once for this version of "
+        f"drill-env (20-60 s on 2 cores; cached in {numba_cache_dir()})\n")
+    for command, function in (("run", kernel), ("well", njit(plus_one))):
+        with cli.compile_notice(command) as said:
+            function(3.0)
+        assert said == [False] and capsys.readouterr().err == ""
+
+    @contextlib.contextmanager
+    def compiled(command: str):
+        yield [True]
+
+    monkeypatch.setattr(cli, "compile_notice", compiled)
+    assert main(["run", "--duration", "0.2", "--out", str(tmp_path)]) == 0
+    assert "s of it the reset and first step, which compiled the kernels)" in \
+        capsys.readouterr().out
