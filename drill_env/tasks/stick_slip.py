@@ -172,7 +172,10 @@ class StickSlipEnv(TaskEnv):
     ``target_speed`` (rad/s), ``target_weight_on_bit`` (N), ``correction`` (rad/s) and
     ``mean_bit_speed`` (rad/s, over the window). Reset options ``surface_speed`` and
     ``weight_on_bit`` fix the targets instead of drawing them (no target change then); one
-    alone fixes its target, and the other is drawn from the task's range.
+    alone fixes its target, and the other is drawn from the task's range. A fixed target
+    may lie outside the task's ranges (a policy tried off its training range) but not
+    outside the env's ``rpm_range`` / ``weight_on_bit_range``; a speed below
+    ``max_correction`` is refused (the correction would turn the top drive backwards).
 
     ## Arguments
 
@@ -238,6 +241,13 @@ class StickSlipEnv(TaskEnv):
         self._change = (0.0, 0.0)
         t, rng = self.task, self.np_random
         if given:  # the target not given is drawn from the task's range, not the scenario's
+            if "surface_speed" in given and speed < self._max_correction * (1 - 1e-12):
+                # (an outside check: 10 rpm and a full negative correction drove -20.8 rpm)
+                raise ValueError(
+                    f"reset options: surface_speed: {speed / RPM:.4g} rpm is below the "
+                    f"task's max_correction {t.max_correction:g} rpm: a full negative "
+                    "correction would command the top drive backwards (the task's "
+                    "targets start at max_correction or above)")
             if "surface_speed" not in given:
                 speed = float(rng.uniform(*t.rpm_targets)) * RPM
             if "weight_on_bit" not in given:

@@ -393,6 +393,20 @@ def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
     task = gym.make("DrillOptimise-v0")
     with pytest.raises(ValueError, match=r"^reset options: surface_speed: 10 rpm .*40-200 rpm"):
         task.reset(seed=0, options={"surface_speed": 10 * RPM})
+    # task 1: a target below the correction's reach would turn the top drive backwards (an
+    # outside check: 10 rpm and action -1 commanded -20.8 rpm); off the task's own target
+    # range but inside the env's is taken (a policy tried off its training range)
+    stick = gym.make("DrillStickSlip-v0")
+    with pytest.raises(ValueError, match=r"^reset options: surface_speed: 10 rpm is below "
+                                         r"the task's max_correction 30 rpm: "):
+        stick.reset(seed=0, options={"surface_speed": 10 * RPM, "weight_on_bit": 100e3})
+    assert stick.unwrapped.task.rpm_targets[1] < 150.0
+    assert stick.unwrapped.task.max_correction == 30.0
+    stick = gym.make("DrillStickSlip-v0")  # (gymnasium's checker fails after a refused reset)
+    stick.reset(seed=0, options={"surface_speed": 30 * RPM})
+    stick.reset(seed=0, options={"surface_speed": 150 * RPM})
+    stick.step(np.array([-1.0], dtype=np.float32))
+    assert stick.unwrapped.sim.speed_correction == pytest.approx(-30 * RPM)
 
 
 @pytest.mark.parametrize(("options", "message"), [
