@@ -14,7 +14,7 @@ from drill_env.physics.layout import READ
 from drill_env.physics.units import HOUR, RPM
 from drill_env.physics.validation import Count, NonNegative, Positive, config_dataclass
 from drill_env.tasks.base import TaskEnv
-from drill_env.tasks.telemetry import TelemetryKind
+from drill_env.tasks.telemetry import TelemetrySetting
 
 #: What the task sets differently from ``DrillString-v0`` unless the caller says otherwise.
 ENV_DEFAULTS: dict[str, Any] = {
@@ -67,7 +67,7 @@ class DrillingTask:
     history: Count = Field(default=4, ge=1, le=1000)
     #: Downhole data (bit speed, SSI, stuck share, radial displacement) comes only
     #: through this (drill_env.tasks.telemetry).
-    telemetry: TelemetryKind = "mud_pulse"
+    telemetry: TelemetrySetting = "mud_pulse"
 
 
 FRAME = ("surface_torque", "rop", "drillability", "speed_setpoint", "weight_on_bit_setpoint")

@@ -21,7 +21,7 @@ from drill_env.physics.validation import (
     config_dataclass,
 )
 from drill_env.tasks.base import TaskEnv
-from drill_env.tasks.telemetry import TelemetryKind
+from drill_env.tasks.telemetry import TelemetrySetting
 
 Rpm = Annotated[NonNegative, Field(le=1000.0)]
 Newton = Annotated[NonNegative, Field(le=1.0e7)]
@@ -71,7 +71,7 @@ class StickSlipTask:
     #: prototype; 10 frames did on its 1.5 s period.
     history: Count = Field(default=20, ge=1, le=1000)
     #: Downhole data (bit speed, SSI, stuck share) reaches the agent only through this.
-    telemetry: TelemetryKind = "mud_pulse"
+    telemetry: TelemetrySetting = "mud_pulse"
     #: Reward weights, per control step. SSI and stuck share are those of the env's
     #: metric window (3 s); both cost up to ~1 per step in full stick-slip.
     stick_slip_weight: NonNegative = Field(default=1.0, le=1.0e6)

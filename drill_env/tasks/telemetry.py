@@ -11,8 +11,11 @@ held message is).
 
 from __future__ import annotations
 
+import math
 from collections import deque
-from typing import Literal
+from typing import Annotated, Literal
+
+from pydantic import PlainValidator
 
 #: (period, delay) in seconds of each telemetry kind ("none": nothing is delivered).
 TELEMETRY: dict[str, tuple[float, float]] = {
@@ -23,7 +26,25 @@ TELEMETRY: dict[str, tuple[float, float]] = {
     "wired_pipe": (0.1, 0.05),
 }
 TelemetryKind = Literal["mud_pulse", "wired_pipe", "none"]
+def telemetry_setting(value: object) -> str | tuple[float, float]:
+    """A task's ``telemetry`` checked: a kind of :data:`TELEMETRY`, "none", or a channel
+    of your own as (period, delay) in seconds (a YAML list), e.g. ``(1.0, 2.0)`` for a
+    faster mud pulse: the period above 0, the delay at least 0, both at most an hour
+    (counted in control steps like the kinds'). ValueError saying what it takes."""
+    if isinstance(value, str) and (value == "none" or value in TELEMETRY):
+        return value
+    if isinstance(value, (tuple, list)) and len(value) == 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        period, delay = float(value[0]), float(value[1])
+        if 0.0 < period <= 3600.0 and 0.0 <= delay <= 3600.0:  # (NaN fails both)
+            return period, delay
+    raise ValueError(f"must be one of {', '.join(map(repr, sorted(TELEMETRY)))}, 'none' or "
+                     "(period, delay) in seconds (period above 0, delay at least 0, both "
+                     f"at most 3600), got {value!r}")
 
+
+#: A task's ``telemetry`` field (:func:`telemetry_setting`).
+TelemetrySetting = Annotated[str | tuple[float, float], PlainValidator(telemetry_setting)]
 
 class Telemetry:
     """Sample-and-delay channel for a fixed-length vector of downhole values, read once
@@ -35,13 +56,15 @@ class Telemetry:
     a 2 s period became 3 steps on ~40 % of task 2's seeds, the 3 s delay 4.
     """
 
-    def __init__(self, kind: TelemetryKind, size: int) -> None:
-        if kind != "none" and kind not in TELEMETRY:
-            raise ValueError(f"telemetry: must be one of {sorted(TELEMETRY)} or 'none', got "
-                             f"{kind!r}")
-        self.kind = kind
+    def __init__(self, kind: TelemetrySetting, size: int) -> None:
+        kind = telemetry_setting(kind)
+        if isinstance(kind, tuple):  # a channel of one's own
+            self.kind = "custom"
+            self.period, self.delay = kind
+        else:
+            self.kind = kind
+            self.period, self.delay = TELEMETRY.get(kind, (math.inf, 0.0))
         self.size = size
-        self.period, self.delay = TELEMETRY.get(kind, (float("inf"), 0.0))
         self.reset(0.0, 0.1)
 
     def reset(self, time: float, interval: float) -> None:
