@@ -744,6 +744,23 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     return 0
 
 
+def say_left_out(args: argparse.Namespace, config: Any) -> None:
+    """Note on stderr the settings of the task's shipped hyperparameter entry that the
+    ``--config`` file's entry leaves out (a --config file is a whole entry, as rl-zoo3's)."""
+    from training.config import HYPERPARAMS, left_out_settings
+
+    flags = {"n_timesteps": args.timesteps, "seed": args.seed, "n_envs": args.n_envs}
+    left = left_out_settings(config, args.config,
+                             [key for key, value in flags.items() if value is not None])
+    if left:
+        shown = ", ".join(f"{key} ({json.dumps(value)})" for key, value in left)
+        print(f"note: --config {args.config}: its {args.algo} entry leaves out {len(left)} "
+              f"setting{'' if len(left) == 1 else 's'} of {HYPERPARAMS / args.task}.yml, "
+              f"which the run takes at its defaults (SB3's, the task's, drill-env's) "
+              f"instead: {shown}. A --config file is a whole entry, as rl-zoo3's: copy "
+              "the task's file to change part of it", file=sys.stderr)
+
+
 def cmd_train(args: argparse.Namespace) -> int:
     from training.config import load_config
     from training.train import check_run_folder, holds_run, planned_steps, train
@@ -772,6 +789,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         if args.config is not None and field.startswith(f"{args.algo}."):
             raise argparse.ArgumentTypeError(f"--config {args.config}: {err}") from None
         raise
+    if args.config is not None:  # a file of a few keys lost the task's tuned settings
+        say_left_out(args, config)  # without a word (an outside trial's reward variant)
     if args.seeds is not None:
         return train_sweep(args, config)
     if args.ray_address is not None:

@@ -1840,3 +1840,38 @@ def test_a_stopped_seed_sweep_says_what_finished_and_what_continues(tmp_path, ca
     assert (f"stopped with 1 of 3 runs finished ({tmp_path / sweep.RESULTS_FILE}); the "
             f"same command goes on with stick_slip_ppo_seed4 from the checkpoints in "
             f"{tmp_path} and starts stick_slip_ppo_seed5 anew (nothing saved)") in said
+
+
+def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path, capsys):
+    """A --config file is a whole entry (rl-zoo3's way): one holding only a reward change
+    trained SAC with SB3's gamma, buffer and start and SB3's 256 x 256 network instead of
+    the task's tuned ones, without a word (an outside trial). train now names each shipped
+    setting the file leaves out where the run gets another value; none for a copy of the
+    shipped file, none that a flag sets, none whose default is the shipped value."""
+    import yaml
+
+    from drill_cli.main import main
+    from training.config import HYPERPARAMS, left_out_settings, load_config
+
+    partial = tmp_path / "variant.yml"
+    partial.write_text("sac: {env_kwargs: {stick_slip_weight: 3.0, effort_weight: 0.02}}\n")
+    left = dict(left_out_settings(load_config("stick_slip", "sac", partial), partial))
+    shipped = yaml.safe_load((HYPERPARAMS / "stick_slip.yml").read_text())["sac"]
+    assert left["hyperparams.gamma"] == shipped["hyperparams"]["gamma"] == 0.98  # SB3: 0.99
+    assert left["hyperparams.learning_starts"] == 5000  # SB3's 100
+    assert left["policy_kwargs.net_arch"] == [64, 64]
+    assert left["n_timesteps"] == 4.0e5  # drill-env's default 1e6
+    for same in ("hyperparams.learning_rate", "hyperparams.batch_size", "n_envs", "policy"):
+        assert same not in left  # SB3's / drill-env's default is the shipped value
+    given = load_config("stick_slip", "sac", partial, n_timesteps=1000)
+    assert "n_timesteps" not in dict(left_out_settings(given, partial, ["n_timesteps"]))
+    whole = tmp_path / "whole.yml"
+    whole.write_text((HYPERPARAMS / "stick_slip.yml").read_text())
+    assert left_out_settings(load_config("stick_slip", "sac", whole), whole) == []
+    # the command says it before it starts (here it then stops: nothing to resume)
+    with pytest.raises(SystemExit):
+        main(["train", "--task", "stick_slip", "--config", str(partial), "--resume",
+              "--out", str(tmp_path / "runs")])
+    err = capsys.readouterr().err
+    assert f"note: --config {partial}: its sac entry leaves out 9 settings of " in err
+    assert "hyperparams.gamma (0.98)" in err and "copy the task's file" in err

@@ -18,6 +18,7 @@ rl-zoo3's; everything that goes to the algorithm's constructor sits under
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -30,6 +31,7 @@ from drill_env.physics.validation import (
     config_dataclass,
     did_you_mean,
     from_dict,
+    jsonable,
     read_yaml,
 )
 from drill_env.tasks import TASK_ENVS
@@ -455,6 +457,48 @@ def check_env_kwargs(config: TrainConfig) -> None:
         env_class(**{**defaults, **config.env_kwargs}).close()
     except (ValueError, TypeError) as err:
         raise ConfigError(f"env_kwargs: {err}") from None
+
+
+def left_out_settings(config: TrainConfig, path: str | Path,
+                      given: Sequence[str] = ()) -> list[tuple[str, Any]]:
+    """The settings (dotted, with the shipped value) that the task's shipped entry for
+    ``config.algo`` sets and the file ``path``'s entry leaves out (``given``: set by a
+    flag), where ``config`` (the run's, loaded from ``path``) takes them at another value
+    (a default: SB3's, the task's, drill-env's) or one not known here (policy and env
+    keywords left to SB3 and the env). A file of another shape gives none."""
+    import inspect
+
+    task, algo = config.task, config.algo
+    saved = jsonable(config)
+    sb3 = inspect.signature(algo_class(algo).__init__).parameters
+
+    def same(key: str, value: Any) -> bool:  # does the run get the shipped value anyway?
+        head, _, rest = key.partition(".")
+        if head == "hyperparams":
+            got = config.hyperparams.get(rest, sb3[rest].default if rest in sb3 else None)
+            return got is not None and jsonable(got) == value
+        if head in ("policy_kwargs", "env_kwargs"):
+            return False  # the policy's or env's default: not looked up here
+        got = saved.get(head)
+        return (got.get(rest) if isinstance(got, dict) else got) == value
+
+    def flat(entry: Any, prefix: str = "") -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for key, value in (entry.items() if isinstance(entry, dict) else ()):
+            if isinstance(value, dict) and value:
+                out.update(flat(value, f"{prefix}{key}."))
+            else:
+                out[f"{prefix}{key}"] = value
+        return out
+
+    mine = read_yaml(Path(path)) or {}
+    shipped = read_yaml(HYPERPARAMS / f"{task}.yml") or {}
+    if not isinstance(mine, dict) or not isinstance(mine.get(algo), dict):
+        return []
+    ours = flat(mine[algo])
+    return [(key, value) for key, value in flat(shipped.get(algo, {})).items()
+            if key not in ours and key.partition(".")[0] not in given
+            and not same(key, jsonable(value))]
 
 
 def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
