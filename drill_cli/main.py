@@ -799,7 +799,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     if args.workers is not None:  # it started a full run without a word
         raise argparse.ArgumentTypeError("--workers: a single run trains in this process; "
                                          "give --seeds to train several runs side by side")
-    run = args.out / (args.name or f"{args.task}_{args.algo}_seed{config.seed}")
+    from training.sweep import run_name
+
+    run = args.out / (args.name or run_name(config, args.config and args.config.stem))
     saved = run / "config.yaml"
     if args.resume and not holds_run(run) and run.is_dir():
         # stopped before it saved anything (a Ctrl-C in its first seconds): a fresh start
@@ -809,7 +811,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         args.resume = False
     if args.resume and not holds_run(run):
         raise argparse.ArgumentTypeError(f"--resume: no run in {run}; name it by --name, or "
-                                         "by --seed (and --algo) as it was started")
+                                         "by --seed (and --algo, --config) as it was "
+                                         "started")
     if args.resume and args.config is None and saved.is_file():
         # a resumed run continues with the config it was started with (--config or not)
         config = saved_run_config(saved, args.task, args.algo, n_timesteps=args.timesteps,
@@ -902,7 +905,8 @@ def train_sweep(args: argparse.Namespace, config) -> int:
                                          f"{VALIDATION_SEED - 1} (the validation seeds "
                                          f"start at {VALIDATION_SEED}), got {args.seeds!r}")
     if args.name is not None or args.resume or args.overwrite or args.seed is not None:
-        raise argparse.ArgumentTypeError("--seeds: runs are named <task>_<algo>_seed<k> and "
+        raise argparse.ArgumentTypeError("--seeds: runs are named <task>_<algo>_seed<k> "
+                                         "(<task>_<algo>_<config file>_seed<k>) and "
                                          "always resume; drop --name / --resume / "
                                          "--overwrite / --seed")
     from training.train import check_learns
@@ -910,7 +914,8 @@ def train_sweep(args: argparse.Namespace, config) -> int:
     check_learns(config, 0)
     t0 = time.perf_counter()
     results = train_seeds(config, seeds, args.out, workers=args.workers,
-                          ray_address=args.ray_address, progress=not args.no_progress)
+                          ray_address=args.ray_address, progress=not args.no_progress,
+                          label=args.config and args.config.stem)
     for r in results:
         best = "no validation yet (raise --timesteps past eval_freq)" \
             if r["best_return"] is None else \
@@ -1643,7 +1648,8 @@ def parser() -> argparse.ArgumentParser:
                    help="with --seeds: local processes (default: one per seed)")
     add_ray_address(p, "the training runs of --seeds")
     p.add_argument("--name", default=None,
-                   help="run name (default: <task>_<algo>_seed<seed>)")
+                   help="run name (default: <task>_<algo>_seed<seed>, from a --config "
+                        "file <task>_<algo>_<file's name>_seed<seed>)")
     again = p.add_mutually_exclusive_group()
     again.add_argument("--resume", action="store_true",
                        help="continue the run from its last checkpoint (or its final model; "

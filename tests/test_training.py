@@ -1875,3 +1875,6 @@ def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path,
     err = capsys.readouterr().err
     assert f"note: --config {partial}: its sac entry leaves out 9 settings of " in err
     assert "hyperparams.gamma (0.98)" in err and "copy the task's file" in err
+    # the run is named by the file too: a variant's run and the task's own told apart
+    assert f"--resume: no run in {tmp_path / 'runs' / 'stick_slip_sac_variant_seed0'}; " \
+        "name it by --name, or by --seed (and --algo, --config)" in err

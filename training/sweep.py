@@ -1,9 +1,10 @@
 """A training seed sweep: one run per seed, on local processes or on Ray.
 
 ``drill-env train --task stick_slip --seeds 0,1,2,3 [--ray-address auto]`` trains the same
-config once per seed, each run in its own folder ``<out>/<task>_<algo>_seed<k>`` as a
-single ``drill-env train`` would, one run per worker (torch and numba single-threaded:
-the workers are the parallelism). Each finished run's summary is appended to
+config once per seed, each run in its own folder ``<out>/<task>_<algo>_seed<k>``
+(``<task>_<algo>_<file>_seed<k>`` from a ``--config`` file) as a single ``drill-env
+train`` would, one run per worker (torch and numba single-threaded: the workers are the
+parallelism). Each finished run's summary is appended to
 ``<out>/train_sweep.jsonl`` as it arrives; the sweep run again skips finished seeds, and
 a run whose worker died (or that was interrupted) resumes from its last checkpoint
 (SAC restarts its replay buffer there, see :func:`training.train.train`). The summary
@@ -32,8 +33,11 @@ from training.config import TrainConfig
 RESULTS_FILE = "train_sweep.jsonl"
 
 
-def run_name(config: TrainConfig) -> str:
-    return f"{config.task}_{config.algo}_seed{config.seed}"
+def run_name(config: TrainConfig, label: str | None = None) -> str:
+    """``<task>_<algo>_seed<k>``, with ``label`` (a --config file's name) before the seed:
+    runs of two configs in one folder told apart (an outside trial's reward variant took
+    the default run's name, and ``--resume`` went on with it unannounced)."""
+    return f"{config.task}_{config.algo}_{label + '_' if label else ''}seed{config.seed}"
 
 
 def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
@@ -64,8 +68,9 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
 
 def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
                 workers: int | None = None, ray_address: str | None = None,
-                progress: bool = True) -> list[dict[str, Any]]:
-    """Train ``config`` once per seed; returns one summary per seed, in seed order."""
+                progress: bool = True, label: str | None = None) -> list[dict[str, Any]]:
+    """Train ``config`` once per seed (runs named by :func:`run_name` with ``label``);
+    returns one summary per seed, in seed order."""
     from tqdm import tqdm
 
     if not seeds or len(set(seeds)) != len(seeds):
@@ -85,7 +90,7 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
         bar = tqdm(total=len(configs), initial=len(configs) - len(todo), unit="run",
                    desc="training seeds", disable=not progress)
         try:
-            items = [(c, str(out / run_name(c))) for c in todo]
+            items = [(c, str(out / run_name(c, label))) for c in todo]
             def keep(k: int, summary: dict[str, Any]) -> None:
                 store.put(str(todo[k].seed), summary)
                 bar.update(1)
@@ -96,7 +101,7 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
             # reach this console: the sweep said only "interrupted")
             bar.close()
             if progress:
-                print(stopped_note(configs, todo, store, out), file=sys.stderr)
+                print(stopped_note(configs, todo, store, out, label), file=sys.stderr)
             raise
         finally:
             bar.close()
@@ -107,12 +112,12 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
 
 
 def stopped_note(configs: Sequence[TrainConfig], todo: Sequence[TrainConfig],
-                 store: ResultStore, out: Path) -> str:
+                 store: ResultStore, out: Path, label: str | None = None) -> str:
     """What a stopped sweep finished, and what the same command does with the rest: a run
     with a saved model goes on from it, one without starts anew."""
     from training.train import resume_point
 
-    left = [run_name(c) for c in todo if str(c.seed) not in store]
+    left = [run_name(c, label) for c in todo if str(c.seed) not in store]
     going_on = [name for name in left if resume_point(out / name) is not None]
     anew = [name for name in left if name not in going_on]
     then = ([f"goes on with {', '.join(going_on)} from the checkpoints in {out}"]
