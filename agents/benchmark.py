@@ -1240,8 +1240,12 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     table = summary_table(rows, controllers, scenarios, env_id)
     notes = [OWN_SPEED_NOTE] if any(OWN_SPEED_MARK in r[header.index("rpm error")]
                                     for r in table) else []
+    # a variant's weights said beside its returns (read as the task's own reward: an
+    # outside trial)
+    changed = ", ".join(f"{k} {v}" for k, v in sorted(settings.env_kwargs.items()))
     notes.append(RETURN_NOTE if env_id is None else
-                 f"return: {env_id}'s reward summed over the episode (docs/tasks.md).")
+                 f"return: {env_id}'s reward summed over the episode (docs/tasks.md)"
+                 + (f", under the task settings {changed}." if changed else "."))
     if any(is_learned_label(c) for c in controllers):  # the row labels (labels())
         notes.append("Sensors: a learned policy reads its env's observation (in the tasks "
                      "surface history and delayed mud-pulse telemetry) once per control "

@@ -983,8 +983,11 @@ def test_a_task_benchmark_runs_every_controller_under_the_policys_task_settings(
     rows = bm.run_benchmark([trained, "stiff"], ["random"], [0], tmp_path / "out", SHORT,
                             progress=False, env_id="DrillStickSlip-v0")
     assert [r["episode_return"] for r in rows] == [0.0, 0.0]
-    assert "under these task settings (the learned policies' training settings" in (
-        tmp_path / "out" / "benchmark.md").read_text()
+    written = (tmp_path / "out" / "benchmark.md").read_text()
+    assert "under these task settings (the learned policies' training settings" in written
+    # and beside the returns (the table's note on screen too): not the task's own reward
+    assert "return: DrillStickSlip-v0's reward summed over the episode (docs/tasks.md), " \
+        "under the task settings effort_weight 0.0, " in written
     with pytest.raises(ValueError, match="trained on different DrillStickSlip-v0 settings"):
         bm.run_benchmark([trained, "learned", "stiff"], ["random"], [0], tmp_path / "x",
                          SHORT, progress=False, env_id="DrillStickSlip-v0")
