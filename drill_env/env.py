@@ -560,7 +560,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         obs = self._observation(info)
         info["reward_terms"] = terms
         info["termination_reason"] = reason
-        return obs, float(sum(terms.values())), terminated, truncated, info
+        return obs, metrics.summed(terms.values()), terminated, truncated, info
 
     # ------------------------------------------------------------------ hooks
 

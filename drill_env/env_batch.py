@@ -119,7 +119,7 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
         terminated = st[BatchState.STATUS] != 0.0 or peak > weights[BatchWeight.MAKEUP_TORQUE]
         out.terminated[e] = terminated
         out.truncated[e] = (not terminated) and st[BatchState.COUNT] >= st[BatchState.MAX_STEPS]
-        # _reward_terms, summed in their order from 0 as sum() does
+        # _reward_terms, summed in their order from 0 as metrics.summed does
         rop = step[e, Metric.ROP] if step_ok else 0.0
         excursion = step[e, Metric.EXCURSION_RATIO] if step_ok else 1.0
         ssi = st[BatchState.SSI]

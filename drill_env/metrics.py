@@ -60,6 +60,16 @@ MSE_MIN_ROP = 1e-9
 MSE_CEILING = 1.0e10
 
 
+def summed(values) -> float:
+    """The floats ``values`` added left to right from 0, as the batched kernels add a
+    step's reward terms: Python 3.12's ``sum()`` of floats compensates its rounding, and
+    the single env's reward then differed from the batched env's in the last bit."""
+    total = 0.0
+    for value in values:
+        total += value
+    return float(total)
+
+
 def _signal(values, name: str) -> np.ndarray:
     a = np.asarray(values, dtype=float)
     if a.size == 0:

@@ -116,7 +116,9 @@ class TopDriveLaw:
     feedback_gain: float  # rad/s per N m
     filter_frequency: float  # Hz (0 without feedback)
     filter_damping: float
-    tuning_frequency: float  # Hz (nan when the controller uses none)
+    #: Hz; None when the controller tunes to none (not NaN: from Python 3.13 a dataclass
+    #: compares field by field, and two laws with a NaN here were unequal)
+    tuning_frequency: float | None
     impedance: float  # drill pipe Z (N m s/rad)
     inertia: float  # J_td (kg m^2)
 
@@ -179,7 +181,7 @@ def resolve(config: SimulationConfig) -> TopDriveLaw:
     gain = (1.0 / z if td.feedback_gain is None else td.feedback_gain) \
         if feedback != "none" else 0.0
     return TopDriveLaw(name, kp, ki, feedback, gain, filter_frequency, td.filter_damping,
-                       f_s, z, td.inertia)
+                       f_s if needs_frequency else None, z, td.inertia)
 
 
 def measured_reflection(config: SimulationConfig, frequencies: np.ndarray,
