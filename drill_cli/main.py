@@ -1923,14 +1923,23 @@ COMPILING_COMMANDS = frozenset(("demo", "run", "benchmark", "train", "evaluate",
                                 "stability-map", "modes", "speed"))
 
 
+def no_kernels_cached() -> bool:
+    """Whether this version's numba cache holds no compiled kernel (numba's index files):
+    a new install, or the first run after an edit of the sources."""
+    from drill_env import numba_cache_dir
+
+    return next(numba_cache_dir().rglob("*.nbi"), None) is None
+
+
 @contextlib.contextmanager
 def compile_notice(command: str) -> Iterator[list[bool]]:
     """While a command runs, say on stderr when numba starts compiling a kernel (once:
     a first run after an install or an edit of the sources); yields a flag list whose
     first item tells whether it did. A new user's first `run` sat ~20 s on its first step
     unexplained, its progress bar projecting three hours. numba's "numba:compile" event
-    comes only where its cache had nothing to load, so a warm run says nothing. (A
-    benchmark's worker processes compile unseen: the demo and run compile here first.)"""
+    comes only where its cache had nothing to load, so a warm run says nothing; a cache
+    without a kernel (a new install) is said at once, since a benchmark's worker
+    processes compile where this process's listener does not hear them."""
     said = [False]
     if command not in COMPILING_COMMANDS:
         yield said
@@ -1939,17 +1948,22 @@ def compile_notice(command: str) -> Iterator[list[bool]]:
 
     from drill_env import numba_cache_dir
 
+    def say() -> None:
+        if not said[0]:
+            said[0] = True
+            print(f"drill-env {command}: numba compiles the simulator's kernels, once for "
+                  f"this version of drill-env (20-60 s on 2 cores; cached in "
+                  f"{numba_cache_dir()})", file=sys.stderr, flush=True)
+
     class Notice(event.Listener):
         def on_start(self, event: event.Event) -> None:
-            if not said[0]:
-                said[0] = True
-                print(f"drill-env {command}: numba compiles the simulator's kernels, once "
-                      f"for this version of drill-env (20-60 s on 2 cores; cached in "
-                      f"{numba_cache_dir()})", file=sys.stderr, flush=True)
+            say()
 
         def on_end(self, event: event.Event) -> None:
             pass
 
+    if no_kernels_cached():
+        say()
     listener = Notice()
     event.register("numba:compile", listener)
     try:

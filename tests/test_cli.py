@@ -1059,7 +1059,8 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
     broken.write_text("ppo: [unclosed\n")
     for command in (["train", "--task", "stick_slip"], ["run"]):
         assert main([*command, "--config", str(broken)]) == 2
-        err = capsys.readouterr().err
+        err = "\n".join(line for line in capsys.readouterr().err.splitlines()
+                        if "numba compiles" not in line)  # (a new install's notice)
         assert "not valid YAML at line 2, column 1" in err and len(err.splitlines()) == 1
     # UTF-16 (Notepad's "Unicode") named no file: 'utf-8' codec can't decode byte 0xff
     utf16 = tmp_path / "utf16.yaml"
@@ -1671,6 +1672,7 @@ def test_a_first_run_says_it_compiles_the_kernels(tmp_path, capsys, monkeypatch)
     def plus_one(x: float) -> float:
         return x + 1.0
 
+    monkeypatch.setattr(cli, "no_kernels_cached", lambda: False)  # (a warm cache)
     kernel = njit(plus_one)
     with cli.compile_notice("run") as said:
         assert kernel(1.0) == 2.0 and njit(plus_one)(2.0) == 3.0  # two compiles, one note
@@ -1683,6 +1685,12 @@ def test_a_first_run_says_it_compiles_the_kernels(tmp_path, capsys, monkeypatch)
             function(3.0)
         assert said == [False] and capsys.readouterr().err == ""
 
+    # a new install's empty cache is said at once: a benchmark's workers compile unheard
+    monkeypatch.setattr(cli, "no_kernels_cached", lambda: True)
+    with cli.compile_notice("benchmark") as said:
+        pass
+    assert said == [True] and "drill-env benchmark: numba compiles" in capsys.readouterr().err
+
     @contextlib.contextmanager
     def compiled(command: str):
         yield [True]
@@ -1691,3 +1699,24 @@ def test_a_first_run_says_it_compiles_the_kernels(tmp_path, capsys, monkeypatch)
     assert main(["run", "--duration", "0.2", "--out", str(tmp_path)]) == 0
     assert "s of it the reset and first step, which compiled the kernels)" in \
         capsys.readouterr().out
+
+
+def test_no_kernels_cached_reads_numbas_own_cache(tmp_path):
+    """The empty-cache check of the first-run notice is False once numba has cached a
+    function in this version's folder: checked against numba itself (its index files),
+    in a fresh process with a NUMBA_CACHE_DIR of its own."""
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "tiny.py").write_text(
+        "from numba import njit\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n")
+    code = ("from drill_cli.main import no_kernels_cached\nimport tiny\n"
+            "before = no_kernels_cached()\nassert tiny.twice(1.5) == 3.0\n"
+            "print(before, no_kernels_cached())\n")
+    home = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
+           "PYTHONPATH": os.pathsep.join((str(home), str(tmp_path)))}
+    done = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path,
+                          capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["True", "False"], done
