@@ -314,14 +314,18 @@ def test_task_2_telemetry_arrives_every_2_s_and_3_s_late_on_every_seed():
         assert seen[2:] == [3, 4, 3, 4, 3, 4, 3], (seed, base.control_interval, seen)
 
 
-@pytest.mark.parametrize("env_id", TASKS)
-def test_batched_task_env_follows_the_single_env(env_id):
+@pytest.mark.parametrize("env_id, kwargs", [
+    *((env_id, {}) for env_id in TASKS),
+    ("DrillStickSlip-v0", {"telemetry": [0.2, 0.3]}),  # a channel of one's own: 2 messages
+])
+def test_batched_task_env_follows_the_single_env(env_id, kwargs):
     from drill_env.vector import make_sb3_vec_env
 
-    venv = make_sb3_vec_env(2, env_id=env_id, episode_duration=10.0)  # no reset in 5 steps
+    venv = make_sb3_vec_env(2, env_id=env_id, episode_duration=10.0,  # no reset in 5 steps
+                            **kwargs)
     venv.seed(11)
     obs = venv.reset()
-    single = gym.make(env_id, episode_duration=10.0)
+    single = gym.make(env_id, episode_duration=10.0, **kwargs)
     ref, _ = single.reset(seed=12)
     np.testing.assert_array_equal(obs[1], ref)
     action = np.full((2,) + single.action_space.shape, 0.3, dtype=np.float32)
