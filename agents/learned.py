@@ -53,6 +53,10 @@ class LearnedController:
         model_file, norm_file = files if files is not None else _files(folder)
         from training.config import algo_class, read_run_config
 
+        if not (folder / "config.yaml").exists():  # (a plain SB3 run's model.zip and
+            # vecnormalize.pkl: a bare errno of the missing file, an outside trial)
+            raise FileNotFoundError(f"learned: {folder} has no config.yaml, so it is not a "
+                                    f"run folder of drill-env train; {ELSEWHERE}")
         config = read_run_config(folder / "config.yaml")
 
         try:
@@ -289,6 +293,12 @@ def latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
     return None
 
 
+#: Where a model trained outside drill-env train goes (said where one is given as a run).
+ELSEWHERE = ("a model trained elsewhere (rl-zoo3, your own SB3 script) is benchmarked by "
+             "agents.learned.sb3_policy(model, vecnormalize, algo=..., env_id=...) in a "
+             "controller file of yours (docs/controllers.md)")
+
+
 def _files(folder: Path) -> tuple[Path, Path]:
     """(model, normalisation) of a run or policy folder: the best model if kept."""
     if not folder.is_dir():
@@ -305,4 +315,4 @@ def _files(folder: Path) -> tuple[Path, Path]:
     raise FileNotFoundError(f"learned: {folder} holds neither best_model.zip + "
                             "best_vecnormalize.pkl nor model.zip + vecnormalize.pkl nor a "
                             "checkpoint (a run folder of drill-env train or a shipped "
-                            "policy)")
+                            f"policy); {ELSEWHERE}")

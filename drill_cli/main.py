@@ -977,8 +977,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                                          "e.g. logs/runs/<name>, or a task's name for its "
                                          f"shipped policy: {', '.join(sorted(TASKS))})")
     if not (args.run / "config.yaml").exists():
+        from agents.learned import ELSEWHERE
+
         raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
-                                         f"train (no config.yaml){local}")
+                                         f"train (no config.yaml){local}; {ELSEWHERE}, then "
+                                         "drill-env benchmark --task")
     from agents.learned import policy_files
 
     try:

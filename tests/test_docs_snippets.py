@@ -26,6 +26,12 @@ def test_a_python_example_of_the_docs_runs(page, index, code, tmp_path, monkeypa
     monkeypatch.chdir(tmp_path)  # what an example writes (logs/recordings) stays here
     (tmp_path / "agents").mkdir()  # the shipped policies' files they read, as from ROOT
     (tmp_path / "agents" / "trained").symlink_to(ROOT / "agents" / "trained")
+    # an rl-zoo3 run's layout (docs/tasks.md), the shipped task-1 SAC policy standing in
+    zoo = tmp_path / "logs" / "sac" / "DrillStickSlip-v0_1"
+    (zoo / "DrillStickSlip-v0").mkdir(parents=True)
+    shipped = ROOT / "agents" / "trained" / "stick_slip"
+    (zoo / "DrillStickSlip-v0.zip").symlink_to(shipped / "model.zip")
+    (zoo / "DrillStickSlip-v0" / "vecnormalize.pkl").symlink_to(shipped / "vecnormalize.pkl")
     # each example as a reader copies it: nothing defined for it
     exec(compile(code, f"{page} example {index}", "exec"), {})  # noqa: S102
 

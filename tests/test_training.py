@@ -1121,7 +1121,29 @@ def test_evaluate_tells_a_missing_folder_from_a_folder_that_is_no_run(tmp_path, 
                          (tmp_path / "a_file", "a_file is a file, not a run folder")):
         with pytest.raises(SystemExit):
             main(["evaluate", str(folder)])
-        assert said in capsys.readouterr().err
+        err = capsys.readouterr().err
+        assert said in err
+        if "no config.yaml" in err:  # where a model of rl-zoo3 or SB3's own goes instead
+            assert "agents.learned.sb3_policy(model, vecnormalize, algo=..., env_id=...)" \
+                in " ".join(err.split())
+
+
+def test_a_plain_sb3_folder_given_as_a_run_says_where_such_a_model_goes(tmp_path):
+    """A folder of a plain SB3 script's model.zip and vecnormalize.pkl, given as learned:
+    (an outside trial): a bare FileNotFoundError of its config.yaml; now the error names
+    sb3_policy, the way such a model is benchmarked."""
+    import shutil
+
+    from agents.learned import TRAINED, LearnedController
+
+    for name in ("model.zip", "vecnormalize.pkl"):
+        shutil.copy(TRAINED / "stick_slip" / name, tmp_path / name)
+    with pytest.raises(FileNotFoundError, match=r"has no config.yaml, so it is not a run "
+                                                r"folder of drill-env train; .*sb3_policy"):
+        LearnedController.load(tmp_path)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(FileNotFoundError, match=r"holds neither .*sb3_policy"):
+        LearnedController.load(tmp_path / "empty")
 
 
 def test_evaluate_takes_a_tasks_name_for_its_shipped_policy(tmp_path, monkeypatch, capsys):
