@@ -5,7 +5,7 @@
 PY := .venv/bin/python
 PIP := .venv/bin/pip
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test test-floors lint bench clean
 
 .venv/installed: pyproject.toml
 	python3 -m venv .venv
@@ -20,6 +20,17 @@ demo: .venv/installed
 test: .venv/installed
 	$(PY) -m pytest -q
 
+# the suite on the lowest versions pyproject.toml allows (.ci/floors.txt), in its own
+# .venv-floors; not part of CI (a second install: ~10 min more)
+test-floors:
+	python3 -m venv .venv-floors
+	.venv-floors/bin/pip install -q --upgrade pip
+	.venv-floors/bin/pip install -q torch==2.13.0
+	.venv-floors/bin/pip install -q -r .ci/floors.txt
+	.venv-floors/bin/pip install -q --no-deps -e .
+	.venv-floors/bin/pip check
+	NUMBA_CACHE_DIR=$(CURDIR)/.venv-floors/numba-cache .venv-floors/bin/python -m pytest -q
+
 lint: .venv/installed
 	.venv/bin/ruff check drill_env drill_cli agents training tests scripts
 	.venv/bin/mypy
@@ -28,4 +39,4 @@ bench: .venv/installed
 	$(PY) -m drill_cli speed --out logs
 
 clean:
-	rm -rf .venv
+	rm -rf .venv .venv-floors
