@@ -25,13 +25,16 @@ TELEMETRY: dict[str, tuple[float, float]] = {
     # wired drill pipe: 10 samples/s, 50 ms latency
     "wired_pipe": (0.1, 0.05),
 }
+#: The kinds by name ("none": nothing is delivered).
 TelemetryKind = Literal["mud_pulse", "wired_pipe", "none"]
-def telemetry_setting(value: object) -> str | tuple[float, float]:
+
+
+def telemetry_setting(value: object) -> TelemetryKind | tuple[float, float]:
     """A task's ``telemetry`` checked: a kind of :data:`TELEMETRY`, "none", or a channel
     of your own as (period, delay) in seconds (a YAML list), e.g. ``(1.0, 2.0)`` for a
     faster mud pulse: the period above 0, the delay at least 0, both at most an hour
     (counted in control steps like the kinds'). ValueError saying what it takes."""
-    if isinstance(value, str) and (value == "none" or value in TELEMETRY):
+    if value in ("mud_pulse", "wired_pipe", "none"):  # (TelemetryKind's, TELEMETRY's)
         return value
     if isinstance(value, (tuple, list)) and len(value) == 2 and all(
             isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
@@ -44,7 +47,9 @@ def telemetry_setting(value: object) -> str | tuple[float, float]:
 
 
 #: A task's ``telemetry`` field (:func:`telemetry_setting`).
-TelemetrySetting = Annotated[str | tuple[float, float], PlainValidator(telemetry_setting)]
+TelemetrySetting = Annotated[TelemetryKind | tuple[float, float],
+                             PlainValidator(telemetry_setting)]
+
 
 class Telemetry:
     """Sample-and-delay channel for a fixed-length vector of downhole values, read once

@@ -246,6 +246,11 @@ def test_telemetry_is_sampled_delayed_and_held(kind, period, delay, dt):
             assert tele.age(t) == pytest.approx(t - sampled, abs=1e-6)
         else:
             assert tele.age(t) > 1e6
+    from typing import get_args
+
+    from drill_env.tasks.telemetry import TELEMETRY, TelemetryKind
+
+    assert set(get_args(TelemetryKind)) == {*TELEMETRY, "none"}  # the names it takes
     for bad in ("smoke", (0.0, 1.0), (1.0, -0.1), (math.nan, 1.0), (1.0, 2.0, 3.0), (True, 1)):
         with pytest.raises(ValueError, match=r"must be one of 'mud_pulse', 'wired_pipe', "
                                              r"'none' or \(period, delay\) in seconds"):
