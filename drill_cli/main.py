@@ -632,6 +632,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         labels(controllers)  # names given twice, or two that would share a table name
     except ValueError as err:
         raise argparse.ArgumentTypeError(f"--{err}") from None
+    if args.paired is not None and args.paired not in controllers:
+        raise argparse.ArgumentTypeError(f"--paired: {args.paired!r} is not one of "
+                                         f"--controllers ({', '.join(controllers)})")
     env_id = None
     if args.task is not None:
         from training.config import TASKS
@@ -740,7 +743,19 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
           f"{time.perf_counter() - t0:.0f} s; finished "
           f"episodes are kept in {args.out / 'benchmark_results.jsonl'} (a rerun reuses "
           "them)")
-    print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md and the plots in {args.out}")
+    if args.paired is not None:  # an outside policy's t-tests, as evaluate gives a run's
+        from training.evaluate import comparison_text, paired_comparison
+
+        policy = labels(controllers)[controllers.index(args.paired)]
+        mine = [float(r["episode_return"]) for r in rows if r["controller"] == policy]
+        if mine:
+            text = comparison_text(paired_comparison(rows, policy), sum(mine) / len(mine))
+            (args.out / "comparison.md").write_text(f"# {heading}, paired against {policy}"
+                                                    f"\n\n{text}")
+            print(f"\n{policy} against the others: {text}")
+    print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md"
+          + (", comparison.md" if args.paired is not None else "")
+          + f" and the plots in {args.out}")
     return 0
 
 
@@ -1602,6 +1617,10 @@ def parser() -> argparse.ArgumentParser:
                    help="seeds per pair")
     p.add_argument("--seed-start", type=integer(0), default=0,
                    help="first seed (the held-out evaluation seeds start at 1000000)")
+    p.add_argument("--paired", default=None, metavar="CONTROLLER",
+                   help="one of --controllers (as typed there): its return against each "
+                        "other's on the same episodes, with one-sided paired t-tests, as "
+                        "drill-env evaluate gives a run's; in comparison.md")
     p.add_argument("--duration", type=number("s", low_inclusive=False), default=None,
                    help="simulated seconds per episode (default: 60; with --task the "
                         "task's evaluation episode, as drill-env evaluate runs it)")

@@ -2006,3 +2006,32 @@ def test_a_note_that_lists_episodes_shows_the_first_and_last_few(tmp_path, capsy
     assert ("stiff/stick_slip/5, ... 18 more with ROP 0 in benchmark.csv ..., "
             "stiff/stick_slip/24") in said
     assert "stiff/stick_slip/12" not in said
+
+
+def test_benchmark_paired_gives_any_controller_evaluates_t_tests(tmp_path, capsys):
+    """A policy trained outside drill-env train (here held:1 stands in) gets evaluate's
+    paired comparison from a benchmark (an outside trial with rl-zoo3: only a run folder
+    had it): --paired names one of --controllers as typed; its lead over each other on the
+    same episodes, in comparison.md and on screen; a name not among them is refused."""
+    from drill_cli.main import main
+
+    args = ["benchmark", "--controllers", "held:1,stiff,held:0", "--scenarios",
+            "default,stick_slip", "--seeds", "2", "--duration", "3", "--warmup", "1",
+            "--workers", "1", "--out", str(tmp_path)]
+    assert main([*args, "--paired", "held:1"]) == 0
+    out = capsys.readouterr().out
+    text = (tmp_path / "comparison.md").read_text()
+    assert text.startswith("# Controller benchmark, paired against held+1\n")
+    rows = list(csv.DictReader((tmp_path / "benchmark.csv").open()))
+    for other in ("stiff", "held+0"):  # 4 episodes: 2 scenarios x 2 seeds
+        lead = sum(float(a["episode_return"]) - float(b["episode_return"])
+                   for a in rows if a["controller"] == "held+1"
+                   for b in rows if b["controller"] == other
+                   and (a["scenario"], a["seed"]) == (b["scenario"], b["seed"])) / 4
+        assert f"| {other} | " in text and f"| {lead:+.1f} | " in text
+        assert " of 4 | " in text
+    assert "held+1 against the others: Paired by episode" in out
+    with pytest.raises(SystemExit):
+        main([*args, "--paired", "learned"])
+    assert "--paired: 'learned' is not one of --controllers (held:1, stiff, held:0)" in \
+        capsys.readouterr().err

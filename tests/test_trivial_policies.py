@@ -146,3 +146,9 @@ def test_paired_comparison_pairs_by_seed() -> None:
     assert c["lead"] == pytest.approx(2.5) and c["return"] == pytest.approx(22.5)
     assert c["p"] == pytest.approx(student_t.sf(t, 3), rel=1e-9)
     assert same["wins"] == 0 and math.isnan(same["p"])  # no spread: no test
+    # two scenarios with the same seeds are two episodes each, not one overwritten
+    rows = [{"controller": c, "scenario": sc, "seed": 0, "episode_return": r}
+            for c, sc, r in (("learned", "a", 5.0), ("learned", "b", 7.0),
+                             ("other", "a", 1.0), ("other", "b", 6.0))]
+    (c,) = paired_comparison(rows)
+    assert (c["seeds"], c["wins"], c["lead"]) == (2, 2, pytest.approx(2.5))

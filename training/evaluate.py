@@ -149,20 +149,20 @@ def standard_episode_notes(trained: dict[str, Any], settings: BenchmarkSettings
 
 def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
                       ) -> list[dict[str, Any]]:
-    """The policy's return against every other controller's on the same seeds (paired:
-    the same string, rocks and targets per seed): per controller its mean return, the
-    policy's mean lead, on how many seeds it led, and the one-sided paired t-test p of
-    a positive lead (``scipy.stats.ttest_rel``; NaN with fewer than two seeds or no
-    spread in the differences)."""
+    """The policy's return against every other controller's on the same episodes (paired:
+    the same scenario and seed, so the same string, rocks and targets): per controller
+    its mean return, the policy's mean lead, on how many episodes it led, and the
+    one-sided paired t-test p of a positive lead (``scipy.stats.ttest_rel``; NaN with
+    fewer than two episodes or no spread in the differences)."""
     from scipy.stats import ttest_rel
 
-    returns: dict[str, dict[int, float]] = {}
-    ended: dict[str, set[int]] = {}  # the seeds whose episode a failure ended early
+    returns: dict[str, dict[tuple[str, int], float]] = {}
+    ended: dict[str, set[tuple[str, int]]] = {}  # the episodes a failure ended early
     for row in rows:
-        returns.setdefault(row["controller"], {})[int(row["seed"])] = float(
-            row["episode_return"])
+        episode = (str(row.get("scenario", "")), int(row["seed"]))
+        returns.setdefault(row["controller"], {})[episode] = float(row["episode_return"])
         if row.get("termination"):
-            ended.setdefault(row["controller"], set()).add(int(row["seed"]))
+            ended.setdefault(row["controller"], set()).add(episode)
     mine = returns.get(policy, {})
     out = []
     for name, theirs in returns.items():
@@ -184,10 +184,11 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
 
 def comparison_text(comparison: list[dict[str, Any]], policy_return: float) -> str:
     """:func:`paired_comparison` as the markdown table ``evaluate`` prints and writes."""
-    lines = [f"Paired by seed against the policy (mean return {shown('{:.1f}', policy_return)}"
-             "); p: one-sided paired t-test that the policy's return is higher; ended early: "
-             "episodes a failure stopped (their return is the steps until then and the "
-             "failure penalty: a shorter sum, not always a lower one).", "",
+    lines = ["Paired by episode (scenario and seed) against the policy (mean return "
+             f"{shown('{:.1f}', policy_return)}); p: one-sided paired t-test that the "
+             "policy's return is higher; ended early: episodes a failure stopped (their "
+             "return is the steps until then and the failure penalty: a shorter sum, not "
+             "always a lower one).", "",
              "| controller | return | policy's lead | policy better on | p | ended early "
              "(theirs / the policy's) |", "| --- | --- | --- | --- | --- | --- |"]
     for c in comparison:
