@@ -1654,8 +1654,6 @@ def test_modes_says_what_the_bits_row_of_its_load_table_holds(tmp_path, capsys):
     assert float(first_row[-2]) == pytest.approx(bit - 100.0, abs=0.06)  # N bottom, kN
 
 
-
-
 def test_a_first_run_says_it_compiles_the_kernels(tmp_path, capsys, monkeypatch):
     """A simulating command says on stderr when numba starts compiling (a first run after
     an install: ~20 s on the first step unexplained, the progress bar projecting three
