@@ -30,6 +30,7 @@ from drill_env.physics.validation import (
     StrictBool,
     config_dataclass,
     did_you_mean,
+    flatten,
     from_dict,
     jsonable,
     read_yaml,
@@ -482,21 +483,12 @@ def left_out_settings(config: TrainConfig, path: str | Path,
         got = saved.get(head)
         return (got.get(rest) if isinstance(got, dict) else got) == value
 
-    def flat(entry: Any, prefix: str = "") -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for key, value in (entry.items() if isinstance(entry, dict) else ()):
-            if isinstance(value, dict) and value:
-                out.update(flat(value, f"{prefix}{key}."))
-            else:
-                out[f"{prefix}{key}"] = value
-        return out
-
     mine = read_yaml(Path(path)) or {}
     shipped = read_yaml(HYPERPARAMS / f"{task}.yml") or {}
     if not isinstance(mine, dict) or not isinstance(mine.get(algo), dict):
         return []
-    ours = flat(mine[algo])
-    return [(key, value) for key, value in flat(shipped.get(algo, {})).items()
+    ours = flatten(mine[algo])  # (the entry loaded already: its keys are names)
+    return [(key, value) for key, value in flatten(shipped.get(algo, {})).items()
             if key not in ours and key.partition(".")[0] not in given
             and not same(key, jsonable(value))]
 
