@@ -4,8 +4,8 @@ The top layer: it parses arguments in the units people type (rpm, kN, seconds), 
 them in those units, and calls the libraries below (``drill_env``, ``agents``,
 ``training``), which work in SI. Every command but ``replay`` prints a table and writes
 its outputs under ``--out`` (default ``logs/``; ``benchmark`` ``logs/benchmark``, with
-``--task`` ``logs/benchmark/<task>``,
-``train`` ``logs/runs``, ``evaluate`` the run's ``evaluation/``).
+``--task`` ``logs/benchmark/<task>``, with ``--config FILE`` a folder named by the file
+inside that, ``train`` ``logs/runs``, ``evaluate`` the run's ``evaluation/``).
 """
 
 from __future__ import annotations
@@ -640,8 +640,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         from training.config import TASKS
 
         env_id = TASKS[args.task]
-    if args.out is None:  # a task's benchmark replaced the scenario benchmark's outputs
-        args.out = Path("logs/benchmark") / (args.task or "")
+    if args.out is None:  # a task's benchmark replaced the scenario benchmark's outputs, and
+        # a --config variant the benchmark without it: each in a folder of its own
+        args.out = (Path("logs/benchmark") / (args.task or "")
+                    / (args.config.stem if args.config else ""))
         if reason := unwritable(args.out):
             raise argparse.ArgumentTypeError(f"--out {args.out}: {reason}")
     if args.scenarios is not None and not args.scenarios.strip(", "):  # (an unset variable)
@@ -1644,7 +1646,9 @@ def parser() -> argparse.ArgumentParser:
                         "repository's examples/field_well_string.yaml)")
     p.add_argument("--out", type=out_folder, default=None,
                    help="output folder (default: logs/benchmark; with --task "
-                        "logs/benchmark/<task>, beside the scenario benchmark's outputs)")
+                        "logs/benchmark/<task>, beside the scenario benchmark's outputs; "
+                        "with --config FILE a folder named by FILE inside that, e.g. "
+                        "logs/benchmark/stick_slip/<FILE's stem>)")
 
     p = add("train", "train PPO or SAC on a control task; the run (model, VecNormalize, "
                      "checkpoints, learning curve, TensorBoard) in --out/<name>", cmd_train)

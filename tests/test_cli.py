@@ -174,7 +174,8 @@ def test_run_notes_a_wob_that_buckles_the_pipe(tmp_path, capsys):
     assert "note:" not in capsys.readouterr().err
 
 
-def test_a_wob_given_is_the_one_the_scenario_checks_for_buckling(tmp_path, capsys):
+def test_a_wob_given_is_the_one_the_scenario_checks_for_buckling(tmp_path, capsys,
+                                                                   monkeypatch):
     """On a horizontal well the scenario's own 100 kN buckles the pipe: `run` and
     `benchmark` refused --wob 60, which does not, for the 100 kN they were not going to
     run (a directional driller's walkthrough)."""
@@ -190,10 +191,16 @@ def test_a_wob_given_is_the_one_the_scenario_checks_for_buckling(tmp_path, capsy
     assert summary["weight_on_bit_kN"] == pytest.approx(60.0)
     assert summary["mean_setpoint_kN"] == pytest.approx(60.0, rel=1e-6)  # float32 actions
     capsys.readouterr()
-    assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default",
-                 "--config", str(well), "--wob", "60", "--seeds", "1", "--duration", "1",
-                 "--warmup", "0.5", "--workers", "1", "--out", str(out / "b")]) == 0
+    with monkeypatch.context() as here:
+        here.chdir(tmp_path)
+        assert main(["benchmark", "--controllers", "stiff", "--scenarios", "default",
+                     "--config", str(well), "--wob", "60", "--seeds", "1", "--duration",
+                     "1", "--warmup", "0.5", "--workers", "1"]) == 0
     assert "error" not in capsys.readouterr().err
+    # without --out, a --config variant's outputs go to a folder named by the file, not
+    # over the benchmark's own in logs/benchmark (make demo's)
+    assert (tmp_path / "logs/benchmark/horizontal/benchmark.csv").exists()
+    assert not (tmp_path / "logs/benchmark/benchmark.csv").exists()
     # 110 kN buckles it too: refused by the value typed (it named the scenario's 100 kN)
     assert main(["run", "--config", str(well), "--wob", "110", "--duration", "0.2",
                  "--out", str(out)]) == 2
