@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = ("README.md", "docs/tasks.md", "docs/recording.md", "docs/controllers.md")
+PAGES = ("README.md", "docs/env.md", "docs/tasks.md", "docs/recording.md",
+         "docs/controllers.md")
 
 
 def _snippets() -> list[tuple[str, int, str]]:
