@@ -9,12 +9,10 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from drill_env.physics.units import RPM  # noqa: E402
+from drill_env.figures import agg_figure
+from drill_env.physics.units import RPM
 
 #: (column, axis label, scale, what a panel whose values are all zero says) of the bar
 #: chart: an empty panel says so instead of looking like a broken plot.
@@ -47,14 +45,14 @@ ON_AXIS = 1e-3
 
 
 def save(fig: Any, path: Path) -> None:
-    """``fig`` as a PNG at ``path`` (:func:`drill_env.sweep.save_whole`), then closed: an
-    interrupt leaves the old picture whole (benchmark.md links it), never a torn one."""
+    """``fig`` as a PNG at ``path`` (:func:`drill_env.sweep.save_whole`): an interrupt
+    leaves the old picture whole (benchmark.md links it), never a torn one. The figures
+    here are matplotlib ``Figure`` objects, not pyplot's: drawing them neither switches
+    the process's backend (a notebook's inline plots went blank after a benchmark) nor
+    leaves figures open."""
     from drill_env.sweep import save_whole
 
-    try:
-        save_whole(path, lambda file: fig.savefig(file, dpi=110, format="png"))
-    finally:
-        plt.close(fig)
+    save_whole(path, lambda file: fig.savefig(file, dpi=110, format="png"))
 
 
 def _say_empty(ax: Any, text: str) -> None:
@@ -74,8 +72,8 @@ def _colours(controllers: Sequence[str]) -> dict[str, Any]:
     four left, then tab20b's twenty (an evaluation has eleven controllers: with tab10
     alone the eleventh took the seventh's colour), each at least :data:`DISTINCT` from
     the fixed colours and from those before it (where too few are, the rest in turn)."""
-    cmap = plt.get_cmap("tab10")
-    extra = plt.get_cmap("tab20b")
+    cmap = matplotlib.colormaps["tab10"]
+    extra = matplotlib.colormaps["tab20b"]
     candidates = [cmap(k) for k in range(10) if k not in COLOURS.values()]
     candidates += [extra(4 * (k % 5) + k // 5) for k in range(20)]  # a hue apart, then shades
     taken = [np.array(cmap(k)[:3]) for k in COLOURS.values()]
@@ -112,7 +110,8 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     colours = _colours(controllers)
     # two by two, not four in a row: shrunk to a page's width (~800 px) the row's text was
     # ~6 px high (a check of the pictures)
-    fig, grid = plt.subplots(2, 2, figsize=(11.0, 8.4))
+    fig = agg_figure(figsize=(11.0, 8.4))
+    grid = fig.subplots(2, 2)
     axes = grid.ravel()
     width = 0.8 / max(len(controllers), 1)
     for ax, (key, label, scale, empty) in zip(axes, BARS, strict=True):
@@ -225,7 +224,8 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     colours = _colours(controllers)
     # the surface torque is what a drive-rate loop does (a controls engineer's check: the
     # picture showed the bit alone, not the drive's torque that cures or feeds it)
-    fig, axes = plt.subplots(4, 1, figsize=(11, 10), sharex=True)
+    fig = agg_figure(figsize=(11, 10))
+    axes = fig.subplots(4, 1, sharex=True)
     found = False
     drawn: list[tuple[int, float, list[Any]]] = []  # (order given, bit-speed swing, lines)
     off_axis = 0.0  # the largest radial position drawn
@@ -254,7 +254,6 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
                                  axes[2].plot(t, d["torque_on_bit"] / 1e3, **kw)[0],
                                  axes[3].plot(t, radial, **kw)[0]]))
     if not found:
-        plt.close(fig)
         return False
     # the first controller on top (a policy before its baselines), the others the steadier
     # above the wider swinging: a stick-slip band drawn over a steady line hid it (the

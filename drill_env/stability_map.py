@@ -445,30 +445,27 @@ def plot_maps(maps: Sequence[StabilityMap], path: Path, controller: str = "stiff
     """Fig. 15 style: one panel per position, the stick-slip zone shaded, simulated
     points marked (x steady, o stick-slip); ``source``: the config file named in the
     title."""
-    import matplotlib.pyplot as plt
-
     fig = maps_figure(maps, controller, source)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
 
 
 def maps_figure(maps: Sequence[StabilityMap], controller: str = "stiff",
                 source: str | None = None) -> Any:
-    """The matplotlib figure of :func:`plot_maps` (Agg backend), laid out."""
+    """The matplotlib ``Figure`` of :func:`plot_maps`, laid out (not pyplot's: the
+    process's backend is left as it is)."""
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from drill_env.figures import agg_figure
 
     cols = min(3, len(maps))
     rows = math.ceil(len(maps) / cols)
     # one map alone gets more room: at 4.2 x 3.4 in its three-line title took a third of
     # the picture (a check of the pictures)
     width, height = (4.2, 3.4) if cols > 1 else (6.0, 4.8)
-    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows),
-                             squeeze=False, sharex=True, sharey=True)
+    fig = agg_figure(figsize=(width * cols, height * rows))
+    axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
     for ax, m in zip(axes.flat, maps, strict=False):
         kn = m.weight_on_bit / 1e3
         ax.pcolormesh(m.rpm, kn, m.unstable, cmap="Reds", vmin=0, vmax=2.5, shading="nearest")
@@ -492,7 +489,7 @@ def maps_figure(maps: Sequence[StabilityMap], controller: str = "stiff",
     from matplotlib.patches import Patch
 
     handles, _ = axes.flat[0].get_legend_handles_labels()
-    reds = plt.get_cmap("Reds")  # the colours pcolormesh gives unstable = 1 and 0
+    reds = matplotlib.colormaps["Reds"]  # the colours pcolormesh gives unstable = 1 and 0
     handles.append(Patch(color=reds(1.0 / 2.5), label="stick-slip zone (inferred)"))
     handles.append(Patch(facecolor=reds(0.0), edgecolor="0.6", linewidth=0.5,
                          label="steady zone (inferred)"))

@@ -143,14 +143,11 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
                ) -> list[Path]:
     """``well_<name>.png`` (path and torque-and-drag chart) and ``well_<name>.json``;
     ``string``: whose string it is, for the title (``--config FILE``'s)."""
-    import matplotlib.pyplot as plt
-
     out.mkdir(parents=True, exist_ok=True)
     table = torque_drag_table(trajectory, config, frictions)
     fig = well_figure(name, trajectory, table, frictions, string)
     png = out / f"well_{name}.png"
     fig.savefig(png, dpi=100)
-    plt.close(fig)
     stations = {"md": trajectory.survey.md.tolist(),
                 "inclination_deg": np.degrees(trajectory.survey.inclination).tolist(),
                 "azimuth_deg": np.degrees(trajectory.survey.azimuth).tolist()}
@@ -166,22 +163,22 @@ NO_DEPARTURE = 0.01
 
 def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
                 frictions: Sequence[float] = FRICTIONS, string: str = "the scenario") -> Any:
-    """The figure of :func:`write_well` (Agg backend), laid out: the path (3-D, plan,
+    """The matplotlib ``Figure`` of :func:`write_well` (not pyplot's: the process's
+    backend is left as it is), laid out: the path (3-D, plan,
     vertical section) and the :func:`torque_drag_table` ``table``. The hook-load legend
     names each friction factor once (by colour) and each operation once (by line style):
     rotating off bottom has no axial drag, so its line is one for every friction."""
     import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
+
+    from drill_env.figures import agg_figure
 
     md = np.linspace(0.0, trajectory.total_md, 400)
     pos, _, _ = trajectory.at(md)
     azimuth = float(trajectory.survey.azimuth[-1])
     section = pos[:, 0] * math.cos(azimuth) + pos[:, 1] * math.sin(azimuth)
 
-    fig = plt.figure(figsize=(15, 9))
+    fig = agg_figure(figsize=(15, 9))
     ax3 = fig.add_subplot(2, 3, 1, projection="3d")
     ax3.plot(pos[:, 1], pos[:, 0], -pos[:, 2], lw=2)
     half = 0.5 * max(np.ptp(pos[:, 0]), np.ptp(pos[:, 1]), 100.0)  # one scale both ways
@@ -227,7 +224,7 @@ def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
     depths = np.array(table["bit_md"])
     hook = fig.add_subplot(2, 3, (4, 5))
     torque = fig.add_subplot(2, 3, 6)
-    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, len(frictions)))
+    colours = matplotlib.colormaps["viridis"](np.linspace(0.0, 0.85, len(frictions)))
     styles = {"pick_up": "-", "rotating": ":", "slack_off": "--"}
     entries = [table[f"mu={mu:g}"] for mu in frictions]
     assert all(isinstance(entry, dict) for entry in entries)

@@ -88,13 +88,13 @@ def stop_after(n: int):
 
 
 def keep_saved_figures(monkeypatch) -> list:
-    """The matplotlib figures saved from now on (the code under test closes them after
-    saving), appended to the returned list as they are saved."""
-    import matplotlib.pyplot as plt
+    """The matplotlib figures saved from now on, appended to the returned list as they
+    are saved."""
+    from matplotlib.figure import Figure
 
     saved: list = []
-    original = plt.Figure.savefig
-    monkeypatch.setattr(plt.Figure, "savefig",
+    original = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig",
                         lambda fig, *a, **kw: (saved.append(fig), original(fig, *a, **kw)))
     return saved
 

@@ -828,20 +828,20 @@ def _series(out, controllers, scenarios, radial: float = 0.3) -> None:
 
 
 def _drawn_texts(monkeypatch, ticks: list[int] | None = None) -> list[str]:
-    """The texts written into the panels of every figure closed from now on (and, into
+    """The texts written into the panels of every figure saved from now on (and, into
     ``ticks``, each panel's number of y ticks)."""
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     texts: list[str] = []
-    close = plt.close
+    save = Figure.savefig
 
-    def keep_texts(fig=None):
+    def keep_texts(fig, *args, **kwargs):
         texts.extend(t.get_text() for ax in fig.axes for t in ax.texts)
         if ticks is not None:
             ticks.extend(len(ax.get_yticks()) for ax in fig.axes)
-        close(fig)
+        return save(fig, *args, **kwargs)
 
-    monkeypatch.setattr(plt, "close", keep_texts)
+    monkeypatch.setattr(Figure, "savefig", keep_texts)
     return texts
 
 
@@ -1051,7 +1051,7 @@ def test_an_interrupt_while_the_outputs_are_written_leaves_every_linked_picture(
     benchmark.md links whole, and no part files."""
     import re
 
-    from agents import plots
+    from matplotlib.figure import Figure
 
     scenarios = ["default", "stick_slip"]
     _series(tmp_path, ["stiff"], scenarios)
@@ -1059,7 +1059,7 @@ def test_an_interrupt_while_the_outputs_are_written_leaves_every_linked_picture(
     bm.write_outputs(rows, tmp_path, ["stiff"], scenarios, SHORT)
     sizes = {p.name: p.stat().st_size for p in tmp_path.glob("*.png")}
     drawn = []
-    real = plots.plt.Figure.savefig
+    real = Figure.savefig
 
     def savefig_then_stop(fig, *args, **kwargs):
         drawn.append(1)
@@ -1068,7 +1068,7 @@ def test_an_interrupt_while_the_outputs_are_written_leaves_every_linked_picture(
             raise KeyboardInterrupt
         return real(fig, *args, **kwargs)
 
-    monkeypatch.setattr(plots.plt.Figure, "savefig", savefig_then_stop)
+    monkeypatch.setattr(Figure, "savefig", savefig_then_stop)
     with pytest.raises(KeyboardInterrupt):
         bm.write_outputs(rows, tmp_path, ["stiff"], scenarios, SHORT)
     monkeypatch.undo()

@@ -680,17 +680,15 @@ def plot_learning_curve(run: Path) -> Path | None:
     path = run / "evaluations.csv"
     if not path.exists():
         return None
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from drill_env.figures import agg_figure
 
     with path.open() as f:
         rows = list(csv.DictReader(f))
     if not rows:
         return None
     steps = np.array([float(r["timesteps"]) for r in rows]) / 1e3
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
+    fig = agg_figure(figsize=(10, 3.6))
+    axes = fig.subplots(1, 2)
     ret = np.array([float(r["return"]) for r in rows])
     std = np.array([float(r["return_std"]) for r in rows])
     # whiskers as well as the band: a band of one evaluation is not drawn
@@ -747,5 +745,4 @@ def plot_learning_curve(run: Path) -> Path | None:
     fig.tight_layout()
     out = run / "learning_curve.png"
     fig.savefig(out, dpi=110)
-    plt.close(fig)
     return out

@@ -394,11 +394,8 @@ def critical_speed_chart(config: SimulationConfig, modes: Sequence[Modes], path,
                          max_rpm: float = 300.0, title: str = "") -> None:
     """The chart BHA design tools show: natural frequencies (horizontal lines) against
     rotary speed, with the excitation lines; the circles are the critical speeds."""
-    import matplotlib.pyplot as plt
-
     fig = critical_speed_figure(config, modes, max_rpm, title)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
 
 
 def chart_cutoff(config: SimulationConfig, modes: Sequence[Modes], max_rpm: float) -> float:
@@ -415,7 +412,8 @@ def chart_cutoff(config: SimulationConfig, modes: Sequence[Modes], max_rpm: floa
 
 def critical_speed_figure(config: SimulationConfig, modes: Sequence[Modes],
                           max_rpm: float = 300.0, title: str = "") -> Any:
-    """The matplotlib figure of :func:`critical_speed_chart` (Agg backend), laid out.
+    """The matplotlib ``Figure`` of :func:`critical_speed_chart`, laid out (not pyplot's:
+    the process's backend is left as it is).
 
     The modes up to :func:`chart_cutoff` (the title says how many more there are, the
     frequencies above it are shaded), each
@@ -425,13 +423,11 @@ def critical_speed_figure(config: SimulationConfig, modes: Sequence[Modes],
     label, so that no line crosses another's label), or, for a line that leaves through
     the right edge, just above the line beyond its last critical speed and off the mode
     lines, the line ending there. No label covers a critical speed (the circles)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from drill_env.figures import agg_figure
 
     cutoff = chart_cutoff(config, modes, max_rpm)
-    fig, ax = plt.subplots(figsize=(10, 6.5))
+    fig = agg_figure(figsize=(10, 6.5))
+    ax = fig.subplots()
     styles = {"lateral": ("tab:blue", "-"), "torsional": ("tab:red", "--")}
     mode_labels, mode_lines = [], []
     for m in modes:

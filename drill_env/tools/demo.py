@@ -26,10 +26,7 @@ DEMO_SECONDS = 60.0
 
 def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]], bool]:
     """Run the two set points; returns the table rows and whether paper result 1 holds."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from drill_env.figures import agg_figure
 
     out.mkdir(parents=True, exist_ok=True)
     # Paper case 1 is a torsional study: lateral DOFs frozen (docs/model.md, "Axial load
@@ -72,7 +69,8 @@ def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]],
          f"{'reproduced' if verdict else 'NOT reproduced'}")
 
     # One speed scale for both panels: a steady run must look steady.
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True, sharey=True)
+    fig = agg_figure(figsize=(9, 6))
+    axes = fig.subplots(2, 1, sharex=True, sharey=True)
     for ax, rpm in zip(axes, DEMO_RPM, strict=True):
         run = runs[rpm]
         # the bit over a wider surface line: where both turn steadily (100 rpm) the bit
@@ -89,7 +87,6 @@ def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]],
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
     fig.savefig(out / "demo_stick_slip.png", dpi=120)
-    plt.close(fig)
     (out / "demo_summary.json").write_text(json.dumps(rows, indent=2))
     echo(f"wrote {out / 'demo_stick_slip.png'} and {out / 'demo_summary.json'} "
          f"({time.perf_counter() - t0:.1f} s)")

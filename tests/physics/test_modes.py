@@ -529,7 +529,6 @@ def test_critical_speed_chart_labels_stay_inside_and_apart(string, n_modes, max_
     2000 Hz), none prints over another (close lateral and torsional frequencies; the
     field string's three steep lines of bit whirl, collar whirl and blades leave the
     plot close together) or over the title, and none covers a critical speed."""
-    import matplotlib.pyplot as plt
 
     config = SimulationConfig() if string == "default" else _field_config()
     fig, ax, modes = _chart(config, n_modes, max_rpm)
@@ -552,7 +551,6 @@ def test_critical_speed_chart_labels_stay_inside_and_apart(string, n_modes, max_
     assert circles
     for text, box in boxes:
         assert not any(box.contains(x, y) for x, y in circles), text
-    plt.close(fig)
 
 
 @pytest.mark.parametrize(("string", "n_modes", "max_rpm"), CHARTS)
@@ -560,7 +558,6 @@ def test_each_mode_label_sits_on_its_own_line(string, n_modes, max_rpm):
     """A label pushed off its line to make room (the field string's "L5 1.73 Hz" once
     sat at 2.0 Hz, by the line of L6) reads as the next line's: each label spans the
     height of its own mode, and every mode drawn has one."""
-    import matplotlib.pyplot as plt
 
     config = SimulationConfig() if string == "default" else _field_config()
     fig, ax, modes = _chart(config, n_modes, max_rpm)
@@ -576,7 +573,6 @@ def test_each_mode_label_sits_on_its_own_line(string, n_modes, max_rpm):
         box = text.get_window_extent(renderer)
         y = ax.transData.transform((0.0, drawn[key]))[1]
         assert box.y0 <= y <= box.y1, text.get_text()
-    plt.close(fig)
 
 
 @pytest.mark.parametrize(("string", "n_modes", "max_rpm"), CHARTS)
@@ -584,7 +580,6 @@ def test_each_excitation_line_runs_into_its_label_and_through_no_other(string, n
                                                                        max_rpm):
     """Three steep lines leave the field string's chart close together: each runs into
     (or passes just under) its own label, and no other line passes through it."""
-    import matplotlib.pyplot as plt
 
     config = SimulationConfig() if string == "default" else _field_config()
     fig, ax, modes = _chart(config, n_modes, max_rpm)
@@ -611,7 +606,6 @@ def test_each_excitation_line_runs_into_its_label_and_through_no_other(string, n
                 gap = np.hypot(np.clip(xs, box.x0, box.x1) - xs,
                                np.clip(ys, box.y0, box.y1) - ys)
                 assert np.min(gap) < 6.0, (name, "away from its line")
-    plt.close(fig)
 
 
 @pytest.mark.parametrize(("string", "n_modes", "max_rpm"), CHARTS)
@@ -620,7 +614,6 @@ def test_mode_labels_stand_apart_and_each_line_ends_at_its_label(string, n_modes
     """Close frequencies (the default string's L5 1.69 Hz and T2 1.65 Hz) put two mode
     labels side by side: they keep a gap, and the left one's line ends under its own
     label rather than running on beneath its neighbour's (it read "Hz-T2")."""
-    import matplotlib.pyplot as plt
 
     from drill_env.physics.modes import MODE_LABEL_GAP
 
@@ -642,7 +635,6 @@ def test_mode_labels_stand_apart_and_each_line_ends_at_its_label(string, n_modes
         moved += box.x1 < ax.bbox.x1 - 10.0
     if string == "default" and max_rpm == 250.0:
         assert moved >= 1  # L5 beside T2: the case this test is about
-    plt.close(fig)
 
 
 def test_excitation_labels_and_lines_keep_off_the_modes():
@@ -650,7 +642,6 @@ def test_excitation_labels_and_lines_keep_off_the_modes():
     the 1x line leaves through the right edge just under T3 (4.07 Hz); its label sat on
     T3's dashed line and the line ran on into T3's label. No excitation label may sit on
     a mode line, and no excitation line may pass through a mode label."""
-    import matplotlib.pyplot as plt
 
     from drill_env.physics.modes import _crosses
     from drill_env.scenarios import make_scenario
@@ -671,7 +662,6 @@ def test_excitation_labels_and_lines_keep_off_the_modes():
     for line in (x for x in ax.lines if str(x.get_gid()).startswith("excitation:")):
         start, end = to_px(line.get_xydata())
         assert not any(_crosses(start, end, b) for b in mode_boxes), line.get_gid()
-    plt.close(fig)
 
 
 def test_backward_whirl_labels_say_their_multiplier():
@@ -695,7 +685,6 @@ def test_a_chart_of_many_modes_draws_the_lowest_and_says_so():
     The chart draws the ``CHART_MODES`` lowest, its y axis just above them (room for the
     labels, shaded: the higher modes there are not drawn), and its title says how many
     more the table lists."""
-    import matplotlib.pyplot as plt
 
     from drill_env.physics.modes import CHART_MODES, chart_cutoff
 
@@ -711,7 +700,6 @@ def test_a_chart_of_many_modes_draws_the_lowest_and_says_so():
     low, high = shade.get_window_extent().y0, shade.get_window_extent().y1
     assert low == pytest.approx(ax.transData.transform((0.0, cutoff))[1])
     assert high == pytest.approx(ax.bbox.y1)
-    plt.close(fig)
     fastest = max(per_rev for _, per_rev in excitations(config)) * 10.0 / 60.0
     assert chart_cutoff(config, modes, 10.0) <= fastest
     assert chart_cutoff(config, modes, 10.0) >= every[0]  # always the lowest mode

@@ -177,13 +177,11 @@ def format_scaling(result: dict[str, Any]) -> str:
 
 def plot_scaling(result: dict[str, Any], path: Path) -> Path | None:
     """us/step and ns/DOF/step against DOFs, with the fitted line."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from drill_env.figures import agg_figure
 
     pts = result["points"]
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    fig = agg_figure(figsize=(10, 4))
+    axes = fig.subplots(1, 2)
     for sweep, marker in (("length", "o"), ("mesh", "s")):
         sel = [p for p in pts if sweep in p["sweeps"]]
         label = "string length" if sweep == "length" else "element length"
@@ -211,7 +209,6 @@ def plot_scaling(result: dict[str, Any], path: Path) -> Path | None:
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
