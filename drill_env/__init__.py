@@ -103,12 +103,99 @@ def _prune_numba_caches(current: Path, keep: int = CACHES_KEPT,
     return removed
 
 
-_CACHE_DIR = _numba_cache_dir()
+def _unwritable(folder: Path) -> str | None:
+    """Why numba could not keep a cache in ``folder`` (made if missing), or None."""
+    import tempfile
+
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError as err:
+        return f"{folder} ({err.strerror or err})"
+    return None
+
+
+def _usable_cache_dir(wanted: str) -> tuple[str, list[str]]:
+    """``wanted`` where numba can write it, else the same version's folder in the
+    temporary folder (``drill_env-numba-<uid>/<key>``); and why those it passed over
+    could not be used.
+
+    Where the chosen folder could not be written (no home, a read-only one), numba's own
+    fallback put the kernels beside the sources, in ``__pycache__``, keyed file by file:
+    an edit of the bit model then left a kernel cached before it running the old model
+    (an outside check: a run gave the old surface torque), or, with a read-only package
+    too, every command failed. If no folder is writable, ``wanted`` is returned and the
+    locator says so when numba asks it for a kernel's cache."""
+    import tempfile
+
+    refused: list[str] = []
+    candidates = [Path(wanted)]
+    user = str(os.getuid()) if hasattr(os, "getuid") else "user"
+    no_temporary = ""
+    try:
+        temporary = tempfile.gettempdir()
+    except OSError as err:  # no usable temporary folder at all
+        no_temporary = f"no temporary folder ({err})"
+    else:
+        candidates.append(Path(temporary) / f"drill_env-numba-{user}" / Path(wanted).name)
+    for folder in candidates:
+        reason = _unwritable(folder)
+        if reason is None:
+            return str(folder), refused
+        refused.append(reason)
+    if no_temporary:
+        refused.append(no_temporary)
+    return wanted, refused
+
+
+def _install_cache_locator() -> None:
+    """Have numba cache drill_env's kernels, and only drill_env's, in :data:`_CACHE_DIR`.
+
+    A cache locator of numba's kind, ahead of numba's own: for a function defined in this
+    package's files it names a folder in this version's cache (laid out as numba lays out
+    a ``NUMBA_CACHE_DIR``); for any other it declines, so other numba code in the process
+    keeps numba's own cache. (``NUMBA_CACHE_DIR`` was set for the whole process before:
+    another library's kernels went into drill_env's version folders, and the pruning of
+    old versions removed them; an outside check in a notebook.)"""
+    from numba.core import caching
+
+    package = os.path.realpath(Path(__file__).resolve().parent) + os.sep
+
+    class DrillEnvCacheLocator(caching.UserProvidedCacheLocator):
+        def __init__(self, py_func: Any, py_file: str) -> None:
+            super().__init__(py_func, py_file)
+            self._cache_path = os.path.join(_CACHE_DIR,
+                                            self.get_suitable_cache_subpath(py_file))
+
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Any:
+            if not os.path.realpath(py_file).startswith(package):
+                return None
+            # the source-file locators' own check: the folder can be made and written
+            found = super(caching.UserProvidedCacheLocator, cls).from_function(
+                py_func, py_file)
+            if found is None:  # not numba's next locator: the sources' __pycache__
+                raise RuntimeError(
+                    "drill_env: no writable folder for numba's compiled kernels: "
+                    + "; ".join(_REFUSED or [_CACHE_DIR])
+                    + ". Set NUMBA_CACHE_DIR to a folder you can write.")
+            return found
+
+    classes = caching.CacheImpl._locator_classes
+    classes[:] = [c for c in classes if c.__name__ != "DrillEnvCacheLocator"]
+    classes.insert(0, DrillEnvCacheLocator)
+
+
+_WANTED_CACHE_DIR = _numba_cache_dir()
+_CACHE_DIR, _REFUSED = _usable_cache_dir(_WANTED_CACHE_DIR)
+if _REFUSED and _CACHE_DIR != _WANTED_CACHE_DIR:
+    import warnings
+
+    warnings.warn(f"drill_env: numba cannot keep its compiled kernels in {_REFUSED[0]}; "
+                  f"they are kept in {_CACHE_DIR} instead (set NUMBA_CACHE_DIR to choose "
+                  "the folder)", RuntimeWarning, stacklevel=2)
 _prune_numba_caches(Path(_CACHE_DIR))
-if "numba" in sys.modules:  # numba read its settings already: change them in place
-    sys.modules["numba"].config.CACHE_DIR = _CACHE_DIR
-else:
-    os.environ["NUMBA_CACHE_DIR"] = _CACHE_DIR
+_install_cache_locator()
 
 
 def numba_cache_dir() -> Path:

@@ -1,0 +1,113 @@
+"""Where numba keeps drill_env's compiled kernels (``drill_env/__init__.py``): this
+version's folder, for drill_env's functions only, and a writable one (outside checks: in
+a notebook another library's kernels went into drill_env's folders, which the pruning
+of old versions removes; with no writable home numba fell back to the sources'
+``__pycache__``, keyed file by file, and a kernel compiled before an edit of another file
+ran the old physics)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: A small cached kernel of drill_env's and one of another library's, compiled in a
+#: fresh process; where each was cached, what drill_env warned, and the environment.
+PROBE = """
+import json, os, sys, warnings
+from pathlib import Path
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    import drill_env
+import numpy as np
+from drill_env.physics.linalg import band_cholesky
+sys.path.insert(0, sys.argv[1])
+import other_lib
+band_cholesky(np.array([[0.0, 0.0], [4.0, 4.0]]), np.zeros((2, 2)))
+other_lib.twice(1.0)
+cache = drill_env.numba_cache_dir()
+print(json.dumps({"cache": str(cache), "ours": sorted(p.name for p in cache.rglob("*.nbi")),
+                  "environ": os.environ.get("NUMBA_CACHE_DIR"),
+                  "theirs": sorted(p.name for p in Path(sys.argv[1]).rglob("*.nbi")),
+                  "warnings": [str(w.message) for w in caught]}))
+"""
+
+
+def _probe(tmp_path: Path, **env: str) -> dict:
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "other_lib.py").write_text("from numba import njit\n\n\n@njit(cache=True)\n"
+                                      "def twice(x):\n    return 2.0 * x\n")
+    environ = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    done = subprocess.run([sys.executable, "-c", PROBE, str(lib)], cwd=tmp_path,
+                          env={**environ, **env}, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def _source_tree_kernels() -> set[Path]:
+    return set((ROOT / "drill_env").rglob("*.nbi"))
+
+
+def test_drill_envs_kernels_go_to_its_folder_and_no_other_librarys(tmp_path):
+    before = _source_tree_kernels()
+    found = _probe(tmp_path, XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    cache = Path(found["cache"])
+    assert cache.parent == tmp_path / "xdg" / "drill_env" / "numba"
+    assert found["ours"] == ["linalg.band_cholesky-14.py311.nbi".replace(
+        "py311", f"py{sys.version_info.major}{sys.version_info.minor}")]
+    # the other library's kernel where numba puts it by itself, beside its source
+    assert found["theirs"] == [f"other_lib.twice-4.py{sys.version_info.major}"
+                               f"{sys.version_info.minor}.nbi"]
+    assert found["environ"] is None  # nothing set for the whole process (or its children)
+    assert found["warnings"] == []
+    assert _source_tree_kernels() == before
+
+
+def test_an_unwritable_cache_folder_falls_back_to_the_temporary_folder(tmp_path):
+    """No writable home (XDG_CACHE_HOME under a file): the kernels go to this version's
+    folder in the temporary folder, said once; none into the sources' __pycache__."""
+    blocked = tmp_path / "a-file"
+    blocked.write_text("")
+    (tmp_path / "tmp").mkdir()
+    before = _source_tree_kernels()
+    found = _probe(tmp_path, XDG_CACHE_HOME=str(blocked), TMPDIR=str(tmp_path / "tmp"))
+    cache = Path(found["cache"])
+    assert cache.parent.parent == tmp_path / "tmp"
+    assert cache.parent.name.startswith("drill_env-numba-")
+    assert len(found["ours"]) == 1
+    (warning,) = found["warnings"]
+    assert f"numba cannot keep its compiled kernels in {blocked}/drill_env/numba/" in warning
+    assert f"they are kept in {cache} instead (set NUMBA_CACHE_DIR" in warning
+    assert _source_tree_kernels() == before
+
+
+def test_with_no_writable_folder_the_locator_says_what_to_set(monkeypatch, tmp_path):
+    """Where neither the chosen folder nor a temporary one can be written, numba's next
+    locator would use the sources' __pycache__ (stale kernels after an edit): drill_env's
+    refuses with what it tried and what to set instead."""
+    from numba.core import caching
+
+    import drill_env
+    from drill_env.physics import linalg
+
+    blocked = tmp_path / "a-file"
+    blocked.write_text("")
+    monkeypatch.setattr(drill_env, "_CACHE_DIR", str(blocked / "key"))
+    monkeypatch.setattr(drill_env, "_REFUSED", [f"{blocked / 'key'} (Not a directory)"])
+    locator = caching.CacheImpl._locator_classes[0]
+    assert locator.__name__ == "DrillEnvCacheLocator"
+    with pytest.raises(RuntimeError, match=r"no writable folder for numba's compiled "
+                                           r"kernels: .*a-file/key \(Not a directory\)\. "
+                                           r"Set NUMBA_CACHE_DIR"):
+        locator.from_function(linalg.band_cholesky.py_func, linalg.__file__)
+    # another library's function: not drill_env's to place
+    assert locator.from_function(test_with_no_writable_folder_the_locator_says_what_to_set,
+                                 __file__) is None
