@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from numba import types
+from numba import config, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
@@ -39,3 +39,18 @@ def claim(typingctx: Any, counter: Any) -> Any:
                                   "monotonic")
 
     return types.int64(counter), codegen
+
+
+
+def _claim_uncompiled(counter: Any) -> Any:
+    """:func:`claim` in plain Python: ``counter[0] += 1``, the value before (no other
+    thread runs uncompiled code's lanes)."""
+    before = counter[0]
+    counter[0] += 1
+    return before
+
+
+if getattr(config, "DISABLE_JIT", False):  # NUMBA_DISABLE_JIT=1 (debugging in plain
+    # Python): an intrinsic cannot run uncompiled, and every batched env step failed with
+    # numba's "not usable in pure-python"
+    claim = _claim_uncompiled  # type: ignore[assignment]

@@ -133,3 +133,31 @@ def test_the_slots_typed_list_comes_from_numba_s_cache_in_a_new_process():
                              capture_output=True, text=True, check=True)
     counts = json.loads(out.stdout.strip().splitlines()[-1])
     assert counts == [[1, 0], [1, 0], [1, 0]]
+
+
+def test_a_batch_steps_with_numba_switched_off(tmp_path):
+    """NUMBA_DISABLE_JIT=1 (debugging the kernels in plain Python): every batched env
+    step failed, the atomic counter being a compiled intrinsic only (an outside check).
+    Uncompiled, a batch of two steps as compiled code steps it (the same operations in
+    Python's floats: equal within rounding)."""
+    import os
+
+    import gymnasium as gym
+
+    code = """
+import json
+import gymnasium as gym, numpy as np, drill_env
+e = gym.make_vec("DrillString-v0", num_envs=2, fidelity="fast", control_interval=0.02)
+e.reset(seed=3)
+o, r, te, tr, i = e.step(np.array([[0.2, -0.1], [-0.3, 0.4]], np.float32))
+print(json.dumps({"obs": o.tolist(), "reward": r.tolist()}))
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**os.environ, "NUMBA_DISABLE_JIT": "1"}, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    uncompiled = json.loads(done.stdout.splitlines()[-1])
+    envs = gym.make_vec("DrillString-v0", num_envs=2, fidelity="fast", control_interval=0.02)
+    envs.reset(seed=3)
+    obs, reward, *_ = envs.step(np.array([[0.2, -0.1], [-0.3, 0.4]], np.float32))
+    np.testing.assert_allclose(uncompiled["obs"], obs, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(uncompiled["reward"], reward, rtol=1e-9)
