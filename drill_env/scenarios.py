@@ -140,7 +140,8 @@ POSITIONS: dict[str, tuple[float, str]] = {
 }
 
 #: Seeds of the held-out evaluation set of the ``random`` scenario. Training code must
-#: not reset with these (draw training seeds below ``EVALUATION_SEEDS[0]``).
+#: not reset with these (``drill-env train`` draws its envs' seeds from 2**31 up,
+#: ``training.config.TRAINING_SEEDS``, and validates from 900,000).
 EVALUATION_SEEDS: tuple[int, ...] = tuple(range(1_000_000, 1_000_020))
 
 #: The paper's operating points (SPEC 2.4: 100 kN in hard rock, no stick-slip at 100 rpm,

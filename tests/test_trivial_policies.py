@@ -145,10 +145,30 @@ def test_paired_comparison_pairs_by_seed() -> None:
     assert c["controller"] == "other" and c["seeds"] == 4 and c["wins"] == 4
     assert c["lead"] == pytest.approx(2.5) and c["return"] == pytest.approx(22.5)
     assert c["p"] == pytest.approx(student_t.sf(t, 3), rel=1e-9)
+    # the lead's 95 % interval: mean +- t(0.975, 3) s / sqrt(4), by hand; the median lead
+    half = student_t.ppf(0.975, 3) * diff.std(ddof=1) / math.sqrt(4)
+    assert c["lead_ci"] == pytest.approx((2.5 - half, 2.5 + half), rel=1e-9)
+    assert c["median_lead"] == pytest.approx(2.5)
+    assert c["p_holm"] == c["p"]  # the only test made: nothing to adjust
     assert same["wins"] == 0 and math.isnan(same["p"])  # no spread: no test
+    assert math.isnan(same["p_holm"]) and all(map(math.isnan, same["lead_ci"]))
     # two scenarios with the same seeds are two episodes each, not one overwritten
     rows = [{"controller": c, "scenario": sc, "seed": 0, "episode_return": r}
             for c, sc, r in (("learned", "a", 5.0), ("learned", "b", 7.0),
                              ("other", "a", 1.0), ("other", "b", 6.0))]
     (c,) = paired_comparison(rows)
     assert (c["seeds"], c["wins"], c["lead"]) == (2, 2, pytest.approx(2.5))
+
+
+def test_holms_adjustment_by_hand() -> None:
+    """Holm (1979): the k-th smallest of m p values times m - k + 1, never below the one
+    before it in that order, at most 1; a NaN (no test made) is not one of the m."""
+    from training.evaluate import holm
+
+    # sorted 0.005, 0.01, 0.03, 0.04 -> 0.02, 0.03, 0.06, max(0.06, 0.04)
+    assert holm([0.01, 0.04, 0.03, 0.005]) == pytest.approx([0.03, 0.06, 0.06, 0.02])
+    adjusted = holm([0.2, math.nan, 0.6])
+    assert adjusted[0] == pytest.approx(0.4) and adjusted[2] == pytest.approx(0.6)
+    assert math.isnan(adjusted[1])
+    assert holm([0.5, 0.6, 0.7]) == [1.0, 1.0, 1.0]
+    assert holm([]) == []

@@ -42,8 +42,9 @@ HYPERPARAMS = Path(__file__).resolve().parent / "hyperparams"
 TASKS = TASK_ENVS
 #: Seeds: the eval callback uses validation seeds from VALIDATION_SEED; the benchmark of
 #: ``drill-env evaluate`` the held-out EVALUATION_SEEDS (drill_env.scenarios, from
-#: 1,000,000), never seen in training or model selection; the training envs are seeded
-#: from TRAINING_SEEDS on (``training.train.env_seed``), above both.
+#: 1,000,000), never seen in training or in choosing a run's model (task 2's recipe was
+#: chosen on them: docs/tasks.md, "Fresh seeds"); the training envs are seeded from
+#: TRAINING_SEEDS on (``training.train.env_seed``), above both.
 VALIDATION_SEED = 900_000
 TRAINING_SEEDS = 2**31
 

@@ -2,10 +2,11 @@
 
 The policy (the controller ``learned``, from the run folder), the classical controllers
 and the trivial policies (:mod:`agents.trivial`) act in the run's task env on the
-held-out seeds (``drill_env.scenarios.EVALUATION_SEEDS``, never used in training or model
-selection), each from the same targets and start; the benchmark writes its table, csv
-and plots to ``RUN/evaluation/``, and the policy paired by seed against each of the
-others to ``comparison.md``.
+held-out seeds (``drill_env.scenarios.EVALUATION_SEEDS``, never used in training or in
+choosing a run's model; task 2's recipe was chosen on them, docs/tasks.md "Fresh seeds"
+scores the shipped policies on seeds no choice has seen), each from the same targets
+and start; the benchmark writes its table, csv and plots to ``RUN/evaluation/``, and
+the policy paired by seed against each of the others to ``comparison.md``.
 """
 
 from __future__ import annotations
@@ -151,9 +152,14 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
                       ) -> list[dict[str, Any]]:
     """The policy's return against every other controller's on the same episodes (paired:
     the same scenario and seed, so the same string, rocks and targets): per controller
-    its mean return, the policy's mean lead, on how many episodes it led, and the
-    one-sided paired t-test p of a positive lead (``scipy.stats.ttest_rel``; NaN with
-    fewer than two episodes or no spread in the differences)."""
+    its mean return, the policy's mean lead with its 95 % confidence interval (Student's
+    t on the differences), the median lead, on how many episodes it led, the one-sided
+    paired t-test p of a positive lead (``scipy.stats.ttest_rel``; NaN with fewer than
+    two episodes or no spread in the differences) and that p adjusted by Holm's step-down
+    method over the controllers compared (:func:`holm`: the chance that any one of them
+    shows a lead by luck, where "the policy beats one of them" is read from the table).
+    The returns are often skewed (a few seeds with a large lead): the mean is the
+    estimate, the median and the count of wins say what a typical episode does."""
     from scipy.stats import ttest_rel
 
     returns: dict[str, dict[tuple[str, int], float]] = {}
@@ -164,7 +170,7 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
         if row.get("termination"):
             ended.setdefault(row["controller"], set()).add(episode)
     mine = returns.get(policy, {})
-    out = []
+    out: list[dict[str, Any]] = []
     for name, theirs in returns.items():
         seeds = sorted(set(mine) & set(theirs))
         if name == policy or not seeds:
@@ -172,30 +178,61 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
         a = np.array([mine[s] for s in seeds])
         b = np.array([theirs[s] for s in seeds])
         diff = a - b
-        p = math.nan
+        p, low, high = math.nan, math.nan, math.nan
         if len(seeds) > 1 and np.ptp(diff) > 0:
             p = float(ttest_rel(a, b, alternative="greater").pvalue)
+            low, high = (float(v) for v in ttest_rel(a, b).confidence_interval(0.95))
         out.append({"controller": name, "seeds": len(seeds), "return": float(b.mean()),
-                    "lead": float(diff.mean()), "wins": int(np.sum(diff > 0)), "p": p,
-                    "ended_early": len(ended.get(name, set()) & set(seeds)),
+                    "lead": float(diff.mean()), "lead_ci": (low, high),
+                    "median_lead": float(np.median(diff)), "wins": int(np.sum(diff > 0)),
+                    "p": p, "ended_early": len(ended.get(name, set()) & set(seeds)),
                     "policy_ended_early": len(ended.get(policy, set()) & set(seeds))})
+    for c, adjusted in zip(out, holm([c["p"] for c in out]), strict=True):
+        c["p_holm"] = adjusted
+    return out
+
+
+def holm(p: Sequence[float]) -> list[float]:
+    """Holm's step-down adjustment of the p values of several tests (Holm 1979): the
+    k-th smallest of m is multiplied by m - k + 1, and each adjusted value is at least
+    the one before it in that order (at most 1). A NaN (no test) stays NaN and does not
+    count among the m."""
+    order = sorted((v, k) for k, v in enumerate(p) if not math.isnan(v))
+    out = [math.nan] * len(p)
+    running = 0.0
+    for rank, (value, k) in enumerate(order):
+        running = max(running, min(1.0, (len(order) - rank) * value))
+        out[k] = running
     return out
 
 
 def comparison_text(comparison: list[dict[str, Any]], policy_return: float) -> str:
     """:func:`paired_comparison` as the markdown table ``evaluate`` prints and writes."""
     lines = ["Paired by episode (scenario and seed) against the policy (mean return "
-             f"{shown('{:.1f}', policy_return)}); p: one-sided paired t-test that the "
-             "policy's return is higher; ended early: episodes a failure stopped (their "
+             f"{shown('{:.1f}', policy_return)}); the lead's 95 % confidence interval from "
+             "Student's t on the differences; p: one-sided paired t-test that the "
+             "policy's mean return is higher, and Holm's adjustment of it over the "
+             f"{len(comparison)} controllers compared (the one to read where the claim "
+             "is a win over some of them; a claim of a win over each needs each p alone)"
+             "; ended early: episodes a failure stopped (their "
              "return is the steps until then and the failure penalty: a shorter sum, not "
              "always a lower one).", "",
-             "| controller | return | policy's lead | policy better on | p | ended early "
-             "(theirs / the policy's) |", "| --- | --- | --- | --- | --- | --- |"]
+             "| controller | return | policy's lead | 95 % CI of the lead | median lead | "
+             "policy better on | p | p, Holm | ended early (theirs / the policy's) |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for c in comparison:
-        p = "n/a" if math.isnan(c["p"]) else f"{c['p']:.2g}"
+        p, adjusted = ("n/a" if math.isnan(v) else f"{v:.2g}" for v in (c["p"], c["p_holm"]))
+        low, high = c["lead_ci"]
+        ci = "n/a" if math.isnan(low) else f"{low:+.1f} to {high:+.1f}"
         lines.append(f"| {c['controller']} | {shown('{:.1f}', c['return'])} | "
-                     f"{shown('{:+.1f}', c['lead'])} | {c['wins']} of {c['seeds']} | {p} | "
-                     f"{c['ended_early']} / {c['policy_ended_early']} |")
+                     f"{shown('{:+.1f}', c['lead'])} | {ci} | "
+                     f"{shown('{:+.1f}', c['median_lead'])} | {c['wins']} of {c['seeds']} "
+                     f"| {p} | {adjusted} | {c['ended_early']} / {c['policy_ended_early']} |")
+    few = min((c["seeds"] for c in comparison), default=0)
+    if 1 < few < 10:
+        lines += ["", f"With {few} episodes a pair the t-test's p and interval lean on the "
+                      "differences being near normal, which so few cannot show; "
+                      "`evaluate` scores on 20 seeds by default."]
     return "\n".join(lines) + "\n"
 
 
