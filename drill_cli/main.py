@@ -1876,6 +1876,8 @@ def option_hint(word: str, command: argparse.ArgumentParser) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """The ``drill-env`` command; returns its exit status."""
+    for stream in (sys.stdout, sys.stderr):
+        tolerant_output(stream)
     try:
         return _main(argv)
     except KeyboardInterrupt as caught:  # before the command ran (building the parser:
@@ -1883,6 +1885,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         said = "terminated" if isinstance(caught, Terminated) else "interrupted"
         print(f"drill-env: {said}", file=sys.stderr)
         return exit_status(caught)
+
+
+def tolerant_output(stream: Any) -> None:
+    """A stream whose encoding cannot write every character (ASCII: ``LC_ALL=C`` without
+    Python's UTF-8 mode, ``PYTHONIOENCODING=ascii``, a Latin-1 terminal) writes the ones
+    it cannot as ``\\u2020``. A table's dagger or a path with an umlaut ended demo,
+    benchmark, evaluate and run with an encoding error after their work, reported as a
+    bad value (exit 2), before benchmark.md was written (an outside check)."""
+    encoding = getattr(stream, "encoding", None)
+    if not encoding or not hasattr(stream, "reconfigure"):
+        return
+    try:
+        "\N{DAGGER}\N{LATIN SMALL LETTER U WITH DIAERESIS}\N{EM DASH}".encode(encoding)
+    except (UnicodeEncodeError, LookupError):
+        stream.reconfigure(errors="backslashreplace")
 
 
 def _joined_values(argv: Sequence[str]) -> list[str]:

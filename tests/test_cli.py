@@ -1725,3 +1725,24 @@ def test_no_kernels_cached_reads_numbas_own_cache(tmp_path):
     done = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path,
                           capture_output=True, text=True, check=True)
     assert done.stdout.split() == ["True", "False"], done
+
+
+def test_an_ascii_terminal_gets_escapes_not_an_encoding_error(tmp_path, monkeypatch):
+    """``PYTHONIOENCODING=ascii`` (or LC_ALL=C without Python's UTF-8 mode): the driller's
+    dagger in the table ended the benchmark with "'ascii' codec can't encode" as a bad
+    value (exit 2) before benchmark.md was written (an outside check). The characters the
+    stream cannot write are escaped instead."""
+    import io
+    import sys
+
+    raw = io.BytesIO()
+    out = io.TextIOWrapper(raw, encoding="ascii")
+    monkeypatch.setattr(sys, "stdout", out)
+    target = tmp_path / "\N{LATIN SMALL LETTER U WITH DIAERESIS}"
+    assert main(["benchmark", "--controllers", "stiff,driller", "--scenarios", "stick_slip",
+                 "--seeds", "1", "--duration", "3", "--warmup", "1", "--workers", "1",
+                 "--out", str(target)]) == 0
+    out.flush()
+    text = raw.getvalue().decode("ascii")
+    assert "\\u2020" in text and "\\xfc" in text
+    assert (target / "benchmark.md").exists()
