@@ -45,7 +45,7 @@ from drill_env.physics.validation import (
     numbers,
     repeated,
 )
-from drill_env.sweep import save_text
+from drill_env.sweep import save_text, usable_cores
 
 #: benchmark.csv columns, in order (the spec's section 5; meanings in docs/controllers.md);
 #: units in the names.
@@ -930,7 +930,6 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     # before any episode: one recorded now would replace theirs under the same name
     set_aside_stale_recordings(todo_all, out, progress)
     if todo:
-        import os
 
         from agents.registry import make_controller
 
@@ -939,7 +938,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
         for name, episode_env in {(e.controller, e.env_id) for e in todo
                                   if e.controller.startswith("learned")}:
             make_controller(name, env_id=episode_env)
-        local = min(workers or os.cpu_count() or 1, len(todo))
+        local = min(workers or usable_cores(), len(todo))
         executor = make_executor(local if ray_address is None else None, ray_address)
         bar = tqdm(total=len(todo_all), initial=len(todo_all) - len(todo), unit="episode",
                    desc="benchmark", disable=not progress, file=sys.stderr)

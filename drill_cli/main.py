@@ -1554,7 +1554,8 @@ def parser() -> argparse.ArgumentParser:
                     "benchmark on the default scenarios; outputs in --out", cmd_demo)
     p.add_argument("--out", type=out_folder, default=Path("logs"), help="output folder")
     p.add_argument("--workers", type=integer(1), default=None,
-                   help="local processes for the benchmark (default: all cores)")
+                   help="local processes for the benchmark (default: the cores this "
+                        "process may use)")
 
     p = add("run", "one episode with a controller at the scenario's (or the given) set "
                    "points; optional rerun recording", cmd_run)
@@ -1635,7 +1636,7 @@ def parser() -> argparse.ArgumentParser:
                    help="physics level (docs/performance.md; default: full, with --task "
                         "fast, as the task trains and drill-env evaluate runs)")
     p.add_argument("--workers", type=integer(1), default=None,
-                   help="local processes (default: all cores)")
+                   help="local processes (default: the cores this process may use)")
     add_ray_address(p, "the simulations")
     p.add_argument("--record", action="store_true",
                    help="write one rerun recording per episode to --out/recordings, named "
@@ -1697,7 +1698,7 @@ def parser() -> argparse.ArgumentParser:
                         "(default: the level the run trained at, fast for the tasks; full "
                         "judges a fast-trained policy in the full model)")
     p.add_argument("--workers", type=integer(1), default=None,
-                   help="local processes (default: all cores)")
+                   help="local processes (default: the cores this process may use)")
     add_ray_address(p, "the episodes")
     p.add_argument("--out", type=out_folder, default=None,
                    help="output folder (default: RUN/evaluation; logs/evaluation/<task> "
@@ -1729,7 +1730,7 @@ def parser() -> argparse.ArgumentParser:
                         "examples/field_well_string.yaml; its maps are named and titled by "
                         "the file: stability_map[_<controller>]_<file>.*")
     p.add_argument("--workers", type=integer(1), default=None,
-                   help="local processes (default: all cores)")
+                   help="local processes (default: the cores this process may use)")
     add_ray_address(p, "the simulations")
     p.add_argument("--out", type=out_folder, default=Path("logs"),
                    help="folder for stability_map.png/.json (stability_map_<controller>.* "

@@ -32,7 +32,7 @@ import threading
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-from drill_env.sweep import Late
+from drill_env.sweep import Late, usable_cores
 
 #: How many times a task whose worker died is resubmitted before the sweep fails.
 MAX_RETRIES = 3
@@ -224,7 +224,7 @@ class RayExecutor:
                 # address="local": a new private instance even where a cluster runs (without
                 # it Ray joins that cluster and refuses num_cpus)
                 with _quiet_token_notice():
-                    ray.init(address="local", num_cpus=os.cpu_count() or 1,
+                    ray.init(address="local", num_cpus=usable_cores(),
                              include_dashboard=False, runtime_env=runtime_env,
                              log_to_driver=False, configure_logging=False)
             else:

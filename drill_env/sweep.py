@@ -27,6 +27,7 @@ import functools
 import hashlib
 import importlib.util
 import json
+import math
 import os
 import signal
 import sys
@@ -251,6 +252,34 @@ def _unless_interrupted(fn: Callable[[Any], Any], item: Any) -> Any:
         _busy = False
 
 
+def usable_cores() -> int:
+    """The cores this process may use: its CPU affinity (``taskset``, a container's
+    cpuset), capped by a cgroup v2 CPU quota (``docker --cpus``) where one is set; else
+    ``os.cpu_count()``. The default number of worker processes: under ``taskset -c 0`` on
+    2 cores the benchmark started two and ran 1.3-1.6x slower than with one, and in a
+    container whose quota is a few of the host's many cores it started one worker per
+    host core (~320 MB each; an outside check)."""
+    if hasattr(os, "sched_getaffinity"):
+        cores = len(os.sched_getaffinity(0))
+    else:  # (no affinity on this platform)
+        cores = os.cpu_count() or 1
+    try:
+        quota = quota_cores(Path("/sys/fs/cgroup/cpu.max").read_text())
+    except OSError:  # no cgroup v2
+        quota = None
+    return max(1, min(cores, quota or cores))
+
+
+def quota_cores(cpu_max: str) -> int | None:
+    """The cores a cgroup v2 ``cpu.max`` (``"<quota> <period>"`` in us, or ``"max
+    <period>"``) allows, rounded up; None where it sets no quota or cannot be read."""
+    try:
+        quota, period = cpu_max.split()[:2]
+        return None if quota == "max" else max(1, math.ceil(int(quota) / int(period)))
+    except ValueError:
+        return None
+
+
 class ProcessExecutor:
     """A pool of ``workers`` local processes (spawned, so numba and threads start clean)."""
 
@@ -259,7 +288,7 @@ class ProcessExecutor:
     def __init__(self, workers: int | None = None) -> None:
         import multiprocessing as mp
 
-        self.workers = max(1, workers or os.cpu_count() or 1)
+        self.workers = max(1, workers or usable_cores())
         self._pool = ProcessPoolExecutor(self.workers, mp_context=mp.get_context("spawn"),
                                          initializer=_single_threaded_worker,
                                          initargs=(os.getpid(),))
@@ -324,7 +353,7 @@ def make_executor(workers: int | None = None, ray_address: str | None = None) ->
         return RayExecutor(ray_address)
     if workers is not None and workers < 1:
         raise ValueError(f"workers: must be >= 1, got {workers}")
-    n = workers or os.cpu_count() or 1
+    n = workers or usable_cores()
     return SerialExecutor() if n == 1 else ProcessExecutor(n)
 
 

@@ -432,3 +432,27 @@ def test_the_table_prints_boundaries_on_the_grid_as_they_are():
     m = sm.StabilityMap("P1", 0.0, rpm, wob, unstable, unstable.astype(np.int8), boundary,
                         runs=0, wall_s=0.0)
     assert "22.5 / 47.5 / 100 / none" in sm.format_maps([m])
+
+
+def test_the_default_workers_are_the_cores_this_process_may_use():
+    """Under ``taskset -c 0`` on 2 cores the benchmark started two workers on one core
+    (1.3-1.6x slower than one; an outside check): the default follows the process's CPU
+    affinity, and a cgroup's CPU quota where one is set."""
+    import subprocess
+    import sys
+
+    from drill_env.sweep import quota_cores
+
+    code = ("import os; from drill_env.sweep import make_executor, usable_cores; "
+            "os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}); "
+            "print(usable_cores(), type(make_executor(None)).__name__)")
+    if hasattr(__import__("os"), "sched_setaffinity"):
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              timeout=120)
+        assert done.returncode == 0, done.stderr
+        assert done.stdout.split() == ["1", "SerialExecutor"]
+    assert quota_cores("200000 100000\n") == 2
+    assert quota_cores("150000 100000") == 2  # 1.5 cores: two workers share them
+    assert quota_cores("50000 100000") == 1
+    assert quota_cores("max 100000") is None
+    assert quota_cores("") is None

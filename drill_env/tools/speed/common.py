@@ -23,6 +23,7 @@ from drill_env.physics import config as physics_config
 from drill_env.physics.config import FIDELITY_LEVELS, SimulationConfig
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
+from drill_env.sweep import usable_cores
 
 SECTIONS = ("core", "env", "scaling", "compile", "memory")
 
@@ -259,7 +260,7 @@ def machine_info() -> dict[str, Any]:
     info: dict[str, Any] = {
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "cpu": _cpu_name(),
-        "cpu_count": os.cpu_count(),
+        "cpu_count": usable_cores(),
         "platform": platform.platform(),
         "python": platform.python_version(),
         "numpy": np.__version__,

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import functools
 import math
-import os
 import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from drill_env.sweep import usable_cores
 from drill_env.tools.speed.common import (
     SETUP_WARNING,
     BenchmarkSettings,
@@ -156,7 +156,7 @@ def bench_env(settings: BenchmarkSettings, progress: bool = True) -> dict[str, A
     The one env is timed again beside each N (in the same rounds), and the ratios of that
     row use this same-time figure.
     """
-    result: dict[str, Any] = {"cpu_count": os.cpu_count(), "fidelity": {}}
+    result: dict[str, Any] = {"cpu_count": usable_cores(), "fidelity": {}}
     for name, override in fidelity_levels().items():
         caught: list[str] = []
         with recorded_warnings(caught):
