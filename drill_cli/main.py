@@ -1508,10 +1508,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
             print(f"warning: {warning}", file=sys.stderr)
     if args.port is not None and not args.web:
         raise argparse.ArgumentTypeError("--port: the web viewer's port; add --web")
-    if args.bind is not None and not args.web:
-        raise argparse.ArgumentTypeError("--bind: the web viewer's address; add --web")
-    if not args.web and sys.platform.startswith("linux") and not (
-            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+    from drill_env.recording.replay import no_display
+
+    if not args.web and no_display():
         raise argparse.ArgumentTypeError("no display here (DISPLAY is not set) for "
                                          "the native viewer; add --web to serve the web "
                                          "viewer instead")
@@ -1801,8 +1800,9 @@ def parser() -> argparse.ArgumentParser:
                    help="the web viewer's HTTP port (default 9090, or a free one where "
                         "9090 is taken; the URL is printed)")
     p.add_argument("--bind", default=None, metavar="ADDRESS",
-                   help="the address the web viewer listens on (default 127.0.0.1: this "
-                        "machine only; 0.0.0.0 serves every interface, i.e. the network)")
+                   help="the address the viewer's servers listen on (the web viewer's, "
+                        "and the data server of either; default 127.0.0.1: this machine "
+                        "only; 0.0.0.0 serves every interface, i.e. the network)")
     return top
 
 

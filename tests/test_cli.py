@@ -806,8 +806,14 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
     assert command[command.index("--bind") + 1] == "127.0.0.1"
     assert main(["replay", str(good), "--web", "--bind", "0.0.0.0"]) == 0
     assert opened[-1][opened[-1].index("--bind") + 1] == "0.0.0.0"
-    for args, said in [(["--bind", "0.0.0.0"], "--bind: the web viewer's address; add --web"),
-                       (["--web", "--bind", "localhost:1"], "--bind: 'localhost:1' is not an "
+    # the native viewer's data server too (it listened on every interface: an outside
+    # check), and --bind serves it to the network where asked
+    monkeypatch.setenv("DISPLAY", ":0")
+    assert main(["replay", str(good)]) == 0
+    assert opened[-1][opened[-1].index("--bind") + 1] == "127.0.0.1"
+    assert main(["replay", str(good), "--bind", "0.0.0.0"]) == 0
+    assert opened[-1][opened[-1].index("--bind") + 1] == "0.0.0.0"
+    for args, said in [(["--web", "--bind", "localhost:1"], "--bind: 'localhost:1' is not an "
                                                             "IP address"),
                        (["--web", "--bind", "192.0.2.1"], "--bind: 192.0.2.1 is not an "
                                                           "address of this machine")]:

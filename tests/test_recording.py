@@ -489,7 +489,9 @@ def test_replay_is_not_started_here(tmp_path: Path) -> None:
     assert cmd[-1].endswith("x.rrd") and "--web-viewer" in cmd and "9191" in cmd
     assert cmd[cmd.index("--bind") + 1] == "127.0.0.1"  # this machine only by default
     assert "--web-viewer" not in replay_command(tmp_path / "x.rrd")
-    assert "--bind" not in replay_command(tmp_path / "x.rrd")  # the native viewer serves none
+    # the native viewer's data server listened on every interface (an outside check)
+    native = replay_command(tmp_path / "x.rrd")
+    assert native[native.index("--bind") + 1] == "127.0.0.1"
     # the port is the web viewer's: the native viewer takes none
     assert "--web-viewer-port" not in replay_command(tmp_path / "x.rrd", web_viewer_port=9191)
     with pytest.raises(FileNotFoundError, match="path"):
@@ -949,3 +951,20 @@ def test_whirl_events_judge_the_steps_records_not_one_reading_a_step(tmp_path: P
         texts[given] = [text for _, _, text in read_recording(path).text_logs["/events"]]
     assert any(text.startswith("whirl onset") for text in texts[False])  # the aliasing
     assert not any(text.startswith("whirl onset") for text in texts[True])
+
+
+def test_replay_without_a_display_points_to_the_web_viewer(tmp_path: Path, monkeypatch):
+    """From Python on a machine with no display, ``replay`` returned rerun's exit code 1
+    after a winit error (an outside check in a notebook); it says what to do instead."""
+    import sys
+
+    from drill_env.recording.replay import VIEWER_VARIABLE
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("DISPLAY is a Linux viewer's need")
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", VIEWER_VARIABLE):
+        monkeypatch.delenv(name, raising=False)
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"")
+    with pytest.raises(ValueError, match=r"no display here .* web=True serves the web "):
+        replay(recording)

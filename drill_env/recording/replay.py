@@ -23,9 +23,11 @@ VIEWER_VARIABLE = "DRILL_ENV_RERUN"
 
 #: The web viewer's HTTP port when none is asked for (rerun's own default).
 WEB_VIEWER_PORT = 9090
-#: The address the web viewer and its data server listen on when none is asked for: this
-#: machine only (rerun's own default, all interfaces, served the recording to anyone on
-#: the network; from another machine, forward the ports over ssh or pass ``0.0.0.0``).
+#: The address the viewer's servers listen on when none is asked for (the web viewer's
+#: HTTP server and, native or web, its data server): this machine only (rerun's own
+#: default, all interfaces, served the recording to anyone on the network, the native
+#: viewer's data server too; from another machine, forward the ports over ssh or pass
+#: ``0.0.0.0``).
 WEB_BIND = "127.0.0.1"
 
 
@@ -33,14 +35,14 @@ def replay_command(path: str | os.PathLike | Sequence[str | os.PathLike], web: b
                    web_viewer_port: int | None = None, bind: str = WEB_BIND) -> list[str]:
     """The command line that opens ``path`` (one recording or several) in the rerun viewer
     (see :func:`replay`). The viewer's data server takes a free port where another viewer
-    holds rerun's (``--port auto``): a second replay opens, not a blank page. The web
-    viewer listens on ``bind``."""
+    holds rerun's (``--port auto``): a second replay opens, not a blank page. The
+    viewer's servers listen on ``bind``."""
     exe = os.environ.get(VIEWER_VARIABLE) or shutil.which(
         "rerun", path=str(Path(sys.executable).parent)) or shutil.which("rerun")
     cmd = [exe] if exe else [sys.executable, "-m", "rerun"]
-    cmd += ["--port", "auto"]
+    cmd += ["--port", "auto", "--bind", bind]
     if web:
-        cmd += ["--web-viewer", "--bind", bind]
+        cmd += ["--web-viewer"]
         if web_viewer_port is not None:
             cmd += ["--web-viewer-port", str(int(web_viewer_port))]
     cmd += [str(p) for p in _paths(path)]
@@ -87,6 +89,13 @@ def web_port(asked: int | None, bind: str = WEB_BIND) -> int:
                              "running?); give another port, or none for a free one")
         return asked
     return WEB_VIEWER_PORT if port_free(WEB_VIEWER_PORT, bind) else 0
+
+
+def no_display() -> bool:
+    """Whether the native viewer has no display to open on here (Linux without DISPLAY
+    or WAYLAND_DISPLAY: rerun fails with a winit error)."""
+    return sys.platform.startswith("linux") and not (
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
 def check_bind(bind: str) -> None:
@@ -160,7 +169,8 @@ def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = Fa
 
     ``web=True`` serves the web viewer over HTTP instead (``rerun --web-viewer``; port
     ``web_viewer_port``, else 9090, else a free one: :func:`web_port`; on address
-    ``bind``, this machine only unless given: :data:`WEB_BIND`) and opens a browser if
+    ``bind``, this machine only unless given: :data:`WEB_BIND`, where the native viewer's
+    data server listens too) and opens a browser if
     there is one. rerun 0.41's web server keeps one core busy while it runs, a browser
     attached or not: stop it when done. Blocks until the viewer exits and returns its exit code;
     ``wait=False`` returns the process. The
@@ -175,8 +185,11 @@ def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = Fa
             raise FileNotFoundError(f"path: no recording at {p}")
     if not paths:
         raise ValueError("path: no recording given")
-    if web:
-        check_bind(bind)
+    if not web and no_display() and not os.environ.get(VIEWER_VARIABLE):  # (rerun's own
+        # error, a winit EventLoopError, and 1; a viewer of one's own may need no display)
+        raise ValueError("web: no display here (DISPLAY is not set) for the native "
+                         "viewer; web=True serves the web viewer instead")
+    check_bind(bind)
     port = web_port(web_viewer_port, bind) if web else None
     command = replay_command(paths, web, port, bind)
     if not wait:
