@@ -887,6 +887,12 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     from drill_env.sweep import ResultStore, make_executor
 
     settings = settings or BenchmarkSettings()
+    if objects := [c for c in controllers if not isinstance(c, str)]:  # (an AttributeError
+        # deep inside: 'type' object has no attribute 'startswith')
+        raise TypeError(f"controllers: names, not {type(objects[0]).__name__} objects "
+                        f"({objects[0]!r:.60}): a built-in name, or a class of your own as "
+                        "'file.py:ClassName' (worker processes import it by name, and "
+                        "stored rows follow its file; docs/controllers.md)")
     if (twice := repeated(scenarios)) is not None:
         raise ValueError(f"scenarios: {twice!r} is given twice")
     if env_id is not None and settings.set_points():

@@ -77,6 +77,11 @@ def _module(source: str) -> ModuleType:
     the working folder too (as ``python -m`` does; the ``drill-env`` script alone would
     not). Loaded again when its file changed since (the benchmark's stored rows follow
     the file, :func:`source_file`, so the code that runs must too)."""
+    if source == "__main__" and not getattr(sys.modules.get("__main__"), "__file__", None):
+        raise ValueError("controller: __main__ is a notebook or the interactive prompt here: "
+                         "a class defined there has no file for the benchmark's worker "
+                         "processes to import and its stored rows to follow; save it in a "
+                         ".py file and give file.py:ClassName")
     if source.endswith(".py"):
         path = Path(source).expanduser().resolve()
         if not path.is_file():
@@ -188,7 +193,7 @@ def source_file(factory: Any) -> Path | None:
 
     try:
         file = inspect.getsourcefile(factory)
-    except TypeError:
+    except (TypeError, OSError):  # built in, or no source (defined at a prompt)
         return None
     if file is None:
         return None

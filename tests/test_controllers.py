@@ -536,3 +536,30 @@ def test_a_top_drive_with_both_gains_zero_is_said_to_be_a_free_top():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         resolve(replace(SimulationConfig(), **{"top_drive.integral_gain": 0.0}))
+
+
+def test_a_controller_class_of_a_notebook_is_refused_with_what_to_do(monkeypatch, tmp_path):
+    """In Jupyter, a class defined in a cell given as ``__main__:GentlePI`` failed deep in
+    inspect ("source code not available"), and the class itself as a controller with
+    "'type' object has no attribute 'startswith'" (an outside check): worker processes
+    import a controller by name and stored rows follow its file, so both are refused up
+    front, saying to save it in a .py file."""
+    import sys
+    import types
+
+    from agents import SetPointController
+    from agents.benchmark import run_benchmark
+    from agents.registry import make_controller
+
+    class GentlePI(SetPointController):
+        pass
+
+    prompt = types.ModuleType("__main__")  # a notebook's: no __file__
+    prompt.GentlePI = GentlePI
+    monkeypatch.setitem(sys.modules, "__main__", prompt)
+    with pytest.raises(ValueError, match=r"__main__ is a notebook or the interactive prompt "
+                                         r"here: .* give file.py:ClassName"):
+        make_controller("__main__:GentlePI")
+    with pytest.raises(TypeError, match=r"controllers: names, not type objects .* "
+                                        r"'file.py:ClassName'"):
+        run_benchmark([GentlePI, "stiff"], ["stick_slip"], [0], tmp_path)
