@@ -1900,3 +1900,33 @@ def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path,
     # the run is named by the file too: a variant's run and the task's own told apart
     assert f"--resume: no run in {tmp_path / 'runs' / 'stick_slip_sac_variant_seed0'}; " \
         "name it by --name, or by --seed (and --algo, --config)" in err
+
+
+def test_an_interrupted_run_gives_stdout_back_from_its_progress_bar(tmp_path, monkeypatch):
+    """SB3's rich progress bar holds stdout and stderr while it runs, and SB3 closes it
+    only when learning ends: after a Ctrl-C in a notebook every later cell's output came
+    as the bar's HTML (an outside check). train() closes it whatever ends the run."""
+    import sys
+
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    import training.train as tt
+
+    class CtrlC(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= 256:
+                raise KeyboardInterrupt
+            return True
+
+    import rich
+
+    # rich takes stdout only on a terminal (or in Jupyter): a fresh console that thinks so
+    monkeypatch.setenv("FORCE_COLOR", "1")
+    monkeypatch.setattr(rich, "_console", None)
+    stdout, stderr = sys.stdout, sys.stderr
+    made = tt._callbacks
+    monkeypatch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
+    with pytest.raises(KeyboardInterrupt):
+        train(tiny_config(), tmp_path / "run", progress=True)
+    assert (sys.stdout, sys.stderr) == (stdout, stderr)
+    assert latest_checkpoint(tmp_path / "run") is not None  # saved as before

@@ -569,13 +569,23 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
     # to where the run ends (PPO: whole rollouts), so that the progress bar's total is
     # what it counts to (4,096 of 1,024 once read)
     remaining = max(0, planned_steps(config, model.num_timesteps) - model.num_timesteps)
+    # SB3's progress bar, held here: SB3 closes it only when learning ends, so an
+    # interrupt left rich's bar holding stdout and stderr, and in a notebook every later
+    # cell's output came as the bar's HTML (an outside check)
+    from stable_baselines3.common.callbacks import ProgressBarCallback
+
+    bar = [ProgressBarCallback()] if progress else []
     try:
         if (lost := noted_interrupt()) is not None:  # while the envs were built
             raise lost
-        model.learn(remaining, callback=[*_callbacks(config, run, env, resumed, sessions),
-                                         stop_when_interrupted()],
-                    progress_bar=progress, reset_num_timesteps=latest is None,
-                    tb_log_name=config.algo)
+        try:
+            model.learn(remaining, callback=[*_callbacks(config, run, env, resumed, sessions),
+                                             stop_when_interrupted(), *bar],
+                        reset_num_timesteps=latest is None, tb_log_name=config.algo)
+        finally:  # before the interrupt's message (closing twice, after SB3's own close,
+            for shown in bar:  # does nothing)
+                if getattr(shown, "pbar", None) is not None:
+                    shown.pbar.close()
     except KeyboardInterrupt:
         save_interrupted(run, model, env, resumed.wall_s + time.perf_counter() - t0,
                          sessions)
