@@ -253,8 +253,11 @@ if "OMP_WAIT_POLICY" not in os.environ:
 
         warnings.warn("drill_env was imported after torch, whose OpenMP threads then spin "
                       "while they wait: beside another job training runs 2-3x slower. "
-                      "Import drill_env first or export OMP_WAIT_POLICY=PASSIVE "
-                      "(docs/performance.md).", RuntimeWarning, stacklevel=2)
+                      "Import drill_env first or export OMP_WAIT_POLICY=PASSIVE before "
+                      "Python starts (in a notebook: restart the kernel and import "
+                      "drill_env before torch); the variable set now reaches only the "
+                      "processes this one starts (docs/performance.md).", RuntimeWarning,
+                      stacklevel=2)
 
 ENTRY_POINT = "drill_env.env:DrillStringEnv"
 VECTOR_ENTRY_POINT = "drill_env.vector:DrillStringVectorEnv"

@@ -113,6 +113,12 @@ def test_importing_drill_env_makes_openmp_workers_wait_passively_unless_told():
                             env={**env, "OMP_WAIT_POLICY": "ACTIVE"}, capture_output=True,
                             text=True, check=True).stdout.strip()
     assert (default, chosen) == ("PASSIVE", "ACTIVE")
+    # imported after torch: too late for torch's own threads, and said with what to do,
+    # in a notebook too (setting the variable then reaches only child processes)
+    late = subprocess.run([sys.executable, "-W", "always", "-c", "import torch, drill_env"],
+                          env=env, capture_output=True, text=True, check=True).stderr
+    assert "drill_env was imported after torch" in late
+    assert "in a notebook: restart the kernel and import drill_env before torch" in late
 
 
 def test_the_batched_envs_run_on_tbb_where_its_wheel_is_installed_unless_told():
