@@ -2032,17 +2032,22 @@ def _main(argv: Sequence[str] | None) -> int:
     if getattr(args, "ray_address", None) is not None and getattr(args, "workers", None):
         args.command_parser.error("--workers: the local processes; with --ray-address the "
                                   "cluster's CPUs run the work: give one of the two")
+    import tempfile
+
+    try:  # where the commands' processes mark the warnings said
+        marks = tempfile.TemporaryDirectory(prefix="drill-env-warnings-")
+    except OSError as err:  # (a traceback of tempfile's; an outside check)
+        print(f"drill-env {args.command}: error: no writable temporary folder ({err}); "
+              "set TMPDIR to a folder you can write", file=sys.stderr)
+        return 2
     started = time.time()  # (what its results file holds from before is not its work)
     stop, terminated = _stop_as_interrupt()
     heard = False
     clear_interrupt()  # one noted before this command is not this command's
-    import tempfile
-
     from drill_env.sweep import COMMAND_VARIABLE, SAID_VARIABLE, command_warning
 
     shown, named = warnings.formatwarning, os.environ.get(COMMAND_VARIABLE)
     outer = os.environ.get(SAID_VARIABLE)  # a command run inside another (tests)
-    marks = tempfile.TemporaryDirectory(prefix="drill-env-warnings-")
     warnings.formatwarning = command_warning(args.command, marks.name)
     # a sweep's pool workers (spawned) say their warnings the same way, and once in all
     os.environ[COMMAND_VARIABLE] = args.command

@@ -1752,3 +1752,20 @@ def test_an_ascii_terminal_gets_escapes_not_an_encoding_error(tmp_path, monkeypa
     text = raw.getvalue().decode("ascii")
     assert "\\u2020" in text and "\\xfc" in text
     assert (target / "benchmark.md").exists()
+
+
+def test_no_writable_temporary_folder_is_said_not_a_traceback(monkeypatch, capsys, tmp_path):
+    """With /tmp and its fallbacks read-only every command ended in tempfile's traceback
+    (an outside check): it is one line naming TMPDIR, and the signal handlers stay."""
+    import signal
+    import tempfile
+
+    def none_usable(*args, **kwargs):
+        raise FileNotFoundError(2, "No usable temporary directory found in ['/tmp']")
+
+    monkeypatch.setattr(tempfile, "TemporaryDirectory", none_usable)
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["run", "--duration", "0.2", "--out", str(tmp_path)]) == 2
+    assert "drill-env run: error: no writable temporary folder ([Errno 2] No usable " \
+           "temporary directory found in ['/tmp']); set TMPDIR" in capsys.readouterr().err
+    assert signal.getsignal(signal.SIGTERM) is before
