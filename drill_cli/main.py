@@ -751,10 +751,11 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         policy = labels(controllers)[controllers.index(args.paired)]
         mine = [float(r["episode_return"]) for r in rows if r["controller"] == policy]
         if mine:
-            text = comparison_text(paired_comparison(rows, policy), sum(mine) / len(mine))
+            text = comparison_text(paired_comparison(rows, policy), sum(mine) / len(mine),
+                                   policy)
             (args.out / "comparison.md").write_text(f"# {heading}, paired against {policy}"
                                                     f"\n\n{text}")
-            print(f"\n{policy} against the others: {text}")
+            print(f"\n{text}")
     print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md"
           + (", comparison.md" if args.paired is not None else "")
           + f" and the plots in {args.out}")
@@ -1621,7 +1622,8 @@ def parser() -> argparse.ArgumentParser:
                    help="first seed (the held-out evaluation seeds start at 1000000)")
     p.add_argument("--paired", default=None, metavar="CONTROLLER",
                    help="one of --controllers (as typed there): its return against each "
-                        "other's on the same episodes, with one-sided paired t-tests, as "
+                        "other's on the same episodes (mean and median lead, the lead's "
+                        "95%% interval, one-sided paired t-tests, Holm's adjustment), as "
                         "drill-env evaluate gives a run's; in comparison.md")
     p.add_argument("--duration", type=number("s", low_inclusive=False), default=None,
                    help="simulated seconds per episode (default: 60; with --task the "
@@ -1995,8 +1997,9 @@ def compile_notice(command: str) -> Iterator[list[bool]]:
     def say() -> None:
         if not said[0]:
             said[0] = True
-            print(f"drill-env {command}: numba compiles the simulator's kernels, once for "
-                  f"this version of drill-env (20-60 s on 2 cores; cached in "
+            print(f"drill-env {command}: numba compiles the kernels its cache lacks, once "
+                  f"for this version of drill-env (all of them 20-60 s on 2 cores, one "
+                  f"left out by an earlier command far less; cached in "
                   f"{numba_cache_dir()})", file=sys.stderr, flush=True)
 
     class Notice(event.Listener):

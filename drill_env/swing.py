@@ -48,7 +48,8 @@ def swing_trend(swings: Sequence[float], lowest_rpm: float,
         return (f"growing (from below {NO_SWING:g} rpm)" if last > 1.1 * NO_SWING
                 else f"none to speak of (about {NO_SWING:g} rpm)")
     ratio = last / before
-    factor = f"{ratio:.2g}" if ratio < 100.0 else f"{ratio:,.0f}"  # not 2.7e+02
+    # not 2.7e+02, nor x1,224 (read as x1.224 where the comma is the decimal mark)
+    factor = f"{ratio:.2g}" if ratio < 100.0 else f"{ratio:.0f}"
     if last > 1.1 * before:
         return f"growing (x{factor} per {block:g} s)"
     if last < 0.9 * before:

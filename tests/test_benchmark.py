@@ -2030,7 +2030,8 @@ def test_benchmark_paired_gives_any_controller_evaluates_t_tests(tmp_path, capsy
                    and (a["scenario"], a["seed"]) == (b["scenario"], b["seed"])) / 4
         assert f"| {other} | " in text and f"| {lead:+.1f} | " in text
         assert " of 4 | " in text
-    assert "held+1 against the others: Paired by episode" in out
+    assert "Paired by episode (scenario and seed): held+1 (mean return" in out
+    assert "over the 2 comparisons" in text and "held+1's return minus theirs" in text
     with pytest.raises(SystemExit):
         main([*args, "--paired", "learned"])
     assert "--paired: 'learned' is not one of --controllers (held:1, stiff, held:0)" in \

@@ -71,6 +71,7 @@ def test_run_says_whether_stick_slip_grows_or_decays():
     assert swing_trend([0.0, 0.5], 49.5) == "growing (from below 0.01 rpm)"
     assert swing_trend([0.0099, 0.0101], 50.0) == "none to speak of (about 0.01 rpm)"
     assert swing_trend([0.02, 5.4], 49.5) == "growing (x270 per 30 s)"  # not x2.7e+02
+    assert swing_trend([0.02, 24.48], 49.5) == "growing (x1224 per 30 s)"  # not x1,224
     assert swing_per_block(speeds[:200]) == []  # shorter than a block
 
 
@@ -1689,8 +1690,9 @@ def test_a_first_run_says_it_compiles_the_kernels(tmp_path, capsys, monkeypatch)
         assert kernel(1.0) == 2.0 and njit(plus_one)(2.0) == 3.0  # two compiles, one note
     assert said == [True]
     assert capsys.readouterr().err == (
-        "drill-env run: numba compiles the simulator's kernels, once for this version of "
-        f"drill-env (20-60 s on 2 cores; cached in {numba_cache_dir()})\n")
+        "drill-env run: numba compiles the kernels its cache lacks, once for this version "
+        "of drill-env (all of them 20-60 s on 2 cores, one left out by an earlier command "
+        f"far less; cached in {numba_cache_dir()})\n")
     for command, function in (("run", kernel), ("well", njit(plus_one))):
         with cli.compile_notice(command) as said:
             function(3.0)

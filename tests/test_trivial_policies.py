@@ -172,3 +172,21 @@ def test_holms_adjustment_by_hand() -> None:
     assert math.isnan(adjusted[1])
     assert holm([0.5, 0.6, 0.7]) == [1.0, 1.0, 1.0]
     assert holm([]) == []
+
+
+def test_holm_counts_controllers_with_the_same_returns_once() -> None:
+    """Task 1's stiff PI and the action held at 0 are one controller under two names:
+    counted twice, they made every other adjusted p larger (an outside check)."""
+    from training.evaluate import holm
+
+    learned = [10.0, 20.0, 30.0, 40.0]
+    others = {"a": [8.0, 19.0, 27.0, 36.0], "b": [8.0, 19.0, 27.0, 36.0],
+              "c": [9.0, 18.0, 29.0, 30.0]}
+    rows = [{"controller": "learned", "seed": s, "episode_return": r}
+            for s, r in enumerate(learned)]
+    rows += [{"controller": name, "seed": s, "episode_return": r}
+             for name, values in others.items() for s, r in enumerate(values)]
+    a, b, c = paired_comparison(rows)
+    assert a["comparisons"] == b["comparisons"] == c["comparisons"] == 2
+    expected = holm([a["p"], c["p"]])
+    assert a["p_holm"] == b["p_holm"] == expected[0] and c["p_holm"] == expected[1]

@@ -171,12 +171,14 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
             ended.setdefault(row["controller"], set()).add(episode)
     mine = returns.get(policy, {})
     out: list[dict[str, Any]] = []
+    keys: list[tuple[Any, ...]] = []  # each one's returns on the paired episodes
     for name, theirs in returns.items():
         seeds = sorted(set(mine) & set(theirs))
         if name == policy or not seeds:
             continue
         a = np.array([mine[s] for s in seeds])
         b = np.array([theirs[s] for s in seeds])
+        keys.append((*seeds, *b.tolist()))  # (episodes and returns: one key per pairing)
         diff = a - b
         p, low, high = math.nan, math.nan, math.nan
         if len(seeds) > 1 and np.ptp(diff) > 0:
@@ -187,8 +189,15 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
                     "median_lead": float(np.median(diff)), "wins": int(np.sum(diff > 0)),
                     "p": p, "ended_early": len(ended.get(name, set()) & set(seeds)),
                     "policy_ended_early": len(ended.get(policy, set()) & set(seeds))})
-    for c, adjusted in zip(out, holm([c["p"] for c in out]), strict=True):
-        c["p_holm"] = adjusted
+    # controllers that returned the same on every episode (task 1's stiff PI and the
+    # action held at 0) are one comparison, not two, in Holm's count
+    distinct: dict[tuple[Any, ...], float] = {}
+    for key, c in zip(keys, out, strict=True):
+        distinct.setdefault(key, c["p"])
+    adjusted = dict(zip(distinct, holm(list(distinct.values())), strict=True))
+    for key, c in zip(keys, out, strict=True):
+        c["p_holm"] = adjusted[key]
+        c["comparisons"] = len(distinct)
     return out
 
 
@@ -206,22 +215,34 @@ def holm(p: Sequence[float]) -> list[float]:
     return out
 
 
-def comparison_text(comparison: list[dict[str, Any]], policy_return: float) -> str:
-    """:func:`paired_comparison` as the markdown table ``evaluate`` prints and writes."""
-    lines = ["Paired by episode (scenario and seed) against the policy (mean return "
-             f"{shown('{:.1f}', policy_return)}); the lead's 95 % confidence interval from "
-             "Student's t on the differences; p: one-sided paired t-test that the "
-             "policy's mean return is higher, and Holm's adjustment of it over the "
-             f"{len(comparison)} controllers compared (the one to read where the claim "
-             "is a win over some of them; a claim of a win over each needs each p alone)"
-             "; ended early: episodes a failure stopped (their "
-             "return is the steps until then and the failure penalty: a shorter sum, not "
-             "always a lower one).", "",
-             "| controller | return | policy's lead | 95 % CI of the lead | median lead | "
-             "policy better on | p | p, Holm | ended early (theirs / the policy's) |",
+def comparison_text(comparison: list[dict[str, Any]], policy_return: float,
+                    policy: str = "the policy") -> str:
+    """:func:`paired_comparison` as the markdown table ``evaluate`` (and ``benchmark
+    --paired``, with ``policy`` its controller's name) prints and writes, each column
+    defined above it."""
+    n = max((c.get("comparisons", len(comparison)) for c in comparison), default=0)
+    what = "comparison" if n == 1 else "comparisons"
+    lines = [f"Paired by episode (scenario and seed): {policy} (mean return "
+             f"{shown('{:.1f}', policy_return)}) against each other controller on the same "
+             "episodes.", "",
+             f"- mean lead: the mean over episodes of {policy}'s return minus theirs; 95 % "
+             "CI: its two-sided confidence interval (Student's t on the differences), per "
+             "row, not adjusted for the other rows;",
+             "- median lead: the median of those differences (the mean can be pulled by a "
+             f"few episodes); better on: the episodes where {policy}'s return is higher "
+             "(a tie is not counted);",
+             f"- p: the one-sided paired t-test that {policy}'s mean return is higher; "
+             f"p, Holm: p adjusted by Holm's method over the {n} {what} "
+             "(controllers with identical returns on every episode counted once): read it "
+             f"to say which of them {policy} beats; a claim that it beats every one of them "
+             "at once needs each raw p below the level, no adjustment;",
+             "- ended early: episodes a failure stopped (their return is the steps until "
+             "then and the failure penalty: a shorter sum, not always a lower one).", "",
+             "| controller | return | mean lead | 95 % CI of the lead | median lead | "
+             "better on | p | p, Holm | ended early (theirs / this one's) |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for c in comparison:
-        p, adjusted = ("n/a" if math.isnan(v) else f"{v:.2g}" for v in (c["p"], c["p_holm"]))
+        p, adjusted = ("n/a" if math.isnan(v) else f"{v:#.2g}" for v in (c["p"], c["p_holm"]))
         low, high = c["lead_ci"]
         ci = "n/a" if math.isnan(low) else f"{low:+.1f} to {high:+.1f}"
         lines.append(f"| {c['controller']} | {shown('{:.1f}', c['return'])} | "
@@ -229,10 +250,17 @@ def comparison_text(comparison: list[dict[str, Any]], policy_return: float) -> s
                      f"{shown('{:+.1f}', c['median_lead'])} | {c['wins']} of {c['seeds']} "
                      f"| {p} | {adjusted} | {c['ended_early']} / {c['policy_ended_early']} |")
     few = min((c["seeds"] for c in comparison), default=0)
-    if 1 < few < 10:
+    if few == 1:
+        lines += ["", "n/a: one episode a pair has no spread to test or to bound (give "
+                      "more seeds)."]
+    elif 1 < few < 10:
         lines += ["", f"With {few} episodes a pair the t-test's p and interval lean on the "
                       "differences being near normal, which so few cannot show; "
                       "`evaluate` scores on 20 seeds by default."]
+    if any(math.isnan(c["p"]) for c in comparison if c["seeds"] > 1):
+        lines += ["", "n/a where there are two or more episodes: the differences do not "
+                      "vary (the same returns, or a constant lead), so there is nothing to "
+                      "test."]
     return "\n".join(lines) + "\n"
 
 
