@@ -5,8 +5,8 @@ and on every node of the cluster (the nodes import ``drill_env`` to run a task, 
 need the same version). ``ray_address``:
 
 =============  ===========================================================================
-``"local"``    start a one-machine Ray instance in this process (all cores) and stop it
-               at the end
+``"local"``    start a one-machine Ray instance in this process (the cores it may use,
+               a 256 MB object store) and stop it at the end
 ``"auto"``     join the cluster that ``ray start --head`` started on this machine
 an address     join that cluster (``"10.0.0.1:6379"``, ``"ray://host:10001"``)
 =============  ===========================================================================
@@ -34,6 +34,12 @@ from typing import Any
 
 from drill_env.sweep import Late, usable_cores
 
+#: Bytes of shared memory the one-machine Ray (``--ray-address local``) sets aside for
+#: its object store. Ray's default is 30 % of the machine's memory, mapped at start: under
+#: a 4 GB address-space limit the start failed after 30 s with a raw traceback (an
+#: outside check). What the sweeps pass through it is small (settings, controller names,
+#: result rows of a few kB), and Ray spills to disk past it; its floor is 75 MB.
+LOCAL_OBJECT_STORE = 256 * 1024**2
 #: How many times a task whose worker died is resubmitted before the sweep fails.
 MAX_RETRIES = 3
 #: Workers run one numba / OpenMP thread each: the cluster's CPUs are the parallelism.
@@ -225,6 +231,7 @@ class RayExecutor:
                 # it Ray joins that cluster and refuses num_cpus)
                 with _quiet_token_notice():
                     ray.init(address="local", num_cpus=usable_cores(),
+                             object_store_memory=LOCAL_OBJECT_STORE,
                              include_dashboard=False, runtime_env=runtime_env,
                              log_to_driver=False, configure_logging=False)
             else:
