@@ -195,7 +195,9 @@ if _REFUSED and _CACHE_DIR != _WANTED_CACHE_DIR:
                   f"they are kept in {_CACHE_DIR} instead (set NUMBA_CACHE_DIR to choose "
                   "the folder)", RuntimeWarning, stacklevel=2)
 _prune_numba_caches(Path(_CACHE_DIR))
-_install_cache_locator()
+# the locator is installed when numba loads its caching module (below, with the import
+# hooks): imported here, numba read NUMBA_NUM_THREADS before a pool worker's set-up
+# could set it to one, and `import drill_env` took ten times as long
 
 
 def numba_cache_dir() -> Path:
@@ -297,15 +299,18 @@ def register_envs() -> None:
                                vector_entry_point=vector_entry_point)
 
 
-class _RegisterWhenGymnasiumLoads(importlib.abc.MetaPathFinder):
-    """Import hook: lets gymnasium load as usual, then registers the envs, then leaves."""
+class _RunAfterImport(importlib.abc.MetaPathFinder):
+    """Import hook: lets ``module`` load as usual, then runs ``action``, then leaves."""
+
+    def __init__(self, module: str, action: Any) -> None:
+        self.module, self.action = module, action
 
     def find_spec(self, fullname: str, path: Any, target: Any = None) -> Any:
-        if fullname != "gymnasium":
+        if fullname != self.module:
             return None
         if self in sys.meta_path:
             sys.meta_path.remove(self)
-        spec = importlib.util.find_spec("gymnasium")
+        spec = importlib.util.find_spec(fullname)
         if spec is None or spec.loader is None:
             return spec
         loader = spec.loader
@@ -313,13 +318,20 @@ class _RegisterWhenGymnasiumLoads(importlib.abc.MetaPathFinder):
 
         def exec_module(module: Any) -> None:
             load(module)
-            register_envs()
+            self.action()
 
         loader.exec_module = exec_module  # type: ignore[method-assign]
         return spec
 
 
-if "gymnasium" in sys.modules:
-    register_envs()
-elif not any(isinstance(f, _RegisterWhenGymnasiumLoads) for f in sys.meta_path):
-    sys.meta_path.insert(0, _RegisterWhenGymnasiumLoads())
+def _after_import(module: str, action: Any) -> None:
+    """``action()`` now if ``module`` is loaded, else right after it loads."""
+    if module in sys.modules:
+        action()
+    elif not any(type(f).__name__ == "_RunAfterImport" and getattr(f, "module", None) == module
+                 for f in sys.meta_path):
+        sys.meta_path.insert(0, _RunAfterImport(module, action))
+
+
+_after_import("gymnasium", register_envs)
+_after_import("numba.core.caching", _install_cache_locator)

@@ -125,6 +125,11 @@ def _single_threaded_worker(parent: int) -> None:
     killed command left its workers training into the folder a rerun uses)."""
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    if "numba" in sys.modules:  # (loaded while the set-up was unpickled: read again, or
+        # numba starts one thread per core in each worker)
+        from numba.core import config
+
+        config.reload_config()
     signal.signal(signal.SIGINT, _interrupt_once)
     signal.signal(signal.SIGTERM, _interrupt_once)
     if command := os.environ.get(COMMAND_VARIABLE):  # (a worker's warning showed Python's

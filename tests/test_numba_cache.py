@@ -111,3 +111,17 @@ def test_with_no_writable_folder_the_locator_says_what_to_set(monkeypatch, tmp_p
     # another library's function: not drill_env's to place
     assert locator.from_function(test_with_no_writable_folder_the_locator_says_what_to_set,
                                  __file__) is None
+
+
+def test_importing_drill_env_leaves_numba_unloaded_until_its_caching_loads():
+    """The locator waits for numba's caching module: installed at `import drill_env`, it
+    loaded numba there (ten times the import time) and numba read NUMBA_NUM_THREADS
+    before a pool worker's set-up could set it (a review). Installed all the same before
+    any kernel of drill_env's asks for a cache."""
+    code = ("import sys, drill_env; print('numba' in sys.modules); "
+            "from drill_env.physics import linalg; "
+            "from numba.core import caching; "
+            "print(caching.CacheImpl._locator_classes[0].__name__)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert done.stdout.split() == ["False", "DrillEnvCacheLocator"]

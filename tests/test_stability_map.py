@@ -456,3 +456,27 @@ def test_the_default_workers_are_the_cores_this_process_may_use():
     assert quota_cores("50000 100000") == 1
     assert quota_cores("max 100000") is None
     assert quota_cores("") is None
+
+
+def _numba_threads(_: int) -> tuple[int, int]:
+    """In a pool worker: numba's thread setting and its threads, after a cached kernel."""
+    import numba
+
+    from drill_env.physics.linalg import band_cholesky
+
+    band_cholesky(np.array([[0.0, 0.0], [4.0, 4.0]]), np.zeros((2, 2)))
+    return numba.config.NUMBA_NUM_THREADS, numba.get_num_threads()
+
+
+def test_pool_workers_run_one_numba_thread_each() -> None:
+    """The pool is the parallelism: each worker runs one numba thread. When `import
+    drill_env` loaded numba, numba read NUMBA_NUM_THREADS before the worker's set-up set
+    it, and every worker started a thread per core (a review)."""
+    from drill_env.sweep import ProcessExecutor
+
+    executor = ProcessExecutor(2)
+    try:
+        assert sorted(executor.map_unordered(_numba_threads, [0, 1])) == [
+            (0, (1, 1)), (1, (1, 1))]
+    finally:
+        executor.close()
