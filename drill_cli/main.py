@@ -1883,6 +1883,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         tolerant_output(stream)
     try:
         return _main(argv)
+    except RuntimeError as err:  # no folder numba may keep the kernels in: one line, not
+        # a traceback from the first import of a kernel (`--help` too)
+        if not str(err).startswith("drill_env: no writable folder"):
+            raise
+        print(f"drill-env: error: {str(err).removeprefix('drill_env: ')}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt as caught:  # before the command ran (building the parser:
         # imports), a Ctrl-C printed a traceback of dozens of lines (an outside check)
         said = "terminated" if isinstance(caught, Terminated) else "interrupted"

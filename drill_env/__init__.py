@@ -115,6 +115,25 @@ def _unwritable(folder: Path) -> str | None:
     return None
 
 
+def _not_private(folder: Path) -> str | None:
+    """Why ``folder`` (made if missing, this user's only) is not a folder of this user's
+    that no one else may write, or None. Where the platform has no user ids: None."""
+    import stat
+
+    if not hasattr(os, "getuid"):
+        return None
+    try:
+        folder.mkdir(mode=0o700, exist_ok=True)
+        found = folder.lstat()
+    except OSError as err:
+        return f"{folder} ({err.strerror or err})"
+    if not stat.S_ISDIR(found.st_mode):
+        return f"{folder} (not a folder: a link or a file)"
+    if found.st_uid != os.getuid() or found.st_mode & 0o022:
+        return f"{folder} (another user's, or writable by others)"
+    return None
+
+
 def _usable_cache_dir(wanted: str) -> tuple[str, list[str]]:
     """``wanted`` where numba can write it, else the same version's folder in the
     temporary folder (``drill_env-numba-<uid>/<key>``); and why those it passed over
@@ -138,8 +157,12 @@ def _usable_cache_dir(wanted: str) -> tuple[str, list[str]]:
         no_temporary = f"no temporary folder ({err})"
     else:
         candidates.append(Path(temporary) / f"drill_env-numba-{user}" / Path(wanted).name)
-    for folder in candidates:
-        reason = _unwritable(folder)
+    for k, folder in enumerate(candidates):
+        # in the shared temporary folder, only a folder of this user's that no one else
+        # may write: numba unpickles its index files, so one planted there would run
+        # another user's code in this process (a review)
+        reason = _unwritable(folder) if k == 0 else (_not_private(folder.parent)
+                                                     or _unwritable(folder))
         if reason is None:
             return str(folder), refused
         refused.append(reason)
@@ -169,8 +192,9 @@ def _install_cache_locator() -> None:
 
         @classmethod
         def from_function(cls, py_func: Any, py_file: str) -> Any:
-            if not os.path.realpath(py_file).startswith(package):
-                return None
+            if not os.path.exists(py_file) or \
+                    not os.path.realpath(py_file).startswith(package):
+                return None  # (no source file: a zip or frozen install, numba's own)
             # the source-file locators' own check: the folder can be made and written
             found = super(caching.UserProvidedCacheLocator, cls).from_function(
                 py_func, py_file)

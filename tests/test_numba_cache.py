@@ -61,8 +61,11 @@ def test_drill_envs_kernels_go_to_its_folder_and_no_other_librarys(tmp_path):
     found = _probe(tmp_path, XDG_CACHE_HOME=str(tmp_path / "xdg"))
     cache = Path(found["cache"])
     assert cache.parent == tmp_path / "xdg" / "drill_env" / "numba"
-    assert found["ours"] == ["linalg.band_cholesky-14.py311.nbi".replace(
-        "py311", f"py{sys.version_info.major}{sys.version_info.minor}")]
+    from drill_env.physics.linalg import band_cholesky
+
+    line = band_cholesky.py_func.__code__.co_firstlineno
+    assert found["ours"] == [f"linalg.band_cholesky-{line}.py{sys.version_info.major}"
+                             f"{sys.version_info.minor}.nbi"]
     # the other library's kernel where numba puts it by itself, beside its source
     assert found["theirs"] == [f"other_lib.twice-4.py{sys.version_info.major}"
                                f"{sys.version_info.minor}.nbi"]
@@ -125,3 +128,57 @@ def test_importing_drill_env_leaves_numba_unloaded_until_its_caching_loads():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=120, check=True)
     assert done.stdout.split() == ["False", "DrillEnvCacheLocator"]
+
+
+def test_the_temporary_fallback_takes_only_a_private_folder_of_this_users(tmp_path):
+    """numba unpickles its index files: a `drill_env-numba-<uid>` folder another user made
+    in the shared temporary folder (writable by others, or a link to theirs) would let
+    them run code in this process (a review). Such a folder is refused; a new one is
+    made for this user only."""
+    import stat
+
+    import drill_env
+
+    fresh = tmp_path / "fresh"
+    assert drill_env._not_private(fresh) is None
+    assert stat.S_IMODE(fresh.stat().st_mode) & 0o077 == 0
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(0o777)
+    assert "writable by others" in drill_env._not_private(shared)
+    (tmp_path / "link").symlink_to(fresh)
+    assert "not a folder" in drill_env._not_private(tmp_path / "link")
+    # in a fresh process: home unwritable and the fallback planted, nothing is used
+    blocked = tmp_path / "a-file"
+    blocked.write_text("")
+    (tmp_path / "tmp" / f"drill_env-numba-{os.getuid()}").mkdir(parents=True)
+    (tmp_path / "tmp" / f"drill_env-numba-{os.getuid()}").chmod(0o777)
+    code = ("import numpy as np, drill_env\n"
+            "from drill_env.physics.linalg import band_cholesky\n"
+            "band_cholesky(np.array([[0.0, 0.0], [4.0, 4.0]]), np.zeros((2, 2)))\n")
+    environ = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**environ, "XDG_CACHE_HOME": str(blocked),
+                               "TMPDIR": str(tmp_path / "tmp")}, timeout=120)
+    assert done.returncode != 0
+    assert "no writable folder for numba's compiled kernels" in done.stderr
+    assert "writable by others" in done.stderr
+
+
+def test_with_no_writable_folder_the_command_line_says_so_in_one_line(tmp_path):
+    """Every command, `--help` too, imports kernels: with nowhere to cache them it ended
+    in a traceback from that import (a review); it says what to set, and exits 2."""
+    blocked = tmp_path / "a-file"
+    blocked.write_text("")
+    planted = tmp_path / "tmp" / f"drill_env-numba-{os.getuid()}"
+    planted.mkdir(parents=True)
+    planted.chmod(0o777)
+    environ = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    done = subprocess.run([sys.executable, "-m", "drill_cli", "--help"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120,
+                          env={**environ, "XDG_CACHE_HOME": str(blocked),
+                               "TMPDIR": str(tmp_path / "tmp")})
+    assert done.returncode == 2
+    assert "Traceback" not in done.stderr
+    assert done.stderr.startswith("drill-env: error: no writable folder for numba's")
+    assert "Set NUMBA_CACHE_DIR to a folder you can write." in done.stderr
