@@ -936,7 +936,6 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     # before any episode: one recorded now would replace theirs under the same name
     set_aside_stale_recordings(todo_all, out, progress)
     if todo:
-
         from agents.registry import make_controller
 
         # each policy loaded once here first: a damaged file is the command's error before

@@ -4,7 +4,7 @@ The top layer: it parses arguments in the units people type (rpm, kN, seconds), 
 them in those units, and calls the libraries below (``drill_env``, ``agents``,
 ``training``), which work in SI. Every command but ``replay`` prints a table and writes
 its outputs under ``--out`` (default ``logs/``; ``benchmark`` ``logs/benchmark``, with
-``--task`` ``logs/benchmark/<task>``, with ``--config FILE`` a folder named by the file
+``--task`` ``logs/benchmark/<task>``, with ``--config FILE`` a folder ``config-<stem>``
 inside that, ``train`` ``logs/runs``, ``evaluate`` the run's ``evaluation/``).
 """
 
@@ -642,8 +642,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         env_id = TASKS[args.task]
     if args.out is None:  # a task's benchmark replaced the scenario benchmark's outputs, and
         # a --config variant the benchmark without it: each in a folder of its own
+        # (config-<stem>: a file named stick_slip.yaml would have written into the task
+        # benchmark's own folder; a review)
         args.out = (Path("logs/benchmark") / (args.task or "")
-                    / (args.config.stem if args.config else ""))
+                    / (f"config-{args.config.stem}" if args.config else ""))
         if reason := unwritable(args.out):
             raise argparse.ArgumentTypeError(f"--out {args.out}: {reason}")
     if args.scenarios is not None and not args.scenarios.strip(", "):  # (an unset variable)
@@ -1509,9 +1511,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
             print(f"warning: {warning}", file=sys.stderr)
     if args.port is not None and not args.web:
         raise argparse.ArgumentTypeError("--port: the web viewer's port; add --web")
-    from drill_env.recording.replay import no_display
+    from drill_env.recording.replay import VIEWER_VARIABLE, no_display
 
-    if not args.web and no_display():
+    if not args.web and no_display() and not os.environ.get(VIEWER_VARIABLE):
         raise argparse.ArgumentTypeError("no display here (DISPLAY is not set) for "
                                          "the native viewer; add --web to serve the web "
                                          "viewer instead")
@@ -1649,8 +1651,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=out_folder, default=None,
                    help="output folder (default: logs/benchmark; with --task "
                         "logs/benchmark/<task>, beside the scenario benchmark's outputs; "
-                        "with --config FILE a folder named by FILE inside that, e.g. "
-                        "logs/benchmark/stick_slip/<FILE's stem>)")
+                        "with --config FILE a folder config-<FILE's stem> inside that, "
+                        "e.g. logs/benchmark/stick_slip/config-field_well_string)")
 
     p = add("train", "train PPO or SAC on a control task; the run (model, VecNormalize, "
                      "checkpoints, learning curve, TensorBoard) in --out/<name>", cmd_train)
@@ -1897,17 +1899,23 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def tolerant_output(stream: Any) -> None:
-    """A stream whose encoding cannot write every character (ASCII: ``LC_ALL=C`` without
-    Python's UTF-8 mode, ``PYTHONIOENCODING=ascii``, a Latin-1 terminal) writes the ones
-    it cannot as ``\\u2020``. A table's dagger or a path with an umlaut ended demo,
-    benchmark, evaluate and run with an encoding error after their work, reported as a
-    bad value (exit 2), before benchmark.md was written (an outside check)."""
+    """A stream whose encoding cannot write every character (any but UTF's: ASCII under
+    ``LC_ALL=C`` without Python's UTF-8 mode or ``PYTHONIOENCODING=ascii``, Latin-1,
+    cp1252) writes the ones it cannot as ``\\u2020``. A table's dagger or a path with an
+    umlaut ended demo, benchmark, evaluate and run with an encoding error after their
+    work, reported as a bad value (exit 2), before benchmark.md was written (an outside
+    check)."""
+    import codecs
+
     encoding = getattr(stream, "encoding", None)
     if not encoding or not hasattr(stream, "reconfigure"):
         return
-    try:
-        "\N{DAGGER}\N{LATIN SMALL LETTER U WITH DIAERESIS}\N{EM DASH}".encode(encoding)
-    except (UnicodeEncodeError, LookupError):
+    try:  # any encoding but Unicode's lacks some character (cp1252 has the dagger and
+        # the umlaut, not a Polish or Chinese letter a path may hold: a review)
+        unicode = codecs.lookup(encoding).name.startswith("utf")
+    except LookupError:
+        unicode = False
+    if not unicode:
         stream.reconfigure(errors="backslashreplace")
 
 

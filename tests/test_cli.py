@@ -200,7 +200,7 @@ def test_a_wob_given_is_the_one_the_scenario_checks_for_buckling(tmp_path, capsy
     assert "error" not in capsys.readouterr().err
     # without --out, a --config variant's outputs go to a folder named by the file, not
     # over the benchmark's own in logs/benchmark (make demo's)
-    assert (tmp_path / "logs/benchmark/horizontal/benchmark.csv").exists()
+    assert (tmp_path / "logs/benchmark/config-horizontal/benchmark.csv").exists()
     assert not (tmp_path / "logs/benchmark/benchmark.csv").exists()
     # 110 kN buckles it too: refused by the value typed (it named the scenario's 100 kN)
     assert main(["run", "--config", str(well), "--wob", "110", "--duration", "0.2",
@@ -1755,6 +1755,14 @@ def test_an_ascii_terminal_gets_escapes_not_an_encoding_error(tmp_path, monkeypa
     text = raw.getvalue().decode("ascii")
     assert "\\u2020" in text and "\\xfc" in text
     assert (target / "benchmark.md").exists()
+    # cp1252 has the dagger and the umlaut but not every letter a path may hold; UTF-8
+    # is left as it is
+    from drill_cli.main import tolerant_output
+
+    for encoding, errors in (("cp1252", "backslashreplace"), ("utf-8", "strict")):
+        stream = io.TextIOWrapper(io.BytesIO(), encoding=encoding)
+        tolerant_output(stream)
+        assert stream.errors == errors, encoding
 
 
 def test_no_writable_temporary_folder_is_said_not_a_traceback(monkeypatch, capsys, tmp_path):

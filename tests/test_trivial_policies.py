@@ -152,6 +152,7 @@ def test_paired_comparison_pairs_by_seed() -> None:
     assert c["p_holm"] == c["p"]  # the only test made: nothing to adjust
     assert same["wins"] == 0 and math.isnan(same["p"])  # no spread: no test
     assert math.isnan(same["p_holm"]) and all(map(math.isnan, same["lead_ci"]))
+    assert c["comparisons"] == 1  # the untested one (no spread) is not one of Holm's m
     # two scenarios with the same seeds are two episodes each, not one overwritten
     rows = [{"controller": c, "scenario": sc, "seed": 0, "episode_return": r}
             for c, sc, r in (("learned", "a", 5.0), ("learned", "b", 7.0),

@@ -161,7 +161,6 @@ def test_the_well_command_draws_the_scenarios_or_the_configs_own_well(tmp_path, 
 def test_the_hook_load_legend_names_each_friction_and_each_operation_once():
     """Rotating off bottom has no axial drag, so its hook load is the same at every
     friction factor: one line, one legend entry (not "rotating, mu 0.1" ... "mu 0.4")."""
-
     config = make_scenario("default").config
     well = Trajectory(WELLS["j_shaped"](1500.0))
     table = torque_drag_table(well, config, step=500.0)
@@ -181,7 +180,6 @@ def test_a_vertical_wells_picture_says_it_has_no_departure_and_no_wall_torque():
     which a line does not draw) on +-0.04 m axes, its wall torque a line of zeros on a
     +-0.04 kN m axis. The point is marked and both panels say why; a curved well's do
     not."""
-
     config = make_scenario("default").config
     texts = {}
     for name in ("vertical", "j_shaped"):

@@ -197,7 +197,7 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
     adjusted = dict(zip(distinct, holm(list(distinct.values())), strict=True))
     for key, c in zip(keys, out, strict=True):
         c["p_holm"] = adjusted[key]
-        c["comparisons"] = len(distinct)
+        c["comparisons"] = sum(not math.isnan(p) for p in distinct.values())  # (tested)
     return out
 
 
@@ -239,7 +239,7 @@ def comparison_text(comparison: list[dict[str, Any]], policy_return: float,
              "- ended early: episodes a failure stopped (their return is the steps until "
              "then and the failure penalty: a shorter sum, not always a lower one).", "",
              "| controller | return | mean lead | 95 % CI of the lead | median lead | "
-             "better on | p | p, Holm | ended early (theirs / this one's) |",
+             f"better on | p | p, Holm | ended early (theirs / {policy}'s) |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for c in comparison:
         p, adjusted = ("n/a" if math.isnan(v) else f"{v:#.2g}" for v in (c["p"], c["p_holm"]))

@@ -41,7 +41,6 @@ def claim(typingctx: Any, counter: Any) -> Any:
     return types.int64(counter), codegen
 
 
-
 def _claim_uncompiled(counter: Any) -> Any:
     """:func:`claim` in plain Python: ``counter[0] += 1``, the value before (no other
     thread runs uncompiled code's lanes)."""

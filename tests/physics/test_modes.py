@@ -529,7 +529,6 @@ def test_critical_speed_chart_labels_stay_inside_and_apart(string, n_modes, max_
     2000 Hz), none prints over another (close lateral and torsional frequencies; the
     field string's three steep lines of bit whirl, collar whirl and blades leave the
     plot close together) or over the title, and none covers a critical speed."""
-
     config = SimulationConfig() if string == "default" else _field_config()
     fig, ax, modes = _chart(config, n_modes, max_rpm)
     renderer = fig.canvas.get_renderer()
@@ -558,7 +557,6 @@ def test_each_mode_label_sits_on_its_own_line(string, n_modes, max_rpm):
     """A label pushed off its line to make room (the field string's "L5 1.73 Hz" once
     sat at 2.0 Hz, by the line of L6) reads as the next line's: each label spans the
     height of its own mode, and every mode drawn has one."""
-
     config = SimulationConfig() if string == "default" else _field_config()
     fig, ax, modes = _chart(config, n_modes, max_rpm)
     renderer = fig.canvas.get_renderer()
@@ -580,7 +578,6 @@ def test_each_excitation_line_runs_into_its_label_and_through_no_other(string, n
                                                                        max_rpm):
     """Three steep lines leave the field string's chart close together: each runs into
     (or passes just under) its own label, and no other line passes through it."""
-
     config = SimulationConfig() if string == "default" else _field_config()
     fig, ax, modes = _chart(config, n_modes, max_rpm)
     renderer = fig.canvas.get_renderer()

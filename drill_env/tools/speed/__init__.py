@@ -126,7 +126,7 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
     machine = result["machine"]
     tables: list[str] = []
     say(f"drill-env speed {machine['date']}: {','.join(sections)}; "
-        f"{machine['cpu_count']} cores; fidelity levels: {', '.join(levels)}")
+        f"{machine['cores']} cores; fidelity levels: {', '.join(levels)}")
     stamp = source_stamp()
     t0 = time.perf_counter()
 
@@ -148,7 +148,7 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
         changed = machine.get("sources_changed_during_run")
         head = (f"`drill-env speed{kind}`, "
                 f"{machine['date'][:10]}, commit {machine.get('git_commit', '?')}: "
-                f"{machine['cpu']}, {machine['cpu_count']} cores, {machine['platform']}, "
+                f"{machine['cpu']}, {machine['cores']} cores, {machine['platform']}, "
                 f"Python {machine['python']}, NumPy {machine['numpy']}, numba "
                 f"{machine['numba']}"
                 + (f" ({machine['numba_threading_layer']} layer)"

@@ -260,7 +260,8 @@ def machine_info() -> dict[str, Any]:
     info: dict[str, Any] = {
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "cpu": _cpu_name(),
-        "cpu_count": usable_cores(),
+        "cpu_count": os.cpu_count(),  # the machine's
+        "cores": usable_cores(),  # this process's (affinity, cgroup quota): the tables
         "platform": platform.platform(),
         "python": platform.python_version(),
         "numpy": np.__version__,

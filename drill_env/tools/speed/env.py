@@ -156,7 +156,7 @@ def bench_env(settings: BenchmarkSettings, progress: bool = True) -> dict[str, A
     The one env is timed again beside each N (in the same rounds), and the ratios of that
     row use this same-time figure.
     """
-    result: dict[str, Any] = {"cpu_count": usable_cores(), "fidelity": {}}
+    result: dict[str, Any] = {"cores": usable_cores(), "fidelity": {}}
     for name, override in fidelity_levels().items():
         caught: list[str] = []
         with recorded_warnings(caught):
@@ -277,7 +277,7 @@ def format_env(result: dict[str, Any]) -> str:
     notes.append(f"10 Hz policy rate, random actions (one seeded sequence per set-up; the "
                  f"Python share: a constant one); batched: the Gymnasium VectorEnv (SB3 "
                  f"VecEnv: the Stable-Baselines3 one), one numba prange call over the envs, "
-                 f"{result['cpu_count']} cores; x one env: against one env timed in the same "
+                 f"{result['cores']} cores; x one env: against one env timed in the same "
                  f"rounds; best of repeats")
     return table("Env throughput", ("configuration", "env steps/s", "x one env", "x loop"),
                   rows, "\n".join(notes))
