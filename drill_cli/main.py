@@ -402,8 +402,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     held_set_points = controller.rate == "drive" and controller.env_id == "DrillString-v0"
     try:
         controller.reset(base)
+        # (off where stderr is no terminal: a log got the bar's frames, the summary glued
+        # after them)
         bar = tqdm(total=base.max_episode_steps, desc=f"  {args.scenario}", leave=False,
-                   file=sys.stderr)
+                   file=sys.stderr, disable=None)
         for _ in range(base.max_episode_steps):
             obs, r, terminated, truncated, info = env.step(act(
                 controller, args.controller, f"{args.scenario} seed {args.seed}",

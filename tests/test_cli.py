@@ -1780,3 +1780,12 @@ def test_no_writable_temporary_folder_is_said_not_a_traceback(monkeypatch, capsy
     assert "drill-env run: error: no writable temporary folder ([Errno 2] No usable " \
            "temporary directory found in ['/tmp']); set TMPDIR" in capsys.readouterr().err
     assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_run_draws_no_progress_bar_into_a_log(tmp_path, capsys):
+    """`drill-env run ... 2>&1 | tee log`: the bar's carriage-return frames filled the log
+    and the summary was glued after them (an outside check); with stderr no terminal
+    there is no bar."""
+    assert main(["run", "--scenario", "paper_case1", "--duration", "0.5", "--out",
+                 str(tmp_path)]) == 0
+    assert "\r" not in capsys.readouterr().err
