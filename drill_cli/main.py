@@ -2013,10 +2013,13 @@ def compile_notice(command: str) -> Iterator[list[bool]]:
     def say() -> None:
         if not said[0]:
             said[0] = True
-            print(f"drill-env {command}: numba compiles the kernels its cache lacks, once "
-                  f"for this version of drill-env (all of them 20-60 s on 2 cores, one "
-                  f"left out by an earlier command far less; cached in "
-                  f"{numba_cache_dir()})", file=sys.stderr, flush=True)
+            from tqdm import tqdm
+
+            # tqdm's write: above a progress bar already drawn, not inside its line
+            tqdm.write(f"drill-env {command}: numba compiles the kernels its cache lacks, "
+                       f"once for this version of drill-env (all of them 20-60 s on 2 "
+                       f"cores, one left out by an earlier command far less; cached in "
+                       f"{numba_cache_dir()})", file=sys.stderr)
 
     class Notice(event.Listener):
         def on_start(self, event: event.Event) -> None:
