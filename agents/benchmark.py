@@ -892,7 +892,8 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
         raise TypeError(f"controllers: names, not {type(objects[0]).__name__} objects "
                         f"({objects[0]!r:.60}): a built-in name, or a class of your own as "
                         "'file.py:ClassName' (worker processes import it by name, and "
-                        "stored rows follow its file; docs/controllers.md)")
+                        "stored rows follow its file; one defined in a notebook or at the "
+                        "prompt: save it in a .py file first; docs/controllers.md)")
     if (twice := repeated(scenarios)) is not None:
         raise ValueError(f"scenarios: {twice!r} is given twice")
     if env_id is not None and settings.set_points():
@@ -912,6 +913,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     if env_id is not None:  # the policies' task settings, unless the caller gave its own
         settings = dataclasses.replace(settings, env_kwargs={
             **task_settings(controllers, env_id), **settings.env_kwargs})
+    labels(controllers)  # a name that does not load is refused before --out is made
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))

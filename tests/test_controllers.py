@@ -561,5 +561,8 @@ def test_a_controller_class_of_a_notebook_is_refused_with_what_to_do(monkeypatch
                                          r"here: .* give file.py:ClassName"):
         make_controller("__main__:GentlePI")
     with pytest.raises(TypeError, match=r"controllers: names, not type objects .* "
-                                        r"'file.py:ClassName'"):
+                                        r"'file.py:ClassName'.* save it in a .py file"):
         run_benchmark([GentlePI, "stiff"], ["stick_slip"], [0], tmp_path)
+    with pytest.raises(ValueError, match="__main__ is a notebook"):
+        run_benchmark(["__main__:GentlePI"], ["stick_slip"], [0], tmp_path / "out")
+    assert not (tmp_path / "out").exists()  # refused before its folder is made

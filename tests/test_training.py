@@ -1902,7 +1902,8 @@ def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path,
         "name it by --name, or by --seed (and --algo, --config)" in err
 
 
-def test_an_interrupted_run_gives_stdout_back_from_its_progress_bar(tmp_path, monkeypatch):
+def test_an_interrupted_run_gives_stdout_back_from_its_progress_bar(tmp_path, monkeypatch,
+                                                                     capsys):
     """SB3's rich progress bar holds stdout and stderr while it runs, and SB3 closes it
     only when learning ends: after a Ctrl-C in a notebook every later cell's output came
     as the bar's HTML (an outside check). train() closes it whatever ends the run."""
@@ -1930,3 +1931,7 @@ def test_an_interrupted_run_gives_stdout_back_from_its_progress_bar(tmp_path, mo
         train(tiny_config(), tmp_path / "run", progress=True)
     assert (sys.stdout, sys.stderr) == (stdout, stderr)
     assert latest_checkpoint(tmp_path / "run") is not None  # saved as before
+    # called from Python, the way on is train()'s argument, not the command line's option
+    said = capsys.readouterr().out
+    assert "train() with resume=True (instead of overwrite=True" in said
+    assert "--resume" not in said

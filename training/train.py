@@ -29,6 +29,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
 import platform
 import time
 from collections.abc import Sequence
@@ -633,16 +634,23 @@ def save_interrupted(run: Path, model: Any, env: Any, wall_s: float,
     never learnt from, so the resumed run learns from that many fewer) and SAC's replay
     buffer (as at every resume). Returns the model's checkpoint (None before the first
     env step: nothing saved)."""
+    from drill_env.sweep import COMMAND_VARIABLE
+
     steps = int(model.num_timesteps)
+    # from the command line its options; from Python (a notebook) train()'s arguments
+    command = bool(os.environ.get(COMMAND_VARIABLE))
     if steps <= 0:
         print(f"interrupted before the first env step: nothing saved in {run} but its "
-              "config (--resume starts it, --overwrite starts afresh)")
+              + ("config (--resume starts it, --overwrite starts afresh)" if command else
+                 "config (train(..., resume=True) starts it, overwrite=True afresh)"))
         return None
     path = write_checkpoint(run, model, env, wall_s, sessions)
     # one write, so that the lines of a sweep's workers do not run into each other
-    print(f"interrupted at {steps} env steps: saved {path}; the same command with --resume "
-          "(instead of --overwrite, if it had that) continues from it (a --seeds sweep: the "
-          "same command)\n", end="", flush=True)
+    how = ("the same command with --resume (instead of --overwrite, if it had that) "
+           "continues from it (a --seeds sweep: the same command)" if command else
+           "train() with resume=True (instead of overwrite=True, if it had that) continues "
+           "from it")
+    print(f"interrupted at {steps} env steps: saved {path}; {how}\n", end="", flush=True)
     return path
 
 
