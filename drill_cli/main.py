@@ -1513,9 +1513,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
             print(f"warning: {warning}", file=sys.stderr)
     if args.port is not None and not args.web:
         raise argparse.ArgumentTypeError("--port: the web viewer's port; add --web")
-    from drill_env.recording.replay import VIEWER_VARIABLE, no_display
+    from drill_env.recording.replay import no_display
 
-    if not args.web and no_display() and not os.environ.get(VIEWER_VARIABLE):
+    if not args.web and no_display():
         raise argparse.ArgumentTypeError("no display here (DISPLAY is not set) for "
                                          "the native viewer; add --web to serve the web "
                                          "viewer instead")

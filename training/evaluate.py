@@ -195,9 +195,10 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
     for key, c in zip(keys, out, strict=True):
         distinct.setdefault(key, c["p"])
     adjusted = dict(zip(distinct, holm(list(distinct.values())), strict=True))
+    tested = sum(not math.isnan(p) for p in distinct.values())  # Holm's m
     for key, c in zip(keys, out, strict=True):
         c["p_holm"] = adjusted[key]
-        c["comparisons"] = sum(not math.isnan(p) for p in distinct.values())  # (tested)
+        c["comparisons"] = tested
     return out
 
 

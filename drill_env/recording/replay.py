@@ -92,10 +92,12 @@ def web_port(asked: int | None, bind: str = WEB_BIND) -> int:
 
 
 def no_display() -> bool:
-    """Whether the native viewer has no display to open on here (Linux without DISPLAY
-    or WAYLAND_DISPLAY: rerun fails with a winit error)."""
+    """Whether rerun's native viewer has no display to open on here (Linux without
+    DISPLAY or WAYLAND_DISPLAY: rerun fails with a winit error). A viewer of one's own
+    (:data:`VIEWER_VARIABLE`) may need none: False."""
     return sys.platform.startswith("linux") and not (
-        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+        or os.environ.get(VIEWER_VARIABLE))
 
 
 def check_bind(bind: str) -> None:
@@ -185,8 +187,7 @@ def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = Fa
             raise FileNotFoundError(f"path: no recording at {p}")
     if not paths:
         raise ValueError("path: no recording given")
-    if not web and no_display() and not os.environ.get(VIEWER_VARIABLE):  # (rerun's own
-        # error, a winit EventLoopError, and 1; a viewer of one's own may need no display)
+    if not web and no_display():  # (rerun's own error, a winit EventLoopError, and 1)
         raise ValueError("web: no display here (DISPLAY is not set) for the native "
                          "viewer; web=True serves the web viewer instead")
     check_bind(bind)
