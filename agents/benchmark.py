@@ -1120,9 +1120,32 @@ def is_learned_label(name: str) -> bool:
     return name == "learned" or name.startswith("learned-")
 
 
+#: What the tables' "+-" is, said under each of them (benchmark.md, the screen).
+SPREAD_NOTE = ("Means over seeds, +- the half-width of their 95 % interval (Student's t "
+               "over the seeds; none for one seed).")
+
+
+def mean_interval(values: np.ndarray) -> float:
+    """The half-width of the two-sided 95 % interval of the mean of ``values`` over seeds:
+    t(0.975, n - 1) s / sqrt(n) (0 for one value). An uncertainty of the mean, which
+    narrows as seeds are added: half the range, shown until 2026-12-06, was a spread that
+    widens with them (a statistician's review). A metric bounded below (a stuck share,
+    an SSI) can show an interval reaching past its bound where seeds are few and skewed;
+    the rows are in benchmark.csv."""
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    if values.size < 2:
+        return 0.0
+    from scipy.stats import t
+
+    return float(t.ppf(0.975, values.size - 1) * np.std(values, ddof=1)
+                 / math.sqrt(values.size))
+
+
 def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                   scenarios: Sequence[str], env_id: str | None = None) -> list[list[str]]:
-    """Per scenario and controller: the mean over seeds (+- the spread when seeds differ);
+    """Per scenario and controller: the mean over seeds (+- its 95 % interval,
+    :func:`mean_interval`, when seeds differ);
     the rpm error of a controller that sets its own speed is marked (the rows' ``own_speed``,
     judged in the env each acted in; rows without it: in ``env_id``)."""
     table = []
@@ -1142,7 +1165,7 @@ def summary_table(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                     cells.append("-")
                     continue
                 text = shown(fmt, float(np.mean(values)))
-                half = shown(fmt, float(np.max(values) - np.min(values)) / 2)
+                half = shown(fmt, mean_interval(values))
                 if half != shown(fmt, 0.0):  # seeds differ at the shown precision
                     text += " +-" + half
                 if key == "rpm_tracking_error" and any(
@@ -1202,7 +1225,7 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None,
                  + " merged into every scenario"
                  + (", over the task settings' own" if env_id else "")
                  if settings.physics else "")
-              + ". Means over seeds, +- half the range. Rows: benchmark.csv.")
+              + ". " + SPREAD_NOTE + " Rows: benchmark.csv.")
     if env_id is None:
         at = given_set_points(settings) or "each scenario's set points"
         return (f"{settings.duration:g} s episodes of DrillString-v0 from the settled state "
@@ -1285,7 +1308,7 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     if unjudged := not_judged(rows):  # no mark is not "not growing" (an outside review)
         notes.append("Whether a stick-slip still grows is not judged where, over the "
                      "warm-up's end and the window, " + unjudged + ".")
-    _print_table(header, table, [*notes, "Means over seeds, +- half the range."])
+    _print_table(header, table, [*notes, SPREAD_NOTE])
     from agents.plots import bar_chart, series_chart
 
     # the pictures say what benchmark.md's heading says (a --config run read "default")

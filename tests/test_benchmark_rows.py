@@ -1,5 +1,5 @@
 """Benchmark rows and tables by rules stated outside the code: SPEC section 5's units and
-|mean - target| / target, the summary's "+- half the range", the measured window after
+|mean - target| / target, the summary's "+-" (Student's t interval), the measured window after
 the warm-up from the episode's start, a guest policy scored by DrillString-v0's reward,
 the seed's own set points of a random scenario (an outside mutation round, 2026-12-03)."""
 
@@ -19,11 +19,21 @@ def _row(c, s, seed, **v):
     return {"controller": c, "scenario": s, "seed": seed, **base, **v}
 
 
-def test_summary_spread_is_half_the_range():
-    # docstring / benchmark.md: "Means over seeds, +- half the range": 0.2, 0.4 -> 0.30 +-0.10
+def test_summary_interval_is_students_t_over_the_seeds():
+    """benchmark.md: "Means over seeds, +- the half-width of their 95 % interval (Student's
+    t over the seeds)". By hand, with t(0.975, n - 1) from a printed table (1 degree of
+    freedom 12.706, 2: 4.303): 0.2, 0.4 -> s / sqrt(2) = 0.1, +-1.27; 1, 2, 3 (SSI) ->
+    s / sqrt(3) = 0.5774, +-2.48; the interval narrows with seeds where half the range,
+    the table's spread until 2026-12-06, widened; one seed shows none."""
     rows = [_row("stiff", "x", 0, ssi=0.2), _row("stiff", "x", 1, ssi=0.4)]
-    table = bm.summary_table(rows, ["stiff"], ["x"])
-    assert table[0][3] == "0.30 +-0.10"
+    assert bm.summary_table(rows, ["stiff"], ["x"])[0][3] == "0.30 +-1.27"
+    rows = [_row("stiff", "x", k, ssi=float(k + 1)) for k in range(3)]
+    assert bm.summary_table(rows, ["stiff"], ["x"])[0][3] == "2.00 +-2.48"
+    assert bm.summary_table(rows[:1], ["stiff"], ["x"])[0][3] == "1.00"
+    # twenty seeds alternating 0.2 and 0.4: the interval 2.093 x 0.1026 / sqrt(20) = 0.048,
+    # against the half range's 0.10 (t(0.975, 19) = 2.093)
+    rows = [_row("stiff", "x", k, ssi=0.2 + 0.2 * (k % 2)) for k in range(20)]
+    assert bm.summary_table(rows, ["stiff"], ["x"])[0][3] == "0.30 +-0.05"
 
 
 def test_conditions_state_the_metric_window_length():

@@ -264,7 +264,8 @@ def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path, capsys, monkeypat
     monkeypatch.chdir(tmp_path)
     assert main(["benchmark", "--task", "stick_slip", "--controllers", "stiff", "--seeds",
                  "1", "--duration", "3", "--warmup", "1", "--workers", "1"]) == 0
-    assert "Means over seeds, +- half the range." in capsys.readouterr().out
+    assert "Means over seeds, +- the half-width of their 95 % interval" in (
+        capsys.readouterr().out)
     # by default beside the scenario benchmark's outputs, not over them (it replaced
     # make demo's table and pictures in logs/benchmark)
     tmp_path = tmp_path / "logs" / "benchmark" / "stick_slip"
