@@ -882,8 +882,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     summary and plots of every finished row (``heading``: benchmark.md's title) and print
     the table (``progress``: the progress bar and the note of reused rows). Returns the
     rows."""
-    from tqdm import tqdm
-
+    from drill_env.progress import progress_bar
     from drill_env.sweep import ResultStore, make_executor
 
     settings = settings or BenchmarkSettings()
@@ -947,8 +946,9 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             make_controller(name, env_id=episode_env)
         local = min(workers or usable_cores(), len(todo))
         executor = make_executor(local if ray_address is None else None, ray_address)
-        bar = tqdm(total=len(todo_all), initial=len(todo_all) - len(todo), unit="episode",
-                   desc="benchmark", disable=not progress, file=sys.stderr)
+        bar = progress_bar(total=len(todo_all), initial=len(todo_all) - len(todo),
+                           unit="episode", desc="benchmark", disable=not progress,
+                           file=sys.stderr)
         try:
             def keep(k: int, row: dict[str, Any]) -> None:
                 store.put(todo[k].key, row)

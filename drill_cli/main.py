@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from drill_env.physics.units import HOUR, KILO, RPM, few, shown
+from drill_env.progress import progress_bar
 from drill_env.sweep import Terminated, clear_interrupt, hear_interrupts, note_interrupt
 from drill_env.swing import SWING_BLOCK, swing_per_block, swing_trend
 
@@ -366,8 +367,6 @@ def cmd_run(args: argparse.Namespace) -> int:
             else f"{args.scenario}+{args.config.stem}"
         env = RecordEpisode(env, args.record, scenario=scenario,
                             controller=label(args.controller))
-    from tqdm import tqdm
-
     from agents.benchmark import act
     from drill_env.physics.statics import pipe_buckling
 
@@ -402,10 +401,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     held_set_points = controller.rate == "drive" and controller.env_id == "DrillString-v0"
     try:
         controller.reset(base)
-        # (off where stderr is no terminal: a log got the bar's frames, the summary glued
-        # after them)
-        bar = tqdm(total=base.max_episode_steps, desc=f"  {args.scenario}", leave=False,
-                   file=sys.stderr, disable=None)
+        # (where stderr is no terminal, a line a minute: a log got the bar's frames, the
+        # summary glued after them)
+        bar = progress_bar(total=base.max_episode_steps, desc=f"  {args.scenario}",
+                           leave=False, file=sys.stderr)
         for _ in range(base.max_episode_steps):
             obs, r, terminated, truncated, info = env.step(act(
                 controller, args.controller, f"{args.scenario} seed {args.seed}",

@@ -350,12 +350,12 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
     bar = None
     tick = progress if callable(progress) else None
     if progress is True:
-        from tqdm import tqdm
+        from drill_env.progress import progress_bar
 
         # the total is the most points the maps can still need (boundary tracking: one
         # row plus one column at most), lowered as they go; it ends at the points run
-        bar = tqdm(total=sum(t.points_left() for t in trackers.values()),
-                   desc="  stability map", unit="point", leave=False)
+        bar = progress_bar(total=sum(t.points_left() for t in trackers.values()),
+                           desc="  stability map", unit="point", leave=False)
         tick = bar.update
     executor = None  # started at the first point to simulate (a finished map needs none)
     try:

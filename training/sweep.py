@@ -71,7 +71,7 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
                 progress: bool = True, label: str | None = None) -> list[dict[str, Any]]:
     """Train ``config`` once per seed (runs named by :func:`run_name` with ``label``);
     returns one summary per seed, in seed order."""
-    from tqdm import tqdm
+    from drill_env.progress import progress_bar
 
     if not seeds or len(set(seeds)) != len(seeds):
         raise ValueError(f"--seeds: give one or more distinct seeds, got {list(seeds)}")
@@ -87,8 +87,8 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
     if todo:
         executor = make_executor(min(workers or len(todo), len(todo))
                                  if ray_address is None else None, ray_address)
-        bar = tqdm(total=len(configs), initial=len(configs) - len(todo), unit="run",
-                   desc="training seeds", disable=not progress)
+        bar = progress_bar(total=len(configs), initial=len(configs) - len(todo), unit="run",
+                           desc="training seeds", disable=not progress)
         try:
             items = [(c, str(out / run_name(c, label))) for c in todo]
             def keep(k: int, summary: dict[str, Any]) -> None:

@@ -9,12 +9,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm import tqdm
 
 from drill_env import metrics
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.simulator import RECORD_CHANNELS, OperatingPoint, Simulator
 from drill_env.physics.units import RPM
+from drill_env.progress import progress_bar
 
 COL = {name: i for i, name in enumerate(RECORD_CHANNELS)}  # column of each record channel
 
@@ -59,7 +59,8 @@ def simulate(config: SimulationConfig, rpm: float, weight_on_bit: float, seconds
     records, times, shares = [], [], []
     hook = sim.hook_load_for(weight_on_bit)
     done = 0
-    bar = tqdm(total=steps, desc=progress, leave=False) if progress is not None else None
+    bar = (progress_bar(total=steps, desc=progress, leave=False) if progress is not None
+           else None)
     while done < steps and not sim.status:
         n = min(chunk, steps - done)
         records.append(sim.advance(n, rpm * RPM, hook, record_every))

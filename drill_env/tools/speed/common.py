@@ -110,11 +110,16 @@ def fidelity_levels() -> dict[str, dict[str, str]]:
 
 
 def progress_bar(items: Iterable, desc: str, enabled: bool) -> Iterator:
-    """A tqdm bar over ``items`` when enabled."""
-    from tqdm import tqdm
+    """A tqdm bar over ``items`` when enabled (:func:`drill_env.progress.progress_bar`:
+    lines a minute apart in a log)."""
+    from drill_env.progress import progress_bar as bar
 
-    yield from tqdm(list(items), desc=f"  {desc}", leave=False, file=sys.stderr,
-                    disable=not enabled)
+    items = list(items)
+    with bar(total=len(items), desc=f"  {desc}", leave=False, file=sys.stderr,
+             disable=not enabled) as shown:
+        for item in items:
+            yield item
+            shown.update(1)
 
 
 #: How a table names a warning :func:`recorded_warnings` kept: about the benchmark's own

@@ -1,0 +1,85 @@
+"""Progress bars of long work in a log or a pipe (drill_env.progress): one plain line per
+interval, not tqdm's carriage-return frames on one line (an outside trial: a benchmark's
+log held its frames with the table glued after them)."""
+
+from __future__ import annotations
+
+import io
+import subprocess
+import sys
+
+import drill_env.progress as progress
+
+
+class _Log(io.StringIO):
+    """A file: no terminal."""
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def _count(bar, n: int, clock: list[float]) -> None:
+    for _ in range(n):
+        clock[0] += 1.0  # one second per item
+        bar.update(1)
+
+
+def _fake_clock(monkeypatch) -> list[float]:
+    clock = [0.0]
+    # the clock tqdm's bars take at their start (tqdm.std's time): time without sleeping
+    monkeypatch.setattr("tqdm.std.time", lambda: clock[0])
+    return clock
+
+
+def test_a_log_gets_a_line_per_interval_and_the_last_count(monkeypatch):
+    clock = _fake_clock(monkeypatch)
+    monkeypatch.setattr(progress, "LOG_INTERVAL", 10.0)
+    log = _Log()
+    bar = progress.progress_bar(total=35, desc="benchmark", unit="episode", file=log)
+    _count(bar, 35, clock)
+    bar.close()
+    text = log.getvalue()
+    assert "\r" not in text
+    lines = text.splitlines()
+    # 35 s of work: a line at 10, 20 and 30 s, the last count at the end, none repeated
+    assert [line.split("|")[0].strip() for line in lines] == [
+        "benchmark:  29%", "benchmark:  57%", "benchmark:  86%", "benchmark: 100%"]
+    assert lines[-1].split("|")[2].startswith(" 35/35")
+    assert text.isascii() and len(set(lines)) == len(lines)
+
+
+def test_a_short_job_writes_nothing_to_a_log_and_a_bar_not_kept_no_blank_line(monkeypatch):
+    clock = _fake_clock(monkeypatch)
+    monkeypatch.setattr(progress, "LOG_INTERVAL", 10.0)
+    log = _Log()
+    with progress.progress_bar(total=5, desc="short", file=log) as bar:
+        _count(bar, 5, clock)
+    assert log.getvalue() == ""
+    with progress.progress_bar(total=30, desc="gone", leave=False, file=log) as bar:
+        _count(bar, 30, clock)
+    assert log.getvalue().count("\n") == len(log.getvalue().splitlines())
+    assert all(line.strip() for line in log.getvalue().splitlines())
+
+
+def test_a_terminal_keeps_tqdms_redrawn_line(monkeypatch):
+    clock = _fake_clock(monkeypatch)
+    term = _Terminal()
+    with progress.progress_bar(total=3, desc="bench", file=term) as bar:
+        _count(bar, 3, clock)
+    assert "\r" in term.getvalue()
+    off = _Log()
+    with progress.progress_bar(total=3, file=off, disable=True) as bar:
+        _count(bar, 3, clock)
+    assert off.getvalue() == ""
+
+
+def test_outside_a_kernel_no_notebook_is_seen():
+    # IPython imported as a library (no kernel app): a log is a log
+    code = ("import sys, types; m = types.ModuleType('IPython'); m.get_ipython = lambda: None;"
+            " sys.modules['IPython'] = m; import drill_env.progress as p;"
+            " print(p.in_notebook())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "False"
