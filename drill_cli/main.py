@@ -1686,8 +1686,9 @@ def parser() -> argparse.ArgumentParser:
                        help="continue the run from its last checkpoint (or its final model; "
                             "a Ctrl-C or SIGTERM saves one), with the config it was started with")
     again.add_argument("--overwrite", action="store_true",
-                       help="delete an existing run of that name and start again (without "
-                            "it, an existing run is refused)")
+                       help="delete an existing run of that name (the files training "
+                            "and evaluate wrote; a folder holding others is refused) and "
+                            "start again (without it, an existing run is refused)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--out", type=out_folder, default=Path("logs/runs"), help="folder of runs")
 

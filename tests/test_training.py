@@ -566,6 +566,42 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
     train(small, copy, overwrite=True, progress=False)  # a new run: the old one is gone
     assert not (copy / "evaluation").exists() and not (copy / "evaluations.csv").exists()
     assert (copy / "model.zip").exists()
+    # every entry a run holds is one --overwrite may delete (a new output would be left
+    # out of RUN_OUTPUTS, and a folder of it refused as not a run's own)
+    from training.train import run_outputs
+
+    assert run_outputs(copy)[1] == []
+
+
+def test_overwrite_deletes_only_a_runs_own_files(tmp_path):
+    """A security review: `train --overwrite` on a folder that held a config.yaml beside a
+    project's sources (src/, notes.md) deleted the whole folder. Now a folder with files
+    training did not write is refused, naming them, and nothing is deleted; a run's own
+    files (an evaluation and a save cut short included) are deleted, and the run starts
+    afresh."""
+    from training.train import check_run_folder, clear_run
+
+    project = tmp_path / "proj"
+    (project / "src").mkdir(parents=True)
+    (project / "config.yaml").write_text("key: 1\n")
+    (project / "src" / "important.txt").write_text("precious\n")
+    (project / "notes.md").write_text("x\n")
+    check_run_folder(project, resume=False, overwrite=True)  # a run by its config.yaml
+    with pytest.raises(FileExistsError, match=r"files training did not write \(notes.md, "
+                                              r"src\): --overwrite deletes only"):
+        clear_run(project)
+    assert (project / "src" / "important.txt").read_text() == "precious\n"
+    assert (project / "config.yaml").exists() and (project / "notes.md").exists()
+    run = tmp_path / "run"
+    run.mkdir()
+    for name in ("config.yaml", "model.zip", "run.json", "vecnormalize.pkl",
+                 ".model.partial.zip"):
+        (run / name).write_text("x")
+    for folder in ("checkpoints", "tb", "evaluation", "evaluation_full"):
+        (run / folder).mkdir()
+        (run / folder / "a").write_text("x")
+    clear_run(run)
+    assert run.is_dir() and list(run.iterdir()) == []
 
 
 def test_training_envs_are_seeded_apart_per_run_and_per_resume(tmp_path, monkeypatch):

@@ -369,6 +369,48 @@ def torch_threads_callback(threads: int) -> Any:
 
 #: What a run folder holds once training started (any of them: the folder is a run).
 RUN_FILES = ("config.yaml", "model.zip", "run.json", "checkpoints")
+#: Everything training and evaluate write into a run folder: what ``overwrite`` deletes
+#: (with the hidden ``.<name>.partial<ext>`` of a save cut short, and evaluate's
+#: ``evaluation`` and ``evaluation_<level>`` folders).
+RUN_OUTPUTS = (*RUN_FILES, "vecnormalize.pkl", "best_model.zip", "best_vecnormalize.pkl",
+               "evaluations.csv", "learning_curve.png", "tb")
+
+
+def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
+    """The entries of the folder ``run`` that training or evaluate wrote (see
+    :data:`RUN_OUTPUTS`), and the others."""
+    ours: list[Path] = []
+    others: list[Path] = []
+    for entry in sorted(run.iterdir()) if run.is_dir() else []:
+        name = entry.name
+        written = (name in RUN_OUTPUTS or name == "evaluation"
+                   or name.startswith("evaluation_")
+                   or (name.startswith(".") and ".partial" in name))
+        (ours if written else others).append(entry)
+    return ours, others
+
+
+def clear_run(run: Path) -> None:
+    """Delete what training and evaluate wrote into ``run`` (``overwrite``); a folder that
+    holds anything else as well is refused with a FileExistsError naming it, and nothing
+    is deleted (``--overwrite`` on a folder that merely held a config.yaml deleted the
+    whole folder: a security review)."""
+    import shutil
+
+    ours, others = run_outputs(run)
+    if others:
+        from drill_env.physics.units import few
+
+        raise FileExistsError(
+            f"{run} holds a training run and files training did not write ("
+            + few([e.name for e in others], "in the folder") + "): --overwrite deletes "
+            "only a run's own files; move those, delete the folder yourself or give "
+            "another --name")
+    for entry in ours:
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
 
 
 def holds_run(run: Path) -> bool:
@@ -507,11 +549,9 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     actions, as at the start) before its first gradient step. Resuming with
     ``n_timesteps`` at or below the steps done is refused, but for a run stopped between
     its last step and its final save, resumed at its own ``n_timesteps``: it saves."""
-    import shutil
-
     check_run_folder(run, resume, overwrite, config)
     if overwrite and not resume and holds_run(run):
-        shutil.rmtree(run)
+        clear_run(run)
     # from here a Ctrl-C is noted as well as raised: one lost while the envs compile
     # (numba's first minute on an empty cache) stops the run at its first step
     with watch_interrupts():
