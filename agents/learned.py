@@ -81,8 +81,7 @@ class LearnedController:
                           f"the first gradient step ({why}): an untrained policy",
                           RuntimeWarning, stacklevel=2)
 
-        normalizer = load_saved(norm_file, _unpickle)
-        normalizer.training = False
+        normalizer = _statistics((norm_file,))
         return cls(model, normalizer, TASK_ENVS[config["task"]], config.get("env_kwargs", {}),
                    folder)
 
@@ -192,18 +191,12 @@ class _Raw:
         return observation
 
 
-def _unpickle(path: str) -> Any:
-    """A pickled VecNormalize (saved without its venv: statistics only)."""
-    with open(path, "rb") as f:
-        return pickle.load(f)
-
-
 def _statistics(files: tuple[Path, ...]) -> Any:
     """The VecNormalize statistics in ``files`` (none: :class:`_Raw`), frozen."""
     if not files:
         return _Raw()
 
-    normalizer = load_saved(files[0], _unpickle)
+    normalizer = load_saved(files[0], lambda saved: saved)  # (saved without its venv)
     if not callable(getattr(normalizer, "normalize_obs", None)):
         raise ValueError(f"statistics: {files[0]} holds a {type(normalizer).__name__}, not "
                          "VecNormalize statistics (VecNormalize.save)")
@@ -242,8 +235,12 @@ def policy_files(path: str | Path | None = None, env_id: str | None = None
 
 
 def load_saved(path: Path, load: Any) -> Any:
-    """``load(path)``; a damaged file (a full disk, a copy cut short) is a ValueError
-    naming it and what to do, not a traceback from pickle or zipfile."""
+    """``load(path)``, or for a pickle (``.pkl``) ``load`` of the object it holds; a damaged
+    file (a full disk, a copy cut short) is a ValueError naming it and what to do, not a
+    traceback from pickle or zipfile. A pickle is unpickled once, here: whatever fails in
+    it is damage (telling damage from the load's own error by unpickling the file a second
+    time ran its code twice, a security review). Unpickling runs code the file names:
+    load only runs of your own or of a source you trust (docs/tasks.md)."""
     import zipfile
 
     damage = (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
@@ -252,32 +249,23 @@ def load_saved(path: Path, load: Any) -> Any:
         if Path(path).suffix == ".zip" and Path(path).exists() and not zipfile.is_zipfile(path):
             # Stable-Baselines3 says so in a ValueError of its own, naming no run
             raise zipfile.BadZipFile("not a zip file")
-        try:
+        if Path(path).suffix != ".pkl":
             return load(str(path))
-        except damage:
-            raise
-        except Exception as err:  # noqa: BLE001 - judged below, else raised as it was
-            # garbage can fail in any of pickle's opcodes ("garbage": a ValueError from
-            # int()); damage if the file alone does not unpickle, else the load's own error
-            if Path(path).suffix != ".pkl" or _unpickles(Path(path)):
+        with open(path, "rb") as f:  # (a missing file: its FileNotFoundError)
+            try:
+                saved = pickle.load(f)
+            except damage:
                 raise
-            raise pickle.UnpicklingError(f"{type(err).__name__}: {err}") from None
+            except Exception as err:  # noqa: BLE001 - garbage can fail in any of pickle's
+                # opcodes ("garbage": a ValueError from int())
+                raise pickle.UnpicklingError(f"{type(err).__name__}: {err}") from None
+        return load(saved)
     except damage as err:
         raise ValueError(f"{path}: damaged, cannot be loaded ({type(err).__name__}: {err}); "
                          "delete it and the files saved with it, and the run's other files "
                          "are used (train --resume: the newest complete checkpoint left; "
                          "nothing falls back by itself); or retrain with --overwrite"
                          ) from None
-
-
-def _unpickles(path: Path) -> bool:
-    """Whether ``path`` unpickles at all (whatever it holds)."""
-    try:
-        with path.open("rb") as f:
-            pickle.load(f)
-    except Exception:  # noqa: BLE001 (whatever the bytes make pickle do)
-        return False
-    return True
 
 
 def latest_checkpoint(run: Path) -> tuple[Path, Path] | None:

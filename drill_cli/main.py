@@ -977,7 +977,11 @@ def which_model(run: Path, model: Path) -> str:
     if model.name != "model.zip":
         return "the last checkpoint: the run stopped before its first evaluation"
     if (run / "README.md").exists() and not (run / "run.json").exists():
-        return "the shipped policy's chosen model: its README says which"
+        from agents.learned import TRAINED
+
+        if run.resolve().is_relative_to(TRAINED):
+            return "the shipped policy's chosen model: its README says which"
+        return "the folder's model: no run.json, not a training run's record"
     return "the run's final model: it kept no best model"
 
 
@@ -1011,6 +1015,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}"
                                          ) from None
     print(f"evaluating {model} ({which_model(args.run, model)})")
+    if local:  # a folder here took a task's name (a security review: said only on errors)
+        print(f"note: {local.removeprefix('; ')}")
     out = args.out or default_evaluation_folder(args.run, args.fidelity)
     evaluate_run(args.run, seeds=args.seeds, workers=args.workers, out=out,
                  ray_address=args.ray_address, fidelity=args.fidelity)

@@ -1270,6 +1270,8 @@ def test_evaluate_says_which_model_it_scores(tmp_path):
 
     shipped = TRAINED / "drilling"
     assert which_model(shipped, shipped / "model.zip").startswith("the shipped policy's")
+    (tmp_path / "README.md").write_text("a copy of a shipped policy's folder\n")
+    assert which_model(tmp_path, tmp_path / "model.zip").startswith("the folder's model")
     (tmp_path / "run.json").write_text("{}")
     assert which_model(tmp_path, tmp_path / "model.zip").startswith("the run's final model")
     assert which_model(tmp_path, tmp_path / "best_model.zip").startswith("the best model")

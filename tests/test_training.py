@@ -359,6 +359,55 @@ def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path
                 LearnedController.load(copy, files=(model, norm))
 
 
+class _Noting:
+    """Unpickles as a call of ``_note``: a line written to a file, then an error."""
+
+    def __init__(self, marker: str) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return (_note, (self.marker,))
+
+
+def _note(marker: str):
+    with open(marker, "a") as f:
+        f.write("RAN\n")
+    raise ValueError("a payload's error")
+
+
+def test_a_pickle_is_unpickled_once_and_must_hold_statistics(run, tmp_path):
+    """A security review: a statistics file whose unpickling fails was unpickled a second
+    time to tell damage from the load's own error, running its code twice; and a pickle
+    of something other than VecNormalize statistics ended the load of a policy with
+    "'int' object has no attribute 'training'". Now the file is unpickled once (its error
+    is damage, named), and what it holds is checked for the policy and for a resume."""
+    import pickle
+    import shutil
+
+    from drill_env.physics.config import replace
+
+    folder, cfg = run
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    marker = tmp_path / "marker"
+    (copy / "vecnormalize.pkl").write_bytes(pickle.dumps(_Noting(str(marker))))
+    with pytest.raises(ValueError, match=r"vecnormalize.pkl: damaged, cannot be loaded "
+                                         r"\(UnpicklingError: ValueError: a payload's"):
+        LearnedController.load(copy, files=(copy / "model.zip", copy / "vecnormalize.pkl"))
+    assert marker.read_text() == "RAN\n"
+    (copy / "vecnormalize.pkl").write_bytes(pickle.dumps(7))
+    with pytest.raises(ValueError, match=r"vecnormalize.pkl holds a int, not VecNormalize "
+                                         r"statistics"):
+        LearnedController.load(copy, files=(copy / "model.zip", copy / "vecnormalize.pkl"))
+    for name in ("model.zip", "vecnormalize.pkl"):  # resume from the checkpoint
+        (copy / name).unlink()
+    _, norm = latest_checkpoint(copy)
+    norm.write_bytes(pickle.dumps([1, 2]))
+    with pytest.raises(ValueError, match=r"resume: the checkpoint's statistics hold a "
+                                         r"list, not VecNormalize"):
+        train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
+
+
 @pytest.mark.parametrize("text", ["", "ppo: {n_envs: 4", "- a list\n", "algo: ppo\n"])
 def test_a_damaged_run_config_is_named_by_every_command_that_reads_it(run, tmp_path, text,
                                                                       capsys):
@@ -1207,6 +1256,18 @@ def test_evaluate_takes_a_tasks_name_for_its_shipped_policy(tmp_path, monkeypatc
         main(["evaluate", "stick"])
     assert "or a task's name for its shipped policy: drilling, stick_slip" in \
         capsys.readouterr().err
+    # a copy of the shipped policy's folder under the task's name here is evaluated, and
+    # said to be this folder's, not the shipped policy (a security review: it read
+    # "the shipped policy's chosen model")
+    import shutil
+
+    shutil.copytree(TRAINED / "stick_slip", tmp_path / "stick_slip")
+    scored.clear()
+    assert main(["evaluate", "stick_slip", "--seeds", "1"]) == 0
+    said = " ".join(capsys.readouterr().out.split())
+    assert scored[0][0] == Path("stick_slip") and "shipped policy's chosen" not in said
+    assert "(the folder's model: no run.json" in said
+    assert "note: stick_slip here is yours, not the task's shipped policy" in said
 
 
 def test_evaluate_names_the_model_files_it_looked_for(tmp_path, capsys):

@@ -516,6 +516,19 @@ def resume_files(run: Path) -> tuple[Path, Path] | None:
     return checkpoint
 
 
+def resumed_statistics(saved: Any, venv: Any) -> Any:
+    """The VecNormalize statistics ``saved`` (unpickled by :func:`load_saved`) on ``venv``,
+    as ``VecNormalize.load`` sets them; a file holding something else is a ValueError."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    if not isinstance(saved, VecNormalize):
+        raise ValueError(f"resume: the checkpoint's statistics hold a "
+                         f"{type(saved).__name__}, not VecNormalize statistics "
+                         "(VecNormalize.save)")
+    saved.set_venv(venv)
+    return saved
+
+
 def saved_steps(model: Path) -> tuple[int, int]:
     """(env steps, gradient steps) a saved SB3 model records; reads the zip's ``data``
     entry only, not the networks."""
@@ -560,8 +573,6 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
 
 def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path:
     """:func:`train` once the folder is checked."""
-    from stable_baselines3.common.vec_env import VecNormalize
-
     run.mkdir(parents=True, exist_ok=True)
     saved = run / "config.yaml"
     algo = algo_class(config.algo)
@@ -582,7 +593,7 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
         torch.set_num_threads(config.torch_threads)
     if latest is not None:  # its steps are below n_timesteps: check_run_folder said so
         model_path, norm_path = latest
-        env = load_saved(norm_path, lambda p: VecNormalize.load(p, env.venv))
+        env = load_saved(norm_path, lambda saved: resumed_statistics(saved, env.venv))
         model = load_saved(model_path, lambda p: algo.load(p, env=env,
                                                            tensorboard_log=str(run / "tb")))
         if hasattr(model, "learning_starts"):  # SAC: the replay buffer is not saved,
