@@ -415,6 +415,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._status = self._readings[_STATUS]
         info = self._info()
         self._reset_done = True
+        self._ended = ""  # (the reason of a terminated episode: step warns past it)
         return self._observation(info), info
 
     def _start_wob_draw(self) -> tuple[float | None, str]:
@@ -444,12 +445,15 @@ class DrillStringEnv(BatchFinish, gym.Env):
         if not self._reset_done:  # (as gymnasium.make's OrderEnforcing and the vector envs)
             raise ResetNeeded("step: call reset() first (no episode: none yet, or the last "
                               "reset was refused)")
-        if self._step_count >= self._max_steps:  # undefined in Gymnasium: said, as CartPole
-            gym.logger.warn("step: past the episode's end (truncated): call reset()")
+        if self._ended or self._step_count >= self._max_steps:  # undefined in Gymnasium:
+            # said, as CartPole does (a loop that forgot to reset: an outside trial)
+            ended = f"terminated: {self._ended}" if self._ended else "truncated"
+            gym.logger.warn(f"step: past the episode's end ({ended}): call reset()")
         self.apply_action(action)
-        records = self.advance()
-        self.keep_records(records)
-        return self.finish_step(records)
+        self.keep_records(records := self.advance())
+        result = self.finish_step(records)
+        self._ended = result[4]["termination_reason"] if result[2] else ""
+        return result
 
     def keep_records(self, records: np.ndarray) -> None:
         """This step's records as :attr:`last_records`, and in the rendered frames."""
@@ -517,11 +521,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._wob_applied = limit if applied > limit else applied
 
     def advance(self) -> np.ndarray:
-        """Run the simulator over one control interval; returns the records.
-
-        The simulator's ``readings`` are refreshed in the same compiled call (a batch
-        refreshes them in its parallel kernel).
-        """
+        """Run the simulator over one control interval; returns the records. Its
+        ``readings`` are refreshed in the same compiled call (a batch: in its kernel)."""
         return self.sim.advance(*self.advance_request(), read=True)
 
     def advance_request(self) -> tuple[int, float, float, int]:
@@ -565,11 +566,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
     # ------------------------------------------------------------------ hooks
 
     def _termination_reason(self, step: tuple[list[float], bool] | None) -> str:
-        """Why the episode ends now ("" if it goes on).
-
-        ``step``: the metrics of this interval's records and whether they are all finite
-        (``None``: no records), from :class:`drill_env.metrics.RollingMetrics`.
-        """
+        """Why the episode ends now ("" if it goes on). ``step``: the metrics of this
+        interval's records and whether they are all finite (``None``: no records), from
+        :class:`drill_env.metrics.RollingMetrics`."""
         if self._status != 0:
             return self.sim.status_message
         peak = step[0][Metric.SURFACE_TORQUE_MAX] if step is not None else 0.0

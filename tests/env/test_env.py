@@ -2,6 +2,7 @@
 
 import math
 import pickle
+import re
 import sys
 import warnings
 
@@ -753,6 +754,28 @@ def test_a_step_past_the_episodes_end_is_said() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         env.step(env.action_space.sample())  # a new episode: nothing said
+
+
+def test_a_step_past_a_terminated_episode_is_said() -> None:
+    """A Gymnasium conformance trial: after a termination (a connection twisted off) a
+    hand-written loop that forgot to reset went on silently, the failure penalty summed
+    again every step. It is said, with the episode's reason; a reset clears it."""
+    env = gym.make("DrillString-v0", makeup_torque=5000.0, episode_duration=3.0)
+    env.reset(seed=0)
+    push = np.ones(2, np.float32)  # the top of both ranges: past the make-up torque
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        while not (result := env.step(push))[2]:
+            pass
+    reason = result[4]["termination_reason"]
+    assert reason and not result[3]
+    with pytest.warns(UserWarning, match=rf"past the episode's end \(terminated: "
+                                         rf"{re.escape(reason)}\): call reset"):
+        env.step(push)
+    env.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env.step(np.zeros(2, np.float32))
 
 
 def test_action_for_steps_toward_set_points_in_incremental_mode():
