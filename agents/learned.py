@@ -196,9 +196,11 @@ def _statistics(files: tuple[Path, ...]) -> Any:
     if not files:
         return _Raw()
 
-    normalizer = load_saved(files[0], lambda saved: saved)  # (saved without its venv)
-    if not callable(getattr(normalizer, "normalize_obs", None)):
-        raise ValueError(f"statistics: {files[0]} holds a {type(normalizer).__name__}, not "
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    normalizer = load_saved(files[0], lambda saved: saved, pickled=True)  # (no venv)
+    if not isinstance(normalizer, VecNormalize):
+        raise ValueError(f"statistics: {files[0]} holds {type(normalizer).__name__}, not "
                          "VecNormalize statistics (VecNormalize.save)")
     normalizer.training = False
     return normalizer
@@ -234,13 +236,13 @@ def policy_files(path: str | Path | None = None, env_id: str | None = None
     return _files(policy_folder(path, env_id))
 
 
-def load_saved(path: Path, load: Any) -> Any:
-    """``load(path)``, or for a pickle (``.pkl``) ``load`` of the object it holds; a damaged
-    file (a full disk, a copy cut short) is a ValueError naming it and what to do, not a
-    traceback from pickle or zipfile. A pickle is unpickled once, here: whatever fails in
-    it is damage (telling damage from the load's own error by unpickling the file a second
-    time ran its code twice, a security review). Unpickling runs code the file names:
-    load only runs of your own or of a source you trust (docs/tasks.md)."""
+def load_saved(path: Path, load: Any, pickled: bool = False) -> Any:
+    """``load(path)``, or with ``pickled`` ``load`` of the object the pickle ``path``
+    holds; a damaged file (a full disk, a copy cut short) is a ValueError naming it and
+    what to do, not a traceback from pickle or zipfile. A pickle is unpickled once, here:
+    whatever fails in it is damage (telling damage from the load's own error by unpickling
+    the file a second time ran its code twice, a security review). Unpickling runs code
+    the file names: load only runs of your own or of a source you trust (docs/tasks.md)."""
     import zipfile
 
     damage = (pickle.UnpicklingError, zipfile.BadZipFile, EOFError, KeyError,
@@ -249,7 +251,7 @@ def load_saved(path: Path, load: Any) -> Any:
         if Path(path).suffix == ".zip" and Path(path).exists() and not zipfile.is_zipfile(path):
             # Stable-Baselines3 says so in a ValueError of its own, naming no run
             raise zipfile.BadZipFile("not a zip file")
-        if Path(path).suffix != ".pkl":
+        if not pickled:
             return load(str(path))
         with open(path, "rb") as f:  # (a missing file: its FileNotFoundError)
             try:

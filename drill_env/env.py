@@ -269,6 +269,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
             self._check_range(self.scenario.surface_speed, self.scenario.weight_on_bit, "")
         self._init_episode_state()
         self._reset_done = False  # (step refuses to run before the first reset)
+        self._ended = ""  # why the episode terminated ("": it did not); step warns past it
 
     # ------------------------------------------------------------------ set-up
 
@@ -414,8 +415,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._readings = sim.readings.tolist()  # fresh after reset and the start-up
         self._status = self._readings[_STATUS]
         info = self._info()
-        self._reset_done = True
-        self._ended = ""  # (the reason of a terminated episode: step warns past it)
+        self._reset_done, self._ended = True, ""
         return self._observation(info), info
 
     def _start_wob_draw(self) -> tuple[float | None, str]:
@@ -452,7 +452,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self.apply_action(action)
         self.keep_records(records := self.advance())
         result = self.finish_step(records)
-        self._ended = result[4]["termination_reason"] if result[2] else ""
+        if result[2] and not self._ended:  # kept until a reset, judged again or not
+            self._ended = result[4]["termination_reason"]
         return result
 
     def keep_records(self, records: np.ndarray) -> None:

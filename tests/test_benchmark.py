@@ -1571,7 +1571,7 @@ def test_sb3_policy_checks_its_files_and_acts_with_or_without_statistics(tmp_pat
                           **kwargs})
     wrong = tmp_path / "wrong.pkl"
     wrong.write_bytes(pickle.dumps({"mean": 0.0}))
-    with pytest.raises(ValueError, match=r"^statistics: .*wrong\.pkl holds a dict, not "
+    with pytest.raises(ValueError, match=r"^statistics: .*wrong\.pkl holds dict, not "
                                          "VecNormalize statistics"):
         sb3_policy(model, wrong, algo="sac", env_id="DrillOptimise-v0")()
     env = gym.make("DrillStickSlip-v0")

@@ -395,15 +395,20 @@ def test_a_pickle_is_unpickled_once_and_must_hold_statistics(run, tmp_path):
                                          r"\(UnpicklingError: ValueError: a payload's"):
         LearnedController.load(copy, files=(copy / "model.zip", copy / "vecnormalize.pkl"))
     assert marker.read_text() == "RAN\n"
+    # statistics under another suffix load as statistics (they are judged by what they
+    # hold, not by their name)
+    renamed = tmp_path / "stats.pickle"
+    shutil.copy(folder / "vecnormalize.pkl", renamed)
+    LearnedController.load(copy, files=(copy / "model.zip", renamed))
     (copy / "vecnormalize.pkl").write_bytes(pickle.dumps(7))
-    with pytest.raises(ValueError, match=r"vecnormalize.pkl holds a int, not VecNormalize "
+    with pytest.raises(ValueError, match=r"vecnormalize.pkl holds int, not VecNormalize "
                                          r"statistics"):
         LearnedController.load(copy, files=(copy / "model.zip", copy / "vecnormalize.pkl"))
     for name in ("model.zip", "vecnormalize.pkl"):  # resume from the checkpoint
         (copy / name).unlink()
     _, norm = latest_checkpoint(copy)
     norm.write_bytes(pickle.dumps([1, 2]))
-    with pytest.raises(ValueError, match=r"resume: the checkpoint's statistics hold a "
+    with pytest.raises(ValueError, match=r"resume: the checkpoint's statistics hold "
                                          r"list, not VecNormalize"):
         train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
 
@@ -628,6 +633,8 @@ def test_overwrite_deletes_only_a_runs_own_files(tmp_path):
     training did not write is refused, naming them, and nothing is deleted; a run's own
     files (an evaluation and a save cut short included) are deleted, and the run starts
     afresh."""
+    import shutil
+
     from training.train import check_run_folder, clear_run
 
     project = tmp_path / "proj"
@@ -635,12 +642,24 @@ def test_overwrite_deletes_only_a_runs_own_files(tmp_path):
     (project / "config.yaml").write_text("key: 1\n")
     (project / "src" / "important.txt").write_text("precious\n")
     (project / "notes.md").write_text("x\n")
-    check_run_folder(project, resume=False, overwrite=True)  # a run by its config.yaml
-    with pytest.raises(FileExistsError, match=r"files training did not write \(notes.md, "
-                                              r"src\): --overwrite deletes only"):
-        clear_run(project)
+    # a run by its config.yaml: refused before anything is said or deleted
+    for refuse in (lambda: check_run_folder(project, resume=False, overwrite=True),
+                   lambda: clear_run(project)):
+        with pytest.raises(FileExistsError, match=r"files training did not write \(notes.md, "
+                                                  r"src\): --overwrite deletes only"):
+            refuse()
     assert (project / "src" / "important.txt").read_text() == "precious\n"
     assert (project / "config.yaml").exists() and (project / "notes.md").exists()
+    # names near evaluate's and a save's are not theirs (a review: a note named
+    # evaluation_notes.md and a hidden folder .partial_keep were deleted)
+    (project / "notes.md").unlink()
+    shutil.rmtree(project / "src")
+    (project / "evaluation_notes.md").write_text("mine\n")
+    (project / ".partial_keep").mkdir()
+    (project / "evaluation_fast").write_text("a file, not evaluate's folder\n")
+    with pytest.raises(FileExistsError, match=r"\(.partial_keep, evaluation_fast, "
+                                              r"evaluation_notes.md\)"):
+        clear_run(project)
     run = tmp_path / "run"
     run.mkdir()
     for name in ("config.yaml", "model.zip", "run.json", "vecnormalize.pkl",

@@ -31,6 +31,7 @@ import io
 import json
 import os
 import platform
+import re
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -376,28 +377,32 @@ RUN_OUTPUTS = (*RUN_FILES, "vecnormalize.pkl", "best_model.zip", "best_vecnormal
                "evaluations.csv", "learning_curve.png", "tb")
 
 
+#: A save cut short (:func:`drill_env.sweep.save_whole`'s hidden partial file).
+_PARTIAL = re.compile(r"\..+\.partial(\.[^.]*)?")
+
+
 def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
     """The entries of the folder ``run`` that training or evaluate wrote (see
-    :data:`RUN_OUTPUTS`), and the others."""
+    :data:`RUN_OUTPUTS`; evaluate's folders ``evaluation`` and ``evaluation_<level>``, a
+    save's partial file), and the others."""
+    from drill_env.physics.config import FIDELITY_LEVELS
+
+    folders = {"evaluation", *(f"evaluation_{level}" for level in FIDELITY_LEVELS)}
     ours: list[Path] = []
     others: list[Path] = []
     for entry in sorted(run.iterdir()) if run.is_dir() else []:
         name = entry.name
-        written = (name in RUN_OUTPUTS or name == "evaluation"
-                   or name.startswith("evaluation_")
-                   or (name.startswith(".") and ".partial" in name))
+        written = (name in RUN_OUTPUTS or (name in folders and entry.is_dir())
+                   or (_PARTIAL.fullmatch(name) is not None and entry.is_file()))
         (ours if written else others).append(entry)
     return ours, others
 
 
-def clear_run(run: Path) -> None:
-    """Delete what training and evaluate wrote into ``run`` (``overwrite``); a folder that
-    holds anything else as well is refused with a FileExistsError naming it, and nothing
-    is deleted (``--overwrite`` on a folder that merely held a config.yaml deleted the
-    whole folder: a security review)."""
-    import shutil
-
-    ours, others = run_outputs(run)
+def check_overwrite(run: Path) -> None:
+    """FileExistsError, naming them, if ``run`` holds files training did not write:
+    ``overwrite`` deletes only a run's own (``--overwrite`` on a folder that merely held
+    a config.yaml deleted the whole folder: a security review)."""
+    others = run_outputs(run)[1]
     if others:
         from drill_env.physics.units import few
 
@@ -406,6 +411,15 @@ def clear_run(run: Path) -> None:
             + few([e.name for e in others], "in the folder") + "): --overwrite deletes "
             "only a run's own files; move those, delete the folder yourself or give "
             "another --name")
+
+
+def clear_run(run: Path) -> None:
+    """Delete what training and evaluate wrote into ``run`` (``overwrite``); a folder that
+    holds anything else as well is refused (:func:`check_overwrite`), nothing deleted."""
+    import shutil
+
+    check_overwrite(run)
+    ours, _ = run_outputs(run)
     for entry in ours:
         if entry.is_dir() and not entry.is_symlink():
             shutil.rmtree(entry)
@@ -429,8 +443,10 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
     steps the run starts from (0 but for a resume)."""
     if holds_run(run) and not (resume or overwrite):
         raise FileExistsError(f"{run} already holds a training run: --resume continues it, "
-                              "--overwrite deletes it and starts again, or give another "
-                              "--name")
+                              "--overwrite deletes its files and starts again, or give "
+                              "another --name")
+    if holds_run(run) and overwrite and not resume:
+        check_overwrite(run)
     if config is None:
         return 0
     if not resume:
@@ -522,7 +538,7 @@ def resumed_statistics(saved: Any, venv: Any) -> Any:
     from stable_baselines3.common.vec_env import VecNormalize
 
     if not isinstance(saved, VecNormalize):
-        raise ValueError(f"resume: the checkpoint's statistics hold a "
+        raise ValueError(f"resume: the checkpoint's statistics hold "
                          f"{type(saved).__name__}, not VecNormalize statistics "
                          "(VecNormalize.save)")
     saved.set_venv(venv)
@@ -593,7 +609,8 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
         torch.set_num_threads(config.torch_threads)
     if latest is not None:  # its steps are below n_timesteps: check_run_folder said so
         model_path, norm_path = latest
-        env = load_saved(norm_path, lambda saved: resumed_statistics(saved, env.venv))
+        env = load_saved(norm_path, lambda saved: resumed_statistics(saved, env.venv),
+                         pickled=True)
         model = load_saved(model_path, lambda p: algo.load(p, env=env,
                                                            tensorboard_log=str(run / "tb")))
         if hasattr(model, "learning_starts"):  # SAC: the replay buffer is not saved,

@@ -778,6 +778,22 @@ def test_a_step_past_a_terminated_episode_is_said() -> None:
         env.step(np.zeros(2, np.float32))
 
 
+def test_every_step_past_a_termination_is_said(monkeypatch) -> None:
+    """A review: the warning kept the reason only while each later step terminated again
+    (the make-up torque is judged afresh every step), so a one-off end warned once. Here
+    the episode ends at its second step for a reason not judged again: steps 3 and 4 both
+    warn."""
+    env = DrillStringEnv(episode_duration=3.0)
+    calls = iter(["", "an end judged once"])
+    monkeypatch.setattr(env, "_termination_reason", lambda step: next(calls, ""))
+    env.reset(seed=0)
+    action = np.zeros(2, np.float32)
+    assert not env.step(action)[2] and env.step(action)[2]
+    for _ in range(2):
+        with pytest.warns(UserWarning, match=r"\(terminated: an end judged once\)"):
+            assert not env.step(action)[2]
+
+
 def test_action_for_steps_toward_set_points_in_incremental_mode():
     """An outside check: a task-2 run trained with action_mode incremental could not be
     evaluated, every classical controller failing with "action_for: needs action_mode
