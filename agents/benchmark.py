@@ -1127,14 +1127,14 @@ SPREAD_NOTE = ("Means over seeds, +- the half-width of their 95 % interval (Stud
 
 def mean_interval(values: np.ndarray) -> float:
     """The half-width of the two-sided 95 % interval of the mean of ``values`` over seeds:
-    t(0.975, n - 1) s / sqrt(n) (0 for one value). An uncertainty of the mean, which
-    narrows as seeds are added: half the range, shown until 2026-12-06, was a spread that
-    widens with them (a statistician's review). A metric bounded below (a stuck share,
-    an SSI) can show an interval reaching past its bound where seeds are few and skewed;
-    the rows are in benchmark.csv."""
+    t(0.975, n - 1) s / sqrt(n); 0 for one value, and where one is not finite (nor is the
+    mean beside it: no interval over fewer seeds than the cell counts). An uncertainty of
+    the mean, which narrows as seeds are added: half the range, shown until 2026-12-06,
+    was a spread that widens with them (a statistician's review). A metric bounded below
+    (a stuck share, an SSI) can show an interval reaching past its bound where seeds are
+    few and skewed; the rows are in benchmark.csv."""
     values = np.asarray(values, dtype=float)
-    values = values[np.isfinite(values)]
-    if values.size < 2:
+    if values.size < 2 or not np.isfinite(values).all():
         return 0.0
     from scipy.stats import t
 

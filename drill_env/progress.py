@@ -1,12 +1,13 @@
 """Progress bars for long work (a benchmark, a stability map, a sweep of training seeds):
-tqdm's bar on a terminal and in a notebook, and a plain line at most every
-:data:`LOG_INTERVAL` seconds where the output is a log or a pipe.
+tqdm's bar on a terminal and in a notebook, and plain lines, at most one every
+:data:`LOG_INTERVAL` seconds, where the output is a log or a pipe.
 
 tqdm redraws its line with carriage returns, which a terminal and a notebook overwrite in
 place; a file keeps every frame, so a benchmark's log held hundreds of frames on one line
-with the table glued after them (an outside trial). In a log a short job prints nothing,
-a long one a line of its count, rate and time left every :data:`LOG_INTERVAL` seconds, and
-its last count at the end where the bar is kept (``leave``).
+with the table glued after them (an outside trial). In a log a job shorter than
+:data:`LOG_INTERVAL` prints nothing; a longer one a line of its count, rate and time left
+as work progresses (at an item's end, at most one a minute: items slower than that get a
+line each), and its last count at the end where the bar is kept (``leave``).
 """
 
 from __future__ import annotations
@@ -67,7 +68,8 @@ def progress_bar(*, file: IO[str] | None = None, disable: bool = False,
     from tqdm import tqdm
 
     stream = sys.stderr if file is None else file
-    if disable or is_terminal(stream) or in_notebook():
+    shown = stream in (sys.stdout, sys.stderr) and in_notebook()  # (a kernel's cell)
+    if disable or is_terminal(stream) or shown:
         return tqdm(file=stream, disable=disable, **kwargs)
     return tqdm(file=_Lines(stream), mininterval=LOG_INTERVAL, maxinterval=LOG_INTERVAL,
                 delay=LOG_INTERVAL,

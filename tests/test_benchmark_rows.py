@@ -34,6 +34,10 @@ def test_summary_interval_is_students_t_over_the_seeds():
     # against the half range's 0.10 (t(0.975, 19) = 2.093)
     rows = [_row("stiff", "x", k, ssi=0.2 + 0.2 * (k % 2)) for k in range(20)]
     assert bm.summary_table(rows, ["stiff"], ["x"])[0][3] == "0.30 +-0.05"
+    # a seed without a value (NaN, an episode that broke): its mean is not a number, and
+    # no interval of the other seeds stands beside it (a review: "nan +-6.35")
+    rows = [_row("stiff", "x", k, ssi=v) for k, v in enumerate([1.0, 2.0, float("nan")])]
+    assert bm.summary_table(rows, ["stiff"], ["x"])[0][3] == "nan"
 
 
 def test_conditions_state_the_metric_window_length():

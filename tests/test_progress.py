@@ -5,8 +5,8 @@ log held its frames with the table glued after them)."""
 from __future__ import annotations
 
 import io
-import subprocess
 import sys
+import types
 
 import drill_env.progress as progress
 
@@ -59,8 +59,10 @@ def test_a_short_job_writes_nothing_to_a_log_and_a_bar_not_kept_no_blank_line(mo
     assert log.getvalue() == ""
     with progress.progress_bar(total=30, desc="gone", leave=False, file=log) as bar:
         _count(bar, 30, clock)
-    assert log.getvalue().count("\n") == len(log.getvalue().splitlines())
-    assert all(line.strip() for line in log.getvalue().splitlines())
+    # lines at 10, 20 and 30 s; the bar, not kept, then clears its line: no blank line
+    assert [line.split("|")[0] for line in log.getvalue().splitlines()] == [
+        "gone:  33%", "gone:  67%", "gone: 100%"]
+    assert log.getvalue().endswith("]\n")
 
 
 def test_a_terminal_keeps_tqdms_redrawn_line(monkeypatch):
@@ -75,11 +77,30 @@ def test_a_terminal_keeps_tqdms_redrawn_line(monkeypatch):
     assert off.getvalue() == ""
 
 
-def test_outside_a_kernel_no_notebook_is_seen():
-    # IPython imported as a library (no kernel app): a log is a log
-    code = ("import sys, types; m = types.ModuleType('IPython'); m.get_ipython = lambda: None;"
-            " sys.modules['IPython'] = m; import drill_env.progress as p;"
-            " print(p.in_notebook())")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout
-    assert out.strip() == "False"
+class _Shell:
+    def __init__(self, config: dict) -> None:
+        self.config = config
+
+
+def test_a_notebooks_cell_keeps_tqdms_bar_and_a_file_given_there_gets_lines(monkeypatch):
+    """In a Jupyter kernel stderr is no terminal, but its cell redraws a carriage return
+    in place: the bar stays tqdm's. A file given there is still a file; and IPython
+    imported without a kernel (a script, the terminal shell) is no notebook."""
+    clock = _fake_clock(monkeypatch)
+    monkeypatch.setattr(progress, "LOG_INTERVAL", 10.0)
+    fake = types.ModuleType("IPython")
+    fake.get_ipython = lambda: _Shell({"IPKernelApp": {}})
+    monkeypatch.setitem(sys.modules, "IPython", fake)
+    assert progress.in_notebook()
+    cell = _Log()
+    monkeypatch.setattr(sys, "stderr", cell)
+    with progress.progress_bar(total=3, desc="cell") as bar:
+        _count(bar, 3, clock)
+    assert "\r" in cell.getvalue()
+    log = _Log()
+    with progress.progress_bar(total=30, desc="file", file=log) as bar:
+        _count(bar, 30, clock)
+    assert "\r" not in log.getvalue() and log.getvalue().count("\n") == 3
+    for shell in (lambda: _Shell({"TerminalIPythonApp": {}}), lambda: None):
+        fake.get_ipython = shell
+        assert not progress.in_notebook()

@@ -109,9 +109,9 @@ def fidelity_levels() -> dict[str, dict[str, str]]:
 
 
 
-def progress_bar(items: Iterable, desc: str, enabled: bool) -> Iterator:
+def with_progress(items: Iterable, desc: str, enabled: bool) -> Iterator:
     """A tqdm bar over ``items`` when enabled (:func:`drill_env.progress.progress_bar`:
-    lines a minute apart in a log)."""
+    at most a line a minute in a log)."""
     from drill_env.progress import progress_bar as bar
 
     items = list(items)
@@ -191,7 +191,7 @@ def time_simulators(sims: dict[Any, Simulator], weight_on_bit: float, seconds: f
     """
     best = dict.fromkeys(sims, math.inf)
     n_steps = {key: max(1, round(seconds / sim.dt)) for key, sim in sims.items()}
-    for _ in progress_bar(range(repeats), desc, progress):
+    for _ in with_progress(range(repeats), desc, progress):
         for key, sim in sims.items():
             hook = sim.hook_load_for(weight_on_bit)
             t0 = time.perf_counter()

@@ -15,10 +15,10 @@ from drill_env.tools.speed.common import (
     SETUP_WARNING,
     BenchmarkSettings,
     fidelity_levels,
-    progress_bar,
     ratio,
     recorded_warnings,
     table,
+    with_progress,
 )
 
 #: Random actions drawn once (seeded) and cycled through: every set-up of a level steps
@@ -186,7 +186,7 @@ def _bench_env_level(override: dict[str, str], settings: BenchmarkSettings, name
     single = {"steps_per_s": rate["single"],
               **_python_overhead(env, action, settings.env_steps)}
     counts = []
-    for n in progress_bar(settings.env_counts, f"env ({name})", progress):
+    for n in with_progress(settings.env_counts, f"env ({name})", progress):
         envs = [make_env(override) for _ in range(n)]
         for i, e in enumerate(envs):
             e.reset(seed=i)

@@ -16,10 +16,10 @@ import numpy as np
 
 from drill_env.tools.speed.common import (
     BenchmarkSettings,
-    progress_bar,
     ratio,
     source_stamp,
     table,
+    with_progress,
 )
 from drill_env.tools.speed.env import make_env
 
@@ -57,7 +57,7 @@ def bench_compile(settings: BenchmarkSettings, progress: bool = True) -> dict[st
     stamp = source_stamp()
     with tempfile.TemporaryDirectory(prefix="drill-env-numba-cache-") as cache:
         runs = {}
-        for state in progress_bar(("cold", "warm"), "compile", progress):
+        for state in with_progress(("cold", "warm"), "compile", progress):
             runs[state] = _first_step(cache)
     return {**runs, "cold_over_warm": ratio(runs["cold"]["first_step_s"],
                                              runs["warm"]["first_step_s"]),
