@@ -259,7 +259,8 @@ def _unless_interrupted(fn: Callable[[Any], Any], item: Any) -> Any:
 
 def usable_cores() -> int:
     """The cores this process may use: its CPU affinity (``taskset``, a container's
-    cpuset), capped by a cgroup v2 CPU quota (``docker --cpus``) where one is set; else
+    cpuset), capped by a cgroup CPU quota (``docker --cpus``, a pod's limit, a slice's:
+    :func:`cgroup_quota_cores`) where one is set; else
     ``os.cpu_count()``. The default number of worker processes: under ``taskset -c 0`` on
     2 cores the benchmark started two and ran 1.3-1.6x slower than with one, and in a
     container whose quota is a few of the host's many cores it started one worker per
@@ -268,20 +269,64 @@ def usable_cores() -> int:
         cores = len(os.sched_getaffinity(0))
     else:  # (no affinity on this platform)
         cores = os.cpu_count() or 1
-    try:
-        quota = quota_cores(Path("/sys/fs/cgroup/cpu.max").read_text())
-    except OSError:  # no cgroup v2
-        quota = None
+    quota = cgroup_quota_cores()
     return max(1, min(cores, quota or cores))
+
+
+def cgroup_quota_cores(root: Path = Path("/sys/fs/cgroup"),
+                       membership: Path = Path("/proc/self/cgroup")) -> int | None:
+    """The fewest cores a CPU quota of this process's cgroups allows (None: no quota, or
+    no cgroups): cgroup v2's ``cpu.max`` and v1's ``cpu.cfs_quota_us`` over
+    ``cpu.cfs_period_us``, in the process's own cgroup (``membership``) and every one
+    above it under ``root``, where a quota set higher up (a Kubernetes pod, a systemd
+    slice) limits all below it. Only ``root``'s own ``cpu.max`` was read before, which
+    is the process's cgroup only inside a container with its own cgroup namespace: a pod
+    on cgroup v1, or a job in a slice, started a worker per host core."""
+    try:
+        lines = membership.read_text().splitlines()
+    except OSError:
+        lines = []
+    quotas = []
+    for line in lines:
+        _, controllers, path = (line.split(":", 2) + ["", ""])[:3]
+        if controllers == "":  # cgroup v2 (in a hybrid layout, mounted at unified/)
+            base = root if (root / "cgroup.controllers").exists() else root / "unified"
+        elif "cpu" in controllers.split(","):  # cgroup v1's CPU controller
+            base = root / controllers if (root / controllers).is_dir() else root / "cpu"
+        else:
+            continue
+        here = base / path.strip().lstrip("/")
+        # the process's cgroup, those above it, and the mount's own (a namespace's root)
+        for folder in dict.fromkeys([*(f for f in (here, *here.parents)
+                                       if f.is_relative_to(base)), base]):
+            quota = _cgroup_quota(folder, v2=controllers == "")
+            if quota is not None:
+                quotas.append(quota)
+    return min(quotas) if quotas else None
+
+
+def _cgroup_quota(folder: Path, v2: bool) -> int | None:
+    """The cores the CPU quota of the cgroup ``folder`` allows (None: none, or no such
+    cgroup here)."""
+    try:
+        if v2:
+            return quota_cores((folder / "cpu.max").read_text())
+        return quota_cores((folder / "cpu.cfs_quota_us").read_text().strip() + " "
+                           + (folder / "cpu.cfs_period_us").read_text())
+    except OSError:
+        return None
 
 
 def quota_cores(cpu_max: str) -> int | None:
     """The cores a cgroup v2 ``cpu.max`` (``"<quota> <period>"`` in us, or ``"max
-    <period>"``) allows, rounded up; None where it sets no quota or cannot be read."""
+    <period>"``; v1's quota and period in one line, -1 for none) allows, rounded up; None
+    where it sets no quota or cannot be read."""
     try:
         quota, period = cpu_max.split()[:2]
-        return None if quota == "max" else max(1, math.ceil(int(quota) / int(period)))
-    except ValueError:
+        if quota in ("max", "-1"):
+            return None
+        return max(1, math.ceil(int(quota) / int(period)))
+    except (ValueError, ZeroDivisionError):
         return None
 
 

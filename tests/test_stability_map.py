@@ -456,6 +456,54 @@ def test_the_default_workers_are_the_cores_this_process_may_use():
     assert quota_cores("50000 100000") == 1
     assert quota_cores("max 100000") is None
     assert quota_cores("") is None
+    assert quota_cores("-1 100000") is None  # cgroup v1: no quota
+    assert quota_cores("100000 0") is None
+
+
+def _cgroup(root, relative: str, **files: str) -> None:
+    folder = root / relative
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, text in files.items():
+        (folder / name.replace("_", ".", 1)).write_text(text)
+
+
+def test_a_cpu_quota_above_the_process_in_its_cgroups_caps_the_workers(tmp_path):
+    """Only the cgroup mount's own cpu.max was read: right inside a container with its own
+    cgroup namespace, but a job in a systemd slice or a Kubernetes pod on cgroup v1 (whose
+    quota is set on the pod, above the process's cgroup) started a worker per host core.
+    Fake cgroup trees: v2 with the quota on a parent, v1 CFS with it on the pod, a hybrid
+    layout (v2 at unified/), and none at all."""
+    from drill_env.sweep import cgroup_quota_cores
+
+    v2 = tmp_path / "v2"
+    _cgroup(v2, "", cgroup_controllers="cpu memory\n", cpu_max="max 100000\n")
+    _cgroup(v2, "slice", cpu_max="300000 100000\n")  # 3 cores for the slice
+    _cgroup(v2, "slice/job", cpu_max="max 100000\n")
+    own = tmp_path / "own_v2"
+    own.write_text("0::/slice/job\n")
+    assert cgroup_quota_cores(v2, own) == 3
+    _cgroup(v2, "slice/job", cpu_max="150000 100000\n")  # a tighter one below: 2
+    assert cgroup_quota_cores(v2, own) == 2
+    v1 = tmp_path / "v1"
+    _cgroup(v1, "cpu,cpuacct/kubepods/pod1", cpu_cfs_quota_us="200000\n",
+            cpu_cfs_period_us="100000\n")
+    _cgroup(v1, "cpu,cpuacct/kubepods/pod1/box", cpu_cfs_quota_us="-1\n",
+            cpu_cfs_period_us="100000\n")
+    mine = tmp_path / "own_v1"
+    mine.write_text("4:memory:/kubepods/pod1/box\n2:cpu,cpuacct:/kubepods/pod1/box\n"
+                    "0::/\n")
+    assert cgroup_quota_cores(v1, mine) == 2
+    hybrid = tmp_path / "hybrid"  # v1 controllers, v2 at unified/ without a quota
+    _cgroup(hybrid, "unified", cpu_max="max 100000\n")
+    _cgroup(hybrid, "cpu", cpu_cfs_quota_us="-1\n", cpu_cfs_period_us="100000\n")
+    both = tmp_path / "own_hybrid"
+    both.write_text("1:cpu:/\n0::/\n")
+    assert cgroup_quota_cores(hybrid, both) is None
+    # a namespace: the process's path is not under this mount, the mount's root counts
+    _cgroup(hybrid, "cpu", cpu_cfs_quota_us="400000\n")
+    both.write_text("1:cpu:/docker/abc\n0::/docker/abc\n")
+    assert cgroup_quota_cores(hybrid, both) == 4
+    assert cgroup_quota_cores(tmp_path / "nothing", tmp_path / "missing") is None
 
 
 def _numba_threads(_: int) -> tuple[int, int]:
