@@ -4,11 +4,14 @@
 # build. Elsewhere add --index-url https://download.pytorch.org/whl/cpu to its line.
 PY := .venv/bin/python
 PIP := .venv/bin/pip
+# the Python that makes the venvs: `make PYTHON=python3.12 test` (macOS's command-line
+# tools' python3 is 3.9, older than the package needs)
+PYTHON ?= python3
 
 .PHONY: demo test test-floors lint bench clean
 
 .venv/installed: pyproject.toml
-	python3 -m venv .venv
+	$(PYTHON) -m venv .venv
 	$(PIP) install -q --upgrade pip
 	$(PIP) install -q torch==2.13.0
 	$(PIP) install -q -e ".[dev,distributed]"
@@ -23,7 +26,7 @@ test: .venv/installed
 # the suite on the lowest versions pyproject.toml allows (.ci/floors.txt), in its own
 # .venv-floors; not part of CI (a second install: ~10 min more)
 test-floors:
-	python3 -m venv .venv-floors
+	$(PYTHON) -m venv .venv-floors
 	.venv-floors/bin/pip install -q --upgrade pip
 	.venv-floors/bin/pip install -q torch==2.13.0
 	.venv-floors/bin/pip install -q -r .ci/floors.txt

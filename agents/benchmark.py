@@ -219,7 +219,7 @@ class Episode:
         """Whether :attr:`recording` is there and was made under this episode's stamp."""
         sidecar = self.recording_stamp
         return (self.recording.exists() and sidecar.exists()
-                and sidecar.read_text().partition("\n")[0] == self.stamp)
+                and sidecar.read_text(encoding="utf-8").partition("\n")[0] == self.stamp)
 
 
 def label(controller: str) -> str:
@@ -257,9 +257,11 @@ def labels(controllers: Sequence[str]) -> list[str]:
     out = [f"learned-{Path(c.partition(':')[2]).resolve().name}"
            if c.startswith("learned:") and plain.count(plain[k]) > 1 else plain[k]
            for k, c in enumerate(controllers)]
+    folded = [n.casefold() for n in out]  # (case-blind file systems: macOS, Windows)
     for name in out:
-        if out.count(name) > 1:
-            twins = [c for c, n in zip(controllers, out, strict=True) if n == name]
+        if folded.count(name.casefold()) > 1:
+            twins = [c for c, n in zip(controllers, out, strict=True)
+                     if n.casefold() == name.casefold()]
             from agents.trivial import HeldAction
 
             if name.startswith("constant-") or HeldAction.from_label(name) is not None:
@@ -270,8 +272,10 @@ def labels(controllers: Sequence[str]) -> list[str]:
 
             fix = ("set another name attribute on one of the classes"
                    if any(is_imported(c) for c in twins) else "rename a run folder")
+            alike = " (names that differ only in case name the same files on macOS " \
+                "and Windows)" if len({out[controllers.index(c)] for c in twins}) > 1 else ""
             raise ValueError(f"controllers: {', '.join(twins)} would share the name "
-                             f"{name!r} in the table; {fix}")
+                             f"{name!r} in the table{alike}; {fix}")
     return out
 
 
@@ -643,7 +647,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         env.close()
     if episode.record and getattr(env, "last_path", None) == episode.recording:
         # (only a file this run wrote: RERUN=off writes none, and an older one stays old)
-        episode.recording_stamp.write_text(f"{episode.stamp}\n{episode.run}\n")
+        episode.recording_stamp.write_text(f"{episode.stamp}\n{episode.run}\n", encoding="utf-8")
     everything = np.concatenate(kept) if kept else np.zeros((0, len(RECORD_CHANNELS)))
     records = everything[everything[:, R.TIME] >= start + settings.warmup]
     if len(records) < 2 <= len(everything) and reason:  # a failure in the warm-up is a
@@ -985,7 +989,7 @@ def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool
         if not e.recording.exists() or e.recording_current():
             continue
         sidecar = e.recording_stamp
-        lines = sidecar.read_text().split() if sidecar.exists() else []
+        lines = sidecar.read_text(encoding="utf-8").split() if sidecar.exists() else []
         # one folder per run (its run stamp; a recording of before it had only its row's),
         # so a second set-aside keeps the first; a damaged stamp is not a path
         stamp = lines[-1] if lines else ""

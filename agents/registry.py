@@ -353,7 +353,8 @@ def check_interface(name: str, controller: Any) -> None:
         raise ValueError(f"controller: {name}: name {own!r} cannot name its rows and "
                          "files: letters, digits and _ . + - (set the class's name "
                          "attribute)")
-    if own in CONTROLLERS or own.startswith(("constant-", "learned-")) or \
+    if own.casefold() in {c.casefold() for c in CONTROLLERS} or \
+            own.casefold().startswith(("constant-", "learned-")) or \
             HeldAction.from_label(own) is not None:
         raise ValueError(f"controller: {name}: name {own!r} is a built-in controller's "
                          "(set the class's name attribute to your own)")

@@ -161,6 +161,8 @@ def unwritable(folder: Path) -> str:
     if here.exists() and not here.is_dir():
         return "is a file; give a folder (it is created if missing)"
     while not here.exists():
+        if here == here.parent:  # a root that is not there (an unmapped drive, Z:\)
+            return f"{here} does not exist"
         here = here.parent
     if not here.is_dir():
         return f"{here} is a file, not a folder"
@@ -484,7 +486,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.record is not None:
         summary["recording"] = str(env.last_path) if env.last_path else None
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "run_summary.json").write_text(json.dumps(summary, indent=2))
+    (args.out / "run_summary.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
     with (args.out / "run_history.jsonl").open("a", encoding="utf-8") as history:
         finished = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # tells the runs of a history apart
         history.write(json.dumps({"finished": finished, **summary}) + "\n")
@@ -757,7 +759,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             text = comparison_text(paired_comparison(rows, policy), sum(mine) / len(mine),
                                    policy)
             (args.out / "comparison.md").write_text(f"# {heading}, paired against {policy}"
-                                                    f"\n\n{text}")
+                                                    f"\n\n{text}", encoding="utf-8")
             print(f"\n{text}")
     print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md"
           + (", comparison.md" if args.paired is not None else "")
@@ -1118,7 +1120,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
 def map_positions(path: Path) -> list[str]:
     """The positions of the maps in a stability-map JSON file, [] without a readable one."""
     try:
-        return [m["position"] for m in json.loads(path.read_text())["maps"]]
+        return [m["position"] for m in json.loads(path.read_text(encoding="utf-8"))["maps"]]
     except (OSError, ValueError, KeyError, TypeError):
         return []
 
@@ -1338,7 +1340,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
             "top_drive_controllers": [
                 {k: None if isinstance(v, float) and not math.isfinite(v) else v
                  for k, v in dataclasses.asdict(law).items()} for law in laws]}
-    (args.out / "modes.json").write_text(json.dumps(data, indent=2))
+    (args.out / "modes.json").write_text(json.dumps(data, indent=2), encoding="utf-8")
     print(f"wrote {png} and {args.out / 'modes.json'}")
     return 0
 
@@ -1461,7 +1463,7 @@ def cmd_well(args: argparse.Namespace) -> int:
     print(f"well {name}: {trajectory.total_md:.0f} m MD, TVD {end[0, 2]:.0f} m, departure "
           f"{math.hypot(end[0, 0], end[0, 1]):.0f} m, inclination at TD "
           f"{math.degrees(trajectory.inclination(trajectory.total_md)[0]):.1f} deg")
-    table = json.loads(paths[1].read_text())["torque_drag"]
+    table = json.loads(paths[1].read_text(encoding="utf-8"))["torque_drag"]
     print(f"at TD (the survey's end), off bottom (soft string, string of {whose}): hook load "
           "pick-up / rotating / slack-off (kN), rotating wall torque (kN m)")
     for mu in frictions:

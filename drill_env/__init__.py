@@ -265,6 +265,13 @@ def _load_tbb() -> str | None:
 
 TBB_LIBRARY = _load_tbb()
 
+# On macOS numba's OpenMP layer can bind the libomp torch loaded before it, and a parallel
+# kernel after `import torch` then aborts or crashes (numba#10492; scanpy#4026 shows it on
+# Apple silicon), which is what a training run does. There, the batched envs take numba's
+# own workqueue layer unless the user chose one.
+if sys.platform == "darwin":
+    os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
+
 # OpenMP workers (torch's, and numba's for the batched env) wait for the next parallel
 # region while serial Python runs. libgomp's default wait spins, which costs nothing on
 # an idle machine and takes the core from everyone else on a shared one: PPO training

@@ -528,7 +528,7 @@ def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings,
     data = {"settings": asdict(settings), "controller": controller,
             "physics": jsonable(physics or {}), "config": source,
             "code": source_digest("drill_env"), "maps": [m.to_json() for m in maps]}
-    json_path.write_text(json.dumps(data, indent=1))
+    json_path.write_text(json.dumps(data, indent=1), encoding="utf-8")
     return [json_path, plot_maps(maps, out / f"{map_stem(controller, source)}.png",
                                  controller, source)]
 
@@ -541,7 +541,7 @@ def kept_maps(path: Path, maps: Sequence[StabilityMap], settings: MapSettings,
     (else they do not belong in one picture and are replaced); [] without a readable
     file."""
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(path.read_text(encoding="utf-8"))
         old = [StabilityMap.from_json(d) for d in data["maps"]]
     except (OSError, ValueError, KeyError, TypeError):
         return []

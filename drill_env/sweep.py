@@ -31,6 +31,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -111,7 +112,9 @@ def command_warning(command: str, said_folder: str | None = None) -> Any:
             text = f"drill-env {command}: warning: {message}\n"
             if not first_time(text):
                 return ""
-            return ("\r\033[K" if sys.stderr.isatty() else "") + text
+            # (the clearing escape: not in Windows' classic console, which prints it)
+            clear = sys.stderr.isatty() and os.name != "nt"
+            return ("\r\033[K" if clear else "") + text
         return plain(message, category, filename, lineno, line)
 
     return formatted
@@ -142,7 +145,22 @@ def _single_threaded_worker(parent: int) -> None:
         # SIGKILL, not an interrupt: a worker that saved would then wait forever to hand
         # its result to the dead parent
         libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+    else:  # (macOS, Windows: no such signal) a thread that ends the worker with it
+        threading.Thread(target=_end_with_parent, daemon=True,
+                         name="drill-env-parent-watch").start()
     if os.getppid() != parent:  # the parent died before the call above
+        os._exit(1)
+
+
+def _end_with_parent() -> None:
+    """In a pool worker: wait for the parent process to end, then end this one at once,
+    as Linux's PR_SET_PDEATHSIG does (a portability review: off Linux a killed command
+    left its workers training into the run folders)."""
+    import multiprocessing
+
+    parent = multiprocessing.parent_process()
+    if parent is not None:
+        parent.join()
         os._exit(1)
 
 
@@ -283,7 +301,7 @@ def cgroup_quota_cores(root: Path = Path("/sys/fs/cgroup"),
     is the process's cgroup only inside a container with its own cgroup namespace: a pod
     on cgroup v1, or a job in a slice, started a worker per host core."""
     try:
-        lines = membership.read_text().splitlines()
+        lines = membership.read_text(encoding="utf-8").splitlines()
     except OSError:
         lines = []
     quotas = []
@@ -310,9 +328,9 @@ def _cgroup_quota(folder: Path, v2: bool) -> int | None:
     cgroup here)."""
     try:
         if v2:
-            return quota_cores((folder / "cpu.max").read_text())
-        return quota_cores((folder / "cpu.cfs_quota_us").read_text().strip() + " "
-                           + (folder / "cpu.cfs_period_us").read_text())
+            return quota_cores((folder / "cpu.max").read_text(encoding="utf-8"))
+        return quota_cores((folder / "cpu.cfs_quota_us").read_text(encoding="utf-8").strip() + " "
+                           + (folder / "cpu.cfs_period_us").read_text(encoding="utf-8"))
     except OSError:
         return None
 
@@ -330,6 +348,11 @@ def quota_cores(cpu_max: str) -> int | None:
         return None
 
 
+#: The most worker processes ProcessPoolExecutor takes on Windows (its wait on their
+#: handles is limited to 63, two of them its own).
+WINDOWS_MAX_WORKERS = 61
+
+
 class ProcessExecutor:
     """A pool of ``workers`` local processes (spawned, so numba and threads start clean)."""
 
@@ -339,6 +362,8 @@ class ProcessExecutor:
         import multiprocessing as mp
 
         self.workers = max(1, workers or usable_cores())
+        if sys.platform == "win32":  # (Windows' wait on the workers takes at most 61)
+            self.workers = min(self.workers, WINDOWS_MAX_WORKERS)
         self._pool = ProcessPoolExecutor(self.workers, mp_context=mp.get_context("spawn"),
                                          initializer=_single_threaded_worker,
                                          initargs=(os.getpid(),))
@@ -382,7 +407,9 @@ class ProcessExecutor:
         processes = list(getattr(self._pool, "_processes", {}).values())
         self._pool.shutdown(wait=False, cancel_futures=True)  # idle workers are told to end
         for process in processes:  # the interrupt reaches the workers also where it was
-            if process.is_alive() and process.pid:  # this process's alone (kill -INT)
+            # this process's alone (kill -INT); not on Windows, where os.kill with SIGINT
+            # terminates the worker at once (its console's Ctrl-C has reached it already)
+            if process.is_alive() and process.pid and os.name != "nt":
                 with contextlib.suppress(OSError):
                     os.kill(process.pid, signal.SIGINT)
         deadline = time.monotonic() + self.ABORT_GRACE
@@ -480,7 +507,7 @@ class ResultStore:
     def put(self, key: str, result: Any) -> None:
         self._results[key] = result
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        with self.path.open("a") as f:
+        with self.path.open("a", encoding="utf-8") as f:
             if self._broken_end:
                 f.write("\n")
                 self._broken_end = False

@@ -153,7 +153,7 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
                 "azimuth_deg": np.degrees(trajectory.survey.azimuth).tolist()}
     data = out / f"well_{name}.json"
     data.write_text(json.dumps({"survey": stations, "torque_drag": table,
-                                "units": JSON_UNITS}, indent=1))
+                                "units": JSON_UNITS}, indent=1), encoding="utf-8")
     return [png, data]
 
 

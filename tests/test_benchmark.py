@@ -1419,7 +1419,25 @@ BROKEN = {  # file -> (code, what the one-line error says)
     "stiff.py": ("from agents import SetPointController\n\n\n"
                  "class Bad(SetPointController):\n    name = 'stiff'\n",
                  "name 'stiff' is a built-in controller's"),
+    # a built-in's name in other case: its series and recordings would be the built-in's
+    # files on a case-blind file system (macOS, Windows; a portability review)
+    "upper.py": ("from agents import SetPointController\n\n\n"
+                 "class Bad(SetPointController):\n    name = 'Stiff'\n",
+                 "name 'Stiff' is a built-in controller's"),
 }
+
+
+def test_labels_that_differ_only_in_case_are_refused(tmp_path, monkeypatch):
+    """Two controllers of one's own, Gentle and gentle, wrote the same series and
+    recording files on macOS and Windows, each over the other's."""
+    (tmp_path / "mine.py").write_text(
+        "from agents import SetPointController\n\n\n"
+        "class Gentle(SetPointController):\n    pass\n\n\n"
+        "class gentle(SetPointController):\n    pass\n")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValueError, match=r"would share the name 'Gentle' in the table "
+                                         r"\(names that differ only in case"):
+        bm.labels(["mine.py:Gentle", "mine.py:gentle"])
 
 
 @pytest.mark.parametrize("file", sorted(BROKEN))

@@ -336,6 +336,6 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     mine = [r["episode_return"] for r in rows if r["controller"] == policy]
     if mine:
         text = comparison_text(paired_comparison(rows, policy), float(np.mean(mine)))
-        (out / "comparison.md").write_text(f"# {heading}\n\n{text}")
+        (out / "comparison.md").write_text(f"# {heading}\n\n{text}", encoding="utf-8")
         print(text)  # beside the benchmark's table, which is printed too
     return rows

@@ -53,10 +53,10 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     # are (stopped before it noted them); a new one starts them
     if not finished(run, config):
         train(config, run, resume=holds_run(run), progress=False)
-    info = json.loads((run / "run.json").read_text())
+    info = json.loads((run / "run.json").read_text(encoding="utf-8"))
     rows = []
     if (run / "evaluations.csv").exists():  # none before the first evaluation
-        with (run / "evaluations.csv").open() as f:
+        with (run / "evaluations.csv").open(encoding="utf-8") as f:
             rows = list(csv.DictReader(f))
     best = max(rows, key=lambda r: float(r["return"])) if rows else None
     return {"seed": config.seed, "run": str(run), "env_steps": info["env_steps"],
@@ -147,5 +147,5 @@ def write_summary(results: list[dict[str, Any]], path: Path, config: TrainConfig
     if len(values) > 1:
         lines += ["", f"Best validation return over seeds: {statistics.mean(values):.1f} +- "
                       f"{statistics.stdev(values):.1f} (mean +- std, {len(values)} seeds)."]
-    path.write_text("\n".join(lines) + "\n")
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path

@@ -151,7 +151,7 @@ def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
     path = run / "evaluations.csv"
     rows: list[dict[str, str]] = []
     if path.exists():
-        with path.open() as f:
+        with path.open(encoding="utf-8") as f:
             rows = list(csv.DictReader(f))
     best = max((float(r["return"]) for r in rows), default=-np.inf) \
         if (run / "best_model.zip").exists() else -np.inf
@@ -162,14 +162,14 @@ def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
     sessions: tuple[int, ...] = ()
     if from_checkpoint and progress.exists():
         try:
-            record = json.loads(progress.read_text())
+            record = json.loads(progress.read_text(encoding="utf-8"))
             wall = float(record["wall_s"])
             sessions = _sessions(record)
         except (ValueError, KeyError, TypeError) as err:  # written whole since 2026-12-05
             raise ValueError(f"resume: {progress} is damaged ({err!r}); delete it (the run's "
                              "wall time then counts from its last evaluation)") from None
     elif not from_checkpoint and (run / "run.json").exists():
-        record = json.loads((run / "run.json").read_text())
+        record = json.loads((run / "run.json").read_text(encoding="utf-8"))
         wall = float(record.get("wall_s", 0.0))
         sessions = _sessions(record)
     else:  # a checkpoint of an older version: the last evaluation before it
@@ -264,7 +264,7 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
             """Whether an evaluation after crossing grid line ``line`` has its row."""
             if not self.path.exists():
                 return False
-            with self.path.open() as f:
+            with self.path.open(encoding="utf-8") as f:
                 return any(int(float(r["timesteps"])) // self.every == line
                            for r in csv.DictReader(f))
 
@@ -746,7 +746,8 @@ def add_row(path: Path, row: dict[str, Any]) -> None:
     failed on it."""
     old = ""
     if path.exists():
-        with path.open(newline="") as f:  # its \r\n line ends as the csv module wrote them
+        # its \r\n line ends as the csv module wrote them
+        with path.open(newline="", encoding="utf-8") as f:
             old = f.read()
     save_text(path, old + csv_text(row, [row], header=not old), newline="")
 
@@ -768,7 +769,7 @@ def plot_learning_curve(run: Path) -> Path | None:
         return None
     from drill_env.figures import agg_figure
 
-    with path.open() as f:
+    with path.open(encoding="utf-8") as f:
         rows = list(csv.DictReader(f))
     if not rows:
         return None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -62,7 +63,8 @@ def port_free(port: int, bind: str = "0.0.0.0") -> bool:
 
     family = socket.AF_INET6 if ":" in bind else socket.AF_INET
     with socket.socket(family, socket.SOCK_STREAM) as probe:
-        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        if os.name != "nt":  # (on Windows it lets a probe bind a port someone listens on)
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             probe.bind((bind, port))
         except PermissionError:
@@ -150,7 +152,17 @@ def check_recording(path: str | os.PathLike) -> str | None:
 
 def stop_viewer(proc: subprocess.Popen, timeout: float = 5.0) -> int:
     """Stop the viewer and every process it started (its process group): SIGTERM, then
-    SIGKILL after ``timeout`` seconds. Returns its exit code."""
+    SIGKILL after ``timeout`` seconds (on Windows, which has neither nor process groups
+    of that kind: terminate, then kill, the viewer alone). Returns its exit code."""
+    if not hasattr(os, "killpg"):
+        for stop in (proc.terminate, proc.kill):
+            with contextlib.suppress(OSError):
+                stop()
+            try:
+                return proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                continue
+        return proc.wait()
     for sig in (signal.SIGTERM, signal.SIGKILL):
         try:
             os.killpg(proc.pid, sig)

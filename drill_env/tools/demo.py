@@ -87,7 +87,7 @@ def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]],
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
     fig.savefig(out / "demo_stick_slip.png", dpi=120)
-    (out / "demo_summary.json").write_text(json.dumps(rows, indent=2))
+    (out / "demo_summary.json").write_text(json.dumps(rows, indent=2), encoding="utf-8")
     echo(f"wrote {out / 'demo_stick_slip.png'} and {out / 'demo_summary.json'} "
          f"({time.perf_counter() - t0:.1f} s)")
     return rows, verdict

@@ -1,0 +1,118 @@
+"""What differs off Linux, simulated here (a portability review, 2026-12-06: CI runs on
+Linux only). Each test takes away or fakes what macOS or Windows lacks and checks the
+code's own way around it."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+
+def test_an_output_folder_on_a_root_that_is_not_there_is_refused(monkeypatch):
+    """An unmapped drive (Z:\\) is its own parent and does not exist: the walk up to an
+    existing folder never ended. Simulated: no path exists at all."""
+    from drill_cli.main import unwritable
+
+    monkeypatch.setattr(pathlib.Path, "exists", lambda self: False)
+    said = unwritable(pathlib.Path("/nowhere/out"))
+    assert said.endswith("does not exist") and said.startswith(os.sep)
+
+
+def test_the_viewer_stops_without_process_groups(monkeypatch):
+    """Windows has neither os.killpg nor SIGKILL: stop_viewer raised AttributeError at a
+    Ctrl-C of `drill-env replay`. Without killpg it terminates, then kills, the viewer
+    itself."""
+    from drill_env.recording.replay import stop_viewer
+
+    monkeypatch.delattr(os, "killpg")
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    code = stop_viewer(proc, timeout=5.0)
+    assert proc.poll() is not None and code != 0
+
+
+def test_a_pool_on_windows_takes_at_most_61_workers(monkeypatch):
+    """ProcessPoolExecutor refuses more than 61 workers on Windows: every sweep failed
+    on a 64-core workstation. Simulated: the platform's name, the pool not started."""
+    import drill_env.sweep as sweep
+
+    asked = []
+    monkeypatch.setattr(sweep, "ProcessPoolExecutor",
+                        lambda workers, **kw: asked.append(workers))
+    monkeypatch.setattr(sys, "platform", "win32")
+    assert sweep.ProcessExecutor(128).workers == sweep.WINDOWS_MAX_WORKERS == 61
+    monkeypatch.setattr(sys, "platform", "linux")
+    assert sweep.ProcessExecutor(128).workers == 128
+    assert asked == [61, 128]
+
+
+@pytest.mark.skipif(not hasattr(os, "killpg"), reason="process groups: POSIX")
+def test_the_viewer_still_stops_its_process_group_where_there_is_one():
+    from drill_env.recording.replay import stop_viewer
+
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"],
+                            start_new_session=True)
+    assert stop_viewer(proc, timeout=5.0) == -15
+
+
+_ORPHAN = '''
+import multiprocessing as mp, os, sys, threading, time
+
+from drill_env.sweep import _end_with_parent
+
+
+def child(path):
+    threading.Thread(target=_end_with_parent, daemon=True).start()
+    with open(path, "w") as f:
+        f.write(str(os.getpid()))
+    time.sleep(60)
+
+
+if __name__ == "__main__":
+    mp.get_context("spawn").Process(target=child, args=(sys.argv[1],)).start()
+    time.sleep(60)
+'''
+
+
+def _alive(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie no one has reaped yet does not)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    stat = pathlib.Path(f"/proc/{pid}/stat")
+    try:
+        return stat.read_text().rpartition(")")[2].split()[0] != "Z"
+    except OSError:  # no /proc (macOS): kill's answer
+        return True
+
+
+@pytest.mark.skipif(not hasattr(os, "getpgid"), reason="signals to a pid: POSIX")
+def test_a_worker_ends_with_its_killed_parent_without_linux_signals(tmp_path):
+    """Off Linux there is no PR_SET_PDEATHSIG: a command killed outright left its pool's
+    workers running. The worker's watch thread (used there) ends it with its parent; here
+    a spawned child of a parent killed with SIGKILL."""
+    import signal
+    import time
+
+    script = tmp_path / "orphan.py"
+    script.write_text(_ORPHAN)
+    marker = tmp_path / "child.pid"
+    parent = subprocess.Popen([sys.executable, str(script), str(marker)])
+    try:
+        deadline = time.monotonic() + 60
+        while not (marker.exists() and marker.read_text()) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        child = int(marker.read_text())
+        assert _alive(child)
+        parent.send_signal(signal.SIGKILL)
+        parent.wait(10)
+        deadline = time.monotonic() + 10
+        while _alive(child) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not _alive(child)
+    finally:
+        parent.kill()
