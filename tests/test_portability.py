@@ -116,3 +116,20 @@ def test_a_worker_ends_with_its_killed_parent_without_linux_signals(tmp_path):
         assert not _alive(child)
     finally:
         parent.kill()
+
+
+def test_on_macos_the_batched_envs_take_numbas_workqueue_layer():
+    """numba's OpenMP layer can bind the libomp torch loaded before it on macOS, and a
+    parallel kernel after `import torch` then crashes (numba#10492): there `import
+    drill_env` sets the workqueue layer, unless the user chose one. Simulated: the
+    platform's name before the import, in a fresh process."""
+    code = ("import os, sys; sys.platform = 'darwin'; import drill_env; "
+            "print(os.environ.get('NUMBA_THREADING_LAYER'), drill_env.TBB_LIBRARY)")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
+    said = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=120, check=True).stdout.split()
+    assert said == ["workqueue", "None"]
+    env["NUMBA_THREADING_LAYER"] = "omp"
+    said = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=120, check=True).stdout.split()
+    assert said == ["omp", "None"]
