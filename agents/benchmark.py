@@ -264,7 +264,8 @@ def labels(controllers: Sequence[str]) -> list[str]:
                      if n.casefold() == name.casefold()]
             from agents.trivial import HeldAction
 
-            if name.startswith("constant-") or HeldAction.from_label(name) is not None:
+            if all(c.startswith(("constant:", "held:")) for c in twins) and (
+                    name.startswith("constant-") or HeldAction.from_label(name) is not None):
                 what = "set points" if name.startswith("constant-") else "held actions"
                 raise ValueError(f"controllers: {', '.join(twins)} are the same {what}; "
                                  "give them once")

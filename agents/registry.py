@@ -355,7 +355,7 @@ def check_interface(name: str, controller: Any) -> None:
                          "attribute)")
     if own.casefold() in {c.casefold() for c in CONTROLLERS} or \
             own.casefold().startswith(("constant-", "learned-")) or \
-            HeldAction.from_label(own) is not None:
+            HeldAction.from_label(own.casefold()) is not None:
         raise ValueError(f"controller: {name}: name {own!r} is a built-in controller's "
                          "(set the class's name attribute to your own)")
 

@@ -269,8 +269,12 @@ TBB_LIBRARY = _load_tbb()
 # kernel after `import torch` then aborts or crashes (numba#10492; scanpy#4026 shows it on
 # Apple silicon), which is what a training run does. There, the batched envs take numba's
 # own workqueue layer unless the user chose one.
-if sys.platform == "darwin":
-    os.environ.setdefault("NUMBA_THREADING_LAYER", "workqueue")
+if sys.platform == "darwin" and "NUMBA_THREADING_LAYER" not in os.environ:
+    os.environ["NUMBA_THREADING_LAYER"] = "workqueue"
+    if "numba" in sys.modules:  # numba read its settings at its import: read them again
+        from numba.core import config as _numba_config
+
+        _numba_config.reload_config()
 
 # OpenMP workers (torch's, and numba's for the batched env) wait for the next parallel
 # region while serial Python runs. libgomp's default wait spins, which costs nothing on

@@ -36,7 +36,7 @@ import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any, Protocol
 
 #: Called with ``(index, result)`` for a task that finished while a stopped sweep waited
@@ -313,6 +313,8 @@ def cgroup_quota_cores(root: Path = Path("/sys/fs/cgroup"),
             base = root / controllers if (root / controllers).is_dir() else root / "cpu"
         else:
             continue
+        if ".." in PurePosixPath(path.strip()).parts:  # a cgroup outside this mount's
+            continue  # namespace: not readable here, and the root's quota is not its own
         here = base / path.strip().lstrip("/")
         # the process's cgroup, those above it, and the mount's own (a namespace's root)
         for folder in dict.fromkeys([*(f for f in (here, *here.parents)
@@ -408,7 +410,9 @@ class ProcessExecutor:
         self._pool.shutdown(wait=False, cancel_futures=True)  # idle workers are told to end
         for process in processes:  # the interrupt reaches the workers also where it was
             # this process's alone (kill -INT); not on Windows, where os.kill with SIGINT
-            # terminates the worker at once (its console's Ctrl-C has reached it already)
+            # terminates the worker at once: there a Ctrl-C has reached the workers through
+            # their console, and on another abort (a task's error) they are not told, and
+            # are killed after the grace below without saving
             if process.is_alive() and process.pid and os.name != "nt":
                 with contextlib.suppress(OSError):
                     os.kill(process.pid, signal.SIGINT)

@@ -1424,6 +1424,9 @@ BROKEN = {  # file -> (code, what the one-line error says)
     "upper.py": ("from agents import SetPointController\n\n\n"
                  "class Bad(SetPointController):\n    name = 'Stiff'\n",
                  "name 'Stiff' is a built-in controller's"),
+    "held.py": ("from agents import SetPointController\n\n\n"
+                "class Bad(SetPointController):\n    name = 'HELD+1'\n",
+                "name 'HELD+1' is a built-in controller's"),
 }
 
 

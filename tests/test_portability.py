@@ -116,6 +116,8 @@ def test_a_worker_ends_with_its_killed_parent_without_linux_signals(tmp_path):
         assert not _alive(child)
     finally:
         parent.kill()
+        if marker.exists() and marker.read_text() and _alive(int(marker.read_text())):
+            os.kill(int(marker.read_text()), signal.SIGKILL)  # (a watch that failed)
 
 
 def test_on_macos_the_batched_envs_take_numbas_workqueue_layer():
@@ -133,3 +135,11 @@ def test_on_macos_the_batched_envs_take_numbas_workqueue_layer():
     said = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env=env, timeout=120, check=True).stdout.split()
     assert said == ["omp", "None"]
+    # numba imported first read its settings then: drill_env has it read them again (a
+    # review: from the cache no compile would, and the choice went unheard)
+    del env["NUMBA_THREADING_LAYER"]
+    first = ("import sys, numba; sys.platform = 'darwin'; import drill_env; "
+             "from numba.core import config; print(config.THREADING_LAYER)")
+    said = subprocess.run([sys.executable, "-c", first], capture_output=True, text=True,
+                          env=env, timeout=120, check=True).stdout.split()
+    assert said == ["workqueue"]

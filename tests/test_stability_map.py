@@ -504,6 +504,12 @@ def test_a_cpu_quota_above_the_process_in_its_cgroups_caps_the_workers(tmp_path)
     both.write_text("1:cpu:/docker/abc\n0::/docker/abc\n")
     assert cgroup_quota_cores(hybrid, both) == 4
     assert cgroup_quota_cores(tmp_path / "nothing", tmp_path / "missing") is None
+    # a cgroup outside the mount's namespace (a path through ..): nothing read above the
+    # mount, nor the namespace root's quota taken for it (a review)
+    _cgroup(tmp_path, "", cpu_max="100000 100000\n")
+    both.write_text("0::/../x\n")
+    _cgroup(hybrid, "unified", cpu_max="200000 100000\n")
+    assert cgroup_quota_cores(hybrid, both) is None
 
 
 def _numba_threads(_: int) -> tuple[int, int]:

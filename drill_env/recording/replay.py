@@ -152,8 +152,14 @@ def check_recording(path: str | os.PathLike) -> str | None:
 
 def stop_viewer(proc: subprocess.Popen, timeout: float = 5.0) -> int:
     """Stop the viewer and every process it started (its process group): SIGTERM, then
-    SIGKILL after ``timeout`` seconds (on Windows, which has neither nor process groups
-    of that kind: terminate, then kill, the viewer alone). Returns its exit code."""
+    SIGKILL after ``timeout`` seconds. Returns its exit code. On Windows, which has
+    neither nor process groups of that kind, ``taskkill /T /F`` ends the viewer's tree:
+    ``rerun.exe`` is a launcher whose child is the viewer, which ``terminate`` alone left
+    running (a review); elsewhere without process groups: terminate, then kill."""
+    if os.name == "nt":
+        subprocess.run(["taskkill", "/PID", str(proc.pid), "/T", "/F"],
+                       capture_output=True, check=False)
+        return proc.wait()
     if not hasattr(os, "killpg"):
         for stop in (proc.terminate, proc.kill):
             with contextlib.suppress(OSError):
