@@ -100,12 +100,13 @@ LEGEND_ROW = 6
 def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
               scenarios: Sequence[str], path: Path, title: str = "Controller benchmark"
               ) -> None:
-    """One panel per metric; bars per controller, grouped by scenario, a dot per seed (in
-    seed order across the bar); an SSI bar of a stick-slip still growing in the window, or
+    """One panel per metric; bars per controller, grouped by scenario, with the whisker of
+    the table's 95 % interval of the mean and a dot per seed (in seed order across the
+    bar); an SSI bar of a stick-slip still growing in the window, or
     of a bit that drilled nothing, is marked.
     ``title``: what the benchmark was (benchmark.md's heading: its --config file, the set
     points given on the command line, a task and its seeds)."""
-    from agents.benchmark import growing, not_drilling
+    from agents.benchmark import growing, mean_interval, not_drilling
 
     colours = _colours(controllers)
     # two by two, not four in a row: shrunk to a page's width (~800 px) the row's text was
@@ -139,6 +140,10 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                     ax.annotate(", ".join(said), (x, mean), xytext=(0, 4),
                                 textcoords="offset points", rotation=90, ha="center",
                                 va="bottom", fontsize=8, color=colours[c])
+                if half := mean_interval(values) * scale:  # the table's +- (its 95 %
+                    # interval of the mean: the dots are the seeds, this what they say)
+                    ax.errorbar(x, mean, yerr=half, color="k", capsize=3, linewidth=1.0,
+                                zorder=5)
                 if values.size > 1:  # each seed a dot: a min-max whisker of 20 seeds
                     # drew one outlier as the spread of all (a check of the pictures)
                     spread = np.linspace(-0.25, 0.25, values.size) * width
@@ -167,8 +172,9 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     lines = max(1, math.ceil(len(labels) / LEGEND_ROW))
     fig.legend(handles, labels, loc="lower center", ncol=math.ceil(len(labels) / lines),
                fontsize=9, frameon=False)
-    fig.suptitle(f"{balanced_fill(title, 100)}\nbars: means over seeds, dots: each seed; a "
-                 "coloured base line alone: about zero")
+    fig.suptitle(f"{balanced_fill(title, 100)}\nbars: means over seeds, whiskers: their 95 % "
+                 "interval (as the table's +-), dots: each seed; a coloured base line "
+                 "alone: about zero")
     fig.tight_layout(rect=(0.0, 0.035 * lines + 0.01, 1.0, 1.0))
     save(fig, path)
 

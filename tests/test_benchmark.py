@@ -870,6 +870,31 @@ def test_a_panel_whose_values_are_all_zero_says_so(tmp_path, monkeypatch):
     assert texts == []
 
 
+def test_the_bars_whiskers_are_the_tables_interval(tmp_path, monkeypatch):
+    """The table's "+-" is the 95 % interval of the mean over seeds; the bar chart drew
+    only the seeds' dots. Its whisker is now that interval, by hand: SSI 0.2 and 0.4 ->
+    0.30 +- 12.706 x 0.1; the stuck share 10 % and 30 % in percent, x 100; none where the
+    seeds agree."""
+    from matplotlib.axes import Axes
+
+    from agents.plots import bar_chart
+
+    drawn: list[tuple[float, float]] = []
+    errorbar = Axes.errorbar
+
+    def keep(ax, x, y, yerr=None, **kwargs):
+        drawn.append((float(y), float(yerr)))
+        return errorbar(ax, x, y, yerr=yerr, **kwargs)
+
+    monkeypatch.setattr(Axes, "errorbar", keep)
+    rows = [_row("stiff", "stick_slip", seed=k, ssi=v, stuck_fraction=f)
+            for k, (v, f) in enumerate([(0.2, 0.1), (0.4, 0.3)])]
+    rows += [_row("z-torque", "stick_slip", seed=k) for k in range(2)]
+    bar_chart(rows, ["stiff", "z-torque"], ["stick_slip"], tmp_path / "bars.png")
+    assert drawn == [pytest.approx((0.3, 1.2706), abs=1e-4),
+                     pytest.approx((20.0, 127.06), abs=1e-2)]
+
+
 def test_benchmark_md_shows_the_series_picture_of_every_scenario(tmp_path):
     """Each scenario's picture under its own heading, in its own paragraph (not two
     images on consecutive lines, shown as one), and every picture it names is there."""
