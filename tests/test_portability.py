@@ -24,14 +24,33 @@ def test_an_output_folder_on_a_root_that_is_not_there_is_refused(monkeypatch):
 
 def test_the_viewer_stops_without_process_groups(monkeypatch):
     """Windows has neither os.killpg nor SIGKILL: stop_viewer raised AttributeError at a
-    Ctrl-C of `drill-env replay`. Without killpg it terminates, then kills, the viewer
-    itself."""
-    from drill_env.recording.replay import stop_viewer
+    Ctrl-C of `drill-env replay`. Without killpg it has taskkill end the viewer's process
+    tree (rerun.exe is a launcher whose child is the viewer). Simulated: taskkill's call
+    recorded, the process ended as taskkill would; and with no taskkill at all, the
+    viewer itself is killed."""
+    import importlib
+
+    replay = importlib.import_module("drill_env.recording.replay")  # (the module: the
+    # package exports a function of its name)
 
     monkeypatch.delattr(os, "killpg")
+    ran: list[list[str]] = []
+
+    def taskkill(command, **kwargs):
+        ran.append(command)
+        proc.kill()
+
+    monkeypatch.setattr(replay.subprocess, "run", taskkill)
     proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
-    code = stop_viewer(proc, timeout=5.0)
-    assert proc.poll() is not None and code != 0
+    assert replay.stop_viewer(proc) != 0 and proc.poll() is not None
+    assert ran == [["taskkill", "/PID", str(proc.pid), "/T", "/F"]]
+
+    def missing(command, **kwargs):
+        raise FileNotFoundError("taskkill")
+
+    monkeypatch.setattr(replay.subprocess, "run", missing)
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    assert replay.stop_viewer(proc) != 0 and proc.poll() is not None
 
 
 def test_a_pool_on_windows_takes_at_most_61_workers(monkeypatch):

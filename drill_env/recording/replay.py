@@ -155,19 +155,13 @@ def stop_viewer(proc: subprocess.Popen, timeout: float = 5.0) -> int:
     SIGKILL after ``timeout`` seconds. Returns its exit code. On Windows, which has
     neither nor process groups of that kind, ``taskkill /T /F`` ends the viewer's tree:
     ``rerun.exe`` is a launcher whose child is the viewer, which ``terminate`` alone left
-    running (a review); elsewhere without process groups: terminate, then kill."""
-    if os.name == "nt":
-        subprocess.run(["taskkill", "/PID", str(proc.pid), "/T", "/F"],
-                       capture_output=True, check=False)
-        return proc.wait()
-    if not hasattr(os, "killpg"):
-        for stop in (proc.terminate, proc.kill):
-            with contextlib.suppress(OSError):
-                stop()
-            try:
-                return proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                continue
+    running (a review)."""
+    if not hasattr(os, "killpg"):  # Windows
+        with contextlib.suppress(OSError):  # (no taskkill: the viewer alone, below)
+            subprocess.run(["taskkill", "/PID", str(proc.pid), "/T", "/F"],
+                           capture_output=True, check=False)
+        if proc.poll() is None:
+            proc.kill()
         return proc.wait()
     for sig in (signal.SIGTERM, signal.SIGKILL):
         try:
