@@ -114,12 +114,8 @@ def with_progress(items: Iterable, desc: str, enabled: bool) -> Iterator:
     at most a line a minute in a log)."""
     from drill_env.progress import progress_bar as bar
 
-    items = list(items)
-    with bar(total=len(items), desc=f"  {desc}", leave=False, file=sys.stderr,
-             disable=not enabled) as shown:
-        for item in items:
-            yield item
-            shown.update(1)
+    yield from bar(iterable=list(items), desc=f"  {desc}", leave=False, file=sys.stderr,
+                   disable=not enabled)
 
 
 #: How a table names a warning :func:`recorded_warnings` kept: about the benchmark's own
