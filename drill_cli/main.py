@@ -751,15 +751,12 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
           f"episodes are kept in {args.out / 'benchmark_results.jsonl'} (a rerun reuses "
           "them)")
     if args.paired is not None:  # an outside policy's t-tests, as evaluate gives a run's
-        from training.evaluate import comparison_text, paired_comparison
+        from training.evaluate import write_comparison
 
         policy = labels(controllers)[controllers.index(args.paired)]
-        mine = [float(r["episode_return"]) for r in rows if r["controller"] == policy]
-        if mine:
-            text = comparison_text(paired_comparison(rows, policy), sum(mine) / len(mine),
-                                   policy)
-            (args.out / "comparison.md").write_text(f"# {heading}, paired against {policy}"
-                                                    f"\n\n{text}", encoding="utf-8")
+        text = write_comparison(rows, policy, args.out, f"{heading}, paired against {policy}",
+                                policy)
+        if text:
             print(f"\n{text}")
     print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md"
           + (", comparison.md" if args.paired is not None else "")

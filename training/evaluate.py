@@ -332,10 +332,23 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     rows = run_benchmark(names, ["random"], held_out, out, settings, workers=workers,
                          progress=progress, env_id=TASKS[task], ray_address=ray_address,
                          heading=heading)
-    policy = label(names[0])
-    mine = [r["episode_return"] for r in rows if r["controller"] == policy]
-    if mine:
-        text = comparison_text(paired_comparison(rows, policy), float(np.mean(mine)))
-        (out / "comparison.md").write_text(f"# {heading}\n\n{text}", encoding="utf-8")
+    text = write_comparison(rows, label(names[0]), out, heading)
+    if text:
         print(text)  # beside the benchmark's table, which is printed too
     return rows
+
+
+def write_comparison(rows: list[dict[str, Any]], policy: str, out: Path, heading: str,
+                     name: str = "the policy") -> str | None:
+    """``out/comparison.md``: the row label ``policy`` paired against every other
+    controller of ``rows`` (:func:`paired_comparison`, :func:`comparison_text`, called
+    ``name`` in the text) under ``heading``, for ``evaluate`` and ``benchmark --paired``;
+    returns the text, None where ``policy`` has no rows."""
+    from drill_env.sweep import save_text
+
+    mine = [float(r["episode_return"]) for r in rows if r["controller"] == policy]
+    if not mine:
+        return None
+    text = comparison_text(paired_comparison(rows, policy), float(np.mean(mine)), name)
+    save_text(out / "comparison.md", f"# {heading}\n\n{text}")
+    return text
