@@ -648,7 +648,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         env.close()
     if episode.record and getattr(env, "last_path", None) == episode.recording:
         # (only a file this run wrote: RERUN=off writes none, and an older one stays old)
-        episode.recording_stamp.write_text(f"{episode.stamp}\n{episode.run}\n", encoding="utf-8")
+        save_text(episode.recording_stamp, f"{episode.stamp}\n{episode.run}\n")
     everything = np.concatenate(kept) if kept else np.zeros((0, len(RECORD_CHANNELS)))
     records = everything[everything[:, R.TIME] >= start + settings.warmup]
     if len(records) < 2 <= len(everything) and reason:  # a failure in the warm-up is a

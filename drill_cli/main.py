@@ -27,7 +27,7 @@ from typing import Any
 
 from drill_env.physics.units import HOUR, KILO, RPM, few, shown
 from drill_env.progress import progress_bar
-from drill_env.sweep import Terminated, clear_interrupt, hear_interrupts, note_interrupt
+from drill_env.sweep import Terminated, clear_interrupt, hear_interrupts, note_interrupt, save_text
 from drill_env.swing import SWING_BLOCK, swing_per_block, swing_trend
 
 DESCRIPTION = """\
@@ -486,7 +486,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.record is not None:
         summary["recording"] = str(env.last_path) if env.last_path else None
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "run_summary.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
+    save_text(args.out / "run_summary.json", json.dumps(summary, indent=2))
     with (args.out / "run_history.jsonl").open("a", encoding="utf-8") as history:
         finished = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # tells the runs of a history apart
         history.write(json.dumps({"finished": finished, **summary}) + "\n")
@@ -1337,7 +1337,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
             "top_drive_controllers": [
                 {k: None if isinstance(v, float) and not math.isfinite(v) else v
                  for k, v in dataclasses.asdict(law).items()} for law in laws]}
-    (args.out / "modes.json").write_text(json.dumps(data, indent=2), encoding="utf-8")
+    save_text(args.out / "modes.json", json.dumps(data, indent=2))
     print(f"wrote {png} and {args.out / 'modes.json'}")
     return 0
 

@@ -62,7 +62,7 @@ from drill_env.physics.validation import (
     repeated,
 )
 from drill_env.scenarios import POSITIONS, make_scenario, with_physics
-from drill_env.sweep import ResultStore, digest, make_executor, source_digest
+from drill_env.sweep import ResultStore, digest, make_executor, save_text, source_digest
 
 #: The paper's grid: 0-250 rpm and 0-200 kN in steps of 5 rpm / 5 kN (0 itself is
 #: steady by definition: no rotation, or no bit load).
@@ -528,7 +528,7 @@ def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings,
     data = {"settings": asdict(settings), "controller": controller,
             "physics": jsonable(physics or {}), "config": source,
             "code": source_digest("drill_env"), "maps": [m.to_json() for m in maps]}
-    json_path.write_text(json.dumps(data, indent=1), encoding="utf-8")
+    save_text(json_path, json.dumps(data, indent=1))
     return [json_path, plot_maps(maps, out / f"{map_stem(controller, source)}.png",
                                  controller, source)]
 

@@ -23,6 +23,7 @@ from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.fem import build_mesh
 from drill_env.physics.statics import bit_buoyed_weight
 from drill_env.physics.trajectory import MODES, StringColumn, Survey, Trajectory, soft_string
+from drill_env.sweep import save_text
 
 #: Well shapes by name: total measured depth (m) -> survey. Build rates and angles are
 #: typical of land wells (2-4 deg/30 m builds; Mitchell & Miska, Fundamentals of
@@ -152,8 +153,8 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
                 "inclination_deg": np.degrees(trajectory.survey.inclination).tolist(),
                 "azimuth_deg": np.degrees(trajectory.survey.azimuth).tolist()}
     data = out / f"well_{name}.json"
-    data.write_text(json.dumps({"survey": stations, "torque_drag": table,
-                                "units": JSON_UNITS}, indent=1), encoding="utf-8")
+    save_text(data, json.dumps({"survey": stations, "torque_drag": table,
+                                "units": JSON_UNITS}, indent=1))
     return [png, data]
 
 

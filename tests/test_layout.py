@@ -134,3 +134,45 @@ def test_no_drill_env_file_is_much_longer_than_one_concern():
     sizes = {str(p.relative_to(PACKAGE.parent)): len(p.read_text().splitlines())
              for p in PACKAGE.rglob("*.py")}
     assert not {k: v for k, v in sizes.items() if v > 700}, sizes
+
+
+#: The only places that write a file's text or bytes in place: save_text itself (into
+#: its hidden partial file) and the recorder's writability probe (an empty file it removes).
+WRITES_IN_PLACE = {("drill_env/sweep.py", "save_text"),
+                   ("drill_env/recording/recorder.py", "check_directory")}
+
+
+def _writes_in_place(path: Path) -> list[tuple[str, int]]:
+    """(enclosing function, line) of each ``.write_text(`` / ``.write_bytes(`` call."""
+    found = []
+
+    def visit(node: ast.AST, function: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                visit(child, child.name)
+                continue
+            if (isinstance(child, ast.Call) and isinstance(child.func, ast.Attribute)
+                    and child.func.attr in ("write_text", "write_bytes")):
+                found.append((function, child.lineno))
+            visit(child, function)
+
+    visit(ast.parse(path.read_text(encoding="utf-8")), "<module>")
+    return found
+
+
+def test_every_output_is_saved_whole():
+    """A summary, a table or a JSON file written in place is left cut short by a kill
+    mid-write, where a reader (a resume, a docs table, a plot) takes it whole: each goes
+    through save_text (a hidden partial file renamed over the name). Eight outputs were
+    written in place until 2026-12-06 (run_summary.json, modes.json, speed.json and .md, a
+    stability map's JSON, a well's JSON, demo_summary.json, the training seeds' table)."""
+    root = PACKAGE.parent
+    offenders = []
+    for package in ("drill_env", "agents", "training", "drill_cli"):
+        for path in sorted((root / package).rglob("*.py")):
+            name = path.relative_to(root).as_posix()
+            offenders += [f"{name}:{line} in {function}"
+                          for function, line in _writes_in_place(path)
+                          if (name, function) not in WRITES_IN_PLACE]
+    assert not offenders, offenders
+    assert _writes_in_place(root / "drill_env" / "sweep.py")  # the scan sees a call

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from drill_env.physics.validation import jsonable
-from drill_env.sweep import ResultStore, digest, make_executor
+from drill_env.sweep import ResultStore, digest, make_executor, save_text
 from training.config import TrainConfig
 
 RESULTS_FILE = "train_sweep.jsonl"
@@ -147,5 +147,5 @@ def write_summary(results: list[dict[str, Any]], path: Path, config: TrainConfig
     if len(values) > 1:
         lines += ["", f"Best validation return over seeds: {statistics.mean(values):.1f} +- "
                       f"{statistics.stdev(values):.1f} (mean +- std, {len(values)} seeds)."]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    save_text(path, "\n".join(lines) + "\n")
     return path

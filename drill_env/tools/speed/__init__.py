@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from drill_env.physics.validation import comma_items
+from drill_env.sweep import save_text
 from drill_env.tools.speed.common import (
     FULL,
     QUICK,
@@ -139,7 +140,7 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
         layer = threading_layer()  # chosen at the first parallel call (batched envs)
         if layer is not None:
             machine["numba_threading_layer"] = layer
-        path.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
+        save_text(path, json.dumps(result, indent=2) + "\n")
         # The same tables as markdown, to paste into docs/performance.md.
         report = out / "speed.md"
         kind = {FULL: "", QUICK: " --quick"}.get(settings, " (custom settings)")
@@ -159,8 +160,7 @@ def run_speed(sections: Iterable[str] = SECTIONS, settings: BenchmarkSettings = 
                       else "; sources unchanged during the run.") if finished else
                    f"at the start; UNFINISHED: sections done so far "
                    f"{', '.join(result['finished_sections'])}."))
-        report.write_text(head + "\n\n```text\n" + "\n\n".join(tables) + "\n```\n",
-                          encoding="utf-8")
+        save_text(report, head + "\n\n```text\n" + "\n\n".join(tables) + "\n```\n")
         return [path, report]
 
     if out is not None:
