@@ -534,6 +534,27 @@ def save_whole(path: Path, save: Callable[[str], Any]) -> None:
     partial = path.with_name(f".{path.stem}.partial{path.suffix}")
     try:
         save(str(partial))
-        partial.replace(path)
+        _replace(partial, path)
     finally:
         partial.unlink(missing_ok=True)
+
+
+#: Windows refuses to rename over a file another program holds open (a benchmark.csv
+#: open in a spreadsheet, a picture in a viewer; a virus scanner's look lasts a moment):
+#: the rename is tried this many times, ``RENAME_WAIT`` seconds apart, then refused by name.
+RENAME_TRIES = 5
+RENAME_WAIT = 0.2
+
+
+def _replace(partial: Path, path: Path) -> None:
+    for attempt in range(RENAME_TRIES):
+        try:
+            partial.replace(path)
+            return
+        except PermissionError as err:
+            if attempt == RENAME_TRIES - 1:
+                raise PermissionError(
+                    f"{path}: cannot be replaced ({err.strerror or err}); a program that "
+                    "holds it open (a spreadsheet, a viewer) stops it on Windows: close "
+                    "it and run again") from err
+            time.sleep(RENAME_WAIT)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -162,3 +163,36 @@ def test_on_macos_the_batched_envs_take_numbas_workqueue_layer():
     said = subprocess.run([sys.executable, "-c", first], capture_output=True, text=True,
                           env=env, timeout=120, check=True).stdout.split()
     assert said == ["workqueue"]
+
+
+def test_a_file_held_open_on_windows_is_waited_for_then_refused_by_name(tmp_path,
+                                                                        monkeypatch):
+    """Windows refuses the rename that saves a file whole while another program holds the
+    target (a benchmark.csv open in a spreadsheet): a passing hold is waited out, a lasting
+    one gives an error naming the file and what to do, and no partial file stays."""
+    from drill_env import sweep
+
+    target = tmp_path / "benchmark.csv"
+    target.write_text("old\n", encoding="utf-8")
+    real = pathlib.Path.replace
+    refusals = []
+
+    def held(self, other, times):
+        if len(refusals) < times:
+            refusals.append(other)
+            raise PermissionError(13, "Access is denied")
+        return real(self, other)
+
+    monkeypatch.setattr(sweep, "RENAME_WAIT", 0.0)
+    monkeypatch.setattr(pathlib.Path, "replace", lambda s, o: held(s, o, 2))
+    sweep.save_text(target, "new\n")
+    assert target.read_text(encoding="utf-8") == "new\n" and len(refusals) == 2
+
+    refusals.clear()
+    monkeypatch.setattr(pathlib.Path, "replace", lambda s, o: held(s, o, 99))
+    with pytest.raises(PermissionError, match=rf"^{re.escape(str(target))}: cannot be "
+                                              r"replaced \(Access is denied\); .*close it"):
+        sweep.save_text(target, "newer\n")
+    assert len(refusals) == sweep.RENAME_TRIES
+    assert target.read_text(encoding="utf-8") == "new\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["benchmark.csv"]
