@@ -230,6 +230,9 @@ def _error_text(err: ValidationError, prefix: str = "", root: Any = None) -> str
         if not value_error and "input" in e and not isinstance(e["input"], Mapping) and \
                 type(e["input"]).__name__ != "ArgsKwargs":
             text += f", got {e['input']!r}" + _unit_hint(loc, e["type"])
+        if isinstance(e.get("input"), bool) and not e["type"].startswith("bool"):
+            # (telemetry: no, name: off: YAML 1.1's booleans, as PyYAML reads them)
+            text += " (YAML reads yes, no, on and off as true or false: quote the word)"
         lines.append(text)
     return "; ".join(unknown + lines)
 
@@ -435,6 +438,12 @@ def _changed_fields(config: Any, changes: Mapping[str, Any], path: str) -> dict[
         if indexed:
             name, index = indexed.group(1), int(indexed.group(2))
             items = _sections(flat.pop(name, kwargs[name]), f"{path}.{name}" if path else name)
+            if 0 <= index < len(items) and isinstance(items[index], Mapping):
+                # the whole list given too, as dicts (a YAML's): "no section at index 0 of
+                # rocks (1 items)" contradicted itself (an outside review)
+                raise ConfigError(f"{where}: {name} is given as a whole list as well; set "
+                                  f"{', '.join(sorted(sub))} in that list's entry {index}, or "
+                                  "leave the list out and set entries by index")
             if not 0 <= index < len(items) or not dataclasses.is_dataclass(items[index]):
                 raise ConfigError(f"{where}: no section at index {index} of {name} "
                                   f"({len(items)} items)")

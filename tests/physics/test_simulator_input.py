@@ -101,3 +101,42 @@ def test_a_bool_is_not_a_number_in_a_config(value):
 
     with pytest.raises(ConfigError, match=r"^mud\.density: .*bool"):
         replace(SimulationConfig(), **{"mud.density": value})
+
+
+@pytest.mark.parametrize("text, message", [
+    ("bit_model: no\n", r"^bit_model: Input should be 'mesoscopic' or 'macroscopic', got "
+                        r"False \(YAML reads yes, no, on and off as true or false: quote"),
+    ("mud: {density: on}\n", r"^mud\.density: .*\(YAML reads yes, no, on and off as true or "
+                             r"false: quote the word\)$"),
+])
+def test_a_yaml_word_read_as_a_boolean_is_named_as_one(tmp_path, text, message):
+    """An upgrade review: ``telemetry: no`` or ``name: no`` in a YAML file was refused as
+    "got False", with no word that YAML 1.1 (PyYAML) reads yes, no, on and off as
+    booleans; the error now says so wherever a boolean lands in a field of another type."""
+    from drill_env.physics.config import ConfigError, SimulationConfig
+    from drill_env.physics.validation import load_yaml
+
+    path = tmp_path / "physics.yml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError, match=message):
+        load_yaml(SimulationConfig, path)
+    path.write_text("solver: {implicit_contacts: no}\n", encoding="utf-8")  # a switch: fine
+    assert load_yaml(SimulationConfig, path).solver.implicit_contacts is False
+
+
+def test_a_list_given_whole_and_by_index_in_one_file_is_refused_by_what_to_do(tmp_path):
+    """``rocks:`` as a list of dicts and ``rocks[0].mu_max`` beside it (one YAML file) was
+    refused as "no section at index 0 of rocks (1 items)", which contradicts itself; it
+    now says that the list is given twice and how to give it once. The list of sections
+    and an index into it (Python's way) still apply both."""
+    from drill_env.physics.config import ConfigError, SimulationConfig, replace
+    from drill_env.physics.validation import flatten, jsonable
+
+    config = SimulationConfig()
+    rocks = jsonable(config)["formation"]["rocks"]
+    with pytest.raises(ConfigError, match=r"^formation\.rocks\[0\]: rocks is given as a whole "
+                                          r"list as well; set mu_max in that list's entry 0"):
+        replace(config, **flatten({"formation": {"rocks": rocks, "rocks[0].mu_max": 0.5}}))
+    both = replace(config, **{"formation.rocks": config.formation.rocks,
+                              "formation.rocks[0].mu_max": 0.5})
+    assert both.formation.rocks[0].mu_max == 0.5
