@@ -218,6 +218,33 @@ def policy_folder(path: str | Path | None = None, env_id: str | None = None) -> 
     return TRAINED / task
 
 
+def moved_settings_note(name: str, path: str | Path | None = None,
+                        env_id: str | None = None) -> str | None:
+    """A note where the task settings a run's env resolves today from its ``env_kwargs``
+    differ from those it trained under (its ``trained_with.json``: a default moved in a
+    later version), naming each; None where they agree or the run has no record (a run
+    of a version before 2026-12-06, a policy of your own). The policy is still run: a
+    study of a changed setting is a use, not a mistake."""
+    from training.config import (
+        changes_text,
+        read_trained_with,
+        settings_changes,
+        trained_settings,
+    )
+
+    record = read_trained_with(policy_folder(path, env_id))
+    if record is None:
+        return None
+    trained_on, kwargs = trained_env(path, env_id)
+    moved = settings_changes(record, trained_settings(trained_on, kwargs))
+    if not moved:
+        return None
+    return (f"note: {name} trained under drill-env {record.get('drill_env', '?')} with "
+            f"other {trained_on} settings than this version's gives it "
+            f"({changes_text(moved)}): it is scored under today's, which its "
+            "observations and reward follow")
+
+
 def trained_env(path: str | Path | None = None, env_id: str | None = None
                 ) -> tuple[str, dict[str, Any]]:
     """(env id of its task, env keywords) a policy was trained with, from its run's

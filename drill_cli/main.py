@@ -92,13 +92,15 @@ def replaced_episode_notes(controllers: Sequence[str], env_id: str,
     (``learned:RUN``) and a controller of your own's ``env_kwargs()`` (an ``sb3_policy``
     trained on 60 s episodes was run on the benchmark's without a word)."""
     from agents.benchmark import declared_env_kwargs, replaced_episode_settings
-    from agents.learned import trained_env
+    from agents.learned import moved_settings_note, trained_env
     from agents.registry import is_imported, make_controller
 
     notes = []
     for name in controllers:
         if name == "learned" or name.startswith("learned:"):
             trained = trained_env(name.partition(":")[2] or None, env_id)[1]
+            if moved := moved_settings_note(name, name.partition(":")[2] or None, env_id):
+                notes.append(moved)
         elif is_imported(name) and (made := make_controller(name)).env_id == env_id:
             trained = declared_env_kwargs(made, name)
         else:
@@ -907,7 +909,11 @@ def saved_run_config(saved: Path, task: str, algo: str, **overrides: Any) -> Any
             raise argparse.ArgumentTypeError(f"--{flag}: {saved.parent} was trained with "
                                              f"{data[flag]}, not {value}")
     data.update({k: v for k, v in overrides.items() if v is not None})
-    return from_dict(TrainConfig, data)
+    try:
+        return from_dict(TrainConfig, data)
+    except ValueError as err:  # a field of the saved file (a hand edit; the flags passed
+        # load_config's checks already): name the file
+        raise ValueError(f"{saved}: {err}") from None
 
 
 def train_sweep(args: argparse.Namespace, config) -> int:

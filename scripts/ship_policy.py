@@ -18,7 +18,7 @@ import shutil
 from pathlib import Path
 
 from agents.learned import TRAINED, _files
-from training.config import read_run_config
+from training.config import TRAINED_WITH, read_run_config
 
 LIMIT = 2 * 1024 * 1024
 
@@ -42,6 +42,11 @@ def main() -> None:
     shutil.copy(model, target / "model.zip")
     shutil.copy(norm, target / "vecnormalize.pkl")
     shutil.copy(args.run / "config.yaml", target / "config.yaml")
+    # the settings it trained under (tests/test_shipped_policies.py checks them against
+    # today's); a run from before the record: none, so a stale one must not stay
+    (target / TRAINED_WITH).unlink(missing_ok=True)
+    if (args.run / TRAINED_WITH).exists():
+        shutil.copy(args.run / TRAINED_WITH, target / TRAINED_WITH)
     best = "final model"
     ship = f"scripts/ship_policy.py logs/runs/{args.run.name}"  # where train writes the run
     if args.final:
@@ -66,7 +71,8 @@ of {info['env_steps']:,} env steps ({config['n_envs']} batched envs) that took
     .venv/bin/python {ship}
 
 (hyperparameters: `training/hyperparams/{config['task']}.yml`, copied here as
-`config.yaml`). Use it as the controller `learned`
+`config.yaml`; the task settings it trained under in `trained_with.json`). Use it as
+the controller `learned`
 (`drill-env benchmark --task {config['task']} --controllers learned,...`); measured
 results: docs/tasks.md.
 """)

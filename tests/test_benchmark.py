@@ -499,6 +499,9 @@ def test_a_task_benchmark_says_which_training_episodes_it_replaces(tmp_path):
     shutil.copytree(TRAINED / "stick_slip", run)
     config = yaml.safe_load((run / "config.yaml").read_text())
     config["env_kwargs"] = {"episode_duration": 5.0, "max_correction": 20.0}
+    # (a run trained with these env_kwargs: the shipped record of its settings is not
+    # its own, and would be a note of moved settings)
+    (run / "trained_with.json").unlink()
     (run / "config.yaml").write_text(yaml.safe_dump(config))
     settings = SimpleNamespace(duration=30.0, start_kick=0.02)
     notes = replaced_episode_notes([f"learned:{run}", "stiff"], "DrillStickSlip-v0",
@@ -990,6 +993,9 @@ def _policy_trained_with(folder, env_kwargs):
     shutil.copytree(TRAINED / "stick_slip", folder)
     config = yaml.safe_load((folder / "config.yaml").read_text())
     (folder / "config.yaml").write_text(yaml.safe_dump({**config, "env_kwargs": env_kwargs}))
+    # (a run trained with these env_kwargs: the shipped record of its settings is not
+    # its own, and would be a note of moved settings)
+    (folder / "trained_with.json").unlink()
     return f"learned:{folder}"
 
 

@@ -72,3 +72,19 @@ def test_shipped_drilling_policy_beats_the_best_constant_set_point(tmp_path):
     policy = returns_of(controller.env_id, acting(controller), **controller.env_kwargs())
     held_out = returns_of(controller.env_id, acting(constant), **controller.env_kwargs())
     assert_clearly_better(policy, held_out, name, alpha=0.05)
+
+
+@pytest.mark.parametrize("task", ["stick_slip", "drilling"])
+def test_the_shipped_policies_run_under_the_settings_they_are_tested_under(task):
+    """Each shipped policy's ``trained_with.json`` holds the task settings its tests above
+    pass it under; a task default moved since (its history, telemetry, a reward weight,
+    the fidelity level) fails here by name: retrain the policy, or measure it under the
+    new default and write the record again. A user's run is checked the same way when
+    it is evaluated (a note) or resumed (refused)."""
+    from agents.learned import moved_settings_note
+    from training.config import TASKS, read_trained_with, settings_changes, trained_settings
+
+    record = read_trained_with(TRAINED / task)
+    assert record is not None and record["env_id"] == TASKS[task]
+    assert not settings_changes(record, trained_settings(TASKS[task], {}))
+    assert moved_settings_note("learned", None, TASKS[task]) is None

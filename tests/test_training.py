@@ -2051,3 +2051,102 @@ def test_an_interrupted_run_gives_stdout_back_from_its_progress_bar(tmp_path, mo
     said = capsys.readouterr().out
     assert "train() with resume=True (instead of overwrite=True" in said
     assert "--resume" not in said
+
+
+def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, capsys):
+    """An upgrade review: a run folder named no drill-env version or code, and its
+    config.yaml holds only the keywords given (``env_kwargs``), so a later version whose
+    task defaults moved scored the run under them without a word. A run now keeps
+    ``trained_with.json`` (version, source digest, every task, env, scenario and physics
+    setting its env resolved); a moved one is a note where it is evaluated or
+    benchmarked and refuses a resume, by name; run.json names the package versions."""
+    import json
+    import shutil
+
+    import drill_env
+    from agents.benchmark import task_settings
+    from drill_cli.main import replaced_episode_notes
+    from drill_env.physics.config import replace
+    from drill_env.sweep import source_digest
+    from drill_env.tasks.stick_slip import StickSlipEnv
+    from training.config import TRAINED_WITH
+    from training.evaluate import evaluate_run, settings_of
+
+    folder, cfg = run
+    record = json.loads((folder / TRAINED_WITH).read_text(encoding="utf-8"))
+    assert record["drill_env"] == drill_env.__version__
+    assert record["source_digest"] == source_digest("drill_env")
+    env = StickSlipEnv(episode_duration=3.0)  # what the run's env_kwargs give, built alone
+    assert {k: record[k] for k in ("task", "env", "scenario", "physics")} == env.settings()
+    assert record["task"]["history"] == 20 and record["physics"] == {"solver.fidelity": "fast"}
+    info = json.loads((folder / "run.json").read_text(encoding="utf-8"))
+    assert info["drill_env"] and info["torch"] and info["stable_baselines3"]
+    assert info["drill_env_source_digest"] == record["source_digest"]
+
+    copy = tmp_path / "moved"
+    shutil.copytree(folder, copy)
+    # as if trained when the task's default history was 10 and its telemetry wired pipe
+    record["task"].update(history=10, telemetry="wired_pipe")
+    (copy / TRAINED_WITH).write_text(json.dumps(record), encoding="utf-8")
+    said = (f"note: learned:{copy} trained under drill-env {drill_env.__version__} with other "
+            "DrillStickSlip-v0 settings than this version's gives it (task.history 10 then, "
+            "20 now; task.telemetry 'wired_pipe' then, 'mud_pulse' now): it is scored under "
+            "today's")
+    task_settings([f"learned:{copy}"], "DrillStickSlip-v0")  # (a note, not an error)
+    settings = settings_of("stick_slip")
+    notes = replaced_episode_notes([f"learned:{copy}"], "DrillStickSlip-v0", ["random"],
+                                   settings)
+    assert any(note.startswith(said) for note in notes), notes
+    assert not any("trained under" in note for note in replaced_episode_notes(
+        [f"learned:{folder}"], "DrillStickSlip-v0", ["random"], settings))
+    evaluate_run(copy, seeds=1, controllers=["stiff"], progress=False)
+    assert "note: the run trained under drill-env" in capsys.readouterr().out
+    with pytest.raises(ValueError, match=r"^resume: .*moved started under drill-env .* with "
+                                         r"other DrillStickSlip-v0 settings than this "
+                                         r"version's \(task.history 10 then, 20 now"):
+        train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
+    (copy / TRAINED_WITH).write_text("{", encoding="utf-8")  # damaged: named
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(copy / TRAINED_WITH))}: is not "
+                                         "valid JSON"):
+        train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
+
+
+def test_a_runs_config_is_read_by_the_rules_of_a_config_file(run, tmp_path):
+    """An upgrade review: evaluate and learned:RUN skipped a key of a run's config.yaml
+    they did not know (``env_args`` for ``env_kwargs``: the policy ran under the
+    defaults) where a resume refused it; a repeated key kept its last value; ``1e-7``
+    written by hand was a string (YAML 1.1). Every reader now refuses an unknown key or
+    a repeated one naming the file, and reads 1e-7 as a number; a resume names the
+    nested setting that differs (hyperparams.n_epochs, not hyperparams)."""
+    import shutil
+
+    from agents.benchmark import task_settings
+    from drill_env.physics.config import replace
+    from training.config import read_run_config
+    from training.evaluate import evaluate_run
+
+    folder, cfg = run
+    copy = tmp_path / "edited"
+    shutil.copytree(folder, copy)
+    saved = copy / "config.yaml"
+    text = saved.read_text(encoding="utf-8")
+    saved.write_text(text.replace("env_kwargs:", "env_args:"), encoding="utf-8")
+    said = (rf"^{re.escape(str(saved))}: env_args: not a setting of a run \(did you mean "
+            r"env_kwargs\?\)")
+    with pytest.raises(ValueError, match=said):
+        evaluate_run(copy, seeds=1, progress=False)
+    with pytest.raises(ValueError, match=said):
+        LearnedController.load(copy)
+    with pytest.raises(ValueError, match=said):
+        task_settings([f"learned:{copy}"], "DrillStickSlip-v0")
+    saved.write_text(text + "task: drilling\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(saved))}: not valid YAML at line "
+                                         r"\d+, column 1 \(duplicate key 'task'"):
+        LearnedController.load(copy)
+    saved.write_text(text.replace("hyperparams:\n", "hyperparams:\n  max_grad_norm: 1e-7\n", 1),
+                     encoding="utf-8")
+    assert read_run_config(saved)["hyperparams"]["max_grad_norm"] == 1e-7
+    saved.write_text(text, encoding="utf-8")
+    with pytest.raises(ValueError, match=r"another config \(hyperparams.n_epochs differ;"):
+        train(replace(cfg, hyperparams={**cfg.hyperparams, "n_epochs": 3}), copy,
+              resume=True, progress=False)

@@ -17,6 +17,7 @@ rl-zoo3's; everything that goes to the algorithm's constructor sits under
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -333,22 +334,29 @@ def sb3_policy_kwargs(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
 
 
 def read_run_config(path: Path) -> dict[str, Any]:
-    """A run's saved ``config.yaml`` as a dict of its settings; ValueError naming the file
-    when it holds none (cut short by a full disk or a hand edit: it was a YAML traceback,
-    or a missing ``--task`` of a resume that had given one)."""
-    import yaml
-
+    """A run's saved ``config.yaml`` as a dict of its settings, read by the rules of a
+    ``--config`` file (:func:`~drill_env.physics.validation.read_yaml`: ``1e-7`` a
+    number, a repeated key refused); ValueError naming the file when it holds none (cut
+    short by a full disk or a hand edit: it was a YAML traceback, or a missing
+    ``--task`` of a resume that had given one) or a key that is not a run's setting (a
+    renamed one was skipped without a word by evaluate and ``learned:RUN``, so the policy
+    ran under the defaults, while a resume refused it)."""
     try:
-        data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        reason = " ".join(str(err).split())
-        data, problem = None, f"is not valid YAML ({reason})"
+        data = read_yaml(path)
+    except ConfigError as err:
+        data, problem = None, str(err).removeprefix(f"{path}: ")
     else:
         problem = "" if isinstance(data, dict) and data.get("task") in TASK_ENVS else (
             f"holds no run's settings (a task of {sorted(TASK_ENVS)}), but {data!r:.60}")
     if problem:
         raise ValueError(f"{path}: {problem}; it is written when the run starts: train it "
                          "again (--overwrite) or delete the folder")
+    known = [f.name for f in dataclasses.fields(TrainConfig)]
+    unknown = sorted(set(data) - set(known), key=str)
+    if unknown:
+        raise ValueError(f"{path}: {unknown[0]}: not a setting of a run"
+                         f"{did_you_mean(str(unknown[0]), known)} (a hand edit, or a "
+                         f"version that named it otherwise); known: {', '.join(known)}")
     return data
 
 
@@ -459,6 +467,75 @@ def check_env_kwargs(config: TrainConfig) -> None:
         env_class(**{**defaults, **config.env_kwargs}).close()
     except (ValueError, TypeError) as err:
         raise ConfigError(f"env_kwargs: {err}") from None
+
+
+#: A run's record of what it trained under (written when it starts): the drill-env
+#: version and source digest, and the task, env, scenario and physics settings its env
+#: resolved (:meth:`drill_env.tasks.base.TaskEnv.settings`), defaults included, which a
+#: ``config.yaml`` of the keywords given does not hold.
+TRAINED_WITH = "trained_with.json"
+
+
+def trained_settings(env_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The settings an env of task ``env_id`` resolves today from ``env_kwargs`` (one env
+    built and closed: ~0.3 s)."""
+    from drill_env.tasks.base import TaskEnv
+    from drill_env.vector import registered
+
+    env_class, defaults = registered(env_id)
+    env = env_class(**{**defaults, **env_kwargs})
+    try:
+        if not isinstance(env, TaskEnv):
+            raise ValueError(f"env_id: {env_id} is not a control task's env")
+        return env.settings()
+    finally:
+        env.close()
+
+
+def trained_with(config: TrainConfig) -> dict[str, Any]:
+    """The record of :data:`TRAINED_WITH` for a run of ``config`` started now."""
+    import drill_env
+    from drill_env.sweep import source_digest
+
+    return {"drill_env": drill_env.__version__, "source_digest": source_digest("drill_env"),
+            "env_id": config.env_id, **trained_settings(config.env_id, config.env_kwargs)}
+
+
+def read_trained_with(folder: Path) -> dict[str, Any] | None:
+    """A run's :data:`TRAINED_WITH` record (None where it has none: a run of a version
+    before 2026-12-06); ValueError naming the file where it is damaged."""
+    import json
+
+    path = Path(folder) / TRAINED_WITH
+    if not path.exists():
+        return None
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as err:
+        record, reason = None, f"is not valid JSON ({err})"
+    else:
+        reason = f"holds {type(record).__name__}, not a record of settings"
+    if not isinstance(record, dict) or not {"task", "env"} <= set(record):
+        raise ValueError(f"{path}: {reason}; it is written when the run starts: delete it "
+                         "to load the run without the check of its settings")
+    return record
+
+
+def settings_changes(saved: dict[str, Any], now: dict[str, Any]
+                     ) -> list[tuple[str, Any, Any]]:
+    """(dotted setting, value saved, value now) for each task, env, scenario or physics
+    setting of two :meth:`~drill_env.tasks.base.TaskEnv.settings` records that differs
+    (missing on one side: None)."""
+    sections = ("task", "env", "scenario", "physics")
+    old = flatten({k: saved.get(k) for k in sections if saved.get(k) is not None})
+    new = flatten({k: now.get(k) for k in sections if now.get(k) is not None})
+    return [(key, old.get(key), new.get(key)) for key in sorted({*old, *new})
+            if old.get(key) != new.get(key)]
+
+
+def changes_text(changes: Sequence[tuple[str, Any, Any]]) -> str:
+    """``task.history 20 then, 10 now; ...`` for :func:`settings_changes`."""
+    return "; ".join(f"{key} {was!r} then, {now!r} now" for key, was, now in changes)
 
 
 def left_out_settings(config: TrainConfig, path: str | Path,

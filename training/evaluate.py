@@ -317,6 +317,10 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
               f"controller beside it, at the {level} level (--fidelity)")
     for note in standard_episode_notes(trained, settings):
         print(note)
+    from agents.learned import moved_settings_note
+
+    if moved := moved_settings_note("the run", run, TASKS[task]):
+        print(moved)
     from agents.registry import make_controller
 
     make_controller(names[0], env_id=TASKS[task])  # a policy it cannot load: said first

@@ -4,6 +4,9 @@ A run lives in ``logs/runs/<name>/``:
 
 ==========================  ===========================================================
 ``config.yaml``             the exact :class:`~training.config.TrainConfig` of the run
+``trained_with.json``       drill-env's version and source digest, and the task, env,
+                            scenario and physics settings the env resolved (defaults
+                            included): a later version whose defaults moved says so
 ``model.zip``               the final model; ``vecnormalize.pkl`` its normalisation
 ``best_model.zip``          the best model on the validation seeds (+ its
                             ``best_vecnormalize.pkl``)
@@ -41,16 +44,22 @@ import numpy as np
 import yaml
 
 from agents.learned import latest_checkpoint, load_saved
-from drill_env.physics.validation import jsonable
+from drill_env.physics.validation import flatten, jsonable
 from drill_env.sweep import noted_interrupt, save_text, save_whole, watch_interrupts
 from training.config import (
+    TRAINED_WITH,
     TRAINING_SEEDS,
     VALIDATION_SEED,
     TrainConfig,
     algo_class,
+    changes_text,
     read_run_config,
+    read_trained_with,
     sb3_hyperparams,
     sb3_policy_kwargs,
+    settings_changes,
+    trained_settings,
+    trained_with,
     without_inert_keys,
 )
 
@@ -77,6 +86,23 @@ def env_seed(config: TrainConfig, done: int = 0) -> int:
     episodes it started with. Above every validation and held-out seed."""
     state = int(np.random.SeedSequence([config.seed, done]).generate_state(1)[0])
     return TRAINING_SEEDS + state % (2**32 - TRAINING_SEEDS - config.n_envs)
+
+
+def package_versions() -> dict[str, str]:
+    """The versions a run's results depend on, for ``run.json`` (drill-env's and its
+    sources' digest: a run folder said nothing of the code that trained it)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from drill_env.sweep import source_digest
+
+    found = {"drill_env_source_digest": source_digest("drill_env")}
+    for package in ("drill-env", "stable-baselines3", "torch", "gymnasium", "numpy",
+                    "numba"):
+        try:
+            found[package.replace("-", "_")] = version(package)
+        except PackageNotFoundError:  # (drill-env run from its sources, not installed)
+            found[package.replace("-", "_")] = "not installed"
+    return found
 
 
 def make_train_env(config: TrainConfig, seed: int) -> Any:
@@ -369,7 +395,7 @@ def torch_threads_callback(threads: int) -> Any:
 
 
 #: What a run folder holds once training started (any of them: the folder is a run).
-RUN_FILES = ("config.yaml", "model.zip", "run.json", "checkpoints")
+RUN_FILES = ("config.yaml", TRAINED_WITH, "model.zip", "run.json", "checkpoints")
 #: Everything training and evaluate write into a run folder: what ``overwrite`` deletes
 #: (with the hidden ``.<name>.partial<ext>`` of a save cut short, and evaluate's
 #: ``evaluation`` and ``evaluation_<level>`` folders).
@@ -474,8 +500,8 @@ def check_same_config(run: Path, config: TrainConfig) -> None:
     but ``n_timesteps``, ``torch_threads`` and ``fused_adam``."""
     saved = run / "config.yaml"
     if saved.exists():
-        old = without_inert_keys(read_run_config(saved))
-        new = jsonable(config)
+        old = flatten(without_inert_keys(read_run_config(saved)))
+        new = flatten(jsonable(config))
         # change nothing a resumed run learnt (its model keeps its own optimiser)
         free = ("n_timesteps", "torch_threads", "fused_adam")
         changed = sorted(k for k in {*old, *new} if k not in free
@@ -485,6 +511,14 @@ def check_same_config(run: Path, config: TrainConfig) -> None:
                              "differ; only n_timesteps, torch_threads and fused_adam may "
                              "change); train it under another --name (a --seeds sweep: "
                              "another --out), or delete the folder")
+    record = read_trained_with(run)
+    if record is not None:  # the same keywords, but the env's defaults moved since
+        moved = settings_changes(record, trained_settings(config.env_id, config.env_kwargs))
+        if moved:
+            raise ValueError(f"resume: {run} started under drill-env "
+                             f"{record.get('drill_env', '?')} with other {config.env_id} "
+                             f"settings than this version's ({changes_text(moved)}); train "
+                             "it again under another --name, or delete the folder")
 
 
 def finished(run: Path, config: TrainConfig) -> bool:
@@ -634,6 +668,10 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
         sessions = (*sessions, int(model.num_timesteps))
     env.seed(seed)
     save_text(saved, yaml.safe_dump(jsonable(config), sort_keys=False))
+    if latest is None:  # a resumed run keeps its start's (check_same_config compared it
+        # with today's); one of a version before the record has none: today's settings
+        # need not be those it trained under
+        save_text(run / TRAINED_WITH, json.dumps(trained_with(config), indent=1))
     t0 = time.perf_counter()
     # to where the run ends (PPO: whole rollouts), so that the progress bar's total is
     # what it counts to (4,096 of 1,024 once read)
@@ -674,7 +712,8 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
             "env_seed": seed,  # of this session's first reset (env i: + i)
             "sessions": session_record(config, sessions),  # every session's
             "validation_seeds": {"first": VALIDATION_SEED, "count": config.eval_episodes},
-            "machine": platform.platform(), "python": platform.python_version()}
+            "machine": platform.platform(), "python": platform.python_version(),
+            **package_versions()}
     save_text(run / "run.json", json.dumps(info, indent=2))
     plot_learning_curve(run)
     env.close()

@@ -14,7 +14,7 @@ from gymnasium import spaces
 from drill_env.env import OBS_BOUND, DrillStringEnv
 from drill_env.physics.config import replace
 from drill_env.physics.layout import READ
-from drill_env.physics.validation import flatten
+from drill_env.physics.validation import flatten, jsonable
 from drill_env.tasks.telemetry import Telemetry
 
 
@@ -102,6 +102,18 @@ class TaskEnv(DrillStringEnv):
         self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND,
                                             shape=(len(self.observation_names),),
                                             dtype=np.float32)
+
+    def settings(self) -> dict[str, Any]:
+        """What this env resolved from its defaults and the caller's keywords, as JSON
+        values: the task config (``task``), the ``DrillString-v0`` settings the task
+        reads (``env``), the scenario its episodes are drawn from and the physics
+        overrides (the fidelity level among them). A run saves them, so that a later
+        version whose defaults moved can say so instead of feeding the policy other
+        observations without a word."""
+        env = {k: v for k, v in jsonable(self.config).items()
+               if k not in self.unused_env_fields}
+        return {"task": jsonable(self.task), "env": env, "scenario": self.scenario_name,
+                "physics": jsonable(self.physics_overrides)}
 
     def _observation_plan(self) -> list[tuple[int, float]]:
         return []  # the task builds its own observation (_observation)
