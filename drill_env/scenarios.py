@@ -552,6 +552,9 @@ RANDOMISED = frozenset({"random"})
 #: lengths at which a build's pipe buckles can form a window ~15 m wide.
 DRAW_CHECK_STEP = 5.0
 _CHECKED: set[str] = set()  # the (scenario, params, overrides) found sound in this process
+#: At most this many are kept (then forgotten together, to be checked again): a process
+#: making envs of ever new settings (a sweep, a search) kept every one (a soak test).
+CHECKED_KEPT = 1024
 
 
 def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, Any],
@@ -607,6 +610,8 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
                "drill-env benchmark --task), ")
             + f"draw a lower WOB ({lower_wob}), lighten the mud or make the BHA heavier "
             "(string.components)")
+    if len(_CHECKED) >= CHECKED_KEPT:
+        _CHECKED.clear()
     _CHECKED.add(key)
 
 

@@ -382,3 +382,19 @@ def test_the_random_layers_cross_a_curved_hole_at_their_drawn_dip():
         assert (bottom.dip, bottom.azimuth) == (top.dip, top.azimuth)  # parallel planes
         true_dips.append(top.dip)
     assert max(relative) <= 60.0 + 1e-9 and max(true_dips) > 60.0
+
+
+def test_the_draws_found_sound_are_kept_up_to_a_bound(monkeypatch):
+    """A soak test: each new set of physics overrides of a randomised scenario added an
+    entry to the process's record of draws found sound, without end (a process making
+    envs of ever new settings); it now keeps at most CHECKED_KEPT, then forgets them
+    together, and a forgotten set is checked again, with the same answer."""
+    from drill_env import scenarios
+
+    monkeypatch.setattr(scenarios, "_CHECKED", set())
+    monkeypatch.setattr(scenarios, "CHECKED_KEPT", 3)
+    for density in (1100.0, 1150.0, 1200.0, 1250.0):
+        scenarios.check_draws("random", {}, {"mud.density": density})
+    assert len(scenarios._CHECKED) == 1  # three kept, forgotten at the fourth, which stays
+    scenarios.check_draws("random", {}, {"mud.density": 1100.0})  # checked again: sound
+    assert len(scenarios._CHECKED) == 2
