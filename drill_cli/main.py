@@ -27,7 +27,14 @@ from typing import Any
 
 from drill_env.physics.units import HOUR, KILO, RPM, few, shown
 from drill_env.progress import progress_bar
-from drill_env.sweep import Terminated, clear_interrupt, hear_interrupts, note_interrupt, save_text
+from drill_env.sweep import (
+    Terminated,
+    clear_interrupt,
+    hear_interrupts,
+    note_interrupt,
+    save_text,
+    save_whole,
+)
 from drill_env.swing import SWING_BLOCK, swing_per_block, swing_trend
 
 DESCRIPTION = """\
@@ -1317,9 +1324,9 @@ def cmd_modes(args: argparse.Namespace) -> int:
         print(f"  {c.rpm:6.1f} rpm   {c.mode:<12} x {c.excitation}")
     args.out.mkdir(parents=True, exist_ok=True)
     png = args.out / "modes_critical_speeds.png"
-    md.critical_speed_chart(config, (torsional, lateral), png, args.max_rpm,
-                            f"{source}: natural frequencies and excitations "
-                            f"(WOB {wob / KILO:.0f} kN)")
+    title = f"{source}: natural frequencies and excitations (WOB {wob / KILO:.0f} kN)"
+    save_whole(png, lambda file: md.critical_speed_chart(config, (torsional, lateral), file,
+                                                         args.max_rpm, title))
     data = {"scenario": args.scenario, "weight_on_bit_N": wob,
             # keys without a unit in their name (a drilling engineer's review)
             "units": {"components_N": {"length": "m", "bottom_depth": "m", "weight": "N",

@@ -62,7 +62,14 @@ from drill_env.physics.validation import (
     repeated,
 )
 from drill_env.scenarios import POSITIONS, make_scenario, with_physics
-from drill_env.sweep import ResultStore, digest, make_executor, save_text, source_digest
+from drill_env.sweep import (
+    ResultStore,
+    digest,
+    make_executor,
+    save_text,
+    save_whole,
+    source_digest,
+)
 
 #: The paper's grid: 0-250 rpm and 0-200 kN in steps of 5 rpm / 5 kN (0 itself is
 #: steady by definition: no rotation, or no bit load).
@@ -447,7 +454,7 @@ def plot_maps(maps: Sequence[StabilityMap], path: Path, controller: str = "stiff
     title."""
     fig = maps_figure(maps, controller, source)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    save_whole(path, lambda file: fig.savefig(file, dpi=120))
     return path
 
 

@@ -23,7 +23,7 @@ from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.fem import build_mesh
 from drill_env.physics.statics import bit_buoyed_weight
 from drill_env.physics.trajectory import MODES, StringColumn, Survey, Trajectory, soft_string
-from drill_env.sweep import save_text
+from drill_env.sweep import save_text, save_whole
 
 #: Well shapes by name: total measured depth (m) -> survey. Build rates and angles are
 #: typical of land wells (2-4 deg/30 m builds; Mitchell & Miska, Fundamentals of
@@ -148,7 +148,7 @@ def write_well(name: str, trajectory: Trajectory, config: SimulationConfig, out:
     table = torque_drag_table(trajectory, config, frictions)
     fig = well_figure(name, trajectory, table, frictions, string)
     png = out / f"well_{name}.png"
-    fig.savefig(png, dpi=100)
+    save_whole(png, lambda file: fig.savefig(file, dpi=100))
     stations = {"md": trajectory.survey.md.tolist(),
                 "inclination_deg": np.degrees(trajectory.survey.inclination).tolist(),
                 "azimuth_deg": np.degrees(trajectory.survey.azimuth).tolist()}

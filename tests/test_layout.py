@@ -136,36 +136,43 @@ def test_no_drill_env_file_is_much_longer_than_one_concern():
     assert not {k: v for k, v in sizes.items() if v > 700}, sizes
 
 
-#: The only places that write a file's text or bytes in place: save_text itself (into
-#: its hidden partial file) and the recorder's writability probe (an empty file it removes).
+#: The only places that write a file in place: save_text itself (into its hidden partial
+#: file), the recorder's writability probe (an empty file it removes) and the modes
+#: chart of the physics layer, which imports nothing above it (the CLI hands it the
+#: partial file of save_whole).
 WRITES_IN_PLACE = {("drill_env/sweep.py", "save_text"),
-                   ("drill_env/recording/recorder.py", "check_directory")}
+                   ("drill_env/recording/recorder.py", "check_directory"),
+                   ("drill_env/physics/modes.py", "critical_speed_chart")}
 
 
 def _writes_in_place(path: Path) -> list[tuple[str, int]]:
-    """(enclosing function, line) of each ``.write_text(`` / ``.write_bytes(`` call."""
+    """(enclosing function, line) of each ``.write_text(`` / ``.write_bytes(`` call and
+    each ``.savefig(`` outside a lambda (the form save_whole takes)."""
     found = []
 
-    def visit(node: ast.AST, function: str) -> None:
+    def visit(node: ast.AST, function: str, in_lambda: bool) -> None:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
-                visit(child, child.name)
+                visit(child, child.name, False)
                 continue
-            if (isinstance(child, ast.Call) and isinstance(child.func, ast.Attribute)
-                    and child.func.attr in ("write_text", "write_bytes")):
+            if isinstance(child, ast.Call) and isinstance(child.func, ast.Attribute) and (
+                    child.func.attr in ("write_text", "write_bytes")
+                    or child.func.attr == "savefig" and not in_lambda):
                 found.append((function, child.lineno))
-            visit(child, function)
+            visit(child, function, in_lambda or isinstance(child, ast.Lambda))
 
-    visit(ast.parse(path.read_text(encoding="utf-8")), "<module>")
+    visit(ast.parse(path.read_text(encoding="utf-8")), "<module>", False)
     return found
 
 
 def test_every_output_is_saved_whole():
-    """A summary, a table or a JSON file written in place is left cut short by a kill
-    mid-write, where a reader (a resume, a docs table, a plot) takes it whole: each goes
-    through save_text (a hidden partial file renamed over the name). Eight outputs were
-    written in place until 2026-12-06 (run_summary.json, modes.json, speed.json and .md, a
-    stability map's JSON, a well's JSON, demo_summary.json, the training seeds' table)."""
+    """A summary, a table, a JSON file or a picture written in place is left cut short by
+    a kill mid-write, where a reader (a resume, a docs table, a person) takes it whole:
+    each goes through save_text or save_whole (a hidden partial file renamed over the
+    name). Until 2026-12-06 eight text outputs (run_summary.json, modes.json, speed.json
+    and .md, a stability map's JSON, a well's JSON, demo_summary.json, the training seeds'
+    table) and six pictures (the stability maps, the modes chart, the demo's, the speed
+    scaling, the well chart, the learning curve) were written in place."""
     root = PACKAGE.parent
     offenders = []
     for package in ("drill_env", "agents", "training", "drill_cli"):
@@ -176,3 +183,4 @@ def test_every_output_is_saved_whole():
                           if (name, function) not in WRITES_IN_PLACE]
     assert not offenders, offenders
     assert _writes_in_place(root / "drill_env" / "sweep.py")  # the scan sees a call
+    assert _writes_in_place(root / "drill_env" / "physics" / "modes.py")

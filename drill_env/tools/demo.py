@@ -16,7 +16,7 @@ from typing import Any
 from drill_env.physics.config import FormationConfig, SimulationConfig, SolverConfig
 from drill_env.physics.units import HOUR, KILO, RPM, shown
 from drill_env.scenarios import HARD
-from drill_env.sweep import save_text
+from drill_env.sweep import save_text, save_whole
 from drill_env.tools.studies import COL, simulate, stick_slip_summary
 
 #: The demo's set points (rpm), WOB (N) and simulated seconds per run.
@@ -87,7 +87,7 @@ def stick_slip_demo(out: Path, echo: Any = print) -> tuple[list[dict[str, Any]],
     axes[0].set_ylim(bottom=min(0.0, axes[0].get_ylim()[0]))
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
-    fig.savefig(out / "demo_stick_slip.png", dpi=120)
+    save_whole(out / "demo_stick_slip.png", lambda file: fig.savefig(file, dpi=120))
     save_text(out / "demo_summary.json", json.dumps(rows, indent=2))
     echo(f"wrote {out / 'demo_stick_slip.png'} and {out / 'demo_summary.json'} "
          f"({time.perf_counter() - t0:.1f} s)")

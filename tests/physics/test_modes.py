@@ -710,8 +710,11 @@ def test_the_modes_command_titles_the_chart_with_the_string_of_its_config(tmp_pa
     from drill_env.physics import modes as md
 
     titles = []
-    monkeypatch.setattr(md, "critical_speed_chart",
-                        lambda *args, **kwargs: titles.append(args[-1]))
+    def chart(config, modes, path, max_rpm, title):  # (into save_whole's partial file)
+        titles.append(title)
+        Path(path).write_bytes(b"")
+
+    monkeypatch.setattr(md, "critical_speed_chart", chart)
     assert main(["modes", "--out", str(tmp_path)]) == 0
     assert main(["modes", "--config", str(ROOT / "examples/field_well_string.yaml"),
                  "--out", str(tmp_path)]) == 0

@@ -11,6 +11,7 @@ from drill_env.physics import config as physics_config
 from drill_env.physics.config import SimulationConfig, replace
 from drill_env.physics.simulator import Simulator
 from drill_env.physics.units import RPM
+from drill_env.sweep import save_whole
 from drill_env.tools.speed.common import (
     SETUP_WARNING,
     SURFACE_SPEED,
@@ -208,7 +209,7 @@ def plot_scaling(result: dict[str, Any], path: Path) -> Path | None:
                  f"{result['weight_on_bit_N'] / 1e3:.0f} kN", fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    save_whole(path, lambda file: fig.savefig(file, dpi=110))
     return path
 
 
