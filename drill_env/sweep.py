@@ -530,7 +530,9 @@ def save_whole(path: Path, save: Callable[[str], Any]) -> None:
     """``save(file)`` into a hidden file beside ``path``, then renamed to it: a process
     killed mid-write leaves no truncated file where it is read (a resume of a model cut
     short crashed on an UnpicklingError; a benchmark interrupted while drawing left its
-    pictures half there). A save that raises (a Ctrl-C) leaves no partial file either."""
+    pictures half there). A save that raises (a Ctrl-C) leaves no partial file either.
+    On Windows a rename over a file another program holds open is tried again for a
+    second, then refused naming the file (:data:`RENAME_TRIES`)."""
     partial = path.with_name(f".{path.stem}.partial{path.suffix}")
     try:
         save(str(partial))
@@ -546,12 +548,18 @@ RENAME_TRIES = 5
 RENAME_WAIT = 0.2
 
 
+def _windows() -> bool:
+    return os.name == "nt"
+
+
 def _replace(partial: Path, path: Path) -> None:
     for attempt in range(RENAME_TRIES):
         try:
             partial.replace(path)
             return
         except PermissionError as err:
+            if not _windows():  # (a sticky folder of another user, an immutable file:
+                raise  # lasting, and not a program's hold)
             if attempt == RENAME_TRIES - 1:
                 raise PermissionError(
                     f"{path}: cannot be replaced ({err.strerror or err}); a program that "
