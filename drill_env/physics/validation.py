@@ -230,9 +230,12 @@ def _error_text(err: ValidationError, prefix: str = "", root: Any = None) -> str
         if not value_error and "input" in e and not isinstance(e["input"], Mapping) and \
                 type(e["input"]).__name__ != "ArgsKwargs":
             text += f", got {e['input']!r}" + _unit_hint(loc, e["type"])
-        if isinstance(e.get("input"), bool) and not e["type"].startswith("bool"):
-            # (telemetry: no, name: off: YAML 1.1's booleans, as PyYAML reads them)
-            text += " (YAML reads yes, no, on and off as true or false: quote the word)"
+        if isinstance(e.get("input"), bool) and (
+                e["type"] in ("literal_error", "string_type", "enum")
+                or value_error and "must be one of" in msg):
+            # a field that takes words (telemetry: no, bit_model: off): YAML 1.1's
+            # booleans, as PyYAML reads them (a number's field: quoting would not help)
+            text += " (an unquoted yes, no, on or off in YAML is a boolean: quote it)"
         lines.append(text)
     return "; ".join(unknown + lines)
 

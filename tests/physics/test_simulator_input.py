@@ -4,6 +4,7 @@ diverged (or empty) run."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -103,24 +104,30 @@ def test_a_bool_is_not_a_number_in_a_config(value):
         replace(SimulationConfig(), **{"mud.density": value})
 
 
-@pytest.mark.parametrize("text, message", [
-    ("bit_model: no\n", r"^bit_model: Input should be 'mesoscopic' or 'macroscopic', got "
-                        r"False \(YAML reads yes, no, on and off as true or false: quote"),
-    ("mud: {density: on}\n", r"^mud\.density: .*\(YAML reads yes, no, on and off as true or "
-                             r"false: quote the word\)$"),
-])
-def test_a_yaml_word_read_as_a_boolean_is_named_as_one(tmp_path, text, message):
-    """An upgrade review: ``telemetry: no`` or ``name: no`` in a YAML file was refused as
-    "got False", with no word that YAML 1.1 (PyYAML) reads yes, no, on and off as
-    booleans; the error now says so wherever a boolean lands in a field of another type."""
+def test_a_yaml_word_read_as_a_boolean_is_named_as_one(tmp_path):
+    """An upgrade review: ``telemetry: no`` or ``bit_model: off`` in a YAML file was
+    refused as "got False", with no word that YAML 1.1 (PyYAML) reads yes, no, on and off
+    as booleans; a field that takes words now says so. A number's field does not (quoting
+    the word would not help), nor a switch, which takes it."""
+    import gymnasium as gym
+
     from drill_env.physics.config import ConfigError, SimulationConfig
     from drill_env.physics.validation import load_yaml
 
+    hint = "(an unquoted yes, no, on or off in YAML is a boolean: quote it)"
     path = tmp_path / "physics.yml"
-    path.write_text(text, encoding="utf-8")
-    with pytest.raises(ConfigError, match=message):
+    path.write_text("bit_model: off\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"^bit_model: Input should be 'mesoscopic' or "
+                                          r"'macroscopic', got False \(an unquoted"):
         load_yaml(SimulationConfig, path)
-    path.write_text("solver: {implicit_contacts: no}\n", encoding="utf-8")  # a switch: fine
+    with pytest.raises(ValueError, match=r"^telemetry: must be one of .*got False " +
+                                         re.escape(hint)):
+        gym.make("DrillStickSlip-v0", telemetry=False)
+    path.write_text("mud: {density: on}\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"^mud\.density: ") as refused:
+        load_yaml(SimulationConfig, path)
+    assert hint not in str(refused.value)
+    path.write_text("solver: {implicit_contacts: no}\n", encoding="utf-8")  # a switch
     assert load_yaml(SimulationConfig, path).solver.implicit_contacts is False
 
 
