@@ -227,6 +227,7 @@ def moved_settings_note(name: str, path: str | Path | None = None,
     study of a changed setting is a use, not a mistake."""
     from training.config import (
         changes_text,
+        code_of,
         read_trained_with,
         settings_changes,
         trained_settings,
@@ -239,10 +240,9 @@ def moved_settings_note(name: str, path: str | Path | None = None,
     moved = settings_changes(record, trained_settings(trained_on, kwargs))
     if not moved:
         return None
-    return (f"note: {name} trained under drill-env {record.get('drill_env', '?')} with "
-            f"other {trained_on} settings than this version's gives it "
-            f"({changes_text(moved)}): it is scored under today's, which its "
-            "observations and reward follow")
+    return (f"note: {name} trained under other {trained_on} settings than this code "
+            f"gives it ({changes_text(moved)}; {code_of(record)}): it is scored under "
+            "today's, which its observations and reward follow")
 
 
 def trained_env(path: str | Path | None = None, env_id: str | None = None

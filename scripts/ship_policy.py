@@ -35,6 +35,10 @@ def main() -> None:
     model, norm = ((args.run / "model.zip", args.run / "vecnormalize.pkl") if args.final
                    else _files(args.run))
     size = model.stat().st_size + norm.stat().st_size
+    if not (args.run / TRAINED_WITH).exists():
+        raise SystemExit(f"{args.run} has no {TRAINED_WITH} (a run of a version before "
+                         "2026-12-06): tests/test_shipped_policies.py needs the settings a "
+                         "shipped policy trained under; train it again")
     if size > LIMIT:
         raise SystemExit(f"{model} + {norm}: {size / 1e6:.1f} MB, over the 2 MB limit")
     target = TRAINED / config["task"]
@@ -43,10 +47,8 @@ def main() -> None:
     shutil.copy(norm, target / "vecnormalize.pkl")
     shutil.copy(args.run / "config.yaml", target / "config.yaml")
     # the settings it trained under (tests/test_shipped_policies.py checks them against
-    # today's); a run from before the record: none, so a stale one must not stay
-    (target / TRAINED_WITH).unlink(missing_ok=True)
-    if (args.run / TRAINED_WITH).exists():
-        shutil.copy(args.run / TRAINED_WITH, target / TRAINED_WITH)
+    # today's)
+    shutil.copy(args.run / TRAINED_WITH, target / TRAINED_WITH)
     best = "final model"
     ship = f"scripts/ship_policy.py logs/runs/{args.run.name}"  # where train writes the run
     if args.final:

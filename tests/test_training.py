@@ -2057,9 +2057,11 @@ def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, cap
     """An upgrade review: a run folder named no drill-env version or code, and its
     config.yaml holds only the keywords given (``env_kwargs``), so a later version whose
     task defaults moved scored the run under them without a word. A run now keeps
-    ``trained_with.json`` (version, source digest, every task, env, scenario and physics
-    setting its env resolved); a moved one is a note where it is evaluated or
-    benchmarked and refuses a resume, by name; run.json names the package versions."""
+    ``trained_with.json`` (version, source digest, every task and env setting its env
+    resolved, the scenario and its parameters, the physics overrides); a moved one is a
+    note where it is evaluated or benchmarked and refuses a resume, by name, and one
+    added since is taken at its default without a word; run.json names the package
+    versions."""
     import json
     import shutil
 
@@ -2071,27 +2073,37 @@ def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, cap
     from drill_env.tasks.stick_slip import StickSlipEnv
     from training.config import TRAINED_WITH
     from training.evaluate import evaluate_run, settings_of
+    from training.train import finished
 
     folder, cfg = run
     record = json.loads((folder / TRAINED_WITH).read_text(encoding="utf-8"))
     assert record["drill_env"] == drill_env.__version__
     assert record["source_digest"] == source_digest("drill_env")
     env = StickSlipEnv(episode_duration=3.0)  # what the run's env_kwargs give, built alone
-    assert {k: record[k] for k in ("task", "env", "scenario", "physics")} == env.settings()
+    assert {k: record[k] for k in ("task", "env", "scenario", "scenario_params",
+                                   "physics")} == env.settings()
     assert record["task"]["history"] == 20 and record["physics"] == {"solver.fidelity": "fast"}
+    assert record["scenario_params"]["rpm_range"] == [40.0, 160.0]
     info = json.loads((folder / "run.json").read_text(encoding="utf-8"))
     assert info["drill_env"] and info["torch"] and info["stable_baselines3"]
     assert info["drill_env_source_digest"] == record["source_digest"]
 
     copy = tmp_path / "moved"
     shutil.copytree(folder, copy)
-    # as if trained when the task's default history was 10 and its telemetry wired pipe
-    record["task"].update(history=10, telemetry="wired_pipe")
+    # a setting added since (not in the record): its default keeps the old behaviour
+    del record["task"]["tracking_deadband"], record["env"]["start_kick"]
     (copy / TRAINED_WITH).write_text(json.dumps(record), encoding="utf-8")
-    said = (f"note: learned:{copy} trained under drill-env {drill_env.__version__} with other "
-            "DrillStickSlip-v0 settings than this version's gives it (task.history 10 then, "
-            "20 now; task.telemetry 'wired_pipe' then, 'mud_pulse' now): it is scored under "
-            "today's")
+    assert not any("trained under" in note for note in replaced_episode_notes(
+        [f"learned:{copy}"], "DrillStickSlip-v0", ["random"], settings_of("stick_slip")))
+    # as if trained when the task's default history was 10 and its telemetry wired pipe,
+    # with a setting since removed
+    record["task"].update(history=10, telemetry="wired_pipe", old_weight=2.0)
+    (copy / TRAINED_WITH).write_text(json.dumps(record), encoding="utf-8")
+    said = (f"note: learned:{copy} trained under other DrillStickSlip-v0 settings than this "
+            "code gives it (task.history 10 then, 20 now; task.old_weight 2.0 then, (no such "
+            "setting) now; task.telemetry 'wired_pipe' then, 'mud_pulse' now; trained under "
+            f"drill-env {drill_env.__version__}, sources {record['source_digest']}): it is "
+            "scored under today's")
     task_settings([f"learned:{copy}"], "DrillStickSlip-v0")  # (a note, not an error)
     settings = settings_of("stick_slip")
     notes = replaced_episode_notes([f"learned:{copy}"], "DrillStickSlip-v0", ["random"],
@@ -2100,11 +2112,14 @@ def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, cap
     assert not any("trained under" in note for note in replaced_episode_notes(
         [f"learned:{folder}"], "DrillStickSlip-v0", ["random"], settings))
     evaluate_run(copy, seeds=1, controllers=["stiff"], progress=False)
-    assert "note: the run trained under drill-env" in capsys.readouterr().out
-    with pytest.raises(ValueError, match=r"^resume: .*moved started under drill-env .* with "
-                                         r"other DrillStickSlip-v0 settings than this "
-                                         r"version's \(task.history 10 then, 20 now"):
+    assert "note: the run trained under other DrillStickSlip-v0 settings" in \
+        capsys.readouterr().out
+    with pytest.raises(ValueError, match=r"^resume: .*moved started under other "
+                                         r"DrillStickSlip-v0 settings than this code gives it "
+                                         r"\(task.history 10 then, 20 now.*another --name \(a "
+                                         r"--seeds sweep: another --out\)"):
         train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
+    assert finished(copy, cfg)  # a sweep's finished run: not trained on, not refused
     (copy / TRAINED_WITH).write_text("{", encoding="utf-8")  # damaged: named
     with pytest.raises(ValueError, match=rf"^{re.escape(str(copy / TRAINED_WITH))}: is not "
                                          "valid JSON"):

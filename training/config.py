@@ -349,8 +349,8 @@ def read_run_config(path: Path) -> dict[str, Any]:
         problem = "" if isinstance(data, dict) and data.get("task") in TASK_ENVS else (
             f"holds no run's settings (a task of {sorted(TASK_ENVS)}), but {data!r:.60}")
     if problem:
-        raise ValueError(f"{path}: {problem}; it is written when the run starts: train it "
-                         "again (--overwrite) or delete the folder")
+        raise ValueError(f"{path}: {problem}; it is written when the run starts: mend a "
+                         "hand edit, train it again (--overwrite) or delete the folder")
     known = [f.name for f in dataclasses.fields(TrainConfig)]
     unknown = sorted(set(data) - set(known), key=str)
     if unknown:
@@ -470,8 +470,9 @@ def check_env_kwargs(config: TrainConfig) -> None:
 
 
 #: A run's record of what it trained under (written when it starts): the drill-env
-#: version and source digest, and the task, env, scenario and physics settings its env
-#: resolved (:meth:`drill_env.tasks.base.TaskEnv.settings`), defaults included, which a
+#: version and source digest, and what its env resolved
+#: (:meth:`drill_env.tasks.base.TaskEnv.settings`: task and env settings with their
+#: defaults, the scenario and its parameters, the physics overrides), which a
 #: ``config.yaml`` of the keywords given does not hold.
 TRAINED_WITH = "trained_with.json"
 
@@ -524,18 +525,31 @@ def read_trained_with(folder: Path) -> dict[str, Any] | None:
 def settings_changes(saved: dict[str, Any], now: dict[str, Any]
                      ) -> list[tuple[str, Any, Any]]:
     """(dotted setting, value saved, value now) for each task, env, scenario or physics
-    setting of two :meth:`~drill_env.tasks.base.TaskEnv.settings` records that differs
-    (missing on one side: None)."""
-    sections = ("task", "env", "scenario", "physics")
+    setting of two :meth:`~drill_env.tasks.base.TaskEnv.settings` records that differs;
+    one no longer there has :data:`GONE` now. A setting added since (not in ``saved``) is
+    not a change: a new field's default keeps what the code did before it."""
+    sections = ("task", "env", "scenario", "scenario_params", "physics")
     old = flatten({k: saved.get(k) for k in sections if saved.get(k) is not None})
     new = flatten({k: now.get(k) for k in sections if now.get(k) is not None})
-    return [(key, old.get(key), new.get(key)) for key in sorted({*old, *new})
-            if old.get(key) != new.get(key)]
+    return [(key, old[key], new.get(key, GONE)) for key in sorted(old)
+            if new.get(key, GONE) != old[key]]
+
+
+#: The value now of a saved setting that is no longer one (:func:`settings_changes`).
+GONE = "(no such setting)"
+
+
+def code_of(record: dict[str, Any]) -> str:
+    """``drill-env 0.1.0, sources 9610e400394a8c39`` of a :data:`TRAINED_WITH` record (the
+    version alone says little while it stays 0.1.0)."""
+    return (f"trained under drill-env {record.get('drill_env', '?')}, sources "
+            f"{record.get('source_digest', 'not recorded')}")
 
 
 def changes_text(changes: Sequence[tuple[str, Any, Any]]) -> str:
     """``task.history 20 then, 10 now; ...`` for :func:`settings_changes`."""
-    return "; ".join(f"{key} {was!r} then, {now!r} now" for key, was, now in changes)
+    return "; ".join(f"{key} {was!r} then, {now if now is GONE else repr(now)} now"
+                     for key, was, now in changes)
 
 
 def left_out_settings(config: TrainConfig, path: str | Path,

@@ -318,12 +318,11 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     for note in standard_episode_notes(trained, settings):
         print(note)
     from agents.learned import moved_settings_note
-
-    if moved := moved_settings_note("the run", run, TASKS[task]):
-        print(moved)
     from agents.registry import make_controller
 
     make_controller(names[0], env_id=TASKS[task])  # a policy it cannot load: said first
+    if moved := moved_settings_note("the run", run, TASKS[task]):
+        print(moved)
     if task == "drilling":
         constant, _ = best_constant(out / "grid_search", workers, progress, ray_address,
                                     settings)

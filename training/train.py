@@ -4,9 +4,10 @@ A run lives in ``logs/runs/<name>/``:
 
 ==========================  ===========================================================
 ``config.yaml``             the exact :class:`~training.config.TrainConfig` of the run
-``trained_with.json``       drill-env's version and source digest, and the task, env,
-                            scenario and physics settings the env resolved (defaults
-                            included): a later version whose defaults moved says so
+``trained_with.json``       drill-env's version and source digest, the task and env
+                            settings the env resolved (defaults included), its
+                            scenario with the parameters given and the physics
+                            overrides: a later version whose defaults moved says so
 ``model.zip``               the final model; ``vecnormalize.pkl`` its normalisation
 ``best_model.zip``          the best model on the validation seeds (+ its
                             ``best_vecnormalize.pkl``)
@@ -53,6 +54,7 @@ from training.config import (
     TrainConfig,
     algo_class,
     changes_text,
+    code_of,
     read_run_config,
     read_trained_with,
     sb3_hyperparams,
@@ -495,9 +497,11 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
     return done
 
 
-def check_same_config(run: Path, config: TrainConfig) -> None:
+def check_same_config(run: Path, config: TrainConfig, settings: bool = True) -> None:
     """ValueError if ``run`` was started with another config than ``config`` in anything
-    but ``n_timesteps``, ``torch_threads`` and ``fused_adam``."""
+    but ``n_timesteps``, ``torch_threads`` and ``fused_adam`` (named by dotted path), or,
+    with ``settings``, where its env's settings today differ from those it started
+    under (its ``trained_with.json``: a default moved since)."""
     saved = run / "config.yaml"
     if saved.exists():
         old = flatten(without_inert_keys(read_run_config(saved)))
@@ -511,14 +515,14 @@ def check_same_config(run: Path, config: TrainConfig) -> None:
                              "differ; only n_timesteps, torch_threads and fused_adam may "
                              "change); train it under another --name (a --seeds sweep: "
                              "another --out), or delete the folder")
-    record = read_trained_with(run)
+    record = read_trained_with(run) if settings else None
     if record is not None:  # the same keywords, but the env's defaults moved since
         moved = settings_changes(record, trained_settings(config.env_id, config.env_kwargs))
         if moved:
-            raise ValueError(f"resume: {run} started under drill-env "
-                             f"{record.get('drill_env', '?')} with other {config.env_id} "
-                             f"settings than this version's ({changes_text(moved)}); train "
-                             "it again under another --name, or delete the folder")
+            raise ValueError(f"resume: {run} started under other {config.env_id} settings "
+                             f"than this code gives it ({changes_text(moved)}; "
+                             f"{code_of(record)}); train it again under another --name (a "
+                             "--seeds sweep: another --out), or delete the folder")
 
 
 def finished(run: Path, config: TrainConfig) -> bool:
@@ -528,7 +532,8 @@ def finished(run: Path, config: TrainConfig) -> bool:
     on from it instead of refusing to train it further."""
     if not ((run / "run.json").exists() and (run / "config.yaml").exists()):
         return False
-    check_same_config(run, config)
+    check_same_config(run, config, settings=False)  # (a finished run is not trained on:
+    # a default moved since is evaluate's note, not a reason to refuse the sweep)
     # a run trained for more steps than asked is not this config's result
     asked = read_run_config(run / "config.yaml").get("n_timesteps")
     point = resume_point(run)
@@ -870,5 +875,5 @@ def plot_learning_curve(run: Path) -> Path | None:
     fig.suptitle(f"{run.name}: {what}")
     fig.tight_layout()
     out = run / "learning_curve.png"
-    fig.savefig(out, dpi=110)
+    save_whole(out, lambda file: fig.savefig(file, dpi=110))
     return out

@@ -105,14 +105,16 @@ class TaskEnv(DrillStringEnv):
 
     def settings(self) -> dict[str, Any]:
         """What this env resolved from its defaults and the caller's keywords, as JSON
-        values: the task config (``task``), the ``DrillString-v0`` settings the task
-        reads (``env``), the scenario its episodes are drawn from and the physics
-        overrides (the fidelity level among them). A run saves them, so that a later
-        version whose defaults moved can say so instead of feeding the policy other
-        observations without a word."""
+        values: the task config (``task``) and the ``DrillString-v0`` settings the task
+        reads (``env``), defaults included; the scenario its episodes are drawn from and
+        the parameters given to it (its start ranges resolved); the physics overrides
+        (the fidelity level among them; the scenario's own physics is its code's). A
+        run saves them, so that a later version whose defaults moved can say so instead
+        of feeding the policy other observations without a word."""
         env = {k: v for k, v in jsonable(self.config).items()
                if k not in self.unused_env_fields}
         return {"task": jsonable(self.task), "env": env, "scenario": self.scenario_name,
+                "scenario_params": jsonable(self.scenario_params),
                 "physics": jsonable(self.physics_overrides)}
 
     def _observation_plan(self) -> list[tuple[int, float]]:
