@@ -552,9 +552,7 @@ RANDOMISED = frozenset({"random"})
 #: lengths at which a build's pipe buckles can form a window ~15 m wide.
 DRAW_CHECK_STEP = 5.0
 _CHECKED: set[str] = set()  # the (scenario, params, overrides) found sound in this process
-#: At most this many are kept (then forgotten together, to be checked again): a process
-#: making envs of ever new settings (a sweep, a search) kept every one (a soak test).
-CHECKED_KEPT = 1024
+CHECKED_KEPT = 1024  # at most (then forgotten together): a sweep's new settings each added
 
 
 def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, Any],
@@ -569,8 +567,7 @@ def check_draws(name: str, params: Mapping[str, Any], overrides: Mapping[str, An
     in a vertical hole the pipe's compression is set by what every draw shares: BHA,
     heavy-weight pipe, bit, mud). ``top_wob``: the most WOB an episode starts at (N; None:
     the top of the scenario's ``weight_on_bit_range``), and ``lower_wob`` the setting that
-    lowers it (a task draws its own targets). Each set of arguments is checked once per
-    process."""
+    lowers it (a task draws its own targets). Each set is checked once per process."""
     key = repr((name, sorted(params.items()), sorted(overrides.items()), top_wob))
     if name not in RANDOMISED or not (overrides or top_wob is not None) or key in _CHECKED:
         return
