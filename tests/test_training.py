@@ -2071,7 +2071,7 @@ def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, cap
     from drill_env.physics.config import replace
     from drill_env.sweep import source_digest
     from drill_env.tasks.stick_slip import StickSlipEnv
-    from training.config import TRAINED_WITH
+    from training.config import TRAINED_WITH, settings_changes
     from training.evaluate import evaluate_run, settings_of
     from training.train import finished
 
@@ -2100,8 +2100,8 @@ def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, cap
     record["task"].update(history=10, telemetry="wired_pipe", old_weight=2.0)
     (copy / TRAINED_WITH).write_text(json.dumps(record), encoding="utf-8")
     said = (f"note: learned:{copy} trained under other DrillStickSlip-v0 settings than this "
-            "code gives it (task.history 10 then, 20 now; task.old_weight 2.0 then, (no such "
-            "setting) now; task.telemetry 'wired_pipe' then, 'mud_pulse' now; trained under "
+            "code gives it (task.history 10 then, 20 now; task.old_weight 2.0 then, (not set) "
+            "now; task.telemetry 'wired_pipe' then, 'mud_pulse' now; trained under "
             f"drill-env {drill_env.__version__}, sources {record['source_digest']}): it is "
             "scored under today's")
     task_settings([f"learned:{copy}"], "DrillStickSlip-v0")  # (a note, not an error)
@@ -2120,6 +2120,9 @@ def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, cap
                                          r"--seeds sweep: another --out\)"):
         train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
     assert finished(copy, cfg)  # a sweep's finished run: not trained on, not refused
+    # physics given now and not then (a task's new fidelity default) is a change
+    assert ("physics.solver.fidelity", "(not set)", "fast") in settings_changes(
+        {**record, "physics": {}}, env.settings())
     (copy / TRAINED_WITH).write_text("{", encoding="utf-8")  # damaged: named
     with pytest.raises(ValueError, match=rf"^{re.escape(str(copy / TRAINED_WITH))}: is not "
                                          "valid JSON"):

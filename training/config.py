@@ -524,19 +524,24 @@ def read_trained_with(folder: Path) -> dict[str, Any] | None:
 
 def settings_changes(saved: dict[str, Any], now: dict[str, Any]
                      ) -> list[tuple[str, Any, Any]]:
-    """(dotted setting, value saved, value now) for each task, env, scenario or physics
-    setting of two :meth:`~drill_env.tasks.base.TaskEnv.settings` records that differs;
-    one no longer there has :data:`GONE` now. A setting added since (not in ``saved``) is
-    not a change: a new field's default keeps what the code did before it."""
-    sections = ("task", "env", "scenario", "scenario_params", "physics")
-    old = flatten({k: saved.get(k) for k in sections if saved.get(k) is not None})
-    new = flatten({k: now.get(k) for k in sections if now.get(k) is not None})
-    return [(key, old[key], new.get(key, GONE)) for key in sorted(old)
-            if new.get(key, GONE) != old[key]]
+    """(dotted setting, value saved, value now) for each setting of two
+    :meth:`~drill_env.tasks.base.TaskEnv.settings` records that differs, :data:`NOT_SET`
+    on the side that lacks it. A task or env field added since (not in ``saved``) is not
+    a change: a new field's default is meant to keep what the code did before it. The
+    scenario, its parameters and the physics overrides are what was given, so one given
+    now and not then (a task's new fidelity default) is."""
+    sections = (*_FIELDS, "scenario", "scenario_params", "physics")
+    old, new = (flatten({k: record[k] for k in sections if record.get(k) not in (None, {})})
+                for record in (saved, now))
+    keys = sorted({*old, *(k for k in new if k.partition(".")[0] not in _FIELDS)})
+    return [(key, old.get(key, NOT_SET), new.get(key, NOT_SET)) for key in keys
+            if old.get(key, NOT_SET) != new.get(key, NOT_SET)]
 
 
-#: The value now of a saved setting that is no longer one (:func:`settings_changes`).
-GONE = "(no such setting)"
+#: The sections of :func:`settings_changes` that are a config class's fields.
+_FIELDS = ("task", "env")
+#: A setting's value on the side of :func:`settings_changes` that lacks it.
+NOT_SET = "(not set)"
 
 
 def code_of(record: dict[str, Any]) -> str:
@@ -548,8 +553,10 @@ def code_of(record: dict[str, Any]) -> str:
 
 def changes_text(changes: Sequence[tuple[str, Any, Any]]) -> str:
     """``task.history 20 then, 10 now; ...`` for :func:`settings_changes`."""
-    return "; ".join(f"{key} {was!r} then, {now if now is GONE else repr(now)} now"
-                     for key, was, now in changes)
+    def shown(value: Any) -> str:
+        return value if value is NOT_SET else repr(value)
+
+    return "; ".join(f"{key} {shown(was)} then, {shown(now)} now" for key, was, now in changes)
 
 
 def left_out_settings(config: TrainConfig, path: str | Path,
