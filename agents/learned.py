@@ -218,10 +218,11 @@ def policy_folder(path: str | Path | None = None, env_id: str | None = None) -> 
     return TRAINED / task
 
 
-def moved_settings_note(name: str, path: str | Path | None = None,
-                        env_id: str | None = None) -> str | None:
-    """A note where the task settings a run's env resolves today from its ``env_kwargs``
-    differ from those it trained under (its ``trained_with.json``: a default moved in a
+def moved_settings_note(name: str, folder: Path, env_id: str, env_kwargs: dict[str, Any]
+                        ) -> str | None:
+    """A note where the task settings the env ``env_id`` resolves today from the run's
+    ``env_kwargs`` (as its caller read them from the run's config) differ from those the
+    run in ``folder`` trained under (its ``trained_with.json``: a default moved in a
     later version), naming each; None where they agree or the run has no record (a run
     of a version before 2026-12-06, a policy of your own). The policy is still run: a
     study of a changed setting is a use, not a mistake."""
@@ -233,14 +234,13 @@ def moved_settings_note(name: str, path: str | Path | None = None,
         trained_settings,
     )
 
-    record = read_trained_with(policy_folder(path, env_id))
+    record = read_trained_with(folder)
     if record is None:
         return None
-    trained_on, kwargs = trained_env(path, env_id)
-    moved = settings_changes(record, trained_settings(trained_on, kwargs))
+    moved = settings_changes(record, trained_settings(env_id, env_kwargs))
     if not moved:
         return None
-    return (f"note: {name} trained under other {trained_on} settings than this code "
+    return (f"note: {name} trained under other {env_id} settings than this code "
             f"gives it ({changes_text(moved)}; {code_of(record)}): it is scored under "
             "today's, which its observations and reward follow")
 

@@ -99,14 +99,16 @@ def replaced_episode_notes(controllers: Sequence[str], env_id: str,
     (``learned:RUN``) and a controller of your own's ``env_kwargs()`` (an ``sb3_policy``
     trained on 60 s episodes was run on the benchmark's without a word)."""
     from agents.benchmark import declared_env_kwargs, replaced_episode_settings
-    from agents.learned import moved_settings_note, trained_env
+    from agents.learned import moved_settings_note, policy_folder, trained_env
     from agents.registry import is_imported, make_controller
 
     notes = []
     for name in controllers:
         if name == "learned" or name.startswith("learned:"):
-            trained = trained_env(name.partition(":")[2] or None, env_id)[1]
-            if moved := moved_settings_note(name, name.partition(":")[2] or None, env_id):
+            path = name.partition(":")[2] or None
+            trained_on, trained = trained_env(path, env_id)
+            if moved := moved_settings_note(name, policy_folder(path, env_id), trained_on,
+                                            trained):
                 notes.append(moved)
         elif is_imported(name) and (made := make_controller(name)).env_id == env_id:
             trained = declared_env_kwargs(made, name)

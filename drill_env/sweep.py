@@ -548,17 +548,13 @@ RENAME_TRIES = 5
 RENAME_WAIT = 0.2
 
 
-def _windows() -> bool:
-    return os.name == "nt"
-
-
 def _replace(partial: Path, path: Path) -> None:
     for attempt in range(RENAME_TRIES):
         try:
             partial.replace(path)
             return
         except PermissionError as err:
-            if not _windows():  # (a sticky folder of another user, an immutable file:
+            if sys.platform != "win32":  # (a sticky folder of another user, an immutable file:
                 raise  # lasting, and not a program's hold)
             if attempt == RENAME_TRIES - 1:
                 raise PermissionError(

@@ -189,7 +189,7 @@ def test_a_file_held_open_on_windows_is_waited_for_then_refused_by_name(tmp_path
         sweep.save_text(target, "new\n")  # (a sticky folder): no wait, its own error
     assert len(refusals) == 1 and target.read_text(encoding="utf-8") == "old\n"
     refusals.clear()
-    monkeypatch.setattr(sweep, "_windows", lambda: True)
+    monkeypatch.setattr(sys, "platform", "win32")
     monkeypatch.setattr(pathlib.Path, "replace", lambda s, o: held(s, o, 2))
     sweep.save_text(target, "new\n")
     assert target.read_text(encoding="utf-8") == "new\n" and len(refusals) == 2

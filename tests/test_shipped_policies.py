@@ -87,4 +87,4 @@ def test_the_shipped_policies_run_under_the_settings_they_are_tested_under(task)
     record = read_trained_with(TRAINED / task)
     assert record is not None and record["env_id"] == TASKS[task]
     assert not settings_changes(record, trained_settings(TASKS[task], {}))
-    assert moved_settings_note("learned", None, TASKS[task]) is None
+    assert moved_settings_note("learned", TRAINED / task, TASKS[task], {}) is None

@@ -321,7 +321,7 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     from agents.registry import make_controller
 
     make_controller(names[0], env_id=TASKS[task])  # a policy it cannot load: said first
-    if moved := moved_settings_note("the run", run, TASKS[task]):
+    if moved := moved_settings_note("the run", Path(run), TASKS[task], trained):
         print(moved)
     if task == "drilling":
         constant, _ = best_constant(out / "grid_search", workers, progress, ray_address,
