@@ -45,7 +45,7 @@ from drill_env.physics.validation import (
     numbers,
     repeated,
 )
-from drill_env.sweep import save_text, usable_cores
+from drill_env.sweep import save_text, save_whole, usable_cores
 
 #: benchmark.csv columns, in order (the spec's section 5; meanings in docs/controllers.md);
 #: units in the names.
@@ -707,7 +707,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         arrays["target_time"] = np.array([0.0] + [t - start for t, _ in targets[:-1]])
         arrays["target_rpm"] = np.array([speed / RPM for _, speed in targets])
         arrays["stamp"] = np.array(episode.stamp)
-        np.savez_compressed(episode.series_file, **arrays)
+        save_whole(episode.series_file, lambda file: np.savez_compressed(file, **arrays))
     return row
 
 
@@ -888,7 +888,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     the table (``progress``: the progress bar and the note of reused rows). Returns the
     rows."""
     from drill_env.progress import progress_bar
-    from drill_env.sweep import ResultStore, make_executor
+    from drill_env.sweep import ResultStore, folder_lock, make_executor
 
     settings = settings or BenchmarkSettings()
     if objects := [c for c in controllers if not isinstance(c, str)]:  # (an AttributeError
@@ -919,64 +919,88 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             **task_settings(controllers, env_id), **settings.env_kwargs})
     labels(controllers)  # a name that does not load is refused before --out is made
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))
-    todo_all = [dataclasses.replace(e, stamp=stamp(store.fingerprint, e.key),
-                                    run=run_stamp(store.fingerprint))
-                for e in episodes(controllers, scenarios, seeds, settings, out, record,
-                                  env_id)]
-    # a stored row is rerun only to write its series or a recording asked for, missing
-    # or made by another run
-    todo = [e for e in todo_all if e.key not in store or not e.outputs_current()]
-    reused = len(todo_all) - len(todo)
-    if store.ignored and progress:  # (it started afresh without a word)
-        print(f"benchmark: {store.ignored} stored row(s) of other settings or code in "
-              f"{out / RESULTS_FILE}: not used (kept in the file)", file=sys.stderr)
-    if store.cut and progress:
-        print(f"benchmark: the last line of {out / RESULTS_FILE} was cut (a run stopped "
-              "while writing it): skipped, its episode runs again", file=sys.stderr)
-    if reused and progress:
-        print(f"benchmark: {reused} of {len(todo_all)} episodes already in "
-              f"{out / RESULTS_FILE} (same settings and code; a controller of your own: its "
-              f"file and data_files): not rerun", file=sys.stderr)
-    # before any episode: one recorded now would replace theirs under the same name
-    set_aside_stale_recordings(todo_all, out, progress)
-    if todo:
-        from agents.registry import make_controller
+    # one process writes the folder: a second benchmark into it is refused
+    with folder_lock(out, "a benchmark", tidy=("series",)):
+        store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))
+        todo_all = [dataclasses.replace(e, stamp=stamp(store.fingerprint, e.key),
+                                        run=run_stamp(store.fingerprint))
+                    for e in episodes(controllers, scenarios, seeds, settings, out, record,
+                                      env_id)]
+        # a stored row is rerun only to write its series or a recording asked for, missing
+        # or made by another run, or where it is not a row this episode writes (an edit)
+        unsound = [e.key for e in todo_all
+                   if e.key in store and not sound_row(store.get(e.key), e)]
+        todo = [e for e in todo_all
+                if e.key not in store or e.key in unsound or not e.outputs_current()]
+        reused = len(todo_all) - len(todo)
+        if store.ignored and progress:  # (it started afresh without a word)
+            print(f"benchmark: {store.ignored} stored row(s) of other settings or code in "
+                  f"{out / RESULTS_FILE}: not used (kept in the file)", file=sys.stderr)
+        if store.cut and progress:
+            print(f"benchmark: the last line of {out / RESULTS_FILE} was cut (a run stopped "
+                  "while writing it): skipped, its episode runs again", file=sys.stderr)
+        if (store.damaged or unsound) and progress:
+            print(f"benchmark: {store.damaged + len(unsound)} line(s) of {out / RESULTS_FILE} "
+                  "are not rows this run can use (damaged or edited by hand"
+                  + (f": {unsound[0]}" if unsound else "") + "): skipped, their episodes "
+                  "run again", file=sys.stderr)
+        if reused and progress:
+            print(f"benchmark: {reused} of {len(todo_all)} episodes already in "
+                  f"{out / RESULTS_FILE} (same settings and code; a controller of your own: its "
+                  f"file and data_files): not rerun", file=sys.stderr)
+        # before any episode: one recorded now would replace theirs under the same name
+        set_aside_stale_recordings(todo_all, out, progress)
+        if todo:
+            from agents.registry import make_controller
 
-        # each policy loaded once here first: a damaged file is the command's error before
-        # any episode runs, not after the classical controllers' episodes
-        for name, episode_env in {(e.controller, e.env_id) for e in todo
-                                  if e.controller.startswith("learned")}:
-            make_controller(name, env_id=episode_env)
-        local = min(workers or usable_cores(), len(todo))
-        executor = make_executor(local if ray_address is None else None, ray_address)
-        bar = progress_bar(total=len(todo_all), initial=len(todo_all) - len(todo),
-                           unit="episode", desc="benchmark", disable=not progress,
-                           file=sys.stderr)
-        try:
-            def keep(k: int, row: dict[str, Any]) -> None:
-                store.put(todo[k].key, row)
-                bar.update(1)
+            # each policy loaded once here first: a damaged file is the command's error before
+            # any episode runs, not after the classical controllers' episodes
+            for name, episode_env in {(e.controller, e.env_id) for e in todo
+                                      if e.controller.startswith("learned")}:
+                make_controller(name, env_id=episode_env)
+            local = min(workers or usable_cores(), len(todo))
+            executor = make_executor(local if ray_address is None else None, ray_address)
+            bar = progress_bar(total=len(todo_all), initial=len(todo_all) - len(todo),
+                               unit="episode", desc="benchmark", disable=not progress,
+                               file=sys.stderr)
+            try:
+                def keep(k: int, row: dict[str, Any]) -> None:
+                    store.put(todo[k].key, row)
+                    bar.update(1)
 
-            for k, row in executor.map_unordered(run_episode, todo, late=keep):
-                keep(k, row)
-        finally:
-            bar.close()
-            executor.close()
-    rows = [store.get(e.key) for e in todo_all]
-    from agents.learned import policy_files
+                for k, row in executor.map_unordered(run_episode, todo, late=keep):
+                    keep(k, row)
+            finally:
+                bar.close()
+                executor.close()
+        rows = [store.get(e.key) for e in todo_all]
+        from agents.learned import policy_files
 
-    names = labels(controllers)
-    runs = {name: f"{c.partition(':')[2]} ({policy_files(c.partition(':')[2])[0].name})"
-            for c, name in zip(controllers, names, strict=True) if c.startswith("learned:")}
-    first_seed = seeds[0] if len(seeds) else 0
-    # the series this run's episodes wrote (another benchmark into the same folder at the
-    # same time overwrote them: a picture of its episodes beside this run's table)
-    stamps = {(e.label, e.scenario): e.stamp for e in todo_all if e.seed == first_seed}
-    write_outputs(rows, out, names, scenarios, settings, env_id, heading,
-                  first_seed=first_seed, runs=runs, stamps=stamps)
-    return rows
+        names = labels(controllers)
+        runs = {name: f"{c.partition(':')[2]} ({policy_files(c.partition(':')[2])[0].name})"
+                for c, name in zip(controllers, names, strict=True) if c.startswith("learned:")}
+        first_seed = seeds[0] if len(seeds) else 0
+        # the series this run's episodes wrote (another benchmark into the same folder at the
+        # same time overwrote them: a picture of its episodes beside this run's table)
+        stamps = {(e.label, e.scenario): e.stamp for e in todo_all if e.seed == first_seed}
+        write_outputs(rows, out, names, scenarios, settings, env_id, heading,
+                      first_seed=first_seed, runs=runs, stamps=stamps)
+        return rows
+
+
+def sound_row(row: Any, episode: Episode) -> bool:
+    """Whether ``row``, stored under ``episode``'s key, is one :func:`run_episode` writes
+    for it: its columns there, the episode's controller, scenario and seed, numbers where
+    the metrics are. A row edited by hand ("abc" for a ROP) ended the command with "could
+    not convert string to float: 'abc'", naming neither file nor row; a seed changed by
+    hand went into benchmark.csv (an outside check)."""
+    if not (isinstance(row, dict) and set(COLUMNS) <= row.keys()):
+        return False
+    if (row["controller"], row["scenario"], row["seed"]) != (
+            episode.label, episode.scenario, episode.seed):
+        return False
+    return all(isinstance(row[c], int | float) and not isinstance(row[c], bool)
+               for c in COLUMNS[3:])
 
 
 def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool) -> None:

@@ -162,7 +162,26 @@ def out_folder(text: str) -> Path:
     if not text.strip():
         raise argparse.ArgumentTypeError("give a folder's name (an empty one would write "
                                          "into the current folder; '.' says that)")
-    return Path(text)
+    return user_path(text)
+
+
+def user_path(text: str) -> Path:
+    """An argparse type: a path, with a leading ``~`` read as the home folder, as the
+    shell reads it where it can (``--out=~/runs`` and a quoted ``'~/runs'`` reach us
+    unexpanded: the output went into a folder named ``~`` in the current one, an outside
+    check)."""
+    return Path(text).expanduser()
+
+
+def shell_word(path: Path) -> str:
+    """``path`` as one word on a command line to copy (quoted where it holds a space or a
+    character the shell reads): the hint after training, ``drill-env evaluate
+    logs/runs/sp ace``, ran two words."""
+    import shlex
+    import subprocess
+
+    text = str(path)
+    return subprocess.list2cmdline([text]) if os.name == "nt" else shlex.quote(text)
 
 
 def unwritable(folder: Path) -> str:
@@ -203,7 +222,7 @@ class Once(argparse.Action):
 
 def existing_file(text: str) -> Path:
     """An argparse type: the path of a file that exists (else a one-line error)."""
-    path = Path(text)
+    path = user_path(text)
     if not path.is_file():
         raise argparse.ArgumentTypeError(f"{text} {not_a_file(path)}" if path.exists()
                                          else f"no such file: {text}")
@@ -861,7 +880,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     curve = run / "learning_curve.png"
     made = f", {curve}" if curve.exists() else " (no evaluation yet: no learning curve)"
     print(f"trained in {time.perf_counter() - t0:.0f} s: {model}, {run / 'vecnormalize.pkl'}"
-          f"{made}; drill-env evaluate {run}")
+          f"{made}; drill-env evaluate {shell_word(run)}")
     return 0
 
 
@@ -1603,7 +1622,7 @@ def parser() -> argparse.ArgumentParser:
                    help="relative bit-speed kick at the start, drawn from the seed (as the "
                         "benchmark's; 0: start exactly settled, stick-slip then takes "
                         "over a minute to grow)")
-    p.add_argument("--record", type=Path, default=None, nargs="?",
+    p.add_argument("--record", type=user_path, default=None, nargs="?",
                    const=RECORD_UNDER_OUT,
                    help="write a rerun .rrd of the episode into this folder (given without "
                         "a folder: --out/recordings)")
@@ -1715,7 +1734,7 @@ def parser() -> argparse.ArgumentParser:
     p = add("evaluate", "a trained run against the classical controllers and the trivial "
                         "policies on the held-out seeds, through the benchmark; paired "
                         "comparison in comparison.md", cmd_evaluate)
-    p.add_argument("run", type=Path, help="run folder of drill-env train, or a task's name "
+    p.add_argument("run", type=user_path, help="run folder of drill-env train, or a task's name "
                                            "(stick_slip, drilling) for its shipped policy")
     p.add_argument("--seeds", type=integer(1), default=20, help="held-out seeds")
     p.add_argument("--fidelity", choices=("full", "fast"), default=None,
@@ -1818,7 +1837,7 @@ def parser() -> argparse.ArgumentParser:
                         "training (default: all; training is the time to a policy)")
 
     p = add("replay", "open .rrd recordings in the rerun viewer", cmd_replay)
-    p.add_argument("paths", type=Path, nargs="+", metavar="FILE",
+    p.add_argument("paths", type=user_path, nargs="+", metavar="FILE",
                    help="a .rrd file; several open in one viewer, whose recordings panel "
                         "(left, folded) switches between them")
     p.add_argument("--web", action="store_true", help="serve the web viewer instead")

@@ -29,6 +29,7 @@ import importlib.util
 import json
 import math
 import os
+import re
 import signal
 import sys
 import threading
@@ -469,7 +470,9 @@ class ResultStore:
     written under another fingerprint are ignored, so a changed sweep starts afresh
     instead of mixing old results in. A half-written last line (a killed process) is
     skipped. :attr:`ignored` counts the first, :attr:`cut` says the second, for the caller
-    to say (once: the next result goes on a line of its own after the half line).
+    to say (once: the next result goes on a line of its own after the half line);
+    :attr:`damaged` counts the other lines that are not a result (an edit, a damaged
+    file), skipped as well: their results are computed again.
     """
 
     def __init__(self, path: Path, fingerprint: str) -> None:
@@ -480,6 +483,7 @@ class ResultStore:
         self._broken_end = False
         self.ignored = 0  # results of another fingerprint
         self.cut = False  # the last line is a killed writer's half line
+        self.damaged = 0  # lines before the last that are not a result (edits, damage)
         if self.path.exists():
             # bytes that are not UTF-8 (a damaged file) spoil their line only: it is
             # skipped, or kept with U+FFFD in a string where it still parses as JSON
@@ -491,9 +495,11 @@ class ResultStore:
                     entry = json.loads(line)
                 except json.JSONDecodeError:
                     self.cut = self._broken_end and index == len(lines) - 1
+                    self.damaged += not self.cut
                     continue
                 if not (isinstance(entry, dict) and {"key", "result"} <= entry.keys()):
-                    continue  # not a result (an edit)
+                    self.damaged += bool(line.strip())  # not a result (an edit)
+                    continue
                 if entry.get("fingerprint") == fingerprint:
                     self._results[entry["key"]] = entry["result"]
                 else:
@@ -511,7 +517,7 @@ class ResultStore:
     def put(self, key: str, result: Any) -> None:
         self._results[key] = result
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        with self.path.open("a", encoding="utf-8") as f:
+        with naming(self.path), self.path.open("a", encoding="utf-8") as f:
             if self._broken_end:
                 f.write("\n")
                 self._broken_end = False
@@ -532,13 +538,86 @@ def save_whole(path: Path, save: Callable[[str], Any]) -> None:
     short crashed on an UnpicklingError; a benchmark interrupted while drawing left its
     pictures half there). A save that raises (a Ctrl-C) leaves no partial file either.
     On Windows a rename over a file another program holds open is tried again for a
-    second, then refused naming the file (:data:`RENAME_TRIES`)."""
-    partial = path.with_name(f".{path.stem}.partial{path.suffix}")
+    second, then refused naming the file (:data:`RENAME_TRIES`). The hidden file is this
+    process's own (:func:`partial_file`). An error the system gives without a file's name
+    (a full disk: "No space left on device") is raised naming ``path``."""
+    partial = partial_file(path)
     try:
-        save(str(partial))
-        _replace(partial, path)
+        with naming(path):
+            save(str(partial))
+            _replace(partial, path)
     finally:
         partial.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def naming(path: Path) -> Iterator[None]:
+    """An error of the system raised inside without a file's name (a full disk's "No
+    space left on device" comes from a write, which names none) raised again naming
+    ``path``: the command said "[Errno 28] No space left on device" and not where (an
+    outside check)."""
+    try:
+        yield
+    except OSError as err:
+        if err.filename is not None or err.errno is None:
+            raise
+        raise type(err)(err.errno, err.strerror, str(path)) from err
+
+
+def partial_file(path: Path) -> Path:
+    """The hidden file :func:`save_whole` writes ``path`` into first,
+    ``.<stem>.<process id>.partial<suffix>`` (the suffix kept: matplotlib and NumPy
+    choose the format by it). One name for all processes let two of them that saved the
+    same output at once (two benchmarks into one folder) write into one file: one's
+    rename then found nothing ("No such file or directory") and a reader saw the two
+    files mixed under the final name (an outside check)."""
+    return path.with_name(f".{path.stem}.{os.getpid()}.partial{path.suffix}")
+
+
+#: What :func:`partial_file` names, and the single-name partial files of earlier versions.
+PARTIAL_FILE = re.compile(r"\..+\.partial(\.[^.]*)?")
+#: The hidden file a command holds locked in the folder it writes (:func:`folder_lock`).
+LOCK_FILE = ".drill-env.lock"
+
+
+class FolderInUse(OSError):
+    """Another process holds the folder a command would write (:func:`folder_lock`)."""
+
+
+@contextlib.contextmanager
+def folder_lock(folder: Path, what: str, tidy: Sequence[str] = ()) -> Iterator[None]:
+    """Hold ``folder`` for this process while a command writes it (``what``, in words:
+    "a training run"); :class:`FolderInUse` naming the folder if another process holds it.
+    Two trainings of one run (or a ``--resume`` of one still running) trained side by side
+    into its files, and a second benchmark into one ``--out`` overwrote the first's series
+    (an outside check). The lock is the system's, on the hidden :data:`LOCK_FILE`
+    (``filelock``): a process that dies, even by ``kill -9``, lets go of it, so a resume
+    after a kill is not refused. Once held, the partial files of saves cut short
+    (:func:`save_whole`) in the folder and its subfolders named in ``tidy`` are deleted:
+    no process writes them now. A folder made here that is left empty (a refused command)
+    is removed again."""
+    from filelock import FileLock, Timeout
+
+    made = not folder.exists()
+    folder.mkdir(parents=True, exist_ok=True)
+    lock = FileLock(folder / LOCK_FILE)
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        raise FolderInUse(f"{folder}: another process is writing there ({what}, started "
+                          "before this one): wait for it to end, or write elsewhere") from None
+    try:
+        for where in (folder, *(folder / name for name in tidy)):
+            for entry in where.iterdir() if where.is_dir() else ():
+                if PARTIAL_FILE.fullmatch(entry.name) and entry.is_file():
+                    entry.unlink(missing_ok=True)
+        yield
+    finally:
+        lock.release()
+        if made and [e.name for e in folder.iterdir()] == [LOCK_FILE]:
+            (folder / LOCK_FILE).unlink(missing_ok=True)
+            with contextlib.suppress(OSError):
+                folder.rmdir()
 
 
 #: Windows refuses to rename over a file another program holds open (a benchmark.csv

@@ -185,8 +185,9 @@ def test_a_file_held_open_on_windows_is_waited_for_then_refused_by_name(tmp_path
 
     monkeypatch.setattr(sweep, "RENAME_WAIT", 0.0)
     monkeypatch.setattr(pathlib.Path, "replace", lambda s, o: held(s, o, 1))
-    with pytest.raises(PermissionError, match=r"^\[Errno 13\] Access is denied$"):  # lasting
-        sweep.save_text(target, "new\n")  # (a sticky folder): no wait, its own error
+    with pytest.raises(PermissionError, match=r"^\[Errno 13\] Access is denied: "
+                                              r"'.*benchmark\.csv'$"):  # lasting (a sticky
+        sweep.save_text(target, "new\n")  # folder): no wait, its own error, named
     assert len(refusals) == 1 and target.read_text(encoding="utf-8") == "old\n"
     refusals.clear()
     monkeypatch.setattr(sys, "platform", "win32")

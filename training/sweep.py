@@ -17,7 +17,6 @@ dies with its parent. On Ray each running run is interrupted the same way
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import json
 import statistics
@@ -44,7 +43,7 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     """One seed's run (resumed from its last checkpoint if it has one)."""
     import torch
 
-    from training.train import finished, holds_run, train
+    from training.train import finished, holds_run, read_evaluations, train
 
     config, folder = args
     torch.set_num_threads(1)
@@ -54,10 +53,7 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     if not finished(run, config):
         train(config, run, resume=holds_run(run), progress=False)
     info = json.loads((run / "run.json").read_text(encoding="utf-8"))
-    rows = []
-    if (run / "evaluations.csv").exists():  # none before the first evaluation
-        with (run / "evaluations.csv").open(encoding="utf-8") as f:
-            rows = list(csv.DictReader(f))
+    rows = read_evaluations(run / "evaluations.csv")  # none before the first evaluation
     best = max(rows, key=lambda r: float(r["return"])) if rows else None
     return {"seed": config.seed, "run": str(run), "env_steps": info["env_steps"],
             "wall_s": info["wall_s"],

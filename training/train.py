@@ -35,7 +35,6 @@ import io
 import json
 import os
 import platform
-import re
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -46,7 +45,15 @@ import yaml
 
 from agents.learned import latest_checkpoint, load_saved
 from drill_env.physics.validation import flatten, jsonable
-from drill_env.sweep import noted_interrupt, save_text, save_whole, watch_interrupts
+from drill_env.sweep import (
+    LOCK_FILE,
+    PARTIAL_FILE,
+    folder_lock,
+    noted_interrupt,
+    save_text,
+    save_whole,
+    watch_interrupts,
+)
 from training.config import (
     TRAINED_WITH,
     TRAINING_SEEDS,
@@ -172,15 +179,34 @@ def _sessions(record: Any) -> tuple[int, ...]:
     return tuple(int(s["from_env_steps"]) if isinstance(s, dict) else int(s) for s in found)
 
 
+def read_evaluations(path: Path) -> list[dict[str, str]]:
+    """The rows of a run's ``evaluations.csv`` (none if there is none), each value a
+    number: one that is not (an edit by hand) is a ValueError naming the file, its line
+    and column. Read by a resume, the learning curve and a seed sweep's summary, it
+    ended a resume with "could not convert string to float: 'abc'" after "resuming from",
+    and again at every resume (an outside check)."""
+    if not path.exists():
+        return []
+    with path.open(encoding="utf-8", newline="") as f:
+        rows = list(csv.DictReader(f))
+    for line, row in enumerate(rows, start=2):
+        for column, value in row.items():
+            try:
+                float(value)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"{path}, line {line}: {column} {value!r} is not a number (edited by "
+                    "hand?); mend or delete that line (a resume rewinds the file to its "
+                    "checkpoint itself)") from None
+    return rows
+
+
 def _rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
     """Rewind the run's records to ``steps``, the checkpoint (or final model) it resumes
     from: evaluations after it belong to training that is done again, so their rows
     leave ``evaluations.csv``. The best model stays (it was evaluated), with its return."""
     path = run / "evaluations.csv"
-    rows: list[dict[str, str]] = []
-    if path.exists():
-        with path.open(encoding="utf-8") as f:
-            rows = list(csv.DictReader(f))
+    rows = read_evaluations(path)
     best = max((float(r["return"]) for r in rows), default=-np.inf) \
         if (run / "best_model.zip").exists() else -np.inf
     kept = [r for r in rows if int(float(r["timesteps"])) <= steps]
@@ -290,11 +316,8 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
 
         def _evaluated(self, line: int) -> bool:
             """Whether an evaluation after crossing grid line ``line`` has its row."""
-            if not self.path.exists():
-                return False
-            with self.path.open(encoding="utf-8") as f:
-                return any(int(float(r["timesteps"])) // self.every == line
-                           for r in csv.DictReader(f))
+            return any(int(float(r["timesteps"])) // self.every == line
+                       for r in read_evaluations(self.path))
 
         def fire(self) -> None:
             self.pending = False
@@ -399,14 +422,10 @@ def torch_threads_callback(threads: int) -> Any:
 #: What a run folder holds once training started (any of them: the folder is a run).
 RUN_FILES = ("config.yaml", TRAINED_WITH, "model.zip", "run.json", "checkpoints")
 #: Everything training and evaluate write into a run folder: what ``overwrite`` deletes
-#: (with the hidden ``.<name>.partial<ext>`` of a save cut short, and evaluate's
+#: (with the hidden ``.<name>.<pid>.partial<ext>`` of a save cut short, and evaluate's
 #: ``evaluation`` and ``evaluation_<level>`` folders).
 RUN_OUTPUTS = (*RUN_FILES, "vecnormalize.pkl", "best_model.zip", "best_vecnormalize.pkl",
                "evaluations.csv", "learning_curve.png", "tb")
-
-
-#: A save cut short (:func:`drill_env.sweep.save_whole`'s hidden partial file).
-_PARTIAL = re.compile(r"\..+\.partial(\.[^.]*)?")
 
 
 def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
@@ -420,8 +439,10 @@ def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
     others: list[Path] = []
     for entry in sorted(run.iterdir()) if run.is_dir() else []:
         name = entry.name
+        if name == LOCK_FILE:  # (held while a command writes the run: not deleted)
+            continue
         written = (name in RUN_OUTPUTS or (name in folders and entry.is_dir())
-                   or (_PARTIAL.fullmatch(name) is not None and entry.is_file()))
+                   or (PARTIAL_FILE.fullmatch(name) is not None and entry.is_file()))
         (ours if written else others).append(entry)
     return ours, others
 
@@ -617,13 +638,15 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     actions, as at the start) before its first gradient step. Resuming with
     ``n_timesteps`` at or below the steps done is refused, but for a run stopped between
     its last step and its final save, resumed at its own ``n_timesteps``: it saves."""
-    check_run_folder(run, resume, overwrite, config)
-    if overwrite and not resume and holds_run(run):
-        clear_run(run)
-    # from here a Ctrl-C is noted as well as raised: one lost while the envs compile
-    # (numba's first minute on an empty cache) stops the run at its first step
-    with watch_interrupts():
-        return _train(config, run, resume, progress)
+    # one process trains a run: a second (a --resume of one still running) is refused
+    with folder_lock(run, "a training run", tidy=("checkpoints",)):
+        check_run_folder(run, resume, overwrite, config)
+        if overwrite and not resume and holds_run(run):
+            clear_run(run)
+        # from here a Ctrl-C is noted as well as raised: one lost while the envs compile
+        # (numba's first minute on an empty cache) stops the run at its first step
+        with watch_interrupts():
+            return _train(config, run, resume, progress)
 
 
 def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path:
@@ -808,15 +831,11 @@ def csv_text(fieldnames: Any, rows: list[dict[str, Any]], header: bool = True) -
 
 def plot_learning_curve(run: Path) -> Path | None:
     """``learning_curve.png``: validation return, SSI and stuck share against env steps."""
-    path = run / "evaluations.csv"
-    if not path.exists():
+    rows = read_evaluations(run / "evaluations.csv")
+    if not rows:
         return None
     from drill_env.figures import agg_figure
 
-    with path.open(encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        return None
     steps = np.array([float(r["timesteps"]) for r in rows]) / 1e3
     fig = agg_figure(figsize=(10, 3.6))
     axes = fig.subplots(1, 2)

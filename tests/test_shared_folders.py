@@ -1,0 +1,206 @@
+"""Outputs and run folders that two processes reach at once, a full disk, and files
+edited by hand: what an outside check of the filesystem found, each case failing on the
+code before it."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from drill_env.sweep import (
+    LOCK_FILE,
+    FolderInUse,
+    ResultStore,
+    folder_lock,
+    partial_file,
+    save_text,
+    save_whole,
+)
+
+HOLD = """
+import sys, time
+from pathlib import Path
+from drill_env.sweep import folder_lock
+with folder_lock(Path(sys.argv[1]), "a test"):
+    print("held", flush=True)
+    time.sleep(60)
+"""
+
+
+def _holder(folder: Path) -> subprocess.Popen:
+    """A process that holds ``folder``'s lock until it is killed."""
+    holder = subprocess.Popen([sys.executable, "-c", HOLD, str(folder)],
+                              stdout=subprocess.PIPE, text=True)
+    assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+    return holder
+
+
+def test_two_processes_saving_one_output_each_write_their_own_partial_file(tmp_path):
+    """One partial name for all processes: a second process that saved the same output
+    while the first was writing moved the first's half file into place, and the first's
+    rename found nothing (FileNotFoundError) after a reader had seen a mixed file."""
+    target = tmp_path / "benchmark.csv"
+    other = ("import sys; from pathlib import Path; from drill_env.sweep import save_text; "
+             "save_text(Path(sys.argv[1]), 'theirs\\n')")
+
+    def save_while_another_process_saves(file: str) -> None:
+        Path(file).write_text("ours, first half\n")
+        subprocess.run([sys.executable, "-c", other, str(target)], check=True)
+        with open(file, "a") as f:
+            f.write("ours, second half\n")
+
+    save_whole(target, save_while_another_process_saves)
+    assert target.read_text() == "ours, first half\nours, second half\n"
+    assert partial_file(target).name == f".benchmark.{os.getpid()}.partial.csv"
+    assert [p.name for p in tmp_path.iterdir()] == ["benchmark.csv"]
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="Linux's /dev/full")
+def test_a_full_disk_is_said_with_the_file_it_stopped(tmp_path):
+    """A write's "No space left on device" names no file; the command said only that."""
+    target = tmp_path / "benchmark.csv"
+    save_text(target, "the previous table\n")
+
+    def fill(file: str) -> None:
+        with open("/dev/full", "w") as f:
+            f.write("x")
+
+    with pytest.raises(OSError) as caught:
+        save_whole(target, fill)
+    assert (caught.value.errno, caught.value.filename) == (errno.ENOSPC, str(target))
+    assert target.read_text() == "the previous table\n"  # the old file is left whole
+    store = ResultStore(tmp_path / "results.jsonl", "f")
+    store.path = Path("/dev/full")
+    with pytest.raises(OSError) as caught:
+        store.put("k", 1)
+    assert (caught.value.errno, caught.value.filename) == (errno.ENOSPC, "/dev/full")
+
+
+def test_a_held_folder_is_refused_by_name_and_let_go_when_its_holder_is_killed(tmp_path):
+    """The lock is the system's: a kill -9 of its holder frees the folder (a resume after
+    a kill is not refused), and the partial files of its cut saves are deleted by the next
+    holder (they piled up under one name per process)."""
+    folder = tmp_path / "run"
+    holder = _holder(folder)
+    try:
+        with pytest.raises(FolderInUse, match=rf"^{folder}: another process is writing "
+                                              r"there \(a training run, started before"):
+            with folder_lock(folder, "a training run"):
+                pass
+    finally:
+        holder.kill()  # (SIGKILL)
+        holder.wait()
+    (folder / ".model.4242.partial.zip").write_bytes(b"cut")
+    (folder / "checkpoints").mkdir()
+    (folder / "checkpoints" / ".model_1024_steps.partial.zip").write_bytes(b"cut")  # (old)
+    (folder / "notes.partial.txt").write_text("the user's")  # not hidden: not a save's
+    with folder_lock(folder, "a training run", tidy=("checkpoints",)):
+        left = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*"))
+    assert left == [LOCK_FILE, "checkpoints", "notes.partial.txt"]
+
+
+def test_a_refused_command_leaves_no_folder_it_made(tmp_path):
+    folder = tmp_path / "new" / "run"
+    with pytest.raises(ValueError, match="refused"), folder_lock(folder, "a test"):
+        raise ValueError("refused")
+    assert not folder.exists()
+    with folder_lock(folder, "a test"):
+        (folder / "result.txt").write_text("kept")
+    assert sorted(p.name for p in folder.iterdir()) == [LOCK_FILE, "result.txt"]
+
+
+def test_a_second_benchmark_into_a_held_folder_is_refused_before_any_episode(tmp_path,
+                                                                             capsys):
+    """Two benchmarks into one --out: with other settings the second's series replaced
+    the first's and the first dropped every series picture without a word."""
+    from drill_cli.main import main
+
+    holder = _holder(tmp_path)
+    try:
+        status = main(["benchmark", "--controllers", "stiff", "--scenarios", "stick_slip",
+                       "--seeds", "1", "--duration", "6", "--warmup", "2", "--workers", "1",
+                       "--out", str(tmp_path)])
+    finally:
+        holder.kill()
+        holder.wait()
+    err = capsys.readouterr().err
+    assert status == 2
+    assert f"error: {tmp_path}: another process is writing there (a benchmark" in err
+    assert not (tmp_path / "benchmark_results.jsonl").exists()
+
+
+def test_a_second_training_of_a_held_run_is_refused(tmp_path, capsys):
+    """Two `train` of one run (or a --resume of one still training) both passed the
+    "already holds a run" check and trained side by side: evaluations.csv held every
+    row twice and run.json's sessions a resume that never was."""
+    from drill_cli.main import main
+
+    run = tmp_path / "runs" / "mine"
+    holder = _holder(run)
+    try:
+        status = main(["train", "--task", "stick_slip", "--algo", "ppo", "--timesteps",
+                       "256", "--out", str(tmp_path / "runs"), "--name", "mine",
+                       "--no-progress"])
+    finally:
+        holder.kill()
+        holder.wait()
+    assert status == 2
+    assert f"error: {run}: another process is writing there (a training run" \
+        in capsys.readouterr().err
+    assert sorted(p.name for p in run.iterdir()) == [LOCK_FILE]  # nothing written
+
+
+def test_rows_edited_by_hand_are_run_again_and_said(tmp_path, capsys):
+    """A stored row with "abc" for a number ended the command with "could not convert
+    string to float: 'abc'" naming neither file nor row; another seed under a row's key
+    went into benchmark.csv; a damaged line before the last was skipped without a word."""
+    import agents.benchmark as bm
+
+    short = bm.BenchmarkSettings(duration=6.0, warmup=2.0)
+    args = (["stiff"], ["stick_slip"], [0, 1], tmp_path, short)
+    bm.run_benchmark(*args, workers=1, progress=False)
+    table = (tmp_path / "benchmark.csv").read_text()
+    path = tmp_path / bm.RESULTS_FILE
+    lines = path.read_text().splitlines()
+    first, second = (json.loads(line) for line in lines)
+    first["result"]["rop_m_per_h"] = "abc"
+    second["result"]["seed"] = 99
+    path.write_text("\n".join([json.dumps(first), "{not json", json.dumps(second)]) + "\n")
+    capsys.readouterr()
+    bm.run_benchmark(*args, workers=1, progress=True)
+    err = capsys.readouterr().err
+    assert f"3 line(s) of {path} are not rows this run can use (damaged or edited by " \
+           f"hand: {first['key']})" in err
+    assert (tmp_path / "benchmark.csv").read_text() == table
+
+
+def test_an_evaluation_row_edited_by_hand_is_named_with_its_line(tmp_path):
+    from training.train import read_evaluations
+
+    path = tmp_path / "evaluations.csv"
+    path.write_text("timesteps,return,wall_s\r\n1000,-3.5,12.0\r\n2000,abc,20.1\r\n")
+    with pytest.raises(ValueError, match=rf"^{path}, line 3: return 'abc' is not a number"):
+        read_evaluations(path)
+    path.write_text("timesteps,return,wall_s\r\n1000,-3.5,12.0\r\n")
+    assert read_evaluations(path) == [{"timesteps": "1000", "return": "-3.5",
+                                       "wall_s": "12.0"}]
+    assert read_evaluations(tmp_path / "none.csv") == []
+
+
+def test_a_home_folder_typed_after_an_equals_sign_is_the_home_folder(tmp_path,
+                                                                     monkeypatch):
+    """--out=~/x reaches the command unexpanded: it wrote into a folder named ~."""
+    from drill_cli.main import out_folder, shell_word
+
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert out_folder("~/runs") == tmp_path / "runs"
+    if os.name != "nt":
+        assert shell_word(Path("logs/runs/sp ace ü")) == "'logs/runs/sp ace ü'"
+        assert shell_word(Path("logs/runs/plain")) == "logs/runs/plain"
+
