@@ -153,6 +153,48 @@ def test_growth_rate_is_the_largest_root_of_the_two_inertia_characteristic_polyn
     assert signs == {True, False}  # both sides of the threshold are exercised
 
 
+@pytest.mark.parametrize("feedback", ["high_pass", "band_pass"])
+def test_growth_rate_with_torque_feedback_is_the_root_of_the_hand_expanded_polynomial(
+        feedback):
+    """The two inertias with a torque feedback (ZTorque's high-pass, SoftTorque's
+    band-pass) on the measured string torque T_s = k (1 + b s) (th0 - th1): the speed
+    command drops by g y, y = s N / D T_s (high-pass N = 1, D = s + w; band-pass
+    N = 2 z w, D = s^2 + 2 z w s + w^2), so the PI adds g (kp s + ki) N / D T_s to the
+    top. Multiplied by D, the characteristic polynomial expanded by hand; its largest
+    root against the augmented system's. A strong stiffness-proportional damping (b) and
+    a filter damping z other than 1/2: a mutation test found the T_s row without its
+    damping part, and the band-pass output 2 z w taken as w, unseen by every test."""
+    from types import SimpleNamespace
+
+    from drill_env.physics.bit_reference import mu_curve
+
+    j_top, j_bit, k, b, c = 2500.0, 30.0, 700.0, 0.05, (1.0, 4.0)
+    kp, ki, rock = 900.0, 100.0, (0.5, 0.9, 3.0, 0.0)
+    g, hz, z = 4e-4, 0.4, 0.3
+    sim = _two_inertias(j_top, j_bit, k, b, c, kp, ki, rock)
+    sim.top_drive_law = SimpleNamespace(torque_feedback=feedback, feedback_gain=g,
+                                        filter_frequency=hz, filter_damping=z)
+    w = 2.0 * np.pi * hz
+    num, den = ((np.array([1.0]), np.array([1.0, w])) if feedback == "high_pass"
+                else (np.array([2.0 * z * w]), np.array([1.0, 2.0 * z * w, w * w])))
+    drive = g * np.polymul(np.polymul([kp, ki], num), [k * b, k])  # g (kp s + ki) N T_s
+    signs = set()
+    for omega, wob in ((0.5, 80e3), (2.0, 80e3), (6.0, 40e3), (20.0, 150e3)):
+        h = 1e-6
+        c_bit = sim.lever_arm * wob * (mu_curve(omega + h, *rock)
+                                       - mu_curve(omega - h, *rock)) / (2.0 * h)
+        p_top = np.array([j_top, b * k + c[0] + kp, k + ki])
+        p_bit = np.array([j_bit, b * k + c[1] + c_bit, k])
+        coupling = np.array([b * k, k])
+        det = np.polysub(np.polymul(np.polyadd(np.polymul(p_top, den), drive), p_bit),
+                         np.polymul(np.polyadd(np.polymul(coupling, den), drive), coupling))
+        expected = max(np.roots(det).real)
+        got = torsional_growth_rate(sim, omega, wob)
+        assert got == pytest.approx(expected, rel=1e-6, abs=1e-9)
+        signs.add(got > 0.0)
+    assert signs == {True, False}
+
+
 @pytest.mark.parametrize("rock, expected", [
     ((0.6, 0.6, 3.0, 0.0), "stable"),  # a flat curve: the bit adds no negative damping
     ((0.6, 0.6, 3.0, 0.01), "stable"),  # rising: positive damping

@@ -278,6 +278,26 @@ def test_the_bit_weight_pushes_the_last_node_against_the_low_side() -> None:
         1000.0 * math.sin(math.radians(60.0)), rel=1e-12)
 
 
+def test_the_axial_force_at_an_element_midpoint_is_the_weight_below_it_along_the_hole(
+        ) -> None:
+    """A straight 60 deg hole, elements of unequal length and weight and a 2 kN bit: the
+    tension at each element's middle is cos 60 deg times the weight of everything below
+    that middle (half the element, the elements below, the bit). Taken at the element's
+    lower end instead, the curved-hole force lost half an element's weight everywhere
+    and no test saw it (a mutation test: vertical holes take another path)."""
+    from drill_env.physics.trajectory import hole_loads
+
+    node_md = np.array([0.0, 12.0, 30.0, 37.0, 52.0])
+    weight = np.array([300.0, 150.0, 900.0, 450.0])  # N/m
+    bit = 2000.0
+    loads = hole_loads(_slant(), node_md, weight, bit)
+    middle = 0.5 * (node_md[:-1] + node_md[1:])
+    below = [bit + sum(w * max(0.0, min(b, node_md[-1]) - max(a, m))
+                       for a, b, w in zip(node_md[:-1], node_md[1:], weight, strict=True))
+             for m in middle]
+    np.testing.assert_allclose(loads.axial_weight, 0.5 * np.array(below), rtol=1e-12)
+
+
 def test_string_above_the_wellhead_hangs_from_the_hook_too() -> None:
     """Nodes at -100, 0, 100, 200 m in a vertical hole, 50 N/m: the hook carries all
     300 m (the 100 m above the surface continue the hole straight up)."""
