@@ -920,7 +920,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     labels(controllers)  # a name that does not load is refused before --out is made
     out = Path(out)
     # one process writes the folder: a second benchmark into it is refused
-    with folder_lock(out, "a benchmark", tidy=("series",)):
+    with folder_lock(out, "this benchmark", tidy=("series",)):
         store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))
         todo_all = [dataclasses.replace(e, stamp=stamp(store.fingerprint, e.key),
                                         run=run_stamp(store.fingerprint))

@@ -587,7 +587,8 @@ class FolderInUse(OSError):
 @contextlib.contextmanager
 def folder_lock(folder: Path, what: str, tidy: Sequence[str] = ()) -> Iterator[None]:
     """Hold ``folder`` for this process while a command writes it (``what``, in words:
-    "a training run"); :class:`FolderInUse` naming the folder if another process holds it.
+    "this training run"); :class:`FolderInUse` naming the folder if another process holds
+    it (any of the commands that take the lock: which one, the lock does not say).
     Two trainings of one run (or a ``--resume`` of one still running) trained side by side
     into its files, and a second benchmark into one ``--out`` overwrote the first's series
     (an outside check). The lock is the system's, on the hidden :data:`LOCK_FILE`
@@ -604,8 +605,9 @@ def folder_lock(folder: Path, what: str, tidy: Sequence[str] = ()) -> Iterator[N
     try:
         lock.acquire(timeout=0)
     except Timeout:
-        raise FolderInUse(f"{folder}: another process is writing there ({what}, started "
-                          "before this one): wait for it to end, or write elsewhere") from None
+        raise FolderInUse(f"{folder}: another drill-env process is writing there (a "
+                          "benchmark, a training run or an evaluation): wait for it to end, "
+                          f"or give {what} another folder") from None
     try:
         for where in (folder, *(folder / name for name in tidy)):
             for entry in where.iterdir() if where.is_dir() else ():

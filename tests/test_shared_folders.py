@@ -89,9 +89,10 @@ def test_a_held_folder_is_refused_by_name_and_let_go_when_its_holder_is_killed(t
     folder = tmp_path / "run"
     holder = _holder(folder)
     try:
-        with pytest.raises(FolderInUse, match=rf"^{folder}: another process is writing "
-                                              r"there \(a training run, started before"):
-            with folder_lock(folder, "a training run"):
+        with pytest.raises(FolderInUse, match=rf"^{folder}: another drill-env process is "
+                                              r"writing there \(.*\): wait for it to end, "
+                                              r"or give this training run another folder$"):
+            with folder_lock(folder, "this training run"):
                 pass
     finally:
         holder.kill()  # (SIGKILL)
@@ -131,7 +132,8 @@ def test_a_second_benchmark_into_a_held_folder_is_refused_before_any_episode(tmp
         holder.wait()
     err = capsys.readouterr().err
     assert status == 2
-    assert f"error: {tmp_path}: another process is writing there (a benchmark" in err
+    assert f"error: {tmp_path}: another drill-env process is writing there" in err
+    assert "or give this benchmark another folder" in err
     assert not (tmp_path / "benchmark_results.jsonl").exists()
 
 
@@ -151,8 +153,9 @@ def test_a_second_training_of_a_held_run_is_refused(tmp_path, capsys):
         holder.kill()
         holder.wait()
     assert status == 2
-    assert f"error: {run}: another process is writing there (a training run" \
-        in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"error: {run}: another drill-env process is writing there" in err
+    assert "or give this training run another folder" in err
     assert sorted(p.name for p in run.iterdir()) == [LOCK_FILE]  # nothing written
 
 

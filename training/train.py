@@ -639,7 +639,7 @@ def train(config: TrainConfig, run: Path, resume: bool = False, progress: bool =
     ``n_timesteps`` at or below the steps done is refused, but for a run stopped between
     its last step and its final save, resumed at its own ``n_timesteps``: it saves."""
     # one process trains a run: a second (a --resume of one still running) is refused
-    with folder_lock(run, "a training run", tidy=("checkpoints",)):
+    with folder_lock(run, "this training run", tidy=("checkpoints",)):
         check_run_folder(run, resume, overwrite, config)
         if overwrite and not resume and holds_run(run):
             clear_run(run)
