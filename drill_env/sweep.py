@@ -616,7 +616,8 @@ def folder_lock(folder: Path, what: str, tidy: Sequence[str] = ()) -> Iterator[N
         yield
     finally:
         lock.release()
-        if made and [e.name for e in folder.iterdir()] == [LOCK_FILE]:
+        # (on Windows filelock deletes its file on release where it can)
+        if made and {e.name for e in folder.iterdir()} <= {LOCK_FILE}:
             (folder / LOCK_FILE).unlink(missing_ok=True)
             with contextlib.suppress(OSError):
                 folder.rmdir()
