@@ -170,13 +170,13 @@ def user_path(text: str) -> Path:
     shell reads it where it can (``--out=~/runs`` and a quoted ``'~/runs'`` reach us
     unexpanded: the output went into a folder named ``~`` in the current one, an outside
     check)."""
-    return Path(text).expanduser()
+    return Path(os.path.expanduser(text))  # (~name of no user: left as typed)
 
 
 def shell_word(path: Path) -> str:
-    """``path`` as one word on a command line to copy (quoted where it holds a space or a
-    character the shell reads): the hint after training, ``drill-env evaluate
-    logs/runs/sp ace``, ran two words."""
+    """``path`` as one word on a command line to copy (quoted where it holds a space or,
+    on POSIX, a character the shell reads; Windows: ``subprocess.list2cmdline``'s rules):
+    the hint after training, ``drill-env evaluate logs/runs/sp ace``, ran two words."""
     import shlex
     import subprocess
 
@@ -849,10 +849,13 @@ def cmd_train(args: argparse.Namespace) -> int:
     if args.workers is not None:  # it started a full run without a word
         raise argparse.ArgumentTypeError("--workers: a single run trains in this process; "
                                          "give --seeds to train several runs side by side")
+    from drill_env.sweep import check_folder_free
     from training.sweep import run_name
 
     run = args.out / (args.name or run_name(config, args.config and args.config.stem))
     saved = run / "config.yaml"
+    # a run still training is said so, before any advice on what the folder holds
+    check_folder_free(run, "this training run")
     if args.resume and not holds_run(run) and run.is_dir():
         # stopped before it saved anything (a Ctrl-C in its first seconds): a fresh start
         # is what resuming it gives ("--resume starts it", the interrupt said)
@@ -2105,7 +2108,7 @@ def _main(argv: Sequence[str] | None) -> int:
     stop, terminated = _stop_as_interrupt()
     heard = False
     clear_interrupt()  # one noted before this command is not this command's
-    from drill_env.sweep import COMMAND_VARIABLE, SAID_VARIABLE, command_warning
+    from drill_env.sweep import COMMAND_VARIABLE, SAID_VARIABLE, FolderInUse, command_warning
 
     shown, named = warnings.formatwarning, os.environ.get(COMMAND_VARIABLE)
     outer = os.environ.get(SAID_VARIABLE)  # a command run inside another (tests)
@@ -2133,7 +2136,9 @@ def _main(argv: Sequence[str] | None) -> int:
         args.command_parser.error(str(err))
     except (ValueError, OSError) as err:  # a bad value named by the library below
         field, colon, rest = str(err).partition(": ")  # by the option the user typed
-        option = option_of(field, args.command_parser) if colon else None
+        # (a folder in use is named by its path: --out seeds read as --seeds)
+        option = option_of(field, args.command_parser) \
+            if colon and not isinstance(err, FolderInUse) else None
         said = f"{option}: {rest}" if option else str(err)
         print(f"drill-env {args.command}: error: {said}", file=sys.stderr)
         return 2

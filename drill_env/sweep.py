@@ -471,8 +471,9 @@ class ResultStore:
     instead of mixing old results in. A half-written last line (a killed process) is
     skipped. :attr:`ignored` counts the first, :attr:`cut` says the second, for the caller
     to say (once: the next result goes on a line of its own after the half line);
-    :attr:`damaged` counts the other lines that are not a result (an edit, a damaged
-    file), skipped as well: their results are computed again.
+    :attr:`damaged` counts lines of JSON that are not a result (an edit), skipped as
+    well. A line that is not JSON before the last is skipped without a count: a cut line
+    the next result ended reads the same as damage.
     """
 
     def __init__(self, path: Path, fingerprint: str) -> None:
@@ -483,7 +484,7 @@ class ResultStore:
         self._broken_end = False
         self.ignored = 0  # results of another fingerprint
         self.cut = False  # the last line is a killed writer's half line
-        self.damaged = 0  # lines before the last that are not a result (edits, damage)
+        self.damaged = 0  # lines of JSON that are not a result (edits)
         if self.path.exists():
             # bytes that are not UTF-8 (a damaged file) spoil their line only: it is
             # skipped, or kept with U+FFFD in a string where it still parses as JSON
@@ -493,12 +494,12 @@ class ResultStore:
             for index, line in enumerate(lines):
                 try:
                     entry = json.loads(line)
-                except json.JSONDecodeError:
+                except json.JSONDecodeError:  # (before the last: a cut line that the
+                    # next result ended, or damage; a result lost with it is run again)
                     self.cut = self._broken_end and index == len(lines) - 1
-                    self.damaged += not self.cut
                     continue
                 if not (isinstance(entry, dict) and {"key", "result"} <= entry.keys()):
-                    self.damaged += bool(line.strip())  # not a result (an edit)
+                    self.damaged += 1  # not a result (an edit)
                     continue
                 if entry.get("fingerprint") == fingerprint:
                     self._results[entry["key"]] = entry["result"]
@@ -594,9 +595,9 @@ def folder_lock(folder: Path, what: str, tidy: Sequence[str] = ()) -> Iterator[N
     (an outside check). The lock is the system's, on the hidden :data:`LOCK_FILE`
     (``filelock``): a process that dies, even by ``kill -9``, lets go of it, so a resume
     after a kill is not refused. Once held, the partial files of saves cut short
-    (:func:`save_whole`) in the folder and its subfolders named in ``tidy`` are deleted:
-    no process writes them now. A folder made here that is left empty (a refused command)
-    is removed again."""
+    (:func:`save_whole`) in the folder and its subfolders named in ``tidy`` are deleted,
+    unless fresh (:data:`STALE_PARTIAL_S`). A folder made here that is left empty (a
+    refused command) is removed again."""
     from filelock import FileLock, Timeout
 
     made = not folder.exists()
@@ -609,18 +610,42 @@ def folder_lock(folder: Path, what: str, tidy: Sequence[str] = ()) -> Iterator[N
                           "benchmark, a training run or an evaluation): wait for it to end, "
                           f"or give {what} another folder") from None
     try:
+        stale = time.time() - STALE_PARTIAL_S
         for where in (folder, *(folder / name for name in tidy)):
             for entry in where.iterdir() if where.is_dir() else ():
-                if PARTIAL_FILE.fullmatch(entry.name) and entry.is_file():
-                    entry.unlink(missing_ok=True)
+                with contextlib.suppress(OSError):  # (gone meanwhile; open on Windows)
+                    if PARTIAL_FILE.fullmatch(entry.name) and entry.is_file() \
+                            and entry.stat().st_mtime < stale:
+                        entry.unlink()
         yield
     finally:
+        # the file unlinked while still held: a process that opens the name now makes a
+        # new lock of its own (released first, one could lock the file being unlinked);
+        # Windows refuses, and filelock deletes it on release there
+        empty = made and {e.name for e in folder.iterdir()} <= {LOCK_FILE}
+        if empty:
+            with contextlib.suppress(OSError):
+                (folder / LOCK_FILE).unlink()
         lock.release()
-        # (on Windows filelock deletes its file on release where it can)
-        if made and {e.name for e in folder.iterdir()} <= {LOCK_FILE}:
-            (folder / LOCK_FILE).unlink(missing_ok=True)
+        if empty:
             with contextlib.suppress(OSError):
                 folder.rmdir()
+
+
+#: A partial file (:func:`save_whole`) untouched this long is a killed writer's, which
+#: :func:`folder_lock` deletes: no save here takes minutes, and a command that takes no
+#: lock (a comparison written after a benchmark, a modes chart into the same folder)
+#: may be writing a fresh one.
+STALE_PARTIAL_S = 600.0
+
+
+def check_folder_free(folder: Path, what: str) -> None:
+    """:class:`FolderInUse` if another process holds ``folder`` (:func:`folder_lock`),
+    for a command that checks the folder's contents before it takes the lock: a second
+    ``train`` of a run still training was told first to --resume it."""
+    if folder.is_dir():
+        with folder_lock(folder, what):
+            pass
 
 
 #: Windows refuses to rename over a file another program holds open (a benchmark.csv

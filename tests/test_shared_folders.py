@@ -9,12 +9,14 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 
 from drill_env.sweep import (
     LOCK_FILE,
+    STALE_PARTIAL_S,
     FolderInUse,
     ResultStore,
     folder_lock,
@@ -97,13 +99,17 @@ def test_a_held_folder_is_refused_by_name_and_let_go_when_its_holder_is_killed(t
     finally:
         holder.kill()  # (SIGKILL)
         holder.wait()
-    (folder / ".model.4242.partial.zip").write_bytes(b"cut")
     (folder / "checkpoints").mkdir()
-    (folder / "checkpoints" / ".model_1024_steps.partial.zip").write_bytes(b"cut")  # (old)
-    (folder / "notes.partial.txt").write_text("the user's")  # not hidden: not a save's
+    old = time.time() - STALE_PARTIAL_S - 1.0
+    for name in (".model.4242.partial.zip", "checkpoints/.model_1024_steps.partial.zip",
+                 "notes.partial.txt", ".plot.4343.partial.png"):
+        (folder / name).write_bytes(b"cut")
+        if name != ".plot.4343.partial.png":  # (fresh: a command without a lock writes it)
+            os.utime(folder / name, (old, old))
     with folder_lock(folder, "a training run", tidy=("checkpoints",)):
         left = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*"))
-    assert left == [LOCK_FILE, "checkpoints", "notes.partial.txt"]
+    # (notes.partial.txt is not hidden: not a save's)
+    assert left == [LOCK_FILE, ".plot.4343.partial.png", "checkpoints", "notes.partial.txt"]
 
 
 def test_a_refused_command_leaves_no_folder_it_made(tmp_path):
@@ -116,25 +122,27 @@ def test_a_refused_command_leaves_no_folder_it_made(tmp_path):
     assert sorted(p.name for p in folder.iterdir()) == [LOCK_FILE, "result.txt"]
 
 
-def test_a_second_benchmark_into_a_held_folder_is_refused_before_any_episode(tmp_path,
-                                                                             capsys):
+def test_a_second_benchmark_into_a_held_folder_is_refused_before_any_episode(
+        tmp_path, capsys, monkeypatch):
     """Two benchmarks into one --out: with other settings the second's series replaced
-    the first's and the first dropped every series picture without a word."""
+    the first's and the first dropped every series picture without a word. The folder
+    is said by its path (`--out seeds` was said as the option --seeds)."""
     from drill_cli.main import main
 
-    holder = _holder(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    holder = _holder(tmp_path / "seeds")
     try:
         status = main(["benchmark", "--controllers", "stiff", "--scenarios", "stick_slip",
                        "--seeds", "1", "--duration", "6", "--warmup", "2", "--workers", "1",
-                       "--out", str(tmp_path)])
+                       "--out", "seeds"])
     finally:
         holder.kill()
         holder.wait()
     err = capsys.readouterr().err
     assert status == 2
-    assert f"error: {tmp_path}: another drill-env process is writing there" in err
+    assert "error: seeds: another drill-env process is writing there" in err
     assert "or give this benchmark another folder" in err
-    assert not (tmp_path / "benchmark_results.jsonl").exists()
+    assert not (tmp_path / "seeds" / "benchmark_results.jsonl").exists()
 
 
 def test_a_second_training_of_a_held_run_is_refused(tmp_path, capsys):
@@ -146,16 +154,18 @@ def test_a_second_training_of_a_held_run_is_refused(tmp_path, capsys):
     run = tmp_path / "runs" / "mine"
     holder = _holder(run)
     try:
-        status = main(["train", "--task", "stick_slip", "--algo", "ppo", "--timesteps",
-                       "256", "--out", str(tmp_path / "runs"), "--name", "mine",
-                       "--no-progress"])
+        for resume in ([], ["--resume"]):
+            status = main(["train", "--task", "stick_slip", "--algo", "ppo", "--timesteps",
+                           "256", "--out", str(tmp_path / "runs"), "--name", "mine",
+                           "--no-progress", *resume])
+            assert status == 2
+            err = capsys.readouterr().err
+            assert f"error: {run}: another drill-env process is writing there" in err
+            assert "or give this training run another folder" in err
+            assert "--resume starts it" not in err  # (said first: advice for a stopped run)
     finally:
         holder.kill()
         holder.wait()
-    assert status == 2
-    err = capsys.readouterr().err
-    assert f"error: {run}: another drill-env process is writing there" in err
-    assert "or give this training run another folder" in err
     assert sorted(p.name for p in run.iterdir()) == [LOCK_FILE]  # nothing written
 
 
@@ -178,7 +188,7 @@ def test_rows_edited_by_hand_are_run_again_and_said(tmp_path, capsys):
     capsys.readouterr()
     bm.run_benchmark(*args, workers=1, progress=True)
     err = capsys.readouterr().err
-    assert f"3 line(s) of {path} are not rows this run can use (damaged or edited by " \
+    assert f"2 line(s) of {path} are not rows this run can use (damaged or edited by " \
            f"hand: {first['key']})" in err
     assert (tmp_path / "benchmark.csv").read_text() == table
 
@@ -202,8 +212,26 @@ def test_a_home_folder_typed_after_an_equals_sign_is_the_home_folder(tmp_path,
     from drill_cli.main import out_folder, shell_word
 
     monkeypatch.setenv("HOME", str(tmp_path))
+    monkeypatch.setenv("USERPROFILE", str(tmp_path))  # (Windows)
     assert out_folder("~/runs") == tmp_path / "runs"
+    assert out_folder("~no_such_user_here/x") == Path("~no_such_user_here/x")  # as typed
     if os.name != "nt":
         assert shell_word(Path("logs/runs/sp ace ü")) == "'logs/runs/sp ace ü'"
         assert shell_word(Path("logs/runs/plain")) == "logs/runs/plain"
 
+
+
+def test_a_cut_line_the_next_result_ended_is_not_counted_as_an_edit(tmp_path):
+    """Once the next result ended it, a killed writer's half line sits before the last:
+    it is skipped as before, and not said as damage at every later run."""
+    path = tmp_path / "results.jsonl"
+    ResultStore(path, "f").put("a", 1)
+    with path.open("a") as f:
+        f.write('{"fingerprint": "f", "ke')
+    store = ResultStore(path, "f")
+    assert (store.cut, store.damaged) == (True, 0)
+    store.put("b", 2)
+    with path.open("a") as f:
+        f.write('{"an": "edit"}\n')
+    again = ResultStore(path, "f")
+    assert (again.cut, again.damaged, again.get("b")) == (False, 1, 2)
