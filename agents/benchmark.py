@@ -1260,9 +1260,9 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None,
         return (f"{settings.duration:g} s episodes of DrillString-v0 from the settled state "
                 f"(torsionally with the wall's friction; laterally at rest on the wall in a "
                 f"curved hole, straight on the axis in a vertical one, from where a "
-                f"compressed BHA settles into a bent equilibrium within its stabilizers, no "
-                f"whirl: the slow drift of the bit's radial position in the series; "
-                f"docs/controllers.md) "
+                f"compressed BHA drifts sideways until its stabilizers rest on the wall, the "
+                f"bit at ~0.32 of its clearance (the near-bit stabilizer's), no whirl: the "
+                f"slow drift of the bit's radial position in the series; docs/model.md) "
                 f"at {at} (bit speed kicked by up to {settings.start_kick:.0%} by the seed"
                 + ("; a task's policy acts in its task's env from the same start and set "
                    "points, its return DrillString-v0's reward of its episode" if guests
@@ -1337,7 +1337,7 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     if unjudged := not_judged(rows):  # no mark is not "not growing" (an outside review)
         notes.append("Whether a stick-slip still grows is not judged where, over the "
                      "warm-up's end and the window, " + unjudged + ".")
-    _print_table(header, table, [*notes, SPREAD_NOTE])
+    _print_table(header, table, [*notes, SPREAD_NOTE], title=heading)
     from agents.plots import bar_chart, series_chart
 
     # the pictures say what benchmark.md's heading says (a --config run read "default")
@@ -1370,8 +1370,10 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
 
 
 def _print_table(header: Sequence[str], table: Sequence[Sequence[str]],
-                 notes: Sequence[str] = ()) -> None:
-    """The table on screen, every cell on one line: on a terminal narrower than the table
+                 notes: Sequence[str] = (), title: str = "Controller benchmark") -> None:
+    """The table on screen under ``title`` (benchmark.md's heading: evaluate's grid search
+    and its evaluation printed two tables both called "controller benchmark"), every cell
+    on one line: on a terminal narrower than the table
     its columns are split over as many tables as it takes, each with the scenario and
     controller (a terminal wrapping the lines of one wide table garbled every row, a
     review; rich folding the cells split figures); in a log or a pipe, one table."""
@@ -1391,7 +1393,7 @@ def _print_table(header: Sequence[str], table: Sequence[Sequence[str]],
             parts.append([])
         parts[-1].append(k)
     for n, part in enumerate(parts):
-        t = Table(title="controller benchmark (means over seeds)" if n == 0 else None)
+        t = Table(title=f"{title} (means over seeds)" if n == 0 else None)
         for k in [*range(keys), *part]:
             t.add_column(header[k], no_wrap=True)
         for r in table:

@@ -177,8 +177,14 @@ def imported_factory(name: str) -> Callable[..., Controller]:
     module = _module(source)
     try:
         factory = getattr(module, attribute)
-    except AttributeError:
-        raise ValueError(f"controller: {source} has no {attribute!r}") from None
+    except AttributeError:  # (which it has: a class named in the docs' example and
+        # another in the file was a guess to make)
+        found = sorted(n for n, v in vars(module).items() if isinstance(v, type)
+                       and v.__module__ == module.__name__ and callable(getattr(v, "act", None)))
+        where = (f"; its controller classes: {', '.join(found)}" if found
+                 else "; it defines no controller class (a subclass of "
+                      "agents.SetPointController)")
+        raise ValueError(f"controller: {source} has no {attribute!r}{where}") from None
     if not callable(factory):
         raise ValueError(f"controller: {name} is {type(factory).__name__} "
                          f"{factory!r:.40}, not a controller class (subclass "

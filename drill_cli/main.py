@@ -776,8 +776,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                          workers=args.workers, record=args.record, env_id=env_id,
                          ray_address=args.ray_address, heading=heading)
     print(f"{counted(len(rows), 'episode')} ({counted(len(controllers), 'controller')} x "
-          f"{counted(len(scenarios), 'scenario')} x {counted(args.seeds, 'seed')}) in "
-          f"{time.perf_counter() - t0:.0f} s; finished "
+          f"{counted(len(scenarios), 'scenario')} x {counted(args.seeds, 'seed')}) in the "
+          f"table after {time.perf_counter() - t0:.0f} s (reused ones included); finished "
           f"episodes are kept in {args.out / 'benchmark_results.jsonl'} (a rerun reuses "
           "them)")
     if args.paired is not None:  # an outside policy's t-tests, as evaluate gives a run's

@@ -71,6 +71,23 @@ def progress_bar(*, file: IO[str] | None = None, disable: bool = False,
     shown = stream in (sys.stdout, sys.stderr) and in_notebook()  # (a kernel's cell)
     if disable or is_terminal(stream) or shown:
         return tqdm(file=stream, disable=disable, **kwargs)
-    return tqdm(file=_Lines(stream), mininterval=LOG_INTERVAL, maxinterval=LOG_INTERVAL,
-                delay=LOG_INTERVAL,
-                ascii=True, dynamic_ncols=False, **kwargs)
+
+    class LogBar(tqdm):
+        """tqdm draws the bar at a reset: in a log a 0 % line, ahead of its delay (the
+        run command resets after the first step's compile: `run | cat` kept it)."""
+
+        resetting = False
+
+        def reset(self, total: Any = None) -> None:
+            self.resetting = True
+            try:
+                super().reset(total)
+            finally:
+                self.resetting = False
+
+        def refresh(self, *args: Any, **kwargs: Any) -> Any:
+            return None if self.resetting else super().refresh(*args, **kwargs)
+
+    return LogBar(file=_Lines(stream), mininterval=LOG_INTERVAL, maxinterval=LOG_INTERVAL,
+                  delay=LOG_INTERVAL,
+                  ascii=True, dynamic_ncols=False, **kwargs)

@@ -43,7 +43,7 @@ def test_benchmark_command_writes_table_summary_plots_and_recordings(tmp_path, c
         assert float(r["target_rpm"]) == 50.0
         assert float(r["mean_bit_rpm"]) == pytest.approx(50.0, rel=0.05)
         assert float(r["rop_m_per_h"]) > 0.0
-    assert "controller benchmark" in capsys.readouterr().out
+    assert "Controller benchmark (means over seeds)" in capsys.readouterr().out
     assert "| stick_slip | stiff | 2 |" in (tmp_path / "benchmark.md").read_text()
     for png in ("benchmark_bars.png", "benchmark_stick_slip_series.png"):
         assert (tmp_path / png).stat().st_size > 20_000
@@ -860,8 +860,12 @@ def test_a_panel_whose_values_are_all_zero_says_so(tmp_path, monkeypatch):
     assert ticked.count(0) == 2 and len(ticked) > 2
     assert "no backward whirl in any episode" in texts
     assert "the bit never stuck in any episode" in texts
-    assert "no stick-slip in any episode" not in texts  # the stiff one stick-slips
+    assert not any("no stick-slip" in t for t in texts)  # the stiff one stick-slips
     assert len(texts) == 2
+    texts.clear()  # a smooth run's SSI is round-off, ~1e-7: no stick-slip, said
+    rows = [_row("stiff", "default", ssi=2e-7), _row("z-torque", "default", ssi=1e-7)]
+    bar_chart(rows, ["stiff", "z-torque"], ["default"], tmp_path / "bars.png")
+    assert "no stick-slip in any episode (SSI under 0.001)" in texts
 
     texts.clear()  # the bit on the hole axis throughout: the radial panel says so
     _series(tmp_path, ["stiff"], ["default"], radial=1e-12)
@@ -1394,7 +1398,10 @@ def test_a_controller_of_your_own_that_is_not_one_is_refused_by_name(tmp_path, m
     monkeypatch.chdir(tmp_path)
     for typed, said in [("odd.py:Half", "odd.py:Half is not a controller: it has no "
                                         "env_id, physics, reset, act"),
-                        ("mine.py:Nope", "mine.py has no 'Nope'"),
+                        ("mine.py:Nope", "mine.py has no 'Nope'; its controller classes: "
+                                         "Gentle"),
+                        ("odd.py:Nope", "odd.py has no 'Nope'; it defines no controller "
+                                        "class"),
                         ("gone.py:Gentle", "no file 'gone.py'"),
                         ("gone_module:Gentle", "cannot import 'gone_module'")]:
         with pytest.raises(ValueError, match=f"^controllers: {re.escape(said)}"):

@@ -65,6 +65,25 @@ def test_a_short_job_writes_nothing_to_a_log_and_a_bar_not_kept_no_blank_line(mo
     assert log.getvalue().endswith("]\n")
 
 
+def test_a_bar_reset_in_a_log_draws_nothing_ahead_of_its_interval(monkeypatch):
+    """tqdm draws its bar at a reset: `drill-env run | cat` (reset after the compiling
+    first step) kept a "0%" line above the summary. A reset bar counts as before."""
+    clock = _fake_clock(monkeypatch)
+    monkeypatch.setattr(progress, "LOG_INTERVAL", 10.0)
+    log = _Log()
+    with progress.progress_bar(total=30, desc="run", leave=False, file=log) as bar:
+        _count(bar, 1, clock)
+        bar.reset()
+        assert (log.getvalue(), bar.n) == ("", 0)
+        _count(bar, 5, clock)
+    assert log.getvalue() == ""
+    with progress.progress_bar(total=30, desc="run", file=log) as bar:
+        bar.reset()
+        _count(bar, 30, clock)
+    assert [line.split("|")[0] for line in log.getvalue().splitlines()] == [
+        "run:  33%", "run:  67%", "run: 100%"]
+
+
 def test_a_terminal_keeps_tqdms_redrawn_line(monkeypatch):
     clock = _fake_clock(monkeypatch)
     term = _Terminal()

@@ -1105,9 +1105,10 @@ def test_torch_stays_at_its_configured_threads_through_batched_steps():
         env.close()
 
 
-def test_a_resumed_sac_run_warms_its_empty_replay_buffer_up_again(tmp_path):
+def test_a_resumed_sac_run_warms_its_empty_replay_buffer_up_again(tmp_path, capsys):
     """SAC's buffer is not checkpointed: after a resume it collects ``learning_starts``
-    steps again before its first gradient step."""
+    steps again before its first gradient step; a resume that ends inside that warm-up
+    says it learns nothing (it said "trained in 2 s": a new user's check)."""
     from stable_baselines3 import SAC
 
     from drill_env.physics.config import replace
@@ -1125,6 +1126,13 @@ def test_a_resumed_sac_run_warms_its_empty_replay_buffer_up_again(tmp_path):
     model = SAC.load(tmp_path / "sac" / "model.zip", device="cpu")
     assert model.num_timesteps == 384
     assert model.learning_starts == 256 + 64
+    assert "takes no gradient step" not in capsys.readouterr().out
+    learnt = resume_point(tmp_path / "sac")[1]
+    train(replace(cfg, n_timesteps=420), tmp_path / "sac", resume=True, progress=False)
+    assert "note: SAC refills its replay buffer for 64 steps after a resume before it " \
+           "learns, more than the 36 left to --timesteps 420: this session takes no " \
+           "gradient step" in capsys.readouterr().out
+    assert resume_point(tmp_path / "sac")[1] == learnt
 
 
 def test_a_sac_run_that_would_end_in_its_warm_up_is_refused(tmp_path, capsys):
@@ -1571,15 +1579,20 @@ def test_a_run_of_an_algorithm_drill_env_does_not_train_is_named_before_any_epis
     assert not (tmp_path / "out").exists()
 
 
-def test_the_best_constant_is_the_grid_point_of_highest_mean_return(tmp_path, monkeypatch):
+def test_the_best_constant_is_the_grid_point_of_highest_mean_return(tmp_path, monkeypatch,
+                                                                     capsys):
     """The grid search's rows stubbed: each point's return set by hand, two seeds each;
-    the best constant is the one with the highest mean, not the first or the lowest."""
+    the best constant is the one with the highest mean, not the first or the lowest. Its
+    table has a title of its own and the winner is said (evaluate printed two tables
+    both called "controller benchmark", the first not saying which constant won)."""
     import training.evaluate as ev
     from agents.benchmark import label
 
     returns: dict[str, float] = {}
+    headings: list[str] = []
 
     def grid(names, scenarios, seeds, *args, **kwargs):
+        headings.append(kwargs["heading"])
         rows = []
         order = np.random.default_rng(0).permutation(len(names))  # not monotone
         for i, name in enumerate(names):
@@ -1592,6 +1605,14 @@ def test_the_best_constant_is_the_grid_point_of_highest_mean_return(tmp_path, mo
     name, rows = ev.best_constant(tmp_path, progress=False)
     assert name == max(returns, key=returns.__getitem__)
     assert returns[name] == len(returns) - 1 and len(rows) == 2 * len(returns)
+    assert headings == [f"Grid search of {len(returns)} constant set points on "
+                        f"{len(ev.GRID_SEEDS)} training seeds (the best joins the "
+                        "evaluation)"]
+    assert capsys.readouterr().out == ""
+    ev.best_constant(tmp_path)
+    assert capsys.readouterr().out == (
+        f"grid search: the best constant set point is {label(name)} (mean return "
+        f"{len(returns) - 1:.1f} over {len(ev.GRID_SEEDS)} seeds)\n")
 
 
 def test_the_grid_search_spans_the_runs_own_action_ranges():

@@ -130,11 +130,17 @@ def best_constant(out: Path, workers: int | None = None, progress: bool = True,
     names = [f"constant:{r:g}/{w:g}" for r, w in grid_points(settings.env_kwargs)]
     rows = run_benchmark(names, ["random"], list(GRID_SEEDS), out, settings,
                          workers=workers, progress=progress, env_id=TASKS["drilling"],
-                         ray_address=ray_address)
+                         ray_address=ray_address,
+                         heading=f"Grid search of {len(names)} constant set points on "
+                                 f"{len(GRID_SEEDS)} training seeds (the best joins the "
+                                 "evaluation)")
     means: dict[str, list[float]] = {}
     for row in rows:
         means.setdefault(row["controller"], []).append(row["episode_return"])
     best = max(means, key=lambda c: sum(means[c]) / len(means[c]))
+    if progress:
+        print(f"grid search: the best constant set point is {best} (mean return "
+              f"{sum(means[best]) / len(means[best]):.1f} over {len(GRID_SEEDS)} seeds)")
     return names[[label(n) for n in names].index(best)], rows
 
 

@@ -682,6 +682,14 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
             model.learning_starts = model.num_timesteps + int(
                 config.hyperparams.get("learning_starts", 100))  # SB3's default: 100
         print(f"resuming from {model_path.name} ({model.num_timesteps} steps)")
+        if getattr(model, "learning_starts", 0) >= config.n_timesteps:  # ("trained in 2 s")
+            refill = model.learning_starts - model.num_timesteps
+            print(f"note: SAC refills its replay buffer for {refill} steps after a resume "
+                  f"before it learns, more than the "
+                  f"{config.n_timesteps - model.num_timesteps} left to --timesteps "
+                  f"{config.n_timesteps}: this session takes no gradient step, the model "
+                  f"stays the checkpoint's (give --timesteps above {model.learning_starts} "
+                  "to learn more)")
         resumed = _rewind(run, model.num_timesteps, from_checkpoint)
     else:
         model = new_model(config, env, tensorboard_log=str(run / "tb"))
