@@ -242,6 +242,7 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     drawn: list[tuple[int, float, list[Any]]] = []  # (order given, bit-speed swing, lines)
     off_axis = 0.0  # the largest radial position drawn
     ends: list[tuple[float, float]] = []  # each one's radial position 5 s before the end, last
+    target: list[Any] = []  # the planned rpm's line
     for k, c in enumerate(controllers):
         file = Path(series_dir) / f"{c}_{scenario}_seed{seed}.npz"
         if not file.exists():
@@ -258,8 +259,8 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
         ends.append((float(before[-1]) if before.size else math.nan, float(radial[-1])))
         kw = {"color": colours[c], "lw": 0.8, "label": c, "ls": DASHES[k % len(DASHES)]}
         if "target_time" in d and k == 0:  # the planned rpm (a task's drawn targets)
-            axes[0].step(d["target_time"], d["target_rpm"], where="post", color="k",
-                         lw=1.0, ls=(0, (1, 1)), label="target", zorder=1)
+            target += axes[0].step(d["target_time"], d["target_rpm"], where="post",
+                                   color="k", lw=1.0, ls=(0, (1, 1)), label="target")
         swing = _swing(t, d["bit_speed"], warmup)
         drawn.append((k, swing, [axes[0].plot(t, d["bit_speed"] / RPM, **kw)[0],
                                  axes[1].plot(t, d["surface_torque"] / 1e3, **kw)[0],
@@ -271,11 +272,19 @@ def series_chart(series_dir: Path, controllers: Sequence[str], scenario: str, pa
     # above the wider swinging: a stick-slip band drawn over a steady line hid it (the
     # driller's 140 rpm inside stiff PI's 0-190 rpm swing)
     bottom_up = sorted(drawn, key=lambda item: (item[0] == 0, -item[1]))
-    for z, (_, swing, lines) in enumerate(bottom_up):
+    # bands of stick-slip let the lines behind them show through, the more of them the
+    # more (an evaluation's eleven controllers, four in stick-slip, made one solid band
+    # that hid the policy and its target: a new user's check)
+    bands = sum(swing > SWINGING for _, swing, _ in drawn)
+    for z, (k, swing, lines) in enumerate(bottom_up):
         for line in lines:
             line.set_zorder(2 + z)
-            if swing > SWINGING:  # a band of stick-slip: the lines behind it show through
-                line.set_alpha(0.55)
+            if swing > SWINGING:
+                line.set_alpha(0.55 if bands <= 2 else 0.3)
+            if k == 0 and len(drawn) > 4:  # the first (a policy) stands out among many
+                line.set_linewidth(1.4)
+    for line in target:  # above the bands, under the first controller
+        line.set_zorder(1.5 + len(drawn) - 1)
     # the smallest span each axis shows (rpm, kN m, -): a steady run is a flat line,
     # not its last digits magnified into what looks like an oscillation
     spans = (20.0, 1.0, 1.0, 0.2)

@@ -2096,3 +2096,42 @@ def test_benchmark_paired_gives_any_controller_evaluates_t_tests(tmp_path, capsy
         main([*args, "--paired", "learned"])
     assert "--paired: 'learned' is not one of --controllers (held:1, stiff, held:0)" in \
         capsys.readouterr().err
+
+
+def test_among_many_controllers_the_first_and_the_target_stay_in_sight(tmp_path,
+                                                                         monkeypatch):
+    """An evaluation draws eleven controllers; four of them in stick-slip made one solid
+    band over the policy's line and the target (a new user's check). The first (the
+    policy) is drawn on top and wider, the target just under it, and the bands of
+    stick-slip, three or more, let more of what lies behind them show through."""
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    from agents.plots import series_chart
+
+    names = ["learned", "stiff", "driller", "random", "held-1", "z-torque"]
+    (tmp_path / "series").mkdir()
+    t = np.linspace(0.0, 30.0, 301)
+    for k, name in enumerate(names):
+        swing = 4.0 * (0 < k < 5) * np.sin(2.0 * np.pi * t / 3.0 + k)  # four stick-slip
+        np.savez(tmp_path / "series" / f"{name}_random_seed0.npz", time=t, clearance=0.02,
+                 bit_x=0.006 + 0 * t, bit_y=0 * t, bit_speed=8.0 + swing,
+                 torque_on_bit=3.5e3 + 0 * t, surface_torque=4.3e3 + 0 * t,
+                 target_time=np.array([0.0]), target_rpm=np.array([80.0]))
+    drawn: dict[str, tuple[float, float, float | None]] = {}
+    save = Figure.savefig
+
+    def keep(fig, *args, **kwargs):
+        for line in fig.axes[0].get_lines():
+            drawn[line.get_label()] = (line.get_zorder(), line.get_linewidth(),
+                                       line.get_alpha())
+        return save(fig, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", keep)
+    assert series_chart(tmp_path / "series", names, "random", tmp_path / "s.png", 5.0)
+    top = max(z for z, _, _ in drawn.values())
+    assert drawn["learned"][:2] == (top, 1.4)
+    assert max(z for name, (z, _, _) in drawn.items() if name != "learned") \
+        == drawn["target"][0]
+    assert {drawn[n][2] for n in ("stiff", "driller", "random", "held-1")} == {0.3}
+    assert drawn["z-torque"][2] is None and drawn["z-torque"][1] == 0.8
