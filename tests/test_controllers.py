@@ -375,6 +375,17 @@ def test_driller_raises_rpm_then_lowers_wob_on_stick_slip_and_steps_back_when_ca
     np.testing.assert_array_equal(actions[-1], before)
     actions = run_driller(driller, np.full(50, 10e3))
     assert actions[-1, 1] == pytest.approx(before[1] + rules.weight_on_bit_step)
+    # once the WOB is back at the plan, the speed steps back one rpm_step at a time (a
+    # mutation test: a jump straight back to the planned rpm passed every test)
+    stints = np.array([run_driller(driller, calm)[-1] for _ in range(14)])
+    back = int(np.argmax(stints[:, 1] >= 100e3 - 1e-6))  # the stint the WOB got back in
+    assert stints[back, 1] == pytest.approx(100e3) and back < 8
+    raised = (50.0 + rules.max_rpm_raise) * RPM
+    np.testing.assert_allclose(stints[: back + 1, 0], raised, rtol=1e-12)  # (WOB first)
+    steps = round(rules.max_rpm_raise / rules.rpm_step)
+    expected = [raised - k * rules.rpm_step * RPM for k in range(1, steps + 1)]
+    np.testing.assert_allclose(stints[back + 1: back + 1 + steps, 0], expected, rtol=1e-12)
+    np.testing.assert_allclose(stints[back + 1 + steps:, 0], 50.0 * RPM, rtol=1e-12)
 
 
 def test_driller_acts_at_its_torque_swing_threshold():

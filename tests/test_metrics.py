@@ -407,6 +407,43 @@ def test_pairwise_sum_adds_in_numpys_order():
             assert abs(metrics._pairwise_sum(a, tasks, partial) - np.sum(a)) <= bound
 
 
+def _numpys_pairwise(a: list[float]) -> float:
+    """NumPy's summation order (``pairwise_sum``, loops_utils.h.src) written out in
+    Python floats: under 8 values in order; up to 128 with 8 interleaved accumulators;
+    longer runs split at the multiple of 8 at or below the middle."""
+    n = len(a)
+    if n < 8:
+        res = 0.0
+        for v in a:
+            res += v
+        return res
+    if n <= 128:
+        r = a[:8]
+        stop = n - n % 8
+        for i in range(8, stop, 8):
+            r = [r[j] + a[i + j] for j in range(8)]
+        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+        for v in a[stop:]:
+            res += v
+        return res
+    half = n // 2
+    half -= half % 8
+    return _numpys_pairwise(a[:half]) + _numpys_pairwise(a[half:])
+
+
+def test_pairwise_sum_splits_where_numpys_order_does():
+    """The splits themselves, against the order written out in Python: the same
+    additions in the same order give the same float on any machine (IEEE arithmetic, no
+    fused or reordered operations in either), so equality is exact here. Lengths whose
+    half is not a multiple of 8 (150, 300, 1000) are where a split at the bare middle
+    differs (a mutation test: dropping the rounding to 8 passed the error-bound test)."""
+    rng = np.random.default_rng(7)
+    tasks, partial = np.empty((2, 192), dtype=np.int64), np.empty(64)
+    for n in [150, 258, 300, 1000, 4099]:
+        a = rng.standard_normal(n) * 10.0 ** rng.integers(-6, 6, size=n)
+        assert metrics._pairwise_sum(a, tasks, partial) == 0.0 + _numpys_pairwise(list(a))
+
+
 def test_rolling_metrics_need_the_metric_channels():
     with pytest.raises(ValueError, match="bit_force_x"):
         metrics.RollingMetrics(10, [c for c in CHANNELS if c != "bit_force_x"], DT, CLEARANCE,

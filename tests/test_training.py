@@ -690,6 +690,21 @@ def test_training_envs_are_seeded_apart_per_run_and_per_resume(tmp_path, monkeyp
     assert all(set(a).isdisjoint(b) for i, a in enumerate(blocks) for b in blocks[i + 1:])
     assert all(TRAINING_SEEDS <= b.start and b.stop <= 2**32 for b in blocks)
     assert TRAINING_SEEDS > max(VALIDATION_SEED + 10**5, max(EVALUATION_SEEDS))
+    # the last env's seed stays a 32-bit seed however high the draw (a mutation test:
+    # the range without its n_envs passed, a draw near 2**32 then overflowing it)
+    import unittest.mock
+
+    for top in (2**32 - 1, 2**32 - TRAINING_SEEDS - 1):
+        class Drawn:  # (a SeedSequence whose draw is ``top``)
+            def __init__(self, entropy, top=top):
+                self.top = top
+
+            def generate_state(self, n):
+                return np.array([self.top], np.uint32)
+
+        with unittest.mock.patch.object(np.random, "SeedSequence", Drawn):
+            highest = env_seed(replace(cfg, n_envs=16)) + 16 - 1
+        assert TRAINING_SEEDS <= highest < 2**32
 
     seeds = []
     reset = DrillStringEnv.reset

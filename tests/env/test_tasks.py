@@ -219,6 +219,23 @@ def test_a_task_settings_typo_lists_the_tasks_own_settings():
     gym.make("DrillOptimise-v0", action_mode="incremental", rop_weight=2.0)  # it uses both
 
 
+
+@pytest.mark.parametrize("kind", ["wired_pipe", (1.0, 0.01)])
+def test_a_delay_under_a_control_step_still_arrives_a_step_late(kind):
+    """A delay shorter than the control interval (wired pipe's 50 ms at 0.1 s, a channel
+    of your own at 10 ms) is rounded up to one step, not down to none: downhole data
+    never arrives in the step it is measured (a mutation test: rounding it to zero
+    steps passed every test, which tried mud pulse only)."""
+    tele = Telemetry(kind, 1)
+    tele.reset(0.0, 0.1)
+    held = [tele.update(0.1 * k, [float(k + 1)])[0] for k in range(3)]
+    assert held[0] == 0.0  # nothing yet: the first sample is still on its way
+    if kind == "wired_pipe":  # a sample every step, each one step late
+        assert held == [0.0, 1.0, 2.0]
+    else:  # one sample a second: the first, one step late, then held
+        assert held == [0.0, 1.0, 1.0]
+
+
 @pytest.mark.parametrize("kind, period, delay, dt", [
     ("mud_pulse", 2.0, 3.0, 0.1),  # the module's docstring: every 2 s, 3 s late
     ("wired_pipe", 0.1, 0.05, 0.01),  # 10 samples a second, 50 ms late
@@ -774,4 +791,25 @@ def test_a_stick_slip_reset_fixing_one_target_draws_the_other_from_the_task_rang
         _, info = env.reset(seed=seed, options={"surface_speed": 60 * RPM})
         assert info["target_speed"] == pytest.approx(60 * RPM)
         assert w_low <= info["target_weight_on_bit"] <= w_high
+    env.close()
+
+
+def test_the_surface_torque_mean_is_a_backward_euler_low_pass_of_3_s():
+    """Task 1's surface_torque_mean, rebuilt from each step's surface torque (info) by
+    m_k = m_(k-1) + a / (1 + a) (T_k - m_(k-1)), a = control interval / 3 s (backward
+    Euler of dm/dt = (T - m) / 3 s: unconditionally stable for any interval), started
+    at the first reading. A forward-Euler gain a passed every test (a mutation test);
+    over 20 steps it moves the mean by ~6e-5 of itself, the float32 observation ~1e-7."""
+    env = gym.make("DrillStickSlip-v0")
+    obs, info = env.reset(seed=1)
+    task = env.unwrapped
+    k = task.observation_names.index("surface_torque_mean")
+    scale = task.config.torque_scale
+    a = task.config.control_interval / 3.0
+    mean = info["surface_torque"]
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        obs, _, _, _, info = env.step(rng.uniform(-1.0, 1.0, env.action_space.shape))
+        mean += a / (1.0 + a) * (info["surface_torque"] - mean)
+        assert obs[k] * scale == pytest.approx(mean, rel=2e-6)
     env.close()
