@@ -1261,8 +1261,9 @@ def conditions(settings: BenchmarkSettings, env_id: str | None = None,
                 f"(torsionally with the wall's friction; laterally at rest on the wall in a "
                 f"curved hole, straight on the axis in a vertical one, from where a "
                 f"compressed BHA drifts sideways until its stabilizers rest on the wall, the "
-                f"bit at ~0.32 of its clearance (the near-bit stabilizer's), no whirl: the "
-                f"slow drift of the bit's radial position in the series; docs/model.md) "
+                f"bit held within the near-bit stabilizer's clearance (0.32 of its own on the "
+                f"default BHA), no whirl: the slow drift of the bit's radial position in the "
+                f"series; docs/model.md) "
                 f"at {at} (bit speed kicked by up to {settings.start_kick:.0%} by the seed"
                 + ("; a task's policy acts in its task's env from the same start and set "
                    "points, its return DrillString-v0's reward of its episode" if guests
