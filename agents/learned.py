@@ -226,23 +226,14 @@ def moved_settings_note(name: str, folder: Path, env_id: str, env_kwargs: dict[s
     later version), naming each; None where they agree or the run has no record (a run
     of a version before 2026-12-06, a policy of your own). The policy is still run: a
     study of a changed setting is a use, not a mistake."""
-    from training.config import (
-        changes_text,
-        code_of,
-        read_trained_with,
-        settings_changes,
-        trained_settings,
-    )
+    from training.config import moved_settings
 
-    record = read_trained_with(folder)
-    if record is None:
-        return None
-    moved = settings_changes(record, trained_settings(env_id, env_kwargs))
-    if not moved:
+    moved = moved_settings(folder, env_id, env_kwargs)
+    if moved is None:
         return None
     return (f"note: {name} trained under other {env_id} settings than this code "
-            f"gives it ({changes_text(moved)}; {code_of(record)}): it is scored under "
-            "today's, which its observations and reward follow")
+            f"gives it ({moved}): it is scored under today's, which its observations and "
+            "reward follow")
 
 
 def trained_env(path: str | Path | None = None, env_id: str | None = None

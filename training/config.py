@@ -544,9 +544,22 @@ _FIELDS = ("task", "env")
 NOT_SET = "(not set)"
 
 
+def moved_settings(folder: Path, env_id: str, env_kwargs: dict[str, Any]) -> str | None:
+    """Where the settings an env of ``env_id`` resolves today from ``env_kwargs`` differ
+    from those the run in ``folder`` trained under (its :data:`TRAINED_WITH`: a default
+    moved since), each change and the code of the record, in words (``task.history 10
+    then, 20 now; trained under drill-env 0.1.0, sources ...``); None where they agree or
+    the run has no record. For a resume's refusal and the note of an evaluation."""
+    record = read_trained_with(folder)
+    if record is None:
+        return None
+    moved = settings_changes(record, trained_settings(env_id, env_kwargs))
+    return f"{changes_text(moved)}; {code_of(record)}" if moved else None
+
+
 def code_of(record: dict[str, Any]) -> str:
-    """``drill-env 0.1.0, sources 9610e400394a8c39`` of a :data:`TRAINED_WITH` record (the
-    version alone says little while it stays 0.1.0)."""
+    """``trained under drill-env 0.1.0, sources 9610e400394a8c39`` of a
+    :data:`TRAINED_WITH` record (the version alone says little while it stays 0.1.0)."""
     return (f"trained under drill-env {record.get('drill_env', '?')}, sources "
             f"{record.get('source_digest', 'not recorded')}")
 

@@ -60,14 +60,10 @@ from training.config import (
     VALIDATION_SEED,
     TrainConfig,
     algo_class,
-    changes_text,
-    code_of,
+    moved_settings,
     read_run_config,
-    read_trained_with,
     sb3_hyperparams,
     sb3_policy_kwargs,
-    settings_changes,
-    trained_settings,
     trained_with,
     without_inert_keys,
 )
@@ -536,14 +532,12 @@ def check_same_config(run: Path, config: TrainConfig, settings: bool = True) -> 
                              "differ; only n_timesteps, torch_threads and fused_adam may "
                              "change); train it under another --name (a --seeds sweep: "
                              "another --out), or delete the folder")
-    record = read_trained_with(run) if settings else None
-    if record is not None:  # the same keywords, but the env's defaults moved since
-        moved = settings_changes(record, trained_settings(config.env_id, config.env_kwargs))
-        if moved:
-            raise ValueError(f"resume: {run} started under other {config.env_id} settings "
-                             f"than this code gives it ({changes_text(moved)}; "
-                             f"{code_of(record)}); train it again under another --name (a "
-                             "--seeds sweep: another --out), or delete the folder")
+    # the same keywords, but the env's defaults moved since
+    moved = moved_settings(run, config.env_id, config.env_kwargs) if settings else None
+    if moved is not None:
+        raise ValueError(f"resume: {run} started under other {config.env_id} settings "
+                         f"than this code gives it ({moved}); train it again under another "
+                         "--name (a --seeds sweep: another --out), or delete the folder")
 
 
 def finished(run: Path, config: TrainConfig) -> bool:
