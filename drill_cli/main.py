@@ -2108,7 +2108,7 @@ def _main(argv: Sequence[str] | None) -> int:
     stop, terminated = _stop_as_interrupt()
     heard = False
     clear_interrupt()  # one noted before this command is not this command's
-    from drill_env.sweep import COMMAND_VARIABLE, SAID_VARIABLE, FolderInUse, command_warning
+    from drill_env.sweep import COMMAND_VARIABLE, SAID_VARIABLE, command_warning
 
     shown, named = warnings.formatwarning, os.environ.get(COMMAND_VARIABLE)
     outer = os.environ.get(SAID_VARIABLE)  # a command run inside another (tests)
@@ -2136,9 +2136,11 @@ def _main(argv: Sequence[str] | None) -> int:
         args.command_parser.error(str(err))
     except (ValueError, OSError) as err:  # a bad value named by the library below
         field, colon, rest = str(err).partition(": ")  # by the option the user typed
-        # (a folder in use is named by its path: --out seeds read as --seeds)
+        # an error led by a path the user typed is that file's or folder's (a folder in
+        # use given as --out seeds was said as --seeds)
+        typed = {str(v) for v in vars(args).values() if isinstance(v, Path)}
         option = option_of(field, args.command_parser) \
-            if colon and not isinstance(err, FolderInUse) else None
+            if colon and field not in typed else None
         said = f"{option}: {rest}" if option else str(err)
         print(f"drill-env {args.command}: error: {said}", file=sys.stderr)
         return 2
