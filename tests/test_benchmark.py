@@ -2027,6 +2027,19 @@ def test_a_bit_that_drills_nothing_is_marked_not_drilling(tmp_path):
     assert f"{held['controller']}/stick_slip/0." in markdown
 
 
+def test_not_drilling_is_the_metrics_floor_read_in_the_rows_metres_per_hour():
+    """The row's ROP is in m/h (3,600 s to the hour); the floor under which the window
+    metrics take the MSE's thrust term alone is in m/s. A row is marked exactly where the
+    metrics took that branch: half the floor is not drilling, twice it is (a floor read
+    per minute would call ~60x the floor's crawl drilling)."""
+    from drill_env.metrics import MSE_MIN_ROP
+
+    for factor, marked in ((0.0, True), (0.5, True), (0.98, True), (1.02, False),
+                           (2.0, False), (100.0, False)):
+        row = {"rop_m_per_h": factor * MSE_MIN_ROP * 3600.0}
+        assert bm.not_drilling(row) == marked, factor
+
+
 def test_a_warm_up_past_the_last_whole_control_step_says_where_the_episode_ends(
         tmp_path, capsys):
     """A metrics audit: 20 s at the fast level are 202 control steps of 0.0988 s, 19.97 s;
