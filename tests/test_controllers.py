@@ -36,7 +36,8 @@ def strings() -> list[tuple[str, SimulationConfig, float, float]]:
         drill_pipe=Section(length=2800.0, outer_diameter=5.5 * INCH,
                            inner_diameter=4.778 * INCH, element_length=20.0),
         bha=Section(length=200.0, outer_diameter=8.0 * INCH, inner_diameter=2.8125 * INCH,
-                    element_length=5.0)))
+                    element_length=5.0),
+        stabilizers=(10.0, 19.0)))  # the paper's near-bit one would sit on the bit's node
     out = []
     for name, cfg in (("default", default), ("long 5 1/2 in", long)):
         pipe = cfg.string.drill_pipe
