@@ -405,6 +405,40 @@ class TestGauge:
         out = loads(self.cfg, self.fa, bx=self.bx, vx=-100.0, omega=10.0)
         assert np.all(out[BitOut.GAUGE_X:BitOut.GAUGE_TORQUE + 1] == 0.0)
 
+    def test_a_receding_pad_is_pushed_only_by_the_rock_that_still_presses_on_it(self):
+        """Eq. (55) has no adhesion rock by rock, not only in total. Receding at 7 m/s,
+        between the two rocks' k / c (1e4 and 5e3 1/s), the hard rock's 30 % still
+        pushes with 0.3 (2e4 - 1.4e4) = 1800 N and the soft rock's 70 % would pull with
+        0.7 (5e3 - 7e3) = -1400 N: the pad feels 1800 N, not their sum of 400 N."""
+        vx = -7.0
+        f_hard = 0.3 * (HARD.wall_stiffness * self.penetration + HARD.wall_damping * vx)
+        f_soft = 0.7 * (SOFT.wall_stiffness * self.penetration + SOFT.wall_damping * vx)
+        assert f_hard > 0.0 > f_soft  # the case this test is about
+        out = loads(self.cfg, self.fa, bx=self.bx, vx=vx, omega=0.0)
+        assert out[BitOut.GAUGE_X] == pytest.approx(-f_hard, rel=1e-9)
+        expected = reference_loads(self.cfg, self.fa, bx=self.bx, vx=vx, omega=0.0)
+        np.testing.assert_allclose(out, expected, rtol=1e-10, atol=1e-10)
+
+    @pytest.mark.parametrize("end_force", [2.0e3, 5.0e4])
+    def test_shared_pads_rub_with_the_smaller_of_their_predicted_and_last_forces(
+            self, end_force):
+        """Implicit contacts (physics/implicit_contact.py): a pad rubs with the smaller of
+        its normal force at the predictor and at the end of the last step. Here the
+        predictor's is (0.3 k_hard + 0.7 k_soft) x 1 mm = 9.5 kN; with mu = 0.25, no
+        regularisation and no cap, the friction is 0.25 min(9.5 kN, end force)."""
+        blades = bit.blade_arrays(self.cfg)
+        scratch = bit.make_bit_scratch(len(blades), self.fa.n_interfaces)
+        scratch.pads[:, bit.PAD.END_FORCE] = end_force
+        out = bit.make_loads_out(self.fa.n_rocks)
+        bit.mesoscopic_bit_loads(
+            blades, self.fa, scratch,
+            bit.BitKinematics(self.bx, 0.0, 0.0, 0.0, DEPTH, 0.0, 5.0), WOB,
+            bit.GaugeContact(self.cfg.hole_radius, 0.0, 0.0, 0.25, True), out)
+        predicted = (0.3 * HARD.wall_stiffness + 0.7 * SOFT.wall_stiffness) * self.penetration
+        assert out[BitOut.GAUGE_X] == pytest.approx(-predicted, rel=1e-12)
+        assert out[BitOut.GAUGE_Y] == pytest.approx(-0.25 * min(predicted, end_force),
+                                                    rel=1e-12)
+
     @pytest.mark.parametrize("omega", [5.0, -5.0])
     def test_gauge_friction_opposes_the_slip_and_its_torque_opposes_rotation(self, omega):
         out = loads(self.cfg, self.fa, bx=self.bx, omega=omega, regularisation=1e-3)

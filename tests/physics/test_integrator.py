@@ -414,6 +414,19 @@ def test_top_drive_set_point_ramps_at_the_acceleration_limit():
     assert sim.state[S.SETPOINT] == 120 * RPM
 
 
+def test_top_drive_set_point_ramps_down_at_the_acceleration_limit():
+    """The same limit on the way down (drillers and policies lower the rpm as often as
+    they raise it): from 120 rpm (4 pi rad/s) towards 60 rpm the set point is at
+    4 pi - 3 rad/s after 1 s, and on target after 2 pi / 3 s."""
+    sim = Simulator(SimulationConfig(solver=SolverConfig(lateral=False)))
+    sim.reset(OperatingPoint(120 * RPM, 50e3))
+    hook = sim.hook_load_for(50e3)
+    sim.advance(round(1.0 / sim.dt), 60 * RPM, hook)
+    assert sim.state[S.SETPOINT] == pytest.approx(4 * np.pi - 3.0, rel=1e-12)
+    sim.advance(round(1.2 / sim.dt), 60 * RPM, hook)
+    assert sim.state[S.SETPOINT] == 60 * RPM
+
+
 def test_top_drive_torque_clamps_without_winding_up_its_integral():
     """A bit that cannot break free (static torque above the drive's 50 kN m): the motor
     sits at exactly the limit and the PI integral stops growing while it does

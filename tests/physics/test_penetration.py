@@ -47,6 +47,20 @@ def test_depth_drilled_is_depth_of_cut_per_revolution(rpm):
     assert records[:, R.ROP].min() >= 0.0  # never drills upward
 
 
+def test_the_settled_start_reads_the_rop_of_its_depth_of_cut():
+    """The ROP an env observes at reset, before any step: depth of cut per revolution
+    times revolutions per second, d W omega / (2 pi) (one rock, below its founder
+    point); one step later the kernel's own ROP is the same to 1e-3."""
+    rpm, wob = 120.0, 100e3
+    sim = Simulator(replace(SimulationConfig(), **{"solver.lateral": False}))
+    sim.reset(OperatingPoint(rpm * RPM, wob))
+    rock = SimulationConfig().formation.rocks[0]
+    expected = rock.depth_of_cut * wob * rpm * RPM / (2.0 * math.pi)
+    assert sim.rop == pytest.approx(expected, rel=1e-9)
+    sim.advance(1, rpm * RPM, sim.hook_load_for(wob))
+    assert sim.rop == pytest.approx(expected, rel=1e-3)
+
+
 def test_a_stuck_bit_does_not_advance():
     sim, _, _, records = drill(50.0, 100e3, 20.0)
     stuck = np.abs(records[:, R.BIT_SPEED]) < 1e-6  # rad/s; a stuck bit creeps at ~1e-12
