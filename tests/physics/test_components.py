@@ -119,6 +119,19 @@ def test_stabilizer_components_touch_the_wall_at_their_blades():
     assert sim.node_clearance.min() == pytest.approx(hole - blade)
 
 
+def test_the_paper_bhas_stabilizers_leave_a_sixteenth_of_an_inch_to_the_wall():
+    """The single-section BHA's stabilizers (1, 10 and 19 m above the bit, on its 1 m
+    elements): 8 5/8 in blades in an 8 3/4 in hole leave 1/16 in on each side, one node
+    each; everywhere else the collars' 6 1/2 in body."""
+    sim = Simulator(SimulationConfig())
+    height = sim.mesh.node_depth[-1] - sim.mesh.node_depth  # above the bit
+    for pos in (1.0, 10.0, 19.0):
+        k = int(np.argmin(np.abs(height - pos)))
+        assert sim.node_clearance[k] == pytest.approx(INCH / 16, rel=1e-9)
+    stabilized = np.isclose(sim.node_clearance, INCH / 16, rtol=1e-9)
+    assert stabilized.sum() == 3
+
+
 def test_a_node_between_two_components_touches_with_the_larger():
     """The top node of the collars (below the heavy-weight pipe) had the pipe's radius:
     the collar's end could sink 19 mm into the wall before touching (a review against
