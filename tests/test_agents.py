@@ -43,6 +43,21 @@ def test_a_policy_reset_in_another_tasks_env_says_which_env_it_was_trained_on():
     own.close()
 
 
+def test_a_policy_reset_in_its_own_task_with_another_history_is_refused():
+    """The shape check is per space: task 1's policy (observation 3 x 20 + 7 = 67, action
+    1) in task 1's env with ``history=10`` (observation 3 x 10 + 7 = 37, the same action)
+    is refused at reset naming both observation shapes, not left to fail inside SB3 or
+    the normaliser at the first act."""
+    from agents.learned import LearnedController
+
+    policy = LearnedController.load()  # task 1's
+    env = gym.make("DrillStickSlip-v0", history=10)
+    with pytest.raises(ValueError, match=r"takes observation \(67,\), action \(1,\) .* "
+                                         r"has observation \(37,\), action \(1,\)"):
+        policy.reset(env.unwrapped)
+    env.close()
+
+
 def test_a_run_whose_config_names_another_algorithm_says_so(tmp_path):
     """A hand-edited config.yaml (algo: ppo on a SAC model) failed deep inside SB3 (a
     TypeError of SACPolicy's arguments; the other way round, an AttributeError at the

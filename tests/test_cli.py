@@ -216,6 +216,22 @@ def test_a_wob_given_is_the_one_the_scenario_checks_for_buckling(tmp_path, capsy
     assert "--rpm: 30 rpm is outside the env's range 40-200 rpm" in capsys.readouterr().err
 
 
+def test_a_wob_given_with_an_rpm_is_the_one_the_scenario_checks(tmp_path, capsys):
+    """As the test above, with --rpm beside --wob (how a driller types a run): the
+    scenario starts at both (rpm -> rad/s by 2 pi / 60, kN -> N by 1000), so the
+    horizontal well is checked at the 60 kN typed, which does not buckle its pipe, not at
+    the scenario's own 100 kN, which does: the run goes, at 60 rpm and 60 kN."""
+    well = tmp_path / "horizontal.yaml"
+    well.write_text("well: {md: [0, 300, 900, 1400], inclination: [0, 0, 90, 90], "
+                    "azimuth: [45, 45, 45, 45]}\n")
+    out = tmp_path / "out"
+    assert main(["run", "--config", str(well), "--rpm", "60", "--wob", "60",
+                 "--duration", "0.2", "--out", str(out)]) == 0, capsys.readouterr().err
+    summary = json.loads((out / "run_summary.json").read_text())
+    assert summary["rpm"] == pytest.approx(60.0)
+    assert summary["weight_on_bit_kN"] == pytest.approx(60.0)
+
+
 @pytest.mark.parametrize("command", [["run", "--duration", "0.2"], ["modes"],
                                      ["speed", "--quick", "--sections", "memory"]])
 def test_an_out_that_is_a_file_is_refused_before_the_work(tmp_path, capsys, command):
@@ -304,6 +320,18 @@ def test_run_names_a_bad_argument_in_the_units_typed(tmp_path, capsys, args, mes
     with pytest.raises(SystemExit):
         main(["run", *args, "--out", str(tmp_path)])
     assert message in capsys.readouterr().err
+
+
+def test_a_wob_of_zero_is_taken_and_one_under_a_kilonewton_is_refused():
+    """``kilonewtons``' docstring: a finite number >= 0, and none between 0 and 1 kN (what a
+    WOB typed in MN gives). 0 kN (the bit off bottom, inside the env's 0-200 kN range)
+    and 1 kN are taken; 0.5 kN is refused saying it is 500 N."""
+    from drill_cli.main import kilonewtons
+
+    assert kilonewtons("0") == 0.0
+    assert kilonewtons("1") == 1.0
+    with pytest.raises(argparse.ArgumentTypeError, match=r"^0.5 kN is only 500 N"):
+        kilonewtons("0.5")
 
 
 @pytest.mark.parametrize(("command", "message"), [

@@ -168,6 +168,21 @@ def test_targets_outside_the_set_point_ranges_are_refused(kwargs, message):
         gym.make("DrillStickSlip-v0", **kwargs)
 
 
+def test_a_correction_equal_to_the_lowest_target_is_allowed():
+    """StickSlipTask.max_correction's comment: "At most the lowest rpm target" (the
+    command then reaches 0 rpm, never backwards), and the env's docstring refuses a fixed
+    speed *below* max_correction: the equal values are the edge of what is allowed, so
+    40 rpm of correction around targets from 40 rpm builds, and a reset fixing the speed
+    at exactly 40 rpm runs, commanding 0 rpm at a full negative action."""
+    env = gym.make("DrillStickSlip-v0", max_correction=40.0, rpm_targets=(40.0, 100.0))
+    rpm = 2.0 * math.pi / 60.0
+    env.reset(seed=0, options={"surface_speed": 40.0 * rpm})
+    _, _, _, _, info = env.step(np.array([-1.0], dtype=np.float32))
+    assert info["target_speed"] + info["correction"] == pytest.approx(0.0, abs=1e-9)
+    with pytest.raises(ValueError, match="max_correction"):
+        gym.make("DrillStickSlip-v0", max_correction=40.5, rpm_targets=(40.0, 100.0))
+
+
 def test_a_task_refuses_an_env_config_instance_by_name():
     from drill_env.env_config import EnvConfig
 
@@ -432,6 +447,23 @@ def test_drilling_observation_tells_the_rock_apart_by_its_drillability():
     assert readings["soft"] > 1.5 * readings["hard"]
 
 
+@pytest.mark.parametrize("action, rpm, kn", [(-1.0, 40.0, 40.0), (1.0, 200.0, 140.0)])
+def test_the_drilling_set_point_entries_are_over_the_ranges_tops(action, rpm, kn):
+    """DrillingEnv's docstring: each frame holds the rpm set point / 200 rpm and the WOB
+    set point / 140 kN (the tops of the default ranges 40-200 rpm, 40-140 kN); the action
+    -1 asks for the ranges' low ends and +1 for their tops, so the newest frame reads
+    40/200 and 40/140, or 1 and 1 (to float32 rounding)."""
+    env = gym.make("DrillOptimise-v0")
+    names = env.unwrapped.observation_names
+    history = env.unwrapped.task.history
+    env.reset(seed=0)
+    obs, *_ = env.step(np.full(2, action, dtype=np.float32))
+    last = history - 1
+    assert obs[names.index(f"speed_setpoint[{last}]")] == pytest.approx(rpm / 200.0, rel=1e-6)
+    assert obs[names.index(f"weight_on_bit_setpoint[{last}]")] == pytest.approx(
+        kn / 140.0, rel=1e-6)
+
+
 def test_reward_terms_follow_their_documented_formulas_from_the_raw_records():
     """Each term recomputed from the simulator's records of the step (and the last 3 s of
     them for the window terms) by the formulas of docs/tasks.md, not by the env's code:
@@ -543,6 +575,19 @@ def test_a_divisor_of_the_reward_or_observation_has_a_floor(env_id, kwargs, fiel
         gym.make(env_id, **kwargs)
 
 
+def test_task_observation_values_are_clipped_to_the_bound_keeping_their_sign():
+    """The task observation's values go through ``_bounded``: NaN -> 0, beyond the bound
+    -> the bound of the same sign; the reference is the docstring's own,
+    ``np.clip(np.nan_to_num(v), -OBS_BOUND, OBS_BOUND)``, on values either side of it."""
+    from drill_env.env import OBS_BOUND
+    from drill_env.tasks.base import _bounded
+
+    values = [math.nan, math.inf, -math.inf, 1e9, -1e9, OBS_BOUND + 0.5,
+              -OBS_BOUND - 0.5, -3.0, 2.5, 0.0]
+    want = np.clip(np.nan_to_num(np.array(values)), -OBS_BOUND, OBS_BOUND)
+    np.testing.assert_array_equal(np.array(_bounded(values)), want)
+
+
 def test_a_set_point_change_in_a_task_is_charged_as_the_plain_env_charges_it():
     """The effort term of ``plain_return`` divides a change by DrillString-v0's default
     ranges (0-200 rpm, 0-200 kN), not the task's narrower ones (40-200, 40-140), which
@@ -585,6 +630,25 @@ def test_the_first_frame_fills_the_history_and_the_telemetry_age_starts_at_its_c
         # the torque less its own mean, the surface at its target, no action yet)
         assert np.all(block[-1][[0, 3, 4]] > 0.1)  # torque and set points
     assert names[-1] == "telemetry_age" and obs[-1] == pytest.approx(10.0)
+
+
+def test_the_observation_names_label_the_history_oldest_first():
+    """``observation_names[i]`` names the value at ``obs[i]``: the task docstring's layout,
+    frames oldest first, each frame in FRAME's order. Task 1's ``action[k]`` entry holds
+    the action of the k-th of the last ``history`` steps, by hand: after the actions
+    0.1, 0.2, 0.3 with a 3-frame history, action[0..2] read 0.1, 0.2, 0.3 (float32)."""
+    env = gym.make("DrillStickSlip-v0", history=3)
+    base = env.unwrapped
+    names = base.observation_names
+    assert len(names) == env.observation_space.shape[0]
+    env.reset(seed=0)
+    for a in (0.1, 0.2, 0.3):
+        obs, *_ = env.step(np.array([a], dtype=np.float32))
+    for k, a in enumerate((0.1, 0.2, 0.3)):
+        assert obs[names.index(f"action[{k}]")] == pytest.approx(a, abs=1e-6)
+    # the target's entry (an extra) reads target rpm / 100
+    target_rpm = base.targets[0] / (2.0 * math.pi / 60.0)
+    assert obs[names.index("target_rpm")] == pytest.approx(target_rpm / 100.0, rel=1e-5)
 
 
 def test_a_target_change_stays_in_the_target_range_and_is_forgotten_at_a_reset():
@@ -792,6 +856,21 @@ def test_a_stick_slip_reset_fixing_one_target_draws_the_other_from_the_task_rang
         assert info["target_speed"] == pytest.approx(60 * RPM)
         assert w_low <= info["target_weight_on_bit"] <= w_high
     env.close()
+
+
+@pytest.mark.parametrize("options", [
+    {"surface_speed": 10.0 * 2.0 * math.pi / 60.0},  # the speed alone
+    {"surface_speed": 10.0 * 2.0 * math.pi / 60.0, "weight_on_bit": 100.0e3},  # both
+])
+def test_a_reset_speed_below_the_correction_is_refused(options):
+    """StickSlipEnv's docstring: "a speed below ``max_correction`` is refused (the
+    correction would turn the top drive backwards)": 10 rpm with the default 30 rpm
+    correction would command 10 - 30 = -20 rpm at a full negative action. The refusal
+    names the option and the task setting, whether the WOB is fixed too or not."""
+    env = gym.make("DrillStickSlip-v0")
+    with pytest.raises(ValueError, match=r"surface_speed: 10 rpm is below the task's "
+                                         r"max_correction 30 rpm"):
+        env.reset(seed=0, options=options)
 
 
 def test_the_surface_torque_mean_is_a_backward_euler_low_pass_of_3_s():
