@@ -475,6 +475,20 @@ def test_inconsistent_configuration_raises_naming_the_field(kwargs, name):
         gym.make("DrillString-v0", **kwargs)
 
 
+def test_a_control_interval_of_one_simulator_step_is_accepted():
+    """The refusal of a too-short ``control_interval`` is for one at most half the
+    simulator's step (it rounds to no step); an interval of one step, or of 0.75 of one,
+    rounds to one simulator step per action and is accepted: after one step the clock
+    reads one ``dt`` (the env's own time step, read from a default env)."""
+    dt = DrillStringEnv(**SHORT).sim.dt
+    for interval in (dt, 0.75 * dt):
+        env = DrillStringEnv(control_interval=interval, episode_duration=20 * dt)
+        _, info = env.reset(seed=0)
+        start = info["time"]
+        _, _, _, _, info = env.step(np.zeros(2))
+        assert info["time"] - start == pytest.approx(dt, rel=1e-6)
+
+
 # --------------------------------------------------------------------------- rollouts
 
 

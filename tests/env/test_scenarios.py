@@ -283,6 +283,23 @@ def test_env_config_refuses_an_empty_set_point_range():
         EnvConfig(rpm_range=(100.0, 100.0))
 
 
+def test_start_ranges_are_ordered_and_the_default_is_cut_to_the_action_range():
+    """``random``'s start draws (env_config.start_ranges: those given, else "the
+    scenario's own cut to the env's action ranges"): a reversed ``start_rpm_range`` is
+    refused naming it, and with ``rpm_range=(0, 100)`` and no start range every drawn
+    start lies inside 40-100 rpm, drawn uniformly, none on the 100 rpm edge (the
+    scenario's own 40-160 rpm clamped piled about half the episodes there)."""
+    from drill_env.env import DrillStringEnv
+    from drill_env.physics.units import RPM
+
+    with pytest.raises(ValueError, match="start_rpm_range"):
+        DrillStringEnv(scenario="random", start_rpm_range=(120.0, 80.0))
+    env = DrillStringEnv(scenario="random", rpm_range=(0.0, 100.0), episode_duration=0.5)
+    starts = [env.reset(seed=s)[1]["speed_setpoint"] / RPM for s in range(6)]
+    assert all(40.0 - 1e-6 <= v <= 100.0 + 1e-6 for v in starts)
+    assert not any(v > 100.0 - 1e-6 for v in starts)  # a uniform draw, none on the edge
+
+
 def test_random_scenario_needs_a_pipe_joint_beyond_the_bha():
     # scenarios.random: the strings need more than BHA + heavy-weight pipe + 10 m
     from drill_env import scenarios
