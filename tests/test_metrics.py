@@ -193,6 +193,21 @@ def test_a_pause_or_a_creep_beside_a_whirl_is_not_whirl():
         assert np.array_equal(signs < 0, ws == -2000 * rpm) and not (signs > 0).any()
 
 
+def test_a_stuck_bit_whose_centre_creeps_round_is_whirl_only_past_the_floor():
+    """The speed test's bit speed is floored at 1 rpm (a NaN bit speed reads as stuck):
+    a stuck bit whose centre creeps a whole turn round the wall, off the axis, whirls
+    only if the orbit is faster than a quarter of that floor, 0.25 rpm. At 0.2 rpm (one
+    turn in 5 min) no sample whirls, at 0.3 rpm every one does, with the rotation."""
+    rpm = 2 * np.pi / 60
+    dt = 0.5
+    for creep, whirls in ((0.2, False), (0.3, True)):
+        n = int(round(1.05 / creep * 60 / dt))  # a little over one turn
+        ws = np.full(n, creep * rpm)
+        for bit_speed in (0.0, math.nan):
+            signs = metrics.whirl_signs(np.full(n, 0.9), ws, np.full(n, bit_speed), dt)
+            assert (signs > 0).all() if whirls else not signs.any(), (creep, bit_speed)
+
+
 def test_the_whirl_rule_needs_the_orbit_fast_and_off_the_axis():
     """A slow drift round the wall (a tenth of the bit speed, 6 turns in a minute) is not
     whirl; a circle of half the clearance's radius or less is not, at any speed; a

@@ -81,6 +81,8 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
             if extra > 0.0:  # a longer string's survey reaches as far below the bit
                 assert changed.well.md == pytest.approx(expected.well.md)
                 assert changed.well.inclination == pytest.approx(expected.well.inclination)
+            else:  # a shorter string hangs higher in the same hole: its survey unchanged
+                assert changed.well == base.well
             assert [i.depth - changed.initial_depth for i in changed.formation.interfaces] \
                 == pytest.approx([i.depth - base.initial_depth
                                   for i in base.formation.interfaces])
@@ -97,6 +99,11 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
     # on a 1,250 m string ran, its depth 100 km, a fuzzing walkthrough)
     with pytest.raises(ValueError, match=r"^initial_depth: 100000 m is below the end of "):
         scenarios.with_physics(base, {"initial_depth": 1e5})
+    end = base.string.length  # a metre below it is refused too, round-off is not
+    with pytest.raises(ValueError, match=r"^initial_depth: .* m is below the end of "):
+        scenarios.with_physics(base, {"initial_depth": end + 1.0})
+    assert scenarios.with_physics(base, {"initial_depth": end + 1e-4}).initial_depth \
+        == end + 1e-4
     # the random scenario draws its string's length: a bit depth of one's own fits some
     # draws only (1,550 m was refused at make for a 1,346 m draw, with advice to lengthen
     # the string, and passed where the draws were longer): refused for every draw
