@@ -32,12 +32,17 @@ def test_in_a_vertical_hole_there_is_no_drag_or_torque_and_the_hook_carries_the_
             assert entry["torque"][k] == pytest.approx(0.0, abs=1e-6)
 
 
-def test_the_chart_carries_the_whole_string_as_the_simulator_does():
+@pytest.mark.parametrize("bottom_element", [None, 1.75])
+def test_the_chart_carries_the_whole_string_as_the_simulator_does(bottom_element):
     """Off bottom in a vertical hole the hook carries the buoyed string and bit: the same
-    hook load as the dynamic model's statics (Simulator.hook_load_for at zero WOB)."""
+    hook load as the dynamic model's statics (Simulator.hook_load_for at zero WOB). Also
+    on the paper's BHA meshed in 1.75 m elements: the bit's weight is spread over the
+    lowest element per metre, and the default string's is 1 m long."""
+    from drill_env.physics.config import SimulationConfig, replace
     from drill_env.physics.simulator import Simulator
 
-    config = make_scenario("default").config
+    config = make_scenario("default").config if bottom_element is None else replace(
+        SimulationConfig(), **{"string.bha.element_length": bottom_element})
     depth = config.string.length
     well = Trajectory(WELLS["vertical"](depth))
     table = torque_drag_table(well, config, frictions=(0.3,), step=depth)
