@@ -175,8 +175,7 @@ def test_a_correction_equal_to_the_lowest_target_is_allowed():
     40 rpm of correction around targets from 40 rpm builds, and a reset fixing the speed
     at exactly 40 rpm runs, commanding 0 rpm at a full negative action."""
     env = gym.make("DrillStickSlip-v0", max_correction=40.0, rpm_targets=(40.0, 100.0))
-    rpm = 2.0 * math.pi / 60.0
-    env.reset(seed=0, options={"surface_speed": 40.0 * rpm})
+    env.reset(seed=0, options={"surface_speed": 40.0 * RPM})
     _, _, _, _, info = env.step(np.array([-1.0], dtype=np.float32))
     assert info["target_speed"] + info["correction"] == pytest.approx(0.0, abs=1e-9)
     with pytest.raises(ValueError, match="max_correction"):
@@ -647,7 +646,7 @@ def test_the_observation_names_label_the_history_oldest_first():
     for k, a in enumerate((0.1, 0.2, 0.3)):
         assert obs[names.index(f"action[{k}]")] == pytest.approx(a, abs=1e-6)
     # the target's entry (an extra) reads target rpm / 100
-    target_rpm = base.targets[0] / (2.0 * math.pi / 60.0)
+    target_rpm = base.targets[0] / RPM
     assert obs[names.index("target_rpm")] == pytest.approx(target_rpm / 100.0, rel=1e-5)
 
 
@@ -859,8 +858,8 @@ def test_a_stick_slip_reset_fixing_one_target_draws_the_other_from_the_task_rang
 
 
 @pytest.mark.parametrize("options", [
-    {"surface_speed": 10.0 * 2.0 * math.pi / 60.0},  # the speed alone
-    {"surface_speed": 10.0 * 2.0 * math.pi / 60.0, "weight_on_bit": 100.0e3},  # both
+    {"surface_speed": 10.0 * RPM},  # the speed alone
+    {"surface_speed": 10.0 * RPM, "weight_on_bit": 100.0e3},  # both
 ])
 def test_a_reset_speed_below_the_correction_is_refused(options):
     """StickSlipEnv's docstring: "a speed below ``max_correction`` is refused (the

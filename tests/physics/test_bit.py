@@ -40,14 +40,18 @@ def pieces(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, de
 
 def loads(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, vx=0.0, vy=0.0,
           depth=DEPTH, phi_z=0.0, omega=10.0, wob=WOB, compliance=0.0,
-          regularisation=1e-3, gauge_friction=math.nan) -> np.ndarray:
+          regularisation=1e-3, gauge_friction=math.nan, end_force=None) -> np.ndarray:
+    """The kernel's loads; ``end_force``: the pads' force at the end of the last step,
+    with the contacts implicit (``GaugeContact.shared``)."""
     blades = bit.blade_arrays(bit_cfg)
     scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
+    if end_force is not None:
+        scratch.pads[:, bit.PAD.END_FORCE] = end_force
     out = bit.make_loads_out(fa.n_rocks)
     bit.mesoscopic_bit_loads(blades, fa, scratch,
                              bit.BitKinematics(bx, by, vx, vy, depth, phi_z, omega), wob,
                              bit.GaugeContact(bit_cfg.hole_radius, compliance, regularisation,
-                                              gauge_friction),
+                                              gauge_friction, end_force is not None),
                              out)
     return out
 
@@ -426,14 +430,8 @@ class TestGauge:
         its normal force at the predictor and at the end of the last step. Here the
         predictor's is (0.3 k_hard + 0.7 k_soft) x 1 mm = 9.5 kN; with mu = 0.25, no
         regularisation and no cap, the friction is 0.25 min(9.5 kN, end force)."""
-        blades = bit.blade_arrays(self.cfg)
-        scratch = bit.make_bit_scratch(len(blades), self.fa.n_interfaces)
-        scratch.pads[:, bit.PAD.END_FORCE] = end_force
-        out = bit.make_loads_out(self.fa.n_rocks)
-        bit.mesoscopic_bit_loads(
-            blades, self.fa, scratch,
-            bit.BitKinematics(self.bx, 0.0, 0.0, 0.0, DEPTH, 0.0, 5.0), WOB,
-            bit.GaugeContact(self.cfg.hole_radius, 0.0, 0.0, 0.25, True), out)
+        out = loads(self.cfg, self.fa, bx=self.bx, omega=5.0, regularisation=0.0,
+                    gauge_friction=0.25, end_force=end_force)
         predicted = (0.3 * HARD.wall_stiffness + 0.7 * SOFT.wall_stiffness) * self.penetration
         assert out[BitOut.GAUGE_X] == pytest.approx(-predicted, rel=1e-12)
         assert out[BitOut.GAUGE_Y] == pytest.approx(-0.25 * min(predicted, end_force),
