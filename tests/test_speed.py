@@ -7,6 +7,7 @@ import dataclasses
 import json
 import math
 
+import numpy as np
 import pytest
 
 from drill_cli.main import main
@@ -288,3 +289,148 @@ def test_the_commit_recorded_is_drill_envs_own_not_an_enclosing_repositorys(tmp_
     this = Path(__file__).resolve().parents[1]
     if (this / ".git").exists():  # a checkout (CI clones one), not an unpacked sdist
         assert checkout_commit(this) is not None
+
+
+class _Clock:
+    """A clock that moves only when a fake step moves it (CPU time = wall time): the
+    figures' arithmetic checked without timing anything."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def perf_counter(self) -> float:
+        return self.now
+
+    process_time = perf_counter
+
+
+def test_random_actions_cycle_past_their_last_one():
+    """_RandomSteps cycles through its actions: a full run steps the single env for
+    more calls (warm-up + repeats x env_steps) than there are RANDOM_ACTIONS."""
+    from drill_env.tools.speed.env import RANDOM_ACTIONS, _RandomSteps, random_actions
+
+    actions = random_actions((2,))
+    seen: list = []
+    steps = _RandomSteps(seen.append, actions)
+    for _ in range(2 * RANDOM_ACTIONS + 1):
+        steps()
+    assert sorted(map(tuple, seen[:RANDOM_ACTIONS])) == sorted(map(tuple, actions))
+    np.testing.assert_array_equal(seen[RANDOM_ACTIONS:2 * RANDOM_ACTIONS],
+                                  seen[:RANDOM_ACTIONS])
+
+
+def test_env_rates_count_every_env_a_call_steps(monkeypatch):
+    from drill_env.tools.speed import env as speed_env
+
+    clock = _Clock()
+    monkeypatch.setattr(speed_env, "time", clock)
+    calls = {"one": 0, "four": 0}
+
+    def step(name):
+        def call() -> None:
+            calls[name] += 1
+            clock.now += 1e-3
+
+        return call
+
+    rates = speed_env._interleaved_rates({"one": (step("one"), 1), "four": (step("four"), 4)},
+                                         env_steps=8, rounds=2, warmup=1)
+    # 1 ms a call: one env a call is 1000 env steps/s, four envs a call 4000
+    assert rates == pytest.approx({"one": 1000.0, "four": 4000.0})
+    # after the warm-up call, rounds of 8 / 2 env steps: 4 calls of one env, 1 of four
+    assert calls == {"one": 1 + 2 * 4, "four": 1 + 2 * 1}
+
+
+def test_the_python_share_of_an_env_step_is_its_time_outside_the_simulator(monkeypatch):
+    from drill_env.tools.speed import env as speed_env
+
+    clock = _Clock()
+    monkeypatch.setattr(speed_env, "time", clock)
+
+    class Sim:
+        def advance(self, *args, **kwargs) -> None:
+            clock.now += 3e-3
+
+    class Env:
+        _steps_per_action = 50
+
+        def __init__(self) -> None:
+            self.sim = Sim()
+            self.unwrapped = self
+
+        def step(self, action):
+            clock.now += 1e-3  # the env's own Python
+            self.sim.advance(self._steps_per_action)
+            return None, 0.0, False, False, {}
+
+    env = Env()
+    out = speed_env._python_overhead(env, np.zeros(2), 4)
+    assert out["us_per_env_step"] == pytest.approx(4e3)
+    assert out["us_in_simulator"] == pytest.approx(3e3)
+    assert out["python_overhead_share"] == pytest.approx(0.25)
+    assert "advance" not in vars(env.sim)  # the timer taken off again
+
+
+def test_the_scaling_fit_gives_back_a_cost_linear_in_the_dofs(monkeypatch):
+    """bench_scaling's least squares: a cost of exactly 3 us + 2 ns x DOFs gives back its
+    intercept and slope (ns per DOF), R^2 = 1, and each point's cost over the
+    reference point's."""
+
+    def linear(sims, weight_on_bit, seconds, repeats, desc, progress):
+        figures = {}
+        for key, sim in sims.items():
+            n_dof = 5 * sim.n_nodes
+            us = 3.0 + 2e-3 * n_dof
+            figures[key] = {"n_nodes": sim.n_nodes, "n_dof": n_dof, "us_per_step": us,
+                            "ns_per_dof_step": us / n_dof * 1e3, "real_time_factor": 1.0}
+        return figures
+
+    monkeypatch.setattr(speed_core, "time_simulators", linear)
+    result = speed_core.bench_scaling(TINY, progress=False)
+    fit, points = result["fit"], result["points"]
+    assert len({p["n_dof"] for p in points}) >= 2
+    assert fit["us_per_step_intercept"] == pytest.approx(3.0)
+    assert fit["ns_per_dof_step_slope"] == pytest.approx(2.0)
+    assert fit["r_squared"] == pytest.approx(1.0)
+    per_dof = [p["ns_per_dof_step"] for p in points]
+    assert fit["cost_per_dof_max_over_min"] == pytest.approx(max(per_dof) / min(per_dof))
+    where = (result["reference"]["pipe_length_m"], result["reference"]["pipe_element_length_m"])
+    (ref,) = [p for p in points if (p["pipe_length_m"], p["pipe_element_length_m"]) == where]
+    for p in points:
+        assert p["cost_over_reference"] == pytest.approx(p["us_per_step"] / ref["us_per_step"])
+
+
+def test_a_simulators_array_bytes_count_an_array_shared_by_views_once():
+    from types import SimpleNamespace
+
+    from drill_env.tools.speed.system import array_bytes
+
+    state = np.zeros(100)  # 800 bytes
+    holder = SimpleNamespace(state=state, head=state[:10], parts=[state[5:], np.zeros(5)],
+                             name="not an array")
+    assert array_bytes(holder) == 800 + 5 * 8
+
+
+def test_env_only_rates_count_every_env_of_each_call(monkeypatch):
+    import training.speed as training_speed
+
+    clock = _Clock()
+    monkeypatch.setattr(training_speed, "time", clock)
+
+    class VecEnv:
+        def step(self, action) -> None:
+            clock.now += 0.5
+
+    out = training_speed._env_only(VecEnv(), np.zeros((3, 4, 2), np.float32))
+    # 3 calls of 4 envs in 1.5 s: 8 env steps/s, 1.5 s / 12 steps = 125 s per 1000
+    assert out["steps_per_s"] == pytest.approx(8.0)
+    assert out["cpu_s_per_1000"] == pytest.approx(125.0)
+
+
+def test_best_of_rounds_keeps_the_fastest_round():
+    from training.speed import _keep_faster
+
+    best: dict = {}
+    for rate in (5.0, 9.0, 7.0):
+        _keep_faster(best, "run", {"steps_per_s": rate})
+    assert best == {"run": {"steps_per_s": 9.0}}

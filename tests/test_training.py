@@ -1791,6 +1791,70 @@ def test_a_seed_summary_reports_the_best_evaluation_not_the_last(tmp_path, monke
     assert (s["best_return"], s["best_at_steps"], s["best_ssi"]) == (-1.0, 20, 0.2)
 
 
+def test_a_seed_sweeps_started_run_is_resumed_and_a_new_one_started(tmp_path, monkeypatch):
+    # training/sweep.py docstring: a run whose worker died (or that was interrupted)
+    # resumes from its last checkpoint (train() refuses a started run without resume)
+    import training.train as tt
+    from training.sweep import _train_task
+
+    resumed = []
+
+    def fake_train(config, run, resume=False, progress=True):
+        resumed.append(resume)
+        run.mkdir(exist_ok=True)
+        (run / "run.json").write_text(json.dumps({"env_steps": 100, "wall_s": 1.0}))
+
+    monkeypatch.setattr(tt, "train", fake_train)
+    started = tmp_path / "started"
+    (started / "checkpoints").mkdir(parents=True)  # what an interrupted run leaves
+    _train_task((tiny_config(), str(started)))
+    _train_task((tiny_config(), str(tmp_path / "new")))
+    assert resumed == [True, False]
+
+
+def _summary(seed: int, best: float | None) -> dict[str, Any]:
+    return {"seed": seed, "run": f"run{seed}", "env_steps": 2048, "wall_s": 1.0,
+            "best_return": best, "best_at_steps": None if best is None else 1024,
+            "best_ssi": None if best is None else 0.1}
+
+
+def test_a_seed_summary_gives_the_mean_and_sample_std_of_the_best_returns(tmp_path):
+    import math
+
+    from training.sweep import write_summary
+
+    results = [_summary(0, 1.0), _summary(1, 2.0), _summary(2, 6.0), _summary(3, None)]
+    text = write_summary(results, tmp_path / "train_sweep.md", tiny_config()).read_text()
+    # mean 3, sample variance (4 + 1 + 9) / (3 - 1) = 7; the seed not yet evaluated left out
+    assert (f"Best validation return over seeds: 3.0 +- {math.sqrt(7):.1f} (mean +- std, "
+            "3 seeds).") in text
+
+
+def test_a_seed_sweep_keeps_its_finished_seeds_whatever_seed_its_config_holds(
+        tmp_path, monkeypatch):
+    # training/sweep.py: each run takes its own seed, so the seed the config holds is no
+    # part of what the stored results belong to; a rerun skips the finished seeds
+    import training.sweep as sweep
+
+    ran = []
+
+    class Serial:
+        def map_unordered(self, fn, items, late=None):
+            for k, (config, _) in enumerate(items):
+                ran.append(config.seed)
+                yield k, _summary(config.seed, None)
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(sweep, "make_executor", lambda *args: Serial())
+    config = tiny_config()
+    sweep.train_seeds(config, [3, 4], tmp_path, progress=False)
+    sweep.train_seeds(dataclasses.replace(config, seed=config.seed + 1), [3, 4, 5], tmp_path,
+                      progress=False)
+    assert ran == [3, 4, 5]
+
+
 def test_a_run_folder_loads_its_best_model_before_its_final_one(tmp_path):
     # agents/learned.py docstring: its best model on the validation seeds if there is
     # one, else its final model, else its last checkpoint

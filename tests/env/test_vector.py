@@ -220,6 +220,18 @@ def test_nan_action_in_a_batch_names_the_env():
         envs.step([["fast", "heavy"]] * N)
 
 
+def test_an_infinite_action_in_a_batch_names_the_env_as_a_nan_does():
+    # drill_env/batching.py check_actions: a non-finite action of an active env is a
+    # ValueError naming it; +inf and -inf each move only one end of the batch's range
+    envs = DrillStringVectorEnv(num_envs=N, **KW)
+    envs.reset(seed=0)
+    for bad in (np.inf, -np.inf):
+        actions = np.zeros((N, 2))
+        actions[1, 0] = bad
+        with pytest.raises(ValueError, match="env 1"):
+            envs.step(actions)
+
+
 def test_the_vector_envs_arguments_are_refused_by_name():
     """From a fuzz of the API: a float seed was a TypeError, a snake-case autoreset mode
     was refused without the valid ones, ``num_envs=True`` made one env, a step before
