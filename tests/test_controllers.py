@@ -497,6 +497,26 @@ def test_driller_steps_the_speed_back_once_the_weight_is_back():
     assert out[-1, 1] == pytest.approx(100e3)
 
 
+def test_driller_steps_back_after_calm_decisions_in_a_row_only():
+    # DrillerRules.calm_decisions: calm decisions in a row before a step back; stick-slip
+    # in between starts the count again (a mutation test: a count kept through a swing
+    # stepped back after one calm decision, and passed every test)
+    from agents.driller import Driller, DrillerRules
+
+    r = DrillerRules()
+    d = Driller(r)
+    d.reset(_DrillerEnv(50.0, 100e3))
+    swing = 10e3 * (1.0 + 0.5 * np.sin(np.pi * np.arange(0, 5.0, 0.1)))  # one decision
+    calm = np.full(50, 10e3)  # one calm decision
+    _drive(d, swing)  # +10 rpm
+    _drive(d, np.tile(calm, r.calm_decisions - 1))
+    _drive(d, swing)  # +10 rpm again
+    out = _drive(d, np.tile(calm, r.calm_decisions - 1))
+    assert out[-1, 0] == pytest.approx(70.0 * RPM)  # one calm decision short
+    out = _drive(d, calm)
+    assert out[-1, 0] == pytest.approx(60.0 * RPM)
+
+
 def test_driller_keeps_at_least_its_minimum_weight_fraction():
     # DrillerRules.min_weight_fraction: the least WOB it keeps (0.5 of the plan)
     from agents.driller import Driller
@@ -506,6 +526,23 @@ def test_driller_keeps_at_least_its_minimum_weight_fraction():
     t = np.arange(0, 60.0, 0.1)
     out = _drive(d, 10e3 * (1.0 + 0.5 * np.sin(np.pi * t)))
     assert out[:, 1].min() == pytest.approx(0.5 * 95e3)
+
+
+def test_driller_steps_the_weight_back_no_further_than_the_plan():
+    # module docstring: calm, it steps back *toward* the planned set points; from the
+    # floor of a 95 kN plan (47.5 kN) four 10 kN steps reach 87.5 kN and the fifth stops
+    # at 95, not 97.5 (a mutation test: a step back past the plan passed every test)
+    from agents.driller import Driller, DrillerRules
+
+    r = DrillerRules()
+    d = Driller(r)
+    d.reset(_DrillerEnv(50.0, 95e3, top_rpm=50.0))  # no room to raise: WOB goes first
+    t = np.arange(0, 30.0, 0.1)  # six decisions: 85, 75, 65, 55 kN, then the floor
+    out = _drive(d, 10e3 * (1.0 + 0.5 * np.sin(np.pi * t)))
+    assert out[-1, 1] == pytest.approx(0.5 * 95e3)
+    out = _drive(d, np.full(50 * r.calm_decisions * 6, 10e3))  # room for six steps back
+    assert out[:, 1].max() == pytest.approx(95e3)
+    assert out[-1] == pytest.approx([50.0 * RPM, 95e3])
 
 
 def test_set_point_controller_asks_for_speed_then_wob():

@@ -103,6 +103,19 @@ def test_reloaded_policy_acts_deterministically_with_its_normalisation(run):
     assert controller.normalizer.obs_rms.count > 1000
 
 
+def test_a_loaded_policy_brings_the_env_keywords_it_was_trained_with(run):
+    """agents.learned: a policy acts "with the env keywords it was trained with" (its
+    config.yaml's env_kwargs), which ``drill-env run --controller learned:RUN`` builds its
+    task env from (a mutation test: a load that dropped them passed every test; a run
+    trained with another ``history`` was then refused at reset in its own task)."""
+    from agents.benchmark import guest_env_kwargs
+
+    folder, cfg = run
+    controller = make_controller(f"learned:{folder}")
+    assert controller.env_kwargs() == cfg.env_kwargs == {"episode_duration": 3.0}
+    assert guest_env_kwargs(controller) == cfg.env_kwargs
+
+
 def test_evaluate_runs_the_policy_through_the_benchmark(run, tmp_path, capsys):
     folder, _ = run
     code = main(["evaluate", str(folder), "--seeds", "2", "--workers", "1",
@@ -165,6 +178,21 @@ def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
     assert steps[:2] == [1024, 2048] and steps[-1] == 3072
 
 
+def test_a_resume_may_change_the_steps_the_threads_and_the_optimiser_kernel(run):
+    """check_same_config: n_timesteps, torch_threads and fused_adam may change on a resume
+    (torch's threads are the machine's; a model keeps the optimiser it was made with),
+    nothing else (a mutation test: fused_adam left out of the free keys refused every
+    resume that changed it, and no test said so)."""
+    from drill_env.physics.config import replace
+    from training.train import check_same_config
+
+    folder, cfg = run
+    check_same_config(folder, replace(cfg, n_timesteps=4096, torch_threads=2,
+                                      fused_adam=not cfg.fused_adam))
+    with pytest.raises(ValueError, match=r"another config \(eval_episodes differ;"):
+        check_same_config(folder, replace(cfg, eval_episodes=3))
+
+
 def test_a_resumed_run_keeps_counting_its_observation_statistics(run, tmp_path):
     """A resume loads the saved VecNormalize statistics and trains on with them: a fresh
     normaliser would show the policy differently scaled inputs mid-training and save
@@ -222,6 +250,27 @@ def test_validation_episodes_show_the_policy_normalised_observations():
     # returns: 2 + 4.5 and 3 + 4.5; SSI the mean of 0.5 and 1.0 per episode
     assert scores == pytest.approx({"return": 7.0, "return_std": 0.5, "ssi": 0.75,
                                     "stuck_fraction": 0.25})
+
+
+def test_each_evaluation_plays_its_eval_episodes_validation_seeds(tmp_path, monkeypatch):
+    """An evaluation scores the policy on ``eval_episodes`` fixed seeds from
+    VALIDATION_SEED on, the ones run.json names (first and count; a mutation test: a range
+    one seed short passed every test, each score then a mean over one seed fewer)."""
+    import training.train as tt
+    from training.config import VALIDATION_SEED
+
+    played = []
+
+    def scored(model, normalizer, env, seeds):
+        played.append(list(seeds))
+        return {"return": 0.0, "return_std": 0.0, "ssi": 0.0, "stuck_fraction": 0.0}
+
+    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", scored)
+    cfg = tiny_config(n_timesteps=512, eval_freq=512, checkpoint_freq=10_000, eval_episodes=3)
+    train(cfg, tmp_path / "run", progress=False)
+    record = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert record["validation_seeds"] == {"first": VALIDATION_SEED, "count": 3}
+    assert played == [[VALIDATION_SEED, VALIDATION_SEED + 1, VALIDATION_SEED + 2]]
 
 
 def test_evaluate_scores_a_run_at_the_fidelity_it_trained_at(run, tmp_path, monkeypatch):
@@ -1008,6 +1057,26 @@ def test_the_standard_rl_zoo3_client_trains_a_task(tmp_path):
         capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert result.returncode == 0, result.stderr[-2000:]
     assert list(tmp_path.glob("ppo/DrillStickSlip-v0_1/DrillStickSlip-v0.zip"))
+
+
+def test_the_smallest_training_script_saves_its_final_model_where_it_says(tmp_path,
+                                                                           monkeypatch):
+    """training/train_ppo.py (read top to bottom; scripts/ppo_then_now.py's workload): its
+    flags are Args' fields, and the final model goes to ``<out>/ppo_<scenario>/`` (its
+    docstring). SB3's PPO stops after a whole rollout: n_steps 256 x 1 env."""
+    import sys
+
+    from training import train_ppo
+
+    monkeypatch.setenv("SB3_LOGDIR", str(tmp_path / "sb3"))  # (not the system's temp)
+    monkeypatch.setattr(sys, "argv", [
+        "train_ppo", "--scenario", "default", "--num-envs", "1", "--total-timesteps", "1",
+        "--episode-duration", "2.0", "--out", str(tmp_path)])
+    args = train_ppo.parse()
+    assert args == train_ppo.Args("default", 1, 1, 2.0, 0, tmp_path)
+    model = train_ppo.train(args)
+    assert model.num_timesteps == 256
+    assert (tmp_path / "ppo_default" / "final.zip").is_file()
 
 
 def test_zoo_hyperparameters_are_the_yaml_ones():
@@ -1864,6 +1933,19 @@ def test_a_run_folder_loads_its_best_model_before_its_final_one(tmp_path):
         (tmp_path / name).write_bytes(b"")
     assert policy_files(tmp_path) == (tmp_path / "best_model.zip",
                                       tmp_path / "best_vecnormalize.pkl")
+
+
+def test_a_checkpoint_without_its_statistics_is_passed_over(tmp_path):
+    # agents.learned.latest_checkpoint: the last *complete* checkpoint, its model beside
+    # its VecNormalize statistics; a model whose statistics were never written (a kill
+    # between the two saves) is passed over, not handed to a resume without them
+    kept = tmp_path / "checkpoints"
+    kept.mkdir()
+    for name in ("model_1024_steps.zip", "vecnormalize_1024.pkl", "model_2048_steps.zip",
+                 "vecnormalize_512.pkl", "model_x_steps.zip"):
+        (kept / name).write_bytes(b"")
+    assert latest_checkpoint(tmp_path) == (kept / "model_1024_steps.zip",
+                                           kept / "vecnormalize_1024.pkl")
 
 
 def _evaluations(run, steps_and_returns):
