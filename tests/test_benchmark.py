@@ -2148,3 +2148,66 @@ def test_among_many_controllers_the_first_and_the_target_stay_in_sight(tmp_path,
         == drawn["target"][0]
     assert {drawn[n][2] for n in ("stiff", "driller", "random", "held-1")} == {0.3}
     assert drawn["z-torque"][2] is None and drawn["z-torque"][1] == 0.8
+
+
+def test_the_series_chart_draws_each_channel_in_its_unit_and_one_target_line(tmp_path,
+                                                                              monkeypatch):
+    """Each panel is the channel its axis names, in the unit it says, against time: bit
+    speed (rpm), surface torque and torque on bit (kN m), radial position over the
+    clearance; the planned rpm is drawn once (the first controller's), not per line."""
+    from helpers import keep_saved_figures
+
+    from agents.plots import series_chart
+    from drill_env.physics.units import RPM
+
+    t = np.linspace(0.0, 10.0, 101)
+    channels = {"time": t, "clearance": 0.02, "bit_x": 0.004 + 0.001 * np.sin(t),
+                "bit_y": 0.003 * np.cos(t), "bit_speed": (80.0 + 10.0 * np.sin(t)) * RPM,
+                "surface_torque": 6e3 + 500.0 * np.cos(t), "torque_on_bit": 2e3 + 0.1 * t,
+                "target_time": np.array([0.0, 5.0]), "target_rpm": np.array([80.0, 90.0])}
+    for name in ("stiff", "z-torque", "driller"):
+        np.savez(tmp_path / f"{name}_random_seed0.npz", **channels)
+    saved = keep_saved_figures(monkeypatch)
+    assert series_chart(tmp_path, ["stiff", "z-torque", "driller"], "random",
+                        tmp_path / "series.png", warmup=2.0)
+    axes = saved[0].axes
+    want = (channels["bit_speed"] / RPM, channels["surface_torque"] / 1e3,
+            channels["torque_on_bit"] / 1e3,
+            np.hypot(channels["bit_x"], channels["bit_y"]) / 0.02)
+    for ax, values in zip(axes[:4], want, strict=True):
+        (line,) = [line for line in ax.get_lines() if line.get_label() == "stiff"]
+        np.testing.assert_allclose(line.get_xdata(), t)
+        np.testing.assert_allclose(line.get_ydata(), values, rtol=1e-12)
+    assert [line.get_label() for line in axes[0].get_lines()].count("target") == 1
+
+
+def test_the_bars_stand_on_their_scenario_in_the_panels_unit(tmp_path, monkeypatch):
+    """Each scenario's bars are centred on its tick, one per controller side by side; the
+    panels in % (time stuck, in backward whirl) show the mean share x 100."""
+    from helpers import keep_saved_figures
+
+    from agents.plots import bar_chart
+
+    names, scenarios = ["stiff", "z-torque", "driller"], ["default", "stick_slip"]
+    rows = [_row(c, s, seed=k, stuck_fraction=0.1 * (i + 1) + 0.02 * k + 0.3 * j, ssi=0.5,
+                 backward_whirl_fraction=0.05 * (i + 1))
+            for i, c in enumerate(names) for j, s in enumerate(scenarios) for k in range(2)]
+    saved = keep_saved_figures(monkeypatch)
+    bar_chart(rows, names, scenarios, tmp_path / "bars.png")
+    stuck, whirl = saved[0].axes[1], saved[0].axes[3]
+    bars = [p for p in stuck.patches if p.get_width() > 0]
+    assert len(bars) == len(names) * len(scenarios)
+    centres = np.array([p.get_x() + 0.5 * p.get_width() for p in bars])
+    for j in range(len(scenarios)):
+        group = centres[np.abs(centres - j) < 0.5]
+        assert len(group) == len(names) and np.mean(group) == pytest.approx(j, abs=1e-9)
+    for c in names:
+        for s in scenarios:
+            mean = 100.0 * np.mean([r["stuck_fraction"] for r in rows
+                                    if r["controller"] == c and r["scenario"] == s])
+            assert any(p.get_height() == pytest.approx(mean, rel=1e-12) for p in bars)
+    heights = sorted({round(p.get_height(), 9) for p in whirl.patches if p.get_width() > 0})
+    assert heights == pytest.approx([5.0, 10.0, 15.0])
+    for ax in saved[0].axes[:4]:  # each panel's scale reaches its tallest bar, from 0
+        low, high = ax.get_ylim()
+        assert low == 0.0 and high >= max(p.get_height() for p in ax.patches)

@@ -968,3 +968,114 @@ def test_replay_without_a_display_points_to_the_web_viewer(tmp_path: Path, monke
     recording.write_bytes(b"")
     with pytest.raises(ValueError, match=r"no display here .* web=True serves the web "):
         replay(recording)
+
+
+def test_the_episode_fields_count_every_sample_and_span_the_episode(tmp_path: Path) -> None:
+    """docs/recording.md, ``config/episode``: samples (the reset's and one per step) and
+    the start and end time, in an episode written in several chunks."""
+    env = RecordEpisode(_make_env(0.5), tmp_path, flush_every=2)
+    infos, _, _ = _run_episode(env, seed=0)
+    env.close()
+    episode = read_recording(env.last_path).episode
+    assert episode["samples"] == len(infos) == 6
+    assert episode["start_time_s"] == pytest.approx(infos[0]["time"], abs=1e-12)
+    assert episode["end_time_s"] == pytest.approx(infos[-1]["time"], abs=1e-12)
+    assert episode["start_time_s"] < episode["end_time_s"]
+
+
+def test_every_flush_every_steps_reach_the_file_before_the_episode_ends(
+        tmp_path: Path) -> None:
+    """docs/recording.md: a chunk is written every ``flush_every`` steps (a process killed
+    outright loses only the chunk not yet written): with ``flush_every=3`` the file holds
+    no step after two, and all three after the third."""
+    import warnings
+
+    rec = EpisodeRecorder(tmp_path, flush_every=3)
+    rec.begin(scenario="bare", seed=None)
+
+    def written() -> int:
+        with warnings.catch_warnings():  # the file has no footer until it is closed
+            warnings.simplefilter("ignore")
+            back = read_recording(rec.path)
+        return len(back.scalars.get("/timeseries/speed_rpm/bit", ((), ()))[0])
+
+    for k in range(2):
+        rec.record({"time": 0.1 * k, "bit_speed": 5.0})
+    assert written() == 0
+    rec.record({"time": 0.2, "bit_speed": 5.0})
+    assert written() == 3
+    rec.finish(note="done")
+
+
+def test_the_wrapper_hands_the_recorder_each_steps_own_records(tmp_path: Path,
+                                                               monkeypatch) -> None:
+    """docs/recording.md: the whirl events of a recording made through the env judge the
+    step's own records (``env.unwrapped.last_records``), not one reading a step: each
+    step's records reach the recorder, from just after the previous step to this one."""
+    from drill_env.physics.layout import R
+
+    handed: list = []
+    real = EpisodeRecorder.record
+
+    def keep(self, info, *args, records=None, **kwargs):
+        handed.append(None if records is None else np.array(records, copy=True))
+        return real(self, info, *args, records=records, **kwargs)
+
+    monkeypatch.setattr(EpisodeRecorder, "record", keep)
+    env = RecordEpisode(_make_env(0.3), tmp_path)
+    infos, _, _ = _run_episode(env, seed=0)
+    env.close()
+    assert handed[0] is None and len(handed) == len(infos)  # the reset: no step yet
+    for before, after, records in zip(infos[:-1], infos[1:], handed[1:], strict=True):
+        assert records is not None and records.ndim == 2 and len(records) > 1
+        assert records[-1, R.TIME] == pytest.approx(after["time"], abs=1e-9)
+        assert records[0, R.TIME] > before["time"]
+
+
+def test_a_whirl_event_gives_the_records_whirl_and_bit_speeds(tmp_path: Path) -> None:
+    """A bit centre circling the hole at 0.9 of the clearance, forward at 5 rad/s with
+    the bit turning at 10 rad/s, fed as the steps' records: the event says forward whirl,
+    radial ratio 0.90, whirl 48 rpm and bit 95 rpm (docs/recording.md, Events)."""
+    from drill_env.physics.config import SimulationConfig
+    from drill_env.physics.layout import R
+    from drill_env.physics.simulator import RECORD_CHANNELS
+
+    config = SimulationConfig()
+    clearance, dt, whirl, spin = config.bit.gauge_clearance, 0.002, 5.0, 10.0
+    t = np.arange(40 * 50) * dt
+    records = np.zeros((t.size, len(RECORD_CHANNELS)))
+    records[:, R.TIME] = t
+    records[:, R.BIT_X] = 0.9 * clearance * np.cos(whirl * t)
+    records[:, R.BIT_Y] = 0.9 * clearance * np.sin(whirl * t)
+    records[:, R.WHIRL_SPEED] = whirl
+    records[:, R.BIT_SPEED] = spin
+    rec = EpisodeRecorder(tmp_path)
+    rec.begin(config=config, scenario="orbit", seed=None)
+    for k in range(40):
+        step = records[50 * k:50 * (k + 1)]
+        rec.record({"time": step[-1, R.TIME], "bit_speed": spin, "whirl_speed": whirl,
+                    "bit_lateral": step[-1, [R.BIT_X, R.BIT_Y]]}, records=step)
+    path = rec.finish(note="done")
+    assert path is not None
+    onsets = [text for _, _, text in read_recording(path).text_logs["/events"]
+              if text.startswith("whirl onset")]
+    assert len(onsets) == 1, onsets
+    found = re.search(r"\((\w+)\): radial ratio ([\d.]+), whirl (-?\d+) rpm, bit (-?\d+) rpm",
+                      onsets[0])
+    assert found is not None, onsets[0]
+    assert found[1] == "forward" and float(found[2]) == pytest.approx(0.9, abs=0.006)
+    assert float(found[3]) == pytest.approx(whirl / RPM, abs=0.5)
+    assert float(found[4]) == pytest.approx(spin / RPM, abs=0.5)
+
+
+def test_the_web_viewer_takes_every_port_from_1_to_65535(monkeypatch) -> None:
+    """``web_port``: a port asked for is 1-65535 (the TCP range, as the refusal says);
+    a free one is taken as asked, the last one too."""
+    import importlib
+
+    module = importlib.import_module("drill_env.recording.replay")  # (not the function)
+    monkeypatch.setattr(module, "port_free", lambda port, bind="0.0.0.0": True)
+    assert module.web_port(65535) == 65535 and module.web_port(1) == 1
+    for port in (0, 65536):
+        with pytest.raises(ValueError, match=f"web_viewer_port: {port} is not a port"):
+            module.web_port(port)

@@ -241,3 +241,66 @@ def test_chunks_written_out_of_time_order_read_back_sorted(tmp_path: Path,
              for chunk in reader.stream(store=reader.recordings()[0])
              if "sim_time" in chunk.to_record_batch().schema.names}
     assert kinds == {"duration[ns]"}
+
+
+def test_the_orbit_view_is_in_mm_its_circle_the_clearance_and_its_bounds_around_it(
+        tmp_path: Path, case2: tuple[Any, Any]) -> None:
+    """docs/recording.md: ``orbit_mm/clearance`` is the gauge-clearance circle in mm, on
+    the scale of the bit centre (``orbit_mm/bit``, mm), and the layout's orbit view frames
+    that circle with a margin."""
+    from rerun.chunk import RrdReader
+
+    from drill_env.recording.recorder import EpisodeRecorder
+
+    sim, scenario = case2
+    clearance_mm = scenario.config.bit.gauge_clearance * 1e3
+    recorder = EpisodeRecorder(tmp_path)
+    recorder.begin(sim=sim, scenario="orbit", seed=None, info={
+        "time": 0.0, "bit_lateral": np.array([0.5 * scenario.config.bit.gauge_clearance, 0.0])})
+    path = recorder.finish(note="done")
+    rows = _rows(path)
+    (circle,) = rows["/orbit_mm/clearance"][0]["LineStrips2D:strips"]
+    np.testing.assert_allclose(np.hypot(*np.array(circle).T), clearance_mm, rtol=F32)
+    bit = [r["Points2D:positions"] for r in rows["/orbit_mm/bit"] if "Points2D:positions" in r]
+    np.testing.assert_allclose(bit[0][0], [0.5 * clearance_mm, 0.0], rtol=F32)
+    reader = RrdReader(str(path))
+    bounds = [cell for chunk in reader.stream(store=reader.blueprints()[0])
+              if "VisualBounds2D:range" in chunk.to_record_batch().schema.names
+              for cell in chunk.to_record_batch().column("VisualBounds2D:range").to_pylist()]
+    (cell,) = bounds  # one orbit view, one range
+    (box,) = cell
+    for low, high in (box["x_range"], box["y_range"]):
+        assert low == -high and clearance_mm < high < 1.5 * clearance_mm
+
+
+@pytest.mark.parametrize("name, factor", [("default", 500.0), ("stick_slip", 500.0),
+                                          ("paper_case2", 200.0)])
+def test_the_default_exaggeration_maps_the_largest_clearance_to_2_percent_of_the_string(
+        name: str, factor: float) -> None:
+    """docs/recording.md: a round number (``writer.nice``: 1, 2 or 5 x 10^k, at most the
+    ratio) that maps the largest clearance to ~2 % of the string length: 500 for the
+    ``default`` and ``stick_slip`` strings, 200 for the paper cases."""
+    scenario = make_scenario(name)
+    geometry = capture_geometry(Simulator(scenario.config), scenario.config)
+    k = geometry.exaggeration()
+    assert k == factor
+    length = geometry.node_depth[-1] - geometry.node_depth[0]
+    widest = k * np.max(geometry.node_clearance)
+    assert 0.02 * length / 2.5 < widest <= 0.02 * length
+    assert geometry.exaggeration(37.0) == 37.0  # one asked for is kept
+
+
+def test_the_episode_fields_read_back_are_the_last_written(tmp_path: Path,
+                                                           case2: tuple[Any, Any]) -> None:
+    """``config/episode`` is logged at the start and again at the end, and the viewer
+    shows the last (a static entity): so does ``read_recording``, also where the two
+    are written in one batch."""
+    sim, scenario = case2
+    path = tmp_path / "episode.rrd"
+    stream, writer = _writer(path, sim, scenario)
+    writer.episode({"state": "running", "samples": 1})
+    writer.episode({"state": "ended", "samples": 7})
+    stream.flush()
+    del stream, writer
+    episode = read_recording(path).episode
+    assert (episode["state"], episode["samples"]) == ("ended", 7)

@@ -534,3 +534,69 @@ def test_pool_workers_run_one_numba_thread_each() -> None:
             (0, (1, 1)), (1, (1, 1))]
     finally:
         executor.close()
+
+
+def test_the_picture_shades_and_marks_each_point_at_its_speed_and_wob() -> None:
+    """Fig. 15: each grid point's shade sits at its (rpm, kN), darker where it sticks,
+    in the colour the legend gives the stick-slip zone; the markers of the simulated
+    points stand at theirs (x steady, o stick-slip)."""
+    rpm, wob = np.array([40.0, 80.0, 120.0]), np.array([50e3, 100e3, 150e3])
+    unstable = np.array([[False, False, False], [True, False, False], [True, True, False]])
+    tested = np.array([[0, 0, 0], [1, -1, 0], [-1, 1, -1]], dtype=np.int8)
+    m = sm.StabilityMap("P1", 0.0, rpm, wob, unstable, tested,
+                        np.array([100e3, 150e3, np.nan]), 6, 0.1)
+    fig = sm.maps_figure([m])
+    ax = fig.axes[0]
+    (mesh,) = ax.collections
+    corners = mesh.get_coordinates()  # (n_wob + 1, n_rpm + 1, 2) cell corners
+    centres = 0.25 * (corners[:-1, :-1] + corners[1:, :-1] + corners[:-1, 1:] + corners[1:, 1:])
+    np.testing.assert_allclose(centres[..., 0], np.broadcast_to(rpm, (3, 3)))
+    np.testing.assert_allclose(centres[..., 1], np.broadcast_to(wob[:, None] / 1e3, (3, 3)))
+    np.testing.assert_array_equal(np.asarray(mesh.get_array()).reshape(3, 3), unstable)
+    legend = {p.get_label(): p.get_facecolor() for p in fig.legends[0].get_patches()}
+    np.testing.assert_allclose(legend["stick-slip zone (inferred)"], mesh.cmap(mesh.norm(1.0)))
+    np.testing.assert_allclose(legend["steady zone (inferred)"], mesh.cmap(mesh.norm(0.0)))
+    for label, verdict in (("steady", 0), ("stick-slip", 1)):
+        (line,) = [line for line in ax.get_lines() if line.get_label() == label]
+        drawn = set(zip(line.get_xdata().tolist(), line.get_ydata().tolist(), strict=True))
+        j, i = np.nonzero(tested == verdict)
+        assert drawn == set(zip(rpm[i].tolist(), (wob[j] / 1e3).tolist(), strict=True))
+
+
+def test_maps_on_another_wob_grid_do_not_join_the_file(tmp_path) -> None:
+    """The same speeds but other WOBs: the old maps are not of the same grid, so the
+    file and picture hold the new one alone."""
+    import json
+
+    settings = sm.MapSettings(seconds=12.0, measure=10.0)
+    sm.write_maps([_toy_map("P1")], tmp_path, settings)
+    other = _toy_map("P3")
+    other.weight_on_bit = np.array([40e3, 80e3])
+    sm.write_maps([other], tmp_path, settings)
+    data = json.loads((tmp_path / "stability_map.json").read_text())
+    assert [m["position"] for m in data["maps"]] == ["P3"]
+
+
+def test_an_interrupt_while_the_maps_are_written_leaves_the_old_file_whole(
+        tmp_path, monkeypatch) -> None:
+    """A Ctrl-C in the middle of writing the JSON leaves the maps already there whole: a
+    torn file reads as no maps (:func:`kept_maps`), so the next positions written would
+    have dropped the ones it held."""
+    import pathlib
+
+    settings = sm.MapSettings(seconds=12.0, measure=10.0)
+    sm.write_maps([_toy_map("P1")], tmp_path, settings)
+    before = (tmp_path / "stability_map.json").read_text()
+    real = pathlib.Path.write_text
+
+    def torn(path, text, *args, **kwargs):
+        real(path, text[: len(text) // 2], *args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pathlib.Path, "write_text", torn)
+    with pytest.raises(KeyboardInterrupt):
+        sm.write_maps([_toy_map("P2")], tmp_path, settings)
+    monkeypatch.undo()
+    assert (tmp_path / "stability_map.json").read_text() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["stability_map.json",
+                                                          "stability_map.png"]
