@@ -186,11 +186,10 @@ def test_a_pause_or_a_creep_beside_a_whirl_is_not_whirl():
     """The leg of a short backward whirl also holds the rest before it and a slow creep
     the same way after it (1 rpm, 1 % of the bit speed, for 40 s): neither is whirl, and
     the creep does not take the whirl's own samples out (a leg-mean speed test did both)."""
-    rpm = 2 * np.pi / 60
-    burst = np.full(50, -2000 * rpm)  # 0.5 s, 17 turns
-    for ws in (np.r_[np.zeros(3000), burst], np.r_[burst, np.full(4000, -1.0 * rpm)]):
-        signs = metrics.whirl_signs(np.full(ws.size, 0.9), ws, np.full(ws.size, 100 * rpm), 0.01)
-        assert np.array_equal(signs < 0, ws == -2000 * rpm) and not (signs > 0).any()
+    burst = np.full(50, -2000 * RPM)  # 0.5 s, 17 turns
+    for ws in (np.r_[np.zeros(3000), burst], np.r_[burst, np.full(4000, -1.0 * RPM)]):
+        signs = metrics.whirl_signs(np.full(ws.size, 0.9), ws, np.full(ws.size, 100 * RPM), 0.01)
+        assert np.array_equal(signs < 0, ws == -2000 * RPM) and not (signs > 0).any()
 
 
 def test_a_stuck_bit_whose_centre_creeps_round_is_whirl_only_past_the_floor():
@@ -198,11 +197,10 @@ def test_a_stuck_bit_whose_centre_creeps_round_is_whirl_only_past_the_floor():
     a stuck bit whose centre creeps a whole turn round the wall, off the axis, whirls
     only if the orbit is faster than a quarter of that floor, 0.25 rpm. At 0.2 rpm (one
     turn in 5 min) no sample whirls, at 0.3 rpm every one does, with the rotation."""
-    rpm = 2 * np.pi / 60
     dt = 0.5
     for creep, whirls in ((0.2, False), (0.3, True)):
         n = int(round(1.05 / creep * 60 / dt))  # a little over one turn
-        ws = np.full(n, creep * rpm)
+        ws = np.full(n, creep * RPM)
         for bit_speed in (0.0, math.nan):
             signs = metrics.whirl_signs(np.full(n, 0.9), ws, np.full(n, bit_speed), dt)
             assert (signs > 0).all() if whirls else not signs.any(), (creep, bit_speed)

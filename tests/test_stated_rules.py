@@ -19,7 +19,7 @@ from drill_env.env import DrillStringEnv
 from drill_env.physics.layout import RECORD_CHANNELS
 from drill_env.physics.units import RPM
 from drill_env.recording import EpisodeRecorder, RecordEpisode, read_recording
-from drill_env.render import ORBIT, FrameHistory, _nice_ceiling, draw_frame
+from drill_env.render import BIT, ORBIT, SURFACE, WALL, FrameHistory, _nice_ceiling, draw_frame
 from drill_env.tools.speed import common as speed_common
 from drill_env.vector import DrillStringVectorEnv
 
@@ -99,12 +99,32 @@ def test_frame_history_keeps_the_last_rows_in_time_order_after_wrapping():
     np.testing.assert_array_equal(h.column("time"), [3.0, 4.0, 5.0])
 
 
+def test_the_history_is_the_last_rows_in_time_order_before_and_after_it_fills():
+    """The frame plots the last ``capacity`` rows, oldest first: also in an episode's
+    first seconds, before the ring buffer is full (its empty slots are no rows), whatever
+    chunks the rows came in; a row with a non-finite value is left out."""
+    h = FrameHistory(RECORD_CHANNELS, 4)
+    h.add(_rows(3, time=[0.0, 1.0, 2.0]))
+    np.testing.assert_array_equal(h.column("time"), [0.0, 1.0, 2.0])
+    h.add(_rows(3, time=[3.0, 4.0, 5.0]))
+    np.testing.assert_array_equal(h.column("time"), [2.0, 3.0, 4.0, 5.0])
+    h.add(_rows(10, time=np.arange(6.0, 16.0)))
+    np.testing.assert_array_equal(h.column("time"), [12.0, 13.0, 14.0, 15.0])
+    h.add(_rows(1, time=[16.0], bit_x=[np.nan]))
+    np.testing.assert_array_equal(h.column("time"), [12.0, 13.0, 14.0, 15.0])
+
+
 def test_nice_ceiling_is_the_smallest_1_2_5_decade_at_or_above():
     """Docstring: the smallest 1, 2 or 5 x 10^k at or above value."""
     assert _nice_ceiling(1.5) == 2.0
     assert _nice_ceiling(120.0) == 200.0
     assert _nice_ceiling(3.0) == 5.0
     assert _nice_ceiling(0.7) == 1.0
+    # at the 1-2-5 steps themselves the value is its own top: the half of the default
+    # 0-200 rpm range, 100 rpm exactly, is drawn to 100, not 200
+    for value, top in ((100.0, 100.0), (2.0, 2.0), (0.5, 0.5), (101.0, 200.0),
+                       (6.0, 10.0), (0.012, 0.02), (0.0, 1.0), (np.nan, 1.0)):
+        assert _nice_ceiling(value) == pytest.approx(top, rel=1e-12), value
 
 
 def test_round_off_below_zero_does_not_widen_the_speed_axis():
@@ -140,6 +160,56 @@ def test_an_orbit_beyond_the_wall_is_drawn_on_the_wall():
     ys, xs = np.nonzero(np.all(frame == np.array(ORBIT, np.uint8), axis=-1))
     assert xs.size > 0
     assert np.max(np.hypot(xs - cx, ys - cy)) <= r_px + 5
+
+
+def _wall_and_orbit(frame: np.ndarray) -> tuple[float, float, float, np.ndarray]:
+    """The wall circle's centre (column, row) and radius in pixels, from its pixels in the
+    orbit panel (the right third) off the text lines, and the (row, column) of every
+    orbit pixel."""
+    wall = np.all(frame == np.array(WALL, np.uint8), axis=-1)
+    wall[:40], wall[-20:], wall[:, :int(0.6 * frame.shape[1])] = False, False, False
+    rows, cols = np.nonzero(wall)
+    cx, radius = 0.5 * (cols.min() + cols.max()), 0.5 * (cols.max() - cols.min())
+    cy = float(np.mean(rows[cols == cols.min()]))
+    return cx, cy, radius, np.argwhere(np.all(frame == np.array(ORBIT, np.uint8), axis=-1))
+
+
+def test_the_orbit_is_drawn_north_up_and_east_right():
+    """The bit centre at +y (north of the hole axis) is drawn above the centre of the
+    clearance circle, at +x to its right, as the orbit of the rerun recording is."""
+    clearance = 0.02
+    for axis in ("bit_y", "bit_x"):
+        h = FrameHistory(RECORD_CHANNELS, 8)
+        h.add(_rows(5, time=0.1 * np.arange(5), **{axis: 0.5 * clearance}))
+        cx, cy, radius, orbit = _wall_and_orbit(draw_frame(h, clearance, 20.0))
+        if axis == "bit_y":  # up: smaller row numbers
+            assert np.all(orbit[:, 0] < cy - 0.3 * radius)
+            assert np.all(np.abs(orbit[:, 1] - cx) <= 4)
+        else:
+            assert np.all(orbit[:, 1] > cx + 0.3 * radius)
+            assert np.all(np.abs(orbit[:, 0] - cy) <= 4)
+
+
+def _row_of(frame: np.ndarray, rgb: tuple[int, int, int]) -> float:
+    """The mean pixel row of a horizontal trace drawn in ``rgb``."""
+    rows, _ = np.nonzero(np.all(frame == np.array(rgb, np.uint8), axis=-1))
+    return float(rows.mean())
+
+
+def test_bit_and_surface_speed_are_drawn_on_one_rpm_scale():
+    """Both speeds are plotted in rpm on the same axis: with the surface at 100 rpm (the
+    axis top for a 200 rpm range) a bit at 50 rpm lies halfway between a bit at rest and
+    the surface line."""
+    rows = {}
+    for bit_rpm in (0.0, 50.0):
+        h = FrameHistory(RECORD_CHANNELS, 8)
+        h.add(_rows(5, time=0.1 * np.arange(5), bit_speed=bit_rpm * RPM,
+                    surface_speed=100.0 * RPM))
+        frame = draw_frame(h, 0.02, 200.0 * RPM)
+        rows[bit_rpm] = _row_of(frame, BIT)
+        top = _row_of(frame, SURFACE)
+    assert rows[0.0] - top > 50  # the speed panel's height
+    assert rows[50.0] == pytest.approx(0.5 * (rows[0.0] + top), abs=2.0)
 
 
 # ----------------------------------------------------------------- tools/speed/common.py

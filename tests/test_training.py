@@ -2137,8 +2137,7 @@ def test_a_stopped_seed_sweep_says_what_finished_and_what_continues(tmp_path, ca
     finished and which continue from their checkpoints when the command runs again."""
     import training.sweep as sweep
 
-    summary = {"seed": 3, "run": "r", "env_steps": 2048, "wall_s": 1.0, "best_return": 1.0,
-               "best_at_steps": 2048, "best_ssi": 0.1}
+    summary = _summary(3, 1.0)
 
     class StoppedAfterOne:  # the first run finishes, then a Ctrl-C
         def map_unordered(self, fn, items, late=None):
