@@ -913,6 +913,26 @@ def test_a_port_a_closed_viewer_left_in_time_wait_is_free() -> None:
         assert not port_free(holder.getsockname()[1])
 
 
+def _events_of_records(folder: Path, config, records: np.ndarray, given: bool = True,
+                       per_step: int = 50) -> list[str]:
+    """The ``/events`` texts of an episode recorded from ``records``, ``per_step`` rows an
+    env step: each step's last row as its info, with the step's rows where ``given``."""
+    from drill_env.physics.layout import R
+
+    rec = EpisodeRecorder(folder)
+    rec.begin(config=config, scenario="records", seed=None)
+    for k in range(0, len(records), per_step):
+        step = records[k:k + per_step]
+        last = step[-1]
+        info = {"time": last[R.TIME], "bit_speed": last[R.BIT_SPEED],
+                "whirl_speed": last[R.WHIRL_SPEED],
+                "bit_lateral": np.array([last[R.BIT_X], last[R.BIT_Y]])}
+        rec.record(info, records=step if given else None)
+    path = rec.finish("stopped for the test")
+    assert path is not None
+    return [text for _, _, text in read_recording(path).text_logs["/events"]]
+
+
 def test_whirl_events_judge_the_steps_records_not_one_reading_a_step(tmp_path: Path) -> None:
     """A bit rattling +-70 degrees on the wall at 10 Hz, read once per 0.1 s env step: the
     readings catch the rattle at the same phase every step, a steady orbit, and the
@@ -935,20 +955,8 @@ def test_whirl_events_judge_the_steps_records_not_one_reading_a_step(tmp_path: P
     records[:, R.BIT_SPEED] = 10.0
     assert not whirling(np.ones(t.size), records[:, R.WHIRL_SPEED], records[:, R.BIT_SPEED],
                         dt).any()
-    texts = {}
-    for given in (False, True):
-        rec = EpisodeRecorder(tmp_path / str(given))
-        rec.begin(config=config, scenario="rattle", seed=None)
-        for k in range(steps):
-            step = records[50 * k:50 * (k + 1)]
-            last = step[-1]
-            info = {"time": last[R.TIME], "bit_speed": last[R.BIT_SPEED],
-                    "whirl_speed": last[R.WHIRL_SPEED],
-                    "bit_lateral": np.array([last[R.BIT_X], last[R.BIT_Y]])}
-            rec.record(info, records=step if given else None)
-        path = rec.finish("stopped for the test")
-        assert path is not None
-        texts[given] = [text for _, _, text in read_recording(path).text_logs["/events"]]
+    texts = {given: _events_of_records(tmp_path / str(given), config, records, given)
+             for given in (False, True)}
     assert any(text.startswith("whirl onset") for text in texts[False])  # the aliasing
     assert not any(text.startswith("whirl onset") for text in texts[True])
 
@@ -1049,15 +1057,7 @@ def test_a_whirl_event_gives_the_records_whirl_and_bit_speeds(tmp_path: Path) ->
     records[:, R.BIT_Y] = 0.9 * clearance * np.sin(whirl * t)
     records[:, R.WHIRL_SPEED] = whirl
     records[:, R.BIT_SPEED] = spin
-    rec = EpisodeRecorder(tmp_path)
-    rec.begin(config=config, scenario="orbit", seed=None)
-    for k in range(40):
-        step = records[50 * k:50 * (k + 1)]
-        rec.record({"time": step[-1, R.TIME], "bit_speed": spin, "whirl_speed": whirl,
-                    "bit_lateral": step[-1, [R.BIT_X, R.BIT_Y]]}, records=step)
-    path = rec.finish(note="done")
-    assert path is not None
-    onsets = [text for _, _, text in read_recording(path).text_logs["/events"]
+    onsets = [text for text in _events_of_records(tmp_path, config, records)
               if text.startswith("whirl onset")]
     assert len(onsets) == 1, onsets
     found = re.search(r"\((\w+)\): radial ratio ([\d.]+), whirl (-?\d+) rpm, bit (-?\d+) rpm",
