@@ -816,18 +816,19 @@ def _row(controller: str, scenario: str, seed: int = 0, **values: float) -> dict
     return row
 
 
-def _series(out, controllers, scenarios, radial: float = 0.3) -> None:
+def _series(out, controllers, scenarios, radial: float = 0.3, **channels) -> None:
     """First-seed time series as ``run_episode`` keeps them, the bit ``radial`` of the
-    clearance off the hole axis."""
+    clearance off the hole axis; ``channels`` replace or add series by name."""
     import numpy as np
 
     (out / "series").mkdir(parents=True, exist_ok=True)
     t = np.linspace(0.0, 10.0, 101)
+    kept = {"time": t, "clearance": 0.02, "bit_x": 0.02 * radial + 0 * t, "bit_y": 0 * t,
+            "bit_speed": 5.2 + 0 * t, "torque_on_bit": 3.5e3 + 0 * t,
+            "surface_torque": 4.3e3 + 0 * t} | channels
     for c in controllers:
         for s in scenarios:
-            np.savez(out / "series" / f"{c}_{s}_seed0.npz", time=t, clearance=0.02,
-                     bit_x=0.02 * radial + 0 * t, bit_y=0 * t, bit_speed=5.2 + 0 * t,
-                     torque_on_bit=3.5e3 + 0 * t, surface_torque=4.3e3 + 0 * t)
+            np.savez(out / "series" / f"{c}_{s}_seed0.npz", **kept)
 
 
 def _drawn_texts(monkeypatch, ticks: list[int] | None = None) -> list[str]:
@@ -2165,10 +2166,9 @@ def test_the_series_chart_draws_each_channel_in_its_unit_and_one_target_line(tmp
                 "bit_y": 0.003 * np.cos(t), "bit_speed": (80.0 + 10.0 * np.sin(t)) * RPM,
                 "surface_torque": 6e3 + 500.0 * np.cos(t), "torque_on_bit": 2e3 + 0.1 * t,
                 "target_time": np.array([0.0, 5.0]), "target_rpm": np.array([80.0, 90.0])}
-    for name in ("stiff", "z-torque", "driller"):
-        np.savez(tmp_path / f"{name}_random_seed0.npz", **channels)
+    _series(tmp_path, ["stiff", "z-torque", "driller"], ["random"], **channels)
     saved = keep_saved_figures(monkeypatch)
-    assert series_chart(tmp_path, ["stiff", "z-torque", "driller"], "random",
+    assert series_chart(tmp_path / "series", ["stiff", "z-torque", "driller"], "random",
                         tmp_path / "series.png", warmup=2.0)
     axes = saved[0].axes
     want = (channels["bit_speed"] / RPM, channels["surface_torque"] / 1e3,
