@@ -133,7 +133,10 @@ def test_physics_that_would_make_every_controller_one_is_refused(tmp_path, capsy
     from drill_env.physics.validation import ConfigError
 
     for physics in ({"top_drive": {"controller": "z_torque"}},
-                    {"top_drive.proportional_gain": 500.0}):
+                    {"top_drive.proportional_gain": 500.0},
+                    {"top_drive.integral_gain": 10.0},
+                    {"top_drive.torque_feedback": "high_pass"},
+                    {"top_drive.feedback_gain": 1e-3}):  # the rules' 1/Z
         key = next(iter(flatten(physics)))
         with pytest.raises(ConfigError, match=f"physics.{key}: the benchmark gives each"):
             bm.BenchmarkSettings(duration=6.0, warmup=2.0, physics=physics)
@@ -155,6 +158,31 @@ def test_physics_that_would_make_every_controller_one_is_refused(tmp_path, capsy
     assert f"--config {config}: top_drive.integral_gain: the benchmark gives each" in \
         capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_set_points_at_the_ends_of_drill_strings_ranges_are_taken():
+    """DrillString-v0's action ranges are closed (``set_point_outside``: outside is below
+    low or above high): a benchmark's set points at their ends, the bit off bottom at 0 kN
+    among them, are taken; one a kilonewton past the end is refused."""
+    from drill_env.env_config import EnvConfig
+    from drill_env.physics.units import RPM
+
+    config = EnvConfig()
+    rpm_high, (wob_low, wob_high) = config.rpm_range[1], config.weight_on_bit_range
+    for wob in (wob_low, wob_high):
+        settings = dataclasses.replace(SHORT, surface_speed=rpm_high * RPM, weight_on_bit=wob)
+        assert settings.set_points() == {"surface_speed": rpm_high * RPM,
+                                         "weight_on_bit": wob}
+    with pytest.raises(ValueError, match="^weight_on_bit: .* outside DrillString-v0's range"):
+        dataclasses.replace(SHORT, weight_on_bit=wob_high + 1e3)
+
+
+def test_a_warmup_as_long_as_the_episode_is_refused():
+    """BenchmarkSettings: the warm-up, left out of the metrics, must be shorter than the
+    episode (its error says so): one as long leaves nothing to measure."""
+    with pytest.raises(ValueError, match=r"^warmup: 6.0 s must be shorter than the duration"):
+        bm.BenchmarkSettings(duration=6.0, warmup=6.0)
+    assert bm.BenchmarkSettings(duration=6.0, warmup=5.5).warmup == 5.5
 
 
 def test_a_policy_of_another_task_is_refused_before_any_episode(tmp_path):
@@ -292,6 +320,19 @@ def test_a_damaged_line_of_the_results_file_costs_that_line_only(tmp_path):
         # a hand-edited line of the right fingerprint without a result: skipped (KeyError)
         f.write(json.dumps({"fingerprint": bm.fingerprint(SHORT), "key": 5}).encode() + b"\n")
     assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(SHORT))) == 1
+
+
+def test_a_stored_row_is_sound_only_with_a_number_in_every_metric_column():
+    """``sound_row``'s docstring: a stored row is reused only with numbers where the
+    metrics are (SPEC section 5's columns after controller, scenario and seed); text or a
+    boolean in any one of them is an edit, and its episode runs again."""
+    episode = bm.Episode("stiff", "stick_slip", 0, {}, "")
+    row = {"controller": "stiff", "scenario": "stick_slip", "seed": 0,
+           **{c: 1.0 for c in SPEC_COLUMNS[3:]}, "episode_return": -2}
+    assert bm.sound_row(row, episode)
+    for column in SPEC_COLUMNS[3:]:
+        for edit in ("abc", True):
+            assert not bm.sound_row({**row, column: edit}, episode), (column, edit)
 
 
 def test_a_result_put_after_a_killed_writers_half_line_is_kept(tmp_path):
@@ -434,6 +475,22 @@ def test_a_rerun_with_record_keeps_the_recordings_of_other_settings(tmp_path, ca
     assert (kept / recording.name).read_bytes() == first
     assert (kept / sidecar.name).read_text() == stamp
     assert recording.read_bytes() != first and sidecar.read_text() != stamp
+
+
+def test_a_recording_whose_stamp_is_damaged_is_set_aside_as_unstamped(tmp_path):
+    """``set_aside_stale_recordings``: a recording of another run goes to
+    recordings/other_runs/<its run's stamp>/, "a damaged stamp is not a path": one that
+    reads as a path goes to other_runs/unstamped, not where the path points."""
+    episode = bm.Episode("stiff", "stick_slip", 0, {}, str(tmp_path), record=True,
+                         stamp="this", run="thisrun")
+    episode.recording.parent.mkdir(parents=True)
+    episode.recording.write_bytes(b"another run's")
+    episode.recording_stamp.write_text("other\n../../elsewhere\n")
+    bm.set_aside_stale_recordings([episode], tmp_path, say=False)
+    aside = tmp_path / "recordings" / "other_runs" / "unstamped"
+    assert (aside / episode.recording.name).read_bytes() == b"another run's"
+    assert (aside / episode.recording_stamp.name).is_file()
+    assert [p.name for p in tmp_path.iterdir()] == ["recordings"]
 
 
 def test_a_row_is_reused_only_with_the_series_and_recording_of_its_own_run(tmp_path,

@@ -334,6 +334,28 @@ def test_a_wob_of_zero_is_taken_and_one_under_a_kilonewton_is_refused():
         kilonewtons("0.5")
 
 
+def test_a_number_argument_takes_its_upper_bound():
+    """``number``'s docstring: a finite number in [low, high], a closed range: --start-kick
+    (at most 0.5) takes 0.5 and refuses more, saying "must be <= 0.5"."""
+    from drill_cli.main import number
+
+    parse = number("", high=0.5)
+    assert (parse("0"), parse("0.5")) == (0.0, 0.5)
+    with pytest.raises(argparse.ArgumentTypeError, match=r"^must be <= 0.5, got 0.51$"):
+        parse("0.51")
+
+
+def test_a_length_range_may_be_one_length():
+    """``--string-lengths LO,HI`` takes 0 < LO <= HI (its error says so): 1000,1000 is
+    every seed's string 1000 m long; 1000,900 and 0,900 are refused."""
+    from drill_cli.main import length_range
+
+    assert length_range("1000,1000") == (1000.0, 1000.0)
+    for bad in ("1000,900", "0,900"):
+        with pytest.raises(argparse.ArgumentTypeError, match="0 < LO <= HI"):
+            length_range(bad)
+
+
 @pytest.mark.parametrize(("command", "message"), [
     (["run", "--controller", "pid"], "drill-env run: error: --controller: unknown name 'pid'"),
     (["run", "--controller", "constant:-1/2"], "drill-env run: error: --controller: rpm and "
@@ -1166,6 +1188,43 @@ def test_the_demos_stick_slip_table_reproduces_paper_result_1(tmp_path):
     assert verdict and rows[0]["stuck_fraction"] > 0.1
     assert "reproduced" in said[-2] and not any("-0.0 " in line for line in said)
     assert (tmp_path / "demo_stick_slip.png").stat().st_size > 10_000
+    assert json.loads((tmp_path / "demo_summary.json").read_text()) == rows  # (docstring)
+    # bit rpm min-max over the SSI's window: SSI = (max - min) / (2 mean) (SPEC section
+    # 5), and over whole stick-slip cycles the bit's mean is the 50 rpm set point
+    swing = rows[0]["bit_rpm_max"] - rows[0]["bit_rpm_min"]
+    assert swing == pytest.approx(2.0 * rows[0]["ssi"] * 50.0, rel=0.1)
+    # in m/h, as named: a PDC bit in hard rock at 100 rpm and 100 kN drills metres an
+    # hour (thousandths of a metre a second)
+    assert 0.5 < rows[1]["rop_m_per_h"] < 100.0
+
+
+def test_the_demo_fails_where_paper_result_1_is_not_reproduced(monkeypatch, tmp_path):
+    """``drill-env demo`` (make demo, the main job) exits 0 where its table reproduces
+    paper result 1 and 1 where it prints "NOT reproduced", so a script or CI running it
+    sees the failure; the benchmark part (stubbed here) runs either way."""
+    import agents.benchmark as bm
+    import drill_env.tools.demo as demo
+
+    ran = []
+    monkeypatch.setattr(bm, "run_benchmark", lambda *args, **kw: ran.append(args[3]) or [])
+    for reproduced, status in ((True, 0), (False, 1)):
+        monkeypatch.setattr(demo, "stick_slip_demo", lambda out, r=reproduced: ([], r))
+        assert main(["demo", "--out", str(tmp_path)]) == status
+    assert ran == [tmp_path / "benchmark"] * 2
+
+
+def test_the_demo_says_not_reproduced_where_both_set_points_stick_slip(tmp_path,
+                                                                       monkeypatch):
+    """Paper result 1 is stick-slip at 50 rpm and none at 100 rpm (SPEC section 2.4):
+    a table with stick-slip at both set points (SSI 1.0 each, stubbed) is "NOT
+    reproduced"."""
+    import drill_env.tools.demo as demo
+
+    monkeypatch.setattr(demo, "stick_slip_summary",
+                        lambda run, t0: {"ssi": 1.0, "stuck_fraction": 0.3})
+    said: list[str] = []
+    _, verdict = demo.stick_slip_demo(tmp_path, echo=said.append)
+    assert not verdict and said[-2].endswith(": NOT reproduced")
 
 
 @pytest.mark.parametrize("signum, status, said, replaced", [
@@ -1250,6 +1309,27 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
     assert main(["evaluate", str(run)]) == 130
     assert (f"drill-env evaluate: interrupted; its finished episodes are kept in "
             f"{default_evaluation_folder(run)}: ") in capsys.readouterr().err
+    # the stability map's points, in its --out; the demo's episodes, in its benchmark's
+    from drill_cli.main import MAP_POINTS_FILE
+
+    def stopped_after(folder_of, name):
+        def stopped_command(args):
+            folder = folder_of(args.out)
+            folder.mkdir(parents=True, exist_ok=True)
+            (folder / name).write_text('{"finished": 1}\n')
+            raise KeyboardInterrupt
+        return stopped_command
+
+    monkeypatch.setattr("drill_cli.main.cmd_stability_map",
+                        stopped_after(lambda out: out, MAP_POINTS_FILE))
+    assert main(["stability-map", "--out", str(tmp_path / "map")]) == 130
+    assert (f"drill-env stability-map: interrupted; its finished points are kept in "
+            f"{tmp_path / 'map'}: ") in capsys.readouterr().err
+    monkeypatch.setattr("drill_cli.main.cmd_demo",
+                        stopped_after(lambda out: out / "benchmark", bm.RESULTS_FILE))
+    assert main(["demo", "--out", str(tmp_path / "demo")]) == 130
+    assert (f"drill-env demo: interrupted; its finished episodes are kept in "
+            f"{tmp_path / 'demo' / 'benchmark'}: ") in capsys.readouterr().err
     monkeypatch.setattr("drill_cli.main.cmd_modes", stopped)
     assert main(["modes", "--out", str(tmp_path / "m")]) == 130
     assert capsys.readouterr().err.strip() == "drill-env modes: interrupted"
@@ -1270,6 +1350,18 @@ def test_benchmark_windows_default_to_what_help_and_docs_say(monkeypatch, tmp_pa
                  "1", "--out", str(tmp_path / "b")]) == 0
     assert [(s.duration, s.warmup) for s in seen] == [(60.0, 30.0),
                                                       EVALUATION_WINDOWS["stick_slip"]]
+
+
+def test_benchmark_seeds_count_up_from_seed_start(monkeypatch, tmp_path):
+    """--seed-start is the first seed and --seeds how many per pair (their help): from
+    1000000 (where the held-out evaluation seeds start), two are 1000000 and 1000001."""
+    import agents.benchmark as bm
+
+    seen = []
+    monkeypatch.setattr(bm, "run_benchmark", lambda *args, **kw: seen.append(args[2]) or [])
+    assert main(["benchmark", "--controllers", "stiff", "--seeds", "2", "--seed-start",
+                 "1000000", "--out", str(tmp_path)]) == 0
+    assert seen == [[1_000_000, 1_000_001]]
 
 
 @pytest.mark.parametrize("argv, said", [

@@ -1092,6 +1092,25 @@ def test_zoo_hyperparameters_are_the_yaml_ones():
     assert load_config("stick_slip", "sac").reward_gamma == 0.98
 
 
+def test_zoo_hyperparameters_carry_a_configs_own_normalisation_and_env_kwargs(monkeypatch):
+    """training.zoo's docstring: rl-zoo3 reads the same config as drill-env train (its
+    normalize, env_kwargs): a config's own values, not the shipped files' (all true,
+    clip 10, no env keywords); ``normalize`` in rl-zoo3's form, a dict(...) expression."""
+    import training.zoo as zoo
+    from training.config import Normalize
+
+    def own(task, algo):
+        return load_config(task, algo, env_kwargs={"episode_duration": 3.0},
+                           normalize=Normalize(norm_obs=False, norm_reward=True,
+                                               clip_obs=5.0, gamma=0.9))
+
+    monkeypatch.setattr(zoo, "load_config", own)
+    for entry in zoo.zoo_hyperparams("ppo").values():
+        assert eval(entry["normalize"], {"dict": dict}) == {  # as rl-zoo3 reads it
+            "norm_obs": False, "norm_reward": True, "clip_obs": 5.0, "gamma": 0.9}
+        assert entry["env_kwargs"] == {"episode_duration": 3.0}
+
+
 def test_a_seed_sweep_trains_one_run_per_seed_and_skips_finished_ones(tmp_path, capsys):
     from training.sweep import RESULTS_FILE, train_seeds
 

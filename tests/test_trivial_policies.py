@@ -55,6 +55,13 @@ def test_random_actions_repeat_per_seed_on_a_stream_of_their_own() -> None:
         controller.reset(env.unwrapped)
         firsts.append(float(controller.act(obs, info)[0]))
     assert len({*firsts, float(actions[0])}) == 3
+    # seed 0, the benchmark's first, is a seed like any other: its draws repeat
+    zero = []
+    for _ in range(2):
+        obs, info = env.reset(seed=0)
+        controller.reset(env.unwrapped)
+        zero.append(controller.act(obs, info).copy())
+    np.testing.assert_array_equal(*zero)
     env.close()
 
 
@@ -97,6 +104,7 @@ def test_a_held_action_is_run_again_by_its_table_name(values: list[float]) -> No
     table = label(name)
     assert all(c.isalnum() or c in "+-." for c in table)
     back = canonical(table)
+    assert "+" not in back  # the registry's form: held+1-0.5 -> held:1/-0.5 (from_label)
     assert label(back) == table  # one name for one held action
     # the table names a value to 15 significant digits, as it does constant set points
     np.testing.assert_allclose(make_controller(back).values, values, rtol=1e-14, atol=1e-300)
