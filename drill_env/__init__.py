@@ -29,7 +29,7 @@ import importlib.util
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
@@ -370,3 +370,15 @@ def _after_import(module: str, action: Any) -> None:
 
 _after_import("gymnasium", register_envs)
 _after_import("numba.core.caching", _install_cache_locator)
+
+
+if not TYPE_CHECKING:  # (to mypy, a module-level __getattr__ would make every name of the
+    # package exist, a misspelt one too)
+    def __getattr__(name: str) -> Any:
+        """``drill_env.vector.make_sb3_vec_env(...)`` after a plain ``import drill_env``, as
+        the README writes it (a new user's AttributeError): a submodule is imported when a
+        program first names it (PEP 562), so ``import drill_env`` stays as light as above."""
+        if (name.isidentifier() and not name.startswith("_")
+                and importlib.util.find_spec(f"{__name__}.{name}") is not None):
+            return importlib.import_module(f"{__name__}.{name}")
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

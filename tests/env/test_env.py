@@ -40,13 +40,19 @@ def test_import_registers_every_id_without_heavy_imports():
     for env_id in drill_env.ENV_IDS:
         assert env_id in gym.registry
     drill_env.register_envs()  # idempotent: no error, no duplicate warning
-    code = ("import sys, drill_env; "
-            "print(any(m in sys.modules for m in ('torch', 'stable_baselines3', 'rerun')))")
+    # a submodule is imported when first named (drill_env.vector.make_sb3_vec_env after a
+    # plain import, as the README writes it); a misspelt one is an AttributeError
+    code = ("import sys, drill_env\n"
+            "print(any(m in sys.modules for m in ('torch', 'stable_baselines3', 'rerun')),"
+            " 'drill_env.vector' in sys.modules)\n"
+            "print(drill_env.vector.make_sb3_vec_env.__name__)\n"
+            "try:\n    drill_env.vectr\nexcept AttributeError as err:\n    print(err)")
     import subprocess
 
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
-    assert out.stdout.strip() == "False"
+    assert out.stdout.splitlines() == [
+        "False False", "make_sb3_vec_env", "module 'drill_env' has no attribute 'vectr'"]
 
 
 # --------------------------------------------------------------------------- checkers
@@ -417,7 +423,9 @@ def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
     ({"surface_speed": True}, r"^reset options: surface_speed: .* got True"),  # 1 rad/s
     ({"surface_speed": math.nan}, r"^reset options: surface_speed: .* got nan"),
     ("fast", r"^reset options: must be a dict, got 'fast'"),
-    ({"speed": 5.0}, r"^reset options: unknown key\(s\) \['speed'\]")])
+    ({"speed": 5.0}, r"^reset options: unknown key\(s\) \['speed'\]; known: "),
+    ({"surface_sped": 5.0}, r"^reset options: unknown key\(s\) \['surface_sped'\] "
+                            r"\(did you mean surface_speed\?\); known: ")])
 def test_reset_options_must_be_finite_numbers_by_name(options, message):
     for env_id in ("DrillString-v0", "DrillStickSlip-v0"):
         with pytest.raises(ValueError, match=message):
