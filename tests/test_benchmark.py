@@ -939,16 +939,16 @@ def test_the_bars_whiskers_are_the_tables_interval(tmp_path, monkeypatch):
     """The table's "+-" is the 95 % interval of the mean over seeds; the bar chart drew
     only the seeds' dots. Its whisker is now that interval, by hand: SSI 0.2 and 0.4 ->
     0.30 +- 12.706 x 0.1; the stuck share 10 % and 30 % in percent, x 100; none where the
-    seeds agree."""
+    seeds agree; cut where it reaches past the metric's range."""
     from matplotlib.axes import Axes
 
     from agents.plots import bar_chart
 
-    drawn: list[tuple[float, float]] = []
+    drawn: list[tuple[float, ...]] = []
     errorbar = Axes.errorbar
 
     def keep(ax, x, y, yerr=None, **kwargs):
-        drawn.append((float(y), float(yerr)))
+        drawn.append((float(y), *np.ravel(yerr)))
         return errorbar(ax, x, y, yerr=yerr, **kwargs)
 
     monkeypatch.setattr(Axes, "errorbar", keep)
@@ -956,8 +956,16 @@ def test_the_bars_whiskers_are_the_tables_interval(tmp_path, monkeypatch):
             for k, (v, f) in enumerate([(0.2, 0.1), (0.4, 0.3)])]
     rows += [_row("z-torque", "stick_slip", seed=k) for k in range(2)]
     bar_chart(rows, ["stiff", "z-torque"], ["stick_slip"], tmp_path / "bars.png")
-    assert drawn == [pytest.approx((0.3, 1.2706), abs=1e-4),
-                     pytest.approx((20.0, 127.06), abs=1e-2)]
+    # (mean, down, up): cut at the metric's range, an SSI at 0, a stuck share at 0 and
+    # 100 % (two seeds' interval drew 175 % stuck: a new user's check)
+    assert drawn == [pytest.approx((0.3, 0.3, 1.2706), abs=1e-4),
+                     pytest.approx((20.0, 20.0, 80.0), abs=1e-2)]
+    rows = [_row("stiff", "stick_slip", seed=k, ssi=v, stuck_fraction=f)
+            for k, (v, f) in enumerate([(0.6, 0.5), (0.62, 0.52)])]
+    drawn.clear()  # an interval inside the range is drawn whole: 0.61 +- 12.706 x 0.01
+    bar_chart(rows, ["stiff"], ["stick_slip"], tmp_path / "bars.png")
+    assert drawn == [pytest.approx((0.61, 0.12706, 0.12706), abs=1e-4),
+                     pytest.approx((51.0, 12.706, 12.706), abs=1e-2)]
 
 
 def test_benchmark_md_shows_the_series_picture_of_every_scenario(tmp_path):
