@@ -1612,7 +1612,8 @@ def parser() -> argparse.ArgumentParser:
                         "policies random and held:<action>[/<action>], or your own "
                         "as <file.py or module>:<class>: docs/controllers.md)")
     p.add_argument("--rpm", type=number("rpm"), default=None,
-                   help="surface speed set point in rpm (default: the scenario's)")
+                   help="surface speed set point in rpm, in the env's rpm_range (0-200 by "
+                        "default; 0: the string held still) (default: the scenario's)")
     p.add_argument("--wob", type=kilonewtons, default=None,
                    help="weight on bit in kN (default: the scenario's)")
     p.add_argument("--seed", type=integer(0), default=0, help="episode seed")
@@ -1651,8 +1652,10 @@ def parser() -> argparse.ArgumentParser:
                    help="run every controller in this control task's env (its targets, "
                         "observation, reward); default: DrillString-v0")
     p.add_argument("--rpm", type=number("rpm", low_inclusive=False), default=None,
-                   help="surface speed set point of every episode in rpm (default: each "
-                        "scenario's; not with --task, whose targets are drawn)")
+                   help="surface speed set point of every episode in rpm, above 0 (a "
+                        "benchmark measures a turning string) up to DrillString-v0's 200 "
+                        "(default: each scenario's; not with --task, whose targets are "
+                        "drawn)")
     p.add_argument("--wob", type=kilonewtons, default=None,
                    help="weight on bit of every episode in kN (default: each scenario's; "
                         "not with --task)")

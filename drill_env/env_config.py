@@ -21,6 +21,7 @@ from drill_env.physics.validation import (
     StrictBool,
     check_newtons,
     config_dataclass,
+    did_you_mean,
     numbers,
 )
 
@@ -298,9 +299,10 @@ def reset_options(options: Any) -> dict[str, Any]:
     if not isinstance(options, (Mapping, type(None))):
         raise ValueError(f"reset options: must be a dict, got {options!r}")
     options = dict(options or {})
-    if unknown := set(options) - {"surface_speed", "weight_on_bit"}:
-        raise ValueError(f"reset options: unknown key(s) {sorted(map(str, unknown))}; "
-                         "known: ['surface_speed', 'weight_on_bit']")
+    known = ["surface_speed", "weight_on_bit"]
+    if unknown := sorted(map(str, set(options) - set(known))):
+        raise ValueError(f"reset options: unknown key(s) {unknown}"
+                         f"{did_you_mean(unknown[0], known)}; known: {known}")
     for name, value in options.items():
         try:
             number = None if isinstance(value, (bool, np.bool_, str, bytes)) else float(value)

@@ -361,6 +361,15 @@ def test_a_smaller_hole_names_the_default_bit_it_meets():
     assert "set it for this hole" in said
 
 
+def test_a_smaller_bit_names_the_default_blades_it_meets():
+    """Only the diameter set, the default blades' face_end (0.07 m) lay outside a 0.1 m
+    bit, refused by a field the file never set (a new user's walkthrough): it says the
+    default is another bit's."""
+    with pytest.raises(ValueError, match=r"^bit\.face_end\[0\]: 0\.07 m lies beyond the "
+                       r"gauge radius .*needs its own face_end \(the default is the 8\.75 in"):
+        replace(SimulationConfig(), **{"bit.diameter": 0.1})
+
+
 def test_a_survey_missing_a_field_names_the_field_missing():
     """A well without azimuth said "well: md, inclination: one value per survey station":
     it named the two fields given, not the one left out."""

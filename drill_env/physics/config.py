@@ -533,16 +533,16 @@ class BitConfig:
                  f"{self.gauge_clearance} m must be smaller than the bit radius "
                  f"(diameter / 2 = {self.diameter / 2} m)")
         for name in ("face_start", "face_end", "gauge_length"):
-            values = getattr(self, name)
-            _require(len(values) == n, name, f"needs one value per blade "
-                     f"(len(blade_angles) = {n}), got {len(values)}")
+            _require(len(values := getattr(self, name)) == n, name, f"needs one value per "
+                     f"blade (len(blade_angles) = {n}), got {len(values)}")
         for i in range(n):
             _require(self.face_start[i] < self.face_end[i], f"face_end[{i}]",
                      f"must be larger than face_start[{i}] ({self.face_start[i]} m), got "
                      f"{self.face_end[i]} m")
             _require(self.face_end[i] <= self.gauge_radius, f"face_end[{i}]",
                      f"{self.face_end[i]} m lies beyond the gauge radius (diameter / 2 - "
-                     f"gauge_clearance = {self.gauge_radius:.4f} m)")
+                     f"gauge_clearance = {self.gauge_radius:.4f} m); a bit of another "
+                     "diameter needs its own face_end (the default is the 8.75 in bit's)")
         from drill_env.physics.bit import shoulder_lengths  # it imports this module
 
         lengths = shoulder_lengths(self)  # empty: to the gauge, of this bit's size
