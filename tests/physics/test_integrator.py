@@ -858,6 +858,7 @@ def test_a_runaway_state_stops_the_kernel_with_its_status(disturb, runaway):
     assert sim.status == (Status.RUNAWAY if runaway else 0), sim.status_message
     if runaway:
         assert sim.status_message.startswith("simulation diverged")
+        assert "out of range" in sim.status_message  # the runaway's reason (Status.RUNAWAY)
         time = sim.time
         sim.advance(5)  # a stopped simulator does not run on
         assert sim.time == time

@@ -43,6 +43,21 @@ def test_readings_are_the_simulator_properties(bit_model):
     assert shares.sum() == pytest.approx(1.0)
 
 
+def test_the_largest_wall_force_reading_is_the_propertys_at_every_node_and_nan():
+    """The readings are the properties' values (module docstring): whichever node bears
+    the largest wall force, the reading is ``contact_forces.max()``, and a NaN among the
+    forces (a diverging step) reads NaN as numpy's max does."""
+    sim = whirling("mesoscopic")
+    forces = sim.node_force.copy()
+    for k in range(forces.shape[0] - 1):  # the bit's node shows its gauge force instead
+        sim.node_force[k] = 1e9
+        assert sim.read()[READ.MAX_CONTACT_FORCE] == sim.contact_forces.max() == 1e9, k
+        sim.node_force[k] = forces[k]
+    sim.node_force[3] = math.nan
+    assert math.isnan(sim.contact_forces.max())
+    assert math.isnan(sim.read()[READ.MAX_CONTACT_FORCE])
+
+
 def test_the_rock_share_reading_follows_the_bit_not_the_top_drive():
     """Two rocks, an interface dipping 30 degrees that crosses the axis 2 cm below the bit
     face (off the bit's centre: a symmetric bit's share through the centre is 1/2 at
