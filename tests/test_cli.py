@@ -73,6 +73,11 @@ def test_run_says_whether_stick_slip_grows_or_decays():
     assert swing_trend([0.02, 5.4], 49.5) == "growing (x270 per 30 s)"  # not x2.7e+02
     assert swing_trend([0.02, 24.48], 49.5) == "growing (x1224 per 30 s)"  # not x1,224
     assert swing_per_block(speeds[:200]) == []  # shorter than a block
+    # half of (max - min) in the block: 48-52 rpm swings 2 rpm
+    assert swing_per_block([(0.0, 48.0), (10.0, 52.0), (20.0, 50.0), (30.0, 50.0)]) == [2.0]
+    # the bit stops only under STOPPED; a change of 10 % or less per block is steady
+    assert swing_trend([40.0, 46.0], 0.5) == "growing (x1.1 per 30 s)"
+    assert swing_trend([1.0, 0.95], 49.0) == "steady"
 
 
 def test_run_prints_the_swing_for_a_drive_rate_loop_only(tmp_path, capsys):
@@ -1539,7 +1544,7 @@ def test_a_config_string_is_judged_at_the_wob_given_not_the_scenarios_string(tmp
     (an outside check): the starting WOB's buckling check is made on the string drilled."""
     from drill_cli.main import read_overrides
     from drill_env.physics.statics import pipe_buckling
-    from drill_env.scenarios import make_scenario, with_physics
+    from drill_env.scenarios import make_scenario, scenario_with_physics, with_physics
 
     text = (Path(__file__).parents[1] / "docs" / "config.md").read_text()
     config = tmp_path / "jwell.yaml"
@@ -1547,6 +1552,9 @@ def test_a_config_string_is_judged_at_the_wob_given_not_the_scenarios_string(tmp
     assert pipe_buckling(make_scenario("default").config, 170e3)  # the scenario's own
     assert not pipe_buckling(with_physics(make_scenario("default").config,
                                           read_overrides(config)), 170e3)
+    # scenarios.scenario_with_physics: the WOB asked stands on the overrides' string
+    assert scenario_with_physics("default", None, {"weight_on_bit": 170e3},
+                                 read_overrides(config)).weight_on_bit == 170e3
     assert main(["run", "--rpm", "60", "--wob", "170", "--config", str(config),
                  "--duration", "0.2", "--out", str(tmp_path / "out")]) == 0
     assert "buckl" not in capsys.readouterr().err

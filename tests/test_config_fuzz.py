@@ -242,6 +242,17 @@ def test_a_typo_in_a_section_of_a_list_lists_that_sections_fields():
     # cut at the dot inside the index, it named a field "components[1" (an outside check)
     ("default", {"string.components[1.5].length": 9.0},
      r"^string\.components\[1\.5\]: an index is a whole number from 0 .* got \[1\.5\]"),
+    # a Section's bore too wide is its inner diameter's fault (Section.__post_init__)
+    ("paper_case1", {"string.bha.inner_diameter": 0.2},
+     r"^string\.bha\.inner_diameter: must be smaller than outer_diameter \(0\.1651 m\)"),
+    # a stabilizer's blades wider than the 8 3/4 in hole: its contact diameter, not its body
+    ("default", {"string.components[0].contact_diameter": 0.23},
+     r"^string\.components\[0\]\.contact_diameter: 0\.23 m must be smaller than "
+     r"hole_diameter 0\.22225 m"),
+    # a gauge clearance of more than the bit's radius (8 3/4 in / 2 = 0.111125 m)
+    ("default", {"bit.gauge_clearance": 0.12},
+     r"^bit\.gauge_clearance: 0\.12 m must be smaller than the bit radius \(diameter / 2 = "
+     r"0\.111125 m\)"),
 ])
 def test_a_dotted_path_error_names_what_the_user_typed(scenario, physics, message):
     from drill_env.env import DrillStringEnv
@@ -322,6 +333,16 @@ def test_a_mud_density_typed_in_ppg_is_warned_of(density, warned):
         assert warned in said[0] and "ppg" in said[0]
 
 
+def test_a_mud_heavier_than_the_lightest_section_is_refused():
+    """MudConfig: the mud "must be lighter than the string" (SimulationConfig): an
+    aluminium drill pipe (2,700 kg/m^3) under steel collars floats in a 2,800 kg/m^3 mud
+    and is refused, naming mud.density and the lightest section's density."""
+    with pytest.raises(ValueError, match=r"^mud\.density: 2800\.0 kg/m\^3 must be below the "
+                                         r"density of the string \(2700\.0 kg/m\^3\)"):
+        replace(SimulationConfig(), **{"string.drill_pipe.density": 2700.0,
+                                       "mud.density": 2800.0})
+
+
 def test_a_smaller_hole_names_the_default_it_meets_and_what_to_do():
     """Setting only the hole diameter met the default stabilizer diameter, a field the
     user never wrote: the error says it is a default and to set it."""
@@ -330,6 +351,19 @@ def test_a_smaller_hole_names_the_default_it_meets_and_what_to_do():
     said = str(caught.value)
     assert said.startswith("string.stabilizer_diameter: ") and "default" in said
     assert "set it for this hole" in said
+
+
+def test_a_components_contact_diameter_may_equal_its_outer_diameter():
+    """Section: ``contact_diameter`` "must not be smaller than outer_diameter": equal is
+    the body touching the wall, as with none given; smaller is refused by name."""
+    from drill_env.physics.config import Section
+
+    body = {"length": 9.0, "element_length": 1.0, "outer_diameter": 0.1651,
+            "inner_diameter": 0.07}
+    assert Section(**body, contact_diameter=0.1651).wall_diameter == 0.1651
+    with pytest.raises(ValueError, match=r"^contact_diameter: 0\.16 m must not be smaller "
+                                         r"than outer_diameter \(0\.1651 m\)"):
+        Section(**body, contact_diameter=0.16)
 
 
 def test_a_string_of_components_needs_no_stabilizer_diameter():
@@ -382,3 +416,15 @@ def test_a_survey_missing_a_field_names_the_field_missing():
         with pytest.raises(ValueError) as caught:
             from_dict(SimulationConfig, {"well": well})
         assert str(caught.value).startswith(named), str(caught.value)
+
+
+def test_the_survey_must_reach_a_bit_set_below_the_string():
+    """WellConfig: "The survey must reach the deepest node (the string's length or
+    ``initial_depth``)": a 1,050 m survey holds the default 1,035 m string at a bit depth
+    of 1,040 m, not of 1,100 m."""
+    survey = {"well.md": (0.0, 1050.0), "well.inclination": (0.0, 10.0),
+              "well.azimuth": (0.0, 0.0)}
+    assert replace(SimulationConfig(), **survey, initial_depth=1040.0).initial_depth == 1040.0
+    with pytest.raises(ValueError, match=r"^well\.md: the survey ends at 1050\.0 m, above the "
+                                         r"string's deepest node \(1100\.0 m\)"):
+        replace(SimulationConfig(), **survey, initial_depth=1100.0)

@@ -40,9 +40,34 @@ def test_a_nan_sample_is_neither_stuck_nor_moving() -> None:
     assert [e[0] for e in events] == [1.0, 5.0]
 
 
+def test_a_stick_is_a_sample_below_the_stuck_speed_right_after_one_at_or_above_it() -> None:
+    """StickSlipDetector: a stick is ``|bit speed| < STUCK_SPEED`` after a sample at or
+    above it: a signal that starts stuck has no stick there, one at exactly STUCK_SPEED
+    is moving; the first stick after ``quiet`` s (5 s here, exactly) is an onset."""
+    from drill_env.metrics import STUCK_SPEED
+
+    t = np.arange(12.0)
+    w = np.array([0.0, 5.0, STUCK_SPEED, 0.0, 5.0, 5.0, 5.0, 5.0, 0.0, 5.0, 5.0, 0.0])
+    events = stick_slip_events(t, w)  # sticks at 3 s, 8 s (5 s after: an onset), 11 s
+    assert [(e[0], e[1]) for e in events] == [(3.0, "WARN"), (8.0, "WARN"), (11.0, "DEBUG")]
+
+
 def test_a_layer_event_ignores_a_nan_share() -> None:
     events = layer_events(np.array([0.0]), np.array([[np.nan, 1.0]]), ["hard", "soft"])
     assert events[0][2].startswith("bit in soft")
+
+
+def test_a_layer_event_names_an_unnamed_rock_by_its_index() -> None:
+    """LayerDetector: a rock past the names given is called ``rock<j>``."""
+    events = layer_events(np.array([0.0]), np.array([[0.0, 0.0, 1.0]]), ["hard"])
+    assert events[0][2].startswith("bit in rock2")
+
+
+def test_the_whirl_detector_refuses_a_clearance_that_is_not_positive() -> None:
+    """WhirlDetector: the radial ratio divides by the clearance, which must be > 0."""
+    for clearance in (0.0, -CLEARANCE):
+        with pytest.raises(ValueError, match=r"^clearance: must be > 0"):
+            WhirlDetector(clearance)
 
 
 def _orbit(t: np.ndarray, radial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

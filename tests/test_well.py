@@ -91,6 +91,13 @@ def test_the_column_is_the_scenarios_string_from_the_bit_up_with_pipe_added():
     column = column_for(config, 3000.0)
     assert np.sum(column.length) == pytest.approx(3000.0)
     assert column.buoyed_weight[0] > column.buoyed_weight[-1]  # collars below, pipe above
+    # column_for: the pipe added in equal pieces of at most PIPE_PIECE
+    from drill_env.well import PIPE_PIECE
+
+    own = len(column_for(config, 0.0).length)  # the string's elements alone
+    added = column_for(config, config.string.length + 1755.0).length[own:]
+    pieces = math.ceil(1755.0 / PIPE_PIECE)
+    assert added == pytest.approx(np.full(pieces, 1755.0 / pieces))
 
 
 def test_the_well_command_writes_the_chart_and_names_bad_input(tmp_path, capsys):
@@ -178,6 +185,9 @@ def test_the_hook_load_legend_names_each_friction_and_each_operation_once():
     assert {"pick-up", "slack-off"} <= set(entries)
     dotted = [line for line in hook.get_lines() if line.get_linestyle() == ":"]
     assert len(dotted) == 1
+    for style in ("-", "--"):  # picking up and slacking off: a line per friction factor
+        assert len([line for line in hook.get_lines() if line.get_linestyle() == style]) \
+            == len(FRICTIONS)
 
 
 def test_a_vertical_wells_picture_says_it_has_no_departure_and_no_wall_torque():

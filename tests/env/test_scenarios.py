@@ -47,6 +47,34 @@ def test_paper_cases_use_the_documented_bits_and_rocks():
     assert scenarios.default().config.formation.rocks == (scenarios.HARD,)
 
 
+def test_the_collar_weighted_string_has_a_stabilizer_every_9_m_up_its_collars():
+    """``collar_weighted_string`` docstring: stabilizers every 9 m hold the compressed
+    collars off the wall (from the paper BHA's near-bit 1 m, LEGACY_STABILIZERS)."""
+    string = scenarios.collar_weighted_string()
+    bha = string.bha.length
+    positions = np.array(string.stabilizers)
+    assert positions[0] == 1.0 and positions[-1] < bha
+    assert np.diff(positions) == pytest.approx(9.0)
+    assert positions[-1] > bha - 2 * 9.0  # up the whole BHA, not its lower part
+    assert scenarios.paper_case2().config.string.stabilizers == string.stabilizers
+
+
+@pytest.mark.parametrize("name", list(scenarios.CROSSING_CASES))
+def test_a_crossing_case_starts_lead_metres_above_its_position(name):
+    """``_lateral_case``: the bit starts ``lead`` m above ``position``, at the bottom of its
+    string: at the string's end the front blades hold the position's share of rock 2
+    (paper section 4), at the start another share, still to be drilled to."""
+    lead = 0.05
+    for position in ("P3", "P5"):
+        config = scenarios.make_scenario(name, position=position, lead=lead).config
+        assert config.initial_depth == pytest.approx(config.string.length - lead)
+        arrays = formation_arrays(config.formation)
+        share, _ = scenarios.POSITIONS[position]
+        assert front_shares(config.bit, arrays, config.string.length)[1] == pytest.approx(
+            share, abs=0.02)
+        assert abs(front_shares(config.bit, arrays, config.initial_depth)[1] - share) > 0.1
+
+
 def test_string_length_changes_element_length_not_count():
     a = Simulator(scenarios.default(string_length=600.0).config)
     b = Simulator(scenarios.default().config)
@@ -134,6 +162,46 @@ def test_a_string_changed_by_overrides_keeps_the_bit_at_its_bottom():
     assert shorter.well.md == survey["well.md"]
 
 
+@pytest.mark.parametrize("key", ["formation", "formation.interfaces"])
+def test_layers_the_overrides_give_are_kept_as_given(key):
+    """``with_physics``: the layers move with a string the overrides lengthen "unless the
+    overrides set ... the interfaces", and a randomised draw's layers are turned to cross
+    a curved hole while the user's stay true dips (``Interface``: dips are true)."""
+    from drill_env.physics.config import Interface
+
+    def given(depth):
+        layers = (Interface(depth - 5.0, 30.0, 90.0), Interface(depth + 5.0, 30.0, 90.0))
+        if key == "formation":
+            return {"formation": {"rocks": [{"name": "a"}, {"name": "b"}],
+                                  "interfaces": layers, "layers": [0, 1, 0]}}
+        return {"formation.interfaces": layers}
+
+    base = scenarios.make_scenario("paper_case2").config
+    longer = {"string.drill_pipe.length": base.string.drill_pipe.length + 100.0}
+    moved = scenarios.with_physics(base, {**longer, **given(1000.0)})
+    assert [i.depth for i in moved.formation.interfaces] == [995.0, 1005.0]
+    draw = scenarios.make_scenario("random", rng=np.random.default_rng(0)).config
+    layers = given(draw.string.length)
+    drawn = scenarios.with_physics(draw, {**BUILD_AND_HOLD_75, **layers}, drawn=True)
+    assert [(i.dip, i.azimuth) for i in drawn.formation.interfaces] == [(30.0, 90.0)] * 2
+    turned = scenarios.with_physics(draw, BUILD_AND_HOLD_75, drawn=True)  # (the draw's)
+    assert turned.formation.interfaces != draw.formation.interfaces
+
+
+def test_components_given_as_overrides_replace_the_bha_but_not_the_stabilizers_given():
+    """``with_physics``: components replace the scenario's one-section BHA and its
+    stabilizers "unless the overrides set those as well" (paper_case2's 120 m of collars
+    and their stabilizers every 9 m)."""
+    from drill_env.physics.components import realistic_string
+
+    base = scenarios.make_scenario("paper_case2").config
+    components = {"string.components": realistic_string().components}
+    alone = scenarios.with_physics(base, components)
+    assert alone.string.stabilizer_positions == ()  # none beside the components
+    both = scenarios.with_physics(base, {**components, "string.stabilizers": (5.0,)})
+    assert both.string.stabilizer_positions == (5.0,)
+
+
 def test_the_env_reports_the_depth_of_a_string_read_from_yaml():
     import gymnasium as gym
 
@@ -183,6 +251,26 @@ def test_overrides_that_would_buckle_a_random_draw_are_refused_at_make():
                                          r"env_kwargs\)"):
         gym.make("DrillStickSlip-v0", weight_on_bit_targets=(70e3, 200e3),
                  weight_on_bit_range=(0.0, 200e3))
+
+
+@pytest.mark.parametrize(("weight_on_bit", "said"), [
+    (100.0, r"^weight_on_bit: 100 N is below 1 kN; WOB is in newtons: did you mean 100e3\?"),
+    (300e3, r"^weight_on_bit: 300 kN compresses the 5 in DP .*: lower the WOB \(--wob, or "
+            r"weight_on_bit= in Python\) or, in a near-vertical hole, use a heavier BHA")])
+def test_a_named_scenarios_starting_wob_is_refused_by_name_with_what_lowers_it(weight_on_bit,
+                                                                                said):
+    """``Scenario``: a WOB typed in kN (validation.check_newtons) and one that buckles the
+    drill pipe (statics.pipe_buckling) are refused naming ``weight_on_bit``; a named
+    scenario's fix is a lower WOB, not the other string lengths that a randomised
+    scenario's refusal names."""
+    from drill_env.physics.statics import pipe_buckling
+
+    assert pipe_buckling(scenarios.default().config, 300e3)
+    with pytest.raises(ValueError, match=said):
+        scenarios.make_scenario("default", weight_on_bit=weight_on_bit)
+    with pytest.raises(ValueError, match=r"^weight_on_bit: .*draw other string lengths "
+                                         r"\(string_length_range=\)"):
+        scenarios.random(np.random.default_rng(0), weight_on_bit_range=(300e3, 300e3))
 
 
 @pytest.mark.parametrize(("lengths", "said"), [
@@ -379,6 +467,17 @@ def test_a_curved_well_too_short_or_buckling_for_the_random_draws_is_refused_at_
     with pytest.raises(ValueError, match=r"of a 111\d m string.* strings of 1110-1115 m "):
         scenarios.check_draws("random", {"string_length_range": (1000.0, 1250.0),
                                          "weight_on_bit_range": (50e3, 135e3)}, late)
+
+
+def test_a_randomised_draw_with_overrides_takes_the_longest_string_by_default():
+    """``drawn_with_physics``: the draw at string ``length``, None: "the longest its
+    range draws"."""
+    from drill_env.overrides import drawn_with_physics
+
+    params = {"string_length_range": (1000.0, 1400.0)}
+    assert drawn_with_physics("random", params, {}).string.length == pytest.approx(1400.0)
+    assert drawn_with_physics("random", params, {}, 1100.0).string.length == \
+        pytest.approx(1100.0)
 
 
 def test_the_random_layers_cross_a_curved_hole_at_their_drawn_dip():

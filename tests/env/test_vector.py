@@ -628,7 +628,8 @@ def test_array_finish_equals_finish_metrics_on_crafted_inputs(sensors):
     """The compiled finish (finish_batch) against its reference, finish_metrics, on
     crafted metrics and readings: NaN, infinities, -0.0, subnormals, every flag
     combination, steps without records, stopped simulators, windows whose bit speed is
-    not finite. Outputs bit for bit and every env's state after it."""
+    not finite, episodes started at any simulated time. Outputs bit for bit and every
+    env's state after it."""
     from drill_env.metrics import Metric
     from drill_env.physics.layout import READ, S
 
@@ -652,10 +653,11 @@ def test_array_finish_equals_finish_metrics_on_crafted_inputs(sensors):
             effort, speed, energy = _value(rng, 1.0), abs(_value(rng, 10.0)), _value(rng, 1e6)
             count = int(rng.choice([0, base._max_steps - 1]))
             speed_nan = rng.random() < 0.3
+            start = _value(rng, 1e3)  # the episode's start (sim.time after the start-up)
             for env in (ours[e], reference[e]):
                 env.sim.state[S.STATUS] = readings[e, READ.STATUS]
                 env.sim.readings[:] = readings[e]
-                env._effort, env._step_count = effort, count
+                env._effort, env._step_count, env._start_time = effort, count, start
                 env._speed_target, env._episode_energy = speed, energy
                 if speed_nan:
                     env.rolling_metrics.bit_speed[-1] = np.nan
@@ -678,6 +680,31 @@ def test_array_finish_equals_finish_metrics_on_crafted_inputs(sensors):
             for name in state:
                 _assert_same_values(_plain(getattr(ours[e], name)),
                                     _plain(getattr(reference[e], name)), f"{where} {name}")
+
+
+def test_array_finish_ends_an_episode_on_a_fresh_surface_torque_above_make_up():
+    """``DrillStringEnv._termination_reason``: the surface torque above make-up ends the
+    episode whether the step's records or the fresh reading show it; the array finish
+    reads the fresh reading too (records that peak at 0 N m, a reading of 6 kN m)."""
+    from drill_env.metrics import Metric
+    from drill_env.physics.layout import READ, S
+
+    base = DrillStringEnv(episode_duration=0.5, makeup_torque=5e3)
+    base.reset(seed=0)
+    base.step(np.zeros(2, np.float32))
+    ours, reference = copy.deepcopy(base), copy.deepcopy(base)
+    readings = np.array([base.sim.readings], dtype=np.float64)
+    readings[0, READ.STATUS] = 0.0
+    readings[0, READ.SURFACE_TORQUE] = 6e3
+    step, window = np.zeros((1, len(Metric))), np.zeros((1, len(Metric)))
+    reference.sim.state[S.STATUS] = 0.0
+    reference.sim.readings[:] = readings[0]
+    expected = reference.finish_metrics((step[0].tolist(), True), (window[0].tolist(), True))
+    _, _, terminated, _, info = DrillStringEnv.finish_batch(
+        [ours], np.array([5]), np.array([3]), step, window, readings)
+    assert expected[2] and terminated[0]
+    assert info.reasons == [expected[4]["termination_reason"]] == [
+        "surface torque above make-up torque"]
 
 
 def _plain(value):
