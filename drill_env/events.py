@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from drill_env.metrics import STUCK_SPEED, whirl_signs
+from drill_env.metrics import STUCK_SPEED, direction_of, whirl_signs
 from drill_env.physics.units import RPM
 from drill_env.whirl_rule import orbit_angles
 
@@ -165,7 +165,10 @@ class WhirlDetector:
                 # the speeds are their means (one sample's whirl speed swings both ways
                 # in a wobbling orbit: "forward ... whirl -10 rpm" read as a contradiction)
                 held = np.array(self._held)
-                direction = "forward" if held[:, 0].sum() > 0 else "backward"
+                direction = direction_of(float(held[:, 0].sum()))
+                if direction == "none":  # as many samples each way (it said backward,
+                    # where the metrics' rule says none)
+                    direction = "as many forward as backward"
                 ws_mean, w_mean = held[:, 1:].mean(axis=0)
                 events.append((start, "WARN",
                                f"whirl onset ({direction}): radial ratio {r0:.2f}, whirl "

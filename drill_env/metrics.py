@@ -174,8 +174,14 @@ def whirl_direction(whirl_speed, bit_speed, radial, dt: float, position=None) ->
     as the backward-whirl fraction counts it and the recordings' whirl events name it
     (not the mean whirl speed, which a fast backward whirl would outweigh).
     """
-    votes = float(np.sum(whirl_signs(_signal(radial, "radial"), whirl_speed, bit_speed, dt,
-                                     position)))
+    return direction_of(float(np.sum(whirl_signs(_signal(radial, "radial"), whirl_speed,
+                                                 bit_speed, dt, position))))
+
+
+def direction_of(votes: float) -> str:
+    """The whirl direction a sum of :func:`whirl_signs` says: "forward" (more samples
+    forward), "backward", or "none" (as many each way); the recordings' whirl events name
+    theirs by it too."""
     return "forward" if votes > 0 else "backward" if votes < 0 else "none"
 
 

@@ -16,7 +16,7 @@ from drill_env.events import (
     stick_slip_events,
     whirl_events,
 )
-from drill_env.metrics import whirl_direction
+from drill_env.metrics import direction_of, whirl_direction
 
 CLEARANCE = 0.005  # m
 
@@ -124,6 +124,22 @@ def test_the_whirl_direction_is_that_of_most_samples_since_the_onset() -> None:
     events = whirl_events(t, x, y, whirl_speed, bit_speed, CLEARANCE)
     assert events[0][2].startswith("whirl onset (backward)")
     assert whirl_direction(whirl_speed[:4], bit_speed[:4], radial[:4], 0.1) == "backward"
+
+
+def test_a_whirl_onset_with_as_many_samples_each_way_names_neither(monkeypatch) -> None:
+    """Signs that tie over the held samples (four of 0.125 s: +, -, +, -) are "none" by
+    the metrics' rule (:func:`drill_env.metrics.direction_of`); the onset, which named
+    them backward, says as many forward as backward."""
+    import drill_env.events as events
+
+    t = np.arange(0.0, 2.0, 0.125)
+    assert 2 * 0.125 < WHIRL_MIN_DURATION <= 3 * 0.125  # held at the fourth sample
+    signs = np.where(np.arange(t.size) % 2 == 0, 1.0, -1.0)
+    monkeypatch.setattr(events, "whirl_signs", lambda *signal: signs)
+    x, y = _orbit(t, np.full_like(t, 0.9))
+    said = whirl_events(t, x, y, np.full_like(t, 3.0), np.full_like(t, 5.0), CLEARANCE)
+    assert said[0][2].startswith("whirl onset (as many forward as backward)")
+    assert direction_of(float(signs[:4].sum())) == "none"
 
 
 def test_whirl_fed_step_by_step_is_judged_with_the_seconds_before_and_after() -> None:
