@@ -156,8 +156,10 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                     # interval of the mean: the dots are the seeds, this what they say)
                     low, high = (scale * end for end in LIMITS.get(key, (-math.inf,
                                                                          math.inf)))
-                    ax.errorbar(x, mean, yerr=[[min(half, mean - low)],
-                                               [min(half, high - mean)]],
+                    # (none past a mean that lies outside the range itself: matplotlib
+                    # refuses a negative length)
+                    ax.errorbar(x, mean, yerr=[[max(0.0, min(half, mean - low))],
+                                               [max(0.0, min(half, high - mean))]],
                                 color="k", capsize=3, linewidth=1.0, zorder=5)
                 if values.size > 1:  # each seed a dot: a min-max whisker of 20 seeds
                     # drew one outlier as the spread of all (a check of the pictures)
