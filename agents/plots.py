@@ -31,9 +31,9 @@ BARS = (("ssi", "stick-slip severity (SSI)", 1.0,
 #: The values a metric can take (its column's unit), at whose ends a whisker is cut: over
 #: few seeds the interval of the mean reaches past them (t = 12.7 for two), and an
 #: evaluation of two seeds drew time stuck to 175 % (a new user's check). The table's +-
-#: and benchmark.csv keep the interval whole. ROP has none: a bit lifted can back off.
+#: and benchmark.csv keep the interval whole. (ROP: a depth of cut per forward turn.)
 LIMITS = {"ssi": (0.0, math.inf), "stuck_fraction": (0.0, 1.0),
-          "backward_whirl_fraction": (0.0, 1.0)}
+          "rop_m_per_h": (0.0, math.inf), "backward_whirl_fraction": (0.0, 1.0)}
 
 #: One colour per controller name in every picture (tab10's order); other names (set
 #: points, several learned runs) take the remaining colours in their order.
