@@ -1275,12 +1275,12 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
     finished (an outside check: it said so of a benchmark stopped before any)."""
     import agents.benchmark as bm
 
-    kept: list[Path] = []  # where the stopped work had finished an episode
+    kept: list[Path] = []  # the files where the stopped work had finished an episode
 
     def stopped(*args, **kwargs):
-        for folder in kept:
-            folder.mkdir(parents=True, exist_ok=True)
-            (folder / bm.RESULTS_FILE).write_text('{"a finished episode": 1}\n')
+        for file in kept:
+            file.parent.mkdir(parents=True, exist_ok=True)
+            file.write_text('{"a finished episode": 1}\n')
         raise KeyboardInterrupt
 
     monkeypatch.setattr(bm, "run_benchmark", stopped)
@@ -1298,7 +1298,7 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
     os.utime(out / bm.RESULTS_FILE, (0, 0))
     assert main(command) == 130
     assert capsys.readouterr().err.strip().endswith("drill-env benchmark: interrupted")
-    kept.append(out)
+    kept.append(out / bm.RESULTS_FILE)
     assert main(command) == 130
     assert (f"drill-env benchmark: interrupted; its finished episodes are kept in {out}: "
             "the same command again goes on from them") in capsys.readouterr().err
@@ -1309,7 +1309,7 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
     from drill_cli.main import default_evaluation_folder
 
     run = shutil.copytree(TRAINED / "stick_slip", tmp_path / "run")
-    kept.append(default_evaluation_folder(run))
+    kept.append(default_evaluation_folder(run) / bm.RESULTS_FILE)
     monkeypatch.setattr("training.evaluate.evaluate_run", stopped)
     assert main(["evaluate", str(run)]) == 130
     assert (f"drill-env evaluate: interrupted; its finished episodes are kept in "
@@ -1317,21 +1317,13 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
     # the stability map's points, in its --out; the demo's episodes, in its benchmark's
     from drill_cli.main import MAP_POINTS_FILE
 
-    def stopped_after(folder_of, name):
-        def stopped_command(args):
-            folder = folder_of(args.out)
-            folder.mkdir(parents=True, exist_ok=True)
-            (folder / name).write_text('{"finished": 1}\n')
-            raise KeyboardInterrupt
-        return stopped_command
-
-    monkeypatch.setattr("drill_cli.main.cmd_stability_map",
-                        stopped_after(lambda out: out, MAP_POINTS_FILE))
+    kept.append(tmp_path / "map" / MAP_POINTS_FILE)
+    monkeypatch.setattr("drill_cli.main.cmd_stability_map", stopped)
     assert main(["stability-map", "--out", str(tmp_path / "map")]) == 130
     assert (f"drill-env stability-map: interrupted; its finished points are kept in "
             f"{tmp_path / 'map'}: ") in capsys.readouterr().err
-    monkeypatch.setattr("drill_cli.main.cmd_demo",
-                        stopped_after(lambda out: out / "benchmark", bm.RESULTS_FILE))
+    kept.append(tmp_path / "demo" / "benchmark" / bm.RESULTS_FILE)
+    monkeypatch.setattr("drill_cli.main.cmd_demo", stopped)
     assert main(["demo", "--out", str(tmp_path / "demo")]) == 130
     assert (f"drill-env demo: interrupted; its finished episodes are kept in "
             f"{tmp_path / 'demo' / 'benchmark'}: ") in capsys.readouterr().err
