@@ -28,10 +28,11 @@ BARS = (("ssi", "stick-slip severity (SSI)", 1.0,
         ("backward_whirl_fraction", "time in backward whirl (% of the window)", 100.0,
          "no backward whirl in any episode"))
 
-#: The values a metric can take (its column's unit), at whose ends a whisker is cut: over
-#: few seeds the interval of the mean reaches past them (t = 12.7 for two), and an
-#: evaluation of two seeds drew time stuck to 175 % (a new user's check). The table's +-
-#: and benchmark.csv keep the interval whole. (ROP: a depth of cut per forward turn.)
+#: The values each metric of :data:`BARS` can take (its column's unit), at whose ends a
+#: whisker is cut: over few seeds the interval of the mean reaches past them (t = 12.7
+#: for two), and an evaluation of two seeds drew time stuck to 175 % (a new user's
+#: check). The table's +- and benchmark.csv keep the interval whole. (ROP: a depth of cut
+#: per forward turn.)
 LIMITS = {"ssi": (0.0, math.inf), "stuck_fraction": (0.0, 1.0),
           "rop_m_per_h": (0.0, math.inf), "backward_whirl_fraction": (0.0, 1.0)}
 
@@ -154,8 +155,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                                 va="bottom", fontsize=8, color=colours[c])
                 if half := mean_interval(values) * scale:  # the table's +- (its 95 %
                     # interval of the mean: the dots are the seeds, this what they say)
-                    low, high = (scale * end for end in LIMITS.get(key, (-math.inf,
-                                                                         math.inf)))
+                    low, high = (scale * end for end in LIMITS[key])
                     # (none past a mean that lies outside the range itself: matplotlib
                     # refuses a negative length)
                     ax.errorbar(x, mean, yerr=[[max(0.0, min(half, mean - low))],
