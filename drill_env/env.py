@@ -226,6 +226,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         unknown = set(overrides) - set(env_over) - set(scen_over) - set(starts)
         if unknown:
             fields = sorted(set(ENV_FIELDS) - self.unused_env_fields)  # the ones it reads
+            params |= {*START_RANGES} - self.unused_env_fields if scenario in RANDOMISED else set()
             hint = did_you_mean(min(unknown), [*fields, *params, *self.own_settings])
             raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}{hint}; "
                              f"EnvConfig fields: {fields}; scenario {scenario!r} "
@@ -234,8 +235,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self.scenario_name = scenario
         self.scenario_params = {**scen_over, **start_ranges(scenario, starts, self.config)}
         if physics is not None and not isinstance(physics, dict):
-            raise ValueError(f"physics: expected a dict of overrides, got "
-                             f"{type(physics).__name__}")
+            raise ValueError(f"physics: expected a dict of overrides, got {type(physics).__name__}")
         # {"mud": {"density": 1300}} and {"mud.density": 1300} both set one field.
         self.physics_overrides = flatten(physics or {})
         if bit_model is not None:

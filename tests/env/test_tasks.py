@@ -233,6 +233,26 @@ def test_a_task_settings_typo_lists_the_tasks_own_settings():
     gym.make("DrillOptimise-v0", action_mode="incremental", rop_weight=2.0)  # it uses both
 
 
+def test_a_typo_lists_the_random_starts_ranges_where_the_env_takes_them():
+    """The start ranges the random scenario draws in (docs/env.md) are listed with its
+    parameters where an env takes them: a new user's trial found DrillOptimise-v0's list
+    without them, while another refusal told them to give start_rpm_range."""
+    with pytest.raises(ValueError, match=r"\(did you mean start_rpm_range\?\)") as err:
+        gym.make("DrillOptimise-v0", start_rpm_rnage=(50.0, 60.0))
+    listed = str(err.value).partition("scenario 'random' parameters: ")[2]
+    assert "'start_rpm_range'" in listed and "'start_weight_on_bit_range'" in listed
+    env = gym.make("DrillOptimise-v0", start_rpm_range=(50.0, 60.0))  # and it takes them
+    assert env.unwrapped.scenario_params["rpm_range"] == (50.0, 60.0)  # (the draw's range)
+    # task 1 draws its own targets: no start range offered (giving one is refused)
+    with pytest.raises(ValueError) as err:
+        gym.make("DrillStickSlip-v0", start_rpm_rnage=(50.0, 60.0))
+    assert "start_rpm_range" not in str(err.value)
+    # nor for a scenario that draws no start
+    with pytest.raises(ValueError) as err:
+        gym.make("DrillOptimise-v0", scenario="default", start_rpm_rnage=(50.0, 60.0))
+    assert "start_rpm_range" not in str(err.value)
+
+
 
 @pytest.mark.parametrize("kind", ["wired_pipe", (1.0, 0.01)])
 def test_a_delay_under_a_control_step_still_arrives_a_step_late(kind):
