@@ -307,11 +307,25 @@ ELSEWHERE = ("a model trained elsewhere (rl-zoo3, your own SB3 script) is benchm
              "controller file of yours (docs/controllers.md)")
 
 
+def no_such_folder(folder: Path) -> str:
+    """"no such folder ``folder``", with the folder beside it that was probably meant
+    (a run's name without its ``_seed0``)."""
+    from drill_env.physics.validation import closest
+
+    try:
+        near = [p.name for p in folder.parent.iterdir() if p.is_dir()]
+    except OSError:  # (no such parent either, or not readable)
+        near = []
+    meant = closest(folder.name, near)
+    return f"no such folder {folder}" + (f" (did you mean {folder.parent / meant}?)"
+                                         if meant else "")
+
+
 def _files(folder: Path) -> tuple[Path, Path]:
     """(model, normalisation) of a run or policy folder: the best model if kept."""
     if not folder.is_dir():
         what = f"{folder} is a file, not a folder" if folder.exists() else \
-            f"no such folder {folder}"
+            no_such_folder(folder)
         raise FileNotFoundError(f"learned: {what} (learned:<run folder of drill-env train>)")
     for model, norm in (("best_model.zip", "best_vecnormalize.pkl"),
                         ("model.zip", "vecnormalize.pkl")):

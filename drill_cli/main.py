@@ -812,7 +812,7 @@ def say_left_out(args: argparse.Namespace, config: Any) -> None:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from training.config import load_config
+    from training.config import ReplacedValueError, load_config
     from training.train import check_run_folder, holds_run, planned_steps, train
 
     if args.name is not None and (not args.name.strip() or args.name in (".", "..")
@@ -834,7 +834,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     except ValueError as err:  # a field of the entry: a flag's if given, else the file's
         field, _, rest = str(err).partition(": ")
         flag, value = TRAIN_OVERRIDES.get(field.removeprefix(f"{args.algo}."), ("", ""))
-        if flag and getattr(args, value) is not None:
+        if flag and getattr(args, value) is not None and not isinstance(err, ReplacedValueError):
             raise argparse.ArgumentTypeError(f"{flag}: {rest}") from None
         if args.config is not None and field.startswith(f"{args.algo}."):
             raise argparse.ArgumentTypeError(f"--config {args.config}: {err}") from None
@@ -1022,7 +1022,7 @@ def which_model(run: Path, model: Path) -> str:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from agents.learned import TRAINED
+    from agents.learned import TRAINED, no_such_folder
     from training.config import TASKS
     from training.evaluate import evaluate_run
 
@@ -1033,7 +1033,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         args.run, local = TRAINED / str(args.run), ""
     if not args.run.is_dir():
         what = f"{args.run} is a file, not a run folder{local}" if args.run.exists() else \
-            f"no such folder {args.run}"
+            no_such_folder(args.run)
         raise argparse.ArgumentTypeError(f"RUN: {what} (a run folder of drill-env train, "
                                          "e.g. logs/runs/<name>, or a task's name for its "
                                          f"shipped policy: {', '.join(sorted(TASKS))})")

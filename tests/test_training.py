@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import pickle
 import re
 import zipfile
 from pathlib import Path
@@ -533,8 +534,9 @@ def test_a_finished_run_resumes_from_its_final_model_not_an_older_checkpoint(run
     done = json.loads((copy / "run.json").read_text())["env_steps"]
     assert resume_files(copy) == (copy / "model.zip", copy / "vecnormalize.pkl")
     assert resume_point(copy)[0] == done == cfg.n_timesteps
-    for steps in (done, done - 512):
-        with pytest.raises(ValueError, match=f"has done {done} env steps already"):
+    for steps in (done, done - 512):  # (a resume of a finished run says it is first)
+        with pytest.raises(ValueError, match=f"is finished \\(it has done {done} env steps "
+                                             f"already, {steps} asked for\\)"):
             train(replace(cfg, n_timesteps=steps), copy, resume=True, progress=False)
     later = copy / "checkpoints" / f"model_{done + 512}_steps.zip"  # as a Ctrl-C saves
     shutil.copy(copy / "model.zip", later)
@@ -842,10 +844,18 @@ def test_a_ctrl_c_during_an_evaluation_is_evaluated_again_on_resume(tmp_path, mo
     """The Ctrl-C checkpoint lands where the evaluation it cut short ran: PPO evaluates
     after the update of the rollout that crossed the grid line (3 envs cross 1024 at 1026,
     inside the rollout that ends at 1152). Counted from there, the resumed run never
-    evaluated that line (evaluations.csv kept its row out for good)."""
+    evaluated that line (evaluations.csv kept its row out for good). It scores with the
+    observation statistics the checkpoint saved, as the uninterrupted run did: SB3's
+    learn() resets the envs first, which added their observations to them (a new user's
+    trial: the redone row was 0.03 off the uninterrupted run's)."""
     import training.train as tt
 
     real = tt.evaluate_policy_on_seeds
+    seen = []
+
+    def recorded(model, normalizer, *args, **kwargs):
+        seen.append((normalizer.obs_rms.count, normalizer.obs_rms.mean.copy()))
+        return real(model, normalizer, *args, **kwargs)
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
@@ -857,11 +867,17 @@ def test_a_ctrl_c_during_an_evaluation_is_evaluated_again_on_resume(tmp_path, mo
         train(cfg, folder, progress=False)
     assert (folder / "checkpoints" / f"model_{first}_steps.zip").exists()
     assert not (folder / "evaluations.csv").exists()
-    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", real)
+    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", recorded)
     train(cfg, folder, resume=True, progress=False)
     with (folder / "evaluations.csv").open() as f:
         steps = [int(r["timesteps"]) for r in csv.DictReader(f)]
     assert steps[0] == first and [s // 1024 for s in steps] == [1, 2]
+    with (folder / "checkpoints" / f"vecnormalize_{first}.pkl").open("rb") as f:
+        saved = pickle.load(f).obs_rms
+    count, mean = seen[0]
+    assert count == saved.count  # (the same floats, unpickled: no arithmetic between)
+    np.testing.assert_array_equal(mean, saved.mean)
+    assert seen[1][0] > count  # the next evaluation, on the statistics trained on since
 
 
 def test_a_run_killed_before_its_first_checkpoint_starts_its_records_afresh(tmp_path,
@@ -1005,6 +1021,14 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
         main(["train", "--task", "stick_slip", "--algo", "ppo", "--config", str(path),
               "--n-envs", "2000", "--out", str(tmp_path / "runs")])
     assert "error: --n-envs: Input should be less than or equal to" in capsys.readouterr().err
+    # and a bad value of the file is the file's though a flag replaces it (a new user's
+    # trial: it trained without a word while --timesteps was given)
+    path.write_text(yaml.safe_dump({"ppo": {"n_timesteps": "lots"}}))
+    with pytest.raises(SystemExit):
+        main(["train", "--task", "stick_slip", "--algo", "ppo", "--config", str(path),
+              "--timesteps", "2000", "--out", str(tmp_path / "runs")])
+    assert f"error: --config {path}: ppo.n_timesteps: must be a whole number, got 'lots'" \
+        in capsys.readouterr().err
     assert not (tmp_path / "runs").exists()
 
 
@@ -1341,6 +1365,22 @@ def test_evaluate_tells_a_missing_folder_from_a_folder_that_is_no_run(tmp_path, 
         if "no config.yaml" in err:  # where a model of rl-zoo3 or SB3's own goes instead
             assert "agents.learned.sb3_policy(model, vecnormalize, algo=..., env_id=...)" \
                 in " ".join(err.split())
+    # a run's name typed without its seed gets the folder beside it, as other names do
+    # (a new user's trial); a name near no folder gets none
+    (tmp_path / "stick_slip_ppo_seed0").mkdir()
+    for typed, meant in (("stick_slip_ppo", "stick_slip_ppo_seed0"), ("drilling_sac", None)):
+        with pytest.raises(SystemExit):
+            main(["evaluate", str(tmp_path / typed)])
+        err = " ".join(capsys.readouterr().err.split())
+        if meant:
+            assert f"(did you mean {tmp_path / meant}?)" in err
+        else:
+            assert "did you mean" not in err
+    with pytest.raises(SystemExit):  # and as a learned controller of the benchmark
+        main(["benchmark", "--task", "stick_slip", "--seeds", "1", "--controllers",
+              f"learned:{tmp_path / 'stick_slip_ppo'}", "--out", str(tmp_path / "b")])
+    assert f"(did you mean {tmp_path / 'stick_slip_ppo_seed0'}?)" in \
+        " ".join(capsys.readouterr().err.split())
 
 
 def test_a_plain_sb3_folder_given_as_a_run_says_where_such_a_model_goes(tmp_path):

@@ -624,9 +624,21 @@ def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
         raise ConfigError(f"{algo}: {file} gives {data[algo]!r}; it needs a mapping of "
                           f"settings ({algo}: {{n_envs: ..., hyperparams: {{...}}}})")
     entry = dict(data[algo])
-    entry.update({k: v for k, v in overrides.items() if v is not None})
+    given = {k: v for k, v in overrides.items() if v is not None}
+    # a value of the file that an override replaces is checked all the same: a new user's
+    # trial had a typo in it pass for as long as the flag was given
+    for key in sorted(given.keys() & entry.keys()):
+        try:
+            from_dict(TrainConfig, {"task": task, "algo": algo, key: entry[key]})
+        except ConfigError as err:
+            raise ReplacedValueError(f"{algo}.{err}") from None
     try:
-        return from_dict(TrainConfig, {"task": task, "algo": algo, **entry})
+        return from_dict(TrainConfig, {"task": task, "algo": algo, **entry, **given})
     except ConfigError as err:  # name the YAML path: the entry sits under the algorithm
         text = str(err)
         raise ConfigError(text if text.startswith(f"{algo}.") else f"{algo}.{text}") from None
+
+
+class ReplacedValueError(ConfigError):
+    """A bad value in a config file under one that an override of :func:`load_config`
+    replaces: the file's fault, not the override's."""

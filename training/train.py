@@ -30,6 +30,7 @@ across evaluations.
 
 from __future__ import annotations
 
+import copy
 import csv
 import io
 import json
@@ -299,6 +300,11 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
             self.path = run / "evaluations.csv"
             # a resumed run keeps its best model until an evaluation beats it
             self.best = resumed.best_return
+            # the statistics as loaded, for an evaluation done again on resume: SB3's
+            # learn() resets the envs first, which adds their observations to them (a new
+            # user's trial: the redone row differed from the uninterrupted run's)
+            self.loaded_rms: Any = copy.deepcopy(train_env.obs_rms)
+            self.redo = False
 
         def _on_training_start(self) -> None:
             super()._on_training_start()
@@ -308,6 +314,7 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
             line = self.last // self.every
             if line > 0 and not self._evaluated(line):
                 self.num_timesteps = self.last
+                self.redo = True
                 self.act()
 
         def _evaluated(self, line: int) -> bool:
@@ -317,16 +324,22 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
 
         def fire(self) -> None:
             self.pending = False
-            result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
-            row = {"timesteps": int(self.model.num_timesteps), **result,
-                   "wall_s": time.perf_counter() - started}
-            add_row(self.path, row)
-            for key in ("return", "ssi", "stuck_fraction"):
-                self.logger.record(f"validation/{key}", result[key])
-            if result["return"] > self.best:
-                self.best = result["return"]
-                save_whole(run / "best_model.zip", self.model.save)
-                save_whole(run / "best_vecnormalize.pkl", train_env.save)
+            live = train_env.obs_rms
+            if self.redo:  # scored (and kept as the best) with the checkpoint's statistics
+                self.redo, train_env.obs_rms = False, self.loaded_rms
+            try:
+                result = evaluate_policy_on_seeds(self.model, train_env, eval_env, seeds)
+                row = {"timesteps": int(self.model.num_timesteps), **result,
+                       "wall_s": time.perf_counter() - started}
+                add_row(self.path, row)
+                for key in ("return", "ssi", "stuck_fraction"):
+                    self.logger.record(f"validation/{key}", result[key])
+                if result["return"] > self.best:
+                    self.best = result["return"]
+                    save_whole(run / "best_model.zip", self.model.save)
+                    save_whole(run / "best_vecnormalize.pkl", train_env.save)
+            finally:
+                train_env.obs_rms = live
             plot_learning_curve(run)
 
     class Checkpoints(OnGrid):
@@ -508,8 +521,9 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
             and read_run_config(saved).get("n_timesteps") == config.n_timesteps:
         return done  # stopped after its last step, before its final save: it saves now
     if done >= config.n_timesteps:
-        raise ValueError(f"--timesteps: {run} has done {done} env steps already; give more "
-                         "than that to continue it")
+        raise ValueError(f"--timesteps: {run} is finished (it has done {done} env steps "
+                         f"already, {config.n_timesteps} asked for); give more than {done} "
+                         "to continue it")
     check_learns(config, done, learnt=updates > 0)
     return done
 
