@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import textwrap
+import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -36,10 +37,12 @@ BARS = (("ssi", "stick-slip severity (SSI)", 1.0,
 LIMITS = {"ssi": (0.0, math.inf), "stuck_fraction": (0.0, 1.0),
           "rop_m_per_h": (0.0, math.inf), "backward_whirl_fraction": (0.0, 1.0)}
 
-#: One colour per controller name in every picture (tab10's order); other names (set
-#: points, several learned runs) take the remaining colours in their order.
+#: The colour (tab10's) of each built-in name in every picture: the classical drives, the
+#: driller, the shipped policy and the trivial policies of an evaluation (a new user's
+#: trial: held-1 was pink in an evaluation and grey in a benchmark). Other names take one
+#: from their name (:func:`_colours`).
 COLOURS = {"stiff": 0, "soft-speed": 1, "soft-torque": 2, "z-torque": 3, "driller": 4,
-           "learned": 5}
+           "learned": 5, "held-1": 6, "held+0": 7, "held+1": 8, "random": 9}
 #: Dash patterns by a controller's place in the list, so that lines which coincide (the
 #: tuned controllers at a speed where none is needed) still all show; six, so that a
 #: policy and its five baselines all differ (with four, the first and fifth, a policy
@@ -78,31 +81,45 @@ def _say_empty(ax: Any, text: str) -> None:
 #: every colour taken before it: tab20b's gold-brown beside the policy's brown (0.14 apart)
 #: could not be told from it in a legend of thirteen (a check of the pictures).
 DISTINCT = 0.2
+#: The colours a name without its own draws from first (Dark2's teal, magenta and green,
+#: tab20b's two darkest blues): dark enough for the line of a policy or controller under
+#: study, each at least DISTINCT from tab10's and from one another (Dark2's gold-brown,
+#: 0.24 from the policy's brown, read as it in a series picture).
+OWN_COLOURS = ("#1b9e77", "#e7298a", "#393b79", "#66a61e", "#525aa3")
 
 
 def _colours(controllers: Sequence[str]) -> dict[str, Any]:
-    """Each controller's colour: its own (:data:`COLOURS`), else the next one free: tab10's
-    four left, then tab20b's twenty (an evaluation has eleven controllers: with tab10
-    alone the eleventh took the seventh's colour), each at least :data:`DISTINCT` from
-    the fixed colours and from those before it (where too few are, the rest in turn)."""
+    """Each controller's colour: its own (:data:`COLOURS`), else one its name draws
+    (CRC-32) from :data:`OWN_COLOURS`, so that a set point, a run or a controller of your
+    own has the same colour in every picture; where two such names of one picture draw
+    the same, the later takes the next one free (once all five are taken, tab20b's colours
+    at least :data:`DISTINCT` from all before them, then its others, in turn)."""
+    from matplotlib.colors import to_rgba
+
     cmap = matplotlib.colormaps["tab10"]
     extra = matplotlib.colormaps["tab20b"]
-    candidates = [cmap(k) for k in range(10) if k not in COLOURS.values()]
-    candidates += [extra(4 * (k % 5) + k // 5) for k in range(20)]  # a hue apart, then shades
-    taken = [np.array(cmap(k)[:3]) for k in COLOURS.values()]
-    free = []
+    own = [to_rgba(c) for c in OWN_COLOURS]
+    candidates = [extra(4 * (k % 5) + k // 5) for k in range(20)]  # a hue apart, then shades
+    candidates = [c for c in candidates  # (less the two of them among the six)
+                  if min(np.linalg.norm(np.subtract(c, o)) for o in own) > 1e-3]
+    taken = [np.array(c[:3]) for c in [*map(cmap, COLOURS.values()), *own]]
+    after = []
     for colour in candidates:
         if min(float(np.linalg.norm(np.array(colour[:3]) - t)) for t in taken) >= DISTINCT:
-            free.append(colour)
+            after.append(colour)
             taken.append(np.array(colour[:3]))
-    free += [c for c in candidates if c not in free]
-    out, n = {}, 0
+    after += [c for c in candidates if c not in after]
+    out, used, n = {}, set(), 0
     for c in controllers:
         if c in COLOURS:
             out[c] = cmap(COLOURS[c])
-        else:
-            out[c] = free[n % len(free)]
-            n += 1
+            continue
+        first = zlib.crc32(c.encode()) % len(own)
+        free = [own[(first + k) % len(own)] for k in range(len(own))]
+        out[c] = next((colour for colour in free if colour not in used), None) or \
+            after[n % len(after)]
+        n += out[c] in after
+        used.add(out[c])
     return out
 
 
@@ -166,8 +183,10 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                     spread = np.linspace(-0.25, 0.25, values.size) * width
                     ax.scatter(x + spread, values * scale, s=7, color="k", alpha=0.6,
                                linewidths=0, zorder=4)
-        # slanted where many: ten scenarios' names ran into each other in a panel
-        ax.set_xticks(range(len(scenarios)), scenarios,
+        # slanted where many: ten scenarios' names ran into each other in a panel; "the
+        # random scenario", not "random" alone under every group of bars, which read as
+        # the random policy (a new user's trial)
+        ax.set_xticks(range(len(scenarios)), [f"{s} scenario" for s in scenarios],
                       **({"rotation": 30, "ha": "right"} if len(scenarios) > 4 else {}))
         ax.set_title(label, fontsize=10)
         ax.grid(axis="y", alpha=0.3)

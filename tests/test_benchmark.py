@@ -1205,8 +1205,9 @@ def test_a_policy_and_its_five_baselines_each_draw_their_own_line_style(tmp_path
 
 
 def test_a_controller_keeps_its_colour_in_every_picture():
-    """Colours follow the controller's name, not its place in --controllers: the driller
-    is the same colour in the demo's five-controller benchmark and in a pair."""
+    """Colours follow the controller's name, not its place in --controllers or the names
+    beside it: the driller is the same colour in the demo's five-controller benchmark and
+    in a pair (docs/controllers.md, "What the pictures show")."""
     from agents.plots import _colours
 
     five = _colours(["stiff", "soft-speed", "soft-torque", "z-torque", "driller"])
@@ -1227,6 +1228,19 @@ def test_a_controller_keeps_its_colour_in_every_picture():
     rgb = [np.array(c[:3]) for c in _colours(thirteen).values()]
     assert min(np.linalg.norm(a - b) for i, a in enumerate(rgb) for b in rgb[i + 1:]) \
         >= DISTINCT
+    # a new user's trial: the trivial policies, a run and a controller of one's own
+    # changed colour between an evaluation's picture and a benchmark's (held-1 pink in one,
+    # grey in the other): the built-in names keep theirs, and a name of one's own keeps the
+    # one it draws wherever it stands among them
+    run = "learned-stick_slip_ppo_seed0"
+    pictures = [_colours(evaluation), _colours([run, *evaluation]),
+                _colours(["stiff", "random", run, "held+1", "held-1"]),
+                _colours(["held+0", run])]
+    for name in ("held-1", "held+0", "held+1", "random", run):
+        assert len({tuple(p[name]) for p in pictures if name in p}) == 1, name
+    # and two names of one picture never share a colour, whatever their names draw
+    many = [f"mine-{k}" for k in range(23)]  # (OWN_COLOURS' five, tab20b's other eighteen)
+    assert len({tuple(c) for c in _colours(many).values()}) == 23
 
 
 def test_the_bar_charts_legend_wraps_into_rows_inside_the_picture(tmp_path, monkeypatch):
@@ -2266,6 +2280,10 @@ def test_the_bars_stand_on_their_scenario_in_the_panels_unit(tmp_path, monkeypat
     for j in range(len(scenarios)):
         group = centres[np.abs(centres - j) < 0.5]
         assert len(group) == len(names) and np.mean(group) == pytest.approx(j, abs=1e-9)
+    # each tick says it is a scenario: "random" alone under the bars read as the random
+    # policy's (a new user's trial)
+    assert [t.get_text() for t in stuck.get_xticklabels()] == [
+        "default scenario", "stick_slip scenario"]
     for c in names:
         for s in scenarios:
             mean = 100.0 * np.mean([r["stuck_fraction"] for r in rows
