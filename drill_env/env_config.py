@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
-import sys
 import warnings
 from collections.abc import Mapping
 from typing import Annotated, Any, Literal
@@ -19,6 +18,7 @@ from drill_env.physics.validation import (
     NonNegative,
     Positive,
     StrictBool,
+    caller_outside,
     check_newtons,
     config_dataclass,
     did_you_mean,
@@ -269,18 +269,6 @@ def warn_above_limit(where: str, wob: float, limit: float) -> None:
                       "resolves (info['weight_on_bit_limit']; EnvConfig."
                       "limit_weight_on_bit_to_mesh): the bit gets at most that",
                       RuntimeWarning, stacklevel=caller_outside())
-
-
-def caller_outside(packages: tuple[str, ...] = ("drill_env", "gymnasium")) -> int:
-    """The ``stacklevel`` of the first frame, from the caller of the function that calls
-    this, whose module is in none of ``packages``: the user's line (a warning given in an
-    env's reset or ``gym.make`` pointed into gymnasium's registration.py)."""
-    frame: Any = sys._getframe(2)
-    level = 2
-    while frame is not None and str(frame.f_globals.get("__name__", "")).split(".")[0] \
-            in packages:
-        frame, level = frame.f_back, level + 1
-    return level
 
 
 def _default_spans() -> tuple[float, float]:

@@ -20,6 +20,7 @@ import difflib
 import functools
 import math
 import re
+import sys
 import typing
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -86,11 +87,25 @@ PPG_LIKE = (5.0, 25.0)
 
 
 def _mud_density(value: float) -> float:
-    if PPG_LIKE[0] <= value <= PPG_LIKE[1]:
+    if PPG_LIKE[0] <= value <= PPG_LIKE[1]:  # (said at the user's line, not pydantic's)
         warnings.warn(f"mud.density: {value:g} kg/m^3 is as light as air or mist; a mud "
                       f"of {value:g} ppg is {value * 119.826:,.0f} kg/m^3 (the density is "
-                      "in kg/m^3)", UserWarning, stacklevel=2)
+                      "in kg/m^3)", UserWarning, stacklevel=caller_outside())
     return value
+
+
+def caller_outside(packages: tuple[str, ...] = ("drill_env", "gymnasium", "pydantic")
+                   ) -> int:
+    """The ``stacklevel`` of the first frame, from the caller of the function that calls
+    this, whose module is in none of ``packages``: the user's line (a warning given in an
+    env's reset or ``gym.make`` pointed into gymnasium's registration.py, one given by a
+    config's validation into pydantic's dataclass module)."""
+    frame: Any = sys._getframe(2)
+    level = 2
+    while frame is not None and str(frame.f_globals.get("__name__", "")).split(".")[0] \
+            in packages:
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 #: A fluid density (kg/m^3) that warns when it looks typed in ppg.

@@ -759,6 +759,16 @@ def test_a_misspelt_keyword_of_the_plain_env_gets_the_field_it_was_meant_to_be()
         gym.make("DrillString-v0", string_lenght=1300.0)
 
 
+def test_a_configs_plausibility_warning_points_at_the_users_line():
+    """A mud density typed in ppg warned from pydantic's dataclass module (a new user's
+    trial): the warning points at the line that built the env, as the env's own do."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gym.make("DrillString-v0", physics={"mud.density": 10.0})
+    said = [w for w in caught if "mud.density: 10 kg/m^3" in str(w.message)]
+    assert said and all(w.filename == __file__ for w in said)
+
+
 def test_a_step_past_the_episodes_end_is_said() -> None:
     """From an RL researcher's review: a single env stepped on after its truncation went
     on silently (the vector envs raise ResetNeeded; Gymnasium leaves it undefined and
