@@ -220,9 +220,10 @@ def mesh_weight_on_bit_limit(sim: Any, upper: float, tol: float = 100.0) -> floa
     """Largest WOB in [0, ``upper``] (N) that ``sim``'s mesh resolves (bisection, ``tol`` N).
 
     The simulator refuses a WOB that compresses an element beyond 80 % of its own
-    buckling load (``Simulator.check_mesh_resolves``); with the default 35 m BHA the
-    drill pipe goes into compression above ~41 kN and its 10 m elements limit the WOB to
-    ~138 kN. Returns ``upper`` when the simulator has no such check.
+    buckling load (``Simulator.check_mesh_resolves``): ~294 kN on the ``default``
+    string, ~235 kN on the paper's (``paper_case2``), ~196 kN in the ``lateral_60`` well,
+    so the action range's 200 kN top is the limit but there. Returns ``upper`` when the
+    simulator has no such check.
     """
     check = getattr(sim, "check_mesh_resolves", None)
     if check is None:

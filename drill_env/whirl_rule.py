@@ -13,9 +13,9 @@ from numba import njit
 #: (:func:`whirl_legs`): the bit centre travels round the hole, off its axis, fast. The
 #: centre's angle about the axis (followed as :func:`whirl_legs` says) is cut into *legs*,
 #: runs over which it moves one way and turns back by less than WHIRL_REVERSAL; a sample
-#: nearer the axis than WHIRL_RADIAL_RATIO of the gauge clearance (or with a NaN whirl
+#: at most WHIRL_RADIAL_RATIO of the gauge clearance off the axis (or with a NaN whirl
 #: speed) ends a leg and never whirls. In a leg that travels at least WHIRL_SWEEP, a
-#: sample whirls where the centre orbits at least WHIRL_SPEED_RATIO of the bit speed
+#: sample whirls where the centre orbits faster than WHIRL_SPEED_RATIO of the bit speed
 #: (floored at 1 rpm; a NaN bit speed reads as stuck), in the leg's direction.
 #: Half the clearance keeps the small static offset of a bit pushed by a dipping
 #: interface out; a quarter of the bit speed keeps a slow drift or a pause out and

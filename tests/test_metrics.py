@@ -192,6 +192,20 @@ def test_a_pause_or_a_creep_beside_a_whirl_is_not_whirl():
         assert np.array_equal(signs < 0, ws == -2000 * RPM) and not (signs > 0).any()
 
 
+def test_a_turn_back_before_or_after_a_whirl_is_not_whirl():
+    """whirl_rule: legs run one way; a leg ends at its extreme sample and the next begins
+    after it. A centre that first turns back 0.8 rad (under half a turn, at 20 rad/s) and
+    then whirls forward: the turn back is a leg of its own and does not whirl; a forward
+    whirl that ends turning back 1.8 rad: whirl up to its extreme, not in the turn back."""
+    dt, w = 0.01, np.full(205, 10.0)
+    ws = np.r_[np.full(5, -20.0), np.full(200, 20.0)]
+    signs = metrics.whirl_signs(np.full(205, 0.9), ws, w, dt)
+    assert not signs[:4].any() and (signs[5:] == 1.0).all()
+    ws = np.r_[np.full(200, 20.0), np.full(10, -20.0)]  # the extreme: sample 199
+    signs = metrics.whirl_signs(np.full(210, 0.9), ws, np.full(210, 10.0), dt)
+    assert signs.tolist() == [1.0] * 200 + [0.0] * 10
+
+
 def test_a_stuck_bit_whose_centre_creeps_round_is_whirl_only_past_the_floor():
     """The speed test's bit speed is floored at 1 rpm (a NaN bit speed reads as stuck):
     a stuck bit whose centre creeps a whole turn round the wall, off the axis, whirls
@@ -215,11 +229,18 @@ def test_the_whirl_rule_needs_the_orbit_fast_and_off_the_axis():
     w = np.full(n, 10.0)
     assert not metrics.whirling(np.full(n, 0.9), 0.1 * w, w, dt).any()
     assert metrics.whirling(np.full(n, 0.9), 0.3 * w, w, dt).all()
+    # the bit speed's size: a bit turning backward is no slower (not floored at 1 rpm)
+    assert not metrics.whirling(np.full(n, 0.9), 0.1 * w, -w, dt).any()
+    assert metrics.whirling(np.full(n, 0.9), 0.3 * w, -w, dt).all()
     assert not metrics.whirling(np.full(n, 0.5), -20 * w, w, dt).any()
     radial = np.full(400, 0.9)
     radial[195:205] = 0.2  # through the middle: 1.95 s and 1.95 s of whirl either side
     signs = metrics.whirl_signs(radial, np.full(400, 20.0), np.full(400, 10.0), dt)
     assert signs.tolist() == [1.0] * 195 + [0.0] * 10 + [1.0] * 195
+    ws = np.full(400, 20.0)
+    ws[195] = math.nan  # a NaN whirl speed ends a leg too, and never whirls
+    signs = metrics.whirl_signs(np.full(400, 0.9), ws, np.full(400, 10.0), dt)
+    assert signs.tolist() == [1.0] * 195 + [0.0] + [1.0] * 204
     radial[20:380] = 0.2  # 0.2 s either side at 10 rad/s: 1.9 rad each, under half a turn
     assert not metrics.whirling(radial, np.full(400, 10.0), np.full(400, 10.0), dt).any()
     with pytest.raises(ValueError, match="dt"):

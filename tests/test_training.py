@@ -1809,12 +1809,39 @@ def test_reward_normalisation_uses_normalize_gamma_when_given():
     assert cfg.reward_gamma == 0.9
 
 
+def test_a_normalisation_discount_of_zero_is_refused_by_its_path():
+    """Normalize.gamma: a discount in (0, 1] (training/config.py, Field(gt=0, le=1)): a
+    zero (a running return of the last reward alone) is refused naming normalize.gamma."""
+    with pytest.raises(ValueError, match=r"^ppo\.normalize\.gamma: .*greater than 0"):
+        load_config("stick_slip", "ppo", normalize={"gamma": 0.0})
+    assert load_config("stick_slip", "ppo", normalize={"gamma": 1.0}).reward_gamma == 1.0
+
+
+def test_a_run_seed_lies_below_the_validation_seeds():
+    """TrainConfig.seed < VALIDATION_SEED (training/config.py: validation seeds start
+    there), in a YAML as on the command line: the first validation seed is refused."""
+    from training.config import VALIDATION_SEED
+
+    with pytest.raises(ValueError, match=rf"^ppo\.seed: .*less than {VALIDATION_SEED}"):
+        load_config("stick_slip", "ppo", seed=VALIDATION_SEED)
+    assert load_config("stick_slip", "ppo", seed=VALIDATION_SEED - 1).seed == \
+        VALIDATION_SEED - 1
+
+
 def test_a_learning_rate_of_zero_is_refused():
     # _RANGES: learning_rate must be > 0 (low end excluded)
     from training.config import load_config
 
     with pytest.raises(ValueError, match="learning_rate: must be a number > 0"):
         load_config("stick_slip", "ppo", hyperparams={"learning_rate": 0.0})
+
+
+def test_a_hyperparameter_may_sit_at_the_high_end_of_its_range():
+    """_RANGES: the high end is included ("must be a number > 0 and <= 1"): an undiscounted
+    gamma and a gae_lambda of 1 (plain Monte Carlo advantages) are accepted."""
+    hyperparams = {"gamma": 1.0, "gae_lambda": 1.0}
+    assert load_config("stick_slip", "ppo", hyperparams=hyperparams).hyperparams == \
+        hyperparams
 
 
 def test_a_ppo_batch_just_larger_than_the_rollout_is_refused():
@@ -1859,6 +1886,7 @@ def test_sac_hyperparameters_take_their_string_forms_and_nothing_else():
             hyperparams
     refused = (({"ent_coef": "lots"}, "ent_coef: must be a number or 'auto' or 'auto_<"),
                ({"ent_coef": "auto_-1"}, "ent_coef: must be a number or 'auto'"),
+               ({"ent_coef": "auto_0"}, "ent_coef: must be a number or 'auto'"),  # > 0
                ({"target_entropy": "low"}, "target_entropy: must be a number or 'auto', "),
                ({"tau": [0.02]}, "tau: must be a number > 0 and <= 1, got [0.02]"),
                ({"action_noise": "normal"}, "action_noise: a Python object"),

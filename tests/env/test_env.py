@@ -471,6 +471,8 @@ def test_unknown_keyword_is_named():
     ({"sensors": "psychic"}, "sensors"),
     ({"scenario": "paper_case1", "position": "P9"}, "position"),
     ({"episode_duration": -1.0}, "episode_duration"),
+    # below MIN_SCALE (env_config: "ROP over a scale of at least 1e-6 m/s")
+    ({"rop_scale": 1e-7}, "rop_scale"),
     # faster than half the solver's step (2 ms): it would act every step, not at 1 us
     ({"control_interval": 1e-6}, "control_interval: 1e-06 s is at most half"),
     ({"episode_duration": 0.05}, "episode_duration: 0.05 s is at most half a control "
@@ -680,6 +682,15 @@ def test_the_drawworks_unloads_at_its_rate_and_never_past_the_mesh_limit():
         _, _, _, _, info = env.step(np.array([0.0, 1.0]))
         assert info["weight_on_bit"] <= limit
     assert info["weight_on_bit"] == pytest.approx(limit)
+
+
+def test_the_weight_on_bit_limit_is_the_range_top_where_the_mesh_resolves_it():
+    """EnvConfig.limit_weight_on_bit_to_mesh caps the WOB at the largest the mesh resolves
+    (env_config.mesh_weight_on_bit_limit; the lateral_60 well's below 200 kN in the test
+    above): a range top the mesh resolves is the limit exactly, not cut to the bisection's
+    100 N tolerance."""
+    assert DrillStringEnv(weight_on_bit_range=(0.0, 100e3), **SHORT
+                          ).weight_on_bit_limit == 100e3
 
 
 def test_the_start_kick_is_drawn_both_ways_within_its_size():

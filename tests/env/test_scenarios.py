@@ -370,12 +370,16 @@ def test_rock_founder_points_lie_in_the_field_range_harder_rock_later():
     assert founders == sorted(founders) and len(set(founders)) == 3
 
 
-def test_env_config_refuses_an_empty_set_point_range():
-    # EnvConfig: the high end must exceed the low end
+@pytest.mark.parametrize("name, ends", [("rpm_range", (100.0, 100.0)),
+                                         ("weight_on_bit_range", (100e3, 100e3)),
+                                         ("weight_on_bit_range", (150e3, 100e3))])
+def test_env_config_refuses_an_empty_set_point_range(name, ends):
+    """EnvConfig.__post_init__: of either set-point range, the high end must exceed the
+    low end; the error names the range."""
     from drill_env.env_config import EnvConfig
 
-    with pytest.raises(ValueError, match="high end must exceed"):
-        EnvConfig(rpm_range=(100.0, 100.0))
+    with pytest.raises(ValueError, match=f"^{name}: the high end must exceed"):
+        EnvConfig(**{name: ends})
 
 
 def test_start_ranges_are_ordered_and_the_default_is_cut_to_the_action_range():
@@ -393,6 +397,19 @@ def test_start_ranges_are_ordered_and_the_default_is_cut_to_the_action_range():
     starts = [env.reset(seed=s)[1]["speed_setpoint"] / RPM for s in range(6)]
     assert all(40.0 - 1e-6 <= v <= 100.0 + 1e-6 for v in starts)
     assert not any(v > 100.0 - 1e-6 for v in starts)  # a uniform draw, none on the edge
+
+
+def test_an_action_range_that_touches_the_scenarios_start_range_starts_at_the_touch():
+    """env_config.start_ranges refuses only an action range that misses the scenario's
+    own start draws: ``rpm_range`` ending where ``random``'s own 40-160 rpm begins meets
+    it in one point, and the start is drawn there."""
+    import inspect
+
+    from drill_env.env_config import EnvConfig, start_ranges
+
+    own_low = inspect.signature(scenarios.random).parameters["rpm_range"].default[0]
+    got = start_ranges("random", {}, EnvConfig(rpm_range=(0.0, own_low)))
+    assert got["rpm_range"] == (own_low, own_low)
 
 
 def test_random_scenario_needs_a_pipe_joint_beyond_the_bha():

@@ -70,6 +70,14 @@ def test_batched_env_matches_single_envs_bit_for_bit(scenario):
                                                                 episode_duration=0.5))
 
 
+def test_a_control_step_longer_than_the_metric_window_batches_as_single_envs():
+    """A step's records must fit the window's buffer (batching: the batch reserves each
+    window's room before its compiled call, as ``RollingMetrics.update`` does alone):
+    0.5 s steps bring 25 records to a 0.1 s window of 5, whose buffer holds 10."""
+    assert_batch_follows_single_envs(actions_for(3), 10, episode_duration=5.0,
+                                     control_interval=0.5, metric_window=0.1)
+
+
 def test_batched_env_matches_single_envs_across_autoresets():
     """After an autoreset each env has a new metric window (and, randomised, a new
     simulator): the batch must re-point its slots and still follow the single envs."""
@@ -734,9 +742,12 @@ def test_a_batch_call_uses_no_more_threads_than_envs_that_run(monkeypatch):
 
     from drill_env.batching import EnvBatch
 
-    threads = numba.get_num_threads()
+    # numba's pool, not get_num_threads(): an earlier batch call that left the count at
+    # one (the failure this test is about) made it skip
+    threads = numba.config.NUMBA_NUM_THREADS
     if threads < 2:
         pytest.skip("one numba thread: nothing to limit")
+    numba.set_num_threads(threads)  # (the count a process starts with)
     calls = []
     set_threads = numba.set_num_threads
     monkeypatch.setattr(numba, "set_num_threads", lambda n: (calls.append(n), set_threads(n)))
