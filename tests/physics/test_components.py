@@ -3,6 +3,8 @@ point against statics, the legacy two-section config unchanged, realistic defaul
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from reference_solutions import transfer_matrix_frequency
@@ -72,6 +74,9 @@ def test_component_loads_follow_archimedes_and_the_hook_load():
     total = sum(c.buoyed_weight for c in loads)
     bit = config.bit.mass * GRAVITY * factor
     assert loads[-1].force_top == pytest.approx(total + bit - wob, rel=1e-9)
+    # the simulator's hook load for that WOB (fem.buoyed_string_weight: "hook load with
+    # the bit off bottom", the bit's weight in mud included)
+    assert Simulator(config).hook_load_for(wob) == pytest.approx(total + bit - wob, rel=1e-9)
     assert sum(c.length for c in loads) == pytest.approx(config.string.length)
     height = neutral_point_height(config, wob)
     bottom_height = np.cumsum([0.0] + [c.length for c in loads])
@@ -115,6 +120,9 @@ def test_stabilizer_components_touch_the_wall_at_their_blades():
     sim = Simulator(SimulationConfig(string=cp.realistic_string()))
     blade = cp.STABILIZER_8_3_4 / 2
     hole = sim.config.string.hole_diameter / 2
+    # components.py: blades 1/8 in under the 8 3/4 in hole, 1/16 in each side
+    assert hole == pytest.approx(8.75 * INCH / 2, rel=1e-12)
+    assert hole - blade == pytest.approx(INCH / 16, rel=1e-9)
     assert np.sum(np.isclose(sim.node_clearance, hole - blade)) == 5  # one node each
     assert sim.node_clearance.min() == pytest.approx(hole - blade)
 
@@ -317,13 +325,21 @@ def test_a_stabilizer_narrower_than_its_body_is_refused_by_name():
     with pytest.raises(ValueError, match=r"stabilizers\[0\]: 5000.0 m above the bit is "
                                          "outside the 1035.0 m string"):
         StringConfig(stabilizers=(5000.0,))
+    # at the string's top end too: the pinned surface node, where none is placed
+    with pytest.raises(ValueError, match=r"stabilizers\[0\]: 1035.0 m above the bit is "
+                                         "outside the 1035.0 m string"):
+        StringConfig(stabilizers=(1035.0,))
     # nearest the bit's node (1 m elements at the bit): the bit's gauge touches there, and
     # the stabilizer was dropped without a word; said (not refused: the paper BHA's 1 m
     # default meets it on a coarser mesh)
     with pytest.warns(UserWarning, match=r"stabilizers\[0\]: 0.3 m above the bit is nearest "
                                          r"the bit's node .* it is not modelled"):
         StringConfig(stabilizers=(0.3,))
-    assert StringConfig(stabilizers=(0.5,)).stabilizers == (0.5,)  # the node above takes it
+    with warnings.catch_warnings():  # at half an element the node above takes it: no word
+        warnings.simplefilter("error")
+        assert StringConfig(stabilizers=(0.5,)).stabilizers == (0.5,)
+    # blades as wide as the 6 1/2 in collars they sit on are no narrower: accepted
+    assert StringConfig(stabilizer_diameter=6.5 * INCH).stabilizer_diameter == 6.5 * INCH
     # on the pipe above a 35 m BHA a 6 in stabilizer is wider than the 5 in body: accepted,
     # also at 34.6 m, whose nearest node (35 m) carries the pipe
     assert StringConfig(stabilizers=(100.0,), stabilizer_diameter=6 * INCH).stabilizers
@@ -340,6 +356,23 @@ def test_tube_presets_weigh_what_the_api_tables_list(make, lb_per_ft):
     tube = make(30.0)
     kg_per_m = tube.density * tube.area
     assert kg_per_m / 1.48816 == pytest.approx(lb_per_ft, abs=1.0)  # 1 lb/ft = 1.48816 kg/m
+
+
+@pytest.mark.parametrize("make, size", [
+    (cp.heavy_weight_5, (5.0, 3.0)),
+    (lambda length: cp.stabilizer(length=length), (6.5, 2.8125)),
+    (cp.mwd, (6.75, 3.25)),
+    (cp.jar, (6.5, 2.75)),
+    (cp.bit_sub, (6.5, 2.8125)),
+], ids=["HWDP", "stabilizer", "MWD", "jar", "bit sub"])
+def test_tool_and_hwdp_bodies_weigh_the_steel_tube_their_docstrings_name(make, size):
+    """Each preset's body is the tube its docstring names (OD x ID, in), so it weighs
+    2.67 (OD^2 - ID^2) lb/ft, the plain steel-tube formula behind API RP 7G's collar
+    table (490 lb/ft^3 steel): to 0.2 %, its 7850 kg/m^3 being 0.1 % off that."""
+    tube = make(30.0)
+    od, bore = size
+    assert tube.density * tube.area / 1.48816 == pytest.approx(2.67 * (od**2 - bore**2),
+                                                              rel=2e-3)
 
 
 @pytest.mark.parametrize("make, size, listed", [(cp.drill_pipe_5, (5.0, 0.362), 17.93),
@@ -367,3 +400,13 @@ def test_buoyed_weight_takes_the_mud_s_buoyancy_factor():
     mud = 10.0 * 119.826  # 10 ppg in kg/m^3
     assert cp.buoyed_weight(components, mud) == pytest.approx(air * (1 - 10.0 / 65.5),
                                                               rel=1e-3)
+
+
+@pytest.mark.parametrize("total_length", [247.5, 200.0])
+def test_a_realistic_string_with_no_room_for_drill_pipe_is_refused_by_total_length(
+        total_length):
+    """components.py: the 107.5 m packed BHA and 140 m of HWDP leave no drill pipe in a
+    string of 247.5 m or less: refused naming ``total_length``, not the pipe's length."""
+    with pytest.raises(ValueError, match=rf"^total_length: {total_length} m leaves no room "
+                                         r"for the drill pipe above 248 m of BHA and HWDP"):
+        cp.realistic_string(total_length)

@@ -272,6 +272,17 @@ def test_interfaces_that_cross_under_the_bit_are_refused_where_the_planes_meet(a
     formation.formation_arrays(config(0.0, 0.0), 2 * radius)  # a layer of no thickness
 
 
+def test_a_crossing_under_a_dipping_plane_is_placed_on_that_plane() -> None:
+    """The refusal's place (``_check_order_under_the_bit``: where the line the planes
+    share passes closest to the axis), with the upper plane dipping: z = 100 + x (45 deg
+    toward north) meets a flat plane at 100.05 m along x = 0.05 m, at 100.05 m depth."""
+    cfg = FormationConfig(rocks=(RockConfig(), RockConfig(), RockConfig()),
+                          interfaces=(Interface(100.0, 45.0, 0.0), Interface(100.05, 0.0)),
+                          layers=(0, 1, 2))
+    with pytest.raises(ValueError, match=r"\(0.05 m from it, at 100.05 m measured depth\)"):
+        formation.formation_arrays(cfg, 0.2)
+
+
 def test_an_interface_across_a_hole_makes_its_dip_with_the_hole_axis() -> None:
     """:func:`across_the_hole`: the true plane's normal makes the given dip with the hole's
     tangent (any direction), the plane's depth along the hole is kept, and in a vertical

@@ -34,13 +34,20 @@ def test_a_string_compressed_all_the_way_up_has_its_neutral_point_at_the_top() -
 
 def test_the_top_section_is_checked_as_pipe_whatever_its_kind() -> None:
     """A drill pipe built without ``kind`` ("other") buckles at the same WOB as the
-    default drill pipe: the top of a string is pipe."""
+    default drill pipe, and 14 km of it is past S-135's allowable tension as the named
+    pipe is (``over_allowable_tension``'s docstring): the top of a string is pipe."""
+    from drill_env.physics.statics import over_allowable_tension
+
     pipe = SimulationConfig().string.drill_pipe
     unnamed = Section(length=pipe.length, outer_diameter=pipe.outer_diameter,
                       inner_diameter=pipe.inner_diameter, element_length=pipe.element_length)
     assert unnamed.kind != pipe.kind
     assert pipe_buckling(SimulationConfig(), 100e3)
     assert pipe_buckling(SimulationConfig(string=StringConfig(drill_pipe=unnamed)), 100e3)
+    for top in (replace(pipe, length=14e3), replace(unnamed, length=14e3)):
+        over = over_allowable_tension(SimulationConfig(string=StringConfig(drill_pipe=top)),
+                                      0.0)
+        assert [o.component for o in over] == [top.label]
 
 
 def test_the_mesh_refinement_error_names_the_component_it_found_too_coarse() -> None:
