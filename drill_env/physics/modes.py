@@ -43,6 +43,7 @@ from drill_env.physics.fem import (
     build_mesh,
     mud_torsional_damping,
 )
+from drill_env.physics.linalg import one_blas_thread
 from drill_env.physics.statics import (  # noqa: F401  (re-exported for the CLI)
     PIPE_KINDS,
     bit_buoyed_weight,
@@ -87,7 +88,8 @@ def _damped(k: np.ndarray, c: np.ndarray, m: np.ndarray, n_modes: int
     a[:n, n:] = np.eye(n)
     a[n:, :n] = -m_inv[:, None] * k
     a[n:, n:] = -m_inv[:, None] * c
-    lam, vec = scipy.linalg.eig(a)
+    with one_blas_thread():
+        lam, vec = scipy.linalg.eig(a)
     keep = lam.imag > 1e-9  # one of each conjugate pair; overdamped modes dropped
     lam, vec = lam[keep], vec[:n, keep]
     order = np.argsort(np.abs(lam))[:n_modes]
@@ -106,7 +108,8 @@ def overdamped_modes(k: np.ndarray, c: np.ndarray, m: np.ndarray, below: float
     that :func:`_damped` drops as overdamped: the undamped modes ``K phi = w^2 M phi``
     whose modal damping ``phi' C phi / (2 w)`` (mass-normalised ``phi``; exact for
     proportional damping) is at least 1."""
-    w2, phi = scipy.linalg.eigh(k, np.diag(m))
+    with one_blas_thread():
+        w2, phi = scipy.linalg.eigh(k, np.diag(m))
     w = np.sqrt(np.maximum(w2, 0.0))
     ratio = np.einsum("ij,ik,kj->j", phi, c, phi) / np.maximum(2.0 * w, 1e-300)
     hz = w / (2 * math.pi)
@@ -264,7 +267,8 @@ def _straight_stable(cfg: SimulationConfig, weight_on_bit: float, supports: Late
     string stable at ``weight_on_bit``."""
     k, kg, _, free, _, _ = _lateral_system(cfg, weight_on_bit, supports, region)
     ix = np.ix_(free, free)
-    return bool(np.linalg.eigvalsh((k + kg)[ix])[0] > 0.0)
+    with one_blas_thread():
+        return bool(np.linalg.eigvalsh((k + kg)[ix])[0] > 0.0)
 
 
 def lateral_buckling_weight(config: SimulationConfig, supports: LateralSupports = "stabilizers",
@@ -304,7 +308,9 @@ def lateral_modes(config: SimulationConfig, weight_on_bit: float = 0.0,
     c = cfg.damping.mass_proportional * np.diag(m) + cfg.damping.stiffness_proportional * \
         (k - kg)
     ix = np.ix_(free, free)
-    if np.linalg.eigvalsh(k[ix])[0] <= 0.0:
+    with one_blas_thread():
+        lowest = np.linalg.eigvalsh(k[ix])[0]
+    if lowest <= 0.0:
         limit = lateral_buckling_weight(cfg, supports, region)
         raise ValueError(f"weight_on_bit: {weight_on_bit / 1e3:.0f} kN buckles the "
                          f"{'BHA' if region == 'bha' else 'string'} (K + K_g is not positive "
@@ -328,7 +334,9 @@ def lateral_modes(config: SimulationConfig, weight_on_bit: float = 0.0,
 
 def undamped_frequencies(k: np.ndarray, m: np.ndarray, n_modes: int) -> np.ndarray:
     """The ``n_modes`` lowest natural frequencies (Hz) of ``K phi = w^2 diag(m) phi``."""
-    w2 = scipy.linalg.eigh(k, np.diag(m), eigvals_only=True, subset_by_index=[0, n_modes - 1])
+    with one_blas_thread():
+        w2 = scipy.linalg.eigh(k, np.diag(m), eigvals_only=True,
+                               subset_by_index=[0, n_modes - 1])
     return np.sqrt(np.maximum(w2, 0.0)) / (2 * math.pi)
 
 
@@ -345,7 +353,8 @@ class CriticalSpeed:
 def excitations(config: SimulationConfig, kind: str = "lateral") -> list[tuple[str, float]]:
     """(name, excitation frequency per rev/s) of a rotating string. Lateral modes: 1x
     (imbalance, a bent collar), the blade count (the bit's blades passing), and backward
-    whirl of the bit and of the largest BHA body rolling on the wall. Torsional modes:
+    whirl of the bit and of the largest BHA body rolling on the wall (of those that touch
+    it with their body: a stabilizer's blades do not roll). Torsional modes:
     the blade count (the bit's torque fluctuating as the blades pass)."""
     cfg = config.resolved()
     if kind == "torsional":
@@ -354,7 +363,10 @@ def excitations(config: SimulationConfig, kind: str = "lateral") -> list[tuple[s
     hole = cfg.string.hole_diameter / 2
     bit_radius = cfg.bit.gauge_radius
     out.append(("backward whirl (bit)", bit_radius / cfg.bit.gauge_clearance))
-    body = max(cfg.string.lower, key=lambda s: s.outer_diameter)
+    # a stabilizer touches with its blades, not its body (a new user's trial: a stabilizer
+    # whose body tied with the collars' named the line and gave the collars' ratio)
+    rolling = [s for s in cfg.string.lower if s.wall_diameter == s.outer_diameter]
+    body = max(rolling or cfg.string.lower, key=lambda s: s.outer_diameter)
     clearance = hole - body.outer_diameter / 2
     out.append((f"backward whirl ({body.label})", body.outer_diameter / 2 / clearance))
     return out

@@ -20,6 +20,7 @@ from scipy.optimize import brentq
 
 from drill_env.physics.fem import from_band
 from drill_env.physics.formation import Rock
+from drill_env.physics.linalg import one_blas_thread
 
 
 def resistance_slope(omega: float, mu_min: float, mu_max: float, st1: float,
@@ -75,7 +76,8 @@ def _bit_damping(sim, omega: float, weight_on_bit: float, rock: int) -> float:
 def _largest_real(a: np.ndarray, n: int) -> float:
     """The largest real part of the eigenvalues of ``a``, the system over the ``n``
     angles, ``n`` speeds and the feedback's states."""
-    eig = scipy.linalg.eigvals(a)
+    with one_blas_thread():
+        eig = scipy.linalg.eigvals(a)
     if a.shape[0] > 2 * n:  # the feedback's integral q and the angles share one motion:
         # the string turned by c and q by -c / g leave every force as it was, a zero
         # eigenvalue of the model, not of the drive (its speed loop holds th0 + g q)
@@ -131,8 +133,9 @@ def string_modes(sim, n_modes: int) -> np.ndarray:
     for d in range(band.shape[0]):  # J^-1/2 K J^-1/2, still banded (lower: [d, i] = K[i+d, i])
         scaled[d, : n - d] = band[d, : n - d] * scale[: n - d] * scale[d:]
     m = min(n_modes, n)
-    _, vectors = scipy.linalg.eig_banded(scaled, lower=True, select="i",
-                                         select_range=(0, m - 1))
+    with one_blas_thread():
+        _, vectors = scipy.linalg.eig_banded(scaled, lower=True, select="i",
+                                             select_range=(0, m - 1))
     return scale[:, None] * vectors
 
 

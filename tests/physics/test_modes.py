@@ -18,6 +18,7 @@ from drill_env.physics.config import (
     BitConfig,
     DampingConfig,
     MudConfig,
+    Section,
     SimulationConfig,
     StringConfig,
     replace,
@@ -511,6 +512,20 @@ def test_backward_whirl_excitations_are_rolling_without_slip():
     assert body == ["backward whirl (MWD)"]
     assert per_rev["backward whirl (MWD)"] == pytest.approx(3.375 / 1.0, rel=1e-12)
     assert dict(excitations(config, "torsional")) == {"6x (blades)": 6.0}
+    # a near-bit stabilizer whose 8 in body ties with the 8 in collars' named the line (a
+    # new user's trial): its blades touch the wall, not its body; the collars roll
+    inch = 0.0254
+    stab = Section(kind="stabilizer", name="near-bit stab", length=1.8, element_length=1.8,
+                   outer_diameter=8 * inch, inner_diameter=2.8125 * inch,
+                   contact_diameter=12.125 * inch)
+    collars = Section(kind="collar", name="8 in DC", length=54.0, element_length=3.0,
+                      outer_diameter=8 * inch, inner_diameter=2.8125 * inch)
+    big = SimulationConfig(string=StringConfig(hole_diameter=12.25 * inch, components=(
+        stab, collars), drill_pipe=replace(SimulationConfig().string.drill_pipe,
+                                           length=1000.0)), bit=BitConfig(diameter=12.25 * inch))
+    per_rev = dict(excitations(big))
+    assert per_rev["backward whirl (8 in DC)"] == pytest.approx(4.0 / (6.125 - 4.0), rel=1e-12)
+    assert "backward whirl (near-bit stab)" not in per_rev
 
 
 def test_critical_speeds_are_where_the_excitations_meet_the_modes():
@@ -820,3 +835,40 @@ def test_modes_with_a_torque_feedback_drive_say_the_feedback_is_left_out():
         modes = torsional_modes(replace(SimulationConfig(), **{
             "top_drive.controller": "soft_speed"}), "top_drive")
     assert "not modelled" not in modes.boundary
+
+
+def test_the_dense_eigenproblems_run_on_one_blas_thread(monkeypatch):
+    """physics.linalg.one_blas_thread: the modal analysis, the stability threshold and the
+    soft controllers' tuning frequency solve dense eigenproblems of a few hundred rows on
+    one BLAS thread; on OpenBLAS's threads ``drill-env modes`` took 15-128 s where one
+    thread takes ~4.5 s, on a 2-core machine another job shared (a new user's trial)."""
+    from threadpoolctl import threadpool_info
+
+    from drill_env.physics import top_drive
+    from drill_env.physics.simulator import Simulator
+    from drill_env.physics.stability import stick_slip_threshold
+
+    if not any(i["user_api"] == "blas" for i in threadpool_info()):
+        pytest.skip("no BLAS library that threadpoolctl can see")
+    seen: list[tuple[str, list[int]]] = []
+
+    def count(module, name):
+        real = getattr(module, name)
+
+        def call(*args, **kwargs):
+            seen.append((name, [i["num_threads"] for i in threadpool_info()
+                                if i["user_api"] == "blas"]))
+            return real(*args, **kwargs)
+        monkeypatch.setattr(module, name, call)
+
+    for name in ("eig", "eigh", "eigvals", "eig_banded"):
+        count(scipy.linalg, name)
+    count(np.linalg, "eigvalsh")
+    config = SimulationConfig()
+    torsional_modes(config)
+    lateral_modes(config, 50e3)
+    top_drive.stick_slip_frequency.cache_clear()
+    top_drive.stick_slip_frequency(config)
+    stick_slip_threshold(Simulator(config), 100e3)
+    assert {name for name, _ in seen} >= {"eig", "eigh", "eigvals", "eigvalsh"}
+    assert all(threads and set(threads) == {1} for _, threads in seen), seen
