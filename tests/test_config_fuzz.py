@@ -257,6 +257,12 @@ def test_a_typo_in_a_section_of_a_list_lists_that_sections_fields():
     # refused by a field the file never set (a new user's walkthrough): it says why
     ("default", {"bit.diameter": 0.1}, r"^bit\.face_end\[0\]: 0\.07 m lies beyond the "
      r"gauge radius .*needs its own face_end \(the default is the 8\.75 in bit's\)"),
+    # a misspelt word of a field that takes words got the list but no suggestion, where a
+    # misspelt field name gets one (a new user's trial: kind colar, stabiliser)
+    ("default", {"string.components[1].kind": "colar"}, r"^string\.components\[1\]\.kind: "
+     r"Input should be .*, got 'colar' \(did you mean collar\?\)"),
+    ("default", {"solver.fidelity": "fastt"}, r"^solver\.fidelity: .*, got 'fastt' \(did you "
+     r"mean fast\?\)"),
 ])
 def test_a_dotted_path_error_names_what_the_user_typed(scenario, physics, message):
     from drill_env.env import DrillStringEnv
@@ -320,11 +326,14 @@ def test_a_bound_broken_by_a_field_with_a_unit_says_the_unit(path, value, unit):
     assert "(" not in str(caught.value).partition("got")[2]
 
 
-@pytest.mark.parametrize("density, warned", [  # 1 US gal = 3.785412 L, 1 lb = 0.4535924 kg
-    (10.0, "1,198 kg/m^3"), (19.5, "2,337 kg/m^3"), (1.2, ""), (1200.0, ""), (2100.0, "")])
-def test_a_mud_density_typed_in_ppg_is_warned_of(density, warned):
+@pytest.mark.parametrize("density, warned, unit", [  # 1 US gal = 3.785412 L, 1 lb = 0.4535924 kg
+    (10.0, "1,198 kg/m^3", "ppg"), (19.5, "2,337 kg/m^3", "ppg"),
+    (1.5, "1,500 kg/m^3", "specific gravity"), (1.2, "1,200 kg/m^3", "specific gravity"),
+    (0.1, "", ""), (1200.0, "", ""), (2100.0, "", "")])
+def test_a_mud_density_typed_in_ppg_or_as_sg_is_warned_of(density, warned, unit):
     """10 (ppg, typed for 1,198 kg/m^3) was accepted silently: the string then drills
-    without buoyancy. It warns with the conversion; air (1.2) and real muds do not."""
+    without buoyancy; so was 1.5 (a specific gravity, a new user's trial). Each warns with
+    its conversion (air at the surface, 1.2, with them: it says so); real muds do not."""
     import warnings
 
     with warnings.catch_warnings(record=True) as seen:
@@ -334,7 +343,25 @@ def test_a_mud_density_typed_in_ppg_is_warned_of(density, warned):
     assert config.mud.density == density  # a warning, not a refusal: air at depth is light
     assert bool(said) == bool(warned)
     if warned:
-        assert warned in said[0] and "ppg" in said[0]
+        assert warned in said[0] and unit in said[0]
+
+
+@pytest.mark.parametrize("torque, warned", [(50.0, "50 kN m = 50,000 N m"), (999.0, "999 kN m"),
+                                            (1000.0, ""), (50e3, "")])
+def test_a_top_drive_torque_typed_in_knm_is_warned_of(torque, warned):
+    """top_drive.max_torque 50 (kN m, typed for 50,000 N m) stalled the drive without a
+    word, which read as stick-slip (a new user's trial): below 1 kN m it warns with the
+    conversion; a drive's real ratings do not."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        config = replace(SimulationConfig(), **{"top_drive.max_torque": torque})
+    said = [str(w.message) for w in seen if "max_torque" in str(w.message)]
+    assert config.top_drive.max_torque == torque  # a warning: a model drive may be small
+    assert bool(said) == bool(warned)
+    if warned:
+        assert said[0].startswith("top_drive.max_torque: ") and warned in said[0]
 
 
 def test_a_mud_heavier_than_the_lightest_section_is_refused():
@@ -395,8 +422,27 @@ def test_a_smaller_hole_names_the_default_bit_it_meets():
         replace(SimulationConfig(), **{"string.hole_diameter": 8.5 * 0.0254,
                                        "string.stabilizer_diameter": 0.21})
     said = str(caught.value)
-    assert said.startswith("bit.diameter: ") and "default: 8 3/4 in" in said
+    assert said.startswith("bit.diameter: ") and "the default bit is 8 3/4 in" in said
     assert "set it for this hole" in said
+
+
+@pytest.mark.parametrize("hole_in, bit_in, warned", [(12.25, 8.75, True), (8.75, 8.75, False),
+                                                     (9.7, 8.75, False), (9.8, 8.75, True)])
+def test_a_bit_well_under_its_hole_is_warned_of(hole_in, bit_in, warned):
+    """A new user's 12 1/4 in hole was drilled on by the default 8 3/4 in bit without a
+    word: a bit drills a hole of its own size, so more than an inch under it
+    (validation.BIT_UNDER_HOLE) is said, naming bit.diameter; a washout's fraction of an
+    inch is not."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        replace(SimulationConfig(), **{"string.hole_diameter": hole_in * 0.0254,
+                                       "bit.diameter": bit_in * 0.0254})
+    said = [str(w.message) for w in seen if str(w.message).startswith("bit.diameter: ")]
+    assert bool(said) == warned
+    if warned:
+        assert f"{hole_in - bit_in:.3g} in under string.hole_diameter" in said[0]
 
 
 def test_a_survey_missing_a_field_names_the_field_missing():

@@ -22,11 +22,13 @@ from drill_env.physics.units import GRAVITY, INCH
 from drill_env.physics.validation import (
     ConfigError,
     Count,
+    DriveTorque,
     Finite,
     FluidDensity,
     NonNegative,
     Positive,
     StrictBool,
+    check_bit_in_hole,
     config_dataclass,
     flatten,
     from_dict,
@@ -98,9 +100,8 @@ class Section:
         _require(self.inner_diameter < self.outer_diameter, "inner_diameter",
                  f"must be smaller than outer_diameter ({self.outer_diameter} m), got "
                  f"{self.inner_diameter} m")
-        _require(self.element_length <= self.length, "element_length",
-                 f"must not exceed the section length ({self.length} m), got "
-                 f"{self.element_length} m")
+        _require(self.element_length <= self.length, "element_length", "must not exceed "
+                 f"the section length ({self.length} m), got {self.element_length} m")
         _require(self.n_elements <= MAX_ELEMENTS, "element_length",
                  f"{self.length} m / {self.element_length} m gives {self.n_elements} "
                  f"elements, more than {MAX_ELEMENTS}")
@@ -257,8 +258,8 @@ class StringConfig:
 class MudConfig:
     """Drilling fluid: buoyancy, added lateral mass and viscous torsional drag."""
 
-    #: 10 ppg water-based mud (kg/m^3: 5-25 warns, a mud typed in ppg). Must be lighter
-    #: than the string (checked by SimulationConfig): a string lighter than its mud floats.
+    #: 10 ppg water-based mud (kg/m^3: 0.5-3 and 5-25 warn, typed as SG, in ppg). Lighter
+    #: than the string (SimulationConfig checks it): a string lighter than its mud floats.
     density: FluidDensity = Field(default=1200.0, le=MAX_MUD_DENSITY)
     #: Added-mass coefficient of the displaced fluid for lateral motion; 1.0 is the
     #: potential-flow value for a cylinder in unbounded fluid (confinement raises it).
@@ -361,8 +362,8 @@ class TopDriveConfig:
     filter_frequency: Annotated[Positive, Field(le=100.0)] | None = None
     #: Damping ratio of the band-pass: its -3 dB band is 2 zeta f wide.
     filter_damping: Positive = Field(default=0.5, le=10.0)
-    #: Continuous torque rating of a mid-size top drive (N m).
-    max_torque: Positive = Field(default=50.0e3, le=1.0e6)
+    #: Continuous torque rating of a mid-size top drive (N m; below 1,000 warns: in kN m?).
+    max_torque: DriveTorque = Field(default=50.0e3, le=1.0e6)
     #: Rate limit of the speed set point (rad/s^2): 0 -> 150 rpm in ~5 s (tests: 1e4).
     max_acceleration: Positive = Field(default=3.0, le=1.0e6)
 
@@ -666,9 +667,7 @@ class SimulationConfig:
     initial_depth: Annotated[Finite, Field(ge=0.0, le=1.0e5)] | None = None
 
     def __post_init__(self) -> None:
-        _require(self.bit.diameter <= self.string.hole_diameter + 1e-12, "bit.diameter",
-                 f"{self.bit.diameter} m (default: 8 3/4 in) must not exceed string.hole_"
-                 f"diameter ({self.string.hole_diameter} m); set it for this hole")
+        check_bit_in_hole(self.bit.diameter, self.string.hole_diameter)
         lightest = min(s.density for s in self.string.sections)
         _require(self.mud.density < lightest, "mud.density",
                  f"{self.mud.density} kg/m^3 must be below the density of the string "

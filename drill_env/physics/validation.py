@@ -86,12 +86,56 @@ Count = Annotated[int, BeforeValidator(_integer), Strict()]
 PPG_LIKE = (5.0, 25.0)
 
 
+#: Densities (kg/m^3) that are a mud's specific gravity (g/cm^3) typed as kg/m^3: 0.5-3
+#: spans foam to the heaviest muds (a new user's 1.5 ran the string in near vacuum); air
+#: at the surface is as light, so a warning too.
+SG_LIKE = (0.5, 3.0)
+
+
 def _mud_density(value: float) -> float:
     if PPG_LIKE[0] <= value <= PPG_LIKE[1]:  # (said at the user's line, not pydantic's)
         warnings.warn(f"mud.density: {value:g} kg/m^3 is as light as air or mist; a mud "
                       f"of {value:g} ppg is {value * 119.826:,.0f} kg/m^3 (the density is "
                       "in kg/m^3)", UserWarning, stacklevel=caller_outside())
+    elif SG_LIKE[0] <= value <= SG_LIKE[1]:
+        warnings.warn(f"mud.density: {value:g} kg/m^3 is air's; a mud of specific gravity "
+                      f"{value:g} is {value * 1e3:,.0f} kg/m^3 (the density is in kg/m^3; "
+                      "drilling with air, leave it)", UserWarning, stacklevel=caller_outside())
     return value
+
+
+#: Least continuous torque (N m) of a top drive: the smallest give ~10 kN m, so a rating
+#: below this is one typed in kN m (a new user's 50 stalled the drive, which read as
+#: stick-slip); a warning, as a model drive may be that small.
+DRIVE_TORQUE_LIKE = 1.0e3
+
+
+def _drive_torque(value: float) -> float:
+    if value < DRIVE_TORQUE_LIKE:
+        warnings.warn(f"top_drive.max_torque: {value:g} N m is no top drive's (they give "
+                      f"10-100 kN m); typed in kN m? {value:g} kN m = {value * 1e3:,.0f} N m "
+                      "(the torque is in N m)", UserWarning, stacklevel=caller_outside())
+    return value
+
+
+#: How far (m) a bit may be under its hole before it is said: a bit drills a hole of its
+#: own size, which a washout widens by a fraction of an inch; an inch is no washout.
+BIT_UNDER_HOLE = 0.0254
+
+
+def check_bit_in_hole(bit: float, hole: float) -> None:
+    """ValueError naming ``bit.diameter`` where the bit (m) is larger than the hole; a
+    warning where it is more than :data:`BIT_UNDER_HOLE` smaller (a new user's 12 1/4 in
+    hole drilled on by the default 8 3/4 in bit without a word)."""
+    if bit > hole + 1e-12:
+        raise ValueError(f"bit.diameter: {bit} m must not exceed string.hole_diameter "
+                         f"({hole} m); set it for this hole (the default bit is 8 3/4 in)")
+    if bit < hole - BIT_UNDER_HOLE:
+        warnings.warn(f"bit.diameter: {bit:.4g} m ({bit / 0.0254:.4g} in) is "
+                      f"{(hole - bit) / 0.0254:.3g} in under string.hole_diameter ({hole:.4g} "
+                      f"m): a bit drills a hole of its own size; set bit.diameter for this "
+                      "hole (the default bit is 8 3/4 in)", UserWarning,
+                      stacklevel=caller_outside())
 
 
 def caller_outside(packages: tuple[str, ...] = ("drill_env", "gymnasium", "pydantic")
@@ -108,8 +152,10 @@ def caller_outside(packages: tuple[str, ...] = ("drill_env", "gymnasium", "pydan
     return level
 
 
-#: A fluid density (kg/m^3) that warns when it looks typed in ppg.
+#: A fluid density (kg/m^3) that warns when it looks typed in ppg or as SG.
 FluidDensity = Annotated[NonNegative, AfterValidator(_mud_density)]
+#: A top drive's torque rating (N m) that warns when it looks typed in kN m.
+DriveTorque = Annotated[Positive, AfterValidator(_drive_torque)]
 
 _CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, revalidate_instances="never",
                      arbitrary_types_allowed=True)
@@ -245,6 +291,9 @@ def _error_text(err: ValidationError, prefix: str = "", root: Any = None) -> str
         if not value_error and "input" in e and not isinstance(e["input"], Mapping) and \
                 type(e["input"]).__name__ != "ArgsKwargs":
             text += f", got {e['input']!r}" + _unit_hint(loc, e["type"])
+            if e["type"] == "literal_error" and isinstance(e["input"], str):  # kind: colar
+                text += did_you_mean(e["input"], [str(v) for v in re.findall(
+                    r"'([^']*)'", str(e.get("ctx", {}).get("expected", "")))])
         if isinstance(e.get("input"), bool) and (
                 e["type"] in ("literal_error", "string_type", "enum")
                 or value_error and "must be one of" in msg):
