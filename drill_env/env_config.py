@@ -268,7 +268,8 @@ def warn_above_limit(where: str, wob: float, limit: float) -> None:
         warnings.warn(f"{where}weight_on_bit: {wob / 1e3:.4g} kN is above this string's "
                       f"weight_on_bit_limit, {limit / 1e3:.4g} kN, the largest WOB its mesh "
                       "resolves (info['weight_on_bit_limit']; EnvConfig."
-                      "limit_weight_on_bit_to_mesh): the bit gets at most that",
+                      "limit_weight_on_bit_to_mesh): the bit gets at most that (shorter "
+                      "elements of the pipe it compresses, its element_length, raise it)",
                       RuntimeWarning, stacklevel=caller_outside())
 
 

@@ -183,6 +183,35 @@ def test_run_notes_a_wob_that_buckles_the_pipe(tmp_path, capsys):
     assert "note:" not in capsys.readouterr().err
 
 
+def test_run_judges_buckling_at_the_wob_the_mesh_limit_leaves(tmp_path, capsys):
+    """A new user's trial: in an 80 deg hole whose 10 m pipe elements resolve at most
+    ~162 kN, --wob 170 was noted as buckling the pipe, where the bit got the limit and the
+    run was the same as one at the limit, without buckling. The note judges the WOB the bit
+    gets; the limit's warning says how to raise it."""
+    import yaml
+
+    string = {"drill_pipe": {"kind": "drill_pipe", "length": 2000.0, "element_length": 10.0,
+                             "outer_diameter": 0.1397, "inner_diameter": 0.12136}}
+    config = tmp_path / "well.yaml"
+    config.write_text(yaml.safe_dump({"string": string, "mud": {"density": 1500.0}, "well": {
+        "md": [0, 300, 1100, 2400], "inclination": [0, 0, 80, 80],
+        "azimuth": [0, 0, 90, 90]}}))
+    with pytest.warns(RuntimeWarning, match="weight_on_bit_limit") as said:
+        assert main(["run", "--config", str(config), "--wob", "200", "--duration", "0.2",
+                     "--out", str(tmp_path)]) == 0
+    warned = " ".join(str(w.message) for w in said)
+    limit = float(re.search(r"weight_on_bit_limit, ([0-9.]+) kN", warned).group(1))
+    assert limit < 200 and "its element_length, raise it" in warned
+    err = capsys.readouterr().err
+    from drill_env.physics.statics import pipe_buckling
+    from drill_env.scenarios import make_scenario, with_physics
+
+    physics = yaml.safe_load(config.read_text())
+    sim_config = with_physics(make_scenario("default").config, physics)
+    assert pipe_buckling(sim_config, 200e3) and not pipe_buckling(sim_config, limit * 1e3)
+    assert "buckles into the wall" not in err  # (judged at the limit, which does not buckle)
+
+
 def test_a_wob_given_is_the_one_the_scenario_checks_for_buckling(tmp_path, capsys,
                                                                    monkeypatch):
     """On a horizontal well the scenario's own 100 kN buckles the pipe: `run` and
@@ -317,6 +346,9 @@ def test_run_names_an_unknown_scenario(capsys):
 @pytest.mark.parametrize(("args", "message"), [
     (["--rpm", "500"], "--rpm: 500 rpm is outside the env's range 0-200 rpm"),
     (["--wob", "250"], "--wob: 250 kN is outside the env's range 0-200 kN"),  # kN, not N
+    # typed in newtons, as the Python API takes it: said (a new user's trial)
+    (["--wob", "100000"], "--wob: 100000 kN is outside the env's range 0-200 kN (in kN: did "
+                          "you mean 100?)"),
     (["--wob", "-5"], "--wob: must be >= 0 kN, got -5"),
     (["--wob", "nan"], "--wob: must be a finite number of kN"),
     (["--duration", "-1"], "--duration: must be > 0 s"),
@@ -813,20 +845,6 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr("sys.platform", "linux")
-    for args, said in [([text], "is not a rerun recording (.rrd)"),
-                       ([empty], "is not a rerun recording (no RRF header)"),
-                       ([empty, "--web"], "is not a rerun recording (no RRF header)"),
-                       ([other, "--web"], "incompatible with the local Rerun version"),
-                       ([cut, "--web"], f"FILE: {cut} cannot be opened by rerun"),
-                       ([garbage, "--web"], f"FILE: {garbage} cannot be opened by rerun "),
-                       ([tmp_path / "rec"], f"FILE: {tmp_path / 'rec'} is a folder; give "
-                                            f"its recordings: {good.name}"),
-                       ([good, good.with_name("gone.rrd")], "FILE: no recording at"),
-                       ([good], "add --web"),  # a good file: now the display
-                       ([good, "--port", "9191"], "--port: the web viewer's port; add --web")]:
-        with pytest.raises(SystemExit):
-            main(["replay", *map(str, args)])
-        assert said in capsys.readouterr().err, args
     opened: list[list[str]] = []
 
     class Viewer:  # stands in for the rerun viewer: records its command line
@@ -841,7 +859,23 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
         def poll(self):
             return 0
 
+    # (from the start: a file the checks let through opened a real viewer, which ran for
+    # minutes at a full core before the test could fail)
     monkeypatch.setattr(replay_module.subprocess, "Popen", Viewer)
+    for args, said in [([text], "is not a rerun recording (.rrd)"),
+                       ([empty], "is not a rerun recording (no RRF header)"),
+                       ([empty, "--web"], "is not a rerun recording (no RRF header)"),
+                       ([other, "--web"], "incompatible with the local Rerun version"),
+                       ([cut, "--web"], f"FILE: {cut} cannot be opened by rerun"),
+                       ([garbage, "--web"], f"FILE: {garbage} cannot be opened by rerun "),
+                       ([tmp_path / "rec"], f"FILE: {tmp_path / 'rec'} is a folder; give "
+                                            f"its recordings: {good.name}"),
+                       ([good, good.with_name("gone.rrd")], "FILE: no recording at"),
+                       ([good], "add --web"),  # a good file: now the display
+                       ([good, "--port", "9191"], "--port: the web viewer's port; add --web")]:
+        with pytest.raises(SystemExit):
+            main(["replay", *map(str, args)])
+        assert said in capsys.readouterr().err, args
     assert main(["replay", str(good), str(half), "--web"]) == 0
     assert opened[-1][-2:] == [str(good), str(half)]  # several recordings in one viewer
     assert "warning: " in capsys.readouterr().err  # the half file: read in part
