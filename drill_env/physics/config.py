@@ -405,11 +405,11 @@ class RockConfig:
     #: steps of 2 ms.
     wall_stiffness: Positive = Field(default=2.0e7, le=1.0e10)
     wall_damping: NonNegative = Field(default=2.0e3, le=1.0e8)
-    #: Depth of cut per bit revolution and per newton of WOB (m/(rev N)); 1e-6 is 100 mm
-    #: per revolution at 100 kN, beyond any PDC bit. The default, 2 mm/rev at 100 kN, is
-    #: the first hard-rock preset's; the scenarios' HARD preset later doubled it for a
-    #: field-like ROP (~9 m/h at 50 rpm and 75 kN). The bare ``Simulator()`` keeps the
-    #: original value, for which its documented figures were measured.
+    #: Depth of cut per bit revolution and per newton of WOB (m/(rev N)), whatever the bit's
+    #: size (the cutting load per unit radius sets it: for a bit k times the 8 3/4 in one,
+    #: divide by k); 1e-6 is 100 mm/rev at 100 kN, beyond any PDC bit. The default, 2 mm/rev
+    #: at 100 kN, is the first hard-rock preset's; the scenarios' HARD preset doubled it for
+    #: a field-like ROP (~9 m/h at 50 rpm, 75 kN); the bare ``Simulator()`` keeps this one.
     depth_of_cut: NonNegative = Field(default=2.0e-8, le=1.0e-6)
     #: Founder point (Dupriest & Koederitz 2005, SPE 92194): the WOB per unit bit diameter
     #: (N/m) above which the depth of cut stops growing with WOB (bit balling, bottom-hole
