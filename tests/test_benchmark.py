@@ -611,6 +611,9 @@ def test_every_controller_gets_its_own_table_name():
     assert bm.labels(["learned", "learned:/runs/a", "stiff"]) == ["learned", "learned-a",
                                                                    "stiff"]
     assert bm.labels(["learned:/runs/a"]) == ["learned"]  # alone it is "the" policy
+    # a run folder named relative, as an identifier: still the registry's learned:<run
+    # folder>, not the import form <module>:<class> of a controller of one's own
+    assert bm.labels(["learned:run1", "stiff"]) == ["learned", "stiff"]
     with pytest.raises(ValueError, match="'stiff' is given twice"):
         bm.labels(["stiff", "stiff"])
     with pytest.raises(ValueError, match="share the name 'learned-run'"):
@@ -1488,6 +1491,15 @@ def test_a_controller_of_your_own_that_is_not_one_is_refused_by_name(tmp_path, m
             parse_controllers(f"stiff,{typed}")
     # a module in the working folder imports as with python -m
     assert make_controller("mine:Gentle").physics()["top_drive.proportional_gain"] == 1500.0
+    # a package's module there too (package.module:ClassName, agents.registry's docstring)
+    (tmp_path / "ours").mkdir()
+    (tmp_path / "ours" / "__init__.py").write_text("")
+    (tmp_path / "ours" / "tuned.py").write_text(OWN_CONTROLLER.replace("GAIN", "1700.0"))
+    assert make_controller("ours.tuned:Gentle").physics()[
+        "top_drive.proportional_gain"] == 1700.0
+    # the controller classes the file defines, not the SetPointController it imports
+    with pytest.raises(ValueError, match=r"its controller classes: Gentle$"):
+        parse_controllers("mine.py:Nope")
     assert bm.labels(["mine:Gentle", "stiff"]) == ["gentle", "stiff"]
     with pytest.raises(ValueError, match="share the name 'gentle'"):
         bm.labels(["mine:Gentle", "mine.py:Gentle"])
@@ -1499,7 +1511,8 @@ def test_a_controller_of_your_own_that_is_not_one_is_refused_by_name(tmp_path, m
     assert before and bm.controller_digest("stiff") == ""
     (tmp_path / "mine.py").write_text(OWN_CONTROLLER.replace("GAIN", "2000.0"))
     assert bm.controller_digest("gentle") not in ("", before)
-    sys.modules.pop("mine", None)  # imported from this test's folder
+    for module in ("mine", "ours.tuned", "ours"):  # imported from this test's folder
+        sys.modules.pop(module, None)
 
 
 BROKEN = {  # file -> (code, what the one-line error says)
@@ -1542,6 +1555,16 @@ BROKEN = {  # file -> (code, what the one-line error says)
     "upper.py": ("from agents import SetPointController\n\n\n"
                  "class Bad(SetPointController):\n    name = 'Stiff'\n",
                  "name 'Stiff' is a built-in controller's"),
+    # the deepest line of the user's code: a helper of the file, not its caller
+    "deep.py": ("from agents import SetPointController\n\n\ndef helper():\n"
+                "    raise RuntimeError('no gain table')\n\n\n"
+                "class Bad(SetPointController):\n    name = 'deep'\n\n"
+                "    def __init__(self):\n        super().__init__()\n        helper()\n",
+                "RuntimeError: no gain table (deep.py, line 5)"),
+    # a trained run's table name (learned-<folder>, agents.registry.canonical)
+    "trained.py": ("from agents import SetPointController\n\n\n"
+                   "class Bad(SetPointController):\n    name = 'learned-mine'\n",
+                   "name 'learned-mine' is a built-in controller's"),
     "held.py": ("from agents import SetPointController\n\n\n"
                 "class Bad(SetPointController):\n    name = 'HELD+1'\n",
                 "name 'HELD+1' is a built-in controller's"),

@@ -496,6 +496,8 @@ def test_replay_is_not_started_here(tmp_path: Path) -> None:
     assert "--web-viewer-port" not in replay_command(tmp_path / "x.rrd", web_viewer_port=9191)
     with pytest.raises(FileNotFoundError, match="path"):
         replay(tmp_path / "missing.rrd")
+    with pytest.raises(ValueError, match="^path: no recording given"):  # a blank viewer
+        replay([])
     # several recordings in one viewer; its data server on a free port where another
     # viewer holds rerun's default (a second replay showed the first one's page)
     two = replay_command([tmp_path / "a.rrd", tmp_path / "b.rrd"], web=True)

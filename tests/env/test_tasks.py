@@ -127,6 +127,16 @@ def test_a_plain_env_setting_a_task_does_not_use_is_refused(env_id, kwargs, name
         gym.make(env_id, **kwargs)
 
 
+@pytest.mark.parametrize("env_id", TASKS)
+def test_a_tasks_settings_list_only_the_env_settings_it_reads(env_id):
+    """``TaskEnv.settings``: ``env`` holds the DrillString-v0 settings the task reads; the
+    ones a task refuses as unused (the test above: sensors, observation_noise,
+    effort_weight) are not among them, the control interval it steps at is."""
+    env = gym.make(env_id).unwrapped.settings()["env"]
+    assert "control_interval" in env and "episode_duration" in env
+    assert not {"sensors", "observation_noise", "effort_weight"} & set(env)
+
+
 @pytest.mark.parametrize(("env_id", "kwargs", "field", "value"), [
     ("DrillOptimise-v0", {"config": {"control_interval": 0.5, "episode_duration": 10.0}},
      "control_interval", 0.5),
@@ -216,6 +226,18 @@ def test_a_reward_weight_in_the_config_dict_reaches_the_task(env_id, name):
             gym.make(env_id, task={name: 5.0}, **beside)
 
 
+@pytest.mark.parametrize("env_id", TASKS)
+def test_a_task_only_setting_in_the_config_dict_reaches_the_task(env_id):
+    """TaskEnv's rule: "a task setting in the dict is the task's", also one EnvConfig
+    lacks (``history``): it sets the task's history (the observation 3 frames deep) while
+    the dict's DrillString-v0 setting beside it reaches the env."""
+    env = gym.make(env_id, config={"history": 3, "episode_duration": 5.0}).unwrapped
+    assert env.task.history == 3 and env.config.episode_duration == 5.0
+    frame = [n for n in env.observation_names if n.endswith("[0]")]
+    assert sum(n.endswith("[2]") for n in env.observation_names) == len(frame)
+    assert not any(n.endswith("[3]") for n in env.observation_names)
+
+
 def test_a_task_settings_typo_lists_the_tasks_own_settings():
     with pytest.raises(ValueError, match=r"^StickSlipEnv: unknown argument\(s\) "
                                          r"\['max_corection'\] \(did you mean "
@@ -302,7 +324,11 @@ def test_telemetry_is_sampled_delayed_and_held(kind, period, delay, dt):
     from drill_env.tasks.telemetry import TELEMETRY, TelemetryKind
 
     assert set(get_args(TelemetryKind)) == {*TELEMETRY, "none"}  # the names it takes
-    for bad in ("smoke", (0.0, 1.0), (1.0, -0.1), (math.nan, 1.0), (1.0, 2.0, 3.0), (True, 1)):
+    # telemetry_setting: "both at most an hour", an hour itself taken
+    hour = Telemetry((3600.0, 3600.0), 1)
+    assert (hour.period, hour.delay) == (3600.0, 3600.0)
+    for bad in ("smoke", (0.0, 1.0), (1.0, -0.1), (math.nan, 1.0), (1.0, 2.0, 3.0), (True, 1),
+                (3600.5, 1.0), (1.0, 3600.5)):
         with pytest.raises(ValueError, match=r"must be one of 'mud_pulse', 'wired_pipe', "
                                              r"'none' or \(period, delay\) in seconds"):
             Telemetry(bad, 1)
@@ -352,6 +378,15 @@ def test_mud_pulse_keeps_its_schedule_when_the_step_is_a_little_off(interval):
         else:
             assert held == 0.0
     assert sorted(set(ages)) == list(range(steps[1], steps[1] + steps[0]))
+
+
+@pytest.mark.parametrize("interval", [0.0, -0.1, math.nan])
+def test_a_telemetry_reset_refuses_a_control_step_that_is_not_positive(interval):
+    """``Telemetry.reset`` counts the period and delay in control steps of ``interval``
+    seconds: one of 0 s, below or NaN is refused by name (not a ZeroDivisionError)."""
+    tele = Telemetry("mud_pulse", 1)
+    with pytest.raises(ValueError, match=r"^interval: must be > 0"):
+        tele.reset(0.0, interval)
 
 
 def test_task_2_telemetry_arrives_every_2_s_and_3_s_late_on_every_seed():
