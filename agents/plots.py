@@ -100,7 +100,7 @@ def _colours(controllers: Sequence[str]) -> dict[str, Any]:
     extra = matplotlib.colormaps["tab20b"]
     own = [to_rgba(c) for c in OWN_COLOURS]
     candidates = [extra(4 * (k % 5) + k // 5) for k in range(20)]  # a hue apart, then shades
-    candidates = [c for c in candidates  # (less the two of them among the six)
+    candidates = [c for c in candidates  # (less the two of them among the five)
                   if min(np.linalg.norm(np.subtract(c, o)) for o in own) > 1e-3]
     taken = [np.array(c[:3]) for c in [*map(cmap, COLOURS.values()), *own]]
     after = []
