@@ -1030,6 +1030,14 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
     assert f"error: --config {path}: ppo.n_timesteps: must be a whole number, got 'lots'" \
         in capsys.readouterr().err
     assert not (tmp_path / "runs").exists()
+    # a section the override replaces is not judged without the entry's other fields: the
+    # file's batch fits its own 16 envs' rollout (it was refused as if 8 envs ran it)
+    from training.config import load_config
+
+    path.write_text(yaml.safe_dump({"ppo": {"n_envs": 16, "hyperparams": {
+        "n_steps": 64, "batch_size": 1024}}}))
+    given = {"n_steps": 64, "batch_size": 512}
+    assert load_config("stick_slip", "ppo", path, hyperparams=given).hyperparams == given
 
 
 def test_integer_hyperparameters_written_as_floats_become_integers():

@@ -626,12 +626,15 @@ def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
     entry = dict(data[algo])
     given = {k: v for k, v in overrides.items() if v is not None}
     # a value of the file that an override replaces is checked all the same: a new user's
-    # trial had a typo in it pass for as long as the flag was given
-    for key in sorted(given.keys() & entry.keys()):
+    # trial had a typo in it pass for as long as the flag was given (a number's own checks:
+    # a section, hyperparams, is checked with the entry's other fields, which it replaces)
+    for key in sorted(k for k in given.keys() & entry.keys() if not isinstance(entry[k], dict)):
         try:
             from_dict(TrainConfig, {"task": task, "algo": algo, key: entry[key]})
         except ConfigError as err:
-            raise ReplacedValueError(f"{algo}.{err}") from None
+            text = str(err)
+            raise ReplacedValueError(text if text.startswith(f"{algo}.") else f"{algo}.{text}"
+                                     ) from None
     try:
         return from_dict(TrainConfig, {"task": task, "algo": algo, **entry, **given})
     except ConfigError as err:  # name the YAML path: the entry sits under the algorithm
