@@ -414,10 +414,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     obs, info = env.reset(seed=args.seed, options=options or None)
     if controller.env_id != "DrillString-v0":  # scored as DrillString-v0 scores (benchmark)
         base.plain_return = 0.0
-    start_wob_kn = base.targets[1] / KILO
     # judged at the WOB the bit gets: the mesh's limit where the start asks for more (a new
     # user's trial: a buckling note for 170 kN where the bit got 161.8 and did not buckle)
-    start_wob_kn = min(start_wob_kn, base.weight_on_bit_limit / KILO)
+    start_wob_kn = min(base.targets[1], base.weight_on_bit_limit) / KILO
     lateral = base.simulation_config.solver.lateral  # torsion only: nothing to buckle
     for b in pipe_buckling(base.simulation_config, start_wob_kn * KILO) if lateral else ():
         print(buckling_note(f"{start_wob_kn:g} kN", b.component, b), file=sys.stderr)

@@ -629,17 +629,19 @@ def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
     # trial had a typo in it pass for as long as the flag was given (a number's own checks:
     # a section, hyperparams, is checked with the entry's other fields, which it replaces)
     for key in sorted(k for k in given.keys() & entry.keys() if not isinstance(entry[k], dict)):
-        try:
-            from_dict(TrainConfig, {"task": task, "algo": algo, key: entry[key]})
-        except ConfigError as err:
-            text = str(err)
-            raise ReplacedValueError(text if text.startswith(f"{algo}.") else f"{algo}.{text}"
-                                     ) from None
+        _built(task, algo, {key: entry[key]}, ReplacedValueError)
+    return _built(task, algo, {**entry, **given}, ConfigError)
+
+
+def _built(task: str, algo: str, fields: dict[str, Any], error: type[ConfigError]
+           ) -> TrainConfig:
+    """The :class:`TrainConfig` of ``fields``; ``error`` naming the YAML path where they
+    are refused (the entry sits under the algorithm)."""
     try:
-        return from_dict(TrainConfig, {"task": task, "algo": algo, **entry, **given})
-    except ConfigError as err:  # name the YAML path: the entry sits under the algorithm
+        return from_dict(TrainConfig, {"task": task, "algo": algo, **fields})
+    except ConfigError as err:
         text = str(err)
-        raise ConfigError(text if text.startswith(f"{algo}.") else f"{algo}.{text}") from None
+        raise error(text if text.startswith(f"{algo}.") else f"{algo}.{text}") from None
 
 
 class ReplacedValueError(ConfigError):

@@ -40,6 +40,8 @@ from pydantic import (
 )
 from pydantic.dataclasses import dataclass as pydantic_dataclass
 
+from drill_env.physics.units import INCH
+
 __all__ = [
     "ConfigError", "Count", "Finite", "NonNegative", "Positive", "StrictBool", "config_dataclass",
     "flatten", "from_dict", "jsonable", "load_yaml", "replace", "require_finite",
@@ -120,7 +122,7 @@ def _drive_torque(value: float) -> float:
 
 #: How far (m) a bit may be under its hole before it is said: a bit drills a hole of its
 #: own size, which a washout widens by a fraction of an inch; an inch is no washout.
-BIT_UNDER_HOLE = 0.0254
+BIT_UNDER_HOLE = INCH
 
 
 def check_bit_in_hole(bit: float, hole: float) -> None:
@@ -131,8 +133,8 @@ def check_bit_in_hole(bit: float, hole: float) -> None:
         raise ValueError(f"bit.diameter: {bit} m must not exceed string.hole_diameter "
                          f"({hole} m); set it for this hole (the default bit is 8 3/4 in)")
     if bit < hole - BIT_UNDER_HOLE:
-        warnings.warn(f"bit.diameter: {bit:.4g} m ({bit / 0.0254:.4g} in) is "
-                      f"{(hole - bit) / 0.0254:.3g} in under string.hole_diameter ({hole:.4g} "
+        warnings.warn(f"bit.diameter: {bit:.4g} m ({bit / INCH:.4g} in) is "
+                      f"{(hole - bit) / INCH:.3g} in under string.hole_diameter ({hole:.4g} "
                       f"m): a bit drills a hole of its own size; set bit.diameter for this "
                       "hole (the default bit is 8 3/4 in)", UserWarning,
                       stacklevel=caller_outside())
