@@ -1123,36 +1123,41 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
                 "top drive's loop of physics()); a controller that acts at the policy "
                 "rate sets rate = 'policy' and is judged by drill-env benchmark")
         configs = {p: sm.map_config(p, {**string, **controller.physics()}) for p in names}
-    store = args.out / MAP_POINTS_FILE
-    t0 = time.perf_counter()
-    maps = sm.stability_maps(names, args.rpm_step, args.wob_step * KILO, settings,
-                             args.max_rpm, args.max_wob * KILO, progress=True, store=store,
-                             workers=args.workers, configs=configs,
-                             ray_address=args.ray_address)
-    print(sm.format_maps(maps))
-    runs = sum(m.runs for m in maps)
-    cells = sum(m.unstable.size for m in maps)
-    print(f"{runs} simulations of {args.seconds:.0f} s for {cells} grid points (boundary "
-          f"tracking; finished points are kept in {store} and reused by a rerun) in "
-          f"{time.perf_counter() - t0:.1f} s")
-    from agents.benchmark import label  # your own controller by its table name
+    from drill_env.sweep import folder_lock
 
-    name = label(args.controller or "stiff")
-    source = None if args.config is None else str(args.config.resolve())  # one per file
-    json_path = args.out / f"{sm.map_stem(name, source)}.json"
-    before = map_positions(json_path)
-    paths = sm.write_maps(maps, args.out, settings, name, string, source)
-    print("wrote " + ", ".join(str(p) for p in paths))
-    made = {m.position for m in maps}  # the file's other maps were kept from before
-    kept = [p for p in map_positions(paths[0]) if p not in made]
-    if kept:
-        print(f"with the maps of {', '.join(kept)} already in {paths[0]} (same settings "
-              "and grid)")
-    replaced = [p for p in before if p not in made and p not in kept]
-    if replaced:
-        print(f"note: the maps of {', '.join(replaced)} that {paths[0]} held were made with "
-              "other settings, grid, physics or code: left out of the file and picture "
-              "(map them again, or give another --out to keep both)")
+    # two maps into one --out appended to one points file and each rewrote the
+    # JSON and picture with its own positions only
+    with folder_lock(args.out, "this stability map"):
+        store = args.out / MAP_POINTS_FILE
+        t0 = time.perf_counter()
+        maps = sm.stability_maps(names, args.rpm_step, args.wob_step * KILO, settings,
+                                 args.max_rpm, args.max_wob * KILO, progress=True, store=store,
+                                 workers=args.workers, configs=configs,
+                                 ray_address=args.ray_address)
+        print(sm.format_maps(maps))
+        runs = sum(m.runs for m in maps)
+        cells = sum(m.unstable.size for m in maps)
+        print(f"{runs} simulations of {args.seconds:.0f} s for {cells} grid points (boundary "
+              f"tracking; finished points are kept in {store} and reused by a rerun) in "
+              f"{time.perf_counter() - t0:.1f} s")
+        from agents.benchmark import label  # your own controller by its table name
+
+        name = label(args.controller or "stiff")
+        source = None if args.config is None else str(args.config.resolve())  # one per file
+        json_path = args.out / f"{sm.map_stem(name, source)}.json"
+        before = map_positions(json_path)
+        paths = sm.write_maps(maps, args.out, settings, name, string, source)
+        print("wrote " + ", ".join(str(p) for p in paths))
+        made = {m.position for m in maps}  # the file's other maps were kept from before
+        kept = [p for p in map_positions(paths[0]) if p not in made]
+        if kept:
+            print(f"with the maps of {', '.join(kept)} already in {paths[0]} (same settings "
+                  "and grid)")
+        replaced = [p for p in before if p not in made and p not in kept]
+        if replaced:
+            print(f"note: the maps of {', '.join(replaced)} that {paths[0]} held were made with "
+                  "other settings, grid, physics or code: left out of the file and picture "
+                  "(map them again, or give another --out to keep both)")
     return 0
 
 

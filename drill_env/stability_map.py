@@ -563,13 +563,29 @@ def kept_maps(path: Path, maps: Sequence[StabilityMap], settings: MapSettings,
             and np.array_equal(m.weight_on_bit, maps[0].weight_on_bit)]
 
 
+#: The speeds format_maps samples the boundary at, where the grid has them all.
+SUMMARY_RPM = (25.0, 50.0, 100.0, 150.0)
+
+
+def summary_speeds(rpm: np.ndarray) -> tuple[float, ...]:
+    """The speeds the table samples: :data:`SUMMARY_RPM` where the grid holds each of
+    them, else four of the grid's own speeds spread evenly over its columns (a 30 rpm
+    grid printed "-" in every column)."""
+    if all(np.isclose(rpm, r).any() for r in SUMMARY_RPM):
+        return SUMMARY_RPM
+    picks = np.unique(np.round(np.linspace(0, rpm.size - 1, min(4, rpm.size))).astype(int))
+    return tuple(float(rpm[k]) for k in picks)
+
+
 def format_maps(maps: Sequence[StabilityMap]) -> str:
-    """A table a person can read: per position, unstable share and boundary samples."""
-    lines = ["position  rock 2  unstable  runs  grid   boundary WOB (kN) at 25/50/100/150 rpm",
-             "-" * 80]
+    """A table a person can read: per position, unstable share and boundary samples at
+    the speeds :func:`summary_speeds` picks from the first map's grid."""
+    speeds = summary_speeds(maps[0].rpm) if maps else SUMMARY_RPM
+    lines = ["position  rock 2  unstable  runs  grid   boundary WOB (kN) at "
+             + "/".join(f"{r:g}" for r in speeds) + " rpm", "-" * 80]
     for m in maps:
         samples = []
-        for r in (25.0, 50.0, 100.0, 150.0):
+        for r in speeds:
             k = np.flatnonzero(np.isclose(m.rpm, r))
             value = m.boundary[k[0]] if k.size else np.nan
             samples.append("-" if not k.size else ("none" if math.isnan(value)

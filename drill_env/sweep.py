@@ -607,8 +607,8 @@ def folder_lock(folder: Path, what: str, tidy: Sequence[str] = ()) -> Iterator[N
         lock.acquire(timeout=0)
     except Timeout:
         raise FolderInUse(f"{folder}: another drill-env process is writing there (a "
-                          "benchmark, a training run or an evaluation): wait for it to end, "
-                          f"or give {what} another folder") from None
+                          "benchmark, a training run, an evaluation or a stability map): "
+                          f"wait for it to end, or give {what} another folder") from None
     try:
         stale = time.time() - STALE_PARTIAL_S
         for where in (folder, *(folder / name for name in tidy)):

@@ -145,6 +145,27 @@ def test_a_second_benchmark_into_a_held_folder_is_refused_before_any_episode(
     assert not (tmp_path / "seeds" / "benchmark_results.jsonl").exists()
 
 
+def test_a_second_stability_map_into_a_held_folder_is_refused_before_any_point(
+        tmp_path, capsys):
+    """Two stability maps into one --out appended to one points file and each rewrote
+    the JSON and the picture with its own positions only."""
+    from drill_cli.main import MAP_POINTS_FILE, main
+
+    holder = _holder(tmp_path / "maps")
+    try:
+        status = main(["stability-map", "--positions", "P1", "--rpm-step", "50",
+                       "--wob-step", "100", "--workers", "1",
+                       "--out", str(tmp_path / "maps")])
+    finally:
+        holder.kill()
+        holder.wait()
+    err = capsys.readouterr().err
+    assert status == 2
+    assert f"error: {tmp_path / 'maps'}: another drill-env process is writing there" in err
+    assert "or give this stability map another folder" in err
+    assert not (tmp_path / "maps" / MAP_POINTS_FILE).exists()
+
+
 def test_a_second_training_of_a_held_run_is_refused(tmp_path, capsys):
     """Two `train` of one run (or a --resume of one still training) both passed the
     "already holds a run" check and trained side by side: evaluations.csv held every

@@ -431,7 +431,25 @@ def test_the_table_prints_boundaries_on_the_grid_as_they_are():
     unstable = wob[:, None] >= np.nan_to_num(boundary, nan=math.inf)[None, :]
     m = sm.StabilityMap("P1", 0.0, rpm, wob, unstable, unstable.astype(np.int8), boundary,
                         runs=0, wall_s=0.0)
+    assert "at 25/50/100/150 rpm" in sm.format_maps([m])
     assert "22.5 / 47.5 / 100 / none" in sm.format_maps([m])
+
+
+def test_the_table_samples_a_grid_without_the_usual_speeds_at_its_own_speeds():
+    """A 30 rpm grid printed "-" in all four 25/50/100/150 columns: the table then
+    samples four of the grid's own speeds, first and last among them, and says which."""
+    rpm = np.array([30.0, 60.0, 90.0, 120.0, 150.0])
+    wob = np.arange(1, 11) * 10e3
+    boundary = np.array([20e3, 40e3, 60e3, 80e3, math.nan])
+    unstable = wob[:, None] >= np.nan_to_num(boundary, nan=math.inf)[None, :]
+    m = sm.StabilityMap("P1", 0.0, rpm, wob, unstable, unstable.astype(np.int8), boundary,
+                        runs=0, wall_s=0.0)
+    table = sm.format_maps([m])
+    assert "at 30/60/120/150 rpm" in table
+    assert "20 / 40 / 80 / none" in table
+    one = sm.StabilityMap("P1", 0.0, rpm[:1], wob, unstable[:, :1], unstable[:, :1].astype(np.int8),
+                          boundary[:1], runs=0, wall_s=0.0)
+    assert "at 30 rpm" in sm.format_maps([one]) and "   20\n" in sm.format_maps([one])
 
 
 def test_the_default_workers_are_the_cores_this_process_may_use():
