@@ -12,7 +12,13 @@ import numpy as np
 
 from drill_env.physics.config import SimulationConfig, StringConfig, replace
 from drill_env.physics.formation import across_the_hole
-from drill_env.physics.trajectory import Survey, Trajectory, bit_depth
+from drill_env.physics.trajectory import (
+    Survey,
+    Trajectory,
+    bit_depth,
+    check_survey_holds,
+    draws_hang_freely,
+)
 
 __all__ = ["MAX_LEAD", "drawn_with_physics", "sets_section", "with_physics"]
 
@@ -35,13 +41,16 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
     the interfaces or the well. Components (``string.components``) replace the scenario's
     one-section BHA and its stabilizers unless the overrides set those as well.
     """
-    changed = _overridden(config, overrides)
-    if not drawn or changed.well.vertical or _sets_layers(overrides):  # the user's: true
-        return changed
-    well = changed.well
-    survey = Survey.from_stations(well.md, well.inclination, well.azimuth, warn=False)
-    _, tangent, _ = Trajectory(survey).at(np.array([bit_depth(changed)]))
-    return replace(changed, formation=across_the_hole(changed.formation, tangent[0]))
+    if not drawn:
+        return _overridden(config, overrides)
+    with draws_hang_freely():  # said for the range's longest string (drawn_with_physics)
+        changed = _overridden(config, overrides)
+        if changed.well.vertical or _sets_layers(overrides):  # the user's: true dips
+            return changed
+        well = changed.well
+        survey = Survey.from_stations(well.md, well.inclination, well.azimuth, warn=False)
+        _, tangent, _ = Trajectory(survey).at(np.array([bit_depth(changed)]))
+        return replace(changed, formation=across_the_hole(changed.formation, tangent[0]))
 
 
 def drawn_with_physics(name: str, params: Mapping[str, Any], overrides: Mapping[str, Any],
@@ -57,13 +66,16 @@ def drawn_with_physics(name: str, params: Mapping[str, Any], overrides: Mapping[
     draw = make_scenario(name, np.random.default_rng(0), **{
         **params, "string_length_range": (high, high) if length is None else (length, length)})
     try:
-        return with_physics(draw.config, overrides, drawn=True)
+        config = with_physics(draw.config, overrides, drawn=True)
     except ValueError as err:
         if "the survey ends at" not in str(err):
             raise
         raise ValueError(f"physics: {err}: the {name} scenario draws strings of {low:g}-"
                          f"{high:g} m" + (f" ({narrow}); extend the survey or narrow the range"
                                           if narrow else "; extend the survey")) from None
+    if (length is None or length >= high) and not config.well.vertical:
+        check_survey_holds(config)  # the longest string above the bend: said
+    return config
 
 
 def sets_section(keys: Any, section: str) -> bool:

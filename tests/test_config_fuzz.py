@@ -459,6 +459,29 @@ def test_a_survey_missing_a_field_names_the_field_missing():
         assert str(caught.value).startswith(named), str(caught.value)
 
 
+@pytest.mark.parametrize("kick_off, initial_depth, warned", [
+    (1500.0, None, True), (1035.0, None, True), (1034.0, None, False),
+    (1038.0, 1040.0, False), (1040.0, 1040.0, True), (300.0, None, False)])
+def test_a_hole_that_bends_only_below_the_string_is_warned_of(kick_off, initial_depth,
+                                                               warned):
+    """A survey typed in feet put its kick-off below the default 1,035 m string, which
+    then hung in a vertical hole without a word: a hole vertical down to the deepest node
+    (the string's length or ``initial_depth``) is said, naming well.md and the depth in
+    feet converted (kick_off ft x 0.3048 m)."""
+    import warnings
+
+    survey = {"well.md": (0.0, kick_off, 3000.0), "well.inclination": (0.0, 0.0, 45.0),
+              "well.azimuth": (0.0, 0.0, 0.0)}
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        replace(SimulationConfig(), **survey, initial_depth=initial_depth)
+    said = [str(w.message) for w in seen if str(w.message).startswith("well.md: ")]
+    assert bool(said) == warned
+    if warned:
+        assert f"vertical down to {kick_off:,.6g} m" in said[0]
+        assert f"= {kick_off * 0.3048:,.6g} m" in said[0]
+
+
 def test_the_survey_must_reach_a_bit_set_below_the_string():
     """WellConfig: "The survey must reach the deepest node (the string's length or
     ``initial_depth``)": a 1,050 m survey holds the default 1,035 m string at a bit depth

@@ -133,13 +133,21 @@ def buoyed_weight(components: tuple[Component, ...], mud_density: float) -> floa
     return sum(c.area * c.length * (c.density - mud_density) * GRAVITY for c in components)
 
 
+#: How far (m) the ``stabilizers`` blades may be under the hole before it is said: field
+#: stabilizers run 0-1/4 in under gauge, under-gauge ones up to ~1/2 in; an inch under,
+#: the blades hold the BHA nowhere near the wall (a 12 1/4 in hole kept the default
+#: 8 5/8 in blades without a word).
+STABILIZER_UNDER_HOLE = INCH
+
+
 def check_stabilizers(string: StringConfig) -> None:
     """ValueError naming the field unless every extra stabilizer of ``string`` lies on it
     and its blades are no narrower than the body they sit on (narrower, the node's
     clearance would grow: a recess, not a stabilizer). The simulator puts a stabilizer on
     the nearest node, which may belong to the next component: it is refused only if it is
     narrower than every body within an element of its position. One nearest the bit's
-    node is not modelled (the bit's gauge holds that node): a UserWarning says so."""
+    node is not modelled (the bit's gauge holds that node): a UserWarning says so, as it
+    does blades more than :data:`STABILIZER_UNDER_HOLE` under the hole."""
     bodies = (*string.lower, string.drill_pipe)
     tops = list(itertools.accumulate(s.length for s in bodies))
     for k, pos in enumerate(string.stabilizer_positions):
@@ -163,3 +171,12 @@ def check_stabilizers(string: StringConfig) -> None:
             raise ValueError(f"stabilizer_diameter: {string.stabilizer_diameter} m is narrower "
                              f"than the {body.label} it sits on at stabilizers[{k}] ({pos} m "
                              f"above the bit, outer diameter {body.outer_diameter} m)")
+    blades, hole = string.stabilizer_diameter, string.hole_diameter
+    if string.stabilizer_positions and blades < hole - STABILIZER_UNDER_HOLE:
+        from drill_env.physics.validation import caller_outside
+
+        warnings.warn(f"string.stabilizer_diameter: {blades:.4g} m ({blades / INCH:.4g} in) "
+                      f"is {(hole - blades) / INCH:.3g} in under string.hole_diameter "
+                      f"({hole:.4g} m): the stabilizers' blades stand off the wall; set it "
+                      "for this hole (the default is 8 5/8 in, 1/8 in under the default "
+                      "hole)", UserWarning, stacklevel=caller_outside())

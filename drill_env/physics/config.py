@@ -192,8 +192,8 @@ class StringConfig:
     #: below the paper's 75-100 kN WOB, so it is packed: near-bit stabilizer plus two
     #: string stabilizers), none with ``components`` (stabilizers are components there).
     stabilizers: tuple[Positive, ...] | None = None
-    #: Blade diameter of the ``stabilizers`` positions (a component of kind stabilizer
-    #: has its own contact_diameter): 1/8 in under the hole, more than the bit (docs/model.md).
+    #: Blade diameter of the ``stabilizers`` positions (a component of kind stabilizer has
+    #: its own contact_diameter): 1/8 in under the hole (docs/model.md); >1 in under warns.
     stabilizer_diameter: Positive = Field(default=8.625 * INCH, le=MAX_DIAMETER)
 
     def __post_init__(self) -> None:
@@ -580,7 +580,8 @@ class WellConfig:
     stations: the vertical hole. The string's nodes feel, in the hole's local
     twist-free frames, the buoyed weight across the hole and the tension turning with
     it; the axial force follows the true vertical depth. The survey must reach the
-    deepest node (the string's length or ``initial_depth``)."""
+    deepest node (the string's length or ``initial_depth``); a hole still vertical at
+    that node warns (md typed in feet?)."""
 
     md: tuple[NonNegative, ...] = ()
     inclination: tuple[Finite, ...] = ()
@@ -673,10 +674,9 @@ class SimulationConfig:
                  f"{self.mud.density} kg/m^3 must be below the density of the string "
                  f"({lightest} kg/m^3): the string would float")
         if not self.well.vertical:
-            deepest = max(self.string.length, self.initial_depth or 0.0)
-            _require(self.well.md[-1] >= deepest, "well.md",
-                     f"the survey ends at {self.well.md[-1]} m, above the string's deepest "
-                     f"node ({deepest} m)")
+            from drill_env.physics.trajectory import check_survey_holds
+
+            check_survey_holds(self)
 
     def resolved(self) -> SimulationConfig:
         """This config with ``solver.fidelity`` expanded into the fields it sets.

@@ -25,9 +25,12 @@ the buoyed weight across it, and Coulomb friction on that force adds drag or tor
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import csv
 import math
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -72,6 +75,48 @@ def _warn_of_radians_or_sharp_bends(md: np.ndarray, inc: np.ndarray, azi: np.nda
                       f"deg/30 m, beyond {MAX_DOGLEG_SEVERITY:g} deg/30 m (a bending stress "
                       f"of {stress:,.0f} MPa in 5 in pipe): the model does not load that "
                       "bending (docs/model.md section 6)", UserWarning, stacklevel=1)
+
+
+#: False while a randomised scenario's draws are built (:func:`draws_hang_freely`): a draw
+#: above the hole's bend is one of the range's, said for the range's longest string.
+_SAY_HANGING = contextvars.ContextVar("say_hanging", default=True)
+
+
+@contextlib.contextmanager
+def draws_hang_freely() -> Iterator[None]:
+    """Configs built inside do not warn of a string hanging above its hole's bend
+    (:func:`check_survey_holds`); other warnings stand. (``warnings.catch_warnings``
+    would reset the once-per-place registry: every reset repeated a survey's warnings.)"""
+    token = _SAY_HANGING.set(False)
+    try:
+        yield
+    finally:
+        _SAY_HANGING.reset(token)
+
+
+def check_survey_holds(config) -> None:
+    """ValueError naming ``well.md`` where ``config``'s survey ends above the string's
+    deepest node (its length or ``initial_depth``); a UserWarning where the hole is
+    vertical down to that node and bends only below it, so the string hangs in a vertical
+    hole. A survey typed in feet put a 1,000 ft kick-off 1,000 m down, below a 900 m
+    string, which then ran as a vertical well without a word; a string still above a
+    planned kick-off is as vertical, so a warning."""
+    md, deepest = config.well.md, max(config.string.length, config.initial_depth or 0.0)
+    if md[-1] < deepest:
+        raise ValueError(f"well.md: the survey ends at {md[-1]} m, above the string's "
+                         f"deepest node ({deepest} m)")
+    inclined = np.flatnonzero(np.abs(np.asarray(config.well.inclination, dtype=float)) > 0.0)
+    if not inclined.size or inclined[0] == 0:
+        return
+    vertical_to = float(md[inclined[0] - 1])  # the first bent course starts there
+    if vertical_to >= deepest and _SAY_HANGING.get():
+        from drill_env.physics.validation import caller_outside
+
+        warnings.warn(f"well.md: the hole is vertical down to {vertical_to:,.6g} m, at or "
+                      f"below the string's deepest node ({deepest:,.6g} m): the string "
+                      f"hangs in a vertical hole; md typed in feet? {vertical_to:,.6g} ft "
+                      f"= {vertical_to * 0.3048:,.6g} m (md is in metres)", UserWarning,
+                      stacklevel=caller_outside())
 
 
 @dataclass(frozen=True)

@@ -486,6 +486,31 @@ def test_a_curved_well_too_short_or_buckling_for_the_random_draws_is_refused_at_
                                          "weight_on_bit_range": (50e3, 135e3)}, late)
 
 
+def test_a_random_string_above_the_bend_is_said_for_the_longest_draw_alone():
+    """A hole vertical down to the string's deepest node warns (md typed in feet?,
+    trajectory.check_survey_holds); the random scenario's shorter draws above a bend its
+    longer ones reach are the range's own: said only where the longest string drawn
+    still hangs above it, once at make, not at each reset or length checked."""
+    import warnings
+
+    import gymnasium as gym
+
+    def said(kick_off: float) -> list[str]:
+        well = {"well.md": [0.0, kick_off, kick_off + 200.0, 3000.0],
+                "well.inclination": [0, 0, 30, 30], "well.azimuth": [0, 0, 0, 0]}
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            env = gym.make("DrillStringRandom-v0", physics=well,
+                           string_length_range=(1000.0, 1250.0))
+            env.reset(seed=0)
+            env.reset(seed=1)
+        return [str(w.message) for w in seen if "the hole is vertical down" in str(w.message)]
+
+    assert said(1100.0) == []  # drawn strings of 1000-1100 m hang above it, longer ones not
+    longest = said(1300.0)
+    assert len(longest) == 1 and "deepest node (1,250 m)" in longest[0]
+
+
 def test_a_randomised_draw_with_overrides_takes_the_longest_string_by_default():
     """``drawn_with_physics``: the draw at string ``length``, None: "the longest its
     range draws"."""

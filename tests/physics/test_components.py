@@ -346,6 +346,30 @@ def test_a_stabilizer_narrower_than_its_body_is_refused_by_name():
     assert StringConfig(stabilizers=(34.6,), stabilizer_diameter=6 * INCH).stabilizers
 
 
+@pytest.mark.parametrize("hole_in, blades_in, warned", [
+    (8.75, 8.625, False), (12.25, 8.625, True), (12.25, 12.125, False), (8.75, 7.75, False),
+    (8.75, 7.7, True)])
+def test_stabilizer_blades_well_under_the_hole_are_warned_of(hole_in, blades_in, warned):
+    """A 12 1/4 in hole kept the default 8 5/8 in blades of the ``stabilizers`` positions
+    without a word, 1.8 in off the wall each side: more than an inch under the hole
+    (components.STABILIZER_UNDER_HOLE; field stabilizers run at most ~1/2 in under gauge)
+    is said, naming the field and the gap in inches."""
+    config = {"hole_diameter": hole_in * INCH, "stabilizer_diameter": blades_in * INCH}
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        StringConfig(**config)
+    said = [str(w.message) for w in seen
+            if str(w.message).startswith("string.stabilizer_diameter: ")]
+    assert bool(said) == warned
+    if warned:
+        assert f"is {hole_in - blades_in:.3g} in under string.hole_diameter" in said[0]
+    # a string of components places no stabilizers by these fields: no word
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        StringConfig(**config, components=(cp.collar_6_5(60.0),))
+    assert not [w for w in seen if "stabilizer_diameter" in str(w.message)]
+
+
 @pytest.mark.parametrize("make, lb_per_ft", [(cp.collar_6_5, 91.0), (cp.collar_8, 150.0),
                                              (cp.drill_pipe_5, 17.93)])
 def test_tube_presets_weigh_what_the_api_tables_list(make, lb_per_ft):
