@@ -37,6 +37,8 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from drill_env.physics.units import FOOT
+
 DOWN = np.array([0.0, 0.0, 1.0])
 
 
@@ -115,7 +117,7 @@ def check_survey_holds(config) -> None:
         warnings.warn(f"well.md: the hole is vertical down to {vertical_to:,.6g} m, at or "
                       f"below the string's deepest node ({deepest:,.6g} m): the string "
                       f"hangs in a vertical hole; md typed in feet? {vertical_to:,.6g} ft "
-                      f"= {vertical_to * 0.3048:,.6g} m (md is in metres)", UserWarning,
+                      f"= {vertical_to * FOOT:,.6g} m (md is in metres)", UserWarning,
                       stacklevel=caller_outside())
 
 

@@ -12,6 +12,8 @@ import math
 RPM = 2.0 * math.pi / 60.0
 #: One inch in metres.
 INCH = 0.0254
+#: One foot in metres.
+FOOT = 0.3048
 #: One kilonewton in newtons (also kN m in N m).
 KILO = 1.0e3
 #: One megapascal in pascals (also MJ in J).
