@@ -299,11 +299,18 @@ def test_twisted_solve_matches_numpy(n):
     np.testing.assert_allclose(x, np.linalg.solve(dense, b), rtol=1e-10, atol=1e-12)
 
 
-def test_twisted_factor_names_an_indefinite_matrix():
+@pytest.mark.parametrize("dense", [
     # indefinite: its leading 2 x 2 block has the eigenvalue -1
-    dense = np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.5], [0.0, 0.5, 3.0]])
+    [[1.0, 2.0, 0.0], [2.0, 1.0, 0.5], [0.0, 0.5, 3.0]],
+    [[1.0, 1.0], [1.0, 1.0]],  # singular: the middle pivot is exactly 0
+    [[1.0, 0.5], [0.5, np.nan]],  # a NaN stiffness
+])
+def test_twisted_factor_names_a_matrix_that_is_not_positive_definite(dense):
+    """linalg.twisted_tridiagonal's docstring: a ValueError naming the matrix if it is not
+    positive definite, for what band_cholesky refuses too (indefinite, singular, NaN),
+    not a factor of infinities or NaNs."""
     with pytest.raises(ValueError, match="torsional system matrix is not positive definite"):
-        linalg.twisted_tridiagonal(to_band(dense, 1), "torsional system matrix")
+        linalg.twisted_tridiagonal(to_band(np.array(dense), 1), "torsional system matrix")
 
 
 @pytest.mark.parametrize(("n", "p"), [(1, 0), (2, 1), (17, 1), (3, 3), (4, 3), (41, 3),
