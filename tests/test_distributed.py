@@ -281,6 +281,37 @@ def test_evaluate_on_the_cluster_equals_evaluate_here(cluster, tmp_path):
     assert tables[0] == tables[1] and len(tables[0]) == 10
 
 
+def _wait_for_the_other(paths: tuple[str, str]) -> bool:
+    """Mark this task started; whether the other task starts too within 30 s."""
+    mine, other = paths
+    Path(mine).touch()
+    deadline = time.monotonic() + 30.0
+    while time.monotonic() < deadline:
+        if Path(other).exists():
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def test_a_sweep_runs_as_many_tasks_at_once_as_the_cluster_has_cpus(cluster, tmp_path):
+    """The module's rule: up to 2 x the cluster's CPUs in flight, so the cluster's CPUs
+    work side by side: on the 2 CPUs here two tasks each see the other start (one task
+    in flight at a time left a CPU idle, and each waited in vain)."""
+    import ray.cloudpickle
+
+    from drill_env.distributed import RayExecutor
+
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers can't
+    executor = RayExecutor(cluster.address)                        # import this file
+    a, b = str(tmp_path / "a"), str(tmp_path / "b")
+    try:
+        results = dict(executor.map_unordered(_wait_for_the_other, [(a, b), (b, a)]))
+    finally:
+        executor.close()
+        ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+    assert results == {0: True, 1: True}
+
+
 def _fail_and_count(path: str) -> None:
     """A task that raises every time it runs, leaving one line per run in ``path``."""
     with open(path, "a") as f:
@@ -383,6 +414,22 @@ def test_a_warning_given_again_is_filtered_by_its_module_as_where_it_was_said():
         warnings.simplefilter("always")
         warnings.filterwarnings("ignore", module="another_module")
         _said(reply, {})
+    assert [str(w.message) for w in caught] == ["limit"]
+
+
+def test_a_warning_many_tasks_give_is_given_here_once_per_place():
+    """_said's ``registry`` (the sweep's): under Python's default filter each place's first
+    warning is shown once, however many tasks of the sweep give it, as on local processes
+    (a fresh registry per task showed it once a task)."""
+    import warnings
+
+    from drill_env.distributed import _call, _said
+
+    reply = _call(_warn_limit, 4)
+    registry: dict = {}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        assert [_said(reply, registry) for _ in range(3)] == [4, 4, 4]
     assert [str(w.message) for w in caught] == ["limit"]
 
 

@@ -247,6 +247,8 @@ def test_the_whirl_rule_needs_the_orbit_fast_and_off_the_axis():
         metrics.whirl_signs(radial, radial, radial, 0.0)
     with pytest.raises(ValueError, match="one length"):
         metrics.whirl_signs(radial, radial[:3], radial, dt)
+    with pytest.raises(ValueError, match="1-D signals"):  # one shape, but not 1-D
+        metrics.whirl_signs(radial[:, None], radial[:, None], radial[:, None], dt)
 
 
 def test_window_metrics_reads_simulator_records():
@@ -484,6 +486,8 @@ def test_rolling_metrics_need_the_metric_channels():
                                BIT_DIAMETER)
     with pytest.raises(ValueError, match="size"):
         metrics.RollingMetrics(0, CHANNELS, DT, CLEARANCE, BIT_DIAMETER)
+    with pytest.raises(ValueError, match="clearance"):  # as radial_ratio refuses it
+        metrics.RollingMetrics(10, CHANNELS, DT, 0.0, BIT_DIAMETER)
 
 
 def _both_paths(n: int = 50, **channels) -> list[dict[str, float]]:
@@ -539,8 +543,10 @@ def test_the_metric_rules_of_the_module_table_on_both_paths():
 
 
 def test_stuck_fraction_boundary_is_strict():
-    # docstring: stuck means |bit speed| < 1 rpm; exactly 1 rpm is turning
+    # docstring: stuck means |bit speed| < 1 rpm; exactly 1 rpm is turning (both paths)
     assert metrics.stuck_fraction([1.0 * RPM, -1.0 * RPM, 2.0 * RPM, 0.0]) == 0.25
+    for m in _both_paths(4, bit_speed=np.array([1.0 * RPM, -1.0 * RPM, 2.0 * RPM, 0.0])):
+        assert m["stuck_fraction"] == 0.25
 
 
 def test_mse_is_the_ceiling_when_not_drilling_but_spending_rotary_power():
@@ -551,6 +557,20 @@ def test_mse_is_the_ceiling_when_not_drilling_but_spending_rotary_power():
     rop = [5.0e-10] * 4    # below MSE_MIN_ROP but > 0
     assert metrics.mechanical_specific_energy(wob, torque, speed, rop, 0.2) \
         == metrics.MSE_CEILING
+
+
+def test_mse_boundaries_hold_on_both_paths():
+    """The MSE docstring: the result is capped at MSE_CEILING, the thrust-only result of a
+    bit not drilling too (a WOB of 1e12 N gives ~3e13 Pa); "below min_rop" is strict: a
+    mean ROP of exactly MSE_MIN_ROP is drilling, the Teale sum by hand."""
+    for m in _both_paths(weight_on_bit=1e12):
+        assert m["mse"] == metrics.MSE_CEILING
+    area = metrics.bit_area(BIT_DIAMETER)
+    expected = 1e4 / area + 1e-6 / (area * metrics.MSE_MIN_ROP)
+    for m in _both_paths(1, weight_on_bit=1e4, torque_on_bit=1e-3, bit_speed=1e-3,
+                         rop=metrics.MSE_MIN_ROP):
+        assert m["mse"] == pytest.approx(expected, rel=1e-12)
+        assert m["mse"] < metrics.MSE_CEILING
 
 
 def test_the_excursion_ratio_is_measured_from_the_rest_on_both_paths():

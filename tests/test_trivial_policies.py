@@ -199,3 +199,39 @@ def test_holm_counts_controllers_with_the_same_returns_once() -> None:
     assert a["comparisons"] == b["comparisons"] == c["comparisons"] == 2
     expected = holm([a["p"], c["p"]])
     assert a["p_holm"] == b["p_holm"] == expected[0] and c["p_holm"] == expected[1]
+    # the text's m is Holm's, not the rows': three rows, two comparisons
+    from training.evaluate import comparison_text
+
+    assert "over the 2 comparisons" in comparison_text([a, b, c], 25.0)
+
+
+def test_skewed_returns_give_the_median_lead_and_the_policys_mean_return(tmp_path) -> None:
+    """paired_comparison's docstring: the median lead is the median of the differences, the
+    mean the estimate; comparison.md heads with the policy's mean return. Leads 1, 1, 10:
+    median 1, mean 4; the policy's returns 11, 11, 20: mean 14, median 11."""
+    from training.evaluate import write_comparison
+
+    rows = [{"controller": "learned", "seed": s, "episode_return": r}
+            for s, r in enumerate([11.0, 11.0, 20.0])]
+    rows += [{"controller": "other", "seed": s, "episode_return": 10.0} for s in range(3)]
+    (c,) = paired_comparison(rows)
+    assert c["median_lead"] == pytest.approx(1.0) and c["lead"] == pytest.approx(4.0)
+    text = write_comparison(rows, "learned", tmp_path, "heading")
+    assert "the policy (mean return 14.0)" in text
+    assert "| other | 10.0 | +4.0 | " in text and " | +1.0 | 3 of 3 | " in text
+
+
+def test_the_comparison_says_why_a_p_is_missing() -> None:
+    """comparison_text's notes: one episode a pair has no spread to test ("n/a: one
+    episode"); the note that the differences do not vary is for pairs of two or more
+    episodes only (a constant lead), not for a single episode's missing p."""
+    from training.evaluate import comparison_text
+
+    one = [{"controller": c, "seed": 0, "episode_return": r}
+           for c, r in (("learned", 5.0), ("other", 3.0))]
+    text = comparison_text(paired_comparison(one), 5.0)
+    assert "n/a: one episode a pair" in text and "do not vary" not in text
+    constant = [{"controller": c, "seed": s, "episode_return": r + s}
+                for c, r in (("learned", 5.0), ("other", 3.0)) for s in range(2)]
+    text = comparison_text(paired_comparison(constant), 5.5)
+    assert "do not vary" in text and "n/a: one episode" not in text

@@ -5,6 +5,7 @@ the high side of a build under tension, and a vertical survey changes nothing.""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -151,6 +152,25 @@ def test_the_mesh_check_uses_the_axial_force_along_the_curved_hole():
     with pytest.raises(ValueError, match="buckling load"):
         deviated.check_mesh_resolves(1.01 * deviated.resolved_weight_on_bit)
     vertical.check_mesh_resolves(1.01 * deviated.resolved_weight_on_bit)
+
+
+def test_a_curved_holes_loads_follow_the_wob_down_as_well_as_up():
+    """Simulator.prepare: a change of hook load moves a curved hole's static loads with
+    the WOB ("the curved hole's loads follow the WOB"), a lower WOB as a higher one: the
+    soft string's normal forces are then those a reset at the new WOB gives (the same
+    formula on the same WOB, to round-off)."""
+    scenario = make_scenario("j_shaped")
+    config = replace(scenario.config, **{"solver.fidelity": "fast"})
+    sim, fresh = Simulator(config), Simulator(config)
+    soft = sim.soft_nodes
+    sim.reset(OperatingPoint(60 * RPM, 0.5 * scenario.weight_on_bit))
+    forces = []
+    for wob in (scenario.weight_on_bit, 0.25 * scenario.weight_on_bit):
+        assert sim.prepare(1, hook_load=sim.hook_load_for(wob))
+        fresh.reset(OperatingPoint(60 * RPM, wob))
+        forces.append(fresh.contact_forces[soft])
+        np.testing.assert_allclose(sim.contact_forces[soft], forces[-1], rtol=1e-12)
+    assert np.max(np.abs(forces[0] - forces[1])) > 100.0  # the WOB moves them (N)
 
 
 def test_the_neutral_point_of_a_deviated_well_is_where_the_simulators_force_turns():
@@ -363,6 +383,10 @@ def test_the_straight_pipe_warning_uses_the_axial_force_along_the_curved_hole():
     assert np.min(vertical.axial_weight[: vertical.lateral_start]) > 150e3  # not vertically
     with pytest.warns(RuntimeWarning, match="compression"):
         sim.reset(OperatingPoint(60 * RPM, 150e3))
+    with warnings.catch_warnings(record=True) as again:  # "once per simulator"
+        warnings.simplefilter("always")
+        sim.reset(OperatingPoint(60 * RPM, 150e3))
+    assert not [w for w in again if "compression" in str(w.message)]
 
 
 def test_formation_dip_is_true_and_turned_into_the_bits_frame():

@@ -57,7 +57,11 @@ def test_run_records_every_so_many_steps_or_none():
     sim.reset(OperatingPoint(50 * RPM, 100e3))
     assert sim.run(0.1).shape[0] == 0
     steps = round(0.1 / sim.dt)
-    assert sim.run(0.1, record_every=5).shape[0] == steps // 5
+    first = sim.run(0.1, record_every=5)
+    assert first.shape[0] == steps // 5
+    kept = first.copy()
+    sim.run(0.1, record_every=5)  # records(): a copy, not a view of the kernel's buffer
+    np.testing.assert_array_equal(first, kept)
     with pytest.raises(ValueError, match="record_every: must be a whole number of steps "
                                          "from 0 to 1000000000, got -1"):
         sim.run(0.1, record_every=-1)  # it returned no records, as 0 asks, without a word
@@ -71,7 +75,12 @@ def test_run_records_every_so_many_steps_or_none():
     (lambda sim: sim.advance(True), r"^n_steps: .* got True"),
     (lambda sim: sim.run(0.1, record_every=2.5), r"^record_every: .* got 2\.5"),
     (lambda sim: sim.run(1e300), r"^duration: 1e\+300 s is 5e\+302 steps, more than one"),
-    (lambda sim: sim.hook_load_for(math.nan), r"^weight_on_bit: must be a finite number")])
+    (lambda sim: sim.hook_load_for(math.nan), r"^weight_on_bit: must be a finite number"),
+    # a NaN hook load left a WOB of max(0, nan) = 0: a silent run off bottom
+    (lambda sim: sim.advance(1, hook_load=math.nan), r"^hook_load must be finite, got nan"),
+    (lambda sim: sim.advance(1, speed_setpoint=math.inf), r"^speed_setpoint must be finite"),
+    (lambda sim: setattr(sim, "speed_correction", math.nan),
+     r"^speed_correction: must be finite, got nan")])
 def test_the_simulators_inputs_are_refused_by_name(call, message):
     sim = Simulator()
     sim.reset(OperatingPoint(50 * RPM, 100e3))
@@ -92,6 +101,31 @@ def test_a_run_shorter_than_a_step_takes_one_step():
     sim.reset(OperatingPoint(60 * RPM, 50e3))
     rec = sim.run(1e-4, record_every=1)
     assert sim.time == pytest.approx(sim.dt, rel=1e-12) and len(rec) == 1
+
+
+def test_run_takes_its_duration_at_the_step_the_simulator_uses():
+    """``run(duration)`` advances ``duration`` simulated seconds at the simulator's own
+    step ``sim.dt``, which stability shortens below ``solver.time_step`` (here 10 ms asked,
+    ~2.5 ms used): the time reached is the duration to within half a step."""
+    from drill_env.physics.config import SimulationConfig, replace
+
+    sim = Simulator(replace(SimulationConfig(), **{"solver.time_step": 0.01,
+                                                   "solver.lateral": False}))
+    assert sim.dt < 0.5 * sim.config.solver.time_step
+    sim.reset(OperatingPoint(60 * RPM, 50e3))
+    sim.run(0.1)
+    assert sim.time == pytest.approx(0.1, abs=0.5 * sim.dt)
+
+
+def test_a_hook_load_above_the_string_weight_lifts_the_bit_off_bottom():
+    """``weight_on_bit_for``: the bit is off bottom (WOB 0, not negative) when the hook
+    carries everything; a step at such a hook load runs at WOB 0."""
+    sim = Simulator()
+    sim.reset(OperatingPoint(50 * RPM, 100e3))
+    assert sim.weight_on_bit_for(sim.string_weight + 5e3) == 0.0
+    assert sim.weight_on_bit_for(sim.string_weight - 5e3) == pytest.approx(5e3)
+    sim.advance(1, hook_load=sim.string_weight + 5e3)
+    assert sim.weight_on_bit == 0.0
 
 
 @pytest.mark.parametrize("value", [True, np.True_, np.False_])
