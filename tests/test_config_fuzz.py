@@ -271,6 +271,15 @@ def test_a_dotted_path_error_names_what_the_user_typed(scenario, physics, messag
         DrillStringEnv(scenario, physics=physics)
 
 
+def test_an_index_one_past_the_last_section_is_out_of_range():
+    """Index n of n sections names the path and count (validation._changed_fields)."""
+    config = make_scenario("default").config
+    n = len(config.string.components)
+    with pytest.raises(ValueError, match=rf"^string\.components\[{n}\]: index out of range "
+                                         rf"\({n} items\)"):
+        replace(config, **{f"string.components[{n}]": config.string.components[0]})
+
+
 def test_an_overdamped_wall_contact_is_refused_by_its_damping():
     """Found by the random fuzz: a contact damper so hard that the explicit step falls
     below the minimum was blamed on contact.stiffness alone."""
@@ -313,6 +322,7 @@ def test_a_list_section_given_as_a_dict_is_told_to_be_a_list(rocks):
     ("string.drill_pipe.outer_diameter", 5.0, "metres; 5 in = 0.127 m"),  # inches
     ("string.hole_diameter", 215.9, "metres; 5 in = 0.127 m"),  # millimetres
     ("mud.density", 1e5, "kg/m^3; 10 ppg = 1,198 kg/m^3"),
+    ("string.hole_diameter", 0.0, "metres; 5 in = 0.127 m"),  # a lower bound ("greater than")
 ])
 def test_a_bound_broken_by_a_field_with_a_unit_says_the_unit(path, value, unit):
     """A diameter typed in inches broke "less than 1" and said no more: which unit the

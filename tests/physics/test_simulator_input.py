@@ -87,6 +87,7 @@ def test_the_simulators_inputs_are_refused_by_name(call, message):
     with pytest.raises(ValueError, match=message):
         call(sim)
     assert sim.advance(np.int64(5), record_every=np.int32(1)).shape[0] == 5  # NumPy counts
+    assert sim.advance(np.int64(0)).shape[0] == 0  # from 0 (require_steps' docstring)
 
 
 def test_a_run_shorter_than_a_step_takes_one_step():

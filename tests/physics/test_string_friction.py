@@ -99,14 +99,17 @@ def convex_minimiser(band, v_pred, residual, limit, h):
 def test_the_free_string_solve_with_the_precomputed_sweep_matches_numpy(n):
     """With no node held, _solve_held takes the Thomas sweep precomputed once
     (thomas_sweep) instead of dividing in every row; it still solves A v = rhs. A stuck
-    flag on a node without a static limit (a bare pipe node) holds nothing."""
+    flag on a node without a static limit (a bare pipe node) holds nothing. It returns the
+    last row's 1 / pivot: the last diagonal entry of A's inverse (its docstring)."""
     rng = np.random.default_rng(40 + n)
     band, _, rhs, _ = chain(rng, n)
     stick = rng.choice([-1.0, 0.0, 1.0], n)
     v = np.zeros(n)
-    _solve_held(band, thomas_sweep(band), rhs, stick, np.zeros(n), np.zeros(n), v)
+    g = _solve_held(band, thomas_sweep(band), rhs, stick, np.zeros(n), np.zeros(n), v)
     dense = np.diag(band[0]) + np.diag(band[1, :-1], 1) + np.diag(band[1, :-1], -1)
     np.testing.assert_allclose(v, np.linalg.solve(dense, rhs), rtol=1e-12, atol=1e-12)
+    # (diagonally dominant, condition number below ~40: both sides to rounding)
+    assert g == pytest.approx(np.linalg.inv(dense)[-1, -1], rel=1e-12)
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -223,6 +226,17 @@ def test_a_string_stuck_along_a_lateral_neither_creeps_nor_chatters_and_breaks_a
     late = rec[rec[:, R.TIME] > rec[-1, R.TIME] - 5.0]
     assert np.mean(late[:, R.BIT_SPEED]) == pytest.approx(60 * RPM, rel=0.05)
     assert np.max(rec[:, R.SURFACE_TORQUE]) > trapped
+
+
+def test_a_set_that_never_settles_reports_its_solves_as_negative():
+    """A step that gives up reports its solves negative (MAX_ACTIVE_SET_ITERATIONS' note)."""
+    # one node with a negative pivot (no physical string) has no consistent set: held, it
+    # needs 10 against its static limit of 1; released forward (rhs 3 - 0.3 = 2.7), it
+    # runs backward (v = -2.7): every solve flips the guess
+    band = np.array([[-1.0], [0.0]])
+    _, _, iterations, _, _ = kernel_speeds(band, np.zeros(1), np.array([10.0]), np.ones(1),
+                                           0.3, np.zeros(1))
+    assert iterations == -MAX_ACTIVE_SET_ITERATIONS
 
 
 @pytest.mark.parametrize("seed", range(50))

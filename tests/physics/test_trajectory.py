@@ -66,6 +66,8 @@ def test_frames_are_orthonormal_and_do_not_twist_on_a_planar_well():
     for v in (e1, e2):
         np.testing.assert_allclose(v @ normal, (v @ normal)[0], atol=1e-12)
     assert abs(e1[0] @ normal) > 0.1  # e1 starts north, out of the plane: not trivial
+    # the module's rule: at a vertical top e1 points north
+    np.testing.assert_allclose(e1[0], [1.0, 0.0, 0.0], atol=1e-12)
 
 
 def test_frames_turn_about_no_axis_along_the_hole_on_a_curved_3d_well():
@@ -102,11 +104,11 @@ def test_the_off_bottom_hook_load_of_a_uniform_string_is_its_weight_times_tvd(se
         assert result.hook_load == pytest.approx(300.0 * tvd, rel=1e-12)
 
 
-def test_a_straight_60_degree_hole_has_the_soft_string_normal_forces_and_torque():
+@pytest.mark.parametrize("mu", [0.25, 2.0])  # 2: the wall friction's top (docs/config.md)
+def test_a_straight_60_degree_hole_has_the_soft_string_normal_forces_and_torque(mu):
     length = 2000.0
     well = Trajectory(Survey.from_stations([0.0, length], [60.0, 60.0], [45.0, 45.0]))
     col = column(length, weight=250.0, radius=0.09, dx=20.0)
-    mu = 0.25
     result = soft_string(well, col, length, mu, "rotating")
     np.testing.assert_allclose(result.normal_force,
                                250.0 * col.length * math.sin(math.radians(60.0)),
@@ -154,6 +156,8 @@ def test_pick_up_is_heavier_than_rotating_and_slack_off_lighter_in_a_deviated_we
 def test_bad_surveys_name_the_field():
     with pytest.raises(ValueError, match=r"survey\.md"):
         Survey.from_stations([0.0, 100.0, 90.0], [0, 1, 2], [0, 0, 0])
+    with pytest.raises(ValueError, match=r"survey\.md"):  # a station given twice
+        Survey.from_stations([0.0, 100.0, 100.0], [0, 1, 2], [0, 0, 0])
     with pytest.raises(ValueError, match=r"survey\.inclination"):
         Survey.from_stations([0.0, 100.0], [0.0, float("nan")], [0, 0])
     with pytest.raises(ValueError, match=r"survey\.inclination"):
@@ -164,6 +168,9 @@ def test_bad_surveys_name_the_field():
         soft_string(Trajectory(Survey.profile(100.0)), column(100.0), 100.0, -0.1)
     with pytest.raises(ValueError, match="bit_md"):
         soft_string(Trajectory(Survey.profile(100.0)), column(50.0), 100.0, 0.2)
+    for outside in (-1.0, 101.0):  # no hole above the wellhead or below the last station
+        with pytest.raises(ValueError, match=r"^md: within 0-100 m"):
+            Trajectory(Survey.profile(100.0)).at(outside)
 
 
 def test_a_survey_reads_from_csv(tmp_path):
@@ -336,20 +343,22 @@ def test_a_string_that_slides_without_turning_has_no_surface_torque() -> None:
     assert soft_string(_slant(), column, 150.0, 0.3, "rotating").surface_torque > 0.0
 
 
-@pytest.mark.parametrize("seed", range(3))
-def test_3d_stations_lie_where_the_ratio_factor_formulas_put_them(seed: int) -> None:
+@pytest.mark.parametrize(("seed", "scale"), [(0, 1.0), (1, 1.0), (2, 1.0), (3, 1e-3)])
+def test_3d_stations_lie_where_the_ratio_factor_formulas_put_them(seed: int,
+                                                                 scale: float) -> None:
     """Minimum curvature as the industry computes it (Bourgoyne et al., Applied Drilling
     Engineering, ch. 8; API Bulletin D20), written out independently of the arcs: each
     course's dogleg cos(beta) = cos(I2 - I1) - sin I1 sin I2 (1 - cos(A2 - A1)) and its
     offsets dN, dE, dTVD = dMD / 2 (sum of the two stations' direction cosines) times the
     ratio factor 2 / beta tan(beta / 2). Random 3-D surveys where inclination and azimuth
-    both change from station to station (a planar arc would not test the azimuth)."""
+    both change from station to station (a planar arc would not test the azimuth);
+    ``scale`` 1e-3 makes doglegs of ~1e-4 rad: still arcs, not straight lines."""
     rng = np.random.default_rng(seed)
     n = 25
     md = np.concatenate([[0.0], np.cumsum(rng.uniform(10.0, 100.0, n - 1))])
-    inc = np.clip(np.cumsum(rng.uniform(-8.0, 12.0, n)), 0.0, 110.0)
+    inc = np.clip(np.cumsum(rng.uniform(-8.0, 12.0, n) * scale), 0.0, 110.0)
     inc[0] = 0.0
-    azi = np.mod(rng.uniform(0.0, 360.0) + np.cumsum(rng.uniform(-25.0, 25.0, n)), 360.0)
+    azi = np.mod(rng.uniform(0.0, 360.0) + np.cumsum(rng.uniform(-25.0, 25.0, n) * scale), 360.0)
     well = Trajectory(Survey.from_stations(md, inc, azi))
     i, a = np.radians(inc), np.radians(azi)
     cos_beta = np.cos(i[1:] - i[:-1]) - np.sin(i[:-1]) * np.sin(i[1:]) * (
