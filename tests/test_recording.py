@@ -210,6 +210,7 @@ def test_missing_info_keys_and_fake_env(tmp_path: Path) -> None:
     path = rec.finish("stopped for the test")
     assert path is not None and path.name.startswith("bare_noseed_ep0000_")
     back = read_recording(path)
+    assert back.episode["seed"] == -1  # docs/recording.md, config/episode: -1 = none
     times, values = back.scalars["/timeseries/speed_rpm/bit"]
     np.testing.assert_allclose(values, [(5.0 if k % 7 else 0.0) / RPM for k in range(20)])
     assert "/timeseries/torque_kNm/on_bit" not in back.entities  # missing: not logged
@@ -225,6 +226,40 @@ def test_missing_info_keys_and_fake_env(tmp_path: Path) -> None:
     with pytest.raises(KeyError) as missing:
         back.scalars["/nowhere"]
     assert missing.value.args == ("/nowhere",)  # a plain miss: the key, as a dict's
+
+
+def test_rocks_of_one_name_get_one_rock_share_line_each(tmp_path: Path) -> None:
+    """docs/recording.md, Rock share: one line per rock, named by the rock. Two rocks of
+    the config's default name "rock" must still be two series, each with its own share."""
+    from drill_env.physics.config import FormationConfig, Interface, RockConfig, SimulationConfig
+
+    config = SimulationConfig(formation=FormationConfig(
+        rocks=(RockConfig(), RockConfig(mu_min=0.3)), interfaces=(Interface(depth=10.0),),
+        layers=(0, 1)))
+    rec = EpisodeRecorder(tmp_path)
+    rec.begin(config=config, scenario="same_names", seed=0)
+    for k in range(3):
+        rec.record({"time": 0.1 * k, "rock_share": [0.25, 0.75]})
+    back = read_recording(rec.finish(note="done"))
+    lines = sorted(e for e in back.entities if e.startswith("/timeseries/rock_share/"))
+    assert len(lines) == 2 and lines[0] == "/timeseries/rock_share/rock"
+    assert sorted(float(back.scalars[e][1][0]) for e in lines) == [0.25, 0.75]
+
+
+def test_a_new_episode_finishes_the_unfinished_one_first(tmp_path: Path) -> None:
+    """EpisodeRecorder.begin docstring: an unfinished episode is finished first, so its
+    file is kept, with its samples and an end event."""
+    rec = EpisodeRecorder(tmp_path)
+    rec.begin(scenario="first", seed=0)
+    for k in range(3):
+        rec.record({"time": 0.1 * k, "bit_speed": 5.0})
+    first = rec.path
+    rec.begin(scenario="second", seed=1)
+    assert rec.last_path == first and first.exists()
+    back = read_recording(first)
+    assert len(back.scalars["/timeseries/speed_rpm/bit"][0]) == 3
+    assert back.text_logs["/events"][-1][2].startswith("episode end")
+    rec.discard()
 
 
 def test_a_step_half_recorded_when_ctrl_c_lands_is_dropped_and_the_episode_still_ends(
@@ -357,6 +392,7 @@ def test_odd_recorder_arguments_are_named_and_an_open_episode_is_not_pickled(
     for kwargs, message in (({"stem": ""}, "stem: a file name needs a letter or digit"),
                             ({"exaggeration": "x"}, "exaggeration: must be a finite number"),
                             ({"string_period": "0.1"}, "string_period: must be a finite"),
+                            ({"flush_every": 0}, "flush_every: must be an integer >= 1"),
                             ({"directory": 123}, "directory: expected a folder's path, "
                                                  "got int 123")):
         with pytest.raises(ValueError, match=message):

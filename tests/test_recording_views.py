@@ -19,7 +19,7 @@ from drill_env.physics.formation import rock_at
 from drill_env.physics.simulator import Simulator
 from drill_env.recording.recorder import capture_geometry
 from drill_env.recording.replay import read_recording
-from drill_env.recording.writer import RerunWriter, force_share
+from drill_env.recording.writer import RerunWriter, force_share, nice
 from drill_env.scenarios import make_scenario
 
 K = 50.0  # exaggeration of the lateral displacement in the string view
@@ -288,6 +288,18 @@ def test_the_default_exaggeration_maps_the_largest_clearance_to_2_percent_of_the
     widest = k * np.max(geometry.node_clearance)
     assert 0.02 * length / 2.5 < widest <= 0.02 * length
     assert geometry.exaggeration(37.0) == 37.0  # one asked for is kept
+
+
+@pytest.mark.parametrize("value, expected", [(5.0, 5.0), (2.0, 2.0), (1.0, 1.0), (50.0, 50.0),
+                                             (200.0, 200.0), (0.5, 0.5), (9.99, 5.0),
+                                             (4.99, 2.0), (1.99, 1.0), (499.0, 200.0),
+                                             (0.3, 0.2)])
+def test_nice_is_the_largest_1_2_or_5_times_a_power_of_ten_at_most_the_value(
+        value: float, expected: float) -> None:
+    """``writer.nice`` docstring: 1, 2 or 5 times a power of ten, at most ``value``: a
+    value that is such a number is its own (5 is 5, not 2). (rel 1e-12: 10^-k is
+    inexact in binary.)"""
+    assert nice(value) == pytest.approx(expected, rel=1e-12)
 
 
 def test_the_episode_fields_read_back_are_the_last_written(tmp_path: Path,

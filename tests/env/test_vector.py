@@ -278,6 +278,14 @@ def test_the_vector_envs_arguments_are_refused_by_name():
         with pytest.raises(ValueError, match=rf"^num_envs: at most {MAX_NUM_ENVS}, got "
                                              rf"{MAX_NUM_ENVS + 1} \(each env holds"):
             make(num_envs=MAX_NUM_ENVS + 1, **KW)
+        with pytest.raises(ValueError, match=r"^num_envs: must be a positive integer, got 0"):
+            make(num_envs=0, **KW)
+    # both ends of check_num_envs' range "1-MAX_NUM_ENVS" are taken (its docstring; the
+    # check alone: 4,096 envs would hold ~1.6 GiB)
+    from drill_env.vector import check_num_envs
+
+    check_num_envs(1)
+    check_num_envs(MAX_NUM_ENVS)
     with pytest.raises(ValueError, match=r"^scenario: unknown name \['default'\]"):
         DrillStringVectorEnv(num_envs=1, scenario=["default"])
 
