@@ -943,6 +943,31 @@ def test_a_resumed_run_keeps_its_best_model_until_an_evaluation_beats_it(run, tm
     assert hashlib.sha256((copy / "best_model.zip").read_bytes()).hexdigest() == best
 
 
+def test_the_best_model_is_the_evaluation_of_highest_return_not_the_last(tmp_path,
+                                                                          monkeypatch):
+    """best_model.zip is the model of the evaluation with the highest validation return
+    (training/train.py's docstring: the best model on the validation seeds), kept when a
+    later evaluation scores lower (a mutation test: the best return never updated, every
+    evaluation replaced it)."""
+    import training.train as tt
+    from training.train import saved_steps
+
+    returns = iter([1.0, 3.0, 2.0])
+
+    def scored(model, normalizer, env, seeds):
+        return {"return": next(returns), "return_std": 0.0, "ssi": 0.0, "stuck_fraction": 0.0}
+
+    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", scored)
+    monkeypatch.setattr(tt, "plot_learning_curve", lambda run: None)
+    cfg = tiny_config(n_timesteps=1536, eval_freq=512, checkpoint_freq=10_000)
+    train(cfg, tmp_path / "run", progress=False)
+    rows = tt.read_evaluations(tmp_path / "run" / "evaluations.csv")
+    assert [float(r["return"]) for r in rows] == [1.0, 3.0, 2.0]
+    best = int(float(rows[1]["timesteps"]))
+    assert best < int(float(rows[2]["timesteps"]))
+    assert saved_steps(tmp_path / "run" / "best_model.zip")[0] == best
+
+
 def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsys):
     cases = (({"hyperparams": {"n_epoch": 3}}, "ppo.hyperparams.n_epoch: not an argument"),
              ({"hyperparams": {"learning_rate": -3e-4}}, "ppo.hyperparams.learning_rate"),
@@ -2028,6 +2053,9 @@ def test_a_run_folder_loads_its_best_model_before_its_final_one(tmp_path):
         (tmp_path / name).write_bytes(b"")
     assert policy_files(tmp_path) == (tmp_path / "best_model.zip",
                                       tmp_path / "best_vecnormalize.pkl")
+    # a best model without its statistics (a kill between the two saves) is passed over
+    (tmp_path / "best_vecnormalize.pkl").unlink()
+    assert policy_files(tmp_path) == (tmp_path / "model.zip", tmp_path / "vecnormalize.pkl")
 
 
 def test_a_checkpoint_without_its_statistics_is_passed_over(tmp_path):
