@@ -22,7 +22,9 @@ LOG_INTERVAL = 60.0
 
 class _Lines:
     """A stream for tqdm that writes each of its frames as one line: the carriage returns
-    dropped, the blanks that clear a line skipped."""
+    dropped, the blanks that clear a line skipped, and a frame of the count the last line
+    gave skipped too (a kept bar's close redraws its last count, with a later time and
+    rate: the count printed twice)."""
 
     def __init__(self, stream: IO[str]) -> None:
         self.stream = stream
@@ -30,9 +32,10 @@ class _Lines:
 
     def write(self, text: str) -> int:
         line = text.replace("\r", "").rstrip()
-        if line and line != self.last:  # a kept bar's close redraws its last line
+        count = line.rsplit(" [", 1)[0]  # (the bar and count, without "[time, rate]")
+        if line and count != self.last:
             self.stream.write(line + "\n")
-            self.last = line
+            self.last = count
         return len(text)
 
     def flush(self) -> None:

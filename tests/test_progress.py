@@ -65,6 +65,38 @@ def test_a_short_job_writes_nothing_to_a_log_and_a_bar_not_kept_no_blank_line(mo
     assert log.getvalue().endswith("]\n")
 
 
+def test_items_slower_than_the_interval_get_a_line_each_in_a_log(monkeypatch):
+    """The module's docstring: a line at an item's end, at most one an interval; items
+    slower than that get a line each, also after quicker ones (tqdm spaced them by the
+    quick items' count: a mutation test of its maxinterval)."""
+    clock = _fake_clock(monkeypatch)
+    monkeypatch.setattr(progress, "LOG_INTERVAL", 10.0)
+    log = _Log()
+    with progress.progress_bar(total=50, desc="slower", file=log) as bar:
+        _count(bar, 30, clock)  # 1 s an item
+        for _ in range(20):
+            clock[0] += 15.0  # then 15 s an item, longer than the interval
+            bar.update(1)
+    counts = [int(line.split("|")[2].split("/")[0]) for line in log.getvalue().splitlines()]
+    assert len(counts) == len(set(counts))  # the close does not repeat the last count
+    slow = [n for n in counts if n > 30]
+    # once the bar has caught up with the slower pace, every item to the end has its line
+    assert len(slow) >= 5 and slow == list(range(slow[0], 51))
+
+
+def test_a_kept_bar_closing_on_a_count_already_said_says_it_once(monkeypatch):
+    """A kept bar's close redraws its last count with a later time and rate: in a log it
+    was printed twice, once per frame (a mutation round's side note)."""
+    clock = _fake_clock(monkeypatch)
+    monkeypatch.setattr(progress, "LOG_INTERVAL", 10.0)
+    log = _Log()
+    with progress.progress_bar(total=20, desc="even", file=log) as bar:
+        _count(bar, 20, clock)  # a line at 10 s and at 20 s, the last item's
+        clock[0] += 5.0  # the close, 5 s later
+    lines = log.getvalue().splitlines()
+    assert [line.split("|")[2].split(" [")[0] for line in lines] == [" 10/20", " 20/20"]
+
+
 def test_a_bar_reset_in_a_log_draws_nothing_ahead_of_its_interval(monkeypatch):
     """tqdm draws its bar at a reset: `drill-env run | cat` (reset after the compiling
     first step) kept a "0%" line above the summary. A reset bar counts as before."""
@@ -94,6 +126,32 @@ def test_a_terminal_keeps_tqdms_redrawn_line(monkeypatch):
     with progress.progress_bar(total=3, file=off, disable=True) as bar:
         _count(bar, 3, clock)
     assert off.getvalue() == ""
+
+
+def test_a_closed_or_replaced_stream_is_no_terminal(monkeypatch):
+    """drill_env.progress.is_terminal: False for closed streams and streams without
+    ``isatty`` (its docstring), so a bar there writes plain lines, no carriage return."""
+    clock = _fake_clock(monkeypatch)
+    monkeypatch.setattr(progress, "LOG_INTERVAL", 10.0)
+    closed = _Log()
+    closed.close()  # isatty() of a closed stream: ValueError
+
+    class Replaced:  # a stream of one's own: write and flush only
+        def __init__(self) -> None:
+            self.text = ""
+
+        def write(self, text: str) -> int:
+            self.text += text
+            return len(text)
+
+        def flush(self) -> None:
+            pass
+
+    replaced = Replaced()
+    assert not progress.is_terminal(closed) and not progress.is_terminal(replaced)
+    with progress.progress_bar(total=30, desc="own", file=replaced) as bar:
+        _count(bar, 30, clock)
+    assert "\r" not in replaced.text and replaced.text.count("\n") == 3
 
 
 class _Shell:
