@@ -20,6 +20,7 @@ import warnings
 
 from drill_env.physics.config import Component, StringConfig
 from drill_env.physics.units import GRAVITY, INCH
+from drill_env.physics.validation import warn_under_hole
 
 #: Stabilizer blades 1/8 in under an 8 3/4 in hole: an undergauge choice (API's blade
 #: tolerance is ~1/32 in), and larger than the bit, 10 mm under the hole (docs/model.md,
@@ -171,12 +172,8 @@ def check_stabilizers(string: StringConfig) -> None:
             raise ValueError(f"stabilizer_diameter: {string.stabilizer_diameter} m is narrower "
                              f"than the {body.label} it sits on at stabilizers[{k}] ({pos} m "
                              f"above the bit, outer diameter {body.outer_diameter} m)")
-    blades, hole = string.stabilizer_diameter, string.hole_diameter
-    if string.stabilizer_positions and blades < hole - STABILIZER_UNDER_HOLE:
-        from drill_env.physics.validation import caller_outside
-
-        warnings.warn(f"string.stabilizer_diameter: {blades:.4g} m ({blades / INCH:.4g} in) "
-                      f"is {(hole - blades) / INCH:.3g} in under string.hole_diameter "
-                      f"({hole:.4g} m): the stabilizers' blades stand off the wall; set it "
-                      "for this hole (the default is 8 5/8 in, 1/8 in under the default "
-                      "hole)", UserWarning, stacklevel=caller_outside())
+    if string.stabilizer_positions:
+        warn_under_hole("string.stabilizer_diameter", string.stabilizer_diameter,
+                        string.hole_diameter, STABILIZER_UNDER_HOLE, "the stabilizers' "
+                        "blades stand off the wall; set it for this hole (the default is "
+                        "8 5/8 in, 1/8 in under the default hole)")

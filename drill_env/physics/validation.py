@@ -132,11 +132,15 @@ def check_bit_in_hole(bit: float, hole: float) -> None:
     if bit > hole + 1e-12:
         raise ValueError(f"bit.diameter: {bit} m must not exceed string.hole_diameter "
                          f"({hole} m); set it for this hole (the default bit is 8 3/4 in)")
-    if bit < hole - BIT_UNDER_HOLE:
-        warnings.warn(f"bit.diameter: {bit:.4g} m ({bit / INCH:.4g} in) is "
-                      f"{(hole - bit) / INCH:.3g} in under string.hole_diameter ({hole:.4g} "
-                      f"m): a bit drills a hole of its own size; set bit.diameter for this "
-                      "hole (the default bit is 8 3/4 in)", UserWarning,
+    warn_under_hole("bit.diameter", bit, hole, BIT_UNDER_HOLE, "a bit drills a hole of its "
+                    "own size; set bit.diameter for this hole (the default bit is 8 3/4 in)")
+
+
+def warn_under_hole(name: str, size: float, hole: float, limit: float, why: str) -> None:
+    """UserWarning ``name``: ``size`` (m) more than ``limit`` under ``hole``, then ``why``."""
+    if size < hole - limit:
+        warnings.warn(f"{name}: {size:.4g} m ({size / INCH:.4g} in) is {(hole - size) / INCH:.3g}"
+                      f" in under string.hole_diameter ({hole:.4g} m): {why}", UserWarning,
                       stacklevel=caller_outside())
 
 
