@@ -18,7 +18,8 @@ interrupted (a training run saves its checkpoint). A task whose worker process o
 dies is run again (``MAX_RETRIES`` times); an exception raised by the task itself is
 not retried (it would raise again: every task is a pure function of its argument) and
 stops the sweep with that error. The results are the same numbers whichever backend ran
-them.
+them. A task runs in the command's working folder, which on a cluster of several machines
+must be one every node mounts at the same path (:func:`_in_folder`).
 """
 
 from __future__ import annotations
@@ -60,23 +61,51 @@ CONNECT_TIMEOUT = 5.0
 Said = tuple[str, type, str, int, str | None]
 
 
-def _call(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[Said]]:
-    """``fn(item)`` and the warnings it gave: a Ray worker's stderr does not reach the
-    command (``log_to_driver=False``), so a warning said on local processes (a WOB above
-    the string's limit, a pipe in compression) was lost on Ray (an outside check); the
-    driver gives them again (:func:`_said`). Each place's first only, as Python's default
-    filter shows them (a warning at every step of a training run would be kept a million
-    times), each task's anew (the filters set, the worker's registry of what it said
-    counts no more)."""
+def _call(fn: Callable[[Any], Any], item: Any,
+          folder: str | None = None) -> tuple[Any, list[Said]]:
+    """``fn(item)`` run in ``folder`` (:func:`_in_folder`), and the warnings it gave: a
+    Ray worker's stderr does not reach the command (``log_to_driver=False``), so a warning
+    said on local processes (a WOB above the string's limit, a pipe in compression) was
+    lost on Ray (an outside check); the driver gives them again (:func:`_said`). Each
+    place's first only, as Python's default filter shows them (a warning at every step of
+    a training run would be kept a million times), each task's anew (the filters set, the
+    worker's registry of what it said counts no more)."""
     import warnings
 
     _interruptible()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default")
-        result = fn(item)
+        with _in_folder(folder):
+            result = fn(item)
     places = dict.fromkeys((str(w.message), w.category, w.filename, w.lineno)
                            for w in caught)
     return result, [(*place, _module_of(place[2])) for place in places]
+
+
+@contextlib.contextmanager
+def _in_folder(folder: str | None) -> Iterator[None]:
+    """Run a task in ``folder``, the command's working folder, where the paths the user
+    typed relative to it (``--out``, a run folder, ``learned:RUN``) mean what they meant
+    there. A Ray worker starts in the folder its node was started from (``ray start``'s):
+    a training sweep's run folders landed there, its summary listing them where they were
+    not, and ``evaluate`` found no run (an outside check). A node without the folder (a
+    cluster without a shared filesystem) runs the task where it is, and says so."""
+    if folder is None:
+        yield
+    elif os.path.isdir(folder):
+        with contextlib.chdir(folder):
+            yield
+    else:
+        import socket
+        import warnings
+
+        warnings.warn(f"ray_address: node {socket.gethostname()} has no folder {folder}, "
+                      f"the command's: its tasks ran in {os.getcwd()}, where what they "
+                      "write by a relative path (run folders, series, recordings) lands; "
+                      "on a cluster of several machines, run drill-env from a folder every "
+                      "node mounts at the same path (README, Scaling out on Ray)",
+                      RuntimeWarning, stacklevel=3)
+        yield
 
 
 def _module_of(filename: str) -> str | None:
@@ -239,12 +268,25 @@ class RayExecutor:
                 # console for our progress bar and one clear error (not for "local", which
                 # makes no attempts: the variable costs a line of its own there)
                 os.environ.setdefault("RAY_BACKEND_LOG_LEVEL", "error")
+                if ray_address.startswith(("http://", "https://")):
+                    # (Ray's own refusal tells how to fix a RAY_ADDRESS nobody set)
+                    raise ValueError(f"ray_address: {ray_address!r} is a web address (a "
+                                     "dashboard's or job server's); join the head's GCS "
+                                     "address host:port (6379 by default: `ray start "
+                                     "--head` prints it), ray://host:10001, 'auto' on the "
+                                     "head, or 'local'")
                 _check_reachable(ray_address)
                 try:
                     with _quiet_token_notice():
                         ray.init(address=ray_address, runtime_env=runtime_env,
                                  log_to_driver=False, configure_logging=False)
                 except ConnectionError as error:
+                    if ray_address == "auto" and "Could not find any running Ray" in str(
+                            error):  # (Ray's advice names its own --address flag)
+                        raise ConnectionError(
+                            "ray_address: 'auto' found no Ray cluster started on this "
+                            "machine: `ray start --head` starts one to join, and 'local' "
+                            "one for this command alone") from None
                     # `ray start` (Ray >= 2.59) turns token authentication on wherever
                     # ~/.ray/auth_token exists, which a `local` run writes; Ray sends the
                     # token to `auto` but to an address only with RAY_AUTH_MODE=token (it
@@ -270,12 +312,13 @@ class RayExecutor:
                       late: Late | None = None) -> Iterator[tuple[int, Any]]:
         ray = self._ray
         fn_ref = ray.put(fn)
+        folder = os.getcwd()  # the tasks' (_in_folder)
         pending = iter(enumerate(items))
         in_flight: dict[Any, int] = {}
         limit = 2 * self.cpus
         try:
             for k, item in pending:
-                in_flight[self._remote.remote(fn_ref, item)] = k
+                in_flight[self._remote.remote(fn_ref, item, folder)] = k
                 if len(in_flight) >= limit:
                     break
             while in_flight:
@@ -284,7 +327,7 @@ class RayExecutor:
                     k = in_flight.pop(ref)
                     yield k, _said(ray.get(ref), self._warned)
                     for k_next, item in pending:
-                        in_flight[self._remote.remote(fn_ref, item)] = k_next
+                        in_flight[self._remote.remote(fn_ref, item, folder)] = k_next
                         break
         finally:
             if ray.is_initialized() and in_flight:  # not after close(): that session's refs
@@ -320,9 +363,10 @@ class RayExecutor:
             ready, running = ray.wait(refs, num_returns=len(refs), timeout=0.0)
             keep(ready)
             if running:
-                print(f"stopping: {len(running)} Ray tasks in flight, given up to "
-                      f"{SETTLE_GRACE:g} s to end and {CANCEL_GRACE:g} s once interrupted "
-                      "(Ctrl-C again: stop them now)", file=sys.stderr)
+                print(f"stopping: {len(running)} Ray tasks in flight; {SETTLE_GRACE:g} s "
+                      "to end by themselves, then interrupted (a training run saves its "
+                      f"checkpoint) and killed after {CANCEL_GRACE:g} s more; a second "
+                      "interrupt (Ctrl-C) kills them now", file=sys.stderr)
                 ready, running = ray.wait(running, num_returns=len(running),
                                           timeout=SETTLE_GRACE)
                 keep(ready)

@@ -66,6 +66,33 @@ def same_maps(a_maps, b_maps):
         np.testing.assert_array_equal(a.unstable, b.unstable)
 
 
+def test_a_web_address_or_auto_without_a_cluster_says_what_to_give(tmp_path):
+    """A dashboard's http:// address got Ray's advice to unset a RAY_ADDRESS nobody set,
+    and 'auto' where no cluster runs Ray's advice to set its own --address flag beside
+    our token hint (a new user's trial): each says what to give instead, at once. (First
+    in the file: Ray's 'auto' also finds a cluster by its processes, and the module's
+    cluster, started by the tests below, runs until the last of them.)"""
+    import subprocess
+
+    from drill_env.distributed import RayExecutor
+
+    if ray.is_initialized():  # a sweep's own session only: the executor joins no other
+        ray.shutdown()
+    with pytest.raises(ValueError, match=r"'http://127.0.0.1:8265' is a web address .* "
+                                         r"host:port \(6379 by default"):
+        RayExecutor("http://127.0.0.1:8265")
+    script = ("from drill_env.distributed import RayExecutor\n"
+              "try:\n    RayExecutor('auto')\nexcept ConnectionError as error:\n"
+              "    print(error)\n")
+    # (Ray's temporary folder where no cluster ever started: 'auto' finds none there)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("RAY_ADDRESS")}
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env={**env, "RAY_TMPDIR": str(tmp_path)}, timeout=120)
+    assert done.stdout.strip() == (
+        "ray_address: 'auto' found no Ray cluster started on this machine: `ray start "
+        "--head` starts one to join, and 'local' one for this command alone"), done.stderr
+
+
 def test_a_map_on_a_ray_cluster_equals_the_local_process_map(cluster, local_points,
                                                              tmp_path):
     maps, expected = local_points
@@ -431,6 +458,44 @@ def test_a_warning_many_tasks_give_is_given_here_once_per_place():
         warnings.simplefilter("default")
         assert [_said(reply, registry) for _ in range(3)] == [4, 4, 4]
     assert [str(w.message) for w in caught] == ["limit"]
+
+
+def _folder(_: int) -> str:
+    return os.getcwd()
+
+
+def test_a_task_on_a_cluster_runs_in_the_folder_the_command_runs_in(cluster, tmp_path,
+                                                                     monkeypatch):
+    """Paths typed relative to where the command runs (--out, a run folder) mean the same
+    on the cluster: its workers started in the folder the nodes were started from, where a
+    training sweep's run folders landed (an outside check; README, Scaling out on Ray)."""
+    from drill_env.distributed import RayExecutor
+
+    monkeypatch.chdir(tmp_path)
+    executor = RayExecutor(cluster.address)
+    try:
+        # (a function of the standard library: a worker cannot import this test module)
+        folders = dict(executor.map_unordered(os.path.abspath, [".", ".", "."]))
+    finally:
+        executor.close()
+    assert {os.path.realpath(f) for f in folders.values()} == {os.path.realpath(tmp_path)}
+
+
+def test_a_node_without_the_commands_folder_runs_the_task_where_it_is_and_says_so(
+        tmp_path):
+    """A cluster without a shared filesystem: a node lacking the command's folder runs the
+    task in its own (the task may write nothing) and warns where the files went; a node
+    with it runs the task there and leaves the worker's folder as it was."""
+    from drill_env.distributed import _call
+
+    here = os.getcwd()
+    result, said = _call(_folder, 0, str(tmp_path / "not-on-this-node"))
+    assert result == here == os.getcwd()
+    assert [(category, "not-on-this-node" in text, f"ran in {here}," in text)
+            for text, category, *_ in said] == [(RuntimeWarning, True, True)]
+    result, said = _call(_folder, 0, str(tmp_path))
+    assert (os.path.realpath(result), said) == (os.path.realpath(tmp_path), [])
+    assert os.getcwd() == here
 
 
 def _warn_limit(n: int) -> int:
