@@ -266,6 +266,21 @@ def integer(low: int = 0, high: int | None = None) -> Callable[[str], int]:
     return parse
 
 
+def seed_count(first: str, high: int | None = None) -> Callable[[str], int]:
+    """``--seeds`` where it is how many (benchmark, evaluate): a list typed as train's
+    ``--seeds 0,1`` takes is told so, ``first`` naming where the seeds start."""
+    count = integer(1, high)
+
+    def parse(text: str) -> int:
+        if "," in text:
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: a number of seeds here, counted from {first} (a list of "
+                "seeds is train's --seeds)")
+        return count(text)
+    parse.__name__ = "integer"
+    return parse
+
+
 def fixed(value: float, digits: int = 2) -> str:
     """``value`` with ``digits`` decimals, without the sign of a value that rounds to
     zero ("0.00", not "-0.00")."""
@@ -1039,6 +1054,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if not args.run.is_dir():
         what = f"{args.run} is a file, not a run folder{local}" if args.run.exists() else \
             no_such_folder(args.run)
+        if not args.run.exists() and len(args.run.parts) == 1 and "(did you mean" not in what:
+            from drill_env.physics.validation import did_you_mean
+
+            what += did_you_mean(str(args.run), sorted(TASKS))  # a task's name misspelt
         raise argparse.ArgumentTypeError(f"RUN: {what} (a run folder of drill-env train, "
                                          "e.g. logs/runs/<name>, or a task's name for its "
                                          f"shipped policy: {', '.join(sorted(TASKS))})")
@@ -1674,7 +1693,7 @@ def parser() -> argparse.ArgumentParser:
                         "in m (default 900,1600; a curved well of --config may need a "
                         "narrower range, docs/tasks.md)")
     # (1e12 was a MemoryError building the seed list; 10,000 seeds x one pair take days)
-    p.add_argument("--seeds", type=integer(1, MAX_BENCHMARK_SEEDS), default=3,
+    p.add_argument("--seeds", type=seed_count("--seed-start", MAX_BENCHMARK_SEEDS), default=3,
                    help="seeds per pair")
     p.add_argument("--seed-start", type=integer(0), default=0,
                    help="first seed (the held-out evaluation seeds start at 1000000)")
@@ -1752,7 +1771,8 @@ def parser() -> argparse.ArgumentParser:
                         "comparison in comparison.md", cmd_evaluate)
     p.add_argument("run", type=user_path, help="run folder of drill-env train, or a task's name "
                                            "(stick_slip, drilling) for its shipped policy")
-    p.add_argument("--seeds", type=integer(1), default=20, help="held-out seeds")
+    p.add_argument("--seeds", type=seed_count("1000000, the held-out seeds"), default=20,
+                   help="how many held-out seeds (1000000 on)")
     p.add_argument("--fidelity", choices=("full", "fast"), default=None,
                    help="physics level of every episode, the policy's and the others' "
                         "(default: the level the run trained at, fast for the tasks; full "
@@ -2041,11 +2061,26 @@ COMPILING_COMMANDS = frozenset(("demo", "run", "benchmark", "train", "evaluate",
 
 
 def no_kernels_cached() -> bool:
-    """Whether this version's numba cache holds no compiled kernel (numba's index files):
-    a new install, or the first run after an edit of the sources."""
+    """Whether this version's numba cache holds no compiled kernel of this checkout's
+    (numba's index files): a new install, the first run after an edit of the sources, or
+    a second checkout of the same version. numba keeps a source folder's kernels in a
+    subfolder named by that folder's path (``physics_<sha1 of the path>``, its
+    ``_CacheLocator.get_suitable_cache_subpath``): another checkout's kernels are not this
+    one's, and a new user's first benchmark in a second clone sat ~2 min unexplained (an
+    outside check)."""
+    import hashlib
+
+    import drill_env
     from drill_env import numba_cache_dir
 
-    return next(numba_cache_dir().rglob("*.nbi"), None) is None
+    package = os.path.dirname(os.path.abspath(drill_env.__file__))
+    folders = {os.path.dirname(os.path.join(top, name))
+               for top, _, names in os.walk(package) for name in names if name.endswith(".py")}
+    cache = numba_cache_dir()
+    return not any(
+        next((cache / f"{os.path.basename(folder)}_"
+                       f"{hashlib.sha1(folder.encode()).hexdigest()}").glob("*.nbi"), None)
+        for folder in folders)
 
 
 @contextlib.contextmanager

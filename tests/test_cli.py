@@ -1395,6 +1395,19 @@ def test_benchmark_seeds_count_up_from_seed_start(monkeypatch, tmp_path):
     assert seen == [[1_000_000, 1_000_001]]
 
 
+def test_a_list_of_seeds_where_seeds_is_a_count_says_which_it_is(capsys):
+    """--seeds is a list in train (0,1,...) but a count in benchmark and evaluate (the
+    README writes both side by side): a list typed there says it is a count, from where,
+    and that the list is train's (a new user's '0,1' read only "is not an integer")."""
+    for argv, first in ((["benchmark", "--controllers", "stiff"], "counted from --seed-start"),
+                        (["evaluate", "stick_slip"], "counted from 1000000")):
+        with pytest.raises(SystemExit):
+            main([*argv, "--seeds", "0,1"])
+        err = capsys.readouterr().err
+        assert "--seeds: '0,1': a number of seeds here" in err and first in err
+        assert "a list of seeds is train's --seeds" in err
+
+
 @pytest.mark.parametrize("argv, said", [
     (["benchmark", "--scenarios", "stik_slip"], "--scenarios: unknown ['stik_slip'] (did you "
                                                 "mean stick_slip?); known: "),
@@ -1877,14 +1890,20 @@ def test_a_first_run_says_it_compiles_the_kernels(tmp_path, capsys, monkeypatch)
 def test_no_kernels_cached_reads_numbas_own_cache(tmp_path):
     """The empty-cache check of the first-run notice is False once numba has cached one
     of drill_env's kernels in this version's folder: checked against numba itself (its
-    index files), in a fresh process with a NUMBA_CACHE_DIR of its own. (Another
-    library's kernel does not count: numba keeps it elsewhere, test_numba_cache.py.)"""
+    index files), in a fresh process with a NUMBA_CACHE_DIR of its own. Another checkout's
+    kernels of the same version do not count (numba keeps them under their own folder's
+    path; a second clone's first run compiled unannounced), nor another library's
+    (numba keeps it elsewhere, test_numba_cache.py)."""
     import os
     import subprocess
     import sys
 
     code = ("import numpy as np\nfrom drill_cli.main import no_kernels_cached\n"
+            "from drill_env import numba_cache_dir\n"
             "from drill_env.physics.linalg import band_cholesky\n"
+            "other = numba_cache_dir() / ('physics_' + 40 * '0')\n"
+            "other.mkdir(parents=True)\n"
+            "(other / 'linalg.band_cholesky-1.py311.nbi').write_bytes(b'')\n"
             "before = no_kernels_cached()\n"
             "band_cholesky(np.array([[0.0, 0.0], [4.0, 4.0]]), np.zeros((2, 2)))\n"
             "print(before, no_kernels_cached())\n")

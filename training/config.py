@@ -394,8 +394,9 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
             wrong.append(f"{where}.{key}: {err}")
     if wrong:
         unknown = any("not an argument" in w for w in wrong)
-        raise ConfigError("; ".join(wrong) + (f" (known: {', '.join(sorted(known))})"
-                                              if unknown else ""))
+        # (the objects YAML cannot hold are refused by name: not offered as known)
+        offered = ", ".join(sorted(known - _OBJECTS))
+        raise ConfigError("; ".join(wrong) + (f" (known: {offered})" if unknown else ""))
     if config.algo == "ppo":  # SB3 only warns, then trains on truncated mini-batches
         batch = config.hyperparams.get("batch_size", 64)
         rollout = config.hyperparams.get("n_steps", 2048) * config.n_envs
@@ -427,7 +428,8 @@ def check_algorithm_arguments(config: TrainConfig) -> None:
     for key in config.policy_kwargs:
         if key not in known:
             raise ConfigError(f"{where}.{key}: not an argument of {config.policy} "
-                              f"({config.algo}); known: {', '.join(sorted(known))}")
+                              f"({config.algo}){did_you_mean(key, sorted(known))}; known: "
+                              f"{', '.join(sorted(known))}")
     if (config.algo == "sac" and "log_std_init" in config.policy_kwargs
             and not config.hyperparams.get("use_sde", False)):
         # SB3's SAC actor learns its log std from the state; only gSDE takes the value
