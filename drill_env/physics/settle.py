@@ -268,6 +268,8 @@ class Wall:
             self.mu[-1] = abs(bit.gauge_friction if bit.gauge_friction is not None else
                               resistance(omega, rock[Rock.MU_MIN], rock[Rock.MU_MAX],
                                          rock[Rock.ST1], rock[Rock.ST2])) if rubs else 0.0
+            # regularised below V_REG as the kernel's pads are (bit._gauge_loads)
+            self.mu[-1] *= min(abs(reach * omega) / p[P.V_REG], 1.0)
             self.cap[-1] = np.inf
         self.normal = np.zeros(nodes.shape[0])
         self.torque = np.zeros(nodes.shape[0])

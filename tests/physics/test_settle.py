@@ -7,6 +7,7 @@ walkthrough), and the stall left stick-slip cycles a settled string does not sta
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -83,6 +84,38 @@ def test_the_wall_torque_of_a_slant_hole_is_the_soft_string_torque(inclination):
     force, radius, soft = sim.node_force[1:-1], sim.node_radius[1:-1], across[1:-1]
     arm = float(np.sum(force * radius) / np.sum(force))
     assert 1.05 < arm / float(np.sum(soft * radius) / np.sum(soft)) < 1.09
+
+
+def test_the_wall_of_the_rest_state_is_the_kernels_wall_contact_at_rest():
+    """settle.Wall is the kernel's contact law (integrator.wall_contact) at zero lateral
+    speed: the penalty normal force, friction at the slip R omega regularised linearly
+    below P.V_REG and capped at |v_r| / compliance. Node by node on the string's contact
+    nodes (the bit node is the bit model's), turning slower and faster than V_REG."""
+    from drill_env.physics.integrator import wall_contact
+    from drill_env.physics.layout import CONTACT
+    from drill_env.physics.settle import Wall
+
+    sim = _slant(30.0)
+    p = sim.params
+    n = sim.ut.shape[0]
+    nodes = np.array([k for k in range(sim.lateral_start + 1, n - 1)
+                      if sim.node_contact[k] != 0.0])
+    clearance, radius = sim.node_clearance[nodes], sim.node_radius[nodes]
+    angle = 0.7
+    x = (clearance + 1e-5) * np.cos(angle)  # 0.1 mm into the wall: small normal forces,
+    y = (clearance + 1e-5) * np.sin(angle)  # whose friction stays below the cap
+    slow = 0.2 * p[P.V_REG] / radius.max()
+    for omega in (slow, 100.0 * RPM):
+        wall = Wall(sim, nodes, omega)
+        force, _ = wall.forces(x, y)
+        out = np.zeros(len(CONTACT))
+        for m, k in enumerate(nodes):
+            wall_contact(x[m], y[m], 0.0, 0.0, omega, clearance[m], radius[m], p,
+                         sim.compliance[k], out)
+            np.testing.assert_allclose(force[m], out[[CONTACT.FX, CONTACT.FY]], rtol=1e-12)
+            assert wall.normal[m] == pytest.approx(out[CONTACT.NORMAL], rel=1e-12)
+            assert wall.torque[m] == pytest.approx(out[CONTACT.MZ], rel=1e-12)
+        assert np.all(wall.torque < 0.0)  # friction against the rotation
 
 
 def test_the_rest_state_is_the_energy_minimum_an_independent_optimiser_finds():
@@ -187,6 +220,31 @@ def test_a_string_buckled_far_against_the_wall_still_starts():
     assert np.all(np.isfinite(bit)) and np.max(np.abs(bit - 60.0)) < 0.05 * 60.0
 
 
+def test_where_the_frictions_rest_is_not_found_the_twist_still_holds_all_of_it(
+        monkeypatch):
+    """settle.rest_on_wall: where no step of the friction's continuation finds its rest
+    state, the string starts at the last share reached (here none: the frictionless
+    rest), but the wall torques it returns are those of all the friction, mu(R omega) R
+    f_n against the rotation at each string node (the twist holds the kernel's torque at
+    t = 0). In a 30 degree slant hole, the slip R omega far above V_REG and the cap."""
+    from drill_env.physics import settle
+
+    monkeypatch.setattr(settle._Problem, "solve", lambda self, z, wall: None)
+    omega, wob = 100.0 * RPM, 50e3
+    sim = _slant(30.0)
+    sim.reset(OperatingPoint(omega, wob))
+    assert sim.settle_share == 0.0
+    torque = settle.rest_on_wall(sim, omega, wob)
+    p = sim.params
+    touching = np.flatnonzero(sim.node_force[:-1] > 0.0)  # the string's nodes on the wall
+    assert touching.size > 10
+    radius = sim.node_radius[touching]
+    mu = np.array([wall_friction_coefficient(omega * r, p[P.MU_STATIC], p[P.MU_KINETIC],
+                                             p[P.MU_DECAY]) for r in radius])
+    np.testing.assert_allclose(torque[touching], -mu * radius * sim.node_force[touching],
+                               rtol=1e-12)
+
+
 def test_a_bit_resting_on_the_wall_starts_as_it_goes_on():
     """docs/config.md's J-well with a slick BHA (its near-bit stabilizer left out),
     drilling its build at 100 kN, presses its bit on the wall: the gauge pads' friction
@@ -210,6 +268,44 @@ def test_a_bit_resting_on_the_wall_starts_as_it_goes_on():
     start, later = bit[time < 1.0], bit[time > 8.0]
     assert later.max() - later.min() > 2.0  # the pads' ripple (rpm), there to compare
     assert start.min() > later.min() - 0.5 and start.max() < later.max() + 0.5
+
+
+@pytest.mark.parametrize("implicit, slow", [(False, False), (True, False), (False, True)])
+def test_a_mesoscopic_bit_rests_on_one_pad_with_the_rocks_stiffness_and_curve(implicit,
+                                                                              slow):
+    """settle.py's Wall: the mesoscopic bit rests on its gauge pads as one pad at r_C
+    facing the wall, with the rock's wall stiffness (eq. 55) and the rock's resistance
+    curve at omega (eq. 57: the slip r_C omega over r_C; no gauge_friction here), its
+    torque r_C mu f_n against the rotation, the friction scaled by r_C omega / V_REG
+    where the pads slip slower than V_REG (as the kernel's pads are: settle's rest had
+    the full coefficient there, 0.90 against the kernel's 0.19 at 0.002 rad/s); no
+    friction with implicit contacts. By hand from the settled bit offset and the hard
+    rock the bit sits in."""
+    from drill_env.physics.settle import rest_on_wall
+    from drill_env.scenarios import HARD
+
+    config = with_physics(make_scenario("paper_case2").config, {
+        "string.stabilizers": (10.0, 19.0), "well.md": (0.0, 2000.0),
+        "well.inclination": (60.0, 60.0), "well.azimuth": (0.0, 0.0),
+        "solver.implicit_contacts": implicit})
+    assert config.formation.rocks[config.formation.layers[0]] == HARD
+    assert config.bit.gauge_friction is None
+    with pytest.warns(RuntimeWarning, match="curved hole") if implicit else nullcontext():
+        sim = Simulator(config)
+    r_c = config.bit.gauge_radius
+    v_reg = sim.params[P.V_REG]
+    omega, wob = (0.25 * v_reg / r_c if slow else 100.0 * RPM), 30e3
+    sim.reset(OperatingPoint(omega, wob))
+    assert sim.depth < config.formation.interfaces[0].depth  # the bit in the top layer
+    torque = rest_on_wall(sim, omega, wob)  # the wall's torques of the settled state
+    normal = sim.node_force[-1]
+    assert normal > 1e3  # the bit on the wall (N)
+    penetration = np.hypot(*sim.ul[-2]) - (config.string.hole_diameter / 2 - r_c)
+    assert normal == pytest.approx(HARD.wall_stiffness * penetration, rel=1e-9)
+    mu = 0.0 if implicit else (HARD.mu_min + (HARD.mu_max - HARD.mu_min)
+                               * np.exp(-omega / HARD.st1) + HARD.st2 * omega)  # eq. (39)
+    mu *= min(r_c * omega / v_reg, 1.0)
+    assert torque[-1] == pytest.approx(-r_c * mu * normal, rel=1e-9, abs=1e-9)
 
 
 def test_a_bit_without_gauge_pads_does_not_rest_on_a_wall_it_has_none_of():
