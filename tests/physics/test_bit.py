@@ -40,11 +40,14 @@ def pieces(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, de
 
 def loads(bit_cfg: BitConfig, fa: formation.FormationArrays, bx=0.0, by=0.0, vx=0.0, vy=0.0,
           depth=DEPTH, phi_z=0.0, omega=10.0, wob=WOB, compliance=0.0,
-          regularisation=1e-3, gauge_friction=math.nan, end_force=None) -> np.ndarray:
+          regularisation=1e-3, gauge_friction=math.nan, end_force=None,
+          scratch=None) -> np.ndarray:
     """The kernel's loads; ``end_force``: the pads' force at the end of the last step,
-    with the contacts implicit (``GaugeContact.shared``)."""
+    with the contacts implicit (``GaugeContact.shared``); ``scratch``: a
+    :class:`bit.BitScratch` to be left holding the pieces and pads."""
     blades = bit.blade_arrays(bit_cfg)
-    scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
+    if scratch is None:
+        scratch = bit.make_bit_scratch(len(blades), fa.n_interfaces)
     if end_force is not None:
         scratch.pads[:, bit.PAD.END_FORCE] = end_force
     out = bit.make_loads_out(fa.n_rocks)
@@ -75,6 +78,22 @@ def test_blade_arrays_put_point_c_at_the_gauge_radius():
         blades[:, Blade.R_C] - blades[:, Blade.R_B],
         blades[:, Blade.L_SH] * np.sin(blades[:, Blade.ALPHA_SH]))  # SPEC 2.2
     np.testing.assert_allclose(np.degrees(blades[:, Blade.PHI]), cfg.blade_angles)
+
+
+def test_blade_arrays_give_each_blade_its_own_face_shoulder_and_gauge():
+    """Row i of blade_arrays is blade i of the config (BitConfig: per blade i, face from
+    face_start[i] to face_end[i], gauge pad gauge_length[i]); the oracle reads these
+    columns too, so only the config can check them. By hand on unequal blades."""
+    gauge_length = (0.05, 0.04, 0.03, 0.06, 0.0, 0.02)
+    cfg = dataclasses.replace(bit.asymmetric_bit(), gauge_length=gauge_length)
+    blades = bit.blade_arrays(cfg)
+    alpha = math.radians(cfg.shoulder_angle)
+    l_sh = (cfg.gauge_radius - np.array(bit.ASYMMETRIC_FACE_END)) / math.sin(alpha)
+    np.testing.assert_allclose(blades[:, Blade.R_A], bit.ASYMMETRIC_FACE_START, rtol=1e-15)
+    np.testing.assert_allclose(blades[:, Blade.R_B], bit.ASYMMETRIC_FACE_END, rtol=1e-15)
+    np.testing.assert_allclose(blades[:, Blade.L_SH], l_sh, rtol=1e-12)
+    np.testing.assert_allclose(blades[:, Blade.RISE_SH], l_sh * math.cos(alpha), rtol=1e-12)
+    np.testing.assert_allclose(blades[:, Blade.L_G], gauge_length, rtol=1e-15)
 
 
 def test_front_length_and_lever_arm_follow_eqs_30_and_34_with_the_midpoint_rule():
@@ -396,9 +415,14 @@ class TestGauge:
         out = loads(self.cfg, self.fa, vx=0.1, omega=10.0)
         assert np.all(out[BitOut.GAUGE_X:BitOut.GAUGE_TORQUE + 1] == 0.0)
 
-    def test_normal_force_is_k_f_plus_c_fdot_split_by_gauge_length_in_each_rock(self):
+    @pytest.mark.parametrize("gauge_friction", [math.nan, 0.25])
+    def test_normal_force_is_k_f_plus_c_fdot_split_by_gauge_length_in_each_rock(
+            self, gauge_friction):
+        """Eq. (55); the pad does not slip (v_r = 0), so no friction (along -sign(v_r) t,
+        bit.py's gauge comment), even unregularised and with the pads' own coefficient."""
         vx = 0.01
-        out = loads(self.cfg, self.fa, bx=self.bx, vx=vx, omega=0.0)
+        out = loads(self.cfg, self.fa, bx=self.bx, vx=vx, omega=0.0, regularisation=0.0,
+                    gauge_friction=gauge_friction)
         k = 0.3 * HARD.wall_stiffness + 0.7 * SOFT.wall_stiffness
         c = 0.3 * HARD.wall_damping + 0.7 * SOFT.wall_damping
         assert out[BitOut.GAUGE_X] == pytest.approx(-(k * self.penetration + c * vx), rel=1e-9)
@@ -422,6 +446,25 @@ class TestGauge:
         assert out[BitOut.GAUGE_X] == pytest.approx(-f_hard, rel=1e-9)
         expected = reference_loads(self.cfg, self.fa, bx=self.bx, vx=vx, omega=0.0)
         np.testing.assert_allclose(out, expected, rtol=1e-10, atol=1e-10)
+
+    @pytest.mark.parametrize("vx", [0.01, -7.0])
+    def test_a_pads_stiffness_and_damping_are_those_of_its_pushing_pieces(self, vx):
+        """bit.PAD, kept for the implicit contacts: STIFFNESS and DAMPING are the sums of
+        l / l_g k and l / l_g c (eq. 55) over the pad's pieces that push, FORCE its normal
+        force. Here 30 % hard and 70 % soft rock; receding at 7 m/s only the hard rock's
+        part pushes (the test above). The pads off the wall carry none."""
+        scratch = bit.make_bit_scratch(6, self.fa.n_interfaces)
+        out = loads(self.cfg, self.fa, bx=self.bx, vx=vx, omega=0.0, scratch=scratch)
+        soft = 0.7 if vx > 0.0 else 0.0  # the soft rock's share that pushes
+        pad = scratch.pads[0]
+        assert pad[bit.PAD.PENETRATION] == pytest.approx(self.penetration, rel=1e-9)
+        assert pad[bit.PAD.RATE] == pytest.approx(vx, rel=1e-12)
+        assert pad[bit.PAD.STIFFNESS] == pytest.approx(
+            0.3 * HARD.wall_stiffness + soft * SOFT.wall_stiffness, rel=1e-12)
+        assert pad[bit.PAD.DAMPING] == pytest.approx(
+            0.3 * HARD.wall_damping + soft * SOFT.wall_damping, rel=1e-12)
+        assert pad[bit.PAD.FORCE] == pytest.approx(-out[BitOut.GAUGE_X], rel=1e-12)
+        assert np.all(scratch.pads[1:, bit.PAD.STIFFNESS:bit.PAD.FORCE + 1] == 0.0)
 
     @pytest.mark.parametrize("end_force", [2.0e3, 5.0e4])
     def test_shared_pads_rub_with_the_smaller_of_their_predicted_and_last_forces(

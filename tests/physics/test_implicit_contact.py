@@ -235,12 +235,15 @@ def test_a_batch_of_implicit_simulators_gives_the_floats_of_each_alone():
         assert np.max(e.contact_forces[:-1]) > 0.0  # the push reached the wall
 
 
-def test_the_bits_friction_cap_is_split_among_the_pads_on_the_wall():
+@pytest.mark.parametrize(("gauge_length", "pads"), [((0.05,) * 6, 2),
+                                                    ((0.05, 0.0, 0.05, 0.05, 0.05, 0.05), 1)])
+def test_the_bits_friction_cap_is_split_among_the_pads_on_the_wall(gauge_length, pads):
     """GaugeContact.shared: with every pad's friction at its cap (fast spin, a cap far
     below the normal forces' friction), the pads' friction torque is the unshared one
     over the number of pads pushing (the normal forces' own torque, with no friction,
-    taken off both)."""
-    bit_cfg = bit.asymmetric_bit()
+    taken off both). Blades 0 and 1 reach past the wall; with blade 1's gauge pad left
+    out (gauge length 0) it is no pad on the wall, and blade 0's pad keeps its whole cap."""
+    bit_cfg = replace(bit.asymmetric_bit(), gauge_length=gauge_length)
     fa = formation.formation_arrays(FormationConfig(rocks=(HARD,)))
     blades = bit.blade_arrays(bit_cfg)
 
@@ -257,8 +260,8 @@ def test_the_bits_friction_cap_is_split_among_the_pads_on_the_wall():
     normal_only, touching = gauge_torque(0.0, False)
     alone = gauge_torque(0.5, False)[0] - normal_only
     shared = gauge_torque(0.5, True)[0] - normal_only
-    assert touching >= 2 and abs(alone) > 0.0
-    assert shared == pytest.approx(alone / touching, rel=1e-9)
+    assert touching == pads and abs(alone) > 0.0
+    assert shared == pytest.approx(alone / pads, rel=1e-9)
 
 
 @pytest.mark.parametrize(("seed", "step"), [(117, 0.006), (119, 0.006), (101, 0.008),
