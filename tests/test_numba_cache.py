@@ -74,6 +74,32 @@ def test_drill_envs_kernels_go_to_its_folder_and_no_other_librarys(tmp_path):
     assert _source_tree_kernels() == before
 
 
+def test_the_cache_key_hashes_every_source_file_and_an_inherited_key_is_kept(tmp_path,
+                                                                          monkeypatch):
+    """``_numba_cache_dir``'s docstring: the cache is keyed by a hash of every source file
+    of the package, so an edit of a subpackage's file (the bit model) starts a fresh
+    folder under the base (``NUMBA_CACHE_DIR``), named by 16 hex digits; a base that is
+    already this version's folder (inherited from a parent process) is used as it is."""
+    import re
+
+    import drill_env
+
+    package = tmp_path / "package"
+    (package / "physics").mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    bit = package / "physics" / "bit.py"
+    bit.write_text("K = 1\n")
+    monkeypatch.setattr(drill_env, "__file__", str(package / "__init__.py"))
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "base"))
+    before = Path(drill_env._numba_cache_dir())
+    bit.write_text("K = 2\n")
+    after = Path(drill_env._numba_cache_dir())
+    assert before.parent == after.parent == tmp_path / "base"
+    assert re.fullmatch("[0-9a-f]{16}", after.name) and after.name != before.name
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(after))
+    assert Path(drill_env._numba_cache_dir()) == after
+
+
 def test_an_unwritable_cache_folder_falls_back_to_the_temporary_folder(tmp_path):
     """No writable home (XDG_CACHE_HOME under a file): the kernels go to this version's
     folder in the temporary folder, said once; none into the sources' __pycache__."""
@@ -146,6 +172,10 @@ def test_the_temporary_fallback_takes_only_a_private_folder_of_this_users(tmp_pa
     shared.mkdir()
     shared.chmod(0o777)
     assert "writable by others" in drill_env._not_private(shared)
+    group = tmp_path / "group"  # writable by the group's other members: others too
+    group.mkdir()
+    group.chmod(0o775)
+    assert "writable by others" in drill_env._not_private(group)
     (tmp_path / "link").symlink_to(fresh)
     assert "not a folder" in drill_env._not_private(tmp_path / "link")
     # in a fresh process: home unwritable and the fallback planted, nothing is used

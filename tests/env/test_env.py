@@ -37,9 +37,11 @@ def rollout(env, actions, seed):
 
 
 def test_import_registers_every_id_without_heavy_imports():
-    for env_id in drill_env.ENV_IDS:
+    for env_id in [*drill_env.ENV_IDS, *drill_env.TASK_IDS]:
         assert env_id in gym.registry
-    drill_env.register_envs()  # idempotent: no error, no duplicate warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # (gymnasium warns when an id is registered again)
+        drill_env.register_envs()  # idempotent: no error, no duplicate warning
     # a submodule is imported when first named (drill_env.vector.make_sb3_vec_env after a
     # plain import, as the README writes it); a misspelt one is an AttributeError
     code = ("import sys, drill_env\n"

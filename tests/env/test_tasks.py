@@ -137,6 +137,22 @@ def test_a_tasks_settings_list_only_the_env_settings_it_reads(env_id):
     assert not {"sensors", "observation_noise", "effort_weight"} & set(env)
 
 
+@pytest.mark.parametrize(("env_id", "field", "value"), [
+    ("DrillStickSlip-v0", "startup", "stalled"),
+    ("DrillStickSlip-v0", "episode_duration", 30.0),
+    ("DrillOptimise-v0", "start_kick", 0.02),
+    ("DrillOptimise-v0", "episode_duration", 300.0),
+    ("DrillOptimise-v0", "control_interval", 1.0),
+    ("DrillOptimise-v0", "rpm_range", (40.0, 200.0)),
+    ("DrillOptimise-v0", "weight_on_bit_range", (40e3, 140e3)),
+])
+def test_a_tasks_documented_defaults_hold_when_the_caller_gives_none(env_id, field, value):
+    """The task docstrings' defaults where DrillString-v0's differ: task 1 starts stalled
+    and runs 30 s; task 2 starts kicked 2 %, runs 300 s, acts once a second, with set
+    points in 40-200 rpm and 40-140 kN."""
+    assert getattr(gym.make(env_id).unwrapped.config, field) == value
+
+
 @pytest.mark.parametrize(("env_id", "kwargs", "field", "value"), [
     ("DrillOptimise-v0", {"config": {"control_interval": 0.5, "episode_duration": 10.0}},
      "control_interval", 0.5),
@@ -176,6 +192,19 @@ def test_targets_outside_the_set_point_ranges_are_refused(kwargs, message):
     # they were clipped to the range without a word: a 400-900 rpm task drilled at 200
     with pytest.raises(ValueError, match=f"^{message}"):
         gym.make("DrillStickSlip-v0", **kwargs)
+
+
+@pytest.mark.parametrize("kwargs", [
+    {"rpm_targets": (40.0, 200.0)},  # up to the default rpm_range's top, 200 rpm
+    {"weight_on_bit_targets": (70e3, 120e3), "weight_on_bit_range": (0.0, 120e3)},
+    {"rpm_targets": (40.0, 100.0), "rpm_range": (40.0, 200.0)},  # from its low end
+])
+def test_targets_at_the_ends_of_the_set_point_ranges_are_allowed(kwargs):
+    """StickSlipEnv's docstring refuses targets *outside* the env's ``rpm_range`` /
+    ``weight_on_bit_range``: a target range that ends on an end of the env's range lies
+    inside it and builds."""
+    env = gym.make("DrillStickSlip-v0", **kwargs)
+    assert env.unwrapped.task.rpm_targets == kwargs.get("rpm_targets", (40.0, 100.0))
 
 
 def test_a_correction_equal_to_the_lowest_target_is_allowed():
@@ -427,11 +456,17 @@ def test_batched_task_env_follows_the_single_env(env_id, kwargs):
     assert rew[1] == r
 
 
-def test_make_vec_builds_the_batched_task():
-    venv = gym.make_vec("DrillStickSlip-v0", num_envs=2, episode_duration=2.0)
+@pytest.mark.parametrize("env_id", TASKS)
+def test_make_vec_builds_the_batched_task(env_id):
+    """``gymnasium.make_vec(id, num_envs=N)`` builds the id's own task, batched (SPEC
+    section 6): its spaces are those of ``gymnasium.make(id)``."""
+    venv = gym.make_vec(env_id, num_envs=2, episode_duration=2.0)
+    single = gym.make(env_id, episode_duration=2.0)
+    assert venv.single_action_space == single.action_space
+    assert venv.single_observation_space == single.observation_space
     obs, _ = venv.reset(seed=0)
     assert obs.shape == (2, venv.single_observation_space.shape[0])
-    obs, *_ = venv.step(np.zeros((2, 1), dtype=np.float32))
+    obs, *_ = venv.step(np.zeros((2, *single.action_space.shape), dtype=np.float32))
     assert np.all(np.isfinite(obs))
 
 
@@ -707,9 +742,11 @@ def test_the_observation_names_label_the_history_oldest_first():
 
 def test_a_target_change_stays_in_the_target_range_and_is_forgotten_at_a_reset():
     """The driller's change is kept inside the target ranges (an rpm change of 15-20 either
-    way from 90-100 rpm ends at 90 or 100), and an episode started at given targets (reset
+    way from 90-100 rpm ends at 90 or 100; a WOB change of 15-20 kN either way from
+    120-130 kN at 120 or 130 kN), and an episode started at given targets (reset
     options) has no change, even right after an episode that drew one."""
     env = gym.make("DrillStickSlip-v0", rpm_targets=(90.0, 100.0), rpm_change=(15.0, 20.0),
+                   weight_on_bit_targets=(120e3, 130e3), weight_on_bit_change=(15e3, 20e3),
                    target_change_probability=1.0, target_change_time=(0.2, 0.3))
     base = env.unwrapped
     changed = []
@@ -717,8 +754,9 @@ def test_a_target_change_stays_in_the_target_range_and_is_forgotten_at_a_reset()
         env.reset(seed=seed)
         for _ in range(5):
             env.step(np.zeros(1, dtype=np.float32))
-        changed.append(base.targets[0] / RPM)
-    assert sorted({round(rpm, 9) for rpm in changed}) == [90.0, 100.0]  # both ends reached
+        changed.append((base.targets[0] / RPM, base.targets[1] / 1e3))
+    assert sorted({round(rpm, 9) for rpm, _ in changed}) == [90.0, 100.0]  # both ends
+    assert sorted({round(kn, 9) for _, kn in changed}) == [120.0, 130.0]  # reached
     env.reset(seed=3)
     env.reset(seed=3, options={"surface_speed": 60 * RPM, "weight_on_bit": 100e3})
     for _ in range(10):
@@ -773,6 +811,37 @@ def test_the_telemetry_bit_speed_is_a_past_bit_speed_over_the_target():
     assert any(abs(v - 1.0) < 0.2 for v in shown)  # the bit got going, and it showed
     for value in shown:
         assert min(abs(value - s) for s in seen) <= 1e-6 * max(1.0, abs(value)), value
+
+
+@pytest.mark.parametrize(("env_id", "action"), [("DrillStickSlip-v0", [0.0]),
+                                                ("DrillOptimise-v0", [-1.0, 1.0])])
+def test_the_telemetry_entries_are_past_downhole_values_as_documented(env_id, action):
+    """Both task docstrings: the telemetry carries bit speed / set point (task 1: the
+    target), min(SSI, cap) / cap and the metric window's stuck share; each value shown
+    is that of some earlier step (info's ``ssi``, ``stuck_fraction``), 0 before the first
+    message. Through wired pipe, from a start that sticks (task 1 stalled; task 2 at
+    40 rpm and 140 kN), so SSI and stuck share are not 0."""
+    env = gym.make(env_id, telemetry="wired_pipe")
+    base = env.unwrapped
+    cap = base.task.ssi_cap
+    names = ("telemetry_bit_speed", "telemetry_ssi", "telemetry_stuck_fraction")
+
+    def downhole(info):
+        target = info.get("target_speed", info["speed_setpoint"])
+        return (info["bit_speed"] / target, min(info["ssi"], cap) / cap,
+                info["stuck_fraction"])
+
+    _, info = env.reset(seed=0)
+    seen, shown = [(0.0, 0.0, 0.0), downhole(info)], []
+    for _ in range(12):
+        obs, *_, info = env.step(np.array(action, dtype=np.float32))
+        shown.append([float(obs[base.observation_names.index(n)]) for n in names])
+        seen.append(downhole(info))
+    for j, name in enumerate(names):
+        values = [s[j] for s in seen]
+        assert max(v[j] for v in shown) > 0.1, name
+        for v in shown:
+            assert min(abs(v[j] - s) for s in values) <= 1e-6 * max(1.0, abs(v[j])), name
 
 
 def test_the_drilling_reward_counts_whirl_both_ways_and_a_missing_window_as_stuck():
@@ -842,6 +911,43 @@ def test_stick_slip_whirl_term_reads_a_non_finite_step_as_full_excursion():
     assert base._reward_terms(None, False)["whirl"] == pytest.approx(-base.task.whirl_weight)
 
 
+def test_stick_slip_stuck_term_reads_a_missing_window_as_stuck_all_the_time():
+    """As task 2 (test_the_drilling_reward_counts_whirl_both_ways_and_a_missing_window_as_stuck)
+    and the whirl term above: a window without finite values costs the full stuck
+    penalty, -stuck_weight x 1; a finite one its stuck share."""
+    base, values = _with_window_metric("DrillStickSlip-v0", "STUCK_FRACTION", 0.2)
+    assert base._reward_terms((values, True), False)["stuck"] == pytest.approx(
+        -base.task.stuck_weight * 0.2)
+    base._window_metrics = (values, False)
+    assert base._reward_terms((values, True), False)["stuck"] == -base.task.stuck_weight
+
+
+@pytest.mark.parametrize("env_id", TASKS)
+def test_a_terminated_step_costs_the_failure_weight(env_id):
+    """Both task docstrings: ``-failure_weight`` (10 by default) on termination, 0 on
+    any other step."""
+    base, values = _with_window_metric(env_id, "SSI", 0.5)
+    assert base._reward_terms((values, True), True)["failure"] == -10.0
+    assert base._reward_terms((values, True), False)["failure"] == 0.0
+
+
+def test_the_tracking_term_has_the_configured_dead_band():
+    """StickSlipEnv's docstring: ``-tracking_weight max(0, |mean bit rpm - target rpm| -
+    deadband)``: with ``tracking_deadband=5`` around a 60 rpm target, a window mean of
+    52 rpm costs 0.3 x (8 - 5) = 0.9 and one of 64 rpm, inside the band, nothing."""
+    from drill_env.metrics import Metric
+
+    env = gym.make("DrillStickSlip-v0", tracking_deadband=5.0, target_change_probability=0.0)
+    env.reset(seed=0, options={"surface_speed": 60 * RPM, "weight_on_bit": 100e3})
+    base = env.unwrapped
+    for mean, want in ((52.0, -0.9), (64.0, 0.0)):
+        values = [0.0] * len(Metric)
+        values[Metric.MEAN_BIT_SPEED] = mean * RPM
+        base._window_metrics = (values, True)
+        assert base._reward_terms((values, True), False)["tracking"] == pytest.approx(
+            want, abs=1e-12)
+
+
 @pytest.mark.parametrize("a", [-5.0, 5.0])
 def test_stick_slip_out_of_range_actions_are_clipped_both_ways(a):
     # StickSlipEnv docstring: speed command = target + action x max_correction (30 rpm);
@@ -852,9 +958,10 @@ def test_stick_slip_out_of_range_actions_are_clipped_both_ways(a):
     assert info["correction"] == pytest.approx(math.copysign(30.0 * RPM, a))
 
 
-def test_stick_slip_penalty_is_capped_at_ssi_cap():
-    # StickSlipEnv docstring: -stick_slip_weight min(SSI, cap) (cap 2)
-    base, values = _with_window_metric("DrillStickSlip-v0", "SSI", 7.0)
+@pytest.mark.parametrize("env_id", TASKS)
+def test_stick_slip_penalty_is_capped_at_ssi_cap(env_id):
+    # both task docstrings: -stick_slip_weight min(SSI, cap) (cap 2)
+    base, values = _with_window_metric(env_id, "SSI", 7.0)
     terms = base._reward_terms((values, True), False)
     assert terms["stick_slip"] == pytest.approx(-base.task.stick_slip_weight * 2.0)
 
@@ -887,10 +994,15 @@ def test_stick_slip_action_for_maps_a_speed_above_the_target_to_a_positive_actio
 
 def test_drilling_whirl_term_reads_a_non_finite_step_as_whirling_all_the_time():
     # as the plain env (env.py: non-finite step -> radial 1.0): no finite values this
-    # step means the worst whirl share, 1
+    # step means the worst whirl share, 1; and it earns no depth: ROP 0, as the plain
+    # env's (env.py: non-finite step -> ROP 0)
+    from drill_env.metrics import Metric
+
     base, values = _with_window_metric("DrillOptimise-v0", "WHIRL_FRACTION", 0.3)
     assert base._reward_terms((values, False), False)["whirl"] == pytest.approx(
         -base.task.whirl_weight * 1.0)
+    values[Metric.ROP] = 0.01
+    assert base._reward_terms((values, False), False)["rop"] == 0.0
     assert base._reward_terms(None, False)["whirl"] == pytest.approx(-base.task.whirl_weight)
 
 
@@ -925,6 +1037,22 @@ def test_a_reset_speed_below_the_correction_is_refused(options):
     with pytest.raises(ValueError, match=r"surface_speed: 10 rpm is below the task's "
                                          r"max_correction 30 rpm"):
         env.reset(seed=0, options=options)
+
+
+def test_the_stick_slip_speed_error_entry_is_over_the_correction():
+    """StickSlipEnv's docstring, each frame: (surface speed - target) / ``max_correction``;
+    with a 20 rpm correction around a fixed 60 rpm target, the newest frame's entry is
+    (info's surface speed - 60 rpm) / 20 rpm (to float32 rounding)."""
+    env = gym.make("DrillStickSlip-v0", max_correction=20.0, target_change_probability=0.0)
+    base = env.unwrapped
+    k = base.observation_names.index(f"surface_speed_error[{base.task.history - 1}]")
+    env.reset(seed=1, options={"surface_speed": 60 * RPM, "weight_on_bit": 100e3})
+    errors = []
+    for a in (0.0, 1.0, 1.0, -0.5, -0.5, -0.5):
+        obs, *_, info = env.step(np.array([a], dtype=np.float32))
+        errors.append((info["surface_speed"] - 60 * RPM) / (20 * RPM))
+        assert obs[k] == pytest.approx(errors[-1], rel=1e-6, abs=1e-6)
+    assert max(abs(e) for e in errors) > 0.2  # (the surface did move off its target)
 
 
 def test_the_surface_torque_mean_is_a_backward_euler_low_pass_of_3_s():
