@@ -2310,6 +2310,10 @@ def test_a_stopped_seed_sweep_says_what_finished_and_what_continues(tmp_path, ca
     assert (f"stopped with 1 of 3 runs finished ({tmp_path / sweep.RESULTS_FILE}); the "
             f"same command goes on with stick_slip_ppo_seed4 from the checkpoints in "
             f"{tmp_path} and starts stick_slip_ppo_seed5 anew (nothing saved)") in said
+    # and a command finding a run's checkpoint says so as it starts (a new user's rerun
+    # on Ray went on silently: the run's own "resuming" line stays on its worker)
+    assert said.startswith(f"training seeds: stick_slip_ppo_seed4 from 1,024 env steps go "
+                           f"on (checkpoints in {tmp_path})\n")
 
 
 def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path, capsys):

@@ -80,6 +80,15 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
     if len(todo) < len(configs) and progress:
         print(f"training seeds: {len(configs) - len(todo)} of {len(configs)} runs already in "
               f"{out / RESULTS_FILE} (same config): not rerun", file=sys.stderr)
+    if todo and progress:  # (the runs' own "resuming" lines do not reach this console)
+        from training.train import resume_point
+
+        points = {run_name(c, label): resume_point(out / run_name(c, label)) for c in todo}
+        going_on = [f"{name} from {at[0]:,} env steps" for name, at in points.items()
+                    if at is not None]
+        if going_on:
+            print(f"training seeds: {', '.join(going_on)} go on (checkpoints in {out})",
+                  file=sys.stderr)
     if todo:
         executor = make_executor(min(workers or len(todo), len(todo))
                                  if ray_address is None else None, ray_address)
