@@ -146,12 +146,17 @@ def test_incremental_actions_move_the_set_point_by_at_most_a_step():
     assert info["weight_on_bit_setpoint"] == pytest.approx(90e3)
 
 
-def test_drawworks_rate_limits_the_applied_weight_on_bit():
-    env = DrillStringEnv(drawworks_rate=50e3, **SHORT)
+@pytest.mark.parametrize("fidelity", ["full", "fast"])
+def test_drawworks_rate_limits_the_applied_weight_on_bit(fidelity):
+    """The applied WOB moves by at most ``drawworks_rate * control_interval`` a step (class
+    docstring), the interval being the step's own length, round(0.1 s / dt) simulator
+    steps: 0.1 s at the full level, 26 x ~3.8 ms = ~0.099 s at the fast one."""
+    env = DrillStringEnv(drawworks_rate=50e3, fidelity=fidelity, **SHORT)
     env.reset(seed=0, options={"weight_on_bit": 100e3})
+    interval = round(0.1 / env.sim.dt) * env.sim.dt
     _, _, _, _, info = env.step(np.array([0.0, 1.0]))  # ask for 200 kN
     assert info["weight_on_bit_setpoint"] == pytest.approx(200e3)
-    assert info["weight_on_bit"] == pytest.approx(105e3)  # 50 kN/s x 0.1 s
+    assert info["weight_on_bit"] == pytest.approx(100e3 + 50e3 * interval)  # 50 kN/s
 
 
 def test_out_of_range_finite_actions_are_clipped():
@@ -210,6 +215,32 @@ def test_paper_startup_hands_over_at_twenty_seconds_with_weight_on_bit():
     assert info["weight_on_bit"] == pytest.approx(80e3)
     assert info["surface_speed"] == pytest.approx(60 * RPM, rel=0.05)
     assert np.all(np.isfinite(obs))
+
+
+def test_paper_startup_ramps_the_set_point_over_ten_seconds_then_holds_it_off_bottom(
+        monkeypatch):
+    """``startup="paper"`` (class docstring; paper section 4): from rest the speed set
+    point rises linearly to the target, reaching it at 10 s, is held to 20 s with the hook
+    carrying the whole string (no WOB), then the WOB is applied at 20 s."""
+    env = DrillStringEnv(startup="paper", **SHORT)
+    sim, target = env.sim, 60 * RPM
+    calls = []
+    advance = sim.advance
+
+    def spy(n_steps, speed_setpoint=None, hook_load=None, **kwargs):
+        out = advance(n_steps, speed_setpoint, hook_load, **kwargs)
+        calls.append((sim.time, speed_setpoint, hook_load))  # (time at the call's end)
+        return out
+
+    monkeypatch.setattr(sim, "advance", spy)
+    env.reset(seed=0, options={"surface_speed": target, "weight_on_bit": 80e3})
+    *ramp, (t_last, speed_last, hook_last) = calls
+    assert len(ramp) == 200 and ramp[-1][0] == pytest.approx(20.0)
+    for t, speed, hook in ramp:
+        assert speed == pytest.approx(target * min(1.0, t / 10.0), rel=1e-9)
+        assert hook == sim.string_weight
+    assert t_last == pytest.approx(20.0) and speed_last is None
+    assert hook_last == pytest.approx(sim.string_weight - 80e3)
 
 
 def test_delay_and_noise_are_seeded():

@@ -12,6 +12,7 @@ import pytest
 
 from drill_env.physics.batch import SimulatorBatch
 from drill_env.physics.config import SimulationConfig, replace
+from drill_env.physics.layout import READ, Status
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
 
@@ -66,6 +67,23 @@ def test_a_replaced_simulator_is_picked_up_and_the_batch_pickles():
     drive(reference, None, 2)
     for sim, ref in zip(sims, reference, strict=True):
         np.testing.assert_array_equal(sim.state, ref.state)
+
+
+@pytest.mark.parametrize("active", [None, [True, True]])
+def test_a_simulator_stopped_before_the_kernel_has_fresh_readings_too(active):
+    """``SimulatorBatch.advance``: every active simulator has fresh readings afterwards,
+    stopped ones included (its docstring), as ``sim.advance(..., read=True)`` leaves them:
+    a hook load of 0 puts the whole string's weight on the bit, beyond what the mesh
+    resolves, and stops the simulator in its prepare, before the kernel."""
+    alone = [make(1000.0, 60.0) for _ in range(2)]
+    together = [make(1000.0, 60.0) for _ in range(2)]
+    hooks = [alone[0].hook_load_for(60e3), 0.0]
+    for sim, hook in zip(alone, hooks, strict=True):
+        sim.advance(50, 60.0 * RPM, hook, 10, read=True)
+    SimulatorBatch(2).advance(together, [50, 50], [60.0 * RPM] * 2, hooks, [10, 10], active)
+    assert alone[1].readings[READ.STATUS] == Status.MESH_BUCKLING
+    for a, e in zip(together, alone, strict=True):
+        np.testing.assert_array_equal(a.readings, e.readings)
 
 
 def test_batch_size_is_checked():
