@@ -52,6 +52,22 @@ def test_benchmark_command_writes_table_summary_plots_and_recordings(tmp_path, c
                      for s in (0, 1)]  # a row's recording is found by its name
 
 
+def test_benchmark_csv_holds_numbers_to_six_significant_digits(tmp_path):
+    """docs/controllers.md: benchmark.csv holds "numbers to 6 significant digits" (each
+    episode's full precision is in benchmark_results.jsonl); whole numbers as they are."""
+    row = {"controller": "stiff", "scenario": "stick_slip", "seed": 3,
+           **{c: 1.0 / 3.0 for c in SPEC_COLUMNS[3:]}, "mse_MPa": 2.0e4 / 3.0,
+           "episode_return": -7}
+    bm.write_csv([row], tmp_path / "benchmark.csv")
+    with (tmp_path / "benchmark.csv").open(newline="") as f:
+        header, body = list(csv.reader(f))
+    assert header == SPEC_COLUMNS
+    cells = dict(zip(header, body, strict=True))
+    assert (cells["seed"], cells["episode_return"]) == ("3", "-7")
+    # by hand: 1/3 = 0.333333|3..., 20000/3 = 6666.66|67... to six digits
+    assert (cells["ssi"], cells["mse_MPa"]) == ("0.333333", "6666.67")
+
+
 def test_two_seeds_start_different_episodes():
     rows = [bm.run_episode(bm.Episode("stiff", "stick_slip", seed, vars(SHORT), "unused"))
             for seed in (0, 1)]

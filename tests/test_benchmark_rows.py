@@ -62,6 +62,9 @@ def test_conditions_name_each_config_override_with_its_value():
     assert len(many) > bm.LISTED_OVERRIDES
     assert bm.overrides_in_words(many) == ("of formation, mud, string (5 keys), "
                                            "top_drive (2 keys)")
+    # "up to" LISTED_OVERRIDES are listed with their values: as many as that still are
+    most = dict(sorted(many.items())[:bm.LISTED_OVERRIDES])
+    assert bm.overrides_in_words(most).count(" = ") == bm.LISTED_OVERRIDES
     assert bm.overrides_in_words({"string.components": [{}, {}]}) == (
         "string.components = a list of 2")
 

@@ -95,6 +95,14 @@ def test_run_prints_the_swing_for_a_drive_rate_loop_only(tmp_path, capsys):
     assert "no bit-speed swing reported: the set points move" in out  # said, not left out
     assert json.loads((tmp_path / "run_summary.json").read_text())[
         "swing_per_block_rpm"] is None
+    # one block: a trend needs two (the swing of the block is in the summary)
+    args[4] = "30"
+    assert main([*args, "--controller", "stiff"]) == 0
+    out = capsys.readouterr().out
+    assert "per 30 s: " not in out
+    assert "(the bit-speed swing per 30 s, growing or decaying, needs 60 s or more" in out
+    assert len(json.loads((tmp_path / "run_summary.json").read_text())[
+        "swing_per_block_rpm"]) == 1
 
 
 def test_a_second_config_file_is_refused_not_dropped(tmp_path, capsys):
@@ -352,11 +360,25 @@ def test_run_names_an_unknown_scenario(capsys):
     (["--wob", "-5"], "--wob: must be >= 0 kN, got -5"),
     (["--wob", "nan"], "--wob: must be a finite number of kN"),
     (["--duration", "-1"], "--duration: must be > 0 s"),
+    (["--duration", "0"], "--duration: must be > 0 s, got 0"),  # an open bound (number())
     (["--seed", "-2"], "--seed: must be >= 0")])
 def test_run_names_a_bad_argument_in_the_units_typed(tmp_path, capsys, args, message):
     with pytest.raises(SystemExit):
         main(["run", *args, "--out", str(tmp_path)])
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("flag", "value", "unit"), [("--rpm", "500", "rpm"),
+                                                     ("--wob", "250", "kN")])
+def test_benchmark_names_a_set_point_outside_drillstrings_range_by_its_option(
+        tmp_path, capsys, flag, value, unit):
+    """SPEC section 6: an error names the bad field; ``benchmark_set_points``: --rpm and
+    --wob are checked against DrillString-v0's ranges (0-200 rpm, 0-200 kN), each refused
+    under its own option, in the unit typed."""
+    with pytest.raises(SystemExit):
+        main(["benchmark", "--controllers", "stiff", flag, value, "--out", str(tmp_path)])
+    assert f"error: {flag}: {value} {unit} is outside DrillString-v0's range 0-200 {unit}" \
+        in capsys.readouterr().err
 
 
 def test_a_wob_of_zero_is_taken_and_one_under_a_kilonewton_is_refused():
@@ -684,6 +706,10 @@ def test_modes_command_draws_random_by_seed_and_names_what_it_cannot_analyse(tmp
         assert main(["modes", "--scenario", "random", "--seed", "7", "--out",
                      str(tmp_path)]) == 0
         assert f"string {drawn:.0f} m" in capsys.readouterr().out
+    # no --seed: its help's default, seed 0
+    drawn = make_scenario("random", rng=np.random.default_rng(0)).config.string.length
+    assert main(["modes", "--scenario", "random", "--out", str(tmp_path)]) == 0
+    assert f"string {drawn:.0f} m" in capsys.readouterr().out
     well = tmp_path / "well.yaml"
     well.write_text("well: {md: [0, 300, 1250], inclination: [0, 0, 40], "
                     "azimuth: [0, 0, 90]}\n")
@@ -750,6 +776,7 @@ def test_benchmark_refuses_a_seed_count_or_scenario_list_it_cannot_mean(tmp_path
     and --out '' (an unset variable) wrote into the current folder."""
     monkeypatch.chdir(tmp_path)
     for args, message in ((["--seeds", "1e12"], "--seeds: must be <= 10,000"),
+                          (["--seeds", "0"], "--seeds: must be >= 1, got 0"),  # a count
                           (["--scenarios", "default,default"],
                            "--scenarios: 'default' is given twice"),
                           (["--out", " "], "--out: give a folder's name")):
@@ -795,10 +822,21 @@ def test_a_stability_map_beyond_its_bounds_is_refused_naming_the_option(tmp_path
     assert message in capsys.readouterr().err
 
 
-def test_well_refuses_a_length_no_string_can_have(tmp_path, capsys):
+def test_well_refuses_a_length_no_string_can_have(tmp_path, capsys, monkeypatch):
     with pytest.raises(SystemExit):
         main(["well", "--well", "j_shaped", "--total-md", "1e5", "--out", str(tmp_path)])
     assert "--total-md: must be <= 15000 m, got 100000" in capsys.readouterr().err
+    # "<= 15000 m": a closed bound; 15000 m goes on to the preset's own judgement (here a
+    # stand-in that refuses every length, so that no 15 km chart is drawn)
+    import drill_env.well
+
+    def refuse(total_md):
+        raise ValueError(f"survey.total_md: {total_md:g} m reached the preset")
+
+    monkeypatch.setitem(drill_env.well.WELLS, "j_shaped", refuse)
+    with pytest.raises(SystemExit):
+        main(["well", "--well", "j_shaped", "--total-md", "15000", "--out", str(tmp_path)])
+    assert "--total-md: 15000 m reached the preset" in capsys.readouterr().err
 
 
 def test_modes_command_names_the_bad_field_of_the_yaml(tmp_path, capsys):
@@ -1040,6 +1078,10 @@ def test_run_reports_the_set_points_a_controller_applied(tmp_path, capsys):
     assert summary["mean_setpoint_rpm"] == pytest.approx(160.0)
     assert summary["mean_setpoint_kN"] == pytest.approx(65.0)
     assert "set points applied: mean 160 rpm, 65 kN" in capsys.readouterr().out
+    # one set point of its own is said too: here the WOB, at the scenario's 100 rpm
+    assert main(["run", "--controller", "constant:100/65", "--duration", "0.3", "--out",
+                 str(tmp_path)]) == 0
+    assert "set points applied: mean 100 rpm, 65 kN" in capsys.readouterr().out
 
 
 def test_evaluating_a_shipped_policy_writes_to_logs_not_into_the_package(tmp_path):
@@ -1429,6 +1471,33 @@ def test_a_run_shorter_than_the_metric_window_says_so(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "default: 1 step (0.1 s)" in out
     assert "window metrics (the episode, 0.1 s, is shorter than the window" in out
+
+
+def test_a_stopped_run_averages_its_metrics_over_the_steps_it_ran(tmp_path, monkeypatch):
+    """run's summary gives "episode mean"s of the window metrics: a run stopped (Ctrl-C)
+    after the steps of a shorter run holds that run's means, not their sums spread over
+    the steps it never ran."""
+    import agents.benchmark as bm
+
+    assert main(["run", "--duration", "0.3", "--out", str(tmp_path / "whole")]) == 0
+    whole = json.loads((tmp_path / "whole" / "run_summary.json").read_text())
+    real, calls = bm.act, []
+
+    def stopping(*args):
+        calls.append(1)
+        if len(calls) > whole["steps"]:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(bm, "act", stopping)
+    assert main(["run", "--duration", "2", "--out", str(tmp_path / "stopped")]) == 130
+    stopped = json.loads((tmp_path / "stopped" / "run_summary.json").read_text())
+    assert stopped["steps"] == whole["steps"] > 0
+    assert stopped["termination_reason"] == "interrupted"
+    for key in ("mean_ssi", "mean_radial_ratio", "mean_lateral_force", "mean_rop"):
+        # the same steps from the same seed: the same sums over as many steps
+        assert stopped[key] == pytest.approx(whole[key], rel=1e-9), key
+    assert whole["mean_lateral_force"] > 0.0 and whole["mean_rop"] > 0.0
 
 
 def test_evaluate_says_which_model_it_scores(tmp_path):

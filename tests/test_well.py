@@ -117,6 +117,7 @@ def test_the_well_command_writes_the_chart_and_names_bad_input(tmp_path, capsys)
     assert main(["well", "--survey", str(survey), "--out", str(tmp_path)]) == 0
     said = capsys.readouterr().out
     assert "departure" in said
+    assert "a negative slack-off" not in said  # said only where one is (none at 0.1-0.4)
     # the figures at TD, one line per friction factor, as the JSON holds them
     data = json.loads((tmp_path / "well_s.json").read_text())["torque_drag"]
     line = [text for text in said.splitlines() if text.strip().startswith("mu 0.2")][-1]
@@ -127,6 +128,15 @@ def test_the_well_command_writes_the_chart_and_names_bad_input(tmp_path, capsys)
     with pytest.raises(SystemExit):
         main(["well", "--friction", "0.2,-1", "--out", str(tmp_path)])
     assert "--friction" in capsys.readouterr().err
+    # the factors' range is closed, [0, 2] (its error says so): both ends are taken
+    assert main(["well", "--survey", str(survey), "--friction", "0,2", "--out",
+                 str(tmp_path)]) == 0
+    assert json.loads((tmp_path / "well_s.json").read_text())["torque_drag"]["frictions"] \
+        == [0.0, 2.0]
+    assert "(a negative slack-off: at that friction" in capsys.readouterr().out  # at mu 2
+    with pytest.raises(SystemExit):
+        main(["well", "--friction", "2.01", "--out", str(tmp_path)])
+    assert "--friction: factors in [0, 2], got '2.01'" in capsys.readouterr().err
 
 
 def test_the_well_command_draws_the_scenarios_or_the_configs_own_well(tmp_path, capsys):
