@@ -2312,8 +2312,8 @@ def test_a_stopped_seed_sweep_says_what_finished_and_what_continues(tmp_path, ca
             f"{tmp_path} and starts stick_slip_ppo_seed5 anew (nothing saved)") in said
     # and a command finding a run's checkpoint says so as it starts (a new user's rerun
     # on Ray went on silently: the run's own "resuming" line stays on its worker)
-    assert said.startswith(f"training seeds: stick_slip_ppo_seed4 from 1,024 env steps go "
-                           f"on (checkpoints in {tmp_path})\n")
+    assert said.startswith(f"training seeds: going on with stick_slip_ppo_seed4 from 1,024 "
+                           f"env steps (checkpoints in {tmp_path})\n")
 
 
 def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path, capsys):

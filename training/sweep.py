@@ -87,8 +87,8 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
         going_on = [f"{name} from {at[0]:,} env steps" for name, at in points.items()
                     if at is not None]
         if going_on:
-            print(f"training seeds: {', '.join(going_on)} go on (checkpoints in {out})",
-                  file=sys.stderr)
+            print(f"training seeds: going on with {', '.join(going_on)} (checkpoints in "
+                  f"{out})", file=sys.stderr)
     if todo:
         executor = make_executor(min(workers or len(todo), len(todo))
                                  if ray_address is None else None, ray_address)
