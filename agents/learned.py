@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import pickle
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -307,9 +308,10 @@ ELSEWHERE = ("a model trained elsewhere (rl-zoo3, your own SB3 script) is benchm
              "controller file of yours (docs/controllers.md)")
 
 
-def no_such_folder(folder: Path) -> str:
+def no_such_folder(folder: Path, names: Sequence[str] = ()) -> str:
     """"no such folder ``folder``", with the folder beside it that was probably meant
-    (a run's name without its ``_seed0``)."""
+    (a run's name without its ``_seed0``), else, for a bare name, one of ``names`` (a
+    task's, misspelt: ``stick-slip``)."""
     from drill_env.physics.validation import closest
 
     try:
@@ -317,8 +319,10 @@ def no_such_folder(folder: Path) -> str:
     except OSError:  # (no such parent either, or not readable)
         near = []
     meant = closest(folder.name, near)
-    return f"no such folder {folder}" + (f" (did you mean {folder.parent / meant}?)"
-                                         if meant else "")
+    if meant:
+        return f"no such folder {folder} (did you mean {folder.parent / meant}?)"
+    named = closest(str(folder), list(names)) if len(folder.parts) == 1 else None
+    return f"no such folder {folder}" + (f" (did you mean {named}?)" if named else "")
 
 
 def _files(folder: Path) -> tuple[Path, Path]:

@@ -1053,11 +1053,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         args.run, local = TRAINED / str(args.run), ""
     if not args.run.is_dir():
         what = f"{args.run} is a file, not a run folder{local}" if args.run.exists() else \
-            no_such_folder(args.run)
-        if not args.run.exists() and len(args.run.parts) == 1 and "(did you mean" not in what:
-            from drill_env.physics.validation import did_you_mean
-
-            what += did_you_mean(str(args.run), sorted(TASKS))  # a task's name misspelt
+            no_such_folder(args.run, sorted(TASKS))
         raise argparse.ArgumentTypeError(f"RUN: {what} (a run folder of drill-env train, "
                                          "e.g. logs/runs/<name>, or a task's name for its "
                                          f"shipped policy: {', '.join(sorted(TASKS))})")
@@ -2064,23 +2060,19 @@ def no_kernels_cached() -> bool:
     """Whether this version's numba cache holds no compiled kernel of this checkout's
     (numba's index files): a new install, the first run after an edit of the sources, or
     a second checkout of the same version. numba keeps a source folder's kernels in a
-    subfolder named by that folder's path (``physics_<sha1 of the path>``, its
+    subfolder named by that folder's path (``physics_<sha1 of the path>``, numba's own
     ``_CacheLocator.get_suitable_cache_subpath``): another checkout's kernels are not this
     one's, and a new user's first benchmark in a second clone sat ~2 min unexplained (an
     outside check)."""
-    import hashlib
+    from numba.core.caching import _CacheLocator
 
     import drill_env
     from drill_env import numba_cache_dir
 
-    package = os.path.dirname(os.path.abspath(drill_env.__file__))
-    folders = {os.path.dirname(os.path.join(top, name))
-               for top, _, names in os.walk(package) for name in names if name.endswith(".py")}
     cache = numba_cache_dir()
-    return not any(
-        next((cache / f"{os.path.basename(folder)}_"
-                       f"{hashlib.sha1(folder.encode()).hexdigest()}").glob("*.nbi"), None)
-        for folder in folders)
+    subfolders = {_CacheLocator.get_suitable_cache_subpath(str(source))
+                  for source in Path(drill_env.__file__).parent.rglob("*.py")}
+    return not any(next((cache / sub).glob("*.nbi"), None) for sub in subfolders)
 
 
 @contextlib.contextmanager
