@@ -23,6 +23,7 @@ import io
 import json
 import math
 import sys
+import warnings
 import zipfile
 from collections import Counter
 from collections.abc import Mapping, Sequence
@@ -629,7 +630,7 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         obs, info = env.reset(seed=episode.seed, options=options)
         if guest:  # scored as DrillString-v0 scores the other controllers
             base.plain_return = 0.0
-        controller.reset(base)
+        reset(controller, episode.controller, f"{episode.scenario} seed {episode.seed}", base)
         start = float(info["time"])
         while True:
             obs, reward, terminated, truncated, info = env.step(
@@ -756,6 +757,23 @@ def window_swing_trend(records: np.ndarray, held: Sequence[tuple[float, tuple[fl
     return swing_trend(swings, float(np.min(last)), block=end - split)
 
 
+def reset(controller: Any, typed: str, where: str, env: Any) -> None:
+    """``controller.reset(env)``; for a controller of your own (``typed``), an error in its
+    code said in one line as :func:`act` says one (a raising ``reset`` gave a traceback
+    through the benchmark and exit 1 where every other hook gave a line and exit 2: a new
+    user's trial)."""
+    from agents.registry import in_user_code, is_imported
+
+    if not is_imported(typed):
+        controller.reset(env)
+        return
+    try:
+        controller.reset(env)
+    except Exception as err:  # noqa: BLE001 - the user's code: said in one line
+        raise ValueError(f"controller: {typed}: reset() raised {in_user_code(err)} "
+                         f"({where})") from None
+
+
 def act(controller: Any, typed: str, where: str, space: Any, obs: Any,
         info: dict[str, Any]) -> Any:
     """``controller.act``; for a controller of your own (``typed``: its name as given), an
@@ -771,6 +789,9 @@ def act(controller: Any, typed: str, where: str, space: Any, obs: Any,
     except Exception as err:  # noqa: BLE001 - the user's code: said in one line
         raise ValueError(f"controller: {typed}: act() raised {in_user_code(err)} "
                          f"({where})") from None
+    if action is None:  # (said as "an action of shape ()")
+        raise ValueError(f"controller: {typed}: act() returned None; the env takes an "
+                         f"action of shape {space.shape} ({where})")
     if np.shape(action) != space.shape:
         raise ValueError(f"controller: {typed}: act() returned an action of shape "
                          f"{np.shape(action)}; the env takes {space.shape} ({where})")
@@ -781,7 +802,22 @@ def act(controller: Any, typed: str, where: str, space: Any, obs: Any,
     if not np.isfinite(values).all():
         raise ValueError(f"controller: {typed}: act() returned {values.tolist()}, not "
                          f"finite numbers ({where})")
+    if typed not in _CLIPPED and not (np.all(values >= space.low)
+                                      and np.all(values <= space.high)):
+        # the env clips it, as documented; a controller of your own hears it once (one
+        # returning 5.0 ran at the top speed, its table saying only "rpm error 193 %")
+        _CLIPPED.add(typed)
+        low, high = space.low.tolist(), space.high.tolist()
+        bounds = f"[{low[0]:g}, {high[0]:g}]" if len(set(low)) == len(set(high)) == 1 \
+            else f"[{low}, {high}]"
+        warnings.warn(f"controller: {typed}: act() returned {values.tolist()}, outside the "
+                      f"action space {bounds}: the env clips it ({where}; said at the first)",
+                      stacklevel=2)
     return action
+
+
+#: Controllers of your own already told that the env clips their actions.
+_CLIPPED: set[str] = set()
 
 
 def episodes(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],

@@ -418,6 +418,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         env = RecordEpisode(env, args.record, scenario=scenario,
                             controller=label(args.controller))
     from agents.benchmark import act
+    from agents.benchmark import reset as reset_controller
     from drill_env.physics.statics import pipe_buckling
 
     t0 = time.perf_counter()
@@ -452,7 +453,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     speeds: list[tuple[float, float]] = []  # (episode time s, bit rpm) per step
     held_set_points = controller.rate == "drive" and controller.env_id == "DrillString-v0"
     try:
-        controller.reset(base)
+        reset_controller(controller, args.controller, f"{args.scenario} seed {args.seed}", base)
         # (where stderr is no terminal, a line a minute: a log got the bar's frames, the
         # summary glued after them)
         bar = progress_bar(total=base.max_episode_steps, desc=f"  {args.scenario}",
@@ -646,8 +647,8 @@ def tension_notes(config: Any, wob: float) -> list[str]:
             f"straight, above {o.allowable / KILO:,.0f} kN, API RP 7G's allowable tension "
             "for its body even in new S-135 pipe (90 % of 931 MPa): within 10 % of yield, "
             "past any common grade's design limit; the model has no yield, and its pipe no "
-            "tool joints, so a real string's load is higher (docs/model.md, 'Axial load "
-            "and buckling')" for o in over_allowable_tension(config, wob)]
+            "tool joints, so a real string's load is higher (docs/model.md, 'Statics and "
+            "the realistic string')" for o in over_allowable_tension(config, wob)]
 
 
 def length_range(text: str) -> tuple[float, float]:
@@ -1205,10 +1206,16 @@ def read_overrides(path: Path | None) -> dict[str, Any]:
         return {}
     if not isinstance(data, dict):
         raise ValueError(f"--config {path}: expected a mapping of config sections")
+    from drill_env.env_config import ENV_FIELDS
+
     for key in data:  # what a command's options set, written into the file
         if key in NOT_PHYSICS:
             raise ValueError(f"--config {path}: {key}: not a config section; "
                              f"{NOT_PHYSICS[key]}")
+        if key in ENV_FIELDS:  # (listed as an unknown field of SimulationConfig)
+            raise ValueError(f"--config {path}: {key}: an env setting (EnvConfig), not the "
+                             "simulator's config the file changes; the commands build their "
+                             "env themselves (its length: --duration)")
     try:
         return flatten(data)
     except ValueError as err:  # a key that is no name (1: 2): said with the file
@@ -1222,6 +1229,7 @@ NOT_PHYSICS = {
     "weight_on_bit": "the weight on bit is an option of the command (drill-env run --wob, "
                      "in kN)",
     "duration": "the episode's length is an option of the command (--duration, in s)",
+    "episode_duration": "the episode's length is an option of the command (--duration, in s)",
     "seed": "the seed is an option of the command (--seed or --seeds)",
     "scenario": "the scenario is an option of the command (--scenario); the file changes "
                 "its config",
@@ -1517,6 +1525,14 @@ def cmd_well(args: argparse.Namespace) -> int:
              f"the {args.scenario} scenario" + (
                  f" with {args.config.name}" if any(not sets_section((key,), "well")
                                                      for key in overrides) else ""))
+    # the file names the string too where it is not the default scenario's: charts of one
+    # well for two strings overwrote each other (a new user's trial)
+    strung = [args.scenario] if args.scenario != "default" \
+        and name != f"scenario_{args.scenario}" else []
+    if args.config is not None and name != args.config.stem \
+            and any(not sets_section((key,), "well") for key in overrides):
+        strung.append(args.config.stem)
+    name = "_".join((name, *strung))
     paths = write_well(name, trajectory, config, args.out, frictions, whose)
     end, _, _ = trajectory.at(trajectory.total_md)
     print(f"well {name}: {trajectory.total_md:.0f} m MD, TVD {end[0, 2]:.0f} m, departure "
@@ -1859,7 +1875,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--friction", default="0.1,0.2,0.3,0.4",
                    help="comma-separated friction factors")
     p.add_argument("--out", type=out_folder, default=Path("logs"),
-                   help="folder for well_<name>.png and .json")
+                   help="folder for well_<name>.png and .json (<name>: the well's, then "
+                        "the scenario's and the --config file's where they give the string)")
 
     p = add("speed", "speed and memory benchmark; speed.json and speed.md in --out", cmd_speed)
     p.add_argument("--out", type=out_folder, default=Path("logs"), help="output folder")

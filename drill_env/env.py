@@ -36,6 +36,7 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig, OBSERVATIONS: the 
     START_RANGES,
     EnvConfig,
     check_set_points,
+    env_config_from,
     even_record_every,
     mesh_weight_on_bit_limit,
     reset_options,
@@ -43,7 +44,7 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig, OBSERVATIONS: the 
     warn_above_limit,
 )
 from drill_env.metrics import Metric
-from drill_env.physics.config import FIDELITY_LEVELS, SimulationConfig, flatten, from_dict, replace
+from drill_env.physics.config import FIDELITY_LEVELS, SimulationConfig, flatten, replace
 from drill_env.physics.layout import N_READINGS, READINGS, RECORD_CHANNELS
 from drill_env.physics.simulator import OperatingPoint, Simulator
 from drill_env.physics.units import RPM
@@ -231,7 +232,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
             raise ValueError(f"DrillStringEnv: unknown argument(s) {sorted(unknown)}{hint}; "
                              f"EnvConfig fields: {fields}; scenario {scenario!r} "
                              f"parameters: {sorted(params)}")
-        self.config: EnvConfig = replace(from_dict(EnvConfig, config), **env_over)
+        self.config: EnvConfig = replace(env_config_from(config), **env_over)
         self.scenario_name = scenario
         self.scenario_params = {**scen_over, **start_ranges(scenario, starts, self.config)}
         if physics is not None and not isinstance(physics, dict):
@@ -347,8 +348,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         if self.render_mode == "rgb_array":
             from drill_env.render import FrameHistory
 
-            self._frames = FrameHistory(RECORD_CHANNELS,
-                                        round(RENDER_SECONDS / record_dt))
+            self._frames = FrameHistory(RECORD_CHANNELS, round(RENDER_SECONDS / record_dt))
 
     @property
     def simulation_config(self) -> SimulationConfig:

@@ -12,8 +12,10 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import Field
 
+from drill_env.physics.config import SimulationConfig
 from drill_env.physics.units import RPM
 from drill_env.physics.validation import (
+    ConfigError,
     Count,
     NonNegative,
     Positive,
@@ -22,6 +24,7 @@ from drill_env.physics.validation import (
     check_newtons,
     config_dataclass,
     did_you_mean,
+    from_dict,
     numbers,
 )
 
@@ -301,3 +304,20 @@ def reset_options(options: Any) -> dict[str, Any]:
         if number is None or not math.isfinite(number):
             raise ValueError(f"reset options: {name}: must be a finite number, got {value!r}")
     return options
+
+
+def env_config_from(config: Mapping[str, Any] | EnvConfig | None) -> EnvConfig:
+    """The env's ``config=`` as an :class:`EnvConfig`; a key of the simulator's config
+    (``mud.density``, ``string``) is said to belong in ``physics=`` (it was listed as an
+    unknown field of EnvConfig beside the env's 26 settings: a new user's trial)."""
+    try:
+        return from_dict(EnvConfig, config)
+    except ConfigError:
+        sections = {f.name for f in dataclasses.fields(SimulationConfig)}
+        given = [str(key) for key in (config if isinstance(config, Mapping) else {})
+                 if str(key).split(".")[0].split("[")[0] in sections]
+        if given:
+            raise ConfigError(f"config: {', '.join(given)}: the simulator's config, not the "
+                              "env's settings: give it as physics= (gym.make(..., physics="
+                              f"{{{given[0]!r}: ...}}))") from None
+        raise

@@ -5,6 +5,8 @@ drawn."""
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from collections.abc import Mapping
 from typing import Any
 
@@ -20,7 +22,8 @@ from drill_env.physics.trajectory import (
     draws_hang_freely,
 )
 
-__all__ = ["MAX_LEAD", "drawn_with_physics", "sets_section", "with_physics"]
+__all__ = ["MAX_LEAD", "drawn_with_physics", "sets_section", "warn_lists_rebuilt",
+           "with_physics"]
 
 
 def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
@@ -39,12 +42,14 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
     would have placed them, and a longer string's survey is extended by it (its last
     station: the preset wells end in a hold), unless the overrides set ``initial_depth``,
     the interfaces or the well. Components (``string.components``) replace the scenario's
-    one-section BHA and its stabilizers unless the overrides set those as well.
+    one-section BHA and its stabilizers unless the overrides set those as well. A list of
+    sections given whole is built from the class's defaults; a warning names what that
+    changed against the scenario's entries (:func:`warn_lists_rebuilt`).
     """
     if not drawn:
-        return _overridden(config, overrides)
+        return warn_lists_rebuilt(config, _overridden(config, overrides), overrides)
     with draws_hang_freely():  # said for the range's longest string (drawn_with_physics)
-        changed = _overridden(config, overrides)
+        changed = warn_lists_rebuilt(config, _overridden(config, overrides), overrides)
         if changed.well.vertical or _sets_layers(overrides):  # the user's: true dips
             return changed
         well = changed.well
@@ -76,6 +81,61 @@ def drawn_with_physics(name: str, params: Mapping[str, Any], overrides: Mapping[
     if (length is None or length >= high) and not config.well.vertical:
         check_survey_holds(config)  # the longest string above the bend: said
     return config
+
+
+def warn_lists_rebuilt(config: SimulationConfig, changed: SimulationConfig,
+                       overrides: Mapping[str, Any]) -> SimulationConfig:
+    """``changed``, after a warning for each list of sections the ``overrides`` give whole
+    (a YAML's ``formation: {rocks: [{mu_min: 0.5}]}``) whose entry left out fields that
+    then differ from the scenario's entry at the same index: pydantic builds the entry
+    from the class's defaults, so the paper rock's depth of cut halved and its founder
+    point went, and the ROP with them, without a word (a new user's trial). Entries of
+    another kind (a stabilizer where the scenario has a collar) are a new string's and are
+    not compared, nor a label (``name``). The dotted key ``formation.rocks[0].mu_min``
+    changes one field."""
+    for key, value in overrides.items():
+        if not (isinstance(value, (list, tuple)) and any(isinstance(v, Mapping) for v in value)):
+            continue
+        old, new = _field_at(config, key), _field_at(changed, key)
+        if not (isinstance(old, tuple) and isinstance(new, tuple)):
+            continue
+        for i, (given, before, after) in enumerate(zip(value, old, new, strict=False)):
+            if not (isinstance(given, Mapping) and dataclasses.is_dataclass(before)
+                    and type(before) is type(after)
+                    and getattr(before, "kind", None) == getattr(after, "kind", None)):
+                continue
+            lost = [f"{f.name} {_shown(getattr(after, f.name))} (the scenario's "
+                    f"{_shown(getattr(before, f.name))})" for f in dataclasses.fields(before)
+                    if f.name not in given and f.name != "name"  # (a label)
+                    and _differs(getattr(before, f.name), getattr(after, f.name))]
+            if lost:
+                warnings.warn(f"{key}[{i}]: a list given whole builds its entries from "
+                              f"{type(after).__name__}'s defaults, not from the scenario's: "
+                              f"{', '.join(lost)}; to change a field of the scenario's entry "
+                              "alone, set it by index: "
+                              f"{', '.join(f'{key}[{i}].{name}' for name in given) or key}",
+                              stacklevel=3)
+    return changed
+
+
+def _field_at(config: Any, key: str) -> Any:
+    """The value of ``config`` at the dotted ``key`` (None where it names no field or
+    goes through an index)."""
+    value = config
+    for name in key.split("."):
+        value = getattr(value, name, None)
+    return value
+
+
+def _differs(a: Any, b: Any) -> bool:
+    try:
+        return bool(a != b)
+    except ValueError:  # arrays
+        return not np.array_equal(a, b)
+
+
+def _shown(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, float) else repr(value)
 
 
 def sets_section(keys: Any, section: str) -> bool:

@@ -198,7 +198,8 @@ def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
     ax3.set_title("path")
     plan = fig.add_subplot(2, 3, 2)
     plan.plot(pos[:, 1], pos[:, 0], lw=2)
-    if max(np.ptp(pos[:, 0]), np.ptp(pos[:, 1])) < NO_DEPARTURE:  # a vertical hole: one
+    point = max(np.ptp(pos[:, 0]), np.ptp(pos[:, 1])) < NO_DEPARTURE
+    if point:  # a vertical hole: one
         # point, which a line does not draw, on axes of +-0.04 m (a check of the pictures)
         plan.plot(pos[-1, 1], pos[-1, 0], "o", ms=6, color="C0")
         plan.set_xlim(-50.0, 50.0)
@@ -207,7 +208,9 @@ def well_figure(name: str, trajectory: Trajectory, table: dict[str, object],
                   ha="center", color="0.3")
     plan.set_xlabel("east (m)")
     plan.set_ylabel("north (m)")
-    plan.set_aspect("equal", adjustable="datalim")
+    # (a vertical hole's limits are fixed: its box keeps the aspect, where the data limits
+    # printed matplotlib's "Ignoring fixed y limits" twice per chart)
+    plan.set_aspect("equal", adjustable="box" if point else "datalim")
     plan.set_title("plan view")
     vertical = fig.add_subplot(2, 3, 3)
     vertical.plot(section, pos[:, 2], lw=2)

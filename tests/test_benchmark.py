@@ -10,6 +10,7 @@ import math
 import re
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -1621,6 +1622,7 @@ def test_a_broken_controller_file_is_one_line_naming_it_and_exit_2(tmp_path, cap
      "act() raised LinAlgError: Singular matrix (acts.py, line 10)"),
     ("        return np.zeros(1)\n", "act() returned an action of shape (1,); the env "
                                      "takes (2,)"),
+    ("        return None\n", "act() returned None; the env takes an action of shape (2,)"),
     ("        return np.array([np.nan, 0.0])\n", "act() returned [nan, 0.0], not finite "
                                                "numbers"),
     ("        return np.array(['1', '2'])\n", "act() returned an action: expected numbers, "
@@ -1654,6 +1656,49 @@ def test_run_says_an_act_error_of_your_own_in_one_line_too(tmp_path, capsys):
     assert last == (f"drill-env run: error: --controller: {file}:Bad: act() raised "
                     "ZeroDivisionError: division by zero (acts.py, line 9) (stick_slip "
                     "seed 3)")
+
+
+def test_a_reset_of_your_own_that_raises_is_named_in_one_line_in_run_and_benchmark(
+        tmp_path, capsys):
+    """``reset`` as ``act``: a raising reset gave a traceback through the benchmark's
+    episode and exit 1 (a new user's trial), where every other hook gave one line, exit 2."""
+    file = tmp_path / "resets.py"
+    file.write_text("from agents import SetPointController\n\n\n"
+                    "class Bad(SetPointController):\n    name = 'resets'\n    rate = 'policy'"
+                    "\n\n    def reset(self, env):\n        raise KeyError('boom')\n")
+    said = (f"--controller{{}}: {file}:Bad: reset() raised KeyError: 'boom' (resets.py, "
+            "line 9) (stick_slip seed {})")
+    assert main(["run", "--controller", f"{file}:Bad", "--scenario", "stick_slip",
+                 "--duration", "2", "--seed", "3", "--out", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == \
+        "drill-env run: error: " + said.format("", 3)
+    assert main(["benchmark", "--controllers", f"stiff,{file}:Bad", "--scenarios",
+                 "stick_slip", "--seeds", "1", "--duration", "2", "--warmup", "1",
+                 "--workers", "1", "--out", str(tmp_path / "bench")]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.strip().splitlines()[-1] == \
+        "drill-env benchmark: error: " + said.format("s", 0)
+
+
+def test_an_action_of_your_own_outside_the_space_is_clipped_and_said_once(tmp_path):
+    """The env clips an action outside [-1, 1]; a controller of your own returning 5.0 ran
+    at the top speed without a word, its table saying "rpm error 193 %" (a new user's
+    trial). It is said once, at the first such action; one inside the space says nothing."""
+    file = tmp_path / "far.py"
+    for name, action in (("Near", "[1.0, -1.0]"), ("Far", "[5.0, 0.0]")):
+        file.write_text("import numpy as np\nfrom agents import SetPointController\n\n\n"
+                        f"class {name}(SetPointController):\n    name = 'far'\n    rate = "
+                        "'policy'\n\n    def act(self, observation, info):\n"
+                        f"        return np.array({action})\n")
+        bm._CLIPPED.clear()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert main(["run", "--controller", f"{file}:{name}", "--scenario", "stick_slip",
+                         "--duration", "2", "--seed", "3", "--out", str(tmp_path / "out")]) == 0
+        warned = [str(w.message) for w in caught if "clips" in str(w.message)]
+        assert warned == ([] if name == "Near" else [
+            f"controller: {file}:Far: act() returned [5.0, 0.0], outside the action space "
+            "[-1, 1]: the env clips it (stick_slip seed 3; said at the first)"])
 
 
 def test_a_controller_file_imports_the_helper_module_beside_it(tmp_path):

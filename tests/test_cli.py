@@ -633,6 +633,33 @@ def test_an_operating_point_in_a_config_file_points_to_its_option(tmp_path, caps
             "command (drill-env run --rpm, in rpm)") in capsys.readouterr().err
 
 
+def test_an_env_setting_in_a_config_file_or_physics_in_config_says_where_it_goes(tmp_path):
+    """episode_duration in a --config file was "unknown field of SimulationConfig", and
+    gym.make(config={"mud.density": ...}) "unknown field of EnvConfig": each now says where
+    it belongs (a new user's trial)."""
+    import gymnasium as gym
+
+    from drill_cli.main import read_overrides
+    from drill_env.physics.validation import ConfigError
+
+    path = tmp_path / "env.yaml"
+    for text, said in (("episode_duration: 10\n", "episode_duration: not a config section; "
+                        "the episode's length is an option of the command (--duration"),
+                       ("control_interval: 0.2\n", "control_interval: an env setting "
+                        "(EnvConfig), not the simulator's config")):
+        path.write_text(text)
+        with pytest.raises(ValueError, match=re.escape(f"--config {path}: {said}")):
+            read_overrides(path)
+    for config, key in (({"mud.density": 1350.0}, "'mud.density'"),
+                        ({"string": {"hole_diameter": 0.25}}, "'string'")):
+        with pytest.raises(ConfigError, match=re.escape(
+                f"the simulator's config, not the env's settings: give it as physics= "
+                f"(gym.make(..., physics={{{key}: ...}}))")):
+            gym.make("DrillString-v0", config=config)
+    with pytest.raises(ConfigError, match="control_intervall: unknown field of EnvConfig"):
+        gym.make("DrillString-v0", config={"control_intervall": 0.2})  # the env's: as before
+
+
 def test_the_example_component_string_fits_every_scenario():
     """The README's example file over any scenario: its components replace the
     scenario's BHA, also the crossing cases' 120 m of collars and their stabilizers

@@ -180,6 +180,29 @@ def test_the_well_command_draws_the_scenarios_or_the_configs_own_well(tmp_path, 
     assert "well j_shaped: 2000 m MD" in capsys.readouterr().out
 
 
+def test_charts_of_one_well_for_other_strings_are_files_of_their_own(tmp_path, capsys):
+    """--well lateral_60 for the default string, another scenario's and a --config's wrote
+    one well_lateral_60.png, each over the last (a new user's trial): the name carries
+    whose string it is where it is not the default scenario's."""
+    yaml = tmp_path / "heavy.yaml"
+    yaml.write_text("mud: {density: 1500}\n")
+    runs = {(): "well_lateral_60", ("--scenario", "stick_slip"): "well_lateral_60_stick_slip",
+            ("--config", str(yaml)): "well_lateral_60_heavy"}
+    hooks = {}
+    for extra, name in runs.items():
+        assert main(["well", "--well", "lateral_60", "--total-md", "1500", *extra,
+                     "--out", str(tmp_path)]) == 0
+        assert f"well {name.removeprefix('well_')}: 1500 m MD" in capsys.readouterr().out
+        hooks[name] = json.loads((tmp_path / f"{name}.json").read_text())["torque_drag"]
+        assert (tmp_path / f"{name}.png").is_file()
+    # (the heavier mud's buoyancy lowers the hook load: another chart, kept apart)
+    assert json.dumps(hooks["well_lateral_60_heavy"]) != json.dumps(hooks["well_lateral_60"])
+    yaml.write_text("well: {md: [0, 300, 1250], inclination: [0, 0, 40], "
+                    "azimuth: [0, 0, 90]}\n")  # its own well: named by the file alone
+    assert main(["well", "--config", str(yaml), "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "well_heavy.json").is_file()
+
+
 def test_the_hook_load_legend_names_each_friction_and_each_operation_once():
     """Rotating off bottom has no axial drag, so its hook load is the same at every
     friction factor: one line, one legend entry (not "rotating, mu 0.1" ... "mu 0.4")."""
@@ -200,16 +223,22 @@ def test_the_hook_load_legend_names_each_friction_and_each_operation_once():
             == len(FRICTIONS)
 
 
-def test_a_vertical_wells_picture_says_it_has_no_departure_and_no_wall_torque():
+def test_a_vertical_wells_picture_says_it_has_no_departure_and_no_wall_torque(caplog):
     """A check of the pictures: a vertical well's plan view was empty (its path one point,
     which a line does not draw) on +-0.04 m axes, its wall torque a line of zeros on a
     +-0.04 kN m axis. The point is marked and both panels say why; a curved well's do
-    not."""
+    not. Drawn, neither logs matplotlib's "Ignoring fixed y limits" (printed twice by
+    every vertical well's chart: a new user's trial)."""
+    import io
+
     config = make_scenario("default").config
     texts = {}
     for name in ("vertical", "j_shaped"):
         well = Trajectory(WELLS[name](1500.0))
         fig = well_figure(name, well, torque_drag_table(well, config, step=500.0))
+        with caplog.at_level("INFO", logger="matplotlib"):
+            fig.savefig(io.BytesIO(), format="png", dpi=30)
+        assert not [r for r in caplog.records if r.name.startswith("matplotlib")]
         texts[name] = " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
         plan = next(ax for ax in fig.axes if ax.get_title() == "plan view")
         if name == "vertical":

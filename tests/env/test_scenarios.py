@@ -202,6 +202,37 @@ def test_components_given_as_overrides_replace_the_bha_but_not_the_stabilizers_g
     assert both.string.stabilizer_positions == (5.0,)
 
 
+def test_a_list_of_sections_given_whole_says_which_scenario_values_it_drops():
+    """A YAML's ``formation: {rocks: [{mu_min: 0.5}]}`` builds the rock from RockConfig's
+    defaults: the default scenario's rock lost its depth of cut (4e-8 -> 2e-8) and its
+    founder point, halving the ROP without a word (a new user's trial). A warning names
+    them and the dotted key that changes one field; that key, and an entry that gives
+    every field, and a component of another kind than the scenario's, warn of nothing."""
+    import dataclasses
+    import warnings
+
+    base = scenarios.make_scenario("default").config
+    rock = base.formation.rocks[0]
+    with pytest.warns(UserWarning, match=r"formation.rocks\[0\]: a list given whole .* "
+                      r"depth_of_cut 2e-08 \(the scenario's 4e-08\), founder_wob_per_diameter "
+                      r"None \(the scenario's 680000\).*set it by index: "
+                      r"formation.rocks\[0\].mu_min$") as caught:
+        whole = scenarios.with_physics(base, {"formation.rocks": [{"mu_min": 0.5}]})
+    assert "mu_min" not in str(caught[0].message).split(":")[2]  # given: not a loss
+    assert whole.formation.rocks[0].depth_of_cut == pytest.approx(2e-8)  # (as said)
+    every = {**dataclasses.asdict(rock), "mu_min": 0.5}
+    section = {"string.components": [{"kind": "collar", "length": 9.0, "element_length": 3.0,
+                                      "outer_diameter": 0.1651, "inner_diameter": 0.0714375}]}
+    assert base.string.components[0].kind == "bit_sub"  # another kind: a new string's
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        dotted = scenarios.with_physics(base, {"formation.rocks[0].mu_min": 0.5})
+        given = scenarios.with_physics(base, {"formation.rocks": [every]})
+        scenarios.with_physics(base, section)
+    assert dotted.formation.rocks[0] == given.formation.rocks[0] \
+        == dataclasses.replace(rock, mu_min=0.5)
+
+
 def test_the_env_reports_the_depth_of_a_string_read_from_yaml():
     import gymnasium as gym
 
