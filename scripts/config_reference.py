@@ -29,7 +29,11 @@ Generated from `drill_env/physics/config.py` by `scripts/config_reference.py` (d
 edit by hand). SI units throughout (metres, kilograms, seconds, newtons, rad/s), angles
 in degrees (blade angles, dips, azimuths, inclinations). A `--config` YAML file (or
 `physics=` in Python, as dotted keys: `{"string.hole_diameter": 0.2159}`) nests these
-sections; a field left out keeps the scenario's value. Types: `Positive` > 0,
+sections; a field left out keeps the scenario's value. A list (`formation.rocks`,
+`string.components`) replaces the scenario's whole, its entries built from the defaults
+below, not from the scenario's entries (a warning names the fields that then differ):
+to change one field of the scenario's rock, set it by index,
+`"formation.rocks[0].mu_min": 0.5` (quoted in YAML). Types: `Positive` > 0,
 `NonNegative` >= 0, `Finite` any finite number, `Count` a whole number; `bounds` are the
 physical range a value must lie in (a diameter of 5 is refused: metres). Bad values are
 refused with the dotted path of the field, e.g. `string.components[1].outer_diameter`.

@@ -305,6 +305,7 @@ class ContactConfig:
     damping: NonNegative = Field(default=3.0e4, le=1.0e8)
     #: Velocity-dependent wall friction mu(v) = mu_kin + (mu_static - mu_kin) exp(-|v|/v_s):
     #: 0.25-0.30, the open-hole friction factors of torque-and-drag practice (docs/model.md).
+    #: Kinetic above static is taken: friction that rises with the slip speed, a choice.
     friction_static: NonNegative = Field(default=0.30, le=2.0)
     friction_kinetic: NonNegative = Field(default=0.25, le=2.0)
     friction_decay_speed: Positive = Field(default=0.1, le=100.0)
@@ -576,7 +577,7 @@ class BitConfig:
 @config_dataclass
 class WellConfig:
     """The hole's path by survey stations (docs/model.md section 6): measured depth (m,
-    from 0), inclination and azimuth (degrees), joined by minimum curvature. No
+    from 0), inclination (0-180) and azimuth (+-360) in degrees, by minimum curvature. No
     stations: the vertical hole. The string's nodes feel, in the hole's local
     twist-free frames, the buoyed weight across the hole and the tension turning with
     it; the axial force follows the true vertical depth. The survey must reach the
@@ -663,8 +664,8 @@ class SimulationConfig:
     well: WellConfig = field(default_factory=WellConfig)
     #: "mesoscopic" (paper section 3) or "macroscopic" (eq. 38, torque only).
     bit_model: BitModel = "mesoscopic"
-    #: Measured depth of the bit face at t = 0 (m); None: the string length. Given: at most
-    #: that, and within 100 m of it (the string hangs at the wellhead; drill_env.overrides).
+    #: Measured depth of the bit face at t = 0 (m); None: the string length. Given in
+    #: physics= or --config: at most that, within 100 m of it (drill_env.overrides).
     initial_depth: Annotated[Finite, Field(ge=0.0, le=1.0e5)] | None = None
 
     def __post_init__(self) -> None:
