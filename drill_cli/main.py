@@ -427,7 +427,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     totals = dict.fromkeys(keys, 0.0)
     steps, reward, reason = 0, 0.0, ""
     info: dict[str, Any] = {}
-    obs, info = env.reset(seed=args.seed, options=options or None)
+    with warnings.catch_warnings():
+        if kwargs.get("weight_on_bit") == options.get("weight_on_bit"):  # said at the make
+            warnings.filterwarnings("ignore", "reset options: weight_on_bit: .* above this "
+                                    "string's weight_on_bit_limit")
+        obs, info = env.reset(seed=args.seed, options=options or None)
     if controller.env_id != "DrillString-v0":  # scored as DrillString-v0 scores (benchmark)
         base.plain_return = 0.0
     # judged at the WOB the bit gets: the mesh's limit where the start asks for more (a new

@@ -633,6 +633,19 @@ def test_an_operating_point_in_a_config_file_points_to_its_option(tmp_path, caps
             "command (drill-env run --rpm, in rpm)") in capsys.readouterr().err
 
 
+def test_a_start_wob_above_the_mesh_limit_is_said_once(tmp_path):
+    """run --wob gives the WOB to the scenario's start and to the reset: above the mesh's
+    limit each warned, the second as 'reset options: ...' (a new user's trial)."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main(["run", "--scenario", "lateral_60", "--wob", "200", "--duration", "0.2",
+                     "--out", str(tmp_path)]) == 0
+    said = [str(w.message) for w in caught if "weight_on_bit_limit, " in str(w.message)]
+    assert len(said) == 1 and said[0].startswith("weight_on_bit: 200 kN is above"), said
+
+
 def test_an_env_setting_in_a_config_file_or_physics_in_config_says_where_it_goes(tmp_path):
     """episode_duration in a --config file was "unknown field of SimulationConfig", and
     gym.make(config={"mud.density": ...}) "unknown field of EnvConfig": each now says where
