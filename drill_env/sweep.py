@@ -597,10 +597,12 @@ def folder_lock(folder: Path, what: str, tidy: Sequence[str] = ()) -> Iterator[N
     after a kill is not refused. Once held, the partial files of saves cut short
     (:func:`save_whole`) in the folder and its subfolders named in ``tidy`` are deleted,
     unless fresh (:data:`STALE_PARTIAL_S`). A folder made here that is left empty (a
-    refused command) is removed again."""
+    refused command) is removed again, with the parents made for it (a mutation round:
+    ``runs/new/run`` refused left ``runs/new``)."""
     from filelock import FileLock, Timeout
 
-    made = not folder.exists()
+    missing = [f for f in (folder, *folder.parents) if not f.exists()]  # deepest first
+    made = bool(missing)
     folder.mkdir(parents=True, exist_ok=True)
     lock = FileLock(folder / LOCK_FILE)
     try:
@@ -628,8 +630,9 @@ def folder_lock(folder: Path, what: str, tidy: Sequence[str] = ()) -> Iterator[N
                 (folder / LOCK_FILE).unlink()
         lock.release()
         if empty:
-            with contextlib.suppress(OSError):
-                folder.rmdir()
+            with contextlib.suppress(OSError):  # (one not empty: the rest are kept too)
+                for made_here in missing:
+                    made_here.rmdir()
 
 
 #: A partial file (:func:`save_whole`) untouched this long is a killed writer's, which

@@ -84,6 +84,18 @@ def test_a_full_disk_is_said_with_the_file_it_stopped(tmp_path):
     assert (caught.value.errno, caught.value.filename) == (errno.ENOSPC, "/dev/full")
 
 
+def test_an_error_that_names_its_own_file_keeps_that_name(tmp_path):
+    """Only an error without a file's name (a full disk's) is said with the saved file's:
+    one that names its own (an input the save reads is gone) keeps it (a mutation test:
+    every error said as the saved file's passed every test)."""
+    target = tmp_path / "benchmark.csv"
+    missing = tmp_path / "series.npz"
+    with pytest.raises(FileNotFoundError) as caught:
+        save_whole(target, lambda file: missing.read_bytes())
+    assert caught.value.filename == str(missing)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_held_folder_is_refused_by_name_and_let_go_when_its_holder_is_killed(tmp_path):
     """The lock is the system's: a kill -9 of its holder frees the folder (a resume after
     a kill is not refused), and the partial files of its cut saves are deleted by the next
@@ -116,10 +128,25 @@ def test_a_refused_command_leaves_no_folder_it_made(tmp_path):
     folder = tmp_path / "new" / "run"
     with pytest.raises(ValueError, match="refused"), folder_lock(folder, "a test"):
         raise ValueError("refused")
-    assert not folder.exists()
+    assert list(tmp_path.iterdir()) == []  # new/ too (it was left: a mutation round)
+    (tmp_path / "new").mkdir()
+    (tmp_path / "new" / "other").write_text("")  # a parent it made, not empty: kept
+    with pytest.raises(ValueError, match="refused"), folder_lock(tmp_path / "new" / "a" / "b",
+                                                                 "a test"):
+        (tmp_path / "new" / "a" / "note").write_text("")
+        raise ValueError("refused")
+    assert sorted(p.name for p in (tmp_path / "new").iterdir()) == ["a", "other"]
+    assert [p.name for p in (tmp_path / "new" / "a").iterdir()] == ["note"]
     with folder_lock(folder, "a test"):
         (folder / "result.txt").write_text("kept")
     assert sorted(p.name for p in folder.iterdir()) == [LOCK_FILE, "result.txt"]
+    # an empty folder it did not make (an --out made beforehand) stays (a mutation test:
+    # a refused command removed it, and that passed every test)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    with pytest.raises(ValueError, match="refused"), folder_lock(mine, "a test"):
+        raise ValueError("refused")
+    assert mine.is_dir()
 
 
 def test_a_second_benchmark_into_a_held_folder_is_refused_before_any_episode(
@@ -256,3 +283,19 @@ def test_a_cut_line_the_next_result_ended_is_not_counted_as_an_edit(tmp_path):
         f.write('{"an": "edit"}\n')
     again = ResultStore(path, "f")
     assert (again.cut, again.damaged, again.get("b")) == (False, 1, 2)
+
+
+def test_a_damaged_line_before_a_whole_last_line_is_no_cut_and_a_store_makes_its_folder(
+        tmp_path):
+    """A damaged line before a last line that lacks only its newline does not make the
+    store say its last line was cut (that one is whole, and kept); and the first result
+    makes the store's folder (mutation tests: each passed every test)."""
+    path = tmp_path / "new" / "results.jsonl"
+    ResultStore(path, "f").put("a", 1)
+    with path.open("a") as f:
+        f.write("{damaged\n")
+        f.write(json.dumps({"fingerprint": "f", "key": "c", "result": 3}))  # no newline
+    store = ResultStore(path, "f")
+    assert (store.cut, store.damaged, len(store)) == (False, 0, 2)
+    store.put("d", 4)
+    assert (ResultStore(path, "f").get("c"), ResultStore(path, "f").get("d")) == (3, 4)
