@@ -145,6 +145,24 @@ def sleep_through_interrupts(marker: str) -> None:
     time.sleep(60.0)
 
 
+def lose_an_interrupt(marker: str) -> str:
+    """A sweep task whose interrupt's exception is lost, as one raised inside numba's
+    compile callbacks is (printed as "Exception ignored"): writes ``marker``, waits for
+    the interrupt, swallows it, and returns the name of what
+    :func:`drill_env.sweep.noted_interrupt` then says, for the task to act on."""
+    import time
+    from pathlib import Path
+
+    from drill_env.sweep import noted_interrupt
+
+    try:
+        Path(marker).write_text("started")
+        time.sleep(60.0)
+    except KeyboardInterrupt:
+        pass
+    return getattr(noted_interrupt(), "__name__", "None")
+
+
 def fail_last(k: int) -> int:
     """A sweep task that returns ``k`` at once, except for ``k`` = 3, which fails after
     the others are done (their workers idle when the pool is aborted)."""

@@ -362,9 +362,12 @@ def test_a_result_put_after_a_killed_writers_half_line_is_kept(tmp_path):
         f.write('{"fingerprint": "f", "ke')  # a writer killed mid-line
     store = ResultStore(path, "f")
     store.put("k2", 2)
+    store.put("k3", 3)  # the half line was ended once: no empty line before this one (a
+    # mutation test: a newline written before every later result passed every test)
     again = ResultStore(path, "f")
-    assert ("k1" in again, "k2" in again, len(again)) == (True, True, 2)
+    assert ("k1" in again, "k2" in again, len(again)) == (True, True, 3)
     assert again.get("k2") == 2
+    assert "\n\n" not in path.read_text()
 
 
 @pytest.mark.parametrize("workers", [1, 2])
@@ -381,6 +384,46 @@ def test_every_item_of_a_long_sweep_comes_back_under_its_own_index(workers):
         executor.close()
     assert sorted(k for k, _ in got) == list(range(11))
     assert all(result == abs(items[k]) for k, result in got)
+
+
+def test_a_sweep_keeps_two_tasks_per_worker_in_flight_and_cancels_them_when_stopped(
+        monkeypatch):
+    """ProcessExecutor keeps a few tasks per worker in flight (two), one more queued for
+    each result, so that an interrupt leaves little work half done; a sweep stopped (its
+    generator closed, as a Ctrl-C in the loop over it does) cancels those queued. A pool
+    simulated, which runs the first ``done`` tasks at once and leaves the rest queued
+    (mutation tests: one task per worker, every task queued at the first result, and
+    none cancelled each passed every test)."""
+    from concurrent.futures import Future
+
+    import drill_env.sweep as sweep
+
+    class Pool:
+        def __init__(self, *args, **kwargs) -> None:
+            self.futures: list[Future] = []
+            self.done = math.inf
+
+        def submit(self, fn, *args) -> Future:
+            future: Future = Future()
+            if len(self.futures) < self.done:
+                future.set_result(fn(*args))
+            self.futures.append(future)
+            return future
+
+    monkeypatch.setattr(sweep, "ProcessPoolExecutor", Pool)
+    executor = sweep.ProcessExecutor(2)
+    in_flight = []
+    for n, (k, result) in enumerate(executor.map_unordered(abs, [-k for k in range(11)])):
+        assert result == k
+        in_flight.append(len(executor._pool.futures) - n)  # queued, less those yielded
+    assert len(in_flight) == 11 and max(in_flight) == 4
+    executor = sweep.ProcessExecutor(2)
+    executor._pool.done = 1
+    stopped = executor.map_unordered(abs, range(11))
+    assert next(stopped) == (0, 0)
+    stopped.close()
+    queued = executor._pool.futures[1:]
+    assert len(queued) == 3 and all(future.cancelled() for future in queued)
 
 
 def test_rows_of_other_code_are_not_reused(tmp_path, monkeypatch):
@@ -818,6 +861,37 @@ def test_an_interrupt_of_the_command_alone_reaches_the_workers_once(tmp_path):
     assert time.monotonic() - start < 0.5 * ProcessExecutor.ABORT_GRACE
     assert [Path(m).read_text() for m in markers[:2]] == ["saved", "saved"]
     assert not any(Path(m).exists() for m in markers[2:])
+
+
+def test_a_sigterm_interrupts_a_workers_task_and_is_noted_where_its_exception_is_lost(
+        tmp_path):
+    """A pool worker's first SIGTERM (a scheduler's stop of the job's process group) is
+    handled as its first Ctrl-C: the task is interrupted (a training run saves its
+    checkpoint), where SIGTERM's default killed the worker unsaved and broke the pool; and
+    where the task's exception is lost (numba's compile callbacks), ``noted_interrupt``
+    still says it, for the training loop to stop at its next step (mutation tests: the
+    worker's SIGTERM handler dropped, and a worker's interrupt not noted, each passed
+    every test)."""
+    import os
+    import signal
+
+    from helpers import lose_an_interrupt
+
+    from drill_env.sweep import ProcessExecutor, _unless_interrupted
+
+    executor = ProcessExecutor(1)
+    marker = tmp_path / "task"
+    try:
+        future = executor._pool.submit(_unless_interrupted, lose_an_interrupt, str(marker))
+        deadline = time.monotonic() + 120.0  # a spawned worker imports numba first
+        while not marker.exists():
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        (worker,) = executor._pool._processes.values()
+        os.kill(worker.pid, signal.SIGTERM)
+        assert future.result(timeout=60) == "KeyboardInterrupt"
+    finally:
+        executor.close()
 
 
 def test_a_failed_task_stops_the_pool_without_the_idle_workers_tracebacks():

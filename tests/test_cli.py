@@ -1609,6 +1609,10 @@ def test_a_command_says_its_warnings_on_one_line_under_its_name(tmp_path, capsys
     assert said(UserWarning("x: looks wrong"), UserWarning, "/lib/q.py", 9) == ""
     assert "DeprecationWarning" in said(DeprecationWarning("old"), DeprecationWarning,
                                         "/lib/p.py", 3)
+    # a RuntimeWarning is its user's too (drill_env's own: no writable folder for numba's
+    # kernels; a mutation test: Python's format for it passed every test)
+    assert said(RuntimeWarning("y: kept elsewhere"), RuntimeWarning, "/lib/p.py", 3) == \
+        "drill-env run: warning: y: kept elsewhere\n"
     before = warnings.formatwarning
     assert main(["run", "--duration", "0.2", "--out", str(tmp_path)]) == 0
     assert warnings.formatwarning is before

@@ -545,6 +545,114 @@ def test_driller_steps_the_weight_back_no_further_than_the_plan():
     assert out[-1] == pytest.approx([50.0 * RPM, 95e3])
 
 
+def test_driller_raises_to_the_top_of_the_range_and_steps_back_to_the_plan_off_its_grid():
+    # a plan of 175 rpm in a 0-200 rpm env is not a whole number of rpm_steps from
+    # either end: the third raise stops at 200 (not 205), and the third step back at 175
+    # (not 170) (a mutation test: both limits dropped passed every test, whose plans
+    # reached the range's top and came back in whole steps)
+    from agents.driller import Driller, DrillerRules
+
+    r = DrillerRules()
+    d = Driller(r)
+    d.reset(_DrillerEnv(175.0, 100e3))
+    swing = 10e3 * (1.0 + 0.5 * np.sin(np.pi * np.arange(0, 15.0, 0.1)))  # 3 decisions
+    out = _drive(d, swing)
+    assert out[49::50, 0] / RPM == pytest.approx([185.0, 195.0, 200.0])
+    assert out[-1, 1] == pytest.approx(100e3)  # (the WOB untouched: the rpm went first)
+    out = _drive(d, np.full(50 * r.calm_decisions * 4, 10e3))  # room for four steps back
+    steps = out[50 * r.calm_decisions - 1::50 * r.calm_decisions, 0] / RPM
+    assert steps == pytest.approx([190.0, 180.0, 175.0, 175.0])
+
+
+def test_driller_takes_a_new_plan_at_once():
+    # the targets may change during an episode (a control task's driller moves them):
+    # the driller asks for the new set points from that step on, not the old plan's or
+    # its own steps away from it (a mutation test: a driller that kept the first plan
+    # passed every test)
+    from agents.driller import Driller, DrillerRules
+
+    r = DrillerRules()
+    d = Driller(r)
+    env = _DrillerEnv(50.0, 100e3)
+    d.reset(env)
+    swing = 10e3 * (1.0 + 0.5 * np.sin(np.pi * np.arange(0, 5.0, 0.1)))  # one decision
+    assert _drive(d, swing)[-1] == pytest.approx([60.0 * RPM, 100e3])
+    env.targets = (80.0 * RPM, 120e3)
+    out = _drive(d, np.full(50, 10e3))
+    np.testing.assert_allclose(out, np.tile([80.0 * RPM, 120e3], (50, 1)), rtol=1e-12)
+    out = _drive(d, swing)  # and its steps are taken from the new plan
+    assert out[-1] == pytest.approx([90.0 * RPM, 120e3])
+
+
+def test_driller_decides_every_decision_period_of_each_episode():
+    # DrillerRules.decision_period over the env's control interval, rounded: 0.3 s is
+    # 3 steps of 0.1 s (0.3 / 0.1 is 2.9999999999999996: cut to 2 it decided every
+    # 0.2 s), one shorter than half an interval is every step (rounded to 0 steps it
+    # raised ZeroDivisionError at the first step), and the count starts again at each
+    # reset (kept, a second episode's first decision came after 20 steps of it, on 20
+    # torque samples: mutation tests)
+    from agents.driller import Driller, DrillerRules
+
+    swing = np.tile([10e3, 5e3, 15e3], 4)  # any three in a row: swing 0.5
+    d = Driller(DrillerRules(decision_period=0.3))
+    d.reset(_DrillerEnv(50.0, 100e3))
+    out = _drive(d, swing)
+    assert out[:, 0] / RPM == pytest.approx([50.0] * 2 + [60.0] * 3 + [70.0] * 3 + [80.0] * 3
+                                            + [90.0])
+    d = Driller(DrillerRules(decision_period=0.01))
+    d.reset(_DrillerEnv(50.0, 100e3))  # one torque sample a decision: never a swing
+    assert _drive(d, swing) == pytest.approx(np.tile([50.0 * RPM, 100e3], (12, 1)))
+    d = Driller()
+    env = _DrillerEnv(50.0, 100e3)
+    d.reset(env)
+    _drive(d, np.full(30, 10e3))  # an episode cut short mid-decision
+    d.reset(env)
+    out = _drive(d, 10e3 * (1.0 + 0.5 * np.sin(np.pi * np.arange(0, 5.0, 0.1))))
+    assert out[:-1, 0] == pytest.approx(50.0 * RPM)  # its first decision after 50 steps
+    assert out[-1, 0] == pytest.approx(60.0 * RPM)
+
+
+def test_driller_reads_the_size_of_the_surface_torque_swing_whatever_its_sign():
+    # (max - min) / (2 |mean|): a torque reported with the other sign swings as much (a
+    # mutation test: the mean's sign kept, a negative torque never read as stick-slip)
+    from agents.driller import Driller
+
+    t = np.arange(0, 5.0, 0.1)
+    for sign in (1.0, -1.0):
+        d = Driller()
+        d.reset(_DrillerEnv(50.0, 100e3))
+        out = _drive(d, sign * 10e3 * (1.0 + 0.5 * np.sin(np.pi * t)))
+        assert out[-1, 0] == pytest.approx(60.0 * RPM), sign
+
+
+def test_driller_reads_a_string_at_rest_as_calm_without_a_warning():
+    # no surface torque at all (mean 0): the swing is 0, not 0/0 (numpy's "invalid
+    # value encountered" warning at every decision of a string at rest)
+    import warnings
+
+    from agents.driller import Driller
+
+    d = Driller()
+    d.reset(_DrillerEnv(50.0, 100e3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = _drive(d, np.zeros(100))
+    assert out[-1] == pytest.approx([50.0 * RPM, 100e3])
+
+
+def test_driller_runs_on_the_stiff_pi_whatever_the_config_names():
+    # module docstring: the top drive keeps its stiff PI loop, also under a config that
+    # names another loop; a set-point controller of your own names none (docs/
+    # controllers.md: the config's loop) (mutation tests: both passed every test, the
+    # default config's loop being the stiff PI)
+    from agents.base import SetPointController
+
+    soft = replace(make_scenario("default").config, **{"top_drive.controller": "soft_speed"})
+    assert Driller().tuning(soft).controller == "stiff"
+    assert SetPointController().physics() == {}
+    assert SetPointController().tuning(soft).controller == "soft_speed"
+
+
 def test_set_point_controller_asks_for_speed_then_wob():
     from agents.base import SetPointController
 

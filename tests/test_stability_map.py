@@ -528,6 +528,28 @@ def test_a_cpu_quota_above_the_process_in_its_cgroups_caps_the_workers(tmp_path)
     both.write_text("0::/../x\n")
     _cgroup(hybrid, "unified", cpu_max="200000 100000\n")
     assert cgroup_quota_cores(hybrid, both) is None
+    # a hybrid layout's quota set on its v2 tree (unified/), none on the v1 controllers:
+    # read at unified/, not at the mount's root (a mutation test: passed every case above)
+    split = tmp_path / "split"
+    _cgroup(split, "unified", cpu_max="200000 100000\n")
+    _cgroup(split, "cpu", cpu_cfs_quota_us="-1\n", cpu_cfs_period_us="100000\n")
+    both.write_text("1:cpu:/\n0::/\n")
+    assert cgroup_quota_cores(split, both) == 2
+
+
+def test_the_default_workers_are_the_fewer_of_the_cores_and_the_cpu_quota(monkeypatch):
+    """usable_cores: the cores of the process's CPU affinity, capped by a cgroup's CPU
+    quota where that allows fewer (a mutation test: the larger of the two passed every
+    test, on a machine whose cgroups set no quota). Simulated: 4 cores."""
+    import os
+
+    import drill_env.sweep as sweep
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2, 3}, raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 4)
+    for quota, cores in ((None, 4), (2, 2), (8, 4)):
+        monkeypatch.setattr(sweep, "cgroup_quota_cores", lambda quota=quota: quota)
+        assert sweep.usable_cores() == cores, quota
 
 
 def _numba_threads(_: int) -> tuple[int, int]:
@@ -552,6 +574,45 @@ def test_pool_workers_run_one_numba_thread_each() -> None:
             (0, (1, 1)), (1, (1, 1))]
     finally:
         executor.close()
+
+
+NUMBA_FIRST = """
+import numba  # (a spawned pool worker imports this file before its set-up runs)
+
+from drill_env.sweep import ProcessExecutor
+
+
+def threads(_):
+    return numba.config.NUMBA_NUM_THREADS
+
+
+if __name__ == "__main__":
+    executor = ProcessExecutor(1)
+    try:
+        print(list(executor.map_unordered(threads, [0])))
+    finally:
+        executor.close()
+"""
+
+
+def test_pool_workers_run_one_numba_thread_also_under_a_script_that_loads_numba(
+        tmp_path) -> None:
+    """A spawned worker imports the main script before its set-up runs: where that script
+    imports numba, numba has read NUMBA_NUM_THREADS (one thread per core) by then, and
+    the set-up has it read the setting again. ``import drill_env`` no longer loads numba,
+    so the test above no longer reaches that reading (a mutation test: it dropped passed
+    every test). (On one core numba's default is one thread either way.)"""
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / "numba_first.py"
+    script.write_text(NUMBA_FIRST)
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_NUM_THREADS"}
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          env=env, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[(0, 1)]"
 
 
 def test_the_picture_shades_and_marks_each_point_at_its_speed_and_wob() -> None:
