@@ -6,13 +6,14 @@ drawn."""
 from __future__ import annotations
 
 import dataclasses
+import re
 import warnings
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from drill_env.physics.config import SimulationConfig, StringConfig, replace
+from drill_env.physics.config import ConfigError, SimulationConfig, StringConfig, replace
 from drill_env.physics.formation import across_the_hole
 from drill_env.physics.trajectory import (
     Survey,
@@ -22,8 +23,8 @@ from drill_env.physics.trajectory import (
     draws_hang_freely,
 )
 
-__all__ = ["MAX_LEAD", "drawn_with_physics", "sets_section", "warn_lists_rebuilt",
-           "with_physics"]
+__all__ = ["MAX_LEAD", "drawn_with_physics", "kept_value_said", "sets_section",
+           "warn_lists_rebuilt", "with_physics"]
 
 
 def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
@@ -44,8 +45,21 @@ def with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
     the interfaces or the well. Components (``string.components``) replace the scenario's
     one-section BHA and its stabilizers unless the overrides set those as well. A list of
     sections given whole is built from the class's defaults; a warning names what that
-    changed against the scenario's entries (:func:`warn_lists_rebuilt`).
+    changed against the scenario's entries (:func:`warn_lists_rebuilt`). An error of a
+    field the overrides do not set says it is the scenario's (:func:`kept_value_said`).
     """
+    try:
+        return _with_physics(config, overrides, drawn)
+    except ConfigError as err:
+        said = kept_value_said(str(err), overrides)
+        if said is None:
+            raise
+        raise ConfigError(said) from None
+
+
+def _with_physics(config: SimulationConfig, overrides: Mapping[str, Any],
+                  drawn: bool) -> SimulationConfig:
+    """:func:`with_physics` but its errors' words."""
     if not drawn:
         return warn_lists_rebuilt(config, _overridden(config, overrides), overrides)
     with draws_hang_freely():  # said for the range's longest string (drawn_with_physics)
@@ -116,6 +130,23 @@ def warn_lists_rebuilt(config: SimulationConfig, changed: SimulationConfig,
                               f"{', '.join(f'{key}[{i}].{name}' for name in given) or key}",
                               stacklevel=3)
     return changed
+
+
+def kept_value_said(error: str, overrides: Mapping[str, Any]) -> str | None:
+    """``error`` (a ConfigError's words, led by a dotted field) with a note that the
+    field is the scenario's, kept by the ``overrides`` that clash with it; None where the
+    overrides set that field (or a section or list holding it) themselves. A smaller
+    hole named the default string's stabilizer, ``string.components[1].contact_diameter``,
+    which the user had not typed (a new user's trial)."""
+    field, colon, _ = error.partition(": ")
+    if not (colon and re.fullmatch(r"[A-Za-z_][\w.\[\]]*", field) and overrides):
+        return None
+    for key in overrides:
+        if key == field or field.startswith((f"{key}.", f"{key}[")) \
+                or key.startswith((f"{field}.", f"{field}[")):
+            return None
+    return (f"{error} (the scenario's {field}, which the overrides keep: give it as well, "
+            "or change what clashes with it)")
 
 
 def _field_at(config: Any, key: str) -> Any:

@@ -233,6 +233,26 @@ def test_a_list_of_sections_given_whole_says_which_scenario_values_it_drops():
         == dataclasses.replace(rock, mu_min=0.5)
 
 
+def test_an_error_of_a_field_the_overrides_keep_says_it_is_the_scenarios():
+    """A smaller hole on the default string was refused naming its stabilizer's contact
+    diameter, a field the user had not typed (a new user's trial): the error now says it
+    is the scenario's. An error of a field the overrides set, or of one inside a section
+    or list they give, is said as it was."""
+    from drill_env.physics.validation import ConfigError
+
+    base = scenarios.make_scenario("default").config
+    with pytest.raises(ConfigError, match=r"^string.components\[1\].contact_diameter: .*"
+                       r"clearance <= 0\) \(the scenario's string.components\[1\]."
+                       r"contact_diameter, which the overrides keep: give it as well"):
+        scenarios.with_physics(base, {"string.hole_diameter": 0.2159})
+    for overrides in ({"mud.density": 1e5}, {"mud": {"density": 1e5}},
+                      {"string.components": [{"kind": "pipe"}]},
+                      {"string.components[1].contact_diameter": 0.5}):
+        with pytest.raises(ConfigError) as caught:
+            scenarios.with_physics(base, overrides)
+        assert "which the overrides keep" not in str(caught.value), overrides
+
+
 def test_the_env_reports_the_depth_of_a_string_read_from_yaml():
     import gymnasium as gym
 
