@@ -6,6 +6,7 @@ No timing thresholds: the figures depend on the machine and its load.
 import dataclasses
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -79,6 +80,12 @@ def test_settings_reject_non_positive_sizes_by_name():
         BenchmarkSettings(repeats=0)
     with pytest.raises(ValueError, match="pipe_lengths"):
         BenchmarkSettings(pipe_lengths=(-1.0,))
+    # the last count is reported as the largest N: (64, 1) said N = 1's figure as N = 64's
+    # (a mutation round)
+    for counts in ((64, 1), (4, 4)):
+        with pytest.raises(ValueError, match=r"env_counts: must increase"):
+            BenchmarkSettings(env_counts=counts)
+    assert BenchmarkSettings(env_counts=(1, 64)).env_counts == (1, 64)
 
 
 def test_finished_sections_are_written_before_an_interrupt(tmp_path, monkeypatch):
@@ -277,6 +284,7 @@ def test_the_commit_recorded_is_drill_envs_own_not_an_enclosing_repositorys(tmp_
 
     site = tmp_path / "venv" / "lib" / "site-packages"
     site.mkdir(parents=True)
+    assert checkout_commit(site) is None  # in no work tree: git's error, caught
     (tmp_path / "a.txt").write_text("a")
     git("init", "-q")
     git("add", "a.txt")
@@ -434,3 +442,149 @@ def test_best_of_rounds_keeps_the_fastest_round():
     for rate in (5.0, 9.0, 7.0):
         _keep_faster(best, "run", {"steps_per_s": rate})
     assert best == {"run": {"steps_per_s": 9.0}}
+
+
+def test_env_rates_keep_each_ones_fastest_round_in_turns_of_whole_calls(monkeypatch):
+    """The functions take turns round by round (a change of load hits them alike), each
+    keeps its fastest round, and a round's env steps are rounded UP to whole calls."""
+    from drill_env.tools.speed import env as speed_env
+
+    clock = _Clock()
+    monkeypatch.setattr(speed_env, "time", clock)
+    order: list[str] = []
+
+    def step(name, walls):
+        walls = iter(walls)
+
+        def call() -> None:
+            order.append(name)
+            clock.now += next(walls)
+
+        return call
+
+    # 10 env steps in 2 rounds: 5 a round, 2 calls of four envs (not 1), 5 of one env
+    one = step("one", [0.0] + [3.0] * 5 + [1.0] * 5)
+    four = step("four", [0.0] + [1.0] * 2 + [2.0] * 2)
+    rates = speed_env._interleaved_rates({"one": (one, 1), "four": (four, 4)},
+                                         env_steps=10, rounds=2, warmup=1)
+    assert order == ["one", "four"] + (["one"] * 5 + ["four"] * 2) * 2
+    # the fastest rounds: 5 steps in 5 s, 8 steps in 2 s
+    assert rates == pytest.approx({"one": 1.0, "four": 4.0})
+
+
+def test_the_env_tables_ratios_divide_the_right_rates(monkeypatch):
+    """Each row's ratio over the rates of the same rounds (x one env, x loop, the
+    parallel ceiling, SB3's), and fast / full: one env, and batched at the LARGEST N."""
+    import drill_env.vector
+    from drill_env.tools.speed import env as speed_env
+
+    level = {}
+
+    class Env:
+        def __init__(self, override=None) -> None:
+            level["now"] = (override or {}).get("solver.fidelity")
+            self.unwrapped = self
+
+        def reset(self, **kwargs) -> tuple:
+            return None, {}
+
+        def step(self, action) -> None:
+            pass
+
+        def close(self) -> None:
+            pass
+
+    def rates(steps, env_steps, rounds, warmup):
+        n = steps["loop"][1] if "loop" in steps else 1  # the one env alone first
+        fast = level["now"] == "fast"
+        # the fast level: one env 2 x full, its batch (2 x N) x full
+        return {"single": 100.0 * (2 if fast else 1), "loop": 300.0,
+                "batched": 600.0 * n * (2 * n if fast else 1), "physics": 800.0,
+                "physics_one_thread": 200.0, "batched_sb3": 450.0}
+
+    monkeypatch.setattr(speed_env, "make_env", Env)
+    monkeypatch.setattr(speed_env, "_sb3_vec_env", lambda n, override: Env(override))
+    monkeypatch.setattr(speed_env, "_PhysicsOnly", lambda envs, threads: Env())
+    monkeypatch.setattr(speed_env, "_python_overhead", lambda env, action, n: {})
+    monkeypatch.setattr(speed_env, "_interleaved_rates", rates)
+    monkeypatch.setattr(drill_env.vector, "DrillStringVectorEnv",
+                        lambda num_envs, **kwargs: Env(kwargs.get("physics")))
+    settings = dataclasses.replace(TINY, env_counts=(1, 3))
+    result = speed_env.bench_env(settings, progress=False)
+    full = result["fidelity"]["full"]["counts"]
+    assert [c["num_envs"] for c in full] == [1, 3]
+    for c in full:
+        n = c["num_envs"]
+        assert c["loop_over_single"] == pytest.approx(3.0)
+        assert c["batched_over_loop"] == pytest.approx(2.0 * n)
+        assert c["batched_over_single"] == pytest.approx(6.0 * n)
+        assert c["physics_threads_over_one"] == pytest.approx(4.0)
+        assert c["batched_sb3_over_loop"] == pytest.approx(1.5)
+        assert c["batched_sb3_over_single"] == pytest.approx(4.5)
+    assert result["fast_over_full_single"] == pytest.approx(2.0)
+    assert result["fast_over_full_batched"] == pytest.approx(6.0)
+
+
+def test_the_core_figures_compare_each_level_with_numpy_over_the_full_levels_state(
+        monkeypatch):
+    """x NumPy is each level's real-time factor over the NumPy stepper's, which starts
+    from the full level's simulator and is timed in ``reference_steps / repeats``-step
+    chunks; fast / full is the fast level's real-time factor over the full one's."""
+    import drill_env.physics.reference as reference
+
+    def sim(dt: float, n_nodes: int) -> SimpleNamespace:
+        return SimpleNamespace(dt=dt, n_nodes=n_nodes, hook_load_for=lambda wob: 1e6 - wob)
+
+    made = {"full": sim(1e-3, 100), "fast": sim(4e-3, 60)}
+    levels = iter(made)
+    monkeypatch.setattr(speed_core, "settled_simulator", lambda *a: made[next(levels)])
+    monkeypatch.setattr(speed_core, "time_simulators", lambda sims, *a: {
+        name: {"real_time_factor": {"full": 10.0, "fast": 30.0}[name]} for name in sims})
+    started: list = []
+
+    class Stepper:
+        def __init__(self, sim) -> None:
+            started.append(sim)
+
+        def advance(self, n, *args) -> None:
+            pass
+
+    monkeypatch.setattr(reference, "ReferenceStepper", Stepper)
+    timed: list[int] = []
+    monkeypatch.setattr(speed_core, "best_time", lambda run, repeats: timed.append(repeats)
+                        or 0.5)
+    settings = dataclasses.replace(TINY, reference_steps=10, repeats=2)
+    result = speed_core.bench_core(settings, progress=False)
+    assert started == [made["full"]] and timed == [2]
+    ref = result["reference"]
+    # 0.5 s for a chunk of 5 steps of 1 ms: 0.1 s a step, 0.01 x real time
+    assert ref["steps"] == 10 and ref["time_step_s"] == 1e-3 and ref["n_dof"] == 500
+    assert ref["us_per_step"] == pytest.approx(1e5)
+    assert ref["real_time_factor"] == pytest.approx(0.01)
+    assert result["fidelity"]["full"]["speedup_over_numpy"] == pytest.approx(1000.0)
+    assert result["fidelity"]["fast"]["speedup_over_numpy"] == pytest.approx(3000.0)
+    assert result["fast_over_full_speed"] == pytest.approx(3.0)
+
+
+def test_the_scaling_costs_are_against_the_default_mesh_where_it_was_run(monkeypatch):
+    """x ref is against the default string (1000 m of 10 m elements) where the sweeps
+    include it, not against the smallest point."""
+
+    def costs(sims, *args):
+        return {key: {"n_nodes": sim.n_nodes, "n_dof": 5 * sim.n_nodes,
+                      "us_per_step": 1.0 * sim.n_nodes, "ns_per_dof_step": 200.0,
+                      "real_time_factor": 1.0} for key, sim in sims.items()}
+
+    monkeypatch.setattr(speed_core, "time_simulators", costs)
+    monkeypatch.setattr(speed_core, "settled_simulator", lambda config, *a: SimpleNamespace(
+        config=config, n_nodes=round(config.string.drill_pipe.length
+                                     / config.string.drill_pipe.element_length)))
+    settings = dataclasses.replace(TINY, pipe_lengths=(200.0, 1000.0),
+                                   pipe_element_lengths=(20.0, 10.0),
+                                   mesh_pipe_length=1000.0)
+    result = speed_core.bench_scaling(settings, progress=False)
+    assert result["reference"] == {"pipe_length_m": 1000.0, "pipe_element_length_m": 10.0}
+    x_ref = {(p["pipe_length_m"], p["pipe_element_length_m"]): p["cost_over_reference"]
+             for p in result["points"]}
+    assert x_ref == pytest.approx({(200.0, 10.0): 0.2, (1000.0, 20.0): 0.5,
+                                   (1000.0, 10.0): 1.0})

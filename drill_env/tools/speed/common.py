@@ -89,6 +89,9 @@ class BenchmarkSettings:
             values = getattr(self, name)
             if not values or any(not v > 0 for v in values):
                 raise ValueError(f"{name}: needs positive values, got {values!r}")
+        if list(self.env_counts) != sorted(set(self.env_counts)):  # the last is reported
+            # as the largest N (fast over full, batched): (64, 1) said N = 1's as N = 64's
+            raise ValueError(f"env_counts: must increase, got {self.env_counts!r}")
 
 
 FULL = BenchmarkSettings()
