@@ -1348,6 +1348,70 @@ def test_the_demo_says_not_reproduced_where_both_set_points_stick_slip(tmp_path,
     assert not verdict and said[-2].endswith(": NOT reproduced")
 
 
+def test_the_demos_table_reads_the_last_half_of_each_run_in_its_units(tmp_path,
+                                                                      monkeypatch):
+    """Each row from its own run's last 30 s (the start's transient left out), torque in
+    kN m, ROP in m/h, simulated over wall seconds, the run's status; both runs
+    torsional (paper case 1: lateral DOFs frozen). Runs and clock stubbed."""
+    import numpy as np
+
+    import drill_env.tools.demo as demo
+    from drill_env.physics.units import HOUR, RPM
+    from drill_env.tools.studies import COL, Run
+
+    configs = []
+
+    def simulate(config, rpm, wob, seconds, progress=None):
+        configs.append(config)
+        t = np.arange(0.0, seconds, 0.1)
+        records = np.zeros((t.size, len(COL)))
+        records[:, COL["time"]] = t
+        late = t >= seconds / 2
+        # a start transient at twice the set point, then +-10 % about it
+        records[:, COL["bit_speed"]] = np.where(
+            late, rpm * (1.0 + 0.1 * np.sin(t)), 2.0 * rpm) * RPM
+        records[:, COL["surface_speed"]] = rpm * RPM
+        records[:, COL["torque_on_bit"]] = np.where(late, 3e3, 9e3)
+        records[:, COL["rop"]] = np.where(late, 2.0 / HOUR, 0.0)
+        return Run(config, records, t, np.ones((t.size, 1)),
+                   "bit stuck" if rpm == 50.0 else "")
+
+    class Clock:  # a second of wall time a reading
+        now = 0.0
+
+        def perf_counter(self) -> float:
+            self.now += 1.0
+            return self.now
+
+    monkeypatch.setattr(demo, "simulate", simulate)
+    monkeypatch.setattr(demo, "time", Clock())
+    rows, _ = demo.stick_slip_demo(tmp_path, echo=lambda text: None)
+    assert all(not c.solver.lateral for c in configs)
+    for row, rpm in zip(rows, (50.0, 100.0), strict=True):
+        assert row["bit_rpm_min"] == pytest.approx(0.9 * rpm, rel=1e-3)
+        assert row["bit_rpm_max"] == pytest.approx(1.1 * rpm, rel=1e-3)
+        assert row["mean_tob_kNm"] == pytest.approx(3.0)
+        assert row["rop_m_per_h"] == pytest.approx(2.0)
+        assert row["real_time_factor"] == pytest.approx(60.0)  # 60 s in one second
+    assert [r["status"] for r in rows] == ["bit stuck", "ok"]
+
+
+@pytest.mark.parametrize("ssi", [(0.7, 0.0), (0.9, 0.3)])
+def test_the_demo_needs_strong_stick_slip_at_50_rpm_and_little_at_100(tmp_path, monkeypatch,
+                                                                        ssi):
+    """Paper result 1 reproduced: SSI above 0.8 at 50 rpm and below 0.2 at 100 rpm; an
+    SSI of 0.7 at 50 rpm, or of 0.3 at 100 rpm, is "NOT reproduced" (summaries
+    stubbed)."""
+    import drill_env.tools.demo as demo
+
+    at = iter(ssi)
+    monkeypatch.setattr(demo, "stick_slip_summary",
+                        lambda run, t0: {"ssi": next(at), "stuck_fraction": 0.0})
+    said: list[str] = []
+    _, verdict = demo.stick_slip_demo(tmp_path, echo=said.append)
+    assert not verdict and said[-2].endswith(": NOT reproduced")
+
+
 @pytest.mark.parametrize("signum, status, said, replaced", [
     ("SIGTERM", 143, "terminated", False), ("SIGINT", 130, "interrupted", False),
     ("SIGTERM", 143, "terminated", True)])

@@ -249,6 +249,164 @@ def test_real_time_factor_is_simulated_over_wall_time():
     assert figures["real_time_factor"] > 1.0  # 1 s simulated in ~10 ms
 
 
+class _Ticks:
+    """A ``time`` whose clock moves only when a fake run moves it: the figures'
+    arithmetic checked without timing anything."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def perf_counter(self) -> float:
+        return self.now
+
+
+def test_simulators_take_turns_and_each_keeps_its_fastest_repeat(monkeypatch):
+    """Docstring: best of ``repeats``, the simulators taking turns repeat by repeat (a
+    burst of load hits them alike), each advanced at the hook load of the WOB asked
+    for; a run's figures from the whole steps it ran (5 DOFs a node)."""
+    clock = _Ticks()
+    monkeypatch.setattr(speed_common, "time", clock)
+    calls: list[tuple] = []
+
+    class Sim(_FakeSim):
+        def __init__(self, name: str, dt: float, walls: list[float]) -> None:
+            self.name, self.dt, self.walls = name, dt, iter(walls)
+
+        def advance(self, n, surface_speed, hook, **kwargs):
+            calls.append((self.name, n, surface_speed, hook))
+            clock.now += next(self.walls)
+
+    sims = {"a": Sim("a", 0.1, [3.0, 1.0, 2.0]), "b": Sim("b", 0.002, [0.5, 0.25, 0.75])}
+    figures = speed_common.time_simulators(sims, 60e3, 0.34, 3, "x", False)
+    hook = 1e6 - 60e3
+    assert calls == [("a", 3, speed_common.SURFACE_SPEED, hook),
+                     ("b", 170, speed_common.SURFACE_SPEED, hook)] * 3
+    a, b = figures["a"], figures["b"]
+    # 0.34 s at 0.1 s steps: 3 steps, 0.3 s simulated, the fastest repeat 1 s
+    assert (a["wall_s"], a["simulated_s"]) == (1.0, pytest.approx(0.3))
+    assert a["real_time_factor"] == pytest.approx(0.3)
+    assert (a["n_nodes"], a["n_dof"]) == (10, 50)
+    assert a["us_per_step"] == pytest.approx(1e6 / 3)
+    assert a["ns_per_dof_step"] == pytest.approx(1e9 / 3 / 50)
+    assert b["wall_s"] == 0.25 and b["real_time_factor"] == pytest.approx(0.34 / 0.25)
+    # shorter than a step: one step, not none; 0.3 s at 0.1 s steps: 3 steps, although
+    # 0.3 / 0.1 = 2.9999999999999996
+    calls.clear()
+    for seconds in (0.01, 0.3):
+        speed_common.time_simulators({"a": Sim("a", 0.1, [2.0])}, 60e3, seconds, 1, "x",
+                                     False)
+    assert [n for _, n, _, _ in calls] == [1, 3]
+
+
+def test_a_failed_benchmark_run_is_an_error_naming_its_status():
+    class Failed(_FakeSim):
+        status = 2
+        status_message = "the bit left the hole"
+
+        def advance(self, n, *args, **kwargs):
+            pass
+
+    with pytest.raises(RuntimeError, match="benchmark run failed: the bit left the hole"):
+        speed_common.time_simulators({"a": Failed()}, 1e5, 0.1, 1, "x", False)
+
+
+def test_a_settled_simulator_starts_and_warms_up_at_the_wob_asked_for(monkeypatch):
+    """The scaling runs' 60 kN (not the core figures' 100 kN), the warm-up steps asked
+    for, at least one."""
+    seen: list[tuple] = []
+
+    class Sim(_FakeSim):
+        def __init__(self, config) -> None:
+            self.config = config
+
+        def reset(self, point) -> None:
+            seen.append(("reset", point.surface_speed, point.weight_on_bit))
+
+        def advance(self, n, surface_speed, hook, **kwargs):
+            seen.append(("advance", n, surface_speed, hook))
+
+    monkeypatch.setattr(speed_common, "Simulator", Sim)
+    for warmup in (7, 0):
+        sim = speed_common.settled_simulator("config", 60e3, warmup)
+        assert sim.config == "config"
+    speed = speed_common.SURFACE_SPEED
+    assert seen == [("reset", speed, 60e3), ("advance", 7, speed, 1e6 - 60e3),
+                    ("reset", speed, 60e3), ("advance", 1, speed, 1e6 - 60e3)]
+
+
+def test_a_table_aligns_names_left_and_figures_right_under_a_full_rule():
+    """The first column left-aligned, the others right-aligned (no trailing blanks);
+    the note's lines are paragraphs, each wrapped at 88 columns (or the table's width)
+    with a hanging indent."""
+    note = "short note\n" + "word " * 30
+    rows = [("a", 1.5), ("longer", 10), ("blank", "")]
+    text = speed_common.table("Title", ("name", "value"), rows, note)
+    wrapped = ("word " * 17).rstrip()
+    assert text.splitlines() == [
+        "Title",
+        "name    value",
+        "-------------",
+        "a         1.5",
+        "longer     10",
+        "blank",
+        "short note",
+        wrapped,
+        "  " + ("word " * 13).rstrip(),
+    ]
+    assert max(map(len, text.splitlines())) <= 88 and len(wrapped) > 80
+
+
+def test_the_core_and_scaling_runs_take_one_numba_thread_and_give_it_back():
+    import numba
+
+    threads = min(2, numba.config.NUMBA_NUM_THREADS)
+    before = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        with speed_common.one_numba_thread():
+            assert numba.get_num_threads() == 1
+        assert numba.get_num_threads() == threads
+    finally:
+        numba.set_num_threads(before)
+
+
+def test_the_source_stamp_is_the_newest_python_file_anywhere_in_the_package(tmp_path,
+                                                                           monkeypatch):
+    """Docstring: latest modification time of the package's sources (drill_env/ and
+    every folder in it; a file beside the package is not one of them)."""
+    import os
+
+    package = tmp_path / "drill_env"
+    for name, mtime in (("a.py", 100), ("physics/b.py", 300), ("tools/c.py", 50),
+                        ("tools/speed/common.py", 200), ("physics/d.txt", 800),
+                        ("../outside.py", 900)):
+        path = package / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("")
+        os.utime(path, (mtime, mtime))
+    monkeypatch.setattr(speed_common, "__file__", str(package / "tools/speed/common.py"))
+    assert speed_common.source_stamp() == 300
+
+
+def test_the_machine_info_names_the_cpu_model_the_cores_and_the_commit(monkeypatch):
+    """The "model name" line of /proc/cpuinfo (not the "model" number before it), the
+    cores this process may use (affinity, quota) beside the machine's, and the commit
+    of the checkout."""
+    import io
+    import os
+    from pathlib import Path
+
+    cpuinfo = "processor\t: 0\nmodel\t\t: 85\nmodel name\t: Some CPU @ 2.0GHz\n"
+    monkeypatch.setattr(speed_common, "open", lambda path: io.StringIO(cpuinfo),
+                        raising=False)
+    monkeypatch.setattr(speed_common, "usable_cores", lambda: 1)
+    info = speed_common.machine_info()
+    assert info["cpu"] == "Some CPU @ 2.0GHz"
+    assert (info["cores"], info["cpu_count"]) == (1, os.cpu_count())
+    commit = speed_common.checkout_commit(Path(drill_env.__file__).resolve().parents[1])
+    assert info.get("git_commit") == commit
+
+
 # ----------------------------------------------------------------- vector.py
 
 
