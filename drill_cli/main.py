@@ -1525,16 +1525,15 @@ def cmd_well(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(f"--friction: factors in [0, 2], got {args.friction!r}")
     # the string the chart's loads are of (a file of only a well was named as the
     # string's: "string of curved.yaml"; one of the mud said nothing of it)
+    beyond_well = any(not sets_section((key,), "well") for key in overrides)  # (--config's)
     whose = (args.config.name if sets_section(overrides, "string") else
-             f"the {args.scenario} scenario" + (
-                 f" with {args.config.name}" if any(not sets_section((key,), "well")
-                                                     for key in overrides) else ""))
+             f"the {args.scenario} scenario" + (f" with {args.config.name}" if beyond_well
+                                                else ""))
     # the file names the string too where it is not the default scenario's: charts of one
     # well for two strings overwrote each other (a new user's trial)
     strung = [args.scenario] if args.scenario != "default" \
         and name != f"scenario_{args.scenario}" else []
-    if args.config is not None and name != args.config.stem \
-            and any(not sets_section((key,), "well") for key in overrides):
+    if beyond_well and name != args.config.stem:
         strung.append(args.config.stem)
     name = "_".join((name, *strung))
     paths = write_well(name, trajectory, config, args.out, frictions, whose)

@@ -83,7 +83,7 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
     if todo and progress:  # (the runs' own "resuming" lines do not reach this console)
         from training.train import resume_point
 
-        points = {run_name(c, label): resume_point(out / run_name(c, label)) for c in todo}
+        points = {name: resume_point(out / name) for name in (run_name(c, label) for c in todo)}
         going_on = [f"{name} from {at[0]:,} env steps" for name, at in points.items()
                     if at is not None]
         if going_on:
