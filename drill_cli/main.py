@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import errno
 import json
 import math
 import os
@@ -202,7 +203,10 @@ def unwritable(folder: Path) -> str:
         os.rmdir(tempfile.mkdtemp(prefix=".drill-env-probe-", dir=here))
     except OSError as err:
         where = "" if here == folder.absolute() else f"{here}: "
-        return f"{where}cannot write there ({err.strerror})"
+        # /proc answers "No such file or directory" for a folder it has: say what it means
+        why = "a file system that takes no new files" if err.errno == errno.ENOENT \
+            else err.strerror
+        return f"{where}cannot write there ({why})"
     return ""
 
 

@@ -843,6 +843,27 @@ def test_an_unwritable_out_is_refused_before_the_work(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]  # and nothing created
 
 
+def test_a_folder_that_takes_no_new_files_is_said_so(tmp_path, monkeypatch):
+    """/proc answers "No such file or directory" for a folder it has: the message said
+    "/proc: cannot write there (No such file or directory)" (a new user's trial)."""
+    import errno
+    import os
+    import tempfile
+
+    from drill_cli.main import unwritable
+
+    def refuse(err):
+        def mkdtemp(*args, **kwargs):
+            raise OSError(err, os.strerror(err))
+        return mkdtemp
+
+    monkeypatch.setattr(tempfile, "mkdtemp", refuse(errno.ENOENT))
+    assert unwritable(tmp_path / "out") == (
+        f"{tmp_path}: cannot write there (a file system that takes no new files)")
+    monkeypatch.setattr(tempfile, "mkdtemp", refuse(errno.EACCES))
+    assert unwritable(tmp_path) == f"cannot write there ({os.strerror(errno.EACCES)})"
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["--max-rpm", "1e9"], "--max-rpm: at most 1000 rpm, got 1e+09"),
     (["--rpm-step", "1e-6"], "--rpm-step: the map would have 2.5e+08 lines of points"),
