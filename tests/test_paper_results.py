@@ -10,9 +10,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from drill_env import metrics
 from drill_env.physics.config import FormationConfig, SimulationConfig, SolverConfig, replace
+from drill_env.physics.simulator import RECORD_CHANNELS
+from drill_env.physics.units import RPM
 from drill_env.scenarios import HARD, SOFT, make_scenario
 from drill_env.tools.studies import (
+    COL,
+    Run,
     lateral_force,
     radial_displacement,
     simulate,
@@ -176,3 +181,65 @@ def test_symmetric_bit_settles_after_the_layer_and_stick_slip_returns():
         assert lateral_force(run)[late].mean() < 100.0, case  # N: no contact, no whirl
         summary = stick_slip_summary(run, t[after][0] + 10.0)
         assert summary["ssi"] > 0.8 and summary["stuck_fraction"] > 0.1, case
+
+
+# --------------------------------------------------------------------------- the study helpers
+# (short runs and hand-made records: seconds, not minutes; found unchecked by a mutation
+# round of drill_env/tools/studies.py, 2026-12-07)
+
+
+def test_a_study_run_records_evenly_up_to_its_duration():
+    """``simulate`` advances in chunks of whole record intervals (a chunk of 0.1 s is not
+    a multiple of 7 steps) and stops at the duration asked for: records every 7 steps,
+    the last at or before 0.5 s; the rock shares once per chunk (49 steps), at its end."""
+    config = torsional(HARD)
+    run = simulate(config, 50.0, 100e3, 0.5, record_every=7, chunk_seconds=0.1)
+    dt = run.time[0] / 7
+    steps = round(0.5 / dt)
+    assert run.records.shape == (steps // 7, len(RECORD_CHANNELS))
+    np.testing.assert_allclose(np.diff(run.time), 7 * dt, rtol=1e-9)
+    assert run.share_time[-1] == pytest.approx(steps * dt, rel=1e-12)
+    np.testing.assert_allclose(np.diff(run.share_time[:-1]), 49 * dt, rtol=1e-9)
+    assert run.shares.shape == (run.share_time.size, 1)
+    assert run.status == ""
+
+
+def test_a_study_run_starts_with_its_kick_and_stops_with_the_simulators_reason():
+    """Steady drilling is an equilibrium the kick (here 20 % of the bit's speed) tests:
+    without it the bit keeps its speed, with it the bit swings. A kick of -1e3 (the bit
+    at ~5,000 rad/s, past the runaway limit of 1e3 rad/s) stops the run at once: the
+    reason in ``status``, no record, no chunk run after it."""
+    config = torsional(HARD)
+    steady = simulate(config, 50.0, 100e3, 0.2, record_every=1, kick=0.0)
+    kicked = simulate(config, 50.0, 100e3, 0.2, record_every=1, kick=0.2)
+    np.testing.assert_allclose(steady.channel("bit_speed"), 50 * RPM, rtol=1e-3)
+    assert np.abs(kicked.channel("bit_speed") - 50 * RPM).max() > 0.05 * 50 * RPM
+    stopped = simulate(config, 50.0, 100e3, 2.0, kick=-1e3, chunk_seconds=0.1)
+    assert stopped.status.startswith("simulation diverged")
+    assert stopped.share_time.size == 1 and stopped.records.shape[0] == 0
+
+
+def test_the_study_helpers_read_their_channels_and_windows():
+    """Windows are half-open [t0, t1); rock shares are interpolated per rock; the lateral
+    force and displacement are the x-y magnitudes; the stick-slip summary reads the bit
+    speed, not the surface's."""
+    t = np.arange(1, 9) * 0.5
+    records = np.zeros((t.size, len(RECORD_CHANNELS)))
+    records[:, COL["time"]] = t
+    bit_speed = np.array([5.0, 0.0, 0.0, 9.0, 5.0, 0.0, 0.0, 9.0])
+    records[:, COL["bit_speed"]] = bit_speed
+    records[:, COL["surface_speed"]] = 5.0
+    records[:, COL["bit_force_x"]], records[:, COL["bit_force_y"]] = 3.0, -4.0
+    records[:, COL["bit_x"]], records[:, COL["bit_y"]] = -6e-3, 8e-3
+    shares = np.array([[1.0, 0.0], [0.0, 1.0]])
+    run = Run(torsional(HARD), records, np.array([0.0, 4.0]), shares, "")
+    np.testing.assert_array_equal(run.window(1.0, 2.5)[:, COL["time"]], [1.0, 1.5, 2.0])
+    np.testing.assert_array_equal(run.window(3.5)[:, COL["time"]], [3.5, 4.0])
+    np.testing.assert_allclose(run.share_at(np.array([1.0, 3.0]), 1), [0.25, 0.75])
+    np.testing.assert_allclose(lateral_force(run), 5.0)
+    np.testing.assert_allclose(radial_displacement(run), 1e-2)
+    summary = stick_slip_summary(run, 1.0, 3.0)
+    window = bit_speed[1:5]
+    assert summary == {"ssi": metrics.stick_slip_severity(window),
+                       "stuck_fraction": metrics.stuck_fraction(window)}
+    assert summary["ssi"] > 0.5 and summary["stuck_fraction"] == 0.5

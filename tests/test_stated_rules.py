@@ -512,3 +512,18 @@ def test_effort_term_uses_each_set_points_own_span():
     assert info["speed_setpoint"] == pytest.approx(100 * RPM)
     assert info["reward_terms"]["effort"] == pytest.approx(
         -env.config.effort_weight * 0.25, rel=1e-9)
+
+
+def test_the_unit_constants_are_their_definitions():
+    """drill_env.physics.units, multiplied in at every edge (CLI, tables, configs in
+    inches and feet, pipe grades in psi): each constant is its exact definition (the
+    international inch and foot of 1959, the psi of the pound-force 4.4482216152605 N on
+    a square inch, 2 pi / 60 rad/s per rpm), so a number read in field units is the one
+    the code uses."""
+    from drill_env.physics import units
+
+    assert units.RPM == 2.0 * math.pi / 60.0
+    assert units.INCH == 0.0254
+    assert units.FOOT == pytest.approx(12 * units.INCH, rel=1e-15)
+    assert units.PSI == pytest.approx(4.4482216152605 / units.INCH**2, rel=1e-7)
+    assert (units.KILO, units.MEGA, units.HOUR) == (1e3, 1e6, 3600.0)

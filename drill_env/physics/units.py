@@ -20,7 +20,7 @@ KILO = 1.0e3
 MEGA = 1.0e6
 #: Seconds per hour (m/s -> m/h: multiply by HOUR).
 HOUR = 3600.0
-#: Standard gravity (m/s^2).
+#: Gravity (m/s^2), to three figures (standard gravity, 9.80665, is 0.03 % less).
 GRAVITY = 9.81
 #: One pound-force per square inch in pascals (pipe grades: 135,000 psi is 931 MPa).
 PSI = 6894.757

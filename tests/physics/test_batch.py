@@ -127,6 +127,30 @@ def test_claim_hands_out_every_item_once_across_threads():
         assert counter[0] == n + lanes
 
 
+def test_claim_takes_a_writable_int64_counter_only():
+    """``claim``'s contract (a writable one-dimensional int64 array): a read-only or a
+    float counter is refused when the kernel is typed, not incremented in place; its
+    plain-Python twin (NUMBA_DISABLE_JIT=1) hands out 0, 1, 2 as the intrinsic does."""
+    from numba import njit
+    from numba.core.errors import TypingError
+
+    from drill_env.physics.jit import _claim_uncompiled, claim
+
+    @njit
+    def take(counter):
+        return claim(counter)
+
+    counter = np.zeros(1, dtype=np.int64)
+    assert [take(counter) for _ in range(3)] == [0, 1, 2] and counter[0] == 3
+    plain = np.zeros(1, dtype=np.int64)
+    assert [_claim_uncompiled(plain) for _ in range(3)] == [0, 1, 2] and plain[0] == 3
+    read_only = np.zeros(1, dtype=np.int64)
+    read_only.setflags(write=False)
+    for refused in (read_only, np.zeros(1)):
+        with pytest.raises(TypingError):
+            take(refused)
+
+
 #: Builds a batch's slots and re-points one (what an env batch does at a reset), then
 #: prints the typed-list helpers' numba cache hits and misses.
 SLOTS_IN_A_FRESH_PROCESS = """

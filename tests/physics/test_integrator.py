@@ -405,6 +405,120 @@ def test_founder_point_and_gauge_friction_match_the_numpy_reference(bit_model):
     assert sim.state[S.DEPTH_OF_CUT] < 0.5 * linear  # past the founder points
 
 
+
+def test_numpy_reference_takes_the_set_point_hook_load_and_record_spacing_as_the_kernel():
+    """The inputs of ``advance`` in both implementations, over three calls: a set point
+    below the current one (the rate limit on the way down), a hook load per call (each a
+    new WOB, so the oracle refactors its lateral system; the last above the string's
+    weight: off bottom, WOB 0, not negative) and a record every few steps."""
+    sim = Simulator(SimulationConfig(formation=SANDWICH))
+    random_state(sim, np.random.default_rng(11), 6.0, 100e3)
+    ref = ReferenceStepper(sim)
+    assert ref.string_weight == pytest.approx(sim.string_weight, rel=1e-12)
+    calls = [(40 * RPM, sim.hook_load_for(120e3), 3), (90 * RPM, sim.hook_load_for(60e3), 2),
+             (90 * RPM, sim.string_weight + 5e3, 4)]
+    steps = N_STEPS // len(calls)  # N_STEPS in all: the tolerance's premise
+    for speed, hook, every in calls:
+        expected = ref.advance(steps, speed, hook, record_every=every)
+        actual = sim.advance(steps, speed, hook, record_every=every)
+        assert sim.status == 0
+        assert actual.shape == expected.shape == (steps // every, N_RECORD)
+        for col in range(N_RECORD):
+            assert_agree(actual[:, col], expected[:, col], f"record column {col}")
+        for name in ("ul", "vl", "ut", "vt"):
+            assert_agree(getattr(sim, name), getattr(ref, name), name)
+    assert expected[:, R.WEIGHT_ON_BIT].tolist() == [0.0] * len(expected)
+
+
+@pytest.mark.parametrize("override", [{"bit.axis_aligned": False},
+                                      {"contact.enabled": False}])
+def test_numpy_reference_matches_with_a_tilting_bit_and_without_wall_contact(override):
+    """The two switches the default config leaves on one side: a bit free to tilt (its
+    rotation DOF solved, not held, paper section 3.1.1) and the string's wall contact
+    off (no wall forces on any node, though some lie beyond their clearance)."""
+    sim = Simulator(replace(SimulationConfig(formation=SANDWICH), **override))
+    random_state(sim, np.random.default_rng(12), 6.0, 100e3)
+    ref = ReferenceStepper(sim)
+    expected = ref.advance(N_STEPS, record_every=1)
+    actual = sim.advance(N_STEPS, record_every=1)
+    assert sim.status == 0
+    for name in ("ul", "vl", "al", "ut", "vt", "at", "node_force"):
+        assert_agree(getattr(sim, name), getattr(ref, name), name)
+    assert_agree(actual, expected, "records")
+    if override == {"bit.axis_aligned": False}:
+        assert np.any(sim.al[-1] != 0.0)  # the bit's tilt moved
+    else:
+        assert np.all(actual[:, R.MAX_WALL_FORCE] == 0.0)
+
+
+def test_numpy_reference_unwinds_a_saturated_top_drive_as_the_kernel():
+    """The anti-windup's other half in both implementations: the drive at its torque
+    limit keeps integrating while the error pulls the other way (the set point ramps
+    down below the top's speed, a large integral holds the torque at the limit), so the
+    integral unwinds instead of freezing."""
+    limit = 20e3
+    sim = Simulator(replace(SimulationConfig(formation=SANDWICH),
+                            **{"top_drive.max_torque": limit}))
+    random_state(sim, np.random.default_rng(13), 6.0, 100e3)
+    ki = sim.top_drive_gains[1]
+    sim.state[S.SETPOINT_TARGET] = 40 * RPM
+    sim.state[S.PI_INTEGRAL] = integral = 2.0 * limit / ki
+    ref = ReferenceStepper(sim)
+    expected = ref.advance(N_STEPS, record_every=1)
+    actual = sim.advance(N_STEPS, record_every=1)
+    assert_agree(sim.state, ref.state, "state")
+    assert_agree(actual, expected, "records")
+    assert np.all(actual[:5, R.MOTOR_TORQUE] == limit)  # saturated at first ...
+    assert sim.state[S.PI_INTEGRAL] < integral  # ... and unwinding
+
+
+@pytest.mark.parametrize("bit_model", ["mesoscopic", "macroscopic"])
+def test_far_past_the_founder_point_both_implementations_cut_nothing(bit_model):
+    """WOB 150 kN far above founder points of ~20-40 kN at a slope of 0.7: the depth of
+    cut's decline ends at zero (no negative cut, no drilling backwards)."""
+    rocks = tuple(dataclasses.replace(r, founder_wob_per_diameter=f, post_founder_slope=0.7)
+                  for r, f in ((HARD, 2e5), (SOFT, 1e5)))
+    formation = dataclasses.replace(SANDWICH, rocks=rocks)
+    sim = Simulator(SimulationConfig(bit_model=bit_model, formation=formation))
+    random_state(sim, np.random.default_rng(14), 6.0, 150e3)
+    ref = ReferenceStepper(sim)
+    expected = ref.advance(N_STEPS, record_every=1)
+    actual = sim.advance(N_STEPS, record_every=1)
+    assert_agree(sim.state, ref.state, "state")
+    assert_agree(actual, expected, "records")
+    assert sim.state[S.DEPTH_OF_CUT] == ref.state[S.DEPTH_OF_CUT] == 0.0
+    assert np.all(expected[:, R.ROP] == 0.0)
+
+
+@pytest.mark.parametrize("disturb, runaway", [
+    (lambda sim: sim.ul.__setitem__((-2, 0), 1.2), True),  # the bit 1.2 m off centre
+    (lambda sim: sim.vt.__setitem__(slice(None), 1.5e3), True),  # ~14,000 rpm
+    (lambda sim: sim.vt.__setitem__(slice(None), 900.0), False),  # ~8,600 rpm: not yet
+])
+def test_the_numpy_reference_stops_a_runaway_as_the_kernel_does(disturb, runaway):
+    """The oracle's runaway guard (1e3 rad/s, 1 m off centre): it stops at the step with
+    Status.RUNAWAY and no record, where the kernel does."""
+    from drill_env.physics.layout import Status
+
+    sim = Simulator(SimulationConfig())
+    sim.reset(OperatingPoint(60 * RPM, 100e3))
+    disturb(sim)
+    ref = ReferenceStepper(sim)
+    records = ref.advance(1, record_every=1)
+    sim.advance(1)
+    assert ref.state[S.STATUS] == sim.status == (Status.RUNAWAY if runaway else 0)
+    assert records.shape == ((0 if runaway else 1), N_RECORD)
+
+
+def test_the_numpy_reference_refuses_a_pipe_held_straight():
+    """The oracle covers lateral DOFs on every node only; a simulator whose pipe is held
+    straight (solver.pipe_lateral=False) is refused by name, not integrated wrongly."""
+    sim = Simulator(replace(SimulationConfig(), **{"solver.pipe_lateral": False}))
+    assert sim.lateral_start > 0
+    with pytest.raises(NotImplementedError, match="pipe_lateral"):
+        ReferenceStepper(sim)
+
+
 # --------------------------------------------------------------------------- top drive
 
 
