@@ -6,6 +6,9 @@ No timing thresholds: the figures depend on the machine and its load.
 import dataclasses
 import json
 import math
+import sys
+import types
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -588,3 +591,389 @@ def test_the_scaling_costs_are_against_the_default_mesh_where_it_was_run(monkeyp
              for p in result["points"]}
     assert x_ref == pytest.approx({(200.0, 10.0): 0.2, (1000.0, 20.0): 0.5,
                                    (1000.0, 10.0): 1.0})
+
+
+# --------------------------------------------------------------- mutation round X
+
+
+def test_a_clocked_part_adds_every_call_and_a_call_inside_another_counts_for_the_outer(
+        monkeypatch):
+    """Each call adds its time to its part; a policy call made inside ``train()`` counts
+    once, for the update (or the parts would sum past the wall time)."""
+    import training.speed as training_speed
+
+    clock = _Clock()
+    monkeypatch.setattr(training_speed, "time", clock)
+
+    class Model:
+        def train(self) -> None:
+            clock.now += 2.0
+            self.predict()
+
+        def predict(self) -> None:
+            clock.now += 1.0
+
+    model = Model()
+    parts = dict.fromkeys((*training_speed.PARTS, "depth"), 0.0)
+    training_speed._timed(model, "train", parts, "update")
+    training_speed._timed(model, "predict", parts, "policy")
+    model.predict()
+    model.train()
+    model.predict()
+    assert parts["policy"] == pytest.approx(2.0) and parts["update"] == pytest.approx(3.0)
+    assert parts["env"] == 0.0 and parts["depth"] == 0
+
+
+class _TwoThreadClock(_Clock):
+    """Two threads busy all the time: CPU time runs at twice the wall time."""
+
+    def process_time(self) -> float:
+        return 2.0 * self.now
+
+
+def _fake_training(monkeypatch, clock: _Clock, default_threads: int,
+                   whole: int = 4) -> tuple[list, list]:
+    """training/speed.py's model and env replaced by fakes on ``clock``: per call of the
+    4 envs, policy 1 ms, env 3 ms, SB3's own 1 ms and an update of 5 ms (fused Adam, one
+    torch thread; 10 ms unfused; divided by the threads); env-only calls 2 ms with random
+    actions, 1 ms with the constant one; ``learn`` runs whole blocks of ``whole`` env
+    steps (PPO's rollouts). Gives back the ``learn`` calls (steps asked, whether
+    the step count restarts, torch threads, Adam fused) and the env-only calls' shapes."""
+    import gymnasium as gym
+    import torch
+
+    import training.speed as training_speed
+
+    learned: list = []
+    env_only_calls: list = []
+
+    class VecEnv:
+        num_envs = 4
+        action_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
+
+        def step_wait(self) -> None:
+            clock.now += 3e-3
+
+        def step(self, action) -> None:
+            env_only_calls.append(action.shape)
+            clock.now += 2e-3 if np.any(action) else 1e-3
+
+        def close(self) -> None:
+            pass
+
+    class Policy(torch.nn.Module):
+        def __init__(self) -> None:
+            super().__init__()
+            self.weight = torch.nn.Parameter(torch.zeros(1))
+            self.optimizer = torch.optim.Adam(self.parameters())
+
+        def forward(self, obs=None) -> None:
+            clock.now += 1e-3
+
+        def predict(self, obs=None) -> None:
+            clock.now += 1e-3
+
+    class Model:
+        policy_kwargs = {"net_arch": [8, 8]}
+
+        def __init__(self, venv) -> None:
+            self.venv, self.policy = venv, Policy()
+            self.num_timesteps = 0
+
+        def train(self) -> None:
+            clock.now += self.update_s
+
+        def learn(self, total, reset_num_timesteps=True, callback=None) -> None:
+            fused = bool(self.policy.optimizer.param_groups[0]["fused"])
+            learned.append((total, reset_num_timesteps, callback, fused))
+            run = -(-total // whole) * whole
+            self.num_timesteps = run + (0 if reset_num_timesteps else self.num_timesteps)
+            calls = run // self.venv.num_envs
+            self.update_s = calls * (5e-3 if fused else 10e-3) / callback
+            for _ in range(calls):
+                self.policy.forward()
+                self.venv.step_wait()
+                clock.now += 1e-3
+            self.train()
+
+    config = SimpleNamespace(seed=0, n_envs=4, torch_threads=1, fused_adam=True,
+                             hyperparams={"learning_starts": 100})
+    monkeypatch.setattr(training_speed, "time", clock)
+    monkeypatch.setattr(training_speed, "load_config", lambda task, algo: config)
+    monkeypatch.setattr(training_speed, "make_train_env", lambda config, seed: VecEnv())
+    monkeypatch.setattr(training_speed, "new_model", lambda config, venv: Model(venv))
+    monkeypatch.setattr(training_speed, "torch_threads_callback", lambda count: count)
+    monkeypatch.setattr(torch, "get_num_threads", lambda: default_threads)
+    return learned, env_only_calls
+
+
+def test_the_training_section_figures_are_the_rates_shares_and_ratios_of_each_row(
+        monkeypatch):
+    """bench_training on a fake model, env and clock: each row's steps/s, CPU per 1000
+    steps, shares of the wall time, ratio to the env alone, and which thread count and
+    Adam kernel it ran with; the warm-up fills SAC's learning_starts."""
+    import training.speed as training_speed
+
+    learned, env_only_calls = _fake_training(monkeypatch, _TwoThreadClock(), default_threads=2)
+    out = training_speed.bench_training({"ppo": 400, "sac": 100}, rounds=2, progress=False)
+    assert out["torch_default_threads"] == 2
+    assert set(out["runs"]) == {"stick_slip ppo", "drilling sac"}
+    run = out["runs"]["stick_slip ppo"]
+    assert run["network"] == [8, 8] and run["steps"] == 400 and run["rounds"] == 2
+    rows = run["rows"]
+    # 100 calls of 4 envs: 10 ms a call fused, 15 ms unfused, 7.5 ms on two threads;
+    # the env alone 2 ms a call (random actions) and 1 ms (constant): 2000 and 4000 /s
+    expected = {
+        "torch 1 thread(s) (default)": (400.0, 0.2, 5.0, 0.3, 0.1, 0.5, 0.1),
+        "torch 1 thread(s), Adam not fused": (400 / 1.5, 0.2 / 1.5, 7.5, 0.2, 0.1 / 1.5,
+                                              1 / 1.5, 0.1 / 1.5),
+        "torch 2 threads": (400 / 0.75, 0.2 / 0.75, 3.75, 0.4, 0.1 / 0.75, 0.25 / 0.75,
+                            0.1 / 0.75)}
+    assert list(rows) == [*expected, "env only, random actions", "env only, constant action"]
+    for label, figures in expected.items():
+        assert tuple(rows[label][k] for k in (
+            "steps_per_s", "x env only", "cpu_s_per_1000", "env_share", "policy_share",
+            "update_share", "rest_share")) == pytest.approx(figures), label
+    assert rows["env only, random actions"] == pytest.approx(
+        {"steps_per_s": 2000.0, "cpu_s_per_1000": 1.0, "x env only": 1.0})
+    assert rows["env only, constant action"] == pytest.approx(
+        {"steps_per_s": 4000.0, "cpu_s_per_1000": 0.5, "x env only": 2.0})
+    assert run["random_over_constant"] == pytest.approx(0.5)
+    # PPO then SAC: an untimed warm-up of learning_starts + 2 rounds' steps, then per
+    # round the three rows in turn (threads, fused), continuing the step count
+    ppo, sac = learned[:7], learned[7:]
+    assert ppo == [(900, True, 1, False), *2 * [(400, False, 1, True), (400, False, 1, False),
+                                                (400, False, 2, True)]]
+    assert sac[0] == (300, True, 1, False) and len(sac) == 7
+    # the env alone: steps // n_envs calls of all 4 envs, both action sets, each round
+    assert env_only_calls == 2 * 2 * [(4, 2)] * 100 + 2 * 2 * [(4, 2)] * 25
+
+
+def test_the_training_rates_count_the_steps_run_not_those_asked(monkeypatch):
+    """PPO runs whole rollouts: 5,000 steps asked of a 4,096-step rollout ran 8,192, and
+    steps/s came out 39 % low (a mutation round). The fake runs blocks of 64 steps: 400
+    asked run 448, 112 calls of 10 ms, 400 steps/s all the same."""
+    import training.speed as training_speed
+
+    _fake_training(monkeypatch, _TwoThreadClock(), default_threads=1, whole=64)
+    out = training_speed.bench_training({"ppo": 400, "sac": 100}, rounds=1, progress=False)
+    row = out["runs"]["stick_slip ppo"]["rows"]["torch 1 thread(s) (default)"]
+    assert row["steps_per_s"] == pytest.approx(400.0)
+    assert row["cpu_s_per_1000"] == pytest.approx(5.0)
+
+
+def test_the_training_table_puts_each_figure_under_its_heading(monkeypatch):
+    import training.speed as training_speed
+
+    _fake_training(monkeypatch, _TwoThreadClock(), default_threads=1)
+    text = training_speed.format_training(
+        training_speed.bench_training({"ppo": 400, "sac": 100}, rounds=1, progress=False))
+    head = text.splitlines()[1].split()
+    assert head == ["run", "what", "steps/s", "x", "env", "only", "CPU", "s/1000", "env",
+                    "policy", "update", "rest"]
+    lines = {line[19:57].strip(): line[57:].split() for line in text.splitlines()[2:]
+             if line.startswith("stick_slip ppo")}
+    assert lines["torch 1 thread(s) (default)"] == [
+        "400", "0.20", "5.00", "30%", "10%", "50%", "10%"]
+    assert lines["env only, constant action"] == ["4000", "2.00", "0.50"]
+    assert "stick_slip ppo     random / constant actions, env only: 0.50" in text
+    # one thread is torch's own count here: no third row
+    assert "torch 1 threads" not in text
+
+
+def test_the_training_section_runs_sac_for_a_quarter_of_ppos_steps(monkeypatch):
+    import training.speed as training_speed
+
+    seen = []
+    monkeypatch.setattr(training_speed, "bench_training",
+                        lambda steps, rounds, progress: seen.append((steps, rounds)) or {})
+    training_speed.bench(SimpleNamespace(train_steps=4096, train_rounds=3), progress=False)
+    assert seen == [({"ppo": 4096, "sac": 1024}, 3)]
+
+
+def test_the_compile_section_starts_cold_in_a_new_numba_cache_then_warm(tmp_path,
+                                                                        monkeypatch):
+    """The cold run's process gets a new, empty NUMBA_CACHE_DIR and the warm one the same
+    (filled) folder; cold / warm divides the in-process first-step times and the process
+    wall time is the whole subprocess's. A change of the sources is noticed and said."""
+    from drill_env.tools.speed import system
+
+    clock = _Clock()
+    monkeypatch.setattr(system, "time", clock)
+    users = tmp_path / "users-cache"
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(users))
+    caches: list[str] = []
+
+    def run(argv, env, **kwargs):
+        cache = Path(env["NUMBA_CACHE_DIR"])
+        cache.mkdir(exist_ok=True)
+        warm = (cache / "index.nbi").exists()
+        caches.append(str(cache))
+        (cache / "index.nbi").write_text("")
+        clock.now += 1.5 if warm else 6.0
+        first = 1.0 if warm else 5.0
+        return SimpleNamespace(returncode=0, stderr="", stdout="numba says hello\n" + json.dumps(
+            {"first_step_s": first, "import_s": 0.5, "make_s": 0.25,
+             "reset_and_step_s": first - 0.75}))
+
+    monkeypatch.setattr(system.subprocess, "run", run)
+    stamps = iter([1.0, 1.0])
+    monkeypatch.setattr(system, "source_stamp", lambda: next(stamps))
+    result = system.bench_compile(TINY, progress=False)
+    # one new folder for both, removed after: not the user's numba cache
+    assert caches[0] == caches[1] != str(users) and not Path(caches[0]).exists()
+    assert result["cold"]["first_step_s"] == 5.0 and result["warm"]["first_step_s"] == 1.0
+    assert result["cold"]["process_wall_s"] == pytest.approx(6.0)
+    assert result["warm"]["process_wall_s"] == pytest.approx(1.5)
+    assert result["cold_over_warm"] == pytest.approx(5.0)
+    assert result["sources_changed"] is False
+    text = system.format_compile(result)
+    assert "WARNING" not in text and "cold / warm: 5.0 x" in text
+    cold = next(line.split() for line in text.splitlines() if line.startswith("cold  "))
+    assert cold == ["cold", "5.00", "0.50", "0.25", "4.25", "6.00"]
+
+    stamps = iter([1.0, 2.0])
+    result = system.bench_compile(TINY, progress=False)
+    assert result["sources_changed"] is True
+    assert "WARNING: drill_env sources changed" in system.format_compile(result)
+
+
+def test_the_memory_per_env_is_the_growth_after_the_first_envs_garbage_is_collected(
+        monkeypatch):
+    """memory_probe's growth and build time are per env of the ``n_envs`` built after the
+    first one (whose garbage is collected before the baseline)."""
+    from drill_env.tools.speed import system
+
+    clock = _Clock()
+    monkeypatch.setattr(system, "time", clock)
+    memory = {"live": 10_000, "garbage": 0}
+
+    def make_env(override):
+        memory["live"] += 4096
+        memory["garbage"] += 2048
+        clock.now += 0.05
+        sim = SimpleNamespace(state=np.zeros(64), n_nodes=7)
+        return SimpleNamespace(reset=lambda seed: None, unwrapped=SimpleNamespace(sim=sim))
+
+    monkeypatch.setattr(system, "make_env", make_env)
+    monkeypatch.setattr(system, "gc", SimpleNamespace(collect=lambda: memory.update(garbage=0)))
+    monkeypatch.setattr(system, "_rss_bytes", lambda: memory["live"] + memory["garbage"])
+    # psutil imported by someone: the RSS is still /proc's, and named so (it said psutil)
+    monkeypatch.setitem(sys.modules, "psutil", types.ModuleType("psutil"))
+    result = system.memory_probe(3)
+    assert result["method"] == "/proc/self/statm"
+    assert result["growth_bytes_per_env"] == pytest.approx(4096.0)
+    assert result["build_ms_per_env"] == pytest.approx(50.0)
+    assert result["simulator_array_bytes"] == 64 * 8
+    assert (result["envs"], result["n_nodes"]) == (3, 7)
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads Linux's /proc")
+def test_the_rss_is_the_resident_set_not_the_address_space():
+    from drill_env.tools.speed.system import _rss_bytes
+
+    with open("/proc/self/status") as f:
+        fields = dict(line.split(":", 1) for line in f)
+    resident = int(fields["VmRSS"].split()[0]) * 1024
+    assert 0.8 < _rss_bytes() / resident < 1.25
+
+
+def test_an_array_met_first_as_a_view_counts_its_whole_base():
+    from drill_env.tools.speed.system import array_bytes
+
+    state = np.zeros(100)
+    assert array_bytes(SimpleNamespace(head=state[:10], state=state)) == 800
+
+
+def test_the_memory_section_builds_the_settings_envs_and_divides_growth_by_the_arrays(
+        monkeypatch):
+    from drill_env.tools.speed import system
+
+    codes: list[str] = []
+
+    def run(argv, **kwargs):
+        codes.append(argv[-1])
+        return SimpleNamespace(returncode=0, stderr="", stdout=json.dumps(
+            {"simulator_array_bytes": 20480, "n_nodes": 7, "envs": 3,
+             "growth_bytes_per_env": 102400.0, "method": "/proc/self/statm",
+             "build_ms_per_env": 12.0}))
+
+    monkeypatch.setattr(system.subprocess, "run", run)
+    result = system.bench_memory(dataclasses.replace(TINY, memory_envs=3), progress=False)
+    assert codes[0].endswith("print(json.dumps(memory_probe(3)))")
+    assert result["growth_over_simulator_arrays"] == pytest.approx(5.0)
+    rows = system.format_memory(result).splitlines()  # KiB
+    assert any(line.split()[-2:] == ["100", "5.00"] for line in rows if "growth" in line)
+    assert any(line.split()[-2:] == ["20", "1.00"] for line in rows if "simulator" in line)
+
+
+def _toy_sections(clock: _Clock) -> dict:
+    """Sections that take 2 s and 3 s on ``clock`` and print one line each."""
+    def section(seconds: float):
+        def bench(settings, progress=True) -> dict:
+            clock.now += seconds
+            return {"seconds": seconds}
+
+        return bench, lambda figures: f"Toy {figures['seconds']:g} s"
+
+    return {"two": section(2.0), "three": section(3.0)}
+
+
+def test_speed_md_heads_its_tables_with_the_command_and_the_run_it_was(tmp_path,
+                                                                      monkeypatch):
+    """The first line of speed.md is the command that made it (--quick, custom settings,
+    --sections only where some were left out), the threading layer, the load at the start
+    and at the end and whether the sources changed; speed.json has each section's and the
+    whole run's wall time and the settings."""
+    clock = _Clock()
+    monkeypatch.setattr(speed, "time", clock)
+    monkeypatch.setattr(speed, "threading_layer", lambda: "tbb")
+    monkeypatch.setattr(speed, "plot_scaling", lambda figures, path: None)
+    loads = iter([(0.5, 9.0, 9.0), (1.5, 9.0, 9.0)])
+    monkeypatch.setattr(speed.os, "getloadavg", lambda: next(loads))
+    toys = _toy_sections(clock)
+    for name in speed.RUNNERS:
+        monkeypatch.setitem(speed.RUNNERS, name, toys["two"])
+    stamps = iter([1.0, 1.0])
+    monkeypatch.setattr(speed, "source_stamp", lambda: next(stamps))
+    run_speed(speed.SECTIONS, QUICK, tmp_path, progress=False, echo=None)
+    head = (tmp_path / "speed.md").read_text().splitlines()[0]
+    assert head.startswith("`drill-env speed --quick`, ")
+    assert "(tbb layer); load average 0.5 at the start, 1.5 at the end; sources " \
+           "unchanged during the run." in head
+
+    said: list[str] = []
+    loads = iter([(0.5, 9.0, 9.0), (1.5, 9.0, 9.0)])
+    stamps = iter([1.0, 2.0])
+    result = run_speed(("two", "three"), TINY, tmp_path, progress=False, echo=said.append,
+                       runners=toys)
+    head = (tmp_path / "speed.md").read_text().splitlines()[0]
+    assert head.startswith("`drill-env speed (custom settings) --sections two,three`, ")
+    assert head.endswith("; SOURCES CHANGED DURING THE RUN.")
+    assert any("WARNING: drill_env sources changed during the run" in s for s in said)
+    saved = json.loads((tmp_path / "speed.json").read_text())
+    assert saved["machine"]["sources_changed_during_run"] is True
+    assert saved["machine"]["numba_threading_layer"] == "tbb"
+    assert result["settings"] == dataclasses.asdict(TINY)
+    assert saved["two"]["section_wall_s"] == pytest.approx(2.0)
+    assert saved["three"]["section_wall_s"] == pytest.approx(3.0)
+    assert saved["total_wall_s"] == pytest.approx(5.0) == result["total_wall_s"]
+
+
+def test_an_unknown_section_is_refused_before_any_work(tmp_path):
+    out = tmp_path / "out"
+    said: list[str] = []
+    with pytest.raises(ValueError, match="bogus"):
+        run_speed(("core", "bogus"), TINY, out, progress=False, echo=said.append)
+    assert said == [] and not out.exists()
+
+
+def test_the_speed_command_runs_every_section_and_training_unless_told(tmp_path,
+                                                                       monkeypatch):
+    seen = []
+    monkeypatch.setattr(speed, "run_speed", lambda sections, settings, out, runners: seen.append(
+        (sections, settings, set(runners))))
+    assert main(["speed", "--quick", "--out", str(tmp_path)]) == 0
+    assert main(["speed", "--sections", "memory,training", "--out", str(tmp_path)]) == 0
+    assert seen == [((*speed.SECTIONS, "training"), QUICK, {"training"}),
+                    (("memory", "training"), speed.FULL, {"training"})]

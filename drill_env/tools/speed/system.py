@@ -126,7 +126,7 @@ def memory_probe(n_envs: int) -> dict[str, Any]:
     sim_bytes = array_bytes(first.unwrapped.sim)
     gc.collect()
     rss0 = _rss_bytes()
-    method = "psutil" if "psutil" in sys.modules else "/proc/self/statm"
+    method = "/proc/self/statm"  # (psutil was named where imported, never called)
     if rss0 is None:
         method = "tracemalloc"
         tracemalloc.start()
