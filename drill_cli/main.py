@@ -826,13 +826,19 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 def say_left_out(args: argparse.Namespace, config: Any) -> None:
     """Note on stderr the settings of the task's shipped hyperparameter entry that the
     ``--config`` file's entry leaves out (a --config file is a whole entry, as rl-zoo3's)."""
-    from training.config import HYPERPARAMS, left_out_settings
+    from training.config import HYPERPARAMS, left_out_settings, taken_value
 
     flags = {"n_timesteps": args.timesteps, "seed": args.seed, "n_envs": args.n_envs}
     left = left_out_settings(config, args.config,
                              [key for key, value in flags.items() if value is not None])
+
+    def here(key: str) -> str:  # the value the run takes (the shipped one alone read as
+        known, value = taken_value(config, key)  # it: a new user's trial)
+        return json.dumps(value) if known and value is not None else "the default"
+
     if left:
-        shown = ", ".join(f"{key} ({json.dumps(value)})" for key, value in left)
+        shown = ", ".join(f"{key} (shipped {json.dumps(value)}, here {here(key)})"
+                          for key, value in left)
         print(f"note: --config {args.config}: its {args.algo} entry leaves out {len(left)} "
               f"setting{'' if len(left) == 1 else 's'} of {HYPERPARAMS / args.task}.yml, "
               f"which the run takes at its defaults (SB3's, the task's, drill-env's) "
@@ -1050,6 +1056,26 @@ def which_model(run: Path, model: Path) -> str:
     return "the run's final model: it kept no best model"
 
 
+def held_by_another(folder: Path) -> bool:
+    """Whether another drill-env process holds ``folder``'s lock (``folder_lock``: a
+    training run holds its folder while it trains); makes no lock file."""
+    from filelock import FileLock, Timeout
+
+    from drill_env.sweep import LOCK_FILE
+
+    if not (folder / LOCK_FILE).exists():
+        return False
+    lock = FileLock(folder / LOCK_FILE)
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        return True
+    except OSError:  # a folder this process cannot write: nothing known, nothing said
+        return False
+    lock.release()
+    return False
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.learned import TRAINED, no_such_folder
     from training.config import TASKS
@@ -1074,12 +1100,20 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                                          "drill-env benchmark --task")
     from agents.learned import policy_files
 
+    live = held_by_another(args.run)
     try:
         model, _ = policy_files(args.run)
     except FileNotFoundError as err:  # a run stopped before its first evaluation
-        raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}"
+        why = " (still training: evaluate it once it has saved one)" if live else \
+            " (stopped before its first checkpoint: drill-env train --resume starts it " \
+            "again)"
+        raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}{why}"
                                          ) from None
     print(f"evaluating {model} ({which_model(args.run, model)})")
+    if live:  # (went ahead without a word: a new user's trial)
+        print(f"note: {args.run} is held by another drill-env process, a training still "
+              "running: this evaluates the model it has saved so far, and goes stale when "
+              "training saves a better one", file=sys.stderr)
     if local:  # a folder here took a task's name (a security review: said only on errors)
         print(f"note: {local.removeprefix('; ')}")
     out = args.out or default_evaluation_folder(args.run, args.fidelity)

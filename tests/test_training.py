@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import json
@@ -75,6 +76,25 @@ def test_a_run_folder_holds_everything(run):
     assert [int(r["timesteps"]) for r in rows] == [1024, 2048]
     assert list((folder / "checkpoints").glob("model_*_steps.zip"))
     assert list((folder / "tb").iterdir())
+
+
+def test_tensorboard_has_each_validation_score_at_its_evaluation(run):
+    """Recorded in SB3's logger, the scores waited for its next dump: each came under the
+    next dump's steps, and the last evaluation's never came (a new user's trial)."""
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    folder, _ = run
+    with (folder / "evaluations.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    logged: dict[int, float] = {}
+    for events in (folder / "tb").iterdir():
+        acc = EventAccumulator(str(events))
+        acc.Reload()
+        if "validation/return" in acc.Tags()["scalars"]:
+            logged |= {e.step: e.value for e in acc.Scalars("validation/return")}
+    assert sorted(logged) == [int(r["timesteps"]) for r in rows] == [1024, 2048]
+    for r in rows:  # (TensorBoard keeps float32)
+        assert logged[int(r["timesteps"])] == pytest.approx(float(r["return"]), rel=1e-6)
 
 
 def test_reloaded_policy_acts_deterministically_with_its_normalisation(run):
@@ -373,6 +393,59 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
             assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+@pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
+def test_an_interrupt_in_the_update_waits_for_the_update_to_end(run, tmp_path, monkeypatch,
+                                                                capsys, signum):
+    """A Ctrl-C (or the command line's SIGTERM) in PPO's epochs saved a checkpoint that
+    had done some of them under the rollout's full count of steps, and the resumed run
+    never did the rest (a new user's trial: 7 of 10). Now the run stops when the update
+    ends, before the evaluation due there; the resume does that evaluation with the
+    checkpoint's model, which is the uninterrupted run's: its row is the same."""
+    import os
+    import signal
+
+    from stable_baselines3 import PPO
+
+    from drill_cli.main import _stop_as_interrupt
+    from drill_env.sweep import Terminated
+    from training.train import read_evaluations, saved_steps
+
+    number = getattr(signal, signum)
+    real, calls = PPO.train, []
+
+    def update(self):
+        calls.append(self.num_timesteps)
+        if len(calls) == 2:  # the second update (at 1024 steps, an evaluation's line)
+            os.kill(os.getpid(), number)  # lands as it begins
+        real(self)
+
+    monkeypatch.setattr(PPO, "train", update)
+    folder = tmp_path / "cut"
+    previous, _ = _stop_as_interrupt()  # the command line's SIGTERM handler
+    try:
+        with ctrl_c_as_in_a_terminal():
+            with pytest.raises(Terminated if signum == "SIGTERM" else KeyboardInterrupt):
+                train(tiny_config(), folder, progress=False)
+            assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL  # (put back)
+        signal.signal(signal.SIGTERM, previous)
+    assert "stops when the model's update in progress ends" in capsys.readouterr().err
+    saved = latest_checkpoint(folder)
+    assert saved is not None
+    assert saved_steps(saved[0]) == (1024, 4)  # two whole updates of 2 epochs each
+    assert not (folder / "evaluations.csv").exists()  # due after the update: not done
+    if signum == "SIGTERM":
+        return
+    monkeypatch.setattr(PPO, "train", real)
+    train(tiny_config(), folder, resume=True, progress=False)
+    rows = read_evaluations(folder / "evaluations.csv")
+    reference = read_evaluations(run[0] / "evaluations.csv")
+    assert [int(float(r["timesteps"])) for r in rows] == [1024, 2048]
+    assert float(rows[0]["return"]) == pytest.approx(float(reference[0]["return"]),
+                                                     rel=1e-9)
 
 
 def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path):
@@ -1448,6 +1521,40 @@ def test_a_plain_sb3_folder_given_as_a_run_says_where_such_a_model_goes(tmp_path
         LearnedController.load(tmp_path / "empty")
 
 
+def test_evaluate_says_a_run_still_training_or_stopped_before_its_first_checkpoint(
+        run, tmp_path, monkeypatch, capsys):
+    """evaluate on a run that was still training went ahead without a word, and one
+    killed before its first checkpoint was refused without the way on (a new user's
+    trial). A run's training holds its folder's lock: that tells them apart."""
+    import shutil
+
+    import training.evaluate
+    from drill_env.sweep import folder_lock
+
+    scored = []
+    monkeypatch.setattr(training.evaluate, "evaluate_run",
+                        lambda run, **kw: scored.append(run))
+    live = tmp_path / "live"
+    shutil.copytree(run[0], live)
+    assert main(["evaluate", str(live), "--seeds", "1"]) == 0  # a finished run: no note
+    assert "still running" not in capsys.readouterr().err
+    with folder_lock(live, "this training run"):
+        assert main(["evaluate", str(live), "--seeds", "1"]) == 0
+    assert f"note: {live} is held by another drill-env process, a training still " \
+        "running" in " ".join(capsys.readouterr().err.split())
+    assert scored == [live, live]
+    early = tmp_path / "early"  # killed before its first checkpoint: its config alone
+    early.mkdir()
+    shutil.copy(run[0] / "config.yaml", early)
+    for held, said in ((False, "stopped before its first checkpoint: drill-env train "
+                               "--resume starts it again"),
+                       (True, "still training: evaluate it once it has saved one")):
+        with folder_lock(early, "x") if held else contextlib.nullcontext():
+            with pytest.raises(SystemExit):
+                main(["evaluate", str(early)])
+        assert said in " ".join(capsys.readouterr().err.split())
+
+
 def test_evaluate_takes_a_tasks_name_for_its_shipped_policy(tmp_path, monkeypatch, capsys):
     """Installed from a wheel, the shipped policies lie in site-packages: `evaluate`
     promised logs/evaluation/<task> for one but took only its folder's path (an outside
@@ -2348,7 +2455,10 @@ def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path,
               "--out", str(tmp_path / "runs")])
     err = capsys.readouterr().err
     assert f"note: --config {partial}: its sac entry leaves out 9 settings of " in err
-    assert "hyperparams.gamma (0.98)" in err and "copy the task's file" in err
+    # the shipped value and the one the run takes (the shipped one alone read as it)
+    assert "hyperparams.gamma (shipped 0.98, here 0.99)" in err and "copy the task's file" in err
+    assert "n_timesteps (shipped 400000.0, here 1000000)" in err
+    assert "policy_kwargs.net_arch (shipped [64, 64], here the default)" in err
     # the run is named by the file too: a variant's run and the task's own told apart
     assert f"--resume: no run in {tmp_path / 'runs' / 'stick_slip_sac_variant_seed0'}; " \
         "name it by --name, or by --seed (and --algo, --config)" in err

@@ -581,21 +581,11 @@ def left_out_settings(config: TrainConfig, path: str | Path,
     flag), where ``config`` (the run's, loaded from ``path``) takes them at another value
     (a default: SB3's, the task's, drill-env's) or one not known here (policy and env
     keywords left to SB3 and the env). A file of another shape gives none."""
-    import inspect
-
     task, algo = config.task, config.algo
-    saved = jsonable(config)
-    sb3 = inspect.signature(algo_class(algo).__init__).parameters
 
     def same(key: str, value: Any) -> bool:  # does the run get the shipped value anyway?
-        head, _, rest = key.partition(".")
-        if head == "hyperparams":
-            got = config.hyperparams.get(rest, sb3[rest].default if rest in sb3 else None)
-            return got is not None and jsonable(got) == value
-        if head in ("policy_kwargs", "env_kwargs"):
-            return False  # the policy's or env's default: not looked up here
-        got = saved.get(head)
-        return (got.get(rest) if isinstance(got, dict) else got) == value
+        known, got = taken_value(config, key)
+        return known and got == value
 
     mine = read_yaml(Path(path)) or {}
     shipped = read_yaml(HYPERPARAMS / f"{task}.yml") or {}
@@ -605,6 +595,25 @@ def left_out_settings(config: TrainConfig, path: str | Path,
     return [(key, value) for key, value in flatten(shipped.get(algo, {})).items()
             if key not in ours and key.partition(".")[0] not in given
             and not same(key, jsonable(value))]
+
+
+def taken_value(config: TrainConfig, key: str) -> tuple[bool, Any]:
+    """Whether the value the run ``config`` takes for the dotted setting ``key`` is known
+    here, and that value (as JSON): a hyperparameter the config leaves out is SB3's
+    default, a policy or env keyword left out its class's (not looked up: unknown)."""
+    import inspect
+
+    head, _, rest = key.partition(".")
+    if head == "hyperparams":
+        sb3 = inspect.signature(algo_class(config.algo).__init__).parameters
+        got = config.hyperparams.get(rest, sb3[rest].default if rest in sb3 else None)
+        if got is None or got is inspect.Parameter.empty:
+            return False, None
+        return True, jsonable(got)
+    if head in ("policy_kwargs", "env_kwargs"):
+        return False, None
+    got = jsonable(config).get(head)
+    return True, (got.get(rest) if isinstance(got, dict) else got)
 
 
 def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,

@@ -30,6 +30,7 @@ across evaluations.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import csv
 import io
@@ -322,6 +323,18 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
             return any(int(float(r["timesteps"])) // self.every == line
                        for r in read_evaluations(self.path))
 
+        def to_tensorboard(self, scores: dict[str, float]) -> None:
+            """Written at once at the evaluation's steps: recorded in SB3's logger, they
+            waited for its next dump and came under that dump's steps, and the last
+            evaluation's never came (a new user's trial)."""
+            from stable_baselines3.common.logger import TensorBoardOutputFormat
+
+            for output in self.logger.output_formats:
+                if isinstance(output, TensorBoardOutputFormat):
+                    output.write(scores, {key: () for key in scores},
+                                 int(self.model.num_timesteps))
+                    output.writer.flush()
+
         def fire(self) -> None:
             self.pending = False
             live = train_env.obs_rms
@@ -332,8 +345,8 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
                 row = {"timesteps": int(self.model.num_timesteps), **result,
                        "wall_s": time.perf_counter() - started}
                 add_row(self.path, row)
-                for key in ("return", "ssi", "stuck_fraction"):
-                    self.logger.record(f"validation/{key}", result[key])
+                self.to_tensorboard({f"validation/{key}": float(result[key])
+                                     for key in ("return", "ssi", "stuck_fraction")})
                 if result["return"] > self.best:
                     self.best = result["return"]
                     save_whole(run / "best_model.zip", self.model.save)
@@ -406,6 +419,63 @@ def stop_when_interrupted() -> Any:
             return True
 
     return StopWhenInterrupted()
+
+
+def whole_updates() -> Any:
+    """An SB3 callback under which an interrupt (Ctrl-C, SIGTERM) that arrives during a
+    model update waits for the update to end: from the end of a rollout (``on_rollout_end``,
+    PPO's epochs over it or SAC's gradient steps follow) to the next rollout's start or
+    the end of training, the signals whose handlers are Python's are only heard, then
+    given to those handlers. A Ctrl-C in PPO's epochs saved a checkpoint that had done
+    7 of its 10 under the rollout's full count of steps, and the resumed run never did
+    the other 3 (a new user's trial). Call ``release(give=False)`` on the way out of
+    ``learn`` (an exception in the update) to put the handlers back."""
+    import signal
+    import sys
+    import threading
+
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class WholeUpdates(BaseCallback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.held: dict[int, Any] = {}
+            self.heard: list[int] = []
+
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_rollout_end(self) -> None:
+            if threading.current_thread() is not threading.main_thread():
+                return  # (signals reach the main thread only)
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                handler = signal.getsignal(signum)
+                if callable(handler):  # not SIG_IGN or SIG_DFL: left as they are
+                    self.held[signum] = handler
+                    signal.signal(signum, self.hear)
+
+        def hear(self, signum: int, frame: Any) -> None:
+            if not self.heard:
+                with contextlib.suppress(RuntimeError, ValueError, OSError):
+                    print("interrupt heard: training stops when the model's update in "
+                          "progress ends, so that its checkpoint holds the whole update",
+                          file=sys.stderr, flush=True)
+            self.heard.append(signum)
+
+        def release(self, give: bool = True) -> None:
+            for signum, handler in self.held.items():
+                signal.signal(signum, handler)
+            heard, self.held, self.heard = self.heard, {}, []
+            if heard and give:
+                signal.raise_signal(heard[0])  # its handler raises (KeyboardInterrupt)
+
+        def _on_rollout_start(self) -> None:
+            self.release()
+
+        def _on_training_end(self) -> None:
+            self.release()
+
+    return WholeUpdates()
 
 
 def torch_threads_callback(threads: int) -> Any:
@@ -729,12 +799,18 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
     try:
         if (lost := noted_interrupt()) is not None:  # while the envs were built
             raise lost
+        # first: an interrupt heard in the update stops the run before a pending
+        # evaluation or checkpoint runs (the resume does them)
+        whole = whole_updates()
         try:
-            model.learn(remaining, callback=[*_callbacks(config, run, env, resumed, sessions),
+            model.learn(remaining, callback=[whole,
+                                             *_callbacks(config, run, env, resumed, sessions),
                                              stop_when_interrupted(), *bar],
                         reset_num_timesteps=latest is None, tb_log_name=config.algo)
-        finally:  # before the interrupt's message (closing twice, after SB3's own close,
-            for shown in bar:  # does nothing)
+        finally:
+            whole.release(give=False)  # (an exception in the update: the handlers back)
+            # before the interrupt's message (closing twice, after SB3's own close, does
+            for shown in bar:  # nothing)
                 if getattr(shown, "pbar", None) is not None:
                     shown.pbar.close()
     except KeyboardInterrupt:
