@@ -1380,7 +1380,8 @@ def write_outputs(rows: Sequence[dict[str, Any]], out: Path, controllers: Sequen
     # the pictures say what benchmark.md's heading says (a --config run read "default")
     given = given_set_points(settings) if env_id is None else ""
     title = heading + (f"; {given}" if given else "")
-    bar_chart(rows, controllers, scenarios, out / "benchmark_bars.png", title)
+    bar_chart(rows, controllers, scenarios, out / "benchmark_bars.png", title,
+              with_return=env_id is not None)  # a task is judged by its return
     drawn = [s for s in scenarios
              if series_chart(out / "series", controllers, s,
                              out / SERIES_PICTURE.format(scenario=s), settings.warmup,

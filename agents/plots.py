@@ -35,7 +35,17 @@ BARS = (("ssi", "stick-slip severity (SSI)", 1.0,
 #: check). The table's +- and benchmark.csv keep the interval whole. (ROP: a depth of cut
 #: per forward turn.)
 LIMITS = {"ssi": (0.0, math.inf), "stuck_fraction": (0.0, 1.0),
-          "rop_m_per_h": (0.0, math.inf), "backward_whirl_fraction": (0.0, 1.0)}
+          "rop_m_per_h": (0.0, math.inf), "backward_whirl_fraction": (0.0, 1.0),
+          "episode_return": (-math.inf, math.inf)}
+#: The return's panel, which a task benchmark's chart adds to :data:`BARS`: an
+#: evaluation is judged by it, and without it the chart could not show who won (a new
+#: user's trial: a tiny policy's loss to the best constant, -33 against 82, was not in it).
+RETURN_BAR = ("episode_return", "episode return (higher is better)", 1.0,
+              "every episode's return is zero")
+#: Room above (and, for the return, below) the tallest bar or seed's dot in a panel: a
+#: whisker reaching past it is cut at the panel's edge and marked (two seeds' interval,
+#: t = 12.7, drew an SSI to 8.3 and flattened every bar under 1.4: a new user's trial).
+HEADROOM = 0.15
 
 #: The colour (tab10's) of each built-in name in every picture: the classical drives, the
 #: driller, the shipped policy and the trivial policies of an evaluation (a new user's
@@ -128,26 +138,31 @@ LEGEND_ROW = 6
 
 
 def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
-              scenarios: Sequence[str], path: Path, title: str = "Controller benchmark"
-              ) -> None:
-    """One panel per metric; bars per controller, grouped by scenario, with the whisker of
-    the table's 95 % interval of the mean and a dot per seed (in seed order across the
-    bar); an SSI bar of a stick-slip still growing in the window, or
-    of a bit that drilled nothing, is marked.
+              scenarios: Sequence[str], path: Path, title: str = "Controller benchmark",
+              with_return: bool = False) -> None:
+    """One panel per metric (``with_return``: the episode return's too, a task
+    benchmark's); bars per controller, grouped by scenario, with the whisker of the
+    table's 95 % interval of the mean and a dot per seed (in seed order across the bar);
+    an SSI bar of a stick-slip still growing in the window, or of a bit that drilled
+    nothing, is marked. A panel's scale is its bars' and dots' (:data:`HEADROOM`): a
+    whisker past it is cut at the edge, with an arrowhead there.
     ``title``: what the benchmark was (benchmark.md's heading: its --config file, the set
     points given on the command line, a task and its seeds)."""
     from agents.benchmark import growing, mean_interval, not_drilling
 
     colours = _colours(controllers)
+    panels = (*BARS, RETURN_BAR) if with_return else BARS
     # two by two, not four in a row: shrunk to a page's width (~800 px) the row's text was
-    # ~6 px high (a check of the pictures)
-    fig = agg_figure(figsize=(11.0, 8.4))
-    grid = fig.subplots(2, 2)
-    axes = grid.ravel()
+    # ~6 px high (a check of the pictures); the return's fifth panel makes it three wide
+    fig = agg_figure(figsize=(15.0, 8.4) if with_return else (11.0, 8.4))
+    axes = fig.subplots(2, 3 if with_return else 2).ravel()
+    for spare in axes[len(panels):]:
+        spare.set_axis_off()
     width = 0.8 / max(len(controllers), 1)
-    for ax, (key, label, scale, empty) in zip(axes, BARS, strict=True):
+    for ax, (key, label, scale, empty) in zip(axes, panels, strict=False):
         shown: list[float] = []
         bars: list[tuple[float, float, str]] = []  # (x, mean, colour)
+        whiskers: list[tuple[float, float, float, float]] = []  # (x, mean, low, high)
         for i, c in enumerate(controllers):
             for j, s in enumerate(scenarios):
                 sel = [r for r in rows if r["controller"] == c and r["scenario"] == s]
@@ -171,13 +186,10 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                                 textcoords="offset points", rotation=90, ha="center",
                                 va="bottom", fontsize=8, color=colours[c])
                 if half := mean_interval(values) * scale:  # the table's +- (its 95 %
-                    # interval of the mean: the dots are the seeds, this what they say)
+                    # interval of the mean: the dots are the seeds, this what they say),
+                    # cut at the metric's range (two seeds' drew 175 % stuck)
                     low, high = (scale * end for end in LIMITS[key])
-                    # (none past a mean that lies outside the range itself: matplotlib
-                    # refuses a negative length)
-                    ax.errorbar(x, mean, yerr=[[max(0.0, min(half, mean - low))],
-                                               [max(0.0, min(half, high - mean))]],
-                                color="k", capsize=3, linewidth=1.0, zorder=5)
+                    whiskers.append((x, mean, max(low, mean - half), min(high, mean + half)))
                 if values.size > 1:  # each seed a dot: a min-max whisker of 20 seeds
                     # drew one outlier as the spread of all (a check of the pictures)
                     spread = np.linspace(-0.25, 0.25, values.size) * width
@@ -190,19 +202,27 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                       **({"rotation": 30, "ha": "right"} if len(scenarios) > 4 else {}))
         ax.set_title(label, fontsize=10)
         ax.grid(axis="y", alpha=0.3)
-        top = ax.get_ylim()[1]
-        ax.set_ylim(0.0, max(top, 0.05))  # an all-zero metric shows as zero, not noise
+        drawn = np.array([m for _, m, _ in bars] + [scale * v for v in shown], float)
+        drawn = drawn[np.isfinite(drawn)]
+        top = max(float(drawn.max()) if drawn.size else 0.0, 0.0)
+        bottom = min(float(drawn.min()) if drawn.size else 0.0, 0.0)
+        span = top - bottom
+        top, bottom = top + HEADROOM * span, bottom - (HEADROOM * span if bottom < 0 else 0.0)
+        ax.set_ylim(bottom, max(top, bottom + 0.05))  # an all-zero metric shows as zero
+        _whiskers(ax, whiskers)
         negligible = NO_SWING_SSI if key == "ssi" else 0.0
         if np.all(np.abs(np.nan_to_num(shown)) <= negligible):  # all zero (or not defined)
             _say_empty(ax, empty if key != "ssi" or not any(map(not_drilling, rows))
                        else "no swing in any episode (some did not drill)")
             ax.set_yticks([])  # no scale: 0-0.05 ticks read as small measured values
         else:  # a bar too low to see is drawn as a coloured base line: zero, not missing
-            low = 0.01 * ax.get_ylim()[1]
+            lowest, highest = ax.get_ylim()
             for x, mean, colour in bars:
-                if abs(mean) < low:
+                if abs(mean) < 0.01 * (highest - lowest):
                     ax.hlines(0.0, x - 0.45 * width, x + 0.45 * width, colors=colour, lw=4,
                               clip_on=False, zorder=3)
+            if lowest < 0.0:
+                ax.axhline(0.0, color="k", lw=0.8, zorder=2)
     handles, labels = axes[0].get_legend_handles_labels()
     # in rows of at most six (as the series chart's): thirteen controllers in one row ran
     # off both sides of the picture
@@ -210,10 +230,26 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     fig.legend(handles, labels, loc="lower center", ncol=math.ceil(len(labels) / lines),
                fontsize=9, frameon=False)
     fig.suptitle(f"{balanced_fill(title, 100)}\nbars: seed means, whiskers: the table's 95 % "
-                 "interval (cut at 0 and 100 %), dots: each seed; a coloured base line alone: "
-                 "about zero")
+                 "interval (an arrowhead: it goes on past the panel), dots: each seed; a "
+                 "coloured base line alone: about zero")
     fig.tight_layout(rect=(0.0, 0.035 * lines + 0.01, 1.0, 1.0))
     save(fig, path)
+
+
+def _whiskers(ax: Any, whiskers: Sequence[tuple[float, float, float, float]]) -> None:
+    """Each (x, mean, low, high) as a whisker cut at the panel's edges, with an
+    arrowhead at an edge it reaches past (the interval goes on: benchmark.md has it)."""
+    lowest, highest = ax.get_ylim()
+    for x, mean, low, high in whiskers:
+        down, up = max(low, lowest), min(high, highest)
+        # (none past a mean that lies outside the range itself: matplotlib refuses a
+        # negative length)
+        ax.errorbar(x, mean, yerr=[[max(0.0, mean - down)], [max(0.0, up - mean)]],
+                    color="k", capsize=3, linewidth=1.0, zorder=5)
+        for end, edge, marker in ((high, highest, "^"), (low, lowest, "v")):
+            if (end > edge) if marker == "^" else (end < edge):
+                ax.plot([x], [edge], marker=marker, color="k", markersize=6,
+                        clip_on=False, zorder=6)
 
 
 #: Bit-speed swing (:func:`_swing`, rad/s) above which a series line is drawn

@@ -1033,33 +1033,73 @@ def test_the_bars_whiskers_are_the_tables_interval(tmp_path, monkeypatch):
     """The table's "+-" is the 95 % interval of the mean over seeds; the bar chart drew
     only the seeds' dots. Its whisker is now that interval, by hand: SSI 0.2 and 0.4 ->
     0.30 +- 12.706 x 0.1; the stuck share 10 % and 30 % in percent, x 100; none where the
-    seeds agree; cut where it reaches past the metric's range."""
+    seeds agree; cut at the metric's range, and at the panel's edge, which the bars and
+    dots set (two seeds' interval, t = 12.7, flattened every bar: a new user's trial),
+    with an arrowhead there."""
     from matplotlib.axes import Axes
 
-    from agents.plots import bar_chart
+    from agents.plots import HEADROOM, bar_chart
 
     drawn: list[tuple[float, ...]] = []
-    errorbar = Axes.errorbar
+    arrows: list[tuple[float, str]] = []
+    errorbar, plot = Axes.errorbar, Axes.plot
 
     def keep(ax, x, y, yerr=None, **kwargs):
         drawn.append((float(y), *np.ravel(yerr)))
         return errorbar(ax, x, y, yerr=yerr, **kwargs)
 
+    def keep_arrow(ax, *args, marker=None, **kwargs):
+        arrows.append((float(args[1][0]), marker))
+        return plot(ax, *args, marker=marker, **kwargs)
+
     monkeypatch.setattr(Axes, "errorbar", keep)
+    monkeypatch.setattr(Axes, "plot", keep_arrow)
     rows = [_row("stiff", "stick_slip", seed=k, ssi=v, stuck_fraction=f)
             for k, (v, f) in enumerate([(0.2, 0.1), (0.4, 0.3)])]
     rows += [_row("z-torque", "stick_slip", seed=k) for k in range(2)]
     bar_chart(rows, ["stiff", "z-torque"], ["stick_slip"], tmp_path / "bars.png")
-    # (mean, down, up): cut at the metric's range, an SSI at 0, a stuck share at 0 and
-    # 100 % (two seeds' interval drew 175 % stuck: a new user's check)
-    assert drawn == [pytest.approx((0.3, 0.3, 1.2706), abs=1e-4),
-                     pytest.approx((20.0, 20.0, 80.0), abs=1e-2)]
+    # (mean, down, up): down cut at the metric's range (an SSI and a stuck share at 0);
+    # up at the panel's top, the highest dot and its headroom (0.4 and 30 %)
+    ssi_top, stuck_top = (1 + HEADROOM) * 0.4, (1 + HEADROOM) * 30.0
+    assert drawn == [pytest.approx((0.3, 0.3, ssi_top - 0.3), abs=1e-4),
+                     pytest.approx((20.0, 20.0, stuck_top - 20.0), abs=1e-2)]
+    assert arrows == [(pytest.approx(ssi_top), "^"), (pytest.approx(stuck_top), "^")]
     rows = [_row("stiff", "stick_slip", seed=k, ssi=v, stuck_fraction=f)
             for k, (v, f) in enumerate([(0.6, 0.5), (0.62, 0.52)])]
-    drawn.clear()  # an interval inside the range is drawn whole: 0.61 +- 12.706 x 0.01
-    bar_chart(rows, ["stiff"], ["stick_slip"], tmp_path / "bars.png")
+    rows += [_row("z-torque", "stick_slip", seed=k, ssi=1.0, stuck_fraction=0.6)
+             for k in range(2)]
+    drawn.clear()  # an interval inside the panel is drawn whole: 0.61 +- 12.706 x 0.01
+    arrows.clear()
+    bar_chart(rows, ["stiff", "z-torque"], ["stick_slip"], tmp_path / "bars.png")
     assert drawn == [pytest.approx((0.61, 0.12706, 0.12706), abs=1e-4),
                      pytest.approx((51.0, 12.706, 12.706), abs=1e-2)]
+    assert arrows == []
+
+
+def test_a_task_benchmarks_bars_add_the_return_below_and_above_zero(tmp_path, monkeypatch):
+    """An evaluation is judged by the return, which the bar chart did not show: a tiny
+    policy's loss to the best constant (-33 against 82) was not in it (a new user's
+    trial). A task's chart has a fifth panel, whose scale reaches below zero."""
+    from helpers import keep_saved_figures
+
+    from agents.plots import bar_chart
+
+    rows = [_row("learned", "random", seed=k, episode_return=r)
+            for k, r in enumerate([-40.0, -26.0])]
+    rows += [_row("constant", "random", seed=k, episode_return=r)
+             for k, r in enumerate([80.0, 84.0])]
+    saved = keep_saved_figures(monkeypatch)
+    bar_chart(rows, ["learned", "constant"], ["random"], tmp_path / "bars.png",
+              with_return=True)
+    shown = [ax for ax in saved[0].axes if ax.axison]
+    assert [ax.get_title() for ax in shown][-1] == "episode return (higher is better)"
+    heights = sorted(p.get_height() for p in shown[-1].patches if p.get_width() > 0)
+    assert heights == pytest.approx([-33.0, 82.0])
+    low, high = shown[-1].get_ylim()
+    assert low <= -40.0 and high >= 84.0
+    saved.clear()  # a scenario benchmark's chart: four panels, no return
+    bar_chart(rows, ["learned", "constant"], ["random"], tmp_path / "bars.png")
+    assert len([ax for ax in saved[0].axes if ax.axison]) == 4
 
 
 def test_benchmark_md_shows_the_series_picture_of_every_scenario(tmp_path):
