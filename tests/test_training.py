@@ -190,7 +190,8 @@ def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
     copy = tmp_path / "copy"
     shutil.copytree(folder, copy)
     # advice a seed sweep (which takes no --name or --resume) can follow too
-    with pytest.raises(ValueError, match=r"another config \(seed differ;.*under another "
+    with pytest.raises(ValueError, match=r"another config \(seed: the run's 0, now 5;"
+                                         r".*under another "
                                          r"--name \(a --seeds sweep: another --out\)"):
         train(replace(cfg, seed=5), copy, resume=True, progress=False)
     train(replace(cfg, n_timesteps=3072), copy, resume=True, progress=False)
@@ -210,7 +211,7 @@ def test_a_resume_may_change_the_steps_the_threads_and_the_optimiser_kernel(run)
     folder, cfg = run
     check_same_config(folder, replace(cfg, n_timesteps=4096, torch_threads=2,
                                       fused_adam=not cfg.fused_adam))
-    with pytest.raises(ValueError, match=r"another config \(eval_episodes differ;"):
+    with pytest.raises(ValueError, match=r"another config \(eval_episodes: the run's 2, now 3;"):
         check_same_config(folder, replace(cfg, eval_episodes=3))
 
 
@@ -2611,6 +2612,7 @@ def test_a_runs_config_is_read_by_the_rules_of_a_config_file(run, tmp_path):
                      encoding="utf-8")
     assert read_run_config(saved)["hyperparams"]["max_grad_norm"] == 1e-7
     saved.write_text(text, encoding="utf-8")
-    with pytest.raises(ValueError, match=r"another config \(hyperparams.n_epochs differ;"):
+    with pytest.raises(ValueError,
+                       match=r"another config \(hyperparams.n_epochs: the run's 2, now 3;"):
         train(replace(cfg, hyperparams={**cfg.hyperparams, "n_epochs": 3}), copy,
               resume=True, progress=False)

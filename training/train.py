@@ -611,17 +611,22 @@ def check_same_config(run: Path, config: TrainConfig, settings: bool = True) -> 
         free = ("n_timesteps", "torch_threads", "fused_adam")
         changed = sorted(k for k in {*old, *new} if k not in free
                          and old.get(k) != new.get(k))
-        if changed:
-            raise ValueError(f"resume: {run} was trained with another config ({', '.join(changed)} "
-                             "differ; only n_timesteps, torch_threads and fused_adam may "
-                             "change); train it under another --name (a --seeds sweep: "
-                             "another --out), or delete the folder")
+        if changed:  # each with both values (`--n-envs 4` was said as "n_envs differ")
+            def shown(value: Any) -> str:
+                return "unset" if value is None else json.dumps(value)
+
+            said = "; ".join(f"{k}: the run's {shown(old.get(k))}, now {shown(new.get(k))}"
+                             for k in changed)
+            raise ValueError(f"resume: {run} was trained with another config ({said}; "
+                             "only n_timesteps, torch_threads and fused_adam may change); "
+                             "train it under another --name (a --seeds sweep: another "
+                             "--out), or start it again (--overwrite)")
     # the same keywords, but the env's defaults moved since
     moved = moved_settings(run, config.env_id, config.env_kwargs) if settings else None
     if moved is not None:
         raise ValueError(f"resume: {run} started under other {config.env_id} settings "
                          f"than this code gives it ({moved}); train it again under another "
-                         "--name (a --seeds sweep: another --out), or delete the folder")
+                         "--name (a --seeds sweep: another --out), or afresh (--overwrite)")
 
 
 def finished(run: Path, config: TrainConfig) -> bool:
