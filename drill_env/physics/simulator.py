@@ -401,10 +401,11 @@ class Simulator:
         if np.min(force[: self.lateral_start]) < 0.0:
             self._warned_compression = True
             warnings.warn(  # one text: once per place, not per WOB a curved-well task draws
-                "the weight on bit puts the drill pipe in compression, but "
-                "solver.pipe_lateral=False (fidelity='fast') holds it straight: pipe buckling "
-                "and its wall contacts are not modelled. Use fidelity='full' or a heavier BHA "
-                "(docs/performance.md).", RuntimeWarning, stacklevel=3)
+                "the weight on bit puts the drill pipe in compression, but the fast level "
+                "(solver.pipe_lateral=False) holds it straight: pipe buckling and its wall "
+                "contacts are not modelled. Use fidelity='full' (--fidelity full in evaluate "
+                "and benchmark) or a heavier BHA (docs/performance.md).", RuntimeWarning,
+                stacklevel=3)
 
     def weight_on_bit_for(self, hook_load: float) -> float:
         """WOB from hook load; the bit is off bottom when the hook carries everything."""
