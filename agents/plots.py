@@ -163,6 +163,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
         shown: list[float] = []
         bars: list[tuple[float, float, str]] = []  # (x, mean, colour)
         whiskers: list[tuple[float, float, float, float]] = []  # (x, mean, low, high)
+        marked = False  # a bar's word above it ("growing"): more room over the bars
         for i, c in enumerate(controllers):
             for j, s in enumerate(scenarios):
                 sel = [r for r in rows if r["controller"] == c and r["scenario"] == s]
@@ -182,6 +183,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                                                ("not drilling", not_drilling))
                         if key == "ssi" and any(hit(r) for r in sel)]
                 if said:
+                    marked = True
                     ax.annotate(", ".join(said), (x, mean), xytext=(0, 4),
                                 textcoords="offset points", rotation=90, ha="center",
                                 va="bottom", fontsize=8, color=colours[c])
@@ -207,7 +209,8 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
         top = max(float(drawn.max()) if drawn.size else 0.0, 0.0)
         bottom = min(float(drawn.min()) if drawn.size else 0.0, 0.0)
         span = top - bottom
-        top, bottom = top + HEADROOM * span, bottom - (HEADROOM * span if bottom < 0 else 0.0)
+        room = (3.0 if marked else 1.0) * HEADROOM
+        top, bottom = top + room * span, bottom - (HEADROOM * span if bottom < 0 else 0.0)
         ax.set_ylim(bottom, max(top, bottom + 0.05))  # an all-zero metric shows as zero
         _whiskers(ax, whiskers)
         negligible = NO_SWING_SSI if key == "ssi" else 0.0
@@ -229,9 +232,13 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     lines = max(1, math.ceil(len(labels) / LEGEND_ROW))
     fig.legend(handles, labels, loc="lower center", ncol=math.ceil(len(labels) / lines),
                fontsize=9, frameon=False)
-    fig.suptitle(f"{balanced_fill(title, 100)}\nbars: seed means, whiskers: the table's 95 % "
-                 "interval (an arrowhead: it goes on past the panel), dots: each seed; a "
-                 "coloured base line alone: about zero")
+    # the key wrapped as the title is: one line of it ran off both sides of the
+    # two-panel-wide picture (a review)
+    reading = ("bars: seed means; whiskers: the table's 95 % interval, cut at the metric's "
+               "range and at the panel's edge (an arrowhead: it goes on); dots: each seed; "
+               "a coloured base line alone: about zero")
+    wide = 140 if with_return else 100
+    fig.suptitle(f"{balanced_fill(title, wide)}\n{balanced_fill(reading, wide)}")
     fig.tight_layout(rect=(0.0, 0.035 * lines + 0.01, 1.0, 1.0))
     save(fig, path)
 

@@ -1100,6 +1100,9 @@ def test_a_task_benchmarks_bars_add_the_return_below_and_above_zero(tmp_path, mo
     saved.clear()  # a scenario benchmark's chart: four panels, no return
     bar_chart(rows, ["learned", "constant"], ["random"], tmp_path / "bars.png")
     assert len([ax for ax in saved[0].axes if ax.axison]) == 4
+    # its key wrapped as the title is (one line of it ran off both sides: a review)
+    lines = saved[0]._suptitle.get_text().splitlines()
+    assert len(lines) >= 3 and max(map(len, lines)) <= 100
 
 
 def test_benchmark_md_shows_the_series_picture_of_every_scenario(tmp_path):

@@ -449,6 +449,34 @@ def test_an_interrupt_in_the_update_waits_for_the_update_to_end(run, tmp_path, m
                                                      rel=1e-9)
 
 
+def test_a_second_interrupt_in_an_update_stops_at_once():
+    """The first interrupt in an update waits for its end (the rollout's start gives it);
+    a second stops at once (a scheduler's grace, an update of one's own that takes long:
+    a review); without one, nothing is raised and the handlers come back."""
+    import os
+    import signal
+
+    from training.train import whole_updates
+
+    with ctrl_c_as_in_a_terminal():
+        whole = whole_updates()
+        whole._on_rollout_end()  # the update begins
+        os.kill(os.getpid(), signal.SIGINT)  # heard, held
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)  # again: at once
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        whole._on_rollout_end()
+        os.kill(os.getpid(), signal.SIGINT)
+        with pytest.raises(KeyboardInterrupt):
+            whole._on_rollout_start()  # given when the update is over
+        whole._on_rollout_end()
+        whole._on_rollout_start()  # none heard: nothing raised
+        whole._on_rollout_end()
+        os.kill(os.getpid(), signal.SIGINT)
+        whole.release(give=False)  # the update raised: its exception goes on, not this
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_a_damaged_checkpoint_is_named_and_files_are_written_whole(run, tmp_path):
     """A checkpoint cut short (a full disk, a copy killed) made --resume crash with an
     UnpicklingError or BadZipFile traceback; now the error names the file and the way on.
@@ -2447,6 +2475,11 @@ def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path,
         assert same not in left  # SB3's / drill-env's default is the shipped value
     given = load_config("stick_slip", "sac", partial, n_timesteps=1000)
     assert "n_timesteps" not in dict(left_out_settings(given, partial, ["n_timesteps"]))
+    assert left["normalize.gamma"] == 0.98  # the reward's discount: SB3's gamma, 0.99
+    discounted = tmp_path / "discounted.yml"  # ... but the algorithm's 0.98 given: the
+    discounted.write_text("sac: {hyperparams: {gamma: 0.98}}\n")  # shipped value
+    assert "normalize.gamma" not in dict(
+        left_out_settings(load_config("stick_slip", "sac", discounted), discounted))
     whole = tmp_path / "whole.yml"
     whole.write_text((HYPERPARAMS / "stick_slip.yml").read_text())
     assert left_out_settings(load_config("stick_slip", "sac", whole), whole) == []

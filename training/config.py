@@ -603,6 +603,8 @@ def taken_value(config: TrainConfig, key: str) -> tuple[bool, Any]:
     default, a policy or env keyword left out its class's (not looked up: unknown)."""
     import inspect
 
+    if key == "normalize.gamma":  # None: the algorithm's gamma (a review: a file giving
+        return True, config.reward_gamma  # the shipped 0.98 there was said to differ)
     head, _, rest = key.partition(".")
     if head == "hyperparams":
         sb3 = inspect.signature(algo_class(config.algo).__init__).parameters

@@ -428,8 +428,9 @@ def whole_updates() -> Any:
     the end of training, the signals whose handlers are Python's are only heard, then
     given to those handlers. A Ctrl-C in PPO's epochs saved a checkpoint that had done
     7 of its 10 under the rollout's full count of steps, and the resumed run never did
-    the other 3 (a new user's trial). Call ``release(give=False)`` on the way out of
-    ``learn`` (an exception in the update) to put the handlers back."""
+    the other 3 (a new user's trial). A second interrupt stops it at once. Call
+    ``release(give=False)`` on the way out of ``learn`` (an exception in the update) to
+    put the handlers back."""
     import signal
     import sys
     import threading
@@ -455,11 +456,14 @@ def whole_updates() -> Any:
                     signal.signal(signum, self.hear)
 
         def hear(self, signum: int, frame: Any) -> None:
-            if not self.heard:
-                with contextlib.suppress(RuntimeError, ValueError, OSError):
-                    print("interrupt heard: training stops when the model's update in "
-                          "progress ends, so that its checkpoint holds the whole update",
-                          file=sys.stderr, flush=True)
+            if self.heard:  # asked twice: at once, the update cut short (a scheduler's
+                self.heard.append(signum)  # grace, a long update of one's own: a review)
+                self.release()
+                return
+            with contextlib.suppress(RuntimeError, ValueError, OSError):
+                print("interrupt heard: training stops when the model's update in "
+                      "progress ends, so that its checkpoint holds the whole update (again: "
+                      "at once, the update cut short)", file=sys.stderr, flush=True)
             self.heard.append(signum)
 
         def release(self, give: bool = True) -> None:
