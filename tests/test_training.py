@@ -1060,7 +1060,7 @@ def test_the_best_model_is_the_evaluation_of_highest_return_not_the_last(tmp_pat
         return {"return": next(returns), "return_std": 0.0, "ssi": 0.0, "stuck_fraction": 0.0}
 
     monkeypatch.setattr(tt, "evaluate_policy_on_seeds", scored)
-    monkeypatch.setattr(tt, "plot_learning_curve", lambda run: None)
+    monkeypatch.setattr(tt, "plot_learning_curve", lambda run, sessions=None: None)
     cfg = tiny_config(n_timesteps=1536, eval_freq=512, checkpoint_freq=10_000)
     train(cfg, tmp_path / "run", progress=False)
     rows = tt.read_evaluations(tmp_path / "run" / "evaluations.csv")
@@ -1436,6 +1436,36 @@ def _learning_curve_axes(run, monkeypatch, rows: str) -> dict[str, Any]:
     plot_learning_curve(run)
     return {name: next(ax for ax in saved[0].axes if name in ax.get_ylabel())
             for name in ("SSI", "stuck")}
+
+
+def test_the_learning_curve_marks_where_a_resumed_session_started(tmp_path, monkeypatch):
+    """After a resume the training is not the uninterrupted run's (its envs start new
+    episodes): the curve had no mark there, and its bumps read as learning (a new user's
+    trial). A dotted line per resumed session, said in the title; the sessions given, or
+    run.json's."""
+    from helpers import keep_saved_figures
+
+    from training.train import plot_learning_curve
+
+    (tmp_path / "evaluations.csv").write_text(
+        "timesteps,return,return_std,ssi,stuck_fraction,wall_s\n"
+        "1000,-900,200,0.9,0.12,60\n2000,-400,100,0.3,0.01,120\n")
+    saved = keep_saved_figures(monkeypatch)
+
+    def marks() -> list[list[float]]:
+        return [[float(line.get_xdata()[0]) for line in ax.get_lines()
+                 if line.get_linestyle() == ":"] for ax in saved[-1].axes[:2]]
+
+    plot_learning_curve(tmp_path, (0, 1500))
+    assert marks() == [[1.5], [1.5]]
+    assert "dotted: resumed at 1,500 env steps" in saved[-1]._suptitle.get_text()
+    plot_learning_curve(tmp_path)  # no run.json yet: none
+    assert marks() == [[], []]
+    (tmp_path / "run.json").write_text(json.dumps(
+        {"sessions": [{"from_env_steps": 0, "env_seed": 1}, {"from_env_steps": 1200,
+                                                             "env_seed": 2}]}))
+    plot_learning_curve(tmp_path)
+    assert marks() == [[1.2], [1.2]]
 
 
 def test_the_learning_curve_draws_the_stuck_share_in_percent(tmp_path, monkeypatch):

@@ -353,7 +353,7 @@ def _callbacks(config: TrainConfig, run: Path, train_env: Any,
                     save_whole(run / "best_vecnormalize.pkl", train_env.save)
             finally:
                 train_env.obs_rms = live
-            plot_learning_curve(run)
+            plot_learning_curve(run, sessions)
 
     class Checkpoints(OnGrid):
         """Every ``checkpoint_freq`` env steps: :func:`write_checkpoint` (PPO's after the
@@ -844,7 +844,7 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
             "machine": platform.platform(), "python": platform.python_version(),
             **package_versions()}
     save_text(run / "run.json", json.dumps(info, indent=2))
-    plot_learning_curve(run)
+    plot_learning_curve(run, sessions)
     env.close()
     return run / "model.zip"
 
@@ -930,11 +930,20 @@ def csv_text(fieldnames: Any, rows: list[dict[str, Any]], header: bool = True) -
     return buffer.getvalue()
 
 
-def plot_learning_curve(run: Path) -> Path | None:
-    """``learning_curve.png``: validation return, SSI and stuck share against env steps."""
+def plot_learning_curve(run: Path, sessions: Sequence[int] | None = None) -> Path | None:
+    """``learning_curve.png``: validation return, SSI and stuck share against env steps;
+    a dotted line where a resumed session started (``sessions``: the env steps each
+    started from; None: ``run.json``'s), after which the training is not the
+    uninterrupted run's (a new user's trial read the bumps there as learning)."""
     rows = read_evaluations(run / "evaluations.csv")
     if not rows:
         return None
+    if sessions is None:
+        try:
+            sessions = _sessions(json.loads((run / "run.json").read_text(encoding="utf-8")))
+        except (OSError, ValueError):
+            sessions = ()
+    resumed = sorted({s for s in sessions if s > 0})
     from drill_env.figures import agg_figure
 
     steps = np.array([float(r["timesteps"]) for r in rows]) / 1e3
@@ -982,6 +991,8 @@ def plot_learning_curve(run: Path) -> Path | None:
     for ax in axes:
         ax.set_xlabel("env steps (thousands)")
         ax.grid(alpha=0.3)
+        for start in resumed:
+            ax.axvline(start / 1e3, color="0.4", linestyle=":", linewidth=1.2)
     saved = run / "config.yaml"
     try:
         config = read_run_config(saved) if saved.exists() else {}
@@ -992,8 +1003,13 @@ def plot_learning_curve(run: Path) -> Path | None:
             f"{'' if config['eval_episodes'] == 1 else 's'}"
             if {"algo", "task", "eval_episodes"} <= set(config)
             else "deterministic policy on the fixed validation seeds")
-    fig.suptitle(f"{run.name}: {what}")
-    fig.tight_layout()
+    if resumed:
+        what += (f"; dotted: resumed at {', '.join(f'{start:,}' for start in resumed)} "
+                 "env steps")
+    from agents.plots import balanced_fill
+
+    fig.suptitle(balanced_fill(f"{run.name}: {what}", 120))  # (a long run name and the
+    fig.tight_layout()  # resumes ran off both sides)
     out = run / "learning_curve.png"
     save_whole(out, lambda file: fig.savefig(file, dpi=110))
     return out
