@@ -1056,26 +1056,6 @@ def which_model(run: Path, model: Path) -> str:
     return "the run's final model: it kept no best model"
 
 
-def held_by_another(folder: Path) -> bool:
-    """Whether another drill-env process holds ``folder``'s lock (``folder_lock``: a
-    training run holds its folder while it trains); makes no lock file."""
-    from filelock import FileLock, Timeout
-
-    from drill_env.sweep import LOCK_FILE
-
-    if not (folder / LOCK_FILE).exists():
-        return False
-    lock = FileLock(folder / LOCK_FILE)
-    try:
-        lock.acquire(timeout=0)
-    except Timeout:
-        return True
-    except OSError:  # a folder this process cannot write: nothing known, nothing said
-        return False
-    lock.release()
-    return False
-
-
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.learned import TRAINED, no_such_folder
     from training.config import TASKS
@@ -1099,6 +1079,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                                          f"train (no config.yaml){local}; {ELSEWHERE}, then "
                                          "drill-env benchmark --task")
     from agents.learned import policy_files
+    from drill_env.sweep import held_by_another
 
     live = held_by_another(args.run)
     try:

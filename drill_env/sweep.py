@@ -651,6 +651,25 @@ def check_folder_free(folder: Path, what: str) -> None:
             pass
 
 
+def held_by_another(folder: Path) -> bool:
+    """Whether another process holds ``folder`` (:func:`folder_lock`: a training run holds
+    its folder while it trains), probed without its side effects: no lock file made, no
+    partial files tidied."""
+    from filelock import FileLock, Timeout
+
+    if not (folder / LOCK_FILE).exists():
+        return False
+    lock = FileLock(folder / LOCK_FILE)
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        return True
+    except OSError:  # a folder this process cannot write: nothing known, nothing said
+        return False
+    lock.release()
+    return False
+
+
 #: Windows refuses to rename over a file another program holds open (a benchmark.csv
 #: open in a spreadsheet, a picture in a viewer; a virus scanner's look lasts a moment):
 #: the rename is tried this many times, ``RENAME_WAIT`` seconds apart, then refused by name.

@@ -86,6 +86,19 @@ def assert_agree(actual: np.ndarray, expected: np.ndarray, name: str) -> None:
     np.testing.assert_allclose(actual, expected, rtol=RTOL, atol=RTOL * scale, err_msg=name)
 
 
+def advance_both(sim: Simulator) -> tuple[np.ndarray, np.ndarray, ReferenceStepper]:
+    """``N_STEPS`` of ``sim`` and of a NumPy reference started from its state, recording
+    every step: the kernel runs without a failure and every dynamic array agrees. Gives
+    (the kernel's records, the reference's, the reference)."""
+    ref = ReferenceStepper(sim)
+    expected = ref.advance(N_STEPS, record_every=1)
+    actual = sim.advance(N_STEPS, record_every=1)
+    assert sim.status == 0
+    for name in ("ul", "vl", "al", "ut", "vt", "at", "node_force"):
+        assert_agree(getattr(sim, name), getattr(ref, name), name)
+    return actual, expected, ref
+
+
 CASES = [
     # (bit model, bit speed rad/s, WOB N): slipping, stuck, backwards, off bottom
     ("mesoscopic", 6.0, 100e3),
@@ -104,12 +117,7 @@ def test_numba_advance_matches_numpy_reference(bit_model, bit_speed, wob, seed):
     sim = Simulator(SimulationConfig(bit_model=bit_model, formation=SANDWICH))
     random_state(sim, np.random.default_rng(seed), bit_speed, wob)
     assert np.any(np.hypot(sim.ul[2::2, 0], sim.ul[2::2, 1])[:-1] > sim.node_clearance[1:-1])
-    ref = ReferenceStepper(sim)
-    expected = ref.advance(N_STEPS, record_every=1)
-    actual = sim.advance(N_STEPS, record_every=1)
-    assert sim.status == 0
-    for name in ("ul", "vl", "al", "ut", "vt", "at", "node_force"):
-        assert_agree(getattr(sim, name), getattr(ref, name), name)
+    actual, expected, ref = advance_both(sim)
     keep = np.ones(N_STATE, bool)
     keep[S.WOB_FACTORED] = False
     assert_agree(sim.state[keep], ref.state[keep], "state")
@@ -438,12 +446,7 @@ def test_numpy_reference_matches_with_a_tilting_bit_and_without_wall_contact(ove
     off (no wall forces on any node, though some lie beyond their clearance)."""
     sim = Simulator(replace(SimulationConfig(formation=SANDWICH), **override))
     random_state(sim, np.random.default_rng(12), 6.0, 100e3)
-    ref = ReferenceStepper(sim)
-    expected = ref.advance(N_STEPS, record_every=1)
-    actual = sim.advance(N_STEPS, record_every=1)
-    assert sim.status == 0
-    for name in ("ul", "vl", "al", "ut", "vt", "at", "node_force"):
-        assert_agree(getattr(sim, name), getattr(ref, name), name)
+    actual, expected, _ = advance_both(sim)
     assert_agree(actual, expected, "records")
     if override == {"bit.axis_aligned": False}:
         assert np.any(sim.al[-1] != 0.0)  # the bit's tilt moved
