@@ -610,7 +610,7 @@ def test_a_task_benchmark_says_which_training_episodes_it_replaces(tmp_path):
 
     import yaml
 
-    from drill_cli.main import replaced_episode_notes
+    from drill_cli.benchmark import replaced_episode_notes
 
     run = tmp_path / "short"
     shutil.copytree(TRAINED / "stick_slip", run)
@@ -1559,7 +1559,7 @@ def test_set_points_of_your_own_drive_every_scenario_of_a_benchmark(tmp_path):
                                          "DrillString-v0's range 0-200 rpm"):
         dataclasses.replace(SHORT, surface_speed=60.0)  # rpm typed for rad/s
     # a WOB that buckles a scenario's pipe at the start runs, with run's note
-    from drill_cli.main import buckling_notes
+    from drill_cli.benchmark import buckling_notes
 
     notes = buckling_notes(["default", "paper_case1"], 200e3, {})
     assert len(notes) == 1 and notes[0].startswith("note: --wob 200 kN compresses the 5 in "
@@ -1572,7 +1572,7 @@ def test_scenarios_that_set_points_make_one_episode_run_once(tmp_path, capsys):
     stick_slip (default at 50 rpm) as two names of one episode, bit-identical rows, twice
     the time, nothing said. Now the later name is dropped with a note; a WOB alone
     leaves their speeds apart."""
-    from drill_cli.main import same_episodes
+    from drill_cli.benchmark import same_episodes
     from drill_env.physics.units import RPM
 
     names = ["default", "stick_slip", "paper_case1", "random"]

@@ -122,7 +122,7 @@ def test_run_notes_a_wob_that_buckles_the_bha(tmp_path, capsys):
     from drill_env.scenarios import make_scenario, with_physics
 
     field = Path(__file__).parents[1] / "examples" / "field_well_string.yaml"
-    from drill_cli.main import read_overrides
+    from drill_cli.configs import read_overrides
 
     limit = lateral_buckling_weight(with_physics(make_scenario("default").config,
                                                  read_overrides(field))) / 1e3
@@ -319,7 +319,7 @@ def test_run_refuses_a_top_drive_controller_in_its_config_file(tmp_path, capsys)
 
 def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path, capsys, monkeypatch):
     from agents.benchmark import RESULTS_FILE, BenchmarkSettings, fingerprint
-    from drill_cli.main import same_physics
+    from drill_cli.benchmark import same_physics
     from drill_env.sweep import ResultStore
 
     monkeypatch.chdir(tmp_path)
@@ -385,7 +385,7 @@ def test_a_wob_of_zero_is_taken_and_one_under_a_kilonewton_is_refused():
     """``kilonewtons``' docstring: a finite number >= 0, and none between 0 and 1 kN (what a
     WOB typed in MN gives). 0 kN (the bit off bottom, inside the env's 0-200 kN range)
     and 1 kN are taken; 0.5 kN is refused saying it is 500 N."""
-    from drill_cli.main import kilonewtons
+    from drill_cli.arguments import kilonewtons
 
     assert kilonewtons("0") == 0.0
     assert kilonewtons("1") == 1.0
@@ -396,7 +396,7 @@ def test_a_wob_of_zero_is_taken_and_one_under_a_kilonewton_is_refused():
 def test_a_number_argument_takes_its_upper_bound():
     """``number``'s docstring: a finite number in [low, high], a closed range: --start-kick
     (at most 0.5) takes 0.5 and refuses more, saying "must be <= 0.5"."""
-    from drill_cli.main import number
+    from drill_cli.arguments import number
 
     parse = number("", high=0.5)
     assert (parse("0"), parse("0.5")) == (0.0, 0.5)
@@ -407,7 +407,7 @@ def test_a_number_argument_takes_its_upper_bound():
 def test_a_length_range_may_be_one_length():
     """``--string-lengths LO,HI`` takes 0 < LO <= HI (its error says so): 1000,1000 is
     every seed's string 1000 m long; 1000,900 and 0,900 are refused."""
-    from drill_cli.main import length_range
+    from drill_cli.arguments import length_range
 
     assert length_range("1000,1000") == (1000.0, 1000.0)
     for bad in ("1000,900", "0,900"):
@@ -451,7 +451,7 @@ def test_controller_help_names_every_registered_controller():
     # the parser stays light (no agents import), so its help spells the names out: they
     # must follow the registry
     from agents.registry import CLASSICAL, CONTROLLERS
-    from drill_cli.main import parser
+    from drill_cli.parser import parser
 
     sub = next(a for a in parser()._actions if isinstance(a, argparse._SubParsersAction))
 
@@ -611,7 +611,7 @@ def test_modes_prints_the_top_drive_gains_the_string_tunes(tmp_path, capsys):
 
 
 def test_an_empty_config_file_overrides_nothing_and_a_list_is_refused(tmp_path):
-    from drill_cli.main import read_overrides
+    from drill_cli.configs import read_overrides
 
     empty = tmp_path / "empty.yaml"
     empty.write_text("# nothing yet\n")
@@ -652,7 +652,7 @@ def test_an_env_setting_in_a_config_file_or_physics_in_config_says_where_it_goes
     it belongs (a new user's trial)."""
     import gymnasium as gym
 
-    from drill_cli.main import read_overrides
+    from drill_cli.configs import read_overrides
     from drill_env.physics.validation import ConfigError
 
     path = tmp_path / "env.yaml"
@@ -679,7 +679,7 @@ def test_the_example_component_string_fits_every_scenario():
     (refused as 'bha and components, not both' before)."""
     from pathlib import Path
 
-    from drill_cli.main import read_overrides
+    from drill_cli.configs import read_overrides
     from drill_env.physics.config import StringConfig
     from drill_env.scenarios import SCENARIOS, make_scenario, with_physics
 
@@ -850,7 +850,7 @@ def test_a_folder_that_takes_no_new_files_is_said_so(tmp_path, monkeypatch):
     import os
     import tempfile
 
-    from drill_cli.main import unwritable
+    from drill_cli.arguments import unwritable
 
     def refuse(err):
         def mkdtemp(*args, **kwargs):
@@ -1149,7 +1149,7 @@ def test_evaluating_a_shipped_policy_writes_to_logs_not_into_the_package(tmp_pat
     from pathlib import Path
 
     from agents.learned import TRAINED
-    from drill_cli.main import default_evaluation_folder
+    from drill_cli.train import default_evaluation_folder
 
     assert default_evaluation_folder(TRAINED / "drilling") == Path("logs/evaluation/drilling")
     assert default_evaluation_folder(tmp_path / "run") == tmp_path / "run" / "evaluation"
@@ -1301,7 +1301,7 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
 
 
 def test_console_numbers_have_no_negative_zero_and_counts_agree_with_their_noun():
-    from drill_cli.main import counted, fixed
+    from drill_cli.arguments import counted, fixed
 
     assert [fixed(v) for v in (-0.001, -0.0, 0.004, -0.01, -1.5)] == \
         ["0.00", "0.00", "0.00", "-0.01", "-1.50"]
@@ -1310,7 +1310,7 @@ def test_console_numbers_have_no_negative_zero_and_counts_agree_with_their_noun(
 
 
 def test_integer_arguments_take_exponents_and_keep_large_values_exact():
-    from drill_cli.main import integer
+    from drill_cli.arguments import integer
 
     parse = integer(0)
     assert parse("3e3") == 3000 and parse("4.0e5") == 400_000
@@ -1444,7 +1444,7 @@ def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, s
     does so; a training sweep on Ray said "interrupted" and exited 130)."""
     import signal
 
-    import drill_cli.main as cli
+    import drill_cli.parser as cli  # where main finds each command
 
     def stopped(args):
         # the handler the signal would run, run here: a signal sent to the process may
@@ -1507,7 +1507,7 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
     import shutil
 
     from agents.learned import TRAINED
-    from drill_cli.main import default_evaluation_folder
+    from drill_cli.train import default_evaluation_folder
 
     run = shutil.copytree(TRAINED / "stick_slip", tmp_path / "run")
     kept.append(default_evaluation_folder(run) / bm.RESULTS_FILE)
@@ -1516,19 +1516,19 @@ def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsy
     assert (f"drill-env evaluate: interrupted; its finished episodes are kept in "
             f"{default_evaluation_folder(run)}: ") in capsys.readouterr().err
     # the stability map's points, in its --out; the demo's episodes, in its benchmark's
-    from drill_cli.main import MAP_POINTS_FILE
+    from drill_cli.studies import MAP_POINTS_FILE
 
     kept.append(tmp_path / "map" / MAP_POINTS_FILE)
-    monkeypatch.setattr("drill_cli.main.cmd_stability_map", stopped)
+    monkeypatch.setattr("drill_cli.parser.cmd_stability_map", stopped)
     assert main(["stability-map", "--out", str(tmp_path / "map")]) == 130
     assert (f"drill-env stability-map: interrupted; its finished points are kept in "
             f"{tmp_path / 'map'}: ") in capsys.readouterr().err
     kept.append(tmp_path / "demo" / "benchmark" / bm.RESULTS_FILE)
-    monkeypatch.setattr("drill_cli.main.cmd_demo", stopped)
+    monkeypatch.setattr("drill_cli.parser.cmd_demo", stopped)
     assert main(["demo", "--out", str(tmp_path / "demo")]) == 130
     assert (f"drill-env demo: interrupted; its finished episodes are kept in "
             f"{tmp_path / 'demo' / 'benchmark'}: ") in capsys.readouterr().err
-    monkeypatch.setattr("drill_cli.main.cmd_modes", stopped)
+    monkeypatch.setattr("drill_cli.parser.cmd_modes", stopped)
     assert main(["modes", "--out", str(tmp_path / "m")]) == 130
     assert capsys.readouterr().err.strip() == "drill-env modes: interrupted"
 
@@ -1627,7 +1627,7 @@ def test_a_stopped_run_averages_its_metrics_over_the_steps_it_ran(tmp_path, monk
 
 def test_evaluate_says_which_model_it_scores(tmp_path):
     from agents.learned import TRAINED
-    from drill_cli.main import which_model
+    from drill_cli.train import which_model
 
     shipped = TRAINED / "drilling"
     assert which_model(shipped, shipped / "model.zip").startswith("the shipped policy's")
@@ -1779,7 +1779,7 @@ def test_a_config_string_is_judged_at_the_wob_given_not_the_scenarios_string(tmp
     """docs/config.md's J-well at 170 kN: its 90 m of collars carry it, but the run was
     refused for the default scenario's heavy-weight pipe, which the --config replaces
     (an outside check): the starting WOB's buckling check is made on the string drilled."""
-    from drill_cli.main import read_overrides
+    from drill_cli.configs import read_overrides
     from drill_env.physics.statics import pipe_buckling
     from drill_env.scenarios import make_scenario, scenario_with_physics, with_physics
 
@@ -1864,7 +1864,7 @@ def test_a_task_benchmark_checks_a_curved_survey_against_the_string_lengths_type
     (an outside check: it was checked on an unseeded draw from the default 900-1600 m, and
     refused at random, 4 runs in 7); one shorter than the range's top is refused always,
     naming the range and what narrows it (run has nothing that does)."""
-    from drill_cli.main import checked_overrides
+    from drill_cli.configs import checked_overrides
 
     survey = tmp_path / "curved.yaml"
     survey.write_text("well: {md: [0, 200, 500, 700, 900, 1400], inclination: [0, 0, 45, "
@@ -1946,7 +1946,7 @@ def test_trains_help_names_where_the_shipped_hyperparameters_lie(capsys):
     """Installed from a wheel, "default: training/hyperparams/<task>.yml" read as a path
     in the working folder, where `--config training/hyperparams/stick_slip.yml` was then
     refused (an outside check): the help names the installed folder."""
-    from drill_cli.main import shipped_hyperparameters
+    from drill_cli.installation import shipped_hyperparameters
     from training.config import HYPERPARAMS
 
     assert Path(shipped_hyperparameters()) == HYPERPARAMS
@@ -2049,7 +2049,7 @@ def test_a_first_run_says_it_compiles_the_kernels(tmp_path, capsys, monkeypatch)
 
     from numba import njit
 
-    import drill_cli.main as cli
+    import drill_cli.installation as cli
     from drill_env import numba_cache_dir
 
     def plus_one(x: float) -> float:
@@ -2096,7 +2096,7 @@ def test_no_kernels_cached_reads_numbas_own_cache(tmp_path):
     import subprocess
     import sys
 
-    code = ("import numpy as np\nfrom drill_cli.main import no_kernels_cached\n"
+    code = ("import numpy as np\nfrom drill_cli.installation import no_kernels_cached\n"
             "from drill_env import numba_cache_dir\n"
             "from drill_env.physics.linalg import band_cholesky\n"
             "other = numba_cache_dir() / ('physics_' + 40 * '0')\n"

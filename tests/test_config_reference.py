@@ -41,7 +41,7 @@ def test_the_reference_lists_every_section_and_field_with_its_default():
 
 def test_the_example_at_the_top_of_the_reference_is_a_valid_config(tmp_path):
     """The YAML example of docs/config.md loads as a --config file and builds a string."""
-    from drill_cli.main import read_overrides
+    from drill_cli.configs import read_overrides
     from drill_env.physics.simulator import Simulator
     from drill_env.scenarios import make_scenario, with_physics
 

@@ -152,7 +152,7 @@ def test_modes_shows_a_configs_feedback_gain_under_the_drives_that_run_a_feedbac
     """A review of the refusal above: drill-env modes tunes all four drives on the config,
     and a soft_torque config's feedback_gain made the stiff PI's law an error. The gain is
     each feedback drive's; the others have none."""
-    from drill_cli.main import top_drive_laws
+    from drill_cli.studies import top_drive_laws
 
     config = replace(make_scenario("default").config,
                      **{"top_drive.controller": "soft_torque", "top_drive.feedback_gain": 2e-3})

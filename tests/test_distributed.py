@@ -535,7 +535,7 @@ def test_joining_ray_keeps_the_commands_sigterm_handler(cluster):
     if ray.is_initialized():
         ray.shutdown()
 
-    def ours(signum, frame):  # the command's (drill_cli.main._stop_as_interrupt)
+    def ours(signum, frame):  # the command's (drill_cli.interrupts.stop_as_interrupt)
         raise AssertionError("not called here")
 
     previous = signal.signal(signal.SIGTERM, ours)

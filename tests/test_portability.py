@@ -16,7 +16,7 @@ import pytest
 def test_an_output_folder_on_a_root_that_is_not_there_is_refused(monkeypatch):
     """An unmapped drive (Z:\\) is its own parent and does not exist: the walk up to an
     existing folder never ended. Simulated: no path exists at all."""
-    from drill_cli.main import unwritable
+    from drill_cli.arguments import unwritable
 
     monkeypatch.setattr(pathlib.Path, "exists", lambda self: False)
     said = unwritable(pathlib.Path("/nowhere/out"))

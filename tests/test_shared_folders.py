@@ -176,7 +176,8 @@ def test_a_second_stability_map_into_a_held_folder_is_refused_before_any_point(
         tmp_path, capsys):
     """Two stability maps into one --out appended to one points file and each rewrote
     the JSON and the picture with its own positions only."""
-    from drill_cli.main import MAP_POINTS_FILE, main
+    from drill_cli.main import main
+    from drill_cli.studies import MAP_POINTS_FILE
 
     holder = _holder(tmp_path / "maps")
     try:
@@ -257,7 +258,7 @@ def test_an_evaluation_row_edited_by_hand_is_named_with_its_line(tmp_path):
 def test_a_home_folder_typed_after_an_equals_sign_is_the_home_folder(tmp_path,
                                                                      monkeypatch):
     """--out=~/x reaches the command unexpanded: it wrote into a folder named ~."""
-    from drill_cli.main import out_folder, shell_word
+    from drill_cli.arguments import out_folder, shell_word
 
     monkeypatch.setenv("HOME", str(tmp_path))
     monkeypatch.setenv("USERPROFILE", str(tmp_path))  # (Windows)

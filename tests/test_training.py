@@ -322,7 +322,7 @@ def test_evaluate_judges_a_fast_trained_run_in_the_full_model_when_asked(
     only was the one way (benchmark --task --fidelity full did it without the paired
     comparison)."""
     import training.evaluate as ev
-    from drill_cli.main import default_evaluation_folder
+    from drill_cli.train import default_evaluation_folder
 
     folder, _ = run
     seen = []
@@ -351,7 +351,7 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
     import signal
 
     import training.train as tt
-    from drill_cli.main import _stop_as_interrupt
+    from drill_cli.interrupts import stop_as_interrupt
     from drill_env.sweep import Terminated
 
     def lose_one() -> None:
@@ -362,7 +362,7 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
             pass  # lost, as inside a ctypes callback
 
     expected = Terminated if signum == "SIGTERM" else KeyboardInterrupt
-    previous, _ = _stop_as_interrupt()  # the command line's SIGTERM handler
+    previous, _ = stop_as_interrupt()  # the command line's SIGTERM handler
     try:
         with ctrl_c_as_in_a_terminal():
             real_make, real_crossed, calls = tt.make_train_env, tt.crossed, []
@@ -409,7 +409,7 @@ def test_an_interrupt_in_the_update_waits_for_the_update_to_end(run, tmp_path, m
 
     from stable_baselines3 import PPO
 
-    from drill_cli.main import _stop_as_interrupt
+    from drill_cli.interrupts import stop_as_interrupt
     from drill_env.sweep import Terminated
     from training.train import read_evaluations, saved_steps
 
@@ -424,7 +424,7 @@ def test_an_interrupt_in_the_update_waits_for_the_update_to_end(run, tmp_path, m
 
     monkeypatch.setattr(PPO, "train", update)
     folder = tmp_path / "cut"
-    previous, _ = _stop_as_interrupt()  # the command line's SIGTERM handler
+    previous, _ = stop_as_interrupt()  # the command line's SIGTERM handler
     try:
         with ctrl_c_as_in_a_terminal():
             with pytest.raises(Terminated if signum == "SIGTERM" else KeyboardInterrupt):
@@ -1733,7 +1733,7 @@ def test_a_log_std_init_sac_would_ignore_is_refused(tmp_path):
     # resume, as the same config
     import yaml
 
-    from drill_cli.main import saved_run_config
+    from drill_cli.train import saved_run_config
     from training.config import without_inert_keys
 
     saved = tmp_path / "config.yaml"
@@ -2577,7 +2577,7 @@ def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, cap
 
     import drill_env
     from agents.benchmark import task_settings
-    from drill_cli.main import replaced_episode_notes
+    from drill_cli.benchmark import replaced_episode_notes
     from drill_env.physics.config import replace
     from drill_env.sweep import source_digest
     from drill_env.tasks.stick_slip import StickSlipEnv

@@ -261,7 +261,7 @@ def test_a_stabilizer_component_is_a_support_whatever_its_blade_diameter():
     stabilizers) was not found, so its span went unpinned: the lowest lateral mode fell
     by a fifth and the BHA's buckling WOB by 13 % (a drilling engineer's walkthrough).
     The blade diameter does not move a pin: the modes are the same."""
-    from drill_cli.main import read_overrides
+    from drill_cli.configs import read_overrides
 
     field = read_overrides(Path(__file__).parents[2] / "examples" / "field_well_string.yaml")
     base = with_physics(make_scenario("default").config, field)
@@ -805,7 +805,7 @@ def test_string_stabilizer_diameter_pins_nothing_in_a_string_of_components():
     than an 8 in stabilizer) became a support (a review). The modes do not depend on it:
     at 0.15 m its clearance (8 cm) is wider than every collar's in this hole (7.0-7.3 cm at
     their contact diameters), which would all be pinned."""
-    from drill_cli.main import read_overrides
+    from drill_cli.configs import read_overrides
 
     field = read_overrides(Path(__file__).parents[2] / "examples" / "field_well_string.yaml")
     base = with_physics(make_scenario("default").config,

@@ -222,7 +222,7 @@ def long_string_sims():
     four drive-rate controllers."""
     import warnings
 
-    from drill_cli.main import controller_configs
+    from drill_cli.studies import controller_configs
     from drill_env.physics import components as cp
     from drill_env.physics.config import replace
     from drill_env.scenarios import make_scenario
@@ -321,7 +321,8 @@ def test_the_example_strings_threshold_under_ztorque_is_confirmed_after_a_second
 
     from scipy.optimize import brentq
 
-    from drill_cli.main import controller_configs, with_overrides
+    from drill_cli.configs import with_overrides
+    from drill_cli.studies import controller_configs
     from drill_env.scenarios import make_scenario
 
     field = Path(__file__).parents[2] / "examples" / "field_well_string.yaml"
