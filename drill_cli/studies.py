@@ -7,6 +7,7 @@ import argparse
 import dataclasses
 import json
 import math
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -82,6 +83,13 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
         configs = {p: sm.map_config(p, {**string, **controller.physics()}) for p in names}
     from drill_env.sweep import folder_lock
 
+    rpm, wob = sm.grid(args.rpm_step, args.wob_step * KILO, args.max_rpm, args.max_wob * KILO)
+    for option, step, top, last, unit in (
+            ("--max-rpm", "--rpm-step", args.max_rpm, rpm[-1], "rpm"),
+            ("--max-wob", "--wob-step", args.max_wob, wob[-1] / KILO, "kN")):
+        if last < top * (1 - 1e-9):  # (a new user's --wob-step 3 map ended at 198 kN unsaid)
+            print(f"note: {option} {top:g} {unit} is not a whole number of {step}s: the "
+                  f"map's last line is at {last:g} {unit}", file=sys.stderr)
     # two maps into one --out appended to one points file and each rewrote the
     # JSON and picture with its own positions only
     with folder_lock(args.out, "this stability map"):

@@ -483,7 +483,8 @@ def test_stability_map_command_writes_the_map_and_its_picture(tmp_path, capsys):
     # the kick's transient
     assert (data["settings"]["seconds"], data["settings"]["measure"]) == (12.0, 10.0)
     assert (tmp_path / "stability_map.png").stat().st_size > 10_000
-    assert "boundary tracking" in capsys.readouterr().out
+    said = capsys.readouterr()
+    assert "boundary tracking" in said.out and "not a whole number" not in said.err
     # another controller's maps in the same folder keep the stiff PI's (and a position
     # typed in lower case is the position: 'p4' was unknown without a hint)
     assert main(["stability-map", "--positions", "p4", "--rpm-step", "100", "--wob-step",
@@ -494,12 +495,19 @@ def test_stability_map_command_writes_the_map_and_its_picture(tmp_path, capsys):
     assert json.loads((tmp_path / "stability_map.json").read_text()) == data
     assert (tmp_path / "stability_map_z-torque.png").is_file()
     capsys.readouterr()
-    # another grid into the same file: P4's map of the old grid is left out, and said so
+    # another grid into the same file: P4's map of the old grid is left out, and said so;
+    # a step that does not divide the maximum WOB is said (a new user's --wob-step 3 map
+    # ended at 198 kN without a word)
     assert main(["stability-map", "--positions", "P1", "--rpm-step", "100", "--wob-step",
-                 "100", "--seconds", "10", "--out", str(tmp_path)]) == 0
-    assert [m["position"] for m in json.loads(
-        (tmp_path / "stability_map.json").read_text())["maps"]] == ["P1"]
-    assert "note: the maps of P4 that " in capsys.readouterr().out
+                 "90", "--seconds", "10", "--out", str(tmp_path)]) == 0
+    (m,) = json.loads((tmp_path / "stability_map.json").read_text())["maps"]
+    assert m["position"] == "P1" and m["weight_on_bit"] == [90e3, 180e3]
+    said = capsys.readouterr()
+    assert "note: the maps of P4 that " in said.out
+    assert ("note: --max-wob 200 kN is not a whole number of --wob-steps: the map's last "
+            "line is at 180 kN") in said.err
+    assert "note: --max-rpm 250 rpm is not a whole number of --rpm-steps: the map's last " \
+        "line is at 200 rpm" in said.err
 
 
 def test_stability_map_of_a_string_of_your_own(tmp_path, capsys):

@@ -269,7 +269,16 @@ def test_the_env_section_times_every_set_up_and_the_parallel_ceiling(tmp_path):
                     "physics_threads_over_one", "batched_over_loop"):
             assert positive_finite(row[key]), key
         assert row["physics_threads"] >= 1
-    assert "the machine's parallel gain now" in format_env(result)
+    text = format_env(result)
+    assert "the machine's parallel gain now" in text
+    # each N's ratios against the one env of its own rounds, printed: a reader can check
+    # loop / single (the headline one env is timed apart)
+    for name, fig in result["fidelity"].items():
+        (row,) = fig["counts"]
+        line = next(s for s in text.splitlines() if f"{name}: one env in N=2's rounds" in s)
+        assert f"{row['single_steps_per_s']:.0f}" in line
+        assert row["loop_over_single"] == pytest.approx(
+            row["loop_steps_per_s"] / row["single_steps_per_s"])
 
 
 def test_the_commit_recorded_is_drill_envs_own_not_an_enclosing_repositorys(tmp_path):

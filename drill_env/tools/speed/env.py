@@ -249,6 +249,10 @@ def format_env(result: dict[str, Any]) -> str:
         for c in fig["counts"]:
             n = c["num_envs"]
             envs = f"{n} envs" if n > 1 else "1 env"
+            # the reference of this N's ratios, timed in its rounds (the headline one env,
+            # timed alone and shorter, could not check them: a new user's trial)
+            rows.append((f"  {name}: one env in N={n}'s rounds",
+                         f"{c['single_steps_per_s']:.0f}", "1.00", ""))
             rows.append((f"{name}: {envs} looped", f"{c['loop_steps_per_s']:.0f}",
                          f"{c['loop_over_single']:.2f}", ""))
             rows.append((f"{name}: batched, N={n}", f"{c['batched_steps_per_s']:.0f}",
@@ -278,7 +282,7 @@ def format_env(result: dict[str, Any]) -> str:
                  f"Python share: a constant one); batched: the Gymnasium VectorEnv (SB3 "
                  f"VecEnv: the Stable-Baselines3 one), one numba prange call over the envs, "
                  f"{result['cores']} cores; x one env: against one env timed in the same "
-                 f"rounds; best of repeats")
+                 f"rounds (its row above each N's); best of repeats")
     return table("Env throughput", ("configuration", "env steps/s", "x one env", "x loop"),
                   rows, "\n".join(notes))
 
