@@ -1,6 +1,7 @@
 """Controllers for the drill-string envs: one interface for classical and learned ones
 (:mod:`agents.base`), a registry by name (:mod:`agents.registry`), the benchmark that
-compares them (:mod:`agents.benchmark`), the trivial policies a learned one must beat
+compares them (:mod:`agents.benchmark`, over :mod:`agents.settings`, :mod:`agents.episode`
+and :mod:`agents.tables`), the trivial policies a learned one must beat
 (:mod:`agents.trivial`)."""
 
 import drill_env  # noqa: F401, I001  (first: sets OMP_WAIT_POLICY before torch loads OpenMP)

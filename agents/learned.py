@@ -132,7 +132,7 @@ def sb3_policy(model: str | Path, statistics: str | Path | None = None, *, algo:
     when it is called."""
     import gymnasium
 
-    from agents.benchmark import CHOOSES_RPM
+    from agents.tables import CHOOSES_RPM
     from drill_env.vector import registered
 
     try:

@@ -148,7 +148,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
     whisker past it is cut at the edge, with an arrowhead there.
     ``title``: what the benchmark was (benchmark.md's heading: its --config file, the set
     points given on the command line, a task and its seeds)."""
-    from agents.benchmark import growing, mean_interval, not_drilling
+    from agents.tables import growing, mean_interval, not_drilling
 
     colours = _colours(controllers)
     panels = (*BARS, RETURN_BAR) if with_return else BARS
@@ -177,7 +177,7 @@ def bar_chart(rows: Sequence[dict[str, Any]], controllers: Sequence[str],
                        label=c if j == 0 else None)
                 bars.append((x, mean, colours[c]))
                 # the table's marks: a stick-slip still building that the window's SSI
-                # does not show yet (agents.benchmark.window_swing_trend), a bit that
+                # does not show yet (agents.episode.window_swing_trend), a bit that
                 # drilled nothing (its SSI 0: no swing of a bit that never turns)
                 said = [word for word, hit in (("growing", growing),
                                                ("not drilling", not_drilling))

@@ -222,7 +222,7 @@ _CONSTANT_LABEL = re.compile(r"constant-(.+)rpm-(.+)kN")
 
 def canonical(name: str) -> str:
     """``name`` as the registry takes it: a table's name of constant set points
-    (``constant-120rpm-100kN``, :func:`agents.benchmark.label`) is ``constant:120/100``,
+    (``constant-120rpm-100kN``, :func:`agents.settings.label`) is ``constant:120/100``,
     so a row of ``benchmark.csv`` can be run again by its name; other names as given.
     A trained run's table name (``learned-<folder>``) cannot say where its folder is: it
     is refused with the form to give."""

@@ -28,7 +28,7 @@ HELD_LABEL = re.compile(rf"held((?:{_SIGNED})+)")
 class _ActionSpacePolicy:
     """What both share: a policy of any env (``env_id`` is the plain env, so the
     benchmark lets it act in a task's env too, as the set-point controllers do). Whether
-    it chooses its own rpm is the benchmark's to say (``agents.benchmark.sets_own_speed``:
+    it chooses its own rpm is the benchmark's to say (``agents.tables.sets_own_speed``:
     not in task 1, whose action corrects the speed around the driller's target)."""
 
     name: ClassVar[str]

@@ -21,9 +21,10 @@ def replaced_episode_notes(controllers: Sequence[str], env_id: str,
     under and a task benchmark replaces by its own, as ``evaluate`` says them: a run's
     (``learned:RUN``) and a controller of your own's ``env_kwargs()`` (an ``sb3_policy``
     trained on 60 s episodes was run on the benchmark's without a word)."""
-    from agents.benchmark import declared_env_kwargs, replaced_episode_settings
+    from agents.benchmark import replaced_episode_settings
     from agents.learned import moved_settings_note, policy_folder, trained_env
     from agents.registry import is_imported, make_controller
+    from agents.settings import declared_env_kwargs
 
     notes = []
     for name in controllers:
@@ -82,7 +83,7 @@ def same_episodes(scenarios: Sequence[str], set_points: dict[str, float]
 def benchmark_set_points(args: argparse.Namespace, env_id: str | None) -> dict[str, float]:
     """``--rpm`` / ``--wob`` as BenchmarkSettings' set points (rad/s, N), checked against
     DrillString-v0's set-point ranges; refused with ``--task``."""
-    from agents.benchmark import set_point_outside
+    from agents.settings import set_point_outside
     from drill_env.env import EnvConfig
 
     given = {flag: value for flag, value in (("--rpm", args.rpm), ("--wob", args.wob))
@@ -143,8 +144,9 @@ def tension_notes(config: Any, wob: float) -> list[str]:
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
-    from agents.benchmark import BenchmarkSettings, labels, run_benchmark
+    from agents.benchmark import run_benchmark
     from agents.registry import parse_controllers
+    from agents.settings import BenchmarkSettings, labels
     from drill_env.scenarios import SCENARIOS
 
     try:
@@ -241,7 +243,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if env_id is not None:
         for note in replaced_episode_notes(controllers, env_id, scenarios, settings):
             print(note, file=sys.stderr)
-        from agents.benchmark import set_point_guests
+        from agents.settings import set_point_guests
 
         for name in set_point_guests(controllers, env_id):
             print(f"note: {name} is a policy of DrillString-v0: in {env_id} its act gets the "

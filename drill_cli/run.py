@@ -32,8 +32,9 @@ from drill_env.swing import SWING_BLOCK, swing_per_block, swing_trend
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from agents.benchmark import BenchmarkSettings, run_benchmark
+    from agents.benchmark import run_benchmark
     from agents.registry import CLASSICAL
+    from agents.settings import BenchmarkSettings
     from drill_env.tools.demo import stick_slip_demo
 
     _, reproduced = stick_slip_demo(args.out)
@@ -68,14 +69,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import drill_env  # noqa: F401  (registers the ids)
-    from agents.benchmark import (
+    from agents.classical import ConstantSetPoints, drive_loop_name
+    from agents.settings import (
         env_ranges,
         guest_env_kwargs,
         scenario_set_points,
         set_point_outside,
         starting_at,
     )
-    from agents.classical import ConstantSetPoints, drive_loop_name
 
     args.controller = canonical_controller(args.controller)
     controller = typed_controller(args.controller)
@@ -144,7 +145,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.record is not None and (reason := unwritable(args.record)):
         raise argparse.ArgumentTypeError(f"--record {args.record}: {reason}")
     if args.record is not None:
-        from agents.benchmark import label
+        from agents.settings import label
         from drill_env.recording import RecordEpisode
 
         # <controller>_<scenario>_seed<seed>_ep..., the benchmark's order; the --config
@@ -153,8 +154,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             else f"{args.scenario}+{args.config.stem}"
         env = RecordEpisode(env, args.record, scenario=scenario,
                             controller=label(args.controller))
-    from agents.benchmark import act
-    from agents.benchmark import reset as reset_controller
+    from agents.episode import act
+    from agents.episode import reset as reset_controller
     from drill_env.physics.statics import pipe_buckling
 
     t0 = time.perf_counter()

@@ -105,7 +105,7 @@ def cmd_stability_map(args: argparse.Namespace) -> int:
         print(f"{runs} simulations of {args.seconds:.0f} s for {cells} grid points (boundary "
               f"tracking; finished points are kept in {store} and reused by a rerun) in "
               f"{time.perf_counter() - t0:.1f} s")
-        from agents.benchmark import label  # your own controller by its table name
+        from agents.settings import label
 
         name = label(args.controller or "stiff")
         source = None if args.config is None else str(args.config.resolve())  # one per file

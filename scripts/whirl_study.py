@@ -33,7 +33,8 @@ import statistics
 from pathlib import Path
 from typing import Any
 
-from agents.benchmark import BenchmarkSettings, run_benchmark
+from agents.benchmark import run_benchmark
+from agents.settings import BenchmarkSettings
 from drill_env.physics.fidelity import FAST_CRITICAL_STEP_FRACTION, FAST_PIPE_ELEMENT_LENGTH
 from drill_env.scenarios import EVALUATION_SEEDS
 

@@ -17,6 +17,9 @@ import numpy as np
 import pytest
 
 import agents.benchmark as bm
+import agents.episode as be
+import agents.settings as bs
+import agents.tables as bt
 from agents.learned import TRAINED
 from drill_cli.main import main
 from drill_env.physics.config import flatten
@@ -26,7 +29,7 @@ SPEC_COLUMNS = ["controller", "scenario", "seed", "ssi", "stuck_fraction", "mean
                 "target_rpm", "rpm_tracking_error", "rop_m_per_h", "radial_ratio",
                 "backward_whirl_fraction", "max_lateral_force_kN", "mse_MPa",
                 "top_drive_energy_MJ", "episode_return"]
-SHORT = bm.BenchmarkSettings(duration=6.0, warmup=2.0)
+SHORT = bs.BenchmarkSettings(duration=6.0, warmup=2.0)
 
 
 def test_benchmark_command_writes_table_summary_plots_and_recordings(tmp_path, capsys):
@@ -59,7 +62,7 @@ def test_benchmark_csv_holds_numbers_to_six_significant_digits(tmp_path):
     row = {"controller": "stiff", "scenario": "stick_slip", "seed": 3,
            **{c: 1.0 / 3.0 for c in SPEC_COLUMNS[3:]}, "mse_MPa": 2.0e4 / 3.0,
            "episode_return": -7}
-    bm.write_csv([row], tmp_path / "benchmark.csv")
+    bt.write_csv([row], tmp_path / "benchmark.csv")
     with (tmp_path / "benchmark.csv").open(newline="") as f:
         header, body = list(csv.reader(f))
     assert header == SPEC_COLUMNS
@@ -70,7 +73,7 @@ def test_benchmark_csv_holds_numbers_to_six_significant_digits(tmp_path):
 
 
 def test_two_seeds_start_different_episodes():
-    rows = [bm.run_episode(bm.Episode("stiff", "stick_slip", seed, vars(SHORT), "unused"))
+    rows = [be.run_episode(bs.Episode("stiff", "stick_slip", seed, vars(SHORT), "unused"))
             for seed in (0, 1)]
     assert rows[0]["mean_bit_rpm"] != rows[1]["mean_bit_rpm"]
 
@@ -87,13 +90,13 @@ def test_a_rows_values_are_its_episodes_measured_window_and_summed_reward(tmp_pa
     from drill_env.physics.units import RPM
 
     name = "constant:100/100"
-    row = bm.run_episode(bm.Episode(name, "stick_slip", 0, vars(SHORT), str(tmp_path),
+    row = be.run_episode(bs.Episode(name, "stick_slip", 0, vars(SHORT), str(tmp_path),
                                     series=True))
     assert row["target_rpm"] == pytest.approx(50.0)
     assert row["rpm_tracking_error"] == pytest.approx(
         abs(row["mean_bit_rpm"] - 50.0) / 50.0, rel=1e-12)
     assert row["rpm_tracking_error"] > 0.9  # the bit turns at ~100 rpm
-    series = np.load(tmp_path / "series" / f"{bm.label(name)}_stick_slip_seed0.npz")
+    series = np.load(tmp_path / "series" / f"{bs.label(name)}_stick_slip_seed0.npz")
     after = series["time"] >= SHORT.warmup - 1e-9  # the episode starts at t = 0
     assert 0 < after.sum() < len(after)
     assert row["mean_bit_rpm"] == pytest.approx(
@@ -113,7 +116,7 @@ def test_a_rows_values_are_its_episodes_measured_window_and_summed_reward(tmp_pa
 
 def test_an_interrupted_benchmark_keeps_its_rows_and_reruns_only_the_rest(tmp_path,
                                                                           monkeypatch):
-    real = bm.run_episode
+    real = be.run_episode
     calls: list[str] = []
 
     def interrupted_after_two(episode):
@@ -156,16 +159,16 @@ def test_physics_that_would_make_every_controller_one_is_refused(tmp_path, capsy
                     {"top_drive.feedback_gain": 1e-3}):  # the rules' 1/Z
         key = next(iter(flatten(physics)))
         with pytest.raises(ConfigError, match=f"physics.{key}: the benchmark gives each"):
-            bm.BenchmarkSettings(duration=6.0, warmup=2.0, physics=physics)
-    bm.BenchmarkSettings(duration=6.0, warmup=2.0,
+            bs.BenchmarkSettings(duration=6.0, warmup=2.0, physics=physics)
+    bs.BenchmarkSettings(duration=6.0, warmup=2.0,
                          physics={"top_drive": {"impedance_factor": 3.0}})
     # a misspelt field or level fails when the settings are made, not in the workers
     with pytest.raises(ConfigError, match="physics.mud.densty: unknown field of MudConfig"):
-        bm.BenchmarkSettings(duration=6.0, warmup=2.0, physics={"mud.densty": 1300.0})
+        bs.BenchmarkSettings(duration=6.0, warmup=2.0, physics={"mud.densty": 1300.0})
     with pytest.raises(ConfigError, match="fidelity: Input should be 'full' or 'fast'"):
-        bm.BenchmarkSettings(duration=6.0, warmup=2.0, fidelity="fsat")
+        bs.BenchmarkSettings(duration=6.0, warmup=2.0, fidelity="fsat")
     # values for a scenario's own string (components the default config lacks) pass
-    bm.BenchmarkSettings(duration=6.0, warmup=2.0,
+    bs.BenchmarkSettings(duration=6.0, warmup=2.0,
                          physics={"string.components[2].length": 20.0})
     config = tmp_path / "drive.yaml"
     config.write_text("top_drive:\n  integral_gain: 10.0\n")
@@ -198,15 +201,15 @@ def test_a_warmup_as_long_as_the_episode_is_refused():
     """BenchmarkSettings: the warm-up, left out of the metrics, must be shorter than the
     episode (its error says so): one as long leaves nothing to measure."""
     with pytest.raises(ValueError, match=r"^warmup: 6.0 s must be shorter than the duration"):
-        bm.BenchmarkSettings(duration=6.0, warmup=6.0)
-    assert bm.BenchmarkSettings(duration=6.0, warmup=5.5).warmup == 5.5
+        bs.BenchmarkSettings(duration=6.0, warmup=6.0)
+    assert bs.BenchmarkSettings(duration=6.0, warmup=5.5).warmup == 5.5
 
 
 def test_a_policy_of_another_task_is_refused_before_any_episode(tmp_path):
     """It was refused in its first episode, after the other controllers had run."""
     with pytest.raises(ValueError, match="learned:.*drilling is a policy of "
                                          "DrillOptimise-v0; it cannot act in DrillStickSlip-v0"):
-        bm.task_settings(["soft-speed", f"learned:{TRAINED / 'drilling'}"],
+        bs.task_settings(["soft-speed", f"learned:{TRAINED / 'drilling'}"],
                          "DrillStickSlip-v0")
 
 
@@ -249,14 +252,14 @@ def test_a_policy_of_your_own_acts_under_its_env_kwargs_and_only_in_its_task(tmp
                                       .replace("KWARGS", "{'max_correction': 15.0}"))
     (tmp_path / "other.py").write_text(OWN_POLICY.replace("ENV", "DrillOptimise-v0")
                                        .replace("KWARGS", "{}"))
-    assert bm.task_settings(["mine.py:Full", "stiff"], "DrillStickSlip-v0") == {
+    assert bs.task_settings(["mine.py:Full", "stiff"], "DrillStickSlip-v0") == {
         "max_correction": 15.0}
     rows = bm.run_benchmark(["mine.py:Full"], ["random"], [0], tmp_path / "out", SHORT,
                             workers=1, progress=False, env_id="DrillStickSlip-v0")
     assert len(rows) == 1
     assert (tmp_path / "seen.txt").read_text().split() == ["15.0"]
     with pytest.raises(ValueError, match="trained on different DrillStickSlip-v0 settings"):
-        bm.task_settings(["mine.py:Full", "learned"], "DrillStickSlip-v0")
+        bs.task_settings(["mine.py:Full", "learned"], "DrillStickSlip-v0")
     with pytest.raises(ValueError, match=r"other\.py:Full is a policy of DrillOptimise-v0; "
                                          "it cannot act in DrillStickSlip-v0"):
         bm.run_benchmark(["stiff", "other.py:Full"], ["random"], [0], tmp_path / "x", SHORT,
@@ -267,7 +270,7 @@ def test_a_policy_of_your_own_acts_under_its_env_kwargs_and_only_in_its_task(tmp
                                      .replace("return KWARGS", "return None"))
     with pytest.raises(ValueError, match=r"^controller: bad\.py:Full\.env_kwargs\(\) "
                                          "returned None, not a dict of env keywords"):
-        bm.task_settings(["bad.py:Full"], "DrillStickSlip-v0")
+        bs.task_settings(["bad.py:Full"], "DrillStickSlip-v0")
     # a model's policy of DrillString-v0 reads its observation: refused in a task (a
     # set-point controller of DrillString-v0, as the driller, acts through action_for)
     (tmp_path / "base.py").write_text(
@@ -276,7 +279,7 @@ def test_a_policy_of_your_own_acts_under_its_env_kwargs_and_only_in_its_task(tmp
         "env_id='DrillString-v0', name='base')\n")
     with pytest.raises(ValueError, match="base.py:Base is a policy of DrillString-v0; it "
                                          "cannot act in DrillStickSlip-v0"):
-        bm.task_settings(["driller", "base.py:Base"], "DrillStickSlip-v0")
+        bs.task_settings(["driller", "base.py:Base"], "DrillStickSlip-v0")
 
 
 def test_a_set_point_policy_of_drill_string_in_a_task_is_named_and_keeps_its_own_settings(
@@ -294,15 +297,15 @@ def test_a_set_point_policy_of_drill_string_in_a_task_is_named_and_keeps_its_own
         "    name = 'slow'\n    rate = 'policy'\n\n"
         "    def env_kwargs(self):\n        return {'sensors': 'surface'}\n\n"
         "class Drive(Slow):\n    name = 'drive'\n    rate = 'drive'\n")
-    assert bm.task_settings(["stiff", "mine.py:Slow"], "DrillStickSlip-v0") == {}
-    assert bm.set_point_guests(["stiff", "driller", "mine.py:Slow", "mine.py:Drive"],
+    assert bs.task_settings(["stiff", "mine.py:Slow"], "DrillStickSlip-v0") == {}
+    assert bs.set_point_guests(["stiff", "driller", "mine.py:Slow", "mine.py:Drive"],
                                "DrillStickSlip-v0") == ["mine.py:Slow"]
-    assert bm.set_point_guests(["mine.py:Slow"], "DrillString-v0") == []
+    assert bs.set_point_guests(["mine.py:Slow"], "DrillString-v0") == []
     (tmp_path / "task.py").write_text(OWN_POLICY.replace("ENV", "DrillStickSlip-v0")
                                       .replace("KWARGS", "{'sensors': 'surface'}"))
     with pytest.raises(ValueError, match=r"^controllers: task\.py:Full\.env_kwargs\(\): "
                                          "sensors: StickSlipEnv does not use sensors"):
-        bm.task_settings(["stiff", "task.py:Full"], "DrillStickSlip-v0")
+        bs.task_settings(["stiff", "task.py:Full"], "DrillStickSlip-v0")
 
 
 def test_changed_settings_do_not_reuse_old_rows_and_say_so(tmp_path, capsys):
@@ -311,7 +314,7 @@ def test_changed_settings_do_not_reuse_old_rows_and_say_so(tmp_path, capsys):
     how many half-written lines it skipped."""
     bm.run_benchmark(["stiff"], ["stick_slip"], [0], tmp_path, SHORT, workers=1,
                      progress=False)
-    other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
+    other = bs.BenchmarkSettings(duration=5.0, warmup=2.0)
     assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(SHORT))) == 1
     assert len(ResultStore(tmp_path / bm.RESULTS_FILE, bm.fingerprint(other))) == 0
     with (tmp_path / bm.RESULTS_FILE).open("a") as f:
@@ -343,7 +346,7 @@ def test_a_stored_row_is_sound_only_with_a_number_in_every_metric_column():
     """``sound_row``'s docstring: a stored row is reused only with numbers where the
     metrics are (SPEC section 5's columns after controller, scenario and seed); text or a
     boolean in any one of them is an edit, and its episode runs again."""
-    episode = bm.Episode("stiff", "stick_slip", 0, {}, "")
+    episode = bs.Episode("stiff", "stick_slip", 0, {}, "")
     row = {"controller": "stiff", "scenario": "stick_slip", "seed": 0,
            **{c: 1.0 for c in SPEC_COLUMNS[3:]}, "episode_return": -2}
     assert bm.sound_row(row, episode)
@@ -461,7 +464,7 @@ def test_source_digest_follows_the_files(tmp_path, monkeypatch):
 def test_a_rerun_writes_the_recordings_that_are_missing(tmp_path, monkeypatch, capsys):
     """Stored rows are reused, except where ``--record`` asks for a recording that is not
     there; the run says how many it reused."""
-    real = bm.run_episode
+    real = be.run_episode
     calls: list[str] = []
     monkeypatch.setattr(bm, "run_episode", lambda e: calls.append(e.key) or real(e))
     args = (["stiff", "z-torque"], ["stick_slip"], [0], tmp_path, SHORT)
@@ -488,8 +491,8 @@ def test_a_rerun_without_record_sets_aside_the_recordings_of_other_settings(tmp_
     recordings/other_runs/<their run's stamp>/, one folder per run (both seeds of a run
     together; they went to one folder per episode), so a second set-aside keeps the
     first; a recording of the table's own rows stays."""
-    other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
-    third = bm.BenchmarkSettings(duration=4.0, warmup=2.0)
+    other = bs.BenchmarkSettings(duration=5.0, warmup=2.0)
+    third = bs.BenchmarkSettings(duration=4.0, warmup=2.0)
     args = (["stiff"], ["stick_slip"], [0, 1], tmp_path)
     recordings = [tmp_path / "recordings" / f"stiff_stick_slip_seed{k}.rrd" for k in (0, 1)]
     sidecars = [r.with_name(r.name + ".stamp") for r in recordings]
@@ -522,7 +525,7 @@ def test_a_rerun_with_record_keeps_the_recordings_of_other_settings(tmp_path, ca
     """Two recorded benchmarks of other settings into one folder: the second's
     recordings replaced the first's under the same names, silently. Now the first's are
     set aside before the second records."""
-    other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
+    other = bs.BenchmarkSettings(duration=5.0, warmup=2.0)
     args = (["stiff"], ["stick_slip"], [0], tmp_path)
     recording = tmp_path / "recordings" / "stiff_stick_slip_seed0.rrd"
     sidecar = recording.with_name(recording.name + ".stamp")
@@ -541,7 +544,7 @@ def test_a_recording_whose_stamp_is_damaged_is_set_aside_as_unstamped(tmp_path):
     """``set_aside_stale_recordings``: a recording of another run goes to
     recordings/other_runs/<its run's stamp>/, "a damaged stamp is not a path": one that
     reads as a path goes to other_runs/unstamped, not where the path points."""
-    episode = bm.Episode("stiff", "stick_slip", 0, {}, str(tmp_path), record=True,
+    episode = bs.Episode("stiff", "stick_slip", 0, {}, str(tmp_path), record=True,
                          stamp="this", run="thisrun")
     episode.recording.parent.mkdir(parents=True)
     episode.recording.write_bytes(b"another run's")
@@ -558,10 +561,10 @@ def test_a_row_is_reused_only_with_the_series_and_recording_of_its_own_run(tmp_p
     """A benchmark into a folder that a run of other settings used: a stored row came
     back with that run's recording (and series, drawn in the picture) beside it; a row
     whose series file was deleted came back without its picture."""
-    real = bm.run_episode
+    real = be.run_episode
     calls: list[str] = []
     monkeypatch.setattr(bm, "run_episode", lambda e: calls.append(e.key) or real(e))
-    other = bm.BenchmarkSettings(duration=5.0, warmup=2.0)
+    other = bs.BenchmarkSettings(duration=5.0, warmup=2.0)
     args = (["stiff"], ["stick_slip"], [0])
     bm.run_benchmark(*args, tmp_path, SHORT, workers=1, record=True, progress=False)
     bm.run_benchmark(*args, tmp_path, other, workers=1, record=True, progress=False)
@@ -597,7 +600,7 @@ def test_the_series_picture_draws_the_first_seed_of_this_benchmark(tmp_path, mon
     for seed in (10, 2):
         (tmp_path / "series" / f"stiff_stick_slip_seed{seed}.npz").write_bytes(
             (tmp_path / "series" / "stiff_stick_slip_seed0.npz").read_bytes())
-    bm.write_outputs([_row("stiff", "stick_slip")], tmp_path, ["stiff"], ["stick_slip"],
+    bt.write_outputs([_row("stiff", "stick_slip")], tmp_path, ["stiff"], ["stick_slip"],
                      SHORT, first_seed=2)
     assert drawn == ["stiff_stick_slip_seed2.npz"]
 
@@ -668,22 +671,22 @@ def test_benchmark_names_bad_input(capsys):
 
 
 def test_every_controller_gets_its_own_table_name():
-    assert bm.labels(["learned", "learned:/runs/a", "stiff"]) == ["learned", "learned-a",
+    assert bs.labels(["learned", "learned:/runs/a", "stiff"]) == ["learned", "learned-a",
                                                                    "stiff"]
-    assert bm.labels(["learned:/runs/a"]) == ["learned"]  # alone it is "the" policy
+    assert bs.labels(["learned:/runs/a"]) == ["learned"]  # alone it is "the" policy
     # a run folder named relative, as an identifier: still the registry's learned:<run
     # folder>, not the import form <module>:<class> of a controller of one's own
-    assert bm.labels(["learned:run1", "stiff"]) == ["learned", "stiff"]
+    assert bs.labels(["learned:run1", "stiff"]) == ["learned", "stiff"]
     with pytest.raises(ValueError, match="'stiff' is given twice"):
-        bm.labels(["stiff", "stiff"])
+        bs.labels(["stiff", "stiff"])
     with pytest.raises(ValueError, match="share the name 'learned-run'"):
-        bm.labels(["learned:/x/run", "learned:/y/run", "learned"])
+        bs.labels(["learned:/x/run", "learned:/y/run", "learned"])
     # set points have one name however they are typed
-    assert bm.labels(["constant:1e2/90.0", "constant:120/100"]) == [
+    assert bs.labels(["constant:1e2/90.0", "constant:120/100"]) == [
         "constant-100rpm-90kN", "constant-120rpm-100kN"]
     with pytest.raises(ValueError, match="constant:1e2/100, constant:100/100 are the same"):
-        bm.labels(["constant:1e2/100", "constant:100/100"])
-    assert bm.labels(["constant:123.4567/100", "constant:123.4568/100"]) == [
+        bs.labels(["constant:1e2/100", "constant:100/100"])
+    assert bs.labels(["constant:123.4567/100", "constant:123.4568/100"]) == [
         "constant-123.4567rpm-100kN", "constant-123.4568rpm-100kN"]  # apart, as typed
 
 
@@ -694,9 +697,9 @@ def test_a_table_name_of_set_points_runs_them_again():
     from agents.registry import make_controller, parse_controllers
 
     for typed in ("constant:160/65", "constant:1e2/90.5"):
-        table = bm.label(typed)
+        table = bs.label(typed)
         (again,) = parse_controllers(table)
-        assert bm.label(again) == table
+        assert bs.label(again) == table
         assert make_controller(table).physics() == make_controller(typed).physics()
         assert (make_controller(table).speed, make_controller(table).weight_on_bit) == (
             make_controller(typed).speed, make_controller(typed).weight_on_bit)
@@ -758,7 +761,7 @@ def test_the_series_chart_lays_out_a_sweep_of_many_controllers(tmp_path):
 
     from agents.plots import series_chart
 
-    names = [bm.label(f"constant:{r}/{w}") for r in (40, 80, 120, 160, 200)
+    names = [bs.label(f"constant:{r}/{w}") for r in (40, 80, 120, 160, 200)
              for w in (40, 65, 90, 115, 140)]
     t = np.linspace(0.0, 10.0, 101)
     for k, name in enumerate(names):
@@ -1112,7 +1115,7 @@ def test_benchmark_md_shows_the_series_picture_of_every_scenario(tmp_path):
 
     scenarios = ["default", "stick_slip"]
     _series(tmp_path, ["stiff"], scenarios)
-    bm.write_outputs([_row("stiff", s) for s in scenarios], tmp_path, ["stiff"], scenarios,
+    bt.write_outputs([_row("stiff", s) for s in scenarios], tmp_path, ["stiff"], scenarios,
                      SHORT)
     lines = (tmp_path / "benchmark.md").read_text().splitlines()
     for s in scenarios:
@@ -1137,20 +1140,20 @@ def test_the_rpm_error_of_a_controller_that_sets_its_own_speed_is_marked(tmp_pat
             _row("driller", "stick_slip", rpm_tracking_error=0.582, mean_bit_rpm=79.1),
             _row("learned", "stick_slip", rpm_tracking_error=1.87),
             _row("constant-120rpm-100kN", "stick_slip", rpm_tracking_error=1.4)]
-    table = bm.summary_table(rows, names, ["stick_slip"])
-    error = [h for _, h, _ in bm.SUMMARY].index("rpm error") + 3
+    table = bt.summary_table(rows, names, ["stick_slip"])
+    error = [h for _, h, _ in bt.SUMMARY].index("rpm error") + 3
     cells = {r[1]: r[error] for r in table}
     assert cells["stiff"] == "2.0%"
-    assert cells["driller"] == f"58.2% {bm.OWN_SPEED_MARK}"
+    assert cells["driller"] == f"58.2% {bt.OWN_SPEED_MARK}"
     assert cells["learned"] == "187.0%"  # the stick-slip task's policy tracks the target
-    assert cells["constant-120rpm-100kN"].endswith(bm.OWN_SPEED_MARK)
-    drilling = {r[1]: r[error] for r in bm.summary_table(rows, names, ["stick_slip"],
+    assert cells["constant-120rpm-100kN"].endswith(bt.OWN_SPEED_MARK)
+    drilling = {r[1]: r[error] for r in bt.summary_table(rows, names, ["stick_slip"],
                                                          "DrillOptimise-v0")}
-    assert drilling["learned"] == f"187.0% {bm.OWN_SPEED_MARK}"
+    assert drilling["learned"] == f"187.0% {bt.OWN_SPEED_MARK}"
     assert drilling["stiff"] == "2.0%"
-    bm.write_outputs(rows, tmp_path, names, ["stick_slip"], SHORT)
+    bt.write_outputs(rows, tmp_path, names, ["stick_slip"], SHORT)
     text = (tmp_path / "benchmark.md").read_text()
-    assert f"| 58.2% {bm.OWN_SPEED_MARK} |" in text and bm.OWN_SPEED_NOTE in text
+    assert f"| 58.2% {bt.OWN_SPEED_MARK} |" in text and bt.OWN_SPEED_NOTE in text
     printed = " ".join(capsys.readouterr().out.split())  # rich wraps the note
     assert "sets its own speed" in printed and "not a failure to track it" in printed
     with (tmp_path / "benchmark.csv").open() as f:
@@ -1161,13 +1164,13 @@ def test_the_rpm_error_of_a_controller_that_sets_its_own_speed_is_marked(tmp_pat
     # a learned row's sensors and rate are not the classical drives': said under the table,
     # also where several runs are labelled learned-<run> (labels())
     assert "Sensors: a learned policy reads its env's observation" in text
-    assert bm.labels(["learned:/runs/a", "learned:/runs/b"]) == ["learned-a", "learned-b"]
-    bm.write_outputs([_row("learned-a", "stick_slip")], tmp_path, ["learned-a"],
+    assert bs.labels(["learned:/runs/a", "learned:/runs/b"]) == ["learned-a", "learned-b"]
+    bt.write_outputs([_row("learned-a", "stick_slip")], tmp_path, ["learned-a"],
                      ["stick_slip"], SHORT)
     assert "Sensors: a learned policy" in (tmp_path / "benchmark.md").read_text()
-    bm.write_outputs(rows[:1], tmp_path, ["stiff"], ["stick_slip"], SHORT)
+    bt.write_outputs(rows[:1], tmp_path, ["stiff"], ["stick_slip"], SHORT)
     text = (tmp_path / "benchmark.md").read_text()
-    assert bm.OWN_SPEED_MARK not in text and "Sensors:" not in text  # no footnotes
+    assert bt.OWN_SPEED_MARK not in text and "Sensors:" not in text  # no footnotes
 
 
 def test_a_drilling_policy_is_marked_as_a_guest_in_a_scenario_benchmark():
@@ -1178,14 +1181,14 @@ def test_a_drilling_policy_is_marked_as_a_guest_in_a_scenario_benchmark():
 
     names = [f"learned:{TRAINED / 'drilling'}", "learned", "stiff"]
     rows = {}
-    for name, table_name in zip(names, bm.labels(names), strict=True):
-        episode = bm.Episode(name, "stick_slip", 0, vars(SHORT), "unused", name=table_name)
-        rows[table_name] = bm.run_episode(episode)
+    for name, table_name in zip(names, bs.labels(names), strict=True):
+        episode = bs.Episode(name, "stick_slip", 0, vars(SHORT), "unused", name=table_name)
+        rows[table_name] = be.run_episode(episode)
     assert {n: r["own_speed"] for n, r in rows.items()} == {
         "learned-drilling": True, "learned": False, "stiff": False}
-    table = bm.summary_table(list(rows.values()), list(rows), ["stick_slip"])
-    error = [h for _, h, _ in bm.SUMMARY].index("rpm error") + 3
-    marked = {r[1]: r[error].endswith(bm.OWN_SPEED_MARK) for r in table}
+    table = bt.summary_table(list(rows.values()), list(rows), ["stick_slip"])
+    error = [h for _, h, _ in bt.SUMMARY].index("rpm error") + 3
+    marked = {r[1]: r[error].endswith(bt.OWN_SPEED_MARK) for r in table}
     assert marked == {"learned-drilling": True, "learned": False, "stiff": False}
 
 
@@ -1216,7 +1219,7 @@ def test_a_task_benchmark_runs_every_controller_under_the_policys_task_settings(
                                          "effort", "failure")}
     trained = _policy_trained_with(tmp_path / "run", {
         **zero, "physics": {"mud": {"density": 1250.0}}, "episode_duration": 3.0})
-    assert bm.task_settings([trained, "stiff"], "DrillStickSlip-v0") == {
+    assert bs.task_settings([trained, "stiff"], "DrillStickSlip-v0") == {
         **zero, "physics": {"mud.density": 1250.0}}  # the benchmark sets the duration
     rows = bm.run_benchmark([trained, "stiff"], ["random"], [0], tmp_path / "out", SHORT,
                             progress=False, env_id="DrillStickSlip-v0")
@@ -1234,8 +1237,8 @@ def test_a_task_benchmark_runs_every_controller_under_the_policys_task_settings(
     same = _policy_trained_with(tmp_path / "same", {"physics": None, "stick_slip_weight": 1,
                                                      "telemetry": "mud_pulse",
                                                      "rpm_targets": [40, 100]})
-    assert bm.task_settings([same, "learned"], "DrillStickSlip-v0") == {}
-    guest = bm.run_episode(bm.Episode(trained, "stick_slip", 0, vars(SHORT), "unused"))
+    assert bs.task_settings([same, "learned"], "DrillStickSlip-v0") == {}
+    guest = be.run_episode(bs.Episode(trained, "stick_slip", 0, vars(SHORT), "unused"))
     # a guest: scored by DrillString-v0's reward, a finite number like the others'
     assert math.isfinite(guest["episode_return"]) and guest["mean_bit_rpm"] > 0.0
 
@@ -1248,7 +1251,7 @@ def test_the_tables_show_no_negative_zero(tmp_path, capsys):
                  rop_m_per_h=-0.0, stuck_fraction=-0.001, ssi=-0.0),
             _row("stiff", "stick_slip", seed=1, mean_bit_rpm=-0.01, episode_return=-0.02,
                  rop_m_per_h=-0.0, stuck_fraction=-0.002, ssi=-0.0)]
-    bm.write_outputs(rows, tmp_path, ["stiff"], ["stick_slip"], SHORT)
+    bt.write_outputs(rows, tmp_path, ["stiff"], ["stick_slip"], SHORT)
     negative_zero = re.compile(r"(?<![\d.])-0(\.0*)?%?(?![\d.])")
     text = (tmp_path / "benchmark.md").read_text()
     # two seeds: the intervals' t(0.975, 1) = 12.7 shows the stuck share's and rpm's spread
@@ -1267,12 +1270,12 @@ def test_a_benchmark_into_a_used_folder_removes_the_old_series_pictures(tmp_path
     """A second benchmark of other scenarios into the same --out leaves beside its
     benchmark.md only its own series pictures; the results store and other files stay."""
     _series(tmp_path, ["stiff"], ["default", "stick_slip"])
-    bm.write_outputs([_row("stiff", s) for s in ("default", "stick_slip")], tmp_path,
+    bt.write_outputs([_row("stiff", s) for s in ("default", "stick_slip")], tmp_path,
                      ["stiff"], ["default", "stick_slip"], SHORT)
     assert (tmp_path / "benchmark_default_series.png").exists()
     for name in (bm.RESULTS_FILE, "my_series.png", "benchmark_notes.txt"):
         (tmp_path / name).write_text("kept")
-    bm.write_outputs([_row("stiff", "stick_slip")], tmp_path, ["stiff"], ["stick_slip"],
+    bt.write_outputs([_row("stiff", "stick_slip")], tmp_path, ["stiff"], ["stick_slip"],
                      SHORT)
     assert sorted(p.name for p in tmp_path.glob("*.png")) == [
         "benchmark_bars.png", "benchmark_stick_slip_series.png", "my_series.png"]
@@ -1295,7 +1298,7 @@ def test_an_interrupt_while_the_outputs_are_written_leaves_every_linked_picture(
     scenarios = ["default", "stick_slip"]
     _series(tmp_path, ["stiff"], scenarios)
     rows = [_row("stiff", s) for s in scenarios]
-    bm.write_outputs(rows, tmp_path, ["stiff"], scenarios, SHORT)
+    bt.write_outputs(rows, tmp_path, ["stiff"], scenarios, SHORT)
     sizes = {p.name: p.stat().st_size for p in tmp_path.glob("*.png")}
     drawn = []
     real = Figure.savefig
@@ -1309,7 +1312,7 @@ def test_an_interrupt_while_the_outputs_are_written_leaves_every_linked_picture(
 
     monkeypatch.setattr(Figure, "savefig", savefig_then_stop)
     with pytest.raises(KeyboardInterrupt):
-        bm.write_outputs(rows, tmp_path, ["stiff"], scenarios, SHORT)
+        bt.write_outputs(rows, tmp_path, ["stiff"], scenarios, SHORT)
     monkeypatch.undo()
     text = (tmp_path / "benchmark.md").read_text()
     for name in re.findall(r"\]\(([^)]+)\)", text):
@@ -1634,9 +1637,9 @@ def test_a_controller_of_your_own_that_is_not_one_is_refused_by_name(tmp_path, m
     # the controller classes the file defines, not the SetPointController it imports
     with pytest.raises(ValueError, match=r"its controller classes: Gentle$"):
         parse_controllers("mine.py:Nope")
-    assert bm.labels(["mine:Gentle", "stiff"]) == ["gentle", "stiff"]
+    assert bs.labels(["mine:Gentle", "stiff"]) == ["gentle", "stiff"]
     with pytest.raises(ValueError, match="share the name 'gentle'"):
-        bm.labels(["mine:Gentle", "mine.py:Gentle"])
+        bs.labels(["mine:Gentle", "mine.py:Gentle"])
     # one put in the registry by hand is followed by its file too; ours by the fingerprint
     from agents.registry import CONTROLLERS, imported_factory
 
@@ -1715,7 +1718,7 @@ def test_labels_that_differ_only_in_case_are_refused(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     with pytest.raises(ValueError, match=r"would share the name 'Gentle' in the table "
                                          r"\(names that differ only in case"):
-        bm.labels(["mine.py:Gentle", "mine.py:gentle"])
+        bs.labels(["mine.py:Gentle", "mine.py:gentle"])
 
 
 @pytest.mark.parametrize("file", sorted(BROKEN))
@@ -1807,7 +1810,7 @@ def test_an_action_of_your_own_outside_the_space_is_clipped_and_said_once(tmp_pa
                         f"class {name}(SetPointController):\n    name = 'far'\n    rate = "
                         "'policy'\n\n    def act(self, observation, info):\n"
                         f"        return np.array({action})\n")
-        bm._CLIPPED.clear()
+        be.CLIPPED.clear()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             assert main(["run", "--controller", f"{file}:{name}", "--scenario", "stick_slip",
@@ -1836,7 +1839,7 @@ def test_two_classes_of_the_same_name_are_told_to_rename_a_class(tmp_path):
         (tmp_path / f"{stem}.py").write_text(OWN_CONTROLLER.replace("GAIN", "1500.0"))
     with pytest.raises(ValueError, match="share the name 'gentle' in the table; set another "
                                          "name attribute"):
-        bm.labels([f"{tmp_path / 'one.py'}:Gentle", f"{tmp_path / 'two.py'}:Gentle"])
+        bs.labels([f"{tmp_path / 'one.py'}:Gentle", f"{tmp_path / 'two.py'}:Gentle"])
 
 
 def test_a_policy_of_your_own_that_chooses_its_rpm_is_marked_as_the_driller(tmp_path):
@@ -1871,7 +1874,7 @@ def test_the_docs_recipe_for_a_policy_trained_elsewhere_scores_as_the_shipped_on
     assert "agents/trained/drilling" in code
     file = tmp_path / "mine.py"
     file.write_text(code.replace("agents/trained/drilling", str(TRAINED / "drilling")))
-    settings = bm.BenchmarkSettings(duration=20.0, warmup=10.0)
+    settings = bs.BenchmarkSettings(duration=20.0, warmup=10.0)
     rows = bm.run_benchmark([f"{file}:MyPolicy", "learned"], ["random"], [1000000],
                             tmp_path / "out", settings, workers=1, progress=False,
                             env_id="DrillOptimise-v0")
@@ -2128,7 +2131,7 @@ def test_the_table_fits_the_terminal_without_cutting_a_figure(monkeypatch, capsy
     note = "a note " * 30
     monkeypatch.setenv("FORCE_COLOR", "1")  # rich: a terminal
     monkeypatch.setenv("COLUMNS", "100")
-    bm._print_table(header, table, [note])
+    bt.print_table(header, table, [note])
     out = re.sub(r"\x1b\[[0-9;]*m", "", capsys.readouterr().out)
     assert max(map(len, out.splitlines())) <= 100
     assert out.count("┃ controller") >= 2  # several tables, each naming the rows
@@ -2137,7 +2140,7 @@ def test_the_table_fits_the_terminal_without_cutting_a_figure(monkeypatch, capsy
             assert re.search(rf"│ {re.escape(cell)}\s+│", out), cell
     monkeypatch.delenv("FORCE_COLOR")
     monkeypatch.setattr("sys.stdout.isatty", lambda: False, raising=False)
-    bm._print_table(header, table, [note])
+    bt.print_table(header, table, [note])
     out = capsys.readouterr().out
     assert out.count("┃ controller") == 1 and max(map(len, out.splitlines())) > 100
 
@@ -2160,7 +2163,7 @@ def test_a_stick_slip_still_growing_in_the_metric_window_is_marked(tmp_path, mon
     and 0 % stuck over the window (30-60 s) while its bit-speed swing grew x4 per 30 s, to
     full stick-slip by ~200 s (drill-env run --duration 240), beside the torque-feedback
     loops that do cure it. Its row is marked growing, in the table and benchmark.md."""
-    settings = bm.BenchmarkSettings(physics={"top_drive.inertia": 2000.0})
+    settings = bs.BenchmarkSettings(physics={"top_drive.inertia": 2000.0})
     texts = _drawn_texts(monkeypatch)
     rows = bm.run_benchmark(["soft-speed", "soft-torque", "stiff", "constant:50/100"],
                             ["stick_slip"], [0], tmp_path, settings, workers=1,
@@ -2180,24 +2183,24 @@ def test_a_stick_slip_still_growing_in_the_metric_window_is_marked(tmp_path, mon
     # a layer crossed raises the swing of a loop that holds (an outside review: ZTorque
     # on paper_case2 was marked x2.5 at SSI 0.02)
     rows = bm.run_benchmark(["z-torque"], ["paper_case2"], [0], tmp_path / "crossing",
-                            bm.BenchmarkSettings(), workers=1, progress=False)
-    assert rows[0]["swing_trend"] == bm.ROCK_CHANGED  # and said: no mark is not "holds"
+                            bs.BenchmarkSettings(), workers=1, progress=False)
+    assert rows[0]["swing_trend"] == bt.ROCK_CHANGED  # and said: no mark is not "holds"
     said = " ".join((tmp_path / "crossing" / "benchmark.md").read_text().split())
     assert ("the rock under the bit changed (a layer crossed raises the swing by itself): "
             "z-torque on paper_case2 (1 episode)") in said
     # nor where a policy moves its set points (the driller of the demo's benchmark)
     rows = bm.run_benchmark(["driller"], ["stick_slip"], [0], tmp_path / "driller",
-                            bm.BenchmarkSettings(), workers=1, progress=False)
+                            bs.BenchmarkSettings(), workers=1, progress=False)
     assert rows[0]["swing_trend"] == "not judged: a set point moved"
     assert "a set point moved (a policy's action or a target): driller on stick_slip" in \
         " ".join((tmp_path / "driller" / "benchmark.md").read_text().split())
     # a loop that holds, whose swing humps to 0.028 rpm at 60-90 s and decays (SoftSpeed
     # k = 5 on a 1,500 kg m^2 drive): under the floor, not marked
-    hump = bm.BenchmarkSettings(duration=90.0, warmup=60.0, physics={
+    hump = bs.BenchmarkSettings(duration=90.0, warmup=60.0, physics={
         "top_drive.inertia": 1500.0, "top_drive.impedance_factor": 5.0})
     rows = bm.run_benchmark(["soft-speed"], ["stick_slip"], [0], tmp_path / "hump", hump,
                             workers=1, progress=False)
-    assert not bm.growing(rows[0])
+    assert not bt.growing(rows[0])
 
 
 def test_the_window_swing_trend_compares_equal_blocks_where_set_points_and_rock_held():
@@ -2214,31 +2217,31 @@ def test_the_window_swing_trend_compares_equal_blocks_where_set_points_and_rock_
     records[:, R.TIME] = t
     amplitude = 0.5 * 2.0 ** (t / 20.0)  # x2 per 20 s: x4 from 10-20 s to 50-60 s
     records[:, R.BIT_SPEED] = (50.0 + amplitude * np.sin(2.0 * np.pi * 0.44 * t)) * RPM
-    settings = bm.BenchmarkSettings(duration=60.0, warmup=20.0)
+    settings = bs.BenchmarkSettings(duration=60.0, warmup=20.0)
 
     def held(speed=lambda x: 5.0, share=lambda x: 1.0):
         return [(float(x), (speed(x), 1.0e5, share(x), 1.0 - share(x))) for x in t[::10]]
 
-    trend = bm.window_swing_trend(records, held(), 0.0, settings)
+    trend = be.window_swing_trend(records, held(), 0.0, settings)
     factor = re.fullmatch(r"growing \(x(\S+) per 40 s\)", trend)
     assert factor and float(factor[1]) == pytest.approx(4.0, rel=0.05), trend
     moved = held(speed=lambda x: 5.0 if x < 15.0 else 6.0)
-    assert bm.window_swing_trend(records, moved, 0.0, settings) == \
+    assert be.window_swing_trend(records, moved, 0.0, settings) == \
         "not judged: a set point moved"
     crossed = held(share=lambda x: 1.0 if x < 30.0 else 0.7)  # a layer under the bit
-    assert bm.window_swing_trend(records, crossed, 0.0, settings) == bm.ROCK_CHANGED
-    jitter = held(share=lambda x: 1.0 - 0.5 * bm.SAME_ROCK * (x % 2.0))  # the same rock
-    assert bm.window_swing_trend(records, jitter, 0.0, settings).startswith("growing")
-    late = bm.BenchmarkSettings(duration=60.0, warmup=40.0)  # blocks 20-40 s and 40-60 s
+    assert be.window_swing_trend(records, crossed, 0.0, settings) == bt.ROCK_CHANGED
+    jitter = held(share=lambda x: 1.0 - 0.5 * be.SAME_ROCK * (x % 2.0))  # the same rock
+    assert be.window_swing_trend(records, jitter, 0.0, settings).startswith("growing")
+    late = bs.BenchmarkSettings(duration=60.0, warmup=40.0)  # blocks 20-40 s and 40-60 s
     early = held(speed=lambda x: 5.0 if x < 15.0 else 6.0)  # before the blocks: judged
-    trend = bm.window_swing_trend(records, early, 0.0, late)
+    trend = be.window_swing_trend(records, early, 0.0, late)
     factor = re.fullmatch(r"growing \(x(\S+) per 20 s\)", trend)
     assert factor and float(factor[1]) == pytest.approx(2.0, rel=0.05), trend
     records[:, R.BIT_SPEED] = (50.0 + 0.5 * 0.5 ** (t / 20.0) * np.sin(t)) * RPM
-    assert bm.window_swing_trend(records, held(), 0.0, settings).startswith("decaying")
-    small = bm.GROWING_FLOOR * 0.9 * 2.0 ** ((t - 60.0) / 20.0)  # growing, under the floor
+    assert be.window_swing_trend(records, held(), 0.0, settings).startswith("decaying")
+    small = be.GROWING_FLOOR * 0.9 * 2.0 ** ((t - 60.0) / 20.0)  # growing, under the floor
     records[:, R.BIT_SPEED] = (50.0 + small * np.sin(2.0 * np.pi * 0.44 * t)) * RPM
-    assert bm.window_swing_trend(records, held(), 0.0, settings) == ""
+    assert be.window_swing_trend(records, held(), 0.0, settings) == ""
 
 
 def test_the_series_picture_shows_the_drives_surface_torque(tmp_path, monkeypatch):
@@ -2294,13 +2297,13 @@ def test_a_bit_that_drills_nothing_is_marked_not_drilling(tmp_path):
     """A metrics audit: a bit held at 0 rpm and 200 kN read SSI 0.00 and MSE 5 MPa (the
     thrust term alone), the best of its table beside a stiff PI drilling at 146 MPa. Its
     row is marked: the stuck share and ROP say what happened."""
-    settings = bm.BenchmarkSettings(duration=20.0, warmup=10.0, fidelity="fast")
+    settings = bs.BenchmarkSettings(duration=20.0, warmup=10.0, fidelity="fast")
     rows = bm.run_benchmark(["held:-1/1", "stiff"], ["stick_slip"], [0], tmp_path,
                             settings, workers=1, progress=False)
     held, stiff = rows
     assert held["stuck_fraction"] == 1.0 and held["rop_m_per_h"] == 0.0
     assert held["ssi"] < stiff["ssi"] and held["mse_MPa"] < stiff["mse_MPa"]  # unmarked: best
-    assert [bm.not_drilling(r) for r in rows] == [True, False]
+    assert [bt.not_drilling(r) for r in rows] == [True, False]
     markdown = " ".join((tmp_path / "benchmark.md").read_text().split())
     assert f"| stick_slip | {held['controller']} | 1 (1 not drilling) |" in markdown
     assert "| stick_slip | stiff | 1 (1 growing) |" in markdown  # 50 rpm stick-slips
@@ -2318,7 +2321,7 @@ def test_not_drilling_is_the_metrics_floor_read_in_the_rows_metres_per_hour():
     for factor, marked in ((0.0, True), (0.5, True), (0.98, True), (1.02, False),
                            (2.0, False), (100.0, False)):
         row = {"rop_m_per_h": factor * MSE_MIN_ROP * 3600.0}
-        assert bm.not_drilling(row) == marked, factor
+        assert bt.not_drilling(row) == marked, factor
 
 
 def test_a_warm_up_past_the_last_whole_control_step_says_where_the_episode_ends(
@@ -2355,7 +2358,7 @@ def test_a_note_that_lists_episodes_shows_the_first_and_last_few(tmp_path, capsy
     assert few(many[:FEW + 2], "x") == ", ".join(many[:FEW + 2])  # hiding 2 saves nothing
     assert "... 3 more x ..." in few(many[:FEW + 3], "x")
     rows = [_row("stiff", "stick_slip", seed=k, rop_m_per_h=0.0) for k in range(30)]
-    bm.write_outputs(rows, tmp_path, ["stiff"], ["stick_slip"], SHORT)
+    bt.write_outputs(rows, tmp_path, ["stiff"], ["stick_slip"], SHORT)
     said = " ".join((tmp_path / "benchmark.md").read_text().split())
     assert ("stiff/stick_slip/5, ... 18 more with ROP 0 in benchmark.csv ..., "
             "stiff/stick_slip/24") in said

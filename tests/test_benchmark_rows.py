@@ -8,14 +8,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import agents.benchmark as bm
+import agents.episode as be
+import agents.settings as bs
+import agents.tables as bt
 from drill_env.physics.units import RPM
 
-SHORT = bm.BenchmarkSettings(duration=6.0, warmup=2.0)
+SHORT = bs.BenchmarkSettings(duration=6.0, warmup=2.0)
 
 
 def _row(c, s, seed, **v):
-    base = {k: 1.0 for k, _, _ in bm.SUMMARY}
+    base = {k: 1.0 for k, _, _ in bt.SUMMARY}
     return {"controller": c, "scenario": s, "seed": seed, **base, **v}
 
 
@@ -26,23 +28,23 @@ def test_summary_interval_is_students_t_over_the_seeds():
     s / sqrt(3) = 0.5774, +-2.48; the interval narrows with seeds where half the range,
     the table's spread until 2026-12-06, widened; one seed shows none."""
     rows = [_row("stiff", "x", 0, ssi=0.2), _row("stiff", "x", 1, ssi=0.4)]
-    assert bm.summary_table(rows, ["stiff"], ["x"])[0][3] == "0.30 +-1.27"
+    assert bt.summary_table(rows, ["stiff"], ["x"])[0][3] == "0.30 +-1.27"
     rows = [_row("stiff", "x", k, ssi=float(k + 1)) for k in range(3)]
-    assert bm.summary_table(rows, ["stiff"], ["x"])[0][3] == "2.00 +-2.48"
-    assert bm.summary_table(rows[:1], ["stiff"], ["x"])[0][3] == "1.00"
+    assert bt.summary_table(rows, ["stiff"], ["x"])[0][3] == "2.00 +-2.48"
+    assert bt.summary_table(rows[:1], ["stiff"], ["x"])[0][3] == "1.00"
     # twenty seeds alternating 0.2 and 0.4: the interval 2.093 x 0.1026 / sqrt(20) = 0.048,
     # against the half range's 0.10 (t(0.975, 19) = 2.093)
     rows = [_row("stiff", "x", k, ssi=0.2 + 0.2 * (k % 2)) for k in range(20)]
-    assert bm.summary_table(rows, ["stiff"], ["x"])[0][3] == "0.30 +-0.05"
+    assert bt.summary_table(rows, ["stiff"], ["x"])[0][3] == "0.30 +-0.05"
     # a seed without a value (NaN, an episode that broke): its mean is not a number, and
     # no interval of the other seeds stands beside it (a review: "nan +-6.35")
     rows = [_row("stiff", "x", k, ssi=v) for k, v in enumerate([1.0, 2.0, float("nan")])]
-    assert bm.summary_table(rows, ["stiff"], ["x"])[0][3] == "nan"
+    assert bt.summary_table(rows, ["stiff"], ["x"])[0][3] == "nan"
 
 
 def test_conditions_state_the_metric_window_length():
     # metrics are taken after the warm-up: a 60 s episode with 30 s warm-up measures 30 s
-    text = bm.conditions(bm.BenchmarkSettings(duration=60.0, warmup=20.0))
+    text = bt.conditions(bs.BenchmarkSettings(duration=60.0, warmup=20.0))
     assert "metrics over the last 40 s" in text
 
 
@@ -50,22 +52,22 @@ def test_conditions_name_each_config_override_with_its_value():
     """A controls engineer's check: benchmark.md said only "config overrides of
     top_drive", so a SoftSpeed row run at k = 1 on a 2,000 kg m^2 drive read as the
     default one. A few overrides are listed with their values, many by section."""
-    s = bm.BenchmarkSettings(physics={"top_drive": {"inertia": 2000.0,
+    s = bs.BenchmarkSettings(physics={"top_drive": {"inertia": 2000.0,
                                                     "impedance_factor": 1.0}})
     assert ("config overrides (--config) top_drive.impedance_factor = 1, "
-            "top_drive.inertia = 2000 merged into every scenario") in bm.conditions(s)
+            "top_drive.inertia = 2000 merged into every scenario") in bt.conditions(s)
     many = {f"string.drill_pipe.{k}": 1.0 for k in ("length", "element_length",
                                                     "outer_diameter", "inner_diameter")}
     many.update({"mud.density": 1300.0, "string.components": [{}, {}],
                  "formation.dip": 0.1, "top_drive.inertia": 800.0,
                  "top_drive.max_torque": 4.0e4})
-    assert len(many) > bm.LISTED_OVERRIDES
-    assert bm.overrides_in_words(many) == ("of formation, mud, string (5 keys), "
+    assert len(many) > bt.LISTED_OVERRIDES
+    assert bt.overrides_in_words(many) == ("of formation, mud, string (5 keys), "
                                            "top_drive (2 keys)")
     # "up to" LISTED_OVERRIDES are listed with their values: as many as that still are
-    most = dict(sorted(many.items())[:bm.LISTED_OVERRIDES])
-    assert bm.overrides_in_words(most).count(" = ") == bm.LISTED_OVERRIDES
-    assert bm.overrides_in_words({"string.components": [{}, {}]}) == (
+    most = dict(sorted(many.items())[:bt.LISTED_OVERRIDES])
+    assert bt.overrides_in_words(most).count(" = ") == bt.LISTED_OVERRIDES
+    assert bt.overrides_in_words({"string.components": [{}, {}]}) == (
         "string.components = a list of 2")
 
 
@@ -74,7 +76,7 @@ def test_benchmark_md_lists_episodes_that_ended_early(tmp_path):
             _row("stiff", "x", 1, termination="")]
     for r in rows:
         r.update(target_rpm=50.0, radial_ratio=0.1)
-    bm.write_outputs(rows, tmp_path, ["stiff"], ["x"], bm.BenchmarkSettings())
+    bt.write_outputs(rows, tmp_path, ["stiff"], ["x"], bs.BenchmarkSettings())
     md = (tmp_path / "benchmark.md").read_text()
     assert "Episodes that ended early (metrics until then): stiff/x/0 (stalled)" in md
 
@@ -84,13 +86,13 @@ def test_guest_keeps_its_observation_keywords_not_its_physics():
         def env_kwargs(self):
             return {"physics": {"string.drill_pipe.length": 1.0}, "telemetry": "x"}
 
-    assert bm.guest_env_kwargs(Guest()) == {"telemetry": "x"}
-    assert bm.guest_env_kwargs(object()) == {}
+    assert bs.guest_env_kwargs(Guest()) == {"telemetry": "x"}
+    assert bs.guest_env_kwargs(object()) == {}
 
 
 def test_rpm_error_is_absolute_below_the_target(tmp_path):
     # SPEC section 5: |mean - target| / target; 20 rpm against the 50 rpm plan -> ~0.6 > 0
-    row = bm.run_episode(bm.Episode("constant:20/100", "stick_slip", 0, vars(SHORT),
+    row = be.run_episode(bs.Episode("constant:20/100", "stick_slip", 0, vars(SHORT),
                                     str(tmp_path)))
     assert row["mean_bit_rpm"] < 50.0
     assert row["rpm_tracking_error"] == pytest.approx(
@@ -101,8 +103,8 @@ def test_rpm_error_is_absolute_below_the_target(tmp_path):
 def test_metrics_window_counts_from_the_episode_start_not_t0(tmp_path):
     # a paper start-up takes ~20 s of simulated time before the episode starts; the
     # metric window is the part after warm-up *from the episode start* (module docstring)
-    settings = bm.BenchmarkSettings(duration=6.0, warmup=3.0, env_kwargs={"startup": "paper"})
-    row = bm.run_episode(bm.Episode("stiff", "stick_slip", 0, vars(settings), str(tmp_path),
+    settings = bs.BenchmarkSettings(duration=6.0, warmup=3.0, env_kwargs={"startup": "paper"})
+    row = be.run_episode(bs.Episode("stiff", "stick_slip", 0, vars(settings), str(tmp_path),
                                     series=True, env_id="DrillString-v0"))
     series = np.load(tmp_path / "series" / "stiff_stick_slip_seed0.npz")
     after = series["time"] >= settings.warmup - 1e-9
@@ -125,7 +127,7 @@ def test_row_units_kN_MPa_MJ_m_per_h(tmp_path, monkeypatch):
         return m
 
     monkeypatch.setattr(metrics, "window_metrics", fake)
-    row = bm.run_episode(bm.Episode("stiff", "stick_slip", 0, vars(SHORT), str(tmp_path)))
+    row = be.run_episode(bs.Episode("stiff", "stick_slip", 0, vars(SHORT), str(tmp_path)))
     assert row["max_lateral_force_kN"] == pytest.approx(2.5)
     assert row["mse_MPa"] == pytest.approx(30.0)
     assert row["top_drive_energy_MJ"] == pytest.approx(4.0)
@@ -135,9 +137,9 @@ def test_row_units_kN_MPa_MJ_m_per_h(tmp_path, monkeypatch):
 def test_target_rpm_is_the_mean_over_the_measured_window_only(tmp_path):
     # module/run_episode comment: the target's mean over the measured part (after the
     # warm-up), step by step; the task's driller changes the target once at t = 3 s
-    s = bm.BenchmarkSettings(duration=6.0, warmup=2.0, env_kwargs={
+    s = bs.BenchmarkSettings(duration=6.0, warmup=2.0, env_kwargs={
         "target_change_probability": 1.0, "target_change_time": (3.0, 3.0)})
-    row = bm.run_episode(bm.Episode("stiff", "stick_slip", 0, vars(s), str(tmp_path),
+    row = be.run_episode(bs.Episode("stiff", "stick_slip", 0, vars(s), str(tmp_path),
                                     series=True, env_id="DrillStickSlip-v0"))
     z = np.load(tmp_path / "series" / "stiff_stick_slip_seed0.npz")
     tt, tr = z["target_time"], z["target_rpm"]
@@ -175,15 +177,15 @@ def test_a_guest_is_scored_by_drillstring_reward(tmp_path):
     # that never corrects is the stiff drive at the set points: the same episode, return.
     f = tmp_path / "zero_policy.py"
     f.write_text(GUEST)
-    g = bm.run_episode(bm.Episode(f"{f}:ZeroCorrection", "stick_slip", 0, vars(SHORT),
+    g = be.run_episode(bs.Episode(f"{f}:ZeroCorrection", "stick_slip", 0, vars(SHORT),
                                   str(tmp_path)))
-    st = bm.run_episode(bm.Episode("stiff", "stick_slip", 0, vars(SHORT), str(tmp_path)))
+    st = be.run_episode(bs.Episode("stiff", "stick_slip", 0, vars(SHORT), str(tmp_path)))
     assert g["mean_bit_rpm"] == pytest.approx(st["mean_bit_rpm"], rel=1e-9)
     assert g["episode_return"] == pytest.approx(st["episode_return"], rel=1e-9)
     # benchmark.md says so only where a guest ran (a check found it in every one)
     assert (g["guest"], st["guest"]) == (True, False)
     said = "a task's policy acts in its task's env"
-    assert said in bm.conditions(SHORT, guests=True) and said not in bm.conditions(SHORT)
+    assert said in bt.conditions(SHORT, guests=True) and said not in bt.conditions(SHORT)
 
 
 def test_scenario_set_points_follow_the_seed_of_a_random_scenario():
@@ -191,7 +193,7 @@ def test_scenario_set_points_follow_the_seed_of_a_random_scenario():
 
     import drill_env  # noqa: F401
 
-    points = [bm.scenario_set_points("random", seed) for seed in (0, 1)]
+    points = [bs.scenario_set_points("random", seed) for seed in (0, 1)]
     assert points[0] != points[1]
     env = gym.make("DrillString-v0", scenario="random")
     env.reset(seed=1)
@@ -203,6 +205,6 @@ def test_scenario_set_points_follow_the_seed_of_a_random_scenario():
 def test_an_undefined_metric_is_a_dash():
     rows = [_row("stiff", "x", 0, rpm_tracking_error=float("nan")),
             _row("stiff", "x", 1, rpm_tracking_error=float("nan"))]
-    table = bm.summary_table(rows, ["stiff"], ["x"])
-    header = [h for _, h, _ in bm.SUMMARY]
+    table = bt.summary_table(rows, ["stiff"], ["x"])
+    header = [h for _, h, _ in bt.SUMMARY]
     assert table[0][3 + header.index("rpm error")] == "-"

@@ -318,7 +318,8 @@ def test_run_refuses_a_top_drive_controller_in_its_config_file(tmp_path, capsys)
 
 
 def test_a_task_benchmark_runs_at_the_tasks_fidelity(tmp_path, capsys, monkeypatch):
-    from agents.benchmark import RESULTS_FILE, BenchmarkSettings, fingerprint
+    from agents.benchmark import RESULTS_FILE, fingerprint
+    from agents.settings import BenchmarkSettings
     from drill_cli.benchmark import same_physics
     from drill_env.sweep import ResultStore
 
@@ -1610,11 +1611,11 @@ def test_a_stopped_run_averages_its_metrics_over_the_steps_it_ran(tmp_path, monk
     """run's summary gives "episode mean"s of the window metrics: a run stopped (Ctrl-C)
     after the steps of a shorter run holds that run's means, not their sums spread over
     the steps it never ran."""
-    import agents.benchmark as bm
+    import agents.episode as be
 
     assert main(["run", "--duration", "0.3", "--out", str(tmp_path / "whole")]) == 0
     whole = json.loads((tmp_path / "whole" / "run_summary.json").read_text())
-    real, calls = bm.act, []
+    real, calls = be.act, []
 
     def stopping(*args):
         calls.append(1)
@@ -1622,7 +1623,7 @@ def test_a_stopped_run_averages_its_metrics_over_the_steps_it_ran(tmp_path, monk
             raise KeyboardInterrupt
         return real(*args)
 
-    monkeypatch.setattr(bm, "act", stopping)
+    monkeypatch.setattr(be, "act", stopping)  # where run_episode finds it
     assert main(["run", "--duration", "2", "--out", str(tmp_path / "stopped")]) == 130
     stopped = json.loads((tmp_path / "stopped" / "run_summary.json").read_text())
     assert stopped["steps"] == whole["steps"] > 0

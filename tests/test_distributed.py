@@ -284,7 +284,8 @@ def test_a_training_seed_sweep_runs_its_trials_on_the_cluster(cluster, tmp_path)
 
 
 def test_the_benchmark_on_the_cluster_equals_the_local_benchmark(cluster, tmp_path):
-    from agents.benchmark import BenchmarkSettings, run_benchmark
+    from agents.benchmark import run_benchmark
+    from agents.settings import BenchmarkSettings
 
     settings = BenchmarkSettings(duration=4.0, warmup=2.0, fidelity="fast")
     args = (["stiff", "z-torque"], ["stick_slip"], [0, 1])

@@ -223,8 +223,9 @@ def test_rows_edited_by_hand_are_run_again_and_said(tmp_path, capsys):
     string to float: 'abc'" naming neither file nor row; another seed under a row's key
     went into benchmark.csv; a damaged line before the last was skipped without a word."""
     import agents.benchmark as bm
+    import agents.settings as bs
 
-    short = bm.BenchmarkSettings(duration=6.0, warmup=2.0)
+    short = bs.BenchmarkSettings(duration=6.0, warmup=2.0)
     args = (["stiff"], ["stick_slip"], [0, 1], tmp_path, short)
     bm.run_benchmark(*args, workers=1, progress=False)
     table = (tmp_path / "benchmark.csv").read_text()

@@ -129,7 +129,7 @@ def test_a_loaded_policy_brings_the_env_keywords_it_was_trained_with(run):
     config.yaml's env_kwargs), which ``drill-env run --controller learned:RUN`` builds its
     task env from (a mutation test: a load that dropped them passed every test; a run
     trained with another ``history`` was then refused at reset in its own task)."""
-    from agents.benchmark import guest_env_kwargs
+    from agents.settings import guest_env_kwargs
 
     folder, cfg = run
     controller = make_controller(f"learned:{folder}")
@@ -575,7 +575,7 @@ def test_a_damaged_run_config_is_named_by_every_command_that_reads_it(run, tmp_p
     file renamed)."""
     import shutil
 
-    from agents.benchmark import task_settings
+    from agents.settings import task_settings
     from drill_cli.main import main
     from training.evaluate import evaluate_run
 
@@ -604,7 +604,8 @@ def test_a_benchmark_refuses_a_damaged_policy_before_any_episode(run, tmp_path):
     worker); it is loaded once up front now, so nothing runs and nothing is stored."""
     import shutil
 
-    from agents.benchmark import RESULTS_FILE, BenchmarkSettings, run_benchmark
+    from agents.benchmark import RESULTS_FILE, run_benchmark
+    from agents.settings import BenchmarkSettings
 
     folder, _ = run
     copy = tmp_path / "damaged"
@@ -1942,7 +1943,7 @@ def test_the_best_constant_is_the_grid_point_of_highest_mean_return(tmp_path, mo
     table has a title of its own and the winner is said (evaluate printed two tables
     both called "controller benchmark", the first not saying which constant won)."""
     import training.evaluate as ev
-    from agents.benchmark import label
+    from agents.settings import label
 
     returns: dict[str, float] = {}
     headings: list[str] = []
@@ -2576,7 +2577,7 @@ def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, cap
     import shutil
 
     import drill_env
-    from agents.benchmark import task_settings
+    from agents.settings import task_settings
     from drill_cli.benchmark import replaced_episode_notes
     from drill_env.physics.config import replace
     from drill_env.sweep import source_digest
@@ -2648,7 +2649,7 @@ def test_a_runs_config_is_read_by_the_rules_of_a_config_file(run, tmp_path):
     nested setting that differs (hyperparams.n_epochs, not hyperparams)."""
     import shutil
 
-    from agents.benchmark import task_settings
+    from agents.settings import task_settings
     from drill_env.physics.config import replace
     from training.config import read_run_config
     from training.evaluate import evaluate_run

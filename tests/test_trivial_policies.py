@@ -14,8 +14,9 @@ from hypothesis import strategies as st
 from scipy.stats import t as student_t
 
 import drill_env  # noqa: F401  (registers the ids)
-from agents.benchmark import label, labels, sets_own_speed
 from agents.registry import TRIVIAL, canonical, make_controller, parse_controllers
+from agents.settings import label, labels
+from agents.tables import sets_own_speed
 from drill_env.physics.units import RPM
 from training.evaluate import paired_comparison
 

@@ -19,14 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from agents.benchmark import (
-    BenchmarkSettings,
-    label,
-    replaced_episode_settings,
-    run_benchmark,
-    task_settings,
-)
+from agents.benchmark import replaced_episode_settings, run_benchmark
 from agents.registry import CLASSICAL, TRIVIAL
+from agents.settings import BenchmarkSettings, label, task_settings
 from drill_env.physics.config import Fidelity
 from drill_env.physics.units import shown
 from drill_env.scenarios import EVALUATION_SEEDS

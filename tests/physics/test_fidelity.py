@@ -89,7 +89,8 @@ def test_the_fast_level_whirls_backward_as_the_full_model_does(tmp_path):
     here (physics/implicit_contact.py). Those shares are the per-sample whirl rule's; under
     the legs rule of 2026-12-05 (metrics.whirl_signs) the group means read 8.4 % (full),
     10.1 % (fast) and 6.3 % (fast, implicit 10 ms), with 4, 5 and 3 sustained whirls."""
-    from agents.benchmark import BenchmarkSettings, run_benchmark
+    from agents.benchmark import run_benchmark
+    from agents.settings import BenchmarkSettings
 
     implicit = {"solver.implicit_contacts": True, "solver.time_step": 0.010}
     for level, physics in (("full", None), ("fast", None), ("fast", implicit)):
