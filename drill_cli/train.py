@@ -38,7 +38,8 @@ def say_left_out(args: argparse.Namespace, config: Any) -> None:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from training.config import ReplacedValueError, load_config
-    from training.train import check_run_folder, holds_run, planned_steps, train
+    from training.run_folder import check_run_folder, holds_run
+    from training.train import planned_steps, train
 
     if args.name is not None and (not args.name.strip() or args.name in (".", "..")
                                   or any(c in args.name for c in "/\\")):
@@ -166,7 +167,7 @@ def train_sweep(args: argparse.Namespace, config) -> int:
                                          "(<task>_<algo>_<config file>_seed<k>) and "
                                          "always resume; drop --name / --resume / "
                                          "--overwrite / --seed")
-    from training.train import check_learns
+    from training.run_folder import check_learns
 
     check_learns(config, 0)
     t0 = time.perf_counter()

@@ -15,7 +15,7 @@ CPU-bound process (``--loaded``). Each tree runs with its own defaults: the old 
 it was (libgomp's spinning wait, torch's own thread count), today's as ``drill-env
 train`` does (``import drill_env`` sets a passive OpenMP wait and, since 2026-12-04,
 puts numba's parallel calls on TBB; torch held at one thread by
-``training.train.torch_threads_callback``). The first ``--warmup`` steps of each
+``training.callbacks.torch_threads_callback``). The first ``--warmup`` steps of each
 process are not timed (numba cache load or compile, first update).
 
 ``--workload train_ppo`` runs instead ``training/train_ppo.py`` of the first speed issue

@@ -68,7 +68,8 @@ def child(steps: int) -> None:
     import torch
 
     from training.config import load_config
-    from training.train import make_train_env, new_model, torch_threads_callback
+    from training.train import make_train_env, new_model
+    from training.callbacks import torch_threads_callback
 
     config = load_config("stick_slip", "ppo")
     model = new_model(config, make_train_env(config, 0))

@@ -244,7 +244,7 @@ def test_rows_edited_by_hand_are_run_again_and_said(tmp_path, capsys):
 
 
 def test_an_evaluation_row_edited_by_hand_is_named_with_its_line(tmp_path):
-    from training.train import read_evaluations
+    from training.run_folder import read_evaluations
 
     path = tmp_path / "evaluations.csv"
     path.write_text("timesteps,return,wall_s\r\n1000,-3.5,12.0\r\n2000,abc,20.1\r\n")

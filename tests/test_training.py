@@ -41,6 +41,7 @@ def train_interrupted_at(steps: int, cfg, folder, monkeypatch) -> None:
     ``steps`` (the KeyboardInterrupt the run saves its checkpoint on, then raises)."""
     from stable_baselines3.common.callbacks import BaseCallback
 
+    import training.callbacks as tcb
     import training.train as tt
 
     class CtrlC(BaseCallback):
@@ -49,9 +50,9 @@ def train_interrupted_at(steps: int, cfg, folder, monkeypatch) -> None:
                 raise KeyboardInterrupt
             return True
 
-    made = tt._callbacks
+    made = tcb.training_callbacks
     with monkeypatch.context() as patch:
-        patch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
+        patch.setattr(tt, "training_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
         with pytest.raises(KeyboardInterrupt):
             train(cfg, folder, progress=False)
 
@@ -206,7 +207,7 @@ def test_a_resume_may_change_the_steps_the_threads_and_the_optimiser_kernel(run)
     nothing else (a mutation test: fused_adam left out of the free keys refused every
     resume that changed it, and no test said so)."""
     from drill_env.physics.config import replace
-    from training.train import check_same_config
+    from training.run_folder import check_same_config
 
     folder, cfg = run
     check_same_config(folder, replace(cfg, n_timesteps=4096, torch_threads=2,
@@ -242,7 +243,7 @@ def test_a_resumed_run_keeps_counting_its_observation_statistics(run, tmp_path):
 def test_validation_episodes_show_the_policy_normalised_observations():
     """The validation score (evaluations.csv, the choice of best_model.zip) runs the
     policy on the observations as it trained on them, through the frozen statistics."""
-    from training.train import evaluate_policy_on_seeds
+    from training.callbacks import evaluate_policy_on_seeds
 
     class Env:
         def reset(self, seed):
@@ -278,7 +279,7 @@ def test_each_evaluation_plays_its_eval_episodes_validation_seeds(tmp_path, monk
     """An evaluation scores the policy on ``eval_episodes`` fixed seeds from
     VALIDATION_SEED on, the ones run.json names (first and count; a mutation test: a range
     one seed short passed every test, each score then a mean over one seed fewer)."""
-    import training.train as tt
+    import training.callbacks as tcb
     from training.config import VALIDATION_SEED
 
     played = []
@@ -287,7 +288,7 @@ def test_each_evaluation_plays_its_eval_episodes_validation_seeds(tmp_path, monk
         played.append(list(seeds))
         return {"return": 0.0, "return_std": 0.0, "ssi": 0.0, "stuck_fraction": 0.0}
 
-    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", scored)
+    monkeypatch.setattr(tcb, "evaluate_policy_on_seeds", scored)
     cfg = tiny_config(n_timesteps=512, eval_freq=512, checkpoint_freq=10_000, eval_episodes=3)
     train(cfg, tmp_path / "run", progress=False)
     record = json.loads((tmp_path / "run" / "run.json").read_text())
@@ -350,6 +351,7 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
     exception (a SIGTERM exits 143, not 130)."""
     import signal
 
+    import training.callbacks as tcb
     import training.train as tt
     from drill_cli.interrupts import stop_as_interrupt
     from drill_env.sweep import Terminated
@@ -365,7 +367,7 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
     previous, _ = stop_as_interrupt()  # the command line's SIGTERM handler
     try:
         with ctrl_c_as_in_a_terminal():
-            real_make, real_crossed, calls = tt.make_train_env, tt.crossed, []
+            real_make, real_crossed, calls = tt.make_train_env, tcb.crossed, []
 
             def make_train_env(config, seed):
                 lose_one()
@@ -383,7 +385,7 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
                     lose_one()
                 return real_crossed(before, now, every)
 
-            monkeypatch.setattr(tt, "crossed", crossed)
+            monkeypatch.setattr(tcb, "crossed", crossed)
             folder = tmp_path / "while_stepping"
             with pytest.raises(expected):
                 train(tiny_config(), folder, progress=False)
@@ -411,7 +413,7 @@ def test_an_interrupt_in_the_update_waits_for_the_update_to_end(run, tmp_path, m
 
     from drill_cli.interrupts import stop_as_interrupt
     from drill_env.sweep import Terminated
-    from training.train import read_evaluations, saved_steps
+    from training.run_folder import read_evaluations, saved_steps
 
     number = getattr(signal, signum)
     real, calls = PPO.train, []
@@ -456,7 +458,7 @@ def test_a_second_interrupt_in_an_update_stops_at_once():
     import os
     import signal
 
-    from training.train import whole_updates
+    from training.callbacks import whole_updates
 
     with ctrl_c_as_in_a_terminal():
         whole = whole_updates()
@@ -629,7 +631,7 @@ def test_a_finished_run_resumes_from_its_final_model_not_an_older_checkpoint(run
     import shutil
 
     from drill_env.physics.config import replace
-    from training.train import resume_files, resume_point, saved_steps
+    from training.run_folder import resume_files, resume_point, saved_steps
 
     folder, cfg = run
     copy = tmp_path / "copy"
@@ -688,8 +690,9 @@ def test_a_run_stopped_between_its_last_step_and_its_final_save_finishes_on_resu
     import torch
     from stable_baselines3 import PPO
 
+    from agents.learned import latest_checkpoint
     from drill_env.physics.config import replace
-    from training.train import latest_checkpoint, saved_steps
+    from training.run_folder import saved_steps
 
     folder, cfg = run
     copy = tmp_path / "copy"
@@ -776,7 +779,7 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
     assert (copy / "model.zip").exists()
     # every entry a run holds is one --overwrite may delete (a new output would be left
     # out of RUN_OUTPUTS, and a folder of it refused as not a run's own)
-    from training.train import run_outputs
+    from training.run_folder import run_outputs
 
     assert run_outputs(copy)[1] == []
 
@@ -789,7 +792,7 @@ def test_overwrite_deletes_only_a_runs_own_files(tmp_path):
     afresh."""
     import shutil
 
-    from training.train import check_run_folder, clear_run
+    from training.run_folder import check_run_folder, clear_run
 
     project = tmp_path / "proj"
     (project / "src").mkdir(parents=True)
@@ -834,7 +837,7 @@ def test_training_envs_are_seeded_apart_per_run_and_per_resume(tmp_path, monkeyp
     from drill_env.physics.config import replace
     from drill_env.scenarios import EVALUATION_SEEDS
     from training.config import TRAINING_SEEDS, VALIDATION_SEED
-    from training.train import env_seed
+    from training.run_folder import env_seed
 
     cfg = tiny_config(n_timesteps=256, n_envs=2, eval_freq=10_000, checkpoint_freq=10_000)
     blocks = [range(env_seed(replace(cfg, seed=s), done), env_seed(replace(cfg, seed=s),
@@ -887,7 +890,7 @@ def test_a_ppo_run_resumed_inside_a_rollout_ends_where_it_says(tmp_path, monkeyp
     the update): resumed from one, PPO does whole rollouts from there, and the step count
     announced (planned_steps) is the one reached."""
     from drill_env.physics.config import replace
-    from training.train import resume_point
+    from training.run_folder import resume_point
 
     cfg = tiny_config(n_timesteps=1024, checkpoint_freq=10_000, eval_freq=10_000)
     train_interrupted_at(768, cfg, tmp_path / "run", monkeypatch)  # rollouts of 4 x 128
@@ -951,9 +954,9 @@ def test_a_ctrl_c_during_an_evaluation_is_evaluated_again_on_resume(tmp_path, mo
     observation statistics the checkpoint saved, as the uninterrupted run did: SB3's
     learn() resets the envs first, which added their observations to them (a new user's
     trial: the redone row was 0.03 off the uninterrupted run's)."""
-    import training.train as tt
+    import training.callbacks as tcb
 
-    real = tt.evaluate_policy_on_seeds
+    real = tcb.evaluate_policy_on_seeds
     seen = []
 
     def recorded(model, normalizer, *args, **kwargs):
@@ -965,12 +968,12 @@ def test_a_ctrl_c_during_an_evaluation_is_evaluated_again_on_resume(tmp_path, mo
 
     cfg = tiny_config(n_envs=n_envs)
     folder = tmp_path / "run"
-    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", interrupted)
+    monkeypatch.setattr(tcb, "evaluate_policy_on_seeds", interrupted)
     with pytest.raises(KeyboardInterrupt):
         train(cfg, folder, progress=False)
     assert (folder / "checkpoints" / f"model_{first}_steps.zip").exists()
     assert not (folder / "evaluations.csv").exists()
-    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", recorded)
+    monkeypatch.setattr(tcb, "evaluate_policy_on_seeds", recorded)
     train(cfg, folder, resume=True, progress=False)
     with (folder / "evaluations.csv").open() as f:
         steps = [int(r["timesteps"]) for r in csv.DictReader(f)]
@@ -1052,19 +1055,22 @@ def test_the_best_model_is_the_evaluation_of_highest_return_not_the_last(tmp_pat
     (training/train.py's docstring: the best model on the validation seeds), kept when a
     later evaluation scores lower (a mutation test: the best return never updated, every
     evaluation replaced it)."""
+    import training.callbacks as tcb
+    import training.run_folder as trf
     import training.train as tt
-    from training.train import saved_steps
+    from training.run_folder import saved_steps
 
     returns = iter([1.0, 3.0, 2.0])
 
     def scored(model, normalizer, env, seeds):
         return {"return": next(returns), "return_std": 0.0, "ssi": 0.0, "stuck_fraction": 0.0}
 
-    monkeypatch.setattr(tt, "evaluate_policy_on_seeds", scored)
-    monkeypatch.setattr(tt, "plot_learning_curve", lambda run, sessions=None: None)
+    monkeypatch.setattr(tcb, "evaluate_policy_on_seeds", scored)
+    for module in (tt, tcb):  # (each draws the curve: at an evaluation, at the end)
+        monkeypatch.setattr(module, "plot_learning_curve", lambda run, sessions=None: None)
     cfg = tiny_config(n_timesteps=1536, eval_freq=512, checkpoint_freq=10_000)
     train(cfg, tmp_path / "run", progress=False)
-    rows = tt.read_evaluations(tmp_path / "run" / "evaluations.csv")
+    rows = trf.read_evaluations(tmp_path / "run" / "evaluations.csv")
     assert [float(r["return"]) for r in rows] == [1.0, 3.0, 2.0]
     best = int(float(rows[1]["timesteps"]))
     assert best < int(float(rows[2]["timesteps"]))
@@ -1336,7 +1342,8 @@ def test_torch_stays_at_its_configured_threads_through_batched_steps():
     import torch
     from stable_baselines3 import PPO
 
-    from training.train import make_train_env, torch_threads_callback
+    from training.callbacks import torch_threads_callback
+    from training.train import make_train_env
 
     cfg = load_config("stick_slip", "ppo", n_envs=4, env_kwargs={"episode_duration": 3.0})
     assert cfg.torch_threads == 1
@@ -1382,7 +1389,7 @@ def test_a_resumed_sac_run_warms_its_empty_replay_buffer_up_again(tmp_path, caps
     cfg = replace(cfg, hyperparams=dict(cfg.hyperparams, learning_starts=64,
                                         buffer_size=1000, batch_size=32))
     train(cfg, tmp_path / "sac", progress=False)
-    from training.train import resume_point
+    from training.run_folder import resume_point
 
     done, updates = resume_point(tmp_path / "sac")  # as the model file records them
     assert done == 256 and updates > 0
@@ -1403,7 +1410,7 @@ def test_a_sac_run_that_would_end_in_its_warm_up_is_refused(tmp_path, capsys):
     """SAC makes no gradient step before ``learning_starts`` env steps (5000 in task 1's
     YAML): a run ending there would save its random initial policy as a trained one."""
     from drill_env.physics.config import replace
-    from training.train import check_learns
+    from training.run_folder import check_learns
 
     assert main(["train", "--task", "stick_slip", "--timesteps", "3000",
                  "--out", str(tmp_path)]) == 2
@@ -1429,7 +1436,7 @@ def _learning_curve_axes(run, monkeypatch, rows: str) -> dict[str, Any]:
     ``evaluations.csv`` rows."""
     from helpers import keep_saved_figures
 
-    from training.train import plot_learning_curve
+    from training.learning_curve import plot_learning_curve
 
     (run / "evaluations.csv").write_text(
         "timesteps,return,return_std,ssi,stuck_fraction,wall_s\n" + rows)
@@ -1446,7 +1453,7 @@ def test_the_learning_curve_marks_where_a_resumed_session_started(tmp_path, monk
     run.json's."""
     from helpers import keep_saved_figures
 
-    from training.train import plot_learning_curve
+    from training.learning_curve import plot_learning_curve
 
     (tmp_path / "evaluations.csv").write_text(
         "timesteps,return,return_std,ssi,stuck_fraction,wall_s\n"
@@ -2160,12 +2167,13 @@ def test_a_seed_summary_reports_the_best_evaluation_not_the_last(tmp_path, monke
     # training/sweep.py docstring: the validation return of the best model per seed
     import json
 
+    import training.run_folder as trf
     import training.train as tt
     from training.config import load_config
     from training.sweep import _train_task
 
     monkeypatch.setattr(tt, "train", lambda *a, **k: None)
-    monkeypatch.setattr(tt, "holds_run", lambda run: False)
+    monkeypatch.setattr(trf, "holds_run", lambda run: False)
     run = tmp_path / "r"
     run.mkdir()
     (run / "run.json").write_text(json.dumps({"env_steps": 100, "wall_s": 1.0}))
@@ -2282,7 +2290,7 @@ def _evaluations(run, steps_and_returns):
 def test_rewind_keeps_the_evaluation_at_the_checkpoint_step(tmp_path):
     import csv
 
-    from training.train import _rewind
+    from training.run_folder import rewind as _rewind
 
     run = tmp_path / "run"
     _evaluations(run, [(1024, -5.0), (2048, -3.0), (3072, -1.0)])
@@ -2294,7 +2302,7 @@ def test_rewind_keeps_the_evaluation_at_the_checkpoint_step(tmp_path):
 
 
 def test_rewind_without_a_best_model_has_no_best_return(tmp_path):
-    from training.train import _rewind
+    from training.run_folder import rewind as _rewind
 
     run = tmp_path / "run"
     _evaluations(run, [(1024, -5.0), (2048, -3.0)])
@@ -2304,7 +2312,7 @@ def test_rewind_without_a_best_model_has_no_best_return(tmp_path):
 
 
 def test_crossed_only_when_a_grid_line_is_passed():
-    from training.train import crossed
+    from training.callbacks import crossed
 
     assert not crossed(0, 4, 1024)
     assert not crossed(1024, 2047, 1024)
@@ -2315,7 +2323,7 @@ def test_sac_warm_up_defaults_to_sb3s_100_steps():
     # check_learns docstring: SB3's default learning_starts is 100
     from drill_env.physics.config import replace
     from training.config import load_config
-    from training.train import check_learns
+    from training.run_folder import check_learns
 
     cfg = load_config("stick_slip", "sac")
     hyper = {k: v for k, v in cfg.hyperparams.items() if k != "learning_starts"}
@@ -2360,7 +2368,7 @@ def test_an_evaluation_row_is_added_whole(tmp_path, monkeypatch):
     goes in with the whole file written beside it and renamed into place."""
     from pathlib import Path
 
-    from training.train import add_row
+    from training.run_folder import add_row
 
     path = tmp_path / "evaluations.csv"
     add_row(path, {"timesteps": 1024, "return": -1.5, "wall_s": 2.0})
@@ -2387,7 +2395,7 @@ def test_a_finished_run_is_one_of_the_same_config_and_steps(run):
     """A seed sweep takes a finished run as its result only for the config and steps it
     was trained with (a longer run is not the result of a shorter one)."""
     from drill_env.physics.config import replace
-    from training.train import finished
+    from training.run_folder import finished
 
     folder, cfg = run
     assert finished(folder, cfg)
@@ -2397,7 +2405,7 @@ def test_a_finished_run_is_one_of_the_same_config_and_steps(run):
 
 
 def test_a_damaged_progress_file_is_named(tmp_path):
-    from training.train import _rewind
+    from training.run_folder import rewind as _rewind
 
     (tmp_path / "checkpoints").mkdir()
     (tmp_path / "checkpoints" / "progress_512.json").write_text("")
@@ -2423,6 +2431,7 @@ def test_a_session_interrupted_before_its_first_step_is_recorded_once(tmp_path, 
     """A review: a resumed session stopped before its first env step saves a checkpoint
     at the steps it resumed from, with itself among the sessions; the next resume from
     that checkpoint appended its start again. run.json lists each session once."""
+    from training import callbacks as tcb
     from training import train as train_module
 
     cfg = tiny_config(n_timesteps=512, n_envs=2, eval_freq=10_000, checkpoint_freq=10_000)
@@ -2434,11 +2443,13 @@ def test_a_session_interrupted_before_its_first_step_is_recorded_once(tmp_path, 
             return KeyboardInterrupt() if len(calls) > n else None
         return noted
 
-    monkeypatch.setattr(train_module, "noted_interrupt", interrupt_after(100))
+    for module in (train_module, tcb):  # (the check before learn starts, then one a step)
+        monkeypatch.setattr(module, "noted_interrupt", interrupt_after(100))
     with pytest.raises(KeyboardInterrupt):  # the first session, stopped after some steps
         train(cfg, tmp_path / "run", progress=False)
     calls.clear()
-    monkeypatch.setattr(train_module, "noted_interrupt", interrupt_after(0))
+    for module in (train_module, tcb):
+        monkeypatch.setattr(module, "noted_interrupt", interrupt_after(0))
     with pytest.raises(KeyboardInterrupt):  # the second, before its first step
         train(cfg, tmp_path / "run", resume=True, progress=False)
     monkeypatch.undo()
@@ -2453,6 +2464,7 @@ def test_a_stopped_seed_sweep_says_what_finished_and_what_continues(tmp_path, ca
     """On Ray a run's own line (what it saved, how to go on) does not reach the console:
     a stopped sweep said only "interrupted" (an outside check). The sweep says which runs
     finished and which continue from their checkpoints when the command runs again."""
+    import training.run_folder as trf
     import training.sweep as sweep
 
     summary = _summary(3, 1.0)
@@ -2465,11 +2477,10 @@ def test_a_stopped_seed_sweep_says_what_finished_and_what_continues(tmp_path, ca
         def close(self):
             pass
 
-    import training.train as train_module
 
     monkeypatch.setattr(sweep, "make_executor", lambda *args: StoppedAfterOne())
     # seed 4 saved a checkpoint before the Ctrl-C, seed 5 had not (or never started)
-    monkeypatch.setattr(train_module, "resume_point",
+    monkeypatch.setattr(trf, "resume_point",
                         lambda run: (1024, 0) if run.name.endswith("seed4") else None)
     with pytest.raises(KeyboardInterrupt):
         sweep.train_seeds(tiny_config(), [3, 4, 5], tmp_path)
@@ -2538,6 +2549,7 @@ def test_an_interrupted_run_gives_stdout_back_from_its_progress_bar(tmp_path, mo
 
     from stable_baselines3.common.callbacks import BaseCallback
 
+    import training.callbacks as tcb
     import training.train as tt
 
     class CtrlC(BaseCallback):
@@ -2552,8 +2564,8 @@ def test_an_interrupted_run_gives_stdout_back_from_its_progress_bar(tmp_path, mo
     monkeypatch.setenv("FORCE_COLOR", "1")
     monkeypatch.setattr(rich, "_console", None)
     stdout, stderr = sys.stdout, sys.stderr
-    made = tt._callbacks
-    monkeypatch.setattr(tt, "_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
+    made = tcb.training_callbacks
+    monkeypatch.setattr(tt, "training_callbacks", lambda *a, **k: [*made(*a, **k), CtrlC()])
     with pytest.raises(KeyboardInterrupt):
         train(tiny_config(), tmp_path / "run", progress=True)
     assert (sys.stdout, sys.stderr) == (stdout, stderr)
@@ -2584,7 +2596,7 @@ def test_a_run_records_the_settings_and_code_it_trained_under(run, tmp_path, cap
     from drill_env.tasks.stick_slip import StickSlipEnv
     from training.config import TRAINED_WITH, settings_changes
     from training.evaluate import evaluate_run, settings_of
-    from training.train import finished
+    from training.run_folder import finished
 
     folder, cfg = run
     record = json.loads((folder / TRAINED_WITH).read_text(encoding="utf-8"))

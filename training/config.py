@@ -45,7 +45,7 @@ TASKS = TASK_ENVS
 #: ``drill-env evaluate`` the held-out EVALUATION_SEEDS (drill_env.scenarios, from
 #: 1,000,000), never seen in training or in choosing a run's model (task 2's recipe was
 #: chosen on them: docs/tasks.md, "Fresh seeds"); the training envs are seeded from
-#: TRAINING_SEEDS on (``training.train.env_seed``), above both.
+#: TRAINING_SEEDS on (``training.run_folder.env_seed``), above both.
 VALIDATION_SEED = 900_000
 TRAINING_SEEDS = 2**31
 

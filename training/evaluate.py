@@ -38,7 +38,7 @@ EVALUATION_WINDOWS = {"stick_slip": (30.0, 5.0), "drilling": (300.0, 10.0)}
 #: ranges give 40, 80, ..., 200 rpm and 40, 65, ..., 140 kN.
 GRID_STEPS = 5
 #: Seeds of the training distribution the grid search picks its point on (not held out;
-#: the training envs themselves draw from ``training.train.env_seed``).
+#: the training envs themselves draw from ``training.run_folder.env_seed``).
 GRID_SEEDS = tuple(range(8))
 
 

@@ -30,8 +30,9 @@ from typing import Any
 
 import numpy as np
 
+from training.callbacks import torch_threads_callback
 from training.config import load_config
-from training.train import make_train_env, new_model, torch_threads_callback
+from training.train import make_train_env, new_model
 
 #: (task, algorithm) pairs timed, from training/hyperparams: PPO on task 1 (issue 16's
 #: reference workload; the shipped task-1 policy is SAC) and SAC on task 2.

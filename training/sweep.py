@@ -43,7 +43,8 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     """One seed's run (resumed from its last checkpoint if it has one)."""
     import torch
 
-    from training.train import finished, holds_run, read_evaluations, train
+    from training.run_folder import finished, holds_run, read_evaluations
+    from training.train import train
 
     config, folder = args
     torch.set_num_threads(1)
@@ -81,7 +82,7 @@ def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,
         print(f"training seeds: {len(configs) - len(todo)} of {len(configs)} runs already in "
               f"{out / RESULTS_FILE} (same config): not rerun", file=sys.stderr)
     if todo and progress:  # (the runs' own "resuming" lines do not reach this console)
-        from training.train import resume_point
+        from training.run_folder import resume_point
 
         points = {name: resume_point(out / name) for name in (run_name(c, label) for c in todo)}
         going_on = [f"{name} from {at[0]:,} env steps" for name, at in points.items()
@@ -120,7 +121,7 @@ def stopped_note(configs: Sequence[TrainConfig], todo: Sequence[TrainConfig],
                  store: ResultStore, out: Path, label: str | None = None) -> str:
     """What a stopped sweep finished, and what the same command does with the rest: a run
     with a saved model goes on from it, one without starts anew."""
-    from training.train import resume_point
+    from training.run_folder import resume_point
 
     left = [run_name(c, label) for c in todo if str(c.seed) not in store]
     going_on = [name for name in left if resume_point(out / name) is not None]
