@@ -360,9 +360,10 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
         from drill_env.progress import progress_bar
 
         # the total is the most points the maps can still need (boundary tracking: one
-        # row plus one column at most), lowered as they go; it ends at the points run
+        # row plus one column at most), lowered as they go; it ends at the points run ("at most"
+        # in the bar: a new user read the falling total as a fault)
         bar = progress_bar(total=sum(t.points_left() for t in trackers.values()),
-                           desc="  stability map", unit="point", leave=False)
+                           desc="  stability map (at most)", unit="point", leave=False)
         tick = bar.update
     executor = None  # started at the first point to simulate (a finished map needs none)
     try:

@@ -123,8 +123,10 @@ def with_progress(items: Iterable, desc: str, enabled: bool) -> Iterator:
 
 #: How a table names a warning :func:`recorded_warnings` kept: about the benchmark's own
 #: set-up (its advice is not the reader's to follow).
-SETUP_WARNING = ("the simulator warned of this benchmark's own set-up (noted, not for you "
-                 "to act on)")
+#: (a new user read "not for you to act on" and then the warning's own advice as a
+#: contradiction: the advice is for runs of one's own, the benchmark's set-up stays fixed)
+SETUP_WARNING = ("the simulator warned of this benchmark's fixed set-up, kept so that runs "
+                 "compare (its advice is for runs of your own)")
 
 
 @contextlib.contextmanager
