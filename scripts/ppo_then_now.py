@@ -56,7 +56,7 @@ steps, warmup, today = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1"
 workload, scenario = sys.argv[4], sys.argv[5]
 callback = None
 if today:
-    from training.train import torch_threads_callback
+    from training.callbacks import torch_threads_callback
     callback = torch_threads_callback(1)
 if workload == "task":  # the task-1 PPO run, as drill-env train --algo ppo builds it
     from training.config import load_config

@@ -56,7 +56,7 @@ matplotlib.use("svg")
 from agents.plots import bar_chart
 from drill_env.scenarios import make_scenario
 from drill_env.well import WELLS, Trajectory, write_well
-from training.train import plot_learning_curve
+from training.learning_curve import plot_learning_curve
 
 out = Path(sys.argv[1])
 (out / "evaluations.csv").write_text(
