@@ -101,10 +101,9 @@ def parser() -> argparse.ArgumentParser:
                    const=RECORD_UNDER_OUT,
                    help="write a rerun .rrd of the episode into this folder (given without "
                         "a folder: --out/recordings)")
-    p.add_argument("--config", type=existing_file, default=None, action=Once,
-                   help="YAML of config overrides merged into the scenario's (e.g. a "
-                        "string of components: the repository's "
-                        "examples/field_well_string.yaml)")
+    add_config(p, "YAML of config overrides merged into the scenario's (e.g. a "
+               "string of components: the repository's "
+               "examples/field_well_string.yaml)")
     p.add_argument("--out", type=out_folder, default=Path("logs"),
                    help="folder for run_summary.json (this run's) and run_history.jsonl "
                         "(every run's summary, one line each)")
@@ -161,10 +160,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--record", action="store_true",
                    help="write one rerun recording per episode to --out/recordings, named "
                         "<controller>_<scenario>_seed<N>")
-    p.add_argument("--config", type=existing_file, default=None, action=Once,
-                   help="YAML of config overrides merged into every episode's scenario, under "
-                        "each controller's top drive (e.g. a string of components: the "
-                        "repository's examples/field_well_string.yaml)")
+    add_config(p, "YAML of config overrides merged into every episode's scenario, under "
+               "each controller's top drive (e.g. a string of components: the "
+               "repository's examples/field_well_string.yaml)")
     p.add_argument("--out", type=out_folder, default=None,
                    help="output folder (default: logs/benchmark; with --task "
                         "logs/benchmark/<task>, beside the scenario benchmark's outputs; "
@@ -178,10 +176,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--algo", choices=("ppo", "sac"), default=None,
                    help="algorithm (default: sac, what the shipped policies of both tasks "
                         "were trained with, docs/tasks.md; --resume --name: the run's own)")
-    p.add_argument("--config", type=existing_file, default=None, action=Once,
-                   help="hyperparameter YAML (default: the task's file shipped with "
-                        f"drill-env, {shipped_hyperparameters()}/<task>.yml; copy it to "
-                        "change it)")
+    add_config(p, "hyperparameter YAML (default: the task's file shipped with "
+               f"drill-env, {shipped_hyperparameters()}/<task>.yml; copy it to "
+               "change it)")
     p.add_argument("--timesteps", type=integer(1), default=None,
                    help="env steps (default: the YAML's n_timesteps)")
     p.add_argument("--n-envs", type=integer(1), default=None,
@@ -246,11 +243,10 @@ def parser() -> argparse.ArgumentParser:
                    help="highest WOB (kN)")
     p.add_argument("--seconds", type=number("s", low_inclusive=False), default=30.0,
                    help="simulated seconds per grid point")
-    p.add_argument("--config", type=existing_file, default=None, action=Once,
-                   help="YAML of config overrides merged into the map's scenario (paper case "
-                        "1 at each position): a string of your own, e.g. the repository's "
-                        "examples/field_well_string.yaml; its maps are named and titled by "
-                        "the file: stability_map[_<controller>]_<file>.*")
+    add_config(p, "YAML of config overrides merged into the map's scenario (paper case "
+               "1 at each position): a string of your own, e.g. the repository's "
+               "examples/field_well_string.yaml; its maps are named and titled by "
+               "the file: stability_map[_<controller>]_<file>.*")
     p.add_argument("--workers", type=integer(1), default=None,
                    help="local processes (default: the cores this process may use)")
     add_ray_address(p, "the simulations")
@@ -271,10 +267,9 @@ def parser() -> argparse.ArgumentParser:
                         "reset(seed=SEED) drills)")
     p.add_argument("--wob", type=kilonewtons, default=None,
                    help="weight on bit in kN (default: the scenario's)")
-    p.add_argument("--config", type=existing_file, default=None, action=Once,
-                   help="YAML of config overrides merged into the scenario's (e.g. a "
-                        "string of components: the repository's "
-                        "examples/field_well_string.yaml)")
+    add_config(p, "YAML of config overrides merged into the scenario's (e.g. a "
+               "string of components: the repository's "
+               "examples/field_well_string.yaml)")
     p.add_argument("--top", choices=("fixed", "top_drive"), default="fixed",
                    help="torsional boundary at the top")
     p.add_argument("-n", type=integer(1), default=5, help="modes of each kind")
@@ -299,9 +294,8 @@ def parser() -> argparse.ArgumentParser:
                    help=f"measured depth of the preset well (default {DEFAULT_WELL_MD:g} m)")
     p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
                    help="whose string (its BHA and pipe; drill pipe added to reach TD)")
-    p.add_argument("--config", type=existing_file, default=None, action=Once,
-                   help="YAML of config overrides (e.g. the repository's "
-                        "examples/field_well_string.yaml)")
+    add_config(p, "YAML of config overrides (e.g. the repository's "
+               "examples/field_well_string.yaml)")
     p.add_argument("--friction", default="0.1,0.2,0.3,0.4",
                    help="comma-separated friction factors")
     p.add_argument("--out", type=out_folder, default=Path("logs"),
@@ -328,6 +322,11 @@ def parser() -> argparse.ArgumentParser:
                         "and the data server of either; default 127.0.0.1: this machine "
                         "only; 0.0.0.0 serves every interface, i.e. the network)")
     return top
+
+
+def add_config(p: argparse.ArgumentParser, help_text: str) -> None:
+    """``--config FILE``: a YAML file that must exist, given at most once."""
+    p.add_argument("--config", type=existing_file, default=None, action=Once, help=help_text)
 
 
 def add_ray_address(p: argparse.ArgumentParser, what: str) -> None:
