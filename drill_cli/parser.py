@@ -4,8 +4,10 @@ option a library's error names (``max_wob`` -> ``--max-wob``)."""
 from __future__ import annotations
 
 import argparse
+import re
 from collections.abc import Callable
 from pathlib import Path
+from typing import NoReturn
 
 from drill_cli.arguments import (
     DEFAULT_WELL_MD,
@@ -46,6 +48,25 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescription
         return super()._get_help_string(action)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose "invalid choice" names the choice a misspelt one was
+    probably meant to be (``benchmak``: did you mean benchmark?), as a misspelt option's
+    error does; the choices' list stays as argparse says it."""
+
+    def error(self, message: str) -> NoReturn:
+        from drill_env.physics.validation import did_you_mean
+
+        found = re.match(r"argument (\S+): invalid choice: '([^']*)'", message)
+        if found:
+            name, value = found.groups()
+            for action in self._actions:
+                if action.choices and (name in action.option_strings
+                                       or name == action.metavar):
+                    message += did_you_mean(value, [str(c) for c in action.choices])
+                    break
+        super().error(message)
+
+
 # --------------------------------------------------------------------------- parser
 
 
@@ -53,8 +74,7 @@ def parser() -> argparse.ArgumentParser:
     from drill_env import __version__
     from drill_env.scenarios import DEVIATED, SCENARIOS
 
-    top = argparse.ArgumentParser(prog="drill-env", description=DESCRIPTION,
-                                  formatter_class=_Formatter)
+    top = _Parser(prog="drill-env", description=DESCRIPTION, formatter_class=_Formatter)
     top.add_argument("--version", action="version", version=f"drill-env {__version__}")
     sub = top.add_subparsers(dest="command", required=True, metavar="command")
 
@@ -175,7 +195,8 @@ def parser() -> argparse.ArgumentParser:
                    help="stick_slip: DrillStickSlip-v0, drilling: DrillOptimise-v0")
     p.add_argument("--algo", choices=("ppo", "sac"), default=None,
                    help="algorithm (default: sac, what the shipped policies of both tasks "
-                        "were trained with, docs/tasks.md; --resume --name: the run's own)")
+                        "were trained with, docs/tasks.md; --resume --name: the run's own; "
+                        "a --config of one entry: its algorithm)")
     add_config(p, "hyperparameter YAML (default: the task's file shipped with "
                f"drill-env, {shipped_hyperparameters()}/<task>.yml; copy it to "
                "change it)")

@@ -350,6 +350,14 @@ def test_run_names_an_unknown_scenario(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--scenario", "nope"])
     assert "--scenario: invalid choice: 'nope'" in capsys.readouterr().err
+    # a misspelt choice, or command, names the one it was probably meant to be
+    for args, meant in ((["run", "--scenario", "defualt"], "(did you mean default?)"),
+                        (["benchmak"], "invalid choice: 'benchmak' (choose from "),
+                        (["benchmak"], "(did you mean benchmark?)"),
+                        (["train", "--task", "stick-slip"], "(did you mean stick_slip?)")):
+        with pytest.raises(SystemExit):
+            main(args)
+        assert meant in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(("args", "message"), [
