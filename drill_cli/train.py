@@ -51,9 +51,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise argparse.ArgumentTypeError(
             f"--seed: must be below {VALIDATION_SEED}, got {args.seed} (the seeds from "
             f"{VALIDATION_SEED} on are the validation and held-out episodes)")
-    if args.algo is None:  # a named run resumes with its own algorithm; else the default
-        named = args.out / args.name if args.resume and args.name else None
-        args.algo = (named and saved_algorithm(named)) or "sac"
+    if args.algo is None:  # a named run resumes with its own algorithm, a --config of one
+        named = args.out / args.name if args.resume and args.name else None  # entry takes
+        args.algo = (named and saved_algorithm(named)) or only_algorithm(args.config) or "sac"
     try:
         config = load_config(args.task, args.algo, args.config, n_timesteps=args.timesteps,
                              seed=args.seed, n_envs=args.n_envs)
@@ -116,6 +116,19 @@ def cmd_train(args: argparse.Namespace) -> int:
 #: Fields of a training entry that flags of `train` set: (flag, its args attribute).
 TRAIN_OVERRIDES = {"n_timesteps": ("--timesteps", "timesteps"), "seed": ("--seed", "seed"),
                    "n_envs": ("--n-envs", "n_envs")}
+
+
+def only_algorithm(config: Path | None) -> str | None:
+    """The algorithm of a --config file with one entry (``ppo: {...}`` alone), or None:
+    such a file asked for --algo ppo as well, and said the default's entry was missing."""
+    from training.config import read_yaml
+
+    try:
+        data = read_yaml(config) if config is not None else None
+    except ValueError:  # said by load_config, in its words
+        return None
+    return next(iter(data)) if isinstance(data, dict) and len(data) == 1 \
+        and next(iter(data)) in ("ppo", "sac") else None
 
 
 def saved_algorithm(run: Path) -> str | None:

@@ -2538,6 +2538,15 @@ def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path,
     # the run is named by the file too: a variant's run and the task's own told apart
     assert f"--resume: no run in {tmp_path / 'runs' / 'stick_slip_sac_variant_seed0'}; " \
         "name it by --name, or by --seed (and --algo, --config)" in err
+    # a file of one entry names the algorithm: no --algo needed (it said the default's
+    only = tmp_path / "only.yml"  # entry, sac, was missing)
+    only.write_text("ppo: {env_kwargs: {stick_slip_weight: 3.0}}\n")
+    with pytest.raises(SystemExit):
+        main(["train", "--task", "stick_slip", "--config", str(only), "--resume",
+              "--out", str(tmp_path / "runs")])
+    err = capsys.readouterr().err
+    assert f"note: --config {only}: its ppo entry leaves out " in err
+    assert f"no run in {tmp_path / 'runs' / 'stick_slip_ppo_only_seed0'}" in err
 
 
 def test_an_interrupted_run_gives_stdout_back_from_its_progress_bar(tmp_path, monkeypatch,
