@@ -175,6 +175,17 @@ def stop_viewer(proc: subprocess.Popen, timeout: float = 5.0) -> int:
     return proc.wait()
 
 
+def viewer_env() -> dict[str, str]:
+    """The viewer's environment: ours, with ``NO_COLOR=1`` where our stderr, which the
+    viewer writes its log lines to, is not a terminal (a log file read the colour codes of
+    rerun's lines as text: ``^[[2m2026-...^[[0m ^[[32m INFO``). A NO_COLOR of one's own
+    is kept."""
+    env = dict(os.environ)
+    if not (sys.stderr is not None and sys.stderr.isatty()):
+        env.setdefault("NO_COLOR", "1")
+    return env
+
+
 def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = False, *,
            web_viewer_port: int | None = None, bind: str = WEB_BIND,
            wait: bool = True) -> int | subprocess.Popen:
@@ -206,7 +217,7 @@ def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = Fa
     port = web_port(web_viewer_port, bind) if web else None
     command = replay_command(paths, web, port, bind)
     if not wait:
-        return subprocess.Popen(command, start_new_session=True)
+        return subprocess.Popen(command, start_new_session=True, env=viewer_env())
 
     from drill_env.sweep import Terminated
 
@@ -220,7 +231,7 @@ def replay(path: str | os.PathLike | Sequence[str | os.PathLike], web: bool = Fa
     previous = signal.signal(signal.SIGTERM, terminate) if main else None
     proc = None
     try:
-        proc = subprocess.Popen(command, start_new_session=True)
+        proc = subprocess.Popen(command, start_new_session=True, env=viewer_env())
         return proc.wait()
     except KeyboardInterrupt:
         if proc is not None:
