@@ -309,8 +309,9 @@ def parser() -> argparse.ArgumentParser:
                    help="preset well shape (drill_env/well.py); default: the scenario's or "
                         "--config's well, else j_shaped")
     p.add_argument("--survey", type=existing_file, default=None,
-                   help="survey CSV with columns md (m), inclination, azimuth (deg); "
-                        "instead of --well")
+                   help="survey CSV with columns md (m), inclination, azimuth (deg), or "
+                        "as survey files name them, with a unit if not these: MD (ft), "
+                        "Inc, Azi; instead of --well")
     p.add_argument("--total-md", type=number("m", low_inclusive=False), default=None,
                    help=f"measured depth of the preset well (default {DEFAULT_WELL_MD:g} m)")
     p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),

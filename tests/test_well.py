@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -295,3 +296,38 @@ def test_the_chart_ends_at_total_depth_between_steps() -> None:
                               frictions=(0.3,), step=100.0)
     assert table["bit_md"][-1] == pytest.approx(2050.0)
     assert np.all(np.diff(table["bit_md"]) > 0)
+
+
+def test_a_survey_csv_is_read_by_the_names_and_units_its_header_gives(tmp_path) -> None:
+    """Survey files name their columns MD, Inc, Azi, often with a unit (MD (ft)); ours
+    are md, inclination, azimuth in m and degrees. A unit in the header is read (the
+    international foot is 0.3048 m exactly, the US survey foot 1200/3937 m), one not known
+    is refused naming the column, as are two columns of one quantity and a missing one;
+    a UTF-8 byte-order mark (Excel's "CSV UTF-8") and upper case are taken."""
+    from drill_env.physics.trajectory import Survey
+
+    def survey(text: str, encoding: str = "utf-8") -> Survey:
+        path = tmp_path / "s.csv"
+        path.write_text(text, encoding=encoding)
+        return Survey.from_csv(path)
+
+    ours = survey("md,inclination,azimuth\n0,0,0\n500,0,0\n1200,45,90\n")
+    for text, encoding in (("MD,INC,AZI\n0,0,0\n500,0,0\n1200,45,90\n", "utf-8"),
+                           ("Measured_Depth [m], Incl (deg) ,Az(\u00b0)\n0,0,0\n500,0,0\n"
+                            "1200,45,90\n", "utf-8-sig"),
+                           ("MD (ft),Inc,Azi\n0,0,0\n1640.4199475,0,0\n3937.007874,45,90\n",
+                            "utf-8"),
+                           (f"md (USft),inc (rad),azi (rad)\n0,0,0\n1640.4166667,0,0\n"
+                            f"3937,{math.pi / 4},{math.pi / 2}\n", "utf-8")):
+        read = survey(text, encoding)
+        np.testing.assert_allclose(read.md, ours.md, rtol=1e-9)
+        np.testing.assert_allclose(read.inclination, ours.inclination, rtol=1e-12)
+        np.testing.assert_allclose(read.azimuth, ours.azimuth, rtol=1e-12)
+    for text, said in (("md (yd),inc,azi\n0,0,0\n500,0,0\n",
+                        "column 'md (yd)': unit 'yd' unknown for md (one of m, "),
+                       ("md,Measured Depth,inc,azi\n0,0,0,0\n500,500,0,0\n",
+                        "two columns are md"),
+                       ("depth,inc,azi\n0,0,0\n500,0,0\n",  # (true vertical depth?)
+                        "missing column(s) ['md']; its header is ['depth', 'inc', 'azi']")):
+        with pytest.raises(ValueError, match=re.escape(said)):
+            survey(text)

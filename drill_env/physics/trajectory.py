@@ -29,6 +29,7 @@ import contextlib
 import contextvars
 import csv
 import math
+import re
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -121,6 +122,42 @@ def check_survey_holds(config) -> None:
                       stacklevel=caller_outside())
 
 
+#: The names a survey CSV's column goes by (lower case, spaces and underscores as one
+#: space): ours and those survey files and exports commonly use. "depth" alone is not
+#: among them: it may be true vertical depth.
+SURVEY_COLUMNS = {"md": ("md", "measured depth"),
+                  "inclination": ("inclination", "inc", "incl"),
+                  "azimuth": ("azimuth", "azi", "azim", "az")}
+#: The units a survey column may name in brackets after its name, as factors to ours
+#: (m, degrees): a file in feet or radians says so in its header, and is read as it says.
+SURVEY_UNITS = {"md": {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0,
+                       "ft": FOOT, "feet": FOOT, "usft": 1200.0 / 3937.0},
+                "inclination": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "\u00b0": 1.0,
+                                "rad": 180.0 / math.pi},
+                "azimuth": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "\u00b0": 1.0,
+                            "rad": 180.0 / math.pi}}
+
+
+def _survey_column(header: str, path: str) -> tuple[str, float]:
+    """Our name of a survey CSV's column and the factor of its unit (1 where it names
+    none); a column not ours keeps its name. A unit not known for the column is a
+    ValueError naming it."""
+    text = header.strip().lower()
+    found = re.fullmatch(r"(.*?)\s*[(\[]\s*([^)\]]*?)\s*[)\]]", text)
+    base, unit = found.groups() if found else (text, "")
+    base = " ".join(base.replace("_", " ").split())
+    for name, aliases in SURVEY_COLUMNS.items():
+        if base in aliases:
+            if not unit:
+                return name, 1.0
+            if unit not in SURVEY_UNITS[name]:
+                raise ValueError(f"survey {path}: column {header.strip()!r}: unit {unit!r} "
+                                 f"unknown for {name} (one of "
+                                 f"{', '.join(SURVEY_UNITS[name])})")
+            return name, SURVEY_UNITS[name][unit]
+    return text, 1.0
+
+
 @dataclass(frozen=True)
 class Survey:
     """Survey stations: measured depth (m, from 0, increasing), inclination and azimuth
@@ -167,25 +204,32 @@ class Survey:
     @classmethod
     def from_csv(cls, path: str | Path) -> Survey:
         """A CSV with columns ``md`` (m), ``inclination`` and ``azimuth`` (degrees), named
-        in any case with spaces around them; a UTF-8 byte-order mark (Excel's "CSV UTF-8")
-        is skipped."""
-        names = ("md", "inclination", "azimuth")
+        in any case with spaces around them, or as survey files name them (``MD``,
+        ``Inc``, ``Azi``: :data:`SURVEY_COLUMNS`); a unit in brackets after a name is
+        read (``MD (ft)``, ``Inc [deg]``: :data:`SURVEY_UNITS`) and one not known there is
+        refused. A UTF-8 byte-order mark (Excel's "CSV UTF-8") is skipped."""
+        names = tuple(SURVEY_COLUMNS)
         with Path(path).open(newline="", encoding="utf-8-sig") as f:
             reader = csv.DictReader(f)
             found = reader.fieldnames or []
-            reader.fieldnames = [name.strip().lower() for name in found]
+            read = [_survey_column(name, str(path)) for name in found]
+            reader.fieldnames = [name for name, _ in read]
+            scale = {name: factor for name, factor in read if name in names}
             missing = set(names) - set(reader.fieldnames)
             if missing:  # say what the header held: units in the names, another separator
                 held = f"its header is {found}" if found else "the file is empty"
                 raise ValueError(f"survey {path}: missing column(s) {sorted(missing)}; "
                                  f"{held} (comma-separated, named md, inclination, "
-                                 "azimuth: m and degrees)")
+                                 "azimuth: m and degrees, or with their unit: MD (ft))")
+            if twice := [n for n in names if reader.fieldnames.count(n) > 1]:
+                raise ValueError(f"survey {path}: two columns are {twice[0]} (its header is "
+                                 f"{found}); keep one")
             columns: list[list[float]] = [[], [], []]
             for row in reader:
                 for column, name in zip(columns, names, strict=True):
                     text = row[name]
                     try:
-                        column.append(float(text))
+                        column.append(float(text) * scale[name])
                     except (TypeError, ValueError):  # a short row reads None
                         raise ValueError(
                             f"survey {path}, line {reader.line_num}, column {name}: "
