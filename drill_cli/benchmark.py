@@ -45,6 +45,31 @@ def replaced_episode_notes(controllers: Sequence[str], env_id: str,
     return notes
 
 
+def variant_folder(controllers: Sequence[str], env_id: str) -> str:
+    """The folder of its own, inside a task benchmark's default --out, for a benchmark
+    of policies trained under other ``env_id`` settings than the task's (a task variant,
+    whose settings every controller then acts under): ``variant-<run>`` after the first
+    such run (``learned:RUN``) or controller file of one's own; "" for the task's own
+    settings. The variant's table replaced the task's own in logs/benchmark/<task>
+    (its rows kept apart in benchmark_results.jsonl, the table not; a closing note)."""
+    from agents.registry import is_imported
+    from agents.settings import task_settings
+
+    try:
+        if not task_settings(controllers, env_id):
+            return ""
+    except ValueError:  # said by the benchmark, in its words
+        return ""
+    for name in controllers:
+        if name.startswith("learned:"):
+            return f"variant-{Path(name.partition(':')[2]).resolve().name}"
+        if is_imported(name):  # file.py:Class, or package.module:Class
+            where = name.rpartition(":")[0]
+            stem = Path(where).stem if where.endswith(".py") else where.rpartition(".")[2]
+            return f"variant-{stem}"
+    return "variant"
+
+
 def scenario_twins(scenarios: Sequence[str], key: Callable[[Any], Any]) -> dict[str, str]:
     """The fixed scenarios among ``scenarios`` whose ``key`` (of the scenario as built,
     its own start) equals an earlier one's, each mapped to that earlier one."""
@@ -167,7 +192,12 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         # (config-<stem>: a file named stick_slip.yaml would have written into the task
         # benchmark's own folder; a review)
         args.out = (Path("logs/benchmark") / (args.task or "")
-                    / (f"config-{args.config.stem}" if args.config else ""))
+                    / (f"config-{args.config.stem}" if args.config else "")
+                    / (variant_folder(controllers, env_id) if env_id else ""))
+        if args.out.name.startswith("variant"):
+            print(f"note: the policies were trained under other {env_id} settings than "
+                  f"the task's, which every controller acts under here: the benchmark goes "
+                  f"to {args.out}, apart from the task's own", file=sys.stderr)
         if reason := unwritable(args.out):
             raise argparse.ArgumentTypeError(f"--out {args.out}: {reason}")
     if args.scenarios is not None and not args.scenarios.strip(", "):  # (an unset variable)

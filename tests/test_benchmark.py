@@ -282,6 +282,34 @@ def test_a_policy_of_your_own_acts_under_its_env_kwargs_and_only_in_its_task(tmp
         bs.task_settings(["driller", "base.py:Base"], "DrillStickSlip-v0")
 
 
+def test_a_task_variants_benchmark_gets_a_folder_of_its_own(tmp_path, monkeypatch, capsys):
+    """A benchmark of policies trained under other task settings (a variant: every
+    controller acts under them) wrote its table over the task's own in
+    logs/benchmark/<task> (a closing note's rough edge): without --out it now goes to
+    variant-<run or file> inside it; the task's own settings keep the task's folder."""
+    from drill_cli.benchmark import variant_folder
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine.py").write_text(OWN_POLICY.replace("ENV", "DrillStickSlip-v0")
+                                      .replace("KWARGS", "{'max_correction': 15.0}"))
+    (tmp_path / "same.py").write_text(OWN_POLICY.replace("ENV", "DrillStickSlip-v0")
+                                      .replace("KWARGS", "{}"))
+    assert variant_folder(["stiff", "mine.py:Full"], "DrillStickSlip-v0") == "variant-mine"
+    assert variant_folder(["stiff", "same.py:Full"], "DrillStickSlip-v0") == ""
+    assert variant_folder(["stiff", "learned"], "DrillStickSlip-v0") == ""  # shipped
+    short = ["--seeds", "1", "--duration", "1", "--warmup", "0.5", "--workers", "1"]
+    for controllers, folder in (("stiff,mine.py:Full", "stick_slip/variant-mine"),
+                                ("stiff,same.py:Full", "stick_slip")):
+        assert main(["benchmark", "--task", "stick_slip", "--controllers", controllers,
+                     *short]) == 0
+        rows = list(csv.DictReader((tmp_path / "logs/benchmark" / folder
+                                    / "benchmark.csv").open()))
+        assert {row["controller"] for row in rows} == {"stiff", "full"}  # (Full's name)
+        said = capsys.readouterr().err
+        assert ("the benchmark goes to logs/benchmark/stick_slip/variant-mine, apart from "
+                "the task's own" in said) == (folder != "stick_slip")
+
+
 def test_a_set_point_policy_of_drill_string_in_a_task_is_named_and_keeps_its_own_settings(
         tmp_path, monkeypatch):
     """From a walkthrough: a policy-rate controller of DrillString-v0 of your own that
