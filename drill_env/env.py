@@ -132,7 +132,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
 
     ## Rewards
 
-    ``reward = sum(info["reward_terms"].values())`` with, per control step:
+    ``reward = sum(info["reward_terms"].values())`` (batched: less the ``_`` masks), per step:
 
     - ``rop``: ``rop_weight * mean ROP / rop_scale`` over the control interval;
     - ``stick_slip``: ``-stick_slip_weight * min(SSI, ssi_cap)``, SSI of the bit speed over
