@@ -85,7 +85,9 @@ class SetPointController:
         return resolve(replace(config, **flatten(self.physics())))  # (nested as dotted)
 
     def reset(self, env: Any) -> None:
-        self._env = env
+        """Start an episode in ``env``, unwrapped here if ``gym.make`` wrapped it (the
+        wrapper has no ``action_for`` nor ``targets``: an AttributeError at the first act)."""
+        self._env = getattr(env, "unwrapped", env)
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         # the targets may change during an episode (the control tasks' driller does)

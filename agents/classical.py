@@ -111,7 +111,7 @@ class ConstantSetPoints(SetPointController):
         """Start an episode; a set point outside the env's action range is refused (the
         env would clip it, and the row would be named after a point it never drilled)."""
         super().reset(env)
-        self.check_range(env.config)
+        self.check_range(self._env.config)  # (unwrapped)
 
     def check_range(self, config: Any) -> None:
         """ValueError unless the set points lie in the action ranges of an env's

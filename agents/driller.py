@@ -67,7 +67,7 @@ class Driller(SetPointController):
 
     def reset(self, env: Any) -> None:
         super().reset(env)
-        self._env = env
+        env = self._env  # (unwrapped)
         self._plan = env.targets
         self._speed, self._wob = env.targets
         self._steps_per_decision = max(1, round(self.rules.decision_period
