@@ -44,6 +44,7 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig, OBSERVATIONS: the 
     warn_above_limit,
 )
 from drill_env.metrics import Metric
+from drill_env.overrides import physics_overrides
 from drill_env.physics.config import FIDELITY_LEVELS, SimulationConfig, flatten, replace
 from drill_env.physics.layout import N_READINGS, READINGS, RECORD_CHANNELS
 from drill_env.physics.simulator import OperatingPoint, Simulator
@@ -235,10 +236,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self.config: EnvConfig = replace(env_config_from(config), **env_over)
         self.scenario_name = scenario
         self.scenario_params = {**scen_over, **start_ranges(scenario, starts, self.config)}
-        if physics is not None and not isinstance(physics, dict):
-            raise ValueError(f"physics: expected a dict of overrides, got {type(physics).__name__}")
         # {"mud": {"density": 1300}} and {"mud.density": 1300} both set one field.
-        self.physics_overrides = flatten(physics or {})
+        self.physics_overrides = physics_overrides(physics)
         if bit_model is not None:
             if self.physics_overrides.get("bit_model", bit_model) != bit_model:
                 raise ValueError(f"physics.bit_model: {self.physics_overrides['bit_model']!r}"

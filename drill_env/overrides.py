@@ -241,3 +241,21 @@ def _bit_at_string_end(config: SimulationConfig, given: tuple[str, ...]) -> Simu
 
 #: How far below its string's end a bit depth given by hand may lie (m): round-off.
 DEPTH_TOLERANCE = 1e-3
+
+
+def physics_overrides(physics: Any) -> dict[str, Any]:
+    """The dotted overrides of an env's ``physics=``, a dict of nested config sections or
+    dotted paths (``{"mud": {"density": 1300}}`` or ``{"mud.density": 1300}``; None: {});
+    a ValueError for anything else, one naming the reader of a YAML file for a path (a
+    new user's trial passed one as ``--config`` takes it)."""
+    import os
+
+    from drill_env.physics.config import flatten
+
+    if isinstance(physics, str | os.PathLike):
+        raise ValueError(f"physics: expected a dict of overrides, got the path {physics!r}; "
+                         "a YAML file of config sections: physics=read_yaml(path) "
+                         "(drill_env.physics.validation.read_yaml, the --config reader)")
+    if physics is not None and not isinstance(physics, dict):
+        raise ValueError(f"physics: expected a dict of overrides, got {type(physics).__name__}")
+    return flatten(physics or {})

@@ -27,6 +27,7 @@ def test_a_python_example_of_the_docs_runs(page, index, code, tmp_path, monkeypa
     monkeypatch.chdir(tmp_path)  # what an example writes (logs/recordings) stays here
     (tmp_path / "agents").mkdir()  # the shipped policies' files they read, as from ROOT
     (tmp_path / "agents" / "trained").symlink_to(ROOT / "agents" / "trained")
+    (tmp_path / "examples").symlink_to(ROOT / "examples")  # (the example configs)
     # an rl-zoo3 run's layout (docs/tasks.md), the shipped task-1 SAC policy standing in
     zoo = tmp_path / "logs" / "sac" / "DrillStickSlip-v0_1"
     (zoo / "DrillStickSlip-v0").mkdir(parents=True)

@@ -410,6 +410,24 @@ def test_a_string_length_beside_overrides_that_set_it_is_refused(physics):
         assert env.unwrapped.sim.config.string.length == pytest.approx(1800.0)
 
 
+def test_physics_that_is_not_a_dict_is_refused_and_a_files_path_names_its_reader(tmp_path):
+    """A YAML file's path as physics= (as --config takes it) was refused with 'got str' and
+    no pointer (a new user's trial); it now names the reader, whose result the env takes
+    as --config's; other types are refused by their type."""
+    from drill_env.physics.validation import read_yaml
+
+    path = tmp_path / "mud.yaml"
+    path.write_text("mud: {density: 1300}\n")
+    for given in (str(path), path):
+        with pytest.raises(ValueError, match=r"^physics: expected a dict of overrides, got the "
+                                             r"path .*physics=read_yaml\(path\)"):
+            gym.make("DrillString-v0", physics=given)
+    with pytest.raises(ValueError, match="^physics: expected a dict of overrides, got list$"):
+        gym.make("DrillString-v0", physics=[("mud.density", 1300.0)])
+    env = gym.make("DrillString-v0", physics=read_yaml(path))
+    assert env.unwrapped.sim.config.mud.density == 1300.0
+
+
 def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
     """The env used to clamp these silently: ``surface_speed=50`` (rad/s, 477 rpm) drilled
     at 200 rpm, a reset at 250 kN at 200 kN, a 10 rpm reset of the drilling task (range
