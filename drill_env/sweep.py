@@ -36,7 +36,7 @@ import threading
 import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, ProcessPoolExecutor, wait
 from pathlib import Path, PurePosixPath
 from typing import Any, Protocol
 
@@ -356,6 +356,11 @@ def quota_cores(cpu_max: str) -> int | None:
 WINDOWS_MAX_WORKERS = 61
 
 
+#: A worker that died (its own error printed above): often a script's top level run again.
+WORKER_DIED = ("a worker process died (its error, if any, printed above); a script that starts a "
+               "sweep needs it under `if __name__ == \"__main__\":` (the workers import it)")
+
+
 class ProcessExecutor:
     """A pool of ``workers`` local processes (spawned, so numba and threads start clean)."""
 
@@ -386,6 +391,8 @@ class ProcessExecutor:
                 done, _ = wait(futures, return_when=FIRST_COMPLETED)
                 for future in done:
                     k = futures.pop(future)
+                    if isinstance(future.exception(), BrokenExecutor):
+                        raise RuntimeError(WORKER_DIED) from future.exception()
                     yield k, future.result()
                     for k_next, item in pending:
                         futures[self._pool.submit(_unless_interrupted, fn, item)] = k_next

@@ -301,3 +301,28 @@ def test_a_damaged_line_before_a_whole_last_line_is_no_cut_and_a_store_makes_its
     assert (store.cut, store.damaged, len(store)) == (False, 0, 2)
     store.put("d", 4)
     assert (ResultStore(path, "f").get("c"), ResultStore(path, "f").get("d")) == (3, 4)
+
+
+UNGUARDED = """
+from pathlib import Path
+from agents.benchmark import BenchmarkSettings, run_benchmark
+run_benchmark(["stiff"], ["stick_slip"], [0, 1], Path("out"),
+              BenchmarkSettings(duration=2.0, warmup=1.0), workers=2, progress=False)
+"""
+
+
+def test_a_script_that_starts_a_sweep_at_its_top_level_is_told_to_guard_it(tmp_path):
+    """A script calling run_benchmark with workers at its top level, without `if __name__
+    == "__main__":`, ended in BrokenProcessPool after 'another drill-env process is
+    writing there' (its workers, importing the script, ran it again; a new user's trial):
+    the error the script stops with now says what it needs."""
+    script = tmp_path / "unguarded.py"
+    script.write_text(UNGUARDED)
+    root = Path(__file__).resolve().parents[1]
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(root)})
+    assert done.returncode == 1
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("RuntimeError: a worker process died") and \
+        'under `if __name__ == "__main__":`' in last, done.stderr[-2000:]
