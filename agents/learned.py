@@ -130,6 +130,8 @@ def sb3_policy(model: str | Path, statistics: str | Path | None = None, *, algo:
     then ``drill-env benchmark --task drilling --controllers mine.py:MyPolicy,learned``.
     Files, algorithm and env id are checked when the class is made, the model loaded
     when it is called."""
+    import zipfile
+
     import gymnasium
 
     from agents.tables import CHOOSES_RPM
@@ -144,10 +146,18 @@ def sb3_policy(model: str | Path, statistics: str | Path | None = None, *, algo:
     for field, file in zip(("model", "statistics"), files, strict=False):
         if not file.is_file():
             raise ValueError(f"{field}: no file {file}")
+    if len(files) == 2 and zipfile.is_zipfile(files[1]):  # (the two swapped: "damaged")
+        raise ValueError(f"statistics: {files[1]} is a zip file (a saved model?), not the "
+                         "VecNormalize statistics VecNormalize.save writes (a pickle, .pkl)")
     kwargs = dict(env_kwargs or {})
 
     def __init__(self: LearnedController) -> None:
-        loaded = load_saved(files[0], lambda p: algorithm.load(p, device="cpu"))
+        try:
+            loaded = load_saved(files[0], lambda p: algorithm.load(p, device="cpu"))
+        except (TypeError, AttributeError) as err:  # as LearnedController.load says it
+            raise ValueError(f"model: {files[0]} does not load as {algorithm.__name__} ({err}):"
+                             " the model of another algorithm (algo=), or of another "
+                             "Stable-Baselines3 version?") from None
         LearnedController.__init__(self, loaded, _statistics(files[1:]), env_id, kwargs,
                                    files[0].parent)
 

@@ -256,10 +256,19 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
         kwargs.pop("env_id", None)  # only the learned controller depends on the task
     if is_imported(name):
         factory = imported_factory(name)
+        import inspect
+
+        try:  # (an error raised inside it was said as "cannot be made with no arguments")
+            inspect.signature(factory).bind(**kwargs)
+        except TypeError as err:
+            raise ValueError(f"controller: {name} cannot be made with no arguments: "
+                             f"TypeError: {err}") from None
+        except ValueError:  # no signature to read (a builtin): the call says
+            pass
         try:
             controller = factory(**kwargs)
         except Exception as err:  # noqa: BLE001 - the user's code: said in one line
-            raise ValueError(f"controller: {name} cannot be made with no arguments: "
+            raise ValueError(f"controller: {name} failed as it was made: "
                              f"{in_user_code(err)}") from None
         check_interface(name, controller)
         return controller

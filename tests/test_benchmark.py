@@ -1691,7 +1691,14 @@ BROKEN = {  # file -> (code, what the one-line error says)
     "needs.py": ("from agents import SetPointController\n\n\n"
                  "class Bad(SetPointController):\n    name = 'needs'\n\n"
                  "    def __init__(self, gain):\n        super().__init__()\n",
-                 "cannot be made with no arguments: TypeError"),
+                 "cannot be made with no arguments: TypeError: missing a required "
+                 "argument: 'gain'"),
+    # an error inside it is its own, not "no arguments" (a new user's trial: a model of
+    # another algorithm read so)
+    "init.py": ("from agents import SetPointController\n\n\n"
+                "class Bad(SetPointController):\n    name = 'init'\n\n"
+                "    def __init__(self):\n        raise OSError('no model here')\n",
+                "init.py:Bad failed as it was made: OSError: no model here (init.py, line 8)"),
     "number.py": ("Bad = 3\n", "number.py:Bad is int 3, not a controller class"),
     "nophysics.py": ("from agents import SetPointController\n\n\n"
                      "class Bad(SetPointController):\n    name = 'nophysics'\n\n"
@@ -1945,8 +1952,17 @@ def test_sb3_policy_checks_its_files_and_acts_with_or_without_statistics(tmp_pat
     with pytest.raises(ValueError, match=r"^statistics: .*wrong\.pkl holds dict, not "
                                          "VecNormalize statistics"):
         sb3_policy(model, wrong, algo="sac", env_id="DrillOptimise-v0")()
+    # the two files swapped, or the model given twice, read as "damaged; delete it" (a
+    # new user's trial): the model named as what it is
+    with pytest.raises(ValueError, match=r"^statistics: .*model\.zip is a zip file \(a saved "
+                                         r"model\?\), not the VecNormalize statistics"):
+        sb3_policy(stats, model, algo="sac", env_id="DrillOptimise-v0")
     env = gym.make("DrillStickSlip-v0")
     PPO("MlpPolicy", env, n_steps=64, batch_size=64, device="cpu").save(tmp_path / "ppo.zip")
+    # a model of another algorithm: said as such, not SB3's AttributeError alone
+    with pytest.raises(ValueError, match=r"^model: .*ppo\.zip does not load as SAC \(.*\): "
+                                         r"the model of another algorithm \(algo=\)"):
+        sb3_policy(tmp_path / "ppo.zip", algo="sac", env_id="DrillStickSlip-v0")()
     for mine in (sb3_policy(tmp_path / "ppo.zip", algo="ppo", env_id="DrillStickSlip-v0")(),
                  sb3_policy(model, algo="sac", env_id="DrillOptimise-v0")()):
         env = gym.make(mine.env_id)
