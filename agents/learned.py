@@ -34,6 +34,8 @@ class LearnedController:
 
     name: ClassVar[str] = "learned"
     rate: ClassVar[Rate] = "policy"
+    #: Where its env id comes from, as a refused reset says it.
+    env_id_from: ClassVar[str] = "its config.yaml names"
 
     def __init__(self, model: Any, normalizer: Any, env_id: str, env_kwargs: dict[str, Any],
                  source: Path) -> None:
@@ -102,12 +104,18 @@ class LearnedController:
             spec = getattr(env, "spec", None)
             # (not "trained on": the env id is its config.yaml's word, which can be wrong)
             raise ValueError(f"controller: this policy's model takes observation "
-                             f"{shapes[0][1]}, action {shapes[1][1]} (its config.yaml names "
+                             f"{shapes[0][1]}, action {shapes[1][1]} ({self.env_id_from} "
                              f"{self.env_id}); {getattr(spec, 'id', type(env).__name__)} has "
                              f"observation {shapes[0][0]}, action {shapes[1][0]}")
 
     def act(self, observation: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        obs = self.normalizer.normalize_obs(np.asarray(observation, dtype=np.float32)[None])
+        observation = np.asarray(observation, dtype=np.float32)
+        if observation.shape != self.model.observation_space.shape:  # (numpy's broadcast
+            # error from inside the normalisation, a new user's trial)
+            raise ValueError(f"observation: this policy takes shape "
+                             f"{self.model.observation_space.shape} ({self.env_id}), got "
+                             f"{observation.shape}")
+        obs = self.normalizer.normalize_obs(observation[None])
         action, _ = self.model.predict(obs, deterministic=True)
         return np.asarray(action[0], dtype=np.float32)
 
@@ -164,6 +172,7 @@ def sb3_policy(model: str | Path, statistics: str | Path | None = None, *, algo:
     caller = sys._getframe(1).f_globals.get("__name__", __name__)
     return type(name, (LearnedController,), {
         "__init__": __init__, "name": name, "data_files": tuple(map(str, files)),
+        "env_id": env_id, "env_id_from": "sb3_policy's env_id names",
         "sets_own_speed": env_id == CHOOSES_RPM,
         # the caller's module: a benchmark's stored rows follow that file's code too
         "__module__": caller,

@@ -37,6 +37,10 @@ def test_a_policy_reset_in_another_tasks_env_says_which_env_it_was_trained_on():
                                          r"config.yaml names DrillStickSlip-v0\); "
                                          r"DrillOptimise-v0 has observation \(25,\)"):
         policy.reset(env.unwrapped)
+    # act without a reset: the shape said, not numpy's broadcast error
+    with pytest.raises(ValueError, match=r"^observation: this policy takes shape \(67,\) "
+                                         r"\(DrillStickSlip-v0\), got \(25,\)$"):
+        policy.act(env.reset(seed=0)[0], {})
     own = gym.make("DrillStickSlip-v0")
     policy.reset(own.unwrapped)
     env.close()

@@ -1937,6 +1937,10 @@ def test_sb3_policy_checks_its_files_and_acts_with_or_without_statistics(tmp_pat
     policy = sb3_policy(model, stats, algo="sac", env_id="DrillOptimise-v0", name="mine")
     assert (policy.name, policy.data_files, policy.sets_own_speed) == (
         "mine", (str(model), str(stats)), True)
+    assert policy.env_id == "DrillOptimise-v0"  # on the class, as the interface has it
+    with pytest.raises(ValueError, match=r"\(sb3_policy's env_id names DrillOptimise-v0\); "
+                                         r"DrillStickSlip-v0 has observation \(67,\)"):
+        policy().reset(gym.make("DrillStickSlip-v0").unwrapped)  # (no config.yaml said)
     assert not sb3_policy(model, algo="SAC", env_id="DrillStickSlip-v0").sets_own_speed
     for kwargs, said in (({"model": tmp_path / "none.zip"}, "^model: no file"),
                          ({"statistics": tmp_path / "none.pkl"}, "^statistics: no file"),
