@@ -84,12 +84,13 @@ def run_episode(episode: Episode) -> dict[str, Any]:
         obs, info = env.reset(seed=episode.seed, options=options)
         if guest:  # scored as DrillString-v0 scores the other controllers
             base.plain_return = 0.0
-        reset(controller, episode.controller, f"{episode.scenario} seed {episode.seed}", base)
+        # ("random seed 0" read as an adjective and a noun: a new user's trial)
+        where = f"scenario {episode.scenario}, seed {episode.seed}"
+        reset(controller, episode.controller, where, base)
         start = float(info["time"])
         while True:
             obs, reward, terminated, truncated, info = env.step(
-                act(controller, episode.controller, f"{episode.scenario} seed {episode.seed}",
-                    env.action_space, obs, info))
+                act(controller, episode.controller, where, env.action_space, obs, info))
             total += float(reward)
             kept.append(base.last_records)
             targets.append((float(info["time"]), base.targets[0]))

@@ -194,15 +194,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     speeds: list[tuple[float, float]] = []  # (episode time s, bit rpm) per step
     held_set_points = controller.rate == "drive" and controller.env_id == "DrillString-v0"
     try:
-        reset_controller(controller, args.controller, f"{args.scenario} seed {args.seed}", base)
+        where = f"scenario {args.scenario}, seed {args.seed}"  # (as a benchmark episode's)
+        reset_controller(controller, args.controller, where, base)
         # (where stderr is no terminal, a line a minute: a log got the bar's frames, the
         # summary glued after them)
         bar = progress_bar(total=base.max_episode_steps, desc=f"  {args.scenario}",
                            leave=False, file=sys.stderr)
         for _ in range(base.max_episode_steps):
             obs, r, terminated, truncated, info = env.step(act(
-                controller, args.controller, f"{args.scenario} seed {args.seed}",
-                env.action_space, obs, info))
+                controller, args.controller, where, env.action_space, obs, info))
             steps += 1
             if steps == 1:  # on a first run the compile: the bar's rate starts after it
                 first_step_s = time.perf_counter() - t0

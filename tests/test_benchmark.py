@@ -1797,7 +1797,7 @@ def test_a_controller_of_your_own_that_acts_wrongly_is_named_in_one_line(tmp_pat
     last = err.strip().splitlines()[-1]  # after the progress bar
     assert "Traceback" not in err and last.startswith(
         "drill-env benchmark: error: --controllers: "), err
-    assert said in last and f"{file}:Bad" in last and "(stick_slip seed 0)" in last
+    assert said in last and f"{file}:Bad" in last and "(scenario stick_slip, seed 0)" in last
 
 
 def test_run_says_an_act_error_of_your_own_in_one_line_too(tmp_path, capsys):
@@ -1809,8 +1809,8 @@ def test_run_says_an_act_error_of_your_own_in_one_line_too(tmp_path, capsys):
                  "--duration", "2", "--seed", "3", "--out", str(tmp_path / "out")]) == 2
     last = capsys.readouterr().err.strip().splitlines()[-1]
     assert last == (f"drill-env run: error: --controller: {file}:Bad: act() raised "
-                    "ZeroDivisionError: division by zero (acts.py, line 9) (stick_slip "
-                    "seed 3)")
+                    "ZeroDivisionError: division by zero (acts.py, line 9) (scenario "
+                    "stick_slip, seed 3)")
 
 
 def test_a_reset_of_your_own_that_raises_is_named_in_one_line_in_run_and_benchmark(
@@ -1822,7 +1822,7 @@ def test_a_reset_of_your_own_that_raises_is_named_in_one_line_in_run_and_benchma
                     "class Bad(SetPointController):\n    name = 'resets'\n    rate = 'policy'"
                     "\n\n    def reset(self, env):\n        raise KeyError('boom')\n")
     said = (f"--controller{{}}: {file}:Bad: reset() raised KeyError: 'boom' (resets.py, "
-            "line 9) (stick_slip seed {})")
+            "line 9) (scenario stick_slip, seed {})")
     assert main(["run", "--controller", f"{file}:Bad", "--scenario", "stick_slip",
                  "--duration", "2", "--seed", "3", "--out", str(tmp_path / "out")]) == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == \
@@ -1853,7 +1853,7 @@ def test_an_action_of_your_own_outside_the_space_is_clipped_and_said_once(tmp_pa
         warned = [str(w.message) for w in caught if "clips" in str(w.message)]
         assert warned == ([] if name == "Near" else [
             f"controller: {file}:Far: act() returned [5.0, 0.0], outside the action space "
-            "[-1, 1]: the env clips it (stick_slip seed 3; said at the first)"])
+            "[-1, 1]: the env clips it (scenario stick_slip, seed 3; said at the first)"])
 
 
 def test_a_controller_file_imports_the_helper_module_beside_it(tmp_path):
