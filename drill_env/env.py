@@ -178,8 +178,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
     ``bit_inclination`` (rad); the set points ``speed_setpoint`` (rad/s),
     ``weight_on_bit_setpoint`` and the WOB the mesh resolves, ``weight_on_bit_limit`` (N);
     the window metrics ``ssi``, ``stuck_fraction``, ``whirl_ratio``, ``radial_ratio``,
-    ``lateral_force``, ``mse`` (Pa, capped at ``metrics.MSE_CEILING`` when the bit turns
-    without drilling); ``top_drive_energy`` (J, this episode: sum of |T w| dt, braking
+    ``lateral_force``, ``mse`` (Pa, ``metrics.MSE_CEILING`` when the bit cuts without
+    drilling: torque, no ROP); ``top_drive_energy`` (J, this episode: sum of |T w| dt, braking
     counted as spent, no regeneration); ``reward_terms``, ``termination_reason``.
 
     ## Arguments
