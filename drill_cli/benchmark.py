@@ -49,25 +49,26 @@ def variant_folder(controllers: Sequence[str], env_id: str) -> str:
     """The folder of its own, inside a task benchmark's default --out, for a benchmark
     of policies trained under other ``env_id`` settings than the task's (a task variant,
     whose settings every controller then acts under): ``variant-<run>`` after the first
-    such run (``learned:RUN``) or controller file of one's own; "" for the task's own
-    settings. The variant's table replaced the task's own in logs/benchmark/<task>
-    (its rows kept apart in benchmark_results.jsonl, the table not; a closing note)."""
+    run (``learned:RUN``) or controller file of one's own that carries them; "" for the
+    task's own settings. The variant's table replaced the task's own in
+    logs/benchmark/<task> (its rows kept apart in benchmark_results.jsonl, the table not;
+    a closing note)."""
     from agents.registry import is_imported
     from agents.settings import task_settings
 
     try:
         if not task_settings(controllers, env_id):
             return ""
-    except ValueError:  # said by the benchmark, in its words
+        # (the first of one's own named it: a set-point file beside two variants' runs
+        # put both in one folder, the second table over the first; a review)
+        carrier = next(name for name in controllers if (
+            name.startswith("learned:") or is_imported(name)) and task_settings([name], env_id))
+    except (ValueError, StopIteration):  # said by the benchmark, in its words
         return ""
-    for name in controllers:
-        if name.startswith("learned:"):
-            return f"variant-{Path(name.partition(':')[2]).resolve().name}"
-        if is_imported(name):  # file.py:Class, or package.module:Class
-            where = name.rpartition(":")[0]
-            stem = Path(where).stem if where.endswith(".py") else where.rpartition(".")[2]
-            return f"variant-{stem}"
-    return "variant"
+    if carrier.startswith("learned:"):
+        return f"variant-{Path(carrier.partition(':')[2]).resolve().name}"
+    where = carrier.rpartition(":")[0]  # file.py:Class, or package.module:Class
+    return f"variant-{Path(where).stem if where.endswith('.py') else where.rpartition('.')[2]}"
 
 
 def scenario_twins(scenarios: Sequence[str], key: Callable[[Any], Any]) -> dict[str, str]:

@@ -296,6 +296,11 @@ def test_a_task_variants_benchmark_gets_a_folder_of_its_own(tmp_path, monkeypatc
                                       .replace("KWARGS", "{}"))
     assert variant_folder(["stiff", "mine.py:Full"], "DrillStickSlip-v0") == "variant-mine"
     assert variant_folder(["stiff", "same.py:Full"], "DrillStickSlip-v0") == ""
+    # named after the one that carries the settings, not the first file of one's own (a
+    # review: a set-point file first put two variants' runs in one folder)
+    (tmp_path / "gentle.py").write_text(OWN_CONTROLLER.replace("GAIN", "2000.0"))
+    assert variant_folder(["gentle.py:Gentle", "mine.py:Full"], "DrillStickSlip-v0") == \
+        "variant-mine"
     assert variant_folder(["stiff", "learned"], "DrillStickSlip-v0") == ""  # shipped
     short = ["--seeds", "1", "--duration", "1", "--warmup", "0.5", "--workers", "1"]
     for controllers, folder in (("stiff,mine.py:Full", "stick_slip/variant-mine"),
