@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from drill_cli.arguments import (
     DEFAULT_WELL_MD,
@@ -52,6 +53,11 @@ class _Parser(argparse.ArgumentParser):
     """argparse's parser, whose "invalid choice" names the choice a misspelt one was
     probably meant to be (``benchmak``: did you mean benchmark?), as a misspelt option's
     error does; the choices' list stays as argparse says it."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        if sys.version_info >= (3, 14):  # argparse's own suggestion, on by default from
+            kwargs.setdefault("suggest_on_error", False)  # 3.15: ours alone, one form
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         from drill_env.physics.validation import did_you_mean
