@@ -356,9 +356,9 @@ def quota_cores(cpu_max: str) -> int | None:
 WINDOWS_MAX_WORKERS = 61
 
 
-#: A worker that died (its own error printed above): often a script's top level run again.
-WORKER_DIED = ("a worker process died (its error, if any, printed above); a script that starts a "
-               "sweep needs it under `if __name__ == \"__main__\":` (the workers import it)")
+#: A dead worker's error (its own, if any, is printed above it).
+WORKER_DIED = ("a worker process died (killed, out of memory, or a script of yours run again "
+               "in it: one that starts a sweep needs it under `if __name__ == \"__main__\":`)")
 
 
 class ProcessExecutor:
