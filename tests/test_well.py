@@ -318,7 +318,13 @@ def test_a_survey_csv_is_read_by_the_names_and_units_its_header_gives(tmp_path) 
                            ("MD (ft),Inc,Azi\n0,0,0\n1640.4199475,0,0\n3937.007874,45,90\n",
                             "utf-8"),
                            (f"md (USft),inc (rad),azi (rad)\n0,0,0\n1640.4166667,0,0\n"
-                            f"3937,{math.pi / 4},{math.pi / 2}\n", "utf-8")):
+                            f"3937,{math.pi / 4},{math.pi / 2}\n", "utf-8"),
+                           # words apart, the azimuth's north, Excel's Windows code page
+                           # (a review: each refused, the last by a bare UnicodeDecodeError)
+                           ("MD (US ft),Inc (deg.),Azimuth (True)\n0,0,0\n1640.4166667,0,0\n"
+                            "3937,45,90\n", "utf-8"),
+                           ("MD (m),Inc (\u00b0),Azi (\u00b0)\n0,0,0\n500,0,0\n1200,45,90\n",
+                            "cp1252")):
         read = survey(text, encoding)
         np.testing.assert_allclose(read.md, ours.md, rtol=1e-9)
         np.testing.assert_allclose(read.inclination, ours.inclination, rtol=1e-12)

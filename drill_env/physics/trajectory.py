@@ -137,6 +137,10 @@ SURVEY_UNITS = {"md": {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "met
                 "azimuth": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "\u00b0": 1.0,
                             "rad": 180.0 / math.pi}}
 
+#: Words of an azimuth's header that say which north it is from, not a unit: one north
+#: throughout a file turns the hole alike (the formations' dip azimuths are the user's).
+NORTH_REFERENCES = frozenset({"true", "grid", "mag", "magnetic", "north", "tn", "gn", "mn"})
+
 
 def _survey_column(header: str, path: str) -> tuple[str, float]:
     """Our name of a survey CSV's column and the factor of its unit (1 where it names
@@ -146,6 +150,9 @@ def _survey_column(header: str, path: str) -> tuple[str, float]:
     found = re.fullmatch(r"(.*?)\s*[(\[]\s*([^)\]]*?)\s*[)\]]", text)
     base, unit = found.groups() if found else (text, "")
     base = " ".join(base.replace("_", " ").split())
+    # "US ft", "ft.", "deg true": the unit's words without the azimuth's north reference
+    unit = "".join(w for w in unit.replace(".", " ").replace(",", " ").split()
+                   if w not in NORTH_REFERENCES)
     for name, aliases in SURVEY_COLUMNS.items():
         if base in aliases:
             if not unit:
@@ -207,9 +214,18 @@ class Survey:
         in any case with spaces around them, or as survey files name them (``MD``,
         ``Inc``, ``Azi``: :data:`SURVEY_COLUMNS`); a unit in brackets after a name is
         read (``MD (ft)``, ``Inc [deg]``: :data:`SURVEY_UNITS`) and one not known there is
-        refused. A UTF-8 byte-order mark (Excel's "CSV UTF-8") is skipped."""
+        refused; a name without a unit is in ours. A UTF-8 byte-order mark (Excel's "CSV
+        UTF-8") is skipped, and a file that is not UTF-8 is read as Windows' code page
+        1252 (Excel's plain CSV on Windows: a header's degree sign)."""
+        import io
+
         names = tuple(SURVEY_COLUMNS)
-        with Path(path).open(newline="", encoding="utf-8-sig") as f:
+        raw = Path(path).read_bytes()
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            text = raw.decode("cp1252", errors="replace")
+        with io.StringIO(text, newline="") as f:
             reader = csv.DictReader(f)
             found = reader.fieldnames or []
             read = [_survey_column(name, str(path)) for name in found]
