@@ -558,16 +558,18 @@ def _fake_viewer(tmp_path: Path, monkeypatch, script: str) -> Path:
 def test_the_viewer_writes_no_colour_codes_into_a_file(tmp_path: Path, monkeypatch) -> None:
     """rerun's log lines (its servers' addresses) went into a log file with their colour
     codes (``^[[32m INFO``) where stderr was no terminal (an outside trial): the viewer then
-    runs with NO_COLOR=1, which rerun's logger honours; a NO_COLOR of one's own is kept."""
+    runs with NO_COLOR=1, which rerun's logger honours; a NO_COLOR of one's own is kept,
+    an empty one is as none (no-color.org: rerun then colours)."""
     seen = tmp_path / "seen.txt"
     recording = _fake_viewer(tmp_path, monkeypatch, f'echo "[$NO_COLOR]" > {seen}')
     monkeypatch.delenv("NO_COLOR", raising=False)
     monkeypatch.setattr(sys, "stderr", io.StringIO())  # (not a terminal)
     assert replay(recording) == 0
     assert seen.read_text().strip() == "[1]"
-    monkeypatch.setenv("NO_COLOR", "")  # one's own, even empty: kept
-    assert replay(recording) == 0
-    assert seen.read_text().strip() == "[]"
+    for own, given in (("yes", "yes"), ("", "1")):
+        monkeypatch.setenv("NO_COLOR", own)
+        assert replay(recording) == 0
+        assert seen.read_text().strip() == f"[{given}]"
 
 
 def test_replay_gives_sigterm_back_and_kills_a_viewer_that_ignores_it(tmp_path: Path,

@@ -179,10 +179,10 @@ def viewer_env() -> dict[str, str]:
     """The viewer's environment: ours, with ``NO_COLOR=1`` where our stderr, which the
     viewer writes its log lines to, is not a terminal (a log file read the colour codes of
     rerun's lines as text: ``^[[2m2026-...^[[0m ^[[32m INFO``). A NO_COLOR of one's own
-    is kept."""
+    is kept; an empty one is as none (no-color.org's rule, which rerun follows)."""
     env = dict(os.environ)
-    if not (sys.stderr is not None and sys.stderr.isatty()):
-        env.setdefault("NO_COLOR", "1")
+    if not (sys.stderr is not None and sys.stderr.isatty()) and not env.get("NO_COLOR"):
+        env["NO_COLOR"] = "1"
     return env
 
 
