@@ -48,7 +48,7 @@ import numpy as np
 from drill_env.physics.config import SimulationConfig
 from drill_env.physics.fem import axial_force_profile, build_mesh
 from drill_env.physics.trajectory import bit_depth, hole_loads, string_in_hole
-from drill_env.physics.units import GRAVITY, PSI, RPM
+from drill_env.physics.units import GRAVITY, PSI
 from drill_env.physics.validation import require_non_negative
 
 #: Kinds of component that are pipe (not built to carry compression).
@@ -85,30 +85,14 @@ DAWSON_PASLAY_MIN_INCLINATION = math.radians(2.0)
 @dataclass
 class OperatingPoint:
     """A steady state to start from: surface speed (rad/s) and weight on bit (N), both
-    finite and >= 0 (the bit drills turning forward, on bottom or just touching). A speed
-    above :data:`TOP_DRIVE_MAX_SPEED` warns: a speed typed in rpm (50 read as 477 rpm, a
-    new user's trial) ran without a word; the simulator carries it all the same."""
+    finite and >= 0 (the bit drills turning forward, on bottom or just touching)."""
 
     surface_speed: float = 0.0
     weight_on_bit: float = 0.0
 
     def __post_init__(self) -> None:
-        from drill_env.physics.validation import caller_outside
-
         for name in ("surface_speed", "weight_on_bit"):
             require_non_negative(getattr(self, name), f"OperatingPoint.{name}")
-        if self.surface_speed > TOP_DRIVE_MAX_SPEED:
-            warnings.warn(f"OperatingPoint.surface_speed: {self.surface_speed:g} rad/s is "
-                          f"{self.surface_speed / RPM:,.0f} rpm, faster than top drives turn "
-                          f"(the speed is in rad/s: {self.surface_speed:g} rpm is "
-                          f"{self.surface_speed * RPM:.4g} rad/s, units.RPM)", UserWarning,
-                          stacklevel=caller_outside())
-
-
-#: Top drives turn at most ~250-300 rpm (drilling top drives' ratings); 400 rpm (41.9
-#: rad/s) leaves room for a study above them. A speed typed in rpm is caught from 42 rpm
-#: up; a slower one reads as a plausible speed in rad/s too.
-TOP_DRIVE_MAX_SPEED = 400.0 * RPM
 
 
 def warn_if_hook_pushes(string_weight: float, weight_on_bit: float) -> None:

@@ -25,19 +25,6 @@ def test_an_operating_point_must_be_finite_and_not_negative(speed, wob, field, m
         OperatingPoint(surface_speed=speed, weight_on_bit=wob)
 
 
-def test_a_speed_typed_in_rpm_warns_and_a_top_drives_speed_does_not():
-    """OperatingPoint(50.0, ...) (rpm typed, 477 rpm) ran without a word (a new user's
-    trial): a speed above what top drives turn (~250-300 rpm) warns with its rpm."""
-    import warnings
-
-    with pytest.warns(UserWarning, match=re.escape("OperatingPoint.surface_speed: 50 rad/s "
-                                                   "is 477 rpm, faster than top drives turn")):
-        OperatingPoint(50.0, 100e3)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        OperatingPoint(300 * RPM, 100e3)
-
-
 def test_numpy_scalars_make_an_operating_point():
     point = OperatingPoint(np.float32(50 * RPM), np.int64(100_000))
     assert point.weight_on_bit == 100_000
