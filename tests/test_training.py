@@ -822,9 +822,31 @@ def test_overwrite_deletes_only_a_runs_own_files(tmp_path):
     for name in ("config.yaml", "model.zip", "run.json", "vecnormalize.pkl",
                  ".model.partial.zip"):
         (run / name).write_text("x")
-    for folder in ("checkpoints", "tb", "evaluation", "evaluation_full"):
-        (run / folder).mkdir()
-        (run / folder / "a").write_text("x")
+    own = ["checkpoints/model_2048_steps.zip", "checkpoints/vecnormalize_2048.pkl",
+           "checkpoints/progress_2048.json", "checkpoints/.drill-env.lock",
+           "tb/SAC_1/events.out.tfevents.1765000000.host.42.0",
+           "evaluation/benchmark.csv", "evaluation/benchmark.md", "evaluation/comparison.md",
+           "evaluation/benchmark_results.jsonl", "evaluation/benchmark_bars.png",
+           "evaluation/benchmark_random_series.png", "evaluation/series/stiff_random_seed0.npz",
+           "evaluation/recordings/stiff_random_seed0.rrd",
+           "evaluation/recordings/stiff_random_seed0.rrd.stamp",
+           "evaluation/recordings/other_runs/0a1b/stiff_random_seed0.rrd",
+           "evaluation/grid_search/benchmark.csv",
+           "evaluation/grid_search/series/constant-120rpm-90kN_random_seed0.npz",
+           "evaluation_full/benchmark.md", "evaluation_full/series/.x.7.partial.npz"]
+    for name in own:
+        (run / name).parent.mkdir(parents=True, exist_ok=True)
+        (run / name).write_text("x")
+    # a file of one's own inside the run's folders: refused, naming it, nothing deleted
+    # (a trial: a notes.txt in evaluation/ went with its folder, exit 0, no word)
+    for mine in ("evaluation/notes.txt", "evaluation/mine/a.txt", "checkpoints/notes.txt",
+                 "tb/notes.txt", "evaluation_full/series/mine.csv"):
+        (run / mine).parent.mkdir(parents=True, exist_ok=True)
+        (run / mine).write_text("mine\n")
+        with pytest.raises(FileExistsError, match=rf"did not write \({mine}\)"):
+            clear_run(run)
+        assert all((run / name).exists() for name in own)
+        (run / mine).unlink()
     clear_run(run)
     assert run.is_dir() and list(run.iterdir()) == []
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -130,6 +131,16 @@ RUN_FILES = ("config.yaml", TRAINED_WITH, "model.zip", "run.json", "checkpoints"
 #: ``evaluation`` and ``evaluation_<level>`` folders).
 RUN_OUTPUTS = (*RUN_FILES, "vecnormalize.pkl", "best_model.zip", "best_vecnormalize.pkl",
                "evaluations.csv", "learning_curve.png", "tb")
+#: The files training and evaluate write inside those folders (paths from the run): the
+#: checkpoints, TensorBoard's event files, an evaluation's tables, pictures, series and
+#: recordings (its grid search's too). A file of one's own among them makes the run
+#: refused by ``overwrite``: a notes.txt in evaluation/ went with its folder (a trial).
+OWN_FILES = re.compile(
+    r"checkpoints/(model_\d+_steps\.zip|vecnormalize_\d+\.pkl|progress_\d+\.json)"
+    r"|tb/[^/]+/events\.out\.tfevents\.[^/]+"
+    r"|evaluation(_[a-z]+)?/(grid_search/)?(benchmark\.(csv|md)|benchmark_results\.jsonl"
+    r"|comparison\.md|benchmark_[^/]+\.png|series/[^/]+\.npz"
+    r"|recordings/(other_runs/[^/]+/)?[^/]+\.rrd(\.stamp)?)")
 
 
 def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
@@ -148,6 +159,11 @@ def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
         written = (name in RUN_OUTPUTS or (name in folders and entry.is_dir())
                    or (PARTIAL_FILE.fullmatch(name) is not None and entry.is_file()))
         (ours if written else others).append(entry)
+        if written and entry.is_dir() and not entry.is_symlink():  # what is inside it
+            others += [f for f in sorted(entry.rglob("*"))
+                       if not f.is_dir() and f.name != LOCK_FILE
+                       and not PARTIAL_FILE.fullmatch(f.name)
+                       and not OWN_FILES.fullmatch(f.relative_to(run).as_posix())]
     return ours, others
 
 
@@ -161,7 +177,8 @@ def check_overwrite(run: Path) -> None:
 
         raise FileExistsError(
             f"{run} holds a training run and files training did not write ("
-            + few([e.name for e in others], "in the folder") + "): --overwrite deletes "
+            + few([e.relative_to(run).as_posix() for e in others], "in the folder")
+            + "): --overwrite deletes "
             "only a run's own files; move those, delete the folder yourself or give "
             "another --name")
 
