@@ -214,6 +214,14 @@ def test_a_resume_may_change_the_steps_the_threads_and_the_optimiser_kernel(run)
                                       fused_adam=not cfg.fused_adam))
     with pytest.raises(ValueError, match=r"another config \(eval_episodes: the run's 2, now 3;"):
         check_same_config(folder, replace(cfg, eval_episodes=3))
+    # a section emptied is said by the keys it lost, not as "the run's unset, now {}"
+    # beside them (a trial: a variant run resumed with a file without env_kwargs)
+    assert cfg.env_kwargs == {"episode_duration": 3.0}  # (the run's own)
+    with pytest.raises(ValueError) as refused:
+        check_same_config(folder, replace(cfg, env_kwargs={}))
+    said = str(refused.value)
+    assert "env_kwargs.episode_duration: the run's 3.0, now unset" in said
+    assert "env_kwargs: " not in said
 
 
 def test_a_resumed_run_keeps_counting_its_observation_statistics(run, tmp_path):

@@ -247,8 +247,10 @@ def check_same_config(run: Path, config: TrainConfig, settings: bool = True) -> 
     under (its ``trained_with.json``: a default moved since)."""
     saved = run / "config.yaml"
     if saved.exists():
-        old = flatten(without_inert_keys(read_run_config(saved)))
-        new = flatten(jsonable(config))
+        # (an empty section is as none: "env_kwargs: the run's unset, now {}" beside the
+        # run's own env_kwargs.<key>s, a trial)
+        old, new = ({k: v for k, v in flatten(c).items() if v != {}}
+                    for c in (without_inert_keys(read_run_config(saved)), jsonable(config)))
         # change nothing a resumed run learnt (its model keeps its own optimiser)
         free = ("n_timesteps", "torch_threads", "fused_adam")
         changed = sorted(k for k in {*old, *new} if k not in free
