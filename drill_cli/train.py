@@ -98,9 +98,13 @@ def cmd_train(args: argparse.Namespace) -> int:
                                   n_envs=args.n_envs, seed=args.seed)
     done = check_run_folder(run, args.resume, args.overwrite, config)  # before announcing
     planned = planned_steps(config, done)
-    steps = f"{planned} env steps" + (f" ({config.n_timesteps} asked for, rounded up to a "
-                                      "whole PPO rollout)" if planned != config.n_timesteps
-                                      else "")
+    # (a resume counts from the steps done, which a cut rollout leaves between two whole
+    # ones: its extra steps read as rounding, a trial)
+    since = f" from the {done} done (a rollout cut short is counted, not learnt from)" \
+        if planned != planned_steps(config) else ""
+    steps = f"{planned} env steps" + (f" ({config.n_timesteps} asked for, rounded up to "
+                                      f"whole PPO rollouts{since})"
+                                      if planned != config.n_timesteps else "")
     print(f"training {config.algo.upper()} on {config.env_id}: {steps}, "
           f"{config.n_envs} batched envs, seed {config.seed} -> {run}")
     t0 = time.perf_counter()
@@ -253,7 +257,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                                          f"shipped policy: {', '.join(sorted(TASKS))})")
     if not (args.run / "config.yaml").exists():
         from agents.learned import ELSEWHERE
+        from drill_env.physics.units import few
 
+        # a folder of runs (logs/runs): the runs it holds, not the advice for others' models
+        runs = sorted(f.name for f in args.run.iterdir() if (f / "config.yaml").is_file())
+        if runs:
+            raise argparse.ArgumentTypeError(
+                f"RUN: {args.run} is a folder of runs, not one: give one of them ("
+                + few(runs, "in it") + f"), e.g. {args.run / runs[0]}")
         raise argparse.ArgumentTypeError(f"RUN: {args.run} is not a run folder of drill-env "
                                          f"train (no config.yaml){local}; {ELSEWHERE}, then "
                                          "drill-env benchmark --task")

@@ -179,6 +179,9 @@ def test_an_evaluation_names_the_physics_its_run_trained_on():
     assert evaluation_heading("curved", "model.zip", "sac", "stick_slip", [7, 9], trained) \
         == ("Evaluation of curved (model.zip, sac on task stick_slip), held-out seeds 7-9, "
             "physics level full, the run's own mud, well")
+    # one seed is said as one (it read "held-out seeds 1000000-1000000", a trial)
+    assert ", held-out seed 7, physics" in evaluation_heading("one", "model.zip", "sac",
+                                                              "stick_slip", [7], trained)
 
 
 def test_resume_continues_from_the_last_checkpoint(run, tmp_path):
@@ -769,6 +772,7 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
                  "--name", "copy", "--resume", "--timesteps", "2048"]) != 0
     said = capsys.readouterr()
     assert "has done 2048 env steps" in said.err and "training PPO" not in said.out
+    assert "(a --seeds sweep: another --out)" in said.err  # (a sweep adopts such a run)
     assert yaml.safe_load((copy / "config.yaml").read_text())["n_timesteps"] == 2048
     # PPO runs whole rollouts (128 x 4 here): 2300 steps end at 2560
     longer = replace(cfg, n_timesteps=2300)
@@ -1534,7 +1538,7 @@ def test_a_learning_curve_of_zeros_says_so(tmp_path, monkeypatch):
     moves says nothing."""
     axes = _learning_curve_axes(tmp_path, monkeypatch, "1000,90,20,0.02,0.0,60\n"
                                 "2000,110,20,0.01,0.0,120\n")
-    assert [t.get_text() for t in axes["SSI"].texts] == ["never stuck\nat every evaluation"]
+    assert [t.get_text() for t in axes["SSI"].texts] == ["never stuck\nat any evaluation"]
     axes = _learning_curve_axes(tmp_path, monkeypatch, "1000,90,20,0.02,0.01,60\n")
     assert not list(axes["SSI"].texts)
     # an SSI not defined at any evaluation is not "no stick-slip"
@@ -1584,6 +1588,14 @@ def test_evaluate_tells_a_missing_folder_from_a_folder_that_is_no_run(tmp_path, 
         main(["benchmark", "--task", "stick_slip", "--seeds", "1", "--controllers",
               f"learned:{tmp_path / 'stick_slip_ppo'}", "--out", str(tmp_path / "b")])
     assert f"(did you mean {tmp_path / 'stick_slip_ppo_seed0'}?)" in \
+        " ".join(capsys.readouterr().err.split())
+    # a folder of runs (logs/runs) lists them (a trial: it gave the advice for a model
+    # trained elsewhere)
+    (tmp_path / "stick_slip_ppo_seed0" / "config.yaml").write_text("task: stick_slip\n")
+    with pytest.raises(SystemExit):
+        main(["evaluate", str(tmp_path)])
+    assert f"RUN: {tmp_path} is a folder of runs, not one: give one of them " \
+        f"(stick_slip_ppo_seed0), e.g. {tmp_path / 'stick_slip_ppo_seed0'}" in \
         " ".join(capsys.readouterr().err.split())
 
 

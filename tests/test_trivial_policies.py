@@ -232,6 +232,8 @@ def test_the_comparison_says_why_a_p_is_missing() -> None:
            for c, r in (("learned", 5.0), ("other", 3.0))]
     text = comparison_text(paired_comparison(one), 5.0)
     assert "n/a: one episode a pair" in text and "do not vary" not in text
+    # no test at all: no "Holm's method over the 0 comparisons" (a trial's --seeds 1)
+    assert "over the 0" not in text and "none here, nor p, Holm" in text
     constant = [{"controller": c, "seed": s, "episode_return": r + s}
                 for c, r in (("learned", 5.0), ("other", 3.0)) for s in range(2)]
     text = comparison_text(paired_comparison(constant), 5.5)

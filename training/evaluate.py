@@ -234,10 +234,12 @@ def comparison_text(comparison: list[dict[str, Any]], policy_return: float,
              f"few episodes); better on: the episodes where {policy}'s return is higher "
              "(a tie is not counted);",
              f"- p: the one-sided paired t-test that {policy}'s mean return is higher; "
-             f"p, Holm: p adjusted by Holm's method over the {n} {what} "
-             "(controllers with identical returns on every episode counted once): read it "
-             f"to say which of them {policy} beats; a claim that it beats every one of them "
-             "at once needs each raw p below the level, no adjustment;",
+             + (f"p, Holm: p adjusted by Holm's method over the {n} {what} "
+                "(controllers with identical returns on every episode counted once): read "
+                f"it to say which of them {policy} beats; a claim that it beats every one of "
+                "them at once needs each raw p below the level, no adjustment;" if n else
+                "none here, nor p, Holm: a paired test needs two episodes or more with a "
+                "spread in the differences;"),
              "- ended early: episodes a failure stopped (their return is the steps until "
              "then and the failure penalty: a shorter sum, not always a lower one).", "",
              "| controller | return | mean lead | 95 % CI of the lead | median lead | "
@@ -283,8 +285,9 @@ def evaluation_heading(run: str, model: str, algo: str, task: str, seeds: Sequen
     own = trained_fidelity(trained)
     level = fidelity or own
     changed = sorted({key.split(".")[0] for key in flatten(trained.get("physics") or {})})
-    return (f"Evaluation of {run} ({model}, {algo} on task {task}), held-out seeds "
-            f"{seeds[0]}-{seeds[-1]}, physics level {level}"
+    shown = f"seeds {seeds[0]}-{seeds[-1]}" if len(seeds) > 1 else f"seed {seeds[0]}"
+    return (f"Evaluation of {run} ({model}, {algo} on task {task}), held-out {shown}, "
+            f"physics level {level}"
             + (f" (trained at {own})" if level != own else "")
             + (f", the run's own {', '.join(changed)}" if changed else ""))
 

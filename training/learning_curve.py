@@ -68,7 +68,7 @@ def plot_learning_curve(run: Path, sessions: Sequence[int] | None = None) -> Pat
                                            (stuck_values, "never stuck"))
                if np.isfinite(values).any() and highest(values) == 0.0]  # (not undefined)
     if nothing:
-        axes[1].text(0.5, 0.5, " and ".join(nothing) + "\nat every evaluation",
+        axes[1].text(0.5, 0.5, " and ".join(nothing) + "\nat any evaluation",
                      transform=axes[1].transAxes, ha="center", va="center", fontsize=9,
                      color="0.3")
     axes[0].set_title("return", fontsize=10)

@@ -235,7 +235,8 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
     if done >= config.n_timesteps:
         raise ValueError(f"--timesteps: {run} is finished (it has done {done} env steps "
                          f"already, {config.n_timesteps} asked for); give more than {done} "
-                         "to continue it")
+                         "to continue it, or train afresh under another --name (a --seeds "
+                         "sweep: another --out)")
     check_learns(config, done, learnt=updates > 0)
     return done
 
