@@ -239,6 +239,29 @@ def which_model(run: Path, model: Path) -> str:
     return "the run's final model: it kept no best model"
 
 
+def trained_steps(run: Path, model: Path) -> int | None:
+    """The env steps ``model`` of ``run`` had trained when it was saved: the best model's
+    evaluation row (the first with the highest return, as training keeps it), a
+    checkpoint's name, the final model's run.json; None where the run does not say (a
+    shipped policy folder). A run of one PPO update was scored like any other without a
+    word on how little it trained (a new user's trial)."""
+    import re
+
+    from training.run_folder import read_evaluations
+
+    try:
+        if model.name.startswith("best_"):
+            rows = read_evaluations(run / "evaluations.csv")
+            best = max((float(r["return"]) for r in rows), default=None)
+            return next(int(float(r["timesteps"])) for r in rows
+                        if float(r["return"]) == best) if rows else None
+        if found := re.fullmatch(r"model_(\d+)_steps\.zip", model.name):
+            return int(found.group(1))
+        return int(json.loads((run / "run.json").read_text(encoding="utf-8"))["env_steps"])
+    except (OSError, ValueError, KeyError, TypeError, StopIteration):
+        return None
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.learned import TRAINED, no_such_folder
     from training.config import TASKS
@@ -280,7 +303,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             "again)"
         raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}{why}"
                                          ) from None
-    print(f"evaluating {model} ({which_model(args.run, model)})")
+    steps = trained_steps(args.run, model)
+    print(f"evaluating {model} ({which_model(args.run, model)}"
+          + (f"; trained {steps:,} env steps" if steps is not None else "") + ")")
     if live:  # (went ahead without a word: a new user's trial)
         print(f"note: {args.run} is held by another drill-env process, a training still "
               "running: this evaluates the model it has saved so far, and goes stale when "

@@ -1655,6 +1655,18 @@ def test_evaluate_says_which_model_it_scores(tmp_path):
     assert which_model(tmp_path, tmp_path / "best_model.zip").startswith("the best model")
     checkpoint = tmp_path / "checkpoints" / "model_5000_steps.zip"
     assert which_model(tmp_path, checkpoint).startswith("the last checkpoint")
+    # and how long it trained (a run of one PPO update was scored without a word on it):
+    # the best model's row is the first with the highest return, as training keeps it
+    from drill_cli.train import trained_steps
+
+    assert trained_steps(tmp_path, tmp_path / "model.zip") is None  # (run.json says none)
+    (tmp_path / "run.json").write_text('{"env_steps": 8192}')
+    (tmp_path / "evaluations.csv").write_text("timesteps,return\n1000,-50\n2000,-20\n"
+                                              "3000,-30\n4000,-20\n")
+    assert [trained_steps(tmp_path, tmp_path / name) for name in (
+        "model.zip", "best_model.zip", "checkpoints/model_5000_steps.zip")] == [
+        8192, 2000, 5000]
+    assert trained_steps(shipped, shipped / "model.zip") is None
 
 
 def test_a_task_benchmark_on_a_curved_well_draws_the_lengths_given(tmp_path, capsys):
