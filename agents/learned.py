@@ -308,13 +308,21 @@ def load_saved(path: Path, load: Any, pickled: bool = False) -> Any:
                          ) from None
 
 
+def checkpoint_steps(model: Path) -> int | None:
+    """The env steps in a checkpoint's model file name (``model_<steps>_steps.zip``, as
+    training writes it), or None for another file."""
+    import re
+
+    found = re.fullmatch(r"model_(\d+)_steps\.zip", Path(model).name)
+    return int(found.group(1)) if found else None
+
+
 def latest_checkpoint(run: Path) -> tuple[Path, Path] | None:
     """(model, normalisation) of the run's last complete checkpoint, as training writes
     them (``checkpoints/model_<steps>_steps.zip`` beside ``vecnormalize_<steps>.pkl``; a
     Ctrl-C saves one too); None if it has none. Other files there are ignored."""
     kept = Path(run) / "checkpoints"
-    steps = [int(p.stem.split("_")[1]) for p in kept.glob("model_*_steps.zip")
-             if p.stem.split("_")[1].isdigit()]
+    steps = [k for p in kept.glob("model_*_steps.zip") if (k := checkpoint_steps(p)) is not None]
     for k in sorted(steps, reverse=True):
         if (kept / f"vecnormalize_{k}.pkl").exists():
             return kept / f"model_{k}_steps.zip", kept / f"vecnormalize_{k}.pkl"

@@ -192,10 +192,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         # a --config variant the benchmark without it: each in a folder of its own
         # (config-<stem>: a file named stick_slip.yaml would have written into the task
         # benchmark's own folder; a review)
+        variant = variant_folder(controllers, env_id) if env_id else ""
         args.out = (Path("logs/benchmark") / (args.task or "")
-                    / (f"config-{args.config.stem}" if args.config else "")
-                    / (variant_folder(controllers, env_id) if env_id else ""))
-        if args.out.name.startswith("variant"):
+                    / (f"config-{args.config.stem}" if args.config else "") / variant)
+        if variant:
             print(f"note: the policies were trained under other {env_id} settings than "
                   f"the task's, which every controller acts under here: the benchmark goes "
                   f"to {args.out}, apart from the task's own", file=sys.stderr)

@@ -245,8 +245,7 @@ def trained_steps(run: Path, model: Path) -> int | None:
     checkpoint's name, the final model's run.json; None where the run does not say (a
     shipped policy folder). A run of one PPO update was scored like any other without a
     word on how little it trained (a new user's trial)."""
-    import re
-
+    from agents.learned import checkpoint_steps
     from training.run_folder import read_evaluations
 
     try:
@@ -255,8 +254,8 @@ def trained_steps(run: Path, model: Path) -> int | None:
             best = max((float(r["return"]) for r in rows), default=None)
             return next(int(float(r["timesteps"])) for r in rows
                         if float(r["return"]) == best) if rows else None
-        if found := re.fullmatch(r"model_(\d+)_steps\.zip", model.name):
-            return int(found.group(1))
+        if (steps := checkpoint_steps(model)) is not None:
+            return steps
         return int(json.loads((run / "run.json").read_text(encoding="utf-8"))["env_steps"])
     except (OSError, ValueError, KeyError, TypeError, StopIteration):
         return None

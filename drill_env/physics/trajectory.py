@@ -128,14 +128,13 @@ def check_survey_holds(config) -> None:
 SURVEY_COLUMNS = {"md": ("md", "measured depth"),
                   "inclination": ("inclination", "inc", "incl"),
                   "azimuth": ("azimuth", "azi", "azim", "az")}
+#: An angle's units, as factors to degrees (inclination and azimuth alike).
+_ANGLE_UNITS = {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "\u00b0": 1.0, "rad": 180.0 / math.pi}
 #: The units a survey column may name in brackets after its name, as factors to ours
 #: (m, degrees): a file in feet or radians says so in its header, and is read as it says.
 SURVEY_UNITS = {"md": {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0,
                        "ft": FOOT, "feet": FOOT, "usft": 1200.0 / 3937.0},
-                "inclination": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "\u00b0": 1.0,
-                                "rad": 180.0 / math.pi},
-                "azimuth": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "\u00b0": 1.0,
-                            "rad": 180.0 / math.pi}}
+                "inclination": _ANGLE_UNITS, "azimuth": _ANGLE_UNITS}
 
 #: Words of an azimuth's header that say which north it is from, not a unit: one north
 #: throughout a file turns the hole alike (the formations' dip azimuths are the user's).
