@@ -241,19 +241,17 @@ def which_model(run: Path, model: Path) -> str:
 
 def trained_steps(run: Path, model: Path) -> int | None:
     """The env steps ``model`` of ``run`` had trained when it was saved: the best model's
-    evaluation row (the first with the highest return, as training keeps it), a
-    checkpoint's name, the final model's run.json; None where the run does not say (a
-    shipped policy folder). A run of one PPO update was scored like any other without a
-    word on how little it trained (a new user's trial)."""
+    evaluation row (:func:`training.run_folder.best_evaluation`), a checkpoint's name,
+    the final model's run.json; None where the run does not say (a shipped policy
+    folder). A run of one PPO update was scored like any other without a word on how
+    little it trained (a new user's trial)."""
     from agents.learned import checkpoint_steps
-    from training.run_folder import read_evaluations
+    from training.run_folder import best_evaluation
 
     try:
         if model.name.startswith("best_"):
-            rows = read_evaluations(run / "evaluations.csv")
-            best = max((float(r["return"]) for r in rows), default=None)
-            return next(int(float(r["timesteps"])) for r in rows
-                        if float(r["return"]) == best) if rows else None
+            best = best_evaluation(run)
+            return int(best["timesteps"]) if best else None
         if (steps := checkpoint_steps(model)) is not None:
             return steps
         return int(json.loads((run / "run.json").read_text(encoding="utf-8"))["env_steps"])

@@ -68,13 +68,17 @@ def run(tmp_path_factory):
 def test_a_run_folder_holds_everything(run):
     folder, cfg = run
     for name in ("config.yaml", "model.zip", "vecnormalize.pkl", "best_model.zip",
-                 "best_vecnormalize.pkl", "evaluations.csv", "learning_curve.png",
-                 "run.json"):
+                 "best_vecnormalize.pkl", "best_model.json", "evaluations.csv",
+                 "learning_curve.png", "run.json"):
         assert (folder / name).exists(), name
     assert yaml.safe_load((folder / "config.yaml").read_text())["n_timesteps"] == 2048
     with (folder / "evaluations.csv").open() as f:
         rows = list(csv.DictReader(f))
     assert [int(r["timesteps"]) for r in rows] == [1024, 2048]
+    # the best model's row, as the csv has it (the first of the highest return)
+    best = max(rows, key=lambda r: float(r["return"]))
+    kept = json.loads((folder / "best_model.json").read_text())
+    assert kept == {k: pytest.approx(float(v), rel=1e-12) for k, v in best.items()}
     assert list((folder / "checkpoints").glob("model_*_steps.zip"))
     assert list((folder / "tb").iterdir())
 
@@ -851,14 +855,33 @@ def test_overwrite_deletes_only_a_runs_own_files(tmp_path):
         (run / name).write_text("x")
     # a file of one's own inside the run's folders: refused, naming it, nothing deleted
     # (a trial: a notes.txt in evaluation/ went with its folder, exit 0, no word)
+    # and names only near the run's own (a fuzzing walkthrough: each went, unnamed)
     for mine in ("evaluation/notes.txt", "evaluation/mine/a.txt", "checkpoints/notes.txt",
-                 "tb/notes.txt", "evaluation_full/series/mine.csv"):
+                 "tb/notes.txt", "evaluation_full/series/mine.csv",
+                 "evaluation/benchmark_bars_annotated.png", "evaluation/series/my_analysis.npz",
+                 "tb/SAC_1/events.out.tfevents.backup",
+                 "tb/SAC_1/events.out.tfevents.1765000000.host.42.0.bak",
+                 "checkpoints/model_2048_steps.zip.bak", "evaluation/recordings/mine.rrd"):
         (run / mine).parent.mkdir(parents=True, exist_ok=True)
         (run / mine).write_text("mine\n")
-        with pytest.raises(FileExistsError, match=rf"did not write \({mine}\)"):
+        named = "evaluation/mine" if mine.startswith("evaluation/mine/") else mine
+        with pytest.raises(FileExistsError, match=rf"did not write \({re.escape(named)}\)"):
             clear_run(run)
         assert all((run / name).exists() for name in own)
         (run / mine).unlink()
+        if named != mine:
+            (run / named).rmdir()
+    # a folder of one's own, empty, and a link (to a folder or a file) inside them
+    (run / "evaluation" / "my_notes").mkdir()
+    with pytest.raises(FileExistsError, match=r"did not write \(evaluation/my_notes\)"):
+        clear_run(run)
+    (run / "evaluation" / "my_notes").rmdir()
+    for target in (tmp_path / "proj", tmp_path / "proj" / "config.yaml"):
+        (run / "evaluation" / "link").symlink_to(target)
+        with pytest.raises(FileExistsError, match=r"did not write \(evaluation/link\)"):
+            clear_run(run)
+        (run / "evaluation" / "link").unlink()
+    assert all((run / name).exists() for name in own)
     clear_run(run)
     assert run.is_dir() and list(run.iterdir()) == []
 
@@ -2351,6 +2374,29 @@ def test_rewind_without_a_best_model_has_no_best_return(tmp_path):
     assert _rewind(run, 2048, from_checkpoint=True).best_return == -np.inf
     (run / "best_model.zip").write_bytes(b"")
     assert _rewind(run, 2048, from_checkpoint=True).best_return == pytest.approx(-3.0)
+
+
+def test_the_best_models_row_outlives_a_rewind_past_it(tmp_path):
+    """A run killed without its interrupt checkpoint resumes from an earlier one: the
+    rows after it leave the csv, the best model stays, and its steps were read from
+    another row ('trained 2,048 env steps' for a model of 7,168; a fuzzing walkthrough)."""
+    from training.run_folder import best_evaluation, write_best
+    from training.run_folder import rewind as _rewind
+
+    run = tmp_path / "run"
+    _evaluations(run, [(1024, -5.0), (2048, -3.0), (3072, -1.0)])
+    assert best_evaluation(run)["timesteps"] == 3072  # an older run: read from the csv
+    (run / "best_model.zip").write_bytes(b"")
+    write_best(run, {"timesteps": 3072, "return": -1.0, "ssi": 0.25})
+    resumed = _rewind(run, 2048, from_checkpoint=True)
+    assert resumed.best_return == pytest.approx(-1.0)  # to beat after the resume
+    assert best_evaluation(run) == {"timesteps": 3072.0, "return": -1.0, "ssi": 0.25}
+    from drill_cli.train import trained_steps
+
+    assert trained_steps(run, run / "best_model.zip") == 3072
+    (run / "best_model.json").write_text('{"return": -1.0}')
+    with pytest.raises(ValueError, match="best_model.json is damaged.*delete it"):
+        best_evaluation(run)
 
 
 def test_crossed_only_when_a_grid_line_is_passed():

@@ -28,6 +28,7 @@ from training.run_folder import (
     Resumed,
     add_row,
     read_evaluations,
+    write_best,
     write_checkpoint,
 )
 
@@ -176,6 +177,7 @@ def training_callbacks(config: TrainConfig, run: Path, train_env: Any,
                     self.best = result["return"]
                     save_whole(run / "best_model.zip", self.model.save)
                     save_whole(run / "best_vecnormalize.pkl", train_env.save)
+                    write_best(run, row)
             finally:
                 train_env.obs_rms = live
             plot_learning_curve(run, sessions)

@@ -94,14 +94,46 @@ def read_evaluations(path: Path) -> list[dict[str, str]]:
     return rows
 
 
+#: The best model's evaluation row (``evaluations.csv``'s columns), written beside it:
+#: a resume from an earlier checkpoint rewinds the csv past that row and keeps the model,
+#: and the row read back from the csv was another one's (a fuzzing walkthrough).
+BEST_RECORD = "best_model.json"
+
+
+def write_best(run: Path, row: dict[str, Any]) -> None:
+    """Record ``row``, the evaluation of the model just saved as ``best_model.zip``."""
+    save_text(run / BEST_RECORD, json.dumps({k: float(v) for k, v in row.items()}, indent=1))
+
+
+def best_evaluation(run: Path) -> dict[str, float] | None:
+    """The evaluation row of ``run``'s best model: its :data:`BEST_RECORD`, or for a run
+    of an older version the first row of highest return in ``evaluations.csv`` (as
+    training kept it, unless a resume rewound the file past it); None before any."""
+    path = run / BEST_RECORD
+    if path.exists():
+        try:
+            row = json.loads(path.read_text(encoding="utf-8"))
+            kept = {k: float(v) for k, v in row.items()}
+            kept["timesteps"], kept["return"]  # noqa: B018 (a KeyError if either is missing)
+            return kept
+        except (ValueError, KeyError, TypeError, AttributeError) as err:
+            raise ValueError(f"{path} is damaged ({err!r}); delete it (the best model's "
+                             "row is then read from evaluations.csv)") from None
+    rows = read_evaluations(run / "evaluations.csv")
+    if not rows:
+        return None
+    best = max(rows, key=lambda r: float(r["return"]))  # the first of equal returns
+    return {k: float(v) for k, v in best.items()}
+
+
 def rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
     """Rewind the run's records to ``steps``, the checkpoint (or final model) it resumes
     from: evaluations after it belong to training that is done again, so their rows
     leave ``evaluations.csv``. The best model stays (it was evaluated), with its return."""
     path = run / "evaluations.csv"
     rows = read_evaluations(path)
-    best = max((float(r["return"]) for r in rows), default=-np.inf) \
-        if (run / "best_model.zip").exists() else -np.inf
+    kept_best = best_evaluation(run) if (run / "best_model.zip").exists() else None
+    best = kept_best["return"] if kept_best else -np.inf
     kept = [r for r in rows if int(float(r["timesteps"])) <= steps]
     if len(kept) < len(rows):
         save_text(path, csv_text(rows[0], kept), newline="")  # whole, as add_row writes
@@ -130,17 +162,26 @@ RUN_FILES = ("config.yaml", TRAINED_WITH, "model.zip", "run.json", "checkpoints"
 #: (with the hidden ``.<name>.<pid>.partial<ext>`` of a save cut short, and evaluate's
 #: ``evaluation`` and ``evaluation_<level>`` folders).
 RUN_OUTPUTS = (*RUN_FILES, "vecnormalize.pkl", "best_model.zip", "best_vecnormalize.pkl",
-               "evaluations.csv", "learning_curve.png", "tb")
+               BEST_RECORD, "evaluations.csv", "learning_curve.png", "tb")
 #: The files training and evaluate write inside those folders (paths from the run): the
-#: checkpoints, TensorBoard's event files, an evaluation's tables, pictures, series and
-#: recordings (its grid search's too). A file of one's own among them makes the run
-#: refused by ``overwrite``: a notes.txt in evaluation/ went with its folder (a trial).
+#: checkpoints, TensorBoard's event files (time, host, process, count), an evaluation's
+#: tables, pictures, series and recordings (its grid search's too; an episode's files are
+#: <controller>_<scenario>_seed<N>). A file of one's own among them makes the run refused
+#: by ``overwrite``: a notes.txt in evaluation/ went with its folder (a trial), and so did
+#: names only near ours (benchmark_bars_annotated.png, series/my_analysis.npz, a
+#: tfevents file's .backup copy: a fuzzing walkthrough).
 OWN_FILES = re.compile(
     r"checkpoints/(model_\d+_steps\.zip|vecnormalize_\d+\.pkl|progress_\d+\.json)"
-    r"|tb/[^/]+/events\.out\.tfevents\.[^/]+"
+    r"|tb/[A-Za-z0-9]+_\d+/events\.out\.tfevents\.\d+\.[^/]+\.\d+\.\d+"
     r"|evaluation(_[a-z]+)?/(grid_search/)?(benchmark\.(csv|md)|benchmark_results\.jsonl"
-    r"|comparison\.md|benchmark_[^/]+\.png|series/[^/]+\.npz"
-    r"|recordings/(other_runs/[^/]+/)?[^/]+\.rrd(\.stamp)?)")
+    r"|comparison\.md|benchmark_bars\.png|benchmark_[^/]+_series\.png"
+    r"|series/[^/]+_seed\d+\.npz"
+    r"|recordings/(other_runs/[A-Za-z0-9]+/)?[^/]+_seed\d+\.rrd(\.stamp)?)")
+#: The folders they lie in: any other folder inside the run's, empty or not, or a link
+#: of one's own there, is not the run's (both went with their folder).
+OWN_FOLDERS = re.compile(
+    r"tb/[A-Za-z0-9]+_\d+|evaluation(_[a-z]+)?(/grid_search)?"
+    r"(/series|/recordings(/other_runs(/[A-Za-z0-9]+)?)?)?")
 
 
 def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
@@ -159,12 +200,24 @@ def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
         written = (name in RUN_OUTPUTS or (name in folders and entry.is_dir())
                    or (PARTIAL_FILE.fullmatch(name) is not None and entry.is_file()))
         (ours if written else others).append(entry)
-        if written and entry.is_dir() and not entry.is_symlink():  # what is inside it
-            others += [f for f in sorted(entry.rglob("*"))
-                       if not f.is_dir() and f.name != LOCK_FILE
-                       and not PARTIAL_FILE.fullmatch(f.name)
-                       and not OWN_FILES.fullmatch(f.relative_to(run).as_posix())]
+        if written and entry.is_dir() and not entry.is_symlink():
+            others += foreign_inside(run, entry)
     return ours, others
+
+
+def foreign_inside(run: Path, folder: Path) -> list[Path]:
+    """What lies in ``folder`` of ``run`` that training and evaluate do not write (see
+    :data:`OWN_FILES`, :data:`OWN_FOLDERS`): a folder of one's own is named, not what
+    it holds."""
+    found: list[Path] = []
+    for f in sorted(folder.rglob("*")):
+        if f.name == LOCK_FILE or PARTIAL_FILE.fullmatch(f.name) or \
+                any(f.is_relative_to(other) for other in found):
+            continue
+        own = OWN_FOLDERS if f.is_dir() and not f.is_symlink() else OWN_FILES
+        if f.is_symlink() or not own.fullmatch(f.relative_to(run).as_posix()):
+            found.append(f)
+    return found
 
 
 def check_overwrite(run: Path) -> None:

@@ -43,7 +43,7 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     """One seed's run (resumed from its last checkpoint if it has one)."""
     import torch
 
-    from training.run_folder import finished, holds_run, read_evaluations
+    from training.run_folder import best_evaluation, finished, holds_run
     from training.train import train
 
     config, folder = args
@@ -54,13 +54,12 @@ def _train_task(args: tuple[TrainConfig, str]) -> dict[str, Any]:
     if not finished(run, config):
         train(config, run, resume=holds_run(run), progress=False)
     info = json.loads((run / "run.json").read_text(encoding="utf-8"))
-    rows = read_evaluations(run / "evaluations.csv")  # none before the first evaluation
-    best = max(rows, key=lambda r: float(r["return"])) if rows else None
+    best = best_evaluation(run)  # none before the first evaluation
     return {"seed": config.seed, "run": str(run), "env_steps": info["env_steps"],
             "wall_s": info["wall_s"],
-            "best_return": float(best["return"]) if best else None,
-            "best_at_steps": int(float(best["timesteps"])) if best else None,
-            "best_ssi": float(best["ssi"]) if best else None}
+            "best_return": best["return"] if best else None,
+            "best_at_steps": int(best["timesteps"]) if best else None,
+            "best_ssi": best["ssi"] if best else None}
 
 
 def train_seeds(config: TrainConfig, seeds: Sequence[int], out: Path,

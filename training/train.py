@@ -10,7 +10,8 @@ A run lives in ``logs/runs/<name>/``:
                             overrides: a later version whose defaults moved says so
 ``model.zip``               the final model; ``vecnormalize.pkl`` its normalisation
 ``best_model.zip``          the best model on the validation seeds (+ its
-                            ``best_vecnormalize.pkl``)
+                            ``best_vecnormalize.pkl`` and its evaluation's row,
+                            ``best_model.json``)
 ``checkpoints/``            models every ``checkpoint_freq`` steps and at a Ctrl-C
                             (resume from the last), their normalisation and the
                             training wall time at each
@@ -63,6 +64,7 @@ from training.config import (
 )
 from training.learning_curve import plot_learning_curve
 from training.run_folder import (
+    BEST_RECORD,
     FRESH,
     check_run_folder,
     clear_run,
@@ -221,7 +223,8 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
     else:
         model = new_model(config, env, tensorboard_log=str(run / "tb"))
         if resume:  # killed before its first checkpoint: its records go with it
-            for name in ("evaluations.csv", "best_model.zip", "best_vecnormalize.pkl"):
+            for name in ("evaluations.csv", "best_model.zip", "best_vecnormalize.pkl",
+                         BEST_RECORD):
                 (run / name).unlink(missing_ok=True)
         resumed = FRESH
     # after SB3, which seeds the envs with the run seed (+ i) when it builds or loads
