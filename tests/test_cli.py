@@ -1259,8 +1259,9 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
                         f"--record {blocker}: is a file"),
                        (["well", "--well", "j_shaped", "--total-md", "400"],
                         "--total-md: 400.0 m ends before the profile's last curve"),
-                       (["well", "--survey", str(bad)], f"--survey {bad}: survey.md: must "
-                                                        "start at 0 and increase"),
+                       (["well", "--survey", str(bad)], f"--survey: survey {bad}, line 4, "
+                                                        "column md: must increase: 400 m "
+                                                        "after 500 m"),
                        (["well", "--survey", str(typo)], f"--survey: survey {typo}, line 3, "
                                                          "column inclination: 'abc' is not "
                                                          "a number"),

@@ -324,16 +324,42 @@ def test_a_survey_csv_is_read_by_the_names_and_units_its_header_gives(tmp_path) 
                            ("MD (US ft),Inc (deg.),Azimuth (True)\n0,0,0\n1640.4166667,0,0\n"
                             "3937,45,90\n", "utf-8"),
                            ("MD (m),Inc (\u00b0),Azi (\u00b0)\n0,0,0\n500,0,0\n1200,45,90\n",
-                            "cp1252")):
+                            "cp1252"),
+                           # a fuzzing walkthrough's, each refused or misread: a depth's
+                           # datum, the ordinal sign for degrees, a name's dot, a unit
+                           # without brackets, 'ft US', Excel's "Unicode text" (UTF-16),
+                           # blank lines above the header, a minus sign from a PDF
+                           ("MD (m RKB),Inc. (\u00ba),Azi. (deg)\n0,0,0\n500,0,0\n"
+                            "1200,45,90\n", "utf-8"),
+                           ("MD ft,Inc deg,Azimuth\n0,0,0\n1640.4199475,0,0\n"
+                            "3937.007874,45,90\n", "utf-8"),
+                           ("MD (ft US),Inc,Azi\n0,0,0\n1640.4166667,0,0\n3937,45,90\n",
+                            "utf-8"),
+                           ("md,inclination,azimuth\n0,0,0\n500,0,0\n1200,45,90\n",
+                            "utf-16"),
+                           ("\n\r\nmd,inclination,azimuth\n0,0,0\n500,0,0\n1200,45,90\n",
+                            "utf-8")):
         read = survey(text, encoding)
         np.testing.assert_allclose(read.md, ours.md, rtol=1e-9)
         np.testing.assert_allclose(read.inclination, ours.inclination, rtol=1e-12)
         np.testing.assert_allclose(read.azimuth, ours.azimuth, rtol=1e-12)
+    minus = survey("md,inclination,azimuth\n0,0,0\n500,0,0\n1200,45,\u2212270\n").azimuth
+    assert minus[-1] == pytest.approx(math.radians(-270.0), rel=1e-12)
     for text, said in (("md (yd),inc,azi\n0,0,0\n500,0,0\n",
                         "column 'md (yd)': unit 'yd' unknown for md (one of m, "),
                        ("md,Measured Depth,inc,azi\n0,0,0,0\n500,500,0,0\n",
                         "two columns are md"),
                        ("depth,inc,azi\n0,0,0\n500,0,0\n",  # (true vertical depth?)
-                        "missing column(s) ['md']; its header is ['depth', 'inc', 'azi']")):
+                        "missing column(s) ['md']; its header is ['depth', 'inc', 'azi']"),
+                       # a refused value names its line (blank lines above counted) and
+                       # column in the units read: the column's every value was printed
+                       ("\nmd,inc,azi\n0,0,0\n500,0,0\n500,1,0\n",
+                        "line 5, column md: must increase: 500 m after 500 m"),
+                       ("MD (ft),inc,azi\n0,0,0\n1000,0,0\n1e12,1,0\n", "line 4, column md: "
+                        "3.048e+11 m is deeper than 15,000 m, the longest string"),
+                       ("md,inc,azi\n0,0,0\n500,0,nan\n", "line 3, column azimuth: must be "
+                                                         "finite, got nan"),
+                       ("md,inc,azi\n0,0,0\n500,181,0\n", "line 3, column inclination: "
+                                                         "degrees in [0, 180], got 181")):
         with pytest.raises(ValueError, match=re.escape(said)):
             survey(text)

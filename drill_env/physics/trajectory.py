@@ -60,12 +60,13 @@ MAX_DOGLEG_SEVERITY = 20.0
 
 
 def _warn_of_radians_or_sharp_bends(md: np.ndarray, inc: np.ndarray, azi: np.ndarray,
-                                    dogleg: np.ndarray) -> None:
-    """UserWarning for angles that look typed in radians (every inclination within pi and
-    every azimuth within 2 pi, some of each not zero: a build to 75 deg typed as 1.309 ran
-    as a near-vertical well; a well due north has no azimuth to tell) and for a course
-    bent beyond :data:`MAX_DOGLEG_SEVERITY` (``dogleg``: each course's, rad)."""
-    if 0.0 < inc.max() <= math.pi and 0.0 < np.abs(azi).max() <= 2.0 * math.pi:
+                                    dogleg: np.ndarray, guess_radians: bool) -> None:
+    """UserWarning for angles that look typed in radians (``guess_radians``: every
+    inclination within pi and every azimuth within 2 pi, some of each not zero: a build
+    to 75 deg typed as 1.309 ran as a near-vertical well; a well due north has no azimuth
+    to tell) and for a course bent beyond :data:`MAX_DOGLEG_SEVERITY` (``dogleg``: each
+    course's, rad)."""
+    if guess_radians and 0.0 < inc.max() <= math.pi and 0.0 < np.abs(azi).max() <= 2.0 * math.pi:
         warnings.warn(f"survey: every inclination is at most {inc.max():g} deg and every "
                       f"azimuth at most {np.abs(azi).max():g} deg: typed in radians? They "
                       f"are degrees ({inc.max():g} rad = {math.degrees(inc.max()):.0f} deg)",
@@ -129,39 +130,86 @@ SURVEY_COLUMNS = {"md": ("md", "measured depth"),
                   "inclination": ("inclination", "inc", "incl"),
                   "azimuth": ("azimuth", "azi", "azim", "az")}
 #: An angle's units, as factors to degrees (inclination and azimuth alike).
-_ANGLE_UNITS = {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "\u00b0": 1.0, "rad": 180.0 / math.pi}
+_ANGLE_UNITS = {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "\u00b0": 1.0,
+                "\u00ba": 1.0,  # the ordinal sign Spanish and Portuguese keyboards type for it
+                "rad": 180.0 / math.pi}
 #: The units a survey column may name in brackets after its name, as factors to ours
 #: (m, degrees): a file in feet or radians says so in its header, and is read as it says.
 SURVEY_UNITS = {"md": {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0,
-                       "ft": FOOT, "feet": FOOT, "usft": 1200.0 / 3937.0},
+                       "ft": FOOT, "feet": FOOT, "usft": 1200.0 / 3937.0,
+                       "ftus": 1200.0 / 3937.0},
                 "inclination": _ANGLE_UNITS, "azimuth": _ANGLE_UNITS}
 
 #: Words of an azimuth's header that say which north it is from, not a unit: one north
 #: throughout a file turns the hole alike (the formations' dip azimuths are the user's).
 NORTH_REFERENCES = frozenset({"true", "grid", "mag", "magnetic", "north", "tn", "gn", "mn"})
+#: Words of a depth's header that say where it is measured from (rotary or kelly
+#: bushing, drill floor, ground, sea level), not a unit: ``MD (m RKB)``. The survey's
+#: first station is its zero, whatever the datum.
+DEPTH_DATUMS = frozenset({"rkb", "kb", "rt", "df", "gl", "msl", "bdf", "ddf"})
 
 
-def _survey_column(header: str, path: str) -> tuple[str, float]:
-    """Our name of a survey CSV's column and the factor of its unit (1 where it names
-    none); a column not ours keeps its name. A unit not known for the column is a
-    ValueError naming it."""
+def _survey_column(header: str, path: str) -> tuple[str, float, str]:
+    """Our name of a survey CSV's column, the factor of its unit (1 where it names none)
+    and the unit as named ('' for none); a column not ours keeps its name. A unit not
+    known for the column is a ValueError naming it."""
     text = header.strip().lower()
     found = re.fullmatch(r"(.*?)\s*[(\[]\s*([^)\]]*?)\s*[)\]]", text)
     base, unit = found.groups() if found else (text, "")
-    base = " ".join(base.replace("_", " ").split())
-    # "US ft", "ft.", "deg true": the unit's words without the azimuth's north reference
+    base = " ".join(base.replace("_", " ").split()).rstrip(".")  # "Inc." as "Inc"
+    # "US ft", "ft.", "deg true", "m RKB": the unit's words without a north or a datum
     unit = "".join(w for w in unit.replace(".", " ").replace(",", " ").split()
-                   if w not in NORTH_REFERENCES)
+                   if w not in NORTH_REFERENCES | DEPTH_DATUMS)
     for name, aliases in SURVEY_COLUMNS.items():
+        words = base.rsplit(" ", 1)  # a unit without brackets: "MD ft"
+        if not unit and len(words) == 2 and words[0] in aliases \
+                and words[1] in SURVEY_UNITS[name]:
+            base, unit = words
         if base in aliases:
             if not unit:
-                return name, 1.0
+                return name, 1.0, ""
             if unit not in SURVEY_UNITS[name]:
                 raise ValueError(f"survey {path}: column {header.strip()!r}: unit {unit!r} "
                                  f"unknown for {name} (one of "
                                  f"{', '.join(SURVEY_UNITS[name])})")
-            return name, SURVEY_UNITS[name][unit]
-    return text, 1.0
+            return name, SURVEY_UNITS[name][unit], unit
+    return text, 1.0, ""
+
+
+class StationError(ValueError):
+    """A survey station's value refused: ``station`` (from 0) and ``column`` say which,
+    so a CSV's refusal names its line and column (a whole column of 10,000 values was
+    printed, and no line: a fuzzing walkthrough)."""
+
+    def __init__(self, column: str, station: int, detail: str) -> None:
+        super().__init__(f"survey.{column}: station {station}: {detail}")
+        self.column, self.station, self.detail = column, station, detail
+
+
+def _check_stations(md: np.ndarray, inc: np.ndarray, azi: np.ndarray) -> None:
+    """StationError at the first station whose value is refused: not finite, a depth not
+    from 0 and increasing or deeper than the longest string, an angle out of its range."""
+    from drill_env.physics.config import MAX_STRING_LENGTH
+
+    for name, values in (("md", md), ("inclination", inc), ("azimuth", azi)):
+        if not np.all(np.isfinite(values)):
+            k = int(np.argmin(np.isfinite(values)))
+            raise StationError(name, k, f"must be finite, got {float(values[k])!r}")
+    if md[0] != 0.0:
+        raise StationError("md", 0, f"must start at 0, got {md[0]:g} m")
+    if np.any(np.diff(md) <= 0.0):
+        k = int(np.argmax(np.diff(md) <= 0.0)) + 1
+        raise StationError("md", k, f"must increase: {md[k]:g} m after {md[k - 1]:g} m")
+    if md[-1] > MAX_STRING_LENGTH:  # the longest string: a 1e12 m survey ran out of memory
+        k = int(np.argmax(md > MAX_STRING_LENGTH))
+        raise StationError("md", k, f"{md[k]:,.6g} m is deeper than {MAX_STRING_LENGTH:,g} "
+                                    "m, the longest string a config takes (feet without "
+                                    "their unit?)")
+    for name, values, low, high in (("inclination", inc, 0.0, 180.0),
+                                    ("azimuth", azi, -360.0, 360.0)):
+        if np.any(values < low) or np.any(values > high):  # (1e300 deg: a sine of round-off)
+            k = int(np.argmax((values < low) | (values > high)))
+            raise StationError(name, k, f"degrees in [{low:g}, {high:g}], got {values[k]:g}")
 
 
 @dataclass(frozen=True)
@@ -175,28 +223,23 @@ class Survey:
     azimuth: np.ndarray
 
     @classmethod
-    def from_stations(cls, md, inclination_deg, azimuth_deg, *, warn: bool = True) -> Survey:
-        """The survey of the stations (degrees), checked; ``warn``: say when the angles
-        look typed in radians or a course bends past pipe limits (False where a config's
-        well, which said so when it was built, is read again)."""
+    def from_stations(cls, md, inclination_deg, azimuth_deg, *, warn: bool = True,
+                      degrees_said: bool = False) -> Survey:
+        """The survey of the stations (degrees), checked (a refused station is a
+        :class:`StationError`); ``warn``: say when the angles look typed in radians or a
+        course bends past pipe limits (False where a config's well, which said so when it
+        was built, is read again); ``degrees_said``: the angles' unit was stated (a CSV
+        header's), so no guess at radians (a near-vertical well was suspected)."""
         md = np.asarray(md, dtype=float)
         inc = np.asarray(inclination_deg, dtype=float)
         azi = np.asarray(azimuth_deg, dtype=float)
         for name, values in (("md", md), ("inclination", inc), ("azimuth", azi)):
             if values.ndim != 1 or values.size < 2:
                 raise ValueError(f"survey.{name}: at least two stations, one value each")
-            if not np.all(np.isfinite(values)):
-                raise ValueError(f"survey.{name}: must be finite, got {values.tolist()}")
         if not md.size == inc.size == azi.size:
             raise ValueError("survey: md, inclination and azimuth need one value per "
                              f"station, got {md.size}, {inc.size}, {azi.size}")
-        if md[0] != 0.0 or np.any(np.diff(md) <= 0.0):
-            raise ValueError("survey.md: must start at 0 and increase, got "
-                             f"{md.tolist()}")
-        if np.any(inc < 0.0) or np.any(inc > 180.0):
-            raise ValueError(f"survey.inclination: degrees in [0, 180], got {inc.tolist()}")
-        if np.any(np.abs(azi) > 360.0):  # (1e300 degrees passed: its sine is round-off)
-            raise ValueError(f"survey.azimuth: degrees in [-360, 360], got {azi.tolist()}")
+        _check_stations(md, inc, azi)
         survey = cls(md, np.radians(inc), np.radians(azi))
         dogleg = survey.doglegs()
         if np.any(dogleg >= math.pi - 1e-6):
@@ -204,7 +247,7 @@ class Survey:
             raise ValueError(f"survey: stations {k} and {k + 1} turn the hole back on "
                              "itself (dogleg 180 degrees)")
         if warn:
-            _warn_of_radians_or_sharp_bends(md, inc, azi, dogleg)
+            _warn_of_radians_or_sharp_bends(md, inc, azi, dogleg, not degrees_said)
         return survey
 
     @classmethod
@@ -214,22 +257,29 @@ class Survey:
         ``Inc``, ``Azi``: :data:`SURVEY_COLUMNS`); a unit in brackets after a name is
         read (``MD (ft)``, ``Inc [deg]``: :data:`SURVEY_UNITS`) and one not known there is
         refused; a name without a unit is in ours. A UTF-8 byte-order mark (Excel's "CSV
-        UTF-8") is skipped, and a file that is not UTF-8 is read as Windows' code page
-        1252 (Excel's plain CSV on Windows: a header's degree sign)."""
+        UTF-8") is skipped, a UTF-16 one (Excel's "Unicode text") read, and a file that
+        is not UTF-8 is read as Windows' code page 1252 (Excel's plain CSV on Windows: a
+        header's degree sign). Blank lines above the header are skipped; a refused value
+        names its line and column."""
         import io
 
         names = tuple(SURVEY_COLUMNS)
         raw = Path(path).read_bytes()
         try:
-            text = raw.decode("utf-8-sig")
+            text = raw.decode("utf-16" if raw[:2] in (b"\xff\xfe", b"\xfe\xff")
+                              else "utf-8-sig")
         except UnicodeDecodeError:
             text = raw.decode("cp1252", errors="replace")
-        with io.StringIO(text, newline="") as f:
+        body = text.lstrip("\r\n\t ")  # (a blank first line was read as the header)
+        above = text[:len(text) - len(body)].count("\n")
+        lines: list[int] = []
+        with io.StringIO(body, newline="") as f:
             reader = csv.DictReader(f)
             found = reader.fieldnames or []
             read = [_survey_column(name, str(path)) for name in found]
-            reader.fieldnames = [name for name, _ in read]
-            scale = {name: factor for name, factor in read if name in names}
+            reader.fieldnames = [name for name, _, _ in read]
+            scale = {name: factor for name, factor, _ in read if name in names}
+            said = {name for name, _, unit in read if unit}
             missing = set(names) - set(reader.fieldnames)
             if missing:  # say what the header held: units in the names, another separator
                 held = f"its header is {found}" if found else "the file is empty"
@@ -241,16 +291,22 @@ class Survey:
                                  f"{found}); keep one")
             columns: list[list[float]] = [[], [], []]
             for row in reader:
+                lines.append(reader.line_num + above)
                 for column, name in zip(columns, names, strict=True):
                     text = row[name]
-                    try:
-                        column.append(float(text) * scale[name])
-                    except (TypeError, ValueError):  # a short row reads None
+                    try:  # a minus sign copied from a PDF or a word processor is one
+                        column.append(float(text.replace("\u2212", "-")) * scale[name])
+                    except (AttributeError, ValueError):  # a short row reads None
                         raise ValueError(
-                            f"survey {path}, line {reader.line_num}, column {name}: "
+                            f"survey {path}, line {lines[-1]}, column {name}: "
                             + ("missing" if text is None else f"{text!r} is not a number")
                         ) from None
-        return cls.from_stations(*columns)
+        try:
+            return cls.from_stations(*columns,
+                                     degrees_said=bool(said & {"inclination", "azimuth"}))
+        except StationError as err:  # (its detail in m and deg: a header's unit converted)
+            raise ValueError(f"survey {path}, line {lines[err.station]}, column "
+                             f"{err.column}: {err.detail}") from None
 
     @classmethod
     def profile(cls, total_md: float, kickoff: float | None = None,

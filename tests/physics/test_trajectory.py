@@ -154,10 +154,13 @@ def test_pick_up_is_heavier_than_rotating_and_slack_off_lighter_in_a_deviated_we
 
 
 def test_bad_surveys_name_the_field():
-    with pytest.raises(ValueError, match=r"survey\.md"):
+    with pytest.raises(ValueError, match=r"^survey\.md: station 2: must increase: 90 m "
+                                         r"after 100 m$"):
         Survey.from_stations([0.0, 100.0, 90.0], [0, 1, 2], [0, 0, 0])
-    with pytest.raises(ValueError, match=r"survey\.md"):  # a station given twice
+    with pytest.raises(ValueError, match=r"survey\.md: station 2"):  # a station given twice
         Survey.from_stations([0.0, 100.0, 100.0], [0, 1, 2], [0, 0, 0])
+    with pytest.raises(ValueError, match=r"^survey\.md: station 0: must start at 0, got 5 m$"):
+        Survey.from_stations([5.0, 100.0], [0, 1], [0, 0])
     with pytest.raises(ValueError, match=r"survey\.inclination"):
         Survey.from_stations([0.0, 100.0], [0.0, float("nan")], [0, 0])
     with pytest.raises(ValueError, match=r"survey\.inclination"):
@@ -270,7 +273,7 @@ def test_a_survey_that_turns_back_on_itself_is_refused() -> None:
 
 def test_an_azimuth_beyond_a_turn_is_refused() -> None:
     """1e300 degrees passed (finite), its sine round-off (a fuzzing walkthrough)."""
-    with pytest.raises(ValueError, match=r"survey.azimuth: degrees in \[-360, 360\]"):
+    with pytest.raises(ValueError, match=r"survey.azimuth: station 1: degrees in \[-360, 360\]"):
         Survey.from_stations([0, 100, 200], [0, 30, 30], [0, 1e300, 1e300])
     Survey.from_stations([0, 100, 200], [0, 30, 30], [-90, 350, 359])  # every bearing
 
@@ -405,6 +408,12 @@ def test_a_survey_typed_in_radians_or_bent_past_pipe_limits_warns() -> None:
     assert "stations 1 and 2 bend the hole 225 deg/30 m" in sharp and "1,721 MPa" in sharp
     assert said([0, 300, 800, 1400], [0, 0, 75, 75], [45] * 4) == []
     assert said([0, 500, 1000], [0, 1.0, 2.5], [0, 120, 130]) == []  # degrees, near vertical
+    # a near-vertical well drilled a few degrees east of north fits the rule; a survey
+    # whose header names its angles' unit is not guessed at (a fuzzing walkthrough)
+    assert "typed in radians?" in said([0, 500, 1000], [0, 0.5, 2.0], [0, 3, 6])[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Survey.from_stations([0, 500, 1000], [0, 0.5, 2.0], [0, 3, 6], degrees_said=True)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         for profile in WELLS.values():
