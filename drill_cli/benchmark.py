@@ -48,16 +48,20 @@ def replaced_episode_notes(controllers: Sequence[str], env_id: str,
 def variant_folder(controllers: Sequence[str], env_id: str) -> str:
     """The folder of its own, inside a task benchmark's default --out, for a benchmark
     of policies trained under other ``env_id`` settings than the task's (a task variant,
-    whose settings every controller then acts under): ``variant-<run>`` after the first
-    run (``learned:RUN``) or controller file of one's own that carries them; "" for the
-    task's own settings. The variant's table replaced the task's own in
+    whose settings every controller then acts under): ``variant-<run>-<settings>`` after
+    the first run (``learned:RUN``) or controller file of one's own that carries them
+    and six hex digits of the settings (two runs of one name in two folders, of other
+    settings, shared a folder, the second table over the first: a fuzzing walkthrough);
+    "" for the task's own settings. The variant's table replaced the task's own in
     logs/benchmark/<task> (its rows kept apart in benchmark_results.jsonl, the table not;
     a closing note)."""
     from agents.registry import is_imported
     from agents.settings import task_settings
+    from drill_env.physics.validation import jsonable
+    from drill_env.sweep import digest
 
     try:
-        if not task_settings(controllers, env_id):
+        if not (settings := task_settings(controllers, env_id)):
             return ""
         # (the first of one's own named it: a set-point file beside two variants' runs
         # put both in one folder, the second table over the first; a review)
@@ -66,9 +70,11 @@ def variant_folder(controllers: Sequence[str], env_id: str) -> str:
     except (ValueError, StopIteration):  # said by the benchmark, in its words
         return ""
     if carrier.startswith("learned:"):
-        return f"variant-{Path(carrier.partition(':')[2]).resolve().name}"
-    where = carrier.rpartition(":")[0]  # file.py:Class, or package.module:Class
-    return f"variant-{Path(where).stem if where.endswith('.py') else where.rpartition('.')[2]}"
+        name = Path(carrier.partition(":")[2]).resolve().name
+    else:
+        where = carrier.rpartition(":")[0]  # file.py:Class, or package.module:Class
+        name = Path(where).stem if where.endswith(".py") else where.rpartition(".")[2]
+    return f"variant-{name}-{digest(jsonable(settings))[:6]}"
 
 
 def scenario_twins(scenarios: Sequence[str], key: Callable[[Any], Any]) -> dict[str, str]:

@@ -294,16 +294,24 @@ def test_a_task_variants_benchmark_gets_a_folder_of_its_own(tmp_path, monkeypatc
                                       .replace("KWARGS", "{'max_correction': 15.0}"))
     (tmp_path / "same.py").write_text(OWN_POLICY.replace("ENV", "DrillStickSlip-v0")
                                       .replace("KWARGS", "{}"))
-    assert variant_folder(["stiff", "mine.py:Full"], "DrillStickSlip-v0") == "variant-mine"
+    mine = variant_folder(["stiff", "mine.py:Full"], "DrillStickSlip-v0")
+    assert re.fullmatch(r"variant-mine-[0-9a-f]{6}", mine)
     assert variant_folder(["stiff", "same.py:Full"], "DrillStickSlip-v0") == ""
     # named after the one that carries the settings, not the first file of one's own (a
     # review: a set-point file first put two variants' runs in one folder)
     (tmp_path / "gentle.py").write_text(OWN_CONTROLLER.replace("GAIN", "2000.0"))
-    assert variant_folder(["gentle.py:Gentle", "mine.py:Full"], "DrillStickSlip-v0") == \
-        "variant-mine"
+    assert variant_folder(["gentle.py:Gentle", "mine.py:Full"], "DrillStickSlip-v0") == mine
     assert variant_folder(["stiff", "learned"], "DrillStickSlip-v0") == ""  # shipped
+    # a file of that name elsewhere, of other settings, has a folder of its own (a fuzzing
+    # walkthrough: two runs of one name shared one, the second table over the first)
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "mine.py").write_text(
+        OWN_POLICY.replace("ENV", "DrillStickSlip-v0").replace("KWARGS",
+                                                               "{'max_correction': 12.0}"))
+    other = variant_folder(["stiff", "other/mine.py:Full"], "DrillStickSlip-v0")
+    assert other.startswith("variant-mine-") and other != mine
     short = ["--seeds", "1", "--duration", "1", "--warmup", "0.5", "--workers", "1"]
-    for controllers, folder in (("stiff,mine.py:Full", "stick_slip/variant-mine"),
+    for controllers, folder in (("stiff,mine.py:Full", f"stick_slip/{mine}"),
                                 ("stiff,same.py:Full", "stick_slip")):
         assert main(["benchmark", "--task", "stick_slip", "--controllers", controllers,
                      *short]) == 0
@@ -311,7 +319,7 @@ def test_a_task_variants_benchmark_gets_a_folder_of_its_own(tmp_path, monkeypatc
                                     / "benchmark.csv").open()))
         assert {row["controller"] for row in rows} == {"stiff", "full"}  # (Full's name)
         said = capsys.readouterr().err
-        assert ("the benchmark goes to logs/benchmark/stick_slip/variant-mine, apart from "
+        assert (f"the benchmark goes to logs/benchmark/stick_slip/{mine}, apart from "
                 "the task's own" in said) == (folder != "stick_slip")
 
 
