@@ -269,6 +269,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         f"{TRAINED / str(args.run)}" if str(args.run) in TASKS else ""
     if not args.run.exists() and local:
         args.run, local = TRAINED / str(args.run), ""
+    # a file or folder inside a run (a checkpoint, its folder) is scored through the run
+    inside = next((p for p in args.run.resolve().parents[:2] if (p / "config.yaml").is_file()),
+                  None) if args.run.exists() else None
+    if inside is not None:
+        raise argparse.ArgumentTypeError(
+            f"RUN: {args.run} lies inside the run {inside}: evaluate the run (its best "
+            "model, else its final one, else its last checkpoint)")
     if not args.run.is_dir():
         what = f"{args.run} is a file, not a run folder{local}" if args.run.exists() else \
             no_such_folder(args.run, sorted(TASKS))
@@ -294,12 +301,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     live = held_by_another(args.run)
     try:
         model, _ = policy_files(args.run)
-    except FileNotFoundError as err:  # a run stopped before its first evaluation
-        why = " (still training: evaluate it once it has saved one)" if live else \
-            " (stopped before its first checkpoint: drill-env train --resume starts it " \
-            "again)"
-        raise argparse.ArgumentTypeError(f"RUN: {str(err).removeprefix('learned: ')}{why}"
-                                         ) from None
+    except FileNotFoundError:  # a run stopped before its first evaluation or checkpoint
+        why = "still training: evaluate it once it has saved one" if live else \
+            "stopped before its first checkpoint: drill-env train --resume starts it again"
+        raise argparse.ArgumentTypeError(
+            f"RUN: {args.run} holds no model yet ({why}): neither best_model.zip + "
+            "best_vecnormalize.pkl nor model.zip + vecnormalize.pkl nor a checkpoint"
+        ) from None
     steps = trained_steps(args.run, model)
     print(f"evaluating {model} ({which_model(args.run, model)}"
           + (f"; trained {steps:,} env steps" if steps is not None else "") + ")")

@@ -1201,7 +1201,7 @@ def test_a_bad_training_yaml_is_named_before_a_run_folder_exists(tmp_path, capsy
         assert f"--config: {path} {message}; it needs one entry per algorithm" in \
             capsys.readouterr().err
     # an entry that is not a mapping (left empty, a number, a list) was a traceback
-    for text, shown in (("ppo:\n", "None"), ("ppo: 5\n", "5"), ("ppo: [1, 2]\n", "[1, 2]")):
+    for text, shown in (("ppo:\n", "nothing"), ("ppo: 5\n", "5"), ("ppo: [1, 2]\n", "[1, 2]")):
         path.write_text(text)
         assert main(["train", "--task", "stick_slip", "--algo", "ppo", "--config", str(path),
                      "--out", str(tmp_path / "runs")]) == 2
@@ -1684,7 +1684,15 @@ def test_evaluate_says_a_run_still_training_or_stopped_before_its_first_checkpoi
         with folder_lock(early, "x") if held else contextlib.nullcontext():
             with pytest.raises(SystemExit):
                 main(["evaluate", str(early)])
-        assert said in " ".join(capsys.readouterr().err.split())
+        err = " ".join(capsys.readouterr().err.split())
+        # not the advice for a model trained elsewhere (rl-zoo3: a fuzzing walkthrough)
+        assert f"RUN: {early} holds no model yet ({said})" in err and "rl-zoo3" not in err
+    # a checkpoint or the run's checkpoints folder: scored through its run
+    for inside in (live / "checkpoints", next((live / "checkpoints").glob("model_*.zip"))):
+        with pytest.raises(SystemExit):
+            main(["evaluate", str(inside)])
+        assert f"RUN: {inside} lies inside the run {live}: evaluate the run" in \
+            " ".join(capsys.readouterr().err.split())
 
 
 def test_evaluate_takes_a_tasks_name_for_its_shipped_policy(tmp_path, monkeypatch, capsys):
@@ -2635,6 +2643,15 @@ def test_a_partial_config_file_says_which_tuned_settings_it_leaves_out(tmp_path,
     err = capsys.readouterr().err
     assert f"note: --config {only}: its ppo entry leaves out " in err
     assert f"no run in {tmp_path / 'runs' / 'stick_slip_ppo_only_seed0'}" in err
+    # one of no algorithm drill-env trains is the file's fault, not --algo's, not given
+    # (a fuzzing walkthrough: "--algo: ... has no entry 'sac'")
+    for entry, said in (("td3", "['td3'] name no algorithm drill-env trains: ppo or sac"),
+                        ("PPO", "['PPO'] name no algorithm drill-env trains: ppo or sac "
+                                "(lower case: PPO as ppo)")):
+        only.write_text(f"{entry}: {{n_envs: 2}}\n")
+        assert main(["train", "--task", "stick_slip", "--config", str(only),
+                     "--out", str(tmp_path / "runs")]) == 2
+        assert f"--config: {only}'s entries {said}" in capsys.readouterr().err
 
 
 def test_an_interrupted_run_gives_stdout_back_from_its_progress_bar(tmp_path, monkeypatch,

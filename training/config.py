@@ -632,9 +632,17 @@ def load_config(task: str, algo: str = "ppo", path: str | Path | None = None,
                           f"({algo}: {{n_envs: ..., hyperparams: {{...}}}}), as "
                           "training/hyperparams/<task>.yml has")
     if algo not in data:
+        names = [str(k) for k in data]
+        if not set(names) & {"ppo", "sac"}:  # not --algo's fault: it was not given (a fuzz)
+            upper = [n for n in names if n.lower() in ("ppo", "sac")]
+            raise ConfigError(f"config: {file}'s entries {names} name no algorithm "
+                              "drill-env trains: ppo or sac"
+                              + (f" (lower case: {upper[0]} as {upper[0].lower()})"
+                                 if upper else ""))
         raise ConfigError(f"algo: {file} has no entry {algo!r}; it has {sorted(data)}")
     if not isinstance(data[algo], dict):
-        raise ConfigError(f"{algo}: {file} gives {data[algo]!r}; it needs a mapping of "
+        shown = "nothing" if data[algo] is None else repr(data[algo])
+        raise ConfigError(f"{algo}: {file} gives {shown}; it needs a mapping of "
                           f"settings ({algo}: {{n_envs: ..., hyperparams: {{...}}}})")
     entry = dict(data[algo])
     given = {k: v for k, v in overrides.items() if v is not None}
