@@ -65,7 +65,10 @@ def user_path(text: str) -> Path:
     """An argparse type: a path, with a leading ``~`` read as the home folder, as the
     shell reads it where it can (``--out=~/runs`` and a quoted ``'~/runs'`` reach us
     unexpanded: the output went into a folder named ``~`` in the current one, an outside
-    check)."""
+    check). An empty one is refused: it read as the current folder ('evaluate ""' scored
+    it, '--survey ""' called it a folder; a fuzzing walkthrough)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"give a path, got {text!r}")
     return Path(os.path.expanduser(text))  # (~name of no user: left as typed)
 
 

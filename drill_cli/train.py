@@ -41,10 +41,10 @@ def cmd_train(args: argparse.Namespace) -> int:
     from training.run_folder import check_run_folder, holds_run
     from training.train import planned_steps, train
 
-    if args.name is not None and (not args.name.strip() or args.name in (".", "..")
-                                  or any(c in args.name for c in "/\\")):
+    if args.name is not None and (args.name.strip() != args.name or args.name in (".", "..")
+                                  or not args.name or any(c in args.name for c in "/\\")):
         raise argparse.ArgumentTypeError(f"--name: a folder name inside --out, without "
-                                         f"'/', got {args.name!r}")
+                                         f"'/' or a space at an end, got {args.name!r}")
     from training.config import VALIDATION_SEED
 
     if args.seed is not None and args.seed >= VALIDATION_SEED:

@@ -354,10 +354,23 @@ def test_run_names_an_unknown_scenario(capsys):
     for args, meant in ((["run", "--scenario", "defualt"], "(did you mean default?)"),
                         (["benchmak"], "invalid choice: 'benchmak' (choose from "),
                         (["benchmak"], "(did you mean benchmark?)"),
-                        (["train", "--task", "stick-slip"], "(did you mean stick_slip?)")):
+                        (["train", "--task", "stick-slip"], "(did you mean stick_slip?)"),
+                        # a name cut short, three letters at least (a fuzzing walkthrough)
+                        (["bench"], "(did you mean benchmark?)"),
+                        (["run", "--contr", "stiff"], "(did you mean --controller?)")):
         with pytest.raises(SystemExit):
             main(args)
         assert meant in capsys.readouterr().err
+    # an empty path read as the current folder (evaluate scored it; a fuzzing walkthrough)
+    for args in (["well", "--survey", ""], ["evaluate", " "]):
+        with pytest.raises(SystemExit):
+            main(args)
+        assert "give a path, got" in capsys.readouterr().err
+    from drill_env.physics.validation import closest
+
+    assert closest("st", ["stiff", "stack"]) is None  # too short
+    assert closest("soft", ["soft-speed", "soft-torque"]) is None  # two begin so
+    assert closest("soft-t", ["soft-speed", "soft-torque"]) == "soft-torque"
 
 
 @pytest.mark.parametrize(("args", "message"), [

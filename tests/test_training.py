@@ -1979,6 +1979,8 @@ def test_train_command_resumes_with_the_runs_own_config_and_checks_its_flags(tmp
     for args, says in ((command("--resume", "--overwrite"), "not allowed with"),
                        (command("--resume", name="other"), "--resume: no run in"),
                        (command(name="../escape"), "--name"),
+                       # a space at an end made "logs/runs/ x" (a fuzzing walkthrough)
+                       (command(name=" x"), "without '/' or a space at an end, got ' x'"),
                        (command("--config", str(tmp_path / "none.yml")), "--config")):
         with pytest.raises(SystemExit):
             main(args)

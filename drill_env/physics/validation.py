@@ -226,9 +226,14 @@ def _dataclass_in(hint: Any) -> Any:
 
 
 def closest(name: str, names: list[str]) -> str | None:
-    """The one of ``names`` a misspelt ``name`` was probably meant to be, if any."""
+    """The one of ``names`` a misspelt ``name`` was probably meant to be, if any: the
+    closest by difflib, else the one name it begins (``bench``: benchmark; a fuzzing
+    walkthrough got no hint for a cut-short name, three letters at least)."""
     close = difflib.get_close_matches(name, names, n=1, cutoff=0.75)
-    return close[0] if close else None
+    if close:
+        return close[0]
+    begun = [n for n in names if n.lower().startswith(name.lower())]
+    return begun[0] if len(begun) == 1 and len(name.strip("-")) >= 3 else None
 
 
 def repeated(names: Sequence[str]) -> str | None:
