@@ -227,23 +227,16 @@ def _dataclass_in(hint: Any) -> Any:
 
 def closest(name: str, names: list[str]) -> str | None:
     """The one of ``names`` a misspelt ``name`` was probably meant to be, if any: the
-    closest by difflib, else the one name it begins (``bench``: benchmark; a fuzzing
-    walkthrough got no hint for a cut-short name, three letters at least)."""
-    close = difflib.get_close_matches(name, names, n=1, cutoff=0.75)
-    if close:
-        return close[0]
+    closest by difflib, else the one name it begins, cut short (``bench``: benchmark)."""
     begun = [n for n in names if n.lower().startswith(name.lower())]
-    return begun[0] if len(begun) == 1 and len(name.strip("-")) >= 3 else None
+    close = difflib.get_close_matches(name, names, n=1, cutoff=0.75)
+    return close[0] if close else begun[0] if len(begun) == 1 and len(name.strip("-")) >= 3 \
+        else None
 
 
 def repeated(names: Sequence[str]) -> str | None:
     """The first name given a second time in ``names`` (None: each once)."""
-    seen: set[str] = set()
-    for name in names:
-        if name in seen:
-            return name
-        seen.add(name)
-    return None
+    return next((name for k, name in enumerate(names) if name in names[:k]), None)
 
 
 def comma_items(text: str, field: str, what: str = "name") -> list[str]:
