@@ -722,6 +722,10 @@ def test_every_controller_gets_its_own_table_name():
         bs.labels(["stiff", "stiff"])
     with pytest.raises(ValueError, match="share the name 'learned-run'"):
         bs.labels(["learned:/x/run", "learned:/y/run", "learned"])
+    # one run spelt two ways is given twice, not two runs to rename (a fuzzing walkthrough)
+    with pytest.raises(ValueError, match=r"learned:/x/run, learned:/x/run/ are the same run "
+                                         r"\(/x/run\), given twice"):
+        bs.labels(["learned:/x/run", "learned:/x/run/"])
     # set points have one name however they are typed
     assert bs.labels(["constant:1e2/90.0", "constant:120/100"]) == [
         "constant-100rpm-90kN", "constant-120rpm-100kN"]
