@@ -261,7 +261,7 @@ def trained_steps(run: Path, model: Path) -> int | None:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.learned import TRAINED, no_such_folder
-    from training.config import TASKS
+    from training.config import TASKS, TRAINED_WITH
     from training.evaluate import evaluate_run
 
     # a task's name is its shipped policy, unless a file or folder here has that name
@@ -269,9 +269,12 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         f"{TRAINED / str(args.run)}" if str(args.run) in TASKS else ""
     if not args.run.exists() and local:
         args.run, local = TRAINED / str(args.run), ""
-    # a file or folder inside a run (a checkpoint, its folder) is scored through the run
-    inside = next((p for p in args.run.resolve().parents[:2] if (p / "config.yaml").is_file()),
-                  None) if args.run.exists() else None
+    # a file or folder inside a run (a checkpoint, its folder) is scored through the run;
+    # a run's own config.yaml wins, and a folder above is a run by its checkpoints or
+    # trained_with.json too (a project's config.yaml above a run refused it: a review)
+    inside = None if not args.run.exists() or (args.run / "config.yaml").is_file() else next(
+        (p for p in args.run.resolve().parents[:2] if (p / "config.yaml").is_file()
+         and ((p / "checkpoints").is_dir() or (p / TRAINED_WITH).is_file())), None)
     if inside is not None:
         raise argparse.ArgumentTypeError(
             f"RUN: {args.run} lies inside the run {inside}: evaluate the run (its best "

@@ -77,7 +77,7 @@ def test_a_run_folder_holds_everything(run):
     assert [int(r["timesteps"]) for r in rows] == [1024, 2048]
     # the best model's row, as the csv has it (the first of the highest return)
     best = max(rows, key=lambda r: float(r["return"]))
-    kept = json.loads((folder / "best_model.json").read_text())
+    kept = json.loads((folder / "best_model.json").read_text())["row"]
     assert kept == {k: pytest.approx(float(v), rel=1e-12) for k, v in best.items()}
     assert list((folder / "checkpoints").glob("model_*_steps.zip"))
     assert list((folder / "tb").iterdir())
@@ -1694,6 +1694,14 @@ def test_evaluate_says_a_run_still_training_or_stopped_before_its_first_checkpoi
             main(["evaluate", str(inside)])
         assert f"RUN: {inside} lies inside the run {live}: evaluate the run" in \
             " ".join(capsys.readouterr().err.split())
+    # a run in a project whose own config.yaml lies above it is the run (a review: refused
+    # as 'inside the run' the project)
+    project = tmp_path / "proj"
+    (project / "runs").mkdir(parents=True)
+    (project / "config.yaml").write_text("lr: 1\n")
+    shutil.copytree(live, project / "runs" / "live")
+    assert main(["evaluate", str(project / "runs" / "live"), "--seeds", "1"]) == 0
+    assert scored[-1] == project / "runs" / "live"
 
 
 def test_evaluate_takes_a_tasks_name_for_its_shipped_policy(tmp_path, monkeypatch, capsys):
@@ -2390,22 +2398,30 @@ def test_rewind_without_a_best_model_has_no_best_return(tmp_path):
 def test_the_best_models_row_outlives_a_rewind_past_it(tmp_path):
     """A run killed without its interrupt checkpoint resumes from an earlier one: the
     rows after it leave the csv, the best model stays, and its steps were read from
-    another row ('trained 2,048 env steps' for a model of 7,168; a fuzzing walkthrough)."""
+    another row ('trained 2,048 env steps' for a model of 7,168; a fuzzing walkthrough).
+    The row is recorded with the model's digest: a record of another model file (a kill
+    between the two saves) is not taken, and a run of an older version gets its record
+    before the rewind (both from a review)."""
+    from drill_cli.train import trained_steps
     from training.run_folder import best_evaluation, write_best
     from training.run_folder import rewind as _rewind
 
     run = tmp_path / "run"
     _evaluations(run, [(1024, -5.0), (2048, -3.0), (3072, -1.0)])
-    assert best_evaluation(run)["timesteps"] == 3072  # an older run: read from the csv
-    (run / "best_model.zip").write_bytes(b"")
-    write_best(run, {"timesteps": 3072, "return": -1.0, "ssi": 0.25})
-    resumed = _rewind(run, 2048, from_checkpoint=True)
-    assert resumed.best_return == pytest.approx(-1.0)  # to beat after the resume
-    assert best_evaluation(run) == {"timesteps": 3072.0, "return": -1.0, "ssi": 0.25}
-    from drill_cli.train import trained_steps
-
-    assert trained_steps(run, run / "best_model.zip") == 3072
-    (run / "best_model.json").write_text('{"return": -1.0}')
+    assert best_evaluation(run)["timesteps"] == 3072  # no record: read from the csv
+    (run / "best_model.zip").write_bytes(b"the model of 3072 steps")
+    assert _rewind(run, 2048, from_checkpoint=True).best_return == pytest.approx(-1.0)
+    assert trained_steps(run, run / "best_model.zip") == 3072  # recorded before the rewind
+    assert (run / "best_model.json").exists()
+    # a record of the model before it: the csv's row (as before the record)
+    _evaluations(run, [(1024, -5.0), (2048, -3.0), (3072, -1.0)])
+    (run / "best_model.zip").write_bytes(b"the model of 2048 steps")
+    write_best(run, {"timesteps": 2048, "return": -3.0, "ssi": 0.25})
+    assert best_evaluation(run) == {"timesteps": 2048.0, "return": -3.0, "ssi": 0.25}
+    (run / "best_model.zip").write_bytes(b"the model of 3072 steps, saved then killed")
+    assert best_evaluation(run)["timesteps"] == 3072
+    assert _rewind(run, 3072, from_checkpoint=True).best_return == pytest.approx(-1.0)
+    (run / "best_model.json").write_text('{"row": {"return": -1.0}}')
     with pytest.raises(ValueError, match="best_model.json is damaged.*delete it"):
         best_evaluation(run)
 

@@ -94,28 +94,39 @@ def read_evaluations(path: Path) -> list[dict[str, str]]:
     return rows
 
 
-#: The best model's evaluation row (``evaluations.csv``'s columns), written beside it:
-#: a resume from an earlier checkpoint rewinds the csv past that row and keeps the model,
-#: and the row read back from the csv was another one's (a fuzzing walkthrough).
+#: The best model's evaluation row (``evaluations.csv``'s columns) and the model file's
+#: digest, written beside it: a resume from an earlier checkpoint rewinds the csv past
+#: that row and keeps the model, and the row read back from the csv was another one's (a
+#: fuzzing walkthrough). A record of another file (a kill between the two saves) is not
+#: the model's: the csv is read, as before.
 BEST_RECORD = "best_model.json"
 
 
+def _model_digest(run: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256((run / "best_model.zip").read_bytes()).hexdigest()
+
+
 def write_best(run: Path, row: dict[str, Any]) -> None:
-    """Record ``row``, the evaluation of the model just saved as ``best_model.zip``."""
-    save_text(run / BEST_RECORD, json.dumps({k: float(v) for k, v in row.items()}, indent=1))
+    """Record ``row``, the evaluation of the model saved as ``best_model.zip``."""
+    record = {"row": {k: float(v) for k, v in row.items()}, "model": _model_digest(run)}
+    save_text(run / BEST_RECORD, json.dumps(record, indent=1))
 
 
 def best_evaluation(run: Path) -> dict[str, float] | None:
-    """The evaluation row of ``run``'s best model: its :data:`BEST_RECORD`, or for a run
-    of an older version the first row of highest return in ``evaluations.csv`` (as
-    training kept it, unless a resume rewound the file past it); None before any."""
+    """The evaluation row of ``run``'s best model: its :data:`BEST_RECORD` where that is
+    of the model file there, else (a run of an older version) the first row of highest
+    return in ``evaluations.csv`` (as training kept it, unless a resume rewound the file
+    past it); None before any."""
     path = run / BEST_RECORD
-    if path.exists():
+    if path.exists() and (run / "best_model.zip").exists():
         try:
-            row = json.loads(path.read_text(encoding="utf-8"))
-            kept = {k: float(v) for k, v in row.items()}
-            kept["timesteps"], kept["return"]  # noqa: B018 (a KeyError if either is missing)
-            return kept
+            record = json.loads(path.read_text(encoding="utf-8"))
+            kept = {k: float(v) for k, v in record["row"].items()}
+            kept["timesteps"], kept["return"], kept["ssi"]  # noqa: B018 (KeyError if missing)
+            if record["model"] == _model_digest(run):
+                return kept
         except (ValueError, KeyError, TypeError, AttributeError) as err:
             raise ValueError(f"{path} is damaged ({err!r}); delete it (the best model's "
                              "row is then read from evaluations.csv)") from None
@@ -134,6 +145,8 @@ def rewind(run: Path, steps: int, from_checkpoint: bool) -> Resumed:
     rows = read_evaluations(path)
     kept_best = best_evaluation(run) if (run / "best_model.zip").exists() else None
     best = kept_best["return"] if kept_best else -np.inf
+    if kept_best:  # recorded before its row may leave the csv (a run of an older version)
+        write_best(run, kept_best)
     kept = [r for r in rows if int(float(r["timesteps"])) <= steps]
     if len(kept) < len(rows):
         save_text(path, csv_text(rows[0], kept), newline="")  # whole, as add_row writes
