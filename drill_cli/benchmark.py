@@ -55,10 +55,10 @@ def variant_folder(controllers: Sequence[str], env_id: str) -> str:
     "" for the task's own settings. The variant's table replaced the task's own in
     logs/benchmark/<task> (its rows kept apart in benchmark_results.jsonl, the table not;
     a closing note)."""
+    import hashlib
+
     from agents.registry import is_imported
-    from agents.settings import task_settings
-    from drill_env.physics.validation import jsonable
-    from drill_env.sweep import digest
+    from agents.settings import as_text, task_settings
 
     try:
         if not (settings := task_settings(controllers, env_id)):
@@ -74,7 +74,8 @@ def variant_folder(controllers: Sequence[str], env_id: str) -> str:
     else:
         where = carrier.rpartition(":")[0]  # file.py:Class, or package.module:Class
         name = Path(where).stem if where.endswith(".py") else where.rpartition(".")[2]
-    return f"variant-{name}-{digest(jsonable(settings))[:6]}"
+    # (as the benchmark compares settings: 15 and 15.0 alike, a review)
+    return f"variant-{name}-{hashlib.sha256(as_text(settings).encode()).hexdigest()[:6]}"
 
 
 def scenario_twins(scenarios: Sequence[str], key: Callable[[Any], Any]) -> dict[str, str]:

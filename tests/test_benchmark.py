@@ -310,6 +310,10 @@ def test_a_task_variants_benchmark_gets_a_folder_of_its_own(tmp_path, monkeypatc
                                                                "{'max_correction': 12.0}"))
     other = variant_folder(["stiff", "other/mine.py:Full"], "DrillStickSlip-v0")
     assert other.startswith("variant-mine-") and other != mine
+    (tmp_path / "other" / "mine.py").write_text(  # the same settings, typed otherwise
+        OWN_POLICY.replace("ENV", "DrillStickSlip-v0").replace("KWARGS",
+                                                               "{'max_correction': 15}"))
+    assert variant_folder(["stiff", "other/mine.py:Full"], "DrillStickSlip-v0") == mine
     short = ["--seeds", "1", "--duration", "1", "--warmup", "0.5", "--workers", "1"]
     for controllers, folder in (("stiff,mine.py:Full", f"stick_slip/{mine}"),
                                 ("stiff,same.py:Full", "stick_slip")):
