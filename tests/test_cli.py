@@ -371,6 +371,9 @@ def test_run_names_an_unknown_scenario(capsys):
     assert closest("st", ["stiff", "stack"]) is None  # too short
     assert closest("soft", ["soft-speed", "soft-torque"]) is None  # two begin so
     assert closest("soft-t", ["soft-speed", "soft-torque"]) == "soft-torque"
+    from drill_env.physics.validation import repeated  # of any iterable (a review: keys())
+
+    assert repeated({"p1": 1, "p2": 2}.keys()) is None and repeated(iter("abcb")) == "b"
 
 
 @pytest.mark.parametrize(("args", "message"), [

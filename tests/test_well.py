@@ -335,8 +335,9 @@ def test_a_survey_csv_is_read_by_the_names_and_units_its_header_gives(tmp_path) 
                             "3937.007874,45,90\n", "utf-8"),
                            ("MD (ft US),Inc,Azi\n0,0,0\n1640.4166667,0,0\n3937,45,90\n",
                             "utf-8"),
-                           ("md,inclination,azimuth\n0,0,0\n500,0,0\n1200,45,90\n",
-                            "utf-16"),
+                           ("md\tinclination\tazimuth\r\n0\t0\t0\r\n500\t0\t0\r\n"
+                            "1200\t45\t90\r\n", "utf-16"),  # as Excel writes it: tabs
+                           ("MD;Inc;Azi\n0;0;0\n500;0;0\n1200;45;90\n", "utf-8"),
                            ("\n\r\nmd,inclination,azimuth\n0,0,0\n500,0,0\n1200,45,90\n",
                             "utf-8")):
         read = survey(text, encoding)
@@ -360,6 +361,13 @@ def test_a_survey_csv_is_read_by_the_names_and_units_its_header_gives(tmp_path) 
                        ("md,inc,azi\n0,0,0\n500,0,nan\n", "line 3, column azimuth: must be "
                                                          "finite, got nan"),
                        ("md,inc,azi\n0,0,0\n500,181,0\n", "line 3, column inclination: "
-                                                         "degrees in [0, 180], got 181")):
+                                                         "degrees in [0, 180], got 181"),
+                       # a decimal comma beside semicolons: said, not misread
+                       ("MD;Inc;Azi\n0;0;0\n500,5;0;0\n", "line 3, column md: '500,5' is "
+                                                        "not a number"),
+                       ("md,inc,azi\n0,0,0\n15000.001,1,0\n", "line 3, column md: "
+                        "15,000.001 m is deeper than 15,000 m"),
+                       # blank lines of bare carriage returns above the header counted
+                       ("\r\r\nmd,inc,azi\r0,0,0\r500,0,0\r500,1,0\r", "line 6, column md")):
         with pytest.raises(ValueError, match=re.escape(said)):
             survey(text)

@@ -202,8 +202,8 @@ def _check_stations(md: np.ndarray, inc: np.ndarray, azi: np.ndarray) -> None:
         raise StationError("md", k, f"must increase: {md[k]:g} m after {md[k - 1]:g} m")
     if md[-1] > MAX_STRING_LENGTH:  # the longest string: a 1e12 m survey ran out of memory
         k = int(np.argmax(md > MAX_STRING_LENGTH))
-        raise StationError("md", k, f"{md[k]:,.6g} m is deeper than {MAX_STRING_LENGTH:,g} "
-                                    "m, the longest string a config takes (feet without "
+        raise StationError("md", k, f"{md[k]:,.10g} m is deeper than {MAX_STRING_LENGTH:,g}"
+                                    " m, the longest string a config takes (feet without "
                                     "their unit?)")
     for name, values, low, high in (("inclination", inc, 0.0, 180.0),
                                     ("azimuth", azi, -360.0, 360.0)):
@@ -257,7 +257,8 @@ class Survey:
         ``Inc``, ``Azi``: :data:`SURVEY_COLUMNS`); a unit in brackets after a name is
         read (``MD (ft)``, ``Inc [deg]``: :data:`SURVEY_UNITS`) and one not known there is
         refused; a name without a unit is in ours. A UTF-8 byte-order mark (Excel's "CSV
-        UTF-8") is skipped, a UTF-16 one (Excel's "Unicode text") read, and a file that
+        UTF-8") is skipped, a UTF-16 one (Excel's tab-separated "Unicode text") read,
+        the header's first separator of comma, tab and semicolon taken, and a file that
         is not UTF-8 is read as Windows' code page 1252 (Excel's plain CSV on Windows: a
         header's degree sign). Blank lines above the header are skipped; a refused value
         names its line and column."""
@@ -271,10 +272,13 @@ class Survey:
         except UnicodeDecodeError:
             text = raw.decode("cp1252", errors="replace")
         body = text.lstrip("\r\n\t ")  # (a blank first line was read as the header)
-        above = text[:len(text) - len(body)].count("\n")
+        above = len(text[:len(text) - len(body)].splitlines())
+        header = body.partition("\n")[0]
+        # tab-separated (Excel's "Unicode text") or semicolons (a decimal comma's Excel)
+        separator = next((c for c in ",\t;" if c in header), ",")
         lines: list[int] = []
         with io.StringIO(body, newline="") as f:
-            reader = csv.DictReader(f)
+            reader = csv.DictReader(f, delimiter=separator)
             found = reader.fieldnames or []
             read = [_survey_column(name, str(path)) for name in found]
             reader.fieldnames = [name for name, _, _ in read]
@@ -284,8 +288,9 @@ class Survey:
             if missing:  # say what the header held: units in the names, another separator
                 held = f"its header is {found}" if found else "the file is empty"
                 raise ValueError(f"survey {path}: missing column(s) {sorted(missing)}; "
-                                 f"{held} (comma-separated, named md, inclination, "
-                                 "azimuth: m and degrees, or with their unit: MD (ft))")
+                                 f"{held} (separated by commas, tabs or semicolons, named "
+                                 "md, inclination, azimuth: m and degrees, or with their "
+                                 "unit: MD (ft))")
             if twice := [n for n in names if reader.fieldnames.count(n) > 1]:
                 raise ValueError(f"survey {path}: two columns are {twice[0]} (its header is "
                                  f"{found}); keep one")

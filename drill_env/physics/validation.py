@@ -236,7 +236,8 @@ def closest(name: str, names: list[str]) -> str | None:
 
 def repeated(names: Sequence[str]) -> str | None:
     """The first name given a second time in ``names`` (None: each once)."""
-    return next((name for k, name in enumerate(names) if name in names[:k]), None)
+    seen = list(names)  # (any iterable: a dict's keys; a review)
+    return next((name for k, name in enumerate(seen) if name in seen[:k]), None)
 
 
 def comma_items(text: str, field: str, what: str = "name") -> list[str]:

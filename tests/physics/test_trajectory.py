@@ -185,9 +185,10 @@ def test_a_survey_reads_from_csv(tmp_path):
     with pytest.raises(ValueError, match="missing column"):
         Survey.from_csv(path)
     # what the header held, for units in the names or another separator; an empty file
-    path.write_text("MD (m);Inc (deg);Azi (deg)\n0;0;0\n")
+    path.write_text("MD (m)|Inc (deg)|Azi (deg)\n0|0|0\n")
     with pytest.raises(ValueError, match=re.escape(
-            "its header is ['MD (m);Inc (deg);Azi (deg)'] (comma-separated, named md")):
+            "its header is ['MD (m)|Inc (deg)|Azi (deg)'] (separated by commas, tabs or "
+            "semicolons, named md")):
         Survey.from_csv(path)
     path.write_text("")
     with pytest.raises(ValueError, match="missing column.*; the file is empty"):
