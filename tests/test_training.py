@@ -883,8 +883,10 @@ def test_overwrite_deletes_only_a_runs_own_files(tmp_path):
             clear_run(run)
         (run / "evaluation" / "link").unlink()
     assert all((run / name).exists() for name in own)
+    for junk in (".DS_Store", "evaluation/.DS_Store", "tb/Thumbs.db"):  # a file browser's
+        (run / junk).write_text("x")
     clear_run(run)
-    assert run.is_dir() and list(run.iterdir()) == []
+    assert [f.name for f in run.iterdir()] == [".DS_Store"]  # (the folder's own, left)
 
 
 def test_training_envs_are_seeded_apart_per_run_and_per_resume(tmp_path, monkeypatch):

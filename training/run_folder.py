@@ -190,6 +190,10 @@ OWN_FILES = re.compile(
     r"|comparison\.md|benchmark_bars\.png|benchmark_[^/]+_series\.png"
     r"|series/[^/]+_seed\d+\.npz"
     r"|recordings/(other_runs/[A-Za-z0-9]+/)?[^/]+_seed\d+\.rrd(\.stamp)?)")
+#: What a desktop's file browser leaves in every folder it shows (macOS's Finder, Windows'
+#: Explorer): no one's data, so neither refused nor kept apart (a review: a Finder visit
+#: made --overwrite refuse a run).
+DESKTOP_FILES = (".DS_Store", "Thumbs.db", "desktop.ini")
 #: The folders they lie in: any other folder inside the run's, empty or not, or a link
 #: of one's own there, is not the run's (both went with their folder).
 OWN_FOLDERS = re.compile(
@@ -208,8 +212,8 @@ def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
     others: list[Path] = []
     for entry in sorted(run.iterdir()) if run.is_dir() else []:
         name = entry.name
-        if name == LOCK_FILE:  # (held while a command writes the run: not deleted)
-            continue
+        if name == LOCK_FILE or name in DESKTOP_FILES:  # (the lock: held while a command
+            continue  # writes the run, not deleted)
         written = (name in RUN_OUTPUTS or (name in folders and entry.is_dir())
                    or (PARTIAL_FILE.fullmatch(name) is not None and entry.is_file()))
         (ours if written else others).append(entry)
@@ -224,7 +228,7 @@ def foreign_inside(run: Path, folder: Path) -> list[Path]:
     it holds."""
     found: list[Path] = []
     for f in sorted(folder.rglob("*")):
-        if f.name == LOCK_FILE or PARTIAL_FILE.fullmatch(f.name) or \
+        if f.name in (LOCK_FILE, *DESKTOP_FILES) or PARTIAL_FILE.fullmatch(f.name) or \
                 any(f.is_relative_to(other) for other in found):
             continue
         own = OWN_FOLDERS if f.is_dir() and not f.is_symlink() else OWN_FILES
