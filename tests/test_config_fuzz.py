@@ -321,7 +321,7 @@ def test_a_list_section_given_as_a_dict_is_told_to_be_a_list(rocks):
 @pytest.mark.parametrize("path, value, unit", [
     ("string.drill_pipe.outer_diameter", 5.0, "metres; 5 in = 0.127 m"),  # inches
     ("string.hole_diameter", 215.9, "metres; 5 in = 0.127 m"),  # millimetres
-    ("mud.density", 1e5, "kg/m^3; 10 ppg = 1,198 kg/m^3"),
+    ("mud.density", 1e5, "kg/m^3; steel 7,850 kg/m^3, a 10 ppg mud 1,198 kg/m^3"),
     ("string.hole_diameter", 0.0, "metres; 5 in = 0.127 m"),  # a lower bound ("greater than")
 ])
 def test_a_bound_broken_by_a_field_with_a_unit_says_the_unit(path, value, unit):
@@ -441,7 +441,7 @@ def test_a_smaller_hole_names_the_default_bit_it_meets():
 def test_a_bit_well_under_its_hole_is_warned_of(hole_in, bit_in, warned):
     """A new user's 12 1/4 in hole was drilled on by the default 8 3/4 in bit without a
     word: a bit drills a hole of its own size, so more than an inch under it
-    (validation.BIT_UNDER_HOLE) is said, naming bit.diameter; a washout's fraction of an
+    (hole_fit.BIT_UNDER_HOLE) is said, naming bit.diameter; a washout's fraction of an
     inch is not."""
     import warnings
 

@@ -19,8 +19,8 @@ import itertools
 import warnings
 
 from drill_env.physics.config import Component, StringConfig
+from drill_env.physics.hole_fit import warn_under_hole
 from drill_env.physics.units import GRAVITY, INCH
-from drill_env.physics.validation import warn_under_hole
 
 #: Stabilizer blades 1/8 in under an 8 3/4 in hole: an undergauge choice (API's blade
 #: tolerance is ~1/32 in), and larger than the bit, 10 mm under the hole (docs/model.md,

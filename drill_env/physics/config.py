@@ -18,6 +18,7 @@ from pydantic import Field
 
 from drill_env.physics import fidelity
 from drill_env.physics.fidelity import FIDELITY_LEVELS, Fidelity
+from drill_env.physics.hole_fit import check_bit_in_hole
 from drill_env.physics.units import GRAVITY, INCH
 from drill_env.physics.validation import (
     ConfigError,
@@ -28,7 +29,6 @@ from drill_env.physics.validation import (
     NonNegative,
     Positive,
     StrictBool,
-    check_bit_in_hole,
     config_dataclass,
     flatten,
     from_dict,

@@ -40,8 +40,6 @@ from pydantic import (
 )
 from pydantic.dataclasses import dataclass as pydantic_dataclass
 
-from drill_env.physics.units import INCH
-
 __all__ = [
     "ConfigError", "Count", "Finite", "NonNegative", "Positive", "StrictBool", "config_dataclass",
     "flatten", "from_dict", "jsonable", "load_yaml", "replace", "require_finite",
@@ -120,30 +118,6 @@ def _drive_torque(value: float) -> float:
     return value
 
 
-#: How far (m) a bit may be under its hole before it is said: a bit drills a hole of its
-#: own size, which a washout widens by a fraction of an inch; an inch is no washout.
-BIT_UNDER_HOLE = INCH
-
-
-def check_bit_in_hole(bit: float, hole: float) -> None:
-    """ValueError naming ``bit.diameter`` where the bit (m) is larger than the hole; a
-    warning where it is more than :data:`BIT_UNDER_HOLE` smaller (a new user's 12 1/4 in
-    hole drilled on by the default 8 3/4 in bit without a word)."""
-    if bit > hole + 1e-12:
-        raise ValueError(f"bit.diameter: {bit} m must not exceed string.hole_diameter "
-                         f"({hole} m); set it for this hole (the default bit is 8 3/4 in)")
-    warn_under_hole("bit.diameter", bit, hole, BIT_UNDER_HOLE, "a bit drills a hole of its "
-                    "own size; set bit.diameter for this hole (the default bit is 8 3/4 in)")
-
-
-def warn_under_hole(name: str, size: float, hole: float, limit: float, why: str) -> None:
-    """UserWarning ``name``: ``size`` (m) more than ``limit`` under ``hole``, then ``why``."""
-    if size < hole - limit:
-        warnings.warn(f"{name}: {size:.4g} m ({size / INCH:.4g} in) is {(hole - size) / INCH:.3g}"
-                      f" in under string.hole_diameter ({hole:.4g} m): {why}", UserWarning,
-                      stacklevel=caller_outside())
-
-
 def caller_outside(packages: tuple[str, ...] = ("drill_env", "gymnasium", "pydantic")
                    ) -> int:
     """The ``stacklevel`` of the first frame, from the caller of the function that calls
@@ -174,7 +148,8 @@ _PATH_MESSAGE = re.compile(r"^([A-Za-z_][\w.\[\]]*): (.*)$", re.DOTALL)
 #: The unit of a field by the end of its name, said with a bound it breaks: a diameter
 #: typed in inches or millimetres breaks "less than 1" (m), which alone does not say why.
 _UNITS = {"diameter": "metres; 5 in = 0.127 m", "length": "metres; 30 ft = 9.144 m",
-          "depth": "metres; 1,000 ft = 304.8 m", "density": "kg/m^3; 10 ppg = 1,198 kg/m^3",
+          "depth": "metres; 1,000 ft = 304.8 m",
+          "density": "kg/m^3; steel 7,850 kg/m^3, a 10 ppg mud 1,198 kg/m^3",
           "md": "metres; 1,000 ft = 304.8 m"}
 
 
@@ -187,6 +162,18 @@ def _unit_hint(loc: list[Any], error_type: str) -> str:
     unit = next((u for end, u in _UNITS.items() if name == end or name.endswith("_" + end)),
                 None)
     return f" ({unit})" if unit else ""
+
+
+def short_repr(value: Any) -> str:
+    """``repr(value)`` with long lists and texts cut (``[0.0, 0.0, ...]``): a list pasted
+    into a number's field printed whole, and a YAML file of nested aliases made a line of
+    megabytes (a fuzzing walkthrough)."""
+    import reprlib
+
+    cut = reprlib.Repr()
+    cut.maxlist = cut.maxtuple = cut.maxdict = 8
+    cut.maxstring = cut.maxother = 100
+    return cut.repr(value)
 
 
 def _format_location(parts: list[Any]) -> str:
@@ -295,7 +282,7 @@ def _error_text(err: ValidationError, prefix: str = "", root: Any = None) -> str
         text = f"{path}: {msg}"
         if not value_error and "input" in e and not isinstance(e["input"], Mapping) and \
                 type(e["input"]).__name__ != "ArgsKwargs":
-            text += f", got {e['input']!r}" + _unit_hint(loc, e["type"])
+            text += f", got {short_repr(e['input'])}" + _unit_hint(loc, e["type"])
             if e["type"] == "literal_error" and isinstance(e["input"], str):  # kind: colar
                 text += did_you_mean(e["input"], [str(v) for v in re.findall(
                     r"'([^']*)'", str(e.get("ctx", {}).get("expected", "")))])
@@ -427,6 +414,10 @@ def _config_loader() -> type:
     return ConfigLoader
 
 
+#: Most values a config file may hold: a survey of a few thousand stations is far below.
+MAX_YAML_VALUES = 1_000_000
+
+
 def read_yaml(path: str | Path) -> Any:
     """The content of a YAML file (:func:`_config_loader`'s rules); ConfigError naming the
     file, line and column of a syntax error or a repeated key in one line (not PyYAML's
@@ -439,7 +430,17 @@ def read_yaml(path: str | Path) -> Any:
         raise ConfigError(f"{path}: not UTF-8 text (byte {err.start}: {err.reason}); save "
                           "it as UTF-8") from None
     try:
-        return yaml.load(text, Loader=_config_loader())  # noqa: S506
+        data = yaml.load(text, Loader=_config_loader())  # noqa: S506
+        values, stack = 0, [data]  # aliases nest: a 448-byte file held 387 million
+        while stack and values <= MAX_YAML_VALUES:  # values and ran out of memory (a fuzz)
+            item = stack.pop()
+            values += 1
+            stack += [*item.keys(), *item.values()] if isinstance(item, dict) else \
+                list(item) if isinstance(item, list) else []
+        if values > MAX_YAML_VALUES:
+            raise ConfigError(f"{path}: holds more than {MAX_YAML_VALUES:,} values once its "
+                              "aliases (*name) are expanded; write them out")
+        return data
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
