@@ -246,6 +246,17 @@ class Survey:
             k = int(np.argmax(dogleg))
             raise ValueError(f"survey: stations {k} and {k + 1} turn the hole back on "
                              "itself (dogleg 180 degrees)")
+        # minimum curvature's depths at the stations: a hole above the wellhead is no well
+        # (inclinations of 179 deg charted a TVD of -699 m and hook loads below zero)
+        half = np.maximum(dogleg / 2.0, 1e-300)
+        ratio = np.where(dogleg > 1e-9, np.tan(half) / half, 1.0)
+        cos = np.cos(survey.inclination)
+        tvd = np.concatenate([[0.0], np.cumsum(np.diff(md) / 2.0 * ratio * (cos[:-1] + cos[1:]))])
+        if np.any(tvd < -1e-9 * md[-1]):
+            k = int(np.argmax(tvd < -1e-9 * md[-1]))
+            raise StationError("inclination", k, f"the hole is {-tvd[k]:,.4g} m above the "
+                               "wellhead there (minimum curvature): inclinations past 90 "
+                               "deg climb")
         if warn:
             _warn_of_radians_or_sharp_bends(md, inc, azi, dogleg, not degrees_said)
         return survey

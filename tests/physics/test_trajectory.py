@@ -272,6 +272,20 @@ def test_a_survey_that_turns_back_on_itself_is_refused() -> None:
         Survey.from_stations([0, 100], [0, 180], [0, 0])
 
 
+def test_a_hole_that_climbs_above_the_wellhead_is_refused() -> None:
+    """A fuzzing walkthrough: inclinations of 179 deg charted a TVD of -699 m and hook
+    loads below zero. Closed form: a quarter circle from vertical to horizontal over
+    100 m descends its radius, 200/pi m; one from horizontal to straight up over 200 m
+    climbs 400/pi m; the hole ends 200/pi = 63.66 m above the wellhead."""
+    with pytest.raises(ValueError, match=r"^survey\.inclination: station 2: the hole is "
+                                         r"63\.66 m above the wellhead"):
+        Survey.from_stations([0.0, 100.0, 300.0], [0.0, 90.0, 180.0], [0.0, 0.0, 0.0])
+    # a fish-hook well past 90 deg that stays below the surface is a well
+    ok = Trajectory(Survey.from_stations([0.0, 100.0, 150.0], [0.0, 90.0, 120.0], [0.0] * 3))
+    assert ok.at([150.0])[0][0, 2] == pytest.approx(200.0 / math.pi - 50.0 / (math.pi / 6) *
+                                                  (1.0 - math.cos(math.pi / 6)), rel=1e-9)
+
+
 def test_an_azimuth_beyond_a_turn_is_refused() -> None:
     """1e300 degrees passed (finite), its sine round-off (a fuzzing walkthrough)."""
     with pytest.raises(ValueError, match=r"survey.azimuth: station 1: degrees in \[-360, 360\]"):
