@@ -35,15 +35,19 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from agents.benchmark import run_benchmark
     from agents.registry import CLASSICAL
     from agents.settings import BenchmarkSettings
+    from drill_env.sweep import folder_lock
     from drill_env.tools.demo import stick_slip_demo
 
-    _, reproduced = stick_slip_demo(args.out)
-    print("\nController benchmark (as drill-env benchmark): the classical controllers at "
-          "the set points of the default scenario (100 rpm) and of stick_slip (50 rpm)")
-    t0 = time.perf_counter()
-    out = args.out / "benchmark"
-    run_benchmark(list(CLASSICAL), ["default", "stick_slip"], [0, 1, 2], out,
-                  BenchmarkSettings(), workers=args.workers)
+    # (a second demo into one folder redid part 1 over the first's files, then was told
+    # to give "this benchmark" another folder, which demo has no option for: a fuzz)
+    with folder_lock(args.out, "this demo (by --out)"):
+        _, reproduced = stick_slip_demo(args.out)
+        print("\nController benchmark (as drill-env benchmark): the classical controllers "
+              "at the set points of the default scenario (100 rpm) and of stick_slip (50 rpm)")
+        t0 = time.perf_counter()
+        out = args.out / "benchmark"
+        run_benchmark(list(CLASSICAL), ["default", "stick_slip"], [0, 1, 2], out,
+                      BenchmarkSettings(), workers=args.workers)
     print(f"benchmark in {time.perf_counter() - t0:.0f} s: {out / 'benchmark.csv'}, "
           f"{out / 'benchmark.md'}, {out / 'benchmark_bars.png'} and the time series "
           f"{out / 'benchmark_<scenario>_series.png'}")
@@ -277,11 +281,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     }
     if args.record is not None:
         summary["recording"] = str(env.last_path) if env.last_path else None
-    args.out.mkdir(parents=True, exist_ok=True)
-    save_text(args.out / "run_summary.json", json.dumps(summary, indent=2))
-    with (args.out / "run_history.jsonl").open("a", encoding="utf-8") as history:
-        finished = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # tells the runs of a history apart
-        history.write(json.dumps({"finished": finished, **summary}) + "\n")
     ran_at = f"targets {rpm:.0f} rpm, {wob_kn:.0f} kN"
     if abs(setpoint_rpm - rpm) >= 0.5 or abs(setpoint_kn - wob_kn) >= 0.5:
         ran_at += f" (set points applied: mean {setpoint_rpm:.0f} rpm, {setpoint_kn:.0f} kN)"
@@ -322,8 +321,18 @@ def cmd_run(args: argparse.Namespace) -> int:
     else:  # said, not left out: a tuning run of a policy looked for it
         print("  (no bit-speed swing reported: the set points move with the policy's "
               "actions, and their changes would read as swing)")
-    if args.record is not None:
+    if args.record is not None and summary["recording"]:
         print(f"  recording: {summary['recording']} (drill-env replay <file>)")
+    elif args.record is not None:  # (exit 0 with 'recording: None' on a full disk: a fuzz)
+        print("drill-env run: error: --record: the recording was not written (the warning "
+              "above says why)", file=sys.stderr)
+        status = status or 2
+    # the results said first: a failed write lost them behind a bare errno (a fuzz)
+    args.out.mkdir(parents=True, exist_ok=True)
+    save_text(args.out / "run_summary.json", json.dumps(summary, indent=2))
+    with (args.out / "run_history.jsonl").open("a", encoding="utf-8") as history:
+        finished = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # tells the runs of a history apart
+        history.write(json.dumps({"finished": finished, **summary}) + "\n")
     print(f"wrote {args.out / 'run_summary.json'} (and a line of "
           f"{args.out / 'run_history.jsonl'}, which keeps every run's)")
     return status

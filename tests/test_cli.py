@@ -11,6 +11,27 @@ from helpers import ctrl_c_as_in_a_terminal
 from drill_cli.main import main
 
 
+def test_run_says_a_recording_it_could_not_write_and_its_results_before_its_files(
+        tmp_path, capsys, monkeypatch):
+    """A fuzzing walkthrough: on a full disk `run --record` exited 0 with 'recording:
+    None (drill-env replay <file>)'; a history file it could not write lost the episode's
+    results behind a bare errno."""
+    from drill_env.recording import RecordEpisode
+
+    monkeypatch.setattr(RecordEpisode, "last_path", property(lambda self: None))
+    assert main(["run", "--duration", "0.3", "--record", "--out", str(tmp_path)]) == 2
+    said = capsys.readouterr()
+    assert "--record: the recording was not written" in said.err
+    assert "recording: None" not in said.out and "SSI" in said.out
+    assert (tmp_path / "run_summary.json").exists()
+    monkeypatch.undo()
+    (tmp_path / "blocked").mkdir()
+    (tmp_path / "blocked" / "run_history.jsonl").mkdir()  # cannot be appended to
+    assert main(["run", "--duration", "0.3", "--out", str(tmp_path / "blocked")]) == 2
+    said = capsys.readouterr()
+    assert "SSI" in said.out and "run_history.jsonl" in said.err  # the results said first
+
+
 def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
     code = main(["run", "--scenario", "paper_case1", "--rpm", "60", "--wob", "80",
                  "--duration", "0.5", "--record", str(tmp_path / "rec"), "--out",
@@ -1406,6 +1427,13 @@ def test_the_demo_fails_where_paper_result_1_is_not_reproduced(monkeypatch, tmp_
     for reproduced, status in ((True, 0), (False, 1)):
         monkeypatch.setattr(demo, "stick_slip_demo", lambda out, r=reproduced: ([], r))
         assert main(["demo", "--out", str(tmp_path)]) == status
+    assert ran == [tmp_path / "benchmark"] * 2
+    # a second demo into a folder one is writing: refused before its part 1, naming
+    # --out (it redid part 1, then named "this benchmark", which demo cannot move; a fuzz)
+    from drill_env.sweep import folder_lock
+
+    with folder_lock(tmp_path, "another demo"):
+        assert main(["demo", "--out", str(tmp_path)]) == 2
     assert ran == [tmp_path / "benchmark"] * 2
 
 
