@@ -277,13 +277,10 @@ def _unless_interrupted(fn: Callable[[Any], Any], item: Any) -> Any:
 
 
 def usable_cores() -> int:
-    """The cores this process may use: its CPU affinity (``taskset``, a container's
-    cpuset), capped by a cgroup CPU quota (``docker --cpus``, a pod's limit, a slice's:
-    :func:`cgroup_quota_cores`) where one is set; else
-    ``os.cpu_count()``. The default number of worker processes: under ``taskset -c 0`` on
-    2 cores the benchmark started two and ran 1.3-1.6x slower than with one, and in a
-    container whose quota is a few of the host's many cores it started one worker per
-    host core (~320 MB each; an outside check)."""
+    """The cores this process may use: its CPU affinity (``taskset``, a cpuset), capped by
+    a cgroup CPU quota (:func:`cgroup_quota_cores`), else ``os.cpu_count()``. The default
+    number of worker processes: under ``taskset -c 0`` on 2 cores two ran 1.3-1.6x slower
+    than one, and a container given a few of many cores started one per host core."""
     if hasattr(os, "sched_getaffinity"):
         cores = len(os.sched_getaffinity(0))
     else:  # (no affinity on this platform)
@@ -442,6 +439,9 @@ def make_executor(workers: int | None = None, ray_address: str | None = None) ->
         return RayExecutor(ray_address)
     if workers is not None and workers < 1:
         raise ValueError(f"workers: must be >= 1, got {workers}")
+    if workers is not None and workers > 2 * usable_cores():  # (999: 31 processes, 8 GB)
+        warnings.warn(f"workers: {workers} processes on {usable_cores()} cores run no faster "
+                      "than one per core, and each holds ~250 MB", UserWarning, stacklevel=2)
     n = workers or usable_cores()
     return SerialExecutor() if n == 1 else ProcessExecutor(n)
 

@@ -688,7 +688,7 @@ def test_a_task_benchmark_says_which_training_episodes_it_replaces(tmp_path):
         "controller on its own episodes (episode_duration=30.0)"]
 
 
-def test_benchmark_names_bad_input(capsys):
+def test_benchmark_names_bad_input(capsys, monkeypatch):
     for args, message in ((["--controllers", "pid"], "unknown name 'pid'"),
                           (["--scenarios", "moon"], "--scenarios"),
                           (["--duration", "10", "--warmup", "20"], "--warmup"),
@@ -713,6 +713,15 @@ def test_benchmark_names_bad_input(capsys):
 
     with pytest.raises(ValueError, match="workers: must be >= 1, got 0"):
         make_executor(0)
+    # far more than the cores is said (999 started 31 processes of 8 GB: a fuzz)
+    import drill_env.sweep as sweep
+
+    monkeypatch.setattr(sweep, "usable_cores", lambda: 2)
+    with pytest.warns(UserWarning, match="workers: 5 processes on 2 cores run no faster"):
+        make_executor(5).close()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        make_executor(4).close()
 
 
 def test_every_controller_gets_its_own_table_name():
