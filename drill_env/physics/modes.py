@@ -218,8 +218,15 @@ VERTICAL_NOISE = 0.5
 
 
 def _steepest(config: SimulationConfig) -> float:
-    """The well's steepest survey inclination (deg); 0 for the vertical hole."""
-    return max((abs(a) for a in config.well.inclination), default=0.0)
+    """The steepest survey inclination (deg) along the string: of the stations above its
+    deepest node and the end of the course that node lies in; 0 for the vertical hole.
+    (A well bending only below the string was refused as not vertical, after a warning
+    that the string hangs in a vertical hole: a fuzzing walkthrough.)"""
+    md, inclination = config.well.md, config.well.inclination
+    deepest = max(config.string.length, config.initial_depth or 0.0)
+    along = [abs(a) for m, a in zip(md, inclination, strict=True) if m < deepest]
+    below = [abs(a) for m, a in zip(md, inclination, strict=True) if m >= deepest][:1]
+    return max(along + below, default=0.0)
 
 
 def require_vertical(config: SimulationConfig) -> None:
@@ -229,7 +236,8 @@ def require_vertical(config: SimulationConfig) -> None:
     steepest = _steepest(config)
     if steepest > VERTICAL_NOISE:
         raise ValueError(f"well: the modal analysis is for vertical holes (axial load by "
-                         f"measured depth); this well reaches {steepest:.0f} deg. Its static "
+                         f"measured depth); this well reaches {steepest:.0f} deg along the "
+                         "string. Its static "
                          "loads: drill-env well")
 
 

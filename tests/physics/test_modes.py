@@ -204,6 +204,12 @@ def test_the_modal_analysis_takes_vertical_holes_only():
                 lateral_modes(deviated, 0.0, n_modes=1)
         else:
             assert len(lateral_modes(deviated, 0.0, n_modes=1).frequency) == 1
+    # a well that bends only below the string (1,035 m) is vertical along it: the string
+    # hangs in a vertical hole, as the config's warning says (refused before: a fuzz)
+    below = replace(config, well={"md": (0.0, 1100.0, 1101.0), "inclination": (0.0, 0.0, 60.0),
+                                  "azimuth": (0.0, 0.0, 0.0)})
+    vertical = lateral_modes(config, 0.0, n_modes=1).frequency
+    assert lateral_modes(below, 0.0, n_modes=1).frequency == pytest.approx(vertical, rel=1e-9)
 
 
 def test_overdamped_motions_are_not_modes():
