@@ -414,6 +414,13 @@ def test_run_names_a_bad_argument_in_the_units_typed(tmp_path, capsys, args, mes
     assert message in capsys.readouterr().err
 
 
+def test_run_names_the_unit_of_a_duration_past_the_envs_bound(tmp_path, capsys):
+    # pydantic's bound said no unit (a fuzzing walkthrough)
+    assert main(["run", "--duration", "1e12", "--out", str(tmp_path)]) == 2
+    assert "--duration: Input should be less than or equal to 32000000, got " \
+        "1000000000000.0 (s; a year is 3.15e7 s)" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(("flag", "value", "unit"), [("--rpm", "500", "rpm"),
                                                      ("--wob", "250", "kN")])
 def test_benchmark_names_a_set_point_outside_drillstrings_range_by_its_option(

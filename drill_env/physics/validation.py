@@ -150,7 +150,7 @@ _PATH_MESSAGE = re.compile(r"^([A-Za-z_][\w.\[\]]*): (.*)$", re.DOTALL)
 _UNITS = {"diameter": "metres; 5 in = 0.127 m", "length": "metres; 30 ft = 9.144 m",
           "depth": "metres; 1,000 ft = 304.8 m",
           "density": "kg/m^3; steel 7,850 kg/m^3, a 10 ppg mud 1,198 kg/m^3",
-          "md": "metres; 1,000 ft = 304.8 m"}
+          "md": "metres; 1,000 ft = 304.8 m", "duration": "s; a year is 3.15e7 s"}
 
 
 def _unit_hint(loc: list[Any], error_type: str) -> str:
