@@ -146,6 +146,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         options[key] = value * scale
     if args.record is RECORD_UNDER_OUT:
         args.record = args.out / "recordings"
+    if args.record is not None and args.record.suffix == ".rrd" and not args.record.is_dir():
+        # (it made a folder x.rrd holding the episode's file: a fuzzing walkthrough)
+        raise argparse.ArgumentTypeError(f"--record {args.record}: a folder, in which each "
+                                         "episode's file is named by its controller, "
+                                         f"scenario and seed; give {args.record.parent}")
     if args.record is not None and (reason := unwritable(args.record)):
         raise argparse.ArgumentTypeError(f"--record {args.record}: {reason}")
     if args.record is not None:

@@ -1321,6 +1321,9 @@ def test_file_arguments_and_a_ray_address_are_named_when_wrong(tmp_path, capsys)
     typo.write_text("md,inclination,azimuth\n0,0,0\n500,abc,0\n")
     for args, says in ((["run", "--record", str(blocker), "--duration", "0.2"],
                         f"--record {blocker}: is a file"),
+                       (["run", "--record", str(tmp_path / "x.rrd"), "--duration", "0.2"],
+                        f"--record {tmp_path / 'x.rrd'}: a folder, in which each episode's "
+                        f"file is named by its controller, scenario and seed; give {tmp_path}"),
                        (["well", "--well", "j_shaped", "--total-md", "400"],
                         "--total-md: 400.0 m ends before the profile's last curve"),
                        (["well", "--survey", str(bad)], f"--survey: survey {bad}, line 4, "
