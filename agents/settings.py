@@ -238,8 +238,8 @@ def labels(controllers: Sequence[str]) -> list[str]:
                 what = "set points" if name.startswith("constant-") else "held actions"
                 raise ValueError(f"controllers: {', '.join(twins)} are the same {what}; "
                                  "give them once")
-            runs = {Path(c.partition(":")[2]).resolve() for c in twins}
-            if all(c.startswith("learned:") for c in twins) and len(runs) == 1:
+            if all(c.startswith("learned:") for c in twins) and len(
+                    runs := {Path(c.partition(":")[2]).resolve() for c in twins}) == 1:
                 raise ValueError(f"controllers: {', '.join(twins)} are the same run "
                                  f"({runs.pop()}), given twice; give it once")
             from agents.registry import is_imported

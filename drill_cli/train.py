@@ -255,7 +255,7 @@ def trained_steps(run: Path, model: Path) -> int | None:
         if (steps := checkpoint_steps(model)) is not None:
             return steps
         return int(json.loads((run / "run.json").read_text(encoding="utf-8"))["env_steps"])
-    except (OSError, ValueError, KeyError, TypeError, StopIteration):
+    except (OSError, ValueError, KeyError, TypeError):
         return None
 
 

@@ -439,8 +439,8 @@ def make_executor(workers: int | None = None, ray_address: str | None = None) ->
         return RayExecutor(ray_address)
     if workers is not None and workers < 1:
         raise ValueError(f"workers: must be >= 1, got {workers}")
-    if workers is not None and workers > 2 * usable_cores():  # (999: 31 processes, 8 GB)
-        warnings.warn(f"workers: {workers} processes on {usable_cores()} cores run no faster "
+    if workers is not None and workers > 2 * (cores := usable_cores()):  # (999: 31, 8 GB)
+        warnings.warn(f"workers: {workers} processes on {cores} cores run no faster "
                       "than one per core, and each holds ~250 MB", UserWarning, stacklevel=2)
     n = workers or usable_cores()
     return SerialExecutor() if n == 1 else ProcessExecutor(n)
