@@ -11,6 +11,7 @@ inside that, ``train`` ``logs/runs``, ``evaluate`` the run's ``evaluation/``).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import signal
 import sys
@@ -24,7 +25,7 @@ from drill_cli.arguments import unwritable
 from drill_cli.installation import compile_notice, shadowed_packages
 from drill_cli.interrupts import (
     KEEPS_FINISHED,
-    NOT_INSTALLED,
+    HungUp,
     exit_status,
     finished_since,
     finished_work_folder,
@@ -119,7 +120,7 @@ def _main(argv: Sequence[str] | None) -> int:
               "set TMPDIR to a folder you can write", file=sys.stderr)
         return 2
     started = time.time()  # (what its results file holds from before is not its work)
-    stop, terminated = stop_as_interrupt()
+    restore_handlers, stopped_by = stop_as_interrupt()
     heard = False
     clear_interrupt()  # one noted before this command is not this command's
     from drill_env.sweep import COMMAND_VARIABLE, SAID_VARIABLE, command_warning
@@ -161,15 +162,17 @@ def _main(argv: Sequence[str] | None) -> int:
     except KeyboardInterrupt as caught:
         # a SIGTERM's Terminated may come back as a plain KeyboardInterrupt (Ray's wait
         # turns a signal's exception into its own)
-        stopped = Terminated() if terminated.is_set() else caught
-        said = "terminated" if isinstance(stopped, Terminated) else "interrupted"
+        stopped = stopped_by[0]() if stopped_by else caught
+        said = "hung up" if isinstance(stopped, HungUp) else \
+            "terminated" if isinstance(stopped, Terminated) else "interrupted"
         kept = finished_work_folder(args, out)
         if args.command in KEEPS_FINISHED and kept is not None and finished_since(
                 results_file(args.command, kept), started):  # (none finished: it said so
             # all the same)
             said += (f"; its finished {KEEPS_FINISHED[args.command]} are kept in {kept}: the "
                      "same command again goes on from them")
-        print(f"drill-env {args.command}: {said}", file=sys.stderr)
+        with contextlib.suppress(OSError):  # (a closed terminal's: EIO)
+            print(f"drill-env {args.command}: {said}", file=sys.stderr)
         return exit_status(stopped)
     finally:
         warnings.formatwarning = shown
@@ -183,8 +186,7 @@ def _main(argv: Sequence[str] | None) -> int:
             os.environ[SAID_VARIABLE] = outer
         marks.cleanup()
         clear_interrupt()  # handled here: not a later command's (or caller's) to act on
-        if stop is not NOT_INSTALLED:
-            signal.signal(signal.SIGTERM, stop if stop is not None else signal.SIG_DFL)
+        restore_handlers()
         if heard:
             signal.signal(signal.SIGINT, signal.SIG_IGN)
     return 2

@@ -123,10 +123,10 @@ def command_warning(command: str, said_folder: str | None = None) -> Any:
 
 def _single_threaded_worker(parent: int) -> None:
     """A pool worker's set-up: one numba thread (the pool is the parallelism); the first
-    Ctrl-C or SIGTERM interrupts its task (a training run saves its checkpoint) and later
-    ones, such as the pool's forwarded copy of a Ctrl-C the whole terminal group got, do
-    not cut that short; on Linux the worker is killed with its parent ``parent`` (a
-    killed command left its workers training into the folder a rerun uses)."""
+    Ctrl-C, SIGTERM or SIGHUP interrupts its task (a training run saves its checkpoint)
+    and later ones, such as the pool's forwarded copy of a Ctrl-C the whole terminal group
+    got, do not cut that short; on Linux the worker is killed with its parent ``parent``
+    (a killed command left its workers training into the folder a rerun uses)."""
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     if "numba" in sys.modules:  # (loaded while the set-up was unpickled: read again, or
@@ -134,8 +134,9 @@ def _single_threaded_worker(parent: int) -> None:
         from numba.core import config
 
         config.reload_config()
-    signal.signal(signal.SIGINT, _interrupt_once)
-    signal.signal(signal.SIGTERM, _interrupt_once)
+    for signum in STOPPING_SIGNALS:  # (a SIGHUP that came ignored, nohup's, stays so)
+        if signum == signal.SIGINT or signal.getsignal(signum) is not signal.SIG_IGN:
+            signal.signal(signum, _interrupt_once)
     if command := os.environ.get(COMMAND_VARIABLE):  # (a worker's warning showed Python's
         # file and source line, mixed into the command's progress bar)
         warnings.formatwarning = command_warning(command, os.environ.get(SAID_VARIABLE))
@@ -180,8 +181,8 @@ def _interrupt_once(signum: int, frame: Any) -> None:
     _interrupted = True
     # later ones run a handler that does nothing (SIG_IGN set here made Python print
     # "Signal 15 ignored due to race condition" for one already on its way)
-    signal.signal(signal.SIGINT, _ignore)
-    signal.signal(signal.SIGTERM, _ignore)
+    for signum in STOPPING_SIGNALS:
+        signal.signal(signum, _ignore)
     if _busy:
         raise KeyboardInterrupt
 
@@ -194,10 +195,14 @@ class Terminated(KeyboardInterrupt):
     """A SIGTERM, handled as a Ctrl-C (the command line's handler raises it)."""
 
 
-#: The interrupt this process was sent (:func:`note_interrupt`): KeyboardInterrupt or
-#: :class:`Terminated`, kept beside the exception raised for it, which is lost where it is
-#: raised inside a ctypes callback (numba's cache writes while it compiles: printed as
-#: "Exception ignored").
+#: The signals that stop long work as Ctrl-C does, keeping what is done (SIGHUP: POSIX's)
+STOPPING_SIGNALS: tuple[int, ...] = (signal.SIGINT, signal.SIGTERM) + (
+    (signal.SIGHUP,) if hasattr(signal, "SIGHUP") else ())
+
+
+#: The interrupt this process was sent (:func:`note_interrupt`), kept beside the exception
+#: raised for it, which is lost where it is raised inside a ctypes callback (numba's cache
+#: writes while it compiles: printed as "Exception ignored").
 _noted: type[KeyboardInterrupt] | None = None
 
 
@@ -214,8 +219,6 @@ def hear_interrupts() -> bool:
     unsaved, nor Ray's cancel to a task (the command's ``_main``, a scale trial;
     :mod:`drill_env.distributed`). True where installed (the command puts SIG_IGN back
     after it)."""
-    import threading
-
     if threading.current_thread() is not threading.main_thread() or \
             signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
         return False
@@ -242,8 +245,6 @@ def watch_interrupts() -> Iterator[None]:
     Python's own handler is installed, in the main thread; a pool worker's notes its own).
     The note outlives a lost exception until the block ends: the work inside handled it,
     or ended without it."""
-    import threading
-
     install = (threading.current_thread() is threading.main_thread()
                and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
 
@@ -348,8 +349,7 @@ def quota_cores(cpu_max: str) -> int | None:
         return None
 
 
-#: The most worker processes ProcessPoolExecutor takes on Windows (its wait on their
-#: handles is limited to 63, two of them its own).
+#: The most workers ProcessPoolExecutor takes on Windows (it waits on 63 handles, 2 its own)
 WINDOWS_MAX_WORKERS = 61
 
 

@@ -163,6 +163,18 @@ def lose_an_interrupt(marker: str) -> str:
     return getattr(noted_interrupt(), "__name__", "None")
 
 
+def hang_up_handling(k: int) -> str:
+    """A sweep task that says what its worker does with a SIGHUP: "ignored" (SIG_IGN),
+    "interrupts" (the first interrupt's handler) or another handler's name."""
+    import signal
+
+    from drill_env.sweep import _interrupt_once
+
+    handler = signal.getsignal(signal.SIGHUP)
+    return "ignored" if handler is signal.SIG_IGN else \
+        "interrupts" if handler is _interrupt_once else str(handler)
+
+
 def fail_last(k: int) -> int:
     """A sweep task that returns ``k`` at once, except for ``k`` = 3, which fails after
     the others are done (their workers idle when the pool is aborted)."""

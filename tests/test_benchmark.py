@@ -924,15 +924,16 @@ def test_an_interrupt_of_the_command_alone_reaches_the_workers_once(tmp_path):
     assert not any(Path(m).exists() for m in markers[2:])
 
 
+@pytest.mark.parametrize("signum", ["SIGTERM", "SIGHUP"])
 def test_a_sigterm_interrupts_a_workers_task_and_is_noted_where_its_exception_is_lost(
-        tmp_path):
-    """A pool worker's first SIGTERM (a scheduler's stop of the job's process group) is
-    handled as its first Ctrl-C: the task is interrupted (a training run saves its
-    checkpoint), where SIGTERM's default killed the worker unsaved and broke the pool; and
-    where the task's exception is lost (numba's compile callbacks), ``noted_interrupt``
-    still says it, for the training loop to stop at its next step (mutation tests: the
-    worker's SIGTERM handler dropped, and a worker's interrupt not noted, each passed
-    every test)."""
+        tmp_path, signum):
+    """A pool worker's first SIGTERM (a scheduler's stop of the job's process group) or
+    SIGHUP (the job's terminal closed) is handled as its first Ctrl-C: the task is
+    interrupted (a training run saves its checkpoint), where the signal's default killed
+    the worker unsaved and broke the pool; and where the task's exception is lost (numba's
+    compile callbacks), ``noted_interrupt`` still says it, for the training loop to stop
+    at its next step (mutation tests: the worker's SIGTERM handler dropped, and a worker's
+    interrupt not noted, each passed every test)."""
     import os
     import signal
 
@@ -949,8 +950,34 @@ def test_a_sigterm_interrupts_a_workers_task_and_is_noted_where_its_exception_is
             assert time.monotonic() < deadline
             time.sleep(0.05)
         (worker,) = executor._pool._processes.values()
-        os.kill(worker.pid, signal.SIGTERM)
+        os.kill(worker.pid, getattr(signal, signum))
         assert future.result(timeout=60) == "KeyboardInterrupt"
+    finally:
+        executor.close()
+
+
+def test_a_hang_up_ignored_by_nohup_stays_ignored_in_the_workers():
+    """``nohup drill-env benchmark ...``: the command and its pool workers keep running
+    when the terminal closes (SIGHUP came ignored); without nohup a worker's SIGHUP
+    interrupts its task as a Ctrl-C does."""
+    import signal
+
+    from helpers import hang_up_handling
+
+    from drill_env.sweep import ProcessExecutor
+
+    before = signal.signal(signal.SIGHUP, signal.SIG_IGN)  # as nohup starts a command
+    try:
+        executor = ProcessExecutor(1)  # (spawned: a SIG_IGN lasts through exec)
+        try:
+            assert dict(executor.map_unordered(hang_up_handling, [0])) == {0: "ignored"}
+        finally:
+            executor.close()
+    finally:
+        signal.signal(signal.SIGHUP, before)
+    executor = ProcessExecutor(1)
+    try:
+        assert dict(executor.map_unordered(hang_up_handling, [0])) == {0: "interrupts"}
     finally:
         executor.close()
 

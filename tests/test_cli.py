@@ -2,6 +2,7 @@
 
 import argparse
 import json
+import os
 import re
 from pathlib import Path
 
@@ -1527,7 +1528,8 @@ def test_the_demo_needs_strong_stick_slip_at_50_rpm_and_little_at_100(tmp_path, 
 
 @pytest.mark.parametrize("signum, status, said, replaced", [
     ("SIGTERM", 143, "terminated", False), ("SIGINT", 130, "interrupted", False),
-    ("SIGTERM", 143, "terminated", True)])
+    ("SIGTERM", 143, "terminated", True), ("SIGHUP", 129, "hung up", False),
+    ("SIGHUP", 129, "hung up", True)])
 def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, signum,
                                                          status, said, replaced):
     """A command stopped by a signal exits as the shell reports one, 128 + its number: a
@@ -1551,14 +1553,52 @@ def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, s
         return 0
 
     monkeypatch.setattr(cli, "cmd_modes", stopped)
-    before = signal.getsignal(signal.SIGTERM)
+    before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGHUP)
     with ctrl_c_as_in_a_terminal():
         assert main(["modes"]) == status
     assert f"drill-env modes: {said}" in capsys.readouterr().err
-    assert signal.getsignal(signal.SIGTERM) == before  # the command's handler is gone
+    # the command's handlers are gone
+    assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGHUP)) == before
     from drill_env.sweep import noted_interrupt
 
     assert noted_interrupt() is None  # handled: a later training run must not act on it
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="a pseudo-terminal is POSIX's")
+def test_a_closed_terminal_stops_a_command_as_ctrl_c_does(tmp_path):
+    """An ssh session that dropped (its terminal closed: SIGHUP) ended a command at once:
+    `train` lost its work since the last checkpoint, `run` its results, with no status
+    of its own. Now it stops as on Ctrl-C, keeping what is done, its lines to the closed
+    terminal dropped (they failed with an I/O error after the save: exit 2), and exits
+    129. Here `run` on a pseudo-terminal, closed once its progress bar shows."""
+    import fcntl
+    import pty
+    import select
+    import struct
+    import sys
+    import termios
+    import time
+
+    pid, terminal = pty.fork()  # the child: a session whose terminal is the pty
+    if pid == 0:  # (the child: only the exec)
+        os.execv(sys.executable, [sys.executable, "-m", "drill_cli", "run", "--duration",
+                                  "100000", "--out", str(tmp_path)])
+    # a terminal of 80 columns: on one of none (a new pty's size) tqdm draws nothing
+    fcntl.ioctl(terminal, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
+    shown, deadline = b"", time.monotonic() + 300.0  # (imports, a first compile)
+    try:
+        while not re.search(rb"\| [1-9][0-9]*/", shown):  # the progress bar counts
+            assert time.monotonic() < deadline, shown[-500:]
+            if select.select([terminal], [], [], 1.0)[0]:
+                shown += os.read(terminal, 65536)
+    finally:
+        os.close(terminal)  # the terminal goes: the kernel hangs it up
+    while (ended := os.waitpid(pid, os.WNOHANG))[0] == 0:
+        assert time.monotonic() < deadline + 60.0
+        time.sleep(0.1)
+    assert os.WIFEXITED(ended[1]) and os.WEXITSTATUS(ended[1]) == 129
+    summary = json.loads((tmp_path / "run_summary.json").read_text())
+    assert summary["termination_reason"] == "interrupted" and summary["steps"] > 0
 
 
 def test_an_interrupted_sweep_says_where_its_finished_work_is(monkeypatch, capsys,

@@ -379,7 +379,7 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
             pass  # lost, as inside a ctypes callback
 
     expected = Terminated if signum == "SIGTERM" else KeyboardInterrupt
-    previous, _ = stop_as_interrupt()  # the command line's SIGTERM handler
+    restore, _ = stop_as_interrupt()  # the command line's SIGTERM and SIGHUP handlers
     try:
         with ctrl_c_as_in_a_terminal():
             real_make, real_crossed, calls = tt.make_train_env, tcb.crossed, []
@@ -410,13 +410,13 @@ def test_an_interrupt_whose_exception_is_lost_still_stops_training(tmp_path, mon
             assert steps < 2048 and steps == calls[299]  # the step the interrupt arrived in
             assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        restore()
 
 
-@pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
+@pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM", "SIGHUP"])
 def test_an_interrupt_in_the_update_waits_for_the_update_to_end(run, tmp_path, monkeypatch,
                                                                 capsys, signum):
-    """A Ctrl-C (or the command line's SIGTERM) in PPO's epochs saved a checkpoint that
+    """A Ctrl-C (or the command line's SIGTERM or SIGHUP) in PPO's epochs saved a checkpoint that
     had done some of them under the rollout's full count of steps, and the resumed run
     never did the rest (a new user's trial: 7 of 10). Now the run stops when the update
     ends, before the evaluation due there; the resume does that evaluation with the
@@ -426,7 +426,7 @@ def test_an_interrupt_in_the_update_waits_for_the_update_to_end(run, tmp_path, m
 
     from stable_baselines3 import PPO
 
-    from drill_cli.interrupts import stop_as_interrupt
+    from drill_cli.interrupts import HungUp, stop_as_interrupt
     from drill_env.sweep import Terminated
     from training.run_folder import read_evaluations, saved_steps
 
@@ -441,21 +441,22 @@ def test_an_interrupt_in_the_update_waits_for_the_update_to_end(run, tmp_path, m
 
     monkeypatch.setattr(PPO, "train", update)
     folder = tmp_path / "cut"
-    previous, _ = stop_as_interrupt()  # the command line's SIGTERM handler
+    restore, _ = stop_as_interrupt()  # the command line's SIGTERM and SIGHUP handlers
     try:
         with ctrl_c_as_in_a_terminal():
-            with pytest.raises(Terminated if signum == "SIGTERM" else KeyboardInterrupt):
+            with pytest.raises({"SIGINT": KeyboardInterrupt, "SIGTERM": Terminated,
+                                "SIGHUP": HungUp}[signum]):
                 train(tiny_config(), folder, progress=False)
             assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     finally:
         assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL  # (put back)
-        signal.signal(signal.SIGTERM, previous)
+        restore()
     assert "stops when the model's update in progress ends" in capsys.readouterr().err
     saved = latest_checkpoint(folder)
     assert saved is not None
     assert saved_steps(saved[0]) == (1024, 4)  # two whole updates of 2 epochs each
     assert not (folder / "evaluations.csv").exists()  # due after the update: not done
-    if signum == "SIGTERM":
+    if signum != "SIGINT":
         return
     monkeypatch.setattr(PPO, "train", real)
     train(tiny_config(), folder, resume=True, progress=False)

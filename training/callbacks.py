@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from drill_env.sweep import (
+    STOPPING_SIGNALS,
     noted_interrupt,
     save_whole,
 )
@@ -245,7 +246,7 @@ def whole_updates() -> Any:
         def _on_rollout_end(self) -> None:
             if threading.current_thread() is not threading.main_thread():
                 return  # (signals reach the main thread only)
-            for signum in (signal.SIGINT, signal.SIGTERM):
+            for signum in STOPPING_SIGNALS:
                 handler = signal.getsignal(signum)
                 if callable(handler):  # not SIG_IGN or SIG_DFL: left as they are
                     self.held[signum] = handler

@@ -33,6 +33,7 @@ and its checks live in :mod:`training.run_folder`, the callbacks inside ``learn`
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import platform
@@ -261,9 +262,10 @@ def _train(config: TrainConfig, run: Path, resume: bool, progress: bool) -> Path
         finally:
             whole.release(give=False)  # (an exception in the update: the handlers back)
             # before the interrupt's message (closing twice, after SB3's own close, does
-            for shown in bar:  # nothing)
+            for shown in bar:  # nothing; on a closed terminal it cannot write: EIO)
                 if getattr(shown, "pbar", None) is not None:
-                    shown.pbar.close()
+                    with contextlib.suppress(OSError):
+                        shown.pbar.close()
     except KeyboardInterrupt:
         save_interrupted(run, model, env, resumed.wall_s + time.perf_counter() - t0,
                          sessions)
@@ -328,5 +330,8 @@ def save_interrupted(run: Path, model: Any, env: Any, wall_s: float,
            "continues from it (a --seeds sweep: the same command)" if command else
            "train() with resume=True (instead of overwrite=True, if it had that) continues "
            "from it")
-    print(f"interrupted at {steps} env steps: saved {path}; {how}\n", end="", flush=True)
+    with contextlib.suppress(OSError):  # (a closed terminal, SIGHUP's: EIO; saved all
+        # the same)
+        print(f"interrupted at {steps} env steps: saved {path}; {how}\n", end="",
+              flush=True)
     return path
