@@ -220,7 +220,8 @@ def reset(controller: Any, typed: str, where: str, env: Any) -> None:
         return
     try:
         controller.reset(env)
-    except Exception as err:  # noqa: BLE001 - the user's code: said in one line
+    except (Exception, SystemExit) as err:  # noqa: BLE001 - the user's code: said in one
+        # line (a sys.exit in it ended the command with its status, unsaid)
         raise ValueError(f"controller: {typed}: reset() raised {in_user_code(err)} "
                          f"({where})") from None
 
@@ -237,7 +238,8 @@ def act(controller: Any, typed: str, where: str, space: Any, obs: Any,
         return controller.act(obs, info)
     try:
         action = controller.act(obs, info)
-    except Exception as err:  # noqa: BLE001 - the user's code: said in one line
+    except (Exception, SystemExit) as err:  # noqa: BLE001 - the user's code: said in one
+        # line (a sys.exit in it ended the command with its status, unsaid)
         raise ValueError(f"controller: {typed}: act() raised {in_user_code(err)} "
                          f"({where})") from None
     if action is None:  # (said as "an action of shape ()")

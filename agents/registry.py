@@ -300,6 +300,25 @@ def data_files(name: str, controller: Any) -> list[Path]:
     return [Path(f) for f in files]
 
 
+def is_drill_env(env_id: Any) -> bool:
+    """Whether ``env_id`` is registered for :class:`drill_env.env.DrillStringEnv` or a
+    subclass (the tasks', one of your own)."""
+    import gymnasium
+    from gymnasium.envs.registration import load_env_creator
+
+    from drill_env.env import DrillStringEnv
+
+    if not isinstance(env_id, str) or env_id not in gymnasium.registry:
+        return False
+    entry = gymnasium.registry[env_id].entry_point
+    try:
+        made = entry if callable(entry) or entry is None else load_env_creator(entry)
+    except (ImportError, AttributeError, ValueError, gymnasium.error.Error):  # (gone, or
+        # its dependency not installed: Box2D's)
+        return False
+    return isinstance(made, type) and issubclass(made, DrillStringEnv)
+
+
 def check_interface(name: str, controller: Any) -> None:
     """ValueError naming what a controller of your own lacks or gets wrong: the methods
     and attributes of :class:`agents.base.Controller`, a ``rate``, an ``env_id`` that is
@@ -316,10 +335,13 @@ def check_interface(name: str, controller: Any) -> None:
                          "'drive' or 'policy'")
     import gymnasium
 
-    if controller.env_id not in gymnasium.registry:
+    if not is_drill_env(controller.env_id):  # (another registered env, CartPole-v1: a
+        # pool's traceback from its constructor, or "env_class:", typed by nobody)
         drill = ", ".join(k for k in gymnasium.registry if k.startswith("Drill"))
-        raise ValueError(f"controller: {name}: env_id {controller.env_id!r} is not a "
-                         f"registered env; the drill-env ones: {drill}")
+        known = "is not a drill-env env" if controller.env_id in gymnasium.registry else \
+            "is not a registered env"
+        raise ValueError(f"controller: {name}: env_id {controller.env_id!r} {known}; the "
+                         f"drill-env ones: {drill}")
     try:
         physics = controller.physics()
     except Exception as err:  # noqa: BLE001 - the user's code: said in one line

@@ -324,14 +324,20 @@ def register_envs() -> None:
     """
     import gymnasium
 
+    # without gymnasium's passive env checker: the envs check their own actions and
+    # observations (tests/env/test_env.py runs gymnasium's and SB3's full checkers), and
+    # gymnasium 1.4's broke every step of an env whose first reset was refused (a WOB
+    # typed in kN: "cannot unpack non-iterable NoneType object" for the env's lifetime)
     for env_id, kwargs in ENV_IDS.items():
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=ENTRY_POINT,
-                               vector_entry_point=VECTOR_ENTRY_POINT, kwargs=dict(kwargs))
+                               vector_entry_point=VECTOR_ENTRY_POINT, kwargs=dict(kwargs),
+                               disable_env_checker=True)
     for env_id, (entry_point, vector_entry_point) in TASK_IDS.items():
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=entry_point,
-                               vector_entry_point=vector_entry_point)
+                               vector_entry_point=vector_entry_point,
+                               disable_env_checker=True)
 
 
 class _RunAfterImport(importlib.abc.MetaPathFinder):

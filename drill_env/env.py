@@ -37,10 +37,10 @@ from drill_env.env_config import (  # noqa: F401  (EnvConfig, OBSERVATIONS: the 
     EnvConfig,
     check_set_points,
     env_config_from,
-    even_record_every,
     mesh_weight_on_bit_limit,
     reset_options,
     start_ranges,
+    step_plan,
     warn_above_limit,
 )
 from drill_env.metrics import Metric
@@ -246,8 +246,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
             self.physics_overrides["bit_model"] = bit_model
         if fidelity is not None:
             if fidelity not in FIDELITY_LEVELS:
-                raise ValueError(f"fidelity: must be one of {FIDELITY_LEVELS}, got "
-                                 f"{fidelity!r}")
+                raise ValueError(f"fidelity: must be one of {FIDELITY_LEVELS}, got {fidelity!r}"
+                                 + did_you_mean(str(fidelity), list(FIDELITY_LEVELS)))
             self.physics_overrides["solver.fidelity"] = fidelity
         self.randomised = scenario in RANDOMISED
         check_one_string_length(self.scenario_params, self.physics_overrides)
@@ -293,21 +293,9 @@ class DrillStringEnv(BatchFinish, gym.Env):
     def _set_simulator(self, sim: Simulator) -> None:
         self.sim = sim
         cfg = self.config
-        self._steps_per_action = round(cfg.control_interval / sim.dt)
-        if self._steps_per_action < 1:  # not silently one step: the policy's period changes
-            raise ValueError(f"control_interval: {cfg.control_interval:g} s is at most "
-                             f"half the simulator's step ({sim.dt:.3g} s)")
-        if round(self.episode_duration / self.control_interval) < 1:
-            raise ValueError(f"episode_duration: {self.episode_duration:g} s is at most "
-                             f"half a control interval ({self.control_interval:g} s)")
-        self._record_every = even_record_every(self._steps_per_action, cfg.record_every)
+        self._steps_per_action, self._record_every = step_plan(cfg, sim.dt,
+                                                               self.episode_duration)
         self.metadata = {**type(self).metadata, "render_fps": 1.0 / self.control_interval}
-        records = self._steps_per_action // self._record_every
-        if records > MAX_RECORDS_PER_STEP:
-            raise ValueError(
-                f"record_every: {cfg.record_every} keeps {records} records per control step "
-                f"({cfg.control_interval} s at dt = {sim.dt:.2e} s), more than "
-                f"{MAX_RECORDS_PER_STEP}: raise record_every")
         self.weight_on_bit_limit = self._wob_range[1]
         if cfg.limit_weight_on_bit_to_mesh:
             self.weight_on_bit_limit = min(self.weight_on_bit_limit, mesh_weight_on_bit_limit(
@@ -379,7 +367,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         # left a new string drawn under the old episode's state, and steps ran on it
         self._reset_done = False
         options = reset_options(options)  # refused before the seed is taken
-        super().reset(seed=seed)
+        super().reset(seed=int(seed) if isinstance(seed, np.integer) else seed)  # np.int64 too
         given = frozenset(options)  # the targets the caller fixed
         if self.randomised:
             self.scenario = self._build_scenario(self.np_random)
@@ -447,7 +435,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
         if self._ended or self._step_count >= self._max_steps:  # undefined in Gymnasium:
             # said, as CartPole does (a loop that forgot to reset: an outside trial)
             ended = f"terminated: {self._ended}" if self._ended else "truncated"
-            gym.logger.warn(f"step: past the episode's end ({ended}): call reset()")
+            gym.logger.warn("step: past the episode's end (%s): call reset()", ended)  # (a
+            # reason's own % read as a format: a buckled string's "80 %" raised TypeError)
         self.apply_action(action)
         self.keep_records(records := self.advance())
         result = self.finish_step(records)

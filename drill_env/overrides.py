@@ -185,7 +185,8 @@ def _overridden(config: SimulationConfig, overrides: Mapping[str, Any]) -> Simul
     """:func:`with_physics` but the layers' turn."""
     if not overrides:
         return config
-    if overrides.get("string.components"):
+    components = overrides.get("string.components")  # (a NumPy array: no truth value)
+    if components is not None and (not hasattr(components, "__len__") or len(components)):
         # components replace the scenario's one-section BHA and the stabilizers placed on
         # it (the crossing cases' 120 m of collars): they would clash with the components
         blank = StringConfig()

@@ -242,12 +242,12 @@ def sandwich(bit: BitConfig, middle: RockConfig, bit_depth: float, position: str
     """Hard / ``middle`` / hard layers, the bit face at ``bit_depth`` at ``position``.
 
     ``thickness`` is the middle layer's thickness along the hole axis (m). The interfaces
-    are parallel planes (``dip``, ``azimuth`` in deg). ``position`` is one of
-    :data:`POSITIONS`; the interface depth comes from
-    :func:`~drill_env.physics.formation.interface_depth_for_share`.
+    are parallel planes (``dip``, ``azimuth`` in deg). ``position``: one of :data:`POSITIONS`,
+    the interface depth from :func:`~drill_env.physics.formation.interface_depth_for_share`.
     """
     if position not in POSITIONS:
-        raise ValueError(f"position: must be one of {sorted(POSITIONS)}, got {position!r}")
+        raise ValueError(f"position: must be one of {sorted(POSITIONS)}, got {position!r}"
+                         + did_you_mean(str(position), list(POSITIONS)))
     if not (thickness > 0 and math.isfinite(thickness)):
         raise ValueError(f"thickness: must be > 0, got {thickness!r}")
     share, which = POSITIONS[position]

@@ -58,6 +58,7 @@ from drill_env.physics.validation import (
     NonNegative,
     Positive,
     config_dataclass,
+    did_you_mean,
     jsonable,
     repeated,
 )
@@ -337,7 +338,7 @@ def stability_maps(positions: Sequence[str] = tuple(POSITIONS), rpm_step: float 
     for position in positions:
         if position not in POSITIONS:
             raise ValueError(f"position: must be one of {sorted(POSITIONS)}, got "
-                             f"{position!r}")
+                             f"{position!r}" + did_you_mean(str(position), list(POSITIONS)))
     configs = {p: (configs or {}).get(p) or map_config(p) for p in positions}
     for axis, values in (("speeds (rpm)", rpm), ("WOBs (N)", wob)):
         # the boundary tracking walks each axis upward from the lowest line

@@ -180,7 +180,8 @@ class DrillStringVectorEnv(VectorEnv):
                               "episode: none yet, or their last reset was refused)")
         mode = self.autoreset_mode
         if mode == AutoresetMode.DISABLED and np.any(self._autoreset_envs):
-            raise ValueError("autoreset is disabled: reset the finished envs (reset_mask) "
+            raise ValueError("autoreset is disabled: reset the finished envs "
+                             f"{np.flatnonzero(self._autoreset_envs).tolist()} (reset_mask) "
                              "before stepping")
         resetting = self._autoreset_envs.copy() if mode == AutoresetMode.NEXT_STEP else \
             np.zeros(self.num_envs, dtype=np.bool_)

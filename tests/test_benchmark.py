@@ -1773,6 +1773,13 @@ BROKEN = {  # file -> (code, what the one-line error says)
                 "    env_id = 'DrillStrin-v0'\n",
                 "env_id 'DrillStrin-v0' is not a registered env; the drill-env ones: "
                 "DrillString-v0"),
+    # another registered env (a pool's traceback from CartPole's constructor, or an
+    # env_class the user never typed: a fuzzing walkthrough)
+    "cartpole.py": ("from agents import SetPointController\n\n\n"
+                    "class Bad(SetPointController):\n    name = 'cartpole'\n"
+                    "    env_id = 'CartPole-v1'\n",
+                    "env_id 'CartPole-v1' is not a drill-env env; the drill-env ones: "
+                    "DrillString-v0"),
     "slash.py": ("from agents import SetPointController\n\n\n"
                  "class Bad(SetPointController):\n    name = 'my/ctl'\n",
                  "name 'my/ctl' cannot name its rows and files"),
@@ -1830,6 +1837,8 @@ def test_a_broken_controller_file_is_one_line_naming_it_and_exit_2(tmp_path, cap
 
 @pytest.mark.parametrize("body, said", [
     ("        raise KeyError('gain')\n", "act() raised KeyError: 'gain' (acts.py, line 10)"),
+    # (it exited the command with status 3 and said nothing: a fuzzing walkthrough)
+    ("        raise SystemExit(3)\n", "act() raised SystemExit: 3 (acts.py, line 10)"),
     ("        return np.linalg.inv(np.zeros((2, 2)))\n",  # raised inside numpy: your line
      "act() raised LinAlgError: Singular matrix (acts.py, line 10)"),
     ("        return np.zeros(1)\n", "act() returned an action of shape (1,); the env "

@@ -679,3 +679,11 @@ def test_an_interrupt_while_the_maps_are_written_leaves_the_old_file_whole(
     assert (tmp_path / "stability_map.json").read_text() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["stability_map.json",
                                                           "stability_map.png"]
+
+
+def test_a_position_in_lower_case_is_refused_with_the_one_meant():
+    """``positions=["p3"]`` was refused listing the six without saying which (a fuzzing
+    walkthrough: the other choices suggest)."""
+    with pytest.raises(ValueError, match=r"^position: must be one of \['P1', .* got 'p3' "
+                                         r"\(did you mean P3\?\)"):
+        sm.stability_maps(positions=["p3"])

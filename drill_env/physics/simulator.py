@@ -91,6 +91,11 @@ class Simulator:
     """
 
     def __init__(self, config: SimulationConfig | None = None) -> None:
+        if config is not None and not isinstance(config, SimulationConfig):  # (a dict: an
+            # AttributeError deep inside, or {} the defaults unsaid: a fuzzing walkthrough)
+            raise TypeError(f"config: a SimulationConfig, got {type(config).__name__}; dotted "
+                            "overrides: with_physics(SimulationConfig(), {...}) (drill_env."
+                            "overrides)")
         # solver.fidelity expanded: sim.config shows the mesh and step actually used.
         self.config = (config or SimulationConfig()).resolved()
         cfg = self.config

@@ -213,12 +213,12 @@ def _dataclass_in(hint: Any) -> Any:
 
 
 def closest(name: str, names: list[str]) -> str | None:
-    """The one of ``names`` a misspelt ``name`` was probably meant to be, if any: the
-    closest by difflib, else the one name it begins, cut short (``bench``: benchmark)."""
-    begun = [n for n in names if n.lower().startswith(name.lower())]
-    close = difflib.get_close_matches(name, names, n=1, cutoff=0.75)
-    return close[0] if close else begun[0] if len(begun) == 1 and len(name.strip("-")) >= 3 \
-        else None
+    """The one of ``names`` a misspelt ``name`` was probably meant to be, if any: itself in
+    another case, the closest by difflib, else the one it begins (``bench``: benchmark)."""
+    begun = [n for n in names if n.lower().startswith(name.lower()) and len(name.strip("-")) > 2]
+    close = [n for n in names if n.lower() == name.lower()] or difflib.get_close_matches(
+        name, names, n=1, cutoff=0.75)
+    return close[0] if close else begun[0] if len(begun) == 1 else None
 
 
 def repeated(names: Sequence[str]) -> str | None:

@@ -460,7 +460,8 @@ def test_a_start_set_point_outside_the_action_ranges_is_refused_naming_it():
         stick.reset(seed=0, options={"surface_speed": 10 * RPM, "weight_on_bit": 100e3})
     assert stick.unwrapped.task.rpm_targets[1] < 150.0
     assert stick.unwrapped.task.max_correction == 30.0
-    stick = gym.make("DrillStickSlip-v0")  # (gymnasium's checker fails after a refused reset)
+    # the same env, after its refused first reset: gymnasium 1.4's passive checker (on by
+    # default then) broke its every later step (a fuzzing walkthrough)
     stick.reset(seed=0, options={"surface_speed": 30 * RPM})
     stick.reset(seed=0, options={"surface_speed": 150 * RPM})
     stick.step(np.array([-1.0], dtype=np.float32))
@@ -530,10 +531,32 @@ def test_unknown_keyword_is_named():
                                  "interval"),  # exactly half rounds to no step
     # shorter than half its one step: it would run 60 s, not 1 s
     ({"control_interval": 60.0, "episode_duration": 1.0}, "episode_duration: 1 s"),
+    # one record in the window (records 20 ms apart): its SSI and stuck share read 0, the
+    # stick-slip reward term gone unsaid (a fuzzing walkthrough)
+    ({"metric_window": 0.025}, r"^metric_window: 0.025 s holds fewer than two records "
+                               r"\(0.02 s apart\): .* give at least 0.04 s"),
+    ({"fidelity": "Fast"}, r"fidelity: .* got 'Fast' \(did you mean fast\?\)"),
+    ({"scenario": "paper_case1", "position": "p3"}, r"position: .* \(did you mean P3\?\)"),
+    # an array (NumPy's "truth value ... is ambiguous", naming no field)
+    ({"physics": {"string.components": np.array([1, 2])}}, r"string.components\[0\]: "),
 ])
 def test_inconsistent_configuration_raises_naming_the_field(kwargs, name):
     with pytest.raises(ValueError, match=name):
         gym.make("DrillString-v0", **kwargs)
+
+
+def test_a_numpy_integer_seed_is_taken_as_the_batched_env_takes_it():
+    """A seed loop over ``np.arange`` ran batched and was refused by the single env
+    (gymnasium: "Seed must be a python integer"; a fuzzing walkthrough): the same episode
+    as the Python integer's."""
+    first, second = (gym.make("DrillString-v0", scenario="random", **SHORT) for _ in "12")
+    obs, _ = first.reset(seed=np.int64(5))
+    same, _ = second.reset(seed=5)
+    np.testing.assert_array_equal(obs, same)
+    assert not np.array_equal(second.reset(seed=6)[0], same)  # (the seed draws the start)
+    second.reset(seed=5)
+    action = np.array([0.3, -0.2], np.float32)
+    np.testing.assert_array_equal(first.step(action)[0], second.step(action)[0])
 
 
 def test_a_control_interval_of_one_simulator_step_is_accepted():
@@ -870,6 +893,22 @@ def test_a_step_past_a_terminated_episode_is_said() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         env.step(np.zeros(2, np.float32))
+
+
+def test_a_step_past_a_buckled_string_s_end_is_said_with_its_percent_sign() -> None:
+    """A fuzzing walkthrough: the buckled string's reason holds a percentage ("to 80 % of
+    its own buckling load"), which gymnasium's logger read as a format: the step past the
+    end raised TypeError ("not enough arguments for format string") instead of warning."""
+    env = gym.make("DrillString-v0", limit_weight_on_bit_to_mesh=False,
+                   weight_on_bit_range=(0.0, 1e6))
+    env.reset(seed=0)
+    while not (result := env.step(np.ones(2)))[2]:
+        pass
+    reason = result[4]["termination_reason"]
+    assert reason.startswith("string buckled beyond the mesh resolution") and "%" in reason
+    with pytest.warns(UserWarning, match=re.escape(f"past the episode's end (terminated: "
+                                                   f"{reason}): call reset")):
+        env.step(np.ones(2))
 
 
 def test_every_step_past_a_termination_is_said(monkeypatch) -> None:

@@ -182,3 +182,12 @@ def test_a_list_given_whole_and_by_index_in_one_file_is_refused_by_what_to_do(tm
     both = replace(config, **{"formation.rocks": config.formation.rocks,
                               "formation.rocks[0].mu_max": 0.5})
     assert both.formation.rocks[0].mu_max == 0.5
+
+
+@pytest.mark.parametrize("config", [{"mud.density": 1300.0}, {}])
+def test_a_dict_for_the_config_is_refused_naming_what_takes_one(config):
+    """``Simulator({"mud.density": 1300.0})`` ended in an AttributeError deep inside and
+    ``Simulator({})`` built the defaults unsaid (a fuzzing walkthrough)."""
+    with pytest.raises(TypeError, match=r"^config: a SimulationConfig, got dict; dotted "
+                                        r"overrides: with_physics\(SimulationConfig\(\)"):
+        Simulator(config)
