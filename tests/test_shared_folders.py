@@ -218,6 +218,30 @@ def test_a_second_training_of_a_held_run_is_refused(tmp_path, capsys):
     assert sorted(p.name for p in run.iterdir()) == [LOCK_FILE]  # nothing written
 
 
+def test_an_overwrite_of_a_run_being_evaluated_is_refused(tmp_path, capsys):
+    """`train --overwrite RUN` deleted RUN/evaluation under a running `evaluate RUN`,
+    which then ended in a bare errno, its rows lost, or said "wrote" of files gone (a
+    fuzzing walkthrough): it is refused, naming the folder, and nothing is deleted."""
+    from drill_cli.main import main
+
+    run = tmp_path / "runs" / "mine"
+    (run / "evaluation").mkdir(parents=True)
+    (run / "config.yaml").write_text("algo: ppo\n")
+    (run / "evaluation" / "benchmark.csv").write_text("controller\n")
+    holder = _holder(run / "evaluation")
+    try:
+        status = main(["train", "--task", "stick_slip", "--algo", "ppo", "--timesteps",
+                       "256", "--out", str(tmp_path / "runs"), "--name", "mine",
+                       "--no-progress", "--overwrite"])
+    finally:
+        holder.kill()
+        holder.wait()
+    assert status == 2
+    assert (f"error: {run / 'evaluation'}: another drill-env process is writing there (an "
+            "evaluation of this run)") in capsys.readouterr().err
+    assert (run / "evaluation" / "benchmark.csv").exists() and (run / "config.yaml").exists()
+
+
 def test_rows_edited_by_hand_are_run_again_and_said(tmp_path, capsys):
     """A stored row with "abc" for a number ended the command with "could not convert
     string to float: 'abc'" naming neither file nor row; another seed under a row's key

@@ -20,6 +20,8 @@ from drill_env.physics.validation import flatten, jsonable
 from drill_env.sweep import (
     LOCK_FILE,
     PARTIAL_FILE,
+    FolderInUse,
+    held_by_another,
     save_text,
     save_whole,
 )
@@ -240,8 +242,15 @@ def foreign_inside(run: Path, folder: Path) -> list[Path]:
 def check_overwrite(run: Path) -> None:
     """FileExistsError, naming them, if ``run`` holds files training did not write:
     ``overwrite`` deletes only a run's own (``--overwrite`` on a folder that merely held
-    a config.yaml deleted the whole folder: a security review)."""
-    others = run_outputs(run)[1]
+    a config.yaml deleted the whole folder: a security review); FolderInUse where another
+    process writes in a folder of its own (an evaluation)."""
+    ours, others = run_outputs(run)
+    for folder in ours:  # an evaluation still writing there (it was deleted under it: a
+        if folder.is_dir() and held_by_another(folder):  # bare errno, its rows lost, or
+            # "wrote" said of files gone; a fuzzing walkthrough)
+            raise FolderInUse(f"{folder}: another drill-env process is writing there (an "
+                              "evaluation of this run): wait for it to end before "
+                              "--overwrite, or give another --name")
     if others:
         from drill_env.physics.units import few
 
