@@ -17,17 +17,21 @@ the plots are written from all finished rows.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import functools
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from agents.episode import run_episode
+from agents.learned import PINNED
 from agents.settings import (
+    UNFINISHED,
     BenchmarkSettings,
     Episode,
     guest_env_kwargs,
@@ -42,7 +46,7 @@ from drill_env.physics.validation import (
     jsonable,
     repeated,
 )
-from drill_env.sweep import usable_cores
+from drill_env.sweep import save_whole, usable_cores
 
 RESULTS_FILE = "benchmark_results.jsonl"
 
@@ -65,10 +69,8 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
 
     digest = hashlib.sha256()
     if controller == "learned" or controller.startswith("learned:"):
-        from agents.learned import policy_files
-
-        for file in policy_files(controller.partition(":")[2] or None, env_id):
-            digest.update(file.read_bytes())
+        for data in policy_bytes(controller, env_id)[1]:
+            digest.update(data)
         return digest.hexdigest()[:12]
     factory = imported_factory(controller) if is_imported(controller) \
         else CONTROLLERS.get(controller)
@@ -99,15 +101,76 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
     return digest.hexdigest()[:12]
 
 
+def policy_bytes(controller: str, env_id: str | None = None
+                 ) -> tuple[tuple[Path, Path], tuple[bytes, bytes]]:
+    """The (model, statistics) files of a ``learned`` controller and what they hold, read
+    until two reads agree: a training of the run may save a new best (two files, one
+    after the other) between them."""
+    from agents.learned import policy_files
+
+    path = controller.partition(":")[2] or None
+    read = policy_files(path, env_id)
+    data = (read[0].read_bytes(), read[1].read_bytes())
+    for _ in range(20):
+        again = policy_files(path, env_id)
+        now = (again[0].read_bytes(), again[1].read_bytes())
+        if (again, now) == (read, data):
+            break
+        read, data = again, now
+    return read, data
+
+
+def pin_policy(controller: str, env_id: str | None, out: Path) -> tuple[str, tuple[str, str]]:
+    """A ``learned:RUN`` controller's digest (:func:`controller_digest`) and its files as
+    they are now, copied into ``out``'s :data:`PINNED` folder, for every episode to load:
+    each loaded the run's files afresh, so an evaluation beside a training of the run
+    mixed the models it saved on the way in one table, under the first one's name (a
+    fuzzing walkthrough)."""
+    import hashlib
+
+    files, data = policy_bytes(controller, env_id)
+    digest = hashlib.sha256(data[0] + data[1]).hexdigest()[:12]
+    run = Path(controller.partition(":")[2])
+    pinned = []
+    for file, content in zip(files, data, strict=True):  # (at its path in the run)
+        copy = out / PINNED / digest / (file.relative_to(run) if file.is_relative_to(run)
+                                        else file.name)
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        save_whole(copy, functools.partial(write_bytes, content))
+        pinned.append(str(copy))
+    return digest, (pinned[0], pinned[1])
+
+
+@contextlib.contextmanager
+def pinned_in(out: Path) -> Iterator[None]:
+    """Within: the policies a benchmark into ``out`` pins there (:data:`PINNED`); removed
+    when it ends, also what a killed one left."""
+    import shutil
+
+    shutil.rmtree(out / PINNED, ignore_errors=True)
+    try:
+        yield
+    finally:
+        shutil.rmtree(out / PINNED, ignore_errors=True)
+
+
+def write_bytes(content: bytes, path: str) -> None:
+    """``content`` into the file ``path`` (what :func:`save_whole` calls)."""
+    Path(path).write_bytes(content)
+
+
 def episodes(controllers: Sequence[str], scenarios: Sequence[str], seeds: Sequence[int],
              settings: BenchmarkSettings, out: Path, record: bool = False,
              env_id: str | None = None) -> list[Episode]:
-    """Every (controller, scenario, seed); the first seed keeps its time series."""
+    """Every (controller, scenario, seed); the first seed keeps its time series. A
+    ``learned:RUN`` controller's policy files are pinned in ``out`` (:func:`pin_policy`)."""
     plain = dataclasses.asdict(settings)
     names = dict(zip(controllers, labels(controllers), strict=True))
-    digests = {c: controller_digest(c, env_id) for c in controllers}
+    pinned = {c: pin_policy(c, env_id, out) for c in controllers if c.startswith("learned:")}
+    digests = {c: pinned[c][0] if c in pinned else controller_digest(c, env_id)
+               for c in controllers}
     return [Episode(c, s, seed, plain, str(out), record, seed == seeds[0], env_id,
-                    names[c], digests[c])
+                    names[c], digests[c], policy=pinned[c][1] if c in pinned else None)
             for s in scenarios for seed in seeds for c in controllers]
 
 
@@ -228,7 +291,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
     labels(controllers)  # a name that does not load is refused before --out is made
     out = Path(out)
     # one process writes the folder: a second benchmark into it is refused
-    with folder_lock(out, "this benchmark", tidy=("series",)):
+    with folder_lock(out, "this benchmark", tidy=("series",)), pinned_in(out):
         store = ResultStore(out / RESULTS_FILE, fingerprint(settings, env_id))
         todo_all = [dataclasses.replace(e, stamp=stamp(store.fingerprint, e.key),
                                         run=run_stamp(store.fingerprint))
@@ -265,7 +328,7 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
             # any episode runs, not after the classical controllers' episodes
             for name, episode_env in {(e.controller, e.env_id) for e in todo
                                       if e.controller.startswith("learned")}:
-                make_controller(name, env_id=episode_env)
+                make_controller(name, env_id=episode_env)  # (the run's files: named)
             local = min(workers or usable_cores(), len(todo))
             executor = make_executor(local if ray_address is None else None, ray_address)
             bar = progress_bar(total=len(todo_all), initial=len(todo_all) - len(todo),
@@ -317,12 +380,17 @@ def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool
     ``recordings/other_runs/<their stamp>/``, before the run records its own: a rerun
     into the folder, with ``--record``, replaced them, without it, left them beside a table
     they do not replay. Says how many it moved."""
-    moved = 0
+    moved = cut = 0
     for e in episodes:
         if not e.recording.exists() or e.recording_current():
             continue
         sidecar = e.recording_stamp
         lines = sidecar.read_text(encoding="utf-8").split() if sidecar.exists() else []
+        if lines == [UNFINISHED, e.run]:  # this run's own, cut short by an interrupt
+            e.recording.unlink()
+            sidecar.unlink()
+            cut += 1
+            continue
         # one folder per run (its run stamp; a recording of before it had only its row's),
         # so a second set-aside keeps the first; a damaged stamp is not a path
         stamp = lines[-1] if lines else ""
@@ -337,3 +405,6 @@ def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool
         print(f"benchmark: {moved} recording(s) of another run (other settings or code) "
               f"under this table's names moved to {out / 'recordings' / 'other_runs'}",
               file=sys.stderr)
+    if cut and say:
+        print(f"benchmark: {cut} recording(s) an interrupt cut short: deleted, recorded "
+              "again", file=sys.stderr)

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from agents.settings import (
+    UNFINISHED,
     BenchmarkSettings,
     Episode,
     check_acts_in,
@@ -37,7 +38,8 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     from drill_env.physics.layout import RECORD_CHANNELS, R
 
     settings = BenchmarkSettings(**episode.settings)
-    controller = make_controller(episode.controller, env_id=episode.env_id)
+    controller = make_controller(episode.controller, env_id=episode.env_id,
+                                 **episode.policy_kwargs())
     if episode.env_id is not None:  # a task benchmark: one task for every controller
         env_kwargs = dict(settings.env_kwargs)
     else:
@@ -65,6 +67,12 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     if episode.record:
         from drill_env.recording import RecordEpisode
 
+        # marked until it ends: a rerun after an interrupt told its own recording cut short
+        # from another run's and set it aside as one (a fuzzing walkthrough)
+        stamped = episode.recording_stamp.read_text(encoding="utf-8") \
+            if episode.recording_stamp.exists() else None
+        episode.recording_stamp.parent.mkdir(parents=True, exist_ok=True)
+        save_text(episode.recording_stamp, f"{UNFINISHED}\n{episode.run}\n")
         env = RecordEpisode(env, Path(episode.out) / "recordings", scenario=episode.scenario,
                             controller=episode.label, stem=episode.stem)
     base = env.unwrapped
@@ -105,6 +113,11 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     if episode.record and getattr(env, "last_path", None) == episode.recording:
         # (only a file this run wrote: RERUN=off writes none, and an older one stays old)
         save_text(episode.recording_stamp, f"{episode.stamp}\n{episode.run}\n")
+    elif episode.record:  # none written: the stamp as it was
+        if stamped is None:
+            episode.recording_stamp.unlink(missing_ok=True)
+        else:
+            save_text(episode.recording_stamp, stamped)
     everything = np.concatenate(kept) if kept else np.zeros((0, len(RECORD_CHANNELS)))
     records = everything[everything[:, R.TIME] >= start + settings.warmup]
     if len(records) < 2 <= len(everything) and reason:  # a failure in the warm-up is a

@@ -80,9 +80,9 @@ class LearnedController:
 
             why = ("SAC's learning_starts" if config.get("algo") == "sac"
                    else "PPO updates only after its first rollout")
-            warnings.warn(f"{model_file}: saved at {model.num_timesteps} env steps, before "
-                          f"the first gradient step ({why}): an untrained policy",
-                          RuntimeWarning, stacklevel=2)
+            warnings.warn(f"{run_file(model_file, folder)}: saved at {model.num_timesteps} "
+                          f"env steps, before the first gradient step ({why}): an untrained "
+                          "policy", RuntimeWarning, stacklevel=2)
 
         normalizer = _statistics((norm_file,))
         return cls(model, normalizer, TASK_ENVS[config["task"]], config.get("env_kwargs", {}),
@@ -224,6 +224,21 @@ def _statistics(files: tuple[Path, ...]) -> Any:
                          "VecNormalize statistics (VecNormalize.save)")
     normalizer.training = False
     return normalizer
+
+
+#: The folder of a benchmark's ``--out`` where it keeps the ``learned:RUN`` policies'
+#: files it runs, as they were when it started, each at its path in the run under the
+#: files' digest (:func:`agents.benchmark.pin_policy`); removed when it ends.
+PINNED = ".policies"
+
+
+def run_file(file: Path, folder: Path) -> Path:
+    """``file`` by its name in the run ``folder``: a pinned copy's (:data:`PINNED`) is
+    named as the run's own file, as the user knows it."""
+    parts = Path(file).parts
+    if PINNED not in parts[:-2]:
+        return Path(file)
+    return folder.joinpath(*parts[parts.index(PINNED) + 2:])
 
 
 def policy_folder(path: str | Path | None = None, env_id: str | None = None) -> Path:

@@ -116,6 +116,11 @@ CONTROLLER_FIELDS = frozenset(f"top_drive.{name}" for name in (
     "controller", "proportional_gain", "integral_gain", "torque_feedback", "feedback_gain"))
 
 
+#: The first line of a recording's stamp while it is being made (its second: the run's
+#: stamp): one an interrupt cut short, told from a finished one of another run.
+UNFINISHED = "unfinished"
+
+
 @dataclass(frozen=True)
 class Episode:
     """One benchmark episode (picklable: runs in a worker process)."""
@@ -142,10 +147,17 @@ class Episode:
     #: The run's settings and code alone (:func:`run_stamp`): the second line beside its
     #: recording, the folder a later run sets the recording aside in.
     run: str = ""
+    #: A ``learned:RUN`` controller's (model, statistics) files as pinned when the
+    #: benchmark started (:func:`agents.benchmark.pin_policy`); None: its own.
+    policy: tuple[str, str] | None = None
 
     @property
     def label(self) -> str:
         return self.name or label(self.controller)
+
+    def policy_kwargs(self) -> dict[str, Any]:
+        """What :func:`agents.registry.make_controller` takes to load :attr:`policy`."""
+        return {} if self.policy is None else {"files": tuple(map(Path, self.policy))}
 
     @property
     def key(self) -> str:

@@ -316,8 +316,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
           + (f"; trained {steps:,} env steps" if steps is not None else "") + ")")
     if live:  # (went ahead without a word: a new user's trial)
         print(f"note: {args.run} is held by another drill-env process, a training still "
-              "running: this evaluates the model it has saved so far, and goes stale when "
-              "training saves a better one", file=sys.stderr)
+              "running: this evaluates the model it has saved so far (a better one saved "
+              "meanwhile joins no row), and goes stale when training saves one",
+              file=sys.stderr)
     if local:  # a folder here took a task's name (a security review: said only on errors)
         print(f"note: {local.removeprefix('; ')}")
     out = args.out or default_evaluation_folder(args.run, args.fidelity)

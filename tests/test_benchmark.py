@@ -585,6 +585,48 @@ def test_a_rerun_with_record_keeps_the_recordings_of_other_settings(tmp_path, ca
     assert recording.read_bytes() != first and sidecar.read_text() != stamp
 
 
+def test_a_recording_an_interrupt_cut_short_is_recorded_again_not_set_aside(
+        tmp_path, monkeypatch, capsys):
+    """A rerun after an interrupted `benchmark --record` called the run's own recording
+    cut short "of another run (other settings or code)" and kept it in other_runs/
+    unstamped/, where such stubs piled up (a fuzzing walkthrough). A recording is marked
+    unfinished while it is made; the rerun deletes its own unfinished ones and records
+    them again, and sets aside another run's as before."""
+    import drill_env.recording as rec
+
+    real = rec.RecordEpisode
+
+    def cut_short(env, folder, **kwargs):  # the episode interrupted as it records
+        recording = Path(folder) / f"{kwargs['stem']}.rrd"
+        stamp = recording.with_name(recording.name + ".stamp").read_text().split()
+        assert stamp[0] == bs.UNFINISHED  # marked before it starts
+        recording.write_bytes(b"cut short")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(rec, "RecordEpisode", cut_short)
+    args = (["stiff"], ["stick_slip"], [0], tmp_path, SHORT)
+    with pytest.raises(KeyboardInterrupt):
+        bm.run_benchmark(*args, workers=1, record=True, progress=False)
+    monkeypatch.setattr(rec, "RecordEpisode", real)
+    capsys.readouterr()
+    bm.run_benchmark(*args, workers=1, record=True, progress=True)
+    assert "1 recording(s) an interrupt cut short: deleted, recorded again" in \
+        capsys.readouterr().err
+    recording = tmp_path / "recordings" / "stiff_stick_slip_seed0.rrd"
+    assert recording.read_bytes() != b"cut short"
+    assert recording.with_name(recording.name + ".stamp").read_text().split()[0] != \
+        bs.UNFINISHED
+    assert not (tmp_path / "recordings" / "other_runs").exists()
+    # another run's unfinished one is set aside under that run's stamp, as a finished one
+    episode = bs.Episode("stiff", "stick_slip", 1, {}, str(tmp_path), record=True,
+                         stamp="this", run="thisrun")
+    episode.recording.write_bytes(b"another run's, cut short")
+    episode.recording_stamp.write_text(f"{bs.UNFINISHED}\notherrun\n")
+    bm.set_aside_stale_recordings([episode], tmp_path, say=False)
+    aside = tmp_path / "recordings" / "other_runs" / "otherrun"
+    assert (aside / episode.recording.name).read_bytes() == b"another run's, cut short"
+
+
 def test_a_recording_whose_stamp_is_damaged_is_set_aside_as_unstamped(tmp_path):
     """``set_aside_stale_recordings``: a recording of another run goes to
     recordings/other_runs/<its run's stamp>/, "a damaged stamp is not a path": one that
@@ -2612,3 +2654,61 @@ def test_the_bars_stand_on_their_scenario_in_the_panels_unit(tmp_path, monkeypat
     for ax in saved[0].axes[:4]:  # each panel's scale reaches its tallest bar, from 0
         low, high = ax.get_ylim()
         assert low == 0.0 and high >= max(p.get_height() for p in ax.patches)
+
+
+def test_a_policy_saved_anew_during_a_benchmark_does_not_join_its_table(tmp_path,
+                                                                         monkeypatch):
+    """`evaluate RUN` beside a training of RUN loaded the run's files afresh for every
+    episode: once the training saved a new best, the episodes left ran that model, all
+    in one table under the first model's name (a fuzzing walkthrough: 11 of 20 rows).
+    The files are pinned when the benchmark starts: every row is the first model's, as a
+    benchmark of an untouched copy gives them, and the pins are gone afterwards."""
+    import shutil
+
+    from stable_baselines3 import SAC
+
+    run, untouched = tmp_path / "run", tmp_path / "untouched"
+    for folder in (run, untouched):
+        shutil.copytree(TRAINED / "stick_slip", folder)
+    other = SAC.load(run / "model.zip", device="cpu")  # a model that acts otherwise
+    with torch_no_grad():
+        for p in other.actor.parameters():
+            p.mul_(-1.0)
+    other.save(tmp_path / "other.zip")
+    real, calls = bm.run_episode, []
+
+    def then_saved_anew(episode):  # a training saving its new best after the first
+        row = real(episode)
+        calls.append(episode.seed)
+        if len(calls) == 1:
+            shutil.copyfile(tmp_path / "other.zip", run / "model.zip")
+        return row
+
+    monkeypatch.setattr(bm, "run_episode", then_saved_anew)
+    short = dataclasses.replace(SHORT, start_kick=0.02)
+    rows = bm.run_benchmark([f"learned:{run}"], ["random"], [0, 1, 2], tmp_path / "out",
+                            short, workers=1, progress=False, env_id="DrillStickSlip-v0")
+    monkeypatch.setattr(bm, "run_episode", real)
+    assert len(calls) == 3 and not (tmp_path / "out" / bm.PINNED).exists()
+    reference = bm.run_benchmark([f"learned:{untouched}"], ["random"], [0, 1, 2],
+                                 tmp_path / "ref", short, workers=1, progress=False,
+                                 env_id="DrillStickSlip-v0")
+    assert [r["episode_return"] for r in rows] == [r["episode_return"] for r in reference]
+    moved = bm.run_benchmark([f"learned:{run}"], ["random"], [1], tmp_path / "moved",
+                             short, workers=1, progress=False, env_id="DrillStickSlip-v0")
+    # (the new model does act otherwise)
+    assert moved[0]["episode_return"] != rows[1]["episode_return"]
+    # a pinned copy, at its path in the run, is named as the run's own file
+    from agents.learned import PINNED, run_file
+
+    copy = tmp_path / "out" / PINNED / "0a1b2c" / "checkpoints" / "model_8_steps.zip"
+    assert run_file(copy, run) == run / "checkpoints" / "model_8_steps.zip"
+    assert run_file(run / "model.zip", run) == run / "model.zip"
+
+
+@contextlib.contextmanager
+def torch_no_grad():
+    import torch
+
+    with torch.no_grad():
+        yield

@@ -181,16 +181,17 @@ RUN_OUTPUTS = (*RUN_FILES, "vecnormalize.pkl", "best_model.zip", "best_vecnormal
 #: The files training and evaluate write inside those folders (paths from the run): the
 #: checkpoints, TensorBoard's event files (time, host, process, count), an evaluation's
 #: tables, pictures, series and recordings (its grid search's too; an episode's files are
-#: <controller>_<scenario>_seed<N>). A file of one's own among them makes the run refused
-#: by ``overwrite``: a notes.txt in evaluation/ went with its folder (a trial), and so did
-#: names only near ours (benchmark_bars_annotated.png, series/my_analysis.npz, a
-#: tfevents file's .backup copy: a fuzzing walkthrough).
+#: <controller>_<scenario>_seed<N>), the policy files it pinned (left by a kill -9). A
+#: file of one's own among them makes the run refused by ``overwrite``: a notes.txt in
+#: evaluation/ went with its folder (a trial), and so did names only near ours
+#: (benchmark_bars_annotated.png, series/my_analysis.npz, a tfevents file's .backup copy:
+#: a fuzzing walkthrough).
 OWN_FILES = re.compile(
     r"checkpoints/(model_\d+_steps\.zip|vecnormalize_\d+\.pkl|progress_\d+\.json)"
     r"|tb/[A-Za-z0-9]+_\d+/events\.out\.tfevents\.\d+\.[^/]+\.\d+\.\d+"
     r"|evaluation(_[a-z]+)?/(grid_search/)?(benchmark\.(csv|md)|benchmark_results\.jsonl"
     r"|comparison\.md|benchmark_bars\.png|benchmark_[^/]+_series\.png"
-    r"|series/[^/]+_seed\d+\.npz"
+    r"|series/[^/]+_seed\d+\.npz|\.policies/[0-9a-f]+/(checkpoints/)?[^/]+\.(zip|pkl)"
     r"|recordings/(other_runs/[A-Za-z0-9]+/)?[^/]+_seed\d+\.rrd(\.stamp)?)")
 #: What a desktop's file browser leaves in every folder it shows (macOS's Finder, Windows'
 #: Explorer): no one's data, so neither refused nor kept apart (a review: a Finder visit
@@ -200,7 +201,7 @@ DESKTOP_FILES = (".DS_Store", "Thumbs.db", "desktop.ini")
 #: of one's own there, is not the run's (both went with their folder).
 OWN_FOLDERS = re.compile(
     r"tb/[A-Za-z0-9]+_\d+|evaluation(_[a-z]+)?(/grid_search)?"
-    r"(/series|/recordings(/other_runs(/[A-Za-z0-9]+)?)?)?")
+    r"(/series|/\.policies(/[0-9a-f]+(/checkpoints)?)?|/recordings(/other_runs(/[A-Za-z0-9]+)?)?)?")
 
 
 def run_outputs(run: Path) -> tuple[list[Path], list[Path]]:
