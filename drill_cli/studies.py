@@ -240,7 +240,12 @@ def cmd_modes(args: argparse.Namespace) -> int:
     title = f"{source}: natural frequencies and excitations (WOB {wob / KILO:.0f} kN)"
     save_whole(png, lambda file: md.critical_speed_chart(config, (torsional, lateral), file,
                                                          args.max_rpm, title))
+    # what it analysed, so that the file tells itself from another's (a --config's string
+    # was "scenario": "default" alone: a fuzzing walkthrough)
     data = {"scenario": args.scenario, "weight_on_bit_N": wob,
+            "seed": (args.seed or 0) if args.scenario in RANDOMISED else None,
+            "config": None if args.config is None else str(args.config), "top": args.top,
+            "modes_of_each_kind": args.n, "max_rpm": args.max_rpm,
             # keys without a unit in their name (a drilling engineer's review)
             "units": {"components_N": {"length": "m", "bottom_depth": "m", "weight": "N",
                                        "buoyed_weight": "N", "force_bottom": "N",

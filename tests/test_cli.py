@@ -626,6 +626,9 @@ def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
     assert "hard rock" not in head
     data = json.loads((tmp_path / "modes.json").read_text())
     assert data["modes"][0]["frequency_Hz"][0] > 0.0
+    # what it analysed (a --config's read as the default scenario's: a fuzzing walkthrough)
+    assert (data["scenario"], data["config"], data["seed"], data["top"]) == (
+        "default", str(rock), None, "fixed")
     # every list of records whose keys carry no unit says its units
     units = data["units"]
     assert {"components_N", "critical_speeds", "top_drive_controllers"} == set(units)
