@@ -96,6 +96,20 @@ def test_an_error_that_names_its_own_file_keeps_that_name(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_an_error_on_the_partial_file_is_said_with_the_saved_file_s_name(tmp_path):
+    """A folder made read-only during a benchmark: the error named the hidden file the
+    save writes first (".benchmark.14507.partial.csv", a fuzzing walkthrough), a name
+    the user never saw; it names benchmark.csv."""
+    target = tmp_path / "benchmark.csv"
+
+    def refused(file: str) -> None:
+        raise PermissionError(errno.EACCES, "Permission denied", file)
+
+    with pytest.raises(PermissionError) as caught:
+        save_whole(target, refused)
+    assert caught.value.filename == str(target)
+
+
 def test_a_held_folder_is_refused_by_name_and_let_go_when_its_holder_is_killed(tmp_path):
     """The lock is the system's: a kill -9 of its holder frees the folder (a resume after
     a kill is not refused), and the partial files of its cut saves are deleted by the next
