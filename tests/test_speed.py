@@ -303,6 +303,8 @@ def test_the_commit_recorded_is_drill_envs_own_not_an_enclosing_repositorys(tmp_
     git("commit", "-q", "-m", "user's")
     assert checkout_commit(site) is None
     assert checkout_commit(tmp_path) == git("rev-parse", "--short", "HEAD")
+    (tmp_path / "scratch.txt").write_text("notes")  # untracked: no source changed
+    assert checkout_commit(tmp_path) == git("rev-parse", "--short", "HEAD")
     (tmp_path / "a.txt").write_text("b")
     assert checkout_commit(tmp_path).endswith("+dirty")
     assert checkout_commit(tmp_path / "nowhere") is None

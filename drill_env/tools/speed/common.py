@@ -283,7 +283,8 @@ def machine_info() -> dict[str, Any]:
 
 
 def checkout_commit(root: Path) -> str | None:
-    """The commit of the drill-env checkout at ``root`` (``+dirty`` with changes), or None
+    """The commit of the drill-env checkout at ``root`` (``+dirty`` with changes to tracked
+    files: an untracked scratch folder changes no source; a fuzzing walkthrough), or None
     where ``root`` is not the top of a git work tree: an installed package's root is
     site-packages, whose enclosing repository (a project that keeps its venv inside) is
     not ours (an outside check found its commit in speed.json)."""
@@ -294,8 +295,8 @@ def checkout_commit(root: Path) -> str | None:
     try:
         if Path(git("rev-parse", "--show-toplevel")).resolve() != root.resolve():
             return None
-        return git("rev-parse", "--short", "HEAD") + ("+dirty" if git("status", "--porcelain")
-                                                      else "")
+        return git("rev-parse", "--short", "HEAD") + (
+            "+dirty" if git("status", "--porcelain", "--untracked-files=no") else "")
     except (OSError, subprocess.SubprocessError):
         return None
 
