@@ -322,6 +322,9 @@ def parser() -> argparse.ArgumentParser:
                    help=f"measured depth of the preset well (default {DEFAULT_WELL_MD:g} m)")
     p.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
                    help="whose string (its BHA and pipe; drill pipe added to reach TD)")
+    p.add_argument("--seed", type=integer(0), default=None,
+                   help="the random scenario's draw (default 0; the string an env's "
+                        "reset(seed=SEED) drills)")
     add_config(p, "YAML of config overrides (e.g. the repository's "
                "examples/field_well_string.yaml)")
     p.add_argument("--friction", default="0.1,0.2,0.3,0.4",

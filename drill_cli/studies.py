@@ -134,19 +134,28 @@ def map_positions(path: Path) -> list[str]:
         return []
 
 
-def cmd_modes(args: argparse.Namespace) -> int:
+def seeded_scenario(args: argparse.Namespace) -> Any:
+    """``--scenario``, a randomised one drawn with ``--seed`` (default 0) as an env's reset
+    with that seed draws it; ArgumentTypeError for a --seed beside a fixed scenario."""
     import numpy as np
 
-    from drill_env.physics import modes as md
     from drill_env.scenarios import RANDOMISED, make_scenario
 
     if args.seed is not None and args.scenario not in RANDOMISED:
         raise argparse.ArgumentTypeError(f"--seed: draws a randomised scenario "
                                          f"({', '.join(sorted(RANDOMISED))}); "
                                          f"{args.scenario} is fixed")
-    # a randomised scenario's string is drawn as an env's reset with this seed draws it
-    scenario = make_scenario(args.scenario, rng=np.random.default_rng(args.seed or 0)) \
-        if args.scenario in RANDOMISED else make_scenario(args.scenario)
+    if args.scenario in RANDOMISED:
+        return make_scenario(args.scenario, rng=np.random.default_rng(args.seed or 0))
+    return make_scenario(args.scenario)
+
+
+def cmd_modes(args: argparse.Namespace) -> int:
+
+    from drill_env.physics import modes as md
+    from drill_env.scenarios import RANDOMISED
+
+    scenario = seeded_scenario(args)
     config = with_overrides(scenario.config, args.config)
     wob = args.wob * KILO if args.wob is not None else scenario.weight_on_bit
     try:
@@ -320,11 +329,10 @@ def cmd_well(args: argparse.Namespace) -> int:
     from drill_env.overrides import sets_section
     from drill_env.physics.config import MAX_STRING_LENGTH
     from drill_env.physics.trajectory import Survey, Trajectory
-    from drill_env.scenarios import make_scenario
     from drill_env.well import CHART_STEP, WELLS, write_well
 
     overrides = read_overrides(args.config)  # the file read once
-    config = merged(make_scenario(args.scenario).config, overrides, args.config)
+    config = merged(seeded_scenario(args).config, overrides, args.config)
     if args.survey is not None and args.well is not None:
         raise argparse.ArgumentTypeError("--well: give a preset well or --survey, not both")
     if args.total_md is not None and args.well is None and (args.survey or config.well.md):
@@ -383,13 +391,18 @@ def cmd_well(args: argparse.Namespace) -> int:
     # the string the chart's loads are of (a file of only a well was named as the
     # string's: "string of curved.yaml"; one of the mud said nothing of it)
     beyond_well = any(not sets_section((key,), "well") for key in overrides)  # (--config's)
+    from drill_env.scenarios import RANDOMISED
+
+    # a randomised scenario's string is its seed's draw: named with it (two seeds' charts
+    # shared one file)
+    drawn = args.scenario in RANDOMISED
     whose = (args.config.name if sets_section(overrides, "string") else
-             f"the {args.scenario} scenario" + (f" with {args.config.name}" if beyond_well
-                                                else ""))
+             f"the {args.scenario} scenario" + (f" (seed {args.seed or 0})" if drawn else "")
+             + (f" with {args.config.name}" if beyond_well else ""))
     # the file names the string too where it is not the default scenario's: charts of one
     # well for two strings overwrote each other (a new user's trial)
-    strung = [args.scenario] if args.scenario != "default" \
-        and name != f"scenario_{args.scenario}" else []
+    strung = [args.scenario + (f"_seed{args.seed or 0}" if drawn else "")] \
+        if args.scenario != "default" and name != f"scenario_{args.scenario}" else []
     if beyond_well and name != args.config.stem:
         strung.append(args.config.stem)
     name = "_".join((name, *strung))

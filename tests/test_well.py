@@ -371,3 +371,21 @@ def test_a_survey_csv_is_read_by_the_names_and_units_its_header_gives(tmp_path) 
                        ("\r\r\nmd,inc,azi\r0,0,0\r500,0,0\r500,1,0\r", "line 6, column md")):
         with pytest.raises(ValueError, match=re.escape(said)):
             survey(text)
+
+
+def test_the_well_command_draws_the_random_scenario_s_string_by_seed(tmp_path, capsys):
+    """well --scenario random charted seed 0's string with no way to ask another (modes
+    had --seed; a fuzzing walkthrough): --seed draws it as an env's reset does, and the
+    chart is named by it (two seeds' shared one file)."""
+    hooks = {}
+    for seed in (None, 7):
+        given = [] if seed is None else ["--seed", str(seed)]
+        assert main(["well", "--scenario", "random", *given, "--out", str(tmp_path)]) == 0
+        name = f"well_j_shaped_random_seed{seed or 0}"
+        assert f"random scenario (seed {seed or 0})" in capsys.readouterr().out
+        hooks[seed] = json.loads((tmp_path / f"{name}.json").read_text())["torque_drag"]
+    drawn = [make_scenario("random", rng=np.random.default_rng(s)).config for s in (0, 7)]
+    assert drawn[0] != drawn[1] and hooks[None] != hooks[7]  # (two strings, two charts)
+    with pytest.raises(SystemExit):
+        main(["well", "--scenario", "default", "--seed", "3", "--out", str(tmp_path)])
+    assert "--seed: draws a randomised scenario" in capsys.readouterr().err
