@@ -68,4 +68,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
                 raise argparse.ArgumentTypeError(
                     f"{flag}{str(err).removeprefix(name)}") from None
         raise
-    return int(code) if isinstance(code, int) else 0
+    code = int(code) if isinstance(code, int) else 0
+    if code not in (0, 130, 143) and not args.web:  # (a stale DISPLAY, no X server: only
+        # rerun's own winit error; a fuzzing walkthrough)
+        print(f"drill-env replay: the native viewer ended with status {code}: where it "
+              "cannot open a window (a DISPLAY no server answers, a remote shell), add "
+              "--web to serve the web viewer instead", file=sys.stderr)
+    return code

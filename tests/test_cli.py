@@ -1091,6 +1091,14 @@ def test_replay_refuses_what_the_viewer_cannot_open(tmp_path, capsys, monkeypatc
     assert opened[-1][opened[-1].index("--bind") + 1] == "127.0.0.1"
     assert main(["replay", str(good), "--bind", "0.0.0.0"]) == 0
     assert opened[-1][opened[-1].index("--bind") + 1] == "0.0.0.0"
+    capsys.readouterr()
+    # a DISPLAY no server answers: rerun's own winit error alone, and 1 (a fuzzing
+    # walkthrough): the way to the web viewer is said after it
+    monkeypatch.setattr(Viewer, "wait", lambda self: 1)
+    assert main(["replay", str(good)]) == 1
+    assert "the native viewer ended with status 1: where it cannot open a window" in \
+        " ".join(capsys.readouterr().err.split())
+    monkeypatch.setattr(Viewer, "wait", lambda self: 0)
     for args, said in [(["--web", "--bind", "localhost:1"], "--bind: 'localhost:1' is not an "
                                                             "IP address"),
                        (["--web", "--bind", "192.0.2.1"], "--bind: 192.0.2.1 is not an "
