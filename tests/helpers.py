@@ -188,11 +188,16 @@ def fail_last(k: int) -> int:
 
 @contextlib.contextmanager
 def ctrl_c_as_in_a_terminal() -> Iterator[None]:
-    """Python's own SIGINT handler (KeyboardInterrupt) for the block, the previous one
-    after it: a test run started in the background (``nohup ... &``) inherits SIGINT
-    ignored (POSIX), and there Python never installs its handler."""
+    """Python's own SIGINT handler (KeyboardInterrupt) and SIGHUP's default for the block,
+    the previous ones after it: a test run started in the background (``nohup ... &``)
+    inherits SIGINT and SIGHUP ignored (POSIX), and there Python never installs its
+    handler, nor the command line its SIGHUP one (a nohup it respects)."""
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    hang_up = signal.signal(signal.SIGHUP, signal.SIG_DFL) if hasattr(signal, "SIGHUP") \
+        else None
     try:
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+        if hang_up is not None:
+            signal.signal(signal.SIGHUP, hang_up)

@@ -979,11 +979,12 @@ def test_a_sigterm_interrupts_a_workers_task_and_is_noted_where_its_exception_is
     import os
     import signal
 
-    from helpers import lose_an_interrupt
+    from helpers import ctrl_c_as_in_a_terminal, lose_an_interrupt
 
     from drill_env.sweep import ProcessExecutor, _unless_interrupted
 
-    executor = ProcessExecutor(1)
+    with ctrl_c_as_in_a_terminal():  # (the workers inherit SIGHUP's default, not nohup's)
+        executor = ProcessExecutor(1)
     marker = tmp_path / "task"
     try:
         future = executor._pool.submit(_unless_interrupted, lose_an_interrupt, str(marker))
@@ -1004,7 +1005,7 @@ def test_a_hang_up_ignored_by_nohup_stays_ignored_in_the_workers():
     interrupts its task as a Ctrl-C does."""
     import signal
 
-    from helpers import hang_up_handling
+    from helpers import ctrl_c_as_in_a_terminal, hang_up_handling
 
     from drill_env.sweep import ProcessExecutor
 
@@ -1017,7 +1018,8 @@ def test_a_hang_up_ignored_by_nohup_stays_ignored_in_the_workers():
             executor.close()
     finally:
         signal.signal(signal.SIGHUP, before)
-    executor = ProcessExecutor(1)
+    with ctrl_c_as_in_a_terminal():  # (SIGHUP's default, as in a terminal: not nohup's)
+        executor = ProcessExecutor(1)
     try:
         assert dict(executor.map_unordered(hang_up_handling, [0])) == {0: "interrupts"}
     finally:

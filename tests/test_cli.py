@@ -1585,13 +1585,15 @@ def test_a_closed_terminal_stops_a_command_as_ctrl_c_does(tmp_path):
     import fcntl
     import pty
     import select
+    import signal
     import struct
     import sys
     import termios
     import time
 
     pid, terminal = pty.fork()  # the child: a session whose terminal is the pty
-    if pid == 0:  # (the child: only the exec)
+    if pid == 0:  # (the child: SIGHUP's default, as in a terminal, not a nohup'd test
+        signal.signal(signal.SIGHUP, signal.SIG_DFL)  # run's ignoring; then the exec)
         os.execv(sys.executable, [sys.executable, "-m", "drill_cli", "run", "--duration",
                                   "100000", "--out", str(tmp_path)])
     # a terminal of 80 columns: on one of none (a new pty's size) tqdm draws nothing

@@ -441,16 +441,17 @@ def test_an_interrupt_in_the_update_waits_for_the_update_to_end(run, tmp_path, m
 
     monkeypatch.setattr(PPO, "train", update)
     folder = tmp_path / "cut"
-    restore, _ = stop_as_interrupt()  # the command line's SIGTERM and SIGHUP handlers
-    try:
-        with ctrl_c_as_in_a_terminal():
+    with ctrl_c_as_in_a_terminal():  # (first: a nohup'd run's SIGHUP is then no more
+        # ignored, and the command line's handler takes it)
+        restore, _ = stop_as_interrupt()  # the command line's SIGTERM and SIGHUP handlers
+        try:
             with pytest.raises({"SIGINT": KeyboardInterrupt, "SIGTERM": Terminated,
                                 "SIGHUP": HungUp}[signum]):
                 train(tiny_config(), folder, progress=False)
             assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    finally:
-        assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL  # (put back)
-        restore()
+        finally:
+            assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL  # (put back)
+            restore()
     assert "stops when the model's update in progress ends" in capsys.readouterr().err
     saved = latest_checkpoint(folder)
     assert saved is not None
