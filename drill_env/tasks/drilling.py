@@ -26,8 +26,10 @@ ENV_DEFAULTS: dict[str, Any] = {
     # 10-60 s), 300 decisions an episode
     "control_interval": 1.0,
     "episode_duration": 300.0,
-    # the set points' ranges: 40-200 rpm; 40-140 kN, the most WOB the realistic strings
-    # carry without compressing their heavy-weight pipe beyond its buckling load
+    # the set points' ranges: 40-200 rpm; 40-140 kN, about the most WOB the realistic
+    # strings carry before their heavy-weight pipe's bottom joint reaches its buckling
+    # load (Lubinski's, at 139.5 kN on the default string; statics.pipe_buckling, which
+    # reads the element's middle, from 141.5 kN: a drilling engineer's check)
     "rpm_range": (40.0, 200.0),
     "weight_on_bit_range": (40.0e3, 140.0e3),
     "start_kick": 0.02,
