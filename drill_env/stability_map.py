@@ -534,9 +534,18 @@ def write_maps(maps: Sequence[StabilityMap], out: Path, settings: MapSettings,
     json_path = out / f"{map_stem(controller, source)}.json"
     maps = sorted([*maps, *kept_maps(json_path, maps, settings, controller, physics, source)],
                   key=lambda m: list(POSITIONS).index(m.position))
+    # the units of the keys that name none (as modes.json and a well's JSON say theirs:
+    # a drilling engineer's check)
+    units = {"settings": {"seconds": "s", "measure": "s", "hold": "s", "kick": "1 (share "
+                          "of the steady bit speed)", "record_every": "simulator steps"},
+             "maps": {"rock2_share": "1", "rpm": "rpm", "weight_on_bit": "N",
+                      "boundary": "N (lowest stick-slip WOB per speed; null: none)",
+                      "unstable": "bool [wob][rpm]", "tested": "-1 not simulated, 0 steady, "
+                      "1 stick-slip [wob][rpm]", "wall_s": "s"}}
     data = {"settings": asdict(settings), "controller": controller,
             "physics": jsonable(physics or {}), "config": source,
-            "code": source_digest("drill_env"), "maps": [m.to_json() for m in maps]}
+            "code": source_digest("drill_env"), "units": units,
+            "maps": [m.to_json() for m in maps]}
     save_text(json_path, json.dumps(data, indent=1))
     return [json_path, plot_maps(maps, out / f"{map_stem(controller, source)}.png",
                                  controller, source)]

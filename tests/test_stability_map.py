@@ -343,6 +343,13 @@ def test_maps_written_a_few_positions_at_a_time_add_up_in_one_file(tmp_path) -> 
     sm.write_maps([_toy_map("P1"), _toy_map("P2")], tmp_path, settings)
     data = json.loads((tmp_path / "stability_map.json").read_text())
     assert [m["position"] for m in data["maps"]] == ["P1", "P2", "P4"]  # the paper's order
+    # every key whose name carries no unit has one in "units" (a drilling engineer's check)
+    for section in ("settings", "maps"):
+        record = data[section] if section == "settings" else data[section][0]
+        unitless = {k for k, v in record.items() if isinstance(v, (float, int, list))
+                    and not isinstance(v, bool)} - {"runs", "unstable_fraction"}
+        assert unitless <= set(data["units"][section]), (section, unitless)
+    assert data["units"]["maps"]["weight_on_bit"] == "N"
     back = sm.StabilityMap.from_json(data["maps"][2])
     want = _toy_map("P4", share=0.4)
     assert back.rock2_share == 0.4 and np.array_equal(back.unstable, want.unstable)
