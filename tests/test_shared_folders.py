@@ -239,21 +239,25 @@ def test_an_overwrite_of_a_run_being_evaluated_is_refused(tmp_path, capsys):
     from drill_cli.main import main
 
     run = tmp_path / "runs" / "mine"
-    (run / "evaluation").mkdir(parents=True)
+    (run / "evaluation" / "grid_search").mkdir(parents=True)
     (run / "config.yaml").write_text("algo: ppo\n")
     (run / "evaluation" / "benchmark.csv").write_text("controller\n")
-    holder = _holder(run / "evaluation")
-    try:
-        status = main(["train", "--task", "stick_slip", "--algo", "ppo", "--timesteps",
-                       "256", "--out", str(tmp_path / "runs"), "--name", "mine",
-                       "--no-progress", "--overwrite"])
-    finally:
-        holder.kill()
-        holder.wait()
-    assert status == 2
-    assert (f"error: {run / 'evaluation'}: another drill-env process is writing there (an "
-            "evaluation of this run)") in capsys.readouterr().err
-    assert (run / "evaluation" / "benchmark.csv").exists() and (run / "config.yaml").exists()
+    # the evaluation's folder, and a drilling run's grid search, which holds only its own
+    # folder while it runs (a review)
+    for held in (run / "evaluation", run / "evaluation" / "grid_search"):
+        holder = _holder(held)
+        try:
+            status = main(["train", "--task", "stick_slip", "--algo", "ppo", "--timesteps",
+                           "256", "--out", str(tmp_path / "runs"), "--name", "mine",
+                           "--no-progress", "--overwrite"])
+        finally:
+            holder.kill()
+            holder.wait()
+        assert status == 2
+        assert (f"error: {held}: another drill-env process is writing there (an "
+                "evaluation of this run)") in capsys.readouterr().err
+        assert (run / "evaluation" / "benchmark.csv").exists()
+        assert (run / "config.yaml").exists()
 
 
 def test_rows_edited_by_hand_are_run_again_and_said(tmp_path, capsys):

@@ -246,11 +246,14 @@ def check_overwrite(run: Path) -> None:
     a config.yaml deleted the whole folder: a security review); FolderInUse where another
     process writes in a folder of its own (an evaluation)."""
     ours, others = run_outputs(run)
-    for folder in ours:  # an evaluation still writing there (it was deleted under it: a
-        if folder.is_dir() and held_by_another(folder):  # bare errno, its rows lost, or
-            # "wrote" said of files gone; a fuzzing walkthrough)
-            raise FolderInUse(f"{folder}: another drill-env process is writing there (an "
-                              "evaluation of this run): wait for it to end before "
+    # an evaluation still writing in one of them, at any depth (a drilling run's grid
+    # search holds evaluation/grid_search alone: a review), was deleted under it: a bare
+    # errno and its rows lost, or "wrote" said of files gone (a fuzzing walkthrough)
+    for lock in (f for folder in ours if folder.is_dir() and not folder.is_symlink()
+                 for f in sorted(folder.rglob(LOCK_FILE))):
+        if held_by_another(lock.parent):
+            raise FolderInUse(f"{lock.parent}: another drill-env process is writing there "
+                              "(an evaluation of this run): wait for it to end before "
                               "--overwrite, or give another --name")
     if others:
         from drill_env.physics.units import few
