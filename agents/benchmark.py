@@ -21,6 +21,7 @@ import contextlib
 import dataclasses
 import functools
 import json
+import re
 import sys
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -144,14 +145,24 @@ def pin_policy(controller: str, env_id: str | None, out: Path) -> tuple[str, tup
 @contextlib.contextmanager
 def pinned_in(out: Path) -> Iterator[None]:
     """Within: the policies a benchmark into ``out`` pins there (:data:`PINNED`); removed
-    when it ends, also what a killed one left."""
-    import shutil
+    when it ends, also what a killed one left: the digest-named folders alone, and
+    :data:`PINNED` where that leaves it empty (a folder of one's own of that name is
+    left as it is)."""
+    def remove() -> None:
+        import shutil
 
-    shutil.rmtree(out / PINNED, ignore_errors=True)
+        for folder in (out / PINNED).glob("*"):
+            if folder.is_dir() and not folder.is_symlink() and \
+                    re.fullmatch("[0-9a-f]{12}", folder.name):
+                shutil.rmtree(folder, ignore_errors=True)
+        with contextlib.suppress(OSError):  # (none, or not empty)
+            (out / PINNED).rmdir()
+
+    remove()
     try:
         yield
     finally:
-        shutil.rmtree(out / PINNED, ignore_errors=True)
+        remove()
 
 
 def write_bytes(content: bytes, path: str) -> None:
@@ -345,11 +356,12 @@ def run_benchmark(controllers: Sequence[str], scenarios: Sequence[str], seeds: S
                 bar.close()
                 executor.close()
         rows = [store.get(e.key) for e in todo_all]
-        from agents.learned import policy_files
-
         names = labels(controllers)
-        runs = {name: f"{c.partition(':')[2]} ({policy_files(c.partition(':')[2])[0].name})"
-                for c, name in zip(controllers, names, strict=True) if c.startswith("learned:")}
+        # the model file the rows ran, as pinned (the run's files may have moved on since:
+        # a checkpoint newer than the one pinned was named; a review)
+        pinned = {e.controller: Path(e.policy[0]).name for e in todo_all if e.policy}
+        runs = {name: f"{c.partition(':')[2]} ({pinned[c]})"
+                for c, name in zip(controllers, names, strict=True) if c in pinned}
         first_seed = seeds[0] if len(seeds) else 0
         # the series this run's episodes wrote (another benchmark into the same folder at the
         # same time overwrote them: a picture of its episodes beside this run's table)
@@ -406,5 +418,6 @@ def set_aside_stale_recordings(episodes: Sequence[Episode], out: Path, say: bool
               f"under this table's names moved to {out / 'recordings' / 'other_runs'}",
               file=sys.stderr)
     if cut and say:
-        print(f"benchmark: {cut} recording(s) an interrupt cut short: deleted, recorded "
-              "again", file=sys.stderr)
+        again = ", recorded again" if any(e.record for e in episodes) else ""
+        print(f"benchmark: {cut} recording(s) an interrupt cut short: deleted{again}",
+              file=sys.stderr)

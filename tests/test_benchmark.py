@@ -2692,10 +2692,15 @@ def test_a_policy_saved_anew_during_a_benchmark_does_not_join_its_table(tmp_path
                             short, workers=1, progress=False, env_id="DrillStickSlip-v0")
     monkeypatch.setattr(bm, "run_episode", real)
     assert len(calls) == 3 and not (tmp_path / "out" / bm.PINNED).exists()
+    own = tmp_path / "ref" / bm.PINNED / "notes" / "mine.txt"  # a folder of one's own of
+    own.parent.mkdir(parents=True)  # that name: left as it is (a review)
+    own.write_text("mine")
     reference = bm.run_benchmark([f"learned:{untouched}"], ["random"], [0, 1, 2],
                                  tmp_path / "ref", short, workers=1, progress=False,
                                  env_id="DrillStickSlip-v0")
     assert [r["episode_return"] for r in rows] == [r["episode_return"] for r in reference]
+    assert own.read_text() == "mine" and [p.name for p in own.parents[1].iterdir()] == [
+        "notes"]
     moved = bm.run_benchmark([f"learned:{run}"], ["random"], [1], tmp_path / "moved",
                              short, workers=1, progress=False, env_id="DrillStickSlip-v0")
     # (the new model does act otherwise)
