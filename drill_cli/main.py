@@ -163,7 +163,7 @@ def _main(argv: Sequence[str] | None) -> int:
         # a SIGTERM's Terminated may come back as a plain KeyboardInterrupt (Ray's wait
         # turns a signal's exception into its own)
         stopped = stopped_by[0]() if stopped_by else caught
-        said = "hung up" if isinstance(stopped, HungUp) else \
+        said = "its terminal closed (SIGHUP)" if isinstance(stopped, HungUp) else \
             "terminated" if isinstance(stopped, Terminated) else "interrupted"
         kept = finished_work_folder(args, out)
         if args.command in KEEPS_FINISHED and kept is not None and finished_since(

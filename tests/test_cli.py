@@ -1539,8 +1539,8 @@ def test_the_demo_needs_strong_stick_slip_at_50_rpm_and_little_at_100(tmp_path, 
 
 @pytest.mark.parametrize("signum, status, said, replaced", [
     ("SIGTERM", 143, "terminated", False), ("SIGINT", 130, "interrupted", False),
-    ("SIGTERM", 143, "terminated", True), ("SIGHUP", 129, "hung up", False),
-    ("SIGHUP", 129, "hung up", True)])
+    ("SIGTERM", 143, "terminated", True), ("SIGHUP", 129, "its terminal closed (SIGHUP)", False),
+    ("SIGHUP", 129, "its terminal closed (SIGHUP)", True)])
 def test_a_stopped_command_exits_with_the_signal_s_status(monkeypatch, capsys, signum,
                                                          status, said, replaced):
     """A command stopped by a signal exits as the shell reports one, 128 + its number: a
