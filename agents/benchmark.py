@@ -102,22 +102,44 @@ def controller_digest(controller: str, env_id: str | None = None) -> str:
     return digest.hexdigest()[:12]
 
 
+#: How long :func:`policy_bytes` waits at most for a training's save of a new best to
+#: end (its model, statistics and record take milliseconds; a record left unmatched by a
+#: kill between them waits this long at every benchmark's start).
+SAVE_WAIT_S = 2.0
+
+
 def policy_bytes(controller: str, env_id: str | None = None
                  ) -> tuple[tuple[Path, Path], tuple[bytes, bytes]]:
     """The (model, statistics) files of a ``learned`` controller and what they hold, read
-    until two reads agree: a training of the run may save a new best (two files, one
-    after the other) between them."""
+    until two reads agree and a run's best model is the one its record names
+    (``best_model.json``, written after the model and its statistics): a training of the
+    run may save a new best between them, the new model beside the old statistics."""
+    import hashlib
+    import time
+
     from agents.learned import policy_files
+    from training.run_folder import BEST_RECORD
+
+    def settled(files: tuple[Path, Path], model: bytes) -> bool:
+        record = files[0].parent / BEST_RECORD
+        if files[0].name != "best_model.zip" or not record.exists():
+            return True
+        try:
+            return bool(json.loads(record.read_text(encoding="utf-8"))["model"]
+                        == hashlib.sha256(model).hexdigest())
+        except (OSError, ValueError, KeyError, TypeError):  # (damaged: said where read)
+            return True
 
     path = controller.partition(":")[2] or None
     read = policy_files(path, env_id)
     data = (read[0].read_bytes(), read[1].read_bytes())
-    for _ in range(20):
+    for _ in range(round(SAVE_WAIT_S / 0.1)):
         again = policy_files(path, env_id)
         now = (again[0].read_bytes(), again[1].read_bytes())
-        if (again, now) == (read, data):
+        if (again, now) == (read, data) and settled(again, now[0]):
             break
         read, data = again, now
+        time.sleep(0.1)
     return read, data
 
 

@@ -2719,3 +2719,39 @@ def torch_no_grad():
 
     with torch.no_grad():
         yield
+
+
+def test_a_best_model_is_pinned_once_its_record_names_it(tmp_path, monkeypatch):
+    """Training saves a new best as its model, then its statistics, then its record: two
+    reads of the files that agreed between the first two saves pinned the new model beside
+    the old statistics (a review). The pin waits until the record names the model read,
+    at most SAVE_WAIT_S (a record a kill left unmatched: then it goes on)."""
+    import hashlib
+    import shutil
+
+    run = tmp_path / "run"
+    shutil.copytree(TRAINED / "stick_slip", run)
+    (run / "model.zip").rename(run / "best_model.zip")
+    (run / "vecnormalize.pkl").rename(run / "best_vecnormalize.pkl")
+    record = run / "best_model.json"
+    record.write_text(json.dumps({"row": {}, "model": "0" * 64}))  # the last best's
+    naps: list[float] = []
+
+    def saved_meanwhile(seconds):  # the save in progress ends: its record is written
+        naps.append(seconds)
+        digest = hashlib.sha256((run / "best_model.zip").read_bytes()).hexdigest()
+        record.write_text(json.dumps({"row": {}, "model": digest}))
+
+    monkeypatch.setattr("time.sleep", saved_meanwhile)
+    files, data = bm.policy_bytes(f"learned:{run}")
+    assert len(naps) == 1 and files[0] == run / "best_model.zip"
+    assert data[1] == (run / "best_vecnormalize.pkl").read_bytes()
+    record.write_text(json.dumps({"row": {}, "model": "0" * 64}))  # never matched
+    naps.clear()
+    monkeypatch.setattr("time.sleep", naps.append)
+    bm.policy_bytes(f"learned:{run}")
+    assert sum(naps) == pytest.approx(bm.SAVE_WAIT_S)
+    record.unlink()  # a run of a version before the record: read at once
+    naps.clear()
+    bm.policy_bytes(f"learned:{run}")
+    assert naps == []
