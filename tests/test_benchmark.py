@@ -983,15 +983,18 @@ def test_a_sigterm_interrupts_a_workers_task_and_is_noted_where_its_exception_is
 
     from drill_env.sweep import ProcessExecutor, _unless_interrupted
 
-    with ctrl_c_as_in_a_terminal():  # (the workers inherit SIGHUP's default, not nohup's)
-        executor = ProcessExecutor(1)
+    executor = ProcessExecutor(1)
     marker = tmp_path / "task"
+    # (the pool starts its worker at the first task: with SIGHUP's default, as under a
+    # terminal, not a nohup'd test run's ignoring, which the worker would keep)
     try:
-        future = executor._pool.submit(_unless_interrupted, lose_an_interrupt, str(marker))
-        deadline = time.monotonic() + 120.0  # a spawned worker imports numba first
-        while not marker.exists():
-            assert time.monotonic() < deadline
-            time.sleep(0.05)
+        with ctrl_c_as_in_a_terminal():
+            future = executor._pool.submit(_unless_interrupted, lose_an_interrupt,
+                                           str(marker))
+            deadline = time.monotonic() + 120.0  # a spawned worker imports numba first
+            while not marker.exists():
+                assert time.monotonic() < deadline
+                time.sleep(0.05)
         (worker,) = executor._pool._processes.values()
         os.kill(worker.pid, getattr(signal, signum))
         assert future.result(timeout=60) == "KeyboardInterrupt"
@@ -1018,10 +1021,10 @@ def test_a_hang_up_ignored_by_nohup_stays_ignored_in_the_workers():
             executor.close()
     finally:
         signal.signal(signal.SIGHUP, before)
-    with ctrl_c_as_in_a_terminal():  # (SIGHUP's default, as in a terminal: not nohup's)
-        executor = ProcessExecutor(1)
-    try:
-        assert dict(executor.map_unordered(hang_up_handling, [0])) == {0: "interrupts"}
+    executor = ProcessExecutor(1)
+    try:  # (its worker starts at the first task: SIGHUP's default, as in a terminal)
+        with ctrl_c_as_in_a_terminal():
+            assert dict(executor.map_unordered(hang_up_handling, [0])) == {0: "interrupts"}
     finally:
         executor.close()
 
