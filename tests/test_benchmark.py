@@ -2758,3 +2758,22 @@ def test_a_best_model_is_pinned_once_its_record_names_it(tmp_path, monkeypatch):
     naps.clear()
     bm.policy_bytes(f"learned:{run}")
     assert naps == []
+
+
+def test_an_env_id_registered_for_a_factory_function_is_taken():
+    """is_drill_env refused an id registered for a function that makes a drill-env env (a
+    review): only a class tells what it makes; CartPole's class is not one."""
+    import gymnasium
+
+    from agents.registry import is_drill_env
+    from drill_env.env import DrillStringEnv
+
+    def make(**kwargs):
+        return DrillStringEnv(**kwargs)
+
+    gymnasium.register(id="DrillFactoryTest-v0", entry_point=make)
+    try:
+        assert is_drill_env("DrillFactoryTest-v0") and is_drill_env("DrillStickSlip-v0")
+        assert not is_drill_env("CartPole-v1") and not is_drill_env("NoSuchEnv-v0")
+    finally:
+        del gymnasium.registry["DrillFactoryTest-v0"]
