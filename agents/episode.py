@@ -226,15 +226,15 @@ def reset(controller: Any, typed: str, where: str, env: Any) -> None:
     code said in one line as :func:`act` says one (a raising ``reset`` gave a traceback
     through the benchmark and exit 1 where every other hook gave a line and exit 2: a new
     user's trial)."""
-    from agents.registry import in_user_code, is_imported
+    from agents.registry import USER_ERRORS, in_user_code, is_imported
 
     if not is_imported(typed):
         controller.reset(env)
         return
     try:
         controller.reset(env)
-    except (Exception, SystemExit) as err:  # noqa: BLE001 - the user's code: said in one
-        # line (a sys.exit in it ended the command with its status, unsaid)
+    except USER_ERRORS as err:  # the user's code: said in one line (a sys.exit in it
+        # ended the command with its status, unsaid)
         raise ValueError(f"controller: {typed}: reset() raised {in_user_code(err)} "
                          f"({where})") from None
 
@@ -245,14 +245,14 @@ def act(controller: Any, typed: str, where: str, space: Any, obs: Any,
     error in its code or an action the env cannot take is said in one line naming it,
     the line of its file and ``where`` (the episode), not a worker's traceback of dozens
     of lines of the pool's."""
-    from agents.registry import in_user_code, is_imported
+    from agents.registry import USER_ERRORS, in_user_code, is_imported
 
     if not is_imported(typed):
         return controller.act(obs, info)
     try:
         action = controller.act(obs, info)
-    except (Exception, SystemExit) as err:  # noqa: BLE001 - the user's code: said in one
-        # line (a sys.exit in it ended the command with its status, unsaid)
+    except USER_ERRORS as err:  # the user's code: said in one line (a sys.exit in it
+        # ended the command with its status, unsaid)
         raise ValueError(f"controller: {typed}: act() raised {in_user_code(err)} "
                          f"({where})") from None
     if action is None:  # (said as "an action of shape ()")

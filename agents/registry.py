@@ -100,7 +100,7 @@ def _module(source: str) -> ModuleType:
                 _load(module, spec.loader.exec_module)
             except BaseException as err:
                 del sys.modules[key]
-                if isinstance(err, Exception):
+                if isinstance(err, USER_ERRORS):
                     raise ValueError(f"controller: cannot load {source}: "
                                      f"{in_user_code(err)}") from None
                 raise
@@ -119,14 +119,21 @@ def _module(source: str) -> ModuleType:
         except ModuleNotFoundError as err:
             raise ValueError(f"controller: cannot import {source!r} (looked in the Python "
                              f"path and {here}): {err}") from None
-        except Exception as err:  # noqa: BLE001 - the user's module: said in one line
+        except USER_ERRORS as err:  # the user's module: said in one line
             raise ValueError(f"controller: cannot load {source}: {in_user_code(err)}"
                              ) from None
         finally:
             sys.path.remove(here)
-    except Exception as err:  # noqa: BLE001 - the user's module: said in one line
+    except USER_ERRORS as err:  # the user's module: said in one line
         raise ValueError(f"controller: cannot load {source}: {in_user_code(err)}") from None
     return module
+
+
+#: What a controller of your own may raise, said in one line naming it: its errors, and a
+#: ``sys.exit`` (a file whose last line is ``sys.exit(main())``, no ``__main__`` guard,
+#: ended the command at its import with exit 0 and nothing said). Not KeyboardInterrupt:
+#: a Ctrl-C stops the command.
+USER_ERRORS = (Exception, SystemExit)
 
 
 def in_user_code(err: BaseException) -> str:
@@ -267,7 +274,7 @@ def make_controller(name: str, **kwargs: Any) -> Controller:
             pass
         try:
             controller = factory(**kwargs)
-        except Exception as err:  # noqa: BLE001 - the user's code: said in one line
+        except USER_ERRORS as err:  # the user's code: said in one line
             raise ValueError(f"controller: {name} failed as it was made: "
                              f"{in_user_code(err)}") from None
         check_interface(name, controller)
@@ -347,7 +354,7 @@ def check_interface(name: str, controller: Any) -> None:
                          f"drill-env ones: {drill}")
     try:
         physics = controller.physics()
-    except Exception as err:  # noqa: BLE001 - the user's code: said in one line
+    except USER_ERRORS as err:  # the user's code: said in one line
         raise ValueError(f"controller: {name}: physics() raised {in_user_code(err)}"
                          ) from None
     if not isinstance(physics, Mapping):

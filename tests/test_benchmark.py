@@ -1851,6 +1851,20 @@ BROKEN = {  # file -> (code, what the one-line error says)
     "held.py": ("from agents import SetPointController\n\n\n"
                 "class Bad(SetPointController):\n    name = 'HELD+1'\n",
                 "name 'HELD+1' is a built-in controller's"),
+    # a sys.exit in the user's code (a script's last line without a __main__ guard ended
+    # the command at the import with exit 0, nothing said)
+    "script.py": ("import sys\nfrom agents import SetPointController\n\n\n"
+                  "class Bad(SetPointController):\n    name = 'script'\n\n\n"
+                  "sys.exit(0)\n",
+                  "script.py: SystemExit: 0 (script.py, line 9)"),
+    "quits.py": ("import sys\nfrom agents import SetPointController\n\n\n"
+                 "class Bad(SetPointController):\n    name = 'quits'\n\n"
+                 "    def __init__(self):\n        sys.exit('no gains')\n",
+                 "Bad failed as it was made: SystemExit: no gains (quits.py, line 9)"),
+    "quitphysics.py": ("import sys\nfrom agents import SetPointController\n\n\n"
+                       "class Bad(SetPointController):\n    name = 'quitphysics'\n\n"
+                       "    def physics(self):\n        sys.exit(4)\n",
+                       "Bad: physics() raised SystemExit: 4 (quitphysics.py, line 9)"),
 }
 
 
