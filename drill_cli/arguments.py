@@ -8,6 +8,7 @@ import argparse
 import errno
 import math
 import os
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -106,6 +107,39 @@ def unwritable(folder: Path) -> str:
             else err.strerror
         return f"{where}cannot write there ({why})"
     return ""
+
+
+#: A recording's size on the default scenario, per simulated minute and per file (the
+#: layout and static data): docs/recording.md, "file size", measured 2026-12-07 with the
+#: recorder's defaults (a longer string records more nodes, a shorter one fewer).
+RECORDING_MB_PER_MINUTE, RECORDING_MB_PER_FILE = 1.9, 0.6
+
+#: The size from which --record says what it will write before it starts (a 10 h run
+#: wrote 1.1 GB unannounced).
+LARGE_RECORDING_MB = 1000.0
+
+
+def recording_note(folder: Path, seconds: float, files: int = 1) -> str:
+    """A note of the recordings' size when :data:`LARGE_RECORDING_MB` or more, else "";
+    ArgumentTypeError when the disk under ``folder`` has less free than that (the run
+    would find it out when the disk filled, hours in)."""
+    size = files * (RECORDING_MB_PER_FILE + RECORDING_MB_PER_MINUTE * seconds / 60.0)
+    here = folder.absolute()
+    while not here.exists() and here != here.parent:
+        here = here.parent
+    free = shutil.disk_usage(here).free / 1e6
+
+    def said(mb: float) -> str:
+        return f"{mb / 1000:.1f} GB" if mb >= 1000 else f"{mb:.0f} MB"
+
+    how = (f"about {said(size)} ({counted(files, 'file')}, ~{RECORDING_MB_PER_MINUTE:g} MB "
+           "per simulated minute on the default scenario, docs/recording.md)")
+    if size > free:
+        raise argparse.ArgumentTypeError(
+            f"--record {folder}: the recordings would take {how}, and {here} has "
+            f"{said(free)} free; record a shorter --duration or fewer episodes, or give a "
+            "folder on a disk with room")
+    return f"note: --record: {how}" if size >= LARGE_RECORDING_MB else ""
 
 
 class Once(argparse.Action):

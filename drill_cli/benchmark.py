@@ -10,7 +10,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from drill_cli.arguments import checked_string_lengths, counted, unwritable
+from drill_cli.arguments import checked_string_lengths, counted, recording_note, unwritable
 from drill_cli.configs import checked_overrides
 from drill_env.physics.units import KILO, RPM
 
@@ -293,6 +293,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
             print(f"note: a task benchmark drills each scenario at the task's targets drawn "
                   f"from the seed, not at the scenario's set points: {', '.join(same)} are "
                   "then the same episodes", file=sys.stderr)
+    episodes = len(controllers) * len(scenarios) * args.seeds  # (a rerun's reused ones too)
+    if args.record and (note := recording_note(args.out / "recordings", args.duration,
+                                               episodes)):
+        print(note, file=sys.stderr)
     t0 = time.perf_counter()
     seeds = list(range(args.seed_start, args.seed_start + args.seeds))
     heading = "Controller benchmark" + (f", config {args.config}" if args.config else "")

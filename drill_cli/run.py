@@ -15,6 +15,7 @@ from drill_cli.arguments import (
     RECORD_UNDER_OUT,
     canonical_controller,
     fixed,
+    recording_note,
     typed_controller,
     unwritable,
 )
@@ -153,6 +154,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                                          f"scenario and seed; give {args.record.parent}")
     if args.record is not None and (reason := unwritable(args.record)):
         raise argparse.ArgumentTypeError(f"--record {args.record}: {reason}")
+    if args.record is not None and (note := recording_note(args.record, args.duration)):
+        print(note, file=sys.stderr)
     if args.record is not None:
         from agents.settings import label
         from drill_env.recording import RecordEpisode

@@ -33,6 +33,38 @@ def test_run_says_a_recording_it_could_not_write_and_its_results_before_its_file
     assert "SSI" in said.out and "run_history.jsonl" in said.err  # the results said first
 
 
+def test_record_says_a_large_recording_and_refuses_one_the_disk_cannot_hold(
+        tmp_path, capsys, monkeypatch):
+    """`run --duration 36000 --record` wrote 1.1 GB unannounced; on a disk without room
+    the recording failed when the disk filled, hours in. The estimate is
+    docs/recording.md's measured rate (60 s of the default scenario: 2.44 MB)."""
+    import shutil
+    from collections import namedtuple
+
+    from drill_cli.arguments import recording_note
+
+    assert recording_note(tmp_path, 60.0) == ""
+    note = recording_note(tmp_path / "new" / "folder", 36000.0)  # (made later)
+    assert note.startswith("note: --record: about 1.1 GB (1 file, ~1.9 MB per simulated "
+                           "minute"), note
+    assert "about 2.3 GB (20 files" in recording_note(tmp_path, 3600.0, files=20)
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage(10**9, 10**9 - 50e6, 50e6))
+    with pytest.raises(SystemExit):
+        main(["run", "--duration", "1800", "--record", "--out", str(tmp_path / "run")])
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith(f"drill-env run: error: --record {tmp_path / 'run' / 'recordings'}: "
+                          "the recordings would take about 58 MB (1 file"), err
+    assert "has 50 MB free; record a shorter --duration" in err
+    assert not (tmp_path / "run").exists()  # refused before anything was written
+    with pytest.raises(SystemExit):  # the benchmark counts every episode it records
+        main(["benchmark", "--controllers", "stiff,soft-speed", "--scenarios",
+              "stick_slip", "--seeds", "2", "--duration", "400", "--record", "--out",
+              str(tmp_path / "bench")])
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "--record " in err and "would take about 53 MB (4 files" in err, err
+
+
 def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
     code = main(["run", "--scenario", "paper_case1", "--rpm", "60", "--wob", "80",
                  "--duration", "0.5", "--record", str(tmp_path / "rec"), "--out",
@@ -58,6 +90,12 @@ def test_run_writes_a_summary_and_a_recording(tmp_path, capsys):
     assert summary["mean_surface_torque_kNm"] > 0.0
     recordings = list((tmp_path / "rec").glob("stiff_paper_case1_seed0_*.rrd"))
     assert [str(p) for p in recordings] == [summary["recording"]]
+    # the size --record announces for long runs (arguments.recording_note), its part per
+    # file against a real file: the rate per minute is docs/recording.md's measurement
+    from drill_cli.arguments import RECORDING_MB_PER_FILE, RECORDING_MB_PER_MINUTE
+
+    estimate = RECORDING_MB_PER_FILE + RECORDING_MB_PER_MINUTE * 0.5 / 60
+    assert recordings[0].stat().st_size / 1e6 == pytest.approx(estimate, rel=0.3)
     assert "SSI" in capsys.readouterr().out
     # what set the episode besides scenario and set points (a history told runs of the
     # field-well config and of the default string apart only by their length)
