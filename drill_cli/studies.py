@@ -10,6 +10,7 @@ import math
 import sys
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -17,10 +18,14 @@ from drill_cli.arguments import DEFAULT_WELL_MD, canonical_controller, typed_con
 from drill_cli.benchmark import tension_notes
 from drill_cli.configs import merged, read_overrides, with_overrides
 from drill_env.physics.units import KILO, RPM
+from drill_env.progress import progress_bar
 from drill_env.sweep import (
     save_text,
     save_whole,
 )
+
+#: Seconds before `modes` shows its bar (the default string's analyses take ~1 s).
+MODES_BAR_DELAY = 2.0
 
 
 def cmd_stability_map(args: argparse.Namespace) -> int:
@@ -162,11 +167,19 @@ def cmd_modes(args: argparse.Namespace) -> int:
         md.require_vertical(config)
     except ValueError as err:  # the scenarios offered are vertical: the file set the well
         raise argparse.ArgumentTypeError(f"--config {args.config}: {err}") from None
-    torsional = md.torsional_modes(config, args.top, args.n)
-    try:
-        lateral = md.lateral_modes(config, wob, n_modes=args.n)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(f"--wob: {str(err).partition(': ')[2]}") from None
+    # a bar from 2 s on: a 14 km string's eigenproblems took 2 min 20 s, said by nothing
+    # until the report (the four thresholds 112 s, the torsional modes 22 s)
+    with progress_bar(total=6, desc="modes", unit="analysis", delay=MODES_BAR_DELAY,
+                      leave=False) as bar:
+        torsional = md.torsional_modes(config, args.top, args.n)
+        bar.update()
+        try:
+            lateral = md.lateral_modes(config, wob, n_modes=args.n)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(f"--wob: {str(err).partition(': ')[2]}"
+                                             ) from None
+        bar.update()
+        thresholds = stick_slip_thresholds(config, wob, done=bar.update)
     source = args.scenario  # what the title names: the string analysed
     described = scenario.description
     if args.config is not None:
@@ -232,7 +245,6 @@ def cmd_modes(args: argparse.Namespace) -> int:
             and law.controller == config.top_drive.controller else ""
         print(f"  {law.controller.replace('_', '-'):<12} {law.proportional_gain:14,.0f} "
               f"{law.integral_gain:12,.0f}   {feedback}{chosen}")
-    thresholds = stick_slip_thresholds(config, wob)
     rock = config.formation.rocks[0].name
     print(f"\nlinear stick-slip threshold at {wob / KILO:.0f} kN on the {rock} rock (steady "
           "rotation below it is unstable: the bit's falling friction against the string's "
@@ -282,10 +294,11 @@ def cmd_modes(args: argparse.Namespace) -> int:
     return 0
 
 
-def stick_slip_thresholds(config: Any, wob: float) -> dict[str, float | None]:
+def stick_slip_thresholds(config: Any, wob: float, done: Callable[[], Any] = lambda: None
+                          ) -> dict[str, float | None]:
     """The linear stick-slip threshold (rpm) at ``wob`` on ``config``'s first rock under
-    each drive-rate controller (None: stable at every speed): a SoftSpeed tuning that
-    cannot hold a heavy drive shows there (docs/controllers.md)."""
+    each drive-rate controller (None: stable at every speed), calling ``done`` after each:
+    a SoftSpeed tuning that cannot hold a heavy drive shows there (docs/controllers.md)."""
     from drill_env.physics.simulator import Simulator
     from drill_env.physics.stability import stick_slip_threshold
 
@@ -299,6 +312,7 @@ def stick_slip_thresholds(config: Any, wob: float) -> dict[str, float | None]:
         # None: stable at every speed searched (a rising or flat rock curve)
         name = each.top_drive.controller.replace("_", "-")
         out[name] = None if found <= low else found / RPM
+        done()
     return out
 
 

@@ -64,7 +64,7 @@ def is_terminal(stream: IO[str]) -> bool:
 
 def progress_bar(*, file: IO[str] | None = None, disable: bool = False,
                  **kwargs: Any) -> Any:
-    """A ``tqdm`` bar with ``kwargs`` (total, desc, unit, initial, leave, ...) on ``file``
+    """A ``tqdm`` bar with ``kwargs`` (total, desc, unit, initial, leave, delay, ...) on ``file``
     (stderr by default): as given on a terminal or in a notebook; to a log or a pipe, one
     plain ASCII line at most every :data:`LOG_INTERVAL` seconds, none for a job shorter
     than that."""
@@ -92,5 +92,5 @@ def progress_bar(*, file: IO[str] | None = None, disable: bool = False,
             return None if self.resetting else super().refresh(*args, **kwargs)
 
     return LogBar(file=_Lines(stream), mininterval=LOG_INTERVAL, maxinterval=LOG_INTERVAL,
-                  delay=LOG_INTERVAL,
+                  delay=max(LOG_INTERVAL, kwargs.pop("delay", 0.0)),
                   ascii=True, dynamic_ncols=False, **kwargs)

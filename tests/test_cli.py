@@ -646,6 +646,33 @@ def test_stability_map_command_names_a_bad_position(capsys):
     assert 3.0 < 2.0 * period <= 3.1
 
 
+def test_modes_shows_a_bar_on_a_terminal_for_its_slow_analyses(tmp_path, capsys,
+                                                                monkeypatch):
+    """A 14 km string's modes took 2 min 20 s without a word (its four stick-slip
+    thresholds, dense eigenproblems, 112 s): a bar now counts the six analyses, from
+    MODES_BAR_DELAY on, on stderr and cleared (the report on stdout stays clean); in a
+    log, whose bars wait a minute, the delay is no error."""
+    import io
+    import sys
+
+    import drill_cli.studies as studies
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    terminal = Terminal()
+    monkeypatch.setattr(studies, "MODES_BAR_DELAY", 0.0)
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert main(["modes", "--out", str(tmp_path)]) == 0
+    frames = terminal.getvalue()
+    assert "modes:" in frames and "analysis" in frames and "/6" in frames, frames
+    assert "modes:" not in capsys.readouterr().out
+    monkeypatch.setattr(sys, "stderr", io.StringIO())  # a log: its bar waits a minute
+    assert main(["modes", "--out", str(tmp_path)]) == 0
+    assert "modes:" not in sys.stderr.getvalue()
+
+
 def test_modes_command_reads_a_component_string_from_yaml(tmp_path, capsys):
     root = __import__("pathlib").Path(__file__).parents[1]
     code = main(["modes", "--config", str(root / "examples/field_well_string.yaml"),
