@@ -316,7 +316,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 
         policy = labels(controllers)[controllers.index(args.paired)]
         text = write_comparison(rows, policy, args.out, f"{heading}, paired against {policy}",
-                                policy)
+                                policy, warmup=args.warmup)
         if text:
             print(f"\n{text}")
     print(f"wrote {args.out / 'benchmark.csv'}, benchmark.md"

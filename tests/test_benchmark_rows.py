@@ -182,6 +182,8 @@ def test_a_guest_is_scored_by_drillstring_reward(tmp_path):
     st = be.run_episode(bs.Episode("stiff", "stick_slip", 0, vars(SHORT), str(tmp_path)))
     assert g["mean_bit_rpm"] == pytest.approx(st["mean_bit_rpm"], rel=1e-9)
     assert g["episode_return"] == pytest.approx(st["episode_return"], rel=1e-9)
+    # its window return too is DrillString-v0's, not its task's
+    assert g["window_return"] == pytest.approx(st["window_return"], rel=1e-9)
     # benchmark.md says so only where a guest ran (a check found it in every one)
     assert (g["guest"], st["guest"]) == (True, False)
     said = "a task's policy acts in its task's env"
@@ -208,3 +210,35 @@ def test_an_undefined_metric_is_a_dash():
     table = bt.summary_table(rows, ["stiff"], ["x"])
     header = [h for _, h, _ in bt.SUMMARY]
     assert table[0][3 + header.index("rpm error")] == "-"
+
+
+def test_a_row_scores_the_window_its_metrics_measure_apart(tmp_path):
+    """An outside review: task 1's metrics leave out its 5 s warm-up (the stalled start),
+    its return did not, and 241 of the shipped policy's 391 came from those 5 s. The row's
+    ``window_return`` sums the rewards of the steps from the warm-up's end on, replayed
+    here in the task's own env with the same actions (the stiff drive: action 0)."""
+    import gymnasium as gym
+
+    from training.evaluate import settings_of
+
+    settings = settings_of("stick_slip")
+    row = be.run_episode(bs.Episode("stiff", "random", 1_000_000, vars(settings),
+                                    str(tmp_path), env_id="DrillStickSlip-v0"))
+    env = gym.make("DrillStickSlip-v0", physics={"top_drive.controller": "stiff"},
+                   episode_duration=settings.duration, start_kick=settings.start_kick,
+                   fidelity=settings.fidelity)
+    _, info = env.reset(seed=1_000_000)
+    start, total, window, steps = info["time"], 0.0, 0.0, 0
+    while True:  # a step counts when it starts at the warm-up's end or after
+        begins = info["time"] - start
+        _, reward, terminated, truncated, info = env.step(np.zeros(1, dtype=np.float32))
+        total += float(reward)
+        if begins > settings.warmup - 1e-6:
+            window, steps = window + float(reward), steps + 1
+        if terminated or truncated:
+            break
+    assert row["episode_return"] == pytest.approx(total, rel=1e-9)
+    assert row["window_return"] == pytest.approx(window, rel=1e-9)
+    # 25 of the 30 s: 250 steps of 0.1 s (whole steps of the fast level's 0.0988 s: 253)
+    assert 240 <= steps <= 260
+    assert row["window_return"] > row["episode_return"]  # the stalled start costs most

@@ -222,6 +222,30 @@ def test_skewed_returns_give_the_median_lead_and_the_policys_mean_return(tmp_pat
     assert "| other | 10.0 | +4.0 | " in text and " | +1.0 | 3 of 3 | " in text
 
 
+def test_the_comparison_pairs_the_metric_window_apart(tmp_path) -> None:
+    """comparison.md's second table pairs the returns after the warm-up: a policy that
+    leads by 10 on the whole episode by winning its start (window returns 1 below the
+    other's on each seed) shows there as trailing, by -1.0 on 3 of 3 seeds against it;
+    without window returns (a row of an older version) or where they are the whole
+    episode's (no warm-up), no second table."""
+    from training.evaluate import write_comparison
+
+    rows = [{"controller": c, "seed": s, "episode_return": r + s, "window_return": w + s}
+            for c, r, w in (("learned", 20.0, 4.0), ("other", 10.0, 5.0)) for s in range(3)]
+    text = write_comparison(rows, "learned", tmp_path, "heading", warmup=5.0)
+    assert "| other | 11.0 | +10.0 | " in text
+    whole, _, window = text.partition("## The metric window alone")
+    assert "after the 5 s warm-up" in window and "(mean return 5.0 after the warm-up)" in window
+    assert "| other | 6.0 | -1.0 | " in window and " | -1.0 | 0 of 3 | " in window
+    assert (tmp_path / "comparison.md").read_text(encoding="utf-8").endswith(window)
+    for row in rows:
+        row["window_return"] = row["episode_return"]
+    assert "metric window" not in write_comparison(rows, "learned", tmp_path, "heading")
+    for row in rows:
+        del row["window_return"]
+    assert "metric window" not in write_comparison(rows, "learned", tmp_path, "heading")
+
+
 def test_the_comparison_says_why_a_p_is_missing() -> None:
     """comparison_text's notes: one episode a pair has no spread to test ("n/a: one
     episode"); the note that the differences do not vary is for pairs of two or more

@@ -149,8 +149,8 @@ def standard_episode_notes(trained: dict[str, Any], settings: BenchmarkSettings
             for key, was, value in replaced_episode_settings(trained, settings, "random")]
 
 
-def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
-                      ) -> list[dict[str, Any]]:
+def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned",
+                      column: str = "episode_return") -> list[dict[str, Any]]:
     """The policy's return against every other controller's on the same episodes (paired:
     the same scenario and seed, so the same string, rocks and targets): per controller
     its mean return, the policy's mean lead with its 95 % confidence interval (Student's
@@ -160,14 +160,18 @@ def paired_comparison(rows: list[dict[str, Any]], policy: str = "learned"
     method over the controllers compared (:func:`holm`: the chance that any one of them
     shows a lead by luck, where "the policy beats one of them" is read from the table).
     The returns are often skewed (a few seeds with a large lead): the mean is the
-    estimate, the median and the count of wins say what a typical episode does."""
+    estimate, the median and the count of wins say what a typical episode does.
+    ``column``: the rows' return compared (``window_return``: the steps after the warm-up,
+    which the metrics measure); rows without it are left out."""
     from scipy.stats import ttest_rel
 
     returns: dict[str, dict[tuple[str, int], float]] = {}
     ended: dict[str, set[tuple[str, int]]] = {}  # the episodes a failure ended early
     for row in rows:
+        if row.get(column) is None:  # (rows of a version without the window's return)
+            continue
         episode = (str(row.get("scenario", "")), int(row["seed"]))
-        returns.setdefault(row["controller"], {})[episode] = float(row["episode_return"])
+        returns.setdefault(row["controller"], {})[episode] = float(row[column])
         if row.get("termination"):
             ended.setdefault(row["controller"], set()).add(episode)
     mine = returns.get(policy, {})
@@ -218,33 +222,37 @@ def holm(p: Sequence[float]) -> list[float]:
 
 
 def comparison_text(comparison: list[dict[str, Any]], policy_return: float,
-                    policy: str = "the policy") -> str:
+                    policy: str = "the policy", scope: str = "", legend: bool = True) -> str:
     """:func:`paired_comparison` as the markdown table ``evaluate`` (and ``benchmark
     --paired``, with ``policy`` its controller's name) prints and writes, each column
-    defined above it."""
+    defined above it (``legend=False``: not again, below a table that did); ``scope``:
+    what of the episodes the returns sum, where not all."""
     n = max((c.get("comparisons", len(comparison)) for c in comparison), default=0)
     what = "comparison" if n == 1 else "comparisons"
     lines = [f"Paired by episode (scenario and seed): {policy} (mean return "
-             f"{shown('{:.1f}', policy_return)}) against each other controller on the same "
-             "episodes.", "",
-             f"- mean lead: the mean over episodes of {policy}'s return minus theirs; 95 % "
-             "CI: its two-sided confidence interval (Student's t on the differences), per "
-             "row, not adjusted for the other rows;",
-             "- median lead: the median of those differences (the mean can be pulled by a "
-             f"few episodes); better on: the episodes where {policy}'s return is higher "
-             "(a tie is not counted);",
-             f"- p: the one-sided paired t-test that {policy}'s mean return is higher; "
-             + (f"p, Holm: p adjusted by Holm's method over the {n} {what} "
-                "(controllers with identical returns on every episode counted once): read "
-                f"it to say which of them {policy} beats; a claim that it beats every one of "
-                "them at once needs each raw p below the level, no adjustment;" if n else
-                "none here, nor p, Holm: a paired test needs two episodes or more with a "
-                "spread in the differences;"),
-             "- ended early: episodes a failure stopped (their return is the steps until "
-             "then and the failure penalty: a shorter sum, not always a lower one).", "",
-             "| controller | return | mean lead | 95 % CI of the lead | median lead | "
-             f"better on | p | p, Holm | ended early (theirs / {policy}'s) |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+             f"{shown('{:.1f}', policy_return)}{scope}) against each other controller on "
+             "the same episodes.", ""]
+    legend_lines = [
+        f"- mean lead: the mean over episodes of {policy}'s return minus theirs; 95 % "
+        "CI: its two-sided confidence interval (Student's t on the differences), per "
+        "row, not adjusted for the other rows;",
+        "- median lead: the median of those differences (the mean can be pulled by a "
+        f"few episodes); better on: the episodes where {policy}'s return is higher "
+        "(a tie is not counted);",
+        f"- p: the one-sided paired t-test that {policy}'s mean return is higher; "
+        + (f"p, Holm: p adjusted by Holm's method over the {n} {what} "
+           "(controllers with identical returns on every episode counted once): read "
+           f"it to say which of them {policy} beats; a claim that it beats every one of "
+           "them at once needs each raw p below the level, no adjustment;" if n else
+           "none here, nor p, Holm: a paired test needs two episodes or more with a "
+           "spread in the differences;"),
+        "- ended early: episodes a failure stopped (their return is the steps until "
+        "then and the failure penalty: a shorter sum, not always a lower one).", ""]
+    lines += legend_lines if legend else []
+    lines += [
+        "| controller | return | mean lead | 95 % CI of the lead | median lead | "
+        f"better on | p | p, Holm | ended early (theirs / {policy}'s) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for c in comparison:
         p, adjusted = ("n/a" if math.isnan(v) else f"{v:#.2g}" for v in (c["p"], c["p_holm"]))
         low, high = c["lead_ci"]
@@ -339,23 +347,37 @@ def evaluate_run(run: Path, seeds: int = len(EVALUATION_SEEDS), workers: int | N
     rows = run_benchmark(names, ["random"], held_out, out, settings, workers=workers,
                          progress=progress, env_id=TASKS[task], ray_address=ray_address,
                          heading=heading)
-    text = write_comparison(rows, label(names[0]), out, heading)
+    text = write_comparison(rows, label(names[0]), out, heading, warmup=settings.warmup)
     if text:
         print(text)  # beside the benchmark's table, which is printed too
     return rows
 
 
 def write_comparison(rows: list[dict[str, Any]], policy: str, out: Path, heading: str,
-                     name: str = "the policy") -> str | None:
+                     name: str = "the policy", warmup: float | None = None) -> str | None:
     """``out/comparison.md``: the row label ``policy`` paired against every other
     controller of ``rows`` (:func:`paired_comparison`, :func:`comparison_text`, called
     ``name`` in the text) under ``heading``, for ``evaluate`` and ``benchmark --paired``;
-    returns the text, None where ``policy`` has no rows."""
+    returns the text, None where ``policy`` has no rows. A second table pairs the returns
+    of the metric window alone (``window_return``: from the end of the ``warmup`` on),
+    where the warm-up changed them: task 1's return counts its stalled start, where a
+    policy may gain what it does not keep after (an outside review)."""
     from drill_env.sweep import save_text
 
-    mine = [float(r["episode_return"]) for r in rows if r["controller"] == policy]
+    mine = [r for r in rows if r["controller"] == policy]
     if not mine:
         return None
-    text = comparison_text(paired_comparison(rows, policy), float(np.mean(mine)), name)
+    text = comparison_text(paired_comparison(rows, policy),
+                           float(np.mean([r["episode_return"] for r in mine])), name)
+    windows = [r.get("window_return") for r in mine]
+    if all(w is not None for w in windows) and any(
+            w != r["episode_return"] for w, r in zip(windows, mine, strict=True)):
+        after = f" {warmup:g} s" if warmup is not None else ""
+        text += ("\n## The metric window alone\n\nThe same pairing on the return of the "
+                 f"steps after the{after} warm-up (the window the metrics measure): a lead "
+                 "won in the start-up alone shows here as none.\n\n"
+                 + comparison_text(paired_comparison(rows, policy, "window_return"),
+                                   float(np.mean([w for w in windows if w is not None])), name,
+                                   " after the warm-up", legend=False))
     save_text(out / "comparison.md", f"# {heading}\n\n{text}")
     return text
