@@ -142,7 +142,8 @@ class DrillStringEnv(BatchFinish, gym.Env):
       distance from where the reset put it (:func:`drill_env.metrics.excursion_ratio`);
     - ``effort``: ``-effort_weight * ((d rpm / rpm span)^2 + (d WOB / WOB span)^2)``, the
       change of the commanded set points;
-    - ``failure``: ``-failure_weight`` on a termination (torque limit, divergence).
+    - ``failure``: on a termination (torque limit, divergence) ``-failure_weight``, less
+      each step it cuts off at the episode's lowest step reward so far (if below 0).
 
     ## Starting State
 
@@ -313,6 +314,7 @@ class DrillStringEnv(BatchFinish, gym.Env):
         self._wob_target = 0.0
         self._wob_applied = 0.0
         self._effort = 0.0
+        self._worst_step = self._worst_plain = math.inf  # the episode's lowest step reward
         self._setpoint_change = (0.0, 0.0)  # of the set points (rad/s, N) at the last command
         #: None after every reset (not summed); set to 0.0 after ``reset``, it sums
         #: :meth:`_plain_reward` over that episode (a task's env scored as DrillString-v0).
@@ -544,6 +546,10 @@ class DrillStringEnv(BatchFinish, gym.Env):
         terminated = bool(reason)
         truncated = (not terminated) and self._step_count >= self._max_steps
         terms = self._reward_terms(step, terminated)
+        self._worst_step = min(self._worst_step, metrics.summed(
+            value for key, value in terms.items() if key != "failure"))
+        if terminated:  # and each step it cuts off at the episode's worst: failing never pays
+            terms["failure"] -= (self._max_steps - self._step_count) * max(0.0, -self._worst_step)
         if self.plain_return is not None:  # a task's env as a guest (agents.benchmark)
             self.plain_return += self._plain_reward(step, terminated)
         info = self._info()
@@ -593,8 +599,11 @@ class DrillStringEnv(BatchFinish, gym.Env):
         k = self.config.control_interval / PLAIN_CONTROL_INTERVAL
         change = self._setpoint_change
         effort = (change[0] / PLAIN_SPANS[0]) ** 2 + (change[1] / PLAIN_SPANS[1]) ** 2
-        return (k * (terms["rop"] + terms["stick_slip"] + terms["whirl"])
-                - self.config.effort_weight * effort + terms["failure"])
+        plain = (k * (terms["rop"] + terms["stick_slip"] + terms["whirl"])
+                 - self.config.effort_weight * effort)
+        self._worst_plain = min(self._worst_plain, plain)
+        cut_off = (self._max_steps - self._step_count) * max(0.0, -self._worst_plain)
+        return plain + (terms["failure"] - cut_off if terminated else 0.0)
 
     def _window(self) -> list[float] | None:
         """The metric window's values, None until it holds finite ones."""

@@ -66,7 +66,7 @@ REWARD_TERMS = tuple(term.name.lower() for term in RewardTerm)
 #: Columns of the per-env state a batch hands to :func:`finish_rows`.
 BatchState = IntEnum("BatchState", [
     "COUNT", "ENERGY", "SPEED", "WOB", "EFFORT", "START", "LIMIT", "MAX_STEPS", "INCLINATION",
-    "STATUS", "SSI"], start=0)
+    "STATUS", "SSI", "WORST"], start=0)
 #: The config values :func:`finish_rows` uses (the envs of a batch share one config).
 BatchWeight = IntEnum("BatchWeight", [
     "ROP", "ROP_SCALE", "STICK_SLIP", "SSI_CAP", "WHIRL", "EFFORT", "FAILURE", "MAKEUP_TORQUE"],
@@ -83,6 +83,7 @@ class BatchOut(NamedTuple):
     terminated: np.ndarray  # bool
     truncated: np.ndarray   # bool
     energy: np.ndarray      # top-drive energy of the episode (J)
+    worst: np.ndarray       # the episode's lowest step reward without the failure term
     floats: np.ndarray      # (len(_BATCH_FLOAT_INFO), n): the float info values
 
 
@@ -94,11 +95,12 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
 
     ``state``: :data:`BatchState` columns (COUNT the step count after this step, STATUS
     the simulator's, SSI the reward's: ``_window_ssi``, the window's or, when its bit
-    speed is not finite, infinite); ``n_rec``, ``flags``, ``step``, ``window``,
-    ``readings``: as :meth:`BatchFinish.finish_batch` takes them, with the readings of
-    diverged envs already replaced by their last finite ones and the info metrics of envs
-    without a finite window by their own (``_window``: 0.0); ``source``, ``divisor``: the
-    observation's columns (of the readings then the two set points) and scales;
+    speed is not finite, infinite; WORST ``_worst_step`` before this step); ``n_rec``,
+    ``flags``, ``step``, ``window``, ``readings``: as :meth:`BatchFinish.finish_batch`
+    takes them, with the readings of diverged envs already replaced by their last finite
+    ones and the info metrics of envs without a finite window by their own (``_window``:
+    0.0); ``source``, ``divisor``: the observation's columns (of the readings then the two
+    set points) and scales;
     ``weights``: :data:`BatchWeight`; ``out``: a :class:`BatchOut`.
     """
     n_read = readings.shape[1]
@@ -130,11 +132,17 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
         out.terms[RewardTerm.STICK_SLIP, e] = -weights[BatchWeight.STICK_SLIP] * ssi
         out.terms[RewardTerm.WHIRL, e] = -weights[BatchWeight.WHIRL] * excursion
         out.terms[RewardTerm.EFFORT, e] = -weights[BatchWeight.EFFORT] * st[BatchState.EFFORT]
-        out.terms[RewardTerm.FAILURE, e] = -weights[BatchWeight.FAILURE] if terminated else 0.0
         reward = 0.0
-        for k in range(out.terms.shape[0]):
+        for k in range(RewardTerm.FAILURE):
             reward += out.terms[k, e]
-        out.reward[e] = reward
+        worst = st[BatchState.WORST]
+        worst = reward if reward < worst else worst
+        out.worst[e] = worst
+        # each step the failure cuts off at the episode's worst (finish_metrics)
+        out.terms[RewardTerm.FAILURE, e] = -weights[BatchWeight.FAILURE] - (
+            st[BatchState.MAX_STEPS] - st[BatchState.COUNT]) * (-worst if worst < 0.0 else 0.0) \
+            if terminated else 0.0
+        out.reward[e] = reward + out.terms[RewardTerm.FAILURE, e]
         # _observation: each entry its source over its scale, clipped, as float32
         usable = True
         for j in range(source.shape[0]):
@@ -284,7 +292,8 @@ class BatchFinish:
         state = np.fromiter(chain.from_iterable(
             (count, env._episode_energy, env._speed_target, env._wob_target, env._effort,
              env._start_time, env.weight_on_bit_limit, env._max_steps,
-             env.sim.bit_inclination, 0.0, 0.0) for count, env in zip(counts, envs,
+             env.sim.bit_inclination, 0.0, 0.0, env._worst_step) for count, env in zip(
+                 counts, envs,
                                                                  strict=True)),
             np.float64, len(BatchState) * n).reshape(n, len(BatchState))
         state[:, BatchState.STATUS] = readings[:, _STATUS]  # as read, diverged or not
@@ -316,16 +325,19 @@ class BatchFinish:
                        terms=np.empty((len(REWARD_TERMS), n)),
                        terminated=np.empty(n, dtype=np.bool_),
                        truncated=np.empty(n, dtype=np.bool_), energy=np.empty(n),
+                       worst=np.empty(n),
                        floats=np.empty((len(_BATCH_FLOAT_INFO), n)))
         finish_rows(state, n_rec, flags, step, window, fresh, source, divisor, weights, out)
         obs = out.obs
         kept = obs.copy()
         # every env's state as finish_metrics leaves it, in one pass
         for i, (env, count, stat, row, has_records, values, finite, energy, usable,
-                last) in enumerate(zip(envs, counts, status, fresh.tolist(), has.tolist(),
-                                       metrics, window_ok.tolist(), out.energy.tolist(),
-                                       out.usable.tolist(), kept, strict=True)):
+                last, worst) in enumerate(zip(envs, counts, status, fresh.tolist(),
+                                              has.tolist(), metrics, window_ok.tolist(),
+                                              out.energy.tolist(), out.usable.tolist(), kept,
+                                              out.worst.tolist(), strict=True)):
             env._step_count = count
+            env._worst_step = worst
             env._status = stat
             env._readings = row
             if has_records:

@@ -116,8 +116,9 @@ class DrillingEnv(TaskEnv):
 
     Per step: ``rop_weight ROP / rop_reference - stick_slip_weight min(SSI, cap) -
     stuck_weight stuck - whirl_weight whirl share - wear_weight (rpm/100)^1.5 (WOB/100 kN) -
-    energy_weight P_td / 100 kW``; ``-failure_weight`` on termination. Terms in
-    ``info["reward_terms"]``.
+    energy_weight P_td / 100 kW``; on termination ``-failure_weight``, less each step cut
+    off at the episode's lowest step reward so far (if below 0: failing never pays, as in
+    ``DrillString-v0``). Terms in ``info["reward_terms"]``.
 
     ## Starting State, Episode End, Info, Arguments
 

@@ -162,7 +162,8 @@ class StickSlipEnv(TaskEnv):
 
     Per step: ``-stick_slip_weight min(SSI, cap) - stuck_weight stuck - tracking_weight
     max(0, |mean bit rpm - target rpm| - deadband) - whirl_weight excursion ratio -
-    effort_weight (delta action)^2``, ``-failure_weight`` on termination; SSI, stuck
+    effort_weight (delta action)^2``; on termination ``-failure_weight``, less each step
+    cut off at the episode's lowest step reward so far (as ``DrillString-v0``); SSI, stuck
     share and mean bit speed over the env's 3 s metric window. No ROP term: the targets
     are the driller's. ``info["reward_terms"]`` holds the terms.
 

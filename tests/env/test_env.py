@@ -947,3 +947,30 @@ def test_action_for_steps_toward_set_points_in_incremental_mode():
     assert info["weight_on_bit_setpoint"] == pytest.approx(goal[1], rel=1e-6)
     top = env.action_for(1e3, 1e9)  # beyond the ranges: toward their ends
     assert top.tolist() == [1.0, 1.0]
+
+
+@pytest.mark.parametrize("scenario, limit", [("stick_slip", 6.0e3), ("default", 5.0e3)])
+def test_a_failure_costs_each_step_it_cuts_off_at_the_episodes_worst(scenario, limit):
+    """The docstring's failure term: ``-failure_weight``, less each step cut off at the
+    episode's lowest step reward so far where that is below 0 (an outside review: a bare
+    -10 made ending a costly episode early pay). Recomputed from the steps' own reward
+    terms: the stalled stick-slip string at the top of both ranges fails at step 5 of 30
+    after steps costing up to ~2 (charged); the default string drills there at a profit
+    until it fails (its worst step above 0: the bare weight)."""
+    env = gym.make("DrillString-v0", scenario=scenario, makeup_torque=limit,
+                   episode_duration=3.0, startup="stalled" if scenario == "stick_slip"
+                   else "settled")
+    env.reset(seed=0)
+    worst, steps = float("inf"), 0
+    while True:
+        _, reward, terminated, truncated, info = env.step(np.ones(2, np.float32))
+        terms, steps = info["reward_terms"], steps + 1
+        worst = min(worst, sum(v for k, v in terms.items() if k != "failure"))
+        if terminated or truncated:
+            break
+    assert terminated and steps < env.unwrapped.max_episode_steps
+    cut_off = env.unwrapped.max_episode_steps - steps
+    want = -10.0 - cut_off * max(0.0, -worst)
+    assert terms["failure"] == pytest.approx(want, rel=1e-12, abs=1e-12)
+    assert reward == pytest.approx(sum(terms.values()), rel=1e-12, abs=1e-12)
+    assert (worst < -1.0) == (scenario == "stick_slip")  # the cases do what they say

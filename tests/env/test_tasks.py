@@ -1074,3 +1074,32 @@ def test_the_surface_torque_mean_is_a_backward_euler_low_pass_of_3_s():
         mean += a / (1.0 + a) * (info["surface_torque"] - mean)
         assert obs[k] * scale == pytest.approx(mean, rel=2e-6)
     env.close()
+
+
+def _held_return(env_id: str, seed: int, **kwargs: Any) -> tuple[float, int, bool]:
+    """(return, steps, terminated) of one episode with the action held at 0."""
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=seed)
+    total, steps = 0.0, 0
+    while True:
+        _, reward, terminated, truncated, _ = env.step(
+            np.zeros(env.action_space.shape, dtype=np.float32))
+        total, steps = total + float(reward), steps + 1
+        if terminated or truncated:
+            return total, steps, terminated
+
+
+def test_a_failure_never_raises_a_task_1_return():
+    """An outside review: with a bare -10 for a failure, ending an episode was the best
+    action wherever a policy could reach the make-up torque. The default 40 kN m is out of
+    reach of +-30 rpm (peaks of 10-14 kN m), so a lower one stands for a string where it
+    is not: on seed 1000001 the stiff drive passes 11 kN m at step 7, where the stalled
+    start costs ~30 a step (tracking: 0.3 x the target in rpm), and had returned -188
+    there against -1,816 running the whole episode. A failure that charges each step it
+    cuts off at the episode's worst so far returns less than running on."""
+    full, n_full, failed = _held_return("DrillStickSlip-v0", 1_000_001)
+    assert not failed
+    cut, n_cut, failed = _held_return("DrillStickSlip-v0", 1_000_001, makeup_torque=11.0e3)
+    assert failed and n_cut < n_full  # the lower make-up torque ends it early
+    assert cut < full, (f"ending the episode at step {n_cut} by a failure returned "
+                        f"{cut:.1f}, running it to step {n_full} {full:.1f}: failing pays")

@@ -847,3 +847,30 @@ def test_the_sb3_vec_env_refuses_a_step_before_its_first_reset():
     venv.reset()
     venv.step(np.zeros((1, 1), np.float32))
     venv.close()
+
+
+def test_a_failure_after_costly_steps_is_charged_alike_in_a_batch():
+    """A failure costs ``failure_weight`` and each step it cuts off at the episode's lowest
+    step reward so far (DrillStringEnv's docstring): the batch's compiled finish
+    (``finish_rows``) must charge it as each env's own step does, to the bit. The stalled
+    stick-slip string pushed to the top of both ranges passes a 6 kN m make-up torque at
+    its 5th step of 30, its steps until then costing up to ~2 each."""
+    kwargs = dict(scenario="stick_slip", startup="stalled", makeup_torque=6.0e3,
+                  episode_duration=3.0)
+    actions = np.ones((8, N, 2), dtype=np.float32)
+    singles = single_trajectories(actions, seed=0, **kwargs)
+    envs = DrillStringVectorEnv(num_envs=N, **kwargs)
+    assert DrillStringEnv.finishes_batch(envs.envs)
+    obs, _ = envs.reset(seed=0)
+    rows = [[obs[i]] for i in range(N)]
+    for a in actions:
+        obs, rewards, terminated, truncated, info = envs.step(a)
+        for i in range(N):
+            rows[i].append(np.concatenate([obs[i], [rewards[i], info["time"][i],
+                                                    info["bit_speed"][i]]]))
+        if terminated.any():
+            break
+    assert terminated.all() and not truncated.any()
+    assert (info["reward_terms"]["failure"] < -20.0).all()  # more than the bare 10
+    for i in range(N):
+        np.testing.assert_array_equal(np.concatenate(rows[i]), singles[i])
