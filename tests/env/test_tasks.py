@@ -1103,3 +1103,74 @@ def test_a_failure_never_raises_a_task_1_return():
     assert failed and n_cut < n_full  # the lower make-up torque ends it early
     assert cut < full, (f"ending the episode at step {n_cut} by a failure returned "
                         f"{cut:.1f}, running it to step {n_full} {full:.1f}: failing pays")
+
+
+@pytest.mark.parametrize("env_id", TASKS)
+def test_the_batched_training_env_tells_task_time_outs_from_failures(env_id):
+    """SB3 bootstraps the value of a time-out (``TimeLimit.truncated``, from
+    ``terminal_observation``) and not of a failure: the training VecEnv of a task (its
+    Python finish, not the plain env's arrays) must say which it was (an outside review)."""
+    from drill_env.vector import make_sb3_vec_env
+
+    short = 0.5 if env_id == "DrillStickSlip-v0" else 3.0
+    venv = make_sb3_vec_env(2, env_id=env_id, episode_duration=short)
+    venv.seed(3)
+    venv.reset()
+    zero = np.zeros((2, *venv.action_space.shape), dtype=np.float32)
+    while not (done := venv.step(zero))[2].any():
+        pass
+    obs, _, dones, infos = done
+    assert dones.all()
+    for i, info in enumerate(infos):
+        assert info["TimeLimit.truncated"] is True
+        assert info["terminal_observation"].shape == obs[i].shape
+        assert not np.array_equal(info["terminal_observation"], obs[i])  # obs: the reset's
+    venv = make_sb3_vec_env(1, env_id="DrillStickSlip-v0", makeup_torque=11.0e3)
+    venv.seed(1_000_001)
+    venv.reset()
+    for _ in range(20):
+        _, _, dones, infos = venv.step(np.zeros((1, 1), dtype=np.float32))
+        if dones[0]:
+            break
+    assert dones[0] and infos[0]["TimeLimit.truncated"] is False
+
+
+@pytest.mark.parametrize("env_id", TASKS)
+def test_batched_task_env_follows_the_single_env_across_autoresets(env_id):
+    """Same seed, same actions: env i of the training VecEnv plays, episode after episode
+    (its autoresets draw new strings, rocks and targets from its own generator), what a
+    single env reset with seed + i and then without a seed plays (an outside review)."""
+    from drill_env.vector import make_sb3_vec_env
+
+    short, n = (0.5 if env_id == "DrillStickSlip-v0" else 3.0), 3
+    venv = make_sb3_vec_env(n, env_id=env_id, episode_duration=short)
+    venv.seed(40)
+    first = venv.reset()
+    actions = np.random.default_rng(0).uniform(
+        -1, 1, (16, n, *venv.action_space.shape)).astype(np.float32)
+    got: list[list[np.ndarray]] = [[first[i]] for i in range(n)]
+    rewards: list[list[float]] = [[] for _ in range(n)]
+    for a in actions:
+        obs, r, dones, infos = venv.step(a)
+        for i in range(n):
+            got[i].append(infos[i]["terminal_observation"] if dones[i] else obs[i])
+            rewards[i].append(float(r[i]))
+            if dones[i]:
+                got[i].append(obs[i])
+    for i in range(n):
+        env = gym.make(env_id, episode_duration=short)
+        obs, _ = env.reset(seed=40 + i)
+        want, want_rewards, resets = [obs], [], 0
+        for a in actions[:, i]:
+            obs, r, terminated, truncated, _ = env.step(a)
+            want.append(obs)
+            want_rewards.append(float(np.float32(r)))  # SB3 hands rewards on as float32
+            if terminated or truncated:
+                obs, _ = env.reset()
+                want.append(obs)
+                resets += 1
+        assert resets >= 2
+        assert len(got[i]) == len(want)
+        for k, (g, w) in enumerate(zip(got[i], want, strict=True)):
+            np.testing.assert_array_equal(g, w, err_msg=f"env {i}, entry {k}")
+        np.testing.assert_array_equal(rewards[i], want_rewards)
