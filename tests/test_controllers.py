@@ -453,6 +453,28 @@ def test_a_constant_set_point_drives_the_stiff_top_drive() -> None:
     assert ConstantSetPoints(100.0, 50e3).physics() == {"top_drive.controller": "stiff"}
 
 
+def test_a_constant_controller_name_reads_rpm_and_kilonewtons() -> None:
+    """``constant:<rpm>/<kN>`` (ConstantSetPoints' docstring: "120/100" -> 120 rpm,
+    100 kN): the env gets the speed in rad/s (120 x 2 pi / 60) and the WOB in newtons."""
+    controller = make_controller("constant:120/100")
+    assert controller.rpm == 120.0
+    assert controller.speed == pytest.approx(120.0 * 2.0 * math.pi / 60.0, rel=1e-12)
+    assert controller.weight_on_bit == pytest.approx(100.0e3, rel=1e-12)
+
+
+def test_drive_loop_name_maps_each_top_drive_setting_to_its_registry_name() -> None:
+    """``drive_loop_name`` (the CLI's "give --controller ... instead"): the
+    ``TopDriveConfig.controller`` value of each drive-rate controller gives its registry
+    name, e.g. ``soft_speed`` -> ``soft-speed``; an unknown value comes back as typed."""
+    from agents.classical import drive_loop_name
+
+    expected = {"stiff": "stiff", "soft_speed": "soft-speed", "soft_torque": "soft-torque",
+                "z_torque": "z-torque"}
+    for cls in (StiffPI, SoftSpeed, SoftTorque, ZTorque):
+        assert drive_loop_name(cls.top_drive) == expected[cls.top_drive] == cls.name
+    assert drive_loop_name("no_such_drive") == "no_such_drive"
+
+
 class _DrillerEnv:
     class config:  # noqa: N801
         control_interval = 0.1

@@ -220,6 +220,19 @@ def test_a_stuck_bit_whose_centre_creeps_round_is_whirl_only_past_the_floor():
             assert (signs > 0).all() if whirls else not signs.any(), (creep, bit_speed)
 
 
+def test_the_whirl_rule_threshold_is_half_the_clearance():
+    """whirl_rule: a sample at most half the gauge clearance off the axis never whirls,
+    one beyond it can. A full-speed forward orbit (whirl speed = bit speed, 60 s, ~95
+    turns) at 0.52 of the clearance whirls at every sample; at 0.48 at none. (The two
+    radii sit 4 % either side of the documented 0.5: a threshold moved by more than
+    that is caught, rounding of the radius is not at stake.)"""
+    dt, n = 0.01, 6000
+    w = np.full(n, 10.0)
+    assert metrics.whirling(np.full(n, 0.52), w, w, dt).all()
+    assert (metrics.whirl_signs(np.full(n, 0.52), w, w, dt) == 1.0).all()
+    assert not metrics.whirling(np.full(n, 0.48), w, w, dt).any()
+
+
 def test_the_whirl_rule_needs_the_orbit_fast_and_off_the_axis():
     """A slow drift round the wall (a tenth of the bit speed, 6 turns in a minute) is not
     whirl; a circle of half the clearance's radius or less is not, at any speed; a
