@@ -72,7 +72,8 @@ OWN_SPEED_NOTE = (f"{OWN_SPEED_MARK} sets its own speed (the driller, constant s
 #: by it picked the driller, which stick-slipped and ran 93 % off the planned rpm).
 RETURN_NOTE = ("return: DrillString-v0's reward summed over the episode: ROP pays, "
                "stick-slip, whirl and set-point changes cost, and an episode that ends early "
-               "costs the failure weight (docs/controllers.md); a "
+               "costs the failure weight and its cut-off steps at its worst step "
+               "(docs/controllers.md); a "
                "controller that drills faster off the plan can lead it while it stick-slips: "
                "judge stick-slip control by the SSI and stuck columns.")
 

@@ -247,7 +247,8 @@ def comparison_text(comparison: list[dict[str, Any]], policy_return: float,
            "none here, nor p, Holm: a paired test needs two episodes or more with a "
            "spread in the differences;"),
         "- ended early: episodes a failure stopped (their return is the steps until "
-        "then and the failure penalty: a shorter sum, not always a lower one).", ""]
+        "then and the failure term, which charges each step cut off at the episode's "
+        "worst step so far: never more than running on at that worst).", ""]
     lines += legend_lines if legend else []
     lines += [
         "| controller | return | mean lead | 95 % CI of the lead | median lead | "
