@@ -136,7 +136,10 @@ def run_episode(episode: Episode) -> dict[str, Any]:
     if len(records) < 2 <= len(everything) and reason:  # a failure in the warm-up is a
         # result too: its metrics are the whole episode's (it stopped the whole benchmark)
         records = everything
-        reason += "; in the warm-up: metrics over the whole episode"
+        # and its window return the whole episode's: none of its steps was in the window,
+        # and a 0 would be task 1's best (an outside review: a lead of ~1,400 by failing)
+        window = base.plain_return if guest else total
+        reason += "; in the warm-up: metrics over the whole episode (its return too)"
     if len(records) < 2:  # (a ValueError: said in one line, not a worker's traceback)
         # not a failure: whole control steps end the episode before --duration (20 s are
         # 202 steps of 0.0988 s, 19.97 s, at the fast level: a metrics audit's 19.98 s

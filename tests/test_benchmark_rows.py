@@ -242,3 +242,32 @@ def test_a_row_scores_the_window_its_metrics_measure_apart(tmp_path):
     # 25 of the 30 s: 250 steps of 0.1 s (whole steps of the fast level's 0.0988 s: 253)
     assert 240 <= steps <= 260
     assert row["window_return"] > row["episode_return"]  # the stalled start costs most
+
+
+def test_a_failure_in_the_warm_up_does_not_win_the_window(tmp_path):
+    """A failure charges the steps it cuts off, so ending an episode never pays on its
+    whole return; its window return must not pay either. Task 1's stiff drive at an
+    11 kN m make-up torque fails at step 7 of seed 1000001 (0.7 s into the 5 s warm-up):
+    its row's metrics fall back to the whole episode ("in the warm-up: metrics over the
+    whole episode"), but ``window_return`` was 0.0, every step and the failure charge
+    left out, the best a task-1 window can score (no ROP term, every step costs), where
+    running on returns about -1,400 after the warm-up: comparison.md's second table then
+    credits the failing controller with a lead of ~1,400 on that seed."""
+    from training.evaluate import settings_of
+
+    settings = settings_of("stick_slip")
+    rows = {}
+    for name, extra in (("full", {}), ("cut", {"makeup_torque": 11.0e3})):
+        chosen = bs.BenchmarkSettings(**{**vars(settings),
+                                         "env_kwargs": {**settings.env_kwargs, **extra}})
+        rows[name] = be.run_episode(bs.Episode("stiff", "random", 1_000_001, vars(chosen),
+                                               str(tmp_path / name),
+                                               env_id="DrillStickSlip-v0"))
+    full, cut = rows["full"], rows["cut"]
+    assert not full["termination"] and "in the warm-up" in cut["termination"]
+    assert cut["episode_return"] < full["episode_return"]  # failing never pays: whole
+    window = cut["window_return"]
+    assert window < full["window_return"], (
+        f"a failure at 0.7 s scored {window} after the warm-up, running on "
+        f"{full['window_return']:.1f}: failing pays in the window table")
+    assert window == cut["episode_return"]  # the whole episode's, as its metrics
