@@ -657,7 +657,7 @@ def test_a_finished_run_resumes_from_its_final_model_not_an_older_checkpoint(run
     assert resume_files(copy) == (copy / "model.zip", copy / "vecnormalize.pkl")
     assert resume_point(copy)[0] == done == cfg.n_timesteps
     for steps in (done, done - 512):  # (a resume of a finished run says it is first)
-        with pytest.raises(ValueError, match=f"^--resume: .* is finished \\(it has done {done} "
+        with pytest.raises(ValueError, match=f"^--timesteps: .* is finished \\(it has done {done} "
                                              f"env steps already, {steps} asked for\\); give "
                                              f"--timesteps above {done}"):
             train(replace(cfg, n_timesteps=steps), copy, resume=True, progress=False)

@@ -316,7 +316,7 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
             and read_run_config(saved).get("n_timesteps") == config.n_timesteps:
         return done  # stopped after its last step, before its final save: it saves now
     if done >= config.n_timesteps:
-        raise ValueError(f"--resume: {run} is finished (it has done {done} env steps "
+        raise ValueError(f"--timesteps: {run} is finished (it has done {done} env steps "
                          f"already, {config.n_timesteps} asked for); give --timesteps above "
                          f"{done} to continue it, or train afresh under another --name (a "
                          "--seeds sweep: another --out)")
