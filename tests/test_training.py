@@ -657,8 +657,8 @@ def test_a_finished_run_resumes_from_its_final_model_not_an_older_checkpoint(run
     assert resume_files(copy) == (copy / "model.zip", copy / "vecnormalize.pkl")
     assert resume_point(copy)[0] == done == cfg.n_timesteps
     for steps in (done, done - 512):  # (a resume of a finished run says it is first)
-        with pytest.raises(ValueError, match=f"^--timesteps: .* is finished \\(it has done {done} "
-                                             f"env steps already, {steps} asked for\\); give "
+        with pytest.raises(ValueError, match=f"^--timesteps: .* has done {done} env steps "
+                                             f"already, {steps} asked for; give "
                                              f"--timesteps above {done}"):
             train(replace(cfg, n_timesteps=steps), copy, resume=True, progress=False)
     later = copy / "checkpoints" / f"model_{done + 512}_steps.zip"  # as a Ctrl-C saves

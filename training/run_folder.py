@@ -316,8 +316,8 @@ def check_run_folder(run: Path, resume: bool, overwrite: bool,
             and read_run_config(saved).get("n_timesteps") == config.n_timesteps:
         return done  # stopped after its last step, before its final save: it saves now
     if done >= config.n_timesteps:
-        raise ValueError(f"--timesteps: {run} is finished (it has done {done} env steps "
-                         f"already, {config.n_timesteps} asked for); give --timesteps above "
+        raise ValueError(f"--timesteps: {run} has done {done} env steps already, "
+                         f"{config.n_timesteps} asked for; give --timesteps above "
                          f"{done} to continue it, or train afresh under another --name (a "
                          "--seeds sweep: another --out)")
     check_learns(config, done, learnt=updates > 0)
