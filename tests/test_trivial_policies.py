@@ -235,6 +235,7 @@ def test_the_comparison_pairs_the_metric_window_apart(tmp_path) -> None:
     text = write_comparison(rows, "learned", tmp_path, "heading", warmup=5.0)
     assert "| other | 11.0 | +10.0 | " in text
     whole, _, window = text.partition("## The metric window alone")
+    assert whole.startswith("## The whole episode")  # (a new user: the first had no name)
     assert "after the 5 s warm-up" in window and "(mean return 5.0 after the warm-up)" in window
     assert "| other | 6.0 | -1.0 | " in window and " | -1.0 | 0 of 3 | " in window
     assert (tmp_path / "comparison.md").read_text(encoding="utf-8").endswith(window)

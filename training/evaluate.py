@@ -374,6 +374,12 @@ def write_comparison(rows: list[dict[str, Any]], policy: str, out: Path, heading
     if all(w is not None for w in windows) and any(
             w != r["episode_return"] for w, r in zip(windows, mine, strict=True)):
         after = f" {warmup:g} s" if warmup is not None else ""
+        text = ("## The whole episode\n\nThe return of every step, what a policy is "
+                "trained on: the warm-up counts (in task 1 the stalled start: getting a "
+                "stuck bit going). "
+                "The second table leaves it out: read it for what a controller does once "
+                "the episode is under way (docs/tasks.md, \"Its lead is in the "
+                "start-up\").\n\n" + text)
         text += ("\n## The metric window alone\n\nThe same pairing on the return of the "
                  f"steps after the{after} warm-up (the window the metrics measure): a lead "
                  "won in the start-up alone shows here as none.\n\n"
