@@ -187,6 +187,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         labels(controllers)  # names given twice, or two that would share a table name
     except ValueError as err:
         raise argparse.ArgumentTypeError(f"--{err}") from None
+    if args.paired is not None and args.paired not in controllers \
+            and args.paired in labels(controllers):  # its table name (a new user's try)
+        args.paired = controllers[labels(controllers).index(args.paired)]
     if args.paired is not None and args.paired not in controllers:
         raise argparse.ArgumentTypeError(f"--paired: {args.paired!r} is not one of "
                                          f"--controllers ({', '.join(controllers)})")

@@ -165,7 +165,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seed-start", type=integer(0), default=0,
                    help="first seed (the held-out evaluation seeds start at 1000000)")
     p.add_argument("--paired", default=None, metavar="CONTROLLER",
-                   help="one of --controllers (as typed there): its return against each "
+                   help="one of --controllers (as typed there, or its table name): its "
+                        "return against each "
                         "other's on the same episodes (mean and median lead, the lead's "
                         "95%% interval, one-sided paired t-tests, Holm's adjustment), as "
                         "drill-env evaluate gives a run's; in comparison.md")

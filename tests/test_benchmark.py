@@ -2568,6 +2568,11 @@ def test_benchmark_paired_gives_any_controller_evaluates_t_tests(tmp_path, capsy
         main([*args, "--paired", "learned"])
     assert "--paired: 'learned' is not one of --controllers (held:1, stiff, held:0)" in \
         capsys.readouterr().err
+    # its table name is taken too (a new user typed the name the table showed): the same
+    # comparison, from the finished episodes
+    (tmp_path / "comparison.md").unlink()
+    assert main([*args, "--paired", "held+1"]) == 0
+    assert (tmp_path / "comparison.md").read_text() == text
 
 
 def test_among_many_controllers_the_first_and_the_target_stay_in_sight(tmp_path,
