@@ -138,11 +138,12 @@ def finish_rows(state, n_rec, flags, step, window, readings, source, divisor, we
         worst = st[BatchState.WORST]
         worst = reward if reward < worst else worst
         out.worst[e] = worst
-        # each step the failure cuts off at the episode's worst (finish_metrics)
-        out.terms[RewardTerm.FAILURE, e] = -weights[BatchWeight.FAILURE] - (
-            st[BatchState.MAX_STEPS] - st[BatchState.COUNT]) * (-worst if worst < 0.0 else 0.0) \
-            if terminated else 0.0
-        out.reward[e] = reward + out.terms[RewardTerm.FAILURE, e]
+        failure = 0.0
+        if terminated:  # and each step it cuts off at the episode's worst (finish_metrics)
+            cut_off = st[BatchState.MAX_STEPS] - st[BatchState.COUNT]
+            failure = -weights[BatchWeight.FAILURE] - cut_off * (-worst if worst < 0.0 else 0.0)
+        out.terms[RewardTerm.FAILURE, e] = failure
+        out.reward[e] = reward + failure
         # _observation: each entry its source over its scale, clipped, as float32
         usable = True
         for j in range(source.shape[0]):
@@ -292,9 +293,8 @@ class BatchFinish:
         state = np.fromiter(chain.from_iterable(
             (count, env._episode_energy, env._speed_target, env._wob_target, env._effort,
              env._start_time, env.weight_on_bit_limit, env._max_steps,
-             env.sim.bit_inclination, 0.0, 0.0, env._worst_step) for count, env in zip(
-                 counts, envs,
-                                                                 strict=True)),
+             env.sim.bit_inclination, 0.0, 0.0, env._worst_step)
+            for count, env in zip(counts, envs, strict=True)),
             np.float64, len(BatchState) * n).reshape(n, len(BatchState))
         state[:, BatchState.STATUS] = readings[:, _STATUS]  # as read, diverged or not
         state[:, BatchState.SSI] = window[:, Metric.SSI]
