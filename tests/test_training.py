@@ -770,7 +770,7 @@ def test_an_existing_run_is_neither_overwritten_nor_silently_restarted(run, tmp_
     # a finished run without checkpoints resumes from its final model, and not below
     # the steps it has done
     shutil.rmtree(copy / "checkpoints")
-    with pytest.raises(ValueError, match="--resume: .* has done 2048 env steps"):
+    with pytest.raises(ValueError, match="--timesteps: .* has done 2048 env steps"):
         train(cfg, copy, resume=True, progress=False)
     # the command refuses it before it announces a training; a named run resumes with
     # its own algorithm (PPO here, where the command's default is SAC)
