@@ -51,18 +51,22 @@ def test_make_vec_uses_the_vector_entry_point():
 
 def assert_batch_follows_single_envs(actions, seed, **kwargs):
     """The vector env's observations, rewards, times and bit speeds over ``actions``
-    (no episode end) are those of single envs seeded ``seed + i``."""
+    (up to the first episode end, which the envs must reach together) are those of single
+    envs seeded ``seed + i``. Returns the last step's (terminated, truncated, info)."""
     singles = single_trajectories(actions, seed=seed, **kwargs)
     envs = DrillStringVectorEnv(num_envs=N, **kwargs)
     obs, _ = envs.reset(seed=seed)
     rows = [[obs[i]] for i in range(N)]
     for a in actions:
-        obs, rewards, _, _, info = envs.step(a)
+        obs, rewards, terminated, truncated, info = envs.step(a)
         for i in range(N):
             rows[i].append(np.concatenate([obs[i], [rewards[i], info["time"][i],
                                                     info["bit_speed"][i]]]))
+        if (terminated | truncated).any():
+            break
     for i in range(N):
         np.testing.assert_array_equal(np.concatenate(rows[i]), singles[i])
+    return terminated, truncated, info
 
 
 @pytest.mark.parametrize("scenario", ["default", "random"])
@@ -857,20 +861,8 @@ def test_a_failure_after_costly_steps_is_charged_alike_in_a_batch():
     its 5th step of 30, its steps until then costing up to ~2 each."""
     kwargs = dict(scenario="stick_slip", startup="stalled", makeup_torque=6.0e3,
                   episode_duration=3.0)
-    actions = np.ones((8, N, 2), dtype=np.float32)
-    singles = single_trajectories(actions, seed=0, **kwargs)
-    envs = DrillStringVectorEnv(num_envs=N, **kwargs)
-    assert DrillStringEnv.finishes_batch(envs.envs)
-    obs, _ = envs.reset(seed=0)
-    rows = [[obs[i]] for i in range(N)]
-    for a in actions:
-        obs, rewards, terminated, truncated, info = envs.step(a)
-        for i in range(N):
-            rows[i].append(np.concatenate([obs[i], [rewards[i], info["time"][i],
-                                                    info["bit_speed"][i]]]))
-        if terminated.any():
-            break
+    assert DrillStringEnv.finishes_batch(DrillStringVectorEnv(num_envs=N, **kwargs).envs)
+    terminated, truncated, info = assert_batch_follows_single_envs(
+        np.ones((8, N, 2), dtype=np.float32), 0, **kwargs)
     assert terminated.all() and not truncated.any()
     assert (info["reward_terms"]["failure"] < -20.0).all()  # more than the bare 10
-    for i in range(N):
-        np.testing.assert_array_equal(np.concatenate(rows[i]), singles[i])
