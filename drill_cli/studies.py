@@ -150,15 +150,21 @@ def seeded_scenario(args: argparse.Namespace) -> Any:
         raise argparse.ArgumentTypeError(f"--seed: draws a randomised scenario "
                                          f"({', '.join(sorted(RANDOMISED))}); "
                                          f"{args.scenario} is fixed")
-    if args.scenario in RANDOMISED:
-        return make_scenario(args.scenario, rng=np.random.default_rng(args.seed or 0))
+    if (seed := drawn_seed(args)) is not None:
+        return make_scenario(args.scenario, rng=np.random.default_rng(seed))
     return make_scenario(args.scenario)
 
 
-def cmd_modes(args: argparse.Namespace) -> int:
-
-    from drill_env.physics import modes as md
+def drawn_seed(args: argparse.Namespace) -> int | None:
+    """The seed ``--scenario`` is drawn with (``--seed``, default 0) where it is randomised;
+    None for a fixed one."""
     from drill_env.scenarios import RANDOMISED
+
+    return (args.seed or 0) if args.scenario in RANDOMISED else None
+
+
+def cmd_modes(args: argparse.Namespace) -> int:
+    from drill_env.physics import modes as md
 
     scenario = seeded_scenario(args)
     config = with_overrides(scenario.config, args.config)
@@ -264,7 +270,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
     # what it analysed, so that the file tells itself from another's (a --config's string
     # was "scenario": "default" alone: a fuzzing walkthrough)
     data = {"scenario": args.scenario, "weight_on_bit_N": wob,
-            "seed": (args.seed or 0) if args.scenario in RANDOMISED else None,
+            "seed": drawn_seed(args),
             "config": None if args.config is None else str(args.config), "top": args.top,
             "modes_of_each_kind": args.n, "max_rpm": args.max_rpm,
             # keys without a unit in their name (a drilling engineer's review)
@@ -405,17 +411,15 @@ def cmd_well(args: argparse.Namespace) -> int:
     # the string the chart's loads are of (a file of only a well was named as the
     # string's: "string of curved.yaml"; one of the mud said nothing of it)
     beyond_well = any(not sets_section((key,), "well") for key in overrides)  # (--config's)
-    from drill_env.scenarios import RANDOMISED
-
     # a randomised scenario's string is its seed's draw: named with it (two seeds' charts
     # shared one file)
-    drawn = args.scenario in RANDOMISED
+    seed = drawn_seed(args)
     whose = (args.config.name if sets_section(overrides, "string") else
-             f"the {args.scenario} scenario" + (f" (seed {args.seed or 0})" if drawn else "")
+             f"the {args.scenario} scenario" + (f" (seed {seed})" if seed is not None else "")
              + (f" with {args.config.name}" if beyond_well else ""))
     # the file names the string too where it is not the default scenario's: charts of one
     # well for two strings overwrote each other (a new user's trial)
-    strung = [args.scenario + (f"_seed{args.seed or 0}" if drawn else "")] \
+    strung = [args.scenario + (f"_seed{seed}" if seed is not None else "")] \
         if args.scenario != "default" and name != f"scenario_{args.scenario}" else []
     if beyond_well and name != args.config.stem:
         strung.append(args.config.stem)
